@@ -1,0 +1,26 @@
+# The two commands of the README. Both install what is missing (Debian packages),
+# configure a Release build in build/, and build; then `run` runs the default job
+# and `test` runs every test.
+BUILD_DIR ?= build
+JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+CMAKE_FLAGS ?=
+
+.PHONY: run test build deps configure clean
+
+deps:
+	./scripts/install-deps.sh
+
+configure: deps
+	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+
+build: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS)
+
+run: build
+	./scripts/run-default.sh $(BUILD_DIR)
+
+test: build
+	ctest --test-dir $(BUILD_DIR) --no-tests=error --output-on-failure -j $(JOBS)
+
+clean:
+	rm -rf $(BUILD_DIR)

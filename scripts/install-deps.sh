@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs the Debian packages hysid needs to build, test, benchmark and plot.
+# Skips apt entirely when every package is already installed, so repeated
+# `make run` / `make test` calls cost nothing. Needs root (or sudo) otherwise.
+set -euo pipefail
+
+packages=(
+  g++ cmake ninja-build make git
+  libeigen3-dev libsundials-dev libcgal-dev libbenchmark-dev libtbb-dev catch2 libfmt-dev
+  libcli11-dev librandom123-dev libtomlplusplus-dev nlohmann-json3-dev
+  python3 python3-matplotlib python3-numpy python3-pytest
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+echo "hysid: installing Debian packages: ${missing[*]}" >&2
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then sudo="sudo"; else
+    echo "hysid: need root (or sudo) to install: ${missing[*]}" >&2; exit 1
+  fi
+fi
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update
+$sudo apt-get install -y --no-install-recommends "${missing[@]}"
