@@ -1,0 +1,13 @@
+# Runs CMD (a ;-list) and passes only when it exits non-zero with stderr matching REGEX on one line.
+execute_process(COMMAND ${CMD} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(rc EQUAL 0)
+  message(FATAL_ERROR "expected a failure, got exit 0\nstdout: ${out}\nstderr: ${err}")
+endif()
+if(NOT err MATCHES "${REGEX}")
+  message(FATAL_ERROR "exit ${rc}, but stderr does not match '${REGEX}':\n${err}")
+endif()
+string(STRIP "${err}" stripped)
+if(stripped MATCHES "\n")
+  message(FATAL_ERROR "the error is not one line:\n${err}")
+endif()
+message(STATUS "exit ${rc}: ${err}")
