@@ -1,0 +1,66 @@
+// Cost of one simulated trajectory (CVODE + root finding + dense-output sampling).
+#include <benchmark/benchmark.h>
+
+#include "core/models/bouncing_ball.hpp"
+#include "core/models/impact_msd.hpp"
+#include "core/models/impact_pendulum.hpp"
+#include "sim/measurement.hpp"
+#include "sim/simulator.hpp"
+
+namespace hysid {
+namespace {
+
+Vec DefaultX0(const Model& m) {
+  const auto& v = m.spec().default_x0;
+  return Eigen::Map<const Vec>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
+// The paper's §5 trajectory: 20 s, 14 jumps, 40001 samples (δt = 0.5 ms); the argument is δt in µs.
+void BM_SimulateImpactMsd(benchmark::State& state) {
+  const Model model{ImpactMsd{}};
+  const SampleGrid grid{20.0, static_cast<double>(state.range(0)) * 1e-6};
+  for (auto _ : state) {
+    Trajectory traj = Simulate(model, DefaultX0(model), grid);
+    benchmark::DoNotOptimize(traj.x.data());
+  }
+  // Seconds per sample (printed with an SI prefix, e.g. 75n = 75 ns).
+  state.counters["per_sample"] =
+      benchmark::Counter(static_cast<double>(grid.size()),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_SimulateImpactMsd)->Arg(500)->Arg(100)->Arg(5000)->Unit(benchmark::kMillisecond);
+
+void BM_SimulateBouncingBallZeno(benchmark::State& state) {
+  const Model model{BouncingBall{}};
+  for (auto _ : state) {
+    Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{10.0, 1e-3});
+    benchmark::DoNotOptimize(traj.x.data());
+  }
+}
+BENCHMARK(BM_SimulateBouncingBallZeno)->Unit(benchmark::kMillisecond);
+
+void BM_SimulateImpactPendulum(benchmark::State& state) {
+  const Model model{ImpactPendulum{}};
+  for (auto _ : state) {
+    Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 1e-3});
+    benchmark::DoNotOptimize(traj.x.data());
+  }
+}
+BENCHMARK(BM_SimulateImpactPendulum)->Unit(benchmark::kMillisecond);
+
+// Measurement noise for the §5 trajectory (2 × 40001 normals).
+void BM_AddMeasurementNoise(benchmark::State& state) {
+  const Mat x = Mat::Zero(2, 40001);
+  const Vec sigma = Vec::Constant(2, 0.25);
+  std::uint64_t trial = 0;
+  for (auto _ : state) {
+    Mat y = AddMeasurementNoise(x, sigma, NoiseKey{1, trial++});
+    benchmark::DoNotOptimize(y.data());
+  }
+}
+BENCHMARK(BM_AddMeasurementNoise)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace hysid
+
+BENCHMARK_MAIN();
