@@ -1,0 +1,73 @@
+// Jump detectors: decide, for each sample pair (ξ(t−δt), ξ(t)), whether a jump happened in
+// (t−δt, t] (γ = 1) or the system flowed (γ = 0). Pluggable by name: "paper" (§3 of the paper:
+// Euler derivative against the estimated smoothness bound τ̂) and, later, a tuning-free detector.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/model.hpp"
+
+namespace hysid {
+
+class SampleSet;  // core/sample_set.hpp
+
+// Everything a detector may use for one sample. References stay valid for the call only.
+using ConstVecMap = Eigen::Map<const Vec>;
+using ConstMatMap = Eigen::Map<const Mat>;
+
+// Everything a detector may use for one sample. The maps point into the caller's storage and stay
+// valid for the call only.
+struct SampleContext {
+  const Model* model = nullptr;
+  double dt = 0.0;                 // δt
+  ConstVecMap prev{nullptr, 0};    // ξ(t−δt) (measured)
+  ConstVecMap cur{nullptr, 0};     // ξ(t)
+  // The flow regression of this pair on the identified rows: y = Φ α_u (see core/regression.hpp).
+  ConstMatMap flow_phi{nullptr, 0, 0};
+  ConstVecMap flow_y{nullptr, 0};
+  ConstVecMap alpha_hat{nullptr, 0};      // full α̂ (known entries at their known values)
+  const Mat* alpha_covariance = nullptr;  // of the unknown entries, when the estimator has one
+  long flow_updates = 0;                  // flow samples the α estimator has seen
+  long version = 0;                       // changes whenever α̂ changes (for caching)
+  const SampleSet* flow_set = nullptr;    // Λ, whose hull is Ĉ (may be null or empty)
+  const Vec* sigma = nullptr;             // measurement noise σ per component, when known
+};
+
+struct Decision {
+  bool gamma = false;      // γ: true = jump
+  double statistic = 0.0;  // the tested quantity (paper: D_δt ξ(t))
+  double threshold = 0.0;  // its threshold (paper: τ̂(t))
+};
+
+class JumpDetector {
+ public:
+  virtual ~JumpDetector() = default;
+  virtual Decision Classify(const SampleContext& context) = 0;
+  // Told the final decision (after Classify) so that stateful detectors can learn from it.
+  virtual void Observe(const SampleContext& /*context*/, const Decision& /*decision*/) {}
+  virtual std::string name() const = 0;
+  virtual void Reset() = 0;
+};
+
+struct DetectorSettings {
+  std::string name = "paper";
+  // paper: τ̂(t) = (r/2)·L̂·(‖ξ(t)‖ + ‖ξ(t−δt)‖), L̂ = sup_{ξ∈Ĉ}‖∂f̂/∂ξ‖; τ̂ = tau0 until the first
+  // α update.
+  double r = 220.0;
+  double tau0 = 1e5;
+  // How L̂ and the norms are taken:
+  //   "paper"       the identified rows of the Jacobian, ‖ξ‖ (as the paper's §5: L̂ = ‖α̂‖);
+  //   "homogeneous" [J_r f̂_r(0)] with ‖[ξ; 1]‖, for affine flows (f(0) ≠ 0, e.g. gravity);
+  //   "auto"        paper when φ(0) = 0 on the identified rows, homogeneous otherwise.
+  std::string bound = "auto";
+  double false_alarm = 1e-6;  // tuning-free detector: false-alarm probability per sample
+  bool IsValid(std::string* error) const;
+};
+
+std::unique_ptr<JumpDetector> MakeDetector(const DetectorSettings& settings, const Model& model);
+std::vector<std::string> DetectorNames();
+
+}  // namespace hysid
