@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   hysid::cli::AddModelsCommand(app, env);
   hysid::cli::AddIdentifyCommand(app, env);
   hysid::cli::AddReproduceCommand(app, env);
+  hysid::cli::AddSweepCommand(app, env);
 
   try {
     app.parse(argc, argv);
