@@ -21,6 +21,7 @@ import sys
 import matplotlib
 
 matplotlib.use("Agg")
+import matplotlib.colors  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -133,26 +134,39 @@ def misclassification_maps(rows):
 
 
 def plot_misclassification_map(maps, title):
-    """One panel per sigma; each panel's image array is the dt x r matrix of mean misclassification."""
+    """One panel per sigma; each panel's image array is the dt x r matrix of mean misclassification.
+
+    Colours are logarithmic from 1e-6 to 1 (a rate of 0 gets the darkest colour); each cell is labelled
+    with its value."""
     sigmas = sorted(maps)
     cols = min(4, len(sigmas))
     nrows = (len(sigmas) + cols - 1) // cols
-    fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 3.2 * nrows), squeeze=False)
-    vmax = max(float(np.nanmax(m)) if np.isfinite(m).any() else 0.0 for _, _, m in maps.values())
-    vmax = vmax if vmax > 0 else 1.0
+    fig, axes = plt.subplots(nrows, cols, figsize=(3.4 * cols + 1.2, 3.0 * nrows + 0.6), squeeze=False,
+                             sharex=True, sharey=True, constrained_layout=True)
+    cmap = matplotlib.colormaps["viridis"].copy()
+    cmap.set_bad(cmap(0.0))
+    norm = matplotlib.colors.LogNorm(vmin=1e-6, vmax=1.0, clip=True)
     im = None
     for i, sigma in enumerate(sigmas):
         ax = axes[i // cols][i % cols]
         dts, rvals, m = maps[sigma]
-        im = ax.imshow(m, origin="lower", aspect="auto", cmap="viridis", vmin=0.0, vmax=vmax)
+        im = ax.imshow(m, origin="lower", aspect="auto", cmap=cmap, norm=norm)
+        for a in range(len(dts)):
+            for b in range(len(rvals)):
+                v = m[a, b]
+                text = "0" if v == 0 else f"{v:.0e}" if v < 0.01 else f"{v:.2f}"
+                ax.text(b, a, text, ha="center", va="center", fontsize=6,
+                        color="white" if not (v >= 1e-2) else "black")
         ax.set_xticks(range(len(rvals)), [f"{v:g}" for v in rvals], fontsize=7)
         ax.set_yticks(range(len(dts)), [f"{v:g}" for v in dts], fontsize=7)
-        ax.set_xlabel("r")
-        ax.set_ylabel(r"$\delta t$ [s]")
+        if i // cols == nrows - 1 or i + cols >= len(sigmas):
+            ax.set_xlabel("r")
+        if i % cols == 0:
+            ax.set_ylabel(r"$\delta t$ [s]")
         ax.set_title(rf"$\sigma$ = {sigma:g}", fontsize=9)
     for j in range(len(sigmas), nrows * cols):
         axes[j // cols][j % cols].axis("off")
-    fig.colorbar(im, ax=axes.ravel().tolist(), label="mean misclassification rate")
+    fig.colorbar(im, ax=axes.ravel().tolist(), label="mean misclassification rate (log)")
     fig.suptitle(title)
     return fig
 

@@ -20,11 +20,15 @@ std::string Duration(double s) {
 
 }  // namespace
 
-Progress::Progress(std::string label, long total, long already_done, Mode mode, double line_interval)
+Progress::Progress(std::string label, long total, long already_done, Mode mode, double total_weight,
+                   double done_weight, double line_interval)
     : label_(std::move(label)),
       total_(total),
       start_done_(already_done),
       done_(already_done),
+      total_weight_(total_weight > 0 ? total_weight : static_cast<double>(total)),
+      start_weight_(total_weight > 0 ? done_weight : static_cast<double>(already_done)),
+      weight_done_(static_cast<long>(total_weight > 0 ? done_weight : static_cast<double>(already_done))),
       mode_(mode),
       line_interval_(line_interval),
       start_(std::chrono::steady_clock::now()) {
@@ -54,8 +58,10 @@ void Progress::Print(bool final) {
   const long done = done_.load(std::memory_order_relaxed);
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   const double rate = elapsed > 0 ? static_cast<double>(done - start_done_) / elapsed : 0.0;
-  const double eta = rate > 0 ? static_cast<double>(total_ - done) / rate : -1.0;
-  const double frac = total_ > 0 ? static_cast<double>(done) / static_cast<double>(total_) : 1.0;
+  const double w = static_cast<double>(weight_done_.load(std::memory_order_relaxed));
+  const double wrate = elapsed > 0 ? (w - start_weight_) / elapsed : 0.0;
+  const double eta = wrate > 0 ? (total_weight_ - w) / wrate : -1.0;
+  const double frac = total_weight_ > 0 ? w / total_weight_ : 1.0;
   const std::string stats = fmt::format("{}/{} {} ({:.1f} %), {:.1f}/s, elapsed {}, ETA {}", done, total_,
                                         label_, 100 * frac, rate, Duration(elapsed),
                                         final ? "0s" : Duration(eta));

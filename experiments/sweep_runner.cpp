@@ -103,7 +103,19 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
     std::atomic<long> run{0}, trajectories{0};
     const auto stopped = [stop] { return stop && stop->load(std::memory_order_relaxed); };
     {
-      Progress progress("trials", outcome.units_shard, outcome.units_resumed, options.progress);
+      // Weights for the ETA: a trial costs about its number of samples.
+      const auto samples_of = [&](long id) {
+        const SweepCell& cell = cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)];
+        return static_cast<long>(config.models[static_cast<std::size_t>(cell.model)].t_end / cell.dt) + 1;
+      };
+      double total_weight = 0, done_weight = 0;
+      for (long id = 0; id < outcome.units_total; ++id) {
+        if (!options.shard.Contains(id)) continue;
+        total_weight += static_cast<double>(samples_of(id));
+        if (journal.recovered().count(id)) done_weight += static_cast<double>(samples_of(id));
+      }
+      Progress progress("trials", outcome.units_shard, outcome.units_resumed, options.progress, total_weight,
+                        done_weight);
       tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t gi) {
         if (stopped()) return;
         const TrajectoryGroup& g = groups[gi];
@@ -128,7 +140,7 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
           row.push_back(fmt::format("{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
           journal.Append(row);
           run.fetch_add(1, std::memory_order_relaxed);
-          progress.Tick();
+          progress.Tick(samples_of(id));
         });
       });
     }
