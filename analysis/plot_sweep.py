@@ -87,18 +87,21 @@ def plot_error_vs_sigma(lines, title):
     """One figure; returns it. Axis i holds ERROR_PANELS[i]; each line's x = sigma, y = mean."""
     fig, axes = plt.subplots(1, len(ERROR_PANELS), figsize=(5 * len(ERROR_PANELS), 4))
     for ax, (metric, ylabel) in zip(axes, ERROR_PANELS):
-        positive = True
+        means = np.array([r[metric + "_mean"] for rs in lines.values() for r in rs])
+        means = means[~np.isnan(means)]
+        log = metric != "misclassification" and means.size > 0 and bool(np.all(means > 0))
+        # On a log axis a CI reaching 0 or below is drawn down to half the smallest mean.
+        floor = 0.5 * float(means.min()) if log else 0.0
         for label, rs in sorted(lines.items()):
             x = np.array([r["sigma"] for r in rs])
             y = np.array([r[metric + "_mean"] for r in rs])
-            lo = np.array([max(r[metric + "_ci95_lo"], 0.0) for r in rs])
+            lo = np.array([max(r[metric + "_ci95_lo"], floor) for r in rs])
             hi = np.array([r[metric + "_ci95_hi"] for r in rs])
             (ln,) = ax.plot(x, y, "o-", ms=3, label=label)
             ok = ~(np.isnan(lo) | np.isnan(hi))
             if ok.any():
                 ax.fill_between(x[ok], lo[ok], hi[ok], color=ln.get_color(), alpha=0.2, lw=0)
-            positive = positive and bool(np.all(y[~np.isnan(y)] > 0))
-        if positive and metric != "misclassification":
+        if log:
             ax.set_yscale("log")
         ax.set_xlabel(r"noise $\sigma$")
         ax.set_ylabel(ylabel)
