@@ -133,5 +133,23 @@ TEST_CASE("flow and jump sets of impact-msd", "[model]") {
   CHECK_FALSE(m.InJumpSet(x));
 }
 
+TEST_CASE("distance to the jump set D = {xi1 = 0, xi2 <= 0} of the built-in models", "[model]") {
+  for (const Model& m : {Model{ImpactMsd{}}, Model{BouncingBall{}}, Model{ImpactPendulum{}}}) {
+    INFO(m.name());
+    REQUIRE(m.has_jump_set_distance());
+    auto d = [&](double a, double b) { return m.DistanceToJumpSet((Vec(2) << a, b).finished()); };
+    CHECK(d(0.0, -3.0) == 0.0);   // on D
+    CHECK(d(0.0, 0.0) == 0.0);    // its end point
+    CHECK(d(0.5, -3.0) == 0.5);   // beside it
+    CHECK(d(-0.5, -3.0) == 0.5);
+    CHECK(d(3.0, 4.0) == 5.0);    // nearest point of D is the origin
+    CHECK(d(0.0, 2.0) == 2.0);
+  }
+  // The README's example model does not provide it: NaN.
+  const Model vdp{VanDerPolWall{}};
+  CHECK_FALSE(vdp.has_jump_set_distance());
+  CHECK(std::isnan(vdp.DistanceToJumpSet(Vec::Zero(2))));
+}
+
 }  // namespace
 }  // namespace hysid
