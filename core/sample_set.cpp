@@ -221,9 +221,16 @@ class Hull2 {
       return false;  // inside or on the boundary
     }
     // q is outside. On the ray c→v beyond v, v becomes interior: q takes its place.
-    if (CGAL::orientation(c, *v, q) == CGAL::COLLINEAR) ring_.erase(v);
-    const auto [it, inserted] = ring_.insert(q);
-    Demand(inserted, "a new hull vertex has the angle of an existing one");
+    if (CGAL::orientation(c, *v, q) == CGAL::COLLINEAR) {
+      v = ring_.erase(v);
+      if (v == ring_.end()) v = ring_.begin();
+    }
+    // q goes just before v (after the last vertex when its wedge wraps around angle 0): an
+    // amortised O(1) insertion at the hint.
+    const It hint = ring_.key_comp()(*v, q) ? ring_.end() : v;
+    const std::size_t before = ring_.size();
+    const It it = ring_.emplace_hint(hint, q);
+    Demand(ring_.size() == before + 1, "a new hull vertex has the angle of an existing one");
     // Remove the vertices that q makes reflex (or flat), on both sides; the reference point stays
     // strictly inside, so at least three vertices remain.
     while (ring_.size() > 3) {

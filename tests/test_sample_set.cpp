@@ -124,6 +124,34 @@ TEST_CASE("a diagonal segment is extended exactly, then promoted on the other si
   CHECK(t.vertices() == Cols({{-2, -2}, {1, 0}, {3, 3}}));
 }
 
+TEST_CASE("samples on a ray from the reference point through a vertex, and across angle 0",
+          "[sets]") {
+  // The first triangle's centroid (1, 1) is the reference point (exact in floating point).
+  SampleSet s(2);
+  Mat all(2, 0);
+  auto add = [&](double x, double y) {
+    const long before = s.version();
+    s.Add(P(x, y));
+    all.conservativeResize(2, all.cols() + 1);
+    all.col(all.cols() - 1) << x, y;
+    CHECK(s.version() == before + 1);
+    CHECK(s.vertices() == BatchHullVertices(all));
+  };
+  add(0, 0);
+  add(3, 0);
+  add(0, 3);
+  add(5, -1);   // on the ray (1,1) → (3,0), beyond (3,0): replaces it
+  CHECK(s.vertices() == Cols({{0, 0}, {5, -1}, {0, 3}}));
+  add(-1, -1);  // on the ray through (0,0): replaces it
+  CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {0, 3}}));
+  add(6, 0.5);  // its angle around (1,1) is above every vertex's: the wedge wraps around 0
+  CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {6, 0.5}, {0, 3}}));
+  add(12, 3);   // makes (6, 0.5) interior: it lies above the new edge (5,−1)–(12,3)
+  CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {12, 3}, {0, 3}}));
+  add(1, 1e6);  // far above: removes (12, 3)'s neighbour (0, 3)
+  CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {12, 3}, {1, 1e6}}));
+}
+
 TEST_CASE("non-finite samples are ignored and counted", "[sets]") {
   SampleSet s(2);
   s.Add(P(0, 0));
