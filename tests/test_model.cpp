@@ -36,8 +36,9 @@ struct VanDerPolWall {
   void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
   bool InFlowSet(ConstVecRef x) const { return x[0] >= 0.0; }
   bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0 && x[1] <= 0.0; }
-  // Optional: FlowJacobian(x, alpha, J) (central differences otherwise) and
-  // ProjectOntoGuard(i, x) (puts a located crossing exactly on guard i).
+  // Optional: FlowJacobian(x, alpha, J) (central differences otherwise),
+  // ProjectOntoGuard(i, x) (puts a located crossing exactly on guard i) and
+  // DistanceToJumpSet(x) (distance to D, for the set metrics; NaN without it).
 };
 static_assert(HybridModel<VanDerPolWall>);
 
