@@ -170,23 +170,28 @@ class Hull2 {
     return it == ring_.end() ? ring_.begin() : it;
   }
 
+  // A wedge (a, v] between consecutive vertices a = Prev(v) and v.
+  struct Wedge {
+    It a, v;
+  };
+
   // The same, first walking a few wedges from the previous sample's (consecutive samples of a
   // trajectory are usually in the same or a neighbouring wedge), then by binary search.
-  It LocateFromFinger(const Point& q) const {
+  Wedge LocateFromFinger(const Point& q) const {
     static constexpr int kWalk = 4;
     const Point& c = center();
-    It v = finger_;
+    Wedge w = finger_;
     for (int step = 0; step < kWalk; ++step) {
-      const It a = Prev(v);
-      if (CGAL::orientation(c, *a, q) != CGAL::LEFT_TURN) {
-        v = a;  // q is clockwise of (or on) the ray c→a
-      } else if (CGAL::orientation(c, *v, q) == CGAL::LEFT_TURN) {
-        v = Next(v);  // q is counter-clockwise of the ray c→v
+      if (CGAL::orientation(c, *w.a, q) != CGAL::LEFT_TURN) {
+        w = {Prev(w.a), w.a};  // q is clockwise of (or on) the ray c→a
+      } else if (CGAL::orientation(c, *w.v, q) == CGAL::LEFT_TURN) {
+        w = {w.v, Next(w.v)};  // q is counter-clockwise of the ray c→v
       } else {
-        return v;  // the wedge (a, v] (its angle is below π: c is strictly inside)
+        return w;  // the wedge (a, v] (its angle is below π: c is strictly inside)
       }
     }
-    return WedgeEnd(q);
+    const It v = WedgeEnd(q);
+    return {Prev(v), v};
   }
 
   bool AddToSegment(const Point& q) {
@@ -215,11 +220,12 @@ class Hull2 {
   bool AddToRing(const Point& q) {
     const Point c = center();
     if (q == c) return false;
-    It v = LocateFromFinger(q);
-    if (CGAL::orientation(*Prev(v), *v, q) != CGAL::RIGHT_TURN) {
-      finger_ = v;
+    const Wedge w = LocateFromFinger(q);
+    if (CGAL::orientation(*w.a, *w.v, q) != CGAL::RIGHT_TURN) {
+      finger_ = w;
       return false;  // inside or on the boundary
     }
+    It v = w.v;
     // q is outside. On the ray c→v beyond v, v becomes interior: q takes its place.
     if (CGAL::orientation(c, *v, q) == CGAL::COLLINEAR) {
       v = ring_.erase(v);
@@ -243,7 +249,7 @@ class Hull2 {
       if (CGAL::orientation(*pp, *p, q) == CGAL::LEFT_TURN) break;
       ring_.erase(p);
     }
-    finger_ = it;
+    finger_ = {Prev(it), it};
     return true;
   }
 
@@ -285,7 +291,7 @@ class Hull2 {
     ring_.insert(plain_.begin(), plain_.end());
     Demand(ring_.size() == h, "hull vertices with equal angles around an interior point");
     plain_.clear();
-    finger_ = ring_.begin();
+    finger_ = {Prev(ring_.begin()), ring_.begin()};
     has_reference_ = true;
   }
 
@@ -294,7 +300,7 @@ class Hull2 {
   bool has_reference_ = false;
   Point center_{0.0, 0.0};  // the reference point of ring_ (a copy of its comparator's)
   Ring ring_{AngularLess{Point(0.0, 0.0)}};
-  It finger_;
+  Wedge finger_;  // the previous sample's wedge (ring_ only)
   std::vector<Point> plain_;
 };
 
