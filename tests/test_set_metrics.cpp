@@ -91,7 +91,7 @@ TEST_CASE("flow_outside_share of degenerate hulls and of an empty one", "[set-me
   CHECK(std::isnan(CompareSets(model, SampleSet(2), jump).flow_outside_share));
 }
 
-TEST_CASE("set metrics: a model without DistanceToJumpSet gives NaN for D^; sizes are checked",
+TEST_CASE("set metrics: a model without DistanceToJumpSet gives NaN for D^, sizes are checked",
           "[set-metrics]") {
   const Model model{NoDistance{}};
   CHECK_FALSE(model.has_jump_set_distance());
