@@ -157,7 +157,7 @@ TEST_CASE("identifier: hulls for 3 states are refused by name, sets = false runs
   CHECK_NOTHROW(Identifier(model, 0.1, settings));
 }
 
-TEST_CASE("the §5 detector with r too large misses every jump; with noise and r = 20 it floods",
+TEST_CASE("the §5 detector with r too large misses every jump, with noise and r = 20 it floods",
           "[identify]") {
   const Model model{ImpactMsd{}};
   const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
