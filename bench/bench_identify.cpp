@@ -3,6 +3,7 @@
 
 #include "core/identifier.hpp"
 #include "core/models/impact_msd.hpp"
+#include "core/sample_set.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 
@@ -68,6 +69,24 @@ void BM_IdentifyStepResidualLocalized(benchmark::State& state) {
   RunIdentifier(state, false, 0.0, "residual", false, true);
 }
 BENCHMARK(BM_IdentifyStepResidualLocalized)->Unit(benchmark::kMillisecond);
+
+// The hull update alone: the 40001 samples of the §5 run (σ = state.range(0) / 100) added to one
+// SampleSet, as Λ receives them. Counter: per sample; "vertices" is the final hull size.
+void BM_SampleSetAdd(benchmark::State& state) {
+  const Mat y = PaperSamples(static_cast<double>(state.range(0)) / 100.0);
+  long vertices = 0;
+  for (auto _ : state) {
+    SampleSet set(2);
+    for (Eigen::Index k = 0; k < y.cols(); ++k) set.Add(y.col(k));
+    vertices = static_cast<long>(set.vertices().cols());
+    benchmark::DoNotOptimize(vertices);
+  }
+  state.counters["per_sample"] = benchmark::Counter(
+      static_cast<double>(y.cols()),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["vertices"] = static_cast<double>(vertices);
+}
+BENCHMARK(BM_SampleSetAdd)->Arg(0)->Arg(25)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace hysid

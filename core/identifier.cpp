@@ -79,6 +79,11 @@ Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& 
   if (!(dt > 0.0) || !std::isfinite(dt)) {
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
   }
+  if (settings.sets && model.state_size() > 2) {
+    throw std::invalid_argument(fmt::format(
+        "IdentifierSettings::sets = true: model '{}' has {} states; the hulls of Λ and Γ are "
+        "implemented for 1 and 2 (set sets = false)", model.name(), model.state_size()));
+  }
   s_ = std::make_unique<State>(model, dt, settings);
 }
 Identifier::~Identifier() = default;

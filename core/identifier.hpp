@@ -35,7 +35,7 @@ struct IdentifierSettings {
   EstimatorSettings flow_estimator;  // for α
   EstimatorSettings jump_estimator;  // for β
   DetectorSettings detector;
-  bool sets = true;  // maintain Λ, Γ and their hulls (Algorithm 2)
+  bool sets = true;  // maintain Λ, Γ and their hulls (Algorithm 2); models with 1 or 2 states only
   Vec sigma;         // measurement noise σ per component when known (empty: unknown)
   // Prior for the unknown parameters (empty: zero), for both α and β in model order.
   Vec alpha0, beta0;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <concepts>
+#include <limits>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -74,6 +75,13 @@ concept HasFlowJacobian = requires(const M& m, ConstVecRef x, ConstVecRef alpha,
   m.FlowJacobian(x, alpha, jac);
 };
 
+// Optional: the Euclidean distance from ξ to the true jump set D (0 on D). Used by the set metrics
+// (core/set_metrics.hpp); models without it give NaN set metrics.
+template <class M>
+concept HasJumpSetDistance = requires(const M& m, ConstVecRef x) {
+  { m.DistanceToJumpSet(x) } -> std::convertible_to<double>;
+};
+
 template <class M>
 concept HasGuardProjection = requires(const M& m, int i, VecRef x) { m.ProjectOntoGuard(i, x); };
 
@@ -108,6 +116,9 @@ class Model {
   // Puts x exactly on guard i when the struct knows how; otherwise leaves x unchanged (the
   // simulator's direction filter then keeps the guard from firing again).
   void ProjectOntoGuard(int i, VecRef x) const { impl_->ProjectOntoGuard(i, x); }
+  // Euclidean distance from x to D when the struct provides DistanceToJumpSet, else NaN.
+  bool has_jump_set_distance() const { return impl_->ProvidesJumpSetDistance(); }
+  double DistanceToJumpSet(ConstVecRef x) const { return impl_->DistanceToJumpSet(x); }
 
   // f(ξ) = φ(ξ)α and g(ξ) = ψ(ξ)β with the given parameter vectors.
   void Flow(ConstVecRef x, ConstVecRef alpha, VecRef dxdt) const { impl_->Flow(x, alpha, dxdt); }
@@ -134,6 +145,8 @@ class Model {
     virtual bool InFlowSet(ConstVecRef x) const = 0;
     virtual bool InJumpSet(ConstVecRef x) const = 0;
     virtual void ProjectOntoGuard(int i, VecRef x) const = 0;
+    virtual bool ProvidesJumpSetDistance() const = 0;
+    virtual double DistanceToJumpSet(ConstVecRef x) const = 0;
     virtual void Flow(ConstVecRef x, ConstVecRef alpha, VecRef dxdt) const = 0;
     virtual void Jump(ConstVecRef x, ConstVecRef beta, VecRef xplus) const = 0;
     virtual void FlowJacobian(ConstVecRef x, ConstVecRef alpha, MatRef jac) const = 0;
@@ -150,6 +163,14 @@ class Model {
     bool InJumpSet(ConstVecRef x) const override { return m_.InJumpSet(x); }
     void ProjectOntoGuard(int i, VecRef x) const override {
       if constexpr (HasGuardProjection<M>) m_.ProjectOntoGuard(i, x);
+    }
+    bool ProvidesJumpSetDistance() const override { return HasJumpSetDistance<M>; }
+    double DistanceToJumpSet(ConstVecRef x) const override {
+      if constexpr (HasJumpSetDistance<M>) {
+        return m_.DistanceToJumpSet(x);
+      } else {
+        return std::numeric_limits<double>::quiet_NaN();
+      }
     }
     void Flow(ConstVecRef x, ConstVecRef alpha, VecRef dxdt) const override {
       ScratchMat phi(x.size(), alpha.size());

@@ -10,6 +10,7 @@
 #include "core/csv.hpp"
 #include "core/identifier.hpp"
 #include "core/metrics.hpp"
+#include "core/set_metrics.hpp"
 #include "experiments/cli.hpp"
 #include "experiments/sample_data.hpp"
 
@@ -132,6 +133,16 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
                 c.precision(), c.recall());
     std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n",
                 e.e_alpha, e.e_beta, e.rel_alpha, e.rel_beta);
+    // Ĉ and D̂ against the model's C and D.
+    const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
+    std::printf("  sets: C^ has %ld vertices (area %.6g), %.6g of it outside C; D^ has %ld vertices, ",
+                static_cast<long>(result.flow_hull.cols()), result.flow_hull_volume,
+                sm.flow_outside_share, static_cast<long>(result.jump_hull.cols()));
+    if (model.has_jump_set_distance()) {
+      std::printf("within %.6g of D (one-sided Hausdorff)\n", sm.jump_hausdorff);
+    } else {
+      std::printf("distance to D unknown (the model has no DistanceToJumpSet)\n");
+    }
   }
 
   if (!args.trace.empty()) {

@@ -5,6 +5,7 @@
 
 #include "core/identifier.hpp"
 #include "core/metrics.hpp"
+#include "core/set_metrics.hpp"
 #include "core/models/bouncing_ball.hpp"
 #include "core/models/impact_msd.hpp"
 #include "core/models/impact_pendulum.hpp"
@@ -82,7 +83,81 @@ TEST_CASE("impact pendulum at sigma 0: a and b within 1 %", "[identify]") {
   CHECK(std::abs(r.alpha_hat[2] - model.alpha()[2]) <= 0.01 * model.alpha()[2]);
 }
 
-TEST_CASE("the §5 detector with r too large misses every jump; with noise and r = 20 it floods",
+TEST_CASE("Algorithm 2 on noise-free §5: hulls contain every classified sample and equal batch hulls",
+          "[identify][sets]") {
+  const Model model{ImpactMsd{}};
+  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  REQUIRE(traj.status.completed());
+  Identifier id(model, traj.dt, IdentifierSettings{});
+  std::vector<std::uint8_t> gamma;
+  for (long k = 0; k < traj.size(); ++k) gamma.push_back(id.Step(traj.x.col(k)).gamma ? 1 : 0);
+  id.Finish();
+  // Λ: every sample not followed by a detected jump; Γ: the pre-jump samples ξ(t−δt).
+  std::vector<long> flow_idx, jump_idx;
+  for (long k = 0; k < traj.size(); ++k) {
+    const bool next_is_jump = k + 1 < traj.size() && gamma[std::size_t(k + 1)];
+    (next_is_jump ? jump_idx : flow_idx).push_back(k);
+  }
+  REQUIRE(jump_idx.size() == 14);
+  CHECK(id.flow_set().size() == static_cast<long>(flow_idx.size()));
+  CHECK(id.jump_set().size() == 14);
+  Mat flow_pts(2, static_cast<Eigen::Index>(flow_idx.size())), jump_pts(2, 14);
+  for (std::size_t i = 0; i < flow_idx.size(); ++i) flow_pts.col(Eigen::Index(i)) = traj.x.col(flow_idx[i]);
+  for (std::size_t i = 0; i < 14; ++i) jump_pts.col(Eigen::Index(i)) = traj.x.col(jump_idx[i]);
+  // Exact membership (tolerance 0) of every classified sample.
+  for (Eigen::Index i = 0; i < flow_pts.cols(); ++i) REQUIRE(id.flow_set().Contains(flow_pts.col(i)));
+  for (Eigen::Index i = 0; i < jump_pts.cols(); ++i) REQUIRE(id.jump_set().Contains(jump_pts.col(i)));
+  // Vertex for vertex (same order) CGAL's batch hull of the same points.
+  const Mat flow_batch = BatchHullVertices(flow_pts), jump_batch = BatchHullVertices(jump_pts);
+  INFO("hull vertices: C^ " << flow_batch.cols() << ", D^ " << jump_batch.cols());
+  CHECK(id.flow_set().hull_dimension() == 2);
+  CHECK(id.flow_set().vertices() == flow_batch);
+  CHECK(id.jump_set().vertices() == jump_batch);
+  const IdentifyResult r = Identify(model, traj.x, traj.dt, IdentifierSettings{});
+  CHECK(r.flow_hull == flow_batch);
+  CHECK(r.jump_hull == jump_batch);
+  CHECK(r.flow_hull_volume == Approx(id.flow_set().Volume()).epsilon(1e-15));
+  // D̂ lies within δt·max|ξ2| of D = {ξ1 = 0, ξ2 ≤ 0}: a pre-jump sample is at most one step of
+  // flow before the wall. Not on it: the sample before a jump has ξ1 > 0.
+  const SetMetrics m = CompareSets(model, id.flow_set(), id.jump_set());
+  const double bound = traj.dt * traj.x.row(1).cwiseAbs().maxCoeff();
+  INFO("jump_hausdorff " << m.jump_hausdorff << ", bound " << bound);
+  CHECK(m.jump_hausdorff > 0.0);
+  CHECK(m.jump_hausdorff <= bound);
+  // Every flow sample has ξ1 ≥ 0, so Ĉ ⊂ C up to the boundary: no area outside.
+  CHECK(m.flow_outside_share == 0.0);
+}
+
+// Three uncoupled integrators with a wall on x1: only to exercise the state-count check.
+struct ThreeStates {
+  ModelSpec Spec() const {
+    return {.name = "three-states",
+            .description = "test only",
+            .state_names = {"x", "y", "z"},
+            .alpha = {{"a", 1.0, false, ""}},
+            .beta = {{"b", 1.0, false, ""}},
+            .flow_rows = {0},
+            .jump_rows = {0},
+            .guards = {{"wall", Crossing::kFalling}},
+            .default_x0 = {1.0, 0.0, 0.0}};
+  }
+  void Phi(ConstVecRef x, MatRef phi) const { phi << -x[0], 0.0, 0.0; }
+  void Psi(ConstVecRef x, MatRef psi) const { psi << x[0], x[1], x[2]; }
+  void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
+  bool InFlowSet(ConstVecRef x) const { return x[0] >= 0.0; }
+  bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0; }
+};
+
+TEST_CASE("identifier: hulls for 3 states are refused by name, sets = false runs", "[identify][sets]") {
+  const Model model{ThreeStates{}};
+  IdentifierSettings settings;
+  CHECK_THROWS_WITH(Identifier(model, 0.1, settings),
+                    Catch::Contains("IdentifierSettings::sets") && Catch::Contains("3 states"));
+  settings.sets = false;
+  CHECK_NOTHROW(Identifier(model, 0.1, settings));
+}
+
+TEST_CASE("the §5 detector with r too large misses every jump, with noise and r = 20 it floods",
           "[identify]") {
   const Model model{ImpactMsd{}};
   const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});

@@ -36,8 +36,9 @@ struct VanDerPolWall {
   void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
   bool InFlowSet(ConstVecRef x) const { return x[0] >= 0.0; }
   bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0 && x[1] <= 0.0; }
-  // Optional: FlowJacobian(x, alpha, J) (central differences otherwise) and
-  // ProjectOntoGuard(i, x) (puts a located crossing exactly on guard i).
+  // Optional: FlowJacobian(x, alpha, J) (central differences otherwise),
+  // ProjectOntoGuard(i, x) (puts a located crossing exactly on guard i) and
+  // DistanceToJumpSet(x) (distance to D, for the set metrics; NaN without it).
 };
 static_assert(HybridModel<VanDerPolWall>);
 
@@ -131,6 +132,24 @@ TEST_CASE("flow and jump sets of impact-msd", "[model]") {
   x << -0.1, 1.0;
   CHECK_FALSE(m.InFlowSet(x));
   CHECK_FALSE(m.InJumpSet(x));
+}
+
+TEST_CASE("distance to the jump set D = {xi1 = 0, xi2 <= 0} of the built-in models", "[model]") {
+  for (const Model& m : {Model{ImpactMsd{}}, Model{BouncingBall{}}, Model{ImpactPendulum{}}}) {
+    INFO(m.name());
+    REQUIRE(m.has_jump_set_distance());
+    auto d = [&](double a, double b) { return m.DistanceToJumpSet((Vec(2) << a, b).finished()); };
+    CHECK(d(0.0, -3.0) == 0.0);   // on D
+    CHECK(d(0.0, 0.0) == 0.0);    // its end point
+    CHECK(d(0.5, -3.0) == 0.5);   // beside it
+    CHECK(d(-0.5, -3.0) == 0.5);
+    CHECK(d(3.0, 4.0) == 5.0);    // nearest point of D is the origin
+    CHECK(d(0.0, 2.0) == 2.0);
+  }
+  // The README's example model does not provide it: NaN.
+  const Model vdp{VanDerPolWall{}};
+  CHECK_FALSE(vdp.has_jump_set_distance());
+  CHECK(std::isnan(vdp.DistanceToJumpSet(Vec::Zero(2))));
 }
 
 }  // namespace

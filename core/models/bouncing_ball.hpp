@@ -7,6 +7,9 @@
 //   t_Z = √(2h0/g) + 2λ√(2gh0) / (g(1 − λ))   for ξ(0) = (h0, 0).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+
 #include "core/model.hpp"
 
 namespace hysid {
@@ -42,6 +45,8 @@ struct BouncingBall {
   void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
   bool InFlowSet(ConstVecRef x) const { return x[0] > 0.0 || (x[0] == 0.0 && x[1] >= 0.0); }
   bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0 && x[1] <= 0.0; }
+  // dist(ξ, D) for the half-line D = {ξ1 = 0, ξ2 ≤ 0}: √(ξ1² + max(ξ2, 0)²).
+  double DistanceToJumpSet(ConstVecRef x) const { return std::hypot(x[0], std::max(x[1], 0.0)); }
   void ProjectOntoGuard(int /*guard*/, VecRef x) const { x[0] = 0.0; }
   void FlowJacobian(ConstVecRef /*x*/, ConstVecRef alpha, MatRef jac) const {
     jac << 0.0, alpha[0],  //
