@@ -9,6 +9,7 @@
 
 #include "core/identifier.hpp"
 #include "core/metrics.hpp"
+#include "core/set_metrics.hpp"
 #include "sim/measurement.hpp"
 
 namespace hysid {
@@ -47,7 +48,8 @@ std::string FormatNumber(double v) { return std::isnan(v) ? std::string() : fmt:
 
 const std::vector<std::string>& SummaryMetrics() {
   static const std::vector<std::string> metrics{
-      "misclassification", "precision", "recall", "fp", "fn", "e_alpha", "e_beta", "rel_alpha", "rel_beta"};
+      "misclassification", "precision", "recall", "fp", "fn", "e_alpha", "e_beta", "rel_alpha", "rel_beta",
+      "jump_hausdorff", "flow_outside_share"};
   return metrics;
 }
 
@@ -57,7 +59,8 @@ std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vecto
   for (int i = 0; i < MaxStates(models); ++i) h.push_back(fmt::format("x0_{}", i + 1));
   h.insert(h.end(), {"status", "message", "samples", "jumps_true", "jumps_detected", "tp", "fp", "fn", "tn",
                      "misclassification", "precision", "recall", "e_alpha", "e_beta", "rel_alpha",
-                     "rel_beta", "flow_status", "jump_status"});
+                     "rel_beta", "flow_status", "jump_status", "jump_hausdorff", "flow_outside_share",
+                     "flow_hull_vertices", "jump_hull_vertices"});
   for (const std::string& n : UnknownNames(models, true)) h.push_back("alpha_hat_" + n);
   for (const std::string& n : UnknownNames(models, false)) h.push_back("beta_hat_" + n);
   return h;
@@ -79,6 +82,8 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   Confusion conf;
   ParameterErrors err{kNaN, kNaN, kNaN, kNaN};
   std::string flow_status, jump_status;
+  SetMetrics sets;
+  long flow_vertices = -1, jump_vertices = -1;
   Vec alpha_hat, beta_hat;
   bool have_estimates = false;
 
@@ -116,6 +121,11 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
         message = "an estimate is not finite";
       } else {
         err = CompareParameters(model, alpha_hat, beta_hat);
+        if (s.sets) {
+          sets = CompareSets(model, res.flow_hull, res.jump_hull);
+          flow_vertices = static_cast<long>(res.flow_hull.cols());
+          jump_vertices = static_cast<long>(res.jump_hull.cols());
+        }
       }
     } catch (const std::exception& e) {
       status = "error";
@@ -130,7 +140,10 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
              {status, Clean(message), fmt::format("{}", samples), fmt::format("{}", jumps_true),
               count(jumps_detected), count(conf.tp), count(conf.fp), count(conf.fn), count(conf.tn),
               num(conf.misclassification()), num(conf.precision()), num(conf.recall()), num(err.e_alpha),
-              num(err.e_beta), num(err.rel_alpha), num(err.rel_beta), flow_status, jump_status});
+              num(err.e_beta), num(err.rel_alpha), num(err.rel_beta), flow_status, jump_status,
+              num(sets.jump_hausdorff), num(sets.flow_outside_share),
+              flow_vertices < 0 ? std::string() : count(flow_vertices),
+              jump_vertices < 0 ? std::string() : count(jump_vertices)});
   for (bool alpha : {true, false}) {
     for (const std::string& name : UnknownNames(models, alpha)) {
       const auto& params = alpha ? model.spec().alpha : model.spec().beta;

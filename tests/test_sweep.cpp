@@ -181,7 +181,22 @@ TEST_CASE("sweep: trials.csv is byte-identical for 1 and 2 threads", "[sweep][de
   ReadTrialsCsv(a / "trials.csv", &header, &rows);
   REQUIRE(rows.size() == 48u);
   const auto col = [&](const char* n) { return std::find(header.begin(), header.end(), n) - header.begin(); };
-  for (const auto& [id, r] : rows) CHECK(r[static_cast<std::size_t>(col("status"))] == "ok");
+  for (const auto& [id, r] : rows) {
+    CHECK(r[static_cast<std::size_t>(col("status"))] == "ok");
+    // Set metrics (sets are on by default): noise-free, D̂ lies within δt·max|ξ2| of D (|ξ2| < 50
+    // from these initial states) and no part of Ĉ is outside C. No jump detected (r = 220 misses
+    // them at δt = 2 ms): D̂ is empty and its distance is left empty.
+    if (r[static_cast<std::size_t>(col("sigma"))] == "0") {
+      const double dt = std::stod(r[static_cast<std::size_t>(col("dt"))]);
+      const std::string& hd = r[static_cast<std::size_t>(col("jump_hausdorff"))];
+      if (r[static_cast<std::size_t>(col("jumps_detected"))] == "0") {
+        CHECK(hd.empty());
+      } else {
+        CHECK(std::stod(hd) < 50 * dt);
+      }
+      CHECK(r[static_cast<std::size_t>(col("flow_outside_share"))] == "0");
+    }
+  }
   // Initial states are drawn in the ranges and shared by trial i of every cell.
   CHECK(rows[0][static_cast<std::size_t>(col("x0_1"))] == rows[4][static_cast<std::size_t>(col("x0_1"))]);
   CHECK(rows[0][static_cast<std::size_t>(col("x0_1"))] != rows[1][static_cast<std::size_t>(col("x0_1"))]);
