@@ -25,7 +25,7 @@ import matplotlib.colors  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-KEYS = ["model", "dt", "sigma", "r", "estimator", "detector"]
+KEYS = ["model", "dt", "sigma", "r", "false_alarm", "estimator", "detector"]
 ERROR_PANELS = [("e_alpha", r"$e_\alpha = \|\alpha - \hat\alpha\|$"),
                 ("e_beta", r"$e_\beta = \|\beta - \hat\beta\|$"),
                 ("misclassification", "misclassification rate")]
@@ -65,6 +65,8 @@ def line_label(row):
     label = f"{row['estimator']}, {row['detector']}"
     if not math.isnan(row["r"]):
         label += f", r={row['r']:g}"
+    if not math.isnan(row.get("false_alarm", math.nan)):
+        label += f", p={row['false_alarm']:g}"
     return label
 
 

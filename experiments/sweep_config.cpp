@@ -247,7 +247,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   const toml::node* grid_node = root.get("grid");
   if (!grid_node) rd.Fail(nullptr, "grid", "missing: a [grid] table (at least sigma and dt)");
   const toml::table& grid = rd.Table(*grid_node, "grid");
-  rd.OnlyKeys(grid, "grid", {"sigma", "dt", "r", "estimator", "detector"});
+  rd.OnlyKeys(grid, "grid", {"sigma", "dt", "r", "false_alarm", "estimator", "detector"});
   for (const char* k : {"sigma", "dt"}) {
     if (!grid.contains(k)) rd.Fail(grid_node, fmt::format("grid.{}", k), "missing");
   }
@@ -255,6 +255,13 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   c.grid.dt = rd.NumberAxis(*grid.get("dt"), "grid.dt");
   c.grid.r = grid.contains("r") ? rd.NumberAxis(*grid.get("r"), "grid.r")
                                 : std::vector<double>{c.identifier.detector.r};
+  c.grid.false_alarm = grid.contains("false_alarm") ? rd.NumberAxis(*grid.get("false_alarm"), "grid.false_alarm")
+                                                    : std::vector<double>{c.identifier.detector.false_alarm};
+  for (double p : c.grid.false_alarm) {
+    if (!(p > 0 && p < 0.5)) {
+      rd.Fail(grid.get("false_alarm"), "grid.false_alarm", fmt::format("{} must be in (0, 0.5)", p));
+    }
+  }
   c.grid.estimator = grid.contains("estimator") ? rd.StringAxis(*grid.get("estimator"), "grid.estimator")
                                                 : std::vector<std::string>{"rls"};
   c.grid.detector = grid.contains("detector") ? rd.StringAxis(*grid.get("detector"), "grid.detector")
@@ -290,6 +297,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   NoDuplicates(rd, *grid.get("sigma"), "grid.sigma", c.grid.sigma);
   NoDuplicates(rd, *grid.get("dt"), "grid.dt", c.grid.dt);
   if (grid.contains("r")) NoDuplicates(rd, *grid.get("r"), "grid.r", c.grid.r);
+  if (grid.contains("false_alarm")) NoDuplicates(rd, *grid.get("false_alarm"), "grid.false_alarm", c.grid.false_alarm);
   if (grid.contains("estimator")) NoDuplicates(rd, *grid.get("estimator"), "grid.estimator", c.grid.estimator);
   if (grid.contains("detector")) NoDuplicates(rd, *grid.get("detector"), "grid.detector", c.grid.detector);
 
@@ -318,6 +326,9 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
       if (!s.detector.IsValid(&error) || !s.flow_estimator.IsValid(&error)) rd.Fail(&v, key, error);
     }
   }
+
+  // [identifier] false_alarm is the default of the grid axis.
+  if (!grid.contains("false_alarm")) c.grid.false_alarm = {c.identifier.detector.false_alarm};
 
   // [simulator]
   if (const toml::node* sn = root.get("simulator")) {
@@ -384,7 +395,8 @@ nlohmann::json SweepConfig::ToJson() const {
   return {
       {"model", ms},
       {"grid",
-       {{"dt", grid.dt}, {"sigma", grid.sigma}, {"r", grid.r}, {"estimator", grid.estimator},
+       {{"dt", grid.dt}, {"sigma", grid.sigma}, {"r", grid.r}, {"false_alarm", grid.false_alarm},
+        {"estimator", grid.estimator},
         {"detector", grid.detector}}},
       {"identifier",
        {{"tau0", s.detector.tau0}, {"bound", s.detector.bound}, {"false_alarm", s.detector.false_alarm},

@@ -31,6 +31,7 @@ struct SweepModel {
 
 struct SweepGrid {
   std::vector<double> dt, sigma, r;
+  std::vector<double> false_alarm;  // residual detector's p (the paper detector ignores it)
   std::vector<std::string> estimator, detector;
 };
 

@@ -13,6 +13,7 @@
 namespace hysid {
 
 bool DetectorUsesR(const std::string& detector) { return detector == "paper"; }
+bool DetectorUsesFalseAlarm(const std::string& detector) { return detector == "residual"; }
 
 std::vector<SweepCell> EnumerateCells(const SweepConfig& c) {
   std::vector<SweepCell> cells;
@@ -20,14 +21,16 @@ std::vector<SweepCell> EnumerateCells(const SweepConfig& c) {
   for (int m = 0; m < static_cast<int>(c.models.size()); ++m) {
     for (double dt : c.grid.dt) {
       for (double sigma : c.grid.sigma) {
-        // r-free detectors appear once, at the first r.
+        // A detector appears once for each value of the axes it uses, at the first of the others.
         for (std::size_t ri = 0; ri < c.grid.r.size(); ++ri) {
-          for (const std::string& est : c.grid.estimator) {
-            for (const std::string& det : c.grid.detector) {
-              const bool uses_r = DetectorUsesR(det);
-              if (!uses_r && ri > 0) continue;
-              cells.push_back({static_cast<long>(cells.size()), m, dt, sigma, uses_r ? c.grid.r[ri] : nan,
-                               est, det});
+          for (std::size_t pi = 0; pi < c.grid.false_alarm.size(); ++pi) {
+            for (const std::string& est : c.grid.estimator) {
+              for (const std::string& det : c.grid.detector) {
+                const bool uses_r = DetectorUsesR(det), uses_p = DetectorUsesFalseAlarm(det);
+                if ((!uses_r && ri > 0) || (!uses_p && pi > 0)) continue;
+                cells.push_back({static_cast<long>(cells.size()), m, dt, sigma, uses_r ? c.grid.r[ri] : nan,
+                                 uses_p ? c.grid.false_alarm[pi] : nan, est, det});
+              }
             }
           }
         }

@@ -69,7 +69,7 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   }
 
   // summary.csv
-  const std::vector<std::string> keys{"cell", "model", "dt", "sigma", "r", "estimator", "detector"};
+  const std::vector<std::string> keys{"cell", "model", "dt", "sigma", "r", "false_alarm", "estimator", "detector"};
   const std::vector<std::string>& metrics = SummaryMetrics();
   std::vector<long> key_col, metric_col;
   for (const auto& k : keys) key_col.push_back(Column(trial_header, k));

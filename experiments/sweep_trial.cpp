@@ -55,7 +55,8 @@ const std::vector<std::string>& SummaryMetrics() {
 
 std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models) {
   (void)config;
-  std::vector<std::string> h{"unit", "cell", "trial", "model", "dt", "sigma", "r", "estimator", "detector"};
+  std::vector<std::string> h{"unit", "cell", "trial", "model", "dt", "sigma", "r", "false_alarm", "estimator",
+                             "detector"};
   for (int i = 0; i < MaxStates(models); ++i) h.push_back(fmt::format("x0_{}", i + 1));
   h.insert(h.end(), {"status", "message", "samples", "jumps_true", "jumps_detected", "tp", "fp", "fn", "tn",
                      "misclassification", "precision", "recall", "e_alpha", "e_beta", "rel_alpha",
@@ -73,7 +74,7 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   const SweepModel& sm = config.models[static_cast<std::size_t>(cell.model)];
   std::vector<std::string> row{fmt::format("{}", unit), fmt::format("{}", cell.index), fmt::format("{}", trial),
                                sm.name, FormatNumber(cell.dt), FormatNumber(cell.sigma), FormatNumber(cell.r),
-                               cell.estimator, cell.detector};
+                               FormatNumber(cell.false_alarm), cell.estimator, cell.detector};
   const int nmax = MaxStates(models);
   for (int i = 0; i < nmax; ++i) row.push_back(i < x0.size() ? FormatNumber(x0[i]) : std::string());
 
@@ -102,6 +103,7 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
       s.flow_estimator.name = s.jump_estimator.name = cell.estimator;
       s.detector.name = cell.detector;
       if (!std::isnan(cell.r)) s.detector.r = cell.r;
+      if (!std::isnan(cell.false_alarm)) s.detector.false_alarm = cell.false_alarm;
       if (config.known_sigma) s.sigma = Vec::Constant(model.state_size(), cell.sigma);
       Mat noisy;
       if (cell.sigma > 0) {

@@ -47,7 +47,7 @@ def test_error_vs_sigma_lines_equal_summary(rows):
             assert len(plotted) == 3  # paper r=20, paper r=220, residual
             for label, ln in plotted.items():
                 det = "residual" if "residual" in label else "paper"
-                r = "" if det == "residual" else label.split("r=")[1]
+                r = "" if det == "residual" else label.split("r=")[1].split(",")[0]
                 for x, y in zip(ln.get_xdata(), ln.get_ydata()):
                     want = mean_of(rows, metric, dt=dt_text, sigma=f"{x:g}", detector=det, r=r)
                     assert (math.isnan(want) and math.isnan(y)) or y == want

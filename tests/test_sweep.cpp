@@ -112,6 +112,8 @@ TEST_CASE("sweep files: every error names file, line and key", "[sweep][config]"
              Catch::Contains("bad.toml:7: run.trials: expected an integer"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\nfalse_alarm = 2.0\n"),
              Catch::Contains("bad.toml:7: identifier.false_alarm:"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nfalse_alarm = [0.7]\n"),
+             Catch::Contains("bad.toml:6: grid.false_alarm: 0.7 must be in (0, 0.5)"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = [1e-3, 1e-3]\n"), Catch::Contains("grid.dt: value 0.001 appears twice"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\n"), Catch::Contains("bad.toml:3: grid.dt: missing"));
   CHECK_THAT(ErrorOf(head + "[grid\n"), Catch::Contains("bad.toml:3: TOML syntax"));
@@ -142,6 +144,17 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   for (const auto& cell : cells) residual += cell.detector == "residual" ? 1 : 0;
   CHECK(residual == 12);
   // Hash: equal configs equal, any change differs.
+  // false_alarm is expanded for the residual detector only.
+  const SweepConfig e = ParseSweepText(
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = [0.0, 0.1]\ndt = 1e-3\nr = [5.0, 50.0, 500.0]\n"
+      "false_alarm = [1e-6, 1e-8]\ndetector = [\"paper\", \"residual\"]\n",
+      "ok.toml", Registry());
+  const auto ecells = EnumerateCells(e);
+  CHECK(ecells.size() == 2u * (3u + 2u));
+  for (const auto& cell : ecells) {
+    CHECK(std::isnan(cell.r) == (cell.detector == "residual"));
+    CHECK(std::isnan(cell.false_alarm) == (cell.detector == "paper"));
+  }
   const SweepConfig d = ParseSweepText(
       "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.0, to = 0.3, count = 4 }\n"
       "dt = { from = 1e-4, to = 1e-2, count = 3, log = true }\nr = [5.0, 50.0]\n"
