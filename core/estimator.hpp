@@ -33,8 +33,14 @@ struct EstimatorSettings {
   // empty = derived by the identifier from σ, δt and the model (see core/noise_shape.hpp).
   Mat noise_shape;
   int refactor_every = 500;  // gtls: recompute S⁻¹ from scratch every this many rows
-  // frisch: window length in rows (0 = growing window with `forgetting`).
+  // frisch: window length in rows (0 = growing window with `forgetting`, box refreshed every update).
   int window = 200;
+  // frisch: "cumulative" (bounding box of the simplex of all rows so far, refreshed every window) or
+  // "intersect" (BBRF: running intersection of each window's own box). See core/estimators/frisch.hpp.
+  std::string frisch_box = "cumulative";
+  // frisch: point estimate: "rls" (RLS clamped into the BBRF-intersected box) or "centre" (of the
+  // reported box).
+  std::string frisch_point = "rls";
   // Field-naming message, e.g. "forgetting = 1.5: must be in (0, 1]".
   bool IsValid(std::string* error) const;
 };
@@ -68,7 +74,7 @@ class Estimator {
   long skipped_ = 0;
 };
 
-// Known names: "rls" (+ "gtls", "frisch" once built). Throws std::invalid_argument naming the known
+// Known names: "rls", "gtls", "frisch". Throws std::invalid_argument naming the known
 // estimators for an unknown name or invalid settings.
 std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0);
 std::vector<std::string> EstimatorNames();
