@@ -28,7 +28,9 @@ const char* ToString(EstimatorStatus status);
 struct EstimatorSettings {
   std::string name = "rls";
   double forgetting = 1.0;  // λ ∈ (0, 1]: exponential forgetting (1 = none)
-  double p0 = 1e4;          // initial covariance P0 = p0·I (RLS prior ridge P0⁻¹ = I/p0)
+  // Initial covariance P0 = p0·I (the RLS prior ridge is P0⁻¹ = I/p0). Large: the flow regressors
+  // are O(δt), so ΣΦᵀΦ is small and a 1e4 prior would bias α̂ by ~1e-3 on the §5 system.
+  double p0 = 1e8;
   // gtls: noise covariance shape C of a regression row z = [φ; y] ((p+1) × (p+1), up to scale);
   // empty = derived by the identifier from σ, δt and the model (see core/noise_shape.hpp).
   Mat noise_shape;

@@ -41,6 +41,8 @@ class Identifier {
 
   // Feeds the next measured sample ξ(t). The first sample only initialises (γ = 0, no update).
   Decision Step(ConstVecRef x);
+  // Ends the stream: the newest sample joins Λ (the paper puts every ξ(t) in Λ until a jump moves it).
+  void Finish();
 
   Vec alpha_hat() const;  // full α̂: known entries at their known values
   Vec beta_hat() const;

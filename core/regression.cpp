@@ -48,8 +48,15 @@ RegressionBuilder::RegressionBuilder(const Model& model)
       psi_(model.state_size(), model.beta_size()) {}
 
 void RegressionBuilder::Flow(ConstVecRef prev, ConstVecRef cur, double dt, MatRef phi, VecRef y) {
-  model_.Phi(prev, phi_prev_);
+  // Consecutive pairs share a sample: φ(ξ(t−δt)) is the previous call's φ(ξ(t)).
+  if (have_last_ && prev == last_cur_) {
+    phi_prev_.swap(phi_cur_);
+  } else {
+    model_.Phi(prev, phi_prev_);
+  }
   model_.Phi(cur, phi_cur_);
+  last_cur_ = cur;
+  have_last_ = true;
   const double h = 0.5 * dt;
   for (std::size_t i = 0; i < flow_.rows.size(); ++i) {
     const int r = flow_.rows[i];

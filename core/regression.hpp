@@ -46,6 +46,8 @@ class RegressionBuilder {
   RegressionLayout flow_, jump_;
   Vec alpha_, beta_;  // true values (only the known entries are used)
   Mat phi_prev_, phi_cur_, psi_;
+  Vec last_cur_;          // the state phi_cur_ was evaluated at
+  bool have_last_ = false;
 };
 
 }  // namespace hysid

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", HYSID_VERSION " (" HYSID_GIT_REVISION ")");
   hysid::cli::AddSimulateCommand(app, env);
   hysid::cli::AddModelsCommand(app, env);
+  hysid::cli::AddIdentifyCommand(app, env);
+  hysid::cli::AddReproduceCommand(app, env);
 
   try {
     app.parse(argc, argv);

@@ -124,7 +124,7 @@ TEST_CASE("RLS stays finite on unexciting data with forgetting", "[rls]") {
   for (int k = 0; k < 100000; ++k) rls->Update(zero, y);
   CHECK(rls->estimate().allFinite());
   CHECK(rls->covariance()->allFinite());
-  CHECK(rls->covariance()->trace() <= 2 * 1e4 / 0.9 + 1e-6);
+  CHECK(rls->covariance()->trace() <= 2 * settings.p0 / 0.9 * (1 + 1e-12));
   CHECK(rls->status() == EstimatorStatus::kNotExcited);
   // A non-finite row is skipped and counted.
   Mat bad(1, 2);

@@ -1,0 +1,174 @@
+#include "core/identifier.hpp"
+
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace hysid {
+namespace {
+
+Vec Prior(const Vec& given, const RegressionLayout& layout, const char* field) {
+  const auto u = static_cast<Eigen::Index>(layout.unknown.size());
+  if (given.size() == 0) return Vec::Zero(u);
+  if (given.size() != u) {
+    throw std::invalid_argument(fmt::format("IdentifierSettings::{} has {} entries; the model has {} unknowns",
+                                            field, given.size(), u));
+  }
+  return given;
+}
+
+}  // namespace
+
+struct Identifier::State {
+  State(const Model& m, double step, const IdentifierSettings& s)
+      : model(m),
+        dt(step),
+        settings(s),
+        builder(m),
+        flow(MakeEstimator(s.flow_estimator, Prior(s.alpha0, builder.flow_layout(), "alpha0"))),
+        jump(MakeEstimator(s.jump_estimator, Prior(s.beta0, builder.jump_layout(), "beta0"))),
+        detector(MakeDetector(s.detector, m)),
+        flow_set(s.sets ? m.state_size() : 2),
+        jump_set(s.sets ? m.state_size() : 2),
+        alpha_known(m.alpha()),
+        beta_known(m.beta()),
+        prev(m.state_size()),
+        phi(builder.flow_layout().rows.size(), builder.flow_layout().unknown.size()),
+        y(builder.flow_layout().rows.size()),
+        psi(builder.jump_layout().rows.size(), builder.jump_layout().unknown.size()),
+        yj(builder.jump_layout().rows.size()) {
+    alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
+    if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
+      throw std::invalid_argument(fmt::format(
+          "IdentifierSettings::sigma has {} entries; the model has {} states", s.sigma.size(),
+          m.state_size()));
+    }
+  }
+
+  Model model;
+  double dt;
+  IdentifierSettings settings;
+  RegressionBuilder builder;
+  std::unique_ptr<Estimator> flow, jump;
+  std::unique_ptr<JumpDetector> detector;
+  SampleSet flow_set, jump_set;
+  Vec alpha_known, beta_known, alpha_full;
+  Vec prev;
+  bool has_prev = false;
+  Mat phi;
+  Vec y;
+  Mat psi;
+  Vec yj;
+  std::optional<Mat> alpha_covariance;
+  long version = 0;
+  long samples = 0;
+  long jumps = 0;
+};
+
+Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& settings) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
+  }
+  s_ = std::make_unique<State>(model, dt, settings);
+}
+Identifier::~Identifier() = default;
+Identifier::Identifier(Identifier&&) noexcept = default;
+Identifier& Identifier::operator=(Identifier&&) noexcept = default;
+
+Decision Identifier::Step(ConstVecRef x) {
+  State& s = *s_;
+  ++s.samples;
+  if (!s.has_prev) {
+    s.prev = x;
+    s.has_prev = true;
+    return {};
+  }
+  s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
+  SampleContext c{.model = &s.model,
+                  .dt = s.dt,
+                  .prev = ConstVecMap(s.prev.data(), s.prev.size()),
+                  .cur = ConstVecMap(x.data(), x.size()),
+                  .flow_phi = ConstMatMap(s.phi.data(), s.phi.rows(), s.phi.cols()),
+                  .flow_y = ConstVecMap(s.y.data(), s.y.size()),
+                  .alpha_hat = ConstVecMap(s.alpha_full.data(), s.alpha_full.size()),
+                  .alpha_covariance = s.alpha_covariance ? &*s.alpha_covariance : nullptr,
+                  .flow_updates = s.flow->updates(),
+                  .version = s.version,
+                  .flow_set = s.settings.sets ? &s.flow_set : nullptr,
+                  .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr};
+  const Decision d = s.detector->Classify(c);
+  if (!d.gamma) {
+    s.flow->Update(s.phi, s.y);
+    const Vec& theta = s.flow->estimate();
+    const auto& unknown = s.builder.flow_layout().unknown;
+    for (std::size_t i = 0; i < unknown.size(); ++i) s.alpha_full[unknown[i]] = theta[Eigen::Index(i)];
+    ++s.version;
+    if (s.settings.sets) s.flow_set.Add(s.prev);
+  } else {
+    s.builder.Jump(s.prev, x, s.psi, s.yj);
+    s.jump->Update(s.psi, s.yj);
+    ++s.jumps;
+    if (s.settings.sets) s.jump_set.Add(s.prev);
+  }
+  s.detector->Observe(c, d);
+  s.prev = x;
+  return d;
+}
+
+void Identifier::Finish() {
+  if (s_->has_prev && s_->settings.sets) s_->flow_set.Add(s_->prev);
+}
+
+Vec Identifier::alpha_hat() const { return s_->alpha_full; }
+Vec Identifier::beta_hat() const {
+  return s_->builder.jump_layout().Assemble(s_->beta_known, s_->jump->estimate());
+}
+const Estimator& Identifier::flow_estimator() const { return *s_->flow; }
+const Estimator& Identifier::jump_estimator() const { return *s_->jump; }
+const SampleSet& Identifier::flow_set() const { return s_->flow_set; }
+const SampleSet& Identifier::jump_set() const { return s_->jump_set; }
+long Identifier::samples() const { return s_->samples; }
+long Identifier::jumps_detected() const { return s_->jumps; }
+
+IdentifyResult Identify(const Model& model, const Mat& y, double dt,
+                        const IdentifierSettings& settings, const IdentifyOptions& options) {
+  if (y.rows() != model.state_size()) {
+    throw std::invalid_argument(fmt::format("data has {} state rows; model '{}' has {} states",
+                                            y.rows(), model.name(), model.state_size()));
+  }
+  Identifier id(model, dt, settings);
+  const Eigen::Index k_count = y.cols();
+  IdentifyResult r;
+  r.gamma.resize(static_cast<std::size_t>(k_count));
+  r.statistic.resize(static_cast<std::size_t>(k_count));
+  r.threshold.resize(static_cast<std::size_t>(k_count));
+  if (options.trace) {
+    r.alpha_trace.resize(model.alpha_size(), k_count);
+    r.beta_trace.resize(model.beta_size(), k_count);
+  }
+  for (Eigen::Index k = 0; k < k_count; ++k) {
+    const Decision d = id.Step(y.col(k));
+    r.gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
+    r.statistic[static_cast<std::size_t>(k)] = d.statistic;
+    r.threshold[static_cast<std::size_t>(k)] = d.threshold;
+    if (options.trace) {
+      r.alpha_trace.col(k) = id.alpha_hat();
+      r.beta_trace.col(k) = id.beta_hat();
+    }
+  }
+  id.Finish();
+  r.alpha_hat = id.alpha_hat();
+  r.beta_hat = id.beta_hat();
+  r.jumps_detected = id.jumps_detected();
+  r.flow_status = id.flow_estimator().status();
+  r.jump_status = id.jump_estimator().status();
+  if (settings.sets) {
+    r.flow_hull = id.flow_set().vertices();
+    r.jump_hull = id.jump_set().vertices();
+    r.flow_hull_volume = id.flow_set().Volume();
+    r.jump_hull_volume = id.jump_set().Volume();
+  }
+  return r;
+}
+
+}  // namespace hysid

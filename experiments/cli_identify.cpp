@@ -1,0 +1,186 @@
+// hysid identify: the paper's identifier on measured samples from a CSV.
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "core/csv.hpp"
+#include "core/identifier.hpp"
+#include "core/metrics.hpp"
+#include "experiments/cli.hpp"
+#include "experiments/sample_data.hpp"
+
+namespace hysid::cli {
+namespace {
+
+struct IdentifyArgs {
+  std::string model = "impact-msd";
+  std::vector<std::string> params;
+  std::string data;
+  std::string estimator = "rls";
+  double forgetting = 1.0;
+  std::string detector = "paper";
+  double r = 220.0;
+  double tau0 = 1e5;
+  std::string bound = "auto";
+  std::vector<double> sigma;
+  std::string trace;
+  std::string hulls;
+};
+
+std::vector<std::string> UnknownNames(const std::vector<Parameter>& params) {
+  std::vector<std::string> names;
+  for (const Parameter& p : params) {
+    if (!p.known) names.push_back(p.name);
+  }
+  return names;
+}
+
+void RunIdentify(const IdentifyArgs& args, const Environment& env) {
+  const Model model = MakeModel(env, args.model, args.params);
+  const ModelSpec& spec = model.spec();
+  const int n = model.state_size();
+  IdentifierSettings settings;
+  settings.flow_estimator.name = args.estimator;
+  settings.flow_estimator.forgetting = args.forgetting;
+  settings.jump_estimator.name = args.estimator;
+  settings.detector.name = args.detector;
+  settings.detector.r = args.r;
+  settings.detector.tau0 = args.tau0;
+  settings.detector.bound = args.bound;
+  if (std::string e; !settings.detector.IsValid(&e)) BadFlag(fmt::format("--r/--tau0/--bound: {}", e));
+  if (std::string e; !settings.flow_estimator.IsValid(&e)) BadFlag(fmt::format("--forgetting: {}", e));
+  if (!args.sigma.empty()) {
+    RequireFinite("--sigma", args.sigma);
+    settings.sigma = Vec(n);
+    if (args.sigma.size() == 1) {
+      settings.sigma.setConstant(args.sigma[0]);
+    } else if (static_cast<int>(args.sigma.size()) == n) {
+      settings.sigma = Eigen::Map<const Vec>(args.sigma.data(), n);
+    } else {
+      BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})",
+                          args.sigma.size(), n));
+    }
+    if ((settings.sigma.array() < 0).any()) BadFlag("--sigma: must be >= 0");
+  }
+
+  // Settings errors (unknown estimator or detector, ...) before the data is read.
+  try {
+    Identifier check(model, 1.0, settings);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--estimator/--detector: {}", e.what()));
+  }
+  const SampleData data = ReadSampleData(args.data, n);
+  IdentifyOptions options;
+  options.trace = !args.trace.empty();
+  const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+
+  std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(),
+              data.path.c_str(), fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(),
+              data.t.size(), data.dt);
+  std::printf("estimator %s, detector %s (r = %g, tau0 = %g, bound %s)\n", args.estimator.c_str(),
+              args.detector.c_str(), args.r, args.tau0, args.bound.c_str());
+  for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
+    if (!spec.alpha[i].known) {
+      std::printf("  alpha %-10s = %.10g\n", spec.alpha[i].name.c_str(), result.alpha_hat[Eigen::Index(i)]);
+    }
+  }
+  for (std::size_t i = 0; i < spec.beta.size(); ++i) {
+    if (!spec.beta[i].known) {
+      std::printf("  beta  %-10s = %.10g\n", spec.beta[i].name.c_str(), result.beta_hat[Eigen::Index(i)]);
+    }
+  }
+  std::printf("jumps detected: %ld (flow estimator %s, jump estimator %s)\n", result.jumps_detected,
+              ToString(result.flow_status), ToString(result.jump_status));
+  if (data.j) {
+    const Confusion c = CompareJumps(*data.j, result.gamma);
+    const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
+    std::printf("truth (column j): %ld true jumps; TP %ld, FP %ld, FN %ld, TN %ld\n", c.tp + c.fn,
+                c.tp, c.fp, c.fn, c.tn);
+    std::printf("  misclassification %.6g, precision %.6g, recall %.6g\n", c.misclassification(),
+                c.precision(), c.recall());
+    std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n",
+                e.e_alpha, e.e_beta, e.rel_alpha, e.rel_beta);
+  }
+
+  if (!args.trace.empty()) {
+    std::vector<std::string> header{"t", "D", "tau_hat", "gamma"};
+    const auto an = UnknownNames(spec.alpha), bn = UnknownNames(spec.beta);
+    for (const auto& s : an) header.push_back(s + "_hat");
+    for (const auto& s : bn) header.push_back(s + "_hat");
+    if (data.j) {
+      header.push_back("j");
+      header.push_back("true_jump");
+    }
+    CsvWriter csv(args.trace, header);
+    std::vector<double> row(header.size());
+    for (std::size_t k = 0; k < data.t.size(); ++k) {
+      std::size_t c = 0;
+      row[c++] = data.t[k];
+      row[c++] = result.statistic[k];
+      row[c++] = result.threshold[k];
+      row[c++] = result.gamma[k];
+      for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
+        if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
+      }
+      for (std::size_t i = 0; i < spec.beta.size(); ++i) {
+        if (!spec.beta[i].known) row[c++] = result.beta_trace(Eigen::Index(i), Eigen::Index(k));
+      }
+      if (data.j) {
+        row[c++] = (*data.j)[k];
+        row[c++] = k > 0 && (*data.j)[k] != (*data.j)[k - 1] ? 1.0 : 0.0;
+      }
+      csv.Row(row);
+    }
+    csv.Commit();
+    std::printf("wrote %s\n", args.trace.c_str());
+  }
+  if (!args.hulls.empty()) {
+    std::vector<std::string> header{"set", "vertex"};
+    for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
+    CsvWriter csv(args.hulls, header);
+    std::vector<double> row(header.size());
+    int set = 0;
+    for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
+      for (Eigen::Index v = 0; v < hull->cols(); ++v) {
+        row[0] = set;
+        row[1] = static_cast<double>(v);
+        for (int i = 0; i < n; ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
+        csv.Row(row);
+      }
+      ++set;
+    }
+    csv.Commit();
+    std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n",
+                args.hulls.c_str());
+  }
+}
+
+}  // namespace
+
+void AddIdentifyCommand(CLI::App& app, Environment& env) {
+  auto args = std::make_shared<IdentifyArgs>();
+  CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
+  cmd->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
+  cmd->add_option("--param", args->params, "NAME=VALUE: the model's true value (for error metrics)");
+  cmd->add_option("--data", args->data, "CSV: time, then the measured state (y1..yn if present); "
+                                        "a column j is taken as ground truth")
+      ->required();
+  cmd->add_option("--estimator", args->estimator, "rls (more with later releases)")->capture_default_str();
+  cmd->add_option("--forgetting", args->forgetting, "forgetting factor of the alpha estimator")
+      ->capture_default_str();
+  cmd->add_option("--detector", args->detector, "jump detector")->capture_default_str();
+  cmd->add_option("--r", args->r, "paper detector: multiplicative constant r > 1")->capture_default_str();
+  cmd->add_option("--tau0", args->tau0, "paper detector: initial smoothness bound")->capture_default_str();
+  cmd->add_option("--bound", args->bound, "paper detector: auto, paper or homogeneous")
+      ->capture_default_str();
+  cmd->add_option("--sigma", args->sigma, "known measurement noise σ (one, or one per state)")
+      ->delimiter(',');
+  cmd->add_option("--trace", args->trace, "per-sample CSV: t, D, tau_hat, gamma, estimates");
+  cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
+  cmd->callback([args, &env] { RunIdentify(*args, env); });
+}
+
+}  // namespace hysid::cli
