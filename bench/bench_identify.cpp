@@ -18,11 +18,15 @@ Mat PaperSamples(double sigma) {
 }
 
 // One iteration = a whole 40001-sample run through Identifier::Step; the counter is per sample.
-void RunIdentifier(benchmark::State& state, bool sets, double sigma) {
+void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char* detector = "paper",
+                   bool known_sigma = false, bool localize = false) {
   const Model model{ImpactMsd{}};
   const Mat y = PaperSamples(sigma);
   IdentifierSettings settings;
   settings.sets = sets;
+  settings.detector.name = detector;
+  settings.localize = localize;
+  if (known_sigma) settings.sigma = Vec::Constant(2, sigma);
   for (auto _ : state) {
     Identifier id(model, 5e-4, settings);
     for (Eigen::Index k = 0; k < y.cols(); ++k) benchmark::DoNotOptimize(id.Step(y.col(k)));
@@ -44,6 +48,26 @@ BENCHMARK(BM_IdentifyStepWithHulls)->Unit(benchmark::kMillisecond);
 // Noisy samples (σ = 0.25): the hull of Λ keeps growing at the edges.
 void BM_IdentifyStepWithHullsNoisy(benchmark::State& state) { RunIdentifier(state, true, 0.25); }
 BENCHMARK(BM_IdentifyStepWithHullsNoisy)->Unit(benchmark::kMillisecond);
+
+// The tuning-free residual detector (issue 6) in place of the paper's, same run, no sample sets.
+void BM_IdentifyStepResidual(benchmark::State& state) { RunIdentifier(state, false, 0.0, "residual"); }
+BENCHMARK(BM_IdentifyStepResidual)->Unit(benchmark::kMillisecond);
+
+// σ = 0.25 given: the noise is propagated through the flow Jacobian every sample.
+void BM_IdentifyStepResidualKnownSigma(benchmark::State& state) {
+  RunIdentifier(state, false, 0.25, "residual", true);
+}
+BENCHMARK(BM_IdentifyStepResidualKnownSigma)->Unit(benchmark::kMillisecond);
+
+// Paper detector on the same noisy samples, for the comparison above.
+void BM_IdentifyStepNoisy(benchmark::State& state) { RunIdentifier(state, false, 0.25); }
+BENCHMARK(BM_IdentifyStepNoisy)->Unit(benchmark::kMillisecond);
+
+// Residual detector with jump localisation (14 located jumps per run).
+void BM_IdentifyStepResidualLocalized(benchmark::State& state) {
+  RunIdentifier(state, false, 0.0, "residual", false, true);
+}
+BENCHMARK(BM_IdentifyStepResidualLocalized)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace hysid

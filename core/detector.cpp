@@ -7,6 +7,7 @@
 #include <fmt/ranges.h>
 
 #include "core/detectors/paper.hpp"
+#include "core/detectors/residual.hpp"
 
 namespace hysid {
 
@@ -28,7 +29,7 @@ bool DetectorSettings::IsValid(std::string* error) const {
   return true;
 }
 
-std::vector<std::string> DetectorNames() { return {"paper"}; }
+std::vector<std::string> DetectorNames() { return {"paper", "residual"}; }
 
 std::unique_ptr<JumpDetector> MakeDetector(const DetectorSettings& settings, const Model& model) {
   std::string error;
@@ -36,6 +37,7 @@ std::unique_ptr<JumpDetector> MakeDetector(const DetectorSettings& settings, con
     throw std::invalid_argument(fmt::format("detector '{}': {}", settings.name, error));
   }
   if (settings.name == "paper") return std::make_unique<PaperDetector>(settings, model);
+  if (settings.name == "residual") return std::make_unique<ResidualDetector>(settings, model);
   throw std::invalid_argument(fmt::format("unknown detector '{}' (known: {})", settings.name,
                                           fmt::join(DetectorNames(), ", ")));
 }

@@ -1,6 +1,8 @@
 // Jump detectors: decide, for each sample pair (ξ(t−δt), ξ(t)), whether a jump happened in
 // (t−δt, t] (γ = 1) or the system flowed (γ = 0). Pluggable by name: "paper" (§3 of the paper:
-// Euler derivative against the estimated smoothness bound τ̂) and, later, a tuning-free detector.
+// Euler derivative against the estimated smoothness bound τ̂) and "residual" (tuning-free: the
+// one-step prediction residual of the flow model against its predicted distribution,
+// core/detectors/residual.hpp).
 #pragma once
 
 #include <memory>
@@ -29,7 +31,8 @@ struct SampleContext {
   ConstMatMap flow_phi{nullptr, 0, 0};
   ConstVecMap flow_y{nullptr, 0};
   ConstVecMap alpha_hat{nullptr, 0};      // full α̂ (known entries at their known values)
-  const Mat* alpha_covariance = nullptr;  // of the unknown entries, when the estimator has one
+  // Of the unknown entries, when the estimator has one (RLS: P, Cov(α̂) ≈ residual variance × P).
+  const Mat* alpha_covariance = nullptr;
   long flow_updates = 0;                  // flow samples the α estimator has seen
   long version = 0;                       // changes whenever α̂ changes (for caching)
   const SampleSet* flow_set = nullptr;    // Λ, whose hull is Ĉ (may be null or empty)
@@ -63,7 +66,8 @@ struct DetectorSettings {
   //   "homogeneous" [J_r f̂_r(0)] with ‖[ξ; 1]‖, for affine flows (f(0) ≠ 0, e.g. gravity);
   //   "auto"        paper when φ(0) = 0 on the identified rows, homogeneous otherwise.
   std::string bound = "auto";
-  double false_alarm = 1e-6;  // tuning-free detector: false-alarm probability per sample
+  // residual: false-alarm probability per sample under flow (its only input).
+  double false_alarm = 1e-6;
   bool IsValid(std::string* error) const;
 };
 

@@ -58,6 +58,8 @@ class Estimator {
   const Vec& estimate() const { return theta_; }
   // Parameter covariance (up to the noise variance), when the estimator has one.
   virtual std::optional<Mat> covariance() const { return std::nullopt; }
+  // The same without a copy (nullptr when there is none); valid until the next Update or Reset.
+  virtual const Mat* covariance_matrix() const { return nullptr; }
   EstimatorStatus status() const { return status_; }
   long updates() const { return updates_; }
   long skipped() const { return skipped_; }  // non-finite regressions ignored

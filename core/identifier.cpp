@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "core/localize.hpp"
+
 namespace hysid {
 namespace {
 
@@ -36,7 +38,8 @@ struct Identifier::State {
         phi(builder.flow_layout().rows.size(), builder.flow_layout().unknown.size()),
         y(builder.flow_layout().rows.size()),
         psi(builder.jump_layout().rows.size(), builder.jump_layout().unknown.size()),
-        yj(builder.jump_layout().rows.size()) {
+        yj(builder.jump_layout().rows.size()),
+        localizer(m) {
     alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
       throw std::invalid_argument(fmt::format(
@@ -59,10 +62,17 @@ struct Identifier::State {
   Vec y;
   Mat psi;
   Vec yj;
-  std::optional<Mat> alpha_covariance;
+  JumpLocalizer localizer;
+  JumpLocation location;
+  // Second pass: classification uses these instead of the running estimates.
+  bool frozen = false;
+  Vec frozen_alpha;
+  std::optional<Mat> frozen_covariance;
+  long frozen_updates = 0;
   long version = 0;
   long samples = 0;
   long jumps = 0;
+  long localized = 0;
 };
 
 Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& settings) {
@@ -84,16 +94,18 @@ Decision Identifier::Step(ConstVecRef x) {
     return {};
   }
   s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
+  const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
   SampleContext c{.model = &s.model,
                   .dt = s.dt,
                   .prev = ConstVecMap(s.prev.data(), s.prev.size()),
                   .cur = ConstVecMap(x.data(), x.size()),
                   .flow_phi = ConstMatMap(s.phi.data(), s.phi.rows(), s.phi.cols()),
                   .flow_y = ConstVecMap(s.y.data(), s.y.size()),
-                  .alpha_hat = ConstVecMap(s.alpha_full.data(), s.alpha_full.size()),
-                  .alpha_covariance = s.alpha_covariance ? &*s.alpha_covariance : nullptr,
-                  .flow_updates = s.flow->updates(),
-                  .version = s.version,
+                  .alpha_hat = ConstVecMap(alpha_class.data(), alpha_class.size()),
+                  .alpha_covariance = s.frozen ? (s.frozen_covariance ? &*s.frozen_covariance : nullptr)
+                                               : s.flow->covariance_matrix(),
+                  .flow_updates = s.frozen ? s.frozen_updates : s.flow->updates(),
+                  .version = s.frozen ? -2 : s.version,
                   .flow_set = s.settings.sets ? &s.flow_set : nullptr,
                   .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr};
   const Decision d = s.detector->Classify(c);
@@ -105,7 +117,12 @@ Decision Identifier::Step(ConstVecRef x) {
     ++s.version;
     if (s.settings.sets) s.flow_set.Add(s.prev);
   } else {
-    s.builder.Jump(s.prev, x, s.psi, s.yj);
+    if (s.settings.localize && s.localizer.Locate(s.prev, x, s.dt, alpha_class, &s.location)) {
+      s.builder.Jump(s.location.pre, s.location.post, s.psi, s.yj);
+      ++s.localized;
+    } else {
+      s.builder.Jump(s.prev, x, s.psi, s.yj);
+    }
     s.jump->Update(s.psi, s.yj);
     ++s.jumps;
     if (s.settings.sets) s.jump_set.Add(s.prev);
@@ -119,6 +136,24 @@ void Identifier::Finish() {
   if (s_->has_prev && s_->settings.sets) s_->flow_set.Add(s_->prev);
 }
 
+void Identifier::BeginSecondPass() {
+  State& s = *s_;
+  s.frozen = true;
+  s.frozen_alpha = s.alpha_full;
+  s.frozen_covariance = s.flow->covariance();
+  s.frozen_updates = s.flow->updates();
+  s.flow->Reset();
+  s.jump->Reset();
+  s.alpha_full = s.builder.flow_layout().Assemble(s.alpha_known, s.flow->estimate());
+  ++s.version;
+  s.flow_set = SampleSet(s.settings.sets ? s.model.state_size() : 2);
+  s.jump_set = SampleSet(s.settings.sets ? s.model.state_size() : 2);
+  s.has_prev = false;
+  s.samples = 0;
+  s.jumps = 0;
+  s.localized = 0;
+}
+
 Vec Identifier::alpha_hat() const { return s_->alpha_full; }
 Vec Identifier::beta_hat() const {
   return s_->builder.jump_layout().Assemble(s_->beta_known, s_->jump->estimate());
@@ -129,6 +164,7 @@ const SampleSet& Identifier::flow_set() const { return s_->flow_set; }
 const SampleSet& Identifier::jump_set() const { return s_->jump_set; }
 long Identifier::samples() const { return s_->samples; }
 long Identifier::jumps_detected() const { return s_->jumps; }
+long Identifier::jumps_localized() const { return s_->localized; }
 
 IdentifyResult Identify(const Model& model, const Mat& y, double dt,
                         const IdentifierSettings& settings, const IdentifyOptions& options) {
@@ -146,6 +182,7 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt,
     r.alpha_trace.resize(model.alpha_size(), k_count);
     r.beta_trace.resize(model.beta_size(), k_count);
   }
+  auto pass = [&] {
   for (Eigen::Index k = 0; k < k_count; ++k) {
     const Decision d = id.Step(y.col(k));
     r.gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
@@ -156,7 +193,22 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt,
       r.beta_trace.col(k) = id.beta_hat();
     }
   }
+  };
+  pass();
+  if (settings.second_pass) {
+    r.second_pass = true;
+    r.first_pass_gamma = r.gamma;
+    r.first_pass_alpha_hat = id.alpha_hat();
+    r.first_pass_beta_hat = id.beta_hat();
+    id.BeginSecondPass();
+    pass();
+    for (std::size_t k = 0; k < r.gamma.size(); ++k) {
+      r.reclassified_to_jump += (!r.first_pass_gamma[k] && r.gamma[k]) ? 1 : 0;
+      r.reclassified_to_flow += (r.first_pass_gamma[k] && !r.gamma[k]) ? 1 : 0;
+    }
+  }
   id.Finish();
+  r.jumps_localized = id.jumps_localized();
   r.alpha_hat = id.alpha_hat();
   r.beta_hat = id.beta_hat();
   r.jumps_detected = id.jumps_detected();

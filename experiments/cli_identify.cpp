@@ -1,4 +1,5 @@
 // hysid identify: the paper's identifier on measured samples from a CSV.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -25,6 +26,10 @@ struct IdentifyArgs {
   double r = 220.0;
   double tau0 = 1e5;
   std::string bound = "auto";
+  double false_alarm = 1e-6;
+  bool localize = false;
+  bool second_pass = false;
+  double jump_forgetting = 1.0;
   std::vector<double> sigma;
   std::string trace;
   std::string hulls;
@@ -46,12 +51,21 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   settings.flow_estimator.name = args.estimator;
   settings.flow_estimator.forgetting = args.forgetting;
   settings.jump_estimator.name = args.estimator;
+  settings.jump_estimator.forgetting = args.jump_forgetting;
   settings.detector.name = args.detector;
   settings.detector.r = args.r;
   settings.detector.tau0 = args.tau0;
   settings.detector.bound = args.bound;
-  if (std::string e; !settings.detector.IsValid(&e)) BadFlag(fmt::format("--r/--tau0/--bound: {}", e));
+  settings.detector.false_alarm = args.false_alarm;
+  settings.localize = args.localize;
+  settings.second_pass = args.second_pass;
+  if (std::string e; !settings.detector.IsValid(&e)) {
+    BadFlag(fmt::format("--r/--tau0/--bound/--false-alarm: {}", e));
+  }
   if (std::string e; !settings.flow_estimator.IsValid(&e)) BadFlag(fmt::format("--forgetting: {}", e));
+  if (std::string e; !settings.jump_estimator.IsValid(&e)) {
+    BadFlag(fmt::format("--jump-forgetting: {}", e));
+  }
   if (!args.sigma.empty()) {
     RequireFinite("--sigma", args.sigma);
     settings.sigma = Vec(n);
@@ -80,8 +94,14 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(),
               data.path.c_str(), fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(),
               data.t.size(), data.dt);
-  std::printf("estimator %s, detector %s (r = %g, tau0 = %g, bound %s)\n", args.estimator.c_str(),
-              args.detector.c_str(), args.r, args.tau0, args.bound.c_str());
+  if (args.detector == "paper") {
+    std::printf("estimator %s, detector paper (r = %g, tau0 = %g, bound %s)", args.estimator.c_str(),
+                args.r, args.tau0, args.bound.c_str());
+  } else {
+    std::printf("estimator %s, detector %s (false-alarm probability %g)", args.estimator.c_str(),
+                args.detector.c_str(), args.false_alarm);
+  }
+  std::printf("%s%s\n", args.localize ? ", localised jumps" : "", args.second_pass ? ", second pass" : "");
   for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
     if (!spec.alpha[i].known) {
       std::printf("  alpha %-10s = %.10g\n", spec.alpha[i].name.c_str(), result.alpha_hat[Eigen::Index(i)]);
@@ -94,6 +114,15 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   }
   std::printf("jumps detected: %ld (flow estimator %s, jump estimator %s)\n", result.jumps_detected,
               ToString(result.flow_status), ToString(result.jump_status));
+  if (args.localize) {
+    std::printf("jumps localised: %ld of %ld\n", result.jumps_localized, result.jumps_detected);
+  }
+  if (result.second_pass) {
+    std::printf("second pass: %ld samples flow -> jump, %ld jump -> flow (first pass: %ld jumps)\n",
+                result.reclassified_to_jump, result.reclassified_to_flow,
+                static_cast<long>(std::count(result.first_pass_gamma.begin(),
+                                             result.first_pass_gamma.end(), 1)));
+  }
   if (data.j) {
     const Confusion c = CompareJumps(*data.j, result.gamma);
     const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
@@ -106,7 +135,9 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   }
 
   if (!args.trace.empty()) {
+    // paper: D_δt ξ and τ̂; residual: max |z| and the test's quantile q.
     std::vector<std::string> header{"t", "D", "tau_hat", "gamma"};
+    if (args.detector == "residual") header = {"t", "z", "q", "gamma"};
     const auto an = UnknownNames(spec.alpha), bn = UnknownNames(spec.beta);
     for (const auto& s : an) header.push_back(s + "_hat");
     for (const auto& s : bn) header.push_back(s + "_hat");
@@ -171,7 +202,21 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--estimator", args->estimator, "rls (more with later releases)")->capture_default_str();
   cmd->add_option("--forgetting", args->forgetting, "forgetting factor of the alpha estimator")
       ->capture_default_str();
-  cmd->add_option("--detector", args->detector, "jump detector")->capture_default_str();
+  cmd->add_option("--detector", args->detector,
+                  "jump detector: paper (the paper's smoothness bound, tuned by --r) or residual "
+                  "(tuning-free: one-step prediction residual of the flow model, tested at "
+                  "--false-alarm)")
+      ->capture_default_str();
+  cmd->add_option("--false-alarm", args->false_alarm,
+                  "residual detector: false-alarm probability per flow sample, in (0, 0.5)")
+      ->capture_default_str();
+  cmd->add_flag("--localize", args->localize,
+                "regress each jump at its located instant inside (t-dt, t] (flows forward and "
+                "backward with the estimated flow until the jump's known rows agree)");
+  cmd->add_flag("--second-pass", args->second_pass,
+                "re-classify every sample with the final estimates, re-estimate, report the changes");
+  cmd->add_option("--jump-forgetting", args->jump_forgetting, "forgetting factor of the beta estimator")
+      ->capture_default_str();
   cmd->add_option("--r", args->r, "paper detector: multiplicative constant r > 1")->capture_default_str();
   cmd->add_option("--tau0", args->tau0, "paper detector: initial smoothness bound")->capture_default_str();
   cmd->add_option("--bound", args->bound, "paper detector: auto, paper or homogeneous")

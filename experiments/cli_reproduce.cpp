@@ -25,6 +25,10 @@ struct ReproduceArgs {
   std::string out = "results/paper";
   double sigma = 0.25;
   std::uint64_t seed = 1;
+  std::string detector = "paper";
+  double false_alarm = 1e-6;
+  bool localize = false;
+  bool second_pass = false;
 };
 
 struct Experiment {
@@ -43,6 +47,20 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
   Model model = env.models.Make("impact-msd");
   for (const char* p : {"a=5", "b=0.1", "lambda=0.99", "mu=0"}) model.SetParameter(std::string_view(p));
   const double dt = 5e-4;
+  IdentifierSettings settings;
+  settings.detector.r = 220.0;
+  settings.detector.tau0 = 1e5;
+  // Beyond the paper (issue 6): another detector, jump localisation, a second pass.
+  settings.detector.name = args.detector;
+  settings.detector.false_alarm = args.false_alarm;
+  settings.localize = args.localize;
+  settings.second_pass = args.second_pass;
+  try {
+    Identifier check(model, dt, settings);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--detector/--false-alarm: {}", e.what()));
+  }
+  const bool paper_detector = args.detector == "paper";
   Vec x0(2);
   x0 << 20.0, 0.0;
   const Trajectory traj = Simulate(model, x0, SampleGrid{20.0, dt});
@@ -67,9 +85,6 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
     jumps.Commit();
   }
 
-  IdentifierSettings settings;
-  settings.detector.r = 220.0;
-  settings.detector.tau0 = 1e5;
   const std::vector<double> tau = TrueSmoothnessBound(model, traj.x, settings.detector);
   const double r = settings.detector.r;
 
@@ -98,7 +113,7 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
       const double row[] = {traj.t[u], res.statistic[u], res.threshold[u], rt, et,
                             double(res.gamma[u]), true_jump ? 1.0 : 0.0};
       tcsv.Row(row);
-      if (k > 0 && res.threshold[u] != settings.detector.tau0 && rt > 0) {
+      if (paper_detector && k > 0 && res.threshold[u] != settings.detector.tau0 && rt > 0) {
         rel_sum += et / rt;
         ++rel_n;
         if (!true_jump && traj.t[u] >= 1.0) rel_flow_sum += et / rt, ++rel_flow_n;
@@ -128,6 +143,10 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
                 ex.name, ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2],
                 e.e_alpha, e.e_beta, res.jumps_detected, c.tp + c.fn, c.fp, c.fn, 100 * mean_rel,
                 100 * mean_rel_flow);
+    if (res.second_pass) {
+      std::printf("         second pass: %ld samples flow -> jump, %ld jump -> flow\n",
+                  res.reclassified_to_jump, res.reclassified_to_flow);
+    }
     experiments.push_back({{"name", ex.name}, {"sigma", ex.sigma}, {"tau", ex.tau_file},
                            {"params", ex.params_file}});
   }
@@ -138,6 +157,10 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
       {"seed", args.seed},
       {"experiments", experiments},
       {"estimator", "rls"},
+      {"detector", args.detector},
+      {"false_alarm", args.false_alarm},
+      {"localize", args.localize},
+      {"second_pass", args.second_pass},
       {"p0", settings.flow_estimator.p0},
       {"context", BuildContext()},
   };
@@ -156,6 +179,14 @@ void AddReproduceCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--out", args->out, "output directory")->capture_default_str();
   cmd->add_option("--sigma", args->sigma, "noise of the noisy experiment")->capture_default_str();
   cmd->add_option("--seed", args->seed, "noise seed")->capture_default_str();
+  cmd->add_option("--detector", args->detector,
+                  "paper (as published, r = 220) or residual (tuning-free; the tau columns then "
+                  "hold |z| and its quantile, and the tau error is not computed)")
+      ->capture_default_str();
+  cmd->add_option("--false-alarm", args->false_alarm, "residual detector: false-alarm probability")
+      ->capture_default_str();
+  cmd->add_flag("--localize", args->localize, "regress each jump at its located instant");
+  cmd->add_flag("--second-pass", args->second_pass, "re-classify with the final estimates and re-estimate");
   cmd->callback([args, &env] { RunReproduce(*args, env); });
 }
 

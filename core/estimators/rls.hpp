@@ -16,6 +16,7 @@ class Rls final : public Estimator {
  public:
   Rls(const Vec& theta0, double p0, double forgetting);
   std::optional<Mat> covariance() const override { return p_; }
+  const Mat* covariance_matrix() const override { return &p_; }
   std::string name() const override { return "rls"; }
   void Reset() override;
 

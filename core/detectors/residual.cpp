@@ -1,0 +1,174 @@
+#include "core/detectors/residual.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "core/quantiles.hpp"
+#include "core/regression.hpp"
+
+namespace hysid {
+namespace {
+
+// E[min(Z², c²)] for Z ~ N(0, 1): P(|Z| < c) − 2cφ(c) + c²·P(|Z| > c).
+double ClippedSecondMoment(double c) {
+  const double inside = std::erf(c / std::sqrt(2.0));
+  const double density = std::exp(-0.5 * c * c) / std::sqrt(2.0 * std::numbers::pi);
+  return inside - 2.0 * c * density + c * c * (1.0 - inside);
+}
+
+}  // namespace
+
+ResidualDetector::ResidualDetector(const DetectorSettings& settings, const Model& model)
+    : model_(model), false_alarm_(settings.false_alarm), kappa_(ClippedSecondMoment(kClip)) {
+  const RegressionLayout layout = RegressionLayout::Flow(model);
+  rows_ = layout.rows;
+  unknown_ = layout.unknown;
+  unknowns_ = static_cast<int>(unknown_.size());
+  for (long g = 1; g <= 10; ++g) grid_.push_back(g);
+  for (long g = 13; g < kMemory; g = static_cast<long>(std::ceil(1.25 * static_cast<double>(g)))) {
+    grid_.push_back(g);
+  }
+  grid_.push_back(kMemory);
+  grid_q_.assign(grid_.size(), -1.0);
+  const int n = model.state_size();
+  jac_prev_.resize(n, n);
+  jac_cur_.resize(n, n);
+  jac_at_.resize(n);
+  const std::size_t nr = rows_.size();
+  rho2_.assign(nr, 0.0);
+  lev_.assign(nr, 0.0);
+  noise_.assign(nr, 0.0);
+  round2_.assign(nr, 0.0);
+  Reset();
+}
+
+void ResidualDetector::Reset() {
+  excess_.assign(rows_.size(), 0.0);
+  scale_samples_ = 0;
+  cached_nu_ = -1;
+  active_ = false;
+  have_jac_ = false;
+}
+
+double ResidualDetector::Quantile() {
+  const long nu = std::min(scale_samples_, kMemory);
+  if (nu == cached_nu_) return cached_q_;
+  // Largest grid point ≤ ν.
+  const auto it = std::upper_bound(grid_.begin(), grid_.end(), nu);
+  const auto idx = static_cast<std::size_t>(std::distance(grid_.begin(), it) - 1);
+  if (grid_q_[idx] < 0.0) {
+    const double tail = false_alarm_ / (2.0 * static_cast<double>(rows_.size()));
+    grid_q_[idx] = StudentUpperQuantile(tail, static_cast<double>(grid_[idx]));
+  }
+  cached_nu_ = nu;
+  cached_q_ = grid_q_[idx];
+  return cached_q_;
+}
+
+// V_i = Σ_j σ_j² (a_ij² + b_ij²), a = e_i − (δt/2)J_i(ξ(t)), b = e_i + (δt/2)J_i(ξ(t−δt)).
+void ResidualDetector::NoiseVariance(const SampleContext& c) {
+  const auto n = c.cur.size();
+  const Vec& sigma = *c.sigma;
+  if (model_.spec().flow_jacobian_constant) {
+    model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
+    jac_prev_ = jac_cur_;
+  } else {
+    // φ(ξ(t−δt)) was ξ(t) of the previous call: reuse its Jacobian (α̂ moved by one update since,
+    // a negligible change in an O(δt) correction of the variance).
+    if (have_jac_ && jac_at_ == c.prev) {
+      jac_prev_.swap(jac_cur_);
+    } else {
+      model_.FlowJacobian(c.prev, c.alpha_hat, jac_prev_);
+    }
+    model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
+    jac_at_ = c.cur;
+    have_jac_ = true;
+  }
+  const double h = 0.5 * c.dt;
+  for (std::size_t i = 0; i < rows_.size(); ++i) {
+    const int r = rows_[i];
+    double v = 0.0;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double unit = j == r ? 1.0 : 0.0;
+      const double a = unit - h * jac_cur_(r, j);
+      const double b = unit + h * jac_prev_(r, j);
+      v += sigma[j] * sigma[j] * (a * a + b * b);
+    }
+    noise_[i] = v;
+  }
+}
+
+Decision ResidualDetector::Classify(const SampleContext& c) {
+  Decision d;
+  active_ = c.flow_updates >= unknowns_;
+  if (!active_) return d;  // warm-up: flow, scale not updated
+  const bool known_noise = c.sigma != nullptr && c.sigma->size() == c.cur.size() && c.sigma->any();
+  if (known_noise) NoiseVariance(c);
+  constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
+  const Mat* p = c.alpha_covariance;
+  const Eigen::Index m = c.flow_phi.cols();
+  double z2max = 0.0;
+  for (std::size_t i = 0; i < rows_.size(); ++i) {
+    const auto ii = static_cast<Eigen::Index>(i);
+    double pred = 0.0, magnitude = 0.0;
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const double term = c.flow_phi(ii, j) * c.alpha_hat[unknown_[static_cast<std::size_t>(j)]];
+      pred += term;
+      magnitude += std::abs(term);
+    }
+    const double rho = c.flow_y[ii] - pred;
+    double lev = 0.0;
+    if (p != nullptr) {
+      for (Eigen::Index a = 0; a < m; ++a) {
+        double s = 0.0;
+        for (Eigen::Index b = 0; b < m; ++b) s += (*p)(a, b) * c.flow_phi(ii, b);
+        lev += c.flow_phi(ii, a) * s;
+      }
+      lev = std::max(0.0, lev);
+    }
+    const int r = rows_[i];
+    const double round = kRound * (std::abs(c.cur[r]) + std::abs(c.prev[r]) + magnitude +
+                                   std::abs(c.flow_y[ii]));
+    const double noise = known_noise ? noise_[i] : 0.0;
+    noise_[i] = noise;
+    const double v = (1.0 + lev) * (noise + excess_[i]) + round * round;
+    rho2_[i] = rho * rho;
+    lev_[i] = lev;
+    round2_[i] = round * round;
+    // v = 0 only with an exactly zero residual scale and ρ = 0 (then z = 0).
+    const double z2 = v > 0.0 ? rho * rho / v : (rho == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
+    z2max = std::max(z2max, z2);
+  }
+  d.statistic = std::sqrt(z2max);
+  if (scale_samples_ == 0) {  // no scale yet: this sample starts it
+    d.threshold = std::numeric_limits<double>::infinity();
+    return d;
+  }
+  d.threshold = Quantile();
+  d.gamma = d.statistic > d.threshold;
+  return d;
+}
+
+// Robust scale update (every classified sample, jumps included, clipped at kClip² × prediction).
+void ResidualDetector::Observe(const SampleContext& /*context*/, const Decision& /*decision*/) {
+  if (!active_) return;
+  const long n = std::min(scale_samples_ + 1, kMemory);
+  const double w = 1.0 / static_cast<double>(n);
+  for (std::size_t i = 0; i < rows_.size(); ++i) {
+    double r = rho2_[i] / (1.0 + lev_[i]);
+    if (scale_samples_ > 0) {
+      // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
+      // clipping everything to zero).
+      const double reference =
+          noise_[i] + excess_[i] + round2_[i] / (1.0 + lev_[i]) + std::numeric_limits<double>::min();
+      r = std::min(r, kClip * kClip * reference);
+    }
+    const double x = (r - kappa_ * noise_[i]) / kappa_;
+    excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
+  }
+  ++scale_samples_;
+}
+
+}  // namespace hysid

@@ -1,0 +1,89 @@
+// A tuning-free jump detector: the one-step prediction residual of the current flow model, tested
+// against its predicted distribution under flow. Its one input is the false-alarm probability
+// p = DetectorSettings::false_alarm (default 1e-6 per sample).
+//
+// Residual. On each identified row i (the model's flow_rows) of the trapezoid regression
+// (core/regression.hpp), ρ_i = y_i − Φ_i α̂_u = Δξ_i − (δt/2)(f̂_i(ξ(t)) + f̂_i(ξ(t−δt))).
+//
+// Its predicted variance under flow, v_i = (1 + h_i)(V_i + s²_i) + ε²_i:
+//   V_i  measurement noise propagated through the integrated model, when σ is known
+//        (IdentifierSettings::sigma): to first order in the noise e,
+//          ρ_i ≈ (e_i(t) − (δt/2) J_i(ξ(t)) e(t)) − (e_i(t−δt) + (δt/2) J_i(ξ(t−δt)) e(t−δt)) + ...,
+//        J_i the i-th row of ∂(φ(ξ)α̂)/∂ξ, so V_i = Σ_j σ_j² (a_ij² + b_ij²) with
+//        a = e_i − (δt/2)J_i(ξ(t)), b = e_i + (δt/2)J_i(ξ(t−δt)). V_i = 0 when σ is not given.
+//   s²_i what V_i does not explain, estimated online and robustly from the residuals themselves:
+//        the unknown measurement noise, the O(δt³) trapezoid truncation, the simulator's or the
+//        data's own error, the bias of α̂. An exponentially weighted mean of the standardised squared
+//        residuals ρ²/(1 + h), each clipped at kClip² = 9 times the current predicted variance (a
+//        Huber-type scale: one sample moves it by a bounded amount), corrected so that Gaussian
+//        residuals give an unbiased estimate. Weight 1/n for the first kMemory = 1000 samples, then
+//        1/kMemory: a statistical memory in samples, the same for every system and δt.
+//        Every sample updates it, jumps included (clipped): if α̂ is wrong and every residual is
+//        large, the scale grows until the model can learn again instead of locking up.
+//   h_i  parameter uncertainty: Φ_i P Φ_iᵀ with P the estimator's covariance (RLS: Cov(α̂) ≈
+//        (V + s²)·P), so (1 + h_i)(V_i + s²_i) is the variance of a one-step prediction error.
+//   ε²_i a floor for noise-free data: the rounding error of computing ρ_i,
+//        (4u·(|ξ_i(t)| + |ξ_i(t−δt)| + Σ_j |Φ_ij α̂_j| + |y_i|))², u = 2^-53. Nothing tuned.
+//
+// Test. z_i = ρ_i / √v_i; γ = 1 when max_i |z_i| > q, q the two-sided Student-t quantile at
+// p / (2·rows) (Bonferroni over the identified rows) with ν = the number of samples in the scale
+// estimate (capped at kMemory: conservative, the effective size of the exponential window is
+// ≈ 2·kMemory). ν is read on a grid (1..10, then ×1.25), rounded down, so q is only recomputed a
+// few dozen times per run. statistic = max |z_i|, threshold = q (both dimensionless).
+//
+// Start. Before α̂ is determined (the α estimator has seen fewer flow samples than α has unknowns)
+// every sample is flow and the scale is not updated. Then the test runs at once, but with the few
+// samples of the scale estimate the Student-t quantile is huge (ν = 1: q ≈ 3e5 at p = 1e-6; ν = 10:
+// ≈ 10; ν = 100: ≈ 5.4), and h is large while α̂ is poorly determined, so the detector is
+// conservative exactly while α̂ and the scale are not trustworthy. A jump inside the first
+// |α_u| + 1 samples is classified as flow; IdentifierSettings::second_pass catches it afterwards.
+#pragma once
+
+#include <vector>
+
+#include "core/detector.hpp"
+
+namespace hysid {
+
+class ResidualDetector final : public JumpDetector {
+ public:
+  static constexpr double kClip = 3.0;
+  static constexpr long kMemory = 1000;
+
+  ResidualDetector(const DetectorSettings& settings, const Model& model);
+  Decision Classify(const SampleContext& context) override;
+  void Observe(const SampleContext& context, const Decision& decision) override;
+  std::string name() const override { return "residual"; }
+  void Reset() override;
+
+  // The current robust scale s²_i of row i and the samples it rests on (for tests and traces).
+  double excess_variance(int row) const { return excess_[static_cast<std::size_t>(row)]; }
+  long scale_samples() const { return scale_samples_; }
+
+ private:
+  double Quantile();
+  void NoiseVariance(const SampleContext& c);
+
+  Model model_;
+  double false_alarm_;
+  std::vector<int> rows_;     // identified state rows
+  std::vector<int> unknown_;  // unknown α columns (columns of flow_phi)
+  int unknowns_ = 0;
+  double kappa_;              // E[min(Z², kClip²)], Z ~ N(0, 1)
+  // Quantile cache on the ν grid.
+  std::vector<long> grid_;
+  std::vector<double> grid_q_;
+  long cached_nu_ = -1;
+  double cached_q_ = 0.0;
+  // Scale state.
+  std::vector<double> excess_;  // s²_i
+  long scale_samples_ = 0;
+  // Per-sample scratch, filled by Classify and reused by Observe.
+  std::vector<double> rho2_, lev_, noise_, round2_;
+  bool active_ = false;
+  Mat jac_prev_, jac_cur_;
+  Vec jac_at_;
+  bool have_jac_ = false;
+};
+
+}  // namespace hysid
