@@ -153,6 +153,25 @@ bool Gtls::Factorize() {
   return true;
 }
 
+void Gtls::ProvisionalLeastSquares() {
+  const Eigen::Index p = theta_.size();
+  if (rows_ < p) return;
+  Vec d(p);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    if (!(s_(i, i) > 0.0) || !std::isfinite(s_(i, i))) return;
+    d[i] = 1.0 / std::sqrt(s_(i, i));
+  }
+  const Mat block = d.asDiagonal() * s_.topLeftCorner(p, p) * d.asDiagonal();
+  const Eigen::LLT<Mat> llt(block);
+  if (llt.info() != Eigen::Success) return;
+  const Mat& l = llt.matrixLLT();
+  for (Eigen::Index i = 0; i < p; ++i) {
+    if (!(l(i, i) * l(i, i) >= kRankTolerance)) return;
+  }
+  const Vec theta = d.asDiagonal() * llt.solve(d.asDiagonal() * s_.col(p).head(p));
+  if (theta.allFinite()) theta_ = theta;
+}
+
 void Gtls::SetThetaFromEigenvector() {
   const Eigen::Index m = v_.size();
   // Genericity in equilibrated coordinates v_d = D⁻¹ v.
@@ -221,7 +240,11 @@ void Gtls::DoUpdate(ConstMatRef phi, ConstVecRef y) {
     }
   }
   if (!started_) {
-    if (rows_ >= 2 * m && Factorize()) started_ = true;
+    if (rows_ >= 2 * m && Factorize()) {
+      started_ = true;
+    } else {
+      ProvisionalLeastSquares();
+    }
     return;
   }
   if (needs_refactor_ || rows_since_refactor_ >= refactor_every_) {

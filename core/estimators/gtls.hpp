@@ -17,7 +17,8 @@
 //   4. θ = −v[0:p]/v[p] unless the non-generic case |v[p]| ≤ 1e-8‖v‖ (in equilibrated coordinates):
 //      then θ is kept and status() = kNonGeneric.
 // Batch start: until at least 2(p+1) rows exist and the regressor block of S has full numerical rank,
-// S is only accumulated (status kNotExcited, θ = θ0). Then, and every `refactor_every` rows (or after
+// S is only accumulated (status kNotExcited; θ = θ0 until p rows determine the provisional
+// least-squares solution, then that). Then, and every `refactor_every` rows (or after
 // a failed Sherman–Morrison step), an exact refactorisation: column equilibration D = diag(S)^{−1/2},
 // rank check of D S_φφ D (Cholesky pivots ≥ 1e-10), S_d = D S D + 1e-13·I (the tiny ridge keeps exact,
 // noise-free data — where S itself is singular — solvable; its relative effect is ~1e-13), LLT,
@@ -53,6 +54,9 @@ class Gtls final : public Estimator {
   // Exact refactorisation + eigen solve; false (and a status) when S is not usable.
   bool Factorize();
   void SetThetaFromEigenvector();
+  // Before the batch start: θ = least squares of the rows so far once they determine it (so that
+  // users of the estimate, e.g. the jump detector's τ̂, see a sensible value); status kNotExcited.
+  void ProvisionalLeastSquares();
 
   Vec theta0_;
   Mat c_;        // C, (p+1)²
