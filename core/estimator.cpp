@@ -35,6 +35,9 @@ bool EstimatorSettings::IsValid(std::string* error) const {
   }
   if (window < 0) return fail(fmt::format("window = {}: must be >= 0", window));
   if (!noise_shape.allFinite()) return fail("noise_shape: must be finite");
+  if (!(frisch_confidence >= 0.0 && frisch_confidence < 1.0)) {
+    return fail(fmt::format("frisch_confidence = {}: must be in [0, 1)", frisch_confidence));
+  }
   if (frisch_box != "cumulative" && frisch_box != "intersect") {
     return fail(fmt::format("frisch_box = '{}': must be 'cumulative' or 'intersect'", frisch_box));
   }
@@ -76,7 +79,8 @@ std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, cons
     return std::make_unique<Frisch>(
         theta0, settings.window, settings.forgetting, settings.p0,
         settings.frisch_box == "intersect" ? FrischBox::kIntersect : FrischBox::kCumulative,
-        settings.frisch_point == "rls" ? FrischPoint::kClampedRls : FrischPoint::kCentre);
+        settings.frisch_point == "rls" ? FrischPoint::kClampedRls : FrischPoint::kCentre,
+        settings.noise_shape, settings.frisch_confidence);
   }
   throw std::invalid_argument(fmt::format("unknown estimator '{}' (known: {})", settings.name,
                                           fmt::join(EstimatorNames(), ", ")));

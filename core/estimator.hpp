@@ -43,6 +43,10 @@ struct EstimatorSettings {
   // frisch: point estimate: "rls" (RLS clamped into the BBRF-intersected box) or "centre" (of the
   // reported box).
   std::string frisch_point = "rls";
+  // frisch: confidence of the sampling allowance added to every box (± a Student-t quantile times
+  // the standard error of the least-squares vertex; for the BBRF intersection split over the
+  // windows by a union bound). 0 = none: the plain Frisch / BBRF box, a population statement.
+  double frisch_confidence = 0.95;
   // Field-naming message, e.g. "forgetting = 1.5: must be in (0, 1]".
   bool IsValid(std::string* error) const;
 };
