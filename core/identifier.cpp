@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 
+#include "core/estimators/frisch.hpp"
 #include "core/localize.hpp"
 #include "core/noise_shape.hpp"
 
@@ -284,6 +286,14 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt,
   r.jumps_detected = id.jumps_detected();
   r.flow_status = id.flow_estimator().status();
   r.jump_status = id.jump_estimator().status();
+  for (const auto& [estimator, box] : {std::pair{&id.flow_estimator(), &r.flow_box},
+                                       std::pair{&id.jump_estimator(), &r.jump_box}}) {
+    const auto* f = dynamic_cast<const Frisch*>(estimator);
+    if (f == nullptr || !f->has_box()) continue;
+    box->resize(f->lower().size(), 2);
+    box->col(0) = f->lower();
+    box->col(1) = f->upper();
+  }
   if (settings.sets) {
     r.flow_hull = id.flow_set().vertices();
     r.jump_hull = id.jump_set().vertices();

@@ -127,6 +127,8 @@ struct IdentifyResult {
   Vec noise_sigma;
   bool noise_sigma_estimated = false;
   Mat flow_noise_shape, jump_noise_shape;  // the shapes the estimators used (empty for rls)
+  // frisch: the final solution boxes of the unknowns, u × 2 (lower, upper); empty otherwise.
+  Mat flow_box, jump_box;
 };
 
 // gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD
