@@ -31,8 +31,10 @@ struct EstimatorSettings {
   // Initial covariance P0 = p0·I (the RLS prior ridge is P0⁻¹ = I/p0). Large: the flow regressors
   // are O(δt), so ΣΦᵀΦ is small and a 1e4 prior would bias α̂ by ~1e-3 on the §5 system.
   double p0 = 1e8;
-  // gtls: noise covariance shape C of a regression row z = [φ; y] ((p+1) × (p+1), up to scale);
-  // empty = derived by the identifier from σ, δt and the model (see core/noise_shape.hpp).
+  // gtls: noise covariance shape C of a regression row z = [φ; y] ((p+1) × (p+1), up to scale;
+  // empty given directly to MakeEstimator = identity, classical TLS). frisch: only its zero diagonal
+  // entries are used (exact columns; empty = none). The identifier fills an empty shape from σ, δt
+  // and the model (WithNoiseShapes in core/identifier.hpp, core/noise_shape.hpp).
   Mat noise_shape;
   int refactor_every = 500;  // gtls: recompute S⁻¹ from scratch every this many rows
   // frisch: window length in rows (0 = growing window with `forgetting`, box refreshed every update).
