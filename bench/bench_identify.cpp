@@ -1,6 +1,8 @@
 // Per-sample cost of the identification step on the paper's §5 run (40001 samples, n = 2, m = 2).
 #include <benchmark/benchmark.h>
 
+#include <string>
+
 #include "core/identifier.hpp"
 #include "core/models/impact_msd.hpp"
 #include "core/sample_set.hpp"
@@ -20,7 +22,8 @@ Mat PaperSamples(double sigma) {
 
 // One iteration = a whole 40001-sample run through Identifier::Step; the counter is per sample.
 void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char* detector = "paper",
-                   bool known_sigma = false, bool localize = false) {
+                   bool known_sigma = false, bool localize = false,
+                   const std::string& estimator = "rls") {
   const Model model{ImpactMsd{}};
   const Mat y = PaperSamples(sigma);
   IdentifierSettings settings;
@@ -28,6 +31,7 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
   settings.detector.name = detector;
   settings.localize = localize;
   if (known_sigma) settings.sigma = Vec::Constant(2, sigma);
+  settings.flow_estimator.name = settings.jump_estimator.name = estimator;
   for (auto _ : state) {
     Identifier id(model, 5e-4, settings);
     for (Eigen::Index k = 0; k < y.cols(); ++k) benchmark::DoNotOptimize(id.Step(y.col(k)));
@@ -88,7 +92,24 @@ void BM_SampleSetAdd(benchmark::State& state) {
 }
 BENCHMARK(BM_SampleSetAdd)->Arg(0)->Arg(25)->Unit(benchmark::kMillisecond);
 
+// Each estimator of the factory for α and β (paper detector, σ = 0.25 given, so gtls / frisch
+// derive their noise shapes once in the constructor; no sample sets).
+void BM_IdentifyStepEstimator(benchmark::State& state, const std::string& name) {
+  RunIdentifier(state, false, 0.25, "paper", true, false, name);
+}
+
 }  // namespace
 }  // namespace hysid
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  for (const std::string& name : hysid::EstimatorNames()) {
+    const std::string bench = "BM_IdentifyStepEstimator/" + name;
+    benchmark::RegisterBenchmark(bench.c_str(), hysid::BM_IdentifyStepEstimator, name)
+        ->Unit(benchmark::kMillisecond);
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "core/estimators/frisch.hpp"
+#include "core/estimators/gtls.hpp"
 #include "core/estimators/rls.hpp"
 
 namespace hysid {
@@ -33,6 +35,15 @@ bool EstimatorSettings::IsValid(std::string* error) const {
   }
   if (window < 0) return fail(fmt::format("window = {}: must be >= 0", window));
   if (!noise_shape.allFinite()) return fail("noise_shape: must be finite");
+  if (!(frisch_confidence >= 0.0 && frisch_confidence < 1.0)) {
+    return fail(fmt::format("frisch_confidence = {}: must be in [0, 1)", frisch_confidence));
+  }
+  if (frisch_box != "cumulative" && frisch_box != "intersect") {
+    return fail(fmt::format("frisch_box = '{}': must be 'cumulative' or 'intersect'", frisch_box));
+  }
+  if (frisch_point != "centre" && frisch_point != "rls") {
+    return fail(fmt::format("frisch_point = '{}': must be 'centre' or 'rls'", frisch_point));
+  }
   return true;
 }
 
@@ -50,7 +61,7 @@ void Estimator::Update(ConstMatRef phi, ConstVecRef y) {
   DoUpdate(phi, y);
 }
 
-std::vector<std::string> EstimatorNames() { return {"rls"}; }
+std::vector<std::string> EstimatorNames() { return {"rls", "gtls", "frisch"}; }
 
 std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0) {
   std::string error;
@@ -59,6 +70,17 @@ std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, cons
   }
   if (settings.name == "rls") {
     return std::make_unique<Rls>(theta0, settings.p0, settings.forgetting);
+  }
+  if (settings.name == "gtls") {
+    return std::make_unique<Gtls>(theta0, settings.noise_shape, settings.forgetting,
+                                  settings.refactor_every);
+  }
+  if (settings.name == "frisch") {
+    return std::make_unique<Frisch>(
+        theta0, settings.window, settings.forgetting, settings.p0,
+        settings.frisch_box == "intersect" ? FrischBox::kIntersect : FrischBox::kCumulative,
+        settings.frisch_point == "rls" ? FrischPoint::kClampedRls : FrischPoint::kCentre,
+        settings.noise_shape, settings.frisch_confidence);
   }
   throw std::invalid_argument(fmt::format("unknown estimator '{}' (known: {})", settings.name,
                                           fmt::join(EstimatorNames(), ", ")));

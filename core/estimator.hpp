@@ -31,12 +31,24 @@ struct EstimatorSettings {
   // Initial covariance P0 = p0·I (the RLS prior ridge is P0⁻¹ = I/p0). Large: the flow regressors
   // are O(δt), so ΣΦᵀΦ is small and a 1e4 prior would bias α̂ by ~1e-3 on the §5 system.
   double p0 = 1e8;
-  // gtls: noise covariance shape C of a regression row z = [φ; y] ((p+1) × (p+1), up to scale);
-  // empty = derived by the identifier from σ, δt and the model (see core/noise_shape.hpp).
+  // gtls: noise covariance shape C of a regression row z = [φ; y] ((p+1) × (p+1), up to scale;
+  // empty given directly to MakeEstimator = identity, classical TLS). frisch: only its zero diagonal
+  // entries are used (exact columns; empty = none). The identifier fills an empty shape from σ, δt
+  // and the model (WithNoiseShapes in core/identifier.hpp, core/noise_shape.hpp).
   Mat noise_shape;
   int refactor_every = 500;  // gtls: recompute S⁻¹ from scratch every this many rows
-  // frisch: window length in rows (0 = growing window with `forgetting`).
+  // frisch: window length in rows (0 = growing window with `forgetting`, box refreshed every update).
   int window = 200;
+  // frisch: "cumulative" (bounding box of the simplex of all rows so far, refreshed every window) or
+  // "intersect" (BBRF: running intersection of each window's own box). See core/estimators/frisch.hpp.
+  std::string frisch_box = "cumulative";
+  // frisch: point estimate: "rls" (RLS clamped into the BBRF-intersected box) or "centre" (of the
+  // reported box).
+  std::string frisch_point = "rls";
+  // frisch: confidence of the sampling allowance added to every box (± a Student-t quantile times
+  // the standard error of the least-squares vertex; for the BBRF intersection split over the
+  // windows by a union bound). 0 = none: the plain Frisch / BBRF box, a population statement.
+  double frisch_confidence = 0.95;
   // Field-naming message, e.g. "forgetting = 1.5: must be in (0, 1]".
   bool IsValid(std::string* error) const;
 };
@@ -72,7 +84,7 @@ class Estimator {
   long skipped_ = 0;
 };
 
-// Known names: "rls" (+ "gtls", "frisch" once built). Throws std::invalid_argument naming the known
+// Known names: "rls", "gtls", "frisch". Throws std::invalid_argument naming the known
 // estimators for an unknown name or invalid settings.
 std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0);
 std::vector<std::string> EstimatorNames();

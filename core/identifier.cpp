@@ -1,10 +1,14 @@
 #include "core/identifier.hpp"
 
+#include <algorithm>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 
+#include "core/estimators/frisch.hpp"
 #include "core/localize.hpp"
+#include "core/noise_shape.hpp"
 
 namespace hysid {
 namespace {
@@ -19,7 +23,50 @@ Vec Prior(const Vec& given, const RegressionLayout& layout, const char* field) {
   return given;
 }
 
+Vec DefaultState(const Model& m) {
+  const auto& x0 = m.spec().default_x0;
+  if (static_cast<int>(x0.size()) != m.state_size()) return Vec::Zero(m.state_size());
+  return Eigen::Map<const Vec>(x0.data(), m.state_size());
+}
+
+// Settings with the noise shapes filled at the model's default state (Identifier's constructor).
+IdentifierSettings ResolvedAtDefault(const Model& m, double dt, const IdentifierSettings& s) {
+  if (!NeedsNoiseShape(s.flow_estimator) && !NeedsNoiseShape(s.jump_estimator)) return s;
+  if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) return s;  // reported by State
+  const Vec sigma = s.sigma.size() ? s.sigma : Vec::Ones(m.state_size());
+  return WithNoiseShapes(m, dt, s, sigma, DefaultState(m));
+}
+
 }  // namespace
+
+bool NeedsNoiseShape(const EstimatorSettings& settings) {
+  return (settings.name == "gtls" || settings.name == "frisch") && settings.noise_shape.size() == 0;
+}
+
+IdentifierSettings WithNoiseShapes(const Model& model, double dt, const IdentifierSettings& settings,
+                                   ConstVecRef sigma, const Mat& states) {
+  IdentifierSettings out = settings;
+  if (!NeedsNoiseShape(out.flow_estimator) && !NeedsNoiseShape(out.jump_estimator)) return out;
+  if (sigma.size() != model.state_size()) {
+    throw std::invalid_argument(fmt::format("WithNoiseShapes: sigma has {} entries; the model has {} states",
+                                            sigma.size(), model.state_size()));
+  }
+  const Vec s = sigma.any() ? Vec(sigma) : Vec::Ones(model.state_size());
+  auto least_squares_if_zero = [](Mat c) {
+    if (!(c.cwiseAbs().maxCoeff() > 0.0)) {
+      c.setZero();
+      c(c.rows() - 1, c.cols() - 1) = 1.0;
+    }
+    return c;
+  };
+  if (NeedsNoiseShape(out.flow_estimator)) {
+    out.flow_estimator.noise_shape = least_squares_if_zero(FlowNoiseShape(model, s, dt, states));
+  }
+  if (NeedsNoiseShape(out.jump_estimator)) {
+    out.jump_estimator.noise_shape = least_squares_if_zero(JumpNoiseShape(model, s, states));
+  }
+  return out;
+}
 
 struct Identifier::State {
   State(const Model& m, double step, const IdentifierSettings& s)
@@ -84,7 +131,7 @@ Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& 
         "IdentifierSettings::sets = true: model '{}' has {} states; the hulls of Λ and Γ are "
         "implemented for 1 and 2 (set sets = false)", model.name(), model.state_size()));
   }
-  s_ = std::make_unique<State>(model, dt, settings);
+  s_ = std::make_unique<State>(model, dt, ResolvedAtDefault(model, dt, settings));
 }
 Identifier::~Identifier() = default;
 Identifier::Identifier(Identifier&&) noexcept = default;
@@ -177,9 +224,34 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt,
     throw std::invalid_argument(fmt::format("data has {} state rows; model '{}' has {} states",
                                             y.rows(), model.name(), model.state_size()));
   }
-  Identifier id(model, dt, settings);
-  const Eigen::Index k_count = y.cols();
   IdentifyResult r;
+  IdentifierSettings resolved = settings;
+  if (NeedsNoiseShape(settings.flow_estimator) || NeedsNoiseShape(settings.jump_estimator)) {
+    const bool given = settings.sigma.size() != 0;
+    if (given && settings.sigma.size() != model.state_size()) {
+      throw std::invalid_argument(fmt::format(
+          "IdentifierSettings::sigma has {} entries; the model has {} states", settings.sigma.size(),
+          model.state_size()));
+    }
+    if (y.cols() >= 4 && y.allFinite()) {
+      r.noise_sigma = given ? settings.sigma : EstimateNoiseSigma(y);
+      r.noise_sigma_estimated = !given;
+      // C averaged over up to 256 evenly spaced measured states.
+      const Eigen::Index count = std::min<Eigen::Index>(256, y.cols());
+      Mat states(y.rows(), count);
+      for (Eigen::Index i = 0; i < count; ++i) {
+        states.col(i) = y.col(count > 1 ? i * (y.cols() - 1) / (count - 1) : 0);
+      }
+      resolved = WithNoiseShapes(model, dt, settings, r.noise_sigma, states);
+    } else {  // too short, or non-finite samples: the Identifier constructor's rule
+      r.noise_sigma = given ? settings.sigma : Vec::Ones(model.state_size());
+      resolved = ResolvedAtDefault(model, dt, settings);
+    }
+  }
+  if (resolved.flow_estimator.name != "rls") r.flow_noise_shape = resolved.flow_estimator.noise_shape;
+  if (resolved.jump_estimator.name != "rls") r.jump_noise_shape = resolved.jump_estimator.noise_shape;
+  Identifier id(model, dt, resolved);
+  const Eigen::Index k_count = y.cols();
   r.gamma.resize(static_cast<std::size_t>(k_count));
   r.statistic.resize(static_cast<std::size_t>(k_count));
   r.threshold.resize(static_cast<std::size_t>(k_count));
@@ -219,6 +291,14 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt,
   r.jumps_detected = id.jumps_detected();
   r.flow_status = id.flow_estimator().status();
   r.jump_status = id.jump_estimator().status();
+  for (const auto& [estimator, box] : {std::pair{&id.flow_estimator(), &r.flow_box},
+                                       std::pair{&id.jump_estimator(), &r.jump_box}}) {
+    const auto* f = dynamic_cast<const Frisch*>(estimator);
+    if (f == nullptr || !f->has_box()) continue;
+    box->resize(f->lower().size(), 2);
+    box->col(0) = f->lower();
+    box->col(1) = f->upper();
+  }
   if (settings.sets) {
     r.flow_hull = id.flow_set().vertices();
     r.jump_hull = id.jump_set().vertices();

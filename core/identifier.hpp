@@ -32,8 +32,15 @@
 namespace hysid {
 
 struct IdentifierSettings {
-  EstimatorSettings flow_estimator;  // for α
-  EstimatorSettings jump_estimator;  // for β
+  // For α and β. gtls and frisch with an empty noise_shape get theirs from WithNoiseShapes (below).
+  // The jump regression sees one row per jump (14 in §5), so its frisch window defaults to 0 (the
+  // growing window) rather than 200 rows.
+  EstimatorSettings flow_estimator;
+  EstimatorSettings jump_estimator = [] {
+    EstimatorSettings s;
+    s.window = 0;
+    return s;
+  }();
   DetectorSettings detector;
   bool sets = true;  // maintain Λ, Γ and their hulls (Algorithm 2); models with 1 or 2 states only
   Vec sigma;         // measurement noise σ per component when known (empty: unknown)
@@ -43,9 +50,26 @@ struct IdentifierSettings {
   bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
 };
 
+// Noise shapes of the errors-in-variables estimators. For each of flow_estimator and jump_estimator
+// named "gtls" or "frisch" whose noise_shape is empty, fills it with FlowNoiseShape / JumpNoiseShape
+// (core/noise_shape.hpp) of `sigma` (n entries), δt and `states` (n × K, C averaged over them; for
+// φ, ψ affine in ξ, as in every built-in model's identified rows, any one state gives the same C).
+//   - sigma all zero (noise-free data): ones instead, i.e. the shape of equal noise on every
+//     component (C is used up to scale, so only the ratios between components matter).
+//   - a derived C that is zero (no noise reaches that regression): diag(0, …, 0, 1), least squares.
+// gtls uses C itself; frisch uses only which diagonal entries are zero (exact columns).
+// A noise_shape set by the user is kept. Throws std::invalid_argument for a wrong-sized sigma.
+IdentifierSettings WithNoiseShapes(const Model& model, double dt, const IdentifierSettings& settings,
+                                   ConstVecRef sigma, const Mat& states);
+// True when `settings` names gtls or frisch with an empty noise_shape.
+bool NeedsNoiseShape(const EstimatorSettings& settings);
+
 class Identifier {
  public:
-  // Throws std::invalid_argument for δt ≤ 0 or invalid settings (naming the field).
+  // Throws std::invalid_argument for δt ≤ 0 or invalid settings (naming the field). gtls / frisch
+  // without a noise shape: WithNoiseShapes with settings.sigma (ones when not given) at the model's
+  // default initial state. Identify() does better: it estimates σ from the data when not given and
+  // averages C over the measured states.
   Identifier(const Model& model, double dt, const IdentifierSettings& settings);
   ~Identifier();
   Identifier(Identifier&&) noexcept;
@@ -98,8 +122,18 @@ struct IdentifyResult {
   Vec first_pass_alpha_hat, first_pass_beta_hat;
   long reclassified_to_jump = 0;  // flow in the first pass, jump in the second
   long reclassified_to_flow = 0;  // jump in the first pass, flow in the second
+  // gtls / frisch with a derived noise shape: the σ it was derived from, and whether that σ was
+  // estimated from the data (EstimateNoiseSigma) because settings.sigma was empty. Empty otherwise.
+  Vec noise_sigma;
+  bool noise_sigma_estimated = false;
+  Mat flow_noise_shape, jump_noise_shape;  // the shapes the estimators used (empty for rls)
+  // frisch: the final solution boxes of the unknowns, u × 2 (lower, upper); empty otherwise.
+  Mat flow_box, jump_box;
 };
 
+// gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD
+// of second differences, core/noise_shape.hpp); C from WithNoiseShapes over up to 256 evenly spaced
+// columns of y.
 IdentifyResult Identify(const Model& model, const Mat& y, double dt,
                         const IdentifierSettings& settings, const IdentifyOptions& options = {});
 

@@ -1,6 +1,7 @@
 // hysid identify: the paper's identifier on measured samples from a CSV.
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <cstdio>
 #include <string>
 
@@ -23,6 +24,8 @@ struct IdentifyArgs {
   std::string data;
   std::string estimator = "rls";
   double forgetting = 1.0;
+  EstimatorSettings eiv;             // gtls / frisch options (defaults as documented there)
+  std::vector<double> flow_shape, jump_shape;  // user noise shapes C, row-major
   std::string detector = "paper";
   double r = 220.0;
   double tau0 = 1e5;
@@ -49,10 +52,29 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   IdentifierSettings settings;
-  settings.flow_estimator.name = args.estimator;
+  for (EstimatorSettings* e : {&settings.flow_estimator, &settings.jump_estimator}) {
+    e->name = args.estimator;
+    e->refactor_every = args.eiv.refactor_every;
+    e->frisch_box = args.eiv.frisch_box;
+    e->frisch_point = args.eiv.frisch_point;
+    e->frisch_confidence = args.eiv.frisch_confidence;
+  }
+  settings.flow_estimator.window = args.eiv.window;
   settings.flow_estimator.forgetting = args.forgetting;
-  settings.jump_estimator.name = args.estimator;
   settings.jump_estimator.forgetting = args.jump_forgetting;
+  auto shape = [](const std::vector<double>& v, const char* flag) {
+    if (v.empty()) return Mat();
+    RequireFinite(flag, v);
+    const auto m = static_cast<Eigen::Index>(std::lround(std::sqrt(double(v.size()))));
+    if (m * m != static_cast<Eigen::Index>(v.size())) {
+      BadFlag(fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major",
+                          flag, v.size()));
+    }
+    return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+        v.data(), m, m));
+  };
+  settings.flow_estimator.noise_shape = shape(args.flow_shape, "--flow-noise-shape");
+  settings.jump_estimator.noise_shape = shape(args.jump_shape, "--jump-noise-shape");
   settings.detector.name = args.detector;
   settings.detector.r = args.r;
   settings.detector.tau0 = args.tau0;
@@ -63,7 +85,9 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   if (std::string e; !settings.detector.IsValid(&e)) {
     BadFlag(fmt::format("--r/--tau0/--bound/--false-alarm: {}", e));
   }
-  if (std::string e; !settings.flow_estimator.IsValid(&e)) BadFlag(fmt::format("--forgetting: {}", e));
+  if (std::string e; !settings.flow_estimator.IsValid(&e)) {
+    BadFlag(fmt::format("--forgetting/--window/--refactor-every/--frisch-*: {}", e));
+  }
   if (std::string e; !settings.jump_estimator.IsValid(&e)) {
     BadFlag(fmt::format("--jump-forgetting: {}", e));
   }
@@ -85,7 +109,7 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   try {
     Identifier check(model, 1.0, settings);
   } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--estimator/--detector: {}", e.what()));
+    BadFlag(fmt::format("--estimator/--detector/--*-noise-shape: {}", e.what()));
   }
   const SampleData data = ReadSampleData(args.data, n);
   IdentifyOptions options;
@@ -103,6 +127,21 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
                 args.detector.c_str(), args.false_alarm);
   }
   std::printf("%s%s\n", args.localize ? ", localised jumps" : "", args.second_pass ? ", second pass" : "");
+  if (result.noise_sigma.size()) {
+    std::printf("noise shapes C from sigma = (%s)%s, dt = %.6g (flow C diagonal: %s; jump C diagonal: %s)\n",
+                fmt::format("{:.4g}", fmt::join(result.noise_sigma, ", ")).c_str(),
+                result.noise_sigma_estimated ? ", estimated from the data (MAD of 2nd differences)"
+                                             : " as given by --sigma",
+                data.dt,
+                args.flow_shape.empty()
+                    ? fmt::format("{:.4g}", fmt::join(result.flow_noise_shape.diagonal(), ", ")).c_str()
+                    : "given",
+                args.jump_shape.empty()
+                    ? fmt::format("{:.4g}", fmt::join(result.jump_noise_shape.diagonal(), ", ")).c_str()
+                    : "given");
+  } else if (result.flow_noise_shape.size() || result.jump_noise_shape.size()) {
+    std::printf("noise shapes C as given by --flow-noise-shape / --jump-noise-shape\n");
+  }
   for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
     if (!spec.alpha[i].known) {
       std::printf("  alpha %-10s = %.10g\n", spec.alpha[i].name.c_str(), result.alpha_hat[Eigen::Index(i)]);
@@ -115,6 +154,13 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   }
   std::printf("jumps detected: %ld (flow estimator %s, jump estimator %s)\n", result.jumps_detected,
               ToString(result.flow_status), ToString(result.jump_status));
+  // frisch: the solution boxes of the unknowns, in the order printed above.
+  for (const auto& [box, what] : {std::pair{&result.flow_box, "alpha"}, std::pair{&result.jump_box, "beta"}}) {
+    if (box->size() == 0) continue;
+    std::printf("frisch box %s:", what);
+    for (Eigen::Index i = 0; i < box->rows(); ++i) std::printf(" [%.6g, %.6g]", (*box)(i, 0), (*box)(i, 1));
+    std::printf("\n");
+  }
   if (args.localize) {
     std::printf("jumps localised: %ld of %ld\n", result.jumps_localized, result.jumps_detected);
   }
@@ -210,7 +256,32 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--data", args->data, "CSV: time, then the measured state (y1..yn if present); "
                                         "a column j is taken as ground truth")
       ->required();
-  cmd->add_option("--estimator", args->estimator, "rls (more with later releases)")->capture_default_str();
+  cmd->add_option("--estimator", args->estimator,
+                  "rls, gtls (recursive generalized TLS, noise shape C from sigma and dt) or frisch "
+                  "(recursive Frisch scheme: a solution box and a point in it)")
+      ->capture_default_str();
+  cmd->add_option("--window", args->eiv.window,
+                  "frisch: window of the alpha estimator in rows (0 = growing; beta: always growing)")
+      ->capture_default_str();
+  cmd->add_option("--frisch-box", args->eiv.frisch_box,
+                  "frisch: cumulative (box of the simplex of all rows) or intersect (BBRF)")
+      ->capture_default_str();
+  cmd->add_option("--frisch-point", args->eiv.frisch_point,
+                  "frisch: rls (RLS clamped into the boxes) or centre (of the box)")
+      ->capture_default_str();
+  cmd->add_option("--frisch-confidence", args->eiv.frisch_confidence,
+                  "frisch: confidence of the sampling allowance added to the boxes (0 = none)")
+      ->capture_default_str();
+  cmd->add_option("--refactor-every", args->eiv.refactor_every,
+                  "gtls: exact refactorisation every this many rows")
+      ->capture_default_str();
+  cmd->add_option("--flow-noise-shape", args->flow_shape,
+                  "gtls/frisch: noise covariance shape C of the flow rows [phi, y], row-major, "
+                  "instead of the one derived from sigma and dt")
+      ->delimiter(',');
+  cmd->add_option("--jump-noise-shape", args->jump_shape,
+                  "gtls/frisch: the same for the jump rows")
+      ->delimiter(',');
   cmd->add_option("--forgetting", args->forgetting, "forgetting factor of the alpha estimator")
       ->capture_default_str();
   cmd->add_option("--detector", args->detector,
@@ -232,7 +303,9 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--tau0", args->tau0, "paper detector: initial smoothness bound")->capture_default_str();
   cmd->add_option("--bound", args->bound, "paper detector: auto, paper or homogeneous")
       ->capture_default_str();
-  cmd->add_option("--sigma", args->sigma, "known measurement noise σ (one, or one per state)")
+  cmd->add_option("--sigma", args->sigma,
+                  "known measurement noise σ (one, or one per state); gtls/frisch estimate it "
+                  "from the data when not given")
       ->delimiter(',');
   cmd->add_option("--trace", args->trace, "per-sample CSV: t, D, tau_hat, gamma, estimates");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");

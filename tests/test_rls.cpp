@@ -69,6 +69,24 @@ TEST_CASE("RLS equals batch least squares with vector measurements", "[rls]") {
   CHECK(p == p.transpose());
 }
 
+TEST_CASE("RLS reads a strided row (middleRows of a column-major matrix) correctly", "[rls]") {
+  // Regression test: the scalar path indexed φ as contiguous; a 1×p block of a column-major matrix
+  // binds to ConstMatRef without a copy, with outerStride() = the parent's rows.
+  const Mat phi = RandomRows(300, 3, 41);
+  Vec theta(3);
+  theta << 1.0, -2.0, 0.5;
+  const Vec y = phi * theta;
+  EstimatorSettings settings;
+  auto by_block = MakeEstimator(settings, Vec::Zero(3));
+  auto by_row = MakeEstimator(settings, Vec::Zero(3));
+  for (long k = 0; k < phi.rows(); ++k) {
+    by_block->Update(phi.middleRows(k, 1), y.segment(k, 1));
+    by_row->Update(phi.row(k), y.segment(k, 1));
+  }
+  CHECK((by_block->estimate() - by_row->estimate()).norm() <= 1e-12);
+  CHECK((by_block->estimate() - theta).norm() <= 1e-6);
+}
+
 TEST_CASE("RLS with forgetting tracks a parameter change; weighted LS closed form", "[rls]") {
   const double lambda = 0.98;
   const Mat phi = RandomRows(400, 2, 31);

@@ -22,7 +22,9 @@ void Rls::Reset() {
 }
 
 // One scalar row: the common case (one identified state component). Plain loops: p is small.
-void Rls::ScalarUpdate(const double* phi, double y) {
+// `stride` is the distance between φ's entries: a 1×p row of a column-major matrix binds to
+// ConstMatRef without a copy and then has outerStride() = the parent's row count.
+void Rls::ScalarUpdate(const double* phi, Eigen::Index stride, double y) {
   const Eigen::Index p = theta_.size();
   double* pp = p_.data();
   double* g = work_.data();
@@ -30,10 +32,11 @@ void Rls::ScalarUpdate(const double* phi, double y) {
   double pred = 0.0;
   for (Eigen::Index i = 0; i < p; ++i) {
     double s = 0.0;
-    for (Eigen::Index k = 0; k < p; ++k) s += pp[k * p + i] * phi[k];  // P symmetric: (Pφ)_i
+    // P symmetric: (Pφ)_i
+    for (Eigen::Index k = 0; k < p; ++k) s += pp[k * p + i] * phi[k * stride];
     g[i] = s;
-    denom += phi[i] * s;
-    pred += phi[i] * theta_[i];
+    denom += phi[i * stride] * s;
+    pred += phi[i * stride] * theta_[i];
   }
   if (!(denom > 0.0) || !std::isfinite(denom)) {
     status_ = EstimatorStatus::kIllConditioned;
@@ -59,7 +62,7 @@ void Rls::ScalarUpdate(const double* phi, double y) {
 
 void Rls::DoUpdate(ConstMatRef phi, ConstVecRef y) {
   if (phi.rows() == 1) {
-    ScalarUpdate(phi.data(), y[0]);
+    ScalarUpdate(phi.data(), phi.outerStride(), y[0]);
   } else {
     const Mat pphi_t = p_ * phi.transpose();                       // p × rows
     Mat gamma = phi * pphi_t;                                      // rows × rows

@@ -22,7 +22,7 @@ class Rls final : public Estimator {
 
  private:
   void DoUpdate(ConstMatRef phi, ConstVecRef y) override;
-  void ScalarUpdate(const double* phi, double y);
+  void ScalarUpdate(const double* phi, Eigen::Index stride, double y);
 
   Vec theta0_;
   Mat p_;
