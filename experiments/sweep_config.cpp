@@ -314,7 +314,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
       if (k == "false_alarm") s.detector.false_alarm = rd.Number(v, key);
       if (k == "p0") s.flow_estimator.p0 = s.jump_estimator.p0 = rd.Number(v, key);
       if (k == "forgetting") s.flow_estimator.forgetting = s.jump_estimator.forgetting = rd.Number(v, key);
-      if (k == "window") s.flow_estimator.window = s.jump_estimator.window = static_cast<int>(rd.Integer(v, key));
+      if (k == "window") s.flow_estimator.window = static_cast<int>(rd.Integer(v, key));  // α only: β keeps a growing window (14 jump rows never fill one)
       if (k == "refactor_every") {
         s.flow_estimator.refactor_every = s.jump_estimator.refactor_every = static_cast<int>(rd.Integer(v, key));
       }
