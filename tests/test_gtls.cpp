@@ -118,6 +118,23 @@ TEST_CASE("gtls with C = diag(0, ..., 0, 1) equals least squares and RLS", "[gtl
   }
 }
 
+TEST_CASE("gtls covariance is (PhiT Phi)^-1 of the rows so far, like RLS's P without a prior", "[gtls]") {
+  Vec theta(3), sigma_phi(3);
+  theta << 0.5, -1.0, 2.0;
+  sigma_phi << 0.3, 0.3, 0.3;
+  const EivData d = MakeEivData(theta, sigma_phi, 0.4, 300, 5, 0);
+  auto gtls = Make("gtls", Mat::Identity(4, 4), 3);
+  CHECK(gtls->covariance_matrix() == nullptr);  // no rows yet
+  Feed(*gtls, d);
+  const Mat want = (d.phi.transpose() * d.phi).inverse();
+  const Mat* got = gtls->covariance_matrix();
+  REQUIRE(got != nullptr);
+  CHECK((*got - want).norm() <= 1e-10 * want.norm());
+  auto rls = Make("rls", Mat(), 3);
+  Feed(*rls, d);
+  CHECK((*rls->covariance_matrix() - want).norm() <= 1e-5 * want.norm());  // P0 = 1e6 ridge
+}
+
 TEST_CASE("gtls with C = I equals batch TLS (SVD), also with forgetting", "[gtls]") {
   Vec theta(2), sigma_phi(2);
   theta << 1.0, 0.5;

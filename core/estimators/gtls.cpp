@@ -153,6 +153,34 @@ bool Gtls::Factorize() {
   return true;
 }
 
+const Mat* Gtls::covariance_matrix() const {
+  if (cov_updates_ != updates_ || updates_ == 0) {
+    const Eigen::Index p = theta_.size();
+    cov_updates_ = -2;
+    if (rows_ < p) return nullptr;
+    Vec d(p);
+    for (Eigen::Index i = 0; i < p; ++i) {
+      if (!(s_(i, i) > 0.0) || !std::isfinite(s_(i, i))) return nullptr;
+      d[i] = 1.0 / std::sqrt(s_(i, i));
+    }
+    const Mat block = d.asDiagonal() * s_.topLeftCorner(p, p) * d.asDiagonal();
+    const Eigen::LLT<Mat> llt(block);
+    if (llt.info() != Eigen::Success) return nullptr;
+    const Mat& l = llt.matrixLLT();
+    for (Eigen::Index i = 0; i < p; ++i) {
+      if (!(l(i, i) * l(i, i) >= kRankTolerance)) return nullptr;
+    }
+    cov_ = d.asDiagonal() * llt.solve(Mat::Identity(p, p)) * d.asDiagonal();
+    cov_updates_ = updates_;
+  }
+  return cov_updates_ == -2 ? nullptr : &cov_;
+}
+
+std::optional<Mat> Gtls::covariance() const {
+  const Mat* c = covariance_matrix();
+  return c ? std::optional<Mat>(*c) : std::nullopt;
+}
+
 void Gtls::ProvisionalLeastSquares() {
   const Eigen::Index p = theta_.size();
   if (rows_ < p) return;

@@ -37,6 +37,12 @@ class Gtls final : public Estimator {
   Gtls(const Vec& theta0, const Mat& noise_shape, double forgetting, int refactor_every);
 
   std::string name() const override { return "gtls"; }
+  // (Φ̃ᵀΦ̃)⁻¹ over the rows so far (forgetting-weighted, the θ block of S), as RLS's P without a
+  // prior: the parameter covariance up to the noise variance, which the residual jump detector uses
+  // for its leverage term. Computed when asked after S changed; none before S's θ block is
+  // positive definite.
+  std::optional<Mat> covariance() const override;
+  const Mat* covariance_matrix() const override;
   void Reset() override;
 
   // σ̂² = (vᵀSv)/(vᵀCv)/W: the noise scale in units of C (0 before the batch start).
@@ -72,6 +78,8 @@ class Gtls final : public Estimator {
   long rows_since_refactor_ = 0;
   bool started_ = false;
   bool needs_refactor_ = false;
+  mutable Mat cov_;              // covariance_matrix() cache
+  mutable long cov_updates_ = -1;  // updates_ when cov_ was computed (−1: never, −2: not available)
 };
 
 }  // namespace hysid
