@@ -87,7 +87,7 @@ TEST_CASE("RLS reads a strided row (middleRows of a column-major matrix) correct
   CHECK((by_block->estimate() - theta).norm() <= 1e-6);
 }
 
-TEST_CASE("RLS with forgetting tracks a parameter change; weighted LS closed form", "[rls]") {
+TEST_CASE("RLS with forgetting tracks a parameter change and equals the weighted LS closed form", "[rls]") {
   const double lambda = 0.98;
   const Mat phi = RandomRows(400, 2, 31);
   Vec y(400);
