@@ -153,23 +153,30 @@ bool Gtls::Factorize() {
   return true;
 }
 
+bool Gtls::FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const {
+  const Eigen::Index p = theta_.size();
+  if (rows_ < p) return false;
+  d->resize(p);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    if (!(s_(i, i) > 0.0) || !std::isfinite(s_(i, i))) return false;
+    (*d)[i] = 1.0 / std::sqrt(s_(i, i));
+  }
+  llt->compute(d->asDiagonal() * s_.topLeftCorner(p, p) * d->asDiagonal());
+  if (llt->info() != Eigen::Success) return false;
+  const Mat& l = llt->matrixLLT();
+  for (Eigen::Index i = 0; i < p; ++i) {
+    if (!(l(i, i) * l(i, i) >= kRankTolerance)) return false;
+  }
+  return true;
+}
+
 const Mat* Gtls::covariance_matrix() const {
   if (cov_updates_ != updates_ || updates_ == 0) {
-    const Eigen::Index p = theta_.size();
     cov_updates_ = -2;
-    if (rows_ < p) return nullptr;
-    Vec d(p);
-    for (Eigen::Index i = 0; i < p; ++i) {
-      if (!(s_(i, i) > 0.0) || !std::isfinite(s_(i, i))) return nullptr;
-      d[i] = 1.0 / std::sqrt(s_(i, i));
-    }
-    const Mat block = d.asDiagonal() * s_.topLeftCorner(p, p) * d.asDiagonal();
-    const Eigen::LLT<Mat> llt(block);
-    if (llt.info() != Eigen::Success) return nullptr;
-    const Mat& l = llt.matrixLLT();
-    for (Eigen::Index i = 0; i < p; ++i) {
-      if (!(l(i, i) * l(i, i) >= kRankTolerance)) return nullptr;
-    }
+    Vec d;
+    Eigen::LLT<Mat> llt;
+    if (!FactorThetaBlock(&d, &llt)) return nullptr;
+    const Eigen::Index p = theta_.size();
     cov_ = d.asDiagonal() * llt.solve(Mat::Identity(p, p)) * d.asDiagonal();
     cov_updates_ = updates_;
   }
@@ -183,19 +190,9 @@ std::optional<Mat> Gtls::covariance() const {
 
 void Gtls::ProvisionalLeastSquares() {
   const Eigen::Index p = theta_.size();
-  if (rows_ < p) return;
-  Vec d(p);
-  for (Eigen::Index i = 0; i < p; ++i) {
-    if (!(s_(i, i) > 0.0) || !std::isfinite(s_(i, i))) return;
-    d[i] = 1.0 / std::sqrt(s_(i, i));
-  }
-  const Mat block = d.asDiagonal() * s_.topLeftCorner(p, p) * d.asDiagonal();
-  const Eigen::LLT<Mat> llt(block);
-  if (llt.info() != Eigen::Success) return;
-  const Mat& l = llt.matrixLLT();
-  for (Eigen::Index i = 0; i < p; ++i) {
-    if (!(l(i, i) * l(i, i) >= kRankTolerance)) return;
-  }
+  Vec d;
+  Eigen::LLT<Mat> llt;
+  if (!FactorThetaBlock(&d, &llt)) return;
   const Vec theta = d.asDiagonal() * llt.solve(d.asDiagonal() * s_.col(p).head(p));
   if (theta.allFinite()) theta_ = theta;
 }

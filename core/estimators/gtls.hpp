@@ -26,6 +26,8 @@
 // Cost: O(rows·(p+1)²) per update plus O((p+1)³) every refactor_every rows.
 #pragma once
 
+#include <Eigen/Cholesky>
+
 #include "core/estimator.hpp"
 
 namespace hysid {
@@ -63,6 +65,9 @@ class Gtls final : public Estimator {
   // Before the batch start: θ = least squares of the rows so far once they determine it (so that
   // users of the estimate, e.g. the jump detector's τ̂, see a sensible value); status kNotExcited.
   void ProvisionalLeastSquares();
+  // The LLT of the equilibrated θ block D·S_θθ·D (d = D's diagonal); false when it is not (yet)
+  // positive definite to kRankTolerance.
+  bool FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const;
 
   Vec theta0_;
   Mat c_;        // C, (p+1)²
