@@ -45,17 +45,22 @@ RegressionBuilder::RegressionBuilder(const Model& model)
       beta_(model.beta()),
       phi_prev_(model.state_size(), model.alpha_size()),
       phi_cur_(model.state_size(), model.alpha_size()),
-      psi_(model.state_size(), model.beta_size()) {}
+      psi_(model.state_size(), model.beta_size()),
+      last_cur_(model.state_size()) {}
 
 void RegressionBuilder::Flow(ConstVecRef prev, ConstVecRef cur, double dt, MatRef phi, VecRef y) {
   // Consecutive pairs share a sample: φ(ξ(t−δt)) is the previous call's φ(ξ(t)).
-  if (have_last_ && prev == last_cur_) {
+  const Eigen::Index n = cur.size();
+  bool consecutive = have_last_ && n == last_cur_.size();
+  for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = prev[i] == last_cur_[i];
+  if (consecutive) {
     phi_prev_.swap(phi_cur_);
   } else {
     model_.Phi(prev, phi_prev_);
   }
   model_.Phi(cur, phi_cur_);
-  last_cur_ = cur;
+  if (last_cur_.size() != n) last_cur_.resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) last_cur_[i] = cur[i];
   have_last_ = true;
   const double h = 0.5 * dt;
   for (std::size_t i = 0; i < flow_.rows.size(); ++i) {

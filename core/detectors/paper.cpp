@@ -37,11 +37,6 @@ BoundMode ResolveBoundMode(const std::string& bound, const Model& model) {
   return BoundMode::kPaper;
 }
 
-double BoundNorm(ConstVecRef x, BoundMode mode) {
-  const double s = x.squaredNorm();
-  return std::sqrt(mode == BoundMode::kHomogeneous ? s + 1.0 : s);
-}
-
 double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
                        const Eigen::Ref<const Mat>& points) {
   const int n = model.state_size();
@@ -94,44 +89,79 @@ PaperDetector::PaperDetector(const DetectorSettings& settings, const Model& mode
       }
     }
     jvec_.resize(g_.rows());
+    gram_ = g_.transpose() * g_;
   }
 }
 
-// ‖J̄_r(α)‖₂² for a constant Jacobian: one identified row is a squared vector norm.
-double PaperDetector::LinearNormSquared(ConstVecRef alpha) {
-  const Eigen::Index m = g_.rows(), p = g_.cols();
-  const double* g = g_.data();
-  double* j = jvec_.data();
-  for (Eigen::Index r = 0; r < m; ++r) j[r] = 0.0;
+namespace {
+
+// αᵀQα for a symmetric p × p matrix Q (column-major); P = p when known at compile time, else 0.
+template <int P>
+double QuadraticForm(Eigen::Index p_dynamic, const double* q, const double* alpha) {
+  const Eigen::Index p = P > 0 ? P : p_dynamic;
+  double s = 0.0;
   for (Eigen::Index c = 0; c < p; ++c) {
-    const double a = alpha[c];
-    for (Eigen::Index r = 0; r < m; ++r) j[r] += g[c * m + r] * a;
+    double qa = 0.0;
+    for (Eigen::Index r = 0; r < p; ++r) qa += q[c * p + r] * alpha[r];
+    s += alpha[c] * qa;
   }
+  return s;
+}
+
+}  // namespace
+
+// ‖J̄_r(α)‖₂² for a constant Jacobian. One identified row: ‖Gα‖² = αᵀ(GᵀG)α with GᵀG precomputed;
+// more rows: the spectral norm of the reshaped Gα.
+double PaperDetector::LinearNormSquared(ConstVecRef alpha) {
   if (reduced_rows_ == 1) {
-    double s = 0.0;
-    for (Eigen::Index r = 0; r < m; ++r) s += j[r] * j[r];
-    return s;
+    const Eigen::Index p = gram_.rows();
+    const double* q = gram_.data();
+    switch (p) {
+      case 1: return QuadraticForm<1>(p, q, alpha.data());
+      case 2: return QuadraticForm<2>(p, q, alpha.data());
+      case 3: return QuadraticForm<3>(p, q, alpha.data());
+      case 4: return QuadraticForm<4>(p, q, alpha.data());
+      default: return QuadraticForm<0>(p, q, alpha.data());
+    }
   }
-  return SpectralNormSquared(Eigen::Map<const Mat>(j, reduced_rows_, m / reduced_rows_));
+  const Eigen::Index m = g_.rows();
+  jvec_.noalias() = g_ * alpha;
+  return SpectralNormSquared(Eigen::Map<const Mat>(jvec_.data(), reduced_rows_, m / reduced_rows_));
 }
 
 void PaperDetector::Reset() {
   cached_version_ = -1;
   cached_hull_version_ = -1;
   cached_l2_ = 0.0;
+  cached_l_ = 0.0;
+  last_x_.resize(0);
+  last_norm_ = 0.0;
 }
 
 // The decision is taken on squares, D² > τ̂², so that no square root sits on the chain
 // α̂ → τ̂ → γ → α̂ of consecutive samples; D and τ̂ themselves are computed off that chain.
+// Square roots are the costly instructions here: ‖ξ(t−δt)‖ is the previous call's ‖ξ(t)‖ when the
+// pairs are consecutive, D and ‖ξ(t)‖ share one packed square root, and √L̂² is taken when L̂² changes.
 Decision PaperDetector::Classify(const SampleContext& c) {
   Decision d;
+  const Eigen::Index n = c.cur.size();
   const double inv_dt = 1.0 / c.dt;
-  double d2 = 0.0;
-  for (Eigen::Index i = 0; i < c.cur.size(); ++i) {
+  double d2 = 0.0, cur2 = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
     const double v = (c.cur[i] - c.prev[i]) * inv_dt;
     d2 += v * v;
+    cur2 += c.cur[i] * c.cur[i];
   }
-  d.statistic = std::sqrt(d2);
+  if (mode_ == BoundMode::kHomogeneous) cur2 += 1.0;
+  const Eigen::Array2d roots = Eigen::Array2d(d2, cur2).sqrt();
+  d.statistic = roots[0];
+  const double cur_norm = roots[1];
+  bool consecutive = last_x_.size() == n;
+  for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = last_x_[i] == c.prev[i];
+  const double prev_norm = consecutive ? last_norm_ : BoundNorm(c.prev, mode_);
+  if (last_x_.size() != n) last_x_.resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) last_x_[i] = c.cur[i];
+  last_norm_ = cur_norm;
   if (c.flow_updates < unknowns_) {
     d.threshold = tau0_;
     d.gamma = d.statistic > d.threshold;
@@ -141,6 +171,7 @@ Decision PaperDetector::Classify(const SampleContext& c) {
   if (constant_jacobian_) {
     if (c.version != cached_version_) {
       cached_l2_ = LinearNormSquared(c.alpha_hat);
+      cached_l_ = std::sqrt(cached_l2_);
       cached_version_ = c.version;
     }
     l2 = cached_l2_;
@@ -163,10 +194,10 @@ Decision PaperDetector::Classify(const SampleContext& c) {
     const double l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, pair);
     l2 = std::max(cached_l2_, l * l);
   }
-  const double s = BoundNorm(c.cur, mode_) + BoundNorm(c.prev, mode_);
+  const double s = cur_norm + prev_norm;
   const double half_r = 0.5 * r_;
   d.gamma = d2 > half_r * half_r * l2 * s * s;
-  d.threshold = half_r * std::sqrt(l2) * s;
+  d.threshold = half_r * (constant_jacobian_ ? cached_l_ : std::sqrt(l2)) * s;
   return d;
 }
 

@@ -15,6 +15,8 @@
 // norm convex in ξ over a polytope, an approximation otherwise.
 #pragma once
 
+#include <cmath>
+
 #include "core/detector.hpp"
 
 namespace hysid {
@@ -33,7 +35,12 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
 double SpectralNormSquared(const Eigen::Ref<const Mat>& a);
 
 // ‖ξ‖ (paper) or ‖[ξ; 1]‖ (homogeneous).
-double BoundNorm(ConstVecRef x, BoundMode mode);
+inline double BoundNorm(const double* x, Eigen::Index n, BoundMode mode) {
+  double s = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) s += x[i] * x[i];
+  return std::sqrt(mode == BoundMode::kHomogeneous ? s + 1.0 : s);
+}
+inline double BoundNorm(ConstVecRef x, BoundMode mode) { return BoundNorm(x.data(), x.size(), mode); }
 
 class PaperDetector final : public JumpDetector {
  public:
@@ -53,11 +60,16 @@ class PaperDetector final : public JumpDetector {
   Mat g_;
   int reduced_rows_ = 0;
   Vec jvec_;
+  Mat gram_;  // GᵀG (|α| × |α|): ‖J̄_r(α)‖² = αᵀGᵀGα for one identified row
   double LinearNormSquared(ConstVecRef alpha);
   // Cache of the part of L̂ that depends only on α̂ and Ĉ.
   long cached_version_ = -1;
   long cached_hull_version_ = -1;
   double cached_l2_ = 0.0;
+  double cached_l_ = 0.0;  // √cached_l2_ (constant Jacobians)
+  // ξ(t) of the previous call and its BoundNorm: the next call's ξ(t−δt) when pairs are consecutive.
+  Vec last_x_;
+  double last_norm_ = 0.0;
   Mat points_;
 };
 
