@@ -37,6 +37,8 @@ struct SampleContext {
   long version = 0;                       // changes whenever α̂ changes (for caching)
   const SampleSet* flow_set = nullptr;    // Λ, whose hull is Ĉ (may be null or empty)
   const Vec* sigma = nullptr;             // measurement noise σ per component, when known
+  // Accuracy of the data apart from σ: component j off by up to data_rtol·|ξ_j| + data_atol.
+  double data_rtol = 0.0, data_atol = 0.0;
 };
 
 struct Decision {

@@ -126,6 +126,11 @@ Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& 
   if (!(dt > 0.0) || !std::isfinite(dt)) {
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
   }
+  if (!(settings.data_rtol >= 0.0) || !std::isfinite(settings.data_rtol) ||
+      !(settings.data_atol >= 0.0) || !std::isfinite(settings.data_atol)) {
+    throw std::invalid_argument(fmt::format("data_rtol = {}, data_atol = {}: must be finite and >= 0",
+                                            settings.data_rtol, settings.data_atol));
+  }
   if (settings.sets && model.state_size() > 2) {
     throw std::invalid_argument(fmt::format(
         "IdentifierSettings::sets = true: model '{}' has {} states; the hulls of Λ and Γ are "
@@ -159,7 +164,9 @@ Decision Identifier::Step(ConstVecRef x) {
                   .flow_updates = s.frozen ? s.frozen_updates : s.flow->updates(),
                   .version = s.frozen ? -2 : s.version,
                   .flow_set = s.settings.sets ? &s.flow_set : nullptr,
-                  .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr};
+                  .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
+                  .data_rtol = s.settings.data_rtol,
+                  .data_atol = s.settings.data_atol};
   const Decision d = s.detector->Classify(c);
   if (!d.gamma) {
     s.flow->Update(s.phi, s.y);

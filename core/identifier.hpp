@@ -44,6 +44,10 @@ struct IdentifierSettings {
   DetectorSettings detector;
   bool sets = true;  // maintain Λ, Γ and their hulls (Algorithm 2); models with 1 or 2 states only
   Vec sigma;         // measurement noise σ per component when known (empty: unknown)
+  // Accuracy of the data apart from the random noise: component j may be off by up to
+  // data_rtol·|ξ_j| + data_atol (simulated data: the integrator's tolerances; 0 = exact up to
+  // rounding). The residual detector adds it to its measurement-noise model; nothing else uses it.
+  double data_rtol = 0.0, data_atol = 0.0;
   // Prior for the unknown parameters (empty: zero), for both α and β in model order.
   Vec alpha0, beta0;
   bool localize = false;     // sub-sample jump localisation for the jump regression

@@ -35,6 +35,7 @@ struct IdentifyArgs {
   bool second_pass = false;
   double jump_forgetting = 1.0;
   std::vector<double> sigma;
+  double data_rtol = 0.0, data_atol = 0.0;
   std::string trace;
   std::string hulls;
 };
@@ -82,6 +83,11 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   settings.detector.false_alarm = args.false_alarm;
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
+  for (const auto& [flag, value] : {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
+    if (!(value >= 0.0) || !std::isfinite(value)) BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
+  }
+  settings.data_rtol = args.data_rtol;
+  settings.data_atol = args.data_atol;
   if (std::string e; !settings.detector.IsValid(&e)) {
     BadFlag(fmt::format("--r/--tau0/--bound/--false-alarm: {}", e));
   }
@@ -307,6 +313,14 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                   "known measurement noise σ (one, or one per state); gtls/frisch estimate it "
                   "from the data when not given")
       ->delimiter(',');
+  cmd->add_option("--data-rtol", args->data_rtol,
+                  "residual detector: relative accuracy of the data apart from the noise (simulated "
+                  "data: the integrator's rtol, e.g. 1e-12 for `hysid simulate`)")
+      ->capture_default_str();
+  cmd->add_option("--data-atol", args->data_atol,
+                  "residual detector: absolute accuracy of the data apart from the noise (simulated "
+                  "data: the integrator's atol)")
+      ->capture_default_str();
   cmd->add_option("--trace", args->trace, "per-sample CSV: t, D, tau_hat, gamma, estimates");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
   cmd->callback([args, &env] { RunIdentify(*args, env); });

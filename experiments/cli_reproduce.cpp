@@ -59,6 +59,9 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
   settings.detector.false_alarm = args.false_alarm;
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
+  // The data are simulated at the simulator's default tolerances: the residual detector's data accuracy.
+  settings.data_rtol = SimOptions{}.rtol;
+  settings.data_atol = SimOptions{}.atol;
   try {
     Identifier check(model, dt, settings);
   } catch (const std::invalid_argument& e) {

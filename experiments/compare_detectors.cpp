@@ -89,6 +89,8 @@ int main(int argc, char** argv) {
         paper.push_back(Misclassification(model, traj, y, s));
       }
       s.detector.name = "residual";
+      s.data_rtol = SimOptions{}.rtol;  // the trajectory's accuracy (CVODE at its default tolerances)
+      s.data_atol = SimOptions{}.atol;
       const double residual = Misclassification(model, traj, y, s);
       const auto best = std::min_element(paper.begin(), paper.end());
       const double best_r = rs[static_cast<std::size_t>(best - paper.begin())];

@@ -105,6 +105,9 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
       if (!std::isnan(cell.r)) s.detector.r = cell.r;
       if (!std::isnan(cell.false_alarm)) s.detector.false_alarm = cell.false_alarm;
       if (config.known_sigma) s.sigma = Vec::Constant(model.state_size(), cell.sigma);
+      // The trajectories come from CVODE at these tolerances: the data's accuracy apart from σ.
+      s.data_rtol = config.simulator.rtol;
+      s.data_atol = config.simulator.atol;
       Mat noisy;
       if (cell.sigma > 0) {
         noisy = AddMeasurementNoise(truth.x, Vec::Constant(model.state_size(), cell.sigma),

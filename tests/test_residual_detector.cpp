@@ -96,6 +96,32 @@ TEST_CASE("§5 at dt = 5 ms, sigma = 0: all 14 jumps, no false ones", "[residual
   CHECK(CompareJumps(r.traj.j, p.gamma).tp == 0);
 }
 
+TEST_CASE("noise-free §5 with every estimator: the data accuracy keeps gtls from false jumps",
+          "[residual][data-accuracy]") {
+  // gtls fits the noise-free flow to the last digits, so its residuals are the simulator's
+  // step-to-step error, which grows after every re-initialisation at a jump. Told the simulator's
+  // tolerances, the detector flags none of it; without them it does.
+  const Model model{ImpactMsd{}};
+  for (const char* estimator : {"rls", "gtls", "frisch"}) {
+    IdentifierSettings s = Residual();
+    s.flow_estimator.name = s.jump_estimator.name = estimator;
+    s.data_rtol = SimOptions{}.rtol;
+    s.data_atol = SimOptions{}.atol;
+    const Run r = Identified(model, DefaultX0(model), 20.0, 5e-4, 0.0, 1, s);
+    INFO(estimator << ": FP " << r.confusion.fp << " FN " << r.confusion.fn);
+    CHECK(r.confusion.tp == 14);
+    CHECK(r.confusion.fn == 0);
+    CHECK(r.confusion.fp == 0);
+    CHECK(r.errors.e_alpha < 1e-6);
+  }
+  IdentifierSettings exact = Residual();
+  exact.flow_estimator.name = exact.jump_estimator.name = "gtls";
+  const Run r = Identified(model, DefaultX0(model), 20.0, 5e-4, 0.0, 1, exact);
+  CHECK(r.confusion.fp > 0);
+  exact.data_rtol = -1e-12;
+  CHECK_THROWS_WITH(Identifier(model, 5e-4, exact), Catch::Contains("data_rtol = -1e-12"));
+}
+
 TEST_CASE("§5 at dt = 0.1 ms, sigma = 0.25: all jumps, at most 1 false one", "[residual]") {
   const Model model{ImpactMsd{}};
   for (bool known_sigma : {false, true}) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <numbers>
 
@@ -67,10 +68,16 @@ double ResidualDetector::Quantile() {
   return cached_q_;
 }
 
-// V_i = Σ_j σ_j² (a_ij² + b_ij²), a = e_i − (δt/2)J_i(ξ(t)), b = e_i + (δt/2)J_i(ξ(t−δt)).
+// V_i = Σ_j (σ_j² + d_j(t)²) a_ij² + (σ_j² + d_j(t−δt)²) b_ij², a = e_i − (δt/2)J_i(ξ(t)),
+// b = e_i + (δt/2)J_i(ξ(t−δt)), d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0 when σ is not given).
 void ResidualDetector::NoiseVariance(const SampleContext& c) {
   const auto n = c.cur.size();
-  const Vec& sigma = *c.sigma;
+  const bool have_sigma = c.sigma != nullptr && c.sigma->size() == n;
+  auto var = [&](Eigen::Index j, double x) {
+    const double s = have_sigma ? (*c.sigma)[j] : 0.0;
+    const double d = c.data_rtol * std::abs(x) + c.data_atol;
+    return s * s + d * d;
+  };
   if (model_.spec().flow_jacobian_constant) {
     model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
     jac_prev_ = jac_cur_;
@@ -94,7 +101,7 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
       const double unit = j == r ? 1.0 : 0.0;
       const double a = unit - h * jac_cur_(r, j);
       const double b = unit + h * jac_prev_(r, j);
-      v += sigma[j] * sigma[j] * (a * a + b * b);
+      v += var(j, c.cur[j]) * a * a + var(j, c.prev[j]) * b * b;
     }
     noise_[i] = v;
   }
@@ -104,7 +111,8 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
   Decision d;
   active_ = c.flow_updates >= unknowns_;
   if (!active_) return d;  // warm-up: flow, scale not updated
-  const bool known_noise = c.sigma != nullptr && c.sigma->size() == c.cur.size() && c.sigma->any();
+  const bool known_noise = (c.sigma != nullptr && c.sigma->size() == c.cur.size() && c.sigma->any()) ||
+                           c.data_rtol > 0.0 || c.data_atol > 0.0;
   if (known_noise) NoiseVariance(c);
   constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
   const Mat* p = c.alpha_covariance;
