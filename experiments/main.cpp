@@ -1,11 +1,12 @@
 // hysid: identification of hybrid dynamical systems from sampled states.
-// Subcommands: simulate, models (and more as they land). `hysid --help` lists them.
+// Subcommands: models, simulate, identify, reproduce, sweep, merge. `hysid --help` lists them.
 #include <cstdio>
 #include <exception>
 
 #include <CLI/CLI.hpp>
 
 #include "experiments/cli.hpp"
+#include "hysid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
 
 int main(int argc, char** argv) {
   hysid::cli::Environment env;

@@ -6,9 +6,7 @@
 #include <oneapi/tbb/version.h>
 #include <sundials/sundials_config.h>
 
-#ifndef HYSID_GIT_REVISION
-#define HYSID_GIT_REVISION "unknown"
-#endif
+#include "hysid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
 #ifndef HYSID_BUILD_TYPE
 #define HYSID_BUILD_TYPE "unknown"
 #endif
