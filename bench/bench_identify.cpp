@@ -23,7 +23,7 @@ Mat PaperSamples(double sigma) {
 // One iteration = a whole 40001-sample run through Identifier::Step; the counter is per sample.
 void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char* detector = "paper",
                    bool known_sigma = false, bool localize = false,
-                   const std::string& estimator = "rls") {
+                   const std::string& estimator = "rls", bool data_accuracy = false) {
   const Model model{ImpactMsd{}};
   const Mat y = PaperSamples(sigma);
   IdentifierSettings settings;
@@ -32,6 +32,10 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
   settings.localize = localize;
   if (known_sigma) settings.sigma = Vec::Constant(2, sigma);
   settings.flow_estimator.name = settings.jump_estimator.name = estimator;
+  if (data_accuracy) {  // as in sweeps: the simulator's tolerances as the data's accuracy
+    settings.data_rtol = SimOptions{}.rtol;
+    settings.data_atol = SimOptions{}.atol;
+  }
   for (auto _ : state) {
     Identifier id(model, 5e-4, settings);
     for (Eigen::Index k = 0; k < y.cols(); ++k) benchmark::DoNotOptimize(id.Step(y.col(k)));
@@ -57,6 +61,13 @@ BENCHMARK(BM_IdentifyStepWithHullsNoisy)->Unit(benchmark::kMillisecond);
 // The tuning-free residual detector (issue 6) in place of the paper's, same run, no sample sets.
 void BM_IdentifyStepResidual(benchmark::State& state) { RunIdentifier(state, false, 0.0, "residual"); }
 BENCHMARK(BM_IdentifyStepResidual)->Unit(benchmark::kMillisecond);
+
+// As in sweeps: σ not given, the simulator's tolerances as the data's accuracy (propagated through
+// the flow Jacobian every sample, like a known σ).
+void BM_IdentifyStepResidualDataAccuracy(benchmark::State& state) {
+  RunIdentifier(state, false, 0.25, "residual", false, false, "rls", true);
+}
+BENCHMARK(BM_IdentifyStepResidualDataAccuracy)->Unit(benchmark::kMillisecond);
 
 // σ = 0.25 given: the noise is propagated through the flow Jacobian every sample.
 void BM_IdentifyStepResidualKnownSigma(benchmark::State& state) {

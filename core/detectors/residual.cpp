@@ -79,8 +79,13 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
     return s * s + d * d;
   };
   if (model_.spec().flow_jacobian_constant) {
-    model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
-    jac_prev_ = jac_cur_;
+    // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version).
+    if (!have_jac_ || c.version != jac_version_) {
+      model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
+      jac_prev_ = jac_cur_;
+      jac_version_ = c.version;
+      have_jac_ = true;
+    }
   } else {
     // φ(ξ(t−δt)) was ξ(t) of the previous call: reuse its Jacobian (α̂ moved by one update since,
     // a negligible change in an O(δt) correction of the variance).

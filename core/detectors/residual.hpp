@@ -90,6 +90,7 @@ class ResidualDetector final : public JumpDetector {
   Mat jac_prev_, jac_cur_;
   Vec jac_at_;
   bool have_jac_ = false;
+  long jac_version_ = -1;  // α̂ version of jac_cur_ (constant Jacobians)
 };
 
 }  // namespace hysid
