@@ -171,7 +171,7 @@ void ResidualDetector::Observe(const SampleContext& /*context*/, const Decision&
   const double w = 1.0 / static_cast<double>(n);
   for (std::size_t i = 0; i < rows_.size(); ++i) {
     double r = rho2_[i] / (1.0 + lev_[i]);
-    if (scale_samples_ > 0) {
+    if (scale_samples_ >= kUnclipped) {
       // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
       // clipping everything to zero).
       const double reference =
