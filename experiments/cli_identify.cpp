@@ -30,7 +30,7 @@ struct IdentifyArgs {
   double r = 220.0;
   double tau0 = 1e5;
   std::string bound = "auto";
-  double false_alarm = 1e-6;
+  double false_alarm = 1e-8;
   bool localize = false;
   bool second_pass = false;
   double jump_forgetting = 1.0;

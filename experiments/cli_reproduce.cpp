@@ -27,7 +27,7 @@ struct ReproduceArgs {
   std::uint64_t seed = 1;
   std::string detector = "paper";
   std::string estimator = "rls";
-  double false_alarm = 1e-6;
+  double false_alarm = 1e-8;
   bool localize = false;
   bool second_pass = false;
 };

@@ -1,6 +1,6 @@
 // A tuning-free jump detector: the one-step prediction residual of the current flow model, tested
 // against its predicted distribution under flow. Its one input is the false-alarm probability
-// p = DetectorSettings::false_alarm (default 1e-6 per sample).
+// p = DetectorSettings::false_alarm (default 1e-8 per sample).
 //
 // Residual. On each identified row i (the model's flow_rows) of the trapezoid regression
 // (core/regression.hpp), ρ_i = y_i − Φ_i α̂_u = Δξ_i − (δt/2)(f̂_i(ξ(t)) + f̂_i(ξ(t−δt))).
