@@ -39,14 +39,24 @@ BoundMode ResolveBoundMode(const std::string& bound, const Model& model) {
 
 double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
                        const Eigen::Ref<const Mat>& points) {
+  JacobianScratch scratch;
+  return SupJacobianNorm(model, alpha, mode, points, scratch);
+}
+
+double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
+                       const Eigen::Ref<const Mat>& points, JacobianScratch& scratch) {
   const int n = model.state_size();
   const auto& rows = model.spec().flow_rows;
   const int nr = static_cast<int>(rows.size());
-  Mat jac(n, n), reduced(nr, mode == BoundMode::kHomogeneous ? n + 1 : n);
-  Vec f0(n);
+  Mat& jac = scratch.jac;
+  Mat& reduced = scratch.reduced;
+  Vec& f0 = scratch.f0;
+  jac.resize(n, n);
+  reduced.resize(nr, mode == BoundMode::kHomogeneous ? n + 1 : n);
+  f0.resize(n);
   if (mode == BoundMode::kHomogeneous) {
-    const Vec zero = Vec::Zero(n);
-    model.Flow(zero, alpha, f0);
+    scratch.zero.setZero(n);
+    model.Flow(scratch.zero, alpha, f0);
   }
   const Eigen::Index count = model.spec().flow_jacobian_constant ? 1 : points.cols();
   double sup = 0.0;
@@ -61,11 +71,60 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
   return sup;
 }
 
+VertexJacobianSup::VertexJacobianSup(const Model& model, BoundMode mode) : model_(model), mode_(mode) {}
+
+void VertexJacobianSup::SetPoints(const Mat& points) {
+  points_ = points;
+  stale_ = true;
+  const int p = model_.alpha_size();
+  column_sup_.setZero(p);
+  for (int k = 0; k < p; ++k) {
+    const Vec unit = Vec::Unit(p, k);
+    for (Eigen::Index v = 0; v < points_.cols(); ++v) column_sup_[k] = std::max(column_sup_[k], NormAt(v, unit));
+  }
+}
+
+double VertexJacobianSup::NormAt(Eigen::Index v, ConstVecRef alpha) const {
+  return SupJacobianNorm(model_, alpha, mode_, points_.col(v), scratch_);
+}
+
+void VertexJacobianSup::Refresh(ConstVecRef alpha) {
+  ++refreshes_;
+  alpha0_ = alpha;
+  const Eigen::Index h = points_.cols();
+  Vec norms(h);
+  for (Eigen::Index v = 0; v < h; ++v) norms[v] = NormAt(v, alpha);
+  sup0_ = h > 0 ? norms.maxCoeff() : 0.0;
+  margin_ = 1e-3 * sup0_;
+  candidates_.clear();
+  for (Eigen::Index v = 0; v < h; ++v) {
+    if (norms[v] >= sup0_ - 2.0 * margin_) candidates_.push_back(v);
+  }
+  stale_ = false;
+}
+
+double VertexJacobianSup::Sup(ConstVecRef alpha) {
+  if (points_.cols() == 0) return 0.0;
+  if (!stale_) {
+    double delta = 0.0;
+    for (Eigen::Index k = 0; k < alpha.size(); ++k) delta += std::abs(alpha[k] - alpha0_[k]) * column_sup_[k];
+    stale_ = !(delta <= margin_);
+  }
+  if (stale_) {
+    Refresh(alpha);
+    return sup0_;
+  }
+  double sup = 0.0;
+  for (Eigen::Index v : candidates_) sup = std::max(sup, NormAt(v, alpha));
+  return sup;
+}
+
 PaperDetector::PaperDetector(const DetectorSettings& settings, const Model& model)
     : r_(settings.r),
       tau0_(settings.tau0),
       mode_(ResolveBoundMode(settings.bound, model)),
-      constant_jacobian_(model.spec().flow_jacobian_constant) {
+      constant_jacobian_(model.spec().flow_jacobian_constant),
+      vertex_sup_(model, mode_) {
   int unknowns = 0;
   for (const Parameter& p : model.spec().alpha) unknowns += p.known ? 0 : 1;
   unknowns_ = unknowns;
@@ -181,17 +240,17 @@ Decision PaperDetector::Classify(const SampleContext& c) {
     if (c.version != cached_version_ || hull_version != cached_hull_version_) {
       double l = 0.0;
       if (c.flow_set && c.flow_set->hull_dimension() >= 0) {
-        points_ = c.flow_set->vertices();
-        l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, points_);
+        if (hull_version != cached_hull_version_) vertex_sup_.SetPoints(c.flow_set->vertices());
+        l = vertex_sup_.Sup(c.alpha_hat);
       }
       cached_l2_ = l * l;
       cached_version_ = c.version;
       cached_hull_version_ = hull_version;
     }
-    Mat pair(c.cur.size(), 2);
-    pair.col(0) = c.prev;
-    pair.col(1) = c.cur;
-    const double l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, pair);
+    pair_.resize(c.cur.size(), 2);
+    pair_.col(0) = c.prev;
+    pair_.col(1) = c.cur;
+    const double l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, pair_, scratch_);
     l2 = std::max(cached_l2_, l * l);
   }
   const double s = cur_norm + prev_norm;

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cmath>
+#include <vector>
 
 #include "core/detector.hpp"
 
@@ -30,6 +31,13 @@ BoundMode ResolveBoundMode(const std::string& bound, const Model& model);
 // column; only one is used when the Jacobian is constant).
 double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
                        const Eigen::Ref<const Mat>& points);
+// The same with caller-owned work space (no allocation once it has the right sizes).
+struct JacobianScratch {
+  Mat jac, reduced;
+  Vec f0, zero;
+};
+double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
+                       const Eigen::Ref<const Mat>& points, JacobianScratch& scratch);
 
 // λmax(AAᵀ) = ‖A‖₂².
 double SpectralNormSquared(const Eigen::Ref<const Mat>& a);
@@ -41,6 +49,38 @@ inline double BoundNorm(const double* x, Eigen::Index n, BoundMode mode) {
   return std::sqrt(mode == BoundMode::kHomogeneous ? s + 1.0 : s);
 }
 inline double BoundNorm(ConstVecRef x, BoundMode mode) { return BoundNorm(x.data(), x.size(), mode); }
+
+// L̂ = max over the vertices ξ_v of Ĉ of n_v(α) = ‖J̄_r(ξ_v, α)‖₂ for a Jacobian that depends on ξ,
+// exact, without evaluating every vertex whenever α̂ changes. J̄_r is linear in α, so
+//   |n_v(α) − n_v(α0)| ≤ Δ(α) = Σ_k |α_k − α0_k| M_k,   M_k = max_v ‖J̄_r(ξ_v, e_k)‖₂.
+// At a refresh (new vertices, or Δ beyond the margin m = 1e-3·L̂(α0)) every n_v(α0) is evaluated and
+// the candidates are the vertices with n_v(α0) ≥ L̂(α0) − 2m. While Δ(α) ≤ m, a vertex outside them
+// has n_v(α) < L̂(α0) − m ≤ n_{v*}(α) (v* the maximiser at α0), so the maximum over the candidates is
+// the maximum over all vertices. The margin only trades refreshes for candidates; the value is exact.
+class VertexJacobianSup {
+ public:
+  VertexJacobianSup(const Model& model, BoundMode mode);
+  // New vertex set (n × h, h ≥ 1): forces a refresh at the next Sup.
+  void SetPoints(const Mat& points);
+  double Sup(ConstVecRef alpha);  // L̂(α); 0 without points
+  long refreshes() const { return refreshes_; }
+  std::size_t candidates() const { return candidates_.size(); }
+
+ private:
+  void Refresh(ConstVecRef alpha);
+  double NormAt(Eigen::Index v, ConstVecRef alpha) const;
+
+  Model model_;
+  BoundMode mode_;
+  Mat points_;
+  Vec column_sup_;  // M_k
+  mutable JacobianScratch scratch_;
+  Vec alpha0_;
+  double sup0_ = 0.0, margin_ = 0.0;
+  std::vector<Eigen::Index> candidates_;
+  bool stale_ = true;
+  long refreshes_ = 0;
+};
 
 class PaperDetector final : public JumpDetector {
  public:
@@ -70,7 +110,9 @@ class PaperDetector final : public JumpDetector {
   // ξ(t) of the previous call and its BoundNorm: the next call's ξ(t−δt) when pairs are consecutive.
   Vec last_x_;
   double last_norm_ = 0.0;
-  Mat points_;
+  VertexJacobianSup vertex_sup_;
+  JacobianScratch scratch_;
+  Mat pair_;
 };
 
 }  // namespace hysid
