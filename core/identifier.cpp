@@ -6,7 +6,9 @@
 
 #include <fmt/format.h>
 
+#include "core/detectors/paper.hpp"
 #include "core/estimators/frisch.hpp"
+#include "core/estimators/rls.hpp"
 #include "core/localize.hpp"
 #include "core/noise_shape.hpp"
 
@@ -88,6 +90,14 @@ struct Identifier::State {
         yj(builder.jump_layout().rows.size()),
         localizer(m) {
     alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
+    // The common configuration gets direct, inlined calls instead of the virtual interfaces: the
+    // paper detector on a model with a constant flow Jacobian, RLS for α on one identified row.
+    // Same arithmetic in the same order (tests/test_identifier.cpp checks bit-equality).
+    if (s.direct_calls && m.spec().flow_jacobian_constant && builder.flow_layout().rows.size() == 1) {
+      paper = dynamic_cast<PaperDetector*>(detector.get());
+      rls = dynamic_cast<Rls*>(flow.get());
+      if (paper == nullptr || rls == nullptr) paper = nullptr, rls = nullptr;
+    }
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
       throw std::invalid_argument(fmt::format(
           "IdentifierSettings::sigma has {} entries; the model has {} states", s.sigma.size(),
@@ -101,6 +111,8 @@ struct Identifier::State {
   RegressionBuilder builder;
   std::unique_ptr<Estimator> flow, jump;
   std::unique_ptr<JumpDetector> detector;
+  PaperDetector* paper = nullptr;  // set (with rls) when the direct path applies
+  Rls* rls = nullptr;
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -142,6 +154,28 @@ Identifier::~Identifier() = default;
 Identifier::Identifier(Identifier&&) noexcept = default;
 Identifier& Identifier::operator=(Identifier&&) noexcept = default;
 
+// γ = 0, after the α estimator's update: α̂, its version, Λ.
+void Identifier::AfterFlowUpdate(State& s) {
+  const Vec& theta = s.flow->estimate();
+  const auto& unknown = s.builder.flow_layout().unknown;
+  for (std::size_t i = 0; i < unknown.size(); ++i) s.alpha_full[unknown[i]] = theta[Eigen::Index(i)];
+  ++s.version;
+  if (s.settings.sets) s.flow_set.Add(s.prev);
+}
+
+// γ = 1: the jump regression (at the located instant when asked and found), β̂, Γ.
+void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
+  if (s.settings.localize && s.localizer.Locate(s.prev, x, s.dt, alpha_class, &s.location)) {
+    s.builder.Jump(s.location.pre, s.location.post, s.psi, s.yj);
+    ++s.localized;
+  } else {
+    s.builder.Jump(s.prev, x, s.psi, s.yj);
+  }
+  s.jump->Update(s.psi, s.yj);
+  ++s.jumps;
+  if (s.settings.sets) s.jump_set.Add(s.prev);
+}
+
 Decision Identifier::Step(ConstVecRef x) {
   State& s = *s_;
   ++s.samples;
@@ -152,6 +186,19 @@ Decision Identifier::Step(ConstVecRef x) {
   }
   s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
   const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
+  if (s.paper != nullptr) {
+    const Decision d = s.paper->ClassifyConstant(s.prev.data(), x.data(), x.size(), s.dt,
+                                                 alpha_class.data(), s.frozen ? -2 : s.version,
+                                                 s.frozen ? s.frozen_updates : s.rls->updates());
+    if (!d.gamma) {
+      s.rls->UpdateRow(s.phi.data(), s.y[0]);
+      AfterFlowUpdate(s);
+    } else {
+      AfterJump(s, x, alpha_class);
+    }
+    s.prev = x;
+    return d;
+  }
   SampleContext c{.model = &s.model,
                   .dt = s.dt,
                   .prev = ConstVecMap(s.prev.data(), s.prev.size()),
@@ -170,21 +217,9 @@ Decision Identifier::Step(ConstVecRef x) {
   const Decision d = s.detector->Classify(c);
   if (!d.gamma) {
     s.flow->Update(s.phi, s.y);
-    const Vec& theta = s.flow->estimate();
-    const auto& unknown = s.builder.flow_layout().unknown;
-    for (std::size_t i = 0; i < unknown.size(); ++i) s.alpha_full[unknown[i]] = theta[Eigen::Index(i)];
-    ++s.version;
-    if (s.settings.sets) s.flow_set.Add(s.prev);
+    AfterFlowUpdate(s);
   } else {
-    if (s.settings.localize && s.localizer.Locate(s.prev, x, s.dt, alpha_class, &s.location)) {
-      s.builder.Jump(s.location.pre, s.location.post, s.psi, s.yj);
-      ++s.localized;
-    } else {
-      s.builder.Jump(s.prev, x, s.psi, s.yj);
-    }
-    s.jump->Update(s.psi, s.yj);
-    ++s.jumps;
-    if (s.settings.sets) s.jump_set.Add(s.prev);
+    AfterJump(s, x, alpha_class);
   }
   s.detector->Observe(c, d);
   s.prev = x;

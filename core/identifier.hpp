@@ -52,6 +52,10 @@ struct IdentifierSettings {
   Vec alpha0, beta0;
   bool localize = false;     // sub-sample jump localisation for the jump regression
   bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
+  // Direct, inlined calls for the paper detector with RLS on a constant-Jacobian model with one
+  // identified row, instead of the virtual detector and estimator interfaces (same results, bit for
+  // bit; about 3x less time per sample). false: always the interfaces (for tests and comparisons).
+  bool direct_calls = true;
 };
 
 // Noise shapes of the errors-in-variables estimators. For each of flow_estimator and jump_estimator
@@ -99,6 +103,8 @@ class Identifier {
 
  private:
   struct State;
+  static void AfterFlowUpdate(State& s);
+  static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);
   std::unique_ptr<State> s_;
 };
 

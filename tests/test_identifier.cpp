@@ -38,6 +38,51 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
 }
 
 
+TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit for bit",
+          "[identify][direct]") {
+  // The identifier calls PaperDetector and Rls directly for constant-Jacobian models with one
+  // identified row; IdentifierSettings::direct_calls = false forces the virtual interfaces.
+  struct Case {
+    const char* what;
+    Model model;
+    double sigma, r, forgetting;
+    bool sets, second_pass, localize;
+  };
+  const Case cases[] = {
+      {"§5 noise-free, sets", Model{ImpactMsd{}}, 0.0, 220.0, 1.0, true, false, false},
+      {"§5 sigma 0.25", Model{ImpactMsd{}}, 0.25, 220.0, 1.0, false, false, false},
+      {"§5 sigma 0.25, r 20 (false jumps)", Model{ImpactMsd{}}, 0.25, 20.0, 1.0, false, false, false},
+      {"§5 sigma 0.05, forgetting, second pass, localize", Model{ImpactMsd{}}, 0.05, 220.0, 0.999,
+       true, true, true},
+      {"bouncing ball (homogeneous bound)", Model{BouncingBall{}}, 0.01, 220.0, 1.0, true, false, false},
+  };
+  for (const Case& k : cases) {
+    INFO(k.what);
+    const auto& spec = k.model.spec();
+    const Trajectory traj = Simulate(k.model, DefaultX0(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
+    const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(k.model.state_size(), k.sigma), NoiseKey{3, 0});
+    IdentifierSettings s;
+    s.detector.r = k.r;
+    s.flow_estimator.forgetting = k.forgetting;
+    s.sets = k.sets;
+    s.second_pass = k.second_pass;
+    s.localize = k.localize;
+    const IdentifyResult direct = Identify(k.model, y, traj.dt, s, IdentifyOptions{.trace = true});
+    s.direct_calls = false;
+    const IdentifyResult generic = Identify(k.model, y, traj.dt, s, IdentifyOptions{.trace = true});
+    CHECK(direct.gamma == generic.gamma);
+    CHECK(direct.statistic == generic.statistic);
+    CHECK(direct.threshold == generic.threshold);
+    CHECK(direct.alpha_trace == generic.alpha_trace);
+    CHECK(direct.beta_trace == generic.beta_trace);
+    CHECK(direct.flow_hull == generic.flow_hull);
+    CHECK(direct.jump_hull == generic.jump_hull);
+    CHECK(direct.flow_status == generic.flow_status);
+    CHECK(direct.jumps_detected == generic.jumps_detected);
+    CHECK(direct.jumps_detected > 0);
+  }
+}
+
 TEST_CASE("bouncing ball at sigma 0: g and lambda within 1 %", "[identify]") {
   // Affine flow (gravity): the bound is taken in homogeneous coordinates ("auto" picks it).
   const Model model{BouncingBall{}};

@@ -152,39 +152,10 @@ PaperDetector::PaperDetector(const DetectorSettings& settings, const Model& mode
   }
 }
 
-namespace {
-
-// αᵀQα for a symmetric p × p matrix Q (column-major); P = p when known at compile time, else 0.
-template <int P>
-double QuadraticForm(Eigen::Index p_dynamic, const double* q, const double* alpha) {
-  const Eigen::Index p = P > 0 ? P : p_dynamic;
-  double s = 0.0;
-  for (Eigen::Index c = 0; c < p; ++c) {
-    double qa = 0.0;
-    for (Eigen::Index r = 0; r < p; ++r) qa += q[c * p + r] * alpha[r];
-    s += alpha[c] * qa;
-  }
-  return s;
-}
-
-}  // namespace
-
-// ‖J̄_r(α)‖₂² for a constant Jacobian. One identified row: ‖Gα‖² = αᵀ(GᵀG)α with GᵀG precomputed;
-// more rows: the spectral norm of the reshaped Gα.
-double PaperDetector::LinearNormSquared(ConstVecRef alpha) {
-  if (reduced_rows_ == 1) {
-    const Eigen::Index p = gram_.rows();
-    const double* q = gram_.data();
-    switch (p) {
-      case 1: return QuadraticForm<1>(p, q, alpha.data());
-      case 2: return QuadraticForm<2>(p, q, alpha.data());
-      case 3: return QuadraticForm<3>(p, q, alpha.data());
-      case 4: return QuadraticForm<4>(p, q, alpha.data());
-      default: return QuadraticForm<0>(p, q, alpha.data());
-    }
-  }
+// More than one identified row: the spectral norm of the reshaped Gα.
+double PaperDetector::SpectralLinearNormSquared(const double* alpha) {
   const Eigen::Index m = g_.rows();
-  jvec_.noalias() = g_ * alpha;
+  jvec_.noalias() = g_ * Eigen::Map<const Vec>(alpha, g_.cols());
   return SpectralNormSquared(Eigen::Map<const Mat>(jvec_.data(), reduced_rows_, m / reduced_rows_));
 }
 
@@ -197,66 +168,40 @@ void PaperDetector::Reset() {
   last_norm_ = 0.0;
 }
 
-// The decision is taken on squares, D² > τ̂², so that no square root sits on the chain
-// α̂ → τ̂ → γ → α̂ of consecutive samples; D and τ̂ themselves are computed off that chain.
-// Square roots are the costly instructions here: ‖ξ(t−δt)‖ is the previous call's ‖ξ(t)‖ when the
-// pairs are consecutive, D and ‖ξ(t)‖ share one packed square root, and √L̂² is taken when L̂² changes.
 Decision PaperDetector::Classify(const SampleContext& c) {
-  Decision d;
-  const Eigen::Index n = c.cur.size();
-  const double inv_dt = 1.0 / c.dt;
-  double d2 = 0.0, cur2 = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double v = (c.cur[i] - c.prev[i]) * inv_dt;
-    d2 += v * v;
-    cur2 += c.cur[i] * c.cur[i];
+  if (constant_jacobian_) {
+    return ClassifyConstant(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat.data(),
+                            c.version, c.flow_updates);
   }
-  if (mode_ == BoundMode::kHomogeneous) cur2 += 1.0;
-  const Eigen::Array2d roots = Eigen::Array2d(d2, cur2).sqrt();
-  d.statistic = roots[0];
-  const double cur_norm = roots[1];
-  bool consecutive = last_x_.size() == n;
-  for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = last_x_[i] == c.prev[i];
-  const double prev_norm = consecutive ? last_norm_ : BoundNorm(c.prev, mode_);
-  if (last_x_.size() != n) last_x_.resize(n);
-  for (Eigen::Index i = 0; i < n; ++i) last_x_[i] = c.cur[i];
-  last_norm_ = cur_norm;
+  Decision d;
+  double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
+  Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
   if (c.flow_updates < unknowns_) {
     d.threshold = tau0_;
     d.gamma = d.statistic > d.threshold;
     return d;
   }
-  double l2 = 0.0;
-  if (constant_jacobian_) {
-    if (c.version != cached_version_) {
-      cached_l2_ = LinearNormSquared(c.alpha_hat);
-      cached_l_ = std::sqrt(cached_l2_);
-      cached_version_ = c.version;
+  // Vertices of Ĉ (cached per α̂ and hull version), then the current pair.
+  const long hull_version = c.flow_set ? c.flow_set->version() : -1;
+  if (c.version != cached_version_ || hull_version != cached_hull_version_) {
+    double l = 0.0;
+    if (c.flow_set && c.flow_set->hull_dimension() >= 0) {
+      if (hull_version != cached_hull_version_) vertex_sup_.SetPoints(c.flow_set->vertices());
+      l = vertex_sup_.Sup(c.alpha_hat);
     }
-    l2 = cached_l2_;
-  } else {
-    // Vertices of Ĉ (cached per α̂ and hull version), then the current pair.
-    const long hull_version = c.flow_set ? c.flow_set->version() : -1;
-    if (c.version != cached_version_ || hull_version != cached_hull_version_) {
-      double l = 0.0;
-      if (c.flow_set && c.flow_set->hull_dimension() >= 0) {
-        if (hull_version != cached_hull_version_) vertex_sup_.SetPoints(c.flow_set->vertices());
-        l = vertex_sup_.Sup(c.alpha_hat);
-      }
-      cached_l2_ = l * l;
-      cached_version_ = c.version;
-      cached_hull_version_ = hull_version;
-    }
-    pair_.resize(c.cur.size(), 2);
-    pair_.col(0) = c.prev;
-    pair_.col(1) = c.cur;
-    const double l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, pair_, scratch_);
-    l2 = std::max(cached_l2_, l * l);
+    cached_l2_ = l * l;
+    cached_version_ = c.version;
+    cached_hull_version_ = hull_version;
   }
+  pair_.resize(c.cur.size(), 2);
+  pair_.col(0) = c.prev;
+  pair_.col(1) = c.cur;
+  const double l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, pair_, scratch_);
+  const double l2 = std::max(cached_l2_, l * l);
   const double s = cur_norm + prev_norm;
   const double half_r = 0.5 * r_;
   d.gamma = d2 > half_r * half_r * l2 * s * s;
-  d.threshold = half_r * (constant_jacobian_ ? cached_l_ : std::sqrt(l2)) * s;
+  d.threshold = half_r * std::sqrt(l2) * s;
   return d;
 }
 

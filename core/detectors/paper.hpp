@@ -50,6 +50,23 @@ inline double BoundNorm(const double* x, Eigen::Index n, BoundMode mode) {
 }
 inline double BoundNorm(ConstVecRef x, BoundMode mode) { return BoundNorm(x.data(), x.size(), mode); }
 
+namespace detail {
+
+// αᵀQα for a symmetric p × p matrix Q (column-major); P = p when known at compile time, else 0.
+template <int P>
+inline double QuadraticForm(Eigen::Index p_dynamic, const double* q, const double* alpha) {
+  const Eigen::Index p = P > 0 ? P : p_dynamic;
+  double s = 0.0;
+  for (Eigen::Index c = 0; c < p; ++c) {
+    double qa = 0.0;
+    for (Eigen::Index r = 0; r < p; ++r) qa += q[c * p + r] * alpha[r];
+    s += alpha[c] * qa;
+  }
+  return s;
+}
+
+}  // namespace detail
+
 // L̂ = max over the vertices ξ_v of Ĉ of n_v(α) = ‖J̄_r(ξ_v, α)‖₂ for a Jacobian that depends on ξ,
 // exact, without evaluating every vertex whenever α̂ changes. J̄_r is linear in α, so
 //   |n_v(α) − n_v(α0)| ≤ Δ(α) = Σ_k |α_k − α0_k| M_k,   M_k = max_v ‖J̄_r(ξ_v, e_k)‖₂.
@@ -90,7 +107,76 @@ class PaperDetector final : public JumpDetector {
   void Reset() override;
   BoundMode mode() const { return mode_; }
 
+  // The decision for a model with a constant flow Jacobian, from the pair ξ(t−δt), ξ(t) (n entries
+  // each), δt and the full α̂ alone: Classify's path for such models, and the identifier's direct
+  // (non-virtual, inlined) call. `version` changes whenever α̂ does; `flow_updates` as in
+  // SampleContext.
+  //
+  // The decision is taken on squares, D² > τ̂², so that no square root sits on the chain
+  // α̂ → τ̂ → γ → α̂ of consecutive samples; D and τ̂ themselves are computed off that chain.
+  Decision ClassifyConstant(const double* prev, const double* cur, Eigen::Index n, double dt,
+                            const double* alpha_hat, long version, long flow_updates) {
+    Decision d;
+    double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
+    Prologue(prev, cur, n, dt, &d, &d2, &cur_norm, &prev_norm);
+    if (flow_updates < unknowns_) {
+      d.threshold = tau0_;
+      d.gamma = d.statistic > d.threshold;
+      return d;
+    }
+    if (version != cached_version_) {
+      cached_l2_ = LinearNormSquared(alpha_hat);
+      cached_l_ = std::sqrt(cached_l2_);
+      cached_version_ = version;
+    }
+    const double s = cur_norm + prev_norm;
+    const double half_r = 0.5 * r_;
+    d.gamma = d2 > half_r * half_r * cached_l2_ * s * s;
+    d.threshold = half_r * cached_l_ * s;
+    return d;
+  }
+
  private:
+  // D² and D (d->statistic), ‖ξ(t)‖ and ‖ξ(t−δt)‖ in the bound's norm. Square roots are the costly
+  // instructions here: ‖ξ(t−δt)‖ is the previous call's ‖ξ(t)‖ when the pairs are consecutive, and
+  // D and ‖ξ(t)‖ share one packed square root.
+  void Prologue(const double* prev, const double* cur, Eigen::Index n, double dt, Decision* d,
+                double* d2_out, double* cur_norm, double* prev_norm) {
+    const double inv_dt = 1.0 / dt;
+    double d2 = 0.0, cur2 = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double v = (cur[i] - prev[i]) * inv_dt;
+      d2 += v * v;
+      cur2 += cur[i] * cur[i];
+    }
+    if (mode_ == BoundMode::kHomogeneous) cur2 += 1.0;
+    const Eigen::Array2d roots = Eigen::Array2d(d2, cur2).sqrt();
+    d->statistic = roots[0];
+    *d2_out = d2;
+    *cur_norm = roots[1];
+    bool consecutive = last_x_.size() == n;
+    for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = last_x_[i] == prev[i];
+    *prev_norm = consecutive ? last_norm_ : BoundNorm(prev, n, mode_);
+    if (last_x_.size() != n) last_x_.resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) last_x_[i] = cur[i];
+    last_norm_ = roots[1];
+  }
+  // ‖J̄_r(α)‖₂² for a constant Jacobian. One identified row: ‖Gα‖² = αᵀ(GᵀG)α with GᵀG
+  // precomputed; more rows: the spectral norm of the reshaped Gα.
+  double LinearNormSquared(const double* alpha) {
+    if (reduced_rows_ != 1) return SpectralLinearNormSquared(alpha);
+    const Eigen::Index p = gram_.rows();
+    const double* q = gram_.data();
+    switch (p) {
+      case 1: return detail::QuadraticForm<1>(p, q, alpha);
+      case 2: return detail::QuadraticForm<2>(p, q, alpha);
+      case 3: return detail::QuadraticForm<3>(p, q, alpha);
+      case 4: return detail::QuadraticForm<4>(p, q, alpha);
+      default: return detail::QuadraticForm<0>(p, q, alpha);
+    }
+  }
+  double SpectralLinearNormSquared(const double* alpha);
+
   double r_;
   double tau0_;
   BoundMode mode_;
@@ -101,7 +187,6 @@ class PaperDetector final : public JumpDetector {
   int reduced_rows_ = 0;
   Vec jvec_;
   Mat gram_;  // GᵀG (|α| × |α|): ‖J̄_r(α)‖² = αᵀGᵀGα for one identified row
-  double LinearNormSquared(ConstVecRef alpha);
   // Cache of the part of L̂ that depends only on α̂ and Ĉ.
   long cached_version_ = -1;
   long cached_hull_version_ = -1;

@@ -8,9 +8,56 @@
 // while trace(P) exceeds its initial value p0·p, so P stays bounded and θ finite.
 #pragma once
 
+#include <cmath>
+
 #include "core/estimator.hpp"
 
 namespace hysid {
+
+namespace detail {
+
+// One scalar row, the common case (one identified state component). P = the parameter count when
+// known at compile time (the loops unroll), or 0 for any p. `stride` is the distance between φ's
+// entries: a 1×p row of a column-major matrix binds to ConstMatRef without a copy and then has
+// outerStride() = the parent's row count. Returns false (nothing changed) when φᵀPφ + λ is not a
+// positive finite number.
+template <int P>
+inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, double* g,
+                     const double* phi, Eigen::Index stride, double y, double lambda,
+                     double max_trace) {
+  const Eigen::Index p = P > 0 ? P : p_dynamic;
+  double denom = lambda;
+  double pred = 0.0;
+  for (Eigen::Index i = 0; i < p; ++i) {
+    double s = 0.0;
+    // P symmetric: (Pφ)_i
+    for (Eigen::Index k = 0; k < p; ++k) s += pp[k * p + i] * phi[k * stride];
+    g[i] = s;
+    denom += phi[i * stride] * s;
+    pred += phi[i * stride] * theta[i];
+  }
+  if (!(denom > 0.0) || !std::isfinite(denom)) return false;
+  const double e = y - pred;
+  const double inv = 1.0 / denom;
+  double trace = 0.0;
+  for (Eigen::Index i = 0; i < p; ++i) theta[i] += g[i] * inv * e;
+  for (Eigen::Index c = 0; c < p; ++c) {
+    for (Eigen::Index r = c; r < p; ++r) {
+      const double v = pp[c * p + r] - g[r] * g[c] * inv;
+      pp[c * p + r] = v;
+      pp[r * p + c] = v;
+    }
+    trace += pp[c * p + c];
+  }
+  if (lambda != 1.0 && trace < max_trace) {
+    const double scale = 1.0 / lambda;
+    for (Eigen::Index i = 0; i < p * p; ++i) pp[i] *= scale;
+  }
+  return true;
+}
+
+}  // namespace detail
+
 
 class Rls final : public Estimator {
  public:
@@ -20,9 +67,42 @@ class Rls final : public Estimator {
   std::string name() const override { return "rls"; }
   void Reset() override;
 
+  // Update with one regression row φ (p entries, contiguous) and y: the same as Update(φᵀ, y) for a
+  // 1 × p Φ, without the size checks or the virtual call (the identifier's per-sample path).
+  void UpdateRow(const double* phi, double y) {
+    const Eigen::Index p = theta_.size();
+    bool finite = std::isfinite(y);
+    bool any = false;
+    for (Eigen::Index i = 0; i < p; ++i) {
+      finite = finite && std::isfinite(phi[i]);
+      any = any || phi[i] != 0.0;
+    }
+    if (!finite) {
+      ++skipped_;
+      return;
+    }
+    ++updates_;
+    ScalarUpdate(phi, 1, y);
+    rank_updates_ += any ? 1 : 0;
+    if (status_ == EstimatorStatus::kNotExcited && rank_updates_ >= p) status_ = EstimatorStatus::kOk;
+  }
+
  private:
   void DoUpdate(ConstMatRef phi, ConstVecRef y) override;
-  void ScalarUpdate(const double* phi, Eigen::Index stride, double y);
+  void ScalarUpdate(const double* phi, Eigen::Index stride, double y) {
+    const Eigen::Index p = theta_.size();
+    double* pp = p_.data();
+    double* theta = theta_.data();
+    double* g = work_.data();
+    bool ok = false;
+    switch (p) {
+      case 1: ok = detail::ScalarRlsUpdate<1>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+      case 2: ok = detail::ScalarRlsUpdate<2>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+      case 3: ok = detail::ScalarRlsUpdate<3>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+      default: ok = detail::ScalarRlsUpdate<0>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+    }
+    if (!ok) status_ = EstimatorStatus::kIllConditioned;
+  }
 
   Vec theta0_;
   Mat p_;
