@@ -90,13 +90,14 @@ struct Identifier::State {
         yj(builder.jump_layout().rows.size()),
         localizer(m) {
     alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
-    // The common configuration gets direct, inlined calls instead of the virtual interfaces: the
-    // paper detector on a model with a constant flow Jacobian, RLS for α on one identified row.
-    // Same arithmetic in the same order (tests/test_identifier.cpp checks bit-equality).
-    if (s.direct_calls && m.spec().flow_jacobian_constant && builder.flow_layout().rows.size() == 1) {
-      paper = dynamic_cast<PaperDetector*>(detector.get());
+    // The common configurations get direct, inlined calls instead of the virtual interfaces: RLS
+    // for α on one identified row, and with it the paper detector on a model with a constant flow
+    // Jacobian. Same arithmetic in the same order (tests/test_identifier.cpp checks bit-equality).
+    if (s.direct_calls && builder.flow_layout().rows.size() == 1) {
       rls = dynamic_cast<Rls*>(flow.get());
-      if (paper == nullptr || rls == nullptr) paper = nullptr, rls = nullptr;
+      if (rls != nullptr && m.spec().flow_jacobian_constant) {
+        paper = dynamic_cast<PaperDetector*>(detector.get());
+      }
     }
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
       throw std::invalid_argument(fmt::format(
@@ -111,8 +112,8 @@ struct Identifier::State {
   RegressionBuilder builder;
   std::unique_ptr<Estimator> flow, jump;
   std::unique_ptr<JumpDetector> detector;
-  PaperDetector* paper = nullptr;  // set (with rls) when the direct path applies
-  Rls* rls = nullptr;
+  Rls* rls = nullptr;              // the α estimator, when it is RLS on one row (direct_calls)
+  PaperDetector* paper = nullptr;  // with rls: the detector, when it is the paper's (constant Jacobian)
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -216,7 +217,11 @@ Decision Identifier::Step(ConstVecRef x) {
                   .data_atol = s.settings.data_atol};
   const Decision d = s.detector->Classify(c);
   if (!d.gamma) {
-    s.flow->Update(s.phi, s.y);
+    if (s.rls != nullptr) {
+      s.rls->UpdateRow(s.phi.data(), s.y[0]);
+    } else {
+      s.flow->Update(s.phi, s.y);
+    }
     AfterFlowUpdate(s);
   } else {
     AfterJump(s, x, alpha_class);

@@ -78,14 +78,16 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
     const double d = c.data_rtol * std::abs(x) + c.data_atol;
     return s * s + d * d;
   };
+  const Mat* jac_prev = &jac_prev_;
   if (model_.spec().flow_jacobian_constant) {
-    // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version).
+    // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version); the same at both
+    // samples.
     if (!have_jac_ || c.version != jac_version_) {
       model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
-      jac_prev_ = jac_cur_;
       jac_version_ = c.version;
       have_jac_ = true;
     }
+    jac_prev = &jac_cur_;
   } else {
     // φ(ξ(t−δt)) was ξ(t) of the previous call: reuse its Jacobian (α̂ moved by one update since,
     // a negligible change in an O(δt) correction of the variance).
@@ -105,7 +107,7 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
     for (Eigen::Index j = 0; j < n; ++j) {
       const double unit = j == r ? 1.0 : 0.0;
       const double a = unit - h * jac_cur_(r, j);
-      const double b = unit + h * jac_prev_(r, j);
+      const double b = unit + h * (*jac_prev)(r, j);
       v += var(j, c.cur[j]) * a * a + var(j, c.prev[j]) * b * b;
     }
     noise_[i] = v;
