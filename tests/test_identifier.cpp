@@ -40,13 +40,14 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
 
 TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit for bit",
           "[identify][direct]") {
-  // The identifier calls PaperDetector and Rls directly for constant-Jacobian models with one
-  // identified row; IdentifierSettings::direct_calls = false forces the virtual interfaces.
+  // The identifier calls Rls directly for one identified row, and PaperDetector too for
+  // constant-Jacobian models; IdentifierSettings::direct_calls = false forces the virtual interfaces.
   struct Case {
     const char* what;
     Model model;
     double sigma, r, forgetting;
     bool sets, second_pass, localize;
+    const char* detector = "paper";
   };
   const Case cases[] = {
       {"§5 noise-free, sets", Model{ImpactMsd{}}, 0.0, 220.0, 1.0, true, false, false},
@@ -55,6 +56,10 @@ TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit 
       {"§5 sigma 0.05, forgetting, second pass, localize", Model{ImpactMsd{}}, 0.05, 220.0, 0.999,
        true, true, true},
       {"bouncing ball (homogeneous bound)", Model{BouncingBall{}}, 0.01, 220.0, 1.0, true, false, false},
+      {"§5 sigma 0.25, residual detector (direct RLS only)", Model{ImpactMsd{}}, 0.25, 220.0, 1.0,
+       false, true, true, "residual"},
+      {"impact pendulum, residual detector", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, true, false,
+       false, "residual"},
   };
   for (const Case& k : cases) {
     INFO(k.what);
@@ -62,6 +67,7 @@ TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit 
     const Trajectory traj = Simulate(k.model, DefaultX0(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
     const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(k.model.state_size(), k.sigma), NoiseKey{3, 0});
     IdentifierSettings s;
+    s.detector.name = k.detector;
     s.detector.r = k.r;
     s.flow_estimator.forgetting = k.forgetting;
     s.sets = k.sets;
