@@ -94,7 +94,7 @@ void Model::SetParameter(std::string_view assignment) {
   SetParameter(pname, value);
 }
 
-void Model::CentralDifferenceJacobian(const Concept& c, ConstVecRef x, ConstVecRef alpha,
+void Model::CentralDifferenceJacobian(const Concept& c, const ConstVecRef& x, const ConstVecRef& alpha,
                                       MatRef jac) {
   const Eigen::Index n = x.size();
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxStates, 1> xp = x, xm = x, fp(n), fm(n);

@@ -108,23 +108,23 @@ class Model {
   // Parses "name=value". Same errors as SetParameter, plus malformed text.
   void SetParameter(std::string_view assignment);
 
-  void Phi(ConstVecRef x, MatRef phi) const { impl_->Phi(x, phi); }
-  void Psi(ConstVecRef x, MatRef psi) const { impl_->Psi(x, psi); }
-  void Guards(ConstVecRef x, VecRef h) const { impl_->Guards(x, h); }
-  bool InFlowSet(ConstVecRef x) const { return impl_->InFlowSet(x); }
-  bool InJumpSet(ConstVecRef x) const { return impl_->InJumpSet(x); }
+  void Phi(const ConstVecRef& x, MatRef phi) const { impl_->Phi(x, phi); }
+  void Psi(const ConstVecRef& x, MatRef psi) const { impl_->Psi(x, psi); }
+  void Guards(const ConstVecRef& x, VecRef h) const { impl_->Guards(x, h); }
+  bool InFlowSet(const ConstVecRef& x) const { return impl_->InFlowSet(x); }
+  bool InJumpSet(const ConstVecRef& x) const { return impl_->InJumpSet(x); }
   // Puts x exactly on guard i when the struct knows how; otherwise leaves x unchanged (the
   // simulator's direction filter then keeps the guard from firing again).
   void ProjectOntoGuard(int i, VecRef x) const { impl_->ProjectOntoGuard(i, x); }
   // Euclidean distance from x to D when the struct provides DistanceToJumpSet, else NaN.
   bool has_jump_set_distance() const { return impl_->ProvidesJumpSetDistance(); }
-  double DistanceToJumpSet(ConstVecRef x) const { return impl_->DistanceToJumpSet(x); }
+  double DistanceToJumpSet(const ConstVecRef& x) const { return impl_->DistanceToJumpSet(x); }
 
   // f(ξ) = φ(ξ)α and g(ξ) = ψ(ξ)β with the given parameter vectors.
-  void Flow(ConstVecRef x, ConstVecRef alpha, VecRef dxdt) const { impl_->Flow(x, alpha, dxdt); }
-  void Jump(ConstVecRef x, ConstVecRef beta, VecRef xplus) const { impl_->Jump(x, beta, xplus); }
+  void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const { impl_->Flow(x, alpha, dxdt); }
+  void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const { impl_->Jump(x, beta, xplus); }
   // ∂(φ(ξ)α)/∂ξ, n × n: analytic when the struct provides it, else central differences.
-  void FlowJacobian(ConstVecRef x, ConstVecRef alpha, MatRef jac) const {
+  void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const {
     impl_->FlowJacobian(x, alpha, jac);
   }
 
@@ -139,50 +139,50 @@ class Model {
   struct Concept {
     virtual ~Concept() = default;
     virtual ModelSpec Spec() const = 0;
-    virtual void Phi(ConstVecRef x, MatRef phi) const = 0;
-    virtual void Psi(ConstVecRef x, MatRef psi) const = 0;
-    virtual void Guards(ConstVecRef x, VecRef h) const = 0;
-    virtual bool InFlowSet(ConstVecRef x) const = 0;
-    virtual bool InJumpSet(ConstVecRef x) const = 0;
+    virtual void Phi(const ConstVecRef& x, MatRef phi) const = 0;
+    virtual void Psi(const ConstVecRef& x, MatRef psi) const = 0;
+    virtual void Guards(const ConstVecRef& x, VecRef h) const = 0;
+    virtual bool InFlowSet(const ConstVecRef& x) const = 0;
+    virtual bool InJumpSet(const ConstVecRef& x) const = 0;
     virtual void ProjectOntoGuard(int i, VecRef x) const = 0;
     virtual bool ProvidesJumpSetDistance() const = 0;
-    virtual double DistanceToJumpSet(ConstVecRef x) const = 0;
-    virtual void Flow(ConstVecRef x, ConstVecRef alpha, VecRef dxdt) const = 0;
-    virtual void Jump(ConstVecRef x, ConstVecRef beta, VecRef xplus) const = 0;
-    virtual void FlowJacobian(ConstVecRef x, ConstVecRef alpha, MatRef jac) const = 0;
+    virtual double DistanceToJumpSet(const ConstVecRef& x) const = 0;
+    virtual void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const = 0;
+    virtual void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const = 0;
+    virtual void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const = 0;
   };
 
   template <class M>
   struct Impl final : Concept {
     explicit Impl(M m) : m_(std::move(m)) {}
     ModelSpec Spec() const override { return m_.Spec(); }
-    void Phi(ConstVecRef x, MatRef phi) const override { m_.Phi(x, phi); }
-    void Psi(ConstVecRef x, MatRef psi) const override { m_.Psi(x, psi); }
-    void Guards(ConstVecRef x, VecRef h) const override { m_.Guards(x, h); }
-    bool InFlowSet(ConstVecRef x) const override { return m_.InFlowSet(x); }
-    bool InJumpSet(ConstVecRef x) const override { return m_.InJumpSet(x); }
+    void Phi(const ConstVecRef& x, MatRef phi) const override { m_.Phi(x, phi); }
+    void Psi(const ConstVecRef& x, MatRef psi) const override { m_.Psi(x, psi); }
+    void Guards(const ConstVecRef& x, VecRef h) const override { m_.Guards(x, h); }
+    bool InFlowSet(const ConstVecRef& x) const override { return m_.InFlowSet(x); }
+    bool InJumpSet(const ConstVecRef& x) const override { return m_.InJumpSet(x); }
     void ProjectOntoGuard(int i, VecRef x) const override {
       if constexpr (HasGuardProjection<M>) m_.ProjectOntoGuard(i, x);
     }
     bool ProvidesJumpSetDistance() const override { return HasJumpSetDistance<M>; }
-    double DistanceToJumpSet(ConstVecRef x) const override {
+    double DistanceToJumpSet(const ConstVecRef& x) const override {
       if constexpr (HasJumpSetDistance<M>) {
         return m_.DistanceToJumpSet(x);
       } else {
         return std::numeric_limits<double>::quiet_NaN();
       }
     }
-    void Flow(ConstVecRef x, ConstVecRef alpha, VecRef dxdt) const override {
+    void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const override {
       ScratchMat phi(x.size(), alpha.size());
       m_.Phi(x, phi);
       dxdt.noalias() = phi * alpha;
     }
-    void Jump(ConstVecRef x, ConstVecRef beta, VecRef xplus) const override {
+    void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const override {
       ScratchMat psi(x.size(), beta.size());
       m_.Psi(x, psi);
       xplus.noalias() = psi * beta;
     }
-    void FlowJacobian(ConstVecRef x, ConstVecRef alpha, MatRef jac) const override {
+    void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const override {
       if constexpr (HasFlowJacobian<M>) {
         m_.FlowJacobian(x, alpha, jac);
       } else {
@@ -192,7 +192,7 @@ class Model {
     M m_;
   };
 
-  static void CentralDifferenceJacobian(const Concept& c, ConstVecRef x, ConstVecRef alpha,
+  static void CentralDifferenceJacobian(const Concept& c, const ConstVecRef& x, const ConstVecRef& alpha,
                                         MatRef jac);
   void Init();
 

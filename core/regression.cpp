@@ -48,7 +48,8 @@ RegressionBuilder::RegressionBuilder(const Model& model)
       psi_(model.state_size(), model.beta_size()),
       last_cur_(model.state_size()) {}
 
-void RegressionBuilder::Flow(ConstVecRef prev, ConstVecRef cur, double dt, MatRef phi, VecRef y) {
+void RegressionBuilder::Flow(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi,
+                             VecRef y) {
   // Consecutive pairs share a sample: φ(ξ(t−δt)) is the previous call's φ(ξ(t)).
   const Eigen::Index n = cur.size();
   bool consecutive = have_last_ && n == last_cur_.size();
@@ -75,7 +76,7 @@ void RegressionBuilder::Flow(ConstVecRef prev, ConstVecRef cur, double dt, MatRe
   }
 }
 
-void RegressionBuilder::Jump(ConstVecRef prev, ConstVecRef cur, MatRef psi, VecRef y) {
+void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y) {
   model_.Psi(prev, psi_);
   for (std::size_t i = 0; i < jump_.rows.size(); ++i) {
     const int r = jump_.rows[i];

@@ -37,9 +37,9 @@ class RegressionBuilder {
   const RegressionLayout& jump_layout() const { return jump_; }
 
   // Flow regression of the pair (ξ(t−δt), ξ(t)): writes Φ_{r,u} (rows × |u|) and y (rows).
-  void Flow(ConstVecRef prev, ConstVecRef cur, double dt, MatRef phi, VecRef y);
+  void Flow(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi, VecRef y);
   // Jump regression: ξ_r(t) on ψ_{r,u}(ξ(t−δt)).
-  void Jump(ConstVecRef prev, ConstVecRef cur, MatRef psi, VecRef y);
+  void Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y);
 
  private:
   Model model_;
