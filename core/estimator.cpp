@@ -47,7 +47,7 @@ bool EstimatorSettings::IsValid(std::string* error) const {
   return true;
 }
 
-void Estimator::Update(ConstMatRef phi, ConstVecRef y) {
+void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   if (phi.cols() != theta_.size() || phi.rows() != y.size()) {
     throw std::invalid_argument(fmt::format(
         "{}: regression of size Phi {}x{}, y {} does not match {} parameters", name(), phi.rows(),

@@ -59,7 +59,7 @@ class Estimator {
 
   // θ ∈ ℝ^p with Φ ∈ ℝ^{rows×p}, y ∈ ℝ^{rows}. Checks sizes (throws std::invalid_argument), then
   // calls DoUpdate. Non-finite rows are skipped and counted (status unchanged).
-  void Update(ConstMatRef phi, ConstVecRef y);
+  void Update(const ConstMatRef& phi, const ConstVecRef& y);
 
   const Vec& estimate() const { return theta_; }
   // Parameter covariance (up to the noise variance), when the estimator has one.
@@ -76,7 +76,7 @@ class Estimator {
 
  protected:
   explicit Estimator(Vec theta0) : theta_(std::move(theta0)) {}
-  virtual void DoUpdate(ConstMatRef phi, ConstVecRef y) = 0;
+  virtual void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) = 0;
 
   Vec theta_;
   EstimatorStatus status_ = EstimatorStatus::kNotExcited;

@@ -341,7 +341,7 @@ SampleSet::~SampleSet() = default;
 SampleSet::SampleSet(SampleSet&&) noexcept = default;
 SampleSet& SampleSet::operator=(SampleSet&&) noexcept = default;
 
-void SampleSet::Add(ConstVecRef x) {
+void SampleSet::Add(const ConstVecRef& x) {
   Impl& s = *impl_;
   if (x.size() != s.n) {
     throw std::invalid_argument(

@@ -44,7 +44,7 @@ class SampleSet {
 
   // Adds a sample. Non-finite samples are ignored and counted (non_finite()). Throws
   // std::invalid_argument when x.size() != dimension().
-  void Add(ConstVecRef x);
+  void Add(const ConstVecRef& x);
   int dimension() const;
   long size() const;            // finite samples added (inside the hull or not)
   long non_finite() const;      // samples ignored because a component was NaN or ±inf

@@ -254,7 +254,7 @@ void Frisch::SetPoint() {
   status_ = EstimatorStatus::kOk;
 }
 
-void Frisch::DoUpdate(ConstMatRef phi, ConstVecRef y) {
+void Frisch::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
   rls_.Update(phi, y);
   const Eigen::Index p = phi.cols();
   const Eigen::Index m = p + 1;

@@ -119,7 +119,7 @@ class Frisch final : public Estimator {
   long empty_intersections() const { return empty_intersections_; }
 
  private:
-  void DoUpdate(ConstMatRef phi, ConstVecRef y) override;
+  void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) override;
   // Bounding box of the simplex of `sigma`; false for a degenerate window.
   // `count`: rows (forgetting-weighted) behind `sigma`; `quantile`: the multiplier of the least-
   // squares vertex's standard error added on each side (0 = none).

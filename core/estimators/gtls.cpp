@@ -215,7 +215,7 @@ void Gtls::SetThetaFromEigenvector() {
   status_ = EstimatorStatus::kOk;
 }
 
-void Gtls::DoUpdate(ConstMatRef phi, ConstVecRef y) {
+void Gtls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
   const Eigen::Index p = phi.cols();
   const Eigen::Index m = p + 1;
   const Eigen::Index rows = phi.rows();

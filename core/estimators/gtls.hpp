@@ -58,7 +58,7 @@ class Gtls final : public Estimator {
   long rows() const { return rows_; }
 
  private:
-  void DoUpdate(ConstMatRef phi, ConstVecRef y) override;
+  void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) override;
   // Exact refactorisation + eigen solve; false (and a status) when S is not usable.
   bool Factorize();
   void SetThetaFromEigenvector();

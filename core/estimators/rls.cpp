@@ -21,7 +21,7 @@ void Rls::Reset() {
   rank_updates_ = 0;
 }
 
-void Rls::DoUpdate(ConstMatRef phi, ConstVecRef y) {
+void Rls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
   if (phi.rows() == 1) {
     ScalarUpdate(phi.data(), phi.outerStride(), y[0]);
   } else {

@@ -88,7 +88,7 @@ class Rls final : public Estimator {
   }
 
  private:
-  void DoUpdate(ConstMatRef phi, ConstVecRef y) override;
+  void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) override;
   void ScalarUpdate(const double* phi, Eigen::Index stride, double y) {
     const Eigen::Index p = theta_.size();
     double* pp = p_.data();
