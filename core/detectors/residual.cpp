@@ -65,6 +65,7 @@ double ResidualDetector::Quantile() {
   }
   cached_nu_ = nu;
   cached_q_ = grid_q_[idx];
+  cached_q2_ = cached_q_ * cached_q_;
   return cached_q_;
 }
 
@@ -162,7 +163,8 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
     return d;
   }
   d.threshold = Quantile();
-  d.gamma = d.statistic > d.threshold;
+  // On squares: the square root of the statistic stays off the decision.
+  d.gamma = z2max > cached_q2_;
   return d;
 }
 

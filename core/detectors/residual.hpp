@@ -88,6 +88,7 @@ class ResidualDetector final : public JumpDetector {
   std::vector<double> grid_q_;
   long cached_nu_ = -1;
   double cached_q_ = 0.0;
+  double cached_q2_ = 0.0;  // cached_q_²
   // Scale state.
   std::vector<double> excess_;  // s²_i
   long scale_samples_ = 0;
