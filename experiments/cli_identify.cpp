@@ -5,8 +5,12 @@
 #include <cstdio>
 #include <string>
 
+#include <filesystem>
+#include <fstream>
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
 
 #include "core/csv.hpp"
 #include "core/identifier.hpp"
@@ -36,6 +40,7 @@ struct IdentifyArgs {
   double jump_forgetting = 1.0;
   std::vector<double> sigma;
   double data_rtol = 0.0, data_atol = 0.0;
+  bool data_accuracy_given = false;  // --data-rtol or --data-atol on the command line
   std::string trace;
   std::string hulls;
 };
@@ -118,6 +123,23 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
     BadFlag(fmt::format("--estimator/--detector/--*-noise-shape: {}", e.what()));
   }
   const SampleData data = ReadSampleData(args.data, n);
+  // Data written by `hysid simulate` has a sidecar FILE.json with the solver's tolerances: without
+  // --data-rtol/--data-atol they are the data's accuracy (noise-free data is then as exact as that).
+  std::string accuracy_source = args.data_accuracy_given ? "as given" : "none given";
+  if (!args.data_accuracy_given) {
+    const std::filesystem::path sidecar = std::filesystem::path(args.data).replace_extension(".json");
+    std::ifstream in(sidecar);
+    if (in) {
+      const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+      if (meta.is_object() && meta.value("command", "") == "simulate" && meta.contains("solver") &&
+          meta["solver"].is_object() && meta["solver"].value("rtol", -1.0) >= 0.0 &&
+          meta["solver"].value("atol", -1.0) >= 0.0) {
+        settings.data_rtol = meta["solver"]["rtol"].get<double>();
+        settings.data_atol = meta["solver"]["atol"].get<double>();
+        accuracy_source = fmt::format("the solver tolerances in {}", sidecar.string());
+      }
+    }
+  }
   IdentifyOptions options;
   options.trace = !args.trace.empty();
   const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
@@ -129,8 +151,9 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
     std::printf("estimator %s, detector paper (r = %g, tau0 = %g, bound %s)", args.estimator.c_str(),
                 args.r, args.tau0, args.bound.c_str());
   } else {
-    std::printf("estimator %s, detector %s (false-alarm probability %g)", args.estimator.c_str(),
-                args.detector.c_str(), args.false_alarm);
+    std::printf("estimator %s, detector %s (false-alarm probability %g; data accuracy rtol %g, atol %g: %s)",
+                args.estimator.c_str(), args.detector.c_str(), args.false_alarm, settings.data_rtol,
+                settings.data_atol, accuracy_source.c_str());
   }
   std::printf("%s%s\n", args.localize ? ", localised jumps" : "", args.second_pass ? ", second pass" : "");
   if (result.noise_sigma.size()) {
@@ -313,17 +336,20 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                   "known measurement noise σ (one, or one per state); gtls/frisch estimate it "
                   "from the data when not given")
       ->delimiter(',');
-  cmd->add_option("--data-rtol", args->data_rtol,
+  CLI::Option* rtol_option = cmd->add_option("--data-rtol", args->data_rtol,
                   "residual detector: relative accuracy of the data apart from the noise (simulated "
                   "data: the integrator's rtol, e.g. 1e-12 for `hysid simulate`)")
       ->capture_default_str();
-  cmd->add_option("--data-atol", args->data_atol,
+  CLI::Option* atol_option = cmd->add_option("--data-atol", args->data_atol,
                   "residual detector: absolute accuracy of the data apart from the noise (simulated "
                   "data: the integrator's atol)")
       ->capture_default_str();
   cmd->add_option("--trace", args->trace, "per-sample CSV: t, D, tau_hat, gamma, estimates");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
-  cmd->callback([args, &env] { RunIdentify(*args, env); });
+  cmd->callback([args, &env, rtol_option, atol_option] {
+    args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;
+    RunIdentify(*args, env);
+  });
 }
 
 }  // namespace hysid::cli
