@@ -65,7 +65,7 @@ double RegularizedIncompleteBeta(double x, double a, double b) {
 
 double NormalUpperQuantile(double p) {
   CheckTail(p, "NormalUpperQuantile");
-  // P(Z > z) = erfc(z/√2)/2 is decreasing in z: bisection, then two Newton steps.
+  // P(Z > z) = erfc(z/√2)/2 is decreasing in z: bisection to the last bits.
   double lo = 0.0, hi = 40.0;
   for (int i = 0; i < 200 && hi - lo > 1e-15 * hi; ++i) {
     const double mid = 0.5 * (lo + hi);
@@ -79,18 +79,29 @@ double StudentUpperQuantile(double p, double nu) {
   if (!(nu >= 1.0) || !std::isfinite(nu)) {
     throw std::invalid_argument(fmt::format("StudentUpperQuantile: nu = {}: must be >= 1 and finite", nu));
   }
+  // P(T > t) = I_{ν/(ν+t²)}(ν/2, 1/2)/2, decreasing in t, with density
+  // f(t) = (1 + t²/ν)^{−(ν+1)/2} / (√ν B(ν/2, 1/2)). Safeguarded Newton on the tail: a Newton step
+  // that leaves the bracket [lo, hi] is replaced by bisection; stops at 1e-14 relative.
   auto tail = [&](double t) { return 0.5 * RegularizedIncompleteBeta(nu / (nu + t * t), 0.5 * nu, 0.5); };
+  const double log_norm = -0.5 * std::log(nu) - (std::lgamma(0.5 * nu) + std::lgamma(0.5) - std::lgamma(0.5 * nu + 0.5));
+  auto density = [&](double t) { return std::exp(log_norm - 0.5 * (nu + 1.0) * std::log1p(t * t / nu)); };
   double lo = 0.0, hi = 1.0;
   while (tail(hi) > p) {
     lo = hi;
     hi *= 2.0;
     if (hi > 1e300) return std::numeric_limits<double>::infinity();
   }
-  for (int i = 0; i < 300 && hi - lo > 1e-13 * hi; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (tail(mid) > p ? lo : hi) = mid;
+  double t = 0.5 * (lo + hi);
+  for (int i = 0; i < 300; ++i) {
+    const double excess = tail(t) - p;  // > 0: t below the quantile
+    (excess > 0.0 ? lo : hi) = t;
+    double next = t + excess / density(t);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    const bool done = std::abs(next - t) <= 1e-14 * next || hi - lo <= 1e-14 * hi;
+    t = next;
+    if (done) break;
   }
-  return 0.5 * (lo + hi);
+  return t;
 }
 
 }  // namespace hysid
