@@ -53,11 +53,7 @@ void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
         "{}: regression of size Phi {}x{}, y {} does not match {} parameters", name(), phi.rows(),
         phi.cols(), y.size(), theta_.size()));
   }
-  if (!phi.allFinite() || !y.allFinite()) {
-    ++skipped_;
-    return;
-  }
-  ++updates_;
+  if (!Admit(phi.allFinite() && y.allFinite())) return;
   DoUpdate(phi, y);
 }
 

@@ -76,6 +76,16 @@ class Estimator {
 
  protected:
   explicit Estimator(Vec theta0) : theta_(std::move(theta0)) {}
+  // The rule for every update: a non-finite regression is skipped and counted, a finite one counted
+  // as an update. Returns whether to update.
+  bool Admit(bool finite) {
+    if (!finite) {
+      ++skipped_;
+      return false;
+    }
+    ++updates_;
+    return true;
+  }
   virtual void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) = 0;
 
   Vec theta_;

@@ -3,10 +3,9 @@
 #include <cmath>
 #include <utility>
 #include <cstdio>
-#include <string>
-
 #include <filesystem>
 #include <fstream>
+#include <string>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -88,8 +87,12 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   settings.detector.false_alarm = args.false_alarm;
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
-  for (const auto& [flag, value] : {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
-    if (!(value >= 0.0) || !std::isfinite(value)) BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
+  // Checked here too (the identifier checks the fields) so that the message names the flag.
+  for (const auto& [flag, value] :
+       {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
+    if (!(value >= 0.0) || !std::isfinite(value)) {
+      BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
+    }
   }
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
@@ -151,9 +154,10 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
     std::printf("estimator %s, detector paper (r = %g, tau0 = %g, bound %s)", args.estimator.c_str(),
                 args.r, args.tau0, args.bound.c_str());
   } else {
-    std::printf("estimator %s, detector %s (false-alarm probability %g; data accuracy rtol %g, atol %g: %s)",
-                args.estimator.c_str(), args.detector.c_str(), args.false_alarm, settings.data_rtol,
-                settings.data_atol, accuracy_source.c_str());
+    std::printf(
+        "estimator %s, detector %s (false-alarm probability %g; data accuracy rtol %g, atol %g: %s)",
+        args.estimator.c_str(), args.detector.c_str(), args.false_alarm, settings.data_rtol,
+        settings.data_atol, accuracy_source.c_str());
   }
   std::printf("%s%s\n", args.localize ? ", localised jumps" : "", args.second_pass ? ", second pass" : "");
   if (result.noise_sigma.size()) {

@@ -92,7 +92,8 @@ void VertexJacobianSup::Refresh(ConstVecRef alpha) {
   ++refreshes_;
   alpha0_ = alpha;
   const Eigen::Index h = points_.cols();
-  Vec norms(h);
+  Vec& norms = norms_;
+  norms.resize(h);
   for (Eigen::Index v = 0; v < h; ++v) norms[v] = NormAt(v, alpha);
   sup0_ = h > 0 ? norms.maxCoeff() : 0.0;
   margin_ = 1e-3 * sup0_;
@@ -176,11 +177,7 @@ Decision PaperDetector::Classify(const SampleContext& c) {
   Decision d;
   double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
   Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
-  if (c.flow_updates < unknowns_) {
-    d.threshold = tau0_;
-    d.gamma = d.statistic > d.threshold;
-    return d;
-  }
+  if (WarmUp(c.flow_updates, &d)) return d;
   // Vertices of Ĉ (cached per α̂ and hull version), then the current pair.
   const long hull_version = c.flow_set ? c.flow_set->version() : -1;
   if (c.version != cached_version_ || hull_version != cached_hull_version_) {

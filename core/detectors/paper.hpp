@@ -93,6 +93,7 @@ class VertexJacobianSup {
   Vec column_sup_;  // M_k
   mutable JacobianScratch scratch_;
   Vec alpha0_;
+  Vec norms_;  // n_v(α0) at the last refresh (work space)
   double sup0_ = 0.0, margin_ = 0.0;
   std::vector<Eigen::Index> candidates_;
   bool stale_ = true;
@@ -119,11 +120,7 @@ class PaperDetector final : public JumpDetector {
     Decision d;
     double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
     Prologue(prev, cur, n, dt, &d, &d2, &cur_norm, &prev_norm);
-    if (flow_updates < unknowns_) {
-      d.threshold = tau0_;
-      d.gamma = d.statistic > d.threshold;
-      return d;
-    }
+    if (WarmUp(flow_updates, &d)) return d;
     if (version != cached_version_) {
       cached_l2_ = LinearNormSquared(alpha_hat);
       cached_l_ = std::sqrt(cached_l2_);
@@ -137,6 +134,13 @@ class PaperDetector final : public JumpDetector {
   }
 
  private:
+  // Until α̂ has seen as many flow samples as it has unknowns: τ̂ = τ̂0. True when that decides.
+  bool WarmUp(long flow_updates, Decision* d) const {
+    if (flow_updates >= unknowns_) return false;
+    d->threshold = tau0_;
+    d->gamma = d->statistic > d->threshold;
+    return true;
+  }
   // D² and D (d->statistic), ‖ξ(t)‖ and ‖ξ(t−δt)‖ in the bound's norm. Square roots are the costly
   // instructions here: ‖ξ(t−δt)‖ is the previous call's ‖ξ(t)‖ when the pairs are consecutive, and
   // D and ‖ξ(t)‖ share one packed square root.

@@ -39,11 +39,9 @@ void Rls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
     p_ = 0.5 * (p_ + p_.transpose()).eval();
     if (lambda_ != 1.0 && p_.trace() < max_trace_) p_ /= lambda_;
   }
-  // Rows that carry information (φ ≠ 0) count towards excitation.
-  for (Eigen::Index r = 0; r < phi.rows(); ++r) rank_updates_ += phi.row(r).any() ? 1 : 0;
-  if (status_ == EstimatorStatus::kNotExcited && rank_updates_ >= theta_.size()) {
-    status_ = EstimatorStatus::kOk;
-  }
+  long informative = 0;
+  for (Eigen::Index r = 0; r < phi.rows(); ++r) informative += phi.row(r).any() ? 1 : 0;
+  CountExcitation(informative);
 }
 
 }  // namespace hysid

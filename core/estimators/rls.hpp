@@ -77,18 +77,20 @@ class Rls final : public Estimator {
       finite = finite && std::isfinite(phi[i]);
       any = any || phi[i] != 0.0;
     }
-    if (!finite) {
-      ++skipped_;
-      return;
-    }
-    ++updates_;
+    if (!Admit(finite)) return;
     ScalarUpdate(phi, 1, y);
-    rank_updates_ += any ? 1 : 0;
-    if (status_ == EstimatorStatus::kNotExcited && rank_updates_ >= p) status_ = EstimatorStatus::kOk;
+    CountExcitation(any ? 1 : 0);
   }
 
  private:
   void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) override;
+  // Rows that carry information (φ ≠ 0) count towards excitation.
+  void CountExcitation(long informative_rows) {
+    rank_updates_ += informative_rows;
+    if (status_ == EstimatorStatus::kNotExcited && rank_updates_ >= theta_.size()) {
+      status_ = EstimatorStatus::kOk;
+    }
+  }
   void ScalarUpdate(const double* phi, Eigen::Index stride, double y) {
     const Eigen::Index p = theta_.size();
     double* pp = p_.data();
