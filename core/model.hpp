@@ -109,6 +109,12 @@ class Model {
   void SetParameter(std::string_view assignment);
 
   void Phi(const ConstVecRef& x, MatRef phi) const { impl_->Phi(x, phi); }
+  // φ at `count` states with one call (the struct's Phi inlined in the loop): state k is
+  // x[k·n .. k·n + n) and its n × |α| φ goes, column-major, to phi + k·n·|α|. For paths that know
+  // their samples ahead (RegressionBuilder::FlowRows).
+  void PhiColumns(const double* x, Eigen::Index count, double* phi) const {
+    impl_->PhiColumns(x, count, state_size(), alpha_size(), phi);
+  }
   void Psi(const ConstVecRef& x, MatRef psi) const { impl_->Psi(x, psi); }
   void Guards(const ConstVecRef& x, VecRef h) const { impl_->Guards(x, h); }
   bool InFlowSet(const ConstVecRef& x) const { return impl_->InFlowSet(x); }
@@ -140,6 +146,8 @@ class Model {
     virtual ~Concept() = default;
     virtual ModelSpec Spec() const = 0;
     virtual void Phi(const ConstVecRef& x, MatRef phi) const = 0;
+    virtual void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
+                            double* phi) const = 0;
     virtual void Psi(const ConstVecRef& x, MatRef psi) const = 0;
     virtual void Guards(const ConstVecRef& x, VecRef h) const = 0;
     virtual bool InFlowSet(const ConstVecRef& x) const = 0;
@@ -157,6 +165,13 @@ class Model {
     explicit Impl(M m) : m_(std::move(m)) {}
     ModelSpec Spec() const override { return m_.Spec(); }
     void Phi(const ConstVecRef& x, MatRef phi) const override { m_.Phi(x, phi); }
+    void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
+                    double* phi) const override {
+      for (Eigen::Index k = 0; k < count; ++k) {
+        Eigen::Map<Mat> out(phi + k * n * m, n, m);
+        m_.Phi(Eigen::Map<const Vec>(x + k * n, n), out);
+      }
+    }
     void Psi(const ConstVecRef& x, MatRef psi) const override { m_.Psi(x, psi); }
     void Guards(const ConstVecRef& x, VecRef h) const override { m_.Guards(x, h); }
     bool InFlowSet(const ConstVecRef& x) const override { return m_.InFlowSet(x); }

@@ -38,16 +38,42 @@ class RegressionBuilder {
 
   // Flow regression of the pair (ξ(t−δt), ξ(t)): writes Φ_{r,u} (rows × |u|) and y (rows).
   void Flow(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi, VecRef y);
+  // The same for a layout with one identified row (flow_layout().rows.size() == 1 is required, the
+  // common case): prev and cur hold n states, phi receives the |u| entries of Φ_{r,u}, y one value.
+  // No Eigen::Ref, index lists resolved in advance. Flow() calls it for such layouts, so the two
+  // agree bit for bit.
+  void FlowRow(const double* prev, const double* cur, double dt, double* phi, double* y);
+  // FlowRow for the `count` consecutive pairs (prev, x_0), (x_0, x_1), …, (x_{count−2}, x_{count−1})
+  // with x_k = xs[k·n .. k·n + n): row k of Φ at phi + k·|u|, y_k at y[k]. φ is evaluated for blocks
+  // of samples with one call (Model::PhiColumns) and each state's φ once. Same values as FlowRow on
+  // each pair.
+  void FlowRows(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi,
+                double* y);
   // Jump regression: ξ_r(t) on ψ_{r,u}(ξ(t−δt)).
   void Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y);
 
  private:
+  void EvaluatePhi(const double* prev, const double* cur, Eigen::Index n);
+  template <int U, int K>
+  void FlowRowsFor(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi,
+                   double* y);
+  // Row r of an n × |α| column-major φ: the unknown columns, then the known ones.
+  void GatherRow(const double* phi, double* out) const;
+  static constexpr Eigen::Index kBlock = 64;  // states per PhiColumns call
+
   Model model_;
   RegressionLayout flow_, jump_;
   Vec alpha_, beta_;  // true values (only the known entries are used)
   Mat phi_prev_, phi_cur_, psi_;
-  Vec last_cur_;          // the state phi_cur_ was evaluated at
+  Vec last_cur_;          // the last state of the previous call
   bool have_last_ = false;
+  // One identified row r: offsets c·n + r of φ(r, c) in the column-major φ for the unknown and the
+  // known columns c, and the known α_c.
+  std::vector<Eigen::Index> row_unknown_, row_known_;
+  std::vector<double> row_known_alpha_;
+  double row_last_[Model::kMaxParameters] = {};  // row r of φ at last_cur_ (one-row layouts)
+  bool full_last_ = false;  // phi_cur_ holds φ at last_cur_ (Flow on several rows)
+  std::vector<double> phi_block_;  // φ of up to kBlock states
 };
 
 }  // namespace hysid
