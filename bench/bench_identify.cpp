@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "core/identifier.hpp"
 #include "core/models/impact_msd.hpp"
@@ -21,10 +22,13 @@ Mat PaperSamples(double sigma) {
   return AddMeasurementNoise(traj.x, Vec::Constant(2, sigma), NoiseKey{1, 0});
 }
 
-// One iteration = a whole 40001-sample run through Identifier::Step; the counter is per sample.
+// One iteration = a whole 40001-sample run through Identifier::Feed (the path of Identify, hence of
+// `hysid identify`, reproduce and sweeps), or one Identifier::Step call per sample; the counter is
+// per sample.
 void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char* detector = "paper",
                    bool known_sigma = false, bool localize = false,
-                   const std::string& estimator = "rls", bool data_accuracy = false) {
+                   const std::string& estimator = "rls", bool data_accuracy = false,
+                   bool one_at_a_time = false) {
   const Model model{ImpactMsd{}};
   const Mat y = PaperSamples(sigma);
   IdentifierSettings settings;
@@ -37,9 +41,15 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
     settings.data_rtol = SimOptions{}.rtol;
     settings.data_atol = SimOptions{}.atol;
   }
+  std::vector<Decision> decisions(static_cast<std::size_t>(y.cols()));
   for (auto _ : state) {
     Identifier id(model, 5e-4, settings);
-    for (Eigen::Index k = 0; k < y.cols(); ++k) benchmark::DoNotOptimize(id.Step(y.col(k)));
+    if (one_at_a_time) {
+      for (Eigen::Index k = 0; k < y.cols(); ++k) benchmark::DoNotOptimize(id.Step(y.col(k)));
+    } else {
+      id.Feed(y, decisions.data());
+      benchmark::DoNotOptimize(decisions.data());
+    }
     benchmark::DoNotOptimize(id.alpha_hat().data());
   }
   state.counters["per_sample"] = benchmark::Counter(
@@ -50,6 +60,12 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
 // Detector (paper, r = 220) + regressions + RLS for α and β; no sample sets.
 void BM_IdentifyStep(benchmark::State& state) { RunIdentifier(state, false, 0.0); }
 BENCHMARK(BM_IdentifyStep)->Unit(benchmark::kMillisecond);
+
+// The same, one Identifier::Step call per sample (an application feeding samples as they come).
+void BM_IdentifyStepOneAtATime(benchmark::State& state) {
+  RunIdentifier(state, false, 0.0, "paper", false, false, "rls", false, true);
+}
+BENCHMARK(BM_IdentifyStepOneAtATime)->Unit(benchmark::kMillisecond);
 
 // The same plus Algorithm 2 (incremental hulls of Λ and Γ).
 void BM_IdentifyStepWithHulls(benchmark::State& state) { RunIdentifier(state, true, 0.0); }

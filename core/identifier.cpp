@@ -90,13 +90,18 @@ struct Identifier::State {
         yj(builder.jump_layout().rows.size()),
         localizer(m) {
     alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
+    block_phi.resize(std::size_t(kFeedBlock) * builder.flow_layout().unknown.size());
+    block_y.resize(std::size_t(kFeedBlock));
     // The common configurations get direct, inlined calls instead of the virtual interfaces: RLS
     // for α on one identified row, and with it the paper detector on a model with a constant flow
     // Jacobian. Same arithmetic in the same order (tests/test_identifier.cpp checks bit-equality).
     if (s.direct_calls && builder.flow_layout().rows.size() == 1) {
       rls = dynamic_cast<Rls*>(flow.get());
-      if (rls != nullptr && m.spec().flow_jacobian_constant) {
-        paper = dynamic_cast<PaperDetector*>(detector.get());
+      if (rls != nullptr) {
+        if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
+        const int u = static_cast<int>(builder.flow_layout().unknown.size());
+        row_block = paper != nullptr ? ChooseRowBlock<true>(m.state_size(), u)
+                                     : ChooseRowBlock<false>(m.state_size(), u);
       }
     }
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
@@ -114,6 +119,7 @@ struct Identifier::State {
   std::unique_ptr<JumpDetector> detector;
   Rls* rls = nullptr;              // the α estimator, when it is RLS on one row (direct_calls)
   PaperDetector* paper = nullptr;  // with rls: the detector, when it is the paper's (constant Jacobian)
+  RowBlockFn row_block = nullptr;  // with rls: RowBlock for the model's sizes
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -122,6 +128,8 @@ struct Identifier::State {
   Vec y;
   Mat psi;
   Vec yj;
+  // Feed: the flow regressions of a block of samples (|u| × kFeedBlock rows, kFeedBlock values).
+  std::vector<double> block_phi, block_y;
   JumpLocalizer localizer;
   JumpLocation location;
   // Second pass: classification uses these instead of the running estimates.
@@ -156,10 +164,12 @@ Identifier::Identifier(Identifier&&) noexcept = default;
 Identifier& Identifier::operator=(Identifier&&) noexcept = default;
 
 // γ = 0, after the α estimator's update: α̂, its version, Λ.
+template <int P>
 void Identifier::AfterFlowUpdate(State& s) {
-  const Vec& theta = s.flow->estimate();
-  const auto& unknown = s.builder.flow_layout().unknown;
-  for (std::size_t i = 0; i < unknown.size(); ++i) s.alpha_full[unknown[i]] = theta[Eigen::Index(i)];
+  const double* theta = s.flow->estimate().data();
+  const int* unknown = s.builder.flow_layout().unknown.data();
+  const int u = P > 0 ? P : static_cast<int>(s.builder.flow_layout().unknown.size());
+  for (int i = 0; i < u; ++i) s.alpha_full[unknown[i]] = theta[i];
   ++s.version;
   if (s.settings.sets) s.flow_set.Add(s.prev);
 }
@@ -179,56 +189,133 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
 
 Decision Identifier::Step(ConstVecRef x) {
   State& s = *s_;
+  if (x.size() != s.prev.size()) {
+    throw std::invalid_argument(fmt::format("Identifier::Step: sample has {} entries; model '{}' has {} states",
+                                            x.size(), s.model.name(), s.prev.size()));
+  }
   ++s.samples;
   if (!s.has_prev) {
     s.prev = x;
     s.has_prev = true;
     return {};
   }
-  s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
-  const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
-  if (s.paper != nullptr) {
-    const Decision d = s.paper->ClassifyConstant(s.prev.data(), x.data(), x.size(), s.dt,
-                                                 alpha_class.data(), s.frozen ? -2 : s.version,
-                                                 s.frozen ? s.frozen_updates : s.rls->updates());
-    if (!d.gamma) {
-      s.rls->UpdateRow(s.phi.data(), s.y[0]);
-      AfterFlowUpdate(s);
-    } else {
-      AfterJump(s, x, alpha_class);
-    }
-    s.prev = x;
+  if (s.rls != nullptr) {
+    --s.samples;  // counted by the block
+    s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
+    Decision d;
+    s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
     return d;
   }
-  SampleContext c{.model = &s.model,
-                  .dt = s.dt,
-                  .prev = ConstVecMap(s.prev.data(), s.prev.size()),
-                  .cur = ConstVecMap(x.data(), x.size()),
-                  .flow_phi = ConstMatMap(s.phi.data(), s.phi.rows(), s.phi.cols()),
-                  .flow_y = ConstVecMap(s.y.data(), s.y.size()),
-                  .alpha_hat = ConstVecMap(alpha_class.data(), alpha_class.size()),
-                  .alpha_covariance = s.frozen ? (s.frozen_covariance ? &*s.frozen_covariance : nullptr)
-                                               : s.flow->covariance_matrix(),
-                  .flow_updates = s.frozen ? s.frozen_updates : s.flow->updates(),
-                  .version = s.frozen ? -2 : s.version,
-                  .flow_set = s.settings.sets ? &s.flow_set : nullptr,
-                  .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
-                  .data_rtol = s.settings.data_rtol,
-                  .data_atol = s.settings.data_atol};
+  // Several identified rows, or an estimator other than RLS: the interfaces throughout.
+  s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
+  const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
+  const SampleContext c = Context(s, x.data(), s.phi.data(), s.y.data(), alpha_class);
   const Decision d = s.detector->Classify(c);
   if (!d.gamma) {
-    if (s.rls != nullptr) {
-      s.rls->UpdateRow(s.phi.data(), s.y[0]);
-    } else {
-      s.flow->Update(s.phi, s.y);
-    }
-    AfterFlowUpdate(s);
+    s.flow->Update(s.phi, s.y);
+    AfterFlowUpdate<0>(s);
   } else {
     AfterJump(s, x, alpha_class);
   }
   s.detector->Observe(c, d);
   s.prev = x;
   return d;
+}
+
+// What the detector sees of sample x after s.prev, with the flow regression (phi: rows × |u|
+// column-major, y: rows) already built.
+SampleContext Identifier::Context(State& s, const double* x, const double* phi, const double* y,
+                                  const Vec& alpha_class) {
+  const Eigen::Index n = s.prev.size(), rows = s.phi.rows(), u = s.phi.cols();
+  return SampleContext{
+      .model = &s.model,
+      .dt = s.dt,
+      .prev = ConstVecMap(s.prev.data(), n),
+      .cur = ConstVecMap(x, n),
+      .flow_phi = ConstMatMap(phi, rows, u),
+      .flow_y = ConstVecMap(y, rows),
+      .alpha_hat = ConstVecMap(alpha_class.data(), alpha_class.size()),
+      .alpha_covariance = s.frozen ? (s.frozen_covariance ? &*s.frozen_covariance : nullptr)
+                                   : s.flow->covariance_matrix(),
+      .flow_updates = s.frozen ? s.frozen_updates : s.flow->updates(),
+      .version = s.frozen ? -2 : s.version,
+      .flow_set = s.settings.sets ? &s.flow_set : nullptr,
+      .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
+      .data_rtol = s.settings.data_rtol,
+      .data_atol = s.settings.data_atol};
+}
+
+// One identified row estimated by RLS (s.rls set), for `count` consecutive samples x_k = xs + k·n
+// after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built. kPaper: the
+// paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the detector's
+// interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
+template <int N, int P, bool kPaper>
+void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
+                          const double* y, Decision* decisions) {
+  const Eigen::Index n = N > 0 ? N : s.prev.size();
+  const Eigen::Index u = P > 0 ? P : s.phi.cols();
+  for (Eigen::Index k = 0; k < count; ++k) {
+    const double* x = xs + k * n;
+    ++s.samples;
+    const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
+    auto update = [&](const Decision& d) {
+      if (!d.gamma) {
+        s.rls->UpdateRow<P>(phi + k * u, y[k]);
+        AfterFlowUpdate<P>(s);
+      } else {
+        AfterJump(s, ConstVecMap(x, n), alpha_class);
+      }
+    };
+    Decision d;
+    if constexpr (kPaper) {
+      d = s.paper->ClassifyConstant<N>(s.prev.data(), x, n, s.dt, alpha_class.data(),
+                                       s.frozen ? -2 : s.version,
+                                       s.frozen ? s.frozen_updates : s.rls->updates());
+      update(d);
+    } else {
+      const SampleContext c = Context(s, x, phi + k * u, y + k, alpha_class);
+      d = s.detector->Classify(c);
+      update(d);
+      s.detector->Observe(c, d);
+    }
+    for (Eigen::Index i = 0; i < n; ++i) s.prev[i] = x[i];
+    if (decisions != nullptr) decisions[k] = d;
+  }
+}
+
+template <bool kPaper>
+Identifier::RowBlockFn Identifier::ChooseRowBlock(int n, int u) {
+  if (n == 2 && u == 2) return &RowBlock<2, 2, kPaper>;
+  if (n == 2 && u == 1) return &RowBlock<2, 1, kPaper>;
+  if (n == 2 && u == 3) return &RowBlock<2, 3, kPaper>;
+  return &RowBlock<0, 0, kPaper>;
+}
+
+void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
+  State& s = *s_;
+  const Eigen::Index n = s.prev.size(), count = samples.cols();
+  if (samples.rows() != n) {
+    throw std::invalid_argument(fmt::format("Identifier::Feed: samples have {} rows; model '{}' has {} states",
+                                            samples.rows(), s.model.name(), n));
+  }
+  Eigen::Index k = 0;
+  auto step = [&](Eigen::Index col) {
+    const Decision d = Step(samples.col(col));
+    if (decisions != nullptr) decisions[col] = d;
+  };
+  if (s.rls == nullptr || (count > 1 && samples.outerStride() != n)) {
+    for (; k < count; ++k) step(k);
+    return;
+  }
+  if (!s.has_prev && k < count) step(k++);
+  while (k < count) {
+    const Eigen::Index len = std::min<Eigen::Index>(kFeedBlock, count - k);
+    s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(),
+                       s.block_y.data());
+    s.row_block(s, samples.col(k).data(), len, s.block_phi.data(), s.block_y.data(),
+                   decisions == nullptr ? nullptr : decisions + k);
+    k += len;
+  }
 }
 
 void Identifier::Finish() {
@@ -306,17 +393,28 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt,
     r.alpha_trace.resize(model.alpha_size(), k_count);
     r.beta_trace.resize(model.beta_size(), k_count);
   }
-  auto pass = [&] {
-  for (Eigen::Index k = 0; k < k_count; ++k) {
-    const Decision d = id.Step(y.col(k));
+  // Without a trace, samples go to Feed in chunks (its block path); a trace needs α̂, β̂ after each.
+  constexpr Eigen::Index kChunk = 4096;
+  std::vector<Decision> decisions(static_cast<std::size_t>(options.trace ? 1 : std::min(kChunk, k_count)));
+  auto record = [&](Eigen::Index k, const Decision& d) {
     r.gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
     r.statistic[static_cast<std::size_t>(k)] = d.statistic;
     r.threshold[static_cast<std::size_t>(k)] = d.threshold;
-    if (options.trace) {
+  };
+  auto pass = [&] {
+    if (!options.trace) {
+      for (Eigen::Index k = 0; k < k_count; k += kChunk) {
+        const Eigen::Index len = std::min(kChunk, k_count - k);
+        id.Feed(y.middleCols(k, len), decisions.data());
+        for (Eigen::Index j = 0; j < len; ++j) record(k + j, decisions[static_cast<std::size_t>(j)]);
+      }
+      return;
+    }
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      record(k, id.Step(y.col(k)));
       r.alpha_trace.col(k) = id.alpha_hat();
       r.beta_trace.col(k) = id.beta_hat();
     }
-  }
   };
   pass();
   if (settings.second_pass) {

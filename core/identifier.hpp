@@ -53,8 +53,9 @@ struct IdentifierSettings {
   bool localize = false;     // sub-sample jump localisation for the jump regression
   bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
   // Direct, inlined calls instead of the virtual interfaces: to RLS for α on one identified row, and
-  // then also to the paper detector on a constant-Jacobian model (same results, bit for bit; the §5
-  // step takes 39 instead of 68 ns). false: always the interfaces (for tests and comparisons).
+  // then also to the paper detector on a constant-Jacobian model, with compile-time sizes for n = 2
+  // and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost per sample). false:
+  // always the interfaces (for tests and comparisons).
   bool direct_calls = true;
 };
 
@@ -85,6 +86,11 @@ class Identifier {
 
   // Feeds the next measured sample ξ(t). The first sample only initialises (γ = 0, no update).
   Decision Step(ConstVecRef x);
+  // Feeds the columns of `samples` (n × K) in order: the same as Step on each, bit for bit, and
+  // faster on the direct path (IdentifierSettings::direct_calls), which builds the flow regressions
+  // of a block of samples at once (RegressionBuilder::FlowRows). `decisions`, unless null, receives
+  // the K decisions. Throws std::invalid_argument when samples.rows() is not the state size.
+  void Feed(const ConstMatRef& samples, Decision* decisions);
   // Ends the stream: the newest sample joins Λ (the paper puts every ξ(t) in Λ until a jump moves it).
   void Finish();
   // Starts a second pass over the same stream: α̂ and its covariance are frozen for classification,
@@ -103,6 +109,17 @@ class Identifier {
 
  private:
   struct State;
+  static constexpr Eigen::Index kFeedBlock = 256;  // samples per block of regressions in Feed
+  using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*,
+                              Decision*);
+  template <int N, int P, bool kPaper>
+  static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
+                       const double* y, Decision* decisions);
+  template <bool kPaper>
+  static RowBlockFn ChooseRowBlock(int n, int u);
+  static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
+                               const Vec& alpha_class);
+  template <int P>
   static void AfterFlowUpdate(State& s);
   static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);
   std::unique_ptr<State> s_;

@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <vector>
 
 #include "core/identifier.hpp"
 #include "core/metrics.hpp"
@@ -86,7 +87,59 @@ TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit 
     CHECK(direct.flow_status == generic.flow_status);
     CHECK(direct.jumps_detected == generic.jumps_detected);
     CHECK(direct.jumps_detected > 0);
+    // Without a trace, Identify feeds the samples in blocks (Identifier::Feed): the same again.
+    s.direct_calls = true;
+    const IdentifyResult fed = Identify(k.model, y, traj.dt, s);
+    CHECK(fed.gamma == generic.gamma);
+    CHECK(fed.statistic == generic.statistic);
+    CHECK(fed.threshold == generic.threshold);
+    CHECK(fed.alpha_hat == generic.alpha_hat);
+    CHECK(fed.beta_hat == generic.beta_hat);
+    CHECK(fed.flow_hull == generic.flow_hull);
+    CHECK(fed.jump_hull == generic.jump_hull);
+    CHECK(fed.jumps_detected == generic.jumps_detected);
   }
+}
+
+TEST_CASE("Identifier::Feed in uneven chunks, mixed with Step, equals Step sample by sample",
+          "[identify][direct]") {
+  const Model model{ImpactMsd{}};
+  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(2, 0.25), NoiseKey{5, 0});
+  for (bool direct : {true, false}) {
+    INFO("direct_calls " << direct);
+    IdentifierSettings s;
+    s.detector.r = 20.0;  // false jumps too: both branches inside the blocks
+    s.direct_calls = direct;
+    Identifier one(model, traj.dt, s), fed(model, traj.dt, s);
+    std::vector<Decision> want(static_cast<std::size_t>(y.cols())), got(want.size());
+    for (Eigen::Index k = 0; k < y.cols(); ++k) want[static_cast<std::size_t>(k)] = one.Step(y.col(k));
+    const Eigen::Index chunks[] = {1, 1, 2, 255, 256, 257, 1000, 3};
+    Eigen::Index k = 0;
+    for (Eigen::Index len : chunks) {
+      fed.Feed(y.middleCols(k, len), got.data() + k);
+      k += len;
+      got[static_cast<std::size_t>(k)] = fed.Step(y.col(k));  // one Step between blocks
+      ++k;
+    }
+    fed.Feed(y.rightCols(y.cols() - k), got.data() + k);
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < want.size(); ++i) {
+      differ += (want[i].gamma != got[i].gamma || want[i].statistic != got[i].statistic ||
+                 want[i].threshold != got[i].threshold) ? 1 : 0;
+    }
+    CHECK(differ == 0);
+    CHECK(fed.alpha_hat() == one.alpha_hat());
+    CHECK(fed.beta_hat() == one.beta_hat());
+    CHECK(fed.samples() == one.samples());
+    CHECK(fed.jumps_detected() == one.jumps_detected());
+    CHECK(fed.jumps_detected() > 14);
+    CHECK(fed.flow_set().vertices() == one.flow_set().vertices());
+    CHECK(fed.jump_set().vertices() == one.jump_set().vertices());
+  }
+  Identifier id(model, traj.dt, IdentifierSettings{});
+  CHECK_THROWS_WITH(id.Feed(Mat::Zero(3, 4), nullptr), Catch::Contains("3 rows") && Catch::Contains("2 states"));
+  CHECK_THROWS_WITH(id.Step(Vec::Zero(3)), Catch::Contains("3 entries") && Catch::Contains("2 states"));
 }
 
 TEST_CASE("bouncing ball at sigma 0: g and lambda within 1 %", "[identify]") {

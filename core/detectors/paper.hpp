@@ -111,15 +111,16 @@ class PaperDetector final : public JumpDetector {
   // The decision for a model with a constant flow Jacobian, from the pair ξ(t−δt), ξ(t) (n entries
   // each), δt and the full α̂ alone: Classify's path for such models, and the identifier's direct
   // (non-virtual, inlined) call. `version` changes whenever α̂ does; `flow_updates` as in
-  // SampleContext.
+  // SampleContext. N = n when known at compile time (the loops over ξ unroll), else 0.
   //
   // The decision is taken on squares, D² > τ̂², so that no square root sits on the chain
   // α̂ → τ̂ → γ → α̂ of consecutive samples; D and τ̂ themselves are computed off that chain.
+  template <int N = 0>
   Decision ClassifyConstant(const double* prev, const double* cur, Eigen::Index n, double dt,
                             const double* alpha_hat, long version, long flow_updates) {
     Decision d;
     double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
-    Prologue(prev, cur, n, dt, &d, &d2, &cur_norm, &prev_norm);
+    Prologue<N>(prev, cur, n, dt, &d, &d2, &cur_norm, &prev_norm);
     if (WarmUp(flow_updates, &d)) return d;
     if (version != cached_version_) {
       cached_l2_ = LinearNormSquared(alpha_hat);
@@ -144,9 +145,15 @@ class PaperDetector final : public JumpDetector {
   // D² and D (d->statistic), ‖ξ(t)‖ and ‖ξ(t−δt)‖ in the bound's norm. Square roots are the costly
   // instructions here: ‖ξ(t−δt)‖ is the previous call's ‖ξ(t)‖ when the pairs are consecutive, and
   // D and ‖ξ(t)‖ share one packed square root.
-  void Prologue(const double* prev, const double* cur, Eigen::Index n, double dt, Decision* d,
+  template <int N = 0>
+  void Prologue(const double* prev, const double* cur, Eigen::Index n_dynamic, double dt, Decision* d,
                 double* d2_out, double* cur_norm, double* prev_norm) {
-    const double inv_dt = 1.0 / dt;
+    const Eigen::Index n = N > 0 ? N : n_dynamic;
+    if (dt != dt_) {  // 1/δt once per δt: a division is among the step's costliest instructions
+      dt_ = dt;
+      inv_dt_ = 1.0 / dt;
+    }
+    const double inv_dt = inv_dt_;
     double d2 = 0.0, cur2 = 0.0;
     for (Eigen::Index i = 0; i < n; ++i) {
       const double v = (cur[i] - prev[i]) * inv_dt;
@@ -196,6 +203,7 @@ class PaperDetector final : public JumpDetector {
   long cached_hull_version_ = -1;
   double cached_l2_ = 0.0;
   double cached_l_ = 0.0;  // √cached_l2_ (constant Jacobians)
+  double dt_ = 0.0, inv_dt_ = 0.0;  // the last δt and 1/δt
   // ξ(t) of the previous call and its BoundNorm: the next call's ξ(t−δt) when pairs are consecutive.
   Vec last_x_;
   double last_norm_ = 0.0;

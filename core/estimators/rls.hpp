@@ -69,8 +69,10 @@ class Rls final : public Estimator {
 
   // Update with one regression row φ (p entries, contiguous) and y: the same as Update(φᵀ, y) for a
   // 1 × p Φ, without the size checks or the virtual call (the identifier's per-sample path).
+  // P = the parameter count when known at compile time (the loops unroll), else 0.
+  template <int P = 0>
   void UpdateRow(const double* phi, double y) {
-    const Eigen::Index p = theta_.size();
+    const Eigen::Index p = P > 0 ? P : theta_.size();
     bool finite = std::isfinite(y);
     bool any = false;
     for (Eigen::Index i = 0; i < p; ++i) {
@@ -78,7 +80,14 @@ class Rls final : public Estimator {
       any = any || phi[i] != 0.0;
     }
     if (!Admit(finite)) return;
-    ScalarUpdate(phi, 1, y);
+    if constexpr (P > 0) {
+      if (!detail::ScalarRlsUpdate<P>(P, p_.data(), theta_.data(), work_.data(), phi, 1, y, lambda_,
+                                      max_trace_)) {
+        status_ = EstimatorStatus::kIllConditioned;
+      }
+    } else {
+      ScalarUpdate(phi, 1, y);
+    }
     CountExcitation(any ? 1 : 0);
   }
 
