@@ -73,17 +73,25 @@ double Factorial(int k) {
   return f;
 }
 
-// Columns of m sorted lexicographically (x1, then x2, ...).
-Mat SortedColumns(const std::vector<Vec>& cols, int n) {
-  std::vector<const Vec*> order;
-  order.reserve(cols.size());
-  for (const Vec& c : cols) order.push_back(&c);
-  std::sort(order.begin(), order.end(), [](const Vec* a, const Vec* b) {
-    return std::lexicographical_compare(a->data(), a->data() + a->size(), b->data(), b->data() + b->size());
+// The columns `which` of coords (n × V), sorted lexicographically (x1, then x2, ...).
+Mat SortedColumns(const Eigen::Ref<const Mat>& coords, std::vector<int> which) {
+  const auto n = coords.rows();
+  std::sort(which.begin(), which.end(), [&](int a, int b) {
+    const double* pa = coords.col(a).data();
+    const double* pb = coords.col(b).data();
+    return std::lexicographical_compare(pa, pa + n, pb, pb + n);
   });
-  Mat m(n, static_cast<Eigen::Index>(cols.size()));
-  for (std::size_t i = 0; i < order.size(); ++i) m.col(Eigen::Index(i)) = *order[i];
+  Mat m(n, static_cast<Eigen::Index>(which.size()));
+  for (std::size_t i = 0; i < which.size(); ++i) m.col(Eigen::Index(i)) = coords.col(which[i]);
   return m;
+}
+
+Mat SortedColumns(const std::vector<Vec>& cols, int n) {
+  Mat m(n, static_cast<Eigen::Index>(cols.size()));
+  for (std::size_t i = 0; i < cols.size(); ++i) m.col(Eigen::Index(i)) = cols[i];
+  std::vector<int> all(cols.size());
+  std::iota(all.begin(), all.end(), 0);
+  return SortedColumns(m, std::move(all));
 }
 
 // Squared Euclidean distance from q to conv(columns of v), a simplex of any dimension: the projection
@@ -143,7 +151,7 @@ bool InConvexHull(const PointD& p, const std::vector<PointD>& others, int n) {
 // neighbours (the facets of A around v cover a neighbourhood of v in A, so v ∈ conv(their vertices
 // other than v) when it is not extreme, and the converse holds as they are points of the set).
 Mat ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets, const std::vector<char>& flat,
-                            const Mat& coords) {
+                            const Eigen::Ref<const Mat>& coords) {
   const std::size_t count = facets.size() / static_cast<std::size_t>(d);
   std::vector<char> on_boundary(static_cast<std::size_t>(coords.cols()), 0);
   std::vector<char> suspect(static_cast<std::size_t>(coords.cols()), 0);
@@ -168,7 +176,7 @@ Mat ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets, const 
       }
     }
   }
-  std::vector<Vec> extreme;
+  std::vector<int> extreme;
   for (Eigen::Index v = 0; v < coords.cols(); ++v) {
     if (!on_boundary[std::size_t(v)]) continue;
     if (suspect[std::size_t(v)]) {
@@ -180,9 +188,9 @@ Mat ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets, const 
       for (int u : nb) others.push_back(ToPointD(coords.col(u).data(), n));
       if (InConvexHull(ToPointD(coords.col(v).data(), n), others, n)) continue;
     }
-    extreme.push_back(coords.col(v));
+    extreme.push_back(static_cast<int>(v));
   }
-  return SortedColumns(extreme, n);
+  return SortedColumns(coords, std::move(extreme));
 }
 
 // The extreme points of a dD triangulation's vertex set.
@@ -350,7 +358,12 @@ class StarHull final : public Star {
       for (int i = 0; i < n_; ++i) p[std::size_t(i)] = &points_[std::size_t(Vertex(f, i))];
       for (int i = 0; i < n_; ++i) {
         facets.push_back(Vertex(f, i));
-        p[std::size_t(n_)] = &points_[std::size_t(Apex(Neighbour(f, i), f))];
+        const int g = Neighbour(f, i);
+        if (g < f) {  // each ridge once: flat marks the ridge's vertices, from either side
+          flat.push_back(0);
+          continue;
+        }
+        p[std::size_t(n_)] = &points_[std::size_t(Apex(g, f))];
         flat.push_back(geometry_.Orient(p.data()) == CGAL::ZERO ? 1 : 0);
       }
     }
@@ -518,8 +531,38 @@ class StarHull final : public Star {
         created_.push_back(h);
       }
     }
-    // The new facets' other ridges (those through q) pair up among themselves: match them by their
-    // sorted vertex ids.
+    // The new facets' other ridges (those through q) pair up among themselves. n = 3: a ridge is
+    // {q, u}, matched through a slot per vertex u; else by sorted vertex ids.
+    if (n_ == 3) {
+      if (pending_.size() < points_.size()) {
+        pending_.resize(points_.size(), Pending{});
+      }
+      for (const int h : created_) {
+        for (int i = 0; i < 3; ++i) {
+          if (Vertex(h, i) == id) continue;
+          const int u = Vertex(h, (i + 1) % 3) == id ? Vertex(h, (i + 2) % 3) : Vertex(h, (i + 1) % 3);
+          Pending& p = pending_[std::size_t(u)];
+          if (p.stamp != stamp_) {
+            p = {stamp_, h, i};
+            continue;
+          }
+          Demand(p.facet >= 0, "a ridge through the new vertex shared by other than two facets");
+          Neighbour(h, i) = p.facet;
+          Neighbour(p.facet, p.slot) = h;
+          p.facet = -1;
+        }
+      }
+    } else {
+      MatchRidges(id);
+    }
+    for (const int f : visible_) {
+      alive_[std::size_t(f)] = 0;
+      free_.push_back(f);
+    }
+    hint_ = created_.front();
+  }
+
+  void MatchRidges(int id) {
     const std::size_t width = std::size_t(n_ - 1);
     keys_.clear();
     entries_.clear();
@@ -548,16 +591,15 @@ class StarHull final : public Star {
       Neighbour(a.facet, a.slot) = b.facet;
       Neighbour(b.facet, b.slot) = a.facet;
     }
-    for (const int f : visible_) {
-      alive_[std::size_t(f)] = 0;
-      free_.push_back(f);
-    }
-    hint_ = created_.front();
   }
 
   struct Entry {
     int facet, slot;
     std::size_t key;  // offset in keys_
+  };
+  struct Pending {  // n = 3: the first new facet met on the ridge {q, u}, by u
+    unsigned stamp = 0;
+    int facet = -1, slot = -1;
   };
 
   int n_;
@@ -576,6 +618,7 @@ class StarHull final : public Star {
   std::vector<char> visible_flag_;
   std::vector<int> visible_, created_, keys_;
   std::vector<Entry> entries_;
+  std::vector<Pending> pending_;
 };
 
 }  // namespace
