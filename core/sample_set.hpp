@@ -25,7 +25,7 @@
 // 1-D: the interval [min, max]; hull_dimension 0 or 1; Volume() is its length.
 //
 // n ≥ 3 (core/hull_nd.cpp): every decision is an exact CGAL orientation (or affine-hull) predicate —
-// the 3-D kernel's for n = 3, Epick_d's for n ≥ 4. Two representations:
+// the 3-D kernel's for n = 3, Epick_d's for n ≥ 4 (static dimension for n = 4). Two representations:
 //   early   the samples that arrived outside the hull, in a CGAL dD triangulation (CGAL::Triangulation),
 //           which holds degenerate hulls exactly: hull_dimension() is its current dimension (−1 empty,
 //           0 a point, 1 collinear samples, 2 coplanar ones, ...). Membership is one locate (a walk
@@ -45,6 +45,10 @@
 //            4000-sample 3-D spiral with 2123 extreme points takes 0.2 s in the tests, a Contains before
 //            each Add included). The walk falls back to a scan of all facets if it has not ended
 //            after 16 steps per facet (never seen in the tests).
+// The boundary of an n-D hull can have Θ(h^⌊n/2⌋) facets, and trajectory data comes close from n = 4
+// on: 2000 samples along a smooth 4-D curve, all extreme, make 267087 facets (6.6 s); 40001 samples of
+// the same kind of curve (17638 extreme) take 111 s. Measured inside samples (a second pass over the
+// same trajectory): 0.3 µs in 3-D, 2 µs in that 4-D case.
 // Coplanar boundary facets are not merged, so a boundary vertex may lie inside a hull face or edge;
 // vertices() returns the extreme points only, exactly: a vertex on no ridge between two coplanar
 // facets is extreme; any other is tested exactly against the hull of its boundary neighbours (a small

@@ -478,19 +478,19 @@ TEST_CASE("unit simplices: volume 1/n!, vertices and membership in 3 to 6 dimens
   }
 }
 
-// Random clouds in 3-D and 4-D, including integer grids (many coplanar and collinear points,
+// Random clouds in 3-D to 5-D, including integer grids (many coplanar and collinear points,
 // duplicates) and integer points on a sphere (all extreme), against CGAL's batch hull
-// (CGAL::extreme_points_3 in 3-D; in 4-D a CGAL dD triangulation of all points) and against the
-// exact extreme-point characterisation.
-TEST_CASE("random 3-D and 4-D clouds give the batch extreme points", "[sets][nd]") {
+// (CGAL::extreme_points_3 in 3-D; above, a CGAL dD triangulation of all points) and against the
+// exact extreme-point characterisation. (3-D, 4-D and n ≥ 5 use different orientation kernels.)
+TEST_CASE("random 3-D, 4-D and 5-D clouds give the batch extreme points", "[sets][nd]") {
   std::mt19937_64 rng(20250301);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   std::uniform_int_distribution<int> grid(-2, 2);
-  for (int n = 3; n <= 4; ++n) {
+  for (int n = 3; n <= 5; ++n) {
     for (int kind = 0; kind < 4; ++kind) {
-      for (int rep = 0; rep < 3; ++rep) {
-        const Eigen::Index count = 40 + 150 * rep;
+      for (int rep = 0; rep < (n == 5 ? 2 : 3); ++rep) {
+        const Eigen::Index count = 40 + (n == 5 ? 80 : 150) * rep;
         Mat pts(n, count);
         for (Eigen::Index k = 0; k < count; ++k) {
           for (int i = 0; i < n; ++i) {
@@ -505,9 +505,11 @@ TEST_CASE("random 3-D and 4-D clouds give the batch extreme points", "[sets][nd]
             // Integer points with |x|² = 25 and random signs: cospherical, all extreme.
             const int table3[][3] = {{0, 0, 5}, {0, 3, 4}, {0, 4, 3}, {3, 0, 4}, {4, 0, 3}, {3, 4, 0}};
             const int table4[][4] = {{0, 0, 0, 5}, {1, 2, 2, 4}, {2, 4, 1, 2}, {0, 3, 4, 0}, {4, 2, 2, 1}};
-            const int row = std::abs(grid(rng)) + (uniform(rng) < 0 ? 0 : 1);
+            const int table5[][5] = {{0, 0, 0, 0, 5}, {1, 2, 2, 0, 4}, {2, 4, 1, 0, 2}, {0, 3, 0, 4, 0},
+                                     {4, 2, 0, 2, 1}, {2, 2, 2, 2, 3}, {1, 0, 2, 2, 4}};
+            const int row = std::abs(grid(rng)) + (uniform(rng) < 0 ? 0 : 1) + (n == 5 ? 3 * (uniform(rng) < 0) : 0);
             for (int i = 0; i < n; ++i) {
-              const int e = n == 3 ? table3[row % 6][i] : table4[row % 5][i];
+              const int e = n == 3 ? table3[row % 6][i] : n == 4 ? table4[row % 5][i] : table5[row % 7][i];
               pts(i, k) = (uniform(rng) < 0 ? -1 : 1) * e;
             }
           }
