@@ -152,11 +152,6 @@ Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& 
     throw std::invalid_argument(fmt::format("data_rtol = {}, data_atol = {}: must be finite and >= 0",
                                             settings.data_rtol, settings.data_atol));
   }
-  if (settings.sets && model.state_size() > 2) {
-    throw std::invalid_argument(fmt::format(
-        "IdentifierSettings::sets = true: model '{}' has {} states; the hulls of Λ and Γ are "
-        "implemented for 1 and 2 (set sets = false)", model.name(), model.state_size()));
-  }
   s_ = std::make_unique<State>(model, dt, ResolvedAtDefault(model, dt, settings));
 }
 Identifier::~Identifier() = default;

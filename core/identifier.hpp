@@ -42,7 +42,9 @@ struct IdentifierSettings {
     return s;
   }();
   DetectorSettings detector;
-  bool sets = true;  // maintain Λ, Γ and their hulls (Algorithm 2); models with 1 or 2 states only
+  // Maintain Λ, Γ and their hulls (Algorithm 2), for any number of states (core/sample_set.hpp:
+  // 1-D intervals, 2-D angular rings, n ≥ 3 boundary stars; all exact and incremental).
+  bool sets = true;
   Vec sigma;         // measurement noise σ per component when known (empty: unknown)
   // Accuracy of the data apart from the random noise: component j may be off by up to
   // data_rtol·|ξ_j| + data_atol (simulated data: the integrator's tolerances; 0 = exact up to

@@ -1,5 +1,5 @@
-// The incremental convex hulls of Λ and Γ (see sample_set.hpp). The only translation unit that
-// includes CGAL.
+// The incremental convex hulls of Λ and Γ (see sample_set.hpp): 1-D and 2-D here, n ≥ 3 in
+// core/hull_nd.cpp. These two are the only translation units that include CGAL.
 #include "core/sample_set.hpp"
 
 #include <algorithm>
@@ -16,6 +16,8 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/convex_hull_2.h>
 #include <fmt/format.h>
+
+#include "core/hull_nd.hpp"
 
 namespace hysid {
 namespace {
@@ -314,11 +316,20 @@ Mat ToMat(const std::vector<Point>& v) {
 }
 
 void RequireSupported(int dimension, const char* where) {
-  if (dimension != 1 && dimension != 2) {
-    throw std::invalid_argument(fmt::format(
-        "{}: dimension {} is not supported (convex hulls are implemented for 1 and 2 states)",
-        where, dimension));
+  if (dimension < 1) {
+    throw std::invalid_argument(
+        fmt::format("{}: dimension {}: a sample set needs at least one component", where, dimension));
   }
+}
+
+// The finite columns of `points`.
+Mat FiniteColumns(const Mat& points) {
+  Mat m(points.rows(), points.cols());
+  Eigen::Index k = 0;
+  for (Eigen::Index j = 0; j < points.cols(); ++j) {
+    if (points.col(j).allFinite()) m.col(k++) = points.col(j);
+  }
+  return m.leftCols(k);
 }
 
 }  // namespace
@@ -330,12 +341,14 @@ struct SampleSet::Impl {
   long version = 0;
   Hull2 hull2;                // n = 2
   double lo = 0.0, hi = 0.0;  // n = 1 (valid when added > 0)
+  std::unique_ptr<internal::HullNd> nd;  // n ≥ 3
 };
 
 SampleSet::SampleSet(int dimension) {
   RequireSupported(dimension, "SampleSet");
   impl_ = std::make_unique<Impl>();
   impl_->n = dimension;
+  if (dimension >= 3) impl_->nd = std::make_unique<internal::HullNd>(dimension);
 }
 SampleSet::~SampleSet() = default;
 SampleSet::SampleSet(SampleSet&&) noexcept = default;
@@ -354,6 +367,8 @@ void SampleSet::Add(const ConstVecRef& x) {
   bool changed = false;
   if (s.n == 2) {
     changed = s.hull2.Add(Point(x[0], x[1]));
+  } else if (s.n >= 3) {
+    changed = s.nd->Add(x);
   } else if (s.added == 0) {
     s.lo = s.hi = x[0];
     changed = true;
@@ -375,6 +390,7 @@ long SampleSet::non_finite() const { return impl_->non_finite; }
 int SampleSet::hull_dimension() const {
   const Impl& s = *impl_;
   if (s.n == 2) return s.hull2.dimension();
+  if (s.n >= 3) return s.nd->dimension();
   if (s.added == 0) return -1;
   return s.lo == s.hi ? 0 : 1;
 }
@@ -382,6 +398,7 @@ int SampleSet::hull_dimension() const {
 Mat SampleSet::vertices() const {
   const Impl& s = *impl_;
   if (s.n == 2) return ToMat(s.hull2.Vertices());
+  if (s.n >= 3) return s.nd->Vertices();
   const int d = hull_dimension();
   Mat m(1, d + 1);
   if (d >= 0) m(0, 0) = s.lo;
@@ -398,6 +415,10 @@ bool SampleSet::Contains(ConstVecRef x, double tolerance) const {
   if (!x.allFinite()) return false;
   const double tol = std::max(tolerance, 0.0);
   if (s.n == 1) return s.added > 0 && x[0] >= s.lo - tol && x[0] <= s.hi + tol;
+  if (s.n >= 3) {
+    if (s.nd->Contains(x)) return true;
+    return tol > 0.0 && s.nd->dimension() >= 0 && s.nd->SquaredDistance(x) <= tol * tol;
+  }
   const Point q(x[0], x[1]);
   if (s.hull2.Contains(q)) return true;
   if (tol == 0.0 || s.hull2.dimension() < 0) return false;
@@ -409,6 +430,7 @@ long SampleSet::version() const { return impl_->version; }
 double SampleSet::Volume() const {
   const Impl& s = *impl_;
   if (s.n == 1) return s.added > 0 ? s.hi - s.lo : 0.0;
+  if (s.n >= 3) return s.nd->Volume();
   if (s.hull2.dimension() < 2) return 0.0;
   const std::vector<Point> v = s.hull2.Vertices();
   // Shoelace formula relative to the first vertex.
@@ -436,6 +458,7 @@ Mat BatchHullVertices(const Mat& points) {
     m << lo, hi;
     return m;
   }
+  if (points.rows() >= 3) return internal::BatchExtremePoints(FiniteColumns(points));
   std::vector<Point> in, out;
   in.reserve(static_cast<std::size_t>(points.cols()));
   for (Eigen::Index k = 0; k < points.cols(); ++k) {
@@ -444,6 +467,18 @@ Mat BatchHullVertices(const Mat& points) {
   CGAL::convex_hull_2(in.begin(), in.end(), std::back_inserter(out));
   StartAtLexSmallest(out);
   return ToMat(out);
+}
+
+std::vector<Mat> HullSimplices(const Mat& points) {
+  if (points.rows() < 3) {
+    throw std::invalid_argument(
+        fmt::format("HullSimplices: {} rows; implemented for n >= 3", points.rows()));
+  }
+  internal::HullNd hull(static_cast<int>(points.rows()));
+  for (Eigen::Index k = 0; k < points.cols(); ++k) {
+    if (points.col(k).allFinite()) hull.Add(points.col(k));
+  }
+  return hull.Simplices();
 }
 
 }  // namespace hysid

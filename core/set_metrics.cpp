@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
 #include <stdexcept>
+#include <vector>
 
+#include <Eigen/LU>
 #include <fmt/format.h>
 
 namespace hysid {
@@ -70,7 +75,113 @@ double PolygonOutsideShare(const Model& model, const Mat& v) {
   return outside / total;
 }
 
+// The centroids of the m^d simplices of the Kuhn (Freudenthal) subdivision of
+// K = {y ∈ R^d : m ≥ y1 ≥ y2 ≥ ... ≥ yd ≥ 0}, all of volume 1/d!. Each is a lattice point z with
+// m − 1 ≥ z1 ≥ ... ≥ zd ≥ 0 and an order in which the d coordinates step up by one (the simplex's
+// vertices are z and the points after each step); coordinates with equal z must step in index
+// order, so that the simplex stays in K. The centroid adds (d − k)/(d + 1) to the coordinate that
+// steps k-th. For d = 2 these are the up and down sub-triangles of PolygonOutsideShare, for d = 1
+// the midpoint rule.
+class KuhnCentroids {
+ public:
+  KuhnCentroids(int d, long m) : d_(d), m_(m), z_(std::size_t(d)), y_(d), run_end_(std::size_t(d)), next_(std::size_t(d)) {}
+
+  template <class Visit>
+  void ForEach(Visit&& visit) {
+    Lattice(0, m_ - 1, visit);
+  }
+
+ private:
+  template <class Visit>
+  void Lattice(int i, long hi, Visit& visit) {
+    if (i == d_) {
+      // Runs of equal z: run r starts at index r's first member; next_ is the next to step.
+      for (int j = 0; j < d_; ++j) {
+        next_[std::size_t(j)] = (j > 0 && z_[std::size_t(j)] == z_[std::size_t(j - 1)]) ? -1 : j;
+      }
+      for (int j = d_ - 1; j >= 0; --j) {
+        const bool last = j == d_ - 1 || next_[std::size_t(j + 1)] >= 0;
+        run_end_[std::size_t(j)] = last ? j + 1 : run_end_[std::size_t(j + 1)];
+      }
+      Steps(0, visit);
+      return;
+    }
+    for (long v = 0; v <= hi; ++v) {
+      z_[std::size_t(i)] = v;
+      Lattice(i + 1, v, visit);
+    }
+  }
+
+  template <class Visit>
+  void Steps(int k, Visit& visit) {
+    if (k == d_) {
+      visit(static_cast<const Vec&>(y_));
+      return;
+    }
+    for (int r = 0; r < d_; ++r) {
+      const int j = next_[std::size_t(r)];
+      if (j < 0 || j >= run_end_[std::size_t(r)]) continue;
+      y_[j] = static_cast<double>(z_[std::size_t(j)]) + static_cast<double>(d_ - k) / (d_ + 1.0);
+      ++next_[std::size_t(r)];
+      Steps(k + 1, visit);
+      --next_[std::size_t(r)];
+    }
+  }
+
+  int d_;
+  long m_;
+  std::vector<long> z_;
+  Vec y_;
+  std::vector<int> run_end_, next_;  // per run (indexed by its first coordinate; −1 elsewhere)
+};
+
+// Share of a triangulated hull (simplices of one dimension d, n × (d + 1) each, n ≥ 3) outside C:
+// each simplex split into m^d equal-volume sub-simplices (KuhnCentroids, mapped affinely by
+// y ↦ v0 + Σ_j (y_j / m)(v_{j+1} − v_j)), m^d ≈ kQuadraturePoints × its share of the d-volume,
+// tested at their centroids.
+double SimplicesOutsideShare(const Model& model, const std::vector<Mat>& simplices) {
+  if (simplices.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const int d = static_cast<int>(simplices.front().cols()) - 1;
+  if (d == 0) return model.InFlowSet(simplices.front().col(0)) ? 0.0 : 1.0;
+  double factorial = 1.0;
+  for (int k = 2; k <= d; ++k) factorial *= k;
+  std::vector<double> volume;
+  double total = 0.0;
+  for (const Mat& v : simplices) {
+    const Mat e = v.rightCols(d).colwise() - v.col(0);
+    volume.push_back(std::sqrt(std::max(0.0, (e.transpose() * e).determinant())) / factorial);
+    total += volume.back();
+  }
+  if (!(total > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  double outside = 0.0;
+  Vec x(simplices.front().rows());
+  for (std::size_t s = 0; s < simplices.size(); ++s) {
+    if (volume[s] <= 0.0) continue;
+    const Mat& v = simplices[s];
+    const long m = std::max(1L, static_cast<long>(std::ceil(std::pow(kQuadraturePoints * volume[s] / total, 1.0 / d))));
+    const Mat steps = (v.rightCols(d) - v.leftCols(d)) / static_cast<double>(m);
+    long cells = 0, out = 0;
+    KuhnCentroids(d, m).ForEach([&](const Vec& y) {
+      x = v.col(0) + steps * y;
+      out += model.InFlowSet(x) ? 0 : 1;
+      ++cells;
+    });
+    long expected = 1;
+    for (int k = 0; k < d; ++k) expected *= m;
+    if (cells != expected) {  // internal invariant: the subdivision has m^d cells
+      std::fprintf(stderr, "hysid: internal error in CompareSets: %ld Kuhn cells, expected %ld\n", cells, expected);
+      std::abort();
+    }
+    outside += volume[s] * static_cast<double>(out) / static_cast<double>(cells);
+  }
+  return outside / total;
+}
+
 double FlowOutsideShare(const Model& model, const Mat& hull) {
+  if (hull.rows() >= 3) {
+    return hull.cols() == 0 ? std::numeric_limits<double>::quiet_NaN()
+                            : SimplicesOutsideShare(model, HullSimplices(hull));
+  }
   switch (hull.cols()) {
     case 0:
       return std::numeric_limits<double>::quiet_NaN();
@@ -91,10 +202,6 @@ SetMetrics CompareSets(const Model& model, const Mat& flow_hull, const Mat& jump
       throw std::invalid_argument(fmt::format("CompareSets: hull vertices have {} rows; model '{}' has {} states",
                                               hull->rows(), model.name(), model.state_size()));
     }
-  }
-  if (flow_hull.rows() > 2) {
-    throw std::invalid_argument(fmt::format("CompareSets: {} states; set metrics exist for 1 and 2",
-                                            flow_hull.rows()));
   }
   SetMetrics m;
   m.jump_hausdorff = JumpHausdorff(model, jump_hull);

@@ -214,8 +214,8 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
                 e.e_alpha, e.e_beta, e.rel_alpha, e.rel_beta);
     // Ĉ and D̂ against the model's C and D.
     const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
-    std::printf("  sets: C^ has %ld vertices (area %.6g), %.6g of it outside C; D^ has %ld vertices, ",
-                static_cast<long>(result.flow_hull.cols()), result.flow_hull_volume,
+    std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
+                static_cast<long>(result.flow_hull.cols()), n >= 3 ? "volume" : "area", result.flow_hull_volume,
                 sm.flow_outside_share, static_cast<long>(result.jump_hull.cols()));
     if (model.has_jump_set_distance()) {
       std::printf("within %.6g of D (one-sided Hausdorff)\n", sm.jump_hausdorff);

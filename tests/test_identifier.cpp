@@ -1,6 +1,8 @@
 // The identifier end to end against the simulator's ground truth.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <vector>
 
@@ -227,33 +229,115 @@ TEST_CASE("Algorithm 2 on noise-free §5: hulls contain every classified sample 
   CHECK(m.flow_outside_share == 0.0);
 }
 
-// Three uncoupled integrators with a wall on x1: only to exercise the state-count check.
-struct ThreeStates {
+// The §5 impact-msd with a third state z' = x − z (a low-pass of the position) that the jumps leave
+// alone: a 3-D trajectory with the same jumps as impact-msd, one loop per bounce.
+//   ξ = (x, v, z),  φ = [[v, 0, 0, 0], [0, −x, −v, 0], [0, 0, 0, x − z]],  α = (1, a, b, 1)
+//   ψ = [[x, 0, 0, 0], [0, −v, 1, 0], [0, 0, 0, z]],  β = (1, λ, μ, 1)
+struct ImpactMsdLag {
+  bool constant_jacobian = true;  // false: the paper detector takes its sup over Ĉ's vertices
   ModelSpec Spec() const {
-    return {.name = "three-states",
+    return {.name = "impact-msd-lag",
             .description = "test only",
-            .state_names = {"x", "y", "z"},
-            .alpha = {{"a", 1.0, false, ""}},
-            .beta = {{"b", 1.0, false, ""}},
-            .flow_rows = {0},
-            .jump_rows = {0},
+            .state_names = {"x", "v", "z"},
+            .alpha = {{"alpha_x", 1.0, true, ""}, {"a", 5.0, false, ""}, {"b", 0.1, false, ""},
+                      {"alpha_z", 1.0, true, ""}},
+            .beta = {{"beta_x", 1.0, true, ""}, {"lambda", 0.99, false, ""}, {"mu", 0.0, false, ""},
+                     {"beta_z", 1.0, true, ""}},
+            .flow_rows = {1},
+            .jump_rows = {1},
             .guards = {{"wall", Crossing::kFalling}},
-            .default_x0 = {1.0, 0.0, 0.0}};
+            .flow_jacobian_constant = constant_jacobian,
+            .default_x0 = {20.0, 0.0, 0.0},
+            .default_t_end = 20.0,
+            .default_dt = 5e-4};
   }
-  void Phi(ConstVecRef x, MatRef phi) const { phi << -x[0], 0.0, 0.0; }
-  void Psi(ConstVecRef x, MatRef psi) const { psi << x[0], x[1], x[2]; }
+  void Phi(ConstVecRef x, MatRef phi) const {
+    phi << x[1], 0.0, 0.0, 0.0,  //
+        0.0, -x[0], -x[1], 0.0,  //
+        0.0, 0.0, 0.0, x[0] - x[2];
+  }
+  void Psi(ConstVecRef x, MatRef psi) const {
+    psi << x[0], 0.0, 0.0, 0.0,  //
+        0.0, -x[1], 1.0, 0.0,    //
+        0.0, 0.0, 0.0, x[2];
+  }
   void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
-  bool InFlowSet(ConstVecRef x) const { return x[0] >= 0.0; }
-  bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0; }
+  bool InFlowSet(ConstVecRef x) const { return x[0] > 0.0 || (x[0] == 0.0 && x[1] >= 0.0); }
+  bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0 && x[1] <= 0.0; }
+  double DistanceToJumpSet(ConstVecRef x) const { return std::hypot(x[0], std::max(x[1], 0.0)); }
+  void ProjectOntoGuard(int /*guard*/, VecRef x) const { x[0] = 0.0; }
+  void FlowJacobian(ConstVecRef /*x*/, ConstVecRef alpha, MatRef jac) const {
+    jac << 0.0, alpha[0], 0.0,      //
+        -alpha[1], -alpha[2], 0.0,  //
+        alpha[3], 0.0, -alpha[3];
+  }
 };
 
-TEST_CASE("identifier: hulls for 3 states are refused by name, sets = false runs", "[identify][sets]") {
-  const Model model{ThreeStates{}};
-  IdentifierSettings settings;
-  CHECK_THROWS_WITH(Identifier(model, 0.1, settings),
-                    Catch::Contains("IdentifierSettings::sets") && Catch::Contains("3 states"));
-  settings.sets = false;
-  CHECK_NOTHROW(Identifier(model, 0.1, settings));
+TEST_CASE("identifier with 3 states: hulls of Λ and Γ are CGAL's batch hulls, set metrics hold",
+          "[identify][sets]") {
+  const Model model{ImpactMsdLag{}};
+  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  REQUIRE(traj.status.completed());
+  const auto start = std::chrono::steady_clock::now();
+  Identifier id(model, traj.dt, IdentifierSettings{});
+  std::vector<std::uint8_t> gamma;
+  for (long k = 0; k < traj.size(); ++k) gamma.push_back(id.Step(traj.x.col(k)).gamma ? 1 : 0);
+  id.Finish();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // Same jumps as impact-msd: z does not take part in them.
+  const Confusion c = CompareJumps(traj.j, gamma);
+  CHECK(c.tp == 14);
+  CHECK(c.fp == 0);
+  std::vector<long> flow_idx, jump_idx;
+  for (long k = 0; k < traj.size(); ++k) {
+    const bool next_is_jump = k + 1 < traj.size() && gamma[std::size_t(k + 1)];
+    (next_is_jump ? jump_idx : flow_idx).push_back(k);
+  }
+  Mat flow_pts(3, static_cast<Eigen::Index>(flow_idx.size())), jump_pts(3, static_cast<Eigen::Index>(jump_idx.size()));
+  for (std::size_t i = 0; i < flow_idx.size(); ++i) flow_pts.col(Eigen::Index(i)) = traj.x.col(flow_idx[i]);
+  for (std::size_t i = 0; i < jump_idx.size(); ++i) jump_pts.col(Eigen::Index(i)) = traj.x.col(jump_idx[i]);
+  CHECK(id.flow_set().size() == flow_pts.cols());
+  CHECK(id.jump_set().size() == jump_pts.cols());
+  for (Eigen::Index i = 0; i < flow_pts.cols(); ++i) REQUIRE(id.flow_set().Contains(flow_pts.col(i)));
+  for (Eigen::Index i = 0; i < jump_pts.cols(); ++i) REQUIRE(id.jump_set().Contains(jump_pts.col(i)));
+  const Mat flow_batch = BatchHullVertices(flow_pts), jump_batch = BatchHullVertices(jump_pts);
+  INFO("hull vertices: C^ " << flow_batch.cols() << ", D^ " << jump_batch.cols() << "; identification " << seconds << " s");
+  CHECK(id.flow_set().hull_dimension() == 3);
+  CHECK(id.jump_set().hull_dimension() == 3);
+  CHECK(id.flow_set().vertices() == flow_batch);
+  CHECK(id.jump_set().vertices() == jump_batch);
+  const IdentifyResult r = Identify(model, traj.x, traj.dt, IdentifierSettings{});
+  CHECK(r.gamma == gamma);
+  CHECK(r.flow_hull == flow_batch);
+  CHECK(r.jump_hull == jump_batch);
+  CHECK(r.flow_hull_volume == id.flow_set().Volume());
+  CHECK(r.flow_hull_volume > 0.0);
+  // D̂ within δt·max|ξ2| of D = {ξ1 = 0, ξ2 ≤ 0} × R; every flow sample has ξ1 ≥ 0: Ĉ ⊂ C.
+  const SetMetrics m = CompareSets(model, id.flow_set(), id.jump_set());
+  const double bound = traj.dt * traj.x.row(1).cwiseAbs().maxCoeff();
+  CHECK(m.jump_hausdorff > 0.0);
+  CHECK(m.jump_hausdorff <= bound);
+  CHECK(m.flow_outside_share == 0.0);
+  // Declared non-constant, the paper detector takes L̂ over Ĉ's vertices at each hull change (the
+  // Jacobian is in fact constant, so the classification is the same). The first 1.5 s only (one
+  // jump): that costs O(h) Jacobian evaluations and a vertices() per hull change (as in 2-D), and
+  // here Ĉ changes at most samples of the first loop.
+  const Mat first = traj.x.leftCols(3001);
+  const Model varying{ImpactMsdLag{.constant_jacobian = false}};
+  const IdentifyResult rc = Identify(model, first, traj.dt, IdentifierSettings{});
+  const IdentifyResult rv = Identify(varying, first, traj.dt, IdentifierSettings{});
+  CHECK(rv.gamma == rc.gamma);
+  const Confusion cv = CompareJumps(std::vector<int>(traj.j.begin(), traj.j.begin() + 3001), rv.gamma);
+  CHECK(cv.tp == 1);
+  CHECK(cv.fp + cv.fn == 0);
+  CHECK(rv.flow_hull == rc.flow_hull);
+  CHECK(rv.flow_hull.cols() > 100);
+  // Hulls off still runs.
+  IdentifierSettings off;
+  off.sets = false;
+  const IdentifyResult ro = Identify(model, traj.x, traj.dt, off);
+  CHECK(ro.gamma == gamma);
+  CHECK(ro.flow_hull.cols() == 0);
 }
 
 TEST_CASE("the §5 detector with r too large misses every jump, with noise and r = 20 it floods",
