@@ -12,8 +12,8 @@
 //            sample_set.cpp in n dimensions. Why not keep the dD triangulation: it never deletes a
 //            cell, and for trajectory data it grows quadratically — samples along a smooth curve
 //            are in convex position, each new one sees O(h) boundary facets, and the triangulation
-//            keeps every cone it ever built (10^7 cells after 5000 samples of a 3-D spiral, several
-//            GB). The star holds only the current boundary.
+//            keeps every cone it ever built (10^7 cells after 5000 samples of a 3-D spiral; 40001
+//            such samples exhausted 23 GB). The star holds only the current boundary.
 //
 // Star operations. locate(q): a remembering stochastic visibility walk over the cones, from the
 // previous sample's facet (consecutive samples are close: a few steps), each step one orientation
@@ -198,15 +198,10 @@ Mat ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets, const 
 // The extreme points of a dD triangulation's vertex set.
 Mat TriangulationExtremePoints(const Triangulation& tri, int n) {
   const int d = tri.current_dimension();
-  std::vector<Vec> pts;
   if (d <= 1) {
-    // Empty, one point, or a segment: the finite vertices on the boundary (both ends).
-    for (auto v = tri.finite_vertices_begin(); v != tri.finite_vertices_end(); ++v) {
-      if (d == 0) {
-        pts.push_back(ToVec(v->point(), n));
-        continue;
-      }
-    }
+    // Empty, one point, or a segment: its two ends are the finite vertices of the infinite cells.
+    std::vector<Vec> pts;
+    if (d == 0) pts.push_back(ToVec(tri.finite_vertices_begin()->point(), n));
     if (d == 1) {
       std::vector<Triangulation::Full_cell_const_handle> cells;
       tri.incident_full_cells(tri.infinite_vertex(), std::back_inserter(cells));
@@ -252,7 +247,8 @@ Mat TriangulationExtremePoints(const Triangulation& tri, int n) {
   return ExtremeBoundaryVertices(n, d, facets, flat, coords);
 }
 
-// Exact orientation of n + 1 points of R^n. Both only ever compare signs from the same policy.
+// Exact orientation of n + 1 points of R^n (the sign conventions of the policies may differ; a star
+// only compares signs from its own policy).
 struct Geometry3 {
   using Point = Epick::Point_3;
   explicit Geometry3(int /*n*/) {}
@@ -260,9 +256,9 @@ struct Geometry3 {
   CGAL::Orientation Orient(const Point* const* p) const { return CGAL::orientation(*p[0], *p[1], *p[2], *p[3]); }
 };
 
-template <class Tag>
+template <class DimensionTag>
 struct GeometryT {
-  using Kernel = CGAL::Epick_d<Tag>;
+  using Kernel = CGAL::Epick_d<DimensionTag>;
   using Point = typename Kernel::Point_d;
   explicit GeometryT(int n) : n_(n) {}
   Point Make(const double* x) const { return Point(x, x + n_); }
@@ -272,18 +268,6 @@ struct GeometryT {
   }
   int n_;
   Kernel kernel_;
-};
-
-struct GeometryD {
-  using Point = PointD;
-  explicit GeometryD(int n) : n_(n) {}
-  Point Make(const double* x) const { return Point(x, x + n_); }
-  CGAL::Orientation Orient(const Point* const* p) const {
-    return kernel_.orientation_d_object()(boost::make_indirect_iterator(p),
-                                          boost::make_indirect_iterator(p + n_ + 1));
-  }
-  int n_;
-  KernelD kernel_;
 };
 
 class Star {
@@ -679,7 +663,7 @@ struct HullNd::Impl {
       } else if (n == 4) {
         star = std::make_unique<StarHull<GeometryT<CGAL::Dimension_tag<4>>>>(n, simplex, c);
       } else {
-        star = std::make_unique<StarHull<GeometryD>>(n, simplex, c);
+        star = std::make_unique<StarHull<GeometryT<CGAL::Dynamic_dimension_tag>>>(n, simplex, c);
       }
       // The other vertices (inside ones change nothing), in the triangulation's order.
       for (auto u = tri.finite_vertices_begin(); u != tri.finite_vertices_end(); ++u) {

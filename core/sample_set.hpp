@@ -53,7 +53,7 @@
 // vertices() returns the extreme points only, exactly: a vertex on no ridge between two coplanar
 // facets is extreme; any other is tested exactly against the hull of its boundary neighbours (a small
 // dD triangulation). Cost O(boundary) plus one such test per vertex on a flat ridge. The result is
-// the set BatchHullVertices gives (tests: random, integer-grid and cospherical clouds in 3-D and 4-D,
+// the set BatchHullVertices gives (tests: random, integer-grid and cospherical clouds in 3-D to 5-D,
 // a cube with points on its edges and faces, coplanar and collinear samples), in lexicographic order
 // (x1, then x2, ...). Contains(x, tolerance > 0) measures the distance in floating point to the
 // nearest boundary facet (n-dimensional hull) or cell (lower-dimensional). Volume() sums the cones
