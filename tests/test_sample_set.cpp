@@ -555,7 +555,7 @@ TEST_CASE("a 3-D spiral: extreme points of a trajectory, inner loops leave the v
   for (int k = 0; k < count; ++k) REQUIRE(s.Contains(pts.col(k)));
 }
 
-TEST_CASE("3-D: non-finite samples are ignored and counted; a moved set keeps its hull", "[sets][nd]") {
+TEST_CASE("3-D: non-finite samples are ignored and counted, a moved set keeps its hull", "[sets][nd]") {
   using nd::V;
   SampleSet s(3);
   s.Add(V({0, 0, 0}));
