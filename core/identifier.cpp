@@ -188,20 +188,20 @@ Decision Identifier::Step(ConstVecRef x) {
     throw std::invalid_argument(fmt::format("Identifier::Step: sample has {} entries; model '{}' has {} states",
                                             x.size(), s.model.name(), s.prev.size()));
   }
-  ++s.samples;
   if (!s.has_prev) {
+    ++s.samples;
     s.prev = x;
     s.has_prev = true;
     return {};
   }
-  if (s.rls != nullptr) {
-    --s.samples;  // counted by the block
+  if (s.rls != nullptr) {  // the row block counts the sample
     s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
     Decision d;
     s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
     return d;
   }
   // Several identified rows, or an estimator other than RLS: the interfaces throughout.
+  ++s.samples;
   s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
   const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
   const SampleContext c = Context(s, x.data(), s.phi.data(), s.y.data(), alpha_class);

@@ -108,17 +108,22 @@ void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen:
   // Row r of φ at ξ(t−δt): the previous call's row at its last state when that is `prev`.
   bool consecutive = have_last_;
   for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = prev[i] == last_cur_[i];
+  const Eigen::Index* unknown = row_unknown_.data();
+  const Eigen::Index* known = row_known_.data();
+  // Row r of an n × |α| column-major φ: the unknown columns, then the known ones.
+  auto gather = [&](const double* phi_nm, double* out) {
+    for (std::size_t c = 0; c < u; ++c) out[c] = phi_nm[unknown[c]];
+    for (std::size_t c = 0; c < k; ++c) out[u + c] = phi_nm[known[c]];
+  };
   double row_prev[Model::kMaxParameters], row_cur[Model::kMaxParameters];
   if (consecutive) {
     for (std::size_t j = 0; j < u + k; ++j) row_prev[j] = row_last_[j];
   } else {
     model_.PhiColumns(prev, 1, phi_block_.data());
-    GatherRow(phi_block_.data(), row_prev);
+    gather(phi_block_.data(), row_prev);
   }
   const double h = 0.5 * dt;
   const Eigen::Index r = flow_.rows[0];
-  const Eigen::Index* unknown = row_unknown_.data();
-  const Eigen::Index* known = row_known_.data();
   const double* known_alpha = row_known_alpha_.data();
   for (Eigen::Index start = 0; start < count; start += kBlock) {
     const Eigen::Index len = std::min(kBlock, count - start);
@@ -127,9 +132,7 @@ void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen:
       const Eigen::Index s = start + j;
       const double* cur = xs + s * n;
       const double* before = s == 0 ? prev : cur - n;
-      const double* block = phi_block_.data() + j * n * m;
-      for (std::size_t c = 0; c < u; ++c) row_cur[c] = block[unknown[c]];
-      for (std::size_t c = 0; c < k; ++c) row_cur[u + c] = block[known[c]];
+      gather(phi_block_.data() + j * n * m, row_cur);
       double yi = cur[r] - before[r];
       for (std::size_t c = 0; c < k; ++c) yi -= h * (row_prev[u + c] + row_cur[u + c]) * known_alpha[c];
       y[s] = yi;
@@ -141,20 +144,13 @@ void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen:
     for (std::size_t c = 0; c < u + k; ++c) row_last_[c] = row_prev[c];
     for (Eigen::Index i = 0; i < n; ++i) last_cur_[i] = xs[(count - 1) * n + i];
     have_last_ = true;
-    full_last_ = false;
   }
-}
-
-void RegressionBuilder::GatherRow(const double* phi, double* out) const {
-  const std::size_t u = row_unknown_.size();
-  for (std::size_t j = 0; j < u; ++j) out[j] = phi[row_unknown_[j]];
-  for (std::size_t j = 0; j < row_known_.size(); ++j) out[u + j] = phi[row_known_[j]];
 }
 
 // φ(ξ(t−δt)) into phi_prev_ and φ(ξ(t)) into phi_cur_. Consecutive pairs share a sample: φ(ξ(t−δt))
 // is then the previous call's φ(ξ(t)).
 void RegressionBuilder::EvaluatePhi(const double* prev, const double* cur, Eigen::Index n) {
-  bool consecutive = have_last_ && full_last_;
+  bool consecutive = have_last_;
   for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = prev[i] == last_cur_[i];
   if (consecutive) {
     phi_prev_.swap(phi_cur_);
@@ -164,7 +160,6 @@ void RegressionBuilder::EvaluatePhi(const double* prev, const double* cur, Eigen
   model_.Phi(Eigen::Map<const Vec>(cur, n), phi_cur_);
   for (Eigen::Index i = 0; i < n; ++i) last_cur_[i] = cur[i];
   have_last_ = true;
-  full_last_ = true;
 }
 
 void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y) {

@@ -57,22 +57,21 @@ class RegressionBuilder {
   template <int U, int K>
   void FlowRowsFor(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi,
                    double* y);
-  // Row r of an n × |α| column-major φ: the unknown columns, then the known ones.
-  void GatherRow(const double* phi, double* out) const;
   static constexpr Eigen::Index kBlock = 64;  // states per PhiColumns call
 
   Model model_;
   RegressionLayout flow_, jump_;
   Vec alpha_, beta_;  // true values (only the known entries are used)
   Mat phi_prev_, phi_cur_, psi_;
-  Vec last_cur_;          // the last state of the previous call
+  // The last state of the previous call. One-row layouts (FlowRow, FlowRows) keep their row of φ
+  // there in row_last_, others (Flow) all of φ in phi_cur_; a builder only ever takes one of the two.
+  Vec last_cur_;
   bool have_last_ = false;
   // One identified row r: offsets c·n + r of φ(r, c) in the column-major φ for the unknown and the
   // known columns c, and the known α_c.
   std::vector<Eigen::Index> row_unknown_, row_known_;
   std::vector<double> row_known_alpha_;
   double row_last_[Model::kMaxParameters] = {};  // row r of φ at last_cur_ (one-row layouts)
-  bool full_last_ = false;  // phi_cur_ holds φ at last_cur_ (Flow on several rows)
   std::vector<double> phi_block_;  // φ of up to kBlock states
 };
 

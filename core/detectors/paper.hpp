@@ -149,11 +149,7 @@ class PaperDetector final : public JumpDetector {
   void Prologue(const double* prev, const double* cur, Eigen::Index n_dynamic, double dt, Decision* d,
                 double* d2_out, double* cur_norm, double* prev_norm) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
-    if (dt != dt_) {  // 1/δt once per δt: a division is among the step's costliest instructions
-      dt_ = dt;
-      inv_dt_ = 1.0 / dt;
-    }
-    const double inv_dt = inv_dt_;
+    const double inv_dt = 1.0 / dt;
     double d2 = 0.0, cur2 = 0.0;
     for (Eigen::Index i = 0; i < n; ++i) {
       const double v = (cur[i] - prev[i]) * inv_dt;
@@ -203,7 +199,6 @@ class PaperDetector final : public JumpDetector {
   long cached_hull_version_ = -1;
   double cached_l2_ = 0.0;
   double cached_l_ = 0.0;  // √cached_l2_ (constant Jacobians)
-  double dt_ = 0.0, inv_dt_ = 0.0;  // the last δt and 1/δt
   // ξ(t) of the previous call and its BoundNorm: the next call's ξ(t−δt) when pairs are consecutive.
   Vec last_x_;
   double last_norm_ = 0.0;

@@ -80,14 +80,7 @@ class Rls final : public Estimator {
       any = any || phi[i] != 0.0;
     }
     if (!Admit(finite)) return;
-    if constexpr (P > 0) {
-      if (!detail::ScalarRlsUpdate<P>(P, p_.data(), theta_.data(), work_.data(), phi, 1, y, lambda_,
-                                      max_trace_)) {
-        status_ = EstimatorStatus::kIllConditioned;
-      }
-    } else {
-      ScalarUpdate(phi, 1, y);
-    }
+    ScalarUpdate<P>(phi, 1, y);
     CountExcitation(any ? 1 : 0);
   }
 
@@ -100,17 +93,23 @@ class Rls final : public Estimator {
       status_ = EstimatorStatus::kOk;
     }
   }
+  // P as in UpdateRow; with P = 0 the parameter count picks a compile-time size when it has one.
+  template <int P = 0>
   void ScalarUpdate(const double* phi, Eigen::Index stride, double y) {
     const Eigen::Index p = theta_.size();
     double* pp = p_.data();
     double* theta = theta_.data();
     double* g = work_.data();
     bool ok = false;
-    switch (p) {
-      case 1: ok = detail::ScalarRlsUpdate<1>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
-      case 2: ok = detail::ScalarRlsUpdate<2>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
-      case 3: ok = detail::ScalarRlsUpdate<3>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
-      default: ok = detail::ScalarRlsUpdate<0>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+    if constexpr (P > 0) {
+      ok = detail::ScalarRlsUpdate<P>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_);
+    } else {
+      switch (p) {
+        case 1: ok = detail::ScalarRlsUpdate<1>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+        case 2: ok = detail::ScalarRlsUpdate<2>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+        case 3: ok = detail::ScalarRlsUpdate<3>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+        default: ok = detail::ScalarRlsUpdate<0>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
+      }
     }
     if (!ok) status_ = EstimatorStatus::kIllConditioned;
   }
