@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "core/identifier.hpp"
-#include "core/models/impact_msd.hpp"
-#include "core/sample_set.hpp"
+#include "core/identify/identifier.hpp"
+#include "core/model/builtin/impact_msd.hpp"
+#include "core/sets/sample_set.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 

@@ -28,14 +28,14 @@
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
-#include "core/csv.hpp"
-#include "core/estimator.hpp"
+#include "core/io/csv.hpp"
+#include "core/estimators/estimator.hpp"
 #include "core/estimators/frisch.hpp"
-#include "core/identifier.hpp"
-#include "core/metrics.hpp"
-#include "core/models/impact_msd.hpp"
-#include "core/regression.hpp"
-#include "experiments/run_context.hpp"
+#include "core/identify/identifier.hpp"
+#include "core/identify/metrics.hpp"
+#include "core/model/builtin/impact_msd.hpp"
+#include "core/model/regression.hpp"
+#include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 

@@ -3,7 +3,7 @@
 // p = DetectorSettings::false_alarm (default 1e-8 per sample).
 //
 // Residual. On each identified row i (the model's flow_rows) of the trapezoid regression
-// (core/regression.hpp), ρ_i = y_i − Φ_i α̂_u = Δξ_i − (δt/2)(f̂_i(ξ(t)) + f̂_i(ξ(t−δt))).
+// (core/model/regression.hpp), ρ_i = y_i − Φ_i α̂_u = Δξ_i − (δt/2)(f̂_i(ξ(t)) + f̂_i(ξ(t−δt))).
 //
 // Its predicted variance under flow, v_i = (1 + h_i)(V_i + s²_i) + ε²_i:
 //   V_i  measurement noise propagated through the integrated model, when σ is known
@@ -47,13 +47,13 @@
 // least determined α̂, divided by a large 1 + h) it kept the scale from growing to the residuals' level,
 // the following samples were flagged, α̂ was not updated on them and stayed poor, and they kept
 // being flagged (robustness map, σ = 0.02, δt = 1 ms, p = 1e-8: one run with 15 false jumps in
-// samples 6–25; tests/test_residual_detector.cpp "warm-up"). A jump inside the first
+// samples 6–25; tests/core/detectors/residual_test.cpp "warm-up"). A jump inside the first
 // |α_u| + 1 samples is classified as flow; IdentifierSettings::second_pass catches it afterwards.
 #pragma once
 
 #include <vector>
 
-#include "core/detector.hpp"
+#include "core/detectors/detector.hpp"
 
 namespace hysid {
 

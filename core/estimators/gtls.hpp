@@ -28,7 +28,7 @@
 
 #include <Eigen/Cholesky>
 
-#include "core/estimator.hpp"
+#include "core/estimators/estimator.hpp"
 
 namespace hysid {
 
