@@ -21,6 +21,7 @@ void AddModelsCommand(CLI::App& app, Environment& env);
 void AddIdentifyCommand(CLI::App& app, Environment& env);
 void AddReproduceCommand(CLI::App& app, Environment& env);
 void AddSweepCommand(CLI::App& app, Environment& env);  // sweep and merge
+void AddCrlbCommand(CLI::App& app, Environment& env);
 
 // A bad flag value: `what` names the flag, e.g. "--dt = -1: must be > 0".
 [[noreturn]] void BadFlag(const std::string& what);
