@@ -6,6 +6,7 @@
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <glog/logging.h>
 
 #include "core/model/noise_shape.hpp"
 
@@ -157,6 +158,12 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   so.num_threads = 1;
+  // Ceres reports a failed evaluation through glog as well; the status carries it here.
+  static const bool quiet = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)quiet;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &cp, &summary);
   return summary;
