@@ -1,5 +1,6 @@
 #include "sim/refine/refine.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <stdexcept>
@@ -34,6 +35,12 @@ bool RefineOptions::IsValid(std::string* error) const {
     return false;
   };
   if (!sensitivity.IsValid(error)) return false;
+  if (!(noise_tolerance > 0.0) || !std::isfinite(noise_tolerance)) {
+    return fail(fmt::format("RefineOptions::noise_tolerance = {}: must be finite and > 0", noise_tolerance));
+  }
+  if (!(polish_tolerance > 0.0) || !std::isfinite(polish_tolerance)) {
+    return fail(fmt::format("RefineOptions::polish_tolerance = {}: must be finite and > 0", polish_tolerance));
+  }
   if (max_iterations < 1) {
     return fail(fmt::format("RefineOptions::max_iterations = {}: must be >= 1", max_iterations));
   }
@@ -87,6 +94,19 @@ struct FitProblem {
     }
     return SimulateSensitivitiesMatched(*model, p, unknowns, grid, segments, o);
   }
+
+  // The last evaluation with sensitivities (Ceres' last accepted point is usually one): reused for
+  // the checks at the fit instead of integrating again.
+  mutable Vec cached_theta;
+  mutable SensitivityTrajectory cached;
+  SensitivityTrajectory SimulateCached(const ConstVecRef& theta) const {
+    if (cached_theta.size() == theta.size() && cached_theta == theta &&
+        cached.trajectory.status.stop == SimStop::kCompleted &&
+        cached.sensitivities.cols() == y->cols()) {
+      return cached;
+    }
+    return Simulate(theta, true);
+  }
 };
 
 class OutputErrorCost final : public ceres::CostFunction {
@@ -100,7 +120,7 @@ class OutputErrorCost final : public ceres::CostFunction {
     const int p = parameter_block_sizes()[0];
     const Eigen::Map<const Vec> theta(parameters[0], p);
     const bool jac = jacobians != nullptr && jacobians[0] != nullptr;
-    const SensitivityTrajectory s = problem_.Simulate(theta, jac);
+    SensitivityTrajectory s = problem_.Simulate(theta, jac);
     if (!s.ok()) return false;
     const Mat& y = *problem_.y;
     const Eigen::Index n = y.rows(), k_count = y.cols();
@@ -109,11 +129,16 @@ class OutputErrorCost final : public ceres::CostFunction {
     if (!r.allFinite()) return false;
     if (jac) {
       // Row-major (n·K) × p: row k·n + i is −S_k(i, :)/σ_i.
-      using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-      Eigen::Map<RowMajor> j(jacobians[0], n * k_count, p);
+      const double* w = problem_.weight.data();
       for (Eigen::Index k = 0; k < k_count; ++k) {
-        j.middleRows(k * n, n) = -(problem_.weight.asDiagonal() * s.S(k));
+        const double* sk = s.sensitivities.col(k).data();  // n × p, column-major
+        double* row = jacobians[0] + k * n * p;
+        for (Eigen::Index i = 0; i < n; ++i) {
+          for (Eigen::Index c = 0; c < p; ++c) row[i * p + c] = -w[i] * sk[c * n + i];
+        }
       }
+      problem_.cached_theta = theta;
+      problem_.cached = std::move(s);
     }
     return true;
   }
@@ -285,7 +310,7 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
     return Fail(r, RefineStatus::kNotConverged, fmt::format("Ceres: {}", summary.message));
   }
   // Residuals at the integration accuracy (noise-free data): polish at the tighter tolerances.
-  const SensitivityTrajectory at_fit = problem.Simulate(theta, false);
+  const SensitivityTrajectory at_fit = problem.SimulateCached(theta);
   if (at_fit.ok() && options.polish_tolerance < problem.options.sim.rtol) {
     const Vec sigma_hat = ((*problem.y - at_fit.trajectory.x).rowwise().squaredNorm() /
                            static_cast<double>(problem.y->cols())).cwiseSqrt();
@@ -300,7 +325,7 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
     }
   }
   r.refined = r.start.WithTheta(r.unknowns, theta);
-  const SensitivityTrajectory s = problem.Simulate(theta, true);
+  const SensitivityTrajectory s = problem.SimulateCached(theta);
   if (!s.ok()) {
     return Fail(r, RefineStatus::kNotConverged,
                 fmt::format("the fit does not simulate: {}", s.trajectory.status.message));
@@ -343,10 +368,15 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
   for (std::size_t k = 0; k < gamma.size(); ++k) problem.segments[k] = j += (k > 0 && gamma[k] != 0);
   problem.unknowns = r.unknowns;
   problem.start = r.start;
-  problem.options = options.sensitivity;
   const Vec mad_sigma = EstimateNoiseSigma(y);
   const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
-  problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, options.sensitivity.sim)).cwiseInverse();
+  problem.options = options.sensitivity;
+  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
+  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
+                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
+                                      options.sensitivity.sim.rtol);
+  problem.options.sim.rtol = problem.options.sim.atol = tolerance;
+  problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, problem.options.sim)).cwiseInverse();
   RunRefinement(problem, options, mad_sigma, r);
   if (r.ok()) {
     r.estimate = r.refined;

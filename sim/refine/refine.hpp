@@ -40,13 +40,17 @@ enum class RefineStatus {
 const char* ToString(RefineStatus status);
 
 struct RefineOptions {
-  // Integration of the fits: tolerances for states and sensitivities, budgets, the Zeno rule.
+  // Integration of the fits: budgets, the Zeno rule, and the loosest tolerances (rtol = atol) used.
+  // The fits integrate at rtol = atol = noise_tolerance · min_i σ_i / max(1, max_k |y_ik|) (σ given or
+  // the MAD estimate), clamped to [polish_tolerance, sensitivity.sim.rtol]: an integration error far
+  // below the noise changes the estimate by a negligible fraction of its standard error.
   SensitivityOptions sensitivity = [] {
     SensitivityOptions s;
-    s.sim.rtol = 1e-10;
-    s.sim.atol = 1e-10;
+    s.sim.rtol = 1e-6;
+    s.sim.atol = 1e-6;
     return s;
   }();
+  double noise_tolerance = 1e-4;
   // Residuals at the integration accuracy after the fit (noise-free data): a second fit from there at
   // rtol = atol = polish_tolerance (no polish when it is not below the tolerances above).
   double polish_tolerance = 1e-12;

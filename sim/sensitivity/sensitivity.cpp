@@ -352,17 +352,28 @@ class SensRun {
   // CVodeGetSensDky per sample, which cost 10× a plain trajectory.
   void Emit(long k, int segment) {
     const double t = SampleTime(k);
-    StoreSample(k, segment, InterpolatedState(t), nullptr);
+    InterpolateState(t, out_.trajectory.x.col(k).data());
+    MarkSample(k, segment);
     if (!sens_) return;
-    Eigen::Map<Mat> s(out_.sensitivities.col(k).data(), n_, p_);
+    double* s = out_.sensitivities.col(k).data();
+    const Eigen::Index size = static_cast<Eigen::Index>(n_) * p_;
     const double h = window_b_.t - window_a_.t;
     if (h == 0.0) {
-      s = window_b_.s;
+      std::copy_n(window_b_.s.data(), size, s);
       return;
     }
     const double u = (t - window_a_.t) / h, u2 = u * u, u3 = u2 * u;
-    s = (2 * u3 - 3 * u2 + 1) * window_a_.s + ((u3 - 2 * u2 + u) * h) * window_a_.d +
-        (-2 * u3 + 3 * u2) * window_b_.s + ((u3 - u2) * h) * window_b_.d;
+    const double ca = 2 * u3 - 3 * u2 + 1, cda = (u3 - 2 * u2 + u) * h, cb = -2 * u3 + 3 * u2,
+                 cdb = (u3 - u2) * h;
+    const double *sa = window_a_.s.data(), *da = window_a_.d.data(), *sb = window_b_.s.data(),
+                 *db = window_b_.d.data();
+    for (Eigen::Index i = 0; i < size; ++i) s[i] = ca * sa[i] + cda * da[i] + cb * sb[i] + cdb * db[i];
+  }
+
+  void MarkSample(long k, int segment) {
+    out_.trajectory.t[static_cast<std::size_t>(k)] = SampleTime(k);
+    out_.trajectory.j[static_cast<std::size_t>(k)] = segment;
+    filled_[static_cast<std::size_t>(k)] = 1;
   }
 
   // S and S' = (∂f/∂ξ)S + ∂f/∂θ at one end of the interpolation window.
@@ -380,9 +391,9 @@ class SensRun {
       end.d.col(static_cast<Eigen::Index>(i)) += data_.phi.col(unknowns_.alpha[i]);
     }
   }
-  // ξ(t) from the last step's polynomial: CVodeGetDky for a few samples per step; for many, its
+  // ξ(t) into out[0..n) from the last step's polynomial: CVodeGetDky for a few samples per step; for many, its
   // q + 1 Taylor coefficients at t_n once (as Simulate) and Horner's rule per sample.
-  Vec InterpolatedState(double t) {
+  void InterpolateState(double t, double* out) {
     void* mem = cvode_.get();
     if (coefficients_state_ == 0) {
       int q = 0;
@@ -406,13 +417,17 @@ class SensRun {
     }
     if (coefficients_state_ == 1) {
       CVodeGetDky(mem, t, 0, y_scratch());
-      return Eigen::Map<const Vec>(N_VGetArrayPointer_Serial(y_scratch()), n_);
+      std::copy_n(N_VGetArrayPointer_Serial(y_scratch()), n_, out);
+      return;
     }
     const double u = (t - horner_tn_) / horner_h_;
     const Eigen::Index q = coefficients_.cols() - 1;
-    Vec v = coefficients_.col(q);
-    for (Eigen::Index d = q - 1; d >= 0; --d) v = v * u + coefficients_.col(d);
-    return v;
+    const double* c = coefficients_.data();  // column-major n × (q + 1)
+    for (int i = 0; i < n_; ++i) {
+      double v = c[q * n_ + i];
+      for (Eigen::Index d = q - 1; d >= 0; --d) v = v * u + c[d * n_ + i];
+      out[i] = v;
+    }
   }
 
   // After a return at tret: the window becomes (previous return, tret).
