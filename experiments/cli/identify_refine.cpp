@@ -93,6 +93,7 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
                    {"flow_estimator", ToString(recursive.flow_status)},
                    {"jump_estimator", ToString(recursive.jump_status)}};
   j["model_jumps"] = r.model_jumps;
+  j["samples_used"] = r.samples_used;
   if (bound.ok()) j["crlb_sd"] = vec(bound.sd);
   return j;
 }
@@ -123,11 +124,17 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
     r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0)};
   }
   const Truth truth = data.j ? ReadTruth(data.path, model.state_size()) : Truth{};
-  const Crlb bound = TruthBound(model, truth, data.y.cols(), data.dt);
+  const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
+  const Crlb bound = TruthBound(model, truth, used, data.dt);
   const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
   if (args.refine == "ml") {
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
                 ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
+    if (r.samples_used < data.y.cols()) {
+      std::printf("  fitted the first %ld of %ld samples (t <= %.6g): later detected jumps are closer than "
+                  "%ld samples\n", r.samples_used, static_cast<long>(data.y.cols()),
+                  static_cast<double>(r.samples_used - 1) * data.dt, RefineOptions{}.min_jump_interval);
+    }
     if (r.ok()) {
       std::printf("  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
                   r.iterations, r.sigma_estimated ? "from the residuals" : "as given",

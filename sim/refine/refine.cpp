@@ -61,6 +61,9 @@ bool RefineOptions::IsValid(std::string* error) const {
     return fail(fmt::format("RefineOptions::jump_time_tolerance = {}: must be finite and >= 0",
                             jump_time_tolerance));
   }
+  if (min_jump_interval < 0) {
+    return fail(fmt::format("RefineOptions::min_jump_interval = {}: must be >= 0", min_jump_interval));
+  }
   if (sigma.size() != 0 && (!sigma.allFinite() || (sigma.array() < 0.0).any())) {
     return fail("RefineOptions::sigma: every entry must be finite and >= 0");
   }
@@ -334,6 +337,42 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
   if (r.ok()) CheckResiduals(problem, options, s, mad_sigma, r);
 }
 
+// The samples before the first detected jump that follows the previous one by fewer than
+// `min_interval` samples (jumps that close are not resolved reliably: the part before them is fit).
+long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval) {
+  long previous = 0;
+  for (std::size_t k = 1; k < gamma.size(); ++k) {
+    if (gamma[k] == 0) continue;
+    const auto kk = static_cast<long>(k);
+    if (previous > 0 && kk - previous < min_interval) return previous;
+    previous = kk;
+  }
+  return static_cast<long>(gamma.size());
+}
+
+void FitSamples(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
+                const RefineOptions& options, RefineResult& r) {
+  FitProblem problem;
+  problem.model = &model;
+  problem.y = &y;
+  problem.grid = SampleGrid{.t_end = static_cast<double>(y.cols() - 1) * dt, .dt = dt};
+  problem.segments.resize(gamma.size());
+  int j = 0;
+  for (std::size_t k = 0; k < gamma.size(); ++k) problem.segments[k] = j += (k > 0 && gamma[k] != 0);
+  problem.unknowns = r.unknowns;
+  problem.start = r.start;
+  const Vec mad_sigma = EstimateNoiseSigma(y);
+  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
+  problem.options = options.sensitivity;
+  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
+  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
+                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
+                                      options.sensitivity.sim.rtol);
+  problem.options.sim.rtol = problem.options.sim.atol = tolerance;
+  problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, problem.options.sim)).cwiseInverse();
+  RunRefinement(problem, options, mad_sigma, r);
+}
+
 }  // namespace
 
 RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alpha0, const Vec& beta0,
@@ -359,25 +398,19 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
     Fail(r, RefineStatus::kTooFewSamples, fmt::format("{} samples for {} unknowns", y.cols(), p));
     return r;
   }
-  FitProblem problem;
-  problem.model = &model;
-  problem.y = &y;
-  problem.grid = SampleGrid{.t_end = static_cast<double>(y.cols() - 1) * dt, .dt = dt};
-  problem.segments.resize(gamma.size());
-  int j = 0;
-  for (std::size_t k = 0; k < gamma.size(); ++k) problem.segments[k] = j += (k > 0 && gamma[k] != 0);
-  problem.unknowns = r.unknowns;
-  problem.start = r.start;
-  const Vec mad_sigma = EstimateNoiseSigma(y);
-  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
-  problem.options = options.sensitivity;
-  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
-  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
-                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
-                                      options.sensitivity.sim.rtol);
-  problem.options.sim.rtol = problem.options.sim.atol = tolerance;
-  problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, problem.options.sim)).cwiseInverse();
-  RunRefinement(problem, options, mad_sigma, r);
+  const long used = FitLength(gamma, options.min_jump_interval);
+  r.samples_used = used;
+  r.detected_jumps = 0;
+  for (long k = 1; k < used; ++k) r.detected_jumps += gamma[static_cast<std::size_t>(k)] != 0;
+  if (used < p + 2) {
+    Fail(r, RefineStatus::kTooFewSamples,
+         fmt::format("{} samples before the detected jumps come closer than {} samples, for {} unknowns",
+                     used, options.min_jump_interval, p));
+    return r;
+  }
+  const Mat y_used = y.leftCols(used);
+  const std::vector<std::uint8_t> gamma_used(gamma.begin(), gamma.begin() + used);
+  FitSamples(model, y_used, dt, gamma_used, options, r);
   if (r.ok()) {
     r.estimate = r.refined;
   } else {

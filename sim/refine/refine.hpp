@@ -61,7 +61,11 @@ struct RefineOptions {
   double rms_low = 0.8;      // σ given: normalised residual RMS in [rms_low, rms_high]
   double rms_high = 1.25;    // σ estimated: residual σ̂ ≤ rms_high × MAD σ̂ (core/model/noise_shape)
   double max_lag1 = 0.2;     // |lag-1 autocorrelation| of the normalised residuals
-  double jump_time_tolerance = 3.0;  // samples: fitted jump j within this of the detected interval
+  double jump_time_tolerance = 3.0;
+  // Detected jumps closer than this many samples are not resolved reliably (a bouncing ball nearing
+  // its Zeno time): the samples before the first such jump are fit (RefineResult::samples_used).
+  // 0: always all samples.
+  long min_jump_interval = 50;  // samples: fitted jump j within this of the detected interval
   // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
   bool IsValid(std::string* error) const;
 };
@@ -85,7 +89,8 @@ struct RefineResult {
   double lag1 = 0.0;            // lag-1 autocorrelation of the normalised residuals
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;  // ½ Σ (r/σ_w)² with the weighting σ
-  int detected_jumps = 0;
+  long samples_used = 0;  // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
+  int detected_jumps = 0;  // in the fitted prefix
   int model_jumps = -1;  // of the fitted model over the horizon (−1: not simulated)
 };
 
