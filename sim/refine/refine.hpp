@@ -55,8 +55,8 @@ struct RefineOptions {
   // rtol = atol = polish_tolerance (no polish when it is not below the tolerances above).
   double polish_tolerance = 1e-12;
   int max_iterations = 50;
-  double function_tolerance = 1e-12;  // Ceres: relative cost decrease
-  double parameter_tolerance = 1e-12; // Ceres: relative step
+  double function_tolerance = 1e-9;   // Ceres: relative cost decrease
+  double parameter_tolerance = 1e-9;  // Ceres: relative step
   Vec sigma;                 // per component (n entries ≥ 0) when known; empty: estimated
   double rms_low = 0.8;      // σ given: normalised residual RMS in [rms_low, rms_high]
   double rms_high = 1.25;    // σ estimated: residual σ̂ ≤ rms_high × MAD σ̂ (core/model/noise_shape)
