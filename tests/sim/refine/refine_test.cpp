@@ -119,6 +119,28 @@ TEST_CASE("a ball at rest after its Zeno time: not ok (the fit cannot rest)", "[
          r.status == RefineStatus::kNotConverged || r.status == RefineStatus::kJumpCountMismatch));
 }
 
+TEST_CASE("a ball run to its Zeno time and resting: the part before the dense bounces is fit", "[refine]") {
+  const Model model{BouncingBall{}};
+  const SampleGrid grid{10.0, 1e-3};
+  const Vec x0 = (Vec(2) << 1.0, 0.0).finished();
+  const Trajectory t = Simulate(model, x0, grid);
+  REQUIRE(t.status.stop == SimStop::kZeno);
+  const long kz = t.size(), k_count = kz + 1000;  // 1 s at rest on the floor after the Zeno time
+  Mat y = Mat::Zero(2, k_count);
+  y.leftCols(kz) = t.x;
+  std::vector<std::uint8_t> gamma(static_cast<std::size_t>(k_count), 0);
+  for (long k = 1; k < kz; ++k) gamma[static_cast<std::size_t>(k)] = t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
+  Vec beta0 = model.beta();
+  beta0[1] = 0.79;
+  const RefineResult r = Refine(model, y, grid.dt, model.alpha(), beta0, gamma);
+  INFO(ToString(r.status) << ": " << r.reason);
+  REQUIRE(r.ok());
+  CHECK(r.samples_used < kz);
+  CHECK(r.samples_used > kz / 2);
+  CHECK((r.estimate.alpha - model.alpha()).norm() < 1e-8);
+  CHECK((r.estimate.beta - model.beta()).norm() < 1e-8);
+}
+
 TEST_CASE("bad options and inputs name the field", "[refine]") {
   const Run run(0.05);
   RefineOptions o;
