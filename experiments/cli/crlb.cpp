@@ -66,6 +66,9 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
               args.x0_known ? "known" : "unknown");
   if (!c.ok()) {
     std::printf("status: %s: %s\n", ToString(c.status), c.message.c_str());
+    if (c.message.find("Zeno") != std::string::npos) {
+      std::printf("(the bound needs a horizon that ends before the accumulation time: --t-end)\n");
+    }
     return 1;
   }
   std::printf("%d jumps; sqrt(CRLB) (jump-time information left out):\n", c.jumps);
