@@ -197,6 +197,16 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   return summary;
 }
 
+// The last three jump intervals shrink and the last two are below one sample: the jumps accumulate
+// faster than the samples can show (a Zeno approach).
+bool AccumulatesWithinASample(const std::vector<JumpRecord>& jumps, double dt) {
+  const std::size_t m = jumps.size();
+  if (m < 4) return false;
+  const double i1 = jumps[m - 1].t - jumps[m - 2].t, i2 = jumps[m - 2].t - jumps[m - 3].t,
+               i3 = jumps[m - 3].t - jumps[m - 4].t;
+  return i1 < i2 && i2 < i3 && i2 < dt;
+}
+
 // The fitted model on its own (plain mode, states only): Zeno, jump count, jump times.
 void CheckJumps(const FitProblem& problem, const RefineOptions& options, const HybridParameters& fit,
                 RefineResult& r) {
@@ -212,6 +222,13 @@ void CheckJumps(const FitProblem& problem, const RefineOptions& options, const H
   if (!st.completed()) {
     return Fail(r, RefineStatus::kNotConverged,
                 fmt::format("the fitted model does not simulate: {}: {}", ToString(st.stop), st.message));
+  }
+  if (r.model_jumps != r.detected_jumps && AccumulatesWithinASample(plain.trajectory.jumps, problem.grid.dt)) {
+    const auto& jumps = plain.trajectory.jumps;
+    return Fail(r, RefineStatus::kZeno,
+                fmt::format("the fitted model's jumps accumulate (Zeno) near t = {:.6g}: {} jumps, the last "
+                            "ones less than a sample apart, against {} detected",
+                            jumps.back().t, r.model_jumps, r.detected_jumps));
   }
   if (r.model_jumps != r.detected_jumps) {
     return Fail(r, RefineStatus::kJumpCountMismatch,

@@ -31,7 +31,9 @@ enum class RefineStatus {
   kTooFewSamples,        // fewer samples than unknowns + 1 per component
   kStartFailed,          // the start does not simulate on the detected segments
   kNotConverged,         // Ceres stopped without convergence (iteration budget, failed steps)
-  kZeno,                 // the fitted model is Zeno within the horizon
+  kZeno,                 // the fitted model is Zeno within the horizon, or its jumps accumulate
+                         // faster than the samples (more jumps than detected, the last ones less
+                         // than a sample apart)
   kJumpCountMismatch,    // the fitted model's jump count or jump times disagree with the detector's
   kSingularFisher,       // some direction of θ is not identifiable at the fit
   kResidualRms,          // normalised residual RMS far from 1: the fit (or σ) is wrong

@@ -141,6 +141,22 @@ TEST_CASE("a ball run to its Zeno time and resting: the part before the dense bo
   CHECK((r.estimate.beta - model.beta()).norm() < 1e-8);
 }
 
+TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the fit is Zeno", "[refine]") {
+  const Model model{BouncingBall{}};
+  const SampleGrid grid{10.0, 1e-3};
+  const Vec x0 = (Vec(2) << 1.0, 0.0).finished();
+  const Trajectory t = Simulate(model, x0, grid);
+  REQUIRE(t.status.stop == SimStop::kZeno);
+  std::vector<std::uint8_t> gamma(static_cast<std::size_t>(t.size()), 0);
+  for (std::size_t k = 1; k < gamma.size(); ++k) gamma[k] = t.j[k] != t.j[k - 1];
+  RefineOptions options;
+  options.min_jump_interval = 0;
+  const RefineResult r = Refine(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
+  INFO(ToString(r.status) << ": " << r.reason);
+  RequireKept(r);
+  CHECK(r.status == RefineStatus::kZeno);
+}
+
 TEST_CASE("bad options and inputs name the field", "[refine]") {
   const Run run(0.05);
   RefineOptions o;
