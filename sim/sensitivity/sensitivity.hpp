@@ -59,8 +59,9 @@ struct SensitivityTrajectory {
   int parameters = 0;   // p
   Mat sensitivities;    // (n·p) × K: column k holds S_k (n × p, column-major); empty when not asked
   Mat jump_time_gradients;  // p × (jumps): ∂t_j/∂θ
-  // Matched mode only: segments the model never reached before the last sample time (the trajectory
-  // then stops there), and guard crossings on the last segment (the model jumps more often).
+  // Matched mode only: segments the model never reached before the last sample time (the samples
+  // then stop at the last segment reached, status.message says so; use ok(), not the status alone),
+  // and guard crossings on the last segment (the model jumps more often).
   int missing_jumps = 0;
   int extra_jumps = 0;
   bool ok() const { return trajectory.status.completed() && missing_jumps == 0; }
