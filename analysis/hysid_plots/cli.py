@@ -53,6 +53,7 @@ def figure_options(p, paper=False):
                    help="file format(s), e.g. pdf,png (default png)")
     p.add_argument("--width", choices=["single", "double"], default="double",
                    help="single column (3.5 in) or full width (7.16 in) of a two-column paper (default double)")
+    p.add_argument("--dpi", type=int, default=300, help="resolution of PNG files (default 300)")
     p.add_argument("--out", default=None, help="output directory (default RUN_DIR" + ("" if paper else "/figures")
                    + ")")
     if not paper:
@@ -94,7 +95,10 @@ def draw(kind, run, args, fmt):
 
 
 def run_kind(args):
-    from hysid_plots import data
+    from hysid_plots import data, style
+    if args.dpi < 50:
+        raise data.DataError(f"--dpi = {args.dpi}: must be >= 50")
+    style.DPI = args.dpi
     if args.kind == "paper":
         from hysid_plots import paper
         return [p for fmt in args.format for p in paper.paper_figures(args.run_dir, args.out, fmt, args.width)]

@@ -59,7 +59,7 @@ class Summary:
         self.columns = header
         self.rows = []
         for line, cells in enumerate(body, start=2):
-            row = {}
+            row = {"_line": line}  # identifies the row when the summary has no `cell` column
             for h, v in zip(header, cells):
                 row[h] = v if h in TEXT_KEYS else number(v, f"{path}:{line}: column '{h}'")
             self.rows.append(row)

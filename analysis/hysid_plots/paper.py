@@ -14,10 +14,17 @@ PARAM_LABELS = {"a_hat": r"$\hat a$", "b_hat": r"$\hat b$", "lambda_hat": r"$\ha
 def read(run, name):
     """{column: array} of RUN_DIR/name."""
     path = os.path.join(run, name)
-    header, body = data.read_csv(path)
-    cols = {h: np.array([data.number(r[i], f"{path}:{ln}: column '{h}'") for ln, r in enumerate(body, start=2)])
-            for i, h in enumerate(header)}
-    return cols
+    if not os.path.exists(path):
+        raise data.DataError(f"{path}: no such file (written by hysid reproduce paper --out {run})")
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+        try:
+            body = np.loadtxt(f, delimiter=",", ndmin=2)
+        except ValueError as e:
+            raise data.DataError(f"{path}: {e}") from None
+    if body.shape[0] == 0 or body.shape[1] != len(header):
+        raise data.DataError(f"{path}: {body.shape[1]} columns of numbers, the header has {len(header)}")
+    return {h: body[:, i] for i, h in enumerate(header)}
 
 
 def truth(run):
@@ -39,7 +46,7 @@ def source(run):
 
 def fig4(run, out, fmt, width):
     tr, jumps = read(run, "fig4_trajectory.csv"), read(run, "fig4_jumps.csv")
-    fig, axes, leg, ncol = style.panels(width, 2, 2, panel_height=1.25 if width == "single" else 1.5)
+    fig, axes, leg, ncol = style.panels(width, 2, 2, panel_height=1.25 if width == "single" else 1.5, cols=1)
     for ax, key, label in [(axes[0], "x1", r"position $\xi_1$"), (axes[1], "x2", r"velocity $\xi_2$")]:
         (flow,) = ax.plot(tr["t"], tr[key], color=style.COLORS[0], lw=0.7, label="trajectory")
         ax.vlines(jumps["t_jump"], jumps["pre_" + key], jumps["post_" + key], color="0.3", lw=0.6, ls=":")
@@ -55,7 +62,7 @@ def fig4(run, out, fmt, width):
 
 def fig_tau(run, name, out, stem, fmt, width, what):
     d = read(run, name)
-    fig, axes, leg, ncol = style.panels(width, 2, 4, panel_height=1.3 if width == "single" else 1.6)
+    fig, axes, leg, ncol = style.panels(width, 2, 4, panel_height=1.3 if width == "single" else 1.6, cols=1)
     ax = axes[0]
     hs = [ax.semilogy(d["t"], np.where(d["D"] > 0, d["D"], np.nan), color="0.45", lw=0.5,
                       label=r"$\|D_{\delta t}\xi\|$ (Euler derivative)")[0]]
@@ -81,7 +88,7 @@ def fig_tau(run, name, out, stem, fmt, width, what):
 def fig_params(run, name, out, stem, fmt, width, what):
     d = read(run, name)
     true = truth(run)
-    fig, axes, leg, ncol = style.panels(width, 4, 5, panel_height=1.3 if width == "single" else 1.5)
+    fig, axes, leg, ncol = style.panels(width, 4, 5, panel_height=1.3 if width == "single" else 1.5, cols=2)
     hs = []
     for ax, keys, ylabel in [(axes[0], ("a_hat", "b_hat"), "flow parameters"),
                              (axes[1], ("lambda_hat", "mu_hat"), "jump parameters")]:

@@ -48,7 +48,7 @@ class Intervals:
 
     def of(self, row, metric, scale=1.0):
         """(estimate, lo, hi, n) of `metric` in summary row `row`, each divided by `scale`."""
-        key = (row.get("cell"), metric, self.stat)
+        key = (row["_line"], metric, self.stat)
         if key not in self._cache:
             self._cache[key] = self._compute(row, metric)
         est, lo, hi, n = self._cache[key]
@@ -59,7 +59,7 @@ class Intervals:
 
     def of_values(self, row, values, tag):
         """(estimate, lo, hi, n) of derived per-trial `values` of row's cell (cached under `tag`)."""
-        key = (row.get("cell"), tag, self.stat)
+        key = (row["_line"], tag, self.stat)
         if key not in self._cache:
             est, lo, hi = bootstrap(values, self.stat, row["cell"])
             self._cache[key] = (est, lo, hi, len(values))

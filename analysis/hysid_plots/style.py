@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 STYLE = os.path.join(os.path.dirname(__file__), "hysid.mplstyle")
 WIDTHS = {"single": 3.5, "double": 7.16}  # inches: one column / the full page of a two-column paper
 FORMATS = ("pdf", "svg", "png")
+DPI = 300  # of PNG files (--dpi)
 # Okabe-Ito colours (distinct for colour-blind readers); markers and dashes tell series apart in grey.
 COLORS = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442"]
 MARKERS = ["o", "s", "^", "D", "v", "P", "X", "<", ">", "p", "h", "*"]
@@ -37,14 +38,14 @@ def series_style(i, group, sub):
             "marker": MARKERS[i % len(MARKERS)], "markerfacecolor": "none", "markeredgewidth": 0.8}
 
 
-def panels(width, n, legend_entries=0, panel_height=None):
+def panels(width, n, legend_entries=0, panel_height=None, cols=None):
     """A figure of n panels (one column for a single-width figure of up to 3, else up to 4 a row) and,
     when legend_entries > 0, a row below them holding the legend (it never covers data).
     Returns (fig, list of panel axes, legend axes or None, legend columns)."""
-    cols = (1 if n <= 3 else 2) if width == "single" else min(n, 4)
+    cols = cols or ((1 if n <= 3 else 2) if width == "single" else min(n, 4))
     rows = math.ceil(n / cols)
     w = WIDTHS[width]
-    ph = panel_height or (1.45 if width == "single" and cols == 1 else 0.75 * w / cols)
+    ph = panel_height or (1.45 if cols == 1 else 0.75 * w / cols)
     ncol = 2 if width == "single" else 4
     leg_h = 0.0 if legend_entries == 0 else 0.16 * math.ceil(legend_entries / ncol) + 0.08
     fig = plt.figure(figsize=(w, rows * ph + leg_h), constrained_layout=True)
@@ -78,16 +79,23 @@ def set_grid_axis(ax, values, axis="x"):
     if not is_spread(values):
         return "linear"
     minpos = min(v for v in values if v > 0)
+    which = ax.xaxis if axis == "x" else ax.yaxis
     if min(values) <= 0:
         setter("symlog", linthresh=minpos, linscale=0.4)
-        which = ax.xaxis if axis == "x" else ax.yaxis
-        which.set_minor_locator(mticker.SymmetricalLogLocator(linthresh=minpos, base=10, subs=range(2, 10)))
-        which.set_major_formatter(mticker.FuncFormatter(lambda v, _: f"{v:g}"))
-        (ax.set_xlim if axis == "x" else ax.set_ylim)(-0.1 * minpos, None)  # call after drawing
-        return "symlog"
-    setter("log")
-    (ax.xaxis if axis == "x" else ax.yaxis).set_major_formatter(mticker.FuncFormatter(lambda v, _: f"{v:g}"))
-    return "log"
+        scale = "symlog"
+    else:
+        setter("log")
+        scale = "log"
+    # Limits in the scaled space (call after drawing): a margin of 3 % of the decades spanned.
+    margin = 10 ** (0.03 * math.log10(max(values) / minpos) + 0.01)
+    (ax.set_xlim if axis == "x" else ax.set_ylim)(-0.1 * minpos if scale == "symlog" else minpos / margin,
+                                                  max(values) * margin)
+    grid = sorted(set(values))
+    if len(grid) <= 9:  # the grid values themselves as ticks
+        which.set_major_locator(mticker.FixedLocator(grid))
+    which.set_major_formatter(mticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    which.set_minor_locator(mticker.NullLocator())
+    return scale
 
 
 def set_value_axis(ax, values, axis="y"):
@@ -118,7 +126,7 @@ def save(fig, out_dir, stem, fmt, caption):
     os.makedirs(out_dir, exist_ok=True)
     path = os.path.join(out_dir, f"{stem}.{fmt}")
     meta = {"pdf": {"CreationDate": None, "ModDate": None}, "svg": {"Date": None}, "png": {}}[fmt]
-    fig.savefig(path, format=fmt, metadata=meta)
+    fig.savefig(path, format=fmt, metadata=meta, dpi=DPI)
     plt.close(fig)
     with open(os.path.join(out_dir, f"{stem}.txt"), "w") as f:
         f.write(caption.strip() + "\n")
