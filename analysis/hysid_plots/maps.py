@@ -29,7 +29,13 @@ def heat(ax, m, xs, ys, norm, annotate):
     shown = np.where(m > 0, m, np.nan)
     im = ax.imshow(shown, origin="lower", aspect="auto", cmap=cmap, norm=norm, interpolation="nearest")
     ax.grid(False)
-    ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs])
+    labels = [f"{v:g}" for v in xs]
+    ax.set_xticks(range(len(xs)), labels)
+    fig = ax.figure
+    fig.canvas.draw()
+    cell_pt = ax.get_window_extent().width * 72 / fig.dpi / len(xs)
+    if max(len(t) for t in labels) * 0.62 * 8 + 2 > cell_pt:  # upright labels would run together
+        ax.tick_params(axis="x", labelrotation=90)
     ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
     ax.tick_params(length=0)
     if annotate:
@@ -38,18 +44,30 @@ def heat(ax, m, xs, ys, norm, annotate):
                 v = m[a, b]
                 if not math.isfinite(v):
                     continue
-                text = "0" if v == 0 else stats.sig(v, 1)
+                text = cell_text(v)
                 dark = v > 0 and norm(v) < 0.6
-                ax.text(b, a, text, ha="center", va="center", fontsize=6.5,
+                ax.text(b, a, text, ha="center", va="center", fontsize=7,
                         color="white" if dark else "black")
     return im
 
 
-def fits(fig, ax, ncols, chars=5, size=6.5):
-    """True when a label of `chars` characters at `size` pt fits in a cell of ax's ncols columns."""
+def cell_text(v):
+    """A rate in at most 4 characters: 0, 0.08, 1, 4e-3."""
+    if v == 0:
+        return "0"
+    if v >= 0.0095:
+        return f"{v:.1g}"
+    m, e = f"{v:.0e}".split("e")
+    return f"{m}e{int(e)}"
+
+
+def fits(fig, ax, ncols, m, size=7):
+    """True when the widest cell label of matrix m fits in a cell of ax's ncols columns (DejaVu digits
+    are about 0.62 em wide; 4 pt of margin)."""
+    chars = max((len(cell_text(v)) for v in m.ravel() if math.isfinite(v)), default=1)
     fig.canvas.draw()
     width_pt = ax.get_window_extent().width * 72 / fig.dpi
-    return width_pt / ncols >= chars * 0.6 * size
+    return width_pt / ncols >= chars * 0.62 * size + 4
 
 
 def map_groups(summary):
@@ -72,10 +90,10 @@ def misclassification_map(run, out_dir, fmt, width, stat="mean"):
         dts = sorted({r["dt"] for r in rows})
         rs = sorted({r["r"] for r in rows})
         sigmas = sorted({r["sigma"] for r in rows})
-        cols = min(len(sigmas), 2 if width == "single" else 4)
+        cols = min(len(sigmas), 2 if width == "single" else 3)
         nrows = math.ceil(len(sigmas) / cols)
-        pw = (style.WIDTHS[width] - 0.6) / cols
-        fig, axes = style.figure(width, nrows, cols, height=nrows * pw * 0.85 + 0.3, sharex=True, sharey=True,
+        pw = (style.WIDTHS[width] - (0.3 if width == "single" else 0.9)) / cols
+        fig, axes = style.figure(width, nrows, cols, height=nrows * pw * 0.75 + (0.8 if width == "single" else 0.3),
                                  constrained_layout=True)
         mats = {}
         for sg in sigmas:
@@ -85,23 +103,27 @@ def misclassification_map(run, out_dir, fmt, width, stat="mean"):
                     m[dts.index(r["dt"]), rs.index(r["r"])] = r[f"misclassification_{stat}"]
             mats[sg] = m
         norm = rate_norm([v for m in mats.values() for v in m.ravel()])
-        annotate = fits(fig, axes[0][0], len(rs))
+        annotate = fits(fig, axes[0][0], len(rs), np.stack(list(mats.values())))
         im = None
         for i, sg in enumerate(sigmas):
             ax = axes[i // cols][i % cols]
             im = heat(ax, mats[sg], rs, dts, norm, annotate)
             ax.set_title(rf"$\sigma$ = {sg:g}")
             ax.set_ylabel(r"$\delta t$ [s]")
-            ax.set_xlabel("bound scale r")
         for j in range(len(sigmas), nrows * cols):
             axes[j // cols][j % cols].axis("off")
-        fig.colorbar(im, ax=axes.ravel().tolist(), label=f"{stat} misclassification rate", shrink=0.9)
+        shown = [ax for ax in axes.ravel() if ax.axison]
+        for ax in shown:
+            if style.is_bottom(ax, shown):
+                ax.set_xlabel("bound scale r")
+        fig.colorbar(im, ax=axes.ravel().tolist(), label=f"{stat} misclassification rate", shrink=0.9,
+                     location="bottom" if width == "single" else "right", aspect=30 if width == "single" else 20)
         stem = f"misclassification_map_{model}_{est}_{det}"
         n = sorted({int(r["trials"] - r["failures"]) for r in rows})
         cap = (f"{model}, {est} estimator, {det} detector: {stat} misclassification rate (false and missed "
                f"jumps over all samples) over the sample time δt and the bound scale r, one panel per noise σ; "
                f"log colour scale, white = 0 (no misclassified sample in any trial)"
-               f"{'; cell labels: the rate to 1 significant digit' if annotate else ''}. "
+               f"{'; cell labels: the rate to 1 significant digit (4e-3 = 4·10⁻³)' if annotate else ''}. "
                f"{'n = ' + str(n[0]) if len(n) == 1 else f'n = {n[0]}–{n[-1]}'} trials per cell "
                f"(summary.csv). Data: {run.source()}.")
         written.append(style.save(fig, out_dir, stem, fmt, cap))
@@ -202,9 +224,10 @@ def detector_comparison(run, out_dir, fmt, width, stat="mean", tables=True):
         dts = sorted({c["dt"] for c in mine[0]})
         npanel = 1 + len(mine)
         cols = 1 if width == "single" else npanel
-        pw = (style.WIDTHS[width] - 0.7) / cols
+        pw = (style.WIDTHS[width] - (0.3 if width == "single" else 0.9)) / cols
         fig, axes = style.figure(width, math.ceil(npanel / cols), cols, sharex=True, sharey=True,
-                                 height=math.ceil(npanel / cols) * pw * 0.7 + 0.3, constrained_layout=True)
+                                 height=math.ceil(npanel / cols) * pw * 0.5 + (0.8 if width == "single" else 0.3),
+                                 constrained_layout=True)
         axes = axes.ravel()
         mats = []
         for cmp, key in [(mine[0], "best")] + [(c, "residual") for c in mine]:
@@ -213,14 +236,15 @@ def detector_comparison(run, out_dir, fmt, width, stat="mean", tables=True):
                 m[sigmas.index(c["sigma"]), dts.index(c["dt"])] = c[key]
             mats.append(m)
         norm = rate_norm([v for m in mats for v in m.ravel()])
-        annotate = fits(fig, axes[0], len(dts))
+        annotate = fits(fig, axes[0], len(dts), np.stack(mats))
         titles = ["paper detector, best r per cell"] + [f"residual detector, p = {c[0]['p']:g}" for c in mine]
         for ax, m, title in zip(axes, mats, titles):
             im = heat(ax, m, dts, sigmas, norm, annotate)
             ax.set_title(title)
             ax.set_ylabel(r"noise $\sigma$")
             ax.set_xlabel(r"$\delta t$ [s]")
-        fig.colorbar(im, ax=axes.tolist(), label=RATE_LABEL, shrink=0.9)
+        fig.colorbar(im, ax=axes.tolist(), label=RATE_LABEL, shrink=0.9,
+                     location="bottom" if width == "single" else "right", aspect=30 if width == "single" else 20)
         n = sorted({c["n"] for cmp in mine for c in cmp})
         cap = (f"{model}, {est} estimator: mean misclassification rate per (σ, δt) cell of the paper detector "
                f"with the r that is best in that cell (chosen in hindsight) and of the residual detector "

@@ -14,8 +14,9 @@ STYLE = os.path.join(os.path.dirname(__file__), "hysid.mplstyle")
 WIDTHS = {"single": 3.5, "double": 7.16}  # inches: one column / the full page of a two-column paper
 FORMATS = ("pdf", "svg", "png")
 DPI = 300  # of PNG files (--dpi)
-# Okabe-Ito colours (distinct for colour-blind readers); markers and dashes tell series apart in grey.
-COLORS = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442"]
+# Okabe-Ito colours (distinct for colour-blind readers; wine instead of its yellow, faint on white);
+# markers and dashes tell series apart in grey.
+COLORS = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#882255"]
 MARKERS = ["o", "s", "^", "D", "v", "P", "X", "<", ">", "p", "h", "*"]
 DASHES = ["-", "--", ":", "-."]
 
@@ -90,12 +91,50 @@ def set_grid_axis(ax, values, axis="x"):
     margin = 10 ** (0.03 * math.log10(max(values) / minpos) + 0.01)
     (ax.set_xlim if axis == "x" else ax.set_ylim)(-0.1 * minpos if scale == "symlog" else minpos / margin,
                                                   max(values) * margin)
-    grid = sorted(set(values))
-    if len(grid) <= 9:  # the grid values themselves as ticks
-        which.set_major_locator(mticker.FixedLocator(grid))
+    which.set_major_locator(mticker.FixedLocator(sorted(set(values))))  # thinned by space_ticks on saving
     which.set_major_formatter(mticker.FuncFormatter(lambda v, _: f"{v:g}"))
     which.set_minor_locator(mticker.NullLocator())
+    ax.hysid_grid_ticks = (sorted(set(values)), axis)
     return scale
+
+
+def space_ticks(fig):
+    """After the layout: drops grid ticks whose labels would touch (see spaced_ticks)."""
+    marked = [ax for ax in fig.axes if hasattr(ax, "hysid_grid_ticks")]
+    if not marked:
+        return
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        engine.execute(fig)
+    for ax in marked:
+        grid, axis = ax.hysid_grid_ticks
+        (ax.xaxis if axis == "x" else ax.yaxis).set_major_locator(mticker.FixedLocator(spaced_ticks(ax, grid,
+                                                                                                    axis)))
+
+
+def spaced_ticks(ax, grid, axis):
+    """The grid values as ticks, without those whose labels would touch a neighbour's (the largest is
+    kept; labels ~0.62 em a character at 8 pt plus 5 pt)."""
+    fig = ax.figure
+    pos = ax.get_position()
+    length_pt = (pos.width if axis == "x" else pos.height) * fig.get_size_inches()[0 if axis == "x" else 1] * 72
+    tr = (ax.xaxis if axis == "x" else ax.yaxis).get_transform()
+    lim = ax.get_xlim() if axis == "x" else ax.get_ylim()
+    lo, hi = tr.transform(np.array(lim, dtype=float))
+    at = (tr.transform(np.array(grid, dtype=float)) - lo) / (hi - lo) * length_pt
+    need = [(len(f"{v:g}") * 0.62 * 8 if axis == "x" else 8) + 5 for v in grid]
+    kept = [len(grid) - 1]
+    for i in range(len(grid) - 2, -1, -1):
+        if at[kept[-1]] - at[i] >= (need[i] + need[kept[-1]]) / 2:
+            kept.append(i)
+    return [grid[i] for i in sorted(kept)]
+
+
+def power_label(v, _):
+    if v == 0:
+        return "0"
+    k = math.log10(abs(v))
+    return f"$10^{{{int(round(k))}}}$" if abs(k - round(k)) < 1e-9 else f"{v:g}"
 
 
 def set_value_axis(ax, values, axis="y"):
@@ -112,10 +151,14 @@ def set_value_axis(ax, values, axis="y"):
     if pos.size == v.size:
         setter("log")
         return "log"
-    linthresh = 10.0 ** math.floor(math.log10(pos.min()))
-    setter("symlog", linthresh=linthresh, linscale=0.5)
+    lo = math.floor(math.log10(pos.min()))
+    hi = math.ceil(math.log10(pos.max()))
+    setter("symlog", linthresh=10.0 ** lo, linscale=1.0)  # 0 sits one decade below the smallest value
     which = ax.yaxis if axis == "y" else ax.xaxis
-    which.set_minor_locator(mticker.SymmetricalLogLocator(linthresh=linthresh, base=10, subs=range(2, 10)))
+    stride = max(1, math.ceil((hi - lo) / 5))
+    which.set_major_locator(mticker.FixedLocator([0.0] + [10.0 ** k for k in range(hi, lo - 1, -stride)]))
+    which.set_major_formatter(mticker.FuncFormatter(power_label))
+    which.set_minor_locator(mticker.NullLocator())
     return "symlog"
 
 
@@ -126,6 +169,7 @@ def save(fig, out_dir, stem, fmt, caption):
     os.makedirs(out_dir, exist_ok=True)
     path = os.path.join(out_dir, f"{stem}.{fmt}")
     meta = {"pdf": {"CreationDate": None, "ModDate": None}, "svg": {"Date": None}, "png": {}}[fmt]
+    space_ticks(fig)
     fig.savefig(path, format=fmt, metadata=meta, dpi=DPI)
     plt.close(fig)
     with open(os.path.join(out_dir, f"{stem}.txt"), "w") as f:

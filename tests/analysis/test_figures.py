@@ -44,6 +44,9 @@ def check_files(out, stems, formats=("pdf", "png"), n=True):
 def check_figure(fig):
     """Every panel has a y label; series are told apart by marker and dashes; no band below 0."""
     for ax in data_axes(fig):
+        if ax.get_label() == "<colorbar>":  # labelled along its length (x when below the panels)
+            assert (ax.get_xlabel() + ax.get_ylabel()).strip()
+            continue
         assert ax.get_ylabel().strip(), [a.get_title() for a in fig.axes]
         styles = [(ln.get_marker(), ln.get_linestyle()) for ln in ax.get_lines() if ln.get_marker() != "None"]
         assert len(styles) == len(set(styles)), styles
