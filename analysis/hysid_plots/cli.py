@@ -85,13 +85,10 @@ def parser():
     return ap
 
 
-def draw(kind, run, args, fmt):
+def draw(kind, run, args):
     mod, fn, _ = KINDS[kind]
     f = getattr(importlib.import_module(f"hysid_plots.{mod}"), fn)
-    out = args.out or os.path.join(run.dir, "figures")
-    if kind == "detector-comparison":
-        return f(run, out, fmt, args.width, args.stat, tables=fmt == args.format[0])
-    return f(run, out, fmt, args.width, args.stat)
+    return f(run, args.out or os.path.join(run.dir, "figures"), args.format, args.width, args.stat)
 
 
 def run_kind(args):
@@ -101,16 +98,15 @@ def run_kind(args):
     style.DPI = args.dpi
     if args.kind == "paper":
         from hysid_plots import paper
-        return [p for fmt in args.format for p in paper.paper_figures(args.run_dir, args.out, fmt, args.width)]
+        return paper.paper_figures(args.run_dir, args.out, args.format, args.width)
     run = data.Run(args.run_dir)
     run.truth = args.truth
     if args.kind != "all":
-        return [p for fmt in args.format for p in draw(args.kind, run, args, fmt)]
+        return draw(args.kind, run, args)
     written = []
     for kind in ALL_ORDER:
         try:
-            for fmt in args.format:
-                written += draw(kind, run, args, fmt)
+            written += draw(kind, run, args)
         except data.DataError as e:
             print(f"{PROG}: skipped {kind}: {e}", file=sys.stderr)
     return written

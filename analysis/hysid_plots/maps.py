@@ -22,32 +22,17 @@ def rate_norm(values):
     return matplotlib.colors.LogNorm(vmin=lo, vmax=max(hi, 10 * lo), clip=True)
 
 
-def heat(ax, m, xs, ys, norm, annotate):
-    """Draws matrix m (rows = ys, columns = xs); exact zeros white; cell labels when `annotate`."""
+def heat(ax, m, xs, ys, norm):
+    """Draws matrix m (rows = ys, columns = xs) with exact zeros white; labels come from label_cells."""
     cmap = matplotlib.colormaps["viridis"].copy()
     cmap.set_bad("white")
     shown = np.where(m > 0, m, np.nan)
     im = ax.imshow(shown, origin="lower", aspect="auto", cmap=cmap, norm=norm, interpolation="nearest")
     ax.grid(False)
-    labels = [f"{v:g}" for v in xs]
-    ax.set_xticks(range(len(xs)), labels)
-    fig = ax.figure
-    fig.canvas.draw()
-    cell_pt = ax.get_window_extent().width * 72 / fig.dpi / len(xs)
-    if max(len(t) for t in labels) * 0.62 * 8 + 2 > cell_pt:  # upright labels would run together
-        ax.tick_params(axis="x", labelrotation=90)
+    ax.hysid_xlabels = [f"{v:g}" for v in xs]
+    ax.set_xticks(range(len(xs)), ax.hysid_xlabels)
     ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
     ax.tick_params(length=0)
-    if annotate:
-        for a in range(len(ys)):
-            for b in range(len(xs)):
-                v = m[a, b]
-                if not math.isfinite(v):
-                    continue
-                text = cell_text(v)
-                dark = v > 0 and norm(v) < 0.6
-                ax.text(b, a, text, ha="center", va="center", fontsize=7,
-                        color="white" if dark else "black")
     return im
 
 
@@ -61,13 +46,29 @@ def cell_text(v):
     return f"{m}e{int(e)}"
 
 
-def fits(fig, ax, ncols, m, size=7):
-    """True when the widest cell label of matrix m fits in a cell of ax's ncols columns (DejaVu digits
-    are about 0.62 em wide; 4 pt of margin)."""
-    chars = max((len(cell_text(v)) for v in m.ravel() if math.isfinite(v)), default=1)
-    fig.canvas.draw()
-    width_pt = ax.get_window_extent().width * 72 / fig.dpi
-    return width_pt / ncols >= chars * 0.62 * size + 4
+def label_cells(fig, panels, norm, size=7):
+    """After one layout pass: x tick labels turned vertical where upright ones would run together, and
+    each cell labelled with its rate where the widest label fits (DejaVu digits are about 0.62 em wide;
+    4 pt of margin). panels: [(ax, matrix)]. Returns whether the cells were labelled."""
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        engine.execute(fig)
+    ax0, m0 = panels[0]
+    cell_pt = ax0.get_position().width * fig.get_size_inches()[0] * 72 / m0.shape[1]
+    ticks = max(len(t) for t in ax0.hysid_xlabels)
+    chars = max((len(cell_text(v)) for _, m in panels for v in m.ravel() if math.isfinite(v)), default=1)
+    annotate = cell_pt >= chars * 0.62 * size + 4
+    for ax, m in panels:
+        if ticks * 0.62 * 8 + 2 > cell_pt:
+            ax.tick_params(axis="x", labelrotation=90)
+        if not annotate:
+            continue
+        for (a, b), v in np.ndenumerate(m):
+            if math.isfinite(v):
+                dark = v > 0 and norm(v) < 0.6
+                ax.text(b, a, cell_text(v), ha="center", va="center", fontsize=size,
+                        color="white" if dark else "black")
+    return annotate
 
 
 def map_groups(summary):
@@ -80,7 +81,7 @@ def map_groups(summary):
             if len({r["dt"] for r in rs}) >= 2 and len({r["r"] for r in rs}) >= 2}
 
 
-def misclassification_map(run, out_dir, fmt, width, stat="mean"):
+def misclassification_map(run, out_dir, formats, width, stat="mean"):
     """Mean misclassification over δt × r, one panel per σ, per model, estimator and detector."""
     s = run.summary
     if not all(s.has(c) for c in ("dt", "r", "misclassification_mean")):
@@ -103,11 +104,10 @@ def misclassification_map(run, out_dir, fmt, width, stat="mean"):
                     m[dts.index(r["dt"]), rs.index(r["r"])] = r[f"misclassification_{stat}"]
             mats[sg] = m
         norm = rate_norm([v for m in mats.values() for v in m.ravel()])
-        annotate = fits(fig, axes[0][0], len(rs), np.stack(list(mats.values())))
         im = None
         for i, sg in enumerate(sigmas):
             ax = axes[i // cols][i % cols]
-            im = heat(ax, mats[sg], rs, dts, norm, annotate)
+            im = heat(ax, mats[sg], rs, dts, norm)
             ax.set_title(rf"$\sigma$ = {sg:g}")
             ax.set_ylabel(r"$\delta t$ [s]")
         for j in range(len(sigmas), nrows * cols):
@@ -118,6 +118,7 @@ def misclassification_map(run, out_dir, fmt, width, stat="mean"):
                 ax.set_xlabel("bound scale r")
         fig.colorbar(im, ax=axes.ravel().tolist(), label=f"{stat} misclassification rate", shrink=0.9,
                      location="bottom" if width == "single" else "right", aspect=30 if width == "single" else 20)
+        annotate = label_cells(fig, [(axes[i // cols][i % cols], mats[sg]) for i, sg in enumerate(sigmas)], norm)
         stem = f"misclassification_map_{model}_{est}_{det}"
         n = sorted({int(r["trials"] - r["failures"]) for r in rows})
         cap = (f"{model}, {est} estimator, {det} detector: {stat} misclassification rate (false and missed "
@@ -126,7 +127,7 @@ def misclassification_map(run, out_dir, fmt, width, stat="mean"):
                f"{'; cell labels: the rate to 1 significant digit (4e-3 = 4·10⁻³)' if annotate else ''}. "
                f"{'n = ' + str(n[0]) if len(n) == 1 else f'n = {n[0]}–{n[-1]}'} trials per cell "
                f"(summary.csv). Data: {run.source()}.")
-        written.append(style.save(fig, out_dir, stem, fmt, cap))
+        written += style.save(fig, out_dir, stem, formats, cap)
     return written
 
 
@@ -205,7 +206,7 @@ def write_comparison_tables(run, cmps, iv):
     return verdicts
 
 
-def detector_comparison(run, out_dir, fmt, width, stat="mean", tables=True):
+def detector_comparison(run, out_dir, formats, width, stat="mean", tables=True):
     """Best r of the paper detector per (σ, δt) cell in hindsight against the residual detector at each
     false-alarm probability, as heat maps over σ × δt; with `tables`, also the .csv and .md tables."""
     s = run.summary
@@ -236,22 +237,22 @@ def detector_comparison(run, out_dir, fmt, width, stat="mean", tables=True):
                 m[sigmas.index(c["sigma"]), dts.index(c["dt"])] = c[key]
             mats.append(m)
         norm = rate_norm([v for m in mats for v in m.ravel()])
-        annotate = fits(fig, axes[0], len(dts), np.stack(mats))
         titles = ["paper detector, best r per cell"] + [f"residual detector, p = {c[0]['p']:g}" for c in mine]
         for ax, m, title in zip(axes, mats, titles):
-            im = heat(ax, m, dts, sigmas, norm, annotate)
+            im = heat(ax, m, dts, sigmas, norm)
             ax.set_title(title)
             ax.set_ylabel(r"noise $\sigma$")
             ax.set_xlabel(r"$\delta t$ [s]")
         fig.colorbar(im, ax=axes.tolist(), label=RATE_LABEL, shrink=0.9,
                      location="bottom" if width == "single" else "right", aspect=30 if width == "single" else 20)
+        label_cells(fig, list(zip(axes, mats)), norm)
         n = sorted({c["n"] for cmp in mine for c in cmp})
         cap = (f"{model}, {est} estimator: mean misclassification rate per (σ, δt) cell of the paper detector "
                f"with the r that is best in that cell (chosen in hindsight) and of the residual detector "
                f"(nothing tuned) at each false-alarm probability p; log colour scale, white = 0. "
                f"n = {n[0] if len(n) == 1 else f'{n[0]}–{n[-1]}'} trials per cell. Data: {run.source()}.")
         stem = "detector_comparison" if len(pairs) == 1 else f"detector_comparison_{model}_{est}"
-        written.append(style.save(fig, out_dir, stem, fmt, cap))
+        written += style.save(fig, out_dir, stem, formats, cap)
     if tables:
         for v in write_comparison_tables(run, cmps, iv):
             print(v)

@@ -44,7 +44,7 @@ def source(run):
     return f"Data: {run} (hysid reproduce paper)."
 
 
-def fig4(run, out, fmt, width):
+def fig4(run, out, formats, width):
     tr, jumps = read(run, "fig4_trajectory.csv"), read(run, "fig4_jumps.csv")
     fig, axes, leg, ncol = style.panels(width, 2, 2, panel_height=1.25 if width == "single" else 1.5, cols=1)
     for ax, key, label in [(axes[0], "x1", r"position $\xi_1$"), (axes[1], "x2", r"velocity $\xi_2$")]:
@@ -57,10 +57,10 @@ def fig4(run, out, fmt, width):
     leg.legend([flow, pre], [flow.get_label(), pre.get_label()], loc="center", ncol=2)
     cap = (f"Fig. 4: the impact mass-spring-damper of Sec. 5 (a = 5, b = 0.1, λ = 0.99, μ = 0, ξ0 = (20, 0)); "
            f"dotted: the jumps. {source(run)}")
-    return style.save(fig, out, "fig4", fmt, cap)
+    return style.save(fig, out, "fig4", formats, cap)
 
 
-def fig_tau(run, name, out, stem, fmt, width, what):
+def fig_tau(run, name, out, stem, formats, width, what):
     d = read(run, name)
     fig, axes, leg, ncol = style.panels(width, 2, 4, panel_height=1.3 if width == "single" else 1.6, cols=1)
     ax = axes[0]
@@ -82,10 +82,10 @@ def fig_tau(run, name, out, stem, fmt, width, what):
     leg.legend(hs, [h.get_label() for h in hs], loc="center", ncol=ncol)
     cap = (f"{what}: the Euler derivative, the detected jumps, the smoothness-bound estimate τ̂ and the true "
            f"bound rτ (top), and the error e_τ (bottom; log axes, zeros not drawn). {source(run)}")
-    return style.save(fig, out, stem, fmt, cap)
+    return style.save(fig, out, stem, formats, cap)
 
 
-def fig_params(run, name, out, stem, fmt, width, what):
+def fig_params(run, name, out, stem, formats, width, what):
     d = read(run, name)
     true = truth(run)
     fig, axes, leg, ncol = style.panels(width, 4, 5, panel_height=1.3 if width == "single" else 1.5, cols=2)
@@ -111,14 +111,14 @@ def fig_params(run, name, out, stem, fmt, width, what):
         ax.set_xlabel("t [s]")
     cap = (f"{what}: the estimates â, b̂ (flow) and λ̂, μ̂ (jump) against time, zoomed on t ≥ 1 s, with the "
            f"true values dotted (top), and the errors e_α, e_β (bottom, log). {source(run)}")
-    return style.save(fig, out, stem, fmt, cap)
+    return style.save(fig, out, stem, formats, cap)
 
 
-def paper_figures(run, out_dir, fmt, width):
+def paper_figures(run, out_dir, formats, width):
     """fig4 ... fig8 of RUN_DIR (default results/paper) into out_dir; returns the paths."""
     out = out_dir or run
-    return [fig4(run, out, fmt, width),
-            fig_tau(run, "fig5_tau_nominal.csv", out, "fig5", fmt, width, "Fig. 5: nominal (σ = 0)"),
-            fig_params(run, "fig6_params_nominal.csv", out, "fig6", fmt, width, "Fig. 6: nominal (σ = 0)"),
-            fig_tau(run, "fig7_tau_noisy.csv", out, "fig7", fmt, width, "Fig. 7: noisy (σ = 0.25)"),
-            fig_params(run, "fig8_params_noisy.csv", out, "fig8", fmt, width, "Fig. 8: noisy (σ = 0.25)")]
+    return (fig4(run, out, formats, width) +
+            fig_tau(run, "fig5_tau_nominal.csv", out, "fig5", formats, width, "Fig. 5: nominal (σ = 0)") +
+            fig_params(run, "fig6_params_nominal.csv", out, "fig6", formats, width, "Fig. 6: nominal (σ = 0)") +
+            fig_tau(run, "fig7_tau_noisy.csv", out, "fig7", formats, width, "Fig. 7: noisy (σ = 0.25)") +
+            fig_params(run, "fig8_params_noisy.csv", out, "fig8", formats, width, "Fig. 8: noisy (σ = 0.25)"))

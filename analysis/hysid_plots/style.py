@@ -162,19 +162,24 @@ def set_value_axis(ax, values, axis="y"):
     return "symlog"
 
 
-def save(fig, out_dir, stem, fmt, caption):
-    """Writes out_dir/stem.fmt and its caption out_dir/stem.txt; returns the figure's path."""
-    if fmt not in FORMATS:
-        raise ValueError(f"--format = '{fmt}': must be one of {', '.join(FORMATS)}")
+def save(fig, out_dir, stem, formats, caption):
+    """Writes out_dir/stem.FMT for each of `formats` and the caption out_dir/stem.txt; returns the
+    figure paths."""
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise ValueError(f"--format = '{','.join(formats)}': must be one or more of {', '.join(FORMATS)}")
     os.makedirs(out_dir, exist_ok=True)
-    path = os.path.join(out_dir, f"{stem}.{fmt}")
-    meta = {"pdf": {"CreationDate": None, "ModDate": None}, "svg": {"Date": None}, "png": {}}[fmt]
     space_ticks(fig)
-    fig.savefig(path, format=fmt, metadata=meta, dpi=DPI)
+    paths = []
+    for fmt in formats:
+        path = os.path.join(out_dir, f"{stem}.{fmt}")
+        meta = {"pdf": {"CreationDate": None, "ModDate": None}, "svg": {"Date": None}, "png": {}}[fmt]
+        fig.savefig(path, format=fmt, metadata=meta, dpi=DPI)
+        paths.append(path)
     plt.close(fig)
     with open(os.path.join(out_dir, f"{stem}.txt"), "w") as f:
         f.write(caption.strip() + "\n")
-    return path
+    return paths
 
 
 def is_bottom(ax, axes):

@@ -71,7 +71,7 @@ def caption(what, iv, ns, run, extra=""):
             f"Data: {run.source()}.")
 
 
-def error_vs_sigma(run, out_dir, fmt, width, stat="mean"):
+def error_vs_sigma(run, out_dir, formats, width, stat="mean"):
     """e_α, e_β and the misclassification rate against σ, one figure per model and δt; the CRLB-implied
     e_α, e_β as a black line where summary.csv carries it."""
     s = run.summary
@@ -101,11 +101,11 @@ def error_vs_sigma(run, out_dir, fmt, width, stat="mean"):
         stem = f"error_vs_sigma_{series.slug(fixed)}"
         what = (f"{series.title_of(fixed)}: identification errors e_α, e_β and the misclassification rate "
                 f"against the noise σ.{' The dashed black line is the CRLB-implied mean error.' if extra else ''}")
-        written.append(style.save(fig, out_dir, stem, fmt, caption(what, iv, all_ns, run)))
+        written += style.save(fig, out_dir, stem, formats, caption(what, iv, all_ns, run))
     return written
 
 
-def efficiency(run, out_dir, fmt, width, stat="mean"):
+def efficiency(run, out_dir, formats, width, stat="mean"):
     """The ratio of the mean e_α (e_β) to its CRLB-implied value against σ (1 = efficient)."""
     s = run.summary
     cols = [(m, crlb_column(s, m)) for m in ("e_alpha", "e_beta")]
@@ -134,7 +134,7 @@ def efficiency(run, out_dir, fmt, width, stat="mean"):
         stem = f"efficiency_{series.slug(fixed)}"
         what = (f"{series.title_of(fixed)}: {stat} error over its CRLB-implied value against σ "
                 "(1 = at the Cramér–Rao bound; σ = 0 has no bound and is left out).")
-        written.append(style.save(fig, out_dir, stem, fmt, caption(what, iv, all_ns, run)))
+        written += style.save(fig, out_dir, stem, formats, caption(what, iv, all_ns, run))
     return written
 
 
@@ -159,7 +159,7 @@ def greek(name):
     return g.get(name, name if len(name) == 1 else rf"\mathrm{{{name}}}")
 
 
-def relative_error(run, out_dir, fmt, width, stat="mean"):
+def relative_error(run, out_dir, formats, width, stat="mean"):
     """One panel per unknown parameter θ_i: |θ̂_i − θ_i| / |θ_i| against σ (|θ̂_i − θ_i| when θ_i = 0),
     from trials.csv and the true values in run.json."""
     params = unknown_params(run)
@@ -197,5 +197,5 @@ def relative_error(run, out_dir, fmt, width, stat="mean"):
                 if absolute else "")
         what = (f"{series.title_of(fixed)}: relative error of each estimated parameter against σ, "
                 f"true values from {'--truth' if run.truth else 'run.json'}.{note}")
-        written.append(style.save(fig, out_dir, stem, fmt, caption(what, iv, all_ns, run)))
+        written += style.save(fig, out_dir, stem, formats, caption(what, iv, all_ns, run))
     return written

@@ -62,9 +62,9 @@ class Captured:
         self.original = style.save
 
     def __enter__(self):
-        def save(fig, out_dir, stem, fmt, caption):
+        def save(fig, out_dir, stem, formats, caption):
             self.figs.append((fig, stem, caption))
-            return self.original(fig, out_dir, stem, fmt, caption)
+            return self.original(fig, out_dir, stem, formats, caption)
         style.save = save
         return self
 

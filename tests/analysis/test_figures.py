@@ -82,7 +82,7 @@ def test_double_width_svg(committed, captured, tmp_path):
 
 def test_error_vs_sigma_axes_and_legend_order(committed_figs):
     figs = [f for f in committed_figs["results/robustness_map"][1] if f[1].startswith("error_vs_sigma")]
-    assert len(figs) == 10  # one per dt, PDF and PNG
+    assert len(figs) == 5  # one per dt (each saved as PDF and PNG)
     for fig, stem, _ in figs:
         panels = data_axes(fig)
         assert [ax.get_xscale() for ax in panels] == ["symlog"] * 3  # sigma 0, 0.01 ... 0.5
