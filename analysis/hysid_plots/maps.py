@@ -7,10 +7,13 @@ import os
 import matplotlib
 import matplotlib.colors
 import numpy as np
+from matplotlib.font_manager import FontProperties
+from matplotlib.textpath import TextToPath
 
 from . import data, series, stats, style
 
 RATE_LABEL = "mean misclassification rate"
+TO_PATH = TextToPath()
 
 
 def rate_norm(values):
@@ -46,20 +49,27 @@ def cell_text(v):
     return f"{m}e{int(e)}"
 
 
+def text_width(text, size):
+    """Width in points of `text` at `size` pt in the style's font."""
+    w, _, _ = TO_PATH.get_text_width_height_descent(text, FontProperties(size=size), ismath=False)
+    return w
+
+
 def label_cells(fig, panels, norm, size=7):
     """After one layout pass: x tick labels turned vertical where upright ones would run together, and
-    each cell labelled with its rate where the widest label fits (DejaVu digits are about 0.62 em wide;
-    4 pt of margin). panels: [(ax, matrix)]. Returns whether the cells were labelled."""
+    each cell labelled with its rate where the widest label fits with 1 pt either side.
+    panels: [(ax, matrix)]. Returns whether the cells were labelled."""
     engine = fig.get_layout_engine()
     if engine is not None:
         engine.execute(fig)
     ax0, m0 = panels[0]
     cell_pt = ax0.get_position().width * fig.get_size_inches()[0] * 72 / m0.shape[1]
-    ticks = max(len(t) for t in ax0.hysid_xlabels)
-    chars = max((len(cell_text(v)) for _, m in panels for v in m.ravel() if math.isfinite(v)), default=1)
-    annotate = cell_pt >= chars * 0.62 * size + 4
+    ticks = max(text_width(t, 8) for t in ax0.hysid_xlabels)
+    widest = max((text_width(cell_text(v), size) for _, m in panels for v in m.ravel() if math.isfinite(v)),
+                 default=0)
+    annotate = cell_pt >= widest + 2
     for ax, m in panels:
-        if ticks * 0.62 * 8 + 2 > cell_pt:
+        if ticks + 2 > cell_pt:
             ax.tick_params(axis="x", labelrotation=90)
         if not annotate:
             continue
@@ -93,9 +103,8 @@ def misclassification_map(run, out_dir, formats, width, stat="mean"):
         sigmas = sorted({r["sigma"] for r in rows})
         cols = min(len(sigmas), 2 if width == "single" else 3)
         nrows = math.ceil(len(sigmas) / cols)
-        pw = (style.WIDTHS[width] - (0.3 if width == "single" else 0.9)) / cols
-        fig, axes = style.figure(width, nrows, cols, height=nrows * pw * 0.75 + (0.8 if width == "single" else 0.3),
-                                 constrained_layout=True)
+        pw = (style.WIDTHS[width] - 0.3) / cols
+        fig, axes = style.figure(width, nrows, cols, height=nrows * pw * 0.7 + 0.8, constrained_layout=True)
         mats = {}
         for sg in sigmas:
             m = np.full((len(dts), len(rs)), np.nan)
@@ -117,7 +126,7 @@ def misclassification_map(run, out_dir, formats, width, stat="mean"):
             if style.is_bottom(ax, shown):
                 ax.set_xlabel("bound scale r")
         fig.colorbar(im, ax=axes.ravel().tolist(), label=f"{stat} misclassification rate", shrink=0.9,
-                     location="bottom" if width == "single" else "right", aspect=30 if width == "single" else 20)
+                     location="bottom", aspect=30 if width == "single" else 45)
         annotate = label_cells(fig, [(axes[i // cols][i % cols], mats[sg]) for i, sg in enumerate(sigmas)], norm)
         stem = f"misclassification_map_{model}_{est}_{det}"
         n = sorted({int(r["trials"] - r["failures"]) for r in rows})
@@ -225,9 +234,9 @@ def detector_comparison(run, out_dir, formats, width, stat="mean", tables=True):
         dts = sorted({c["dt"] for c in mine[0]})
         npanel = 1 + len(mine)
         cols = 1 if width == "single" else npanel
-        pw = (style.WIDTHS[width] - (0.3 if width == "single" else 0.9)) / cols
+        pw = (style.WIDTHS[width] - 0.3) / cols
         fig, axes = style.figure(width, math.ceil(npanel / cols), cols, sharex=True, sharey=True,
-                                 height=math.ceil(npanel / cols) * pw * 0.5 + (0.8 if width == "single" else 0.3),
+                                 height=math.ceil(npanel / cols) * pw * (0.5 if width == "single" else 0.9) + 0.8,
                                  constrained_layout=True)
         axes = axes.ravel()
         mats = []
@@ -244,7 +253,7 @@ def detector_comparison(run, out_dir, formats, width, stat="mean", tables=True):
             ax.set_ylabel(r"noise $\sigma$")
             ax.set_xlabel(r"$\delta t$ [s]")
         fig.colorbar(im, ax=axes.tolist(), label=RATE_LABEL, shrink=0.9,
-                     location="bottom" if width == "single" else "right", aspect=30 if width == "single" else 20)
+                     location="bottom", aspect=30 if width == "single" else 45)
         label_cells(fig, list(zip(axes, mats)), norm)
         n = sorted({c["n"] for cmp in mine for c in cmp})
         cap = (f"{model}, {est} estimator: mean misclassification rate per (σ, δt) cell of the paper detector "

@@ -246,3 +246,11 @@ def test_series_order_is_numeric():
             for r in (1000.0, 20.0, 220.0, 5.0)]
     assert [s.label for s in series.series(S(), rows)] == ["paper r = 5", "paper r = 20", "paper r = 220",
                                                           "paper r = 1000"]
+
+
+def test_same_data_same_bytes(committed, tmp_path):
+    for d in ("a", "b"):
+        render(["error-vs-sigma", committed["results/paper_noise"], "--format", "pdf,svg,png", "--dpi", "60",
+                "--out", str(tmp_path / d)])
+    for name in sorted(os.listdir(tmp_path / "a")):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
