@@ -77,12 +77,12 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   for (const char* p : {"a=5", "b=0.1", "lambda=0.99", "mu=0"}) model.SetParameter(std::string_view(p));
   const double dt = 5e-4;
   IdentifierSettings settings;
-  // Beyond the paper (issue 4): the errors-in-variables estimators, with their defaults (noise shapes
+  // Beyond the paper: the errors-in-variables estimators, with their defaults (noise shapes
   // from the σ estimated from the data, see core/identify/identifier.hpp).
   settings.flow_estimator.name = settings.jump_estimator.name = args.estimator;
   settings.detector.r = 220.0;
   settings.detector.tau0 = 1e5;
-  // Beyond the paper (issue 6): another detector, jump localisation, a second pass.
+  // Beyond the paper: another detector, jump localisation, a second pass.
   settings.detector.name = args.detector;
   settings.detector.false_alarm = args.false_alarm;
   settings.localize = args.localize;
@@ -220,7 +220,7 @@ void AddReproduceCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--sigma", args->sigma, "noise of the noisy experiment")->capture_default_str();
   cmd->add_option("--seed", args->seed, "noise seed")->capture_default_str();
   cmd->add_option("--estimator", args->estimator,
-                  "rls (as published), gtls or frisch (errors-in-variables, issue 4)")
+                  "rls (as published), gtls or frisch (errors-in-variables)")
       ->capture_default_str();
   cmd->add_option("--detector", args->detector,
                   "paper (as published, r = 220) or residual (tuning-free; the tau columns then "
