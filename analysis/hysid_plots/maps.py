@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.font_manager import FontProperties
 from matplotlib.textpath import TextToPath
 
-from . import data, series, stats, style
+from . import data, stats, style
 
 RATE_LABEL = "mean misclassification rate"
 TO_PATH = TextToPath()
@@ -178,8 +178,8 @@ def comparison_table(cmp, iv):
              " | tied |", "|" + "---|" * (len(rs) + 6)]
     for c in cmp:
         lines.append(f"| {c['sigma']:g} | {c['dt']:g} | " + " | ".join(stats.sig(c["paper"][r]) for r in rs) +
-                     f" | {c['best_r']:g} | {stats.sig(c['residual'])} [{stats.sig(c['lo'], 1)}, "
-                     f"{stats.sig(c['hi'], 1)}] | {'yes' if c['match_or_beat'] else 'no'} | "
+                     f" | {c['best_r']:g} | {stats.interval_text(c['residual'], c['lo'], c['hi'])}"
+                     f" | {'yes' if c['match_or_beat'] else 'no'} | "
                      f"{'yes' if c['tied'] else 'no'} |")
     lines.append("| worst cell | | " + " | ".join(stats.sig(worst[r]) for r in rs) +
                  f" | | {stats.sig(worst_res)} | | |")

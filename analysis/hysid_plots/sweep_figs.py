@@ -1,7 +1,6 @@
 """Figures of a sweep run directory: error vs σ, efficiency against the CRLB, per-parameter relative
 error, misclassification over δt × r. Each function returns the paths it wrote."""
 import math
-import os
 
 import numpy as np
 
