@@ -285,3 +285,15 @@ def test_fig2_example6(paper_run, captured, tmp_path):
     assert legend_texts(fig) == [r"$D_{\delta t}\xi$ (Euler derivative)", r"$\tau$ (smoothness bound)",
                                  r"$\hat\tau$, r = 5", r"$\hat\tau$, r = 20"]
     np.testing.assert_array_equal(panels[1].get_lines()[2].get_ydata(), rows[:, 5])
+
+
+def test_median_points_are_medians_of_the_trials(small_run, captured, tmp_path):
+    render(["error-vs-sigma", small_run, "--stat", "median", "--format", "pdf", "--out", str(tmp_path)])
+    fig, stem, caption = captured.figs[0]
+    assert stem.endswith("dt0.001") and caption.startswith("impact-msd") and "Points: median" in caption
+    trials = list(csv.DictReader(open(os.path.join(small_run, "trials.csv"))))
+    ln = data_axes(fig)[0].get_lines()[0]  # e_alpha, paper r = 20
+    for x, y in zip(ln.get_xdata(), ln.get_ydata()):
+        v = [float(t["e_alpha"]) for t in trials
+             if t["dt"] == "0.001" and float(t["sigma"]) == x and t["detector"] == "paper" and t["r"] == "20"]
+        assert len(v) == 5 and y == np.median(v)
