@@ -76,7 +76,7 @@ def parser():
     p = sub.add_parser("paper", help="Figs. 4-8 of the paper from the CSVs of `hysid reproduce paper`")
     p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", default="results/paper")
     figure_options(p, paper=True)
-    p = sub.add_parser("table", help="the summary as a paper table (mean [95 % interval] per cell)")
+    p = sub.add_parser("table", help="the summary as a paper table (mean [95 %% interval] per cell)")
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md")
     p.add_argument("--metrics", default=None, help="comma list (default e_alpha,e_beta,misclassification)")
