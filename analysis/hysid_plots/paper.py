@@ -56,7 +56,10 @@ def fig4(run, out, formats, width):
         (pre,) = ax.plot(jumps["t_jump"], jumps["pre_" + key], "o", mfc="none", color="0.2", ms=3,
                          label=r"state before a jump ($\xi \in D$)")
         ax.set_ylabel(label)
-        ax.set_xlabel("t [s]") if ax is axes[1] else ax.tick_params(labelbottom=False)
+        if ax is axes[1]:
+            ax.set_xlabel("t [s]")
+        else:
+            ax.tick_params(labelbottom=False)
     leg.legend([flow, pre], [flow.get_label(), pre.get_label()], loc="center", ncol=2)
     cap = (f"Fig. 4: the impact mass-spring-damper of Sec. 5 (a = 5, b = 0.1, λ = 0.99, μ = 0, ξ0 = (20, 0)); "
            f"dotted: the jumps. {source(run)}")
