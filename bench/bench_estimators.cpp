@@ -1,7 +1,7 @@
 // Per-sample cost of Estimator::Update for every estimator of the factory (EstimatorNames(): rls,
 // gtls, frisch) at p = 2, 4, 8 unknown parameters (rows z = [φ; y] of length p + 1).
 // One scalar row per update (the identified-row case of the §5 system), drawn from the static
-// errors-in-variables problem of tests/eiv_problem.hpp (x ~ N(0, I), θ_i = 1/(i+1), σ = 0.3 on every
+// errors-in-variables problem of tests/testing/eiv_problem.hpp (x ~ N(0, I), θ_i = 1/(i+1), σ = 0.3 on every
 // column), 4096 rows cycled. Settings are the defaults: gtls refactor_every = 500 (its O(p³)
 // refactorisation amortised in the figure) with C = 0.09·I; frisch window = 200 (two O(p³) boxes and
 // one Student-t quantile per window, amortised), confidence 0.95, point = RLS clamped into the
@@ -12,8 +12,8 @@
 #include <utility>
 #include <vector>
 
-#include "core/estimator.hpp"
-#include "tests/eiv_problem.hpp"
+#include "core/estimators/estimator.hpp"
+#include "tests/testing/eiv_problem.hpp"
 
 namespace hysid {
 namespace {

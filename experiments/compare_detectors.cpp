@@ -19,10 +19,10 @@
 
 #include <fmt/format.h>
 
-#include "core/csv.hpp"
-#include "core/identifier.hpp"
-#include "core/metrics.hpp"
-#include "core/models/impact_msd.hpp"
+#include "core/io/csv.hpp"
+#include "core/identify/identifier.hpp"
+#include "core/identify/metrics.hpp"
+#include "core/model/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 

@@ -1,4 +1,4 @@
-// hysid_eiv_study: errors-in-variables estimators on the paper's §5 system (issue 4).
+// hysid_eiv_study: errors-in-variables estimators on the paper's §5 system.
 //
 // System:   impact-msd with its defaults (a = 5, b = 0.1, λ = 0.99, μ = 0; ξ0 = (20, 0); 20 s;
 //           δt = 0.5 ms; 14 jumps), simulated once with Simulate (CVODE, rtol = atol = 1e-12).
@@ -28,14 +28,14 @@
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
-#include "core/csv.hpp"
-#include "core/estimator.hpp"
+#include "core/io/csv.hpp"
+#include "core/estimators/estimator.hpp"
 #include "core/estimators/frisch.hpp"
-#include "core/identifier.hpp"
-#include "core/metrics.hpp"
-#include "core/models/impact_msd.hpp"
-#include "core/regression.hpp"
-#include "experiments/run_context.hpp"
+#include "core/identify/identifier.hpp"
+#include "core/identify/metrics.hpp"
+#include "core/model/builtin/impact_msd.hpp"
+#include "core/model/regression.hpp"
+#include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 

@@ -7,7 +7,7 @@
 
 #include <cstdint>
 
-#include "core/model.hpp"
+#include "core/model/model.hpp"
 
 namespace hysid {
 

@@ -1,8 +1,8 @@
 """Figures 4-8 of the paper's Sec. 5 from the CSVs that `hysid reproduce paper` writes (fig4_*.csv,
 fig5_tau_nominal.csv, fig6_params_nominal.csv, fig7_tau_noisy.csv, fig8_params_noisy.csv, run.json),
-and Fig. 2 (Example 6, ξ' = sin ξ) when the run directory has fig2_example6.csv: columns t, x (= ξ),
-D (the Euler derivative D_δt ξ), tau (the smoothness bound τ) and optionally tau_hat_r<r> (the estimate
-τ̂ with bound scale r), one row per sample."""
+and Fig. 2 (Example 6, ξ' = sin ξ) from the fig2_smoothness.csv that `hysid reproduce example6` writes:
+columns t, xi, D (the Euler derivative D_δt ξ), tau (the smoothness bound τ) and tau_hat_r<r> (the
+estimate τ̂ with bound scale r), one row per time."""
 import json
 import os
 import re
@@ -120,18 +120,18 @@ def fig_params(run, name, out, stem, formats, width, what):
     return style.save(fig, out, stem, formats, cap)
 
 
-FIG2 = "fig2_example6.csv"
+FIG2 = "fig2_smoothness.csv"
 
 
 def fig2(run, out, formats, width):
     d = read(run, FIG2)
-    for need in ("t", "x", "D", "tau"):
+    for need in ("t", "xi", "D", "tau"):
         if need not in d:
             raise data.DataError(f"{os.path.join(run, FIG2)}: no column '{need}'")
     hats = sorted((float(k[len("tau_hat_r"):]), k) for k in d if k.startswith("tau_hat_r"))
     fig, axes, leg, ncol = style.panels(width, 2, 2 + len(hats), panel_height=1.2 if width == "single" else 1.4,
                                         cols=1)
-    axes[0].plot(d["t"], d["x"], color=style.COLORS[0], lw=0.9)
+    axes[0].plot(d["t"], d["xi"], color=style.COLORS[0], lw=0.9)
     axes[0].set_ylabel(r"$\xi$")
     axes[0].tick_params(labelbottom=False)
     hs = [axes[1].plot(d["t"], d["D"], color="black", lw=0.9, marker="o", ms=2.5, mfc="none",
@@ -153,12 +153,18 @@ def fig2(run, out, formats, width):
 
 
 def paper_figures(run, out_dir, formats, width):
-    """fig2 (when its CSV is there), fig4 ... fig8 of RUN_DIR (default results/paper) into out_dir;
-    returns the paths."""
+    """The paper's figures whose CSVs RUN_DIR holds: fig2 (`hysid reproduce example6`, results/example6)
+    and fig4 ... fig8 (`hysid reproduce paper`, results/paper), into out_dir (default RUN_DIR)."""
     out = out_dir or run
-    first = fig2(run, out, formats, width) if os.path.exists(os.path.join(run, FIG2)) else []
-    return (first + fig4(run, out, formats, width) +
-            fig_tau(run, "fig5_tau_nominal.csv", out, "fig5", formats, width, "Fig. 5: nominal (σ = 0)") +
-            fig_params(run, "fig6_params_nominal.csv", out, "fig6", formats, width, "Fig. 6: nominal (σ = 0)") +
-            fig_tau(run, "fig7_tau_noisy.csv", out, "fig7", formats, width, "Fig. 7: noisy (σ = 0.25)") +
-            fig_params(run, "fig8_params_noisy.csv", out, "fig8", formats, width, "Fig. 8: noisy (σ = 0.25)"))
+    written = []
+    if os.path.exists(os.path.join(run, FIG2)):
+        written += fig2(run, out, formats, width)
+    if os.path.exists(os.path.join(run, "fig4_trajectory.csv")) or not written:
+        written += (fig4(run, out, formats, width) +
+                    fig_tau(run, "fig5_tau_nominal.csv", out, "fig5", formats, width, "Fig. 5: nominal (σ = 0)") +
+                    fig_params(run, "fig6_params_nominal.csv", out, "fig6", formats, width,
+                               "Fig. 6: nominal (σ = 0)") +
+                    fig_tau(run, "fig7_tau_noisy.csv", out, "fig7", formats, width, "Fig. 7: noisy (σ = 0.25)") +
+                    fig_params(run, "fig8_params_noisy.csv", out, "fig8", formats, width,
+                               "Fig. 8: noisy (σ = 0.25)"))
+    return written

@@ -6,7 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 
-#include "core/sample_set.hpp"
+#include "core/sets/sample_set.hpp"
 
 namespace hysid {
 namespace {

@@ -18,7 +18,7 @@
 #include <cmath>
 #include <vector>
 
-#include "core/detector.hpp"
+#include "core/detectors/detector.hpp"
 
 namespace hysid {
 

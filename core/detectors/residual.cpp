@@ -5,8 +5,8 @@
 #include <limits>
 #include <numbers>
 
-#include "core/quantiles.hpp"
-#include "core/regression.hpp"
+#include "core/stats/quantiles.hpp"
+#include "core/model/regression.hpp"
 
 namespace hysid {
 namespace {

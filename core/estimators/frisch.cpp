@@ -9,7 +9,7 @@
 #include <Eigen/Cholesky>
 #include <fmt/format.h>
 
-#include "core/quantiles.hpp"
+#include "core/stats/quantiles.hpp"
 
 namespace hysid {
 namespace {

@@ -1,5 +1,5 @@
 // Recursive Frisch-scheme estimator in the spirit of the bounding-box recursive Frisch scheme (BBRF,
-// Massaroli et al., ASCC 2019); estimators.md §2.3.
+// Massaroli et al., ASCC 2019); docs/estimators.md, "frisch".
 //
 // Frisch scheme. For rows z = [φ; y] ∈ ℝ^{m}, m = p+1, with second-moment matrix Σ and unknown
 // *diagonal* noise covariance Σ̃ ≥ 0, the admissible θ (Σ − Σ̃ ≥ 0 singular, v = [θ; −1] in its null
@@ -36,7 +36,7 @@
 // noise covariance to each window instead of sampled noise. With sampled noise each window box misses
 // θ with some probability q > 0, the intersection keeps θ only if every window contains it,
 // probability ≈ (1−q)^K → 0 over K windows, and the box shrinks onto a wrong point rather than
-// becoming empty. tests/test_frisch.cpp measures the coverages with and without the allowance.
+// becoming empty. tests/core/estimators/frisch_test.cpp measures the coverages with and without the allowance.
 //
 // Both boxes are always maintained (two O(m³) factorisations per window); frisch_box selects the one
 // reported by lower()/upper(); the intersected one is also available.
@@ -45,18 +45,18 @@
 // reported box, so the point always lies in the reported box. "centre" = the centre of the reported
 // box. Clamping into boxes that contain θ never increases any coordinate's error, but it reduces the
 // error only where a box has cut into RLS's own sampling spread — so with the allowance the point is
-// essentially RLS. Measured on the static problem of tests/test_frisch.cpp (σ_φ = 0.4, 0.3,
+// essentially RLS. Measured on the static problem of tests/core/estimators/frisch_test.cpp (σ_φ = 0.4, 0.3,
 // σ_y = 0.3, 2000 rows, window 200; mean ‖θ̂ − θ‖ over 300 runs): RLS 0.217; "rls" with c = 0.95
 // 0.217 (both boxes contain θ in 300/300 runs); "rls" with c = 0 0.155 (but the intersected box
 // contains θ in only 28 % of the runs); centre of the cumulative box 0.265. On the §5 system the
-// plain BBRF (c = 0) collapses onto wrong values (README, errors-in-variables). Before the first box
+// plain BBRF (c = 0) collapses onto wrong values (docs/results.md, errors-in-variables estimators). Before the first box
 // the estimate is the internal RLS estimate and status() is kNotExcited.
 //
 // Degenerate windows are skipped (skipped_windows()): a zero or collinear column (Cholesky pivot² of
 // the equilibrated Σ < 1e-12), exact noise-free data (then Σ is singular: the Frisch set collapses to
 // the exact solution, which RLS already gives), or a vertex at infinity ((Σ⁻¹)_{p,i} ≈ 0).
 //
-// Where the diagonal-noise assumption holds for hysid's regressions (see core/noise_shape.hpp): the
+// Where the diagonal-noise assumption holds for hysid's regressions (see core/model/noise_shape.hpp): the
 // noise of a trapezoid flow row is [(δt/2)G(e_k + e_{k−1}); e_{k,r} − e_{k−1,r}] (G = ∂φ_{r,u}/∂ξ);
 // the cross term between the regressors and y cancels exactly and, with independent noise per state
 // component, the regressor block (δt²/2)G R Gᵀ is diagonal when every state component enters at most
@@ -69,16 +69,16 @@
 // vertex columns weighted by σ̃_i². An exact column has σ̃_i = 0, so its vertex has weight 0 and the
 // solutions lie on the face spanned by the other columns' vertices (the weights are ≥ 0 under the
 // same Kalman condition that makes the full simplex bound them). When the noise shape C is given
-// (EstimatorSettings::noise_shape; the identifier derives it, see core/noise_shape.hpp), the columns
+// (EstimatorSettings::noise_shape; the identifier derives it, see core/model/noise_shape.hpp), the columns
 // with C_ii = 0 are exact and only the other columns give vertices: the box is that face's bounding
 // box. Without C every column gives a vertex (the full simplex, which also contains the face).
-// tests/test_frisch.cpp checks the face box's coverage with an exact constant column.
+// tests/core/estimators/frisch_test.cpp checks the face box's coverage with an exact constant column.
 #pragma once
 
 #include <memory>
 #include <vector>
 
-#include "core/estimator.hpp"
+#include "core/estimators/estimator.hpp"
 #include "core/estimators/rls.hpp"
 
 namespace hysid {

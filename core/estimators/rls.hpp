@@ -10,7 +10,7 @@
 
 #include <cmath>
 
-#include "core/estimator.hpp"
+#include "core/estimators/estimator.hpp"
 
 namespace hysid {
 

@@ -1,0 +1,451 @@
+#include "core/identify/identifier.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "core/detectors/paper.hpp"
+#include "core/estimators/frisch.hpp"
+#include "core/estimators/rls.hpp"
+#include "core/identify/localize.hpp"
+#include "core/model/noise_shape.hpp"
+
+namespace hysid {
+namespace {
+
+Vec Prior(const Vec& given, const RegressionLayout& layout, const char* field) {
+  const auto u = static_cast<Eigen::Index>(layout.unknown.size());
+  if (given.size() == 0) return Vec::Zero(u);
+  if (given.size() != u) {
+    throw std::invalid_argument(fmt::format("IdentifierSettings::{} has {} entries; the model has {} unknowns",
+                                            field, given.size(), u));
+  }
+  return given;
+}
+
+Vec DefaultState(const Model& m) {
+  const auto& x0 = m.spec().default_x0;
+  if (static_cast<int>(x0.size()) != m.state_size()) return Vec::Zero(m.state_size());
+  return Eigen::Map<const Vec>(x0.data(), m.state_size());
+}
+
+// Settings with the noise shapes filled at the model's default state (Identifier's constructor).
+IdentifierSettings ResolvedAtDefault(const Model& m, double dt, const IdentifierSettings& s) {
+  if (!NeedsNoiseShape(s.flow_estimator) && !NeedsNoiseShape(s.jump_estimator)) return s;
+  if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) return s;  // reported by State
+  const Vec sigma = s.sigma.size() ? s.sigma : Vec::Ones(m.state_size());
+  return WithNoiseShapes(m, dt, s, sigma, DefaultState(m));
+}
+
+}  // namespace
+
+bool NeedsNoiseShape(const EstimatorSettings& settings) {
+  return (settings.name == "gtls" || settings.name == "frisch") && settings.noise_shape.size() == 0;
+}
+
+IdentifierSettings WithNoiseShapes(const Model& model, double dt, const IdentifierSettings& settings,
+                                   ConstVecRef sigma, const Mat& states) {
+  IdentifierSettings out = settings;
+  if (!NeedsNoiseShape(out.flow_estimator) && !NeedsNoiseShape(out.jump_estimator)) return out;
+  if (sigma.size() != model.state_size()) {
+    throw std::invalid_argument(fmt::format("WithNoiseShapes: sigma has {} entries; the model has {} states",
+                                            sigma.size(), model.state_size()));
+  }
+  const Vec s = sigma.any() ? Vec(sigma) : Vec::Ones(model.state_size());
+  auto least_squares_if_zero = [](Mat c) {
+    if (!(c.cwiseAbs().maxCoeff() > 0.0)) {
+      c.setZero();
+      c(c.rows() - 1, c.cols() - 1) = 1.0;
+    }
+    return c;
+  };
+  if (NeedsNoiseShape(out.flow_estimator)) {
+    out.flow_estimator.noise_shape = least_squares_if_zero(FlowNoiseShape(model, s, dt, states));
+  }
+  if (NeedsNoiseShape(out.jump_estimator)) {
+    out.jump_estimator.noise_shape = least_squares_if_zero(JumpNoiseShape(model, s, states));
+  }
+  return out;
+}
+
+struct Identifier::State {
+  State(const Model& m, double step, const IdentifierSettings& s)
+      : model(m),
+        dt(step),
+        settings(s),
+        builder(m),
+        flow(MakeEstimator(s.flow_estimator, Prior(s.alpha0, builder.flow_layout(), "alpha0"))),
+        jump(MakeEstimator(s.jump_estimator, Prior(s.beta0, builder.jump_layout(), "beta0"))),
+        detector(MakeDetector(s.detector, m)),
+        flow_set(s.sets ? m.state_size() : 2),
+        jump_set(s.sets ? m.state_size() : 2),
+        alpha_known(m.alpha()),
+        beta_known(m.beta()),
+        prev(m.state_size()),
+        phi(builder.flow_layout().rows.size(), builder.flow_layout().unknown.size()),
+        y(builder.flow_layout().rows.size()),
+        psi(builder.jump_layout().rows.size(), builder.jump_layout().unknown.size()),
+        yj(builder.jump_layout().rows.size()),
+        localizer(m) {
+    alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
+    block_phi.resize(std::size_t(kFeedBlock) * builder.flow_layout().unknown.size());
+    block_y.resize(std::size_t(kFeedBlock));
+    // The common configurations get direct, inlined calls instead of the virtual interfaces: RLS
+    // for α on one identified row, and with it the paper detector on a model with a constant flow
+    // Jacobian. Same arithmetic in the same order (tests/core/identify/identifier_test.cpp checks bit-equality).
+    if (s.direct_calls && builder.flow_layout().rows.size() == 1) {
+      rls = dynamic_cast<Rls*>(flow.get());
+      if (rls != nullptr) {
+        if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
+        const int u = static_cast<int>(builder.flow_layout().unknown.size());
+        row_block = paper != nullptr ? ChooseRowBlock<true>(m.state_size(), u)
+                                     : ChooseRowBlock<false>(m.state_size(), u);
+      }
+    }
+    if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
+      throw std::invalid_argument(fmt::format(
+          "IdentifierSettings::sigma has {} entries; the model has {} states", s.sigma.size(),
+          m.state_size()));
+    }
+  }
+
+  Model model;
+  double dt;
+  IdentifierSettings settings;
+  RegressionBuilder builder;
+  std::unique_ptr<Estimator> flow, jump;
+  std::unique_ptr<JumpDetector> detector;
+  Rls* rls = nullptr;              // the α estimator, when it is RLS on one row (direct_calls)
+  PaperDetector* paper = nullptr;  // with rls: the detector, when it is the paper's (constant Jacobian)
+  RowBlockFn row_block = nullptr;  // with rls: RowBlock for the model's sizes
+  SampleSet flow_set, jump_set;
+  Vec alpha_known, beta_known, alpha_full;
+  Vec prev;
+  bool has_prev = false;
+  Mat phi;
+  Vec y;
+  Mat psi;
+  Vec yj;
+  // Feed: the flow regressions of a block of samples (|u| × kFeedBlock rows, kFeedBlock values).
+  std::vector<double> block_phi, block_y;
+  JumpLocalizer localizer;
+  JumpLocation location;
+  // Second pass: classification uses these instead of the running estimates.
+  bool frozen = false;
+  Vec frozen_alpha;
+  std::optional<Mat> frozen_covariance;
+  long frozen_updates = 0;
+  long version = 0;
+  long samples = 0;
+  long jumps = 0;
+  long localized = 0;
+};
+
+Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& settings) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
+  }
+  if (!(settings.data_rtol >= 0.0) || !std::isfinite(settings.data_rtol) ||
+      !(settings.data_atol >= 0.0) || !std::isfinite(settings.data_atol)) {
+    throw std::invalid_argument(fmt::format("data_rtol = {}, data_atol = {}: must be finite and >= 0",
+                                            settings.data_rtol, settings.data_atol));
+  }
+  s_ = std::make_unique<State>(model, dt, ResolvedAtDefault(model, dt, settings));
+}
+Identifier::~Identifier() = default;
+Identifier::Identifier(Identifier&&) noexcept = default;
+Identifier& Identifier::operator=(Identifier&&) noexcept = default;
+
+// γ = 0, after the α estimator's update: α̂, its version, Λ.
+template <int P>
+void Identifier::AfterFlowUpdate(State& s) {
+  const double* theta = s.flow->estimate().data();
+  const int* unknown = s.builder.flow_layout().unknown.data();
+  const int u = P > 0 ? P : static_cast<int>(s.builder.flow_layout().unknown.size());
+  for (int i = 0; i < u; ++i) s.alpha_full[unknown[i]] = theta[i];
+  ++s.version;
+  if (s.settings.sets) s.flow_set.Add(s.prev);
+}
+
+// γ = 1: the jump regression (at the located instant when asked and found), β̂, Γ.
+void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
+  if (s.settings.localize && s.localizer.Locate(s.prev, x, s.dt, alpha_class, &s.location)) {
+    s.builder.Jump(s.location.pre, s.location.post, s.psi, s.yj);
+    ++s.localized;
+  } else {
+    s.builder.Jump(s.prev, x, s.psi, s.yj);
+  }
+  s.jump->Update(s.psi, s.yj);
+  ++s.jumps;
+  if (s.settings.sets) s.jump_set.Add(s.prev);
+}
+
+Decision Identifier::Step(ConstVecRef x) {
+  State& s = *s_;
+  if (x.size() != s.prev.size()) {
+    throw std::invalid_argument(fmt::format("Identifier::Step: sample has {} entries; model '{}' has {} states",
+                                            x.size(), s.model.name(), s.prev.size()));
+  }
+  if (!s.has_prev) {
+    ++s.samples;
+    s.prev = x;
+    s.has_prev = true;
+    return {};
+  }
+  if (s.rls != nullptr) {  // the row block counts the sample
+    s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
+    Decision d;
+    s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
+    return d;
+  }
+  // Several identified rows, or an estimator other than RLS: the interfaces throughout.
+  ++s.samples;
+  s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
+  const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
+  const SampleContext c = Context(s, x.data(), s.phi.data(), s.y.data(), alpha_class);
+  const Decision d = s.detector->Classify(c);
+  if (!d.gamma) {
+    s.flow->Update(s.phi, s.y);
+    AfterFlowUpdate<0>(s);
+  } else {
+    AfterJump(s, x, alpha_class);
+  }
+  s.detector->Observe(c, d);
+  s.prev = x;
+  return d;
+}
+
+// What the detector sees of sample x after s.prev, with the flow regression (phi: rows × |u|
+// column-major, y: rows) already built.
+SampleContext Identifier::Context(State& s, const double* x, const double* phi, const double* y,
+                                  const Vec& alpha_class) {
+  const Eigen::Index n = s.prev.size(), rows = s.phi.rows(), u = s.phi.cols();
+  return SampleContext{
+      .model = &s.model,
+      .dt = s.dt,
+      .prev = ConstVecMap(s.prev.data(), n),
+      .cur = ConstVecMap(x, n),
+      .flow_phi = ConstMatMap(phi, rows, u),
+      .flow_y = ConstVecMap(y, rows),
+      .alpha_hat = ConstVecMap(alpha_class.data(), alpha_class.size()),
+      .alpha_covariance = s.frozen ? (s.frozen_covariance ? &*s.frozen_covariance : nullptr)
+                                   : s.flow->covariance_matrix(),
+      .flow_updates = s.frozen ? s.frozen_updates : s.flow->updates(),
+      .version = s.frozen ? -2 : s.version,
+      .flow_set = s.settings.sets ? &s.flow_set : nullptr,
+      .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
+      .data_rtol = s.settings.data_rtol,
+      .data_atol = s.settings.data_atol};
+}
+
+// One identified row estimated by RLS (s.rls set), for `count` consecutive samples x_k = xs + k·n
+// after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built. kPaper: the
+// paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the detector's
+// interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
+template <int N, int P, bool kPaper>
+void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
+                          const double* y, Decision* decisions) {
+  const Eigen::Index n = N > 0 ? N : s.prev.size();
+  const Eigen::Index u = P > 0 ? P : s.phi.cols();
+  for (Eigen::Index k = 0; k < count; ++k) {
+    const double* x = xs + k * n;
+    ++s.samples;
+    const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
+    auto update = [&](const Decision& d) {
+      if (!d.gamma) {
+        s.rls->UpdateRow<P>(phi + k * u, y[k]);
+        AfterFlowUpdate<P>(s);
+      } else {
+        AfterJump(s, ConstVecMap(x, n), alpha_class);
+      }
+    };
+    Decision d;
+    if constexpr (kPaper) {
+      d = s.paper->ClassifyConstant<N>(s.prev.data(), x, n, s.dt, alpha_class.data(),
+                                       s.frozen ? -2 : s.version,
+                                       s.frozen ? s.frozen_updates : s.rls->updates());
+      update(d);
+    } else {
+      const SampleContext c = Context(s, x, phi + k * u, y + k, alpha_class);
+      d = s.detector->Classify(c);
+      update(d);
+      s.detector->Observe(c, d);
+    }
+    for (Eigen::Index i = 0; i < n; ++i) s.prev[i] = x[i];
+    if (decisions != nullptr) decisions[k] = d;
+  }
+}
+
+template <bool kPaper>
+Identifier::RowBlockFn Identifier::ChooseRowBlock(int n, int u) {
+  if (n == 2 && u == 2) return &RowBlock<2, 2, kPaper>;
+  if (n == 2 && u == 1) return &RowBlock<2, 1, kPaper>;
+  if (n == 2 && u == 3) return &RowBlock<2, 3, kPaper>;
+  return &RowBlock<0, 0, kPaper>;
+}
+
+void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
+  State& s = *s_;
+  const Eigen::Index n = s.prev.size(), count = samples.cols();
+  if (samples.rows() != n) {
+    throw std::invalid_argument(fmt::format("Identifier::Feed: samples have {} rows; model '{}' has {} states",
+                                            samples.rows(), s.model.name(), n));
+  }
+  Eigen::Index k = 0;
+  auto step = [&](Eigen::Index col) {
+    const Decision d = Step(samples.col(col));
+    if (decisions != nullptr) decisions[col] = d;
+  };
+  if (s.rls == nullptr || (count > 1 && samples.outerStride() != n)) {
+    for (; k < count; ++k) step(k);
+    return;
+  }
+  if (!s.has_prev && k < count) step(k++);
+  while (k < count) {
+    const Eigen::Index len = std::min<Eigen::Index>(kFeedBlock, count - k);
+    s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(),
+                       s.block_y.data());
+    s.row_block(s, samples.col(k).data(), len, s.block_phi.data(), s.block_y.data(),
+                   decisions == nullptr ? nullptr : decisions + k);
+    k += len;
+  }
+}
+
+void Identifier::Finish() {
+  if (s_->has_prev && s_->settings.sets) s_->flow_set.Add(s_->prev);
+}
+
+void Identifier::BeginSecondPass() {
+  State& s = *s_;
+  s.frozen = true;
+  s.frozen_alpha = s.alpha_full;
+  s.frozen_covariance = s.flow->covariance();
+  s.frozen_updates = s.flow->updates();
+  s.flow->Reset();
+  s.jump->Reset();
+  s.alpha_full = s.builder.flow_layout().Assemble(s.alpha_known, s.flow->estimate());
+  ++s.version;
+  s.flow_set = SampleSet(s.settings.sets ? s.model.state_size() : 2);
+  s.jump_set = SampleSet(s.settings.sets ? s.model.state_size() : 2);
+  s.has_prev = false;
+  s.samples = 0;
+  s.jumps = 0;
+  s.localized = 0;
+}
+
+Vec Identifier::alpha_hat() const { return s_->alpha_full; }
+Vec Identifier::beta_hat() const {
+  return s_->builder.jump_layout().Assemble(s_->beta_known, s_->jump->estimate());
+}
+const Estimator& Identifier::flow_estimator() const { return *s_->flow; }
+const Estimator& Identifier::jump_estimator() const { return *s_->jump; }
+const SampleSet& Identifier::flow_set() const { return s_->flow_set; }
+const SampleSet& Identifier::jump_set() const { return s_->jump_set; }
+long Identifier::samples() const { return s_->samples; }
+long Identifier::jumps_detected() const { return s_->jumps; }
+long Identifier::jumps_localized() const { return s_->localized; }
+
+IdentifyResult Identify(const Model& model, const Mat& y, double dt,
+                        const IdentifierSettings& settings, const IdentifyOptions& options) {
+  if (y.rows() != model.state_size()) {
+    throw std::invalid_argument(fmt::format("data has {} state rows; model '{}' has {} states",
+                                            y.rows(), model.name(), model.state_size()));
+  }
+  IdentifyResult r;
+  IdentifierSettings resolved = settings;
+  if (NeedsNoiseShape(settings.flow_estimator) || NeedsNoiseShape(settings.jump_estimator)) {
+    const bool given = settings.sigma.size() != 0;
+    if (given && settings.sigma.size() != model.state_size()) {
+      throw std::invalid_argument(fmt::format(
+          "IdentifierSettings::sigma has {} entries; the model has {} states", settings.sigma.size(),
+          model.state_size()));
+    }
+    if (y.cols() >= 4 && y.allFinite()) {
+      r.noise_sigma = given ? settings.sigma : EstimateNoiseSigma(y);
+      r.noise_sigma_estimated = !given;
+      // C averaged over up to 256 evenly spaced measured states.
+      const Eigen::Index count = std::min<Eigen::Index>(256, y.cols());
+      Mat states(y.rows(), count);
+      for (Eigen::Index i = 0; i < count; ++i) {
+        states.col(i) = y.col(count > 1 ? i * (y.cols() - 1) / (count - 1) : 0);
+      }
+      resolved = WithNoiseShapes(model, dt, settings, r.noise_sigma, states);
+    } else {  // too short, or non-finite samples: the Identifier constructor's rule
+      r.noise_sigma = given ? settings.sigma : Vec::Ones(model.state_size());
+      resolved = ResolvedAtDefault(model, dt, settings);
+    }
+  }
+  if (resolved.flow_estimator.name != "rls") r.flow_noise_shape = resolved.flow_estimator.noise_shape;
+  if (resolved.jump_estimator.name != "rls") r.jump_noise_shape = resolved.jump_estimator.noise_shape;
+  Identifier id(model, dt, resolved);
+  const Eigen::Index k_count = y.cols();
+  r.gamma.resize(static_cast<std::size_t>(k_count));
+  r.statistic.resize(static_cast<std::size_t>(k_count));
+  r.threshold.resize(static_cast<std::size_t>(k_count));
+  if (options.trace) {
+    r.alpha_trace.resize(model.alpha_size(), k_count);
+    r.beta_trace.resize(model.beta_size(), k_count);
+  }
+  // Without a trace, samples go to Feed in chunks (its block path); a trace needs α̂, β̂ after each.
+  constexpr Eigen::Index kChunk = 4096;
+  std::vector<Decision> decisions(static_cast<std::size_t>(options.trace ? 1 : std::min(kChunk, k_count)));
+  auto record = [&](Eigen::Index k, const Decision& d) {
+    r.gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
+    r.statistic[static_cast<std::size_t>(k)] = d.statistic;
+    r.threshold[static_cast<std::size_t>(k)] = d.threshold;
+  };
+  auto pass = [&] {
+    if (!options.trace) {
+      for (Eigen::Index k = 0; k < k_count; k += kChunk) {
+        const Eigen::Index len = std::min(kChunk, k_count - k);
+        id.Feed(y.middleCols(k, len), decisions.data());
+        for (Eigen::Index j = 0; j < len; ++j) record(k + j, decisions[static_cast<std::size_t>(j)]);
+      }
+      return;
+    }
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      record(k, id.Step(y.col(k)));
+      r.alpha_trace.col(k) = id.alpha_hat();
+      r.beta_trace.col(k) = id.beta_hat();
+    }
+  };
+  pass();
+  if (settings.second_pass) {
+    r.second_pass = true;
+    r.first_pass_gamma = r.gamma;
+    r.first_pass_alpha_hat = id.alpha_hat();
+    r.first_pass_beta_hat = id.beta_hat();
+    id.BeginSecondPass();
+    pass();
+    for (std::size_t k = 0; k < r.gamma.size(); ++k) {
+      r.reclassified_to_jump += (!r.first_pass_gamma[k] && r.gamma[k]) ? 1 : 0;
+      r.reclassified_to_flow += (r.first_pass_gamma[k] && !r.gamma[k]) ? 1 : 0;
+    }
+  }
+  id.Finish();
+  r.jumps_localized = id.jumps_localized();
+  r.alpha_hat = id.alpha_hat();
+  r.beta_hat = id.beta_hat();
+  r.jumps_detected = id.jumps_detected();
+  r.flow_status = id.flow_estimator().status();
+  r.jump_status = id.jump_estimator().status();
+  for (const auto& [estimator, box] : {std::pair{&id.flow_estimator(), &r.flow_box},
+                                       std::pair{&id.jump_estimator(), &r.jump_box}}) {
+    const auto* f = dynamic_cast<const Frisch*>(estimator);
+    if (f == nullptr || !f->has_box()) continue;
+    box->resize(f->lower().size(), 2);
+    box->col(0) = f->lower();
+    box->col(1) = f->upper();
+  }
+  if (settings.sets) {
+    r.flow_hull = id.flow_set().vertices();
+    r.jump_hull = id.jump_set().vertices();
+    r.flow_hull_volume = id.flow_set().Volume();
+    r.jump_hull_volume = id.jump_set().Volume();
+  }
+  return r;
+}
+
+}  // namespace hysid

@@ -1,0 +1,169 @@
+// The paper's identifier (Algorithms 1 and 2) over a stream of measured samples ξ(kδt).
+//
+// Per sample t (from the second on):
+//   1. the flow regression of (ξ(t−δt), ξ(t)) on the identified rows (core/model/regression.hpp);
+//   2. γ(t) from the jump detector (core/detectors/detector.hpp);
+//   3. γ = 0: update α̂ with the flow estimator; γ = 1: update β̂ with the jump estimator on
+//      ξ_r(t) = ψ_r(ξ(t−δt))β (eq. 5);
+//   4. Algorithm 2: ξ(t−δt) joins Γ when γ(t) = 1, else Λ. (The paper adds ξ(t) to Λ at once and moves
+//      ξ(t−δt) to Γ on a jump; deciding ξ(t−δt) one sample later gives the same sets without removing
+//      points from a hull. The newest sample is in neither set until the next one arrives.)
+//
+// Beyond the paper (options, off by default):
+//   localize     the jump regression uses the states just before and after the located jump instant
+//                s ∈ (t−δt, t] (core/identify/localize.hpp) instead of ξ(t−δt), ξ(t); falls back to the pair
+//                when the jump cannot be located.
+//   second_pass  Identify() runs the data twice: the second pass re-classifies every sample with the
+//                first pass's final α̂ (and its covariance, and the detector's learned state) held
+//                fixed, and re-estimates α, β and the sets from scratch on that classification.
+//                IdentifyResult says how many samples changed class. Forgetting (EstimatorSettings::
+//                forgetting) is the other way to let early mistakes fade.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/detectors/detector.hpp"
+#include "core/estimators/estimator.hpp"
+#include "core/model/regression.hpp"
+#include "core/sets/sample_set.hpp"
+
+namespace hysid {
+
+struct IdentifierSettings {
+  // For α and β. gtls and frisch with an empty noise_shape get theirs from WithNoiseShapes (below).
+  // The jump regression sees one row per jump (14 in §5), so its frisch window defaults to 0 (the
+  // growing window) rather than 200 rows.
+  EstimatorSettings flow_estimator;
+  EstimatorSettings jump_estimator = [] {
+    EstimatorSettings s;
+    s.window = 0;
+    return s;
+  }();
+  DetectorSettings detector;
+  // Maintain Λ, Γ and their hulls (Algorithm 2), for any number of states (core/sets/sample_set.hpp:
+  // 1-D intervals, 2-D angular rings, n ≥ 3 boundary stars; all exact and incremental).
+  bool sets = true;
+  Vec sigma;         // measurement noise σ per component when known (empty: unknown)
+  // Accuracy of the data apart from the random noise: component j may be off by up to
+  // data_rtol·|ξ_j| + data_atol (simulated data: the integrator's tolerances; 0 = exact up to
+  // rounding). The residual detector adds it to its measurement-noise model; nothing else uses it.
+  double data_rtol = 0.0, data_atol = 0.0;
+  // Prior for the unknown parameters (empty: zero), for both α and β in model order.
+  Vec alpha0, beta0;
+  bool localize = false;     // sub-sample jump localisation for the jump regression
+  bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
+  // Direct, inlined calls instead of the virtual interfaces: to RLS for α on one identified row, and
+  // then also to the paper detector on a constant-Jacobian model, with compile-time sizes for n = 2
+  // and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost per sample). false:
+  // always the interfaces (for tests and comparisons).
+  bool direct_calls = true;
+};
+
+// Noise shapes of the errors-in-variables estimators. For each of flow_estimator and jump_estimator
+// named "gtls" or "frisch" whose noise_shape is empty, fills it with FlowNoiseShape / JumpNoiseShape
+// (core/model/noise_shape.hpp) of `sigma` (n entries), δt and `states` (n × K, C averaged over them; for
+// φ, ψ affine in ξ, as in every built-in model's identified rows, any one state gives the same C).
+//   - sigma all zero (noise-free data): ones instead, i.e. the shape of equal noise on every
+//     component (C is used up to scale, so only the ratios between components matter).
+//   - a derived C that is zero (no noise reaches that regression): diag(0, …, 0, 1), least squares.
+// gtls uses C itself; frisch uses only which diagonal entries are zero (exact columns).
+// A noise_shape set by the user is kept. Throws std::invalid_argument for a wrong-sized sigma.
+IdentifierSettings WithNoiseShapes(const Model& model, double dt, const IdentifierSettings& settings,
+                                   ConstVecRef sigma, const Mat& states);
+// True when `settings` names gtls or frisch with an empty noise_shape.
+bool NeedsNoiseShape(const EstimatorSettings& settings);
+
+class Identifier {
+ public:
+  // Throws std::invalid_argument for δt ≤ 0 or invalid settings (naming the field). gtls / frisch
+  // without a noise shape: WithNoiseShapes with settings.sigma (ones when not given) at the model's
+  // default initial state. Identify() does better: it estimates σ from the data when not given and
+  // averages C over the measured states.
+  Identifier(const Model& model, double dt, const IdentifierSettings& settings);
+  ~Identifier();
+  Identifier(Identifier&&) noexcept;
+  Identifier& operator=(Identifier&&) noexcept;
+
+  // Feeds the next measured sample ξ(t). The first sample only initialises (γ = 0, no update).
+  Decision Step(ConstVecRef x);
+  // Feeds the columns of `samples` (n × K) in order: the same as Step on each, bit for bit, and
+  // faster on the direct path (IdentifierSettings::direct_calls), which builds the flow regressions
+  // of a block of samples at once (RegressionBuilder::FlowRows). `decisions`, unless null, receives
+  // the K decisions. Throws std::invalid_argument when samples.rows() is not the state size.
+  void Feed(const ConstMatRef& samples, Decision* decisions);
+  // Ends the stream: the newest sample joins Λ (the paper puts every ξ(t) in Λ until a jump moves it).
+  void Finish();
+  // Starts a second pass over the same stream: α̂ and its covariance are frozen for classification,
+  // the estimators and sets restart from their priors, the detector keeps what it has learned.
+  void BeginSecondPass();
+
+  Vec alpha_hat() const;  // full α̂: known entries at their known values
+  Vec beta_hat() const;
+  const Estimator& flow_estimator() const;
+  const Estimator& jump_estimator() const;
+  const SampleSet& flow_set() const;  // Λ (Ĉ = its hull); empty when settings.sets is false
+  const SampleSet& jump_set() const;  // Γ (D̂)
+  long samples() const;
+  long jumps_detected() const;
+  long jumps_localized() const;  // jumps whose regression used the located instant
+
+ private:
+  struct State;
+  static constexpr Eigen::Index kFeedBlock = 256;  // samples per block of regressions in Feed
+  using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*,
+                              Decision*);
+  template <int N, int P, bool kPaper>
+  static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
+                       const double* y, Decision* decisions);
+  template <bool kPaper>
+  static RowBlockFn ChooseRowBlock(int n, int u);
+  static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
+                               const Vec& alpha_class);
+  template <int P>
+  static void AfterFlowUpdate(State& s);
+  static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);
+  std::unique_ptr<State> s_;
+};
+
+// A whole run: samples y (n × K, column k measured at t_k = kδt).
+struct IdentifyOptions {
+  bool trace = false;  // keep per-sample α̂, β̂ (else only γ, statistic, threshold)
+};
+
+struct IdentifyResult {
+  Vec alpha_hat, beta_hat;              // final, full vectors
+  std::vector<std::uint8_t> gamma;      // per sample (gamma[0] = 0)
+  std::vector<double> statistic;        // detector statistic per sample (paper: D_δt ξ)
+  std::vector<double> threshold;        // its threshold (paper: τ̂)
+  Mat alpha_trace, beta_trace;          // |α| × K and |β| × K when options.trace
+  long jumps_detected = 0;
+  EstimatorStatus flow_status = EstimatorStatus::kNotExcited;
+  EstimatorStatus jump_status = EstimatorStatus::kNotExcited;
+  Mat flow_hull, jump_hull;             // n × h hull vertices of Λ and Γ (when settings.sets)
+  double flow_hull_volume = 0.0, jump_hull_volume = 0.0;
+  long jumps_localized = 0;             // settings.localize: jumps regressed at the located instant
+  // settings.second_pass: the first pass's outcome and what the second changed. gamma, estimates
+  // and traces above are the second pass's.
+  bool second_pass = false;
+  std::vector<std::uint8_t> first_pass_gamma;
+  Vec first_pass_alpha_hat, first_pass_beta_hat;
+  long reclassified_to_jump = 0;  // flow in the first pass, jump in the second
+  long reclassified_to_flow = 0;  // jump in the first pass, flow in the second
+  // gtls / frisch with a derived noise shape: the σ it was derived from, and whether that σ was
+  // estimated from the data (EstimateNoiseSigma) because settings.sigma was empty. Empty otherwise.
+  Vec noise_sigma;
+  bool noise_sigma_estimated = false;
+  Mat flow_noise_shape, jump_noise_shape;  // the shapes the estimators used (empty for rls)
+  // frisch: the final solution boxes of the unknowns, u × 2 (lower, upper); empty otherwise.
+  Mat flow_box, jump_box;
+};
+
+// gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD
+// of second differences, core/model/noise_shape.hpp); C from WithNoiseShapes over up to 256 evenly spaced
+// columns of y.
+IdentifyResult Identify(const Model& model, const Mat& y, double dt,
+                        const IdentifierSettings& settings, const IdentifyOptions& options = {});
+
+}  // namespace hysid

@@ -1,0 +1,69 @@
+#include "core/identify/metrics.hpp"
+
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "core/detectors/paper.hpp"
+#include "core/model/regression.hpp"
+
+namespace hysid {
+
+double Confusion::misclassification() const {
+  const long n = total();
+  return n == 0 ? 0.0 : static_cast<double>(fp + fn) / static_cast<double>(n);
+}
+double Confusion::precision() const {
+  return tp + fp == 0 ? 1.0 : static_cast<double>(tp) / static_cast<double>(tp + fp);
+}
+double Confusion::recall() const {
+  return tp + fn == 0 ? 1.0 : static_cast<double>(tp) / static_cast<double>(tp + fn);
+}
+
+Confusion CompareJumps(const std::vector<int>& j_true, const std::vector<std::uint8_t>& gamma) {
+  if (j_true.size() != gamma.size()) {
+    throw std::invalid_argument(fmt::format("CompareJumps: {} truth labels for {} decisions",
+                                            j_true.size(), gamma.size()));
+  }
+  Confusion c;
+  for (std::size_t k = 1; k < gamma.size(); ++k) {
+    const bool truth = j_true[k] != j_true[k - 1];
+    const bool flagged = gamma[k] != 0;
+    if (truth && flagged) ++c.tp;
+    else if (!truth && flagged) ++c.fp;
+    else if (truth) ++c.fn;
+    else ++c.tn;
+  }
+  return c;
+}
+
+ParameterErrors CompareParameters(const Model& truth, const Vec& alpha_hat, const Vec& beta_hat) {
+  if (alpha_hat.size() != truth.alpha_size() || beta_hat.size() != truth.beta_size()) {
+    throw std::invalid_argument("CompareParameters: parameter vectors do not match the model");
+  }
+  ParameterErrors e;
+  e.e_alpha = (truth.alpha() - alpha_hat).norm();
+  e.e_beta = (truth.beta() - beta_hat).norm();
+  const RegressionLayout fl = RegressionLayout::Flow(truth), jl = RegressionLayout::Jump(truth);
+  const Vec au = fl.Unknown(truth.alpha()), bu = jl.Unknown(truth.beta());
+  const double na = au.norm(), nb = bu.norm();
+  e.rel_alpha = (au - fl.Unknown(alpha_hat)).norm() / (na > 0 ? na : 1.0);
+  e.rel_beta = (bu - jl.Unknown(beta_hat)).norm() / (nb > 0 ? nb : 1.0);
+  return e;
+}
+
+std::vector<double> TrueSmoothnessBound(const Model& model, const Mat& x_true,
+                                        const DetectorSettings& settings) {
+  const BoundMode mode = ResolveBoundMode(settings.bound, model);
+  std::vector<double> tau(static_cast<std::size_t>(x_true.cols()), 0.0);
+  if (x_true.cols() == 0) return tau;
+  // L over every true state (one evaluation when the Jacobian is constant).
+  const double l = SupJacobianNorm(model, model.alpha(), mode, x_true);
+  for (Eigen::Index k = 1; k < x_true.cols(); ++k) {
+    tau[static_cast<std::size_t>(k)] =
+        0.5 * l * (BoundNorm(x_true.col(k), mode) + BoundNorm(x_true.col(k - 1), mode));
+  }
+  return tau;
+}
+
+}  // namespace hysid

@@ -1,0 +1,35 @@
+// The hysid command line: one subcommand per file, each registered by an Add*Command function.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "core/model/model.hpp"
+#include "core/model/registry.hpp"
+
+namespace hysid::cli {
+
+// Shared by the subcommands.
+struct Environment {
+  ModelRegistry models;
+};
+
+void AddSimulateCommand(CLI::App& app, Environment& env);
+void AddModelsCommand(CLI::App& app, Environment& env);
+void AddIdentifyCommand(CLI::App& app, Environment& env);
+void AddReproduceCommand(CLI::App& app, Environment& env);
+void AddSweepCommand(CLI::App& app, Environment& env);  // sweep and merge
+
+// A bad flag value: `what` names the flag, e.g. "--dt = -1: must be > 0".
+[[noreturn]] void BadFlag(const std::string& what);
+
+// Builds a model from its name and "name=value" assignments; errors name --model / --param.
+Model MakeModel(const Environment& env, const std::string& name,
+                const std::vector<std::string>& params);
+
+// Checks that every entry is finite; `flag` names the option in the error.
+void RequireFinite(const std::string& flag, const std::vector<double>& values);
+
+}  // namespace hysid::cli

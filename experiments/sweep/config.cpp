@@ -1,0 +1,430 @@
+#include "experiments/sweep/config.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <toml++/toml.h>
+
+#include "core/detectors/detector.hpp"
+#include "core/estimators/estimator.hpp"
+
+namespace hysid {
+namespace {
+
+// A computed grid value (a range's from + u·(to − from), or its log-spaced form) rounded to 12
+// significant digits, so that a log range from 0.01 to 1 holds 0.1 and not 0.10000000000000006: the
+// grid then matches what a user types when filtering the tables.
+double ShortDecimal(double v) { return std::strtod(fmt::format("{:.12g}", v).c_str(), nullptr); }
+
+// Reads one TOML document; every error names file, line and the dotted key.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void Fail(const toml::node* node, const std::string& key, const std::string& what) const {
+    const long line = node ? static_cast<long>(node->source().begin.line) : 0;
+    if (line > 0) throw std::invalid_argument(fmt::format("{}:{}: {}: {}", file_, line, key, what));
+    throw std::invalid_argument(fmt::format("{}: {}: {}", file_, key, what));
+  }
+
+  // Rejects keys that are not in `allowed`.
+  void OnlyKeys(const toml::table& table, const std::string& prefix,
+                std::initializer_list<std::string_view> allowed) const {
+    for (auto&& [k, v] : table) {
+      if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
+        std::vector<std::string> names(allowed.begin(), allowed.end());
+        Fail(&v, Join(prefix, k.str()),
+             fmt::format("unknown key (known here: {})", fmt::join(names, ", ")));
+      }
+    }
+  }
+
+  static std::string Join(const std::string& prefix, std::string_view key) {
+    return prefix.empty() ? std::string(key) : fmt::format("{}.{}", prefix, key);
+  }
+
+  double Number(const toml::node& node, const std::string& key) const {
+    if (!node.is_number()) Fail(&node, key, fmt::format("expected a number, got {}", TypeName(node)));
+    const double v = *node.value<double>();
+    if (!std::isfinite(v)) Fail(&node, key, "must be finite");
+    return v;
+  }
+
+  long Integer(const toml::node& node, const std::string& key) const {
+    if (!node.is_integer()) Fail(&node, key, fmt::format("expected an integer, got {}", TypeName(node)));
+    return static_cast<long>(*node.value<std::int64_t>());
+  }
+
+  bool Boolean(const toml::node& node, const std::string& key) const {
+    if (!node.is_boolean()) Fail(&node, key, fmt::format("expected true or false, got {}", TypeName(node)));
+    return *node.value<bool>();
+  }
+
+  std::string String(const toml::node& node, const std::string& key) const {
+    if (!node.is_string()) Fail(&node, key, fmt::format("expected a string, got {}", TypeName(node)));
+    return *node.value<std::string>();
+  }
+
+  const toml::table& Table(const toml::node& node, const std::string& key) const {
+    if (!node.is_table()) Fail(&node, key, fmt::format("expected a table, got {}", TypeName(node)));
+    return *node.as_table();
+  }
+
+  std::vector<double> NumberList(const toml::node& node, const std::string& key) const {
+    if (!node.is_array()) Fail(&node, key, fmt::format("expected a list of numbers, got {}", TypeName(node)));
+    std::vector<double> out;
+    const auto& arr = *node.as_array();
+    for (std::size_t i = 0; i < arr.size(); ++i) out.push_back(Number(arr[i], fmt::format("{}[{}]", key, i)));
+    return out;
+  }
+
+  // A grid axis of numbers: a number, a list, or { from, to, count [, log] }. Never empty.
+  std::vector<double> NumberAxis(const toml::node& node, const std::string& key) const {
+    std::vector<double> out;
+    if (node.is_number()) {
+      out.push_back(Number(node, key));
+    } else if (node.is_array()) {
+      out = NumberList(node, key);
+    } else if (node.is_table()) {
+      const auto& t = *node.as_table();
+      OnlyKeys(t, key, {"from", "to", "count", "log"});
+      for (const char* k : {"from", "to", "count"}) {
+        if (!t.contains(k)) Fail(&node, key, fmt::format("a range needs from, to and count (missing '{}')", k));
+      }
+      const double from = Number(*t.get("from"), key + ".from");
+      const double to = Number(*t.get("to"), key + ".to");
+      const long count = Integer(*t.get("count"), key + ".count");
+      const bool log = t.contains("log") && Boolean(*t.get("log"), key + ".log");
+      if (count < 1) Fail(t.get("count"), key + ".count", fmt::format("{} must be ≥ 1", count));
+      if (log && (from <= 0 || to <= 0)) Fail(&node, key, "a log range needs from > 0 and to > 0");
+      for (long i = 0; i < count; ++i) {
+        const double u = count == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(count - 1);
+        out.push_back(ShortDecimal(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
+                                       : from + u * (to - from)));
+      }
+    } else {
+      Fail(&node, key, fmt::format("expected a number, a list or {{ from, to, count }}, got {}", TypeName(node)));
+    }
+    if (out.empty()) Fail(&node, key, "empty grid: give at least one value");
+    return out;
+  }
+
+  std::vector<std::string> StringAxis(const toml::node& node, const std::string& key) const {
+    std::vector<std::string> out;
+    if (node.is_string()) {
+      out.push_back(String(node, key));
+    } else if (node.is_array()) {
+      const auto& arr = *node.as_array();
+      for (std::size_t i = 0; i < arr.size(); ++i) out.push_back(String(arr[i], fmt::format("{}[{}]", key, i)));
+    } else {
+      Fail(&node, key, fmt::format("expected a string or a list of strings, got {}", TypeName(node)));
+    }
+    if (out.empty()) Fail(&node, key, "empty grid: give at least one value");
+    return out;
+  }
+
+  static std::string TypeName(const toml::node& node) {
+    switch (node.type()) {
+      case toml::node_type::table: return "a table";
+      case toml::node_type::array: return "a list";
+      case toml::node_type::string: return "a string";
+      case toml::node_type::integer: return "an integer";
+      case toml::node_type::floating_point: return "a number";
+      case toml::node_type::boolean: return "a boolean";
+      default: return "a date/time";
+    }
+  }
+
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+template <class T>
+void NoDuplicates(const Reader& rd, const toml::node& node, const std::string& key, const std::vector<T>& v) {
+  std::set<T> seen;
+  for (const T& x : v) {
+    if (!seen.insert(x).second) rd.Fail(&node, key, fmt::format("value {} appears twice", x));
+  }
+}
+
+SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string& key,
+                      const ModelRegistry& registry) {
+  rd.OnlyKeys(t, key, {"name", "params", "x0", "x0_range", "t_end"});
+  SweepModel m;
+  const toml::node* name = t.get("name");
+  if (!name) rd.Fail(&t, key + ".name", "missing (the model's registry name, see `hysid models`)");
+  m.name = rd.String(*name, key + ".name");
+  if (!registry.Contains(m.name)) {
+    std::vector<std::string> names = registry.names();
+    rd.Fail(name, key + ".name", fmt::format("unknown model '{}' (known: {})", m.name, fmt::join(names, ", ")));
+  }
+  Model model = registry.Make(m.name);
+  if (const toml::node* p = t.get("params")) {
+    for (auto&& [k, v] : rd.Table(*p, key + ".params")) {
+      const std::string pk = fmt::format("{}.params.{}", key, k.str());
+      const double value = rd.Number(v, pk);
+      try {
+        model.SetParameter(k.str(), value);
+      } catch (const std::invalid_argument& e) {
+        rd.Fail(&v, pk, e.what());
+      }
+      m.params.emplace_back(std::string(k.str()), value);
+    }
+  }
+  const int n = model.state_size();
+  const toml::node* x0 = t.get("x0");
+  const toml::node* range = t.get("x0_range");
+  if (x0 && range) rd.Fail(range, key + ".x0_range", "give x0 or x0_range, not both");
+  if (x0) {
+    m.x0 = rd.NumberList(*x0, key + ".x0");
+    if (static_cast<int>(m.x0.size()) != n) {
+      rd.Fail(x0, key + ".x0", fmt::format("has {} entries, model '{}' has {} states", m.x0.size(), m.name, n));
+    }
+  } else if (range) {
+    if (!range->is_array()) rd.Fail(range, key + ".x0_range", "expected a list of [lo, hi] pairs");
+    const auto& arr = *range->as_array();
+    if (static_cast<int>(arr.size()) != n) {
+      rd.Fail(range, key + ".x0_range", fmt::format("has {} entries, model '{}' has {} states", arr.size(), m.name, n));
+    }
+    for (std::size_t i = 0; i < arr.size(); ++i) {
+      const std::string ik = fmt::format("{}.x0_range[{}]", key, i);
+      const std::vector<double> lohi = rd.NumberList(arr[i], ik);
+      if (lohi.size() != 2 || lohi[0] > lohi[1]) rd.Fail(&arr[i], ik, "expected [lo, hi] with lo ≤ hi");
+      m.x0_range.push_back({lohi[0], lohi[1]});
+    }
+  } else {
+    m.x0 = model.spec().default_x0;
+  }
+  m.t_end = model.spec().default_t_end;
+  if (const toml::node* te = t.get("t_end")) {
+    m.t_end = rd.Number(*te, key + ".t_end");
+    if (m.t_end <= 0) rd.Fail(te, key + ".t_end", fmt::format("{} must be > 0", m.t_end));
+  }
+  return m;
+}
+
+}  // namespace
+
+Model SweepModel::Build(const ModelRegistry& registry) const {
+  Model model = registry.Make(name);
+  for (const auto& [k, v] : params) model.SetParameter(k, v);
+  return model;
+}
+
+SweepConfig ParseSweepText(std::string_view text, const std::string& name, const ModelRegistry& registry) {
+  const Reader rd(name);
+  toml::table root;
+  try {
+    root = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw std::invalid_argument(
+        fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
+  }
+  rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run"});
+  SweepConfig c;
+  c.source = name;
+
+  // [model] or [[model]]
+  const toml::node* models = root.get("model");
+  if (!models) rd.Fail(nullptr, "model", "missing: a [model] table with at least name");
+  if (models->is_table()) {
+    c.models.push_back(ParseModel(rd, *models->as_table(), "model", registry));
+  } else if (models->is_array()) {
+    const auto& arr = *models->as_array();
+    if (arr.empty()) rd.Fail(models, "model", "empty grid: give at least one model");
+    for (std::size_t i = 0; i < arr.size(); ++i) {
+      const std::string k = fmt::format("model[{}]", i);
+      c.models.push_back(ParseModel(rd, rd.Table(arr[i], k), k, registry));
+    }
+  } else {
+    rd.Fail(models, "model", "expected a [model] table or [[model]] tables");
+  }
+
+  // [grid]
+  const toml::node* grid_node = root.get("grid");
+  if (!grid_node) rd.Fail(nullptr, "grid", "missing: a [grid] table (at least sigma and dt)");
+  const toml::table& grid = rd.Table(*grid_node, "grid");
+  rd.OnlyKeys(grid, "grid", {"sigma", "dt", "r", "false_alarm", "estimator", "detector"});
+  for (const char* k : {"sigma", "dt"}) {
+    if (!grid.contains(k)) rd.Fail(grid_node, fmt::format("grid.{}", k), "missing");
+  }
+  c.grid.sigma = rd.NumberAxis(*grid.get("sigma"), "grid.sigma");
+  c.grid.dt = rd.NumberAxis(*grid.get("dt"), "grid.dt");
+  c.grid.r = grid.contains("r") ? rd.NumberAxis(*grid.get("r"), "grid.r")
+                                : std::vector<double>{c.identifier.detector.r};
+  c.grid.false_alarm = grid.contains("false_alarm") ? rd.NumberAxis(*grid.get("false_alarm"), "grid.false_alarm")
+                                                    : std::vector<double>{c.identifier.detector.false_alarm};
+  for (double p : c.grid.false_alarm) {
+    if (!(p > 0 && p < 0.5)) {
+      rd.Fail(grid.get("false_alarm"), "grid.false_alarm", fmt::format("{} must be in (0, 0.5)", p));
+    }
+  }
+  c.grid.estimator = grid.contains("estimator") ? rd.StringAxis(*grid.get("estimator"), "grid.estimator")
+                                                : std::vector<std::string>{"rls"};
+  c.grid.detector = grid.contains("detector") ? rd.StringAxis(*grid.get("detector"), "grid.detector")
+                                              : std::vector<std::string>{"paper"};
+  for (double s : c.grid.sigma) {
+    if (s < 0) rd.Fail(grid.get("sigma"), "grid.sigma", fmt::format("{} must be ≥ 0", s));
+  }
+  for (double dt : c.grid.dt) {
+    if (dt <= 0) rd.Fail(grid.get("dt"), "grid.dt", fmt::format("{} must be > 0", dt));
+    for (const SweepModel& m : c.models) {
+      if (2 * dt > m.t_end) {
+        rd.Fail(grid.get("dt"), "grid.dt",
+                fmt::format("{} leaves fewer than 3 samples in t_end = {} of model '{}'", dt, m.t_end, m.name));
+      }
+    }
+  }
+  for (double r : c.grid.r) {
+    if (r <= 1) rd.Fail(grid.get("r"), "grid.r", fmt::format("{} must be > 1 (the bound scale r of eq. 8)", r));
+  }
+  const std::vector<std::string> estimators = EstimatorNames(), detectors = DetectorNames();
+  for (const std::string& e : c.grid.estimator) {
+    if (std::find(estimators.begin(), estimators.end(), e) == estimators.end()) {
+      rd.Fail(grid.get("estimator"), "grid.estimator",
+              fmt::format("unknown estimator '{}' (known: {})", e, fmt::join(estimators, ", ")));
+    }
+  }
+  for (const std::string& d : c.grid.detector) {
+    if (std::find(detectors.begin(), detectors.end(), d) == detectors.end()) {
+      rd.Fail(grid.get("detector"), "grid.detector",
+              fmt::format("unknown detector '{}' (known: {})", d, fmt::join(detectors, ", ")));
+    }
+  }
+  NoDuplicates(rd, *grid.get("sigma"), "grid.sigma", c.grid.sigma);
+  NoDuplicates(rd, *grid.get("dt"), "grid.dt", c.grid.dt);
+  if (grid.contains("r")) NoDuplicates(rd, *grid.get("r"), "grid.r", c.grid.r);
+  if (grid.contains("false_alarm")) NoDuplicates(rd, *grid.get("false_alarm"), "grid.false_alarm", c.grid.false_alarm);
+  if (grid.contains("estimator")) NoDuplicates(rd, *grid.get("estimator"), "grid.estimator", c.grid.estimator);
+  if (grid.contains("detector")) NoDuplicates(rd, *grid.get("detector"), "grid.detector", c.grid.detector);
+
+  // [identifier]
+  if (const toml::node* idn = root.get("identifier")) {
+    const toml::table& id = rd.Table(*idn, "identifier");
+    rd.OnlyKeys(id, "identifier", {"tau0", "bound", "false_alarm", "p0", "forgetting", "window",
+                                   "refactor_every", "localize", "second_pass", "sets", "known_sigma"});
+    IdentifierSettings& s = c.identifier;
+    for (auto&& [k, v] : id) {
+      const std::string key = fmt::format("identifier.{}", k.str());
+      if (k == "tau0") s.detector.tau0 = rd.Number(v, key);
+      if (k == "bound") s.detector.bound = rd.String(v, key);
+      if (k == "false_alarm") s.detector.false_alarm = rd.Number(v, key);
+      if (k == "p0") s.flow_estimator.p0 = s.jump_estimator.p0 = rd.Number(v, key);
+      if (k == "forgetting") s.flow_estimator.forgetting = s.jump_estimator.forgetting = rd.Number(v, key);
+      if (k == "window") s.flow_estimator.window = static_cast<int>(rd.Integer(v, key));  // α only: β keeps a growing window (14 jump rows never fill one)
+      if (k == "refactor_every") {
+        s.flow_estimator.refactor_every = s.jump_estimator.refactor_every = static_cast<int>(rd.Integer(v, key));
+      }
+      if (k == "localize") s.localize = rd.Boolean(v, key);
+      if (k == "second_pass") s.second_pass = rd.Boolean(v, key);
+      if (k == "sets") s.sets = rd.Boolean(v, key);
+      if (k == "known_sigma") c.known_sigma = rd.Boolean(v, key);
+      std::string error;
+      if (!s.detector.IsValid(&error) || !s.flow_estimator.IsValid(&error)) rd.Fail(&v, key, error);
+    }
+  }
+
+  // [identifier] false_alarm is the default of the grid axis.
+  if (!grid.contains("false_alarm")) c.grid.false_alarm = {c.identifier.detector.false_alarm};
+
+  // [simulator]
+  if (const toml::node* sn = root.get("simulator")) {
+    const toml::table& st = rd.Table(*sn, "simulator");
+    rd.OnlyKeys(st, "simulator", {"rtol", "atol", "max_steps", "max_jumps"});
+    for (auto&& [k, v] : st) {
+      const std::string key = fmt::format("simulator.{}", k.str());
+      if (k == "rtol") c.simulator.rtol = rd.Number(v, key);
+      if (k == "atol") c.simulator.atol = rd.Number(v, key);
+      if (k == "max_steps") c.simulator.max_steps = rd.Integer(v, key);
+      if (k == "max_jumps") c.simulator.max_jumps = static_cast<int>(rd.Integer(v, key));
+      std::string error;
+      if (!c.simulator.IsValid(&error)) rd.Fail(&v, key, error);
+    }
+  }
+
+  // [run]
+  if (const toml::node* rn = root.get("run")) {
+    const toml::table& run = rd.Table(*rn, "run");
+    rd.OnlyKeys(run, "run", {"trials", "seed", "out"});
+    for (auto&& [k, v] : run) {
+      const std::string key = fmt::format("run.{}", k.str());
+      if (k == "trials") {
+        c.trials = rd.Integer(v, key);
+        if (c.trials < 1) rd.Fail(&v, key, fmt::format("{} must be ≥ 1", c.trials));
+      }
+      if (k == "seed") {
+        const long seed = rd.Integer(v, key);
+        if (seed < 0) rd.Fail(&v, key, fmt::format("{} must be ≥ 0", seed));
+        c.seed = static_cast<std::uint64_t>(seed);
+      }
+      if (k == "out") c.out = rd.String(v, key);
+    }
+  }
+  return c;
+}
+
+SweepConfig ParseSweepFile(const std::filesystem::path& path, const ModelRegistry& registry) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::invalid_argument(fmt::format("{}: cannot open the sweep file", path.string()));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
+    throw std::invalid_argument(fmt::format("{}: empty sweep file", path.string()));
+  }
+  return ParseSweepText(text, path.string(), registry);
+}
+
+nlohmann::json SweepConfig::ToJson() const {
+  nlohmann::json ms = nlohmann::json::array();
+  for (const SweepModel& m : models) {
+    nlohmann::json params = nlohmann::json::array();
+    for (const auto& [k, v] : m.params) params.push_back({k, v});
+    nlohmann::json j = {{"name", m.name}, {"params", params}, {"t_end", m.t_end}};
+    if (!m.x0_range.empty()) {
+      j["x0_range"] = m.x0_range;
+    } else {
+      j["x0"] = m.x0;
+    }
+    ms.push_back(j);
+  }
+  const IdentifierSettings& s = identifier;
+  return {
+      {"model", ms},
+      {"grid",
+       {{"dt", grid.dt}, {"sigma", grid.sigma}, {"r", grid.r}, {"false_alarm", grid.false_alarm},
+        {"estimator", grid.estimator},
+        {"detector", grid.detector}}},
+      {"identifier",
+       {{"tau0", s.detector.tau0}, {"bound", s.detector.bound}, {"false_alarm", s.detector.false_alarm},
+        {"p0", s.flow_estimator.p0}, {"forgetting", s.flow_estimator.forgetting},
+        {"window", s.flow_estimator.window}, {"refactor_every", s.flow_estimator.refactor_every},
+        {"localize", s.localize}, {"second_pass", s.second_pass}, {"sets", s.sets},
+        {"known_sigma", known_sigma}}},
+      {"simulator",
+       {{"rtol", simulator.rtol}, {"atol", simulator.atol}, {"max_steps", simulator.max_steps},
+        {"max_jumps", simulator.max_jumps}}},
+      {"run", {{"trials", trials}, {"seed", seed}}},
+  };
+}
+
+std::string SweepConfig::Hash() const {
+  const std::string text = ToJson().dump();
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char ch : text) {
+    h ^= ch;
+    h *= 1099511628211ull;
+  }
+  return fmt::format("{:016x}", h);
+}
+
+}  // namespace hysid

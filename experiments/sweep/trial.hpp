@@ -1,0 +1,39 @@
+// One unit of a sweep: noisy samples of a shared noise-free trajectory, the identifier on them, and
+// the metrics against the simulator's truth, as one row of trials.csv.
+//
+// The row is text (numbers with %.17g, empty for "not available") so that the journal, trials.csv and
+// merged shards hold exactly the same bytes. A trial never throws for a numerical outcome: a
+// simulation that did not complete (Zeno, solver failure, …), a non-finite estimate, or an exception
+// inside the identifier becomes the row's `status` (and `message`) with empty metrics.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/model/model.hpp"
+#include "experiments/sweep/config.hpp"
+#include "experiments/sweep/plan.hpp"
+#include "sim/simulator.hpp"
+
+namespace hysid {
+
+// Status values of a row.
+inline constexpr const char* kTrialOk = "ok";
+
+// Columns of trials.csv for this sweep: identification, grid keys, x0, status, then the metrics
+// (kSummaryMetrics among them), then α̂ and β̂ per unknown parameter name (union over the models).
+std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models);
+
+// The metric columns summary.csv aggregates (each must be in TrialHeader).
+const std::vector<std::string>& SummaryMetrics();
+
+// Runs unit `unit` = (cell, trial) on `truth` (the group's noise-free trajectory from `x0`).
+// `sim_error` non-empty: the simulator rejected the run (the row's status is "error").
+std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
+                                  const SweepCell& cell, long unit, long trial, const Vec& x0,
+                                  const Trajectory& truth, const std::string& sim_error = {});
+
+// The shortest text that reads back as exactly v (fmt "{}"), or "" for NaN.
+std::string FormatNumber(double v);
+
+}  // namespace hysid

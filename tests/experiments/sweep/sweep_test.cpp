@@ -1,0 +1,312 @@
+// The sweep harness: file errors, cells, determinism across thread counts, resume after a kill,
+// shards merged, failed trials as rows, summary statistics against closed forms.
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "core/model/registry.hpp"
+#include "experiments/sweep/config.hpp"
+#include "experiments/sweep/journal.hpp"
+#include "experiments/sweep/plan.hpp"
+#include "experiments/sweep/runner.hpp"
+#include "experiments/sweep/tables.hpp"
+
+namespace fs = std::filesystem;
+using namespace hysid;
+
+namespace {
+
+ModelRegistry Registry() {
+  ModelRegistry r;
+  RegisterBuiltinModels(r);
+  return r;
+}
+
+// A fresh directory for one test case.
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("hysid_test_sweep_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  REQUIRE(in);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Small but not trivial: 2 δt × 2 σ × (2 r paper + residual) = 12 cells × 4 trials, 4 s of impact-msd
+// from drawn initial states.
+const char* kSweep = R"(
+[model]
+name = "impact-msd"
+x0_range = [[10.0, 20.0], [-1.0, 1.0]]
+t_end = 4.0
+
+[grid]
+sigma = [0.0, 0.1]
+dt = [1e-3, 2e-3]
+r = [20.0, 220.0]
+detector = ["paper", "residual"]
+
+[run]
+trials = 4
+seed = 11
+)";
+
+SweepOutcome Run(const SweepConfig& c, const fs::path& out, int threads, Shard shard = {},
+                 const std::atomic<bool>* stop = nullptr) {
+  SweepOptions o;
+  o.out = out;
+  o.threads = threads;
+  o.shard = shard;
+  o.progress = Progress::Mode::kNone;
+  return RunSweep(c, Registry(), o, stop);
+}
+
+std::string ErrorOf(const std::string& text) {
+  try {
+    ParseSweepText(text, "bad.toml", Registry());
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("sweep files: every error names file, line and key", "[sweep][config]") {
+  const std::string head = "[model]\nname = \"impact-msd\"\n";
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [0.1]\ndt = [1e-3]\nfoo = 1\n"),
+             Catch::Contains("bad.toml:6: grid.foo: unknown key"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = []\ndt = [1e-3]\n"),
+             Catch::Contains("bad.toml:4: grid.sigma: empty grid"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [0.1]\ndt = [1e-3, -1e-3]\n"),
+             Catch::Contains("bad.toml:5: grid.dt: -0.001 must be > 0"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [0.1]\ndt = 0\n"), Catch::Contains("bad.toml:5: grid.dt: 0 must be > 0"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [-0.1]\ndt = 1e-3\n"),
+             Catch::Contains("bad.toml:4: grid.sigma: -0.1 must be ≥ 0"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nr = [1.0]\n"),
+             Catch::Contains("bad.toml:6: grid.r: 1 must be > 1"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = \"big\"\ndt = 1e-3\n"),
+             Catch::Contains("bad.toml:4: grid.sigma: expected a number, a list"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nestimator = [\"kalman\"]\n"),
+             Catch::Contains("bad.toml:6: grid.estimator: unknown estimator 'kalman'"));
+  CHECK_THAT(ErrorOf("[model]\nname = \"pendulum\"\n[grid]\nsigma = 0\ndt = 1e-3\n"),
+             Catch::Contains("bad.toml:2: model.name: unknown model 'pendulum'"));
+  CHECK_THAT(ErrorOf(head + "x0 = [1.0]\n[grid]\nsigma = 0\ndt = 1e-3\n"),
+             Catch::Contains("bad.toml:3: model.x0: has 1 entries, model 'impact-msd' has 2 states"));
+  CHECK_THAT(ErrorOf(head + "params = { k = 1.0 }\n[grid]\nsigma = 0\ndt = 1e-3\n"),
+             Catch::Contains("bad.toml:3: model.params.k:"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[run]\ntrials = 0\n"),
+             Catch::Contains("bad.toml:7: run.trials: 0 must be ≥ 1"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[run]\ntrials = 1.5\n"),
+             Catch::Contains("bad.toml:7: run.trials: expected an integer"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\nfalse_alarm = 2.0\n"),
+             Catch::Contains("bad.toml:7: identifier.false_alarm:"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nfalse_alarm = [0.7]\n"),
+             Catch::Contains("bad.toml:6: grid.false_alarm: 0.7 must be in (0, 0.5)"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = [1e-3, 1e-3]\n"), Catch::Contains("grid.dt: value 0.001 appears twice"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\n"), Catch::Contains("bad.toml:3: grid.dt: missing"));
+  CHECK_THAT(ErrorOf(head + "[grid\n"), Catch::Contains("bad.toml:3: TOML syntax"));
+  CHECK_THAT(ErrorOf(head + "t_end = 1.0\n[grid]\nsigma = 0\ndt = 0.6\n"),
+             Catch::Contains("grid.dt: 0.6 leaves fewer than 3 samples"));
+  const fs::path empty = TempDir("empty") / "empty.toml";
+  std::ofstream(empty) << "\n";
+  CHECK_THROWS_WITH(ParseSweepFile(empty, Registry()), Catch::Contains("empty.toml: empty sweep file"));
+  CHECK_THROWS_WITH(ParseSweepFile("/nonexistent/x.toml", Registry()), Catch::Contains("/nonexistent/x.toml: cannot open"));
+}
+
+TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
+  const SweepConfig c = ParseSweepText(
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.0, to = 0.3, count = 4 }\n"
+      "dt = { from = 1e-4, to = 1e-2, count = 3, log = true }\nr = [5.0, 50.0]\n"
+      "detector = [\"paper\", \"residual\"]\n",
+      "ok.toml", Registry());
+  REQUIRE(c.grid.sigma.size() == 4);
+  CHECK(c.grid.sigma[2] == Approx(0.2));
+  REQUIRE(c.grid.dt.size() == 3);
+  CHECK(c.grid.dt[1] == Approx(1e-3));
+  // Computed grid values are the short decimals a user types (0.1, not 0.10000000000000006).
+  CHECK(c.grid.sigma[1] == 0.1);
+  CHECK(c.grid.dt[1] == 1e-3);
+  const SweepConfig log_grid = ParseSweepText(
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.01, to = 1.0, count = 5, log = true }\ndt = 1e-3\n",
+      "ok.toml", Registry());
+  CHECK(log_grid.grid.sigma == std::vector<double>{0.01, 0.0316227766017, 0.1, 0.316227766017, 1.0});
+  CHECK(c.models[0].x0 == std::vector<double>{20.0, 0.0});  // the model's default
+  CHECK(c.trials == 10);
+  // residual ignores r: one cell per (δt, σ), paper one per r.
+  const auto cells = EnumerateCells(c);
+  CHECK(cells.size() == 3u * 4u * (2u + 1u));
+  long residual = 0;
+  for (const auto& cell : cells) residual += cell.detector == "residual" ? 1 : 0;
+  CHECK(residual == 12);
+  // Hash: equal configs equal, any change differs.
+  // false_alarm is expanded for the residual detector only.
+  const SweepConfig e = ParseSweepText(
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = [0.0, 0.1]\ndt = 1e-3\nr = [5.0, 50.0, 500.0]\n"
+      "false_alarm = [1e-6, 1e-8]\ndetector = [\"paper\", \"residual\"]\n",
+      "ok.toml", Registry());
+  const auto ecells = EnumerateCells(e);
+  CHECK(ecells.size() == 2u * (3u + 2u));
+  for (const auto& cell : ecells) {
+    CHECK(std::isnan(cell.r) == (cell.detector == "residual"));
+    CHECK(std::isnan(cell.false_alarm) == (cell.detector == "paper"));
+  }
+  const SweepConfig d = ParseSweepText(
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.0, to = 0.3, count = 4 }\n"
+      "dt = { from = 1e-4, to = 1e-2, count = 3, log = true }\nr = [5.0, 50.0]\n"
+      "detector = [\"paper\", \"residual\"]\n[run]\nseed = 2\n",
+      "ok.toml", Registry());
+  CHECK(c.Hash() != ParseSweepText(kSweep, "a", Registry()).Hash());
+  CHECK(c.Hash() != d.Hash());
+}
+
+TEST_CASE("summary statistics against closed forms", "[sweep][summary]") {
+  const MetricSummary s = Summarize({4.0, 1.0, 3.0, 2.0});
+  CHECK(s.n == 4);
+  CHECK(s.mean == Approx(2.5));
+  CHECK(s.median == Approx(2.5));
+  CHECK(s.std == Approx(std::sqrt(5.0 / 3.0)));
+  // t(0.975, 3) = 3.182446305284263
+  CHECK(s.ci_hi - s.mean == Approx(3.182446305284263 * std::sqrt(5.0 / 3.0) / 2.0).epsilon(1e-9));
+  const MetricSummary one = Summarize({7.0});
+  CHECK(one.mean == 7.0);
+  CHECK(std::isnan(one.std));
+  CHECK(std::isnan(one.ci_lo));
+}
+
+TEST_CASE("sweep: trials.csv is byte-identical for 1 and 2 threads", "[sweep][determinism]") {
+  const SweepConfig c = ParseSweepText(kSweep, "det.toml", Registry());
+  const fs::path a = TempDir("threads1"), b = TempDir("threads2");
+  const SweepOutcome oa = Run(c, a, 1), ob = Run(c, b, 2);
+  CHECK(oa.units_run == 48);
+  CHECK(ob.units_run == 48);
+  // Trajectories are shared: one per (δt, drawn x0) = 2 × 4, not one per trial.
+  CHECK(oa.trajectories == 8);
+  CHECK(Slurp(a / "trials.csv") == Slurp(b / "trials.csv"));
+  CHECK(Slurp(a / "summary.csv") == Slurp(b / "summary.csv"));
+  // Noise differs between trials and cells; σ = 0 cells see none.
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+  ReadTrialsCsv(a / "trials.csv", &header, &rows);
+  REQUIRE(rows.size() == 48u);
+  const auto col = [&](const char* n) { return std::find(header.begin(), header.end(), n) - header.begin(); };
+  for (const auto& [id, r] : rows) {
+    CHECK(r[static_cast<std::size_t>(col("status"))] == "ok");
+    // Set metrics (sets are on by default): noise-free, D̂ lies within δt·max|ξ2| of D (|ξ2| < 50
+    // from these initial states) and no part of Ĉ is outside C. No jump detected (r = 220 misses
+    // them at δt = 2 ms): D̂ is empty and its distance is left empty.
+    if (r[static_cast<std::size_t>(col("sigma"))] == "0") {
+      const double dt = std::stod(r[static_cast<std::size_t>(col("dt"))]);
+      const std::string& hd = r[static_cast<std::size_t>(col("jump_hausdorff"))];
+      if (r[static_cast<std::size_t>(col("jumps_detected"))] == "0") {
+        CHECK(hd.empty());
+      } else {
+        CHECK(std::stod(hd) < 50 * dt);
+      }
+      CHECK(r[static_cast<std::size_t>(col("flow_outside_share"))] == "0");
+    }
+  }
+  // Initial states are drawn in the ranges and shared by trial i of every cell.
+  CHECK(rows[0][static_cast<std::size_t>(col("x0_1"))] == rows[4][static_cast<std::size_t>(col("x0_1"))]);
+  CHECK(rows[0][static_cast<std::size_t>(col("x0_1"))] != rows[1][static_cast<std::size_t>(col("x0_1"))]);
+  const double x01 = std::stod(rows[3][static_cast<std::size_t>(col("x0_1"))]);
+  CHECK((x01 >= 10.0 && x01 <= 20.0));
+}
+
+TEST_CASE("sweep: a killed run resumes to exactly the uninterrupted rows", "[sweep][resume]") {
+  const SweepConfig c = ParseSweepText(kSweep, "resume.toml", Registry());
+  const fs::path full = TempDir("full"), cut = TempDir("cut");
+  Run(c, full, 2);
+  // A run killed mid-write: the first rows of the journal, then half a line.
+  const std::string journal = Slurp(full / "trials.journal");
+  std::size_t pos = 0;
+  for (int i = 0; i < 1 + 17; ++i) pos = journal.find('\n', pos) + 1;
+  const std::size_t torn = journal.find('\n', pos) - 20;
+  fs::copy_file(full / "sweep.json", cut / "sweep.json");
+  std::ofstream(cut / "trials.journal", std::ios::binary) << journal.substr(0, torn);
+  const SweepOutcome o = Run(c, cut, 2);
+  CHECK(o.units_resumed == 17);
+  CHECK(o.units_run == 48 - 17);
+  CHECK(Slurp(cut / "trials.csv") == Slurp(full / "trials.csv"));
+  CHECK(Slurp(cut / "summary.csv") == Slurp(full / "summary.csv"));
+  // Running a finished sweep again runs nothing and writes the same tables.
+  const SweepOutcome again = Run(c, cut, 1);
+  CHECK(again.units_run == 0);
+  CHECK(Slurp(cut / "trials.csv") == Slurp(full / "trials.csv"));
+  // The stop flag (SIGINT) leaves a resumable journal and no tables.
+  const fs::path stopped = TempDir("stopped");
+  std::atomic<bool> stop{true};
+  const SweepOutcome s = Run(c, stopped, 2, {}, &stop);
+  CHECK(s.interrupted);
+  CHECK_FALSE(fs::exists(stopped / "trials.csv"));
+  Run(c, stopped, 2);
+  CHECK(Slurp(stopped / "trials.csv") == Slurp(full / "trials.csv"));
+  // A different configuration is refused in the same directory.
+  const SweepConfig other = ParseSweepText(std::string(kSweep) + "", "resume.toml", Registry());
+  SweepConfig changed = other;
+  changed.seed = 12;
+  CHECK_THROWS_WITH(Run(changed, cut, 1), Catch::Contains("different sweep configuration"));
+  // A malformed row before the end is an error naming the journal line.
+  const fs::path bad = TempDir("badjournal");
+  fs::copy_file(full / "sweep.json", bad / "sweep.json");
+  std::string broken = journal;
+  broken.insert(journal.find('\n') + 1, "garbage\n");
+  std::ofstream(bad / "trials.journal", std::ios::binary) << broken;
+  CHECK_THROWS_WITH(Run(c, bad, 1), Catch::Contains("trials.journal:2: malformed journal row"));
+}
+
+TEST_CASE("sweep: shards merged equal the unsharded run", "[sweep][shard]") {
+  const SweepConfig c = ParseSweepText(kSweep, "shard.toml", Registry());
+  const fs::path full = TempDir("unsharded");
+  Run(c, full, 2);
+  std::vector<fs::path> dirs;
+  for (long k = 1; k <= 3; ++k) {
+    dirs.push_back(TempDir("shard" + std::to_string(k)));
+    const SweepOutcome o = Run(c, dirs.back(), 1, Shard{k, 3});
+    CHECK(o.units_shard == 16);
+  }
+  const fs::path merged = TempDir("merged");
+  MergeShards(dirs, merged);
+  CHECK(Slurp(merged / "trials.csv") == Slurp(full / "trials.csv"));
+  CHECK(Slurp(merged / "summary.csv") == Slurp(full / "summary.csv"));
+  CHECK_THROWS_WITH(MergeShards({dirs[0], dirs[1]}, TempDir("merged2")), Catch::Contains("shard 3/3 is missing"));
+  CHECK_THROWS_WITH(MergeShards({dirs[0], dirs[0], dirs[1]}, TempDir("merged3")), Catch::Contains("given twice"));
+  CHECK_THROWS_WITH(MergeShards({dirs[0], full}, TempDir("merged4")), Catch::Contains("does not split into 3"));
+  CHECK_THROWS_WITH(ParseShard("3/2"), Catch::Contains("--shard = '3/2'"));
+  CHECK_THROWS_WITH(ParseShard("x"), Catch::Contains("expected K/N"));
+}
+
+TEST_CASE("sweep: Zeno runs are rows with their status, not an aborted sweep", "[sweep][failures]") {
+  // The ball's bounces accumulate at t = (1 + 2λ/(1 − λ))·sqrt(2h/g) ≈ 1.36 s for h = 1, λ = 0.5.
+  const SweepConfig c = ParseSweepText(
+      "[model]\nname = \"bouncing-ball\"\nparams = { lambda = 0.5 }\nx0 = [1.0, 0.0]\nt_end = 3.0\n"
+      "[grid]\nsigma = [0.0, 0.01]\ndt = 1e-3\n[run]\ntrials = 2\n",
+      "zeno.toml", Registry());
+  const fs::path dir = TempDir("zeno");
+  const SweepOutcome o = Run(c, dir, 2);
+  CHECK(o.failures == 4);
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+  ReadTrialsCsv(dir / "trials.csv", &header, &rows);
+  const auto col = [&](const char* n) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), n) - header.begin());
+  };
+  for (const auto& [id, r] : rows) {
+    CHECK(r[col("status")] == "zeno");
+    CHECK_THAT(r[col("message")], Catch::Contains("Zeno: jumps accumulate at t = 1.35"));
+    CHECK(r[col("e_alpha")].empty());
+  }
+  const std::string summary = Slurp(dir / "summary.csv");
+  CHECK_THAT(summary, Catch::Contains(",2,2,"));  // trials, failures
+}
