@@ -43,8 +43,8 @@ def truth(run):
     return {k + "_hat": float(v) for k, v in found.items()}
 
 
-def source(run):
-    return f"Data: {run} (hysid reproduce paper)."
+def source(run, command="hysid reproduce paper"):
+    return f"Data: {run} ({command})."
 
 
 def fig4(run, out, formats, width):
@@ -135,7 +135,7 @@ def fig2(run, out, formats, width):
     axes[0].set_ylabel(r"$\xi$")
     axes[0].tick_params(labelbottom=False)
     hs = [axes[1].plot(d["t"], d["D"], color="black", lw=0.9, marker="o", ms=2.5, mfc="none",
-                       label=r"$D_{\delta t}\xi$ (Euler derivative)")[0],
+                       markevery=max(1, d["t"].size // 20), label=r"$D_{\delta t}\xi$ (Euler derivative)")[0],
           axes[1].plot(d["t"], d["tau"], color=style.COLORS[1], lw=1.1, ls="--", label=r"$\tau$ (smoothness bound)")[0]]
     for i, (r, k) in enumerate(hats):
         hs.append(axes[1].plot(d["t"], d[k], color=style.COLORS[2 + i], ls=style.DASHES[(i + 2) % 4], lw=0.9,
@@ -144,11 +144,13 @@ def fig2(run, out, formats, width):
     pos = drawn[drawn > 0]
     if pos.size and pos.max() >= 100 * pos.min():  # spans two decades or more: a log axis
         style.set_value_axis(axes[1], drawn)
-    axes[1].set_ylabel(r"$D_{\delta t}\xi$, $\tau$")
+    axes[1].set_ylabel(r"$D_{\delta t}\xi$, $\tau$" + (r", $\hat\tau$" if hats else ""))
     axes[1].set_xlabel("t")
     leg.legend(hs, [h.get_label() for h in hs], loc="center", ncol=min(ncol, len(hs)))
+    hat_text = f" and its estimate τ̂ for r = {', '.join(f'{r:g}' for r, _ in hats)}" if hats else ""
     cap = (f"Fig. 2: Example 6, ξ' = sin ξ on C = [0, 2π]: the state ξ (top), its Euler derivative "
-           f"D_δt ξ and the smoothness bound τ = (1/δt)∫|ξ| ds over the last δt (bottom). {source(run)}")
+           f"D_δt ξ and the smoothness bound τ = (1/δt)∫|ξ| ds over the last δt{hat_text} (bottom). "
+           f"{source(run, 'hysid reproduce example6')}")
     return style.save(fig, out, "fig2", formats, cap)
 
 
