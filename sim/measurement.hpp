@@ -55,8 +55,8 @@ void FillStandardNormals(const NoiseKey& key, std::uint64_t first, double* out, 
 // one entry per state, each ≥ 0. Throws std::invalid_argument for a wrong size or a negative σ.
 Mat AddMeasurementNoise(const Mat& x, const Vec& sigma, const NoiseKey& key);
 
-// The earlier draw, kept because `hysid simulate`, `hysid reproduce paper` and hysid_eiv_study use it
-// (their committed results and the tests on simulate's files were made with it): sample k uses the Philox call with counter (k, kMeasurementNoise, block, 0) for
+// The earlier draw, kept because `hysid reproduce paper` and hysid_eiv_study's committed results were
+// made with it: sample k uses the Philox call with counter (k, kMeasurementNoise, block, 0) for
 // components 4·block … 4·block + 3, Box–Muller on its outputs in pairs (a pair only when a component
 // needs it). About 5× slower per sample than AddMeasurementNoise for n = 2. Same checks.
 Mat AddMeasurementNoisePerSample(const Mat& x, const Vec& sigma, const NoiseKey& key);

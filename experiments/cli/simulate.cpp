@@ -81,7 +81,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
-  const Mat y = AddMeasurementNoisePerSample(traj.x, sigma, key);
+  const Mat y = AddMeasurementNoise(traj.x, sigma, key);
 
   std::vector<std::string> header{"t", "j"};
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
