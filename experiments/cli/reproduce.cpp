@@ -51,11 +51,19 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
   IdentifierSettings settings;
   // Beyond the paper (issue 4): the errors-in-variables estimators, with their defaults (noise shapes
   // from the σ estimated from the data, see core/identify/identifier.hpp).
-  settings.flow_estimator.name = settings.jump_estimator.name = args.estimator;
+  try {
+    settings.flow_estimator.kind = settings.jump_estimator.kind = ParseEstimatorKind(args.estimator);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--estimator: {}", e.what()));
+  }
   settings.detector.r = 220.0;
   settings.detector.tau0 = 1e5;
   // Beyond the paper (issue 6): another detector, jump localisation, a second pass.
-  settings.detector.name = args.detector;
+  try {
+    settings.detector.kind = ParseDetectorKind(args.detector);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--detector: {}", e.what()));
+  }
   settings.detector.false_alarm = args.false_alarm;
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
@@ -67,7 +75,7 @@ void RunReproduce(const ReproduceArgs& args, const Environment& env) {
   } catch (const std::invalid_argument& e) {
     BadFlag(fmt::format("--estimator/--detector/--false-alarm: {}", e.what()));
   }
-  const bool paper_detector = args.detector == "paper";
+  const bool paper_detector = settings.detector.kind == DetectorKind::kPaper;
   Vec x0(2);
   x0 << 20.0, 0.0;
   const Trajectory traj = Simulate(model, x0, SampleGrid{20.0, dt});

@@ -50,7 +50,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   }
   if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
 
-  Vec x0 = Eigen::Map<const Vec>(spec.default_x0.data(), n);
+  Vec x0 = DefaultState(model);
   if (!args.x0.empty()) {
     RequireFinite("--x0", args.x0);
     if (static_cast<int>(args.x0.size()) != n) {

@@ -69,7 +69,12 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   }
 
   // summary.csv
-  const std::vector<std::string> keys{"cell", "model", "dt", "sigma", "r", "false_alarm", "estimator", "detector"};
+  // The cell's keys: "cell" and the columns from "model" to "detector" (dt, σ, the option axes, ...).
+  std::vector<std::string> keys{"cell"};
+  const auto model_col = static_cast<std::size_t>(Column(trial_header, "model"));
+  const auto detector_col = static_cast<std::size_t>(Column(trial_header, "detector"));
+  keys.insert(keys.end(), trial_header.begin() + static_cast<long>(model_col),
+              trial_header.begin() + static_cast<long>(detector_col) + 1);
   const std::vector<std::string>& metrics = SummaryMetrics();
   std::vector<long> key_col, metric_col;
   for (const auto& k : keys) key_col.push_back(Column(trial_header, k));

@@ -141,7 +141,7 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   const auto cells = EnumerateCells(c);
   CHECK(cells.size() == 3u * 4u * (2u + 1u));
   long residual = 0;
-  for (const auto& cell : cells) residual += cell.detector == "residual" ? 1 : 0;
+  for (const auto& cell : cells) residual += cell.detector == DetectorKind::kResidual ? 1 : 0;
   CHECK(residual == 12);
   // Hash: equal configs equal, any change differs.
   // false_alarm is expanded for the residual detector only.
@@ -152,8 +152,8 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   const auto ecells = EnumerateCells(e);
   CHECK(ecells.size() == 2u * (3u + 2u));
   for (const auto& cell : ecells) {
-    CHECK(std::isnan(cell.r) == (cell.detector == "residual"));
-    CHECK(std::isnan(cell.false_alarm) == (cell.detector == "paper"));
+    CHECK(std::isnan(cell.option(e.grid, "r")) == (cell.detector == DetectorKind::kResidual));
+    CHECK(std::isnan(cell.option(e.grid, "false_alarm")) == (cell.detector == DetectorKind::kPaper));
   }
   const SweepConfig d = ParseSweepText(
       "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.0, to = 0.3, count = 4 }\n"
