@@ -32,4 +32,7 @@ Model MakeModel(const Environment& env, const std::string& name,
 // Checks that every entry is finite; `flag` names the option in the error.
 void RequireFinite(const std::string& flag, const std::vector<double>& values);
 
+// --sigma: one value for every state or one per state, each finite and >= 0.
+Vec SigmaFlag(const std::vector<double>& values, int states);
+
 }  // namespace hysid::cli

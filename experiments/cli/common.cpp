@@ -2,6 +2,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "experiments/cli/cli.hpp"
 
@@ -32,6 +33,20 @@ void RequireFinite(const std::string& flag, const std::vector<double>& values) {
   for (double v : values) {
     if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
   }
+}
+
+Vec SigmaFlag(const std::vector<double>& values, int states) {
+  RequireFinite("--sigma", values);
+  Vec sigma(states);
+  if (values.size() == 1) {
+    sigma.setConstant(values[0]);
+  } else if (static_cast<int>(values.size()) == states) {
+    sigma = Eigen::Map<const Vec>(values.data(), states);
+  } else {
+    BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})", values.size(), states));
+  }
+  if ((sigma.array() < 0.0).any()) BadFlag(fmt::format("--sigma = {}: must be >= 0", fmt::join(values, ",")));
+  return sigma;
 }
 
 }  // namespace hysid::cli

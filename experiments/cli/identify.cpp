@@ -95,21 +95,6 @@ Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
   return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(v.data(), m, m));
 }
 
-Vec SigmaFlag(const std::vector<double>& sigma, int n) {
-  if (sigma.empty()) return Vec();
-  RequireFinite("--sigma", sigma);
-  Vec out(n);
-  if (sigma.size() == 1) {
-    out.setConstant(sigma[0]);
-  } else if (static_cast<int>(sigma.size()) == n) {
-    out = Eigen::Map<const Vec>(sigma.data(), n);
-  } else {
-    BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})", sigma.size(), n));
-  }
-  if ((out.array() < 0).any()) BadFlag("--sigma: must be >= 0");
-  return out;
-}
-
 // The identifier's settings from the flags; errors name the flag.
 IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   IdentifierSettings settings;
@@ -141,7 +126,7 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   }
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
-  settings.sigma = SigmaFlag(args.sigma, model.state_size());
+  if (!args.sigma.empty()) settings.sigma = SigmaFlag(args.sigma, model.state_size());
   // Settings errors (noise shape sizes, ...) before the data is read.
   try {
     Identifier check(model, 1.0, settings);
@@ -179,20 +164,11 @@ std::string DetectorOptionText(const DetectorSettings& s) {
   return fmt::format("{}", fmt::join(parts, ", "));
 }
 
-void RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.params);
-  const ModelSpec& spec = model.spec();
-  const int n = model.state_size();
-  IdentifierSettings settings = BuildSettings(args, model);
-  const SampleData data = ReadSampleData(args.data, n);
-  const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
-  IdentifyOptions options;
-  options.trace = !args.trace.empty();
-  const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
-
-  std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(),
-              data.path.c_str(), fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(),
-              data.t.size(), data.dt);
+void PrintSettings(const IdentifyArgs& args, const ModelSpec& spec, const SampleData& data,
+                   const IdentifierSettings& settings, const std::string& accuracy_source,
+                   const IdentifyResult& result) {
+  std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(), data.path.c_str(),
+              fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(), data.t.size(), data.dt);
   std::printf("estimator %s, detector %s (%s; data accuracy rtol %g, atol %g: %s)", args.estimator.c_str(),
               args.detector.c_str(), DetectorOptionText(settings.detector).c_str(), settings.data_rtol,
               settings.data_atol, accuracy_source.c_str());
@@ -212,6 +188,9 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   } else if (result.flow_noise_shape.size() || result.jump_noise_shape.size()) {
     std::printf("noise shapes C as given by --flow-noise-shape / --jump-noise-shape\n");
   }
+}
+
+void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const IdentifyResult& result) {
   for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
     if (!spec.alpha[i].known) {
       std::printf("  alpha %-10s = %.10g\n", spec.alpha[i].name.c_str(), result.alpha_hat[Eigen::Index(i)]);
@@ -224,10 +203,10 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   }
   std::printf("jumps detected: %ld (flow estimator %s, jump estimator %s)\n", result.jumps_detected,
               ToString(result.flow_status), ToString(result.jump_status));
-  // frisch: the solution boxes of the unknowns, in the order printed above.
+  // Estimators that report one (frisch): the solution boxes of the unknowns, in the order printed above.
   for (const auto& [box, what] : {std::pair{&result.flow_box, "alpha"}, std::pair{&result.jump_box, "beta"}}) {
     if (box->size() == 0) continue;
-    std::printf("frisch box %s:", what);
+    std::printf("%s box %s:", args.estimator.c_str(), what);
     for (Eigen::Index i = 0; i < box->rows(); ++i) std::printf(" [%.6g, %.6g]", (*box)(i, 0), (*box)(i, 1));
     std::printf("\n");
   }
@@ -237,83 +216,95 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
   if (result.second_pass) {
     std::printf("second pass: %ld samples flow -> jump, %ld jump -> flow (first pass: %ld jumps)\n",
                 result.reclassified_to_jump, result.reclassified_to_flow,
-                static_cast<long>(std::count(result.first_pass_gamma.begin(),
-                                             result.first_pass_gamma.end(), 1)));
+                static_cast<long>(std::count(result.first_pass_gamma.begin(), result.first_pass_gamma.end(), 1)));
   }
-  if (data.j) {
-    const Confusion c = CompareJumps(*data.j, result.gamma);
-    const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
-    std::printf("truth (column j): %ld true jumps; TP %ld, FP %ld, FN %ld, TN %ld\n", c.tp + c.fn,
-                c.tp, c.fp, c.fn, c.tn);
-    std::printf("  misclassification %.6g, precision %.6g, recall %.6g\n", c.misclassification(),
-                c.precision(), c.recall());
-    std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n",
-                e.e_alpha, e.e_beta, e.rel_alpha, e.rel_beta);
-    // Ĉ and D̂ against the model's C and D.
-    const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
-    std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
-                static_cast<long>(result.flow_hull.cols()), n >= 3 ? "volume" : "area", result.flow_hull_volume,
-                sm.flow_outside_share, static_cast<long>(result.jump_hull.cols()));
-    if (model.has_jump_set_distance()) {
-      std::printf("within %.6g of D (one-sided Hausdorff)\n", sm.jump_hausdorff);
-    } else {
-      std::printf("distance to D unknown (the model has no DistanceToJumpSet)\n");
-    }
-  }
+}
 
-  if (!args.trace.empty()) {
-    // The detector's statistic and threshold (paper: D_δt ξ and τ̂; residual: max |z| and q).
-    const DetectorDescriptor& detector = DescriptorOf(settings.detector.kind);
-    std::vector<std::string> header{"t", std::string(detector.statistic), std::string(detector.threshold), "gamma"};
-    const auto an = UnknownNames(spec.alpha), bn = UnknownNames(spec.beta);
-    for (const auto& s : an) header.push_back(s + "_hat");
-    for (const auto& s : bn) header.push_back(s + "_hat");
-    if (data.j) {
-      header.push_back("j");
-      header.push_back("true_jump");
+// Against the data's column j and the model's true values and sets.
+void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyResult& result) {
+  const Confusion c = CompareJumps(j, result.gamma);
+  const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
+  std::printf("truth (column j): %ld true jumps; TP %ld, FP %ld, FN %ld, TN %ld\n", c.tp + c.fn, c.tp, c.fp,
+              c.fn, c.tn);
+  std::printf("  misclassification %.6g, precision %.6g, recall %.6g\n", c.misclassification(), c.precision(),
+              c.recall());
+  std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n", e.e_alpha,
+              e.e_beta, e.rel_alpha, e.rel_beta);
+  // Ĉ and D̂ against the model's C and D.
+  const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
+  std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
+              static_cast<long>(result.flow_hull.cols()), model.state_size() >= 3 ? "volume" : "area",
+              result.flow_hull_volume, sm.flow_outside_share, static_cast<long>(result.jump_hull.cols()));
+  if (model.has_jump_set_distance()) {
+    std::printf("within %.6g of D (one-sided Hausdorff)\n", sm.jump_hausdorff);
+  } else {
+    std::printf("distance to D unknown (the model has no DistanceToJumpSet)\n");
+  }
+}
+
+// Per sample: t, the detector's statistic and threshold (paper: D_δt ξ and τ̂; residual: max |z| and
+// q), γ, the estimates, and the truth when the data has it.
+void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
+                const SampleData& data, const IdentifyResult& result) {
+  std::vector<std::string> header{"t", std::string(detector.statistic), std::string(detector.threshold), "gamma"};
+  for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
+  for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
+  if (data.j) header.insert(header.end(), {"j", "true_jump"});
+  CsvWriter csv(path, header);
+  std::vector<double> row(header.size());
+  for (std::size_t k = 0; k < data.t.size(); ++k) {
+    std::size_t c = 0;
+    for (double v : {data.t[k], result.statistic[k], result.threshold[k], double(result.gamma[k])}) row[c++] = v;
+    for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
+      if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
     }
-    CsvWriter csv(args.trace, header);
-    std::vector<double> row(header.size());
-    for (std::size_t k = 0; k < data.t.size(); ++k) {
-      std::size_t c = 0;
-      row[c++] = data.t[k];
-      row[c++] = result.statistic[k];
-      row[c++] = result.threshold[k];
-      row[c++] = result.gamma[k];
-      for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
-        if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
-      }
-      for (std::size_t i = 0; i < spec.beta.size(); ++i) {
-        if (!spec.beta[i].known) row[c++] = result.beta_trace(Eigen::Index(i), Eigen::Index(k));
-      }
-      if (data.j) {
-        row[c++] = (*data.j)[k];
-        row[c++] = k > 0 && (*data.j)[k] != (*data.j)[k - 1] ? 1.0 : 0.0;
-      }
+    for (std::size_t i = 0; i < spec.beta.size(); ++i) {
+      if (!spec.beta[i].known) row[c++] = result.beta_trace(Eigen::Index(i), Eigen::Index(k));
+    }
+    if (data.j) {
+      row[c++] = (*data.j)[k];
+      row[c++] = k > 0 && (*data.j)[k] != (*data.j)[k - 1] ? 1.0 : 0.0;
+    }
+    csv.Row(row);
+  }
+  csv.Commit();
+  std::printf("wrote %s\n", path.c_str());
+}
+
+void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
+  std::vector<std::string> header{"set", "vertex"};
+  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
+  CsvWriter csv(path, header);
+  std::vector<double> row(header.size());
+  int set = 0;
+  for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
+    for (Eigen::Index v = 0; v < hull->cols(); ++v) {
+      row[0] = set;
+      row[1] = static_cast<double>(v);
+      for (int i = 0; i < n; ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
       csv.Row(row);
     }
-    csv.Commit();
-    std::printf("wrote %s\n", args.trace.c_str());
+    ++set;
   }
-  if (!args.hulls.empty()) {
-    std::vector<std::string> header{"set", "vertex"};
-    for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
-    CsvWriter csv(args.hulls, header);
-    std::vector<double> row(header.size());
-    int set = 0;
-    for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
-      for (Eigen::Index v = 0; v < hull->cols(); ++v) {
-        row[0] = set;
-        row[1] = static_cast<double>(v);
-        for (int i = 0; i < n; ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
-        csv.Row(row);
-      }
-      ++set;
-    }
-    csv.Commit();
-    std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n",
-                args.hulls.c_str());
+  csv.Commit();
+  std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
+}
+
+void RunIdentify(const IdentifyArgs& args, const Environment& env) {
+  const Model model = MakeModel(env, args.model, args.params);
+  IdentifierSettings settings = BuildSettings(args, model);
+  const SampleData data = ReadSampleData(args.data, model.state_size());
+  const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
+  IdentifyOptions options;
+  options.trace = !args.trace.empty();
+  const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+  PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
+  PrintEstimates(model.spec(), args, result);
+  if (data.j) PrintTruth(model, *data.j, result);
+  if (!args.trace.empty()) {
+    WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }
+  if (!args.hulls.empty()) WriteHulls(args.hulls, model.state_size(), result);
 }
 
 }  // namespace
