@@ -15,9 +15,7 @@ bool DetectorSettings::IsValid(std::string* error) const {
   return CheckOptions(DetectorOptions(), *this, error);
 }
 
-bool DetectorDescriptor::Reads(std::string_view option) const {
-  return std::find(options.begin(), options.end(), option) != options.end();
-}
+bool DetectorDescriptor::Reads(std::string_view option) const { return ReadsOption(options, option); }
 
 const std::vector<const DetectorDescriptor*>& DetectorDescriptors() {
   static const std::vector<const DetectorDescriptor*> all{&PaperDetectorDescriptor(), &ResidualDetectorDescriptor()};
@@ -25,25 +23,12 @@ const std::vector<const DetectorDescriptor*>& DetectorDescriptors() {
 }
 
 const DetectorDescriptor& DescriptorOf(DetectorKind kind) {
-  for (const DetectorDescriptor* d : DetectorDescriptors()) {
-    if (d->kind == kind) return *d;
-  }
-  throw std::invalid_argument(fmt::format("DetectorKind {}: no such detector", static_cast<int>(kind)));
+  return FindDescriptor(DetectorDescriptors(), kind, "detector");
 }
 
-std::vector<std::string> DetectorNames() {
-  std::vector<std::string> names;
-  for (const DetectorDescriptor* d : DetectorDescriptors()) names.emplace_back(d->name);
-  return names;
-}
+std::vector<std::string> DetectorNames() { return DescriptorNames(DetectorDescriptors()); }
 
-DetectorKind ParseDetectorKind(std::string_view name) {
-  for (const DetectorDescriptor* d : DetectorDescriptors()) {
-    if (d->name == name) return d->kind;
-  }
-  throw std::invalid_argument(
-      fmt::format("unknown detector '{}' (known: {})", name, fmt::join(DetectorNames(), ", ")));
-}
+DetectorKind ParseDetectorKind(std::string_view name) { return ParseKind(DetectorDescriptors(), name, "detector"); }
 
 std::string_view ToString(DetectorKind kind) { return DescriptorOf(kind).name; }
 

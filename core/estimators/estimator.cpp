@@ -36,9 +36,7 @@ bool EstimatorSettings::NeedsNoiseShape() const {
   return DescriptorOf(kind).needs_noise_shape && noise_shape.size() == 0;
 }
 
-bool EstimatorDescriptor::Reads(std::string_view option) const {
-  return std::find(options.begin(), options.end(), option) != options.end();
-}
+bool EstimatorDescriptor::Reads(std::string_view option) const { return ReadsOption(options, option); }
 
 void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   if (phi.cols() != theta_.size() || phi.rows() != y.size()) {
@@ -57,25 +55,12 @@ const std::vector<const EstimatorDescriptor*>& EstimatorDescriptors() {
 }
 
 const EstimatorDescriptor& DescriptorOf(EstimatorKind kind) {
-  for (const EstimatorDescriptor* d : EstimatorDescriptors()) {
-    if (d->kind == kind) return *d;
-  }
-  throw std::invalid_argument(fmt::format("EstimatorKind {}: no such estimator", static_cast<int>(kind)));
+  return FindDescriptor(EstimatorDescriptors(), kind, "estimator");
 }
 
-std::vector<std::string> EstimatorNames() {
-  std::vector<std::string> names;
-  for (const EstimatorDescriptor* d : EstimatorDescriptors()) names.emplace_back(d->name);
-  return names;
-}
+std::vector<std::string> EstimatorNames() { return DescriptorNames(EstimatorDescriptors()); }
 
-EstimatorKind ParseEstimatorKind(std::string_view name) {
-  for (const EstimatorDescriptor* d : EstimatorDescriptors()) {
-    if (d->name == name) return d->kind;
-  }
-  throw std::invalid_argument(
-      fmt::format("unknown estimator '{}' (known: {})", name, fmt::join(EstimatorNames(), ", ")));
-}
+EstimatorKind ParseEstimatorKind(std::string_view name) { return ParseKind(EstimatorDescriptors(), name, "estimator"); }
 
 std::string_view ToString(EstimatorKind kind) { return DescriptorOf(kind).name; }
 

@@ -123,6 +123,12 @@ class Estimator {
     return true;
   }
   virtual void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) = 0;
+  // Reset's common part: status kNotExcited, no updates, none skipped.
+  void ResetCounts() {
+    status_ = EstimatorStatus::kNotExcited;
+    updates_ = 0;
+    skipped_ = 0;
+  }
 
   Vec theta_;
   EstimatorStatus status_ = EstimatorStatus::kNotExcited;

@@ -111,9 +111,7 @@ void Frisch::Reset() {
   empty_intersections_ = 0;
   has_box_ = false;
   kalman_ = false;
-  status_ = EstimatorStatus::kNotExcited;
-  updates_ = 0;
-  skipped_ = 0;
+  ResetCounts();
 }
 
 bool Frisch::Contains(ConstVecRef theta, double tolerance) const {

@@ -89,9 +89,7 @@ void Gtls::Reset() {
   rows_since_refactor_ = 0;
   started_ = false;
   needs_refactor_ = false;
-  status_ = EstimatorStatus::kNotExcited;
-  updates_ = 0;
-  skipped_ = 0;
+  ResetCounts();
 }
 
 double Gtls::noise_variance() const {

@@ -28,8 +28,7 @@ void Rls::Reset() {
   theta_ = theta0_;
   p_ = p0_ * Mat::Identity(theta0_.size(), theta0_.size());
   work_.resize(theta0_.size());
-  status_ = EstimatorStatus::kNotExcited;
-  updates_ = 0;
+  ResetCounts();
   rank_updates_ = 0;
 }
 

@@ -35,6 +35,19 @@ void RequireFinite(const std::string& flag, const std::vector<double>& values) {
   }
 }
 
+void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings) {
+  try {
+    settings->flow_estimator.kind = settings->jump_estimator.kind = ParseEstimatorKind(estimator);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--estimator: {}", e.what()));
+  }
+  try {
+    settings->detector.kind = ParseDetectorKind(detector);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--detector: {}", e.what()));
+  }
+}
+
 Vec SigmaFlag(const std::vector<double>& values, int states) {
   RequireFinite("--sigma", values);
   Vec sigma(states);

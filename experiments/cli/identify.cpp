@@ -98,16 +98,7 @@ Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
 // The identifier's settings from the flags; errors name the flag.
 IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   IdentifierSettings settings;
-  try {
-    settings.flow_estimator.kind = settings.jump_estimator.kind = ParseEstimatorKind(args.estimator);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--estimator: {}", e.what()));
-  }
-  try {
-    settings.detector.kind = ParseDetectorKind(args.detector);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--detector: {}", e.what()));
-  }
+  SetPluginKinds(args.estimator, args.detector, &settings);
   for (const OptionFlag& f : OptionFlags()) {
     const auto given = args.options.find(f.flag);
     if (given == args.options.end()) continue;

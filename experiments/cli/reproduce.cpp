@@ -69,16 +69,7 @@ IdentifierSettings PaperSettings(const ReproduceArgs& args, const Model& model, 
   // Beyond the paper: the errors-in-variables estimators, with their defaults (noise shapes from the σ
   // estimated from the data, see core/identify/identifier.hpp), another detector, jump
   // localisation, a second pass.
-  try {
-    settings.flow_estimator.kind = settings.jump_estimator.kind = ParseEstimatorKind(args.estimator);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--estimator: {}", e.what()));
-  }
-  try {
-    settings.detector.kind = ParseDetectorKind(args.detector);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--detector: {}", e.what()));
-  }
+  SetPluginKinds(args.estimator, args.detector, &settings);
   settings.detector.r = 220.0;
   settings.detector.tau0 = 1e5;
   settings.detector.false_alarm = args.false_alarm;
