@@ -36,6 +36,31 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
 }
 
 
+TEST_CASE("given labels replace the detector: the true labels reproduce a perfect detector bit for bit",
+          "[identify][labels]") {
+  // Noise-free §5: the paper detector classifies every sample right (test above), so feeding the true
+  // labels must give the same estimates, with the estimators reached through their interfaces.
+  const Model model{ImpactMsd{}};
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
+  REQUIRE(traj.status.completed());
+  IdentifierSettings settings;
+  const IdentifyResult detected = Identify(model, traj.x, traj.dt, settings);
+  IdentifyOptions options;
+  options.labels.assign(traj.j.size(), 0);
+  for (std::size_t k = 1; k < traj.j.size(); ++k) options.labels[k] = traj.j[k] != traj.j[k - 1] ? 1 : 0;
+  const IdentifyResult given = Identify(model, traj.x, traj.dt, settings, options);
+  CHECK(given.gamma == options.labels);
+  CHECK(given.gamma == detected.gamma);
+  CHECK(given.jumps_detected == 14);
+  CHECK(given.alpha_hat == detected.alpha_hat);
+  CHECK(given.beta_hat == detected.beta_hat);
+  // A wrong label (a flow sample called a jump) changes β̂; a label vector of the wrong length is refused.
+  options.labels[100] = 1;
+  CHECK(Identify(model, traj.x, traj.dt, settings, options).beta_hat != detected.beta_hat);
+  options.labels.pop_back();
+  CHECK_THROWS_WITH(Identify(model, traj.x, traj.dt, settings, options), Catch::Contains("labels"));
+}
+
 TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit for bit",
           "[identify][direct]") {
   // The identifier calls Rls directly for one identified row, and PaperDetector too for

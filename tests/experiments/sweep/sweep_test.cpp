@@ -171,6 +171,48 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   CHECK(c.Hash() != d.Hash());
 }
 
+TEST_CASE("sweep files: option keys from the option tables, and oracle labels", "[sweep][config]") {
+  const std::string head = "[model]\nname = \"impact-msd\"\n";
+  // Every estimator option, for the α estimator and (jump_NAME) the β estimator; choices by name.
+  const SweepConfig c = ParseSweepText(head + "[grid]\nsigma = 0.1\ndt = 1e-3\nestimator = \"frisch\"\n"
+                                              "[identifier]\nfrisch_box = \"intersect\"\njump_window = 50\n"
+                                              "frisch_confidence = 0.0\nbound = \"homogeneous\"\noracle = true\n",
+                                       "ok.toml", Registry());
+  CHECK(c.identifier.flow_estimator.frisch_box == FrischBox::kIntersect);
+  CHECK(c.identifier.jump_estimator.frisch_box == FrischBox::kCumulative);
+  CHECK(c.identifier.flow_estimator.window == 200);
+  CHECK(c.identifier.jump_estimator.window == 50);
+  CHECK(c.identifier.flow_estimator.frisch_confidence == 0.0);
+  CHECK(c.identifier.detector.bound == BoundRule::kHomogeneous);
+  CHECK(c.oracle);
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\nfrisch_box = \"union\"\n"),
+             Catch::Contains("bad.toml:6: identifier.frisch_box: frisch_box = 'union': must be one of"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\njump_window = -1\n"),
+             Catch::Contains("identifier.jump_window: window = -1: must be >= 0"));
+  // With the true labels nothing of a detector may be varied.
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nr = [5.0, 20.0]\n[identifier]\noracle = true\n"),
+             Catch::Contains("grid.r: not used with identifier.oracle = true"));
+  // The oracle's rows: detector "oracle", every jump found, no false one, at σ = 0.1.
+  const SweepConfig o = ParseSweepText(head + "t_end = 4.0\n[grid]\nsigma = 0.1\ndt = 1e-3\n"
+                                              "[identifier]\noracle = true\nsets = false\n[run]\ntrials = 2\n",
+                                       "oracle.toml", Registry());
+  const fs::path dir = TempDir("oracle");
+  Run(o, dir, 1);
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+  ReadTrialsCsv(dir / "trials.csv", &header, &rows);
+  const auto col = [&](const char* name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  REQUIRE(rows.size() == 2u);
+  for (const auto& [unit, r] : rows) {
+    CHECK(r[col("detector")] == "oracle");
+    CHECK(r[col("fp")] == "0");
+    CHECK(r[col("fn")] == "0");
+    CHECK(r[col("jumps_detected")] == r[col("jumps_true")]);
+  }
+}
+
 TEST_CASE("summary statistics against closed forms", "[sweep][summary]") {
   const MetricSummary s = Summarize({4.0, 1.0, 3.0, 2.0});
   CHECK(s.n == 4);
