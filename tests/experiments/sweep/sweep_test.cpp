@@ -186,7 +186,7 @@ TEST_CASE("sweep files: option keys from the option tables, and oracle labels", 
   CHECK(c.identifier.detector.bound == BoundRule::kHomogeneous);
   CHECK(c.oracle);
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\nfrisch_box = \"union\"\n"),
-             Catch::Contains("bad.toml:6: identifier.frisch_box: frisch_box = 'union': must be one of"));
+             Catch::Contains("bad.toml:7: identifier.frisch_box: frisch_box = 'union': must be one of"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\njump_window = -1\n"),
              Catch::Contains("identifier.jump_window: window = -1: must be >= 0"));
   // With the true labels nothing of a detector may be varied.
