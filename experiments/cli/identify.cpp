@@ -28,7 +28,7 @@ struct IdentifyArgs {
   std::vector<std::string> params;
   std::string data;
   std::string estimator = "rls";
-  std::string detector = "paper";
+  std::string detector = "residual";
   // Plugin options given on the command line, by flag ("--r", "--jump-forgetting"): the text to parse.
   std::map<std::string, std::string> options;
   std::vector<double> flow_shape, jump_shape;  // user noise shapes C, row-major
@@ -39,6 +39,7 @@ struct IdentifyArgs {
   bool data_accuracy_given = false;  // --data-rtol or --data-atol on the command line
   std::string trace;
   std::string hulls;
+  RefineArgs refine;  // --refine, --json (identify_refine.cpp)
 };
 
 // Every plugin option as a flag: detector options, the α estimator's, the β estimator's (--jump-NAME).
@@ -281,7 +282,7 @@ void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
   std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
 }
 
-void RunIdentify(const IdentifyArgs& args, const Environment& env) {
+int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model, args.params);
   IdentifierSettings settings = BuildSettings(args, model);
   const SampleData data = ReadSampleData(args.data, model.state_size());
@@ -296,6 +297,7 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
     WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }
   if (!args.hulls.empty()) WriteHulls(args.hulls, model.state_size(), result);
+  return RefineAndReport(model, data, result, settings.sigma, args.refine);
 }
 
 }  // namespace
@@ -354,8 +356,9 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
     for (const auto& [flag, option] : option_flags) {
       if (option->count() == 0) args->options.erase(flag);
     }
-    RunIdentify(*args, env);
+    if (const int code = RunIdentify(*args, env); code != 0) throw CLI::RuntimeError(code);
   });
+  AddRefineOptions(cmd, args->refine);
 }
 
 }  // namespace hysid::cli

@@ -1,5 +1,5 @@
 // hysid: identification of hybrid dynamical systems from sampled states.
-// Subcommands: models, simulate, identify, reproduce, sweep, merge. `hysid --help` lists them.
+// Subcommands: models, simulate, identify, reproduce, sweep, merge, crlb. `hysid --help` lists them.
 #include <cstdio>
 #include <exception>
 
@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   hysid::cli::AddIdentifyCommand(app, env);
   hysid::cli::AddReproduceCommand(app, env);
   hysid::cli::AddSweepCommand(app, env);
+  hysid::cli::AddCrlbCommand(app, env);
 
   try {
     app.parse(argc, argv);
@@ -29,6 +30,8 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // a run that finished with a status that is not ok (already printed)
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "hysid: error: %s\n", e.what());
     return e.get_exit_code() == 0 ? 2 : e.get_exit_code();

@@ -241,7 +241,7 @@ void AddReproduceCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--sigma", args->sigma, "noise of the noisy experiment")->capture_default_str();
   cmd->add_option("--seed", args->seed, "noise seed")->capture_default_str();
   cmd->add_option("--estimator", args->estimator,
-                  "rls (as published), gtls or frisch (errors-in-variables, issue 4)")
+                  "rls (as published), gtls or frisch (errors-in-variables)")
       ->capture_default_str();
   cmd->add_option("--detector", args->detector,
                   "paper (as published, r = 220) or residual (tuning-free; the tau columns then "

@@ -3,6 +3,7 @@
 // The option keys of [identifier] and [grid] come from the option tables of the estimators and
 // detectors (docs/architecture.md, "Estimator and detector descriptors"): an estimator option NAME sets
 // the α estimator and jump_NAME the β estimator.
+// docs/method.md "Sweeps" shows the shape.
 //
 // ParseSweepFile checks everything before a trial runs; every error names the file, the line and the
 // key, e.g. "sweep.toml:12: grid.dt: -0.001 must be > 0".
