@@ -27,7 +27,7 @@ void BM_EstimatorUpdate(benchmark::State& state, const std::string& name, int wi
   const testing::EivData d = testing::MakeEivData(theta, sigma_phi, 0.3, kRows, 1, 0);
   const Mat rows = d.phi.transpose();  // p × kRows: each regression row contiguous
   EstimatorSettings settings;
-  settings.name = name;
+  settings.kind = ParseEstimatorKind(name);
   Mat c = Mat::Identity(p + 1, p + 1) * 0.09;
   settings.noise_shape = c;
   settings.window = window;

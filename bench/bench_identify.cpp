@@ -33,10 +33,10 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
   const Mat y = PaperSamples(sigma);
   IdentifierSettings settings;
   settings.sets = sets;
-  settings.detector.name = detector;
+  settings.detector.kind = ParseDetectorKind(detector);
   settings.localize = localize;
   if (known_sigma) settings.sigma = Vec::Constant(2, sigma);
-  settings.flow_estimator.name = settings.jump_estimator.name = estimator;
+  settings.flow_estimator.kind = settings.jump_estimator.kind = ParseEstimatorKind(estimator);
   if (data_accuracy) {  // as in sweeps: the simulator's tolerances as the data's accuracy
     settings.data_rtol = SimOptions{}.rtol;
     settings.data_atol = SimOptions{}.atol;

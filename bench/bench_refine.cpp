@@ -46,7 +46,7 @@ void BM_RefineSection5(benchmark::State& state) {
   const Trajectory truth = Simulate(model, kX0, kGrid);
   const Mat y = AddMeasurementNoise(truth.x, Vec::Constant(2, 0.25), NoiseKey{.seed = 1, .stream = 0});
   IdentifierSettings settings;
-  settings.detector.name = "residual";
+  settings.detector.kind = DetectorKind::kResidual;
   settings.data_rtol = settings.data_atol = 1e-12;
   const IdentifyResult recursive = Identify(model, y, kGrid.dt, settings);
   int iterations = 0;

@@ -10,17 +10,12 @@
 namespace hysid {
 namespace {
 
-Vec DefaultX0(const Model& m) {
-  const auto& v = m.spec().default_x0;
-  return Eigen::Map<const Vec>(v.data(), static_cast<Eigen::Index>(v.size()));
-}
-
 // The paper's §5 trajectory: 20 s, 14 jumps, 40001 samples (δt = 0.5 ms); the argument is δt in µs.
 void BM_SimulateImpactMsd(benchmark::State& state) {
   const Model model{ImpactMsd{}};
   const SampleGrid grid{20.0, static_cast<double>(state.range(0)) * 1e-6};
   for (auto _ : state) {
-    Trajectory traj = Simulate(model, DefaultX0(model), grid);
+    Trajectory traj = Simulate(model, DefaultState(model), grid);
     benchmark::DoNotOptimize(traj.x.data());
   }
   // Seconds per sample (printed with an SI prefix, e.g. 75n = 75 ns).
@@ -33,7 +28,7 @@ BENCHMARK(BM_SimulateImpactMsd)->Arg(500)->Arg(100)->Arg(5000)->Unit(benchmark::
 void BM_SimulateBouncingBallZeno(benchmark::State& state) {
   const Model model{BouncingBall{}};
   for (auto _ : state) {
-    Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{10.0, 1e-3});
+    Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{10.0, 1e-3});
     benchmark::DoNotOptimize(traj.x.data());
   }
 }
@@ -42,7 +37,7 @@ BENCHMARK(BM_SimulateBouncingBallZeno)->Unit(benchmark::kMillisecond);
 void BM_SimulateImpactPendulum(benchmark::State& state) {
   const Model model{ImpactPendulum{}};
   for (auto _ : state) {
-    Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 1e-3});
+    Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 1e-3});
     benchmark::DoNotOptimize(traj.x.data());
   }
 }

@@ -1,6 +1,6 @@
 #include "core/detectors/detector.hpp"
 
-#include <cmath>
+#include <algorithm>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -12,34 +12,31 @@
 namespace hysid {
 
 bool DetectorSettings::IsValid(std::string* error) const {
-  auto fail = [&](std::string message) {
-    if (error) *error = std::move(message);
-    return false;
-  };
-  if (!(r > 1.0) || !std::isfinite(r)) return fail(fmt::format("r = {}: must be > 1", r));
-  if (!(tau0 > 0.0) || !std::isfinite(tau0)) {
-    return fail(fmt::format("tau0 = {}: must be > 0", tau0));
-  }
-  if (bound != "auto" && bound != "paper" && bound != "homogeneous") {
-    return fail(fmt::format("bound = '{}': must be one of auto, paper, homogeneous", bound));
-  }
-  if (!(false_alarm > 0.0 && false_alarm < 0.5)) {
-    return fail(fmt::format("false_alarm = {}: must be in (0, 0.5)", false_alarm));
-  }
-  return true;
+  return CheckOptions(DetectorOptions(), *this, error);
 }
 
-std::vector<std::string> DetectorNames() { return {"paper", "residual"}; }
+bool DetectorDescriptor::Reads(std::string_view option) const { return ReadsOption(options, option); }
+
+const std::vector<const DetectorDescriptor*>& DetectorDescriptors() {
+  static const std::vector<const DetectorDescriptor*> all{&PaperDetectorDescriptor(), &ResidualDetectorDescriptor()};
+  return all;
+}
+
+const DetectorDescriptor& DescriptorOf(DetectorKind kind) {
+  return FindDescriptor(DetectorDescriptors(), kind, "detector");
+}
+
+std::vector<std::string> DetectorNames() { return DescriptorNames(DetectorDescriptors()); }
+
+DetectorKind ParseDetectorKind(std::string_view name) { return ParseKind(DetectorDescriptors(), name, "detector"); }
+
+std::string_view ToString(DetectorKind kind) { return DescriptorOf(kind).name; }
 
 std::unique_ptr<JumpDetector> MakeDetector(const DetectorSettings& settings, const Model& model) {
+  const DetectorDescriptor& d = DescriptorOf(settings.kind);
   std::string error;
-  if (!settings.IsValid(&error)) {
-    throw std::invalid_argument(fmt::format("detector '{}': {}", settings.name, error));
-  }
-  if (settings.name == "paper") return std::make_unique<PaperDetector>(settings, model);
-  if (settings.name == "residual") return std::make_unique<ResidualDetector>(settings, model);
-  throw std::invalid_argument(fmt::format("unknown detector '{}' (known: {})", settings.name,
-                                          fmt::join(DetectorNames(), ", ")));
+  if (!settings.IsValid(&error)) throw std::invalid_argument(fmt::format("detector '{}': {}", d.name, error));
+  return d.make(settings, model);
 }
 
 }  // namespace hysid

@@ -1,8 +1,8 @@
 // Jump detectors: decide, for each sample pair (ξ(t−δt), ξ(t)), whether a jump happened in
-// (t−δt, t] (γ = 1) or the system flowed (γ = 0). Pluggable by name: "paper" (§3 of the paper:
-// Euler derivative against the estimated smoothness bound τ̂) and "residual" (tuning-free: the
-// one-step prediction residual of the flow model against its predicted distribution,
-// core/detectors/residual.hpp).
+// (t−δt, t] (γ = 1) or the system flowed (γ = 0). Pluggable (DetectorKind, each described once by a
+// DetectorDescriptor): paper (§3 of the paper: Euler derivative against the estimated smoothness
+// bound τ̂) and residual (tuning-free: the one-step prediction residual of the flow model against its
+// predicted distribution, core/detectors/residual.hpp).
 #pragma once
 
 #include <memory>
@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/model/model.hpp"
+#include "core/model/option.hpp"
 
 namespace hysid {
 
@@ -57,25 +58,68 @@ class JumpDetector {
   virtual void Reset() = 0;
 };
 
+enum class DetectorKind { kPaper, kResidual };
+// paper detector: how L̂ and the norms are taken (core/detectors/paper.hpp):
+//   kPaper        the identified rows of the Jacobian, ‖ξ‖ (as the paper's §5: L̂ = ‖α̂‖);
+//   kHomogeneous  [J_r f̂_r(0)] with ‖[ξ; 1]‖, for affine flows (f(0) ≠ 0, e.g. gravity);
+//   kAuto         kPaper when φ(0) = 0 on the identified rows, kHomogeneous otherwise.
+enum class BoundRule { kAuto, kPaper, kHomogeneous };
+
+// The options of every detector in one struct, each described once in DetectorOptions() below; a
+// detector reads the ones its descriptor lists.
 struct DetectorSettings {
-  std::string name = "paper";
+  DetectorKind kind = DetectorKind::kPaper;
   // paper: τ̂(t) = (r/2)·L̂·(‖ξ(t)‖ + ‖ξ(t−δt)‖), L̂ = sup_{ξ∈Ĉ}‖∂f̂/∂ξ‖; τ̂ = tau0 until the first
   // α update.
   double r = 220.0;
   double tau0 = 1e5;
-  // How L̂ and the norms are taken:
-  //   "paper"       the identified rows of the Jacobian, ‖ξ‖ (as the paper's §5: L̂ = ‖α̂‖);
-  //   "homogeneous" [J_r f̂_r(0)] with ‖[ξ; 1]‖, for affine flows (f(0) ≠ 0, e.g. gravity);
-  //   "auto"        paper when φ(0) = 0 on the identified rows, homogeneous otherwise.
-  std::string bound = "auto";
+  BoundRule bound = BoundRule::kAuto;
   // residual: false-alarm probability per sample under flow (its only input). 1e-8: a run of 1e5
-  // samples then has a false jump with probability ≈ 1e-3 (1e-6, the first default, gave up to 0.2
-  // false jumps per 2e5-sample run of the robustness map); no jump of that map is missed at 1e-8.
+  // samples then has a false jump with probability ≈ 1e-3 (1e-6 gave up to 0.2 false jumps per
+  // 2e5-sample run of the robustness map); no jump of that map is missed at 1e-8.
   double false_alarm = 1e-8;
+  // Every option in DetectorOptions(); names the field, e.g. "r = 1: must be > 1".
   bool IsValid(std::string* error) const;
 };
 
-std::unique_ptr<JumpDetector> MakeDetector(const DetectorSettings& settings, const Model& model);
+// Each option of DetectorSettings, described once (name = field = TOML key, flag --name).
+inline const std::vector<Option<DetectorSettings>>& DetectorOptions() {
+  using S = DetectorSettings;
+  using T = OptionType;
+  static const std::vector<Option<S>> table{
+      Describe<&S::r>({.name = "r", .type = T::kReal, .range = {1, kUnbounded, true, true},
+                       .help = "multiplicative constant r > 1 of the smoothness bound", .sweepable = true}),
+      Describe<&S::tau0>({.name = "tau0", .type = T::kReal, .range = {0, kUnbounded, true, true},
+                          .help = "initial smoothness bound"}),
+      Describe<&S::bound>({.name = "bound", .type = T::kChoice, .choices = {"auto", "paper", "homogeneous"},
+                           .help = "auto, paper or homogeneous bound"}),
+      Describe<&S::false_alarm>({.name = "false_alarm", .type = T::kReal, .range = {0, 0.5, true, true},
+                                 .help = "false-alarm probability per flow sample", .sweepable = true}),
+  };
+  return table;
+}
+
+// One detector, described once: the factory, the command line and sweep files read this.
+struct DetectorDescriptor {
+  DetectorKind kind;
+  std::string_view name;  // "paper", as given by --detector and in sweep files
+  std::string_view help;  // one line
+  std::vector<std::string_view> options;  // the DetectorOptions() it reads
+  // What it reports per sample (Decision::statistic, Decision::threshold): trace column names.
+  std::string_view statistic, threshold;
+  std::unique_ptr<JumpDetector> (*make)(const DetectorSettings& settings, const Model& model) = nullptr;
+  bool Reads(std::string_view option) const;
+};
+
+// Every detector, in the order of DetectorKind.
+const std::vector<const DetectorDescriptor*>& DetectorDescriptors();
+const DetectorDescriptor& DescriptorOf(DetectorKind kind);
+// Throws std::invalid_argument "unknown detector 'x' (known: paper, residual)".
+DetectorKind ParseDetectorKind(std::string_view name);
+std::string_view ToString(DetectorKind kind);
 std::vector<std::string> DetectorNames();
+
+// Throws std::invalid_argument naming the detector and the field for invalid settings.
+std::unique_ptr<JumpDetector> MakeDetector(const DetectorSettings& settings, const Model& model);
 
 }  // namespace hysid

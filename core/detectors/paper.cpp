@@ -21,13 +21,23 @@ namespace {
   return std::max(0.0, eig.eigenvalues().maxCoeff());
 }
 
-BoundMode ResolveBoundMode(const std::string& bound, const Model& model) {
-  if (bound == "paper") return BoundMode::kPaper;
-  if (bound == "homogeneous") return BoundMode::kHomogeneous;
-  if (bound != "auto") {
-    throw std::invalid_argument(fmt::format(
-        "detector bound = '{}': must be one of auto, paper, homogeneous", bound));
-  }
+const DetectorDescriptor& PaperDetectorDescriptor() {
+  static const DetectorDescriptor d{
+      .kind = DetectorKind::kPaper,
+      .name = "paper",
+      .help = "the paper's smoothness bound tau^ = (r/2) L^ (|x(t)| + |x(t-dt)|), tuned by r",
+      .options = {"r", "tau0", "bound"},
+      .statistic = "D",
+      .threshold = "tau_hat",
+      .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
+        return std::make_unique<PaperDetector>(s, m);
+      }};
+  return d;
+}
+
+BoundMode ResolveBoundMode(BoundRule bound, const Model& model) {
+  if (bound == BoundRule::kPaper) return BoundMode::kPaper;
+  if (bound == BoundRule::kHomogeneous) return BoundMode::kHomogeneous;
   const int n = model.state_size();
   Mat phi(n, model.alpha_size());
   model.Phi(Vec::Zero(n), phi);

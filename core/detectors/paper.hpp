@@ -24,8 +24,8 @@ namespace hysid {
 
 enum class BoundMode { kPaper, kHomogeneous };
 
-// Resolves "auto" / "paper" / "homogeneous" for a model; throws for another name.
-BoundMode ResolveBoundMode(const std::string& bound, const Model& model);
+// Resolves BoundRule::kAuto for a model.
+BoundMode ResolveBoundMode(BoundRule bound, const Model& model);
 
 // L̂ for the full parameter vector `alpha` at the states in the columns of `points` (at least one
 // column; only one is used when the Jacobian is constant).
@@ -100,13 +100,15 @@ class VertexJacobianSup {
   long refreshes_ = 0;
 };
 
+// Reads r, tau0 and bound; reports D_δt ξ and τ̂.
+const DetectorDescriptor& PaperDetectorDescriptor();
+
 class PaperDetector final : public JumpDetector {
  public:
   PaperDetector(const DetectorSettings& settings, const Model& model);
   Decision Classify(const SampleContext& context) override;
   std::string name() const override { return "paper"; }
   void Reset() override;
-  BoundMode mode() const { return mode_; }
 
   // The decision for a model with a constant flow Jacobian, from the pair ξ(t−δt), ξ(t) (n entries
   // each), δt and the full α̂ alone: Classify's path for such models, and the identifier's direct

@@ -9,6 +9,20 @@
 #include "core/model/regression.hpp"
 
 namespace hysid {
+
+const DetectorDescriptor& ResidualDetectorDescriptor() {
+  static const DetectorDescriptor d{
+      .kind = DetectorKind::kResidual,
+      .name = "residual",
+      .help = "tuning-free: one-step prediction residual of the flow model, tested at false_alarm",
+      .options = {"false_alarm"},
+      .statistic = "z",
+      .threshold = "q",
+      .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
+        return std::make_unique<ResidualDetector>(s, m);
+      }};
+  return d;
+}
 namespace {
 
 // E[min(Z², c²)] for Z ~ N(0, 1): P(|Z| < c) − 2cφ(c) + c²·P(|Z| > c).

@@ -60,6 +60,9 @@
 
 namespace hysid {
 
+// Reads false_alarm; reports max |z| and the quantile q.
+const DetectorDescriptor& ResidualDetectorDescriptor();
+
 class ResidualDetector final : public JumpDetector {
  public:
   static constexpr double kClip = 3.0;

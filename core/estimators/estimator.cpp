@@ -1,9 +1,11 @@
 #include "core/estimators/estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/estimators/frisch.hpp"
 #include "core/estimators/gtls.hpp"
@@ -22,30 +24,19 @@ const char* ToString(EstimatorStatus status) {
 }
 
 bool EstimatorSettings::IsValid(std::string* error) const {
-  auto fail = [&](std::string message) {
-    if (error) *error = std::move(message);
+  if (!CheckOptions(EstimatorOptions(), *this, error)) return false;
+  if (!noise_shape.allFinite()) {
+    if (error) *error = "noise_shape: must be finite";
     return false;
-  };
-  if (!(forgetting > 0.0 && forgetting <= 1.0)) {
-    return fail(fmt::format("forgetting = {}: must be in (0, 1]", forgetting));
-  }
-  if (!(p0 > 0.0) || !std::isfinite(p0)) return fail(fmt::format("p0 = {}: must be > 0", p0));
-  if (refactor_every < 1) {
-    return fail(fmt::format("refactor_every = {}: must be >= 1", refactor_every));
-  }
-  if (window < 0) return fail(fmt::format("window = {}: must be >= 0", window));
-  if (!noise_shape.allFinite()) return fail("noise_shape: must be finite");
-  if (!(frisch_confidence >= 0.0 && frisch_confidence < 1.0)) {
-    return fail(fmt::format("frisch_confidence = {}: must be in [0, 1)", frisch_confidence));
-  }
-  if (frisch_box != "cumulative" && frisch_box != "intersect") {
-    return fail(fmt::format("frisch_box = '{}': must be 'cumulative' or 'intersect'", frisch_box));
-  }
-  if (frisch_point != "centre" && frisch_point != "rls") {
-    return fail(fmt::format("frisch_point = '{}': must be 'centre' or 'rls'", frisch_point));
   }
   return true;
 }
+
+bool EstimatorSettings::NeedsNoiseShape() const {
+  return DescriptorOf(kind).needs_noise_shape && noise_shape.size() == 0;
+}
+
+bool EstimatorDescriptor::Reads(std::string_view option) const { return ReadsOption(options, option); }
 
 void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   if (phi.cols() != theta_.size() || phi.rows() != y.size()) {
@@ -57,29 +48,27 @@ void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   DoUpdate(phi, y);
 }
 
-std::vector<std::string> EstimatorNames() { return {"rls", "gtls", "frisch"}; }
+const std::vector<const EstimatorDescriptor*>& EstimatorDescriptors() {
+  static const std::vector<const EstimatorDescriptor*> all{&RlsDescriptor(), &GtlsDescriptor(),
+                                                           &FrischDescriptor()};
+  return all;
+}
+
+const EstimatorDescriptor& DescriptorOf(EstimatorKind kind) {
+  return FindDescriptor(EstimatorDescriptors(), kind, "estimator");
+}
+
+std::vector<std::string> EstimatorNames() { return DescriptorNames(EstimatorDescriptors()); }
+
+EstimatorKind ParseEstimatorKind(std::string_view name) { return ParseKind(EstimatorDescriptors(), name, "estimator"); }
+
+std::string_view ToString(EstimatorKind kind) { return DescriptorOf(kind).name; }
 
 std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0) {
+  const EstimatorDescriptor& d = DescriptorOf(settings.kind);
   std::string error;
-  if (!settings.IsValid(&error)) {
-    throw std::invalid_argument(fmt::format("estimator '{}': {}", settings.name, error));
-  }
-  if (settings.name == "rls") {
-    return std::make_unique<Rls>(theta0, settings.p0, settings.forgetting);
-  }
-  if (settings.name == "gtls") {
-    return std::make_unique<Gtls>(theta0, settings.noise_shape, settings.forgetting,
-                                  settings.refactor_every);
-  }
-  if (settings.name == "frisch") {
-    return std::make_unique<Frisch>(
-        theta0, settings.window, settings.forgetting, settings.p0,
-        settings.frisch_box == "intersect" ? FrischBox::kIntersect : FrischBox::kCumulative,
-        settings.frisch_point == "rls" ? FrischPoint::kClampedRls : FrischPoint::kCentre,
-        settings.noise_shape, settings.frisch_confidence);
-  }
-  throw std::invalid_argument(fmt::format("unknown estimator '{}' (known: {})", settings.name,
-                                          fmt::join(EstimatorNames(), ", ")));
+  if (!settings.IsValid(&error)) throw std::invalid_argument(fmt::format("estimator '{}': {}", d.name, error));
+  return d.make(settings, theta0);
 }
 
 }  // namespace hysid

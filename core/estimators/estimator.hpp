@@ -1,7 +1,8 @@
 // Recursive linear estimators for θ in y = Φθ (+ noise), one vector measurement per update.
 //
-// Pluggable by name ("rls", and the errors-in-variables estimators "gtls", "frisch"): the identifier
-// keeps one estimator for α (flow regression) and one for β (jump regression), as in Algorithm 1.
+// Pluggable (EstimatorKind: rls, and the errors-in-variables estimators gtls, frisch; each described
+// once by an EstimatorDescriptor): the identifier keeps one estimator for α (flow regression) and one
+// for β (jump regression), as in Algorithm 1.
 // An estimator never produces NaN: degenerate data (no excitation, repeated rows, a zero column) is
 // reported in status() and the estimate is left where it was.
 #pragma once
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "core/model/model.hpp"
+#include "core/model/option.hpp"
 
 namespace hysid {
 
@@ -23,35 +25,67 @@ enum class EstimatorStatus {
 };
 const char* ToString(EstimatorStatus status);
 
-// Settings shared by every estimator, and each estimator's own. One struct so that sweeps and the
-// command line can set any of them by name.
+enum class EstimatorKind { kRls, kGtls, kFrisch };
+// frisch: the box rule (core/estimators/frisch.hpp) and the point estimate.
+enum class FrischBox { kIntersect, kCumulative };
+enum class FrischPoint { kCentre, kClampedRls };
+
+// The options of every estimator in one struct, each described once in EstimatorOptions() below;
+// an estimator reads the ones its descriptor lists.
 struct EstimatorSettings {
-  std::string name = "rls";
+  EstimatorKind kind = EstimatorKind::kRls;
   double forgetting = 1.0;  // λ ∈ (0, 1]: exponential forgetting (1 = none)
   // Initial covariance P0 = p0·I (the RLS prior ridge is P0⁻¹ = I/p0). Large: the flow regressors
   // are O(δt), so ΣΦᵀΦ is small and a 1e4 prior would bias α̂ by ~1e-3 on the §5 system.
   double p0 = 1e8;
+  int refactor_every = 500;  // gtls: recompute S⁻¹ from scratch every this many rows
+  // frisch: window length in rows (0 = growing window with `forgetting`, box refreshed every update).
+  int window = 200;
+  // frisch: kCumulative (bounding box of the simplex of all rows so far, refreshed every window) or
+  // kIntersect (BBRF: running intersection of each window's own box). See core/estimators/frisch.hpp.
+  FrischBox frisch_box = FrischBox::kCumulative;
+  // frisch: point estimate: kClampedRls (RLS clamped into the BBRF-intersected box) or kCentre (of
+  // the reported box).
+  FrischPoint frisch_point = FrischPoint::kClampedRls;
+  // frisch: confidence of the sampling allowance added to every box (± a Student-t quantile times
+  // the standard error of the least-squares vertex; for the BBRF intersection split over the
+  // windows by a union bound). 0 = none: the plain Frisch / BBRF box, a population statement.
+  double frisch_confidence = 0.95;
   // gtls: noise covariance shape C of a regression row z = [φ; y] ((p+1) × (p+1), up to scale;
   // empty given directly to MakeEstimator = identity, classical TLS). frisch: only its zero diagonal
   // entries are used (exact columns; empty = none). The identifier fills an empty shape from σ, δt
   // and the model (WithNoiseShapes in core/identify/identifier.hpp, core/model/noise_shape.hpp).
   Mat noise_shape;
-  int refactor_every = 500;  // gtls: recompute S⁻¹ from scratch every this many rows
-  // frisch: window length in rows (0 = growing window with `forgetting`, box refreshed every update).
-  int window = 200;
-  // frisch: "cumulative" (bounding box of the simplex of all rows so far, refreshed every window) or
-  // "intersect" (BBRF: running intersection of each window's own box). See core/estimators/frisch.hpp.
-  std::string frisch_box = "cumulative";
-  // frisch: point estimate: "rls" (RLS clamped into the BBRF-intersected box) or "centre" (of the
-  // reported box).
-  std::string frisch_point = "rls";
-  // frisch: confidence of the sampling allowance added to every box (± a Student-t quantile times
-  // the standard error of the least-squares vertex; for the BBRF intersection split over the
-  // windows by a union bound). 0 = none: the plain Frisch / BBRF box, a population statement.
-  double frisch_confidence = 0.95;
-  // Field-naming message, e.g. "forgetting = 1.5: must be in (0, 1]".
+  // Every option in EstimatorOptions() and noise_shape; names the field, e.g.
+  // "forgetting = 1.5: must be in (0, 1]".
   bool IsValid(std::string* error) const;
+  // True when the estimator's descriptor needs a noise shape and none is given.
+  bool NeedsNoiseShape() const;
 };
+
+// Each option of EstimatorSettings, described once (name = field = TOML key, flag --name).
+inline const std::vector<Option<EstimatorSettings>>& EstimatorOptions() {
+  using S = EstimatorSettings;
+  using T = OptionType;
+  static const std::vector<Option<S>> table{
+      Describe<&S::forgetting>({.name = "forgetting", .type = T::kReal, .range = {0, 1, true, false},
+                                .help = "exponential forgetting factor lambda (1 = none)"}),
+      Describe<&S::p0>({.name = "p0", .type = T::kReal, .range = {0, kUnbounded, true, true},
+                        .help = "initial covariance P0 = p0 I (prior ridge I/p0)"}),
+      Describe<&S::refactor_every>({.name = "refactor_every", .type = T::kInteger, .range = {1, kUnbounded},
+                                    .help = "exact refactorisation every this many rows"}),
+      Describe<&S::window>({.name = "window", .type = T::kInteger, .range = {0, kUnbounded},
+                            .help = "window in rows (0 = growing)"}),
+      Describe<&S::frisch_box>({.name = "frisch_box", .type = T::kChoice, .choices = {"intersect", "cumulative"},
+                                .help = "cumulative (box of the simplex of all rows) or intersect (BBRF)"}),
+      Describe<&S::frisch_point>({.name = "frisch_point", .type = T::kChoice, .choices = {"centre", "rls"},
+                                  .help = "rls (RLS clamped into the boxes) or centre (of the box)"}),
+      Describe<&S::frisch_confidence>(
+          {.name = "frisch_confidence", .type = T::kReal, .range = {0, 1, false, true},
+           .help = "confidence of the sampling allowance added to the boxes (0 = none)"}),
+  };
+  return table;
+}
 
 class Estimator {
  public:
@@ -62,10 +96,12 @@ class Estimator {
   void Update(const ConstMatRef& phi, const ConstVecRef& y);
 
   const Vec& estimate() const { return theta_; }
-  // Parameter covariance (up to the noise variance), when the estimator has one.
-  virtual std::optional<Mat> covariance() const { return std::nullopt; }
-  // The same without a copy (nullptr when there is none); valid until the next Update or Reset.
+  // Parameter covariance (up to the noise variance), nullptr when the estimator has none; valid until
+  // the next Update or Reset.
   virtual const Mat* covariance_matrix() const { return nullptr; }
+  // The solution box of the unknowns, p × 2 (lower, upper), when the estimator reports one (its
+  // descriptor's reports_box) and has it yet; else empty.
+  virtual Mat solution_box() const { return Mat(); }
   EstimatorStatus status() const { return status_; }
   long updates() const { return updates_; }
   long skipped() const { return skipped_; }  // non-finite regressions ignored
@@ -87,6 +123,12 @@ class Estimator {
     return true;
   }
   virtual void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) = 0;
+  // Reset's common part: status kNotExcited, no updates, none skipped.
+  void ResetCounts() {
+    status_ = EstimatorStatus::kNotExcited;
+    updates_ = 0;
+    skipped_ = 0;
+  }
 
   Vec theta_;
   EstimatorStatus status_ = EstimatorStatus::kNotExcited;
@@ -94,9 +136,27 @@ class Estimator {
   long skipped_ = 0;
 };
 
-// Known names: "rls", "gtls", "frisch". Throws std::invalid_argument naming the known
-// estimators for an unknown name or invalid settings.
-std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0);
+// One estimator, described once: the factory, the command line and sweep files read this.
+struct EstimatorDescriptor {
+  EstimatorKind kind;
+  std::string_view name;  // "rls", as given by --estimator and in sweep files
+  std::string_view help;  // one line
+  std::vector<std::string_view> options;  // the EstimatorOptions() it reads
+  bool needs_noise_shape = false;          // the identifier derives one when none is given
+  bool reports_box = false;                // solution_box()
+  std::unique_ptr<Estimator> (*make)(const EstimatorSettings& settings, const Vec& theta0) = nullptr;
+  bool Reads(std::string_view option) const;
+};
+
+// Every estimator, in the order of EstimatorKind.
+const std::vector<const EstimatorDescriptor*>& EstimatorDescriptors();
+const EstimatorDescriptor& DescriptorOf(EstimatorKind kind);
+// Throws std::invalid_argument "unknown estimator 'x' (known: rls, gtls, frisch)".
+EstimatorKind ParseEstimatorKind(std::string_view name);
+std::string_view ToString(EstimatorKind kind);
 std::vector<std::string> EstimatorNames();
+
+// Throws std::invalid_argument naming the estimator and the field for invalid settings.
+std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0);
 
 }  // namespace hysid

@@ -12,6 +12,29 @@
 #include "core/stats/quantiles.hpp"
 
 namespace hysid {
+
+const EstimatorDescriptor& FrischDescriptor() {
+  static const EstimatorDescriptor d{
+      .kind = EstimatorKind::kFrisch,
+      .name = "frisch",
+      .help = "recursive Frisch scheme: a solution box and a point in it",
+      .options = {"forgetting", "p0", "window", "frisch_box", "frisch_point", "frisch_confidence"},
+      .needs_noise_shape = true,
+      .reports_box = true,
+      .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
+        return std::make_unique<Frisch>(theta0, s.window, s.forgetting, s.p0, s.frisch_box, s.frisch_point,
+                                        s.noise_shape, s.frisch_confidence);
+      }};
+  return d;
+}
+
+Mat Frisch::solution_box() const {
+  if (!has_box_) return Mat();
+  Mat box(lower_.size(), 2);
+  box.col(0) = lower_;
+  box.col(1) = upper_;
+  return box;
+}
 namespace {
 
 constexpr double kPivotTolerance = 1e-12;
@@ -88,9 +111,7 @@ void Frisch::Reset() {
   empty_intersections_ = 0;
   has_box_ = false;
   kalman_ = false;
-  status_ = EstimatorStatus::kNotExcited;
-  updates_ = 0;
-  skipped_ = 0;
+  ResetCounts();
 }
 
 bool Frisch::Contains(ConstVecRef theta, double tolerance) const {

@@ -83,8 +83,9 @@
 
 namespace hysid {
 
-enum class FrischBox { kIntersect, kCumulative };
-enum class FrischPoint { kCentre, kClampedRls };
+// The recursive Frisch scheme; reads window, forgetting, p0 and the frisch_* options, needs a noise
+// shape (its zero diagonal entries), reports a solution box.
+const EstimatorDescriptor& FrischDescriptor();
 
 class Frisch final : public Estimator {
  public:
@@ -97,6 +98,7 @@ class Frisch final : public Estimator {
 
   std::string name() const override { return "frisch"; }
   void Reset() override;
+  Mat solution_box() const override;
 
   bool has_box() const { return has_box_; }
   // The current solution box [lower, upper] (θ0 for both before the first window).

@@ -9,6 +9,19 @@
 #include <fmt/format.h>
 
 namespace hysid {
+
+const EstimatorDescriptor& GtlsDescriptor() {
+  static const EstimatorDescriptor d{
+      .kind = EstimatorKind::kGtls,
+      .name = "gtls",
+      .help = "recursive generalized total least squares (noise shape C from sigma and dt)",
+      .options = {"forgetting", "refactor_every"},
+      .needs_noise_shape = true,
+      .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
+        return std::make_unique<Gtls>(theta0, s.noise_shape, s.forgetting, s.refactor_every);
+      }};
+  return d;
+}
 namespace {
 
 constexpr double kRankTolerance = 1e-10;  // smallest admissible Cholesky pivot² of D S_φφ D
@@ -76,9 +89,7 @@ void Gtls::Reset() {
   rows_since_refactor_ = 0;
   started_ = false;
   needs_refactor_ = false;
-  status_ = EstimatorStatus::kNotExcited;
-  updates_ = 0;
-  skipped_ = 0;
+  ResetCounts();
 }
 
 double Gtls::noise_variance() const {
@@ -181,11 +192,6 @@ const Mat* Gtls::covariance_matrix() const {
     cov_updates_ = updates_;
   }
   return cov_updates_ == -2 ? nullptr : &cov_;
-}
-
-std::optional<Mat> Gtls::covariance() const {
-  const Mat* c = covariance_matrix();
-  return c ? std::optional<Mat>(*c) : std::nullopt;
 }
 
 void Gtls::ProvisionalLeastSquares() {

@@ -32,6 +32,9 @@
 
 namespace hysid {
 
+// Recursive generalized total least squares; reads forgetting and refactor_every, needs a noise shape.
+const EstimatorDescriptor& GtlsDescriptor();
+
 class Gtls final : public Estimator {
  public:
   // noise_shape: (p+1)×(p+1), symmetric positive semidefinite, not zero; empty = identity (classical
@@ -43,7 +46,6 @@ class Gtls final : public Estimator {
   // prior: the parameter covariance up to the noise variance, which the residual jump detector uses
   // for its leverage term. Computed when asked after S changed; none before S's θ block is
   // positive definite.
-  std::optional<Mat> covariance() const override;
   const Mat* covariance_matrix() const override;
   void Reset() override;
 
@@ -51,7 +53,6 @@ class Gtls final : public Estimator {
   double noise_variance() const;
   const Mat& noise_shape() const { return c_; }
   // The current generalized eigenvector v (θ = −v[0:p]/v[p] when generic).
-  const Vec& eigenvector() const { return v_; }
   // Refactorises and solves the eigenproblem exactly now (e.g. at the end of a run). Does nothing
   // before the batch start.
   void Refresh();

@@ -6,6 +6,18 @@
 
 namespace hysid {
 
+const EstimatorDescriptor& RlsDescriptor() {
+  static const EstimatorDescriptor d{
+      .kind = EstimatorKind::kRls,
+      .name = "rls",
+      .help = "recursive least squares",
+      .options = {"forgetting", "p0"},
+      .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
+        return std::make_unique<Rls>(theta0, s.p0, s.forgetting);
+      }};
+  return d;
+}
+
 Rls::Rls(const Vec& theta0, double p0, double forgetting)
     : Estimator(theta0), theta0_(theta0), p0_(p0), lambda_(forgetting) {
   max_trace_ = p0_ * static_cast<double>(theta0.size());
@@ -16,8 +28,7 @@ void Rls::Reset() {
   theta_ = theta0_;
   p_ = p0_ * Mat::Identity(theta0_.size(), theta0_.size());
   work_.resize(theta0_.size());
-  status_ = EstimatorStatus::kNotExcited;
-  updates_ = 0;
+  ResetCounts();
   rank_updates_ = 0;
 }
 

@@ -59,10 +59,12 @@ inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, d
 }  // namespace detail
 
 
+// Recursive least squares; reads forgetting and p0.
+const EstimatorDescriptor& RlsDescriptor();
+
 class Rls final : public Estimator {
  public:
   Rls(const Vec& theta0, double p0, double forgetting);
-  std::optional<Mat> covariance() const override { return p_; }
   const Mat* covariance_matrix() const override { return &p_; }
   std::string name() const override { return "rls"; }
   void Reset() override;

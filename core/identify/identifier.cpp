@@ -8,7 +8,6 @@
 
 #include "core/detectors/paper.hpp"
 #include "core/detectors/residual.hpp"
-#include "core/estimators/frisch.hpp"
 #include "core/estimators/rls.hpp"
 #include "core/identify/localize.hpp"
 #include "core/model/noise_shape.hpp"
@@ -26,15 +25,9 @@ Vec Prior(const Vec& given, const RegressionLayout& layout, const char* field) {
   return given;
 }
 
-Vec DefaultState(const Model& m) {
-  const auto& x0 = m.spec().default_x0;
-  if (static_cast<int>(x0.size()) != m.state_size()) return Vec::Zero(m.state_size());
-  return Eigen::Map<const Vec>(x0.data(), m.state_size());
-}
-
 // Settings with the noise shapes filled at the model's default state (Identifier's constructor).
 IdentifierSettings ResolvedAtDefault(const Model& m, double dt, const IdentifierSettings& s) {
-  if (!NeedsNoiseShape(s.flow_estimator) && !NeedsNoiseShape(s.jump_estimator)) return s;
+  if (!s.flow_estimator.NeedsNoiseShape() && !s.jump_estimator.NeedsNoiseShape()) return s;
   if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) return s;  // reported by State
   const Vec sigma = s.sigma.size() ? s.sigma : Vec::Ones(m.state_size());
   return WithNoiseShapes(m, dt, s, sigma, DefaultState(m));
@@ -42,14 +35,10 @@ IdentifierSettings ResolvedAtDefault(const Model& m, double dt, const Identifier
 
 }  // namespace
 
-bool NeedsNoiseShape(const EstimatorSettings& settings) {
-  return (settings.name == "gtls" || settings.name == "frisch") && settings.noise_shape.size() == 0;
-}
-
 IdentifierSettings WithNoiseShapes(const Model& model, double dt, const IdentifierSettings& settings,
                                    ConstVecRef sigma, const Mat& states) {
   IdentifierSettings out = settings;
-  if (!NeedsNoiseShape(out.flow_estimator) && !NeedsNoiseShape(out.jump_estimator)) return out;
+  if (!out.flow_estimator.NeedsNoiseShape() && !out.jump_estimator.NeedsNoiseShape()) return out;
   if (sigma.size() != model.state_size()) {
     throw std::invalid_argument(fmt::format("WithNoiseShapes: sigma has {} entries; the model has {} states",
                                             sigma.size(), model.state_size()));
@@ -62,10 +51,10 @@ IdentifierSettings WithNoiseShapes(const Model& model, double dt, const Identifi
     }
     return c;
   };
-  if (NeedsNoiseShape(out.flow_estimator)) {
+  if (out.flow_estimator.NeedsNoiseShape()) {
     out.flow_estimator.noise_shape = least_squares_if_zero(FlowNoiseShape(model, s, dt, states));
   }
-  if (NeedsNoiseShape(out.jump_estimator)) {
+  if (out.jump_estimator.NeedsNoiseShape()) {
     out.jump_estimator.noise_shape = least_squares_if_zero(JumpNoiseShape(model, s, states));
   }
   return out;
@@ -186,7 +175,12 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
   if (s.settings.sets) s.jump_set.Add(s.prev);
 }
 
-Decision Identifier::Step(ConstVecRef x) {
+Decision Identifier::Step(ConstVecRef x) { return Advance(x, nullptr); }
+
+Decision Identifier::Step(ConstVecRef x, bool gamma) { return Advance(x, &gamma); }
+
+// One sample; `given` (may be null) replaces the detector's decision.
+Decision Identifier::Advance(ConstVecRef x, const bool* given) {
   State& s = *s_;
   if (x.size() != s.prev.size()) {
     throw std::invalid_argument(fmt::format("Identifier::Step: sample has {} entries; model '{}' has {} states",
@@ -198,25 +192,30 @@ Decision Identifier::Step(ConstVecRef x) {
     s.has_prev = true;
     return {};
   }
-  if (s.rls != nullptr) {  // the row block counts the sample
+  if (s.rls != nullptr && given == nullptr) {  // the row block counts the sample
     s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
     Decision d;
     s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
     return d;
   }
-  // Several identified rows, or an estimator other than RLS: the interfaces throughout.
+  // Several identified rows, an estimator other than RLS, or given labels: the interfaces throughout.
   ++s.samples;
   s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
   const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
   const SampleContext c = Context(s, x.data(), s.phi.data(), s.y.data(), alpha_class);
-  const Decision d = s.detector->Classify(c);
+  Decision d;
+  if (given != nullptr) {
+    d.gamma = *given;
+  } else {
+    d = s.detector->Classify(c);
+  }
   if (!d.gamma) {
     s.flow->Update(s.phi, s.y);
     AfterFlowUpdate<0>(s);
   } else {
     AfterJump(s, x, alpha_class);
   }
-  s.detector->Observe(c, d);
+  if (given == nullptr) s.detector->Observe(c, d);
   s.prev = x;
   return d;
 }
@@ -335,7 +334,8 @@ void Identifier::BeginSecondPass() {
   State& s = *s_;
   s.frozen = true;
   s.frozen_alpha = s.alpha_full;
-  s.frozen_covariance = s.flow->covariance();
+  const Mat* covariance = s.flow->covariance_matrix();
+  s.frozen_covariance = covariance ? std::optional<Mat>(*covariance) : std::nullopt;
   s.frozen_updates = s.flow->updates();
   s.flow->Reset();
   s.jump->Reset();
@@ -361,104 +361,129 @@ long Identifier::samples() const { return s_->samples; }
 long Identifier::jumps_detected() const { return s_->jumps; }
 long Identifier::jumps_localized() const { return s_->localized; }
 
-IdentifyResult Identify(const Model& model, const Mat& y, double dt,
-                        const IdentifierSettings& settings, const IdentifyOptions& options) {
-  if (y.rows() != model.state_size()) {
-    throw std::invalid_argument(fmt::format("data has {} state rows; model '{}' has {} states",
-                                            y.rows(), model.name(), model.state_size()));
-  }
-  IdentifyResult r;
+namespace {
+
+// gtls / frisch without a noise shape: σ given or estimated from y, C averaged over up to 256 evenly
+// spaced measured states (too short or non-finite data: the Identifier constructor's rule). Records
+// σ and the shapes in r.
+IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double dt,
+                                      const IdentifierSettings& settings, IdentifyResult* r) {
   IdentifierSettings resolved = settings;
-  if (NeedsNoiseShape(settings.flow_estimator) || NeedsNoiseShape(settings.jump_estimator)) {
+  if (settings.flow_estimator.NeedsNoiseShape() || settings.jump_estimator.NeedsNoiseShape()) {
     const bool given = settings.sigma.size() != 0;
     if (given && settings.sigma.size() != model.state_size()) {
-      throw std::invalid_argument(fmt::format(
-          "IdentifierSettings::sigma has {} entries; the model has {} states", settings.sigma.size(),
-          model.state_size()));
+      throw std::invalid_argument(fmt::format("IdentifierSettings::sigma has {} entries; the model has {} states",
+                                              settings.sigma.size(), model.state_size()));
     }
     if (y.cols() >= 4 && y.allFinite()) {
-      r.noise_sigma = given ? settings.sigma : EstimateNoiseSigma(y);
-      r.noise_sigma_estimated = !given;
-      // C averaged over up to 256 evenly spaced measured states.
+      r->noise_sigma = given ? settings.sigma : EstimateNoiseSigma(y);
+      r->noise_sigma_estimated = !given;
       const Eigen::Index count = std::min<Eigen::Index>(256, y.cols());
       Mat states(y.rows(), count);
       for (Eigen::Index i = 0; i < count; ++i) {
         states.col(i) = y.col(count > 1 ? i * (y.cols() - 1) / (count - 1) : 0);
       }
-      resolved = WithNoiseShapes(model, dt, settings, r.noise_sigma, states);
-    } else {  // too short, or non-finite samples: the Identifier constructor's rule
-      r.noise_sigma = given ? settings.sigma : Vec::Ones(model.state_size());
+      resolved = WithNoiseShapes(model, dt, settings, r->noise_sigma, states);
+    } else {
+      r->noise_sigma = given ? settings.sigma : Vec::Ones(model.state_size());
       resolved = ResolvedAtDefault(model, dt, settings);
     }
   }
-  if (resolved.flow_estimator.name != "rls") r.flow_noise_shape = resolved.flow_estimator.noise_shape;
-  if (resolved.jump_estimator.name != "rls") r.jump_noise_shape = resolved.jump_estimator.noise_shape;
-  Identifier id(model, dt, resolved);
-  const Eigen::Index k_count = y.cols();
-  r.gamma.resize(static_cast<std::size_t>(k_count));
-  r.statistic.resize(static_cast<std::size_t>(k_count));
-  r.threshold.resize(static_cast<std::size_t>(k_count));
-  if (options.trace) {
-    r.alpha_trace.resize(model.alpha_size(), k_count);
-    r.beta_trace.resize(model.beta_size(), k_count);
+  if (DescriptorOf(resolved.flow_estimator.kind).needs_noise_shape) {
+    r->flow_noise_shape = resolved.flow_estimator.noise_shape;
   }
-  // Without a trace, samples go to Feed in chunks (its block path); a trace needs α̂, β̂ after each.
-  constexpr Eigen::Index kChunk = 4096;
-  std::vector<Decision> decisions(static_cast<std::size_t>(options.trace ? 1 : std::min(kChunk, k_count)));
-  auto record = [&](Eigen::Index k, const Decision& d) {
-    r.gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
-    r.statistic[static_cast<std::size_t>(k)] = d.statistic;
-    r.threshold[static_cast<std::size_t>(k)] = d.threshold;
-  };
-  auto pass = [&] {
-    if (!options.trace) {
-      for (Eigen::Index k = 0; k < k_count; k += kChunk) {
-        const Eigen::Index len = std::min(kChunk, k_count - k);
-        id.Feed(y.middleCols(k, len), decisions.data());
-        for (Eigen::Index j = 0; j < len; ++j) record(k + j, decisions[static_cast<std::size_t>(j)]);
-      }
-      return;
-    }
-    for (Eigen::Index k = 0; k < k_count; ++k) {
-      record(k, id.Step(y.col(k)));
-      r.alpha_trace.col(k) = id.alpha_hat();
-      r.beta_trace.col(k) = id.beta_hat();
-    }
-  };
-  pass();
-  if (settings.second_pass) {
-    r.second_pass = true;
-    r.first_pass_gamma = r.gamma;
-    r.first_pass_alpha_hat = id.alpha_hat();
-    r.first_pass_beta_hat = id.beta_hat();
-    id.BeginSecondPass();
-    pass();
-    for (std::size_t k = 0; k < r.gamma.size(); ++k) {
-      r.reclassified_to_jump += (!r.first_pass_gamma[k] && r.gamma[k]) ? 1 : 0;
-      r.reclassified_to_flow += (r.first_pass_gamma[k] && !r.gamma[k]) ? 1 : 0;
-    }
+  if (DescriptorOf(resolved.jump_estimator.kind).needs_noise_shape) {
+    r->jump_noise_shape = resolved.jump_estimator.noise_shape;
   }
+  return resolved;
+}
+
+void Record(Eigen::Index k, const Decision& d, IdentifyResult* r) {
+  r->gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
+  r->statistic[static_cast<std::size_t>(k)] = d.statistic;
+  r->threshold[static_cast<std::size_t>(k)] = d.threshold;
+}
+
+// One pass over the samples. Without a trace or labels, samples go to Feed in chunks (its block
+// path); a trace needs α̂, β̂ after each sample, labels a Step with each.
+void Pass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+  const Eigen::Index count = y.cols();
+  if (!options.trace && options.labels.empty()) {
+    constexpr Eigen::Index kChunk = 4096;
+    std::vector<Decision> decisions(static_cast<std::size_t>(std::min(kChunk, count)));
+    for (Eigen::Index k = 0; k < count; k += kChunk) {
+      const Eigen::Index len = std::min(kChunk, count - k);
+      id.Feed(y.middleCols(k, len), decisions.data());
+      for (Eigen::Index j = 0; j < len; ++j) Record(k + j, decisions[static_cast<std::size_t>(j)], r);
+    }
+    return;
+  }
+  for (Eigen::Index k = 0; k < count; ++k) {
+    Record(k, options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[std::size_t(k)] != 0),
+           r);
+    if (!options.trace) continue;
+    r->alpha_trace.col(k) = id.alpha_hat();
+    r->beta_trace.col(k) = id.beta_hat();
+  }
+}
+
+// The second pass: records the first pass's outcome, re-runs, counts the changed classes.
+void SecondPass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+  r->second_pass = true;
+  r->first_pass_gamma = r->gamma;
+  r->first_pass_alpha_hat = id.alpha_hat();
+  r->first_pass_beta_hat = id.beta_hat();
+  id.BeginSecondPass();
+  Pass(id, y, options, r);
+  for (std::size_t k = 0; k < r->gamma.size(); ++k) {
+    r->reclassified_to_jump += (!r->first_pass_gamma[k] && r->gamma[k]) ? 1 : 0;
+    r->reclassified_to_flow += (r->first_pass_gamma[k] && !r->gamma[k]) ? 1 : 0;
+  }
+}
+
+// The final estimates, statuses, boxes and hulls.
+void Collect(Identifier& id, bool sets, IdentifyResult* r) {
   id.Finish();
-  r.jumps_localized = id.jumps_localized();
-  r.alpha_hat = id.alpha_hat();
-  r.beta_hat = id.beta_hat();
-  r.jumps_detected = id.jumps_detected();
-  r.flow_status = id.flow_estimator().status();
-  r.jump_status = id.jump_estimator().status();
-  for (const auto& [estimator, box] : {std::pair{&id.flow_estimator(), &r.flow_box},
-                                       std::pair{&id.jump_estimator(), &r.jump_box}}) {
-    const auto* f = dynamic_cast<const Frisch*>(estimator);
-    if (f == nullptr || !f->has_box()) continue;
-    box->resize(f->lower().size(), 2);
-    box->col(0) = f->lower();
-    box->col(1) = f->upper();
+  r->jumps_localized = id.jumps_localized();
+  r->alpha_hat = id.alpha_hat();
+  r->beta_hat = id.beta_hat();
+  r->jumps_detected = id.jumps_detected();
+  r->flow_status = id.flow_estimator().status();
+  r->jump_status = id.jump_estimator().status();
+  r->flow_box = id.flow_estimator().solution_box();
+  r->jump_box = id.jump_estimator().solution_box();
+  if (!sets) return;
+  r->flow_hull = id.flow_set().vertices();
+  r->jump_hull = id.jump_set().vertices();
+  r->flow_hull_volume = id.flow_set().Volume();
+  r->jump_hull_volume = id.jump_set().Volume();
+}
+
+}  // namespace
+
+IdentifyResult Identify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                        const IdentifyOptions& options) {
+  if (y.rows() != model.state_size()) {
+    throw std::invalid_argument(fmt::format("data has {} state rows; model '{}' has {} states", y.rows(),
+                                            model.name(), model.state_size()));
   }
-  if (settings.sets) {
-    r.flow_hull = id.flow_set().vertices();
-    r.jump_hull = id.jump_set().vertices();
-    r.flow_hull_volume = id.flow_set().Volume();
-    r.jump_hull_volume = id.jump_set().Volume();
+  if (!options.labels.empty() && static_cast<Eigen::Index>(options.labels.size()) != y.cols()) {
+    throw std::invalid_argument(fmt::format("IdentifyOptions::labels has {} entries; the data has {} samples",
+                                            options.labels.size(), y.cols()));
   }
+  IdentifyResult r;
+  Identifier id(model, dt, ResolveNoiseShapes(model, y, dt, settings, &r));
+  const auto count = static_cast<std::size_t>(y.cols());
+  r.gamma.resize(count);
+  r.statistic.resize(count);
+  r.threshold.resize(count);
+  if (options.trace) {
+    r.alpha_trace.resize(model.alpha_size(), y.cols());
+    r.beta_trace.resize(model.beta_size(), y.cols());
+  }
+  Pass(id, y, options, &r);
+  if (settings.second_pass) SecondPass(id, y, options, &r);
+  Collect(id, settings.sets, &r);
   return r;
 }
 

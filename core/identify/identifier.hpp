@@ -62,7 +62,8 @@ struct IdentifierSettings {
 };
 
 // Noise shapes of the errors-in-variables estimators. For each of flow_estimator and jump_estimator
-// named "gtls" or "frisch" whose noise_shape is empty, fills it with FlowNoiseShape / JumpNoiseShape
+// whose descriptor needs a noise shape (gtls, frisch) and whose noise_shape is empty, fills it with
+// FlowNoiseShape / JumpNoiseShape
 // (core/model/noise_shape.hpp) of `sigma` (n entries), δt and `states` (n × K, C averaged over them; for
 // φ, ψ affine in ξ, as in every built-in model's identified rows, any one state gives the same C).
 //   - sigma all zero (noise-free data): ones instead, i.e. the shape of equal noise on every
@@ -72,8 +73,6 @@ struct IdentifierSettings {
 // A noise_shape set by the user is kept. Throws std::invalid_argument for a wrong-sized sigma.
 IdentifierSettings WithNoiseShapes(const Model& model, double dt, const IdentifierSettings& settings,
                                    ConstVecRef sigma, const Mat& states);
-// True when `settings` names gtls or frisch with an empty noise_shape.
-bool NeedsNoiseShape(const EstimatorSettings& settings);
 
 class Identifier {
  public:
@@ -88,6 +87,8 @@ class Identifier {
 
   // Feeds the next measured sample ξ(t). The first sample only initialises (γ = 0, no update).
   Decision Step(ConstVecRef x);
+  // The same with γ(t) given (e.g. the true jump labels): the detector is not consulted.
+  Decision Step(ConstVecRef x, bool gamma);
   // Feeds the columns of `samples` (n × K) in order: the same as Step on each, bit for bit, and
   // faster on the direct path (IdentifierSettings::direct_calls), which builds the flow regressions
   // of a block of samples at once (RegressionBuilder::FlowRows). `decisions`, unless null, receives
@@ -126,12 +127,16 @@ class Identifier {
   template <int P>
   static void AfterFlowUpdate(State& s);
   static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);
+  Decision Advance(ConstVecRef x, const bool* given);
   std::unique_ptr<State> s_;
 };
 
 // A whole run: samples y (n × K, column k measured at t_k = kδt).
 struct IdentifyOptions {
   bool trace = false;  // keep per-sample α̂, β̂ (else only γ, statistic, threshold)
+  // Given labels γ per sample (one per column of y) instead of the detector's decisions, e.g. the
+  // true jumps, to study the estimators alone. Empty: the detector decides.
+  std::vector<std::uint8_t> labels{};
 };
 
 struct IdentifyResult {
@@ -158,7 +163,8 @@ struct IdentifyResult {
   Vec noise_sigma;
   bool noise_sigma_estimated = false;
   Mat flow_noise_shape, jump_noise_shape;  // the shapes the estimators used (empty for rls)
-  // frisch: the final solution boxes of the unknowns, u × 2 (lower, upper); empty otherwise.
+  // Estimators that report a solution box (frisch): the final boxes of the unknowns, u × 2 (lower,
+  // upper); empty otherwise.
   Mat flow_box, jump_box;
 };
 

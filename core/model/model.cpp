@@ -110,4 +110,17 @@ void Model::CentralDifferenceJacobian(const Concept& c, const ConstVecRef& x, co
   }
 }
 
+Vec DefaultState(const Model& model) {
+  const std::vector<double>& x0 = model.spec().default_x0;
+  return Eigen::Map<const Vec>(x0.data(), static_cast<Eigen::Index>(x0.size()));
+}
+
+std::vector<std::string> UnknownNames(const std::vector<Parameter>& params) {
+  std::vector<std::string> names;
+  for (const Parameter& p : params) {
+    if (!p.known) names.push_back(p.name);
+  }
+  return names;
+}
+
 }  // namespace hysid

@@ -217,4 +217,9 @@ class Model {
   Vec beta_;
 };
 
+// ModelSpec::default_x0 as a vector (Model checks that it has one entry per state).
+Vec DefaultState(const Model& model);
+// The names of the unknown entries of `params` (ModelSpec::alpha or ::beta), in order.
+std::vector<std::string> UnknownNames(const std::vector<Parameter>& params);
+
 }  // namespace hysid

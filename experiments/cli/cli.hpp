@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/identify/identifier.hpp"
 #include "core/model/model.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
@@ -45,5 +46,11 @@ Model MakeModel(const Environment& env, const std::string& name,
 
 // Checks that every entry is finite; `flag` names the option in the error.
 void RequireFinite(const std::string& flag, const std::vector<double>& values);
+
+// --estimator and --detector by name into both estimators' and the detector's kind; errors name the flag.
+void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings);
+
+// --sigma: one value for every state or one per state, each finite and >= 0.
+Vec SigmaFlag(const std::vector<double>& values, int states);
 
 }  // namespace hysid::cli

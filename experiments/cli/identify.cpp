@@ -3,6 +3,8 @@
 #include <cmath>
 #include <utility>
 #include <cstdio>
+#include <functional>
+#include <map>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -26,17 +28,12 @@ struct IdentifyArgs {
   std::vector<std::string> params;
   std::string data;
   std::string estimator = "rls";
-  double forgetting = 1.0;
-  EstimatorSettings eiv;             // gtls / frisch options (defaults as documented there)
-  std::vector<double> flow_shape, jump_shape;  // user noise shapes C, row-major
   std::string detector = "residual";
-  double r = 220.0;
-  double tau0 = 1e5;
-  std::string bound = "auto";
-  double false_alarm = 1e-8;
+  // Plugin options given on the command line, by flag ("--r", "--jump-forgetting"): the text to parse.
+  std::map<std::string, std::string> options;
+  std::vector<double> flow_shape, jump_shape;  // user noise shapes C, row-major
   bool localize = false;
   bool second_pass = false;
-  double jump_forgetting = 1.0;
   std::vector<double> sigma;
   double data_rtol = 0.0, data_atol = 0.0;
   bool data_accuracy_given = false;  // --data-rtol or --data-atol on the command line
@@ -45,121 +42,128 @@ struct IdentifyArgs {
   RefineArgs refine;  // --refine, --json (identify_refine.cpp)
 };
 
-std::vector<std::string> UnknownNames(const std::vector<Parameter>& params) {
-  std::vector<std::string> names;
-  for (const Parameter& p : params) {
-    if (!p.known) names.push_back(p.name);
+// Every plugin option as a flag: detector options, the α estimator's, the β estimator's (--jump-NAME).
+struct OptionFlag {
+  std::string flag;
+  std::string help;
+  std::string default_text;
+  // Parses the text into `settings` (throws std::invalid_argument naming the option).
+  std::function<void(IdentifierSettings&, std::string_view)> set;
+};
+
+template <class S>
+std::string ReadBy(std::string_view option, const std::vector<const S*>& descriptors) {
+  std::vector<std::string_view> names;
+  for (const S* d : descriptors) {
+    if (d->Reads(option)) names.push_back(d->name);
   }
-  return names;
+  return fmt::format("{}", fmt::join(names, ", "));
 }
 
-int RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.params);
-  const ModelSpec& spec = model.spec();
-  const int n = model.state_size();
-  IdentifierSettings settings;
-  for (EstimatorSettings* e : {&settings.flow_estimator, &settings.jump_estimator}) {
-    e->name = args.estimator;
-    e->refactor_every = args.eiv.refactor_every;
-    e->frisch_box = args.eiv.frisch_box;
-    e->frisch_point = args.eiv.frisch_point;
-    e->frisch_confidence = args.eiv.frisch_confidence;
+template <class S, class Descriptor>
+void AddOptionFlags(std::vector<OptionFlag>* flags, const std::vector<Option<S>>& table,
+                    const std::vector<const Descriptor*>& descriptors, S IdentifierSettings::*member,
+                    std::string_view prefix, std::string_view whose) {
+  const IdentifierSettings defaults;
+  for (const Option<S>& o : table) {
+    flags->push_back({FlagName(o.name, prefix),
+                      fmt::format("{}: {}{}", ReadBy(o.name, descriptors), o.help, whose),
+                      o.Format(o.get(defaults.*member)),
+                      [&o, member](IdentifierSettings& s, std::string_view text) { o.set(s.*member, o.Parse(text)); }});
   }
-  settings.flow_estimator.window = args.eiv.window;
-  settings.flow_estimator.forgetting = args.forgetting;
-  settings.jump_estimator.forgetting = args.jump_forgetting;
-  auto shape = [](const std::vector<double>& v, const char* flag) {
-    if (v.empty()) return Mat();
-    RequireFinite(flag, v);
-    const auto m = static_cast<Eigen::Index>(std::lround(std::sqrt(double(v.size()))));
-    if (m * m != static_cast<Eigen::Index>(v.size())) {
-      BadFlag(fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major",
-                          flag, v.size()));
+}
+
+const std::vector<OptionFlag>& OptionFlags() {
+  static const std::vector<OptionFlag> flags = [] {
+    std::vector<OptionFlag> f;
+    AddOptionFlags(&f, DetectorOptions(), DetectorDescriptors(), &IdentifierSettings::detector, "", "");
+    AddOptionFlags(&f, EstimatorOptions(), EstimatorDescriptors(), &IdentifierSettings::flow_estimator, "",
+                   " (alpha estimator)");
+    AddOptionFlags(&f, EstimatorOptions(), EstimatorDescriptors(), &IdentifierSettings::jump_estimator, "jump",
+                   " (beta estimator)");
+    return f;
+  }();
+  return flags;
+}
+
+Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
+  if (v.empty()) return Mat();
+  RequireFinite(flag, v);
+  const auto m = static_cast<Eigen::Index>(std::lround(std::sqrt(double(v.size()))));
+  if (m * m != static_cast<Eigen::Index>(v.size())) {
+    BadFlag(fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major", flag, v.size()));
+  }
+  return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(v.data(), m, m));
+}
+
+// The identifier's settings from the flags; errors name the flag.
+IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
+  IdentifierSettings settings;
+  SetPluginKinds(args.estimator, args.detector, &settings);
+  for (const OptionFlag& f : OptionFlags()) {
+    const auto given = args.options.find(f.flag);
+    if (given == args.options.end()) continue;
+    try {
+      f.set(settings, given->second);
+    } catch (const std::invalid_argument& e) {
+      BadFlag(fmt::format("{}: {}", f.flag, e.what()));
     }
-    return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-        v.data(), m, m));
-  };
-  settings.flow_estimator.noise_shape = shape(args.flow_shape, "--flow-noise-shape");
-  settings.jump_estimator.noise_shape = shape(args.jump_shape, "--jump-noise-shape");
-  settings.detector.name = args.detector;
-  settings.detector.r = args.r;
-  settings.detector.tau0 = args.tau0;
-  settings.detector.bound = args.bound;
-  settings.detector.false_alarm = args.false_alarm;
+  }
+  settings.flow_estimator.noise_shape = NoiseShapeFlag(args.flow_shape, "--flow-noise-shape");
+  settings.jump_estimator.noise_shape = NoiseShapeFlag(args.jump_shape, "--jump-noise-shape");
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
-  // Checked here too (the identifier checks the fields) so that the message names the flag.
-  for (const auto& [flag, value] :
-       {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
-    if (!(value >= 0.0) || !std::isfinite(value)) {
-      BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
-    }
+  for (const auto& [flag, value] : {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
+    if (!(value >= 0.0) || !std::isfinite(value)) BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
   }
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
-  if (std::string e; !settings.detector.IsValid(&e)) {
-    BadFlag(fmt::format("--r/--tau0/--bound/--false-alarm: {}", e));
-  }
-  if (std::string e; !settings.flow_estimator.IsValid(&e)) {
-    BadFlag(fmt::format("--forgetting/--window/--refactor-every/--frisch-*: {}", e));
-  }
-  if (std::string e; !settings.jump_estimator.IsValid(&e)) {
-    BadFlag(fmt::format("--jump-forgetting: {}", e));
-  }
-  if (!args.sigma.empty()) {
-    RequireFinite("--sigma", args.sigma);
-    settings.sigma = Vec(n);
-    if (args.sigma.size() == 1) {
-      settings.sigma.setConstant(args.sigma[0]);
-    } else if (static_cast<int>(args.sigma.size()) == n) {
-      settings.sigma = Eigen::Map<const Vec>(args.sigma.data(), n);
-    } else {
-      BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})",
-                          args.sigma.size(), n));
-    }
-    if ((settings.sigma.array() < 0).any()) BadFlag("--sigma: must be >= 0");
-  }
-
-  // Settings errors (unknown estimator or detector, ...) before the data is read.
+  if (!args.sigma.empty()) settings.sigma = SigmaFlag(args.sigma, model.state_size());
+  // Settings errors (noise shape sizes, ...) before the data is read.
   try {
     Identifier check(model, 1.0, settings);
   } catch (const std::invalid_argument& e) {
     BadFlag(fmt::format("--estimator/--detector/--*-noise-shape: {}", e.what()));
   }
-  const SampleData data = ReadSampleData(args.data, n);
-  // Data written by `hysid simulate` has a sidecar FILE.json with the solver's tolerances: without
-  // --data-rtol/--data-atol they are the data's accuracy (noise-free data is then as exact as that).
-  std::string accuracy_source = args.data_accuracy_given ? "as given" : "none given";
-  if (!args.data_accuracy_given) {
-    const std::filesystem::path sidecar = std::filesystem::path(args.data).replace_extension(".json");
-    std::ifstream in(sidecar);
-    if (in) {
-      const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-      if (meta.is_object() && meta.value("command", "") == "simulate" && meta.contains("solver") &&
-          meta["solver"].is_object() && meta["solver"].value("rtol", -1.0) >= 0.0 &&
-          meta["solver"].value("atol", -1.0) >= 0.0) {
-        settings.data_rtol = meta["solver"]["rtol"].get<double>();
-        settings.data_atol = meta["solver"]["atol"].get<double>();
-        accuracy_source = fmt::format("the solver tolerances in {}", sidecar.string());
-      }
-    }
-  }
-  IdentifyOptions options;
-  options.trace = !args.trace.empty();
-  const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+  return settings;
+}
 
-  std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(),
-              data.path.c_str(), fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(),
-              data.t.size(), data.dt);
-  if (args.detector == "paper") {
-    std::printf("estimator %s, detector paper (r = %g, tau0 = %g, bound %s)", args.estimator.c_str(),
-                args.r, args.tau0, args.bound.c_str());
-  } else {
-    std::printf(
-        "estimator %s, detector %s (false-alarm probability %g; data accuracy rtol %g, atol %g: %s)",
-        args.estimator.c_str(), args.detector.c_str(), args.false_alarm, settings.data_rtol,
-        settings.data_atol, accuracy_source.c_str());
+// Data written by `hysid simulate` has a sidecar FILE.json with the solver's tolerances: without
+// --data-rtol/--data-atol they are the data's accuracy (noise-free data is then as exact as that).
+// Returns where the accuracy came from.
+std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* settings) {
+  if (args.data_accuracy_given) return "as given";
+  const std::filesystem::path sidecar = std::filesystem::path(args.data).replace_extension(".json");
+  std::ifstream in(sidecar);
+  if (!in) return "none given";
+  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!meta.is_object() || meta.value("command", "") != "simulate" || !meta.contains("solver") ||
+      !meta["solver"].is_object() || meta["solver"].value("rtol", -1.0) < 0.0 ||
+      meta["solver"].value("atol", -1.0) < 0.0) {
+    return "none given";
   }
+  settings->data_rtol = meta["solver"]["rtol"].get<double>();
+  settings->data_atol = meta["solver"]["atol"].get<double>();
+  return fmt::format("the solver tolerances in {}", sidecar.string());
+}
+
+// "r = 220, tau0 = 100000, bound = auto": the options the detector reads.
+std::string DetectorOptionText(const DetectorSettings& s) {
+  std::vector<std::string> parts;
+  for (const auto& o : DetectorOptions()) {
+    if (DescriptorOf(s.kind).Reads(o.name)) parts.push_back(fmt::format("{} = {}", o.name, o.Format(o.get(s))));
+  }
+  return fmt::format("{}", fmt::join(parts, ", "));
+}
+
+void PrintSettings(const IdentifyArgs& args, const ModelSpec& spec, const SampleData& data,
+                   const IdentifierSettings& settings, const std::string& accuracy_source,
+                   const IdentifyResult& result) {
+  std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(), data.path.c_str(),
+              fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(), data.t.size(), data.dt);
+  std::printf("estimator %s, detector %s (%s; data accuracy rtol %g, atol %g: %s)", args.estimator.c_str(),
+              args.detector.c_str(), DetectorOptionText(settings.detector).c_str(), settings.data_rtol,
+              settings.data_atol, accuracy_source.c_str());
   std::printf("%s%s\n", args.localize ? ", localised jumps" : "", args.second_pass ? ", second pass" : "");
   if (result.noise_sigma.size()) {
     std::printf("noise shapes C from sigma = (%s)%s, dt = %.6g (flow C diagonal: %s; jump C diagonal: %s)\n",
@@ -176,6 +180,9 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   } else if (result.flow_noise_shape.size() || result.jump_noise_shape.size()) {
     std::printf("noise shapes C as given by --flow-noise-shape / --jump-noise-shape\n");
   }
+}
+
+void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const IdentifyResult& result) {
   for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
     if (!spec.alpha[i].known) {
       std::printf("  alpha %-10s = %.10g\n", spec.alpha[i].name.c_str(), result.alpha_hat[Eigen::Index(i)]);
@@ -188,10 +195,10 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   }
   std::printf("jumps detected: %ld (flow estimator %s, jump estimator %s)\n", result.jumps_detected,
               ToString(result.flow_status), ToString(result.jump_status));
-  // frisch: the solution boxes of the unknowns, in the order printed above.
+  // Estimators that report one (frisch): the solution boxes of the unknowns, in the order printed above.
   for (const auto& [box, what] : {std::pair{&result.flow_box, "alpha"}, std::pair{&result.jump_box, "beta"}}) {
     if (box->size() == 0) continue;
-    std::printf("frisch box %s:", what);
+    std::printf("%s box %s:", args.estimator.c_str(), what);
     for (Eigen::Index i = 0; i < box->rows(); ++i) std::printf(" [%.6g, %.6g]", (*box)(i, 0), (*box)(i, 1));
     std::printf("\n");
   }
@@ -201,87 +208,107 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   if (result.second_pass) {
     std::printf("second pass: %ld samples flow -> jump, %ld jump -> flow (first pass: %ld jumps)\n",
                 result.reclassified_to_jump, result.reclassified_to_flow,
-                static_cast<long>(std::count(result.first_pass_gamma.begin(),
-                                             result.first_pass_gamma.end(), 1)));
+                static_cast<long>(std::count(result.first_pass_gamma.begin(), result.first_pass_gamma.end(), 1)));
   }
-  if (data.j) {
-    const Confusion c = CompareJumps(*data.j, result.gamma);
-    const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
-    std::printf("truth (column j): %ld true jumps; TP %ld, FP %ld, FN %ld, TN %ld\n", c.tp + c.fn,
-                c.tp, c.fp, c.fn, c.tn);
-    std::printf("  misclassification %.6g, precision %.6g, recall %.6g\n", c.misclassification(),
-                c.precision(), c.recall());
-    std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n",
-                e.e_alpha, e.e_beta, e.rel_alpha, e.rel_beta);
-    // Ĉ and D̂ against the model's C and D.
-    const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
-    std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
-                static_cast<long>(result.flow_hull.cols()), n >= 3 ? "volume" : "area", result.flow_hull_volume,
-                sm.flow_outside_share, static_cast<long>(result.jump_hull.cols()));
-    if (model.has_jump_set_distance()) {
-      std::printf("within %.6g of D (one-sided Hausdorff)\n", sm.jump_hausdorff);
-    } else {
-      std::printf("distance to D unknown (the model has no DistanceToJumpSet)\n");
-    }
-  }
+}
 
-  if (!args.trace.empty()) {
-    // paper: D_δt ξ and τ̂; residual: max |z| and the test's quantile q.
-    std::vector<std::string> header{"t", "D", "tau_hat", "gamma"};
-    if (args.detector == "residual") header = {"t", "z", "q", "gamma"};
-    const auto an = UnknownNames(spec.alpha), bn = UnknownNames(spec.beta);
-    for (const auto& s : an) header.push_back(s + "_hat");
-    for (const auto& s : bn) header.push_back(s + "_hat");
-    if (data.j) {
-      header.push_back("j");
-      header.push_back("true_jump");
+// Against the data's column j and the model's true values and sets.
+void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyResult& result) {
+  const Confusion c = CompareJumps(j, result.gamma);
+  const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
+  std::printf("truth (column j): %ld true jumps; TP %ld, FP %ld, FN %ld, TN %ld\n", c.tp + c.fn, c.tp, c.fp,
+              c.fn, c.tn);
+  std::printf("  misclassification %.6g, precision %.6g, recall %.6g\n", c.misclassification(), c.precision(),
+              c.recall());
+  std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n", e.e_alpha,
+              e.e_beta, e.rel_alpha, e.rel_beta);
+  // Ĉ and D̂ against the model's C and D.
+  const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
+  std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
+              static_cast<long>(result.flow_hull.cols()), model.state_size() >= 3 ? "volume" : "area",
+              result.flow_hull_volume, sm.flow_outside_share, static_cast<long>(result.jump_hull.cols()));
+  if (model.has_jump_set_distance()) {
+    std::printf("within %.6g of D (one-sided Hausdorff)\n", sm.jump_hausdorff);
+  } else {
+    std::printf("distance to D unknown (the model has no DistanceToJumpSet)\n");
+  }
+}
+
+// Per sample: t, the detector's statistic and threshold (paper: D_δt ξ and τ̂; residual: max |z| and
+// q), γ, the estimates, and the truth when the data has it.
+void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
+                const SampleData& data, const IdentifyResult& result) {
+  std::vector<std::string> header{"t", std::string(detector.statistic), std::string(detector.threshold), "gamma"};
+  for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
+  for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
+  if (data.j) header.insert(header.end(), {"j", "true_jump"});
+  CsvWriter csv(path, header);
+  std::vector<double> row(header.size());
+  for (std::size_t k = 0; k < data.t.size(); ++k) {
+    std::size_t c = 0;
+    for (double v : {data.t[k], result.statistic[k], result.threshold[k], double(result.gamma[k])}) row[c++] = v;
+    for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
+      if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
     }
-    CsvWriter csv(args.trace, header);
-    std::vector<double> row(header.size());
-    for (std::size_t k = 0; k < data.t.size(); ++k) {
-      std::size_t c = 0;
-      row[c++] = data.t[k];
-      row[c++] = result.statistic[k];
-      row[c++] = result.threshold[k];
-      row[c++] = result.gamma[k];
-      for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
-        if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
-      }
-      for (std::size_t i = 0; i < spec.beta.size(); ++i) {
-        if (!spec.beta[i].known) row[c++] = result.beta_trace(Eigen::Index(i), Eigen::Index(k));
-      }
-      if (data.j) {
-        row[c++] = (*data.j)[k];
-        row[c++] = k > 0 && (*data.j)[k] != (*data.j)[k - 1] ? 1.0 : 0.0;
-      }
+    for (std::size_t i = 0; i < spec.beta.size(); ++i) {
+      if (!spec.beta[i].known) row[c++] = result.beta_trace(Eigen::Index(i), Eigen::Index(k));
+    }
+    if (data.j) {
+      row[c++] = (*data.j)[k];
+      row[c++] = k > 0 && (*data.j)[k] != (*data.j)[k - 1] ? 1.0 : 0.0;
+    }
+    csv.Row(row);
+  }
+  csv.Commit();
+  std::printf("wrote %s\n", path.c_str());
+}
+
+void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
+  std::vector<std::string> header{"set", "vertex"};
+  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
+  CsvWriter csv(path, header);
+  std::vector<double> row(header.size());
+  int set = 0;
+  for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
+    for (Eigen::Index v = 0; v < hull->cols(); ++v) {
+      row[0] = set;
+      row[1] = static_cast<double>(v);
+      for (int i = 0; i < n; ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
       csv.Row(row);
     }
-    csv.Commit();
-    std::printf("wrote %s\n", args.trace.c_str());
+    ++set;
   }
-  if (!args.hulls.empty()) {
-    std::vector<std::string> header{"set", "vertex"};
-    for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
-    CsvWriter csv(args.hulls, header);
-    std::vector<double> row(header.size());
-    int set = 0;
-    for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
-      for (Eigen::Index v = 0; v < hull->cols(); ++v) {
-        row[0] = set;
-        row[1] = static_cast<double>(v);
-        for (int i = 0; i < n; ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
-        csv.Row(row);
-      }
-      ++set;
-    }
-    csv.Commit();
-    std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n",
-                args.hulls.c_str());
+  csv.Commit();
+  std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
+}
+
+int RunIdentify(const IdentifyArgs& args, const Environment& env) {
+  const Model model = MakeModel(env, args.model, args.params);
+  IdentifierSettings settings = BuildSettings(args, model);
+  const SampleData data = ReadSampleData(args.data, model.state_size());
+  const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
+  IdentifyOptions options;
+  options.trace = !args.trace.empty();
+  const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+  PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
+  PrintEstimates(model.spec(), args, result);
+  if (data.j) PrintTruth(model, *data.j, result);
+  if (!args.trace.empty()) {
+    WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }
+  if (!args.hulls.empty()) WriteHulls(args.hulls, model.state_size(), result);
   return RefineAndReport(model, data, result, settings.sigma, args.refine);
 }
 
 }  // namespace
+
+// "rls (recursive least squares), gtls (...) or frisch (...)" from the descriptors.
+template <class Descriptor>
+std::string PluginHelp(const char* what, const std::vector<const Descriptor*>& descriptors) {
+  std::vector<std::string> parts;
+  for (const Descriptor* d : descriptors) parts.push_back(fmt::format("{} ({})", d->name, d->help));
+  return fmt::format("{}: {}", what, fmt::join(parts, "; "));
+}
 
 void AddIdentifyCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<IdentifyArgs>();
@@ -291,53 +318,25 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--data", args->data, "CSV: time, then the measured state (y1..yn if present); "
                                         "a column j is taken as ground truth")
       ->required();
-  cmd->add_option("--estimator", args->estimator,
-                  "rls, gtls (recursive generalized TLS, noise shape C from sigma and dt) or frisch "
-                  "(recursive Frisch scheme: a solution box and a point in it)")
+  cmd->add_option("--estimator", args->estimator, PluginHelp("estimator of alpha and beta", EstimatorDescriptors()))
       ->capture_default_str();
-  cmd->add_option("--window", args->eiv.window,
-                  "frisch: window of the alpha estimator in rows (0 = growing; beta: always growing)")
+  cmd->add_option("--detector", args->detector, PluginHelp("jump detector", DetectorDescriptors()))
       ->capture_default_str();
-  cmd->add_option("--frisch-box", args->eiv.frisch_box,
-                  "frisch: cumulative (box of the simplex of all rows) or intersect (BBRF)")
-      ->capture_default_str();
-  cmd->add_option("--frisch-point", args->eiv.frisch_point,
-                  "frisch: rls (RLS clamped into the boxes) or centre (of the box)")
-      ->capture_default_str();
-  cmd->add_option("--frisch-confidence", args->eiv.frisch_confidence,
-                  "frisch: confidence of the sampling allowance added to the boxes (0 = none)")
-      ->capture_default_str();
-  cmd->add_option("--refactor-every", args->eiv.refactor_every,
-                  "gtls: exact refactorisation every this many rows")
-      ->capture_default_str();
+  std::vector<std::pair<std::string, CLI::Option*>> option_flags;
+  for (const OptionFlag& f : OptionFlags()) {
+    CLI::Option* o = cmd->add_option(f.flag, args->options[f.flag], f.help)->default_str(f.default_text);
+    option_flags.emplace_back(f.flag, o);
+  }
   cmd->add_option("--flow-noise-shape", args->flow_shape,
                   "gtls/frisch: noise covariance shape C of the flow rows [phi, y], row-major, "
                   "instead of the one derived from sigma and dt")
       ->delimiter(',');
-  cmd->add_option("--jump-noise-shape", args->jump_shape,
-                  "gtls/frisch: the same for the jump rows")
-      ->delimiter(',');
-  cmd->add_option("--forgetting", args->forgetting, "forgetting factor of the alpha estimator")
-      ->capture_default_str();
-  cmd->add_option("--detector", args->detector,
-                  "jump detector: paper (the paper's smoothness bound, tuned by --r) or residual "
-                  "(tuning-free: one-step prediction residual of the flow model, tested at "
-                  "--false-alarm)")
-      ->capture_default_str();
-  cmd->add_option("--false-alarm", args->false_alarm,
-                  "residual detector: false-alarm probability per flow sample, in (0, 0.5)")
-      ->capture_default_str();
+  cmd->add_option("--jump-noise-shape", args->jump_shape, "gtls/frisch: the same for the jump rows")->delimiter(',');
   cmd->add_flag("--localize", args->localize,
                 "regress each jump at its located instant inside (t-dt, t] (flows forward and "
                 "backward with the estimated flow until the jump's known rows agree)");
   cmd->add_flag("--second-pass", args->second_pass,
                 "re-classify every sample with the final estimates, re-estimate, report the changes");
-  cmd->add_option("--jump-forgetting", args->jump_forgetting, "forgetting factor of the beta estimator")
-      ->capture_default_str();
-  cmd->add_option("--r", args->r, "paper detector: multiplicative constant r > 1")->capture_default_str();
-  cmd->add_option("--tau0", args->tau0, "paper detector: initial smoothness bound")->capture_default_str();
-  cmd->add_option("--bound", args->bound, "paper detector: auto, paper or homogeneous")
-      ->capture_default_str();
   cmd->add_option("--sigma", args->sigma,
                   "known measurement noise σ (one, or one per state); gtls/frisch estimate it "
                   "from the data when not given")
@@ -350,10 +349,13 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                   "residual detector: absolute accuracy of the data apart from the noise (simulated "
                   "data: the integrator's atol)")
       ->capture_default_str();
-  cmd->add_option("--trace", args->trace, "per-sample CSV: t, D, tau_hat, gamma, estimates");
+  cmd->add_option("--trace", args->trace, "per-sample CSV: t, the detector's statistic and threshold, gamma, estimates");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
-  cmd->callback([args, &env, rtol_option, atol_option] {
+  cmd->callback([args, &env, rtol_option, atol_option, option_flags] {
     args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;
+    for (const auto& [flag, option] : option_flags) {
+      if (option->count() == 0) args->options.erase(flag);
+    }
     if (const int code = RunIdentify(*args, env); code != 0) throw CLI::RuntimeError(code);
   });
   AddRefineOptions(cmd, args->refine);

@@ -63,6 +63,121 @@ void RunExample6(const std::string& out_dir) {
   std::printf("wrote %s/fig2_smoothness.csv and example6.json\n", out_dir.c_str());
 }
 
+// §5.2 settings (r = 220, τ̂0 = 1e5) with the estimator, detector and options of the flags.
+IdentifierSettings PaperSettings(const ReproduceArgs& args, const Model& model, double dt) {
+  IdentifierSettings settings;
+  // Beyond the paper: the errors-in-variables estimators, with their defaults (noise shapes from the σ
+  // estimated from the data, see core/identify/identifier.hpp), another detector, jump
+  // localisation, a second pass.
+  SetPluginKinds(args.estimator, args.detector, &settings);
+  settings.detector.r = 220.0;
+  settings.detector.tau0 = 1e5;
+  settings.detector.false_alarm = args.false_alarm;
+  settings.localize = args.localize;
+  settings.second_pass = args.second_pass;
+  // The data are simulated at the simulator's default tolerances: the residual detector's data accuracy.
+  settings.data_rtol = SimOptions{}.rtol;
+  settings.data_atol = SimOptions{}.atol;
+  try {
+    Identifier check(model, dt, settings);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--estimator/--detector/--false-alarm: {}", e.what()));
+  }
+  return settings;
+}
+
+// Fig. 4: position and velocity, and the jumps.
+void WriteFig4(const std::filesystem::path& out, const Trajectory& traj) {
+  CsvWriter csv(out / "fig4_trajectory.csv", {"t", "j", "x1", "x2"});
+  for (long k = 0; k < traj.size(); ++k) {
+    const double row[] = {traj.t[std::size_t(k)], double(traj.j[std::size_t(k)]), traj.x(0, k), traj.x(1, k)};
+    csv.Row(row);
+  }
+  csv.Commit();
+  CsvWriter jumps(out / "fig4_jumps.csv", {"j", "t_jump", "pre_x1", "pre_x2", "post_x1", "post_x2"});
+  for (const JumpRecord& j : traj.jumps) {
+    const double row[] = {double(j.j), j.t, j.pre[0], j.pre[1], j.post[0], j.post[1]};
+    jumps.Row(row);
+  }
+  jumps.Commit();
+}
+
+// The τ file (D, τ̂, rτ, e_τ per sample). Returns the mean relative error |τ̂ − rτ|/(rτ) over the
+// samples where τ̂ comes from α̂ (not τ̂0), and over the true flow samples from t = 1 s on (after the
+// estimator's start-up transient); NaN for other detectors.
+std::pair<double, double> WriteTauFile(const std::filesystem::path& path, const Trajectory& traj,
+                                       const std::vector<double>& tau, const DetectorSettings& detector,
+                                       const IdentifyResult& res) {
+  const bool paper_detector = detector.kind == DetectorKind::kPaper;
+  CsvWriter tcsv(path, {"t", "D", "tau_hat", "r_tau", "e_tau", "gamma", "true_jump"});
+  double rel_sum = 0.0, rel_flow_sum = 0.0;
+  long rel_n = 0, rel_flow_n = 0;
+  for (long k = 0; k < traj.size(); ++k) {
+    const auto u = std::size_t(k);
+    const double rt = detector.r * tau[u];
+    const double et = std::abs(res.threshold[u] - rt);
+    const bool true_jump = k > 0 && traj.j[u] != traj.j[u - 1];
+    const double row[] = {traj.t[u], res.statistic[u], res.threshold[u], rt, et,
+                          double(res.gamma[u]), true_jump ? 1.0 : 0.0};
+    tcsv.Row(row);
+    if (paper_detector && k > 0 && res.threshold[u] != detector.tau0 && rt > 0) {
+      rel_sum += et / rt;
+      ++rel_n;
+      if (!true_jump && traj.t[u] >= 1.0) rel_flow_sum += et / rt, ++rel_flow_n;
+    }
+  }
+  tcsv.Commit();
+  return {rel_n ? rel_sum / double(rel_n) : NAN, rel_flow_n ? rel_flow_sum / double(rel_flow_n) : NAN};
+}
+
+void WriteParamsFile(const std::filesystem::path& path, const Model& model, const Trajectory& traj,
+                     const IdentifyResult& res) {
+  CsvWriter pcsv(path, {"t", "a_hat", "b_hat", "lambda_hat", "mu_hat", "e_alpha", "e_beta"});
+  for (long k = 0; k < traj.size(); ++k) {
+    const Vec a = res.alpha_trace.col(k), b = res.beta_trace.col(k);
+    const double row[] = {traj.t[std::size_t(k)], a[1], a[2], b[1], b[2],
+                          (model.alpha() - a).norm(), (model.beta() - b).norm()};
+    pcsv.Row(row);
+  }
+  pcsv.Commit();
+}
+
+// One experiment (nominal or noisy): its files, its summary row, a line on stdout; returns its
+// run.json entry.
+nlohmann::json RunPaperExperiment(const Experiment& ex, const ReproduceArgs& args, const Model& model,
+                                  const Trajectory& traj, const IdentifierSettings& settings,
+                                  const std::vector<double>& tau, const std::filesystem::path& out,
+                                  CsvWriter& summary) {
+  const Mat y = AddMeasurementNoisePerSample(traj.x, Vec::Constant(2, ex.sigma), NoiseKey{args.seed, 0});
+  const IdentifyResult res = Identify(model, y, traj.dt, settings, IdentifyOptions{.trace = true});
+  const Confusion c = CompareJumps(traj.j, res.gamma);
+  const ParameterErrors e = CompareParameters(model, res.alpha_hat, res.beta_hat);
+  const auto [mean_rel, mean_rel_flow] = WriteTauFile(out / ex.tau_file, traj, tau, settings.detector, res);
+  WriteParamsFile(out / ex.params_file, model, traj, res);
+  const double srow[] = {ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2],
+                         e.e_alpha, e.e_beta, double(res.jumps_detected), double(c.tp + c.fn),
+                         double(c.fp), double(c.fn), mean_rel, mean_rel_flow};
+  std::vector<std::string> cells{ex.name};
+  for (double v : srow) cells.push_back(fmt::format("{:.17g}", v));
+  summary.TextRow(cells);
+  std::printf("%-8s sigma %-5g a^ %.6f b^ %.6f lambda^ %.6f mu^ %.6f | e_alpha %.3g e_beta %.3g | "
+              "jumps %ld/%ld, false %ld, missed %ld | mean rel. tau^ error %.2f%% (t >= 1 s: %.2f%%)\n",
+              ex.name, ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2],
+              e.e_alpha, e.e_beta, res.jumps_detected, c.tp + c.fn, c.fp, c.fn, 100 * mean_rel,
+              100 * mean_rel_flow);
+  if (res.second_pass) {
+    std::printf("         second pass: %ld samples flow -> jump, %ld jump -> flow\n", res.reclassified_to_jump,
+                res.reclassified_to_flow);
+  }
+  nlohmann::json entry = {{"name", ex.name}, {"sigma", ex.sigma}, {"tau", ex.tau_file},
+                          {"params", ex.params_file}};
+  if (res.noise_sigma.size()) {  // gtls / frisch: the σ their noise shapes came from
+    entry["noise_shape_sigma"] = std::vector<double>(res.noise_sigma.begin(), res.noise_sigma.end());
+    entry["noise_shape_sigma_estimated"] = res.noise_sigma_estimated;
+  }
+  return entry;
+}
+
 void RunReproduce(ReproduceArgs args, const Environment& env) {
   if (args.out.empty()) args.out = "results/" + args.study;
   if (args.study == "example6") return RunExample6(args.out);
@@ -76,26 +191,7 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   Model model = env.models.Make("impact-msd");
   for (const char* p : {"a=5", "b=0.1", "lambda=0.99", "mu=0"}) model.SetParameter(std::string_view(p));
   const double dt = 5e-4;
-  IdentifierSettings settings;
-  // Beyond the paper: the errors-in-variables estimators, with their defaults (noise shapes
-  // from the σ estimated from the data, see core/identify/identifier.hpp).
-  settings.flow_estimator.name = settings.jump_estimator.name = args.estimator;
-  settings.detector.r = 220.0;
-  settings.detector.tau0 = 1e5;
-  // Beyond the paper: another detector, jump localisation, a second pass.
-  settings.detector.name = args.detector;
-  settings.detector.false_alarm = args.false_alarm;
-  settings.localize = args.localize;
-  settings.second_pass = args.second_pass;
-  // The data are simulated at the simulator's default tolerances: the residual detector's data accuracy.
-  settings.data_rtol = SimOptions{}.rtol;
-  settings.data_atol = SimOptions{}.atol;
-  try {
-    Identifier check(model, dt, settings);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--estimator/--detector/--false-alarm: {}", e.what()));
-  }
-  const bool paper_detector = args.detector == "paper";
+  const IdentifierSettings settings = PaperSettings(args, model, dt);
   Vec x0(2);
   x0 << 20.0, 0.0;
   const Trajectory traj = Simulate(model, x0, SampleGrid{20.0, dt});
@@ -104,25 +200,8 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   }
   const std::filesystem::path out(args.out);
   std::filesystem::create_directories(out);
-
-  {  // Fig. 4: position and velocity, and the jumps.
-    CsvWriter csv(out / "fig4_trajectory.csv", {"t", "j", "x1", "x2"});
-    for (long k = 0; k < traj.size(); ++k) {
-      const double row[] = {traj.t[std::size_t(k)], double(traj.j[std::size_t(k)]), traj.x(0, k), traj.x(1, k)};
-      csv.Row(row);
-    }
-    csv.Commit();
-    CsvWriter jumps(out / "fig4_jumps.csv", {"j", "t_jump", "pre_x1", "pre_x2", "post_x1", "post_x2"});
-    for (const JumpRecord& j : traj.jumps) {
-      const double row[] = {double(j.j), j.t, j.pre[0], j.pre[1], j.post[0], j.post[1]};
-      jumps.Row(row);
-    }
-    jumps.Commit();
-  }
-
+  WriteFig4(out, traj);
   const std::vector<double> tau = TrueSmoothnessBound(model, traj.x, settings.detector);
-  const double r = settings.detector.r;
-
   CsvWriter summary(out / "summary.csv",
                     {"experiment", "sigma", "a_hat", "b_hat", "lambda_hat", "mu_hat", "e_alpha",
                      "e_beta", "jumps_detected", "true_jumps", "false_jumps", "missed_jumps",
@@ -130,65 +209,7 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   nlohmann::json experiments = nlohmann::json::array();
   for (const Experiment& ex : {Experiment{"nominal", "fig5_tau_nominal.csv", "fig6_params_nominal.csv", 0.0},
                                Experiment{"noisy", "fig7_tau_noisy.csv", "fig8_params_noisy.csv", args.sigma}}) {
-    const Mat y = AddMeasurementNoisePerSample(traj.x, Vec::Constant(2, ex.sigma), NoiseKey{args.seed, 0});
-    const IdentifyResult res = Identify(model, y, dt, settings, IdentifyOptions{.trace = true});
-    const Confusion c = CompareJumps(traj.j, res.gamma);
-    const ParameterErrors e = CompareParameters(model, res.alpha_hat, res.beta_hat);
-
-    CsvWriter tcsv(out / ex.tau_file, {"t", "D", "tau_hat", "r_tau", "e_tau", "gamma", "true_jump"});
-    // Mean relative error |τ̂ − rτ|/(rτ) over the samples where τ̂ comes from α̂ (not τ̂0), and over the
-    // true flow samples from t = 1 s on (after the estimator's start-up transient).
-    double rel_sum = 0.0, rel_flow_sum = 0.0;
-    long rel_n = 0, rel_flow_n = 0;
-    for (long k = 0; k < traj.size(); ++k) {
-      const auto u = std::size_t(k);
-      const double rt = r * tau[u];
-      const double et = std::abs(res.threshold[u] - rt);
-      const bool true_jump = k > 0 && traj.j[u] != traj.j[u - 1];
-      const double row[] = {traj.t[u], res.statistic[u], res.threshold[u], rt, et,
-                            double(res.gamma[u]), true_jump ? 1.0 : 0.0};
-      tcsv.Row(row);
-      if (paper_detector && k > 0 && res.threshold[u] != settings.detector.tau0 && rt > 0) {
-        rel_sum += et / rt;
-        ++rel_n;
-        if (!true_jump && traj.t[u] >= 1.0) rel_flow_sum += et / rt, ++rel_flow_n;
-      }
-    }
-    tcsv.Commit();
-    CsvWriter pcsv(out / ex.params_file,
-                   {"t", "a_hat", "b_hat", "lambda_hat", "mu_hat", "e_alpha", "e_beta"});
-    for (long k = 0; k < traj.size(); ++k) {
-      const Vec a = res.alpha_trace.col(k), b = res.beta_trace.col(k);
-      const double row[] = {traj.t[std::size_t(k)], a[1], a[2], b[1], b[2],
-                            (model.alpha() - a).norm(), (model.beta() - b).norm()};
-      pcsv.Row(row);
-    }
-    pcsv.Commit();
-
-    const double mean_rel = rel_n ? rel_sum / double(rel_n) : NAN;
-    const double mean_rel_flow = rel_flow_n ? rel_flow_sum / double(rel_flow_n) : NAN;
-    const double srow[] = {ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2],
-                           e.e_alpha, e.e_beta, double(res.jumps_detected), double(c.tp + c.fn),
-                           double(c.fp), double(c.fn), mean_rel, mean_rel_flow};
-    std::vector<std::string> cells{ex.name};
-    for (double v : srow) cells.push_back(fmt::format("{:.17g}", v));
-    summary.TextRow(cells);
-    std::printf("%-8s sigma %-5g a^ %.6f b^ %.6f lambda^ %.6f mu^ %.6f | e_alpha %.3g e_beta %.3g | "
-                "jumps %ld/%ld, false %ld, missed %ld | mean rel. tau^ error %.2f%% (t >= 1 s: %.2f%%)\n",
-                ex.name, ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2],
-                e.e_alpha, e.e_beta, res.jumps_detected, c.tp + c.fn, c.fp, c.fn, 100 * mean_rel,
-                100 * mean_rel_flow);
-    if (res.second_pass) {
-      std::printf("         second pass: %ld samples flow -> jump, %ld jump -> flow\n",
-                  res.reclassified_to_jump, res.reclassified_to_flow);
-    }
-    nlohmann::json entry = {{"name", ex.name}, {"sigma", ex.sigma}, {"tau", ex.tau_file},
-                            {"params", ex.params_file}};
-    if (res.noise_sigma.size()) {  // gtls / frisch: the σ their noise shapes came from
-      entry["noise_shape_sigma"] = std::vector<double>(res.noise_sigma.begin(), res.noise_sigma.end());
-      entry["noise_shape_sigma_estimated"] = res.noise_sigma_estimated;
-    }
-    experiments.push_back(entry);
+    experiments.push_back(RunPaperExperiment(ex, args, model, traj, settings, tau, out, summary));
   }
   summary.Commit();
   const nlohmann::json meta = {

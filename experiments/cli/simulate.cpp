@@ -37,11 +37,7 @@ std::filesystem::path SidecarPath(const std::filesystem::path& csv) {
   return p.replace_extension(".json");
 }
 
-void RunSimulate(const SimulateArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.params);
-  const ModelSpec& spec = model.spec();
-  const int n = model.state_size();
-
+SampleGrid GridFlags(const SimulateArgs& args, const ModelSpec& spec) {
   SampleGrid grid{.t_end = std::isnan(args.t_end) ? spec.default_t_end : args.t_end,
                   .dt = std::isnan(args.dt) ? spec.default_dt : args.dt};
   if (!std::isfinite(grid.dt) || grid.dt <= 0) BadFlag(fmt::format("--dt = {}: must be > 0", grid.dt));
@@ -49,8 +45,13 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
     BadFlag(fmt::format("--t-end = {}: must be > 0", grid.t_end));
   }
   if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
+  return grid;
+}
 
-  Vec x0 = Eigen::Map<const Vec>(spec.default_x0.data(), n);
+Vec InitialStateFlag(const SimulateArgs& args, const Model& model) {
+  const ModelSpec& spec = model.spec();
+  const int n = model.state_size();
+  Vec x0 = DefaultState(model);
   if (!args.x0.empty()) {
     RequireFinite("--x0", args.x0);
     if (static_cast<int>(args.x0.size()) != n) {
@@ -63,30 +64,15 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
     BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'",
                         fmt::join(x0, ","), spec.name));
   }
+  return x0;
+}
 
-  RequireFinite("--sigma", args.sigma);
-  Vec sigma(n);
-  if (args.sigma.size() == 1) {
-    sigma.setConstant(args.sigma[0]);
-  } else if (static_cast<int>(args.sigma.size()) == n) {
-    sigma = Eigen::Map<const Vec>(args.sigma.data(), n);
-  } else {
-    BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})",
-                        args.sigma.size(), n));
-  }
-  if ((sigma.array() < 0.0).any()) {
-    BadFlag(fmt::format("--sigma = {}: must be >= 0", fmt::join(args.sigma, ",")));
-  }
-  if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
-
-  const Trajectory traj = Simulate(model, x0, grid, args.sim);
-  const NoiseKey key{.seed = args.seed, .stream = args.trial};
-  const Mat y = AddMeasurementNoise(traj.x, sigma, key);
-
+void WriteTrajectory(const std::string& path, const Trajectory& traj, const Mat& y) {
+  const auto n = static_cast<int>(traj.x.rows());
   std::vector<std::string> header{"t", "j"};
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("y{}", i));
-  CsvWriter csv(args.out, header);
+  CsvWriter csv(path, header);
   std::vector<double> row(static_cast<std::size_t>(2 + 2 * n));
   for (long k = 0; k < traj.size(); ++k) {
     row[0] = traj.t[static_cast<std::size_t>(k)];
@@ -98,25 +84,31 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
     csv.Row(row);
   }
   csv.Commit();
+}
 
-  if (!args.jumps_out.empty()) {
-    std::vector<std::string> jheader{"j", "t_jump"};
-    for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("pre_x{}", i));
-    for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("post_x{}", i));
-    CsvWriter jumps(args.jumps_out, jheader);
-    std::vector<double> jrow(static_cast<std::size_t>(2 + 2 * n));
-    for (const JumpRecord& jr : traj.jumps) {
-      jrow[0] = jr.j;
-      jrow[1] = jr.t;
-      for (int i = 0; i < n; ++i) {
-        jrow[static_cast<std::size_t>(2 + i)] = jr.pre[i];
-        jrow[static_cast<std::size_t>(2 + n + i)] = jr.post[i];
-      }
-      jumps.Row(jrow);
+void WriteJumps(const std::string& path, const Trajectory& traj) {
+  const auto n = static_cast<int>(traj.x.rows());
+  std::vector<std::string> jheader{"j", "t_jump"};
+  for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("pre_x{}", i));
+  for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("post_x{}", i));
+  CsvWriter jumps(path, jheader);
+  std::vector<double> jrow(static_cast<std::size_t>(2 + 2 * n));
+  for (const JumpRecord& jr : traj.jumps) {
+    jrow[0] = jr.j;
+    jrow[1] = jr.t;
+    for (int i = 0; i < n; ++i) {
+      jrow[static_cast<std::size_t>(2 + i)] = jr.pre[i];
+      jrow[static_cast<std::size_t>(2 + n + i)] = jr.post[i];
     }
-    jumps.Commit();
+    jumps.Row(jrow);
   }
+  jumps.Commit();
+}
 
+// FILE.json beside the trajectory: the run's inputs, the solver's tolerances and outcome.
+std::filesystem::path WriteSidecar(const SimulateArgs& args, const Model& model, const Vec& x0,
+                                   const SampleGrid& grid, const Vec& sigma, const Trajectory& traj) {
+  const ModelSpec& spec = model.spec();
   nlohmann::json params;
   for (std::size_t i = 0; i < spec.alpha.size(); ++i) params[spec.alpha[i].name] = model.alpha()[Eigen::Index(i)];
   for (std::size_t i = 0; i < spec.beta.size(); ++i) params[spec.beta[i].name] = model.beta()[Eigen::Index(i)];
@@ -124,10 +116,10 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
       {"command", "simulate"},
       {"model", spec.name},
       {"parameters", params},
-      {"x0", std::vector<double>(x0.data(), x0.data() + n)},
+      {"x0", std::vector<double>(x0.begin(), x0.end())},
       {"t_end", grid.t_end},
       {"dt", grid.dt},
-      {"sigma", std::vector<double>(sigma.data(), sigma.data() + n)},
+      {"sigma", std::vector<double>(sigma.begin(), sigma.end())},
       {"seed", args.seed},
       {"trial", args.trial},
       {"solver", {{"rtol", args.sim.rtol}, {"atol", args.sim.atol}, {"max_jumps", args.sim.max_jumps},
@@ -143,7 +135,22 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   if (traj.status.stop == SimStop::kZeno) meta["zeno_time"] = traj.status.zeno_time;
   const auto meta_path = SidecarPath(args.out);
   std::ofstream(meta_path) << meta.dump(2) << "\n";
+  return meta_path;
+}
 
+void RunSimulate(const SimulateArgs& args, const Environment& env) {
+  const Model model = MakeModel(env, args.model, args.params);
+  const ModelSpec& spec = model.spec();
+  const SampleGrid grid = GridFlags(args, spec);
+  const Vec x0 = InitialStateFlag(args, model);
+  const Vec sigma = SigmaFlag(args.sigma, model.state_size());
+  if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
+
+  const Trajectory traj = Simulate(model, x0, grid, args.sim);
+  const NoiseKey key{.seed = args.seed, .stream = args.trial};
+  WriteTrajectory(args.out, traj, AddMeasurementNoise(traj.x, sigma, key));
+  if (!args.jumps_out.empty()) WriteJumps(args.jumps_out, traj);
+  const std::filesystem::path meta_path = WriteSidecar(args, model, x0, grid, sigma, traj);
   std::printf("model %s, seed %llu, %ld samples, %zu jumps\n", spec.name.c_str(),
               static_cast<unsigned long long>(args.seed), traj.size(), traj.jumps.size());
   std::printf("status: %s (t = %.17g): %s\n", ToString(traj.status.stop), traj.status.t_reached,

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -36,13 +37,10 @@ class Reader {
   }
 
   // Rejects keys that are not in `allowed`.
-  void OnlyKeys(const toml::table& table, const std::string& prefix,
-                std::initializer_list<std::string_view> allowed) const {
+  void OnlyKeys(const toml::table& table, const std::string& prefix, const std::vector<std::string>& allowed) const {
     for (auto&& [k, v] : table) {
       if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
-        std::vector<std::string> names(allowed.begin(), allowed.end());
-        Fail(&v, Join(prefix, k.str()),
-             fmt::format("unknown key (known here: {})", fmt::join(names, ", ")));
+        Fail(&v, Join(prefix, k.str()), fmt::format("unknown key (known here: {})", fmt::join(allowed, ", ")));
       }
     }
   }
@@ -213,27 +211,255 @@ SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string&
   return m;
 }
 
-// [summary] baseline = { key = value, ... }: each value must be on the grid's axis.
+// Every [identifier] option key: the detector options, the α estimator's options and the β
+// estimator's as jump_NAME. `set` parses a TOML value into the settings; `get` gives it for ToJson.
+struct IdentifierKey {
+  std::string key;
+  OptionType type;
+  std::function<void(IdentifierSettings&, double)> set;
+  std::function<double(const IdentifierSettings&)> get;
+  std::function<std::string(double)> format;
+  std::function<double(std::string_view)> parse;
+  std::function<void(double)> require;
+};
+
+template <class S, class Member>
+void AddKeys(std::vector<IdentifierKey>* keys, const std::vector<Option<S>>& table, const std::string& prefix,
+             Member member) {
+  for (const Option<S>& o : table) {
+    keys->push_back({prefix + std::string(o.name), o.type,
+                     [&o, member](IdentifierSettings& s, double v) { o.set(s.*member, v); },
+                     [&o, member](const IdentifierSettings& s) { return o.get(s.*member); },
+                     [&o](double v) { return o.Format(v); }, [&o](std::string_view t) { return o.Parse(t); },
+                     [&o](double v) { o.Require(v); }});
+  }
+}
+
+const std::vector<IdentifierKey>& IdentifierKeys() {
+  static const std::vector<IdentifierKey> keys = [] {
+    std::vector<IdentifierKey> k;
+    AddKeys(&k, DetectorOptions(), "", &IdentifierSettings::detector);
+    AddKeys(&k, EstimatorOptions(), "", &IdentifierSettings::flow_estimator);
+    AddKeys(&k, EstimatorOptions(), "jump_", &IdentifierSettings::jump_estimator);
+    return k;
+  }();
+  return keys;
+}
+
+std::vector<OptionAxis> SweepableAxes(const IdentifierSettings& s) {
+  std::vector<OptionAxis> axes;
+  for (const auto& o : EstimatorOptions()) {
+    if (o.sweepable) axes.push_back({OptionAxis::Family::kEstimator, std::string(o.name), {o.get(s.flow_estimator)}});
+  }
+  for (const auto& o : DetectorOptions()) {
+    if (o.sweepable) axes.push_back({OptionAxis::Family::kDetector, std::string(o.name), {o.get(s.detector)}});
+  }
+  return axes;
+}
+
+std::string Constraint(const OptionAxis& axis, double v) {
+  if (axis.family == OptionAxis::Family::kEstimator) return FindOption(EstimatorOptions(), axis.name)->Check(v);
+  return FindOption(DetectorOptions(), axis.name)->Check(v);
+}
+
+std::vector<SweepModel> ParseModels(const Reader& rd, const toml::table& root, const ModelRegistry& registry) {
+  std::vector<SweepModel> out;
+  const toml::node* models = root.get("model");
+  if (!models) rd.Fail(nullptr, "model", "missing: a [model] table with at least name");
+  if (models->is_table()) {
+    out.push_back(ParseModel(rd, *models->as_table(), "model", registry));
+  } else if (models->is_array()) {
+    const auto& arr = *models->as_array();
+    if (arr.empty()) rd.Fail(models, "model", "empty grid: give at least one model");
+    for (std::size_t i = 0; i < arr.size(); ++i) {
+      const std::string k = fmt::format("model[{}]", i);
+      out.push_back(ParseModel(rd, rd.Table(arr[i], k), k, registry));
+    }
+  } else {
+    rd.Fail(models, "model", "expected a [model] table or [[model]] tables");
+  }
+  return out;
+}
+
+template <class Kind>
+std::vector<Kind> KindAxis(const Reader& rd, const toml::table& grid, const char* name, const char* fallback,
+                           Kind (*parse)(std::string_view)) {
+  const std::string key = fmt::format("grid.{}", name);
+  const toml::node* node = grid.get(name);
+  const std::vector<std::string> names = node ? rd.StringAxis(*node, key) : std::vector<std::string>{fallback};
+  if (node) NoDuplicates(rd, *node, key, names);
+  std::vector<Kind> kinds;
+  for (const std::string& n : names) {
+    try {
+      kinds.push_back(parse(n));
+    } catch (const std::invalid_argument& e) {
+      rd.Fail(node, key, e.what());
+    }
+  }
+  return kinds;
+}
+
+void CheckGridSteps(const Reader& rd, const toml::table& grid, const SweepConfig& c) {
+  for (double s : c.grid.sigma) {
+    if (s < 0) rd.Fail(grid.get("sigma"), "grid.sigma", fmt::format("{} must be ≥ 0", s));
+  }
+  for (double dt : c.grid.dt) {
+    if (dt <= 0) rd.Fail(grid.get("dt"), "grid.dt", fmt::format("{} must be > 0", dt));
+    for (const SweepModel& m : c.models) {
+      if (2 * dt > m.t_end) {
+        rd.Fail(grid.get("dt"), "grid.dt",
+                fmt::format("{} leaves fewer than 3 samples in t_end = {} of model '{}'", dt, m.t_end, m.name));
+      }
+    }
+  }
+  NoDuplicates(rd, *grid.get("sigma"), "grid.sigma", c.grid.sigma);
+  NoDuplicates(rd, *grid.get("dt"), "grid.dt", c.grid.dt);
+}
+
+// [grid]: after [identifier], whose values are the defaults of the option axes.
+void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
+  const toml::node* grid_node = root.get("grid");
+  if (!grid_node) rd.Fail(nullptr, "grid", "missing: a [grid] table (at least sigma and dt)");
+  const toml::table& grid = rd.Table(*grid_node, "grid");
+  c->grid.options = SweepableAxes(c->identifier);
+  std::vector<std::string> allowed{"sigma", "dt", "estimator", "detector"};
+  for (const OptionAxis& a : c->grid.options) allowed.push_back(a.name);
+  rd.OnlyKeys(grid, "grid", allowed);
+  for (const char* k : {"sigma", "dt"}) {
+    if (!grid.contains(k)) rd.Fail(grid_node, fmt::format("grid.{}", k), "missing");
+  }
+  c->grid.sigma = rd.NumberAxis(*grid.get("sigma"), "grid.sigma");
+  c->grid.dt = rd.NumberAxis(*grid.get("dt"), "grid.dt");
+  CheckGridSteps(rd, grid, *c);
+  for (OptionAxis& axis : c->grid.options) {
+    const toml::node* node = grid.get(axis.name);
+    if (!node) continue;
+    const std::string key = "grid." + axis.name;
+    axis.values = rd.NumberAxis(*node, key);
+    for (double v : axis.values) {
+      if (std::string what = Constraint(axis, v); !what.empty()) rd.Fail(node, key, fmt::format("{} {}", v, what));
+    }
+    NoDuplicates(rd, *node, key, axis.values);
+  }
+  if (c->oracle) {  // the true labels replace the detector: nothing of it to vary
+    for (const auto& [k, v] : grid) {
+      const bool detector_key = k == "detector" || std::any_of(c->grid.options.begin(), c->grid.options.end(),
+                                                                [&](const OptionAxis& a) {
+                                                                  return a.name == k.str() &&
+                                                                         a.family == OptionAxis::Family::kDetector;
+                                                                });
+      if (detector_key) rd.Fail(&v, "grid." + std::string(k.str()), "not used with identifier.oracle = true");
+    }
+  }
+  c->grid.estimator = KindAxis(rd, grid, "estimator", "rls", &ParseEstimatorKind);
+  c->grid.detector = KindAxis(rd, grid, "detector", "paper", &ParseDetectorKind);
+}
+
+void SetIdentifierKey(const Reader& rd, const toml::node& v, const std::string& key, const IdentifierKey& k,
+                      IdentifierSettings* s) {
+  double value = 0.0;
+  try {
+    if (k.type == OptionType::kChoice) {
+      value = k.parse(rd.String(v, key));
+    } else {
+      value = k.type == OptionType::kInteger ? static_cast<double>(rd.Integer(v, key)) : rd.Number(v, key);
+      k.require(value);
+    }
+  } catch (const std::invalid_argument& e) {
+    rd.Fail(&v, key, e.what());
+  }
+  k.set(*s, value);
+}
+
+void ParseIdentifier(const Reader& rd, const toml::table& root, SweepConfig* c) {
+  const toml::node* idn = root.get("identifier");
+  if (!idn) return;
+  const toml::table& id = rd.Table(*idn, "identifier");
+  std::vector<std::string> allowed;
+  for (const IdentifierKey& k : IdentifierKeys()) allowed.push_back(k.key);
+  allowed.insert(allowed.end(), {"localize", "second_pass", "sets", "known_sigma", "oracle"});
+  rd.OnlyKeys(id, "identifier", allowed);
+  IdentifierSettings& s = c->identifier;
+  for (auto&& [k, v] : id) {
+    const std::string key = fmt::format("identifier.{}", k.str());
+    if (k == "localize") s.localize = rd.Boolean(v, key);
+    if (k == "second_pass") s.second_pass = rd.Boolean(v, key);
+    if (k == "sets") s.sets = rd.Boolean(v, key);
+    if (k == "known_sigma") c->known_sigma = rd.Boolean(v, key);
+    if (k == "oracle") c->oracle = rd.Boolean(v, key);
+    for (const IdentifierKey& ik : IdentifierKeys()) {
+      if (ik.key == k.str()) SetIdentifierKey(rd, v, key, ik, &s);
+    }
+  }
+}
+
+void ParseSimulator(const Reader& rd, const toml::table& root, SimOptions* sim) {
+  const toml::node* sn = root.get("simulator");
+  if (!sn) return;
+  const toml::table& st = rd.Table(*sn, "simulator");
+  rd.OnlyKeys(st, "simulator", {"rtol", "atol", "max_steps", "max_jumps"});
+  for (auto&& [k, v] : st) {
+    const std::string key = fmt::format("simulator.{}", k.str());
+    if (k == "rtol") sim->rtol = rd.Number(v, key);
+    if (k == "atol") sim->atol = rd.Number(v, key);
+    if (k == "max_steps") sim->max_steps = rd.Integer(v, key);
+    if (k == "max_jumps") sim->max_jumps = static_cast<int>(rd.Integer(v, key));
+    std::string error;
+    if (!sim->IsValid(&error)) rd.Fail(&v, key, error);
+  }
+}
+
+void ParseRun(const Reader& rd, const toml::table& root, SweepConfig* c) {
+  const toml::node* rn = root.get("run");
+  if (!rn) return;
+  const toml::table& run = rd.Table(*rn, "run");
+  rd.OnlyKeys(run, "run", {"trials", "seed", "out"});
+  for (auto&& [k, v] : run) {
+    const std::string key = fmt::format("run.{}", k.str());
+    if (k == "trials") {
+      c->trials = rd.Integer(v, key);
+      if (c->trials < 1) rd.Fail(&v, key, fmt::format("{} must be ≥ 1", c->trials));
+    }
+    if (k == "seed") {
+      const long seed = rd.Integer(v, key);
+      if (seed < 0) rd.Fail(&v, key, fmt::format("{} must be ≥ 0", seed));
+      c->seed = static_cast<std::uint64_t>(seed);
+    }
+    if (k == "out") c->out = rd.String(v, key);
+  }
+}
+
+// [summary] baseline = { key = value, ... }: each value must be on the grid's axis (sigma, estimator,
+// detector or a sweepable option such as r); the detector named, if any, must read the options named.
 void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
   rd.OnlyKeys(t, "summary", {"baseline"});
   const toml::node* bn = t.get("baseline");
   if (bn == nullptr) return;
   const toml::table& b = rd.Table(*bn, "summary.baseline");
-  rd.OnlyKeys(b, "summary.baseline", {"sigma", "r", "false_alarm", "estimator", "detector"});
-  if (b.empty()) rd.Fail(bn, "summary.baseline", "empty: name at least one of sigma, r, false_alarm, estimator, detector");
   const SweepGrid& g = c->grid;
+  std::vector<std::string> allowed{"sigma", "estimator", "detector"};
+  for (const OptionAxis& a : g.options) allowed.push_back(a.name);
+  rd.OnlyKeys(b, "summary.baseline", allowed);
+  if (b.empty()) rd.Fail(bn, "summary.baseline", fmt::format("empty: name at least one of {}", fmt::join(allowed, ", ")));
   for (auto&& [k, v] : b) {
     const std::string key = fmt::format("summary.baseline.{}", k.str());
     std::string text;
     if (k == "estimator" || k == "detector") {
       text = rd.String(v, key);
-      const auto& axis = k == "estimator" ? g.estimator : g.detector;
+      std::vector<std::string> axis;
+      if (k == "estimator") {
+        for (EstimatorKind e : g.estimator) axis.emplace_back(ToString(e));
+      } else {
+        for (DetectorKind d : g.detector) axis.emplace_back(ToString(d));
+      }
       if (std::find(axis.begin(), axis.end(), text) == axis.end()) {
         rd.Fail(&v, key, fmt::format("'{}' is not on grid.{} ({})", text, k.str(), fmt::join(axis, ", ")));
       }
     } else {
       const double x = rd.Number(v, key);
-      const auto& axis = k == "sigma" ? g.sigma : k == "r" ? g.r : g.false_alarm;
+      const auto it = std::find_if(g.options.begin(), g.options.end(),
+                                   [&](const OptionAxis& a) { return a.name == k.str(); });
+      const std::vector<double>& axis = k == "sigma" ? g.sigma : it->values;
       if (std::find(axis.begin(), axis.end(), x) == axis.end()) {
         rd.Fail(&v, key, fmt::format("{} is not on grid.{} ({})", x, k.str(), fmt::join(axis, ", ")));
       }
@@ -242,13 +468,12 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
     c->baseline.emplace_back(std::string(k.str()), text);
   }
   if (const toml::node* d = b.get("detector")) {
-    const std::string det = *d->value<std::string>();
-    if (b.contains("r") && !DetectorUsesR(det)) {
-      rd.Fail(b.get("r"), "summary.baseline.r", fmt::format("detector '{}' does not use r", det));
-    }
-    if (b.contains("false_alarm") && !DetectorUsesFalseAlarm(det)) {
-      rd.Fail(b.get("false_alarm"), "summary.baseline.false_alarm",
-              fmt::format("detector '{}' does not use false_alarm", det));
+    const DetectorDescriptor& det = DescriptorOf(ParseDetectorKind(*d->value<std::string>()));
+    for (const OptionAxis& a : g.options) {
+      if (a.family == OptionAxis::Family::kDetector && b.contains(a.name) && !det.Reads(a.name)) {
+        rd.Fail(b.get(a.name), "summary.baseline." + a.name,
+                fmt::format("detector '{}' does not use {}", det.name, a.name));
+      }
     }
   }
 }
@@ -273,145 +498,12 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run", "summary"});
   SweepConfig c;
   c.source = name;
-
-  // [model] or [[model]]
-  const toml::node* models = root.get("model");
-  if (!models) rd.Fail(nullptr, "model", "missing: a [model] table with at least name");
-  if (models->is_table()) {
-    c.models.push_back(ParseModel(rd, *models->as_table(), "model", registry));
-  } else if (models->is_array()) {
-    const auto& arr = *models->as_array();
-    if (arr.empty()) rd.Fail(models, "model", "empty grid: give at least one model");
-    for (std::size_t i = 0; i < arr.size(); ++i) {
-      const std::string k = fmt::format("model[{}]", i);
-      c.models.push_back(ParseModel(rd, rd.Table(arr[i], k), k, registry));
-    }
-  } else {
-    rd.Fail(models, "model", "expected a [model] table or [[model]] tables");
-  }
-
-  // [grid]
-  const toml::node* grid_node = root.get("grid");
-  if (!grid_node) rd.Fail(nullptr, "grid", "missing: a [grid] table (at least sigma and dt)");
-  const toml::table& grid = rd.Table(*grid_node, "grid");
-  rd.OnlyKeys(grid, "grid", {"sigma", "dt", "r", "false_alarm", "estimator", "detector"});
-  for (const char* k : {"sigma", "dt"}) {
-    if (!grid.contains(k)) rd.Fail(grid_node, fmt::format("grid.{}", k), "missing");
-  }
-  c.grid.sigma = rd.NumberAxis(*grid.get("sigma"), "grid.sigma");
-  c.grid.dt = rd.NumberAxis(*grid.get("dt"), "grid.dt");
-  c.grid.r = grid.contains("r") ? rd.NumberAxis(*grid.get("r"), "grid.r")
-                                : std::vector<double>{c.identifier.detector.r};
-  c.grid.false_alarm = grid.contains("false_alarm") ? rd.NumberAxis(*grid.get("false_alarm"), "grid.false_alarm")
-                                                    : std::vector<double>{c.identifier.detector.false_alarm};
-  for (double p : c.grid.false_alarm) {
-    if (!(p > 0 && p < 0.5)) {
-      rd.Fail(grid.get("false_alarm"), "grid.false_alarm", fmt::format("{} must be in (0, 0.5)", p));
-    }
-  }
-  c.grid.estimator = grid.contains("estimator") ? rd.StringAxis(*grid.get("estimator"), "grid.estimator")
-                                                : std::vector<std::string>{"rls"};
-  c.grid.detector = grid.contains("detector") ? rd.StringAxis(*grid.get("detector"), "grid.detector")
-                                              : std::vector<std::string>{"paper"};
-  for (double s : c.grid.sigma) {
-    if (s < 0) rd.Fail(grid.get("sigma"), "grid.sigma", fmt::format("{} must be ≥ 0", s));
-  }
-  for (double dt : c.grid.dt) {
-    if (dt <= 0) rd.Fail(grid.get("dt"), "grid.dt", fmt::format("{} must be > 0", dt));
-    for (const SweepModel& m : c.models) {
-      if (2 * dt > m.t_end) {
-        rd.Fail(grid.get("dt"), "grid.dt",
-                fmt::format("{} leaves fewer than 3 samples in t_end = {} of model '{}'", dt, m.t_end, m.name));
-      }
-    }
-  }
-  for (double r : c.grid.r) {
-    if (r <= 1) rd.Fail(grid.get("r"), "grid.r", fmt::format("{} must be > 1 (the bound scale r of eq. 8)", r));
-  }
-  const std::vector<std::string> estimators = EstimatorNames(), detectors = DetectorNames();
-  for (const std::string& e : c.grid.estimator) {
-    if (std::find(estimators.begin(), estimators.end(), e) == estimators.end()) {
-      rd.Fail(grid.get("estimator"), "grid.estimator",
-              fmt::format("unknown estimator '{}' (known: {})", e, fmt::join(estimators, ", ")));
-    }
-  }
-  for (const std::string& d : c.grid.detector) {
-    if (std::find(detectors.begin(), detectors.end(), d) == detectors.end()) {
-      rd.Fail(grid.get("detector"), "grid.detector",
-              fmt::format("unknown detector '{}' (known: {})", d, fmt::join(detectors, ", ")));
-    }
-  }
-  NoDuplicates(rd, *grid.get("sigma"), "grid.sigma", c.grid.sigma);
-  NoDuplicates(rd, *grid.get("dt"), "grid.dt", c.grid.dt);
-  if (grid.contains("r")) NoDuplicates(rd, *grid.get("r"), "grid.r", c.grid.r);
-  if (grid.contains("false_alarm")) NoDuplicates(rd, *grid.get("false_alarm"), "grid.false_alarm", c.grid.false_alarm);
-  if (grid.contains("estimator")) NoDuplicates(rd, *grid.get("estimator"), "grid.estimator", c.grid.estimator);
-  if (grid.contains("detector")) NoDuplicates(rd, *grid.get("detector"), "grid.detector", c.grid.detector);
-
-  // [identifier]
-  if (const toml::node* idn = root.get("identifier")) {
-    const toml::table& id = rd.Table(*idn, "identifier");
-    rd.OnlyKeys(id, "identifier", {"tau0", "bound", "false_alarm", "p0", "forgetting", "window",
-                                   "refactor_every", "localize", "second_pass", "sets", "known_sigma"});
-    IdentifierSettings& s = c.identifier;
-    for (auto&& [k, v] : id) {
-      const std::string key = fmt::format("identifier.{}", k.str());
-      if (k == "tau0") s.detector.tau0 = rd.Number(v, key);
-      if (k == "bound") s.detector.bound = rd.String(v, key);
-      if (k == "false_alarm") s.detector.false_alarm = rd.Number(v, key);
-      if (k == "p0") s.flow_estimator.p0 = s.jump_estimator.p0 = rd.Number(v, key);
-      if (k == "forgetting") s.flow_estimator.forgetting = s.jump_estimator.forgetting = rd.Number(v, key);
-      if (k == "window") s.flow_estimator.window = static_cast<int>(rd.Integer(v, key));  // α only: β keeps a growing window (14 jump rows never fill one)
-      if (k == "refactor_every") {
-        s.flow_estimator.refactor_every = s.jump_estimator.refactor_every = static_cast<int>(rd.Integer(v, key));
-      }
-      if (k == "localize") s.localize = rd.Boolean(v, key);
-      if (k == "second_pass") s.second_pass = rd.Boolean(v, key);
-      if (k == "sets") s.sets = rd.Boolean(v, key);
-      if (k == "known_sigma") c.known_sigma = rd.Boolean(v, key);
-      std::string error;
-      if (!s.detector.IsValid(&error) || !s.flow_estimator.IsValid(&error)) rd.Fail(&v, key, error);
-    }
-  }
-
-  // [identifier] false_alarm is the default of the grid axis.
-  if (!grid.contains("false_alarm")) c.grid.false_alarm = {c.identifier.detector.false_alarm};
-
-  // [simulator]
-  if (const toml::node* sn = root.get("simulator")) {
-    const toml::table& st = rd.Table(*sn, "simulator");
-    rd.OnlyKeys(st, "simulator", {"rtol", "atol", "max_steps", "max_jumps"});
-    for (auto&& [k, v] : st) {
-      const std::string key = fmt::format("simulator.{}", k.str());
-      if (k == "rtol") c.simulator.rtol = rd.Number(v, key);
-      if (k == "atol") c.simulator.atol = rd.Number(v, key);
-      if (k == "max_steps") c.simulator.max_steps = rd.Integer(v, key);
-      if (k == "max_jumps") c.simulator.max_jumps = static_cast<int>(rd.Integer(v, key));
-      std::string error;
-      if (!c.simulator.IsValid(&error)) rd.Fail(&v, key, error);
-    }
-  }
-
+  c.models = ParseModels(rd, root, registry);
+  ParseIdentifier(rd, root, &c);
+  ParseGrid(rd, root, &c);
+  ParseSimulator(rd, root, &c.simulator);
+  ParseRun(rd, root, &c);
   if (const toml::node* sn = root.get("summary")) ParseSummary(rd, rd.Table(*sn, "summary"), &c);
-
-  // [run]
-  if (const toml::node* rn = root.get("run")) {
-    const toml::table& run = rd.Table(*rn, "run");
-    rd.OnlyKeys(run, "run", {"trials", "seed", "out"});
-    for (auto&& [k, v] : run) {
-      const std::string key = fmt::format("run.{}", k.str());
-      if (k == "trials") {
-        c.trials = rd.Integer(v, key);
-        if (c.trials < 1) rd.Fail(&v, key, fmt::format("{} must be ≥ 1", c.trials));
-      }
-      if (k == "seed") {
-        const long seed = rd.Integer(v, key);
-        if (seed < 0) rd.Fail(&v, key, fmt::format("{} must be ≥ 0", seed));
-        c.seed = static_cast<std::uint64_t>(seed);
-      }
-      if (k == "out") c.out = rd.String(v, key);
-    }
-  }
   return c;
 }
 
@@ -440,19 +532,27 @@ nlohmann::json SweepConfig::ToJson() const {
     }
     ms.push_back(j);
   }
-  const IdentifierSettings& s = identifier;
+  nlohmann::json g = {{"dt", grid.dt}, {"sigma", grid.sigma}};
+  for (const OptionAxis& a : grid.options) g[a.name] = a.values;
+  for (EstimatorKind k : grid.estimator) g["estimator"].push_back(ToString(k));
+  for (DetectorKind k : grid.detector) g["detector"].push_back(ToString(k));
+  nlohmann::json id = {{"localize", identifier.localize},
+                       {"second_pass", identifier.second_pass},
+                       {"sets", identifier.sets},
+                       {"known_sigma", known_sigma},
+                       {"oracle", oracle}};
+  for (const IdentifierKey& k : IdentifierKeys()) {
+    const double v = k.get(identifier);
+    if (k.type == OptionType::kChoice) {
+      id[k.key] = k.format(v);
+    } else {
+      id[k.key] = v;
+    }
+  }
   nlohmann::json j = {
       {"model", ms},
-      {"grid",
-       {{"dt", grid.dt}, {"sigma", grid.sigma}, {"r", grid.r}, {"false_alarm", grid.false_alarm},
-        {"estimator", grid.estimator},
-        {"detector", grid.detector}}},
-      {"identifier",
-       {{"tau0", s.detector.tau0}, {"bound", s.detector.bound}, {"false_alarm", s.detector.false_alarm},
-        {"p0", s.flow_estimator.p0}, {"forgetting", s.flow_estimator.forgetting},
-        {"window", s.flow_estimator.window}, {"refactor_every", s.flow_estimator.refactor_every},
-        {"localize", s.localize}, {"second_pass", s.second_pass}, {"sets", s.sets},
-        {"known_sigma", known_sigma}}},
+      {"grid", g},
+      {"identifier", id},
       {"simulator",
        {{"rtol", simulator.rtol}, {"atol", simulator.atol}, {"max_steps", simulator.max_steps},
         {"max_jumps", simulator.max_jumps}}},

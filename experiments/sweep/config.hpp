@@ -1,5 +1,9 @@
-// A sweep file (TOML): the models, the grid of (δt, σ, r, estimator, detector), the identifier's
-// settings, and the run's trials, master seed and output directory. docs/method.md "Sweeps" shows the shape.
+// A sweep file (TOML): the models, the grid of (δt, σ, sweepable options such as r, estimator,
+// detector), the identifier's settings, and the run's trials, master seed and output directory.
+// The option keys of [identifier] and [grid] come from the option tables of the estimators and
+// detectors (docs/architecture.md, "Estimator and detector descriptors"): an estimator option NAME sets
+// the α estimator and jump_NAME the β estimator.
+// docs/method.md "Sweeps" shows the shape.
 //
 // ParseSweepFile checks everything before a trial runs; every error names the file, the line and the
 // key, e.g. "sweep.toml:12: grid.dt: -0.001 must be > 0".
@@ -29,18 +33,31 @@ struct SweepModel {
   Model Build(const ModelRegistry& registry) const;      // with params applied
 };
 
+// The values of one sweepable option (EstimatorOptions() or DetectorOptions() with sweepable set): a
+// grid key `[grid] NAME`, a column of trials.csv and summary.csv. Estimator options set the α estimator.
+struct OptionAxis {
+  enum class Family { kEstimator, kDetector };
+  Family family = Family::kDetector;
+  std::string name;
+  std::vector<double> values;  // the [identifier] value when the grid does not give the key
+};
+
 struct SweepGrid {
-  std::vector<double> dt, sigma, r;
-  std::vector<double> false_alarm;  // residual detector's p (the paper detector ignores it)
-  std::vector<std::string> estimator, detector;
+  std::vector<double> dt, sigma;
+  std::vector<OptionAxis> options;  // every sweepable option: estimator options, then detector options
+  std::vector<EstimatorKind> estimator;
+  std::vector<DetectorKind> detector;
 };
 
 struct SweepConfig {
   std::string source;  // the file it came from
   std::vector<SweepModel> models;
   SweepGrid grid;
-  IdentifierSettings identifier;  // base settings; each cell sets estimator, detector, r (and σ)
+  IdentifierSettings identifier;  // base settings; each cell sets estimator, detector, its axes (and σ)
   bool known_sigma = false;       // give the cell's σ to the identifier (else it is not told)
+  // The true jump labels γ(t) = [j(t) ≠ j(t−δt)] instead of a detector (isolates the estimators);
+  // the detector column then reads "oracle". The grid may not give a detector or a detector option.
+  bool oracle = false;
   SimOptions simulator;
   // [summary] baseline: per-cell keys (sigma, r, false_alarm, estimator, detector) and their values
   // as trials.csv writes them; summary.csv compares every cell with its baseline (tables.hpp).

@@ -11,28 +11,72 @@
 
 namespace hysid {
 
-bool DetectorUsesR(const std::string& detector) { return detector == "paper"; }
-bool DetectorUsesFalseAlarm(const std::string& detector) { return detector == "residual"; }
+bool Reads(const OptionAxis& axis, EstimatorKind estimator, DetectorKind detector) {
+  return axis.family == OptionAxis::Family::kEstimator ? DescriptorOf(estimator).Reads(axis.name)
+                                                        : DescriptorOf(detector).Reads(axis.name);
+}
+
+double SweepCell::option(const SweepGrid& grid, std::string_view name) const {
+  for (std::size_t i = 0; i < grid.options.size(); ++i) {
+    if (grid.options[i].name == name) return options[i];
+  }
+  throw std::invalid_argument(fmt::format("the sweep grid has no option axis '{}'", name));
+}
+
+void SweepCell::Apply(const SweepGrid& grid, IdentifierSettings* s) const {
+  s->flow_estimator.kind = s->jump_estimator.kind = estimator;
+  s->detector.kind = detector;
+  for (std::size_t i = 0; i < grid.options.size(); ++i) {
+    if (std::isnan(options[i])) continue;
+    const OptionAxis& axis = grid.options[i];
+    if (axis.family == OptionAxis::Family::kEstimator) {
+      FindOption(EstimatorOptions(), axis.name)->set(s->flow_estimator, options[i]);
+    } else {
+      FindOption(DetectorOptions(), axis.name)->set(s->detector, options[i]);
+    }
+  }
+}
+
+namespace {
+
+// Advances the odometer `index` over the axes (the last fastest); false after the last combination.
+bool Next(const std::vector<OptionAxis>& axes, std::vector<std::size_t>* index) {
+  for (std::size_t i = axes.size(); i-- > 0;) {
+    if (++(*index)[i] < axes[i].values.size()) return true;
+    (*index)[i] = 0;
+  }
+  return false;
+}
+
+// The cells of one (model, δt, σ) at one combination of axis values.
+void AddCells(const SweepConfig& c, int model, double dt, double sigma, const std::vector<std::size_t>& index,
+              std::vector<SweepCell>* cells) {
+  const std::vector<OptionAxis>& axes = c.grid.options;
+  for (EstimatorKind est : c.grid.estimator) {
+    for (DetectorKind det : c.grid.detector) {
+      SweepCell cell{static_cast<long>(cells->size()), model, dt, sigma, {}, est, det};
+      bool first = true;
+      for (std::size_t i = 0; i < axes.size(); ++i) {
+        const bool reads = Reads(axes[i], est, det);
+        first = first && (reads || index[i] == 0);
+        cell.options.push_back(reads ? axes[i].values[index[i]] : std::numeric_limits<double>::quiet_NaN());
+      }
+      if (first) cells->push_back(std::move(cell));
+    }
+  }
+}
+
+}  // namespace
 
 std::vector<SweepCell> EnumerateCells(const SweepConfig& c) {
   std::vector<SweepCell> cells;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
   for (int m = 0; m < static_cast<int>(c.models.size()); ++m) {
     for (double dt : c.grid.dt) {
       for (double sigma : c.grid.sigma) {
-        // A detector appears once for each value of the axes it uses, at the first of the others.
-        for (std::size_t ri = 0; ri < c.grid.r.size(); ++ri) {
-          for (std::size_t pi = 0; pi < c.grid.false_alarm.size(); ++pi) {
-            for (const std::string& est : c.grid.estimator) {
-              for (const std::string& det : c.grid.detector) {
-                const bool uses_r = DetectorUsesR(det), uses_p = DetectorUsesFalseAlarm(det);
-                if ((!uses_r && ri > 0) || (!uses_p && pi > 0)) continue;
-                cells.push_back({static_cast<long>(cells.size()), m, dt, sigma, uses_r ? c.grid.r[ri] : nan,
-                                 uses_p ? c.grid.false_alarm[pi] : nan, est, det});
-              }
-            }
-          }
-        }
+        std::vector<std::size_t> index(c.grid.options.size(), 0);
+        do {
+          AddCells(c, m, dt, sigma, index, &cells);
+        } while (Next(c.grid.options, &index));
       }
     }
   }

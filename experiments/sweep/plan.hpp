@@ -17,17 +17,23 @@ struct SweepCell {
   int model = 0;      // index into SweepConfig::models
   double dt = 0.0;
   double sigma = 0.0;
-  double r = 0.0;     // NaN when the detector does not use r
-  double false_alarm = 0.0;  // NaN when the detector does not use it
-  std::string estimator, detector;
+  // One value per SweepGrid::options axis; NaN when neither the estimator nor the detector reads it.
+  std::vector<double> options;
+  EstimatorKind estimator = EstimatorKind::kRls;
+  DetectorKind detector = DetectorKind::kPaper;
+
+  // The value of the axis named `name` (NaN when unused); throws std::invalid_argument for no such axis.
+  double option(const SweepGrid& grid, std::string_view name) const;
+  // The cell's estimator, detector and axis values set on `settings`.
+  void Apply(const SweepGrid& grid, IdentifierSettings* settings) const;
 };
 
-// Detectors whose decision depends on r (others get one cell with r = NaN).
-bool DetectorUsesR(const std::string& detector);
-// Detectors whose decision depends on the false-alarm probability.
-bool DetectorUsesFalseAlarm(const std::string& detector);
+// Whether the estimator or the detector of a cell reads the option of `axis`.
+bool Reads(const OptionAxis& axis, EstimatorKind estimator, DetectorKind detector);
 
-// Cells in the order model, δt, σ, r, false_alarm, estimator, detector (the last varies fastest).
+// Cells in the order model, δt, σ, the option axes (in SweepGrid::options order), estimator, detector
+// (the last varies fastest). A (estimator, detector) pair appears once for each value of the axes it
+// reads, at the first value of the others.
 std::vector<SweepCell> EnumerateCells(const SweepConfig& config);
 
 // A unit's id is cell·trials + trial.

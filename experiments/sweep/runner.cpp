@@ -53,8 +53,12 @@ void CheckBaseline(const SweepConfig& config, const std::vector<SweepCell>& cell
   if (config.baseline.empty()) return;
   std::vector<std::vector<std::string>> keys;
   for (const SweepCell& c : cells) {
-    keys.push_back({config.models[static_cast<std::size_t>(c.model)].name, FormatNumber(c.dt), FormatNumber(c.sigma),
-                    FormatNumber(c.r), FormatNumber(c.false_alarm), c.estimator, c.detector});
+    std::vector<std::string> k{config.models[static_cast<std::size_t>(c.model)].name, FormatNumber(c.dt),
+                               FormatNumber(c.sigma)};
+    for (double v : c.options) k.push_back(FormatNumber(v));
+    k.emplace_back(ToString(c.estimator));
+    k.emplace_back(ToString(c.detector));
+    keys.push_back(std::move(k));
   }
   const std::vector<long> base = MatchBaselines(BaselineKeyNames(), keys, config.baseline);
   for (std::size_t i = 0; i < base.size(); ++i) {
@@ -62,10 +66,8 @@ void CheckBaseline(const SweepConfig& config, const std::vector<SweepCell>& cell
     std::vector<std::string> named;
     for (const auto& [k, v] : config.baseline) named.push_back(fmt::format("{} = {}", k, v));
     throw std::invalid_argument(fmt::format(
-        "{}: summary.baseline {{{}}}: cell {} (detector {}, r {}, false_alarm {}) matches several cells; name "
-        "the keys that tell them apart",
-        config.source, fmt::join(named, ", "), i, cells[i].detector, FormatNumber(cells[i].r),
-        FormatNumber(cells[i].false_alarm)));
+        "{}: summary.baseline {{{}}}: cell {} ({}) matches several cells; name the keys that tell them apart",
+        config.source, fmt::join(named, ", "), i, fmt::join(keys[i], ", ")));
   }
 }
 

@@ -8,6 +8,8 @@
 
 #include <fmt/format.h>
 
+#include "core/detectors/detector.hpp"
+#include "core/estimators/estimator.hpp"
 #include "core/io/csv.hpp"
 #include "core/stats/quantiles.hpp"
 #include "experiments/sweep/journal.hpp"
@@ -54,7 +56,19 @@ MetricSummary Summarize(std::vector<double> v) {
 }
 
 const std::vector<std::string>& BaselineKeyNames() {
-  static const std::vector<std::string> names{"model", "dt", "sigma", "r", "false_alarm", "estimator", "detector"};
+  // The order of SweepCell's keys: model, δt, σ, the sweepable options (estimators' then detectors', as
+  // SweepGrid::options), estimator, detector.
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n{"model", "dt", "sigma"};
+    for (const auto& o : EstimatorOptions()) {
+      if (o.sweepable) n.emplace_back(o.name);
+    }
+    for (const auto& o : DetectorOptions()) {
+      if (o.sweepable) n.emplace_back(o.name);
+    }
+    n.insert(n.end(), {"estimator", "detector"});
+    return n;
+  }();
   return names;
 }
 
@@ -149,7 +163,12 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   }
 
   // summary.csv
-  const std::vector<std::string> keys{"cell", "model", "dt", "sigma", "r", "false_alarm", "estimator", "detector"};
+  // The cell's keys: "cell" and the columns from "model" to "detector" (dt, σ, the option axes, ...).
+  std::vector<std::string> keys{"cell"};
+  const auto model_col = static_cast<std::size_t>(Column(trial_header, "model"));
+  const auto detector_col = static_cast<std::size_t>(Column(trial_header, "detector"));
+  keys.insert(keys.end(), trial_header.begin() + static_cast<long>(model_col),
+              trial_header.begin() + static_cast<long>(detector_col) + 1);
   const std::vector<std::string>& metrics = SummaryMetrics();
   const std::vector<CellRows> cells = CollectCells(trial_header, rows, keys);
   std::vector<long> base;

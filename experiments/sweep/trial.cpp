@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <functional>
 #include <limits>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -20,8 +22,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 std::vector<std::string> UnknownNames(const std::vector<Model>& models, bool alpha) {
   std::vector<std::string> names;
   for (const Model& m : models) {
-    for (const Parameter& p : alpha ? m.spec().alpha : m.spec().beta) {
-      if (!p.known && std::find(names.begin(), names.end(), p.name) == names.end()) names.push_back(p.name);
+    for (const std::string& name : hysid::UnknownNames(alpha ? m.spec().alpha : m.spec().beta)) {
+      if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
     }
   }
   return names;
@@ -52,35 +54,17 @@ const std::vector<std::string>& SummaryMetrics() {
   return metrics;
 }
 
-std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models) {
-  (void)config;
-  std::vector<std::string> h{"unit", "cell", "trial", "model", "dt", "sigma", "r", "false_alarm", "estimator",
-                             "detector"};
-  for (int i = 0; i < MaxStates(models); ++i) h.push_back(fmt::format("x0_{}", i + 1));
-  h.insert(h.end(), {"status", "message", "samples", "jumps_true", "jumps_detected", "tp", "fp", "fn", "tn",
-                     "misclassification", "precision", "recall", "e_alpha", "e_beta", "rel_alpha",
-                     "rel_beta", "flow_status", "jump_status", "jump_hausdorff", "flow_outside_share",
-                     "flow_hull_vertices", "jump_hull_vertices"});
-  for (const std::string& n : UnknownNames(models, true)) h.push_back("alpha_hat_" + n);
-  for (const std::string& n : UnknownNames(models, false)) h.push_back("beta_hat_" + n);
-  return h;
-}
+namespace {
 
-std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
-                                  const SweepCell& cell, long unit, long trial, const TrialInputs& in) {
-  const Vec& x0 = *in.x0;
-  const Trajectory& truth = *in.truth;
-  const std::string& sim_error = in.sim_error;
-  const Model& model = models[static_cast<std::size_t>(cell.model)];
-  const SweepModel& sm = config.models[static_cast<std::size_t>(cell.model)];
-  std::vector<std::string> row{fmt::format("{}", unit), fmt::format("{}", cell.index), fmt::format("{}", trial),
-                               sm.name, FormatNumber(cell.dt), FormatNumber(cell.sigma), FormatNumber(cell.r),
-                               FormatNumber(cell.false_alarm), cell.estimator, cell.detector};
-  const int nmax = MaxStates(models);
-  for (int i = 0; i < nmax; ++i) row.push_back(i < x0.size() ? FormatNumber(x0[i]) : std::string());
-
+// Everything one row of trials.csv shows.
+struct TrialOutcome {
+  const SweepConfig* config = nullptr;
+  const Model* model = nullptr;
+  const SweepCell* cell = nullptr;
+  long unit = 0, trial = 0;
+  Vec x0;
   std::string status = kTrialOk, message;
-  long samples = truth.size(), jumps_true = static_cast<long>(truth.jumps.size()), jumps_detected = -1;
+  long samples = 0, jumps_true = 0, jumps_detected = -1;
   Confusion conf;
   ParameterErrors err{kNaN, kNaN, kNaN, kNaN};
   std::string flow_status, jump_status;
@@ -88,81 +72,204 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   long flow_vertices = -1, jump_vertices = -1;
   Vec alpha_hat, beta_hat;
   bool have_estimates = false;
+  bool ok() const { return status == kTrialOk; }
+};
 
-  if (!sim_error.empty()) {
-    status = "error";
-    message = sim_error;
-  } else if (!truth.status.completed()) {
-    status = ToString(truth.status.stop);
-    message = truth.status.stop == SimStop::kZeno
-                  ? fmt::format("Zeno: jumps accumulate at t = {:.6g} s before t_end = {} s; shorten t_end",
-                                truth.status.zeno_time, sm.t_end)
-                  : truth.status.message;
-  } else {
-    try {
-      IdentifierSettings s = config.identifier;
-      s.flow_estimator.name = s.jump_estimator.name = cell.estimator;
-      s.detector.name = cell.detector;
-      if (!std::isnan(cell.r)) s.detector.r = cell.r;
-      if (!std::isnan(cell.false_alarm)) s.detector.false_alarm = cell.false_alarm;
-      if (config.known_sigma) s.sigma = Vec::Constant(model.state_size(), cell.sigma);
-      // The trajectories come from CVODE at these tolerances: the data's accuracy apart from σ.
-      s.data_rtol = config.simulator.rtol;
-      s.data_atol = config.simulator.atol;
-      if (cell.sigma > 0) {
-        if (in.normals == nullptr || in.normals->cols() != truth.x.cols() || in.noisy == nullptr) {
-          throw std::logic_error("RunTrial: σ > 0 without the trial's standard normals");
-        }
-        in.noisy->noalias() = truth.x + cell.sigma * *in.normals;  // x(i, k) + σ·E(i, k)
-      }
-      const IdentifyResult res = Identify(model, cell.sigma > 0 ? *in.noisy : truth.x, truth.dt, s);
-      alpha_hat = res.alpha_hat;
-      beta_hat = res.beta_hat;
-      have_estimates = true;
-      jumps_detected = res.jumps_detected;
-      flow_status = ToString(res.flow_status);
-      jump_status = ToString(res.jump_status);
-      conf = CompareJumps(truth.j, res.gamma);
-      if (!alpha_hat.allFinite() || !beta_hat.allFinite()) {
-        status = "non_finite_estimate";
-        message = "an estimate is not finite";
-      } else {
-        err = CompareParameters(model, alpha_hat, beta_hat);
-        if (s.sets) {
-          sets = CompareSets(model, res.flow_hull, res.jump_hull);
-          flow_vertices = static_cast<long>(res.flow_hull.cols());
-          jump_vertices = static_cast<long>(res.jump_hull.cols());
-        }
-      }
-    } catch (const std::exception& e) {
-      status = "error";
-      message = e.what();
-      have_estimates = false;
-    }
+// One column of trials.csv: its name and how a row's cell is computed.
+struct TrialColumn {
+  std::string name;
+  std::function<std::string(const TrialOutcome&)> cell;
+};
+
+std::string Integer(long v) { return fmt::format("{}", v); }
+// Metrics: empty unless the row's status is ok.
+TrialColumn Metric(std::string name, double (*get)(const TrialOutcome&)) {
+  return {std::move(name), [get](const TrialOutcome& o) { return o.ok() ? FormatNumber(get(o)) : std::string(); }};
+}
+TrialColumn Count(std::string name, long (*get)(const TrialOutcome&)) {
+  return {std::move(name), [get](const TrialOutcome& o) { return o.ok() ? Integer(get(o)) : std::string(); }};
+}
+
+// The columns that identify the unit and its cell: unit, cell, trial, model, dt, sigma, the option axes,
+// estimator, detector, x0_1..x0_n.
+void KeyColumns(const SweepConfig& config, int states, std::vector<TrialColumn>* cols) {
+  cols->push_back({"unit", [](const TrialOutcome& o) { return Integer(o.unit); }});
+  cols->push_back({"cell", [](const TrialOutcome& o) { return Integer(o.cell->index); }});
+  cols->push_back({"trial", [](const TrialOutcome& o) { return Integer(o.trial); }});
+  cols->push_back({"model", [](const TrialOutcome& o) {
+                     return o.config->models[static_cast<std::size_t>(o.cell->model)].name;
+                   }});
+  cols->push_back({"dt", [](const TrialOutcome& o) { return FormatNumber(o.cell->dt); }});
+  cols->push_back({"sigma", [](const TrialOutcome& o) { return FormatNumber(o.cell->sigma); }});
+  for (std::size_t i = 0; i < config.grid.options.size(); ++i) {
+    cols->push_back({config.grid.options[i].name,
+                     [i](const TrialOutcome& o) { return FormatNumber(o.cell->options[i]); }});
   }
-  const bool ok = status == kTrialOk;
-  const auto num = [&](double v) { return ok ? FormatNumber(v) : std::string(); };
-  const auto count = [&](long v) { return ok ? fmt::format("{}", v) : std::string(); };
-  row.insert(row.end(),
-             {status, Clean(message), fmt::format("{}", samples), fmt::format("{}", jumps_true),
-              count(jumps_detected), count(conf.tp), count(conf.fp), count(conf.fn), count(conf.tn),
-              num(conf.misclassification()), num(conf.precision()), num(conf.recall()), num(err.e_alpha),
-              num(err.e_beta), num(err.rel_alpha), num(err.rel_beta), flow_status, jump_status,
-              num(sets.jump_hausdorff), num(sets.flow_outside_share),
-              flow_vertices < 0 ? std::string() : count(flow_vertices),
-              jump_vertices < 0 ? std::string() : count(jump_vertices)});
+  cols->push_back({"estimator", [](const TrialOutcome& o) { return std::string(ToString(o.cell->estimator)); }});
+  cols->push_back({"detector", [](const TrialOutcome& o) {
+                     return o.config->oracle ? std::string("oracle") : std::string(ToString(o.cell->detector));
+                   }});
+  for (int i = 0; i < states; ++i) {
+    cols->push_back({fmt::format("x0_{}", i + 1), [i](const TrialOutcome& o) {
+                       return i < o.x0.size() ? FormatNumber(o.x0[i]) : std::string();
+                     }});
+  }
+}
+
+// Status, counts, the classification and parameter metrics, the estimators' status and the sets.
+void OutcomeColumns(std::vector<TrialColumn>* cols) {
+  using O = TrialOutcome;
+  cols->push_back({"status", [](const O& o) { return o.status; }});
+  cols->push_back({"message", [](const O& o) { return Clean(o.message); }});
+  cols->push_back({"samples", [](const O& o) { return Integer(o.samples); }});
+  cols->push_back({"jumps_true", [](const O& o) { return Integer(o.jumps_true); }});
+  cols->push_back(Count("jumps_detected", [](const O& o) { return o.jumps_detected; }));
+  cols->push_back(Count("tp", [](const O& o) { return o.conf.tp; }));
+  cols->push_back(Count("fp", [](const O& o) { return o.conf.fp; }));
+  cols->push_back(Count("fn", [](const O& o) { return o.conf.fn; }));
+  cols->push_back(Count("tn", [](const O& o) { return o.conf.tn; }));
+  cols->push_back(Metric("misclassification", [](const O& o) { return o.conf.misclassification(); }));
+  cols->push_back(Metric("precision", [](const O& o) { return o.conf.precision(); }));
+  cols->push_back(Metric("recall", [](const O& o) { return o.conf.recall(); }));
+  cols->push_back(Metric("e_alpha", [](const O& o) { return o.err.e_alpha; }));
+  cols->push_back(Metric("e_beta", [](const O& o) { return o.err.e_beta; }));
+  cols->push_back(Metric("rel_alpha", [](const O& o) { return o.err.rel_alpha; }));
+  cols->push_back(Metric("rel_beta", [](const O& o) { return o.err.rel_beta; }));
+  cols->push_back({"flow_status", [](const O& o) { return o.flow_status; }});
+  cols->push_back({"jump_status", [](const O& o) { return o.jump_status; }});
+  cols->push_back(Metric("jump_hausdorff", [](const O& o) { return o.sets.jump_hausdorff; }));
+  cols->push_back(Metric("flow_outside_share", [](const O& o) { return o.sets.flow_outside_share; }));
+  cols->push_back({"flow_hull_vertices", [](const O& o) {
+                     return o.ok() && o.flow_vertices >= 0 ? Integer(o.flow_vertices) : std::string();
+                   }});
+  cols->push_back({"jump_hull_vertices", [](const O& o) {
+                     return o.ok() && o.jump_vertices >= 0 ? Integer(o.jump_vertices) : std::string();
+                   }});
+}
+
+// α̂ and β̂ of each unknown parameter name over the models (empty where the row's model has none).
+void EstimateColumns(const std::vector<Model>& models, std::vector<TrialColumn>* cols) {
   for (bool alpha : {true, false}) {
     for (const std::string& name : UnknownNames(models, alpha)) {
-      const auto& params = alpha ? model.spec().alpha : model.spec().beta;
-      std::string cellv;
-      for (std::size_t i = 0; i < params.size(); ++i) {
-        if (params[i].name == name && !params[i].known && have_estimates) {
-          cellv = FormatNumber((alpha ? alpha_hat : beta_hat)[static_cast<Eigen::Index>(i)]);
-        }
-      }
-      row.push_back(cellv);
+      cols->push_back({(alpha ? "alpha_hat_" : "beta_hat_") + name, [alpha, name](const TrialOutcome& o) {
+                         const auto& params = alpha ? o.model->spec().alpha : o.model->spec().beta;
+                         std::string text;
+                         for (std::size_t i = 0; i < params.size(); ++i) {
+                           if (params[i].name == name && !params[i].known && o.have_estimates) {
+                             text = FormatNumber((alpha ? o.alpha_hat : o.beta_hat)[static_cast<Eigen::Index>(i)]);
+                           }
+                         }
+                         return text;
+                       }});
     }
   }
+}
+
+std::vector<TrialColumn> TrialColumns(const SweepConfig& config, const std::vector<Model>& models) {
+  std::vector<TrialColumn> cols;
+  KeyColumns(config, MaxStates(models), &cols);
+  OutcomeColumns(&cols);
+  EstimateColumns(models, &cols);
+  return cols;
+}
+
+// The settings of the unit's cell.
+IdentifierSettings CellSettings(const SweepConfig& config, const Model& model, const SweepCell& cell) {
+  IdentifierSettings s = config.identifier;
+  cell.Apply(config.grid, &s);
+  if (config.known_sigma) s.sigma = Vec::Constant(model.state_size(), cell.sigma);
+  // The trajectories come from CVODE at these tolerances: the data's accuracy apart from σ.
+  s.data_rtol = config.simulator.rtol;
+  s.data_atol = config.simulator.atol;
+  return s;
+}
+
+// γ(t) = [j(t) ≠ j(t − δt)]: the true jump labels.
+std::vector<std::uint8_t> TrueLabels(const Trajectory& truth) {
+  std::vector<std::uint8_t> labels(truth.j.size(), 0);
+  for (std::size_t k = 1; k < truth.j.size(); ++k) labels[k] = truth.j[k] != truth.j[k - 1] ? 1 : 0;
+  return labels;
+}
+
+// The identifier on the unit's noisy samples and the metrics against the truth.
+// The noisy samples are y = x + σ·E with the trial's standard normals E, shared by every cell of the
+// group (common random numbers).
+void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o) {
+  const Model& model = *o->model;
+  const SweepCell& cell = *o->cell;
+  const Trajectory& truth = *in.truth;
+  const IdentifierSettings s = CellSettings(config, model, cell);
+  if (cell.sigma > 0) {
+    if (in.normals == nullptr || in.normals->cols() != truth.x.cols() || in.noisy == nullptr) {
+      throw std::logic_error("RunTrial: σ > 0 without the trial's standard normals");
+    }
+    in.noisy->noalias() = truth.x + cell.sigma * *in.normals;  // x(i, k) + σ·E(i, k)
+  }
+  IdentifyOptions options;
+  if (config.oracle) options.labels = TrueLabels(truth);
+  const IdentifyResult res = hysid::Identify(model, cell.sigma > 0 ? *in.noisy : truth.x, truth.dt, s, options);
+  o->alpha_hat = res.alpha_hat;
+  o->beta_hat = res.beta_hat;
+  o->have_estimates = true;
+  o->jumps_detected = res.jumps_detected;
+  o->flow_status = ToString(res.flow_status);
+  o->jump_status = ToString(res.jump_status);
+  o->conf = CompareJumps(truth.j, res.gamma);
+  if (!o->alpha_hat.allFinite() || !o->beta_hat.allFinite()) {
+    o->status = "non_finite_estimate";
+    o->message = "an estimate is not finite";
+    return;
+  }
+  o->err = CompareParameters(model, o->alpha_hat, o->beta_hat);
+  if (s.sets) {
+    o->sets = CompareSets(model, res.flow_hull, res.jump_hull);
+    o->flow_vertices = static_cast<long>(res.flow_hull.cols());
+    o->jump_vertices = static_cast<long>(res.jump_hull.cols());
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models) {
+  std::vector<std::string> header;
+  for (const TrialColumn& c : TrialColumns(config, models)) header.push_back(c.name);
+  return header;
+}
+
+std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
+                                  const SweepCell& cell, long unit, long trial, const TrialInputs& in) {
+  const Trajectory& truth = *in.truth;
+  const std::string& sim_error = in.sim_error;
+  TrialOutcome o;
+  o.config = &config;
+  o.model = &models[static_cast<std::size_t>(cell.model)];
+  o.cell = &cell;
+  o.unit = unit;
+  o.trial = trial;
+  o.x0 = *in.x0;
+  o.samples = truth.size();
+  o.jumps_true = static_cast<long>(truth.jumps.size());
+  if (!sim_error.empty()) {
+    o.status = "error";
+    o.message = sim_error;
+  } else if (!truth.status.completed()) {
+    o.status = ToString(truth.status.stop);
+    o.message = truth.status.stop == SimStop::kZeno
+                    ? fmt::format("Zeno: jumps accumulate at t = {:.6g} s before t_end = {} s; shorten t_end",
+                                  truth.status.zeno_time,
+                                  config.models[static_cast<std::size_t>(cell.model)].t_end)
+                    : truth.status.message;
+  } else {
+    try {
+      Identify(config, in, &o);
+    } catch (const std::exception& e) {
+      o.status = "error";
+      o.message = e.what();
+      o.have_estimates = false;
+    }
+  }
+  std::vector<std::string> row;
+  for (const TrialColumn& c : TrialColumns(config, models)) row.push_back(c.cell(o));
   return row;
 }
 

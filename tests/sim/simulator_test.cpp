@@ -13,11 +13,6 @@
 namespace hysid {
 namespace {
 
-Vec DefaultX0(const Model& m) {
-  const auto& v = m.spec().default_x0;
-  return Eigen::Map<const Vec>(v.data(), static_cast<Eigen::Index>(v.size()));
-}
-
 // Closed-form impact-msd: between jumps x(s) = e^{−bs/2}(A cos ω s + B sin ω s), s = t − t_j.
 struct MsdClosedForm {
   double a, b, lambda;
@@ -37,7 +32,7 @@ struct MsdClosedForm {
 TEST_CASE("impact-msd: 14 jumps at the closed-form times, states on the closed form", "[sim]") {
   const Model model{ImpactMsd{}};
   const SampleGrid grid{20.0, 5e-4};
-  const Trajectory traj = Simulate(model, DefaultX0(model), grid);
+  const Trajectory traj = Simulate(model, DefaultState(model), grid);
   REQUIRE(traj.status.completed());
   REQUIRE(traj.size() == 40001);
   REQUIRE(traj.jumps.size() == 14);
@@ -83,7 +78,7 @@ TEST_CASE("bouncing ball stops with Zeno status near the analytic accumulation t
   const double g = 9.81, lambda = 0.8, h0 = 1.0;
   const double tz = std::sqrt(2 * h0 / g) + 2 * lambda * std::sqrt(2 * g * h0) / (g * (1 - lambda));
   REQUIRE(tz == Approx(4.0637127688715781).epsilon(1e-15));
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{10.0, 1e-3});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{10.0, 1e-3});
   REQUIRE(traj.status.stop == SimStop::kZeno);
   CHECK(std::abs(traj.status.zeno_time - tz) <= 1e-6);
   CHECK(traj.status.t_reached <= tz);
@@ -97,7 +92,7 @@ TEST_CASE("jump budget stops a run with its own status", "[sim]") {
   const Model model{ImpactMsd{}};
   SimOptions options;
   options.max_jumps = 3;
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4}, options);
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4}, options);
   CHECK(traj.status.stop == SimStop::kJumpBudget);
   CHECK(traj.jumps.size() == 3);
   CHECK(traj.t.back() <= traj.status.t_reached);
@@ -107,7 +102,7 @@ TEST_CASE("impact pendulum conserves energy without damping", "[sim]") {
   Model model{ImpactPendulum{}};
   model.SetParameter("b", 0.0);
   model.SetParameter("lambda", 1.0);
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{10.0, 1e-3});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{10.0, 1e-3});
   REQUIRE(traj.status.completed());
   REQUIRE(traj.jumps.size() >= 4);
   const double a = 9.81;
@@ -122,7 +117,7 @@ TEST_CASE("impact pendulum conserves energy without damping", "[sim]") {
 
 TEST_CASE("bad grid, options and initial state are rejected with the field named", "[sim]") {
   const Model model{ImpactMsd{}};
-  const Vec x0 = DefaultX0(model);
+  const Vec x0 = DefaultState(model);
   CHECK_THROWS_WITH(Simulate(model, x0, SampleGrid{20.0, 0.0}), Catch::Contains("dt"));
   CHECK_THROWS_WITH(Simulate(model, x0, SampleGrid{-1.0, 1e-3}), Catch::Contains("t_end"));
   SimOptions bad;

@@ -23,14 +23,9 @@
 namespace hysid {
 namespace {
 
-Vec DefaultX0(const Model& m) {
-  const auto& v = m.spec().default_x0;
-  return Eigen::Map<const Vec>(v.data(), static_cast<Eigen::Index>(v.size()));
-}
-
 IdentifierSettings Residual() {
   IdentifierSettings s;
-  s.detector.name = "residual";
+  s.detector.kind = ParseDetectorKind("residual");
   s.sets = false;
   return s;
 }
@@ -71,21 +66,20 @@ TEST_CASE("quantiles match closed forms", "[residual]") {
 TEST_CASE("residual detector settings errors name the field", "[residual]") {
   const Model model{ImpactMsd{}};
   DetectorSettings s;
-  s.name = "residual";
+  s.kind = DetectorKind::kResidual;
   s.false_alarm = 0.0;
   CHECK_THROWS_WITH(MakeDetector(s, model), Catch::Contains("false_alarm = 0"));
   s.false_alarm = 0.7;
   CHECK_THROWS_WITH(MakeDetector(s, model), Catch::Contains("false_alarm"));
   s.false_alarm = 1e-6;
   CHECK(MakeDetector(s, model)->name() == "residual");
-  s.name = "residuals";
-  CHECK_THROWS_WITH(MakeDetector(s, model), Catch::Contains("residual"));
+  CHECK_THROWS_WITH(ParseDetectorKind("residuals"), Catch::Contains("residual"));
 }
 
 TEST_CASE("§5 at dt = 5 ms, sigma = 0: all 14 jumps, no false ones", "[residual]") {
   // The paper's detector with r = 220 finds none of these (r tuned for 0.5 ms).
   const Model model{ImpactMsd{}};
-  const Run r = Identified(model, DefaultX0(model), 20.0, 5e-3, 0.0, 1, Residual());
+  const Run r = Identified(model, DefaultState(model), 20.0, 5e-3, 0.0, 1, Residual());
   CHECK(r.traj.jumps.size() == 14);
   CHECK(r.confusion.tp == 14);
   CHECK(r.confusion.fn == 0);
@@ -104,10 +98,10 @@ TEST_CASE("noise-free §5 with every estimator: the data accuracy keeps gtls fro
   const Model model{ImpactMsd{}};
   for (const char* estimator : {"rls", "gtls", "frisch"}) {
     IdentifierSettings s = Residual();
-    s.flow_estimator.name = s.jump_estimator.name = estimator;
+    s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(estimator);
     s.data_rtol = SimOptions{}.rtol;
     s.data_atol = SimOptions{}.atol;
-    const Run r = Identified(model, DefaultX0(model), 20.0, 5e-4, 0.0, 1, s);
+    const Run r = Identified(model, DefaultState(model), 20.0, 5e-4, 0.0, 1, s);
     INFO(estimator << ": FP " << r.confusion.fp << " FN " << r.confusion.fn);
     CHECK(r.confusion.tp == 14);
     CHECK(r.confusion.fn == 0);
@@ -115,8 +109,8 @@ TEST_CASE("noise-free §5 with every estimator: the data accuracy keeps gtls fro
     CHECK(r.errors.e_alpha < 1e-6);
   }
   IdentifierSettings exact = Residual();
-  exact.flow_estimator.name = exact.jump_estimator.name = "gtls";
-  const Run r = Identified(model, DefaultX0(model), 20.0, 5e-4, 0.0, 1, exact);
+  exact.flow_estimator.kind = exact.jump_estimator.kind = ParseEstimatorKind("gtls");
+  const Run r = Identified(model, DefaultState(model), 20.0, 5e-4, 0.0, 1, exact);
   CHECK(r.confusion.fp > 0);
   exact.data_rtol = -1e-12;
   CHECK_THROWS_WITH(Identifier(model, 5e-4, exact), Catch::Contains("data_rtol = -1e-12"));
@@ -127,7 +121,7 @@ TEST_CASE("§5 at dt = 0.1 ms, sigma = 0.25: all jumps, at most 1 false one", "[
   for (bool known_sigma : {false, true}) {
     IdentifierSettings s = Residual();
     if (known_sigma) s.sigma = Vec::Constant(2, 0.25);
-    const Run r = Identified(model, DefaultX0(model), 20.0, 1e-4, 0.25, 1, s);
+    const Run r = Identified(model, DefaultState(model), 20.0, 1e-4, 0.25, 1, s);
     INFO("sigma known " << known_sigma << ": FP " << r.confusion.fp << " FN " << r.confusion.fn);
     CHECK(r.confusion.fp <= 1);
     CHECK(r.confusion.tp == 14);
@@ -140,7 +134,7 @@ TEST_CASE("the false-alarm probability is what the test delivers on flow samples
   const Model model{ImpactMsd{}};
   IdentifierSettings s = Residual();
   s.detector.false_alarm = 1e-2;
-  const Run r = Identified(model, DefaultX0(model), 20.0, 1e-4, 0.25, 2, s);
+  const Run r = Identified(model, DefaultState(model), 20.0, 1e-4, 0.25, 2, s);
   const double flow = static_cast<double>(r.confusion.fp + r.confusion.tn);
   const double rate = static_cast<double>(r.confusion.fp) / flow;
   INFO("false-alarm rate " << rate);
@@ -152,9 +146,9 @@ TEST_CASE("the false-alarm probability is what the test delivers on flow samples
 TEST_CASE("noise-free §5: localisation brings e_beta from ~5e-5 to <= 1e-8", "[residual][localize]") {
   const Model model{ImpactMsd{}};
   IdentifierSettings s = Residual();
-  const Run plain = Identified(model, DefaultX0(model), 20.0, 5e-4, 0.0, 1, s);
+  const Run plain = Identified(model, DefaultState(model), 20.0, 5e-4, 0.0, 1, s);
   s.localize = true;
-  const Run located = Identified(model, DefaultX0(model), 20.0, 5e-4, 0.0, 1, s);
+  const Run located = Identified(model, DefaultState(model), 20.0, 5e-4, 0.0, 1, s);
   INFO("e_beta without " << plain.errors.e_beta << ", with " << located.errors.e_beta);
   CHECK(plain.errors.e_beta > 1e-5);
   CHECK(located.result.jumps_localized == 14);
@@ -167,7 +161,7 @@ TEST_CASE("noise-free §5: localisation brings e_beta from ~5e-5 to <= 1e-8", "[
 TEST_CASE("the localiser finds the simulator's jump instants", "[localize]") {
   const Model model{ImpactMsd{}};
   const double dt = 5e-3;
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, dt});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, dt});
   JumpLocalizer localizer(model);
   REQUIRE(localizer.has_known_rows());
   long checked = 0;
@@ -198,12 +192,12 @@ TEST_CASE("bouncing ball and impact pendulum: misclassification <= 1e-4, several
   const Model pendulum{ImpactPendulum{}};  // 20 impacts in 20 s
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     for (double sigma : {0.0, 0.01}) {
-      const Run b = Identified(ball, DefaultX0(ball), 3.0, 2e-4, sigma, seed, Residual());
+      const Run b = Identified(ball, DefaultState(ball), 3.0, 2e-4, sigma, seed, Residual());
       INFO("ball seed " << seed << " sigma " << sigma << ": FP " << b.confusion.fp << " FN "
                         << b.confusion.fn);
       CHECK(b.confusion.misclassification() <= 1e-4);
       CHECK(b.confusion.tp == 6);
-      const Run p = Identified(pendulum, DefaultX0(pendulum), 20.0, 1e-3, sigma, seed, Residual());
+      const Run p = Identified(pendulum, DefaultState(pendulum), 20.0, 1e-3, sigma, seed, Residual());
       INFO("pendulum seed " << seed << " sigma " << sigma << ": FP " << p.confusion.fp << " FN "
                             << p.confusion.fn);
       CHECK(p.confusion.misclassification() <= 1e-4);
@@ -219,7 +213,7 @@ TEST_CASE("warm-up: no burst of false jumps while the scale starts", "[residual]
   // samples 6–25 were flagged, α̂ (not updated on them) stayed poor: 15 false jumps. Its neighbours
   // in the same cell had none.
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 1e-3});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 1e-3});
   REQUIRE(traj.status.completed());
   IdentifierSettings s = Residual();
   s.detector.false_alarm = 1e-8;
@@ -261,7 +255,7 @@ TEST_CASE("forgetting: the residual detector keeps working with a forgetting RLS
   const Model model{ImpactMsd{}};
   IdentifierSettings s = Residual();
   s.flow_estimator.forgetting = 0.9995;
-  const Run r = Identified(model, DefaultX0(model), 20.0, 5e-4, 0.05, 4, s);
+  const Run r = Identified(model, DefaultState(model), 20.0, 5e-4, 0.05, 4, s);
   CHECK(r.confusion.tp == 14);
   CHECK(r.confusion.fp <= 1);
   CHECK(r.errors.rel_alpha < 0.05);

@@ -13,7 +13,7 @@ namespace {
 
 void CheckFinite(const Estimator& e) {
   CHECK(e.estimate().allFinite());
-  if (const auto cov = e.covariance()) CHECK(cov->allFinite());
+  if (const auto cov = e.covariance_matrix()) CHECK(cov->allFinite());
 }
 
 TEST_CASE("every estimator by name: degenerate data gives finite estimates and a status",
@@ -22,7 +22,7 @@ TEST_CASE("every estimator by name: degenerate data gives finite estimates and a
   for (const std::string& name : EstimatorNames()) {
     INFO("estimator " << name);
     EstimatorSettings s;
-    s.name = name;
+    s.kind = ParseEstimatorKind(name);
     s.window = 20;
     const bool eiv = name != "rls";
     SECTION("no excitation, with forgetting: " + name) {

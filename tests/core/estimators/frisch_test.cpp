@@ -20,11 +20,11 @@ using testing::MakeEivData;
 std::unique_ptr<Estimator> MakeFrisch(int p, int window, const std::string& box,
                                       const std::string& point = "rls", double confidence = 0.0) {
   EstimatorSettings s;
-  s.name = "frisch";
+  s.kind = EstimatorKind::kFrisch;
   s.window = window;
   s.frisch_confidence = confidence;
-  s.frisch_box = box;
-  s.frisch_point = point;
+  FindOption(EstimatorOptions(), "frisch_box")->set(s, FindOption(EstimatorOptions(), "frisch_box")->Parse(box));
+  FindOption(EstimatorOptions(), "frisch_point")->set(s, FindOption(EstimatorOptions(), "frisch_point")->Parse(point));
   return MakeEstimator(s, Vec::Zero(p));
 }
 
@@ -155,7 +155,7 @@ TEST_CASE("frisch with an exact column: the face box keeps the truth and is smal
     d.y.array() += theta[1] * (1.0 - d.phi.col(1).array());
     d.phi.col(1).setOnes();
     EstimatorSettings s;
-    s.name = "frisch";
+    s.kind = EstimatorKind::kFrisch;
     s.window = 250;  // default sampling allowance (confidence 0.95)
     s.noise_shape = c;
     auto face = MakeEstimator(s, Vec::Zero(2));
@@ -237,16 +237,17 @@ TEST_CASE("frisch degenerate data gives a status, never NaN", "[frisch]") {
 
 TEST_CASE("frisch settings errors name the field", "[frisch]") {
   EstimatorSettings s;
-  s.name = "frisch";
+  s.kind = EstimatorKind::kFrisch;
   s.window = 2;
   CHECK_THROWS_WITH(MakeEstimator(s, Vec::Zero(2)), Catch::Contains("window = 2"));
   s.window = 10;
-  s.frisch_box = "union";
-  CHECK_THROWS_WITH(MakeEstimator(s, Vec::Zero(2)), Catch::Contains("frisch_box = 'union'"));
-  s.frisch_box = "intersect";
-  s.frisch_point = "median";
-  CHECK_THROWS_WITH(MakeEstimator(s, Vec::Zero(2)), Catch::Contains("frisch_point = 'median'"));
-  s.frisch_point = "rls";
+  // Choices are enums in the library: a bad name is refused where text becomes one.
+  CHECK_THROWS_WITH(FindOption(EstimatorOptions(), "frisch_box")->Parse("union"),
+                    Catch::Contains("frisch_box = 'union'"));
+  s.frisch_box = FrischBox::kIntersect;
+  CHECK_THROWS_WITH(FindOption(EstimatorOptions(), "frisch_point")->Parse("median"),
+                    Catch::Contains("frisch_point = 'median'"));
+  s.frisch_point = FrischPoint::kClampedRls;
   s.frisch_confidence = 1.0;
   CHECK_THROWS_WITH(MakeEstimator(s, Vec::Zero(2)), Catch::Contains("frisch_confidence = 1"));
   s.frisch_confidence = 0.9;

@@ -20,7 +20,7 @@ using testing::MakeEivData;
 std::unique_ptr<Estimator> Make(const std::string& name, const Mat& shape, int p,
                                 double forgetting = 1.0, int refactor_every = 500) {
   EstimatorSettings s;
-  s.name = name;
+  s.kind = ParseEstimatorKind(name);
   s.noise_shape = shape;
   s.forgetting = forgetting;
   s.refactor_every = refactor_every;
@@ -256,7 +256,7 @@ TEST_CASE("gtls degenerate data gives a status, never NaN", "[gtls]") {
 
 TEST_CASE("gtls settings errors name the field", "[gtls]") {
   EstimatorSettings s;
-  s.name = "gtls";
+  s.kind = EstimatorKind::kGtls;
   s.noise_shape = Mat::Identity(2, 2);
   CHECK_THROWS_WITH(MakeEstimator(s, Vec::Zero(2)), Catch::Contains("noise_shape is 2x2"));
   s.noise_shape = -Mat::Identity(3, 3);

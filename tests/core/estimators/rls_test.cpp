@@ -63,7 +63,7 @@ TEST_CASE("RLS equals batch least squares with vector measurements", "[rls]") {
   const Vec batch = BatchRidge(phi, y, Vec::Zero(2), 10.0);
   CHECK((rls->estimate() - batch).norm() <= 1e-9 * batch.norm());
   // The covariance is P = (I/p0 + ΦᵀΦ)⁻¹ and symmetric.
-  const Mat p = *rls->covariance();
+  const Mat p = *rls->covariance_matrix();
   const Mat expected = (Mat::Identity(2, 2) / 10.0 + phi.transpose() * phi).inverse();
   CHECK((p - expected).norm() <= 1e-9 * expected.norm());
   CHECK(p == p.transpose());
@@ -123,8 +123,8 @@ TEST_CASE("RLS stays finite on unexciting data with forgetting", "[rls]") {
   Vec y = Vec::Zero(1);
   for (int k = 0; k < 100000; ++k) rls->Update(zero, y);
   CHECK(rls->estimate().allFinite());
-  CHECK(rls->covariance()->allFinite());
-  CHECK(rls->covariance()->trace() <= 2 * settings.p0 / 0.9 * (1 + 1e-12));
+  CHECK(rls->covariance_matrix()->allFinite());
+  CHECK(rls->covariance_matrix()->trace() <= 2 * settings.p0 / 0.9 * (1 + 1e-12));
   CHECK(rls->status() == EstimatorStatus::kNotExcited);
   // A non-finite row is skipped and counted.
   Mat bad(1, 2);
@@ -134,9 +134,7 @@ TEST_CASE("RLS stays finite on unexciting data with forgetting", "[rls]") {
   CHECK(rls->estimate().allFinite());
   // Wrong sizes and unknown names are errors.
   CHECK_THROWS_WITH(rls->Update(Mat::Zero(1, 3), y), Catch::Contains("3"));
-  EstimatorSettings unknown;
-  unknown.name = "kalman";
-  CHECK_THROWS_WITH(MakeEstimator(unknown, Vec::Zero(2)), Catch::Contains("known: rls"));
+  CHECK_THROWS_WITH(ParseEstimatorKind("kalman"), Catch::Contains("known: rls"));
   EstimatorSettings bad_forgetting;
   bad_forgetting.forgetting = 1.5;
   CHECK_THROWS_WITH(MakeEstimator(bad_forgetting, Vec::Zero(2)), Catch::Contains("forgetting"));

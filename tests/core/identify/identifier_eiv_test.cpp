@@ -31,7 +31,7 @@ Mat Diag3(double a, double b, double c) {
 IdentifierSettings Named(const std::string& name) {
   IdentifierSettings s;
   s.sets = false;
-  s.flow_estimator.name = s.jump_estimator.name = name;
+  s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(name);
   return s;
 }
 

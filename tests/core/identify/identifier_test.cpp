@@ -18,14 +18,9 @@
 namespace hysid {
 namespace {
 
-Vec DefaultX0(const Model& m) {
-  const auto& v = m.spec().default_x0;
-  return Eigen::Map<const Vec>(v.data(), static_cast<Eigen::Index>(v.size()));
-}
-
 TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[identify]") {
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
   REQUIRE(traj.status.completed());
   IdentifierSettings settings;  // paper defaults: rls, r = 220, tau0 = 1e5
   const IdentifyResult r = Identify(model, traj.x, traj.dt, settings);
@@ -40,6 +35,31 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
   CHECK(e.e_beta < 1e-3);
 }
 
+
+TEST_CASE("given labels replace the detector: the true labels reproduce a perfect detector bit for bit",
+          "[identify][labels]") {
+  // Noise-free §5: the paper detector classifies every sample right (test above), so feeding the true
+  // labels must give the same estimates, with the estimators reached through their interfaces.
+  const Model model{ImpactMsd{}};
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
+  REQUIRE(traj.status.completed());
+  IdentifierSettings settings;
+  const IdentifyResult detected = Identify(model, traj.x, traj.dt, settings);
+  IdentifyOptions options;
+  options.labels.assign(traj.j.size(), 0);
+  for (std::size_t k = 1; k < traj.j.size(); ++k) options.labels[k] = traj.j[k] != traj.j[k - 1] ? 1 : 0;
+  const IdentifyResult given = Identify(model, traj.x, traj.dt, settings, options);
+  CHECK(given.gamma == options.labels);
+  CHECK(given.gamma == detected.gamma);
+  CHECK(given.jumps_detected == 14);
+  CHECK(given.alpha_hat == detected.alpha_hat);
+  CHECK(given.beta_hat == detected.beta_hat);
+  // A wrong label (a flow sample called a jump) changes β̂; a label vector of the wrong length is refused.
+  options.labels[100] = 1;
+  CHECK(Identify(model, traj.x, traj.dt, settings, options).beta_hat != detected.beta_hat);
+  options.labels.pop_back();
+  CHECK_THROWS_WITH(Identify(model, traj.x, traj.dt, settings, options), Catch::Contains("labels"));
+}
 
 TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' results bit for bit",
           "[identify][direct]") {
@@ -77,10 +97,10 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
   for (const Case& k : cases) {
     INFO(k.what);
     const auto& spec = k.model.spec();
-    const Trajectory traj = Simulate(k.model, DefaultX0(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
+    const Trajectory traj = Simulate(k.model, DefaultState(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
     const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(k.model.state_size(), k.sigma), NoiseKey{3, 0});
     IdentifierSettings s;
-    s.detector.name = k.detector;
+    s.detector.kind = ParseDetectorKind(k.detector);
     s.detector.r = k.r;
     s.flow_estimator.forgetting = k.forgetting;
     s.sets = k.sets;
@@ -113,7 +133,7 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
 TEST_CASE("Identifier::Feed in uneven chunks, mixed with Step, equals Step sample by sample",
           "[identify][direct]") {
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
   const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(2, 0.25), NoiseKey{5, 0});
   for (bool direct : {true, false}) {
     INFO("direct_calls " << direct);
@@ -154,7 +174,7 @@ TEST_CASE("Identifier::Feed in uneven chunks, mixed with Step, equals Step sampl
 TEST_CASE("bouncing ball at sigma 0: g and lambda within 1 %", "[identify]") {
   // Affine flow (gravity): the bound is taken in homogeneous coordinates ("auto" picks it).
   const Model model{BouncingBall{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{3.0, 1e-3});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{3.0, 1e-3});
   REQUIRE(traj.status.completed());
   REQUIRE(traj.jumps.size() == 6);
   IdentifierSettings settings;
@@ -172,10 +192,10 @@ TEST_CASE("bouncing ball: the paper's bound without homogeneous coordinates flag
           "[identify]") {
   // Near the apex f(ξ) ≈ (0, −g) while the identified-row Jacobian is 0: τ̂ = 0 < D_δt ξ ≈ g.
   const Model model{BouncingBall{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{3.0, 1e-3});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{3.0, 1e-3});
   IdentifierSettings settings;
   settings.detector.r = 20.0;
-  settings.detector.bound = "paper";
+  settings.detector.bound = BoundRule::kPaper;
   const IdentifyResult r = Identify(model, traj.x, traj.dt, settings);
   const Confusion c = CompareJumps(traj.j, r.gamma);
   CHECK(c.fp > 1000);
@@ -183,7 +203,7 @@ TEST_CASE("bouncing ball: the paper's bound without homogeneous coordinates flag
 
 TEST_CASE("impact pendulum at sigma 0: a and b within 1 %", "[identify]") {
   const Model model{ImpactPendulum{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 1e-3});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 1e-3});
   REQUIRE(traj.status.completed());
   IdentifierSettings settings;
   settings.detector.r = 20.0;
@@ -199,7 +219,7 @@ TEST_CASE("impact pendulum at sigma 0: a and b within 1 %", "[identify]") {
 TEST_CASE("Algorithm 2 on noise-free §5: hulls contain every classified sample and equal batch hulls",
           "[identify][sets]") {
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
   REQUIRE(traj.status.completed());
   Identifier id(model, traj.dt, IdentifierSettings{});
   std::vector<std::uint8_t> gamma;
@@ -288,7 +308,7 @@ struct ImpactMsdLag {
 TEST_CASE("identifier with 3 states: hulls of Λ and Γ are CGAL's batch hulls, set metrics hold",
           "[identify][sets]") {
   const Model model{ImpactMsdLag{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
   REQUIRE(traj.status.completed());
   const auto start = std::chrono::steady_clock::now();
   Identifier id(model, traj.dt, IdentifierSettings{});
@@ -355,7 +375,7 @@ TEST_CASE("identifier with 3 states: hulls of Λ and Γ are CGAL's batch hulls, 
 TEST_CASE("the §5 detector with r too large misses every jump, with noise and r = 20 it floods",
           "[identify]") {
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, DefaultX0(model), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
   IdentifierSettings settings;
   settings.detector.r = 1000.0;  // D/τ̂ at a jump ≈ 2/(r·L̂·δt) = 0.8 < 1
   CHECK(CompareJumps(traj.j, Identify(model, traj.x, traj.dt, settings).gamma).tp == 0);

@@ -156,7 +156,7 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   const auto cells = EnumerateCells(c);
   CHECK(cells.size() == 3u * 4u * (2u + 1u));
   long residual = 0;
-  for (const auto& cell : cells) residual += cell.detector == "residual" ? 1 : 0;
+  for (const auto& cell : cells) residual += cell.detector == DetectorKind::kResidual ? 1 : 0;
   CHECK(residual == 12);
   // Hash: equal configs equal, any change differs.
   // false_alarm is expanded for the residual detector only.
@@ -167,8 +167,8 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   const auto ecells = EnumerateCells(e);
   CHECK(ecells.size() == 2u * (3u + 2u));
   for (const auto& cell : ecells) {
-    CHECK(std::isnan(cell.r) == (cell.detector == "residual"));
-    CHECK(std::isnan(cell.false_alarm) == (cell.detector == "paper"));
+    CHECK(std::isnan(cell.option(e.grid, "r")) == (cell.detector == DetectorKind::kResidual));
+    CHECK(std::isnan(cell.option(e.grid, "false_alarm")) == (cell.detector == DetectorKind::kPaper));
   }
   const SweepConfig d = ParseSweepText(
       "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.0, to = 0.3, count = 4 }\n"
@@ -177,6 +177,48 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
       "ok.toml", Registry());
   CHECK(c.Hash() != ParseSweepText(kSweep, "a", Registry()).Hash());
   CHECK(c.Hash() != d.Hash());
+}
+
+TEST_CASE("sweep files: option keys from the option tables, and oracle labels", "[sweep][config]") {
+  const std::string head = "[model]\nname = \"impact-msd\"\n";
+  // Every estimator option, for the α estimator and (jump_NAME) the β estimator; choices by name.
+  const SweepConfig c = ParseSweepText(head + "[grid]\nsigma = 0.1\ndt = 1e-3\nestimator = \"frisch\"\n"
+                                              "[identifier]\nfrisch_box = \"intersect\"\njump_window = 50\n"
+                                              "frisch_confidence = 0.0\nbound = \"homogeneous\"\noracle = true\n",
+                                       "ok.toml", Registry());
+  CHECK(c.identifier.flow_estimator.frisch_box == FrischBox::kIntersect);
+  CHECK(c.identifier.jump_estimator.frisch_box == FrischBox::kCumulative);
+  CHECK(c.identifier.flow_estimator.window == 200);
+  CHECK(c.identifier.jump_estimator.window == 50);
+  CHECK(c.identifier.flow_estimator.frisch_confidence == 0.0);
+  CHECK(c.identifier.detector.bound == BoundRule::kHomogeneous);
+  CHECK(c.oracle);
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\nfrisch_box = \"union\"\n"),
+             Catch::Contains("bad.toml:7: identifier.frisch_box: frisch_box = 'union': must be one of"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\njump_window = -1\n"),
+             Catch::Contains("identifier.jump_window: window = -1: must be >= 0"));
+  // With the true labels nothing of a detector may be varied.
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nr = [5.0, 20.0]\n[identifier]\noracle = true\n"),
+             Catch::Contains("grid.r: not used with identifier.oracle = true"));
+  // The oracle's rows: detector "oracle", every jump found, no false one, at σ = 0.1.
+  const SweepConfig o = ParseSweepText(head + "t_end = 4.0\n[grid]\nsigma = 0.1\ndt = 1e-3\n"
+                                              "[identifier]\noracle = true\nsets = false\n[run]\ntrials = 2\n",
+                                       "oracle.toml", Registry());
+  const fs::path dir = TempDir("oracle");
+  Run(o, dir, 1);
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+  ReadTrialsCsv(dir / "trials.csv", &header, &rows);
+  const auto col = [&](const char* name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  REQUIRE(rows.size() == 2u);
+  for (const auto& [unit, r] : rows) {
+    CHECK(r[col("detector")] == "oracle");
+    CHECK(r[col("fp")] == "0");
+    CHECK(r[col("fn")] == "0");
+    CHECK(r[col("jumps_detected")] == r[col("jumps_true")]);
+  }
 }
 
 TEST_CASE("summary statistics against closed forms", "[sweep][summary]") {
@@ -360,9 +402,7 @@ seed = 5
   for (const SweepCell& cell : cells) {
     if (cell.dt != 2e-3) continue;
     IdentifierSettings s = c.identifier;
-    s.detector.name = cell.detector;
-    if (!std::isnan(cell.r)) s.detector.r = cell.r;
-    if (!std::isnan(cell.false_alarm)) s.detector.false_alarm = cell.false_alarm;
+    cell.Apply(c.grid, &s);
     s.data_rtol = c.simulator.rtol;
     s.data_atol = c.simulator.atol;
     const Mat y = truth.x + cell.sigma * e;
@@ -392,7 +432,10 @@ seed = 5
   for (const SweepCell& cell : cells) {
     long expected = -1;
     for (const SweepCell& b : cells) {
-      if (b.dt == cell.dt && b.sigma == cell.sigma && b.detector == "paper" && b.r == 220.0) expected = b.index;
+      if (b.dt == cell.dt && b.sigma == cell.sigma && b.detector == DetectorKind::kPaper &&
+          b.option(c.grid, "r") == 220.0) {
+        expected = b.index;
+      }
     }
     const auto& srow = summary.at(cell.index);
     CHECK(srow[scol("baseline_cell")] == fmt::format("{}", expected));

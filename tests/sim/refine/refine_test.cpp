@@ -39,7 +39,7 @@ void RequireKept(const RefineResult& r) {
 TEST_CASE("refinement of the §5 system from the recursive estimate reaches the CRLB", "[refine]") {
   const Run run(0.25);
   IdentifierSettings settings;
-  settings.detector.name = "residual";
+  settings.detector.kind = DetectorKind::kResidual;
   settings.data_rtol = settings.data_atol = 1e-12;
   const IdentifyResult recursive = Identify(run.model, run.y, run.grid.dt, settings);
   REQUIRE(recursive.jumps_detected == 14);
