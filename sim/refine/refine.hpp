@@ -14,6 +14,8 @@
 // the Fisher information is singular, the normalised residual RMS is outside [rms_low, rms_high]
 // (σ estimated: the residual σ̂ above rms_high × the MAD estimate), or the residuals' lag-1
 // autocorrelation exceeds max_lag1 (when they are above the integration accuracy). Never NaN.
+// A jump-count mismatch or a failed start is first retried on a span that ends before the first
+// disagreement between the model's jumps and the detected ones (RefineOptions::max_span_retries).
 #pragma once
 
 #include <cstdint>
