@@ -131,9 +131,9 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
                 ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
     if (r.samples_used < data.y.cols()) {
-      std::printf("  fitted the first %ld of %ld samples (t <= %.6g): later detected jumps are closer than "
-                  "%ld samples\n", r.samples_used, static_cast<long>(data.y.cols()),
-                  static_cast<double>(r.samples_used - 1) * data.dt, RefineOptions{}.min_jump_interval);
+      std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
+                  static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
+                  r.span_reason.c_str());
     }
     if (r.ok()) {
       std::printf("  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",

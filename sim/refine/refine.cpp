@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 
@@ -61,6 +62,9 @@ bool RefineOptions::IsValid(std::string* error) const {
     return fail(fmt::format("RefineOptions::jump_time_tolerance = {}: must be finite and >= 0",
                             jump_time_tolerance));
   }
+  if (max_span_retries < 0) {
+    return fail(fmt::format("RefineOptions::max_span_retries = {}: must be >= 0", max_span_retries));
+  }
   if (min_jump_interval < 0) {
     return fail(fmt::format("RefineOptions::min_jump_interval = {}: must be >= 0", min_jump_interval));
   }
@@ -82,6 +86,9 @@ struct FitProblem {
   HybridParameters start;
   Vec weight;  // 1/σ_i for the residuals
   SensitivityOptions options;
+  // Set by the jump checks: the first sample at which the model's jumps and the detected ones
+  // disagree (−1: none found), where a shorter span may end.
+  mutable long disagreement = -1;
 
   // The matched trajectory at θ (states only unless `sensitivities`); ok() false when it fails.
   SensitivityTrajectory Simulate(const ConstVecRef& theta, bool sensitivities) const {
@@ -207,15 +214,42 @@ bool AccumulatesWithinASample(const std::vector<JumpRecord>& jumps, double dt) {
   return i1 < i2 && i2 < i3 && i2 < dt;
 }
 
+// The first sample at which the model's jumps (in order) and the detected ones disagree: the
+// earlier of the model's jump j and detected jump j when they are more than `tolerance` samples
+// apart, or the first jump either has without a counterpart. −1 when they all agree.
+long FirstDisagreement(const std::vector<JumpRecord>& jumps, const std::vector<int>& segments, double dt,
+                       double tolerance) {
+  std::vector<long> detected;  // first sample of each later segment
+  for (std::size_t k = 1; k < segments.size(); ++k) {
+    if (segments[k] != segments[k - 1]) detected.push_back(static_cast<long>(k));
+  }
+  const std::size_t common = std::min(jumps.size(), detected.size());
+  for (std::size_t j = 0; j < common; ++j) {
+    const double t = jumps[j].t;
+    const double lo = static_cast<double>(detected[j] - 1) * dt, hi = static_cast<double>(detected[j]) * dt;
+    const double off = t < lo ? (lo - t) / dt : (t > hi ? (t - hi) / dt : 0.0);
+    if (off > tolerance) return std::min(detected[j] - 1, static_cast<long>(std::floor(t / dt)));
+  }
+  if (jumps.size() > common) return static_cast<long>(std::floor(jumps[common].t / dt));
+  if (detected.size() > common) return detected[common] - 1;
+  return -1;
+}
+
+// The model at p on its own over the span (plain mode, states only).
+SensitivityTrajectory SimulatePlain(const FitProblem& problem, const HybridParameters& p) {
+  SensitivityOptions o = problem.options;
+  o.sensitivities = false;
+  return SimulateSensitivities(*problem.model, p, problem.unknowns, problem.grid, o);
+}
+
 // The fitted model on its own (plain mode, states only): Zeno, jump count, jump times.
 void CheckJumps(const FitProblem& problem, const RefineOptions& options, const HybridParameters& fit,
                 RefineResult& r) {
-  SensitivityOptions o = problem.options;
-  o.sensitivities = false;
-  const SensitivityTrajectory plain =
-      SimulateSensitivities(*problem.model, fit, problem.unknowns, problem.grid, o);
+  const SensitivityTrajectory plain = SimulatePlain(problem, fit);
   const SimStatus& st = plain.trajectory.status;
   r.model_jumps = static_cast<int>(plain.trajectory.jumps.size());
+  problem.disagreement =
+      FirstDisagreement(plain.trajectory.jumps, problem.segments, problem.grid.dt, options.jump_time_tolerance);
   if (st.stop == SimStop::kZeno) {
     return Fail(r, RefineStatus::kZeno, fmt::format("the fitted model is Zeno: {}", st.message));
   }
@@ -318,6 +352,10 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
   Vec theta = r.start.Theta(r.unknowns);
   const SensitivityTrajectory at_start = problem.Simulate(theta, false);
   if (!at_start.ok()) {
+    // The start's jump times drift from the data (it is not fit yet): only its jump count is compared.
+    const SensitivityTrajectory plain = SimulatePlain(problem, r.start);
+    problem.disagreement = FirstDisagreement(plain.trajectory.jumps, problem.segments, problem.grid.dt,
+                                             std::numeric_limits<double>::infinity());
     return Fail(r, RefineStatus::kStartFailed,
                 fmt::format("the recursive estimate does not simulate on the detected segments: {}",
                             at_start.trajectory.status.message));
@@ -367,7 +405,8 @@ long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval) {
   return static_cast<long>(gamma.size());
 }
 
-void FitSamples(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
+// Returns the first sample at which the model's jumps and the detected ones disagree (−1: none).
+long FitSamples(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
                 const RefineOptions& options, RefineResult& r) {
   FitProblem problem;
   problem.model = &model;
@@ -388,6 +427,46 @@ void FitSamples(const Model& model, const Mat& y, double dt, const std::vector<s
   problem.options.sim.rtol = problem.options.sim.atol = tolerance;
   problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, problem.options.sim)).cwiseInverse();
   RunRefinement(problem, options, mad_sigma, r);
+  return problem.disagreement;
+}
+
+// Fits the first `used` samples; false (r untouched but its status) when they are too few.
+long FitPrefix(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
+               long used, const RefineOptions& options, RefineResult& r) {
+  r.samples_used = used;
+  r.detected_jumps = 0;
+  for (long k = 1; k < used; ++k) r.detected_jumps += gamma[static_cast<std::size_t>(k)] != 0;
+  const Mat y_used = y.leftCols(used);
+  const std::vector<std::uint8_t> gamma_used(gamma.begin(), gamma.begin() + used);
+  return FitSamples(model, y_used, dt, gamma_used, options, r);
+}
+
+// Fits the first `used` samples; when the model's jumps and the detector's disagree (a missed small
+// bounce, a start that jumps once less than the data show), the span is cut to end a margin before the
+// first disagreement and fit again.
+void FitWithRetries(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
+                    long used, int p, const RefineOptions& options, RefineResult& r) {
+  long cut = FitPrefix(model, y, dt, gamma, used, options, r);
+  const long margin = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 2;
+  for (int retry = 0; retry < options.max_span_retries && !r.ok(); ++retry) {
+    if (r.status != RefineStatus::kJumpCountMismatch && r.status != RefineStatus::kStartFailed) break;
+    const long shorter = cut - margin;
+    if (cut < 0 || shorter >= used || shorter < p + 2) break;
+    const RefineResult failed = r;
+    r.status = RefineStatus::kOk;
+    r.reason.clear();
+    r.refined = r.start;
+    r.model_jumps = -1;
+    r.iterations = 0;
+    r.span_reason = fmt::format("the fit of the first {} samples ended in {}: the model's jumps and the "
+                                "detected ones disagree from sample {}", used, ToString(failed.status), cut);
+    used = shorter;
+    cut = FitPrefix(model, y, dt, gamma, used, options, r);
+    if (!r.ok() && r.status != RefineStatus::kJumpCountMismatch && r.status != RefineStatus::kStartFailed) {
+      r = failed;  // the shorter span fails for another reason: the first failure is reported
+      break;
+    }
+  }
 }
 
 }  // namespace
@@ -415,19 +494,18 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
     Fail(r, RefineStatus::kTooFewSamples, fmt::format("{} samples for {} unknowns", y.cols(), p));
     return r;
   }
-  const long used = FitLength(gamma, options.min_jump_interval);
-  r.samples_used = used;
-  r.detected_jumps = 0;
-  for (long k = 1; k < used; ++k) r.detected_jumps += gamma[static_cast<std::size_t>(k)] != 0;
+  long used = FitLength(gamma, options.min_jump_interval);
+  if (used < y.cols()) {
+    r.span_reason = fmt::format("later detected jumps are closer than {} samples", options.min_jump_interval);
+  }
   if (used < p + 2) {
+    r.samples_used = used;
     Fail(r, RefineStatus::kTooFewSamples,
          fmt::format("{} samples before the detected jumps come closer than {} samples, for {} unknowns",
                      used, options.min_jump_interval, p));
     return r;
   }
-  const Mat y_used = y.leftCols(used);
-  const std::vector<std::uint8_t> gamma_used(gamma.begin(), gamma.begin() + used);
-  FitSamples(model, y_used, dt, gamma_used, options, r);
+  FitWithRetries(model, y, dt, gamma, used, p, options, r);
   if (r.ok()) {
     r.estimate = r.refined;
   } else {

@@ -14,6 +14,8 @@
 // the Fisher information is singular, the normalised residual RMS is outside [rms_low, rms_high]
 // (σ estimated: the residual σ̂ above rms_high × the MAD estimate), or the residuals' lag-1
 // autocorrelation exceeds max_lag1 (when they are above the integration accuracy). Never NaN.
+// A jump-count mismatch or a failed start is first retried on a span that ends before the first
+// disagreement between the model's jumps and the detected ones (RefineOptions::max_span_retries).
 #pragma once
 
 #include <cstdint>
@@ -67,7 +69,11 @@ struct RefineOptions {
   // Detected jumps closer than this many samples are not resolved reliably (a bouncing ball nearing
   // its Zeno time): the samples before the first such jump are fit (RefineResult::samples_used).
   // 0: always all samples.
-  long min_jump_interval = 50;  // samples: fitted jump j within this of the detected interval
+  long min_jump_interval = 50;
+  // When the (start or fitted) model's jumps disagree with the detected ones in the span (jump-count
+  // mismatch or start failure), the span is cut to end ceil(jump_time_tolerance) + 2 samples before
+  // the first disagreement and fit again, at most this many times (0: never).
+  int max_span_retries = 3;
   // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
   bool IsValid(std::string* error) const;
 };
@@ -92,6 +98,7 @@ struct RefineResult {
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;  // ½ Σ (r/σ_w)² with the weighting σ
   long samples_used = 0;  // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
+  std::string span_reason;  // why samples_used < K ("" when all samples are fit)
   int detected_jumps = 0;  // in the fitted prefix
   int model_jumps = -1;  // of the fitted model over the horizon (−1: not simulated)
 };

@@ -157,6 +157,68 @@ TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the 
   CHECK(r.status == RefineStatus::kZeno);
 }
 
+// A noisy ball up to just before its Zeno time with the true jump labels (the detector's, when it
+// finds every bounce).
+struct BallRun {
+  Model model{BouncingBall{}};
+  SampleGrid grid{4.0, 1e-3};
+  Trajectory truth = Simulate(model, (Vec(2) << 1.0, 0.0).finished(), grid);
+  Mat y;
+  std::vector<std::uint8_t> gamma;
+  BallRun() {
+    y = AddMeasurementNoise(truth.x, Vec::Constant(2, 0.01), NoiseKey{.seed = 3, .stream = 0});
+    gamma.assign(truth.j.size(), 0);
+    for (std::size_t k = 1; k < truth.j.size(); ++k) gamma[k] = truth.j[k] != truth.j[k - 1];
+  }
+  // Removes the last (last = true) or first detected jump before sample `end`; returns its sample.
+  long RemoveJump(long end, bool last) {
+    long found = -1;
+    for (long k = 1; k < end; ++k) {
+      if (gamma[static_cast<std::size_t>(k)] != 0 && (last || found < 0)) found = k;
+    }
+    gamma[static_cast<std::size_t>(found)] = 0;
+    return found;
+  }
+};
+
+TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it and the fit is ok",
+          "[refine]") {
+  BallRun run;
+  REQUIRE(run.truth.status.completed());
+  const RefineResult all = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  REQUIRE(all.ok());
+  const long missed = run.RemoveJump(all.samples_used, true);
+  RefineOptions no_retry;
+  no_retry.max_span_retries = 0;
+  const RefineResult kept = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_retry);
+  INFO(ToString(kept.status) << ": " << kept.reason);
+  CHECK(kept.status == RefineStatus::kJumpCountMismatch);
+  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  INFO(ToString(r.status) << ": " << r.reason << "; " << r.span_reason);
+  REQUIRE(r.ok());
+  CHECK(r.samples_used < missed);
+  // The fit distorted by the missed bounce can move earlier bounces beyond the tolerance too (here the
+  // 10th): the span then ends before the first of them.
+  CHECK(r.samples_used > all.samples_used / 2);
+  CHECK(r.detected_jumps >= kept.detected_jumps / 2);
+  CHECK_THAT(r.span_reason, Catch::Contains("jump-count-mismatch"));
+  CHECK(r.model_jumps == r.detected_jumps);
+  const Vec theta = r.estimate.Theta(r.unknowns), truth = HybridParameters{run.model.alpha(), run.model.beta(),
+                                                                            run.truth.x.col(0)}.Theta(r.unknowns);
+  for (Eigen::Index i = 0; i < theta.size(); ++i) {
+    INFO(r.names[static_cast<std::size_t>(i)] << " = " << theta[i] << ", se " << r.standard_errors[i]);
+    CHECK(std::abs(theta[i] - truth[i]) < 4.0 * r.standard_errors[i]);
+  }
+}
+
+TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help, not ok", "[refine]") {
+  BallRun run;
+  run.RemoveJump(static_cast<long>(run.gamma.size()), false);
+  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  INFO(ToString(r.status) << ": " << r.reason);
+  RequireKept(r);
+}
+
 TEST_CASE("bad options and inputs name the field", "[refine]") {
   const Run run(0.05);
   RefineOptions o;
