@@ -294,7 +294,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   const toml::node* grid_node = root.get("grid");
   if (!grid_node) rd.Fail(nullptr, "grid", "missing: a [grid] table (at least sigma and dt)");
   const toml::table& grid = rd.Table(*grid_node, "grid");
-  rd.OnlyKeys(grid, "grid", {"sigma", "dt", "r", "false_alarm", "estimator", "detector"});
+  rd.OnlyKeys(grid, "grid", {"sigma", "dt", "r", "false_alarm", "estimator", "detector", "refine"});
   for (const char* k : {"sigma", "dt"}) {
     if (!grid.contains(k)) rd.Fail(grid_node, fmt::format("grid.{}", k), "missing");
   }
@@ -313,6 +313,14 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
                                                 : std::vector<std::string>{"rls"};
   c.grid.detector = grid.contains("detector") ? rd.StringAxis(*grid.get("detector"), "grid.detector")
                                               : std::vector<std::string>{"paper"};
+  if (grid.contains("refine")) {
+    c.grid.refine_axis = true;
+    c.grid.refine = rd.StringAxis(*grid.get("refine"), "grid.refine");
+    for (const std::string& m : c.grid.refine) {
+      if (m != "none" && m != "ml") rd.Fail(grid.get("refine"), "grid.refine", fmt::format("unknown '{}' (known: none, ml)", m));
+    }
+    NoDuplicates(rd, *grid.get("refine"), "grid.refine", c.grid.refine);
+  }
   for (double s : c.grid.sigma) {
     if (s < 0) rd.Fail(grid.get("sigma"), "grid.sigma", fmt::format("{} must be ≥ 0", s));
   }
@@ -460,6 +468,7 @@ nlohmann::json SweepConfig::ToJson() const {
   };
   // The noise scheme: a run directory written with another one is refused, not mixed in.
   j["noise"] = "ziggurat stream per (seed, trial, model, dt)";
+  if (grid.refine_axis) j["grid"]["refine"] = grid.refine;
   if (!baseline.empty()) {
     nlohmann::json b = nlohmann::json::object();
     for (const auto& [k, v] : baseline) b[k] = v;

@@ -33,6 +33,10 @@ struct SweepGrid {
   std::vector<double> dt, sigma, r;
   std::vector<double> false_alarm;  // residual detector's p (the paper detector ignores it)
   std::vector<std::string> estimator, detector;
+  // "none" or "ml" (sim/refine after the recursive identification). Given in the file: trials.csv gets
+  // refine, refine_status and the CRLB columns, summary.csv the CRLB and efficiency columns.
+  std::vector<std::string> refine{"none"};
+  bool refine_axis = false;
 };
 
 struct SweepConfig {

@@ -27,8 +27,10 @@ std::vector<SweepCell> EnumerateCells(const SweepConfig& c) {
               for (const std::string& det : c.grid.detector) {
                 const bool uses_r = DetectorUsesR(det), uses_p = DetectorUsesFalseAlarm(det);
                 if ((!uses_r && ri > 0) || (!uses_p && pi > 0)) continue;
-                cells.push_back({static_cast<long>(cells.size()), m, dt, sigma, uses_r ? c.grid.r[ri] : nan,
-                                 uses_p ? c.grid.false_alarm[pi] : nan, est, det});
+                for (const std::string& refine : c.grid.refine) {
+                  cells.push_back({static_cast<long>(cells.size()), m, dt, sigma, uses_r ? c.grid.r[ri] : nan,
+                                   uses_p ? c.grid.false_alarm[pi] : nan, est, det, refine});
+                }
               }
             }
           }

@@ -20,6 +20,7 @@ struct SweepCell {
   double r = 0.0;     // NaN when the detector does not use r
   double false_alarm = 0.0;  // NaN when the detector does not use it
   std::string estimator, detector;
+  std::string refine = "none";  // grid.refine: "none" or "ml"
 };
 
 // Detectors whose decision depends on r (others get one cell with r = NaN).
@@ -27,7 +28,7 @@ bool DetectorUsesR(const std::string& detector);
 // Detectors whose decision depends on the false-alarm probability.
 bool DetectorUsesFalseAlarm(const std::string& detector);
 
-// Cells in the order model, δt, σ, r, false_alarm, estimator, detector (the last varies fastest).
+// Cells in the order model, δt, σ, r, false_alarm, estimator, detector, refine (the last varies fastest).
 std::vector<SweepCell> EnumerateCells(const SweepConfig& config);
 
 // A unit's id is cell·trials + trial.

@@ -1,6 +1,7 @@
 #include "experiments/sweep/trial.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -10,6 +11,7 @@
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/sets/set_metrics.hpp"
+#include "sim/refine/refine.hpp"
 
 namespace hysid {
 namespace {
@@ -41,7 +43,25 @@ std::string Clean(std::string s) {
   return s;
 }
 
+// The cell's CRLB-implied mean errors: the σ = 1 bound scaled by σ; empty for σ = 0 or no bound.
+std::array<std::string, 2> CrlbCells(const Crlb* crlb, double sigma) {
+  if (crlb == nullptr || !crlb->ok() || !(sigma > 0)) return {};
+  return {FormatNumber(sigma * crlb->mean_e_alpha), FormatNumber(sigma * crlb->mean_e_beta)};
+}
+
 }  // namespace
+
+Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end) {
+  try {
+    return ComputeCrlb(model, x0, SampleGrid{t_end, dt}, Vec::Constant(model.state_size(), 1.0),
+                       Unknowns::Of(model));
+  } catch (const std::exception& e) {
+    Crlb c;
+    c.status = CrlbStatus::kSimulationFailed;
+    c.message = e.what();
+    return c;
+  }
+}
 
 std::string FormatNumber(double v) { return std::isnan(v) ? std::string() : fmt::format("{}", v); }
 
@@ -53,14 +73,15 @@ const std::vector<std::string>& SummaryMetrics() {
 }
 
 std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models) {
-  (void)config;
   std::vector<std::string> h{"unit", "cell", "trial", "model", "dt", "sigma", "r", "false_alarm", "estimator",
                              "detector"};
+  if (config.grid.refine_axis) h.push_back("refine");
   for (int i = 0; i < MaxStates(models); ++i) h.push_back(fmt::format("x0_{}", i + 1));
   h.insert(h.end(), {"status", "message", "samples", "jumps_true", "jumps_detected", "tp", "fp", "fn", "tn",
                      "misclassification", "precision", "recall", "e_alpha", "e_beta", "rel_alpha",
                      "rel_beta", "flow_status", "jump_status", "jump_hausdorff", "flow_outside_share",
                      "flow_hull_vertices", "jump_hull_vertices"});
+  if (config.grid.refine_axis) h.insert(h.end(), {"refine_status", "crlb_e_alpha", "crlb_e_beta"});
   for (const std::string& n : UnknownNames(models, true)) h.push_back("alpha_hat_" + n);
   for (const std::string& n : UnknownNames(models, false)) h.push_back("beta_hat_" + n);
   return h;
@@ -76,6 +97,7 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   std::vector<std::string> row{fmt::format("{}", unit), fmt::format("{}", cell.index), fmt::format("{}", trial),
                                sm.name, FormatNumber(cell.dt), FormatNumber(cell.sigma), FormatNumber(cell.r),
                                FormatNumber(cell.false_alarm), cell.estimator, cell.detector};
+  if (config.grid.refine_axis) row.push_back(cell.refine);
   const int nmax = MaxStates(models);
   for (int i = 0; i < nmax; ++i) row.push_back(i < x0.size() ? FormatNumber(x0[i]) : std::string());
 
@@ -83,7 +105,7 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   long samples = truth.size(), jumps_true = static_cast<long>(truth.jumps.size()), jumps_detected = -1;
   Confusion conf;
   ParameterErrors err{kNaN, kNaN, kNaN, kNaN};
-  std::string flow_status, jump_status;
+  std::string flow_status, jump_status, refine_status;
   SetMetrics sets;
   long flow_vertices = -1, jump_vertices = -1;
   Vec alpha_hat, beta_hat;
@@ -115,9 +137,19 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
         }
         in.noisy->noalias() = truth.x + cell.sigma * *in.normals;  // x(i, k) + σ·E(i, k)
       }
-      const IdentifyResult res = Identify(model, cell.sigma > 0 ? *in.noisy : truth.x, truth.dt, s);
+      const Mat& y = cell.sigma > 0 ? *in.noisy : truth.x;
+      const IdentifyResult res = Identify(model, y, truth.dt, s);
       alpha_hat = res.alpha_hat;
       beta_hat = res.beta_hat;
+      if (cell.refine == "ml") {
+        // The error metrics are the refined estimate's (the recursive one when the fit is not ok).
+        RefineOptions ro;
+        if (config.known_sigma && cell.sigma > 0) ro.sigma = Vec::Constant(model.state_size(), cell.sigma);
+        const RefineResult rr = RefineIdentification(model, y, truth.dt, res, ro);
+        refine_status = ToString(rr.status);
+        alpha_hat = rr.estimate.alpha;
+        beta_hat = rr.estimate.beta;
+      }
       have_estimates = true;
       jumps_detected = res.jumps_detected;
       flow_status = ToString(res.flow_status);
@@ -151,6 +183,10 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
               num(sets.jump_hausdorff), num(sets.flow_outside_share),
               flow_vertices < 0 ? std::string() : count(flow_vertices),
               jump_vertices < 0 ? std::string() : count(jump_vertices)});
+  if (config.grid.refine_axis) {
+    const std::array<std::string, 2> crlb = CrlbCells(in.crlb, cell.sigma);
+    row.insert(row.end(), {refine_status, crlb[0], crlb[1]});
+  }
   for (bool alpha : {true, false}) {
     for (const std::string& name : UnknownNames(models, alpha)) {
       const auto& params = alpha ? model.spec().alpha : model.spec().beta;
