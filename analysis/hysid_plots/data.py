@@ -115,7 +115,7 @@ class Trials:
                 continue
             by_cell.setdefault(int(number(cells[ci], f"{path}:{line}: column 'cell'")), []).append((line, cells))
         self.numeric = [h for h in header if h not in TEXT_KEYS and h not in ("status", "message", "flow_status",
-                                                                                  "jump_status")]
+                                                                                  "jump_status", "refine_status")]
         self.cells = {}
         for cell, lines in by_cell.items():
             cols = {}

@@ -322,9 +322,17 @@ void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
   if (!grid_node) rd.Fail(nullptr, "grid", "missing: a [grid] table (at least sigma and dt)");
   const toml::table& grid = rd.Table(*grid_node, "grid");
   c->grid.options = SweepableAxes(c->identifier);
-  std::vector<std::string> allowed{"sigma", "dt", "estimator", "detector"};
+  std::vector<std::string> allowed{"sigma", "dt", "estimator", "detector", "refine"};
   for (const OptionAxis& a : c->grid.options) allowed.push_back(a.name);
   rd.OnlyKeys(grid, "grid", allowed);
+  if (const toml::node* rn = grid.get("refine")) {
+    c->grid.refine_axis = true;
+    c->grid.refine = rd.StringAxis(*rn, "grid.refine");
+    for (const std::string& m : c->grid.refine) {
+      if (m != "none" && m != "ml") rd.Fail(rn, "grid.refine", fmt::format("unknown '{}' (known: none, ml)", m));
+    }
+    NoDuplicates(rd, *rn, "grid.refine", c->grid.refine);
+  }
   for (const char* k : {"sigma", "dt"}) {
     if (!grid.contains(k)) rd.Fail(grid_node, fmt::format("grid.{}", k), "missing");
   }
@@ -536,6 +544,7 @@ nlohmann::json SweepConfig::ToJson() const {
   for (const OptionAxis& a : grid.options) g[a.name] = a.values;
   for (EstimatorKind k : grid.estimator) g["estimator"].push_back(ToString(k));
   for (DetectorKind k : grid.detector) g["detector"].push_back(ToString(k));
+  if (grid.refine_axis) g["refine"] = grid.refine;
   nlohmann::json id = {{"localize", identifier.localize},
                        {"second_pass", identifier.second_pass},
                        {"sets", identifier.sets},

@@ -47,6 +47,10 @@ struct SweepGrid {
   std::vector<OptionAxis> options;  // every sweepable option: estimator options, then detector options
   std::vector<EstimatorKind> estimator;
   std::vector<DetectorKind> detector;
+  // "none" or "ml" (sim/refine after the recursive identification). Given in the file: trials.csv gets
+  // refine, refine_status and the CRLB columns, summary.csv the CRLB and efficiency columns.
+  std::vector<std::string> refine{"none"};
+  bool refine_axis = false;
 };
 
 struct SweepConfig {

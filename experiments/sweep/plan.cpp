@@ -61,7 +61,12 @@ void AddCells(const SweepConfig& c, int model, double dt, double sigma, const st
         first = first && (reads || index[i] == 0);
         cell.options.push_back(reads ? axes[i].values[index[i]] : std::numeric_limits<double>::quiet_NaN());
       }
-      if (first) cells->push_back(std::move(cell));
+      if (!first) continue;
+      for (const std::string& refine : c.grid.refine) {  // refine varies fastest
+        cell.index = static_cast<long>(cells->size());
+        cell.refine = refine;
+        cells->push_back(cell);
+      }
     }
   }
 }

@@ -21,6 +21,7 @@ struct SweepCell {
   std::vector<double> options;
   EstimatorKind estimator = EstimatorKind::kRls;
   DetectorKind detector = DetectorKind::kPaper;
+  std::string refine = "none";  // grid.refine: "none" or "ml"
 
   // The value of the axis named `name` (NaN when unused); throws std::invalid_argument for no such axis.
   double option(const SweepGrid& grid, std::string_view name) const;

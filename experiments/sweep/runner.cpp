@@ -169,6 +169,11 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
           sim_error = e.what();
         }
         trajectories.fetch_add(1, std::memory_order_relaxed);
+        Crlb crlb;
+        crlb.status = CrlbStatus::kSimulationFailed;
+        if (config.grid.refine_axis && sim_error.empty() && truth.status.completed()) {
+          crlb = UnitCrlb(models[static_cast<std::size_t>(g.model)], x0, g.dt, sm.t_end);
+        }
         const std::vector<std::vector<long>> by_trial = UnitsByTrial(g, config.trials);
         tbb::this_task_arena::isolate([&] {
           tbb::parallel_for(std::size_t{0}, by_trial.size(), [&](std::size_t ti) {
@@ -183,7 +188,8 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
               FillStandardNormals(TrialNoiseKey(config, g.model, g.dt, trial), 0, normals.data(),
                                   static_cast<std::size_t>(normals.size()));
             }
-            const TrialInputs in{&x0, &truth, &normals, &noisy, sim_error};
+            const TrialInputs in{&x0, &truth, &normals, &noisy, sim_error,
+                                 config.grid.refine_axis ? &crlb : nullptr};
             for (const long id : ids) {
               if (stopped()) return;
               const auto start = Clock::now();

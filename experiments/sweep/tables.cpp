@@ -1,6 +1,7 @@
 #include "experiments/sweep/tables.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -107,7 +108,35 @@ struct CellRows {
   std::vector<std::string> match;     // BaselineKeyNames() columns
   long n = 0, failures = 0;
   std::map<long, std::vector<double>> values;  // trial → one value per metric
+  std::array<double, 2> crlb{0.0, 0.0};        // Σ crlb_e_alpha, crlb_e_beta over the rows with one
+  long crlb_n = 0;
 };
+
+bool Has(const std::vector<std::string>& header, const std::string& name) {
+  return std::find(header.begin(), header.end(), name) != header.end();
+}
+
+// Adds the row's crlb_e_alpha, crlb_e_beta (when the table has them and they are not empty).
+void AddCrlb(const std::vector<std::string>& header, const std::vector<std::string>& cells, CellRows* c) {
+  if (!Has(header, "crlb_e_alpha")) return;
+  const std::string& a = cells[static_cast<std::size_t>(Column(header, "crlb_e_alpha"))];
+  const std::string& b = cells[static_cast<std::size_t>(Column(header, "crlb_e_beta"))];
+  if (a.empty() || b.empty()) return;
+  c->crlb[0] += std::stod(a);
+  c->crlb[1] += std::stod(b);
+  ++c->crlb_n;
+}
+
+// crlb_e_alpha, crlb_e_beta (the mean over the cell's rows; equal unless x0 is drawn per trial) and
+// efficiency_alpha, efficiency_beta = e_alpha_mean / crlb_e_alpha, … (empty without a bound).
+std::array<std::string, 4> EfficiencyCells(const CellRows& c, double e_alpha_mean, double e_beta_mean) {
+  if (c.crlb_n == 0) return {};
+  const double a = c.crlb[0] / static_cast<double>(c.crlb_n), b = c.crlb[1] / static_cast<double>(c.crlb_n);
+  const auto ratio = [](double e, double bound) {
+    return bound > 0 && !std::isnan(e) ? FormatNumber(e / bound) : std::string();
+  };
+  return {FormatNumber(a), FormatNumber(b), ratio(e_alpha_mean, a), ratio(e_beta_mean, b)};
+}
 
 std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
                                    const std::map<long, std::vector<std::string>>& rows,
@@ -130,6 +159,7 @@ std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
     for (; it != rows.end() && it->second[cell_col] == cell; ++it) {
       const auto& cells = it->second;
       ++c.n;
+      AddCrlb(header, cells, &c);
       if (cells[status_col] != kTrialOk) {
         ++c.failures;
         continue;
@@ -163,12 +193,15 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   }
 
   // summary.csv
-  // The cell's keys: "cell" and the columns from "model" to "detector" (dt, σ, the option axes, ...).
+  // The cell's keys: "cell" and the columns from "model" to "detector" (dt, σ, the option axes, ...)
+  // or to "refine" when the sweep has that axis.
   std::vector<std::string> keys{"cell"};
   const auto model_col = static_cast<std::size_t>(Column(trial_header, "model"));
-  const auto detector_col = static_cast<std::size_t>(Column(trial_header, "detector"));
+  const auto last_col = static_cast<std::size_t>(
+      Column(trial_header, Has(trial_header, "refine") ? "refine" : "detector"));
   keys.insert(keys.end(), trial_header.begin() + static_cast<long>(model_col),
-              trial_header.begin() + static_cast<long>(detector_col) + 1);
+              trial_header.begin() + static_cast<long>(last_col) + 1);
+  const bool efficiency = Has(trial_header, "crlb_e_alpha");
   const std::vector<std::string>& metrics = SummaryMetrics();
   const std::vector<CellRows> cells = CollectCells(trial_header, rows, keys);
   std::vector<long> base;
@@ -189,18 +222,21 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
       for (const char* stat : {"diff_n", "diff_mean", "diff_ci95_lo", "diff_ci95_hi"}) header.push_back(m + "_" + stat);
     }
   }
+  if (efficiency) header.insert(header.end(), {"crlb_e_alpha", "crlb_e_beta", "efficiency_alpha", "efficiency_beta"});
   CsvWriter summary(dir / "summary.csv", header);
   for (std::size_t ci = 0; ci < cells.size(); ++ci) {
     const CellRows& c = cells[ci];
     std::vector<std::string> out = c.keys;
     out.push_back(fmt::format("{}", c.n));
     out.push_back(fmt::format("{}", c.failures));
+    std::map<std::string, double> means;
     for (std::size_t m = 0; m < metrics.size(); ++m) {
       std::vector<double> v;
       for (const auto& [trial, values] : c.values) {
         if (!std::isnan(values[m])) v.push_back(values[m]);
       }
       const MetricSummary s = Summarize(std::move(v));
+      means[metrics[m]] = s.mean;
       for (double x : {s.mean, s.median, s.std, s.ci_lo, s.ci_hi}) out.push_back(FormatNumber(x));
     }
     if (!baseline.empty()) {
@@ -217,6 +253,10 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
         out.push_back(b != nullptr ? fmt::format("{}", s.n) : std::string());
         for (double x : {s.mean, s.ci_lo, s.ci_hi}) out.push_back(FormatNumber(x));
       }
+    }
+    if (efficiency) {
+      const std::array<std::string, 4> e = EfficiencyCells(c, means["e_alpha"], means["e_beta"]);
+      out.insert(out.end(), e.begin(), e.end());
     }
     summary.TextRow(out);
   }

@@ -12,6 +12,7 @@
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/sets/set_metrics.hpp"
+#include "sim/refine/refine.hpp"
 
 namespace hysid {
 namespace {
@@ -45,6 +46,18 @@ std::string Clean(std::string s) {
 
 }  // namespace
 
+Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end) {
+  try {
+    return ComputeCrlb(model, x0, SampleGrid{t_end, dt}, Vec::Constant(model.state_size(), 1.0),
+                       Unknowns::Of(model));
+  } catch (const std::exception& e) {
+    Crlb c;
+    c.status = CrlbStatus::kSimulationFailed;
+    c.message = e.what();
+    return c;
+  }
+}
+
 std::string FormatNumber(double v) { return std::isnan(v) ? std::string() : fmt::format("{}", v); }
 
 const std::vector<std::string>& SummaryMetrics() {
@@ -63,11 +76,12 @@ struct TrialOutcome {
   const SweepCell* cell = nullptr;
   long unit = 0, trial = 0;
   Vec x0;
+  const Crlb* crlb = nullptr;  // the group's bound at σ = 1 (grid.refine only)
   std::string status = kTrialOk, message;
   long samples = 0, jumps_true = 0, jumps_detected = -1;
   Confusion conf;
   ParameterErrors err{kNaN, kNaN, kNaN, kNaN};
-  std::string flow_status, jump_status;
+  std::string flow_status, jump_status, refine_status;
   SetMetrics sets;
   long flow_vertices = -1, jump_vertices = -1;
   Vec alpha_hat, beta_hat;
@@ -109,6 +123,7 @@ void KeyColumns(const SweepConfig& config, int states, std::vector<TrialColumn>*
   cols->push_back({"detector", [](const TrialOutcome& o) {
                      return o.config->oracle ? std::string("oracle") : std::string(ToString(o.cell->detector));
                    }});
+  if (config.grid.refine_axis) cols->push_back({"refine", [](const TrialOutcome& o) { return o.cell->refine; }});
   for (int i = 0; i < states; ++i) {
     cols->push_back({fmt::format("x0_{}", i + 1), [i](const TrialOutcome& o) {
                        return i < o.x0.size() ? FormatNumber(o.x0[i]) : std::string();
@@ -165,10 +180,24 @@ void EstimateColumns(const std::vector<Model>& models, std::vector<TrialColumn>*
   }
 }
 
+// grid.refine: the refinement's status and the cell's CRLB-implied mean errors (the σ = 1 bound scaled
+// by σ; empty for σ = 0 or without a bound).
+void RefineColumns(std::vector<TrialColumn>* cols) {
+  using O = TrialOutcome;
+  const auto bound = [](const O& o, double Crlb::*mean) {
+    const bool have = o.crlb != nullptr && o.crlb->ok() && o.cell->sigma > 0;
+    return have ? FormatNumber(o.cell->sigma * (*o.crlb).*mean) : std::string();
+  };
+  cols->push_back({"refine_status", [](const O& o) { return o.refine_status; }});
+  cols->push_back({"crlb_e_alpha", [bound](const O& o) { return bound(o, &Crlb::mean_e_alpha); }});
+  cols->push_back({"crlb_e_beta", [bound](const O& o) { return bound(o, &Crlb::mean_e_beta); }});
+}
+
 std::vector<TrialColumn> TrialColumns(const SweepConfig& config, const std::vector<Model>& models) {
   std::vector<TrialColumn> cols;
   KeyColumns(config, MaxStates(models), &cols);
   OutcomeColumns(&cols);
+  if (config.grid.refine_axis) RefineColumns(&cols);
   EstimateColumns(models, &cols);
   return cols;
 }
@@ -207,9 +236,19 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   }
   IdentifyOptions options;
   if (config.oracle) options.labels = TrueLabels(truth);
-  const IdentifyResult res = hysid::Identify(model, cell.sigma > 0 ? *in.noisy : truth.x, truth.dt, s, options);
+  const Mat& y = cell.sigma > 0 ? *in.noisy : truth.x;
+  const IdentifyResult res = hysid::Identify(model, y, truth.dt, s, options);
   o->alpha_hat = res.alpha_hat;
   o->beta_hat = res.beta_hat;
+  if (cell.refine == "ml") {
+    // The error metrics are the refined estimate's (the recursive one when the fit is not ok).
+    RefineOptions ro;
+    if (config.known_sigma && cell.sigma > 0) ro.sigma = Vec::Constant(model.state_size(), cell.sigma);
+    const RefineResult rr = RefineIdentification(model, y, truth.dt, res, ro);
+    o->refine_status = ToString(rr.status);
+    o->alpha_hat = rr.estimate.alpha;
+    o->beta_hat = rr.estimate.beta;
+  }
   o->have_estimates = true;
   o->jumps_detected = res.jumps_detected;
   o->flow_status = ToString(res.flow_status);
@@ -247,6 +286,7 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   o.unit = unit;
   o.trial = trial;
   o.x0 = *in.x0;
+  o.crlb = in.crlb;
   o.samples = truth.size();
   o.jumps_true = static_cast<long>(truth.jumps.size());
   if (!sim_error.empty()) {

@@ -13,6 +13,7 @@
 #include "core/model/model.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"
+#include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {
@@ -22,6 +23,8 @@ inline constexpr const char* kTrialOk = "ok";
 
 // Columns of trials.csv for this sweep: identification, grid keys, x0, status, then the metrics
 // (kSummaryMetrics among them), then α̂ and β̂ per unknown parameter name (union over the models).
+// With grid.refine: `refine` after `detector`, and refine_status, crlb_e_alpha, crlb_e_beta (the
+// cell's CRLB-implied mean errors at its σ; empty for σ = 0) after flow_hull/jump_hull columns.
 std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models);
 
 // The metric columns summary.csv aggregates (each must be in TrialHeader).
@@ -36,7 +39,13 @@ struct TrialInputs {
   const Mat* normals = nullptr;
   Mat* noisy = nullptr;
   std::string sim_error;  // non-empty: the simulator rejected the run (the row's status is "error")
+  // With grid.refine: the group's CRLB at σ = 1 (its mean errors scale linearly with σ), or null.
+  const Crlb* crlb = nullptr;
 };
+
+// The group's CRLB at σ = 1 for the model's unknowns (α, β, ξ0) over (x0, δt, t_end); never throws
+// (a bad input becomes a not-ok status).
+Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end);
 
 // Runs unit `unit` = (cell, trial).
 std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,

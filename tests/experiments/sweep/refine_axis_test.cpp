@@ -1,0 +1,125 @@
+// The sweep's refine axis and efficiency columns: refine = ["none", "ml"] adds refine, refine_status and
+// the CRLB columns; the maximum-likelihood cells beat the recursive ones on the same noise (common
+// random numbers pair them); crlb_e_alpha is the bound computed directly at the cell's σ (so linear in
+// σ); summary.csv's efficiency is the mean error over it.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "core/model/registry.hpp"
+#include "experiments/sweep/config.hpp"
+#include "experiments/sweep/plan.hpp"
+#include "experiments/sweep/runner.hpp"
+#include "experiments/sweep/tables.hpp"
+#include "sim/sensitivity/crlb.hpp"
+
+namespace fs = std::filesystem;
+using namespace hysid;
+
+namespace {
+
+ModelRegistry Registry() {
+  ModelRegistry r;
+  RegisterBuiltinModels(r);
+  return r;
+}
+
+const char* kSweep = R"(
+[model]
+name = "impact-msd"
+x0 = [20.0, 0.0]
+t_end = 3.0
+[grid]
+sigma = [0.05, 0.2]
+dt = 1e-3
+estimator = "rls"
+detector = "residual"
+refine = ["none", "ml"]
+[identifier]
+sets = false
+[run]
+trials = 3
+seed = 7
+)";
+
+struct Table {
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+  const std::string& At(long row, const std::string& name) const {
+    const auto it = std::find(header.begin(), header.end(), name);
+    REQUIRE(it != header.end());
+    return rows.at(row)[static_cast<std::size_t>(it - header.begin())];
+  }
+};
+
+}  // namespace
+
+TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][refine]") {
+  const SweepConfig c = ParseSweepText(kSweep, "refine.toml", Registry());
+  const std::vector<SweepCell> cells = EnumerateCells(c);
+  REQUIRE(cells.size() == 4u);  // σ × refine, refine fastest
+  CHECK(cells[0].refine == "none");
+  CHECK(cells[1].refine == "ml");
+  const fs::path dir = fs::temp_directory_path() / "hysid_test_sweep_refine";
+  fs::remove_all(dir);
+  SweepOptions o;
+  o.out = dir;
+  o.threads = 2;
+  o.progress = Progress::Mode::kNone;
+  RunSweep(c, Registry(), o, nullptr);
+  Table t;
+  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
+
+  const Model model = c.models[0].Build(Registry());
+  Vec x0(2);
+  x0 << 20.0, 0.0;
+  const Crlb direct = ComputeCrlb(model, x0, SampleGrid{3.0, 1e-3}, Vec::Constant(2, 0.2), Unknowns::Of(model));
+  REQUIRE(direct.ok());
+  long paired = 0;
+  for (long trial = 0; trial < c.trials; ++trial) {
+    for (long cell : {0L, 2L}) {
+      const long none = cell * c.trials + trial, ml = (cell + 1) * c.trials + trial;
+      REQUIRE(t.At(none, "status") == "ok");
+      REQUIRE(t.At(ml, "status") == "ok");
+      CHECK(t.At(none, "refine") == "none");
+      CHECK(t.At(none, "refine_status").empty());
+      CHECK(t.At(ml, "refine") == "ml");
+      CHECK_FALSE(t.At(ml, "refine_status").empty());
+      if (t.At(ml, "refine_status") == "ok") {
+        CHECK(std::stod(t.At(ml, "e_alpha")) < std::stod(t.At(none, "e_alpha")));
+        ++paired;
+      }
+      // Same bound in both cells of one σ; at σ = 0.2 the direct computation, at 0.05 a quarter of it.
+      CHECK(t.At(ml, "crlb_e_alpha") == t.At(none, "crlb_e_alpha"));
+      const double scale = cell == 0 ? 0.25 : 1.0;
+      CHECK(std::stod(t.At(none, "crlb_e_alpha")) == Approx(scale * direct.mean_e_alpha).epsilon(1e-9));
+      CHECK(std::stod(t.At(none, "crlb_e_beta")) == Approx(scale * direct.mean_e_beta).epsilon(1e-9));
+    }
+  }
+  CHECK(paired >= 4);  // most fits are ok on 3 s of the §5 system
+
+  Table s;
+  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);  // keyed by its first column, the cell
+  for (long cell = 0; cell < 4; ++cell) {
+    const double eff = std::stod(s.At(cell, "efficiency_alpha"));
+    CHECK(eff == Approx(std::stod(s.At(cell, "e_alpha_mean")) / std::stod(s.At(cell, "crlb_e_alpha"))));
+    CHECK(s.At(cell, "refine") == (cell % 2 == 0 ? "none" : "ml"));
+  }
+}
+
+TEST_CASE("sweep: without a refine axis the tables keep their columns", "[sweep][refine]") {
+  std::string text = kSweep;
+  text.erase(text.find("refine = "), std::string("refine = [\"none\", \"ml\"]\n").size());
+  const SweepConfig c = ParseSweepText(text, "plain.toml", Registry());
+  CHECK_FALSE(c.grid.refine_axis);
+  CHECK(EnumerateCells(c).size() == 2u);
+  CHECK_FALSE(c.ToJson()["grid"].contains("refine"));
+  CHECK_THROWS_WITH(ParseSweepText(std::string(kSweep).replace(std::string(kSweep).find("\"ml\""), 4, "\"map\""),
+                                   "bad.toml", Registry()),
+                    Catch::Contains("grid.refine") && Catch::Contains("unknown 'map'"));
+}
