@@ -1,0 +1,42 @@
+#include "experiments/cli/entry.hpp"
+
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "experiments/cli/cli.hpp"
+#include "hysid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
+
+namespace hysid::cli {
+
+int Main(int argc, char** argv, ModelRegistry registry) {
+  Environment env{std::move(registry)};
+  CLI::App app{"hysid: identify hybrid dynamical systems from sampled states", "hysid"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", HYSID_VERSION " (" HYSID_GIT_REVISION ")");
+  AddSimulateCommand(app, env);
+  AddModelsCommand(app, env);
+  AddIdentifyCommand(app, env);
+  AddReproduceCommand(app, env);
+  AddSweepCommand(app, env);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "hysid: error: %s\n", e.what());
+    return e.get_exit_code() == 0 ? 2 : e.get_exit_code();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hysid: error: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}
+
+}  // namespace hysid::cli
