@@ -1,4 +1,4 @@
-// hysid_eiv_study: errors-in-variables estimators on the paper's §5 system (issue 4).
+// hysid_eiv_study: errors-in-variables estimators on the paper's §5 system.
 //
 // System:   impact-msd with its defaults (a = 5, b = 0.1, λ = 0.99, μ = 0; ξ0 = (20, 0); 20 s;
 //           δt = 0.5 ms; 14 jumps), simulated once with Simulate (CVODE, rtol = atol = 1e-12).

@@ -11,6 +11,7 @@ packages=(
   libmuparser-dev                    # model files: the expressions of φ, ψ, guards, C, D
   pybind11-dev python3-dev           # the `hysid` Python module
   python3 python3-matplotlib python3-numpy python3-pytest
+  slurm-wlm munge
 )
 
 missing=()

@@ -16,7 +16,7 @@
 //        It matters for noise-free data only: an estimator that fits the flow to the last digits
 //        (gtls) leaves residuals at the level of the simulator's step-to-step error, which jumps
 //        after every re-initialisation at a jump; the robust scale, learned where that error was
-//        smaller, then flags it (§5 noise-free, gtls: 909 false jumps without d, 0 with it).
+//        smaller, then flags it (§5 noise-free, gtls: 567 false jumps without d, 0 with it).
 //   s²_i what V_i does not explain, estimated online and robustly from the residuals themselves:
 //        the unknown measurement noise, the O(δt³) trapezoid truncation, the simulator's or the
 //        data's own error, the bias of α̂. An exponentially weighted mean of the standardised squared
@@ -39,7 +39,7 @@
 //
 // Start. Before α̂ is determined (the α estimator has seen fewer flow samples than α has unknowns)
 // every sample is flow and the scale is not updated. Then the test runs at once, but with the few
-// samples of the scale estimate the Student-t quantile is huge (ν = 1: q ≈ 3e5 at p = 1e-6; ν = 10:
+// samples of the scale estimate the Student-t quantile is huge (ν = 1: q ≈ 6.4e5 at p = 1e-6; ν = 10:
 // ≈ 10; ν = 100: ≈ 5.4), and h is large while α̂ is poorly determined, so the detector is
 // conservative exactly while α̂ and the scale are not trustworthy. The first kUnclipped = 10
 // residuals enter the scale unclipped (a plain mean): the clipping bounds what one misclassified

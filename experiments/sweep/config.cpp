@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -17,6 +18,11 @@
 
 namespace hysid {
 namespace {
+
+// A computed grid value (a range's from + u·(to − from), or its log-spaced form) rounded to 12
+// significant digits, so that a log range from 0.01 to 1 holds 0.1 and not 0.10000000000000006: the
+// grid then matches what a user types when filtering the tables.
+double ShortDecimal(double v) { return std::strtod(fmt::format("{:.12g}", v).c_str(), nullptr); }
 
 // Reads one TOML document; every error names file, line and the dotted key.
 class Reader {
@@ -101,8 +107,8 @@ class Reader {
       if (log && (from <= 0 || to <= 0)) Fail(&node, key, "a log range needs from > 0 and to > 0");
       for (long i = 0; i < count; ++i) {
         const double u = count == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(count - 1);
-        out.push_back(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
-                          : from + u * (to - from));
+        out.push_back(ShortDecimal(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
+                                       : from + u * (to - from)));
       }
     } else {
       Fail(&node, key, fmt::format("expected a number, a list or {{ from, to, count }}, got {}", TypeName(node)));

@@ -1,5 +1,5 @@
 // A sweep file (TOML): the models, the grid of (δt, σ, r, estimator, detector), the identifier's
-// settings, and the run's trials, master seed and output directory. README "Sweeps" shows the shape.
+// settings, and the run's trials, master seed and output directory. docs/method.md "Sweeps" shows the shape.
 //
 // ParseSweepFile checks everything before a trial runs; every error names the file, the line and the
 // key, e.g. "sweep.toml:12: grid.dt: -0.001 must be > 0".

@@ -135,6 +135,13 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   CHECK(c.grid.sigma[2] == Approx(0.2));
   REQUIRE(c.grid.dt.size() == 3);
   CHECK(c.grid.dt[1] == Approx(1e-3));
+  // Computed grid values are the short decimals a user types (0.1, not 0.10000000000000006).
+  CHECK(c.grid.sigma[1] == 0.1);
+  CHECK(c.grid.dt[1] == 1e-3);
+  const SweepConfig log_grid = ParseSweepText(
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.01, to = 1.0, count = 5, log = true }\ndt = 1e-3\n",
+      "ok.toml", Registry());
+  CHECK(log_grid.grid.sigma == std::vector<double>{0.01, 0.0316227766017, 0.1, 0.316227766017, 1.0});
   CHECK(c.models[0].x0 == std::vector<double>{20.0, 0.0});  // the model's default
   CHECK(c.trials == 10);
   // residual ignores r: one cell per (δt, σ), paper one per r.
