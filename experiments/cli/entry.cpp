@@ -31,7 +31,7 @@ int Main(int argc, char** argv, ModelRegistry registry) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "hysid: error: %s\n", e.what());
-    return e.get_exit_code() == 0 ? 2 : e.get_exit_code();
+    return 2;  // usage: CLI11's own codes (105, 108, ...) are not part of hysid's exit-code policy
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hysid: error: %s\n", e.what());
     return 2;
