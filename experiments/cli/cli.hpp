@@ -7,6 +7,8 @@
 #include <CLI/CLI.hpp>
 
 #include "core/model/model.hpp"
+#include "core/identify/identifier.hpp"
+#include "core/io/sample_data.hpp"
 #include "core/model/registry.hpp"
 
 namespace hysid::cli {
@@ -21,6 +23,18 @@ void AddModelsCommand(CLI::App& app, Environment& env);
 void AddIdentifyCommand(CLI::App& app, Environment& env);
 void AddReproduceCommand(CLI::App& app, Environment& env);
 void AddSweepCommand(CLI::App& app, Environment& env);  // sweep and merge
+void AddCrlbCommand(CLI::App& app, Environment& env);
+
+// hysid identify's refinement flags (--refine, --json) and what runs after the recursive estimate:
+// the refinement, the estimates with standard errors (and CRLB ratios when the data carry the
+// truth), --json. Returns the exit code: 1 when the refinement ran and its status is not ok.
+struct RefineArgs {
+  std::string refine = "ml";
+  std::string json;
+};
+void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
+int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                    const Vec& sigma, const RefineArgs& args);
 
 // A bad flag value: `what` names the flag, e.g. "--dt = -1: must be > 0".
 [[noreturn]] void BadFlag(const std::string& what);

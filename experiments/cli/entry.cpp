@@ -20,6 +20,7 @@ int Main(int argc, char** argv, ModelRegistry registry) {
   AddIdentifyCommand(app, env);
   AddReproduceCommand(app, env);
   AddSweepCommand(app, env);
+  AddCrlbCommand(app, env);
 
   try {
     app.parse(argc, argv);
@@ -29,6 +30,8 @@ int Main(int argc, char** argv, ModelRegistry registry) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // a run that finished with a status that is not ok (already printed)
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "hysid: error: %s\n", e.what());
     return 2;  // usage: CLI11's own codes (105, 108, ...) are not part of hysid's exit-code policy
