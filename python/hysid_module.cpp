@@ -22,6 +22,7 @@
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "sim/measurement.hpp"
+#include "sim/refine/refine.hpp"
 #include "sim/simulator.hpp"
 
 namespace py = pybind11;
@@ -120,6 +121,7 @@ struct IdentifyArgs {
   double r = 220.0, tau0 = 1e5, false_alarm = 1e-8, forgetting = 1.0, jump_forgetting = 1.0;
   double data_rtol = 0.0, data_atol = 0.0;
   bool localize = false, second_pass = false, sets = true, trace = true;
+  std::string refine = "none";  // "ml": the output-error refinement after the recursive run
 };
 
 IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
@@ -147,6 +149,32 @@ py::dict Unknowns(const std::vector<Parameter>& params, const Vec& values) {
   for (std::size_t i = 0; i < params.size(); ++i) {
     if (!params[i].known) out[py::str(params[i].name)] = values[Eigen::Index(i)];
   }
+  return out;
+}
+
+// The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`.
+py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& recursive, const Vec& sigma) {
+  RefineOptions options;
+  options.sigma = sigma;
+  RefineResult r;
+  {
+    py::gil_scoped_release release;
+    r = RefineIdentification(model, y, dt, recursive, options);
+  }
+  py::dict out, estimates, errors;
+  const Vec theta = r.estimate.Theta(r.unknowns);
+  for (std::size_t i = 0; i < r.names.size(); ++i) {
+    estimates[py::str(r.names[i])] = theta[Eigen::Index(i)];
+    if (r.standard_errors.size()) errors[py::str(r.names[i])] = r.standard_errors[Eigen::Index(i)];
+  }
+  out["status"] = ToString(r.status);
+  out["reason"] = r.reason;
+  out["estimates"] = estimates;
+  out["standard_errors"] = errors;  // empty unless the fit is ok
+  out["covariance"] = Transposed(r.covariance);
+  out["alpha"] = ToArray(r.estimate.alpha);
+  out["beta"] = ToArray(r.estimate.beta);
+  out["x0"] = ToArray(r.estimate.x0);
   return out;
 }
 
@@ -182,6 +210,11 @@ py::dict Identify(const Model& model, const InArray& y, double dt, const Identif
   out["jump_status"] = ToString(r.jump_status);
   out["flow_hull"] = Transposed(r.flow_hull);
   out["jump_hull"] = Transposed(r.jump_hull);
+  if (args.refine == "ml") {
+    out["refined"] = Refined(model, samples, dt, r, settings.sigma);
+  } else if (args.refine != "none") {
+    throw std::invalid_argument(fmt::format("refine = '{}': expected 'none' or 'ml'", args.refine));
+  }
   return out;
 }
 
@@ -252,19 +285,20 @@ PYBIND11_MODULE(hysid, m) {
       [](const Model& model, const InArray& y, double dt, const std::string& estimator, const std::string& detector,
          double r, double tau0, const std::string& bound, double false_alarm, const py::object& sigma,
          double forgetting, double jump_forgetting, bool localize, bool second_pass, bool sets, bool trace,
-         double data_rtol, double data_atol) {
+         double data_rtol, double data_atol, const std::string& refine) {
         const IdentifyArgs a{estimator, detector, bound, r, tau0, false_alarm, forgetting, jump_forgetting,
-                             data_rtol, data_atol, localize, second_pass, sets, trace};
+                             data_rtol, data_atol, localize, second_pass, sets, trace, refine};
         return Identify(model, y, dt, a, sigma);
       },
       py::arg("model"), py::arg("y"), py::arg("dt"), py::arg("estimator") = "rls", py::arg("detector") = "paper",
       py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto", py::arg("false_alarm") = 1e-8,
       py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0, py::arg("jump_forgetting") = 1.0,
       py::arg("localize") = false, py::arg("second_pass") = false, py::arg("sets") = true, py::arg("trace") = true,
-      py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
+      py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0, py::arg("refine") = "none",
       "The identifier on samples y (samples × states) at spacing dt, as `hysid identify`: dict with alpha, beta "
       "(full vectors), estimates (the unknowns by name), gamma, statistic, threshold, alpha_trace, beta_trace, "
-      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull");
+      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; refine='ml' adds refined (status, "
+      "reason, estimates and standard_errors by name, covariance, alpha, beta, x0) as `--refine ml`");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
         "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts");
 }

@@ -61,7 +61,7 @@ def test_simulate_equals_cli(paper_data):
 
 def test_identify_equals_cli(paper_data, tmp_path):
     trace = tmp_path / "trace.csv"
-    printed = cli("identify", "--data", paper_data, "--trace", trace)
+    printed = cli("identify", "--data", paper_data, "--detector", "paper", "--refine", "none", "--trace", trace)
     expected = {k: float(v) for k, v in re.findall(r"(?:alpha|beta) +(\w+) += (\S+)", printed)}
     table = np.loadtxt(paper_data, delimiter=",", skiprows=1)
     fit = hysid.identify("impact-msd", table[:, 4:6], dt=5e-4)
@@ -100,3 +100,21 @@ def test_run_sweep_equals_cli(tmp_path):
     assert (out["trials"], out["failed"]) == (3, 0)
     cli("sweep", sweep, "--out", tmp_path / "cli", "--threads", 1, "--progress", "none")
     assert (tmp_path / "py" / "trials.csv").read_bytes() == (tmp_path / "cli" / "trials.csv").read_bytes()
+
+
+def test_refinement_equals_cli(paper_data, tmp_path):
+    """refine='ml' is `hysid identify --refine ml`: the same estimates and standard errors."""
+    import json
+    out = tmp_path / "fit.json"
+    subprocess.run([BIN, "identify", "--data", str(paper_data), "--detector", "residual", "--refine", "ml",
+                    "--json", str(out)], capture_output=True, text=True)
+    cli_fit = json.loads(out.read_text())
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
+    fit = hysid.identify("impact-msd", y, dt=5e-4, detector="residual", refine="ml")["refined"]
+    assert fit["status"] == cli_fit["status"]
+    assert list(fit["estimates"]) == cli_fit["names"]
+    np.testing.assert_allclose(list(fit["estimates"].values()), cli_fit["estimate"], rtol=1e-12)
+    if cli_fit["standard_errors"]:
+        np.testing.assert_allclose(list(fit["standard_errors"].values()), cli_fit["standard_errors"], rtol=1e-12)
+    with pytest.raises(ValueError, match="refine = 'x'"):
+        hysid.identify("impact-msd", y, dt=5e-4, refine="x")
