@@ -130,7 +130,7 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   nlohmann::json experiments = nlohmann::json::array();
   for (const Experiment& ex : {Experiment{"nominal", "fig5_tau_nominal.csv", "fig6_params_nominal.csv", 0.0},
                                Experiment{"noisy", "fig7_tau_noisy.csv", "fig8_params_noisy.csv", args.sigma}}) {
-    const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(2, ex.sigma), NoiseKey{args.seed, 0});
+    const Mat y = AddMeasurementNoisePerSample(traj.x, Vec::Constant(2, ex.sigma), NoiseKey{args.seed, 0});
     const IdentifyResult res = Identify(model, y, dt, settings, IdentifyOptions{.trace = true});
     const Confusion c = CompareJumps(traj.j, res.gamma);
     const ParameterErrors e = CompareParameters(model, res.alpha_hat, res.beta_hat);

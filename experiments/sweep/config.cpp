@@ -15,6 +15,7 @@
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
 #include "core/model_file/model_file.hpp"
+#include "experiments/sweep/plan.hpp"
 
 namespace hysid {
 namespace {
@@ -227,6 +228,46 @@ SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string&
   return m;
 }
 
+// [summary] baseline = { key = value, ... }: each value must be on the grid's axis.
+void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
+  rd.OnlyKeys(t, "summary", {"baseline"});
+  const toml::node* bn = t.get("baseline");
+  if (bn == nullptr) return;
+  const toml::table& b = rd.Table(*bn, "summary.baseline");
+  rd.OnlyKeys(b, "summary.baseline", {"sigma", "r", "false_alarm", "estimator", "detector"});
+  if (b.empty()) rd.Fail(bn, "summary.baseline", "empty: name at least one of sigma, r, false_alarm, estimator, detector");
+  const SweepGrid& g = c->grid;
+  for (auto&& [k, v] : b) {
+    const std::string key = fmt::format("summary.baseline.{}", k.str());
+    std::string text;
+    if (k == "estimator" || k == "detector") {
+      text = rd.String(v, key);
+      const auto& axis = k == "estimator" ? g.estimator : g.detector;
+      if (std::find(axis.begin(), axis.end(), text) == axis.end()) {
+        rd.Fail(&v, key, fmt::format("'{}' is not on grid.{} ({})", text, k.str(), fmt::join(axis, ", ")));
+      }
+    } else {
+      const double x = rd.Number(v, key);
+      const auto& axis = k == "sigma" ? g.sigma : k == "r" ? g.r : g.false_alarm;
+      if (std::find(axis.begin(), axis.end(), x) == axis.end()) {
+        rd.Fail(&v, key, fmt::format("{} is not on grid.{} ({})", x, k.str(), fmt::join(axis, ", ")));
+      }
+      text = fmt::format("{}", x);
+    }
+    c->baseline.emplace_back(std::string(k.str()), text);
+  }
+  if (const toml::node* d = b.get("detector")) {
+    const std::string det = *d->value<std::string>();
+    if (b.contains("r") && !DetectorUsesR(det)) {
+      rd.Fail(b.get("r"), "summary.baseline.r", fmt::format("detector '{}' does not use r", det));
+    }
+    if (b.contains("false_alarm") && !DetectorUsesFalseAlarm(det)) {
+      rd.Fail(b.get("false_alarm"), "summary.baseline.false_alarm",
+              fmt::format("detector '{}' does not use false_alarm", det));
+    }
+  }
+}
+
 }  // namespace
 
 Model SweepModel::Build(const ModelRegistry& registry) const {
@@ -244,7 +285,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
     throw std::invalid_argument(
         fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
   }
-  rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run"});
+  rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run", "summary"});
   SweepConfig c;
   c.source = name;
 
@@ -366,6 +407,8 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
     }
   }
 
+  if (const toml::node* sn = root.get("summary")) ParseSummary(rd, rd.Table(*sn, "summary"), &c);
+
   // [run]
   if (const toml::node* rn = root.get("run")) {
     const toml::table& run = rd.Table(*rn, "run");
@@ -414,7 +457,7 @@ nlohmann::json SweepConfig::ToJson() const {
     ms.push_back(j);
   }
   const IdentifierSettings& s = identifier;
-  return {
+  nlohmann::json j = {
       {"model", ms},
       {"grid",
        {{"dt", grid.dt}, {"sigma", grid.sigma}, {"r", grid.r}, {"false_alarm", grid.false_alarm},
@@ -431,6 +474,14 @@ nlohmann::json SweepConfig::ToJson() const {
         {"max_jumps", simulator.max_jumps}}},
       {"run", {{"trials", trials}, {"seed", seed}}},
   };
+  // The noise scheme: a run directory written with another one is refused, not mixed in.
+  j["noise"] = "ziggurat stream per (seed, trial, model, dt)";
+  if (!baseline.empty()) {
+    nlohmann::json b = nlohmann::json::object();
+    for (const auto& [k, v] : baseline) b[k] = v;
+    j["summary"] = {{"baseline", b}};
+  }
+  return j;
 }
 
 std::string SweepConfig::Hash() const {

@@ -45,6 +45,9 @@ struct SweepConfig {
   IdentifierSettings identifier;  // base settings; each cell sets estimator, detector, r (and σ)
   bool known_sigma = false;       // give the cell's σ to the identifier (else it is not told)
   SimOptions simulator;
+  // [summary] baseline: per-cell keys (sigma, r, false_alarm, estimator, detector) and their values
+  // as trials.csv writes them; summary.csv compares every cell with its baseline (tables.hpp).
+  std::vector<std::pair<std::string, std::string>> baseline;
   long trials = 10;               // per cell
   std::uint64_t seed = 1;         // master seed
   std::string out;                // run directory
