@@ -73,10 +73,11 @@ def parser():
     p = sub.add_parser("all", help="every figure kind that RUN_DIR's data allow (the others are named and skipped)")
     p.add_argument("run_dir", metavar="RUN_DIR")
     figure_options(p)
-    p = sub.add_parser("paper", help="Figs. 4-8 of the paper from the CSVs of `hysid reproduce paper`")
+    p = sub.add_parser("paper", help="the paper's Figs. 4-8 (from `hysid reproduce paper`) or Fig. 2 (from "
+                                     "`hysid reproduce example6`), whichever CSVs RUN_DIR holds")
     p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", default="results/paper")
     figure_options(p, paper=True)
-    p = sub.add_parser("table", help="the summary as a paper table (mean [95 % interval] per cell)")
+    p = sub.add_parser("table", help="the summary as a paper table (mean [95 %% interval] per cell)")
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md")
     p.add_argument("--metrics", default=None, help="comma list (default e_alpha,e_beta,misclassification)")

@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.font_manager import FontProperties
 from matplotlib.textpath import TextToPath
 
-from . import data, series, stats, style
+from . import data, stats, style
 
 RATE_LABEL = "mean misclassification rate"
 TO_PATH = TextToPath()
@@ -173,15 +173,17 @@ def comparison_table(cmp, iv):
     ties = sum(c["match_or_beat"] or c["tied"] for c in cmp)
     worst = {r: max(c["paper"][r] for c in cmp) for r in rs}
     worst_res = max(c["residual"] for c in cmp)
+    # The model and estimator columns only when they vary.
+    who = [k for k in ("model", "estimator") if len({c[k] for c in cmp}) > 1]
     lines = [f"### residual detector at p = {cmp[0]['p']:g}", "",
-             "| σ | δt | " + " | ".join(f"r = {r:g}" for r in rs) + " | best r | residual [95 % interval] | ≤ best"
-             " | tied |", "|" + "---|" * (len(rs) + 6)]
+             "| " + "".join(f"{k} | " for k in who) + "σ | δt | " + " | ".join(f"r = {r:g}" for r in rs) +
+             " | best r | residual [95 % interval] | ≤ best | tied |", "|" + "---|" * (len(who) + len(rs) + 6)]
     for c in cmp:
-        lines.append(f"| {c['sigma']:g} | {c['dt']:g} | " + " | ".join(stats.sig(c["paper"][r]) for r in rs) +
-                     f" | {c['best_r']:g} | {stats.sig(c['residual'])} [{stats.sig(c['lo'], 1)}, "
-                     f"{stats.sig(c['hi'], 1)}] | {'yes' if c['match_or_beat'] else 'no'} | "
-                     f"{'yes' if c['tied'] else 'no'} |")
-    lines.append("| worst cell | | " + " | ".join(stats.sig(worst[r]) for r in rs) +
+        lines.append("| " + "".join(f"{c[k]} | " for k in who) + f"{c['sigma']:g} | {c['dt']:g} | " +
+                     " | ".join(stats.sig(c["paper"][r]) for r in rs) +
+                     f" | {c['best_r']:g} | {stats.interval_text(c['residual'], c['lo'], c['hi'])}"
+                     f" | {'yes' if c['match_or_beat'] else 'no'} | {'yes' if c['tied'] else 'no'} |")
+    lines.append("| worst cell | " + "| " * (len(who) + 1) + " | ".join(stats.sig(worst[r]) for r in rs) +
                  f" | | {stats.sig(worst_res)} | | |")
     verdict = (f"p = {cmp[0]['p']:g}: residual detector ≤ best paper r in {wins} of {n} cells "
                f"({100 * wins / n:.0f} %); ≤ or within its 95 % interval in {ties} of {n} "

@@ -1,5 +1,8 @@
 """Figures 4-8 of the paper's Sec. 5 from the CSVs that `hysid reproduce paper` writes (fig4_*.csv,
-fig5_tau_nominal.csv, fig6_params_nominal.csv, fig7_tau_noisy.csv, fig8_params_noisy.csv, run.json)."""
+fig5_tau_nominal.csv, fig6_params_nominal.csv, fig7_tau_noisy.csv, fig8_params_noisy.csv, run.json),
+and Fig. 2 (Example 6, ξ' = sin ξ) from the fig2_smoothness.csv that `hysid reproduce example6` writes:
+columns t, xi, D (the Euler derivative D_δt ξ), tau (the smoothness bound τ) and tau_hat_r<r> (the
+estimate τ̂ with bound scale r), one row per time."""
 import json
 import os
 import re
@@ -40,8 +43,8 @@ def truth(run):
     return {k + "_hat": float(v) for k, v in found.items()}
 
 
-def source(run):
-    return f"Data: {run} (hysid reproduce paper)."
+def source(run, command="hysid reproduce paper"):
+    return f"Data: {run} ({command})."
 
 
 def fig4(run, out, formats, width):
@@ -53,7 +56,10 @@ def fig4(run, out, formats, width):
         (pre,) = ax.plot(jumps["t_jump"], jumps["pre_" + key], "o", mfc="none", color="0.2", ms=3,
                          label=r"state before a jump ($\xi \in D$)")
         ax.set_ylabel(label)
-        ax.set_xlabel("t [s]") if ax is axes[1] else ax.tick_params(labelbottom=False)
+        if ax is axes[1]:
+            ax.set_xlabel("t [s]")
+        else:
+            ax.tick_params(labelbottom=False)
     leg.legend([flow, pre], [flow.get_label(), pre.get_label()], loc="center", ncol=2)
     cap = (f"Fig. 4: the impact mass-spring-damper of Sec. 5 (a = 5, b = 0.1, λ = 0.99, μ = 0, ξ0 = (20, 0)); "
            f"dotted: the jumps. {source(run)}")
@@ -114,11 +120,53 @@ def fig_params(run, name, out, stem, formats, width, what):
     return style.save(fig, out, stem, formats, cap)
 
 
+FIG2 = "fig2_smoothness.csv"
+
+
+def fig2(run, out, formats, width):
+    d = read(run, FIG2)
+    for need in ("t", "xi", "D", "tau"):
+        if need not in d:
+            raise data.DataError(f"{os.path.join(run, FIG2)}: no column '{need}'")
+    hats = sorted((float(k[len("tau_hat_r"):]), k) for k in d if k.startswith("tau_hat_r"))
+    fig, axes, leg, ncol = style.panels(width, 2, 2 + len(hats), panel_height=1.2 if width == "single" else 1.4,
+                                        cols=1)
+    axes[0].plot(d["t"], d["xi"], color=style.COLORS[0], lw=0.9)
+    axes[0].set_ylabel(r"$\xi$")
+    axes[0].tick_params(labelbottom=False)
+    hs = [axes[1].plot(d["t"], d["D"], color="black", lw=0.9, marker="o", ms=2.5, mfc="none",
+                       markevery=max(1, d["t"].size // 20), label=r"$D_{\delta t}\xi$ (Euler derivative)")[0],
+          axes[1].plot(d["t"], d["tau"], color=style.COLORS[1], lw=1.1, ls="--", label=r"$\tau$ (smoothness bound)")[0]]
+    for i, (r, k) in enumerate(hats):
+        hs.append(axes[1].plot(d["t"], d[k], color=style.COLORS[2 + i], ls=style.DASHES[(i + 2) % 4], lw=0.9,
+                               label=rf"$\hat\tau$, r = {r:g}")[0])
+    drawn = np.concatenate([d["D"], d["tau"]] + [d[k] for _, k in hats])
+    pos = drawn[drawn > 0]
+    if pos.size and pos.max() >= 100 * pos.min():  # spans two decades or more: a log axis
+        style.set_value_axis(axes[1], drawn)
+    axes[1].set_ylabel(r"$D_{\delta t}\xi$, $\tau$" + (r", $\hat\tau$" if hats else ""))
+    axes[1].set_xlabel("t")
+    leg.legend(hs, [h.get_label() for h in hs], loc="center", ncol=min(ncol, len(hs)))
+    hat_text = f" and its estimate τ̂ for r = {', '.join(f'{r:g}' for r, _ in hats)}" if hats else ""
+    cap = (f"Fig. 2: Example 6, ξ' = sin ξ on C = [0, 2π]: the state ξ (top), its Euler derivative "
+           f"D_δt ξ and the smoothness bound τ = (1/δt)∫|ξ| ds over the last δt{hat_text} (bottom). "
+           f"{source(run, 'hysid reproduce example6')}")
+    return style.save(fig, out, "fig2", formats, cap)
+
+
 def paper_figures(run, out_dir, formats, width):
-    """fig4 ... fig8 of RUN_DIR (default results/paper) into out_dir; returns the paths."""
+    """The paper's figures whose CSVs RUN_DIR holds: fig2 (`hysid reproduce example6`, results/example6)
+    and fig4 ... fig8 (`hysid reproduce paper`, results/paper), into out_dir (default RUN_DIR)."""
     out = out_dir or run
-    return (fig4(run, out, formats, width) +
-            fig_tau(run, "fig5_tau_nominal.csv", out, "fig5", formats, width, "Fig. 5: nominal (σ = 0)") +
-            fig_params(run, "fig6_params_nominal.csv", out, "fig6", formats, width, "Fig. 6: nominal (σ = 0)") +
-            fig_tau(run, "fig7_tau_noisy.csv", out, "fig7", formats, width, "Fig. 7: noisy (σ = 0.25)") +
-            fig_params(run, "fig8_params_noisy.csv", out, "fig8", formats, width, "Fig. 8: noisy (σ = 0.25)"))
+    written = []
+    if os.path.exists(os.path.join(run, FIG2)):
+        written += fig2(run, out, formats, width)
+    if os.path.exists(os.path.join(run, "fig4_trajectory.csv")) or not written:
+        written += (fig4(run, out, formats, width) +
+                    fig_tau(run, "fig5_tau_nominal.csv", out, "fig5", formats, width, "Fig. 5: nominal (σ = 0)") +
+                    fig_params(run, "fig6_params_nominal.csv", out, "fig6", formats, width,
+                               "Fig. 6: nominal (σ = 0)") +
+                    fig_tau(run, "fig7_tau_noisy.csv", out, "fig7", formats, width, "Fig. 7: noisy (σ = 0.25)") +
+                    fig_params(run, "fig8_params_noisy.csv", out, "fig8", formats, width,
+                               "Fig. 8: noisy (σ = 0.25)"))
+    return written

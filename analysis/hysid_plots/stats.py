@@ -108,3 +108,27 @@ def digits_for(est, lo, hi):
         return 2
     width = hi - lo
     return int(min(6, max(2, math.floor(math.log10(abs(est))) - math.floor(math.log10(width)) + 2)))
+
+
+def sig_at(x, place):
+    """x rounded at the decimal place 10**place (the last digit of the estimate it goes with)."""
+    if not math.isfinite(x) or x == 0:
+        return sig(x)
+    return sig(x, max(1, math.floor(math.log10(abs(x))) - place + 1))
+
+
+def interval_parts(est, lo, hi):
+    """(est, lo, hi) as text: est with the digits its interval supports, the bounds to est's last digit."""
+    d = digits_for(est, lo, hi)
+    if not (math.isfinite(lo) and math.isfinite(hi)) or (est == 0 and hi <= 0):
+        return sig(est, d), sig(lo), sig(hi)
+    place = math.floor(math.log10(abs(est))) - d + 1 if est != 0 else math.floor(math.log10(hi)) - 1
+    return sig(est, d), sig_at(lo, place), sig_at(hi, place)
+
+
+def interval_text(est, lo, hi):
+    """'est [lo, hi]'; just 'est' for a point interval or none."""
+    e, lo_t, hi_t = interval_parts(est, lo, hi)
+    if math.isfinite(lo) and (lo != est or hi != est):
+        return f"{e} [{lo_t}, {hi_t}]"
+    return e

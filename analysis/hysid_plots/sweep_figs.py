@@ -1,7 +1,6 @@
 """Figures of a sweep run directory: error vs σ, efficiency against the CRLB, per-parameter relative
 error, misclassification over δt × r. Each function returns the paths it wrote."""
 import math
-import os
 
 import numpy as np
 
@@ -84,7 +83,7 @@ def error_vs_sigma(run, out_dir, formats, width, stat="mean"):
             continue
         fig, axes, leg, ncol = style.panels(width, len(panels), len(lines) + 1)
         handles, extra, all_ns = [], [], []
-        for i, (ax, (metric, ylabel)) in enumerate(zip(axes, panels)):
+        for ax, (metric, ylabel) in zip(axes, panels):
             h, ys, xs, ns = draw_series(ax, lines, lambda r, m=metric: iv.of(r, m))
             handles = handles or h
             all_ns += ns
@@ -97,7 +96,8 @@ def error_vs_sigma(run, out_dir, formats, width, stat="mean"):
                     ys += [p[1] for p in pts]
             finish_panel(ax, axes, ylabel, xs, ys)
         legend(leg, handles, ncol, extra)
-        fig.suptitle(series.title_of(fixed)) if width == "double" else None
+        if width == "double":  # a single-column figure leaves its title to the caption
+            fig.suptitle(series.title_of(fixed))
         stem = f"error_vs_sigma_{series.slug(fixed)}"
         what = (f"{series.title_of(fixed)}: identification errors e_α, e_β and the misclassification rate "
                 f"against the noise σ.{' The dashed black line is the CRLB-implied mean error.' if extra else ''}")
@@ -120,7 +120,7 @@ def efficiency(run, out_dir, formats, width, stat="mean"):
         lines = series.series(s, rows)
         fig, axes, leg, ncol = style.panels(width, len(cols), len(lines) + 1)
         handles, all_ns, one = [], [], None
-        for i, (ax, (metric, col)) in enumerate(zip(axes, cols)):
+        for ax, (metric, col) in zip(axes, cols):
             def ratio(r, m=metric, c=col):
                 if not (math.isfinite(r[c]) and r[c] > 0):
                     return math.nan, math.nan, math.nan, 0
@@ -173,7 +173,7 @@ def relative_error(run, out_dir, formats, width, stat="mean"):
         lines = series.series(s, rows)
         fig, axes, leg, ncol = style.panels(width, len(mine), len(lines))
         handles, all_ns, absolute = [], [], []
-        for i, (ax, (col, kind, name)) in enumerate(zip(axes, mine)):
+        for ax, (col, kind, name) in zip(axes, mine):
             true = truth[name]
             scale = abs(true) if true != 0 else 1.0
 

@@ -3,7 +3,6 @@ holding the mean (or median) and its 95 % interval, with as many significant dig
 supports."""
 import csv
 import io
-import math
 import re
 
 from . import data, series, stats
@@ -71,17 +70,13 @@ def render(run, fmt, metrics=None, stat="mean"):
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(keys + [f"{m}_{s}" for m in metrics for s in (stat, "lo", "hi")] + ["n"])
         for ks, vals, n in rows:
-            w.writerow(ks + [stats.sig(v, stats.digits_for(*t)) for t in vals for v in t] + [n])
+            w.writerow(ks + [text for t in vals for text in stats.interval_parts(*t)] + [n])
         return buf.getvalue()
     texts = []
     for ks, vals, n in rows:
         cellv = []
         for est, lo, hi in vals:
-            d = stats.digits_for(est, lo, hi)
-            t = stats.sig(est, d)
-            if math.isfinite(lo) and (lo != est or hi != est):
-                t += f" [{stats.sig(lo, 2)}, {stats.sig(hi, 2)}]"
-            cellv.append(t)
+            cellv.append(stats.interval_text(est, lo, hi))
         texts.append(ks + cellv + [str(n)])
     names = [HEADERS.get(k, (k, k)) for k in keys + metrics] + [("n", "n")]
     if fmt == "md":

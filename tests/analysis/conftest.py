@@ -1,7 +1,8 @@
 """Shared fixtures of the analysis tests (run by CTest as sweep.plots with Debian's python3-pytest).
 
 HYSID_SWEEP_RUN: a run directory of tests/data/sweep_small.toml (fixture test sweep.small);
-HYSID_PAPER_RUN: the output of `hysid reproduce paper` (fixture test analysis.paper_run).
+HYSID_PAPER_RUN: the output of `hysid reproduce paper` (fixture test analysis.paper_run);
+HYSID_EXAMPLE6_RUN: the output of `hysid reproduce example6` (fixture test analysis.example6_run).
 The committed results/* are copied without their trials.csv, as a fresh checkout has them.
 """
 import os
@@ -36,6 +37,11 @@ def small_run():
 @pytest.fixture(scope="session")
 def paper_run():
     return env_dir("HYSID_PAPER_RUN")
+
+
+@pytest.fixture(scope="session")
+def example6_run():
+    return env_dir("HYSID_EXAMPLE6_RUN")
 
 
 def committed_copy(tmp, rel):

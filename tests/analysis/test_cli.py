@@ -11,7 +11,7 @@ from hysid_plots import cli
 PKG = os.path.join(ROOT, "analysis", "hysid_plots")
 
 
-def run(*args, code=""):
+def run(*args, code="pass"):
     """Runs the package as a directory (as the README does) in a fresh interpreter."""
     prog = (f"import runpy, sys; {code}; sys.argv = ['hysid_plots'] + {list(args)!r}; "
             f"runpy.run_path({PKG!r}, run_name='__main__')")
@@ -49,3 +49,9 @@ def test_bad_summary_cell_names_file_line_and_column(tmp_path):
     with pytest.raises(SystemExit) as e:
         cli.main(["error-vs-sigma", str(tmp_path)])
     assert "summary.csv:3: column 'e_alpha_mean': 'abc' is not a number" in str(e.value)
+
+
+@pytest.mark.parametrize("kind", [[], ["error-vs-sigma"], ["table"], ["paper"], ["all"]])
+def test_help(kind):
+    p = run(*kind, "--help")
+    assert p.returncode == 0 and p.stdout.startswith("usage: hysid_plots"), p.stderr

@@ -254,3 +254,59 @@ def test_same_data_same_bytes(committed, tmp_path):
                 "--out", str(tmp_path / d)])
     for name in sorted(os.listdir(tmp_path / "a")):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+
+
+def example6(path, xi0=1e-2, dt=0.5, t_end=12.0):
+    """Example 6 in closed form: ξ(t) = 2 atan(exp(t − ln cot(ξ0/2))), D = |ξ(t) − ξ(t − δt)|/δt and
+    τ = (1/δt)∫ ξ ds over [t − δt, t] (k = 1; Simpson's rule on 64 intervals), with made-up τ̂ columns
+    in non-numeric order."""
+    def xi(t):
+        return 2 * np.arctan(np.exp(t - np.log(1 / np.tan(xi0 / 2))))
+    t = np.arange(dt, t_end + dt / 2, dt)
+    s = np.linspace(0, 1, 65)
+    w = np.array([1] + [4 if i % 2 else 2 for i in range(1, 64)] + [1]) / (3 * 64)
+    tau = np.array([np.sum(w * xi(tk - dt + s * dt)) for tk in t])
+    rows = np.column_stack([t, xi(t), np.abs(xi(t) - xi(t - dt)) / dt, tau, 20 * tau, 5 * tau])
+    np.savetxt(path, rows, delimiter=",", header="t,xi,D,tau,tau_hat_r20,tau_hat_r5", comments="")
+    return rows
+
+
+def test_fig2_example6(captured, tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    rows = example6(run / "fig2_smoothness.csv")
+    assert np.all(rows[:, 2] <= rows[:, 3])  # Proposition 5: D <= tau, the data drawn are right
+    render(["paper", str(run), "--format", "pdf", "--out", str(tmp_path / "f")])
+    assert [s for _, s, _ in captured.figs] == ["fig2"]  # no fig4_*.csv: Fig. 2 only
+    fig, stem, caption = captured.figs[0]
+    assert "Example 6" in caption
+    check_figure(fig)
+    panels = data_axes(fig)
+    np.testing.assert_array_equal(panels[0].get_lines()[0].get_ydata(), rows[:, 1])
+    assert legend_texts(fig) == [r"$D_{\delta t}\xi$ (Euler derivative)", r"$\tau$ (smoothness bound)",
+                                 r"$\hat\tau$, r = 5", r"$\hat\tau$, r = 20"]
+    np.testing.assert_array_equal(panels[1].get_lines()[2].get_ydata(), rows[:, 5])
+
+
+def test_median_points_are_medians_of_the_trials(small_run, captured, tmp_path):
+    render(["error-vs-sigma", small_run, "--stat", "median", "--format", "pdf", "--out", str(tmp_path)])
+    fig, stem, caption = captured.figs[0]
+    assert stem.endswith("dt0.001") and caption.startswith("impact-msd") and "Points: median" in caption
+    trials = list(csv.DictReader(open(os.path.join(small_run, "trials.csv"))))
+    ln = data_axes(fig)[0].get_lines()[0]  # e_alpha, paper r = 20
+    for x, y in zip(ln.get_xdata(), ln.get_ydata()):
+        v = [float(t["e_alpha"]) for t in trials
+             if t["dt"] == "0.001" and float(t["sigma"]) == x and t["detector"] == "paper" and t["r"] == "20"]
+        assert len(v) == 5 and y == np.median(v)
+
+
+def test_fig2_from_reproduce_example6(example6_run, captured, tmp_path):
+    render(["paper", example6_run, "--format", "pdf,png", "--dpi", "60", "--width", "single", "--out",
+            str(tmp_path)])
+    check_files(str(tmp_path), ["fig2"], n=False)
+    fig, _, _ = captured.figs[0]
+    check_figure(fig)
+    assert legend_texts(fig)[2:] == [r"$\hat\tau$, r = 1", r"$\hat\tau$, r = 2", r"$\hat\tau$, r = 5"]
+    bottom = data_axes(fig)[1]
+    d, tau = bottom.get_lines()[0].get_ydata(), bottom.get_lines()[1].get_ydata()
+    assert np.all(d <= tau)  # Proposition 5 in what is drawn

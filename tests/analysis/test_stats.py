@@ -79,3 +79,11 @@ def test_value_axis(values, scale):
     assert style.set_value_axis(ax[0][0], values) == scale
     if scale == "symlog":
         assert ax[0][0].yaxis.get_transform().linthresh == 1e-5
+
+
+@pytest.mark.parametrize("est,lo,hi,text", [(1.95771, 1.95569, 1.95991, "1.9577 [1.9557, 1.9599]"),
+                                            (0.001043, 0.000741, 0.001352, "0.00104 [7.4e-4, 0.00135]"),
+                                            (4.6e-7, 4.6e-7, 4.6e-7, "4.6e-7"),
+                                            (1.5e-6, 0.0, 4.5e-6, "1.5e-6 [0, 4.5e-6]")])
+def test_interval_text_rounds_the_bounds_at_the_estimates_last_digit(est, lo, hi, text):
+    assert stats.interval_text(est, lo, hi) == text
