@@ -7,6 +7,7 @@
 
 #include "core/identify/identifier.hpp"
 #include "core/model/builtin/impact_msd.hpp"
+#include "core/model_file/model_file.hpp"
 #include "core/sets/sample_set.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
@@ -28,8 +29,9 @@ Mat PaperSamples(double sigma) {
 void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char* detector = "paper",
                    bool known_sigma = false, bool localize = false,
                    const std::string& estimator = "rls", bool data_accuracy = false,
-                   bool one_at_a_time = false) {
-  const Model model{ImpactMsd{}};
+                   bool one_at_a_time = false, bool model_file = false) {
+  // The built-in C++ struct, or the same model from models/impact-msd.toml (muParser).
+  const Model model = model_file ? LoadModelFile(HYSID_MODELS_DIR "/impact-msd.toml") : Model{ImpactMsd{}};
   const Mat y = PaperSamples(sigma);
   IdentifierSettings settings;
   settings.sets = sets;
@@ -66,6 +68,12 @@ void BM_IdentifyStepOneAtATime(benchmark::State& state) {
   RunIdentifier(state, false, 0.0, "paper", false, false, "rls", false, true);
 }
 BENCHMARK(BM_IdentifyStepOneAtATime)->Unit(benchmark::kMillisecond);
+
+// The same with the §5 model read from its model file (expressions evaluated by muParser).
+void BM_IdentifyStepModelFile(benchmark::State& state) {
+  RunIdentifier(state, false, 0.0, "paper", false, false, "rls", false, false, true);
+}
+BENCHMARK(BM_IdentifyStepModelFile)->Unit(benchmark::kMillisecond);
 
 // The same plus Algorithm 2 (incremental hulls of Λ and Γ).
 void BM_IdentifyStepWithHulls(benchmark::State& state) { RunIdentifier(state, true, 0.0); }

@@ -8,6 +8,8 @@ packages=(
   g++ cmake ninja-build make git
   libeigen3-dev libsundials-dev libcgal-dev libbenchmark-dev libtbb-dev catch2 libfmt-dev
   libcli11-dev librandom123-dev libtomlplusplus-dev nlohmann-json3-dev libceres-dev
+  libmuparser-dev                    # model files: the expressions of φ, ψ, guards, C, D
+  pybind11-dev python3-dev           # the `hysid` Python module
   python3 python3-matplotlib python3-numpy python3-pytest
   slurm-wlm munge
 )

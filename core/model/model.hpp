@@ -56,6 +56,8 @@ struct ModelSpec {
   std::vector<double> default_x0;
   double default_t_end = 10.0;
   double default_dt = 1e-3;
+  // Human-readable equations, one per line (flow, jump, guards, sets), for `hysid models --show`.
+  std::string equations;
 };
 
 // Which member functions a model struct must provide. ξ has size n = spec.state_names.size().
@@ -80,6 +82,13 @@ concept HasFlowJacobian = requires(const M& m, ConstVecRef x, ConstVecRef alpha,
 template <class M>
 concept HasJumpSetDistance = requires(const M& m, ConstVecRef x) {
   { m.DistanceToJumpSet(x) } -> std::convertible_to<double>;
+};
+
+// Optional: φ at `count` states in one call (same layout as Model::PhiColumns). For structs whose
+// per-call set-up is worth amortising over a block (the model-file evaluator).
+template <class M>
+concept HasPhiColumns = requires(const M& m, const double* x, Eigen::Index count, double* phi) {
+  m.PhiColumns(x, count, phi);
 };
 
 template <class M>
@@ -167,6 +176,10 @@ class Model {
     void Phi(const ConstVecRef& x, MatRef phi) const override { m_.Phi(x, phi); }
     void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
                     double* phi) const override {
+      if constexpr (HasPhiColumns<M>) {
+        m_.PhiColumns(x, count, phi);
+        return;
+      }
       for (Eigen::Index k = 0; k < count; ++k) {
         Eigen::Map<Mat> out(phi + k * n * m, n, m);
         m_.Phi(Eigen::Map<const Vec>(x + k * n, n), out);
@@ -179,7 +192,13 @@ class Model {
     void ProjectOntoGuard(int i, VecRef x) const override {
       if constexpr (HasGuardProjection<M>) m_.ProjectOntoGuard(i, x);
     }
-    bool ProvidesJumpSetDistance() const override { return HasJumpSetDistance<M>; }
+    bool ProvidesJumpSetDistance() const override {
+      if constexpr (requires { { m_.ProvidesJumpSetDistance() } -> std::convertible_to<bool>; }) {
+        return m_.ProvidesJumpSetDistance();  // a struct whose distance is optional at run time
+      } else {
+        return HasJumpSetDistance<M>;
+      }
+    }
     double DistanceToJumpSet(const ConstVecRef& x) const override {
       if constexpr (HasJumpSetDistance<M>) {
         return m_.DistanceToJumpSet(x);

@@ -43,6 +43,11 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
 // Builds a model from its name and "name=value" assignments; errors name --model / --param.
 Model MakeModel(const Environment& env, const std::string& name,
                 const std::vector<std::string>& params);
+// The same from a model file when `file` is not empty (errors name --model-file), else by name.
+Model MakeModel(const Environment& env, const std::string& name, const std::string& file,
+                const std::vector<std::string>& params);
+// Adds --model-file to a subcommand that has --model (the two exclude each other).
+void AddModelFileOption(CLI::App& cmd, std::string& file);
 
 // Checks that every entry is finite; `flag` names the option in the error.
 void RequireFinite(const std::string& flag, const std::vector<double>& values);

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/model_file/model_file.hpp"
 #include "experiments/cli/cli.hpp"
 
 namespace hysid::cli {
@@ -12,11 +13,16 @@ void BadFlag(const std::string& what) { throw std::invalid_argument(what); }
 
 Model MakeModel(const Environment& env, const std::string& name,
                 const std::vector<std::string>& params) {
+  return MakeModel(env, name, "", params);
+}
+
+Model MakeModel(const Environment& env, const std::string& name, const std::string& file,
+                const std::vector<std::string>& params) {
   Model model = [&] {
     try {
-      return env.models.Make(name);
+      return file.empty() ? env.models.Make(name) : LoadModelFile(file);
     } catch (const std::invalid_argument& e) {
-      BadFlag(fmt::format("--model: {}", e.what()));
+      BadFlag(fmt::format("{}: {}", file.empty() ? "--model" : "--model-file", e.what()));
     }
   }();
   for (const std::string& p : params) {
@@ -27,6 +33,11 @@ Model MakeModel(const Environment& env, const std::string& name,
     }
   }
   return model;
+}
+
+void AddModelFileOption(CLI::App& cmd, std::string& file) {
+  CLI::Option* opt = cmd.add_option("--model-file", file, "a model file (TOML, see models/*.toml) instead of --model");
+  if (CLI::Option* model = cmd.get_option_no_throw("--model")) opt->excludes(model);
 }
 
 void RequireFinite(const std::string& flag, const std::vector<double>& values) {

@@ -15,6 +15,7 @@ namespace {
 
 struct CrlbArgs {
   std::string model = "impact-msd";
+  std::string model_file;  // --model-file: instead of --model
   std::vector<std::string> params;
   std::vector<double> x0;
   double t_end = NAN;  // NaN: the model's default
@@ -39,7 +40,7 @@ Vec ParseSigma(const std::vector<double>& values, int n) {
 }
 
 int RunCrlb(const CrlbArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.params);
+  const Model model = MakeModel(env, args.model, args.model_file, args.params);
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   const SampleGrid grid{.t_end = std::isnan(args.t_end) ? spec.default_t_end : args.t_end,
@@ -93,6 +94,7 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
       "sigma: per-parameter sd and the CRLB-implied mean e_alpha, e_beta. Exit 1 when the bound\n"
       "cannot be computed (simulation stopped, singular Fisher information).");
   sub->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
+  AddModelFileOption(*sub, args->model_file);
   sub->add_option("--param", args->params, "set a true parameter, name=value (repeatable)");
   sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")->delimiter(',');
   sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");

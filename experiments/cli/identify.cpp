@@ -25,6 +25,7 @@ namespace {
 
 struct IdentifyArgs {
   std::string model = "impact-msd";
+  std::string model_file;  // --model-file: instead of --model
   std::vector<std::string> params;
   std::string data;
   std::string estimator = "rls";
@@ -283,7 +284,7 @@ void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
 }
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.params);
+  const Model model = MakeModel(env, args.model, args.model_file, args.params);
   IdentifierSettings settings = BuildSettings(args, model);
   const SampleData data = ReadSampleData(args.data, model.state_size());
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
@@ -314,6 +315,7 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<IdentifyArgs>();
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
   cmd->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
+  AddModelFileOption(*cmd, args->model_file);
   cmd->add_option("--param", args->params, "NAME=VALUE: the model's true value (for error metrics)");
   cmd->add_option("--data", args->data, "CSV: time, then the measured state (y1..yn if present); "
                                         "a column j is taken as ground truth")

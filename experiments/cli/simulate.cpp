@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <sstream>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -20,6 +21,7 @@ namespace {
 
 struct SimulateArgs {
   std::string model = "impact-msd";
+  std::string model_file;  // --model-file: instead of --model
   std::vector<std::string> params;
   std::vector<double> x0;
   double t_end = NAN;  // NaN: the model's default
@@ -139,7 +141,7 @@ std::filesystem::path WriteSidecar(const SimulateArgs& args, const Model& model,
 }
 
 void RunSimulate(const SimulateArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.params);
+  const Model model = MakeModel(env, args.model, args.model_file, args.params);
   const ModelSpec& spec = model.spec();
   const SampleGrid grid = GridFlags(args, spec);
   const Vec x0 = InitialStateFlag(args, model);
@@ -168,6 +170,7 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       "Simulate one trajectory: samples t_k = k*dt with jump counter, true and measured state.\n"
       "Defaults are the model's (impact-msd: the paper's Sec. 5 values).");
   sub->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
+  AddModelFileOption(*sub, args->model_file);
   sub->add_option("--param", args->params, "set a parameter, name=value (repeatable)");
   sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")
       ->delimiter(',');
@@ -189,24 +192,48 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->callback([args, &env] { RunSimulate(*args, env); });
 }
 
+void PrintModel(const Model& m, bool full) {
+  const ModelSpec& s = m.spec();
+  std::printf("%s: %s\n  states: %s\n", s.name.c_str(), s.description.c_str(),
+              fmt::format("{}", fmt::join(s.state_names, ", ")).c_str());
+  for (const auto* list : {&s.alpha, &s.beta}) {
+    for (const Parameter& p : *list) {
+      std::printf("  %-12s %-6s = %-8g %s\n", p.name.c_str(), list == &s.alpha ? "flow" : "jump", p.value,
+                  p.known ? "(known constant)" : p.description.c_str());
+    }
+  }
+  std::printf("  defaults: x0 = (%s), t_end = %g, dt = %g\n",
+              fmt::format("{}", fmt::join(s.default_x0, ", ")).c_str(), s.default_t_end, s.default_dt);
+  if (!full) return;
+  auto names = [&](const std::vector<int>& rows) {
+    std::vector<std::string> out;
+    for (int r : rows) out.push_back(s.state_names[std::size_t(r)]);
+    return fmt::format("{}", fmt::join(out, ", "));
+  };
+  std::printf("  identified rows: flow %s; jump %s\n", names(s.flow_rows).c_str(), names(s.jump_rows).c_str());
+  std::printf("  flow Jacobian: %s; distance to D: %s\n",
+              s.flow_jacobian_constant ? "constant" : "depends on the state",
+              m.has_jump_set_distance() ? "given" : "not given (set metrics are NaN)");
+  std::istringstream lines(s.equations);
+  for (std::string line; std::getline(lines, line);) std::printf("  %s\n", line.c_str());
+}
+
 void AddModelsCommand(CLI::App& app, Environment& env) {
   CLI::App* sub = app.add_subcommand("models", "List the built-in models and their parameters");
-  sub->callback([&env] {
-    for (const std::string& name : env.models.names()) {
-      const Model m = env.models.Make(name);
-      const ModelSpec& s = m.spec();
-      std::printf("%s: %s\n  states: %s\n", name.c_str(), s.description.c_str(),
-                  fmt::format("{}", fmt::join(s.state_names, ", ")).c_str());
-      for (const auto* list : {&s.alpha, &s.beta}) {
-        for (const Parameter& p : *list) {
-          std::printf("  %-12s %-6s = %-8g %s\n", p.name.c_str(), list == &s.alpha ? "flow" : "jump",
-                      p.value, p.known ? "(known constant)" : p.description.c_str());
-        }
-      }
-      std::printf("  defaults: x0 = (%s), t_end = %g, dt = %g\n",
-                  fmt::format("{}", fmt::join(s.default_x0, ", ")).c_str(), s.default_t_end,
-                  s.default_dt);
+  auto show = std::make_shared<std::string>();
+  sub->add_option("--show", *show,
+                  "one model's equations, sets and parameters: a registered name or a model file");
+  sub->callback([&env, show] {
+    if (show->empty()) {
+      for (const std::string& name : env.models.names()) PrintModel(env.models.Make(name), false);
+      return;
     }
+    if (env.models.Contains(*show)) return PrintModel(env.models.Make(*show), true);
+    if (!std::filesystem::exists(*show)) {
+      BadFlag(fmt::format("--show {}: neither a registered model ({}) nor a file", *show,
+                          fmt::join(env.models.names(), ", ")));
+    }
+    PrintModel(MakeModel(env, "", *show, {}), true);
   });
 }
 

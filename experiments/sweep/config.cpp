@@ -15,6 +15,7 @@
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
+#include "core/model_file/model_file.hpp"
 #include "experiments/sweep/plan.hpp"
 
 namespace hysid {
@@ -157,16 +158,30 @@ void NoDuplicates(const Reader& rd, const toml::node& node, const std::string& k
 
 SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string& key,
                       const ModelRegistry& registry) {
-  rd.OnlyKeys(t, key, {"name", "params", "x0", "x0_range", "t_end"});
+  rd.OnlyKeys(t, key, {"name", "file", "params", "x0", "x0_range", "t_end"});
   SweepModel m;
   const toml::node* name = t.get("name");
-  if (!name) rd.Fail(&t, key + ".name", "missing (the model's registry name, see `hysid models`)");
-  m.name = rd.String(*name, key + ".name");
-  if (!registry.Contains(m.name)) {
-    std::vector<std::string> names = registry.names();
-    rd.Fail(name, key + ".name", fmt::format("unknown model '{}' (known: {})", m.name, fmt::join(names, ", ")));
+  const toml::node* file = t.get("file");
+  if (name && file) rd.Fail(file, key + ".file", "give name or file, not both");
+  if (file) {
+    // Relative to the sweep file's folder.
+    const std::filesystem::path path = std::filesystem::path(rd.file()).parent_path() / rd.String(*file, key + ".file");
+    try {
+      m.from_file = std::make_shared<const Model>(LoadModelFile(path));
+    } catch (const std::invalid_argument& e) {
+      rd.Fail(file, key + ".file", e.what());
+    }
+    m.file = path.lexically_normal().string();
+    m.name = m.from_file->name();
+  } else {
+    if (!name) rd.Fail(&t, key + ".name", "missing (the model's registry name, see `hysid models`, or file = a model file)");
+    m.name = rd.String(*name, key + ".name");
+    if (!registry.Contains(m.name)) {
+      std::vector<std::string> names = registry.names();
+      rd.Fail(name, key + ".name", fmt::format("unknown model '{}' (known: {})", m.name, fmt::join(names, ", ")));
+    }
   }
-  Model model = registry.Make(m.name);
+  Model model = m.from_file ? *m.from_file : registry.Make(m.name);
   if (const toml::node* p = t.get("params")) {
     for (auto&& [k, v] : rd.Table(*p, key + ".params")) {
       const std::string pk = fmt::format("{}.params.{}", key, k.str());
@@ -489,7 +504,7 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
 }  // namespace
 
 Model SweepModel::Build(const ModelRegistry& registry) const {
-  Model model = registry.Make(name);
+  Model model = from_file ? *from_file : registry.Make(name);
   for (const auto& [k, v] : params) model.SetParameter(k, v);
   return model;
 }
@@ -533,6 +548,7 @@ nlohmann::json SweepConfig::ToJson() const {
     nlohmann::json params = nlohmann::json::array();
     for (const auto& [k, v] : m.params) params.push_back({k, v});
     nlohmann::json j = {{"name", m.name}, {"params", params}, {"t_end", m.t_end}};
+    if (m.from_file) j["equations"] = m.from_file->spec().equations;  // what the file defines
     if (!m.x0_range.empty()) {
       j["x0_range"] = m.x0_range;
     } else {

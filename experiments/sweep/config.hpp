@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,7 +26,9 @@
 namespace hysid {
 
 struct SweepModel {
-  std::string name;                                      // registry name
+  std::string name;                                      // registry name (or the model file's name)
+  std::string file;                                      // model file, when given instead of a name
+  std::shared_ptr<const Model> from_file;                // the loaded model file (else null)
   std::vector<std::pair<std::string, double>> params;    // true parameter values set by the file
   std::vector<double> x0;                                // fixed initial state, or
   std::vector<std::array<double, 2>> x0_range;           // [lo, hi] per component, drawn per trial

@@ -361,6 +361,25 @@ TEST_CASE("sweep: Zeno runs are rows with their status, not an aborted sweep", "
   CHECK_THAT(summary, Catch::Contains(",2,2,"));  // trials, failures
 }
 
+TEST_CASE("sweep files: a model file instead of a registry name", "[sweep][config]") {
+  const std::string sweep = std::string(HYSID_MODELS_DIR) + "/sweep.toml";  // files relative to it
+  const SweepConfig c = ParseSweepText(
+      "[model]\nfile = \"wall-msd.toml\"\nparams = { k = 3.0 }\n[grid]\nsigma = 0.0\ndt = 1e-3\nr = 5.0\n", sweep,
+      Registry());
+  REQUIRE(c.models.size() == 1u);
+  CHECK(c.models[0].name == "wall-msd");
+  CHECK(c.models[0].x0 == std::vector<double>{0.0, 5.0});  // the file's default
+  const Model m = c.models[0].Build(Registry());
+  CHECK(m.alpha()[1] == 3.0);
+  CHECK(c.ToJson()["model"][0]["equations"].get<std::string>().find("h(xi) = x - 1") != std::string::npos);
+  CHECK_THROWS_WITH(ParseSweepText("[model]\nfile = \"nope.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep, Registry()),
+                    Catch::Contains("sweep.toml:2: model.file: ") && Catch::Contains("nope.toml: cannot read"));
+  CHECK_THROWS_WITH(
+      ParseSweepText("[model]\nname = \"impact-msd\"\nfile = \"wall-msd.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep,
+                     Registry()),
+      Catch::Contains("sweep.toml:3: model.file: give name or file, not both"));
+}
+
 TEST_CASE("sweep: cells share a trial's noise (σ a scale) and pair with their baseline", "[sweep][crn]") {
   const std::string text = R"(
 [model]

@@ -1,0 +1,533 @@
+#include "core/model_file/model_file.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <muParser.h>
+#include <toml++/toml.h>
+
+#include "sim/simulator.hpp"
+
+namespace hysid {
+namespace {
+
+// A matrix of expressions, column-major: constant entries are stored as numbers, the others are
+// joined into one muParser expression list "e1, e2, ..." evaluated with one call.
+struct ExprMatrix {
+  Eigen::Index rows = 0, cols = 0;
+  std::vector<double> constant;   // rows·cols values (0 where the entry is an expression)
+  std::vector<Eigen::Index> index;  // column-major position of each expression
+  std::vector<std::string> text;  // every entry as written (for the equations)
+  std::string joined;             // the expressions, comma-separated
+};
+
+// The parsed file, shared (immutable) by every copy of the model.
+struct Definition {
+  std::uint64_t id = 0;
+  ModelSpec spec;
+  ExprMatrix phi, psi, guards;  // guards: |guards| × 1
+  std::string in_c, in_d, distance;
+  std::vector<ExprMatrix> project;               // per guard: assigned states × 1 (may be empty)
+  std::vector<std::vector<int>> project_states;  // per guard: which state each entry assigns
+};
+
+std::atomic<std::uint64_t> next_definition_id{1};
+
+// One thread's compiled parsers; `var` holds ξ, bound to the state names.
+struct Compiled {
+  std::array<double, Model::kMaxStates> var{};
+  mu::Parser phi, psi, guards, in_c, in_d, distance;
+  std::vector<mu::Parser> project;
+};
+
+void Bind(mu::Parser& p, const Definition& def, Compiled& c, const std::string& expr) {
+  for (std::size_t i = 0; i < def.spec.state_names.size(); ++i) p.DefineVar(def.spec.state_names[i], &c.var[i]);
+  p.SetExpr(expr.empty() ? "0" : expr);
+}
+
+std::unique_ptr<Compiled> Compile(const Definition& def) {
+  auto c = std::make_unique<Compiled>();
+  Bind(c->phi, def, *c, def.phi.joined);
+  Bind(c->psi, def, *c, def.psi.joined);
+  Bind(c->guards, def, *c, def.guards.joined);
+  Bind(c->in_c, def, *c, def.in_c);
+  Bind(c->in_d, def, *c, def.in_d);
+  Bind(c->distance, def, *c, def.distance);
+  c->project.resize(def.project.size());
+  for (std::size_t g = 0; g < def.project.size(); ++g) Bind(c->project[g], def, *c, def.project[g].joined);
+  return c;
+}
+
+// This thread's parsers for `def` (muParser's evaluation is not thread-safe: it writes a stack
+// buffer inside the parser). The last definition used is remembered, so the look-up is one compare.
+Compiled& Local(const std::shared_ptr<const Definition>& def) {
+  thread_local std::uint64_t last_id = 0;
+  thread_local Compiled* last = nullptr;
+  if (last_id == def->id) return *last;
+  thread_local std::map<std::uint64_t, std::pair<std::weak_ptr<const Definition>, std::unique_ptr<Compiled>>> cache;
+  std::erase_if(cache, [](const auto& e) { return e.second.first.expired(); });
+  auto it = cache.find(def->id);
+  if (it == cache.end()) it = cache.emplace(def->id, std::pair{std::weak_ptr(def), Compile(*def)}).first;
+  last_id = def->id;
+  last = it->second.second.get();
+  return *last;
+}
+
+void Load(Compiled& c, const double* x, std::size_t n) { std::copy(x, x + n, c.var.begin()); }
+
+// Fills out (column-major, rows·cols) with the matrix at the loaded state.
+void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
+  std::copy(m.constant.begin(), m.constant.end(), out);
+  if (m.index.empty()) return;
+  int count = 0;
+  const double* v = p.Eval(count);
+  for (std::size_t k = 0; k < m.index.size(); ++k) out[m.index[k]] = v[k];
+}
+
+// The HybridModel struct over a Definition.
+struct FileModel {
+  std::shared_ptr<const Definition> def;
+
+  ModelSpec Spec() const { return def->spec; }
+  void Phi(ConstVecRef x, MatRef phi) const {
+    Compiled& c = Local(def);
+    Load(c, x.data(), static_cast<std::size_t>(x.size()));
+    Evaluate(def->phi, c.phi, phi.data());
+  }
+  void PhiColumns(const double* x, Eigen::Index count, double* phi) const {
+    Compiled& c = Local(def);
+    const Eigen::Index n = def->phi.rows, size = def->phi.rows * def->phi.cols;
+    for (Eigen::Index k = 0; k < count; ++k) {
+      Load(c, x + k * n, static_cast<std::size_t>(n));
+      Evaluate(def->phi, c.phi, phi + k * size);
+    }
+  }
+  void Psi(ConstVecRef x, MatRef psi) const {
+    Compiled& c = Local(def);
+    Load(c, x.data(), static_cast<std::size_t>(x.size()));
+    Evaluate(def->psi, c.psi, psi.data());
+  }
+  void Guards(ConstVecRef x, VecRef h) const {
+    Compiled& c = Local(def);
+    Load(c, x.data(), static_cast<std::size_t>(x.size()));
+    Evaluate(def->guards, c.guards, h.data());
+  }
+  bool InFlowSet(ConstVecRef x) const { return Test(x, &Compiled::in_c); }
+  bool InJumpSet(ConstVecRef x) const { return Test(x, &Compiled::in_d); }
+  bool ProvidesJumpSetDistance() const { return !def->distance.empty(); }
+  double DistanceToJumpSet(ConstVecRef x) const {
+    if (def->distance.empty()) return std::numeric_limits<double>::quiet_NaN();
+    Compiled& c = Local(def);
+    Load(c, x.data(), static_cast<std::size_t>(x.size()));
+    return c.distance.Eval();
+  }
+  void ProjectOntoGuard(int guard, VecRef x) const {
+    const auto g = static_cast<std::size_t>(guard);
+    if (g >= def->project.size() || def->project[g].rows == 0) return;
+    Compiled& c = Local(def);
+    Load(c, x.data(), static_cast<std::size_t>(x.size()));
+    std::array<double, Model::kMaxStates> value{};
+    Evaluate(def->project[g], c.project[g], value.data());
+    for (std::size_t k = 0; k < def->project_states[g].size(); ++k) x[def->project_states[g][k]] = value[k];
+  }
+
+ private:
+  bool Test(ConstVecRef x, mu::Parser Compiled::*which) const {
+    Compiled& c = Local(def);
+    Load(c, x.data(), static_cast<std::size_t>(x.size()));
+    return (c.*which).Eval() != 0.0;
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Reading the TOML file. Every error names the file, the line and the key.
+
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+  [[noreturn]] void Fail(const toml::node* node, const std::string& key, const std::string& what) const {
+    const long line = node ? static_cast<long>(node->source().begin.line) : 0;
+    if (line > 0) throw std::invalid_argument(fmt::format("{}:{}: {}: {}", file_, line, key, what));
+    throw std::invalid_argument(fmt::format("{}: {}: {}", file_, key, what));
+  }
+  const toml::node& Require(const toml::table& t, const std::string& prefix, const char* key) const {
+    const toml::node* n = t.get(key);
+    if (!n) Fail(&t, Join(prefix, key), "missing");
+    return *n;
+  }
+  static std::string Join(const std::string& prefix, std::string_view key) {
+    return prefix.empty() ? std::string(key) : fmt::format("{}.{}", prefix, key);
+  }
+  void OnlyKeys(const toml::table& t, const std::string& prefix, std::initializer_list<std::string_view> keys) const {
+    for (auto&& [k, v] : t) {
+      if (std::find(keys.begin(), keys.end(), k.str()) == keys.end()) {
+        Fail(&v, Join(prefix, k.str()), fmt::format("unknown key (allowed: {})", fmt::join(keys, ", ")));
+      }
+    }
+  }
+  std::string String(const toml::node& n, const std::string& key) const {
+    if (!n.is_string()) Fail(&n, key, "expected a string");
+    return std::string(*n.value<std::string>());
+  }
+  double Number(const toml::node& n, const std::string& key) const {
+    const std::optional<double> v = n.value<double>();
+    if (!v || !(n.is_integer() || n.is_floating_point())) Fail(&n, key, "expected a number");
+    if (!std::isfinite(*v)) Fail(&n, key, fmt::format("{} must be finite", *v));
+    return *v;
+  }
+  bool Bool(const toml::node& n, const std::string& key) const {
+    if (!n.is_boolean()) Fail(&n, key, "expected true or false");
+    return *n.value<bool>();
+  }
+  const toml::table& Table(const toml::node& n, const std::string& key) const {
+    if (!n.is_table()) Fail(&n, key, "expected a table");
+    return *n.as_table();
+  }
+  const toml::array& Array(const toml::node& n, const std::string& key) const {
+    if (!n.is_array()) Fail(&n, key, "expected an array");
+    return *n.as_array();
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+// Compiles one expression alone at the given state names; throws naming the key and the text.
+// Returns the value at ξ = 0 and whether the expression uses a state.
+std::pair<double, bool> CheckExpression(const Reader& rd, const toml::node* node, const std::string& key,
+                                        const std::string& expr, const std::vector<std::string>& states) {
+  std::array<double, Model::kMaxStates> var{};
+  mu::Parser p;
+  try {
+    for (std::size_t i = 0; i < states.size(); ++i) p.DefineVar(states[i], &var[i]);
+    p.SetExpr(expr);
+    int count = 0;
+    const double* v = p.Eval(count);
+    if (count != 1) rd.Fail(node, key, fmt::format("\"{}\": one expression expected, found {}", expr, count));
+    return {v[0], !p.GetUsedVar().empty()};
+  } catch (const mu::Parser::exception_type& e) {
+    if (e.GetCode() == mu::ecUNASSIGNABLE_TOKEN) {
+      rd.Fail(node, key, fmt::format("\"{}\": unknown symbol \"{}\" (the variables are the states: {})", expr,
+                                     e.GetToken(), fmt::join(states, ", ")));
+    }
+    rd.Fail(node, key, fmt::format("\"{}\": {}", expr, e.GetMsg()));
+  }
+}
+
+// An entry of a matrix: a number or a string expression.
+std::string EntryText(const Reader& rd, const toml::node& n, const std::string& key) {
+  if (n.is_string()) return std::string(*n.value<std::string>());
+  if (n.is_integer() || n.is_floating_point()) return fmt::format("{}", rd.Number(n, key));
+  rd.Fail(&n, key, "expected an expression (string) or a number");
+}
+
+// A rows × cols matrix (a list of rows) of expressions.
+ExprMatrix ParseMatrix(const Reader& rd, const toml::node& node, const std::string& key, Eigen::Index rows,
+                       Eigen::Index cols, const std::vector<std::string>& states) {
+  const toml::array& arr = rd.Array(node, key);
+  if (static_cast<Eigen::Index>(arr.size()) != rows) {
+    rd.Fail(&node, key, fmt::format("has {} rows, expected {} (one per state)", arr.size(), rows));
+  }
+  ExprMatrix m{rows, cols, std::vector<double>(std::size_t(rows * cols), 0.0), {}, {}, {}};
+  m.text.resize(std::size_t(rows * cols));
+  std::vector<std::string> exprs;
+  for (Eigen::Index i = 0; i < rows; ++i) {
+    const std::string rkey = fmt::format("{}[{}]", key, i);
+    const toml::array& row = rd.Array(arr[std::size_t(i)], rkey);
+    if (static_cast<Eigen::Index>(row.size()) != cols) {
+      rd.Fail(&arr[std::size_t(i)], rkey, fmt::format("has {} entries, expected {} (one per parameter)", row.size(), cols));
+    }
+    for (Eigen::Index j = 0; j < cols; ++j) {
+      const std::string ekey = fmt::format("{}[{}][{}]", key, i, j);
+      const std::string text = EntryText(rd, row[std::size_t(j)], ekey);
+      const auto [value, uses_state] = CheckExpression(rd, &row[std::size_t(j)], ekey, text, states);
+      const Eigen::Index at = j * rows + i;
+      m.text[std::size_t(at)] = text;
+      if (uses_state) {
+        m.index.push_back(at);
+        exprs.push_back("(" + text + ")");
+      } else {
+        m.constant[std::size_t(at)] = value;
+      }
+    }
+  }
+  m.joined = fmt::format("{}", fmt::join(exprs, ","));
+  return m;
+}
+
+std::vector<Parameter> ParseParameters(const Reader& rd, const toml::table& root, const char* which) {
+  const toml::array& arr = rd.Array(rd.Require(root, "", which), which);
+  if (arr.empty()) rd.Fail(&arr, which, "give at least one parameter");
+  std::vector<Parameter> out;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string key = fmt::format("{}[{}]", which, i);
+    const toml::table& t = rd.Table(arr[i], key);
+    rd.OnlyKeys(t, key, {"name", "value", "known", "description"});
+    Parameter p;
+    p.name = rd.String(rd.Require(t, key, "name"), key + ".name");
+    p.value = rd.Number(rd.Require(t, key, "value"), key + ".value");
+    if (const toml::node* k = t.get("known")) p.known = rd.Bool(*k, key + ".known");
+    if (const toml::node* d = t.get("description")) p.description = rd.String(*d, key + ".description");
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+std::vector<int> ParseRows(const Reader& rd, const toml::table& t, const std::string& prefix,
+                           const std::vector<std::string>& states) {
+  const std::string key = prefix + ".rows";
+  const toml::array& arr = rd.Array(rd.Require(t, prefix, "rows"), key);
+  if (arr.empty()) rd.Fail(&arr, key, "name at least one state whose row carries unknown parameters");
+  std::vector<int> rows;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string name = rd.String(arr[i], fmt::format("{}[{}]", key, i));
+    const auto it = std::find(states.begin(), states.end(), name);
+    if (it == states.end()) {
+      rd.Fail(&arr[i], key, fmt::format("\"{}\" is not a state (states: {})", name, fmt::join(states, ", ")));
+    }
+    rows.push_back(static_cast<int>(it - states.begin()));
+  }
+  return rows;
+}
+
+std::vector<std::string> ParseStates(const Reader& rd, const toml::table& root) {
+  const toml::array& arr = rd.Array(rd.Require(root, "", "states"), "states");
+  if (arr.empty() || arr.size() > std::size_t(Model::kMaxStates)) {
+    rd.Fail(&arr, "states", fmt::format("{} states: give between 1 and {}", arr.size(), Model::kMaxStates));
+  }
+  std::vector<std::string> states;
+  mu::Parser probe;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string key = fmt::format("states[{}]", i);
+    std::string s = rd.String(arr[i], key);
+    try {
+      double dummy = 0;
+      probe.DefineVar(s, &dummy);
+    } catch (const mu::Parser::exception_type& e) {
+      rd.Fail(&arr[i], key, fmt::format("\"{}\" is not a valid variable name: {}", s, e.GetMsg()));
+    }
+    if (std::find(states.begin(), states.end(), s) != states.end()) rd.Fail(&arr[i], key, fmt::format("\"{}\" twice", s));
+    states.push_back(std::move(s));
+  }
+  return states;
+}
+
+Crossing ParseDirection(const Reader& rd, const toml::node& n, const std::string& key) {
+  const std::string d = rd.String(n, key);
+  if (d == "falling") return Crossing::kFalling;
+  if (d == "rising") return Crossing::kRising;
+  if (d == "both") return Crossing::kBoth;
+  rd.Fail(&n, key, fmt::format("\"{}\": expected falling, rising or both", d));
+}
+
+void ParseGuards(const Reader& rd, const toml::table& root, Definition& def) {
+  const std::vector<std::string>& states = def.spec.state_names;
+  const toml::array& arr = rd.Array(rd.Require(root, "", "guard"), "guard");
+  if (arr.empty()) rd.Fail(&arr, "guard", "give at least one [[guard]]");
+  toml::array h_column;
+  for (std::size_t g = 0; g < arr.size(); ++g) {
+    const std::string key = fmt::format("guard[{}]", g);
+    const toml::table& t = rd.Table(arr[g], key);
+    rd.OnlyKeys(t, key, {"name", "h", "direction", "project"});
+    Guard guard;
+    guard.name = t.get("name") ? rd.String(*t.get("name"), key + ".name") : fmt::format("guard{}", g);
+    guard.direction = ParseDirection(rd, rd.Require(t, key, "direction"), key + ".direction");
+    def.spec.guards.push_back(guard);
+    const toml::node& h = rd.Require(t, key, "h");
+    const std::string text = EntryText(rd, h, key + ".h");
+    if (!CheckExpression(rd, &h, key + ".h", text, states).second) {
+      rd.Fail(&h, key + ".h", fmt::format("\"{}\" does not depend on the state", text));
+    }
+    def.guards.text.push_back(text);
+    def.guards.index.push_back(static_cast<Eigen::Index>(g));
+    def.guards.joined += (g ? ",(" : "(") + text + ")";
+    ExprMatrix proj;
+    std::vector<int> assigned;
+    if (const toml::node* p = t.get("project")) {
+      const std::string pkey = key + ".project";
+      std::vector<std::string> exprs;
+      for (auto&& [k, v] : rd.Table(*p, pkey)) {
+        const auto it = std::find(states.begin(), states.end(), k.str());
+        if (it == states.end()) rd.Fail(&v, pkey, fmt::format("\"{}\" is not a state", k.str()));
+        const std::string text = EntryText(rd, v, fmt::format("{}.{}", pkey, k.str()));
+        CheckExpression(rd, &v, fmt::format("{}.{}", pkey, k.str()), text, states);
+        assigned.push_back(static_cast<int>(it - states.begin()));
+        proj.index.push_back(static_cast<Eigen::Index>(exprs.size()));
+        exprs.push_back("(" + text + ")");
+      }
+      proj.rows = static_cast<Eigen::Index>(exprs.size());
+      proj.cols = 1;
+      proj.constant.assign(exprs.size(), 0.0);
+      proj.joined = fmt::format("{}", fmt::join(exprs, ","));
+    }
+    def.project.push_back(std::move(proj));
+    def.project_states.push_back(std::move(assigned));
+  }
+  def.guards.rows = static_cast<Eigen::Index>(arr.size());
+  def.guards.cols = 1;
+  def.guards.constant.assign(arr.size(), 0.0);
+}
+
+void ParseSets(const Reader& rd, const toml::table& root, Definition& def) {
+  const toml::table& t = rd.Table(rd.Require(root, "", "sets"), "sets");
+  rd.OnlyKeys(t, "sets", {"C", "D", "distance_to_D"});
+  auto one = [&](const char* k, bool required) -> std::string {
+    const toml::node* n = t.get(k);
+    if (!n && !required) return {};
+    if (!n) rd.Fail(&t, fmt::format("sets.{}", k), "missing");
+    const std::string key = fmt::format("sets.{}", k);
+    const std::string text = EntryText(rd, *n, key);
+    CheckExpression(rd, n, key, text, def.spec.state_names);
+    return text;
+  };
+  def.in_c = one("C", true);
+  def.in_d = one("D", true);
+  def.distance = one("distance_to_D", false);
+}
+
+void ParseDefaults(const Reader& rd, const toml::table& root, ModelSpec& spec) {
+  const toml::table& t = rd.Table(rd.Require(root, "", "defaults"), "defaults");
+  rd.OnlyKeys(t, "defaults", {"x0", "t_end", "dt"});
+  const toml::node& x0 = rd.Require(t, "defaults", "x0");
+  const toml::array& arr = rd.Array(x0, "defaults.x0");
+  if (arr.size() != spec.state_names.size()) {
+    rd.Fail(&x0, "defaults.x0", fmt::format("has {} entries, expected {} (one per state)", arr.size(), spec.state_names.size()));
+  }
+  for (std::size_t i = 0; i < arr.size(); ++i) spec.default_x0.push_back(rd.Number(arr[i], fmt::format("defaults.x0[{}]", i)));
+  for (auto [k, field] : {std::pair{"t_end", &spec.default_t_end}, std::pair{"dt", &spec.default_dt}}) {
+    const toml::node& n = rd.Require(t, "defaults", k);
+    *field = rd.Number(n, fmt::format("defaults.{}", k));
+    if (*field <= 0) rd.Fail(&n, fmt::format("defaults.{}", k), fmt::format("{} must be > 0", *field));
+  }
+}
+
+// "name*(expr) + ..." for one row of a matrix times its parameter vector.
+std::string RowText(const ExprMatrix& m, Eigen::Index row, const std::vector<Parameter>& params) {
+  std::vector<std::string> terms;
+  for (Eigen::Index j = 0; j < m.cols; ++j) {
+    const Eigen::Index at = j * m.rows + row;
+    const bool expr = std::find(m.index.begin(), m.index.end(), at) != m.index.end();
+    if (!expr && m.constant[std::size_t(at)] == 0.0) continue;
+    const std::string& e = m.text[std::size_t(at)];
+    terms.push_back(!expr && m.constant[std::size_t(at)] == 1.0 ? params[std::size_t(j)].name
+                                                                 : fmt::format("{}*({})", params[std::size_t(j)].name, e));
+  }
+  return terms.empty() ? "0" : fmt::format("{}", fmt::join(terms, " + "));
+}
+
+std::string Equations(const Definition& def) {
+  const ModelSpec& s = def.spec;
+  std::string out;
+  for (std::size_t i = 0; i < s.state_names.size(); ++i) {
+    out += fmt::format("flow: {}' = {}\n", s.state_names[i], RowText(def.phi, Eigen::Index(i), s.alpha));
+  }
+  for (std::size_t i = 0; i < s.state_names.size(); ++i) {
+    out += fmt::format("jump: {}+ = {}\n", s.state_names[i], RowText(def.psi, Eigen::Index(i), s.beta));
+  }
+  constexpr const char* kDirection[] = {"falling", "rising", "both"};
+  for (std::size_t g = 0; g < s.guards.size(); ++g) {
+    out += fmt::format("guard {}: h(xi) = {} ({})\n", s.guards[g].name, def.guards.text[g],
+                       kDirection[static_cast<int>(s.guards[g].direction)]);
+  }
+  out += fmt::format("C: {}\nD: {}\n", def.in_c, def.in_d);
+  if (!def.distance.empty()) out += fmt::format("dist(xi, D) = {}\n", def.distance);
+  return out;
+}
+
+std::shared_ptr<Definition> ParseDefinition(const Reader& rd, const toml::table& root) {
+  rd.OnlyKeys(root, "", {"name", "description", "states", "alpha", "beta", "flow", "jump", "guard", "sets", "defaults"});
+  auto def = std::make_shared<Definition>();
+  ModelSpec& spec = def->spec;
+  spec.name = rd.String(rd.Require(root, "", "name"), "name");
+  if (const toml::node* d = root.get("description")) spec.description = rd.String(*d, "description");
+  spec.state_names = ParseStates(rd, root);
+  spec.alpha = ParseParameters(rd, root, "alpha");
+  spec.beta = ParseParameters(rd, root, "beta");
+  const auto n = static_cast<Eigen::Index>(spec.state_names.size());
+  for (auto [key, matrix, params, rows] :
+       {std::tuple{"flow", &def->phi, &spec.alpha, &spec.flow_rows}, std::tuple{"jump", &def->psi, &spec.beta, &spec.jump_rows}}) {
+    const toml::table& t = rd.Table(rd.Require(root, "", key), key);
+    const char* mkey = std::string_view(key) == "flow" ? "phi" : "psi";
+    rd.OnlyKeys(t, key, {mkey, "rows", "jacobian_constant"});
+    if (std::string_view(key) == "jump" && t.get("jacobian_constant")) rd.Fail(t.get("jacobian_constant"), "jump.jacobian_constant", "only [flow] has it");
+    *matrix = ParseMatrix(rd, rd.Require(t, key, mkey), fmt::format("{}.{}", key, mkey), n,
+                          static_cast<Eigen::Index>(params->size()), spec.state_names);
+    *rows = ParseRows(rd, t, key, spec.state_names);
+    if (const toml::node* jc = t.get("jacobian_constant")) spec.flow_jacobian_constant = rd.Bool(*jc, "flow.jacobian_constant");
+  }
+  ParseGuards(rd, root, *def);
+  ParseSets(rd, root, *def);
+  ParseDefaults(rd, root, spec);
+  spec.equations = Equations(*def);
+  def->id = next_definition_id.fetch_add(1);
+  return def;
+}
+
+// The default trajectory must start in C ∪ D and reach D through every guard at least once.
+void CheckDefaultTrajectory(const Reader& rd, const toml::table& root, const Model& model) {
+  const ModelSpec& s = model.spec();
+  const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), model.state_size());
+  const toml::node* x0_node = root.at_path("defaults.x0").node();
+  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
+    rd.Fail(x0_node, "defaults.x0", fmt::format("({}) is outside C and D", fmt::join(s.default_x0, ", ")));
+  }
+  const Trajectory traj = Simulate(model, x0, SampleGrid{.t_end = s.default_t_end, .dt = s.default_dt});
+  std::vector<long> fired(s.guards.size(), 0);
+  for (const JumpRecord& j : traj.jumps) {
+    if (j.guard >= 0) ++fired[std::size_t(j.guard)];
+  }
+  const toml::array* guards = root.get("guard")->as_array();
+  for (std::size_t g = 0; g < fired.size(); ++g) {
+    if (fired[g] > 0) continue;
+    rd.Fail(guards->get(g), fmt::format("guard[{}].h", g),
+            fmt::format("guard \"{}\" never reaches D on the default trajectory (x0 = ({}), t_end = {}; simulation {}: {})",
+                        s.guards[g].name, fmt::join(s.default_x0, ", "), s.default_t_end, ToString(traj.status.stop),
+                        traj.status.message));
+  }
+}
+
+}  // namespace
+
+Model ParseModelText(std::string_view text, const std::string& name, const ModelFileOptions& options) {
+  const Reader rd(name);
+  toml::table root;
+  try {
+    root = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw std::invalid_argument(fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
+  }
+  std::shared_ptr<const Definition> def = ParseDefinition(rd, root);
+  Model model = [&] {
+    try {
+      return Model(FileModel{def});
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(fmt::format("{}: {}", name, e.what()));
+    }
+  }();
+  if (options.check_guards) CheckDefaultTrajectory(rd, root, model);
+  return model;
+}
+
+Model LoadModelFile(const std::filesystem::path& path, const ModelFileOptions& options) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::invalid_argument(fmt::format("{}: cannot read the model file", path.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseModelText(text.str(), path.string(), options);
+}
+
+}  // namespace hysid

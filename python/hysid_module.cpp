@@ -1,0 +1,305 @@
+// The `hysid` Python module: models (built-in names or model files), simulate, identify and sweeps,
+// calling the same C++ as the command line. NumPy arrays in and out; samples are rows (K × n). No
+// Python code runs per sample, and the GIL is released while C++ computes.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "core/identify/identifier.hpp"
+#include "core/model/registry.hpp"
+#include "core/model_file/model_file.hpp"
+#include "experiments/sweep/config.hpp"
+#include "experiments/sweep/runner.hpp"
+#include "sim/measurement.hpp"
+#include "sim/refine/refine.hpp"
+#include "sim/simulator.hpp"
+
+namespace py = pybind11;
+
+namespace hysid {
+namespace {
+
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using InArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+const ModelRegistry& Builtins() {
+  static const ModelRegistry registry = [] {
+    ModelRegistry r;
+    RegisterBuiltinModels(r);
+    return r;
+  }();
+  return registry;
+}
+
+// A registered name, or a model file (a path that exists).
+Model MakeModel(const std::string& name_or_file) {
+  if (Builtins().Contains(name_or_file)) return Builtins().Make(name_or_file);
+  if (std::filesystem::exists(name_or_file)) return LoadModelFile(name_or_file);
+  throw std::invalid_argument(fmt::format("'{}' is neither a built-in model nor a model file", name_or_file));
+}
+
+// A matrix stored column-major as rows × cols, returned with one row per column (K × rows).
+py::array_t<double> Transposed(const Mat& m) {
+  py::array_t<double> out({m.cols(), m.rows()});
+  if (m.size()) std::memcpy(out.mutable_data(), m.data(), sizeof(double) * std::size_t(m.size()));
+  return out;
+}
+
+py::array_t<double> ToArray(const Vec& v) {
+  py::array_t<double> out(v.size());
+  if (v.size()) std::memcpy(out.mutable_data(), v.data(), sizeof(double) * std::size_t(v.size()));
+  return out;
+}
+
+// One value, or one per state; empty when `value` is None.
+Vec PerState(const py::object& value, int n, const char* what) {
+  if (value.is_none()) return {};
+  std::vector<double> v = py::isinstance<py::sequence>(value) ? value.cast<std::vector<double>>()
+                                                                : std::vector<double>{value.cast<double>()};
+  if (v.size() == 1) return Vec::Constant(n, v[0]);
+  if (static_cast<int>(v.size()) != n) {
+    throw std::invalid_argument(fmt::format("{} has {} values; give one, or one per state ({})", what, v.size(), n));
+  }
+  return Eigen::Map<const Vec>(v.data(), n);
+}
+
+py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
+                  std::optional<double> dt, const py::object& sigma, std::uint64_t seed, std::uint64_t trial,
+                  double rtol, double atol) {
+  const ModelSpec& spec = model.spec();
+  const int n = model.state_size();
+  const std::vector<double> start = x0.value_or(spec.default_x0);
+  if (static_cast<int>(start.size()) != n) {
+    throw std::invalid_argument(fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
+  }
+  const SampleGrid grid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)};
+  if (std::string e; !grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
+  SimOptions options;
+  options.rtol = rtol;
+  options.atol = atol;
+  if (std::string e; !options.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  Vec s = PerState(sigma, n, "sigma");
+  if (s.size() == 0) s = Vec::Zero(n);
+  if ((s.array() < 0.0).any() || !s.allFinite()) throw std::invalid_argument("sigma: must be finite and >= 0");
+  Trajectory traj;
+  Mat y;
+  {
+    py::gil_scoped_release release;
+    traj = hysid::Simulate(model, Eigen::Map<const Vec>(start.data(), n), grid, options);
+    y = AddMeasurementNoise(traj.x, s, NoiseKey{.seed = seed, .stream = trial});
+  }
+  py::list jumps;
+  for (const JumpRecord& j : traj.jumps) {
+    jumps.append(py::dict(py::arg("j") = j.j, py::arg("t") = j.t, py::arg("guard") = j.guard,
+                          py::arg("pre") = ToArray(j.pre), py::arg("post") = ToArray(j.post)));
+  }
+  py::dict out;
+  out["t"] = py::array_t<double>(py::ssize_t(traj.t.size()), traj.t.data());
+  out["j"] = py::array_t<int>(py::ssize_t(traj.j.size()), traj.j.data());
+  out["x"] = Transposed(traj.x);
+  out["y"] = Transposed(y);
+  out["dt"] = grid.dt;
+  out["jumps"] = jumps;
+  out["status"] = ToString(traj.status.stop);
+  out["message"] = traj.status.message;
+  return out;
+}
+
+struct IdentifyArgs {
+  std::string estimator = "rls", detector = "paper", bound = "auto";
+  double r = 220.0, tau0 = 1e5, false_alarm = 1e-8, forgetting = 1.0, jump_forgetting = 1.0;
+  double data_rtol = 0.0, data_atol = 0.0;
+  bool localize = false, second_pass = false, sets = true, trace = true;
+  std::string refine = "none";  // "ml": the output-error refinement after the recursive run
+};
+
+IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
+  IdentifierSettings s;
+  s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(a.estimator);
+  s.flow_estimator.forgetting = a.forgetting;
+  s.jump_estimator.forgetting = a.jump_forgetting;
+  s.detector.kind = ParseDetectorKind(a.detector);
+  s.detector.r = a.r;
+  s.detector.tau0 = a.tau0;
+  const auto* bound = FindOption(DetectorOptions(), "bound");
+  bound->set(s.detector, bound->Parse(a.bound));
+  s.detector.false_alarm = a.false_alarm;
+  s.localize = a.localize;
+  s.second_pass = a.second_pass;
+  s.sets = a.sets;
+  s.sigma = sigma;
+  s.data_rtol = a.data_rtol;
+  s.data_atol = a.data_atol;
+  return s;
+}
+
+// The unknown entries of `values` by name.
+py::dict Unknowns(const std::vector<Parameter>& params, const Vec& values) {
+  py::dict out;
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    if (!params[i].known) out[py::str(params[i].name)] = values[Eigen::Index(i)];
+  }
+  return out;
+}
+
+// The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`.
+py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& recursive, const Vec& sigma) {
+  RefineOptions options;
+  options.sigma = sigma;
+  RefineResult r;
+  {
+    py::gil_scoped_release release;
+    r = RefineIdentification(model, y, dt, recursive, options);
+  }
+  py::dict out, estimates, errors;
+  const Vec theta = r.estimate.Theta(r.unknowns);
+  for (std::size_t i = 0; i < r.names.size(); ++i) {
+    estimates[py::str(r.names[i])] = theta[Eigen::Index(i)];
+    if (r.standard_errors.size()) errors[py::str(r.names[i])] = r.standard_errors[Eigen::Index(i)];
+  }
+  out["status"] = ToString(r.status);
+  out["reason"] = r.reason;
+  out["estimates"] = estimates;
+  out["standard_errors"] = errors;  // empty unless the fit is ok
+  out["covariance"] = Transposed(r.covariance);
+  out["alpha"] = ToArray(r.estimate.alpha);
+  out["beta"] = ToArray(r.estimate.beta);
+  out["x0"] = ToArray(r.estimate.x0);
+  return out;
+}
+
+py::dict Identify(const Model& model, const InArray& y, double dt, const IdentifyArgs& args, const py::object& sigma) {
+  const int n = model.state_size();
+  if (y.ndim() != 2 || y.shape(1) != n) {
+    throw std::invalid_argument(fmt::format("y must be a (samples, {}) array, one row per sample; got shape ({})", n,
+                                            fmt::join(std::vector<py::ssize_t>(y.shape(), y.shape() + y.ndim()), ", ")));
+  }
+  if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
+  const Mat samples = Eigen::Map<const Mat>(y.data(), n, y.shape(0));  // row-major K × n = n × K
+  const IdentifierSettings settings = Settings(args, PerState(sigma, n, "sigma"));
+  IdentifyResult r;
+  {
+    py::gil_scoped_release release;
+    r = hysid::Identify(model, samples, dt, settings, IdentifyOptions{.trace = args.trace});
+  }
+  const ModelSpec& spec = model.spec();
+  py::dict out;
+  out["alpha"] = ToArray(r.alpha_hat);
+  out["beta"] = ToArray(r.beta_hat);
+  out["estimates"] = Unknowns(spec.alpha, r.alpha_hat);
+  for (auto [k, v] : Unknowns(spec.beta, r.beta_hat)) out["estimates"][k] = v;
+  out["gamma"] = py::array_t<std::uint8_t>(py::ssize_t(r.gamma.size()), r.gamma.data());
+  out["statistic"] = py::array_t<double>(py::ssize_t(r.statistic.size()), r.statistic.data());
+  out["threshold"] = py::array_t<double>(py::ssize_t(r.threshold.size()), r.threshold.data());
+  if (args.trace) {
+    out["alpha_trace"] = Transposed(r.alpha_trace);
+    out["beta_trace"] = Transposed(r.beta_trace);
+  }
+  out["jumps_detected"] = r.jumps_detected;
+  out["flow_status"] = ToString(r.flow_status);
+  out["jump_status"] = ToString(r.jump_status);
+  out["flow_hull"] = Transposed(r.flow_hull);
+  out["jump_hull"] = Transposed(r.jump_hull);
+  if (args.refine == "ml") {
+    out["refined"] = Refined(model, samples, dt, r, settings.sigma);
+  } else if (args.refine != "none") {
+    throw std::invalid_argument(fmt::format("refine = '{}': expected 'none' or 'ml'", args.refine));
+  }
+  return out;
+}
+
+py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out, int threads) {
+  const SweepConfig config = ParseSweepFile(file, Builtins());
+  SweepOptions options;
+  options.out = out.empty() ? config.out : out;
+  if (options.out.empty()) throw std::invalid_argument(fmt::format("out: not given, and {} has no run.out", file.string()));
+  if (threads < 0) throw std::invalid_argument(fmt::format("threads = {}: must be >= 0", threads));
+  options.threads = threads;
+  options.progress = Progress::Mode::kNone;
+  SweepOutcome o;
+  {
+    py::gil_scoped_release release;
+    o = RunSweep(config, Builtins(), options);
+  }
+  py::dict d;
+  d["out"] = options.out.string();
+  d["trials"] = o.units_shard;
+  d["resumed"] = o.units_resumed;
+  d["run"] = o.units_run;
+  d["failed"] = o.failures;
+  d["trajectories"] = o.trajectories;
+  d["seconds"] = o.wall_seconds;
+  return d;
+}
+
+py::dict Parameters(const Model& m) {
+  py::dict d;
+  for (std::size_t i = 0; i < m.spec().alpha.size(); ++i) d[py::str(m.spec().alpha[i].name)] = m.alpha()[Eigen::Index(i)];
+  for (std::size_t i = 0; i < m.spec().beta.size(); ++i) d[py::str(m.spec().beta[i].name)] = m.beta()[Eigen::Index(i)];
+  return d;
+}
+
+void BindModel(py::module_& m) {
+  py::class_<Model>(m, "Model", "A hybrid model: a built-in name (hysid.models()) or a model file (TOML)")
+      .def(py::init(&MakeModel), py::arg("name_or_file"))
+      .def_static("from_file", [](const std::filesystem::path& p) { return LoadModelFile(p); }, py::arg("path"))
+      .def_property_readonly("name", &Model::name)
+      .def_property_readonly("description", [](const Model& x) { return x.spec().description; })
+      .def_property_readonly("state_names", [](const Model& x) { return x.spec().state_names; })
+      .def_property_readonly("parameters", &Parameters, "every parameter of alpha and beta by name")
+      .def_property_readonly("equations", [](const Model& x) { return x.spec().equations; })
+      .def_property_readonly("default_x0", [](const Model& x) { return x.spec().default_x0; })
+      .def_property_readonly("default_t_end", [](const Model& x) { return x.spec().default_t_end; })
+      .def_property_readonly("default_dt", [](const Model& x) { return x.spec().default_dt; })
+      .def("set", [](Model& x, const std::string& name, double v) { x.SetParameter(name, v); return x; },
+           py::arg("name"), py::arg("value"), "sets an unknown parameter's true value; returns the model")
+      .def("__repr__", [](const Model& x) { return fmt::format("hysid.Model('{}')", x.name()); });
+  py::implicitly_convertible<std::string, Model>();
+}
+
+}  // namespace
+}  // namespace hysid
+
+PYBIND11_MODULE(hysid, m) {
+  using namespace hysid;
+  m.doc() = "Identification of hybrid dynamical systems from sampled states (the hysid C++ library)";
+  py::register_exception<std::invalid_argument>(m, "InputError", PyExc_ValueError);
+  BindModel(m);
+  m.def("models", [] { return Builtins().names(); }, "the built-in model names");
+  m.def("simulate", &SimulateDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
+        py::arg("dt") = py::none(), py::arg("sigma") = 0.0, py::arg("seed") = 1, py::arg("trial") = 0,
+        py::arg("rtol") = 1e-12, py::arg("atol") = 1e-12,
+        "One trajectory: dict with t, j, x and y (samples × states), dt, jumps, status, message");
+  m.def(
+      "identify",
+      [](const Model& model, const InArray& y, double dt, const std::string& estimator, const std::string& detector,
+         double r, double tau0, const std::string& bound, double false_alarm, const py::object& sigma,
+         double forgetting, double jump_forgetting, bool localize, bool second_pass, bool sets, bool trace,
+         double data_rtol, double data_atol, const std::string& refine) {
+        const IdentifyArgs a{estimator, detector, bound, r, tau0, false_alarm, forgetting, jump_forgetting,
+                             data_rtol, data_atol, localize, second_pass, sets, trace, refine};
+        return Identify(model, y, dt, a, sigma);
+      },
+      py::arg("model"), py::arg("y"), py::arg("dt"), py::arg("estimator") = "rls", py::arg("detector") = "paper",
+      py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto", py::arg("false_alarm") = 1e-8,
+      py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0, py::arg("jump_forgetting") = 1.0,
+      py::arg("localize") = false, py::arg("second_pass") = false, py::arg("sets") = true, py::arg("trace") = true,
+      py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0, py::arg("refine") = "none",
+      "The identifier on samples y (samples × states) at spacing dt, as `hysid identify`: dict with alpha, beta "
+      "(full vectors), estimates (the unknowns by name), gamma, statistic, threshold, alpha_trace, beta_trace, "
+      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; refine='ml' adds refined (status, "
+      "reason, estimates and standard_errors by name, covariance, alpha, beta, x0) as `--refine ml`");
+  m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
+        "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts");
+}

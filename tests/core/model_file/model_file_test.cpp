@@ -1,0 +1,273 @@
+// Model files against the same models written in C++: every function of the model, whole
+// trajectories and identification runs agree; every kind of bad file is refused naming the file,
+// the line, the key and the expression.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/identify/identifier.hpp"
+#include "core/model/builtin/bouncing_ball.hpp"
+#include "core/model/builtin/impact_msd.hpp"
+#include "core/model/builtin/impact_pendulum.hpp"
+#include "core/model_file/model_file.hpp"
+#include "sim/measurement.hpp"
+#include "sim/simulator.hpp"
+
+namespace hysid {
+namespace {
+
+// The mass on a spring hitting a wall at x = 1 of models/wall-msd.toml, written in C++.
+struct WallMsd {
+  ModelSpec Spec() const {
+    return ModelSpec{
+        .name = "wall-msd",
+        .description = "mass on a spring hitting a wall at x = 1",
+        .state_names = {"x", "v"},
+        .alpha = {{"alpha_x", 1.0, true, ""}, {"k", 4.0, false, ""}, {"b", 0.2, false, ""}},
+        .beta = {{"beta_x", 1.0, true, ""}, {"lambda", 0.8, false, ""}, {"mu", 0.0, false, ""}},
+        .flow_rows = {1},
+        .jump_rows = {1},
+        .guards = {{"wall", Crossing::kRising}},
+        .flow_jacobian_constant = true,
+        .default_x0 = {0.0, 5.0},
+        .default_t_end = 20.0,
+        .default_dt = 5e-4,
+    };
+  }
+  void Phi(ConstVecRef x, MatRef phi) const { phi << x[1], 0.0, 0.0, 0.0, -x[0], -x[1]; }
+  void Psi(ConstVecRef x, MatRef psi) const { psi << x[0], 0.0, 0.0, 0.0, -x[1], 1.0; }
+  void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0] - 1.0; }
+  bool InFlowSet(ConstVecRef x) const { return x[0] < 1.0 || (x[0] == 1.0 && x[1] <= 0.0); }
+  bool InJumpSet(ConstVecRef x) const { return x[0] == 1.0 && x[1] >= 0.0; }
+  double DistanceToJumpSet(ConstVecRef x) const { return std::hypot(x[0] - 1.0, std::min(x[1], 0.0)); }
+  void ProjectOntoGuard(int /*guard*/, VecRef x) const { x[0] = 1.0; }
+};
+
+std::string ModelPath(const std::string& name) { return std::string(HYSID_MODELS_DIR) + "/" + name + ".toml"; }
+
+void RequireSameSpec(const ModelSpec& a, const ModelSpec& b) {
+  REQUIRE(a.name == b.name);
+  REQUIRE(a.state_names == b.state_names);
+  REQUIRE(a.alpha.size() == b.alpha.size());
+  REQUIRE(a.beta.size() == b.beta.size());
+  for (std::size_t i = 0; i < a.alpha.size(); ++i) {
+    REQUIRE(a.alpha[i].name == b.alpha[i].name);
+    REQUIRE(a.alpha[i].value == b.alpha[i].value);
+    REQUIRE(a.alpha[i].known == b.alpha[i].known);
+  }
+  for (std::size_t i = 0; i < a.beta.size(); ++i) {
+    REQUIRE(a.beta[i].name == b.beta[i].name);
+    REQUIRE(a.beta[i].value == b.beta[i].value);
+    REQUIRE(a.beta[i].known == b.beta[i].known);
+  }
+  REQUIRE(a.flow_rows == b.flow_rows);
+  REQUIRE(a.jump_rows == b.jump_rows);
+  REQUIRE(a.guards.size() == b.guards.size());
+  for (std::size_t g = 0; g < a.guards.size(); ++g) REQUIRE(a.guards[g].direction == b.guards[g].direction);
+  REQUIRE(a.flow_jacobian_constant == b.flow_jacobian_constant);
+  REQUIRE(a.default_x0 == b.default_x0);
+  REQUIRE(a.default_t_end == b.default_t_end);
+  REQUIRE(a.default_dt == b.default_dt);
+}
+
+// φ, ψ, guards, C, D, distance, projection at random states (and on the sets' boundaries).
+void RequireSameFunctions(const Model& file, const Model& cpp) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  const int n = cpp.state_size();
+  for (int trial = 0; trial < 200; ++trial) {
+    Vec x(n);
+    for (int i = 0; i < n; ++i) x[i] = trial % 4 == 0 ? std::round(u(rng)) : u(rng);
+    Mat pa(n, cpp.alpha_size()), pb(n, cpp.alpha_size()), sa(n, cpp.beta_size()), sb(n, cpp.beta_size());
+    file.Phi(x, pa);
+    cpp.Phi(x, pb);
+    file.Psi(x, sa);
+    cpp.Psi(x, sb);
+    REQUIRE(pa == pb);
+    REQUIRE(sa == sb);
+    Vec ha(cpp.guard_count()), hb(cpp.guard_count());
+    file.Guards(x, ha);
+    cpp.Guards(x, hb);
+    REQUIRE(ha == hb);
+    REQUIRE(file.InFlowSet(x) == cpp.InFlowSet(x));
+    REQUIRE(file.InJumpSet(x) == cpp.InJumpSet(x));
+    REQUIRE(file.DistanceToJumpSet(x) == Approx(cpp.DistanceToJumpSet(x)).epsilon(1e-15).margin(1e-15));
+    Vec xa = x, xb = x;
+    file.ProjectOntoGuard(0, xa);
+    cpp.ProjectOntoGuard(0, xb);
+    REQUIRE(xa == xb);
+    Mat ja(n, n), jb(n, n);
+    file.FlowJacobian(x, cpp.alpha(), ja);
+    cpp.FlowJacobian(x, cpp.alpha(), jb);
+    REQUIRE((ja - jb).cwiseAbs().maxCoeff() < 1e-8 * (1.0 + jb.cwiseAbs().maxCoeff()));
+  }
+  // The bulk path gives the per-state values.
+  Mat xs = Mat::Random(n, 70);
+  Mat bulk(n * cpp.alpha_size(), 70);
+  file.PhiColumns(xs.data(), 70, bulk.data());
+  for (Eigen::Index k = 0; k < 70; ++k) {
+    Mat one(n, cpp.alpha_size());
+    cpp.Phi(xs.col(k), one);
+    REQUIRE(Eigen::Map<const Mat>(bulk.col(k).data(), n, cpp.alpha_size()) == one);
+  }
+}
+
+void RequireSameTrajectory(const Model& file, const Model& cpp) {
+  const ModelSpec& s = cpp.spec();
+  const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), cpp.state_size());
+  const SampleGrid grid{.t_end = s.default_t_end, .dt = s.default_dt};
+  const Trajectory a = Simulate(file, x0, grid), b = Simulate(cpp, x0, grid);
+  REQUIRE(a.status.stop == b.status.stop);
+  REQUIRE(a.size() == b.size());
+  REQUIRE(a.jumps.size() == b.jumps.size());
+  REQUIRE(a.jumps.size() > 0);
+  REQUIRE(a.j == b.j);
+  REQUIRE((a.x - b.x).cwiseAbs().maxCoeff() <= 1e-12 * (1.0 + b.x.cwiseAbs().maxCoeff()));
+}
+
+TEST_CASE("the built-in models as model files agree with their C++", "[model_file]") {
+  const std::pair<std::string, Model> cases[] = {{"impact-msd", Model(ImpactMsd{})},
+                                                 {"bouncing-ball", Model(BouncingBall{})},
+                                                 {"impact-pendulum", Model(ImpactPendulum{})}};
+  for (const auto& [name, cpp] : cases) {
+    INFO(name);
+    const Model file = LoadModelFile(ModelPath(name));
+    RequireSameSpec(file.spec(), cpp.spec());
+    RequireSameFunctions(file, cpp);
+    REQUIRE(file.has_jump_set_distance());
+    RequireSameTrajectory(file, cpp);
+  }
+}
+
+TEST_CASE("the wall model: file and C++ give the same trajectory and the same estimates", "[model_file]") {
+  const Model file = LoadModelFile(ModelPath("wall-msd"));
+  const Model cpp(WallMsd{});
+  RequireSameSpec(file.spec(), cpp.spec());
+  RequireSameFunctions(file, cpp);
+  RequireSameTrajectory(file, cpp);
+
+  const Vec x0 = Eigen::Map<const Vec>(cpp.spec().default_x0.data(), 2);
+  const Trajectory traj = Simulate(cpp, x0, SampleGrid{20.0, 5e-4});
+  const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(2, 1e-5), NoiseKey{.seed = 3, .stream = 0});
+  for (const char* estimator : {"rls", "gtls"}) {
+    INFO(estimator);
+    IdentifierSettings settings;
+    settings.flow_estimator.kind = settings.jump_estimator.kind = ParseEstimatorKind(estimator);
+    const IdentifyResult a = Identify(file, y, 5e-4, settings), b = Identify(cpp, y, 5e-4, settings);
+    REQUIRE(a.jumps_detected == b.jumps_detected);
+    REQUIRE(a.jumps_detected >= 3);
+    REQUIRE(a.gamma == b.gamma);
+    for (Eigen::Index i = 0; i < 3; ++i) {
+      REQUIRE(a.alpha_hat[i] == Approx(b.alpha_hat[i]).epsilon(1e-9));
+      REQUIRE(a.beta_hat[i] == Approx(b.beta_hat[i]).epsilon(1e-9).margin(1e-12));
+    }
+    // And the estimates are the truth, within the noise.
+    REQUIRE(a.alpha_hat[1] == Approx(4.0).epsilon(1e-2));
+    REQUIRE(a.beta_hat[1] == Approx(0.8).epsilon(1e-2));
+  }
+}
+
+TEST_CASE("a model file evaluates correctly from several threads at once", "[model_file]") {
+  const Model file = LoadModelFile(ModelPath("impact-pendulum"));
+  const Model cpp(ImpactPendulum{});
+  std::vector<int> mismatches(2, 0);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t) {
+    threads.emplace_back([&, t] {
+      Mat a(2, 3), b(2, 3);
+      for (int k = 0; k < 20000; ++k) {
+        Vec x(2);
+        x << 0.001 * (k + t), -0.002 * k;
+        file.Phi(x, a);
+        cpp.Phi(x, b);
+        if (a != b) ++mismatches[std::size_t(t)];
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  REQUIRE(mismatches == std::vector<int>{0, 0});
+}
+
+// A valid file to break one line at a time.
+const char* kGood = R"(name = "m"
+states = ["x", "v"]
+alpha = [{ name = "one", value = 1.0, known = true }, { name = "a", value = 5.0 }]
+beta = [{ name = "one_b", value = 1.0, known = true }, { name = "lambda", value = 0.9 }]
+[flow]
+phi = [["v", 0], [0, "-x"]]
+rows = ["v"]
+[jump]
+psi = [["x", 0], [0, "-v"]]
+rows = ["v"]
+[[guard]]
+name = "wall"
+h = "x"
+direction = "falling"
+[sets]
+C = "x >= 0"
+D = "x == 0 && v <= 0"
+[defaults]
+x0 = [1.0, 0.0]
+t_end = 5.0
+dt = 1e-3
+)";
+
+std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  REQUIRE(at != std::string::npos);
+  return text.replace(at, from.size(), to);
+}
+
+std::string ErrorOf(const std::string& text) {
+  try {
+    ParseModelText(text, "m.toml");
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+TEST_CASE("a good file loads and its equations read back", "[model_file]") {
+  const Model m = ParseModelText(kGood, "m.toml");
+  REQUIRE(m.state_size() == 2);
+  REQUIRE(m.spec().equations.find("flow: v' = a*(-x)") != std::string::npos);
+  REQUIRE(m.spec().equations.find("guard wall: h(xi) = x (falling)") != std::string::npos);
+  REQUIRE_FALSE(m.has_jump_set_distance());
+  REQUIRE(std::isnan(m.DistanceToJumpSet(Vec::Zero(2))));
+}
+
+TEST_CASE("bad model files are refused naming file, line, key and expression", "[model_file]") {
+  using Catch::Matchers::Contains;
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "[0, \"-x\"]", "[0, \"-y\"]")),
+               Contains("m.toml:6: flow.phi[1][1]: \"-y\": unknown symbol \"y\""));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "[0, \"-x\"]", "[0, \"-x\", 1]")),
+               Contains("m.toml:6: flow.phi[1]: has 3 entries, expected 2"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "psi = [[\"x\", 0], [0, \"-v\"]]", "psi = [[\"x\", 0]]")),
+               Contains("m.toml:9: jump.psi: has 1 rows, expected 2"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "\"-v\"]]", "\"-v*(\"]]")), Contains("m.toml:9: jump.psi[1][1]: \"-v*(\""));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "direction = \"falling\"", "direction = \"down\"")),
+               Contains("m.toml:14: guard[0].direction: \"down\": expected falling, rising or both"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "rows = [\"v\"]\n[jump]", "rows = [\"w\"]\n[jump]")),
+               Contains("m.toml:7: flow.rows: \"w\" is not a state"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "t_end = 5.0", "t_end = 5.0\nhorizon = 3")),
+               Contains("m.toml:21: defaults.horizon: unknown key"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "D = \"x == 0 && v <= 0\"\n", "")), Contains("m.toml:15: sets.D: missing"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "x0 = [1.0, 0.0]", "x0 = [-1.0, 0.0]")),
+               Contains("m.toml:19: defaults.x0: (-1, 0) is outside C and D"));
+  // x oscillates in [-1, 1] without the wall: x + 10 never reaches zero.
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "h = \"x\"", "h = \"x + 10\"")),
+               Contains("m.toml:11: guard[0].h: guard \"wall\" never reaches D on the default trajectory"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "name = \"a\", value = 5.0", "name = \"a\", value = \"5\"")),
+               Contains("m.toml:3: alpha[1].value: expected a number"));
+  REQUIRE_THAT(ErrorOf("name = \n"), Contains("m.toml:1: TOML syntax"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "h = \"x\"", "h = \"2\"")),
+               Contains("m.toml:13: guard[0].h: \"2\" does not depend on the state"));
+}
+
+}  // namespace
+}  // namespace hysid

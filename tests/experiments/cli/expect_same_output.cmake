@@ -1,0 +1,10 @@
+# Runs CMD1 and CMD2 (;-lists) and passes only when both exit 0 with the same stdout.
+execute_process(COMMAND ${CMD1} RESULT_VARIABLE rc1 OUTPUT_VARIABLE out1 ERROR_VARIABLE err1)
+execute_process(COMMAND ${CMD2} RESULT_VARIABLE rc2 OUTPUT_VARIABLE out2 ERROR_VARIABLE err2)
+if(NOT rc1 EQUAL 0 OR NOT rc2 EQUAL 0)
+  message(FATAL_ERROR "exit ${rc1} / ${rc2}\nstderr 1: ${err1}\nstderr 2: ${err2}")
+endif()
+if(NOT out1 STREQUAL out2)
+  message(FATAL_ERROR "outputs differ:\n--- 1:\n${out1}\n--- 2:\n${out2}")
+endif()
+message(STATUS "${out1}")

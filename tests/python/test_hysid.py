@@ -1,0 +1,120 @@
+"""The hysid Python module against the command line (HYSID_BIN) and against itself."""
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hysid
+
+BIN = os.environ.get("HYSID_BIN", "hysid")
+SOURCE = Path(os.environ.get("HYSID_SOURCE_DIR", Path(__file__).resolve().parents[2]))
+MODELS = SOURCE / "models"
+
+
+def cli(*args):
+    return subprocess.run([BIN, *map(str, args)], check=True, capture_output=True, text=True).stdout
+
+
+@pytest.fixture(scope="module")
+def paper_data(tmp_path_factory):
+    """The Sec. 5 run with sigma = 0.25, seed 3, written by `hysid simulate`."""
+    out = tmp_path_factory.mktemp("paper") / "noisy.csv"
+    cli("simulate", "--sigma", 0.25, "--seed", 3, "--out", out)
+    return out
+
+
+def test_models_by_name_and_file():
+    assert hysid.models() == ["bouncing-ball", "impact-msd", "impact-pendulum"]
+    m = hysid.Model("impact-msd")
+    assert m.state_names == ["x", "v"]
+    assert m.parameters["a"] == 5.0
+    w = hysid.Model.from_file(MODELS / "wall-msd.toml")
+    assert w.name == "wall-msd"
+    assert "guard wall: h(xi) = x - 1 (rising)" in w.equations
+    assert hysid.Model(str(MODELS / "wall-msd.toml")).set("k", 3.0).parameters["k"] == 3.0
+    with pytest.raises(ValueError, match="neither a built-in model nor a model file"):
+        hysid.Model("no-such-model")
+    with pytest.raises(ValueError, match="is a known constant"):
+        m.set("alpha_x", 2.0)
+
+
+def test_bad_model_file_names_line_and_key(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text((MODELS / "wall-msd.toml").read_text().replace('[0, "-x", "-v"]', '[0, "-y", "-v"]'))
+    with pytest.raises(ValueError, match=r'bad.toml:\d+: flow.phi\[1\]\[1\]: "-y": unknown symbol "y"'):
+        hysid.Model.from_file(bad)
+
+
+def test_simulate_equals_cli(paper_data):
+    table = np.loadtxt(paper_data, delimiter=",", skiprows=1)
+    traj = hysid.simulate("impact-msd", sigma=0.25, seed=3)
+    assert traj["status"] == "completed"
+    assert len(traj["jumps"]) == 14
+    np.testing.assert_array_equal(traj["t"], table[:, 0])
+    np.testing.assert_array_equal(traj["j"], table[:, 1])
+    np.testing.assert_array_equal(traj["x"], table[:, 2:4])
+    np.testing.assert_array_equal(traj["y"], table[:, 4:6])
+
+
+def test_identify_equals_cli(paper_data, tmp_path):
+    trace = tmp_path / "trace.csv"
+    printed = cli("identify", "--data", paper_data, "--detector", "paper", "--refine", "none", "--trace", trace)
+    expected = {k: float(v) for k, v in re.findall(r"(?:alpha|beta) +(\w+) += (\S+)", printed)}
+    table = np.loadtxt(paper_data, delimiter=",", skiprows=1)
+    fit = hysid.identify("impact-msd", table[:, 4:6], dt=5e-4)
+    assert set(fit["estimates"]) == set(expected) == {"a", "b", "lambda", "mu"}
+    for name, value in expected.items():  # printed with 10 significant digits
+        assert fit["estimates"][name] == pytest.approx(value, rel=1e-9, abs=1e-12)
+    assert f"jumps detected: {fit['jumps_detected']} " in printed
+    cols = np.loadtxt(trace, delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(fit["gamma"], cols[:, 3])
+    np.testing.assert_array_equal(fit["alpha_trace"][:, 1:], cols[:, 4:6])
+    np.testing.assert_array_equal(fit["beta_trace"][:, 1:], cols[:, 6:8])
+
+
+def test_model_file_identifies_like_builtin(paper_data):
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
+    a = hysid.identify("impact-msd", y, dt=5e-4, estimator="gtls", detector="residual")
+    b = hysid.identify(hysid.Model.from_file(MODELS / "impact-msd.toml"), y, dt=5e-4, estimator="gtls",
+                       detector="residual")
+    np.testing.assert_array_equal(a["alpha"], b["alpha"])
+    np.testing.assert_array_equal(a["beta"], b["beta"])
+    np.testing.assert_array_equal(a["gamma"], b["gamma"])
+
+
+def test_identify_refuses_bad_input():
+    with pytest.raises(ValueError, match=r"y must be a \(samples, 2\) array"):
+        hysid.identify("impact-msd", np.zeros((10, 3)), dt=1e-3)
+    with pytest.raises(ValueError, match="dt = -1"):
+        hysid.identify("impact-msd", np.zeros((10, 2)), dt=-1.0)
+    with pytest.raises(ValueError, match="unknown estimator"):
+        hysid.identify("impact-msd", np.zeros((10, 2)), dt=1e-3, estimator="kalman")
+
+
+def test_run_sweep_equals_cli(tmp_path):
+    sweep = SOURCE / "tests" / "data" / "sweep_model_file.toml"
+    out = hysid.run_sweep(sweep, out=str(tmp_path / "py"), threads=2)
+    assert (out["trials"], out["failed"]) == (3, 0)
+    cli("sweep", sweep, "--out", tmp_path / "cli", "--threads", 1, "--progress", "none")
+    assert (tmp_path / "py" / "trials.csv").read_bytes() == (tmp_path / "cli" / "trials.csv").read_bytes()
+
+
+def test_refinement_equals_cli(paper_data, tmp_path):
+    """refine='ml' is `hysid identify --refine ml`: the same estimates and standard errors."""
+    import json
+    out = tmp_path / "fit.json"
+    subprocess.run([BIN, "identify", "--data", str(paper_data), "--detector", "residual", "--refine", "ml",
+                    "--json", str(out)], capture_output=True, text=True)
+    cli_fit = json.loads(out.read_text())
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
+    fit = hysid.identify("impact-msd", y, dt=5e-4, detector="residual", refine="ml")["refined"]
+    assert fit["status"] == cli_fit["status"]
+    assert list(fit["estimates"]) == cli_fit["names"]
+    np.testing.assert_allclose(list(fit["estimates"].values()), cli_fit["estimate"], rtol=1e-12)
+    if cli_fit["standard_errors"]:
+        np.testing.assert_allclose(list(fit["standard_errors"].values()), cli_fit["standard_errors"], rtol=1e-12)
+    with pytest.raises(ValueError, match="refine = 'x'"):
+        hysid.identify("impact-msd", y, dt=5e-4, refine="x")
