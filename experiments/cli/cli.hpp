@@ -1,6 +1,7 @@
 // The hysid command line: one subcommand per file, each registered by an Add*Command function.
 #pragma once
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -22,12 +23,30 @@ void AddIdentifyCommand(CLI::App& app, Environment& env);
 void AddReproduceCommand(CLI::App& app, Environment& env);
 void AddSweepCommand(CLI::App& app, Environment& env);  // sweep and merge
 
+// A run that finished with a failed status (exit 1) or was interrupted (exit 130): thrown after
+// the outputs are written, so that `main` returns the code and destructors still run.
+class RunFailed : public std::runtime_error {
+ public:
+  RunFailed(const std::string& what, int code = 1) : std::runtime_error(what), code_(code) {}
+  int code() const { return code_; }
+
+ private:
+  int code_;
+};
+
 // A bad flag value: `what` names the flag, e.g. "--dt = -1: must be > 0".
 [[noreturn]] void BadFlag(const std::string& what);
 
 // Builds a model from its name and "name=value" assignments; errors name --model / --param.
 Model MakeModel(const Environment& env, const std::string& name,
                 const std::vector<std::string>& params);
+
+// A CLI11 validator for unsigned options: refuses a leading '-' (CLI11 would wrap -1 to 2^64 − 1).
+inline const CLI::Validator NonNegativeInteger(
+    [](const std::string& text) {
+      return text.find('-') == std::string::npos ? std::string() : std::string("must be ≥ 0, got ") + text;
+    },
+    "NONNEGATIVE", "non-negative integer");
 
 // Checks that every entry is finite; `flag` names the option in the error.
 void RequireFinite(const std::string& flag, const std::vector<double>& values);

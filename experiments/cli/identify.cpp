@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/io/csv.hpp"
+#include "core/io/files.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/sets/set_metrics.hpp"
@@ -143,6 +144,8 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
       }
     }
   }
+  if (!args.trace.empty()) CheckOutputPath("--trace", args.trace);
+  if (!args.hulls.empty()) CheckOutputPath("--hulls", args.hulls);
   IdentifyOptions options;
   options.trace = !args.trace.empty();
   const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
@@ -276,6 +279,10 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
     csv.Commit();
     std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n",
                 args.hulls.c_str());
+  }
+  if (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk) {
+    throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
+                                ToString(result.flow_status), ToString(result.jump_status)));
   }
 }
 

@@ -4,12 +4,15 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "core/io/csv.hpp"
+#include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
@@ -22,8 +25,9 @@ struct SimulateArgs {
   std::string model = "impact-msd";
   std::vector<std::string> params;
   std::vector<double> x0;
-  double t_end = NAN;  // NaN: the model's default
-  double dt = NAN;
+  double t_end = 0.0;  // used when given (t_end_given), else the model's default
+  double dt = 0.0;
+  bool t_end_given = false, dt_given = false;
   std::vector<double> sigma{0.0};
   std::uint64_t seed = 1;
   std::uint64_t trial = 0;
@@ -37,18 +41,39 @@ std::filesystem::path SidecarPath(const std::filesystem::path& csv) {
   return p.replace_extension(".json");
 }
 
+// Renames the closed trajectory and jump files onto their names and writes the sidecar; when one
+// step fails, the files of this set already renamed are removed, so no partial set remains.
+void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& sidecar, const std::string& meta) {
+  std::vector<std::filesystem::path> done;
+  try {
+    traj.Publish();
+    done.push_back(traj.path());
+    if (jumps) {
+      jumps->Publish();
+      done.push_back(jumps->path());
+    }
+    WriteFileAtomically(sidecar, meta);
+  } catch (...) {
+    std::error_code ec;
+    for (const auto& p : done) std::filesystem::remove(p, ec);
+    throw;
+  }
+}
+
 void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model, args.params);
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
 
-  SampleGrid grid{.t_end = std::isnan(args.t_end) ? spec.default_t_end : args.t_end,
-                  .dt = std::isnan(args.dt) ? spec.default_dt : args.dt};
-  if (!std::isfinite(grid.dt) || grid.dt <= 0) BadFlag(fmt::format("--dt = {}: must be > 0", grid.dt));
-  if (!std::isfinite(grid.t_end) || grid.t_end <= 0) {
-    BadFlag(fmt::format("--t-end = {}: must be > 0", grid.t_end));
+  SampleGrid grid{.t_end = args.t_end_given ? args.t_end : spec.default_t_end,
+                  .dt = args.dt_given ? args.dt : spec.default_dt};
+  for (const auto& [flag, v] : {std::pair{"--dt", grid.dt}, std::pair{"--t-end", grid.t_end}}) {
+    if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
+    if (v <= 0) BadFlag(fmt::format("{} = {}: must be > 0", flag, v));
   }
   if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
+  CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(grid.t_end / grid.dt, 9e18)) + 1,
+             fmt::format("--t-end {} / --dt {}", grid.t_end, grid.dt));
 
   Vec x0 = Eigen::Map<const Vec>(spec.default_x0.data(), n);
   if (!args.x0.empty()) {
@@ -78,6 +103,13 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
     BadFlag(fmt::format("--sigma = {}: must be >= 0", fmt::join(args.sigma, ",")));
   }
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
+  // Outputs checked before the run; written as one set below.
+  CheckOutputPath("--out", args.out);
+  CheckOutputPath("--out (sidecar)", SidecarPath(args.out));
+  if (!args.jumps_out.empty()) CheckOutputPath("--jumps-out", args.jumps_out);
+  for (const auto& other : {args.jumps_out, SidecarPath(args.out).string()}) {
+    if (other == args.out) BadFlag(fmt::format("--out {}: the same file as another output", args.out));
+  }
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
@@ -97,13 +129,14 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
     }
     csv.Row(row);
   }
-  csv.Commit();
+  csv.Close();
 
+  std::optional<CsvWriter> jumps;
   if (!args.jumps_out.empty()) {
     std::vector<std::string> jheader{"j", "t_jump"};
     for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("pre_x{}", i));
     for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("post_x{}", i));
-    CsvWriter jumps(args.jumps_out, jheader);
+    jumps.emplace(args.jumps_out, jheader);
     std::vector<double> jrow(static_cast<std::size_t>(2 + 2 * n));
     for (const JumpRecord& jr : traj.jumps) {
       jrow[0] = jr.j;
@@ -112,9 +145,9 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
         jrow[static_cast<std::size_t>(2 + i)] = jr.pre[i];
         jrow[static_cast<std::size_t>(2 + n + i)] = jr.post[i];
       }
-      jumps.Row(jrow);
+      jumps->Row(jrow);
     }
-    jumps.Commit();
+    jumps->Close();
   }
 
   nlohmann::json params;
@@ -142,7 +175,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   };
   if (traj.status.stop == SimStop::kZeno) meta["zeno_time"] = traj.status.zeno_time;
   const auto meta_path = SidecarPath(args.out);
-  std::ofstream(meta_path) << meta.dump(2) << "\n";
+  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path, meta.dump(2) + "\n");
 
   std::printf("model %s, seed %llu, %ld samples, %zu jumps\n", spec.name.c_str(),
               static_cast<unsigned long long>(args.seed), traj.size(), traj.jumps.size());
@@ -150,6 +183,11 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
               traj.status.message.c_str());
   std::printf("wrote %s, %s%s%s\n", args.out.c_str(), meta_path.c_str(),
               args.jumps_out.empty() ? "" : ", ", args.jumps_out.c_str());
+  // A zeno stop is a finding about the model (the trajectory is valid up to it); others are failures.
+  if (traj.status.stop != SimStop::kCompleted && traj.status.stop != SimStop::kZeno) {
+    throw RunFailed(fmt::format("simulate: the run stopped with status {}: {}", ToString(traj.status.stop),
+                                traj.status.message));
+  }
 }
 
 }  // namespace
@@ -164,22 +202,27 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option("--param", args->params, "set a parameter, name=value (repeatable)");
   sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")
       ->delimiter(',');
-  sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");
-  sub->add_option("--dt", args->dt, "sample time delta-t in seconds (default: the model's)");
+  CLI::Option* t_end = sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");
+  CLI::Option* dt = sub->add_option("--dt", args->dt, "sample time delta-t in seconds (default: the model's)");
   sub->add_option("--sigma", args->sigma,
                   "measurement noise standard deviation: one value, or one per state")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--seed", args->seed, "noise seed")->capture_default_str();
+  sub->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")->capture_default_str()->check(NonNegativeInteger);
   sub->add_option("--trial", args->trial, "trial index (selects an independent noise stream)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(NonNegativeInteger);
   sub->add_option("--rtol", args->sim.rtol, "CVODE relative tolerance")->capture_default_str();
   sub->add_option("--atol", args->sim.atol, "CVODE absolute tolerance")->capture_default_str();
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
   sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")
       ->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
-  sub->callback([args, &env] { RunSimulate(*args, env); });
+  sub->callback([args, &env, t_end, dt] {
+    args->t_end_given = t_end->count() > 0;
+    args->dt_given = dt->count() > 0;
+    RunSimulate(*args, env);
+  });
 }
 
 void AddModelsCommand(CLI::App& app, Environment& env) {
