@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -13,6 +14,8 @@
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
+#include "core/io/limits.hpp"
+#include "experiments/sweep/plan.hpp"
 
 namespace hysid {
 namespace {
@@ -22,8 +25,10 @@ class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
+  static long Line(const toml::node* node) { return node ? static_cast<long>(node->source().begin.line) : 0; }
+
   [[noreturn]] void Fail(const toml::node* node, const std::string& key, const std::string& what) const {
-    const long line = node ? static_cast<long>(node->source().begin.line) : 0;
+    const long line = Line(node);
     if (line > 0) throw std::invalid_argument(fmt::format("{}:{}: {}: {}", file_, line, key, what));
     throw std::invalid_argument(fmt::format("{}: {}: {}", file_, key, what));
   }
@@ -51,9 +56,17 @@ class Reader {
     return v;
   }
 
-  long Integer(const toml::node& node, const std::string& key) const {
+  // A 64-bit integer in [lo, hi]; the error quotes the value as written.
+  std::int64_t Integer(const toml::node& node, const std::string& key,
+                       std::int64_t lo = std::numeric_limits<std::int64_t>::min(),
+                       std::int64_t hi = std::numeric_limits<std::int64_t>::max()) const {
     if (!node.is_integer()) Fail(&node, key, fmt::format("expected an integer, got {}", TypeName(node)));
-    return static_cast<long>(*node.value<std::int64_t>());
+    const std::int64_t v = *node.value_exact<std::int64_t>();
+    if (v < lo || v > hi) Fail(&node, key, fmt::format("{} is out of range [{}, {}]", v, lo, hi));
+    return v;
+  }
+  int Int(const toml::node& node, const std::string& key, int lo) const {
+    return static_cast<int>(Integer(node, key, lo, std::numeric_limits<int>::max()));
   }
 
   bool Boolean(const toml::node& node, const std::string& key) const {
@@ -94,11 +107,12 @@ class Reader {
       }
       const double from = Number(*t.get("from"), key + ".from");
       const double to = Number(*t.get("to"), key + ".to");
-      const long count = Integer(*t.get("count"), key + ".count");
+      const std::int64_t count = Integer(*t.get("count"), key + ".count");
       const bool log = t.contains("log") && Boolean(*t.get("log"), key + ".log");
       if (count < 1) Fail(t.get("count"), key + ".count", fmt::format("{} must be ≥ 1", count));
+      CheckLimit(kMaxAxisValues, count, fmt::format("{}:{}: {}.count", file_, Line(t.get("count")), key));
       if (log && (from <= 0 || to <= 0)) Fail(&node, key, "a log range needs from > 0 and to > 0");
-      for (long i = 0; i < count; ++i) {
+      for (std::int64_t i = 0; i < count; ++i) {
         const double u = count == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(count - 1);
         out.push_back(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
                           : from + u * (to - from));
@@ -272,6 +286,9 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   for (double dt : c.grid.dt) {
     if (dt <= 0) rd.Fail(grid.get("dt"), "grid.dt", fmt::format("{} must be > 0", dt));
     for (const SweepModel& m : c.models) {
+      CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(m.t_end / dt, 9e18)) + 1,
+                 fmt::format("{}:{}: grid.dt = {} with t_end = {} of model '{}'", name,
+                             Reader::Line(grid.get("dt")), dt, m.t_end, m.name));
       if (2 * dt > m.t_end) {
         rd.Fail(grid.get("dt"), "grid.dt",
                 fmt::format("{} leaves fewer than 3 samples in t_end = {} of model '{}'", dt, m.t_end, m.name));
@@ -301,6 +318,21 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   if (grid.contains("estimator")) NoDuplicates(rd, *grid.get("estimator"), "grid.estimator", c.grid.estimator);
   if (grid.contains("detector")) NoDuplicates(rd, *grid.get("detector"), "grid.detector", c.grid.detector);
 
+  // The number of cells, before EnumerateCells allocates them.
+  {
+    const std::string where = fmt::format("{}: [grid] cells", name);
+    std::int64_t per_base = 0;  // cells per (model, δt, σ, estimator): one per detector and its own axes
+    for (const std::string& d : c.grid.detector) {
+      const std::int64_t r = DetectorUsesR(d) ? static_cast<std::int64_t>(c.grid.r.size()) : 1;
+      const std::int64_t p = DetectorUsesFalseAlarm(d) ? static_cast<std::int64_t>(c.grid.false_alarm.size()) : 1;
+      per_base += CheckedProduct(kMaxCells, r, p, where);
+    }
+    std::int64_t cells = per_base;
+    for (std::size_t n : {c.models.size(), c.grid.dt.size(), c.grid.sigma.size(), c.grid.estimator.size()}) {
+      cells = CheckedProduct(kMaxCells, cells, static_cast<std::int64_t>(n), where);
+    }
+  }
+
   // [identifier]
   if (const toml::node* idn = root.get("identifier")) {
     const toml::table& id = rd.Table(*idn, "identifier");
@@ -314,9 +346,9 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
       if (k == "false_alarm") s.detector.false_alarm = rd.Number(v, key);
       if (k == "p0") s.flow_estimator.p0 = s.jump_estimator.p0 = rd.Number(v, key);
       if (k == "forgetting") s.flow_estimator.forgetting = s.jump_estimator.forgetting = rd.Number(v, key);
-      if (k == "window") s.flow_estimator.window = static_cast<int>(rd.Integer(v, key));  // α only: β keeps a growing window (14 jump rows never fill one)
+      if (k == "window") s.flow_estimator.window = rd.Int(v, key, 0);  // α only: β keeps a growing window (14 jump rows never fill one)
       if (k == "refactor_every") {
-        s.flow_estimator.refactor_every = s.jump_estimator.refactor_every = static_cast<int>(rd.Integer(v, key));
+        s.flow_estimator.refactor_every = s.jump_estimator.refactor_every = rd.Int(v, key, 1);
       }
       if (k == "localize") s.localize = rd.Boolean(v, key);
       if (k == "second_pass") s.second_pass = rd.Boolean(v, key);
@@ -338,8 +370,8 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
       const std::string key = fmt::format("simulator.{}", k.str());
       if (k == "rtol") c.simulator.rtol = rd.Number(v, key);
       if (k == "atol") c.simulator.atol = rd.Number(v, key);
-      if (k == "max_steps") c.simulator.max_steps = rd.Integer(v, key);
-      if (k == "max_jumps") c.simulator.max_jumps = static_cast<int>(rd.Integer(v, key));
+      if (k == "max_steps") c.simulator.max_steps = rd.Integer(v, key, 1);
+      if (k == "max_jumps") c.simulator.max_jumps = rd.Int(v, key, 1);
       std::string error;
       if (!c.simulator.IsValid(&error)) rd.Fail(&v, key, error);
     }
@@ -354,9 +386,10 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
       if (k == "trials") {
         c.trials = rd.Integer(v, key);
         if (c.trials < 1) rd.Fail(&v, key, fmt::format("{} must be ≥ 1", c.trials));
+        CheckLimit(kMaxTrials, c.trials, fmt::format("{}:{}: {}", name, Reader::Line(&v), key));
       }
       if (k == "seed") {
-        const long seed = rd.Integer(v, key);
+        const std::int64_t seed = rd.Integer(v, key);
         if (seed < 0) rd.Fail(&v, key, fmt::format("{} must be ≥ 0", seed));
         c.seed = static_cast<std::uint64_t>(seed);
       }

@@ -12,6 +12,8 @@
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 
+#include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "experiments/sweep/journal.hpp"
 #include "experiments/sweep/tables.hpp"
@@ -34,15 +36,33 @@ nlohmann::json ReadJson(const fs::path& path) {
   }
 }
 
-void WriteJson(const fs::path& path, const nlohmann::json& j) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << j.dump(2) << "\n";
-    if (!out) throw std::runtime_error(fmt::format("{}: write failed", tmp.string()));
+void WriteJson(const fs::path& path, const nlohmann::json& j) { WriteFileAtomically(path, j.dump(2) + "\n"); }
+
+// A recovered row must be the unit it claims: in range, in the shard, and with the cell, trial and
+// cell keys (model, δt, σ, r, false_alarm, estimator, detector) the plan gives that id.
+void CheckRecovered(const Journal& journal, const SweepConfig& config, const std::vector<SweepCell>& cells,
+                    const Shard& shard, long units_total) {
+  for (const auto& [id, row] : journal.recovered()) {
+    const auto fail = [&](const std::string& what) {
+      throw std::invalid_argument(fmt::format("{}:{}: the row of unit {} {}; the journal is not this sweep's: "
+                                              "delete the directory or use another --out",
+                                              journal.path().string(), journal.line_of(id), id, what));
+    };
+    if (id >= units_total) fail(fmt::format("is beyond the sweep's {} units", units_total));
+    if (!shard.Contains(id)) fail(fmt::format("is not in shard {}", shard.ToString()));
+    const UnitId u = UnitOf(id, config.trials);
+    const SweepCell& c = cells[static_cast<std::size_t>(u.cell)];
+    const std::vector<std::string> expected{fmt::format("{}", id), fmt::format("{}", u.cell),
+                                            fmt::format("{}", u.trial),
+                                            config.models[static_cast<std::size_t>(c.model)].name,
+                                            FormatNumber(c.dt), FormatNumber(c.sigma), FormatNumber(c.r),
+                                            FormatNumber(c.false_alarm), c.estimator, c.detector};
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      if (row[i] != expected[i]) {
+        fail(fmt::format("has {} in column {}, the plan has {}", Abbreviated(row[i], 40), i + 1, expected[i]));
+      }
+    }
   }
-  fs::rename(tmp, path);
 }
 
 }  // namespace
@@ -57,10 +77,13 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
   const std::vector<SweepCell> cells = EnumerateCells(config);
   const std::vector<std::string> header = TrialHeader(config, models);
   SweepOutcome outcome;
-  outcome.units_total = static_cast<long>(cells.size()) * config.trials;
+  outcome.units_total = CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
+                                       fmt::format("{}: {} cells × {} trials", config.source, cells.size(),
+                                                   config.trials));
 
   // The directory's identity: a different sweep or shard is refused, not mixed in.
-  fs::create_directories(options.out);
+  CheckOutputDirectory("--out", options.out);
+  const DirectoryLock lock(options.out);
   const nlohmann::json identity = {{"hysid_sweep", 1},
                                    {"hash", config.Hash()},
                                    {"shard", options.shard.ToString()},
@@ -87,7 +110,8 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
 
   std::vector<long> todo;
   {
-    Journal journal(options.out / "trials.journal", JournalHeader(header));
+    Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(), options.shard.ToString());
+    CheckRecovered(journal, config, cells, options.shard, outcome.units_total);
     for (long id = 0; id < outcome.units_total; ++id) {
       if (!options.shard.Contains(id)) continue;
       ++outcome.units_shard;
@@ -154,7 +178,9 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
   }
 
   // Every unit of the shard is in the journal: write the tables from it.
-  const Journal journal(options.out / "trials.journal", JournalHeader(header));
+  const Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(),
+                        options.shard.ToString());
+  CheckRecovered(journal, config, cells, options.shard, outcome.units_total);
   std::map<long, std::vector<std::string>> rows;
   const long status_col = std::find(header.begin(), header.end(), "status") - header.begin();
   for (const auto& [id, cells_of_row] : journal.recovered()) {
@@ -185,6 +211,16 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
 
 void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
   if (dirs.empty()) throw std::invalid_argument("hysid merge: give the shard directories");
+  for (const fs::path& dir : dirs) {
+    std::error_code ec;
+    if (fs::exists(out, ec) && fs::equivalent(dir, out, ec)) {
+      throw std::invalid_argument(fmt::format(
+          "--out {}: is one of the shard directories being merged ({}); give another output directory",
+          out.string(), dir.string()));
+    }
+  }
+  CheckOutputDirectory("--out", out);
+  const DirectoryLock lock(out);
   std::string hash;
   long n_shards = -1, total = -1;
   std::set<long> seen_k;
@@ -242,7 +278,6 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
   if (static_cast<long>(rows.size()) != total) {
     throw std::invalid_argument(fmt::format("hysid merge: {} units in the shards, the sweep has {}", rows.size(), total));
   }
-  fs::create_directories(out);
   WriteSweepTables(out, header, rows);
   std::vector<std::string> names;
   for (const auto& d : dirs) names.push_back(d.string());
