@@ -42,7 +42,9 @@ void WriteJson(const fs::path& path, const nlohmann::json& j) { WriteFileAtomica
 // cell keys (model, δt, σ, r, false_alarm, estimator, detector) the plan gives that id.
 void CheckRecovered(const Journal& journal, const SweepConfig& config, const std::vector<SweepCell>& cells,
                     const Shard& shard, long units_total) {
-  for (const auto& [id, row] : journal.recovered()) {
+  for (const auto& entry : journal.recovered()) {
+    const long id = entry.first;
+    const std::vector<std::string>& row = entry.second;
     const auto fail = [&](const std::string& what) {
       throw std::invalid_argument(fmt::format("{}:{}: the row of unit {} {}; the journal is not this sweep's: "
                                               "delete the directory or use another --out",
