@@ -2,6 +2,8 @@
 # Installs the Debian packages hysid needs to build, test, benchmark and plot.
 # Skips apt entirely when every package is already installed, so repeated
 # `make run` / `make test` calls cost nothing. Needs root (or sudo) otherwise.
+# `install-deps.sh sanitize` installs what `make check-sanitize` needs in addition: clang 14 (its
+# UBSan checks float-to-int casts, GCC's does not) and libFuzzer.
 set -euo pipefail
 
 packages=(
@@ -10,6 +12,10 @@ packages=(
   libcli11-dev librandom123-dev libtomlplusplus-dev nlohmann-json3-dev
   python3 python3-matplotlib python3-numpy python3-pytest
 )
+
+if [ "${1:-}" = "sanitize" ]; then
+  packages=(clang-14 libfuzzer-14-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

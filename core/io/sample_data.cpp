@@ -12,7 +12,11 @@
 namespace hysid {
 
 SampleData ReadSampleData(const std::string& path, int state_size) {
-  const CsvTable table = ReadCsv(path);
+  return SampleDataFromTable(ReadCsv(path), state_size);
+}
+
+SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
+  const std::string& path = table.path;
   SampleData data;
   data.path = path;
   const int cols = static_cast<int>(table.header.size());

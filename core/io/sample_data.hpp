@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "core/io/csv.hpp"
 #include "core/model/model.hpp"
 
 namespace hysid {
@@ -31,5 +32,7 @@ struct SampleData {
 
 // Throws std::invalid_argument with "FILE:LINE: column C ('name'): ..." or "FILE: ..." messages.
 SampleData ReadSampleData(const std::string& path, int state_size);
+// The same checks on a table already read (ReadCsvStream); errors name table.path.
+SampleData SampleDataFromTable(const CsvTable& table, int state_size);
 
 }  // namespace hysid
