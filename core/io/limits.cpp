@@ -40,9 +40,40 @@ std::int64_t CheckedProduct(const Limit& limit, std::int64_t a, std::int64_t b, 
   return p;
 }
 
+namespace {
+
+// Length of the valid UTF-8 sequence at text[i] (2–4 bytes), or 0.
+std::size_t Utf8Length(std::string_view text, std::size_t i) {
+  const auto b = static_cast<unsigned char>(text[i]);
+  const std::size_t n = b >= 0xF0 && b <= 0xF4 ? 4 : b >= 0xE0 ? 3 : b >= 0xC2 && b < 0xE0 ? 2 : 0;
+  if (n == 0 || i + n > text.size()) return 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if ((static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80) return 0;
+  }
+  return n;
+}
+
+}  // namespace
+
+std::string Printable(std::string_view text) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto b = static_cast<unsigned char>(text[i]);
+    if (b >= 0x20 && b < 0x7F) {
+      out += text[i];
+    } else if (const std::size_t n = b >= 0x80 ? Utf8Length(text, i) : 0; n > 0) {
+      out.append(text.substr(i, n));
+      i += n - 1;
+    } else {
+      out += fmt::format("\\x{:02x}", b);
+    }
+  }
+  return out;
+}
+
 std::string Abbreviated(std::string_view text, std::size_t max) {
-  if (text.size() <= max) return std::string(text);
-  return fmt::format("{}… ({} bytes)", text.substr(0, max), text.size());
+  if (text.size() <= max) return Printable(text);
+  return fmt::format("{}… ({} bytes)", Printable(text.substr(0, max)), text.size());
 }
 
 }  // namespace hysid

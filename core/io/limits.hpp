@@ -31,7 +31,9 @@ void CheckLimit(const Limit& limit, std::int64_t value, const std::string& where
 // a · b, or the limit's error when the product overflows 64 bits or exceeds the limit.
 std::int64_t CheckedProduct(const Limit& limit, std::int64_t a, std::int64_t b, const std::string& where);
 
-// `text` cut to `max` bytes with its full length appended, for echoing input in messages.
+// `text` with control bytes, DEL and bytes that are not valid UTF-8 written as \xNN.
+std::string Printable(std::string_view text);
+// `text` cut to `max` bytes with its full length appended, then Printable, for echoing input in messages.
 std::string Abbreviated(std::string_view text, std::size_t max = 60);
 
 }  // namespace hysid

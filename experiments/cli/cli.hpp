@@ -1,6 +1,8 @@
 // The hysid command line: one subcommand per file, each registered by an Add*Command function.
 #pragma once
 
+#include <charconv>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -41,10 +43,17 @@ class RunFailed : public std::runtime_error {
 Model MakeModel(const Environment& env, const std::string& name,
                 const std::vector<std::string>& params);
 
-// A CLI11 validator for unsigned options: refuses a leading '-' (CLI11 would wrap -1 to 2^64 − 1).
+// A CLI11 validator for unsigned 64-bit options: refuses a leading '-' (CLI11 would wrap -1 to
+// 2^64 − 1) and a decimal beyond 2^64 − 1 (CLI11 would saturate it to 2^64 − 1).
 inline const CLI::Validator NonNegativeInteger(
     [](const std::string& text) {
-      return text.find('-') == std::string::npos ? std::string() : std::string("must be ≥ 0, got ") + text;
+      if (text.find('-') != std::string::npos) return std::string("must be ≥ 0, got ") + text;
+      std::uint64_t value = 0;
+      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+      if (ec == std::errc::result_out_of_range) {
+        return std::string("must be ≤ 18446744073709551615 (2^64 − 1), got ") + text;
+      }
+      return std::string();
     },
     "NONNEGATIVE", "non-negative integer");
 

@@ -10,6 +10,7 @@
 
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 
 namespace hysid {
 namespace {
@@ -149,6 +150,15 @@ TEST_CASE("lines and cells are bounded before a line is split; messages never ec
   // A non-numeric cell is echoed cut to 60 bytes.
   std::istringstream word("t\n" + std::string(1000, 'x') + "\n");
   CHECK_THROWS_WITH(ReadCsvStream(word, "w.csv"), Catch::Contains("… (1000 bytes)' is not a number"));
+}
+
+TEST_CASE("bytes echoed in a message are printable: control and invalid UTF-8 bytes as \\xNN", "[csv]") {
+  std::istringstream binary(std::string("t,y\n0,1\n\x01\x02", 10) + std::string(1, '\0') + ",\xff\xfe\n");
+  CHECK_THROWS_WITH(ReadCsvStream(binary, "b.csv"), "b.csv:3: column 1 ('t'): '\\x01\\x02\\x00' is not a number");
+  CHECK(Printable("a\tb\x7f") == "a\\x09b\\x7f");
+  CHECK(Printable("\xc3\xbb ok \xc3") == "\xc3\xbb ok \\xc3");  // û kept, a cut sequence escaped
+  CHECK(Printable("\xe2\x88") == "\\xe2\\x88");
+  CHECK(Abbreviated(std::string(100, '\n'), 2) == "\\x0a\\x0a… (100 bytes)");
 }
 
 }  // namespace
