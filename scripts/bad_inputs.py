@@ -127,6 +127,7 @@ def cases():
         ("--out a directory", ["simulate", "--out", "o"]),
         ("--out under a file", ["simulate", "--out", "ok.toml/t.csv"]),
         ("--jumps-out a directory", ["simulate", "--jumps-out", "o"] + SIM),
+        ("--jumps-out the sidecar of --out", ["simulate", "--jumps-out", "./o/t.json"] + SIM),
         ("jump budget exhausted (exit 1)", ["simulate", "--max-jumps", "2"] + SIM),
         ("stiff spring a = 1e12: not Zeno (exit 1, budget)", ["simulate", "--param", "a=1e12", "--max-jumps", "1000"] + SIM),
     ] + [

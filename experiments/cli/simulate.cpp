@@ -5,6 +5,9 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -60,6 +63,26 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
   }
 }
 
+// The trajectory, its sidecar and the jumps file must be three files (compared as absolute,
+// normalized paths: `--jumps-out ./t.json` is the sidecar of `--out t.csv`).
+void CheckDistinctOutputs(const SimulateArgs& args) {
+  std::vector<std::pair<std::string, std::string>> outputs{{"--out", args.out},
+                                                           {"--out (sidecar)", SidecarPath(args.out).string()}};
+  if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
+  const auto same = [](const std::string& a, const std::string& b) {
+    const auto norm = [](const std::string& p) { return std::filesystem::weakly_canonical(std::filesystem::absolute(p)); };
+    return norm(a) == norm(b);
+  };
+  for (std::size_t a = 0; a < outputs.size(); ++a) {
+    for (std::size_t b = a + 1; b < outputs.size(); ++b) {
+      if (same(outputs[a].second, outputs[b].second)) {
+        BadFlag(fmt::format("{} {}: the same file as {} {}; give each output its own name", outputs[b].first,
+                            outputs[b].second, outputs[a].first, outputs[a].second));
+      }
+    }
+  }
+}
+
 void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model, args.params);
   const ModelSpec& spec = model.spec();
@@ -107,9 +130,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   CheckOutputPath("--out", args.out);
   CheckOutputPath("--out (sidecar)", SidecarPath(args.out));
   if (!args.jumps_out.empty()) CheckOutputPath("--jumps-out", args.jumps_out);
-  for (const auto& other : {args.jumps_out, SidecarPath(args.out).string()}) {
-    if (other == args.out) BadFlag(fmt::format("--out {}: the same file as another output", args.out));
-  }
+  CheckDistinctOutputs(args);
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
