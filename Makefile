@@ -1,6 +1,6 @@
-# The two commands of the README. Both install what is missing (Debian packages),
-# configure a Release build in build/, and build; then `run` runs the default job
-# and `test` runs every test.
+# What `./hysid-setup run|test` (the README's two commands) hand over to once make is installed.
+# Both install what is missing (Debian packages), configure a Release build in build/, and build;
+# then `run` runs the default job and `test` runs every test.
 BUILD_DIR ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=

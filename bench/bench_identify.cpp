@@ -75,7 +75,7 @@ BENCHMARK(BM_IdentifyStepWithHulls)->Unit(benchmark::kMillisecond);
 void BM_IdentifyStepWithHullsNoisy(benchmark::State& state) { RunIdentifier(state, true, 0.25); }
 BENCHMARK(BM_IdentifyStepWithHullsNoisy)->Unit(benchmark::kMillisecond);
 
-// The tuning-free residual detector (issue 6) in place of the paper's, same run, no sample sets.
+// The tuning-free residual detector in place of the paper's, same run, no sample sets.
 void BM_IdentifyStepResidual(benchmark::State& state) { RunIdentifier(state, false, 0.0, "residual"); }
 BENCHMARK(BM_IdentifyStepResidual)->Unit(benchmark::kMillisecond);
 

@@ -1,8 +1,8 @@
-// hysid_eiv_study: errors-in-variables estimators on the paper's §5 system (issue 4).
+// hysid_eiv_study: errors-in-variables estimators on the paper's §5 system.
 //
 // System:   impact-msd with its defaults (a = 5, b = 0.1, λ = 0.99, μ = 0; ξ0 = (20, 0); 20 s;
 //           δt = 0.5 ms; 14 jumps), simulated once with Simulate (CVODE, rtol = atol = 1e-12).
-// Noise:    y = ξ + e, e ~ N(0, σ²I) from AddMeasurementNoise with NoiseKey{seed, trial}.
+// Noise:    y = ξ + e, e ~ N(0, σ²I) from AddMeasurementNoisePerSample with NoiseKey{seed, trial}.
 // Method:   the Identifier (Algorithms 1 + 2, paper detector r = 220, τ̂0 = 1e5 as `hysid reproduce
 //           paper`, no hulls) with the same estimator for α and β. gtls and frisch get their noise
 //           shapes from WithNoiseShapes with the true σ (gtls: C; frisch: its exact columns).
@@ -172,7 +172,7 @@ int main(int argc, char** argv) {
     const Vec sig = Vec::Constant(2, sigma);
     std::vector<std::vector<Trial>> cells(names.size(), std::vector<Trial>(std::size_t(trials)));
     tbb::parallel_for(0, trials, [&](int trial) {
-      const Mat y = AddMeasurementNoise(traj.x, sig, NoiseKey{seed, std::uint64_t(trial)});
+      const Mat y = AddMeasurementNoisePerSample(traj.x, sig, NoiseKey{seed, std::uint64_t(trial)});
       for (std::size_t e = 0; e < names.size(); ++e) {
         IdentifierSettings settings = base;
         settings.sigma = sig;

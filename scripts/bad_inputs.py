@@ -287,8 +287,9 @@ def table(rows):
 
 
 def normalized(text):
-    """The table with long decimals masked: the last digits of a stop time may differ between compilers."""
-    return re.sub(r"\d+\.\d{6,}", "<t>", text)
+    """The table with long decimals and sweep hashes masked: the last digits of a stop time may differ
+    between compilers, and a sweep's hash changes whenever the configuration gains a field."""
+    return re.sub(r"\b[0-9a-f]{16}\b", "<hash>", re.sub(r"\d+\.\d{6,}", "<t>", text))
 
 
 def main():

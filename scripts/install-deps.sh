@@ -9,8 +9,9 @@ set -euo pipefail
 packages=(
   g++ cmake ninja-build make git
   libeigen3-dev libsundials-dev libcgal-dev libbenchmark-dev libtbb-dev catch2 libfmt-dev
-  libcli11-dev librandom123-dev libtomlplusplus-dev nlohmann-json3-dev
+  libcli11-dev librandom123-dev libtomlplusplus-dev nlohmann-json3-dev libceres-dev
   python3 python3-matplotlib python3-numpy python3-pytest
+  slurm-wlm munge
 )
 
 if [ "${1:-}" = "sanitize" ]; then

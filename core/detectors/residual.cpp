@@ -68,39 +68,46 @@ double ResidualDetector::Quantile() {
   return cached_q_;
 }
 
+void ResidualDetector::NoiseVariance(const SampleContext& c) {
+  NoiseVariance(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat, c.version, c.sigma, c.data_rtol,
+                c.data_atol);
+}
+
 // V_i = Σ_j (σ_j² + d_j(t)²) a_ij² + (σ_j² + d_j(t−δt)²) b_ij², a = e_i − (δt/2)J_i(ξ(t)),
 // b = e_i + (δt/2)J_i(ξ(t−δt)), d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0 when σ is not given).
-void ResidualDetector::NoiseVariance(const SampleContext& c) {
-  const auto n = c.cur.size();
-  const bool have_sigma = c.sigma != nullptr && c.sigma->size() == n;
+void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_data, Eigen::Index n, double dt,
+                                     ConstVecRef alpha_hat, long version, const Vec* sigma, double data_rtol,
+                                     double data_atol) {
+  const ConstVecMap prev(prev_data, n), cur(cur_data, n);
+  const bool have_sigma = sigma != nullptr && sigma->size() == n;
   auto var = [&](Eigen::Index j, double x) {
-    const double s = have_sigma ? (*c.sigma)[j] : 0.0;
-    const double d = c.data_rtol * std::abs(x) + c.data_atol;
+    const double s = have_sigma ? (*sigma)[j] : 0.0;
+    const double d = data_rtol * std::abs(x) + data_atol;
     return s * s + d * d;
   };
   const Mat* jac_prev = &jac_prev_;
   if (model_.spec().flow_jacobian_constant) {
     // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version); the same at both
     // samples.
-    if (!have_jac_ || c.version != jac_version_) {
-      model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
-      jac_version_ = c.version;
+    if (!have_jac_ || version != jac_version_) {
+      model_.FlowJacobian(cur, alpha_hat, jac_cur_);
+      jac_version_ = version;
       have_jac_ = true;
     }
     jac_prev = &jac_cur_;
   } else {
     // φ(ξ(t−δt)) was ξ(t) of the previous call: reuse its Jacobian (α̂ moved by one update since,
     // a negligible change in an O(δt) correction of the variance).
-    if (have_jac_ && jac_at_ == c.prev) {
+    if (have_jac_ && jac_at_ == prev) {
       jac_prev_.swap(jac_cur_);
     } else {
-      model_.FlowJacobian(c.prev, c.alpha_hat, jac_prev_);
+      model_.FlowJacobian(prev, alpha_hat, jac_prev_);
     }
-    model_.FlowJacobian(c.cur, c.alpha_hat, jac_cur_);
-    jac_at_ = c.cur;
+    model_.FlowJacobian(cur, alpha_hat, jac_cur_);
+    jac_at_ = cur;
     have_jac_ = true;
   }
-  const double h = 0.5 * c.dt;
+  const double h = 0.5 * dt;
   for (std::size_t i = 0; i < rows_.size(); ++i) {
     const int r = rows_[i];
     double v = 0.0;
@@ -108,7 +115,7 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
       const double unit = j == r ? 1.0 : 0.0;
       const double a = unit - h * jac_cur_(r, j);
       const double b = unit + h * (*jac_prev)(r, j);
-      v += var(j, c.cur[j]) * a * a + var(j, c.prev[j]) * b * b;
+      v += var(j, cur[j]) * a * a + var(j, prev[j]) * b * b;
     }
     noise_[i] = v;
   }
@@ -121,7 +128,6 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
   const bool known_noise = (c.sigma != nullptr && c.sigma->size() == c.cur.size() && c.sigma->any()) ||
                            c.data_rtol > 0.0 || c.data_atol > 0.0;
   if (known_noise) NoiseVariance(c);
-  constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
   const Mat* p = c.alpha_covariance;
   const Eigen::Index m = c.flow_phi.cols();
   double z2max = 0.0;
@@ -143,17 +149,7 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
       }
       lev = std::max(0.0, lev);
     }
-    const int r = rows_[i];
-    const double round = kRound * (std::abs(c.cur[r]) + std::abs(c.prev[r]) + magnitude +
-                                   std::abs(c.flow_y[ii]));
-    const double noise = known_noise ? noise_[i] : 0.0;
-    noise_[i] = noise;
-    const double v = (1.0 + lev) * (noise + excess_[i]) + round * round;
-    rho2_[i] = rho * rho;
-    lev_[i] = lev;
-    round2_[i] = round * round;
-    // v = 0 only with an exactly zero residual scale and ρ = 0 (then z = 0).
-    const double z2 = v > 0.0 ? rho * rho / v : (rho == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
+    const double z2 = RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise);
     z2max = std::max(z2max, z2);
   }
   d.statistic = std::sqrt(z2max);
@@ -170,6 +166,10 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
 // Robust scale update (every classified sample, jumps included, clipped at kClip² × prediction).
 void ResidualDetector::Observe(const SampleContext& /*context*/, const Decision& /*decision*/) {
   if (!active_) return;
+  UpdateScale();
+}
+
+void ResidualDetector::UpdateScale() {
   const long n = std::min(scale_samples_ + 1, kMemory);
   const double w = 1.0 / static_cast<double>(n);
   for (std::size_t i = 0; i < rows_.size(); ++i) {

@@ -16,7 +16,7 @@
 //        It matters for noise-free data only: an estimator that fits the flow to the last digits
 //        (gtls) leaves residuals at the level of the simulator's step-to-step error, which jumps
 //        after every re-initialisation at a jump; the robust scale, learned where that error was
-//        smaller, then flags it (§5 noise-free, gtls: 909 false jumps without d, 0 with it).
+//        smaller, then flags it (§5 noise-free, gtls: 567 false jumps without d, 0 with it).
 //   s²_i what V_i does not explain, estimated online and robustly from the residuals themselves:
 //        the unknown measurement noise, the O(δt³) trapezoid truncation, the simulator's or the
 //        data's own error, the bias of α̂. An exponentially weighted mean of the standardised squared
@@ -39,7 +39,7 @@
 //
 // Start. Before α̂ is determined (the α estimator has seen fewer flow samples than α has unknowns)
 // every sample is flow and the scale is not updated. Then the test runs at once, but with the few
-// samples of the scale estimate the Student-t quantile is huge (ν = 1: q ≈ 3e5 at p = 1e-6; ν = 10:
+// samples of the scale estimate the Student-t quantile is huge (ν = 1: q ≈ 6.4e5 at p = 1e-6; ν = 10:
 // ≈ 10; ν = 100: ≈ 5.4), and h is large while α̂ is poorly determined, so the detector is
 // conservative exactly while α̂ and the scale are not trustworthy. The first kUnclipped = 10
 // residuals enter the scale unclipped (a plain mean): the clipping bounds what one misclassified
@@ -51,6 +51,9 @@
 // |α_u| + 1 samples is classified as flow; IdentifierSettings::second_pass catches it afterwards.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <vector>
 
 #include "core/detectors/detector.hpp"
@@ -73,9 +76,75 @@ class ResidualDetector final : public JumpDetector {
   double excess_variance(int row) const { return excess_[static_cast<std::size_t>(row)]; }
   long scale_samples() const { return scale_samples_; }
 
+  // Classify and then Observe on one sample of a model with one identified row, from raw arrays:
+  // the identifier's direct (non-virtual, inlined) path, the same arithmetic in the same order.
+  // phi: the row's M unknowns' entries; y: its value; cov: the α estimator's M × M covariance
+  // (column-major) or null; the other arguments as in SampleContext. N = n and M = the number of
+  // unknowns when known at compile time (the loops unroll), else 0.
+  template <int N, int M>
+  [[gnu::always_inline]] Decision ClassifyObserveRow(const double* prev, const double* cur, Eigen::Index n_dynamic,
+                                                     double dt, const double* phi, double y,
+                                                     ConstVecMap alpha_hat, const double* cov, long version,
+                                                     long flow_updates, const Vec* sigma, double data_rtol,
+                                                     double data_atol) {
+    const Eigen::Index n = N > 0 ? N : n_dynamic;
+    const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
+    Decision d;
+    active_ = flow_updates >= unknowns_;
+    if (!active_) return d;
+    const bool known_noise =
+        (sigma != nullptr && sigma->size() == n && sigma->any()) || data_rtol > 0.0 || data_atol > 0.0;
+    if (known_noise) NoiseVariance(prev, cur, n, dt, alpha_hat, version, sigma, data_rtol, data_atol);
+    double pred = 0.0, magnitude = 0.0;
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const double term = phi[j] * alpha_hat[unknown_[static_cast<std::size_t>(j)]];
+      pred += term;
+      magnitude += std::abs(term);
+    }
+    double lev = 0.0;
+    if (cov != nullptr) {
+      for (Eigen::Index a = 0; a < m; ++a) {
+        double s = 0.0;
+        for (Eigen::Index b = 0; b < m; ++b) s += cov[b * m + a] * phi[b];
+        lev += phi[a] * s;
+      }
+      lev = std::max(0.0, lev);
+    }
+    const double z2max = std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, known_noise));
+    d.statistic = std::sqrt(z2max);
+    if (scale_samples_ == 0) {
+      d.threshold = std::numeric_limits<double>::infinity();
+    } else {
+      d.threshold = Quantile();
+      d.gamma = z2max > cached_q2_;
+    }
+    UpdateScale();
+    return d;
+  }
+
  private:
   double Quantile();
   void NoiseVariance(const SampleContext& c);
+  void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
+                     long version, const Vec* sigma, double data_rtol, double data_atol);
+  // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); stores what
+  // UpdateScale needs.
+  double RowStatistic(std::size_t i, double rho, double lev, double magnitude, const double* prev,
+                      const double* cur, double y, bool known_noise) {
+    constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
+    const int r = rows_[i];
+    const double round = kRound * (std::abs(cur[r]) + std::abs(prev[r]) + magnitude + std::abs(y));
+    const double noise = known_noise ? noise_[i] : 0.0;
+    noise_[i] = noise;
+    const double v = (1.0 + lev) * (noise + excess_[i]) + round * round;
+    rho2_[i] = rho * rho;
+    lev_[i] = lev;
+    round2_[i] = round * round;
+    // v = 0 only with an exactly zero residual scale and ρ = 0 (then z = 0).
+    return v > 0.0 ? rho * rho / v : (rho == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
+  }
+  // The robust scale update of Observe (active_ set).
+  void UpdateScale();
 
   Model model_;
   double false_alarm_;

@@ -1,5 +1,5 @@
 // Recursive Frisch-scheme estimator in the spirit of the bounding-box recursive Frisch scheme (BBRF,
-// Massaroli et al., ASCC 2019); estimators.md §2.3.
+// Massaroli et al., ASCC 2019); docs/estimators.md, "frisch".
 //
 // Frisch scheme. For rows z = [φ; y] ∈ ℝ^{m}, m = p+1, with second-moment matrix Σ and unknown
 // *diagonal* noise covariance Σ̃ ≥ 0, the admissible θ (Σ − Σ̃ ≥ 0 singular, v = [θ; −1] in its null
@@ -49,7 +49,7 @@
 // σ_y = 0.3, 2000 rows, window 200; mean ‖θ̂ − θ‖ over 300 runs): RLS 0.217; "rls" with c = 0.95
 // 0.217 (both boxes contain θ in 300/300 runs); "rls" with c = 0 0.155 (but the intersected box
 // contains θ in only 28 % of the runs); centre of the cumulative box 0.265. On the §5 system the
-// plain BBRF (c = 0) collapses onto wrong values (README, errors-in-variables). Before the first box
+// plain BBRF (c = 0) collapses onto wrong values (docs/results.md, errors-in-variables estimators). Before the first box
 // the estimate is the internal RLS estimate and status() is kNotExcited.
 //
 // Degenerate windows are skipped (skipped_windows()): a zero or collinear column (Cholesky pivot² of

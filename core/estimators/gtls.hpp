@@ -1,6 +1,6 @@
 // Recursive generalized total least squares (GTLS) with a known noise covariance shape C.
 //
-// Model (estimators.md §2.2): each scalar regression row z = [φ; y] ∈ ℝ^{p+1} is z₀ + w with
+// Model (docs/estimators.md, "gtls"): each scalar regression row z = [φ; y] ∈ ℝ^{p+1} is z₀ + w with
 // z₀ᵀv = 0 for v = [θ; −1] and E[w wᵀ] = σ²C, C known up to the scale σ² and possibly singular
 // (exact columns such as a constant 1 have zero rows/columns in C: mixed LS-TLS without explicit
 // partitioning). With the information matrix S = Σ λ^{k−j} z zᵀ and the weight W = Σ λ^{k−j}·rows,

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "core/detectors/paper.hpp"
+#include "core/detectors/residual.hpp"
 #include "core/estimators/frisch.hpp"
 #include "core/estimators/rls.hpp"
 #include "core/identify/localize.hpp"
@@ -99,9 +100,11 @@ struct Identifier::State {
       rls = dynamic_cast<Rls*>(flow.get());
       if (rls != nullptr) {
         if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
+        residual = dynamic_cast<ResidualDetector*>(detector.get());
         const int u = static_cast<int>(builder.flow_layout().unknown.size());
-        row_block = paper != nullptr ? ChooseRowBlock<true>(m.state_size(), u)
-                                     : ChooseRowBlock<false>(m.state_size(), u);
+        row_block = paper != nullptr      ? ChooseRowBlock<kPaperDirect>(m.state_size(), u)
+                    : residual != nullptr ? ChooseRowBlock<kResidualDirect>(m.state_size(), u)
+                                          : ChooseRowBlock<kInterface>(m.state_size(), u);
       }
     }
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
@@ -119,6 +122,7 @@ struct Identifier::State {
   std::unique_ptr<JumpDetector> detector;
   Rls* rls = nullptr;              // the α estimator, when it is RLS on one row (direct_calls)
   PaperDetector* paper = nullptr;  // with rls: the detector, when it is the paper's (constant Jacobian)
+  ResidualDetector* residual = nullptr;  // with rls: the detector, when it is the residual detector
   RowBlockFn row_block = nullptr;  // with rls: RowBlock for the model's sizes
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
@@ -244,7 +248,7 @@ SampleContext Identifier::Context(State& s, const double* x, const double* phi, 
 // after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built. kPaper: the
 // paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the detector's
 // interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
-template <int N, int P, bool kPaper>
+template <int N, int P, Identifier::DetectorCall kCall>
 void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
                           const double* y, Decision* decisions) {
   const Eigen::Index n = N > 0 ? N : s.prev.size();
@@ -262,10 +266,20 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
       }
     };
     Decision d;
-    if constexpr (kPaper) {
+    if constexpr (kCall == kPaperDirect) {
       d = s.paper->ClassifyConstant<N>(s.prev.data(), x, n, s.dt, alpha_class.data(),
                                        s.frozen ? -2 : s.version,
                                        s.frozen ? s.frozen_updates : s.rls->updates());
+      update(d);
+    } else if constexpr (kCall == kResidualDirect) {
+      // Classify and Observe before the update, which Observe does not read (as Context's
+      // covariance pointer, taken before the update).
+      const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
+                                   : s.rls->covariance_matrix()->data();
+      d = s.residual->ClassifyObserveRow<N, P>(
+          s.prev.data(), x, n, s.dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()), cov,
+          s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : s.rls->updates(),
+          s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
       update(d);
     } else {
       const SampleContext c = Context(s, x, phi + k * u, y + k, alpha_class);
@@ -278,12 +292,12 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   }
 }
 
-template <bool kPaper>
+template <Identifier::DetectorCall kCall>
 Identifier::RowBlockFn Identifier::ChooseRowBlock(int n, int u) {
-  if (n == 2 && u == 2) return &RowBlock<2, 2, kPaper>;
-  if (n == 2 && u == 1) return &RowBlock<2, 1, kPaper>;
-  if (n == 2 && u == 3) return &RowBlock<2, 3, kPaper>;
-  return &RowBlock<0, 0, kPaper>;
+  if (n == 2 && u == 2) return &RowBlock<2, 2, kCall>;
+  if (n == 2 && u == 1) return &RowBlock<2, 1, kCall>;
+  if (n == 2 && u == 3) return &RowBlock<2, 3, kCall>;
+  return &RowBlock<0, 0, kCall>;
 }
 
 void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {

@@ -55,8 +55,8 @@ struct IdentifierSettings {
   bool localize = false;     // sub-sample jump localisation for the jump regression
   bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
   // Direct, inlined calls instead of the virtual interfaces: to RLS for α on one identified row, and
-  // then also to the paper detector on a constant-Jacobian model, with compile-time sizes for n = 2
-  // and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost per sample). false:
+  // then also to the paper detector on a constant-Jacobian model or to the residual detector, with
+  // compile-time sizes for n = 2 and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost per sample). false:
   // always the interfaces (for tests and comparisons).
   bool direct_calls = true;
 };
@@ -114,10 +114,12 @@ class Identifier {
   static constexpr Eigen::Index kFeedBlock = 256;  // samples per block of regressions in Feed
   using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*,
                               Decision*);
-  template <int N, int P, bool kPaper>
+  // The detector of a row block: through its interface, or called directly.
+  enum DetectorCall { kInterface, kPaperDirect, kResidualDirect };
+  template <int N, int P, DetectorCall kCall>
   static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
                        const double* y, Decision* decisions);
-  template <bool kPaper>
+  template <DetectorCall kCall>
   static RowBlockFn ChooseRowBlock(int n, int u);
   static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
                                const Vec& alpha_class);

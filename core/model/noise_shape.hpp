@@ -1,5 +1,5 @@
 // Noise covariance shapes C of hysid's two regressions (for the "gtls" estimator), and a robust
-// estimate of the measurement noise σ from data (estimators.md §2.2).
+// estimate of the measurement noise σ from data (docs/estimators.md, "Noise shapes").
 //
 // Measurement model: ξ̃_k = ξ_k + e_k, e_k ~ (0, R) i.i.d., R = diag(σ²).
 // Regression row z = [φ_u; y] of an identified state component r (core/model/regression.hpp):
@@ -10,7 +10,7 @@
 //   d = e_k − e_{k−1} (E[ssᵀ] = E[ddᵀ] = 2R, E[sdᵀ] = R − R = 0: the trapezoid cancels the cross term):
 //     w = [(δt/2) G s; d_r − (δt/2) gᵀ s],   so with Ĝ = [G; −gᵀ]:
 //     C = (δt²/2) Ĝ R Ĝᵀ + 2 R_rr e_last e_lastᵀ.
-//   Without known columns depending on ξ (g = 0) this is estimators.md's blockdiag((δt²/2) G R Gᵀ, 2R_rr).
+//   Without known columns depending on ξ (g = 0) this is blockdiag((δt²/2) G R Gᵀ, 2R_rr).
 // Jump: φ_u = ψ_{r,u}(ξ̃_{k−1}), y = ξ̃_{k,r} − ψ_{r,k}(ξ̃_{k−1}) β_k, with J = ∂ψ_{r,u}/∂ξ,
 //   j = ∂(ψ_{r,k} β_k)/∂ξ:  C = Ĵ R Ĵᵀ + R_rr e_last e_lastᵀ,  Ĵ = [J; −jᵀ]  (e_{k−1} and e_k independent).
 // Constant columns have zero rows/columns in C (mixed LS-TLS).

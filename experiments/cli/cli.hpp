@@ -10,6 +10,8 @@
 #include <CLI/CLI.hpp>
 
 #include "core/model/model.hpp"
+#include "core/identify/identifier.hpp"
+#include "core/io/sample_data.hpp"
 #include "core/model/registry.hpp"
 
 namespace hysid::cli {
@@ -24,6 +26,18 @@ void AddModelsCommand(CLI::App& app, Environment& env);
 void AddIdentifyCommand(CLI::App& app, Environment& env);
 void AddReproduceCommand(CLI::App& app, Environment& env);
 void AddSweepCommand(CLI::App& app, Environment& env);  // sweep and merge
+void AddCrlbCommand(CLI::App& app, Environment& env);
+
+// hysid identify's refinement flags (--refine, --json) and what runs after the recursive estimate:
+// the refinement, the estimates with standard errors (and CRLB ratios when the data carry the
+// truth), --json. Returns the exit code: 1 when the refinement ran and its status is not ok.
+struct RefineArgs {
+  std::string refine = "ml";
+  std::string json;
+};
+void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
+int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                    const Vec& sigma, const RefineArgs& args);
 
 // A run that finished with a failed status (exit 1) or was interrupted (exit 130): thrown after
 // the outputs are written, so that `main` returns the code and destructors still run.

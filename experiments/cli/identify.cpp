@@ -30,7 +30,7 @@ struct IdentifyArgs {
   double forgetting = 1.0;
   EstimatorSettings eiv;             // gtls / frisch options (defaults as documented there)
   std::vector<double> flow_shape, jump_shape;  // user noise shapes C, row-major
-  std::string detector = "paper";
+  std::string detector = "residual";
   double r = 220.0;
   double tau0 = 1e5;
   std::string bound = "auto";
@@ -43,6 +43,7 @@ struct IdentifyArgs {
   bool data_accuracy_given = false;  // --data-rtol or --data-atol on the command line
   std::string trace;
   std::string hulls;
+  RefineArgs refine;  // --refine, --json (identify_refine.cpp)
 };
 
 std::vector<std::string> UnknownNames(const std::vector<Parameter>& params) {
@@ -53,7 +54,7 @@ std::vector<std::string> UnknownNames(const std::vector<Parameter>& params) {
   return names;
 }
 
-void RunIdentify(const IdentifyArgs& args, const Environment& env) {
+int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model, args.params);
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
@@ -280,10 +281,13 @@ void RunIdentify(const IdentifyArgs& args, const Environment& env) {
     std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n",
                 args.hulls.c_str());
   }
-  if (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk) {
+  const int code = RefineAndReport(model, data, result, settings.sigma, args.refine);
+  if (code == 0 && args.refine.refine == "none" &&
+      (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
     throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
                                 ToString(result.flow_status), ToString(result.jump_status)));
   }
+  return code;
 }
 
 }  // namespace
@@ -359,8 +363,9 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
   cmd->callback([args, &env, rtol_option, atol_option] {
     args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;
-    RunIdentify(*args, env);
+    if (const int code = RunIdentify(*args, env); code != 0) throw CLI::RuntimeError(code);
   });
+  AddRefineOptions(cmd, args->refine);
 }
 
 }  // namespace hysid::cli

@@ -1,5 +1,5 @@
 // hysid: identification of hybrid dynamical systems from sampled states.
-// Subcommands: models, simulate, identify, reproduce, sweep, merge. `hysid --help` lists them.
+// Subcommands: models, simulate, identify, reproduce, sweep, merge, crlb. `hysid --help` lists them.
 // Exit codes (docs/architecture.md "Robustness"): 0 success, 1 a run that finished with a failed
 // status, 2 bad input or usage, 130 interrupted.
 #include <cstdio>
@@ -49,6 +49,7 @@ int main(int argc, char** argv) {
   hysid::cli::AddIdentifyCommand(app, env);
   hysid::cli::AddReproduceCommand(app, env);
   hysid::cli::AddSweepCommand(app, env);
+  hysid::cli::AddCrlbCommand(app, env);
   if (UnknownSubcommand(app, argc, argv)) return 2;
 
   try {
@@ -59,6 +60,8 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // a run that finished with a status that is not ok (already printed)
   } catch (const CLI::ParseError& e) {
     // CLI11's own codes (104 conversion, 106 required, 109 extras, ...) are all usage errors.
     std::fprintf(stderr, "hysid: error: %s (see hysid %s--help)\n", hysid::Abbreviated(e.what(), 300).c_str(),

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <set>
@@ -28,6 +29,11 @@
 
 namespace hysid {
 namespace {
+
+// A computed grid value (a range's from + u·(to − from), or its log-spaced form) rounded to 12
+// significant digits, so that a log range from 0.01 to 1 holds 0.1 and not 0.10000000000000006: the
+// grid then matches what a user types when filtering the tables.
+double ShortDecimal(double v) { return std::strtod(fmt::format("{:.12g}", v).c_str(), nullptr); }
 
 // Reads one TOML document; every error names file, line and the dotted key.
 class Reader {
@@ -123,8 +129,8 @@ class Reader {
       if (log && (from <= 0 || to <= 0)) Fail(&node, key, "a log range needs from > 0 and to > 0");
       for (std::int64_t i = 0; i < count; ++i) {
         const double u = count == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(count - 1);
-        out.push_back(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
-                          : from + u * (to - from));
+        out.push_back(ShortDecimal(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
+                                       : from + u * (to - from)));
       }
     } else {
       Fail(&node, key, fmt::format("expected a number, a list or {{ from, to, count }}, got {}", TypeName(node)));
@@ -229,6 +235,46 @@ SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string&
   return m;
 }
 
+// [summary] baseline = { key = value, ... }: each value must be on the grid's axis.
+void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
+  rd.OnlyKeys(t, "summary", {"baseline"});
+  const toml::node* bn = t.get("baseline");
+  if (bn == nullptr) return;
+  const toml::table& b = rd.Table(*bn, "summary.baseline");
+  rd.OnlyKeys(b, "summary.baseline", {"sigma", "r", "false_alarm", "estimator", "detector"});
+  if (b.empty()) rd.Fail(bn, "summary.baseline", "empty: name at least one of sigma, r, false_alarm, estimator, detector");
+  const SweepGrid& g = c->grid;
+  for (auto&& [k, v] : b) {
+    const std::string key = fmt::format("summary.baseline.{}", k.str());
+    std::string text;
+    if (k == "estimator" || k == "detector") {
+      text = rd.String(v, key);
+      const auto& axis = k == "estimator" ? g.estimator : g.detector;
+      if (std::find(axis.begin(), axis.end(), text) == axis.end()) {
+        rd.Fail(&v, key, fmt::format("'{}' is not on grid.{} ({})", text, k.str(), fmt::join(axis, ", ")));
+      }
+    } else {
+      const double x = rd.Number(v, key);
+      const auto& axis = k == "sigma" ? g.sigma : k == "r" ? g.r : g.false_alarm;
+      if (std::find(axis.begin(), axis.end(), x) == axis.end()) {
+        rd.Fail(&v, key, fmt::format("{} is not on grid.{} ({})", x, k.str(), fmt::join(axis, ", ")));
+      }
+      text = fmt::format("{}", x);
+    }
+    c->baseline.emplace_back(std::string(k.str()), text);
+  }
+  if (const toml::node* d = b.get("detector")) {
+    const std::string det = *d->value<std::string>();
+    if (b.contains("r") && !DetectorUsesR(det)) {
+      rd.Fail(b.get("r"), "summary.baseline.r", fmt::format("detector '{}' does not use r", det));
+    }
+    if (b.contains("false_alarm") && !DetectorUsesFalseAlarm(det)) {
+      rd.Fail(b.get("false_alarm"), "summary.baseline.false_alarm",
+              fmt::format("detector '{}' does not use false_alarm", det));
+    }
+  }
+}
+
 }  // namespace
 
 Model SweepModel::Build(const ModelRegistry& registry) const {
@@ -299,7 +345,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
     throw std::invalid_argument(
         fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
   }
-  rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run"});
+  rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run", "summary"});
   SweepConfig c;
   c.source = name;
 
@@ -439,6 +485,8 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
     }
   }
 
+  if (const toml::node* sn = root.get("summary")) ParseSummary(rd, rd.Table(*sn, "summary"), &c);
+
   // [run]
   if (const toml::node* rn = root.get("run")) {
     const toml::table& run = rd.Table(*rn, "run");
@@ -487,7 +535,7 @@ nlohmann::json SweepConfig::ToJson() const {
     ms.push_back(j);
   }
   const IdentifierSettings& s = identifier;
-  return {
+  nlohmann::json j = {
       {"model", ms},
       {"grid",
        {{"dt", grid.dt}, {"sigma", grid.sigma}, {"r", grid.r}, {"false_alarm", grid.false_alarm},
@@ -504,6 +552,14 @@ nlohmann::json SweepConfig::ToJson() const {
         {"max_jumps", simulator.max_jumps}}},
       {"run", {{"trials", trials}, {"seed", seed}}},
   };
+  // The noise scheme: a run directory written with another one is refused, not mixed in.
+  j["noise"] = "ziggurat stream per (seed, trial, model, dt)";
+  if (!baseline.empty()) {
+    nlohmann::json b = nlohmann::json::object();
+    for (const auto& [k, v] : baseline) b[k] = v;
+    j["summary"] = {{"baseline", b}};
+  }
+  return j;
 }
 
 std::string SweepConfig::Hash() const {

@@ -1,5 +1,5 @@
 // A sweep file (TOML): the models, the grid of (δt, σ, r, estimator, detector), the identifier's
-// settings, and the run's trials, master seed and output directory. README "Sweeps" shows the shape.
+// settings, and the run's trials, master seed and output directory. docs/method.md "Sweeps" shows the shape.
 //
 // ParseSweepFile checks everything before a trial runs; every error names the file, the line and the
 // key, e.g. "sweep.toml:12: grid.dt: -0.001 must be > 0".
@@ -42,6 +42,9 @@ struct SweepConfig {
   IdentifierSettings identifier;  // base settings; each cell sets estimator, detector, r (and σ)
   bool known_sigma = false;       // give the cell's σ to the identifier (else it is not told)
   SimOptions simulator;
+  // [summary] baseline: per-cell keys (sigma, r, false_alarm, estimator, detector) and their values
+  // as trials.csv writes them; summary.csv compares every cell with its baseline (tables.hpp).
+  std::vector<std::pair<std::string, std::string>> baseline;
   long trials = 10;               // per cell
   std::uint64_t seed = 1;         // master seed
   std::string out;                // run directory

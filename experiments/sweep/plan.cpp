@@ -1,5 +1,6 @@
 #include "experiments/sweep/plan.hpp"
 
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -7,8 +8,6 @@
 #include <tuple>
 
 #include <fmt/format.h>
-
-#include "sim/measurement.hpp"
 
 namespace hysid {
 
@@ -78,6 +77,20 @@ std::vector<TrajectoryGroup> GroupUnits(const SweepConfig& config, const std::ve
   std::vector<TrajectoryGroup> out;
   out.reserve(groups.size());
   for (auto& [key, g] : groups) out.push_back(std::move(g));
+  return out;
+}
+
+NoiseKey TrialNoiseKey(const SweepConfig& config, int model, double dt, long trial) {
+  return NoiseKey{config.seed, static_cast<std::uint64_t>(trial),
+                  {static_cast<std::uint64_t>(model), std::bit_cast<std::uint64_t>(dt)}};
+}
+
+std::vector<std::vector<long>> UnitsByTrial(const TrajectoryGroup& group, long trials) {
+  std::map<long, std::vector<long>> by_trial;
+  for (long id : group.units) by_trial[UnitOf(id, trials).trial].push_back(id);
+  std::vector<std::vector<long>> out;
+  out.reserve(by_trial.size());
+  for (auto& [trial, ids] : by_trial) out.push_back(std::move(ids));
   return out;
 }
 

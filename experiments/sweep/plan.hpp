@@ -8,6 +8,7 @@
 
 #include "core/model/model.hpp"
 #include "experiments/sweep/config.hpp"
+#include "sim/measurement.hpp"
 
 namespace hysid {
 
@@ -57,6 +58,15 @@ struct TrajectoryGroup {
 // The groups covering `units` (ascending ids), in a deterministic order.
 std::vector<TrajectoryGroup> GroupUnits(const SweepConfig& config, const std::vector<SweepCell>& cells,
                                         const std::vector<long>& units);
+
+// The measurement noise of trial `trial` in the group (model, δt): the stream keyed by (master seed,
+// stream = trial, sub = (model, bit pattern of δt)). Every cell of the group draws the same standard
+// normals for one trial and scales them by its σ (common random numbers); a drawn x0 is a function
+// of (seed, trial, model), so the key fixes it too.
+NoiseKey TrialNoiseKey(const SweepConfig& config, int model, double dt, long trial);
+
+// The units of `group` in runs of one trial each: ascending trial, units ascending within a run.
+std::vector<std::vector<long>> UnitsByTrial(const TrajectoryGroup& group, long trials);
 
 // The initial state of trial `trial` of model `model`: the fixed x0, or a uniform draw in x0_range
 // keyed by (master seed, stream = trial, counter = model).

@@ -27,6 +27,7 @@ Progress::Progress(std::string label, long total, long already_done, Mode mode, 
       start_done_(already_done),
       done_(already_done),
       total_weight_(total_weight > 0 ? total_weight : static_cast<double>(total)),
+      weighted_(total_weight > 0),
       start_weight_(total_weight > 0 ? done_weight : static_cast<double>(already_done)),
       weight_done_(static_cast<long>(total_weight > 0 ? done_weight : static_cast<double>(already_done))),
       mode_(mode),
@@ -60,11 +61,16 @@ void Progress::Print(bool final) {
   const double rate = elapsed > 0 ? static_cast<double>(done - start_done_) / elapsed : 0.0;
   const double w = static_cast<double>(weight_done_.load(std::memory_order_relaxed));
   const double wrate = elapsed > 0 ? (w - start_weight_) / elapsed : 0.0;
-  const double eta = wrate > 0 ? (total_weight_ - w) / wrate : -1.0;
-  const double frac = total_weight_ > 0 ? w / total_weight_ : 1.0;
-  const std::string stats = fmt::format("{}/{} {} ({:.1f} %), {:.1f}/s, elapsed {}, ETA {}", done, total_,
-                                        label_, 100 * frac, rate, Duration(elapsed),
-                                        final ? "0s" : Duration(eta));
+  const double frac = total_ > 0 ? static_cast<double>(done) / static_cast<double>(total_) : 1.0;
+  std::string eta;
+  if (final) {
+    eta = done >= total_ ? "done" : "stopped";
+  } else {
+    eta = "ETA " + Duration(wrate > 0 ? (total_weight_ - w) / wrate : -1.0) +
+          (weighted_ ? " (from the samples left)" : "");
+  }
+  const std::string stats = fmt::format("{}/{} {} ({:.1f} %), {:.1f}/s, elapsed {}, {}", done, total_, label_,
+                                        100 * frac, rate, Duration(elapsed), eta);
   if (mode_ == Mode::kBar) {
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(frac * kWidth);

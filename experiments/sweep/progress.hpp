@@ -2,8 +2,10 @@
 // plain line every `line_interval` seconds otherwise (logs, SLURM output files). Tick() is
 // thread-safe and cheap (atomic increments); a background thread does the printing.
 //
-// Items can carry a weight (a trial's number of samples): the rate and ETA are taken over the
-// weights, so a sweep whose trials differ 50-fold in cost (δt = 1e-4 vs 5e-3) still gets a fair ETA.
+// The counts and the percentage are items (trials). Items can carry a weight (a trial's number of
+// samples): the ETA is then taken over the weights left, and says so, so a sweep whose trials differ
+// 50-fold in cost (δt = 1e-4 vs 5e-3) still gets a fair ETA. The last line ends in "done", or in
+// "stopped" when fewer items than the total were ticked (an interrupted run).
 #pragma once
 
 #include <atomic>
@@ -37,7 +39,9 @@ class Progress {
   std::string label_;
   long total_, start_done_;
   std::atomic<long> done_;
-  double total_weight_, start_weight_;
+  double total_weight_;
+  bool weighted_;
+  double start_weight_;
   std::atomic<long> weight_done_;
   Mode mode_;
   double line_interval_;

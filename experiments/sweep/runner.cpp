@@ -1,5 +1,6 @@
 #include "experiments/sweep/runner.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <set>
@@ -7,10 +8,12 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 #include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
@@ -67,6 +70,35 @@ void CheckRecovered(const Journal& journal, const SweepConfig& config, const std
   }
 }
 
+// Every cell must have at most one baseline cell (else summary.csv could not pair it).
+void CheckBaseline(const SweepConfig& config, const std::vector<SweepCell>& cells) {
+  if (config.baseline.empty()) return;
+  std::vector<std::vector<std::string>> keys;
+  for (const SweepCell& c : cells) {
+    keys.push_back({config.models[static_cast<std::size_t>(c.model)].name, FormatNumber(c.dt), FormatNumber(c.sigma),
+                    FormatNumber(c.r), FormatNumber(c.false_alarm), c.estimator, c.detector});
+  }
+  const std::vector<long> base = MatchBaselines(BaselineKeyNames(), keys, config.baseline);
+  for (std::size_t i = 0; i < base.size(); ++i) {
+    if (base[i] != -2) continue;
+    std::vector<std::string> named;
+    for (const auto& [k, v] : config.baseline) named.push_back(fmt::format("{} = {}", k, v));
+    throw std::invalid_argument(fmt::format(
+        "{}: summary.baseline {{{}}}: cell {} (detector {}, r {}, false_alarm {}) matches several cells; name "
+        "the keys that tell them apart",
+        config.source, fmt::join(named, ", "), i, cells[i].detector, FormatNumber(cells[i].r),
+        FormatNumber(cells[i].false_alarm)));
+  }
+}
+
+Baseline BaselineFromJson(const nlohmann::json& config) {
+  Baseline b;
+  if (config.contains("summary") && config["summary"].contains("baseline")) {
+    for (const auto& [k, v] : config["summary"]["baseline"].items()) b.emplace_back(k, v.get<std::string>());
+  }
+  return b;
+}
+
 }  // namespace
 
 SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, const SweepOptions& options,
@@ -78,6 +110,7 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
   for (const SweepModel& m : config.models) models.push_back(m.Build(registry));
   const std::vector<SweepCell> cells = EnumerateCells(config);
   const std::vector<std::string> header = TrialHeader(config, models);
+  CheckBaseline(config, cells);
   SweepOutcome outcome;
   outcome.units_total = CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
                                        fmt::format("{}: {} cells × {} trials", config.source, cells.size(),
@@ -142,6 +175,10 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
       }
       Progress progress("trials", outcome.units_shard, outcome.units_resumed, options.progress, total_weight,
                         done_weight);
+      // One task per (group, trial): the trial's standard normals are drawn once and shared by the
+      // group's units of that trial (common random numbers); a task never waits, so each thread holds
+      // at most one task's normals, and `isolate` keeps a thread waiting for its group's tasks from
+      // starting another group (one trajectory per thread).
       tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t gi) {
         if (stopped()) return;
         const TrajectoryGroup& g = groups[gi];
@@ -156,17 +193,34 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
           sim_error = e.what();
         }
         trajectories.fetch_add(1, std::memory_order_relaxed);
-        tbb::parallel_for(std::size_t{0}, g.units.size(), [&](std::size_t ui) {
-          if (stopped()) return;
-          const long id = g.units[ui];
-          const UnitId u = UnitOf(id, config.trials);
-          const auto start = Clock::now();
-          std::vector<std::string> row =
-              RunTrial(config, models, cells[static_cast<std::size_t>(u.cell)], id, u.trial, x0, truth, sim_error);
-          row.push_back(fmt::format("{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
-          journal.Append(row);
-          run.fetch_add(1, std::memory_order_relaxed);
-          progress.Tick(samples_of(id));
+        const std::vector<std::vector<long>> by_trial = UnitsByTrial(g, config.trials);
+        tbb::this_task_arena::isolate([&] {
+          tbb::parallel_for(std::size_t{0}, by_trial.size(), [&](std::size_t ti) {
+            const std::vector<long>& ids = by_trial[ti];
+            const long trial = UnitOf(ids.front(), config.trials).trial;
+            Mat normals, noisy;
+            const bool noisy_units = std::any_of(ids.begin(), ids.end(), [&](long id) {
+              return cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)].sigma > 0;
+            });
+            if (noisy_units && sim_error.empty() && truth.status.completed() && !stopped()) {
+              normals.resize(truth.x.rows(), truth.x.cols());
+              FillStandardNormals(TrialNoiseKey(config, g.model, g.dt, trial), 0, normals.data(),
+                                  static_cast<std::size_t>(normals.size()));
+            }
+            const TrialInputs in{&x0, &truth, &normals, &noisy, sim_error};
+            for (const long id : ids) {
+              if (stopped()) return;
+              const auto start = Clock::now();
+              std::vector<std::string> row =
+                  RunTrial(config, models, cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)], id,
+                           trial, in);
+              row.push_back(
+                  fmt::format("{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
+              journal.Append(row);
+              run.fetch_add(1, std::memory_order_relaxed);
+              progress.Tick(samples_of(id));
+            }
+          });
         });
       });
     }
@@ -190,7 +244,7 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
     if (cells_of_row[static_cast<std::size_t>(status_col)] != kTrialOk) ++outcome.failures;
     rows.emplace(id, cells_of_row);
   }
-  WriteSweepTables(options.out, header, rows);
+  WriteSweepTables(options.out, header, rows, config.baseline);
   WriteJson(options.out / "run.json",
             {{"command", "hysid sweep"},
              {"source", config.source},
@@ -280,7 +334,8 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
   if (static_cast<long>(rows.size()) != total) {
     throw std::invalid_argument(fmt::format("hysid merge: {} units in the shards, the sweep has {}", rows.size(), total));
   }
-  WriteSweepTables(out, header, rows);
+  fs::create_directories(out);
+  WriteSweepTables(out, header, rows, BaselineFromJson(config));
   std::vector<std::string> names;
   for (const auto& d : dirs) names.push_back(d.string());
   WriteJson(out / "run.json", {{"command", "hysid merge"},

@@ -1,4 +1,4 @@
-// Runs a sweep into a run directory (README "Sweeps"): shared trajectories, TBB in parallel, every
+// Runs a sweep into a run directory (docs/method.md "Sweeps"): shared trajectories, TBB in parallel, every
 // finished unit journaled, resumable, shardable; and merges shard directories.
 #pragma once
 

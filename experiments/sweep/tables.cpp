@@ -66,8 +66,88 @@ MetricSummary Summarize(std::vector<double> v) {
   return s;
 }
 
+const std::vector<std::string>& BaselineKeyNames() {
+  static const std::vector<std::string> names{"model", "dt", "sigma", "r", "false_alarm", "estimator", "detector"};
+  return names;
+}
+
+std::vector<long> MatchBaselines(const std::vector<std::string>& key_names,
+                                 const std::vector<std::vector<std::string>>& cell_keys, const Baseline& baseline) {
+  std::vector<const std::string*> named(key_names.size(), nullptr);
+  for (const auto& [k, v] : baseline) {
+    const auto it = std::find(key_names.begin(), key_names.end(), k);
+    if (it == key_names.end()) throw std::logic_error(fmt::format("baseline key '{}' is not a cell key", k));
+    named[static_cast<std::size_t>(it - key_names.begin())] = &v;
+  }
+  std::vector<long> out(cell_keys.size(), -1);
+  for (std::size_t c = 0; c < cell_keys.size(); ++c) {
+    for (std::size_t b = 0; b < cell_keys.size(); ++b) {
+      bool match = true;
+      for (std::size_t k = 0; match && k < key_names.size(); ++k) {
+        const std::string& mine = cell_keys[c][k];
+        const std::string& theirs = cell_keys[b][k];
+        if (named[k] != nullptr) {
+          match = theirs == *named[k];
+        } else {
+          match = mine == theirs || mine.empty() || theirs.empty();
+        }
+      }
+      if (match) out[c] = out[c] == -1 ? static_cast<long>(b) : -2;
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// One cell's rows: its keys, counts, and each trial's metric values (NaN: none).
+struct CellRows {
+  std::vector<std::string> keys;      // the summary's key columns
+  std::vector<std::string> match;     // BaselineKeyNames() columns
+  long n = 0, failures = 0;
+  std::map<long, std::vector<double>> values;  // trial → one value per metric
+};
+
+std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
+                                   const std::map<long, std::vector<std::string>>& rows,
+                                   const std::vector<std::string>& keys) {
+  const std::vector<std::string>& metrics = SummaryMetrics();
+  std::vector<long> key_col, match_col, metric_col;
+  for (const auto& k : keys) key_col.push_back(Column(header, k));
+  for (const auto& k : BaselineKeyNames()) match_col.push_back(Column(header, k));
+  for (const auto& m : metrics) metric_col.push_back(Column(header, m));
+  const auto cell_col = static_cast<std::size_t>(Column(header, "cell"));
+  const auto trial_col = static_cast<std::size_t>(Column(header, "trial"));
+  const auto status_col = static_cast<std::size_t>(Column(header, "status"));
+  std::vector<CellRows> out;
+  // Rows are sorted by unit = cell·trials + trial, so each cell's rows are contiguous.
+  for (auto it = rows.begin(); it != rows.end();) {
+    const std::string cell = it->second[cell_col];
+    CellRows c;
+    for (long k : key_col) c.keys.push_back(it->second[static_cast<std::size_t>(k)]);
+    for (long k : match_col) c.match.push_back(it->second[static_cast<std::size_t>(k)]);
+    for (; it != rows.end() && it->second[cell_col] == cell; ++it) {
+      const auto& cells = it->second;
+      ++c.n;
+      if (cells[status_col] != kTrialOk) {
+        ++c.failures;
+        continue;
+      }
+      std::vector<double>& v = c.values[std::stol(cells[trial_col])];
+      for (std::size_t m = 0; m < metric_col.size(); ++m) {
+        const std::string& text = cells[static_cast<std::size_t>(metric_col[m])];
+        v.push_back(text.empty() ? kNaN : MetricValue(text, it->first, metrics[m]));
+      }
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace
+
 void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::string>& trial_header,
-                      const std::map<long, std::vector<std::string>>& rows) {
+                      const std::map<long, std::vector<std::string>>& rows, const Baseline& baseline) {
   const std::size_t nt = trial_header.size();
   {
     CsvWriter trials(dir / "trials.csv", trial_header);
@@ -84,42 +164,53 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   // summary.csv
   const std::vector<std::string> keys{"cell", "model", "dt", "sigma", "r", "false_alarm", "estimator", "detector"};
   const std::vector<std::string>& metrics = SummaryMetrics();
-  std::vector<long> key_col, metric_col;
-  for (const auto& k : keys) key_col.push_back(Column(trial_header, k));
-  for (const auto& m : metrics) metric_col.push_back(Column(trial_header, m));
-  const long cell_col = Column(trial_header, "cell"), status_col = Column(trial_header, "status");
+  const std::vector<CellRows> cells = CollectCells(trial_header, rows, keys);
+  std::vector<long> base;
+  if (!baseline.empty()) {
+    std::vector<std::vector<std::string>> match;
+    for (const CellRows& c : cells) match.push_back(c.match);
+    base = MatchBaselines(BaselineKeyNames(), match, baseline);
+  }
 
   std::vector<std::string> header = keys;
   header.insert(header.end(), {"trials", "failures"});
   for (const auto& m : metrics) {
     for (const char* stat : {"mean", "median", "std", "ci95_lo", "ci95_hi"}) header.push_back(m + "_" + stat);
   }
-  CsvWriter summary(dir / "summary.csv", header);
-  // Rows are sorted by unit = cell·trials + trial, so each cell's rows are contiguous.
-  auto it = rows.begin();
-  while (it != rows.end()) {
-    const std::string cell = it->second[static_cast<std::size_t>(cell_col)];
-    std::vector<std::string> out;
-    for (long c : key_col) out.push_back(it->second[static_cast<std::size_t>(c)]);
-    long n = 0, failures = 0;
-    std::vector<std::vector<double>> values(metrics.size());
-    for (; it != rows.end() && it->second[static_cast<std::size_t>(cell_col)] == cell; ++it) {
-      const auto& cells = it->second;
-      ++n;
-      if (cells[static_cast<std::size_t>(status_col)] != kTrialOk) {
-        ++failures;
-        continue;
-      }
-      for (std::size_t m = 0; m < metrics.size(); ++m) {
-        const std::string& text = cells[static_cast<std::size_t>(metric_col[m])];
-        if (!text.empty()) values[m].push_back(MetricValue(text, it->first, metrics[m]));
-      }
+  if (!baseline.empty()) {
+    header.push_back("baseline_cell");
+    for (const auto& m : metrics) {
+      for (const char* stat : {"diff_n", "diff_mean", "diff_ci95_lo", "diff_ci95_hi"}) header.push_back(m + "_" + stat);
     }
-    out.push_back(fmt::format("{}", n));
-    out.push_back(fmt::format("{}", failures));
-    for (auto& v : values) {
+  }
+  CsvWriter summary(dir / "summary.csv", header);
+  for (std::size_t ci = 0; ci < cells.size(); ++ci) {
+    const CellRows& c = cells[ci];
+    std::vector<std::string> out = c.keys;
+    out.push_back(fmt::format("{}", c.n));
+    out.push_back(fmt::format("{}", c.failures));
+    for (std::size_t m = 0; m < metrics.size(); ++m) {
+      std::vector<double> v;
+      for (const auto& [trial, values] : c.values) {
+        if (!std::isnan(values[m])) v.push_back(values[m]);
+      }
       const MetricSummary s = Summarize(std::move(v));
       for (double x : {s.mean, s.median, s.std, s.ci_lo, s.ci_hi}) out.push_back(FormatNumber(x));
+    }
+    if (!baseline.empty()) {
+      const CellRows* b = base[ci] >= 0 ? &cells[static_cast<std::size_t>(base[ci])] : nullptr;
+      out.push_back(b != nullptr ? b->keys[0] : std::string());
+      for (std::size_t m = 0; m < metrics.size(); ++m) {
+        std::vector<double> d;
+        for (const auto& [trial, values] : c.values) {
+          const auto bt = b != nullptr ? b->values.find(trial) : c.values.end();
+          if (b == nullptr || bt == b->values.end()) continue;
+          if (!std::isnan(values[m]) && !std::isnan(bt->second[m])) d.push_back(values[m] - bt->second[m]);
+        }
+        const MetricSummary s = Summarize(std::move(d));
+        out.push_back(b != nullptr ? fmt::format("{}", s.n) : std::string());
+        for (double x : {s.mean, s.ci_lo, s.ci_hi}) out.push_back(FormatNumber(x));
+      }
     }
     summary.TextRow(out);
   }

@@ -5,11 +5,15 @@
 //   summary.csv  one row per cell: its keys, n (trials), failures, and for each metric of
 //                SummaryMetrics() over the rows with status ok: mean, median, std (n − 1), and the 95 %
 //                confidence interval of the mean, mean ± t(0.975, n − 1)·std/√n (empty when n < 2).
+//                With a baseline ([summary] baseline): the baseline's cell, and for each metric the
+//                paired differences cell − baseline over the trials where both have a value: their
+//                count, mean and 95 % interval (same rule).
 #pragma once
 
 #include <filesystem>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hysid {
@@ -17,9 +21,22 @@ namespace hysid {
 // The journal's columns: trials.csv's plus a last "wall_ms".
 std::vector<std::string> JournalHeader(const std::vector<std::string>& trial_header);
 
+// A baseline: per-cell key columns of trials.csv and their values (SweepConfig::baseline).
+using Baseline = std::vector<std::pair<std::string, std::string>>;
+
+// The baseline cell of each cell, given the cells' keys (`cell_keys[i]` in the order of `key_names`):
+// the one cell whose keys equal cell i's with the baseline's keys set to its values, where a key the
+// baseline does not name matches anything when it is empty in either cell (an axis one of the two
+// detectors does not use). −1 when no cell matches, −2 when several do.
+std::vector<long> MatchBaselines(const std::vector<std::string>& key_names,
+                                 const std::vector<std::vector<std::string>>& cell_keys, const Baseline& baseline);
+
+// The key columns MatchBaselines compares (trials.csv names).
+const std::vector<std::string>& BaselineKeyNames();
+
 // rows: unit id → journal cells. Files are written under temporary names and renamed.
 void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::string>& trial_header,
-                      const std::map<long, std::vector<std::string>>& rows);
+                      const std::map<long, std::vector<std::string>>& rows, const Baseline& baseline = {});
 
 // Reads a trials.csv back (header and rows by unit id); errors name the file and line.
 void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* header,

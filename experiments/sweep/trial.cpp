@@ -10,7 +10,6 @@
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/sets/set_metrics.hpp"
-#include "sim/measurement.hpp"
 
 namespace hysid {
 namespace {
@@ -68,8 +67,10 @@ std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vecto
 }
 
 std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
-                                  const SweepCell& cell, long unit, long trial, const Vec& x0,
-                                  const Trajectory& truth, const std::string& sim_error) {
+                                  const SweepCell& cell, long unit, long trial, const TrialInputs& in) {
+  const Vec& x0 = *in.x0;
+  const Trajectory& truth = *in.truth;
+  const std::string& sim_error = in.sim_error;
   const Model& model = models[static_cast<std::size_t>(cell.model)];
   const SweepModel& sm = config.models[static_cast<std::size_t>(cell.model)];
   std::vector<std::string> row{fmt::format("{}", unit), fmt::format("{}", cell.index), fmt::format("{}", trial),
@@ -108,12 +109,13 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
       // The trajectories come from CVODE at these tolerances: the data's accuracy apart from σ.
       s.data_rtol = config.simulator.rtol;
       s.data_atol = config.simulator.atol;
-      Mat noisy;
       if (cell.sigma > 0) {
-        noisy = AddMeasurementNoise(truth.x, Vec::Constant(model.state_size(), cell.sigma),
-                                    NoiseKey{config.seed, static_cast<std::uint64_t>(unit)});
+        if (in.normals == nullptr || in.normals->cols() != truth.x.cols() || in.noisy == nullptr) {
+          throw std::logic_error("RunTrial: σ > 0 without the trial's standard normals");
+        }
+        in.noisy->noalias() = truth.x + cell.sigma * *in.normals;  // x(i, k) + σ·E(i, k)
       }
-      const IdentifyResult res = Identify(model, cell.sigma > 0 ? noisy : truth.x, truth.dt, s);
+      const IdentifyResult res = Identify(model, cell.sigma > 0 ? *in.noisy : truth.x, truth.dt, s);
       alpha_hat = res.alpha_hat;
       beta_hat = res.beta_hat;
       have_estimates = true;

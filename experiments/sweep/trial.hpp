@@ -27,11 +27,20 @@ std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vecto
 // The metric columns summary.csv aggregates (each must be in TrialHeader).
 const std::vector<std::string>& SummaryMetrics();
 
-// Runs unit `unit` = (cell, trial) on `truth` (the group's noise-free trajectory from `x0`).
-// `sim_error` non-empty: the simulator rejected the run (the row's status is "error").
+// What the units of one (group, trial) share: the group's noise-free trajectory from `x0`, the
+// trial's standard normals (n × K, the stream TrialNoiseKey; empty when no unit of the trial has
+// σ > 0 or the simulation failed) and a buffer for the noisy samples y = x + σ·normals.
+struct TrialInputs {
+  const Vec* x0 = nullptr;
+  const Trajectory* truth = nullptr;
+  const Mat* normals = nullptr;
+  Mat* noisy = nullptr;
+  std::string sim_error;  // non-empty: the simulator rejected the run (the row's status is "error")
+};
+
+// Runs unit `unit` = (cell, trial).
 std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
-                                  const SweepCell& cell, long unit, long trial, const Vec& x0,
-                                  const Trajectory& truth, const std::string& sim_error = {});
+                                  const SweepCell& cell, long unit, long trial, const TrialInputs& in);
 
 // The shortest text that reads back as exactly v (fmt "{}"), or "" for NaN.
 std::string FormatNumber(double v);

@@ -1,5 +1,5 @@
 // Every estimator of the factory (EstimatorNames()) on degenerate data: finite estimates always, and
-// the errors-in-variables estimators say so in their status (issue 4). RLS counts rows with φ ≠ 0
+// the errors-in-variables estimators say so in their status. RLS counts rows with φ ≠ 0
 // towards excitation, so its status is not checked here (see tests/core/estimators/rls_test.cpp).
 #include <catch2/catch.hpp>
 

@@ -1,4 +1,4 @@
-// The errors-in-variables estimators inside the identifier (issue 4): the noise shapes it derives
+// The errors-in-variables estimators inside the identifier: the noise shapes it derives
 // from σ and δt, the σ it estimates when none is given, and gtls / frisch end to end on §5 data.
 #include <catch2/catch.hpp>
 

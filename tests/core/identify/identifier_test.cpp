@@ -41,16 +41,18 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
 }
 
 
-TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit for bit",
+TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' results bit for bit",
           "[identify][direct]") {
-  // The identifier calls Rls directly for one identified row, and PaperDetector too for
-  // constant-Jacobian models; IdentifierSettings::direct_calls = false forces the virtual interfaces.
+  // The identifier calls Rls directly for one identified row, and with it PaperDetector (for
+  // constant-Jacobian models) or ResidualDetector; IdentifierSettings::direct_calls = false forces the
+  // virtual interfaces.
   struct Case {
     const char* what;
     Model model;
     double sigma, r, forgetting;
     bool sets, second_pass, localize;
     const char* detector = "paper";
+    bool known_sigma = false, data_accuracy = false;
   };
   const Case cases[] = {
       {"§5 noise-free, sets", Model{ImpactMsd{}}, 0.0, 220.0, 1.0, true, false, false},
@@ -63,6 +65,14 @@ TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit 
        false, true, true, "residual"},
       {"impact pendulum, residual detector", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, true, false,
        false, "residual"},
+      {"§5 sigma 0.1, residual detector, σ given", Model{ImpactMsd{}}, 0.1, 220.0, 1.0, false, false,
+       false, "residual", true},
+      {"§5 sigma 0.05, residual detector, data accuracy (sweeps)", Model{ImpactMsd{}}, 0.05, 220.0, 1.0,
+       false, false, false, "residual", false, true},
+      {"§5 noise-free, residual detector, data accuracy", Model{ImpactMsd{}}, 0.0, 220.0, 1.0, false, false,
+       false, "residual", false, true},
+      {"impact pendulum, residual detector, σ given", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, false,
+       false, false, "residual", true},
   };
   for (const Case& k : cases) {
     INFO(k.what);
@@ -75,6 +85,8 @@ TEST_CASE("direct calls (paper detector + RLS) give the interfaces' results bit 
     s.flow_estimator.forgetting = k.forgetting;
     s.sets = k.sets;
     s.second_pass = k.second_pass;
+    if (k.known_sigma) s.sigma = Vec::Constant(k.model.state_size(), k.sigma);
+    if (k.data_accuracy) s.data_rtol = s.data_atol = 1e-12;
     s.localize = k.localize;
     const IdentifyResult direct = Identify(k.model, y, traj.dt, s, IdentifyOptions{.trace = true});
     // Without a trace, Identify feeds the samples in blocks (Identifier::Feed).

@@ -1,5 +1,6 @@
 // The sweep harness: file errors, cells, determinism across thread counts, resume after a kill,
-// shards merged, failed trials as rows, summary statistics against closed forms.
+// shards merged, failed trials as rows, summary statistics against closed forms, common random
+// numbers and paired differences against a baseline cell.
 #include <atomic>
 #include <cmath>
 #include <filesystem>
@@ -8,6 +9,7 @@
 #include <string>
 
 #include <catch2/catch.hpp>
+#include <fmt/format.h>
 
 #include "core/model/registry.hpp"
 #include "experiments/sweep/config.hpp"
@@ -15,6 +17,9 @@
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "experiments/sweep/tables.hpp"
+#include "core/identify/identifier.hpp"
+#include "sim/measurement.hpp"
+#include "sim/simulator.hpp"
 
 namespace fs = std::filesystem;
 using namespace hysid;
@@ -56,6 +61,9 @@ sigma = [0.0, 0.1]
 dt = [1e-3, 2e-3]
 r = [20.0, 220.0]
 detector = ["paper", "residual"]
+
+[summary]
+baseline = { detector = "paper", r = 220.0 }
 
 [run]
 trials = 4
@@ -135,6 +143,13 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   CHECK(c.grid.sigma[2] == Approx(0.2));
   REQUIRE(c.grid.dt.size() == 3);
   CHECK(c.grid.dt[1] == Approx(1e-3));
+  // Computed grid values are the short decimals a user types (0.1, not 0.10000000000000006).
+  CHECK(c.grid.sigma[1] == 0.1);
+  CHECK(c.grid.dt[1] == 1e-3);
+  const SweepConfig log_grid = ParseSweepText(
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.01, to = 1.0, count = 5, log = true }\ndt = 1e-3\n",
+      "ok.toml", Registry());
+  CHECK(log_grid.grid.sigma == std::vector<double>{0.01, 0.0316227766017, 0.1, 0.316227766017, 1.0});
   CHECK(c.models[0].x0 == std::vector<double>{20.0, 0.0});  // the model's default
   CHECK(c.trials == 10);
   // residual ignores r: one cell per (δt, σ), paper one per r.
@@ -440,4 +455,107 @@ TEST_CASE("sweep: Zeno runs are rows with their status, not an aborted sweep", "
   }
   const std::string summary = Slurp(dir / "summary.csv");
   CHECK_THAT(summary, Catch::Contains(",2,2,"));  // trials, failures
+}
+
+TEST_CASE("sweep: cells share a trial's noise (σ a scale) and pair with their baseline", "[sweep][crn]") {
+  const std::string text = R"(
+[model]
+name = "impact-msd"
+x0 = [20.0, 0.0]
+t_end = 3.0
+[grid]
+sigma = [0.05, 0.2]
+dt = [1e-3, 2e-3]
+r = [20.0, 220.0]
+false_alarm = [1e-6, 1e-8]
+detector = ["paper", "residual"]
+[identifier]
+sets = false
+[summary]
+baseline = { detector = "paper", r = 220.0 }
+[run]
+trials = 3
+seed = 5
+)";
+  const SweepConfig c = ParseSweepText(text, "crn.toml", Registry());
+  const fs::path dir = TempDir("crn");
+  Run(c, dir, 2);
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+  ReadTrialsCsv(dir / "trials.csv", &header, &rows);
+  const auto col = [&](const char* n) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), n) - header.begin());
+  };
+  const std::vector<SweepCell> cells = EnumerateCells(c);
+  REQUIRE(cells.size() == 2u * 2u * 4u);
+  // Independent computation of two units of trial 1 at δt = 2 ms with different σ and detector: the
+  // stream TrialNoiseKey(seed, trial, model, δt) scaled by σ gives the sweep's estimates exactly.
+  const Model model = c.models[0].Build(Registry());
+  const Trajectory truth = Simulate(model, InitialState(c, 0, 1), SampleGrid{3.0, 2e-3}, c.simulator);
+  Mat e(truth.x.rows(), truth.x.cols());
+  FillStandardNormals(TrialNoiseKey(c, 0, 2e-3, 1), 0, e.data(), static_cast<std::size_t>(e.size()));
+  long checked = 0;
+  for (const SweepCell& cell : cells) {
+    if (cell.dt != 2e-3) continue;
+    IdentifierSettings s = c.identifier;
+    s.detector.name = cell.detector;
+    if (!std::isnan(cell.r)) s.detector.r = cell.r;
+    if (!std::isnan(cell.false_alarm)) s.detector.false_alarm = cell.false_alarm;
+    s.data_rtol = c.simulator.rtol;
+    s.data_atol = c.simulator.atol;
+    const Mat y = truth.x + cell.sigma * e;
+    const IdentifyResult res = Identify(model, y, 2e-3, s);
+    const auto& row = rows.at(cell.index * c.trials + 1);
+    CHECK(row[col("alpha_hat_a")] == fmt::format("{}", res.alpha_hat[1]));
+    CHECK(row[col("jumps_detected")] == fmt::format("{}", res.jumps_detected));
+    ++checked;
+  }
+  CHECK(checked == 8);
+  // The same normals as AddMeasurementNoise with that key.
+  CHECK(AddMeasurementNoise(truth.x, Vec::Constant(2, 0.2), TrialNoiseKey(c, 0, 2e-3, 1)) == truth.x + 0.2 * e);
+
+  // Paired differences: every cell's baseline is the paper detector at r = 220 with its δt and σ;
+  // the differences recomputed from trials.csv.
+  std::vector<std::string> sh;
+  std::map<long, std::vector<std::string>> summary;
+  {
+    const fs::path tmp = dir / "summary_as_trials.csv";
+    // summary.csv's first column is the cell id: read it with the trials reader.
+    fs::copy_file(dir / "summary.csv", tmp);
+    ReadTrialsCsv(tmp, &sh, &summary);
+  }
+  const auto scol = [&](const char* n) {
+    return static_cast<std::size_t>(std::find(sh.begin(), sh.end(), n) - sh.begin());
+  };
+  for (const SweepCell& cell : cells) {
+    long expected = -1;
+    for (const SweepCell& b : cells) {
+      if (b.dt == cell.dt && b.sigma == cell.sigma && b.detector == "paper" && b.r == 220.0) expected = b.index;
+    }
+    const auto& srow = summary.at(cell.index);
+    CHECK(srow[scol("baseline_cell")] == fmt::format("{}", expected));
+    std::vector<double> d;
+    for (long t = 0; t < c.trials; ++t) {
+      const std::string& a = rows.at(cell.index * c.trials + t)[col("e_alpha")];
+      const std::string& b = rows.at(expected * c.trials + t)[col("e_alpha")];
+      d.push_back(std::stod(a) - std::stod(b));
+    }
+    const MetricSummary ms = Summarize(d);
+    CHECK(srow[scol("e_alpha_diff_n")] == "3");
+    CHECK(srow[scol("e_alpha_diff_mean")] == fmt::format("{}", ms.mean));
+    CHECK(srow[scol("e_alpha_diff_ci95_hi")] == fmt::format("{}", ms.ci_hi));
+    if (cell.index == expected) CHECK(srow[scol("e_alpha_diff_mean")] == "0");
+  }
+
+  // Baseline errors: name the file, the key and the constraint.
+  const std::string head = "[model]\nname = \"impact-msd\"\n[grid]\nsigma = [0.1]\ndt = 1e-3\nr = [20.0, 220.0]\n"
+                           "detector = [\"paper\", \"residual\"]\n[summary]\n";
+  CHECK_THAT(ErrorOf(head + "baseline = { detector = \"kalman\" }\n"),
+             Catch::Contains("bad.toml:9: summary.baseline.detector: 'kalman' is not on grid.detector"));
+  CHECK_THAT(ErrorOf(head + "baseline = { r = 50.0 }\n"), Catch::Contains("summary.baseline.r: 50 is not on grid.r"));
+  CHECK_THAT(ErrorOf(head + "baseline = { dt = 1e-3 }\n"), Catch::Contains("summary.baseline.dt: unknown key"));
+  CHECK_THAT(ErrorOf(head + "baseline = { detector = \"residual\", r = 20.0 }\n"),
+             Catch::Contains("summary.baseline.r: detector 'residual' does not use r"));
+  const SweepConfig ambiguous = ParseSweepText(head + "baseline = { detector = \"paper\" }\n", "amb.toml", Registry());
+  CHECK_THROWS_WITH(Run(ambiguous, TempDir("amb"), 1), Catch::Contains("matches several cells"));
 }

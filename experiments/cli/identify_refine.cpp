@@ -1,0 +1,160 @@
+// hysid identify, after the recursive run: the maximum-likelihood refinement (sim/refine), each
+// estimate with its standard error, the CRLB ratio when the truth is known, the status, and --json.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
+
+#include "experiments/cli/cli.hpp"
+#include "sim/refine/refine.hpp"
+
+namespace hysid::cli {
+namespace {
+
+// The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json (the model's
+// α, β are the true values). Empty when there is no such sidecar.
+struct Truth {
+  Vec x0, sigma;
+};
+
+Truth ReadTruth(const std::string& data_path, int n) {
+  std::ifstream in(std::filesystem::path(data_path).replace_extension(".json"));
+  if (!in) return {};
+  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!meta.is_object() || meta.value("command", "") != "simulate") return {};
+  auto vec = [&](const char* key) {
+    if (!meta.contains(key) || !meta[key].is_array() || static_cast<int>(meta[key].size()) != n) return Vec();
+    Vec v(n);
+    for (int i = 0; i < n; ++i) {
+      if (!meta[key][static_cast<std::size_t>(i)].is_number()) return Vec();
+      v[i] = meta[key][static_cast<std::size_t>(i)].get<double>();
+    }
+    return v;
+  };
+  return {vec("x0"), vec("sigma")};
+}
+
+// The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid), else not ok.
+Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt) {
+  if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma.array() > 0.0).all()) {
+    Crlb none;
+    none.status = CrlbStatus::kSimulationFailed;
+    none.message = "no truth";
+    return none;
+  }
+  const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
+  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model));
+}
+
+void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
+  const Vec theta = r.estimate.Theta(r.unknowns);
+  const bool truth = bound.ok();
+  const bool se = r.standard_errors.size() == static_cast<Eigen::Index>(r.names.size());
+  const Vec true_theta = truth ? truth_params.Theta(r.unknowns) : Vec();
+  for (std::size_t i = 0; i < r.names.size(); ++i) {
+    const auto ii = static_cast<Eigen::Index>(i);
+    std::string line = fmt::format("  {:<10} = {:<14.10g}", r.names[i], theta[ii]);
+    line += se ? fmt::format(" ± {:<10.4g}", r.standard_errors[ii]) : fmt::format(" {:<12}", "(no se)");
+    if (truth) {
+      line += fmt::format("  truth {:.10g}: error {:.3g} = {:.2f} CRLB sd", true_theta[ii],
+                          theta[ii] - true_theta[ii], std::abs(theta[ii] - true_theta[ii]) / bound.sd[ii]);
+      if (se) line += fmt::format(", se/CRLB sd {:.3f}", r.standard_errors[ii] / bound.sd[ii]);
+    }
+    std::printf("%s\n", line.c_str());
+  }
+}
+
+nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, const std::string& refine,
+                      const Crlb& bound) {
+  auto vec = [](const Vec& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
+  nlohmann::json j;
+  j["refine"] = refine;
+  j["status"] = refine == "none" ? "recursive" : ToString(r.status);
+  j["reason"] = r.reason;
+  j["names"] = r.names;
+  j["estimate"] = vec(r.estimate.Theta(r.unknowns));
+  j["recursive_estimate"] = vec(r.start.Theta(r.unknowns));
+  j["alpha"] = vec(r.estimate.alpha);
+  j["beta"] = vec(r.estimate.beta);
+  j["standard_errors"] = vec(r.standard_errors);
+  nlohmann::json cov = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < r.covariance.rows(); ++i) cov.push_back(vec(r.covariance.row(i).transpose()));
+  j["covariance"] = cov;
+  j["sigma"] = vec(r.sigma);
+  j["sigma_estimated"] = r.sigma_estimated;
+  j["normalized_rms"] = r.normalized_rms;
+  j["lag1"] = r.lag1;
+  j["iterations"] = r.iterations;
+  j["detector"] = {{"jumps_detected", recursive.jumps_detected},
+                   {"flow_estimator", ToString(recursive.flow_status)},
+                   {"jump_estimator", ToString(recursive.jump_status)}};
+  j["model_jumps"] = r.model_jumps;
+  j["samples_used"] = r.samples_used;
+  if (bound.ok()) j["crlb_sd"] = vec(bound.sd);
+  return j;
+}
+
+}  // namespace
+
+void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
+  cmd->add_option("--refine", args.refine,
+                  "ml: maximum-likelihood output-error refinement of the recursive estimate (with "
+                  "standard errors and a fit status; exit 1 when the fit is not ok), none: the "
+                  "recursive estimate alone")
+      ->check(CLI::IsMember({"ml", "none"}))
+      ->capture_default_str();
+  cmd->add_option("--json", args.json, "write estimates, standard errors, covariance, detector counts "
+                                       "and status as JSON");
+}
+
+int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                    const Vec& sigma, const RefineArgs& args) {
+  RefineResult r;
+  if (args.refine == "ml") {
+    RefineOptions options;
+    options.sigma = sigma;
+    r = RefineIdentification(model, data.y, data.dt, recursive, options);
+  } else {
+    r.unknowns = Unknowns::Of(model);
+    r.names = r.unknowns.Names(model);
+    r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0)};
+  }
+  const Truth truth = data.j ? ReadTruth(data.path, model.state_size()) : Truth{};
+  const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
+  const Crlb bound = TruthBound(model, truth, used, data.dt);
+  const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
+  if (args.refine == "ml") {
+    std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
+                ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
+    if (r.samples_used < data.y.cols()) {
+      std::printf("  fitted the first %ld of %ld samples (t <= %.6g): later detected jumps are closer than "
+                  "%ld samples\n", r.samples_used, static_cast<long>(data.y.cols()),
+                  static_cast<double>(r.samples_used - 1) * data.dt, RefineOptions{}.min_jump_interval);
+    }
+    if (r.ok()) {
+      std::printf("  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
+                  r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
+                  fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
+    } else {
+      std::printf("  the recursive estimate is kept\n");
+    }
+  }
+  PrintEstimates(r, truth_params, bound);
+  if (bound.ok()) {
+    std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g\n",
+                std::filesystem::path(data.path).replace_extension(".json").c_str(), bound.mean_e_alpha,
+                bound.mean_e_beta);
+  }
+  if (!args.json.empty()) {
+    std::ofstream(args.json) << ToJson(r, recursive, args.refine, bound).dump(2) << "\n";
+    std::printf("wrote %s\n", args.json.c_str());
+  }
+  std::printf("status: %s\n", args.refine == "none" ? "recursive (no refinement)" : ToString(r.status));
+  return args.refine == "ml" && !r.ok() ? 1 : 0;
+}
+
+}  // namespace hysid::cli

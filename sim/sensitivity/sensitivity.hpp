@@ -1,0 +1,88 @@
+// Forward sensitivities of a hybrid trajectory, S_k = ∂ξ(t_k)/∂θ, θ = (unknown α, unknown β, ξ0).
+//
+// Flow:  S' = (∂f/∂ξ) S + ∂f/∂θ with f = φ(ξ)α (∂f/∂α_i = column i of φ), integrated with the state
+//        by CVODES (Adams, simultaneous fixed-point corrector, sensitivities in the error test).
+// Jump:  at a guard crossing h(ξ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β, flow f⁺ after:
+//          ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻)
+//          S⁺ = (∂g/∂ξ)(S⁻ + f⁻ ∂t_j/∂θ) + ∂g/∂θ − f⁺ ∂t_j/∂θ      (saltation; Hiskens & Pai 2000)
+//        ∇h and ∂g/∂ξ by central differences of Model::Guards and Model::Jump (exact up to rounding
+//        for guards and jump maps affine in ξ); ∂g/∂β_i = column i of ψ(ξ⁻). A chain of jumps at one
+//        instant applies (∂g/∂ξ)(·) + ∂g/∂θ once per jump.
+// Modes: plain (SimulateSensitivities): sample k on the segment the model is in at t_k, as Simulate.
+//        matched (SimulateSensitivitiesMatched): sample k on the segment given by the caller (the
+//        detected jump count); each segment's flow is continued past the model's next jump and
+//        integrated backward before its own start, so no sample changes segment as θ moves.
+// The analytic S_k is the derivative at a fixed jump count: the information carried by the jump
+// times themselves (a sample crossing a moving jump) is not in it.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/model/model.hpp"
+#include "sim/simulator.hpp"
+
+namespace hysid {
+
+// Which entries of θ = (α_u, β_u, ξ0) are estimated.
+struct Unknowns {
+  std::vector<int> alpha;  // indices into α
+  std::vector<int> beta;   // indices into β
+  bool x0 = true;          // all n entries of ξ0
+  // The entries not marked `known` in the model's spec, and ξ0 when `with_x0`.
+  static Unknowns Of(const Model& model, bool with_x0 = true);
+  int size(int n) const { return static_cast<int>(alpha.size() + beta.size()) + (x0 ? n : 0); }
+  // "a", "b", "lambda", "mu", "x0[x]", "x0[v]" for the §5 system.
+  std::vector<std::string> Names(const Model& model) const;
+  // Field-naming message when an index is out of range or repeated.
+  bool IsValid(const Model& model, std::string* error) const;
+};
+
+// Full parameter vectors (known entries included) and the initial state.
+struct HybridParameters {
+  Vec alpha, beta, x0;
+  static HybridParameters Of(const Model& model, const Vec& x0) { return {model.alpha(), model.beta(), x0}; }
+  // θ (the unknown entries, in the order of Unknowns) and back.
+  Vec Theta(const Unknowns& u) const;
+  HybridParameters WithTheta(const Unknowns& u, const ConstVecRef& theta) const;
+};
+
+struct SensitivityOptions {
+  SimOptions sim;             // tolerances (states and sensitivities alike), budgets, Zeno rule
+  bool sensitivities = true;  // false: the states alone (cheaper; sensitivities left empty)
+  bool IsValid(std::string* error) const;
+};
+
+struct SensitivityTrajectory {
+  // t, j (the segment each sample was read from), x, jumps, status: as Simulate in plain mode.
+  Trajectory trajectory;
+  int parameters = 0;   // p
+  Mat sensitivities;    // (n·p) × K: column k holds S_k (n × p, column-major); empty when not asked
+  Mat jump_time_gradients;  // p × (jumps): ∂t_j/∂θ
+  // Matched mode only: segments the model never reached before the last sample time (the samples
+  // then stop at the last segment reached, status.message says so; use ok(), not the status alone),
+  // and guard crossings on the last segment (the model jumps more often).
+  int missing_jumps = 0;
+  int extra_jumps = 0;
+  bool ok() const { return trajectory.status.completed() && missing_jumps == 0; }
+  // S_k as an n × p matrix.
+  Eigen::Map<const Mat> S(long k) const {
+    const auto n = trajectory.x.rows();
+    return {sensitivities.col(k).data(), n, parameters};
+  }
+};
+
+// Throws std::invalid_argument for a bad grid, options, unknowns, or parameter vectors of the wrong
+// size or not finite (x0 as Simulate). Numerical outcomes are in trajectory.status.
+SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
+                                            const Unknowns& unknowns, const SampleGrid& grid,
+                                            const SensitivityOptions& options = {});
+
+// `segment_of_sample` has one entry per sample of the grid, starting at 0 and increasing by 0 or 1
+// from one sample to the next (else std::invalid_argument naming the sample).
+SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
+                                                   const Unknowns& unknowns, const SampleGrid& grid,
+                                                   const std::vector<int>& segment_of_sample,
+                                                   const SensitivityOptions& options = {});
+
+}  // namespace hysid

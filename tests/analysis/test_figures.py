@@ -1,0 +1,312 @@
+"""Every figure kind rendered from the committed summaries and from a small sweep, in PDF and PNG:
+axis scales, labels, legend order, interval bounds and plotted values checked against the CSVs."""
+import csv
+import math
+import os
+import shutil
+
+import numpy as np
+import pytest
+from matplotlib.collections import PolyCollection
+
+from hysid_plots import cli, data, maps, series, stats, style
+
+NON_NEG_PANELS = ("e_", "misclassification", "/", "|")
+
+
+def render(argv):
+    assert cli.main(argv) == 0
+
+
+def data_axes(fig):
+    """Panels and colour bars (not the legend row, which is switched off)."""
+    return [ax for ax in fig.axes if ax.axison]
+
+
+def legend_texts(fig):
+    for ax in fig.axes:
+        if not ax.axison and ax.get_legend() is not None:
+            return [t.get_text() for t in ax.get_legend().get_texts()]
+    return []
+
+
+def check_files(out, stems, formats=("pdf", "png"), n=True):
+    magic = {"pdf": b"%PDF", "png": b"\x89PNG"}
+    for stem in stems:
+        for fmt in formats:
+            with open(os.path.join(out, f"{stem}.{fmt}"), "rb") as f:
+                assert f.read(4) == magic[fmt], (stem, fmt)
+        with open(os.path.join(out, f"{stem}.txt")) as f:
+            cap = f.read()
+        assert "Data:" in cap and ("n = " in cap or not n), cap
+
+
+def check_figure(fig):
+    """Every panel has a y label; series are told apart by marker and dashes; no band below 0."""
+    for ax in data_axes(fig):
+        if ax.get_label() == "<colorbar>":  # labelled along its length (x when below the panels)
+            assert (ax.get_xlabel() + ax.get_ylabel()).strip()
+            continue
+        assert ax.get_ylabel().strip(), [a.get_title() for a in fig.axes]
+        styles = [(ln.get_marker(), ln.get_linestyle()) for ln in ax.get_lines() if ln.get_marker() != "None"]
+        assert len(styles) == len(set(styles)), styles
+        for coll in ax.collections:
+            if isinstance(coll, PolyCollection) and coll.get_paths():  # interval bands
+                assert min(p.vertices[:, 1].min() for p in coll.get_paths()) >= 0.0
+
+
+@pytest.mark.parametrize("rel", ["results/paper_noise", "results/robustness_map", "results/eiv/oracle",
+                                 "results/eiv/detector", "results/eiv/bbrf_plain_oracle"])
+def test_every_figure_of_a_committed_summary(committed_figs, rel):
+    out, figs = committed_figs[rel]
+    stems = sorted({stem for _, stem, _ in figs})
+    assert any(s.startswith("error_vs_sigma") for s in stems)
+    if rel == "results/robustness_map":
+        assert "misclassification_map_impact-msd_rls_paper" in stems and "detector_comparison" in stems
+    check_files(out, stems)
+    for fig, stem, caption in figs:
+        check_figure(fig)
+        assert abs(fig.get_size_inches()[0] - style.WIDTHS["single"]) < 1e-9
+        assert "clipped at 0" in caption or stem.startswith(("misclassification_map", "detector_comparison"))
+
+
+def test_double_width_svg(committed, captured, tmp_path):
+    render(["error-vs-sigma", committed["results/paper_noise"], "--format", "svg", "--width", "double",
+            "--out", str(tmp_path)])
+    fig, stem, _ = captured.figs[0]
+    assert abs(fig.get_size_inches()[0] - 7.16) < 1e-9
+    assert len(data_axes(fig)) == 3 and len({ax.get_position().y0 for ax in data_axes(fig)}) == 1  # one row
+    with open(tmp_path / f"{stem}.svg") as f:
+        assert "<svg" in f.read(2000)
+
+
+def test_error_vs_sigma_axes_and_legend_order(committed_figs):
+    figs = [f for f in committed_figs["results/robustness_map"][1] if f[1].startswith("error_vs_sigma")]
+    assert len(figs) == 5  # one per dt (each saved as PDF and PNG)
+    for fig, stem, _ in figs:
+        panels = data_axes(fig)
+        assert [ax.get_xscale() for ax in panels] == ["symlog"] * 3  # sigma 0, 0.01 ... 0.5
+        assert all(ax.get_yscale() in ("log", "symlog") for ax in panels)
+        assert legend_texts(fig) == ["paper r = 5", "paper r = 20", "paper r = 50", "paper r = 220",
+                                     "paper r = 500", "paper r = 1000", "residual p = 1e-08", "residual p = 1e-06"]
+        assert [t.get_text() for t in panels[-1].get_xticklabels()] == ["0", "0.01", "0.02", "0.05", "0.1",
+                                                                         "0.25", "0.5"]
+        assert [ax.get_xlabel() for ax in panels] == ["", "", r"noise $\sigma$"]  # one column, shared σ
+
+
+def test_summary_intervals_are_clipped_at_zero(committed):
+    run = data.Run(committed["results/robustness_map"])
+    iv = stats.Intervals(run)
+    assert not iv.bootstrapped
+    raw = [run.summary.interval(r, "misclassification")[0] for r in run.summary.rows]
+    assert min(raw) < 0  # the summary's symmetric interval does go below 0 ...
+    for r in run.summary.rows:
+        for m in ("misclassification", "e_alpha", "e_beta", "fp", "fn"):
+            est, lo, hi, n = iv.of(r, m)
+            assert not lo < 0.0  # ... the drawn one does not
+            assert n == 100
+
+
+def test_small_sweep_every_kind_pdf_png(small_run, captured, tmp_path):
+    run_dir = str(tmp_path / "run")
+    shutil.copytree(small_run, run_dir)
+    out = str(tmp_path / "fig")
+    render(["all", run_dir, "--format", "pdf,png", "--width", "single", "--dpi", "60", "--out", out])
+    stems = sorted({stem for _, stem, _ in captured.figs})
+    assert stems == ["detector_comparison", "error_vs_sigma_impact-msd_dt0.001", "error_vs_sigma_impact-msd_dt0.002",
+                     "misclassification_map_impact-msd_rls_paper", "relative_error_impact-msd_dt0.001",
+                     "relative_error_impact-msd_dt0.002"]
+    check_files(out, stems)
+    for fig, stem, caption in captured.figs:
+        check_figure(fig)
+        if not stem.startswith(("misclassification_map", "detector")):
+            assert "percentile bootstrap" in caption and "n = 5 trials" in caption
+    assert os.path.exists(os.path.join(run_dir, "detector_comparison.md"))
+
+
+def test_small_sweep_plotted_means_equal_the_summary(small_run, captured, tmp_path):
+    render(["error-vs-sigma", small_run, "--out", str(tmp_path)])
+    rows = list(csv.DictReader(open(os.path.join(small_run, "summary.csv"))))
+    for fig, stem, _ in captured.figs:
+        dt = stem.rsplit("_dt", 1)[1]
+        assert legend_texts(fig) == ["paper r = 20", "paper r = 220", "residual p = 1e-08"]
+        for ax, metric in zip(data_axes(fig), ["e_alpha", "e_beta", "misclassification"]):
+            for ln, label in zip(ax.get_lines(), legend_texts(fig)):
+                det, _, _, val = label.split(" ")
+                for x, y in zip(ln.get_xdata(), ln.get_ydata()):
+                    hit = [r for r in rows if r["dt"] == dt and float(r["sigma"]) == x and r["detector"] == det and
+                           (r["r"] if det == "paper" else r["false_alarm"]) == val]
+                    assert len(hit) == 1
+                    assert y == pytest.approx(float(hit[0][f"{metric}_mean"]), rel=1e-12, abs=1e-300)
+
+
+def test_relative_error_is_computed_from_trials_and_run_json(small_run, captured, tmp_path):
+    render(["relative-error", small_run, "--out", str(tmp_path)])
+    trials = list(csv.DictReader(open(os.path.join(small_run, "trials.csv"))))
+    fig, stem, caption = captured.figs[0]
+    assert stem == "relative_error_impact-msd_dt0.001"
+    panels = data_axes(fig)
+    assert [ax.get_title() for ax in panels] == ["$a$ = 5", "$b$ = 0.1", r"$\lambda$ = 0.99", r"$\mu$ = 0"]
+    assert "(mu) shows the absolute error" in caption
+    truth = {"alpha_hat_a": 5.0, "beta_hat_mu": 0.0}
+    for ax, col in [(panels[0], "alpha_hat_a"), (panels[3], "beta_hat_mu")]:
+        ln = ax.get_lines()[0]  # paper r = 20
+        for x, y in zip(ln.get_xdata(), ln.get_ydata()):
+            v = [abs(float(t[col]) - truth[col]) / (abs(truth[col]) or 1.0) for t in trials
+                 if t["dt"] == "0.001" and float(t["sigma"]) == x and t["detector"] == "paper" and t["r"] == "20"]
+            assert len(v) == 5 and y == pytest.approx(sum(v) / 5, rel=1e-12)
+
+
+def test_relative_error_without_trials_names_what_is_missing(committed, capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(["relative-error", committed["results/paper_noise"]])
+    assert "no trials.csv: per-parameter errors need the per-trial table" in str(e.value)
+
+
+def with_crlb(src, dst):
+    """src's summary with crlb_e_alpha = 9.12e-4 σ and crlb_e_beta = 8.80e-3 σ (the §5 system's values)."""
+    os.makedirs(dst)
+    shutil.copy(os.path.join(src, "run.json"), dst)
+    rows = list(csv.reader(open(os.path.join(src, "summary.csv"))))
+    si = rows[0].index("sigma")
+    with open(os.path.join(dst, "summary.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(rows[0] + ["crlb_e_alpha", "crlb_e_beta"])
+        for r in rows[1:]:
+            w.writerow(r + [repr(9.12e-4 * float(r[si])), repr(8.80e-3 * float(r[si]))])
+    return dst
+
+
+def test_crlb_line_and_efficiency(committed, captured, tmp_path):
+    run_dir = with_crlb(committed["results/paper_noise"], str(tmp_path / "run"))
+    render(["error-vs-sigma", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf"])
+    fig, _, caption = captured.figs[0]
+    crlb = [ln for ln in data_axes(fig)[0].get_lines() if ln.get_label() == "CRLB-implied"]
+    assert len(crlb) == 1 and "CRLB-implied" in caption
+    np.testing.assert_allclose(crlb[0].get_ydata(), 9.12e-4 * np.asarray(crlb[0].get_xdata()))
+    assert "CRLB-implied" in legend_texts(fig)
+    render(["efficiency", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf,png"])
+    fig, stem, _ = captured.figs[-1]
+    assert stem == "efficiency_impact-msd_dt0.0005"
+    rows = data.Summary(os.path.join(run_dir, "summary.csv")).rows
+    ax = data_axes(fig)[0]
+    ln = ax.get_lines()[0]  # rls, paper r = 220
+    for x, y in zip(ln.get_xdata(), ln.get_ydata()):
+        hit = [r for r in rows if r["sigma"] == x and r["estimator"] == "rls" and r["detector"] == "paper"]
+        assert x > 0 and y == pytest.approx(hit[0]["e_alpha_mean"] / hit[0]["crlb_e_alpha"], rel=1e-12)
+    assert ax.get_yscale() == "log" and ax.get_xscale() == "log"  # σ = 0 has no bound: left out
+
+
+def test_efficiency_without_crlb_is_a_clear_error(committed):
+    with pytest.raises(SystemExit) as e:
+        cli.main(["efficiency", committed["results/paper_noise"]])
+    assert "no CRLB column (crlb_e_alpha, crlb_e_beta)" in str(e.value)
+
+
+def test_misclassification_map_cells_equal_the_summary(committed, committed_figs):
+    fig, stem, caption = [f for f in committed_figs["results/robustness_map"][1]
+                          if f[1].startswith("misclassification_map")][0]
+    assert "white = 0" in caption
+    run = data.Run(committed["results/robustness_map"])
+    rows = [r for r in run.summary.rows if r["detector"] == "paper"]
+    sigmas, dts, rs = (sorted({r[k] for r in rows}) for k in ("sigma", "dt", "r"))
+    images = [ax.images[0] for ax in fig.axes if ax.images]
+    assert len(images) == len(sigmas) == 7
+    for img, sg in zip(images, sigmas):
+        arr = np.ma.filled(img.get_array(), np.nan)
+        for r in rows:
+            if r["sigma"] == sg:
+                v = arr[dts.index(r["dt"]), rs.index(r["r"])]
+                want = r["misclassification_mean"]
+                assert (want == 0 and math.isnan(v)) or v == want
+        assert img.norm.vmin > 0 and isinstance(img.norm, maps.matplotlib.colors.LogNorm)
+
+
+def test_paper_figures(paper_run, captured, tmp_path):
+    render(["paper", paper_run, "--format", "pdf,png", "--width", "single", "--dpi", "60", "--out", str(tmp_path)])
+    stems = [s for _, s, _ in captured.figs[:5]]
+    assert stems == ["fig4", "fig5", "fig6", "fig7", "fig8"]
+    check_files(str(tmp_path), stems, n=False)
+    for fig, stem, _ in captured.figs:
+        check_figure(fig)
+        for ax in data_axes(fig):
+            assert ax.get_legend() is None  # legends sit in their own row, off the data
+        if stem in ("fig5", "fig7"):
+            assert data_axes(fig)[0].get_yscale() == "log"
+            assert "detected jump" in legend_texts(fig)
+
+
+def test_series_order_is_numeric():
+    class S:
+        keys = ["sigma", "r", "estimator", "detector"]
+
+        def values(self, k):
+            return {"r": [5.0, 20.0, 220.0, 1000.0], "estimator": ["rls"], "detector": ["paper"]}[k]
+    rows = [{"sigma": 0.1, "r": r, "estimator": "rls", "detector": "paper", "false_alarm": math.nan}
+            for r in (1000.0, 20.0, 220.0, 5.0)]
+    assert [s.label for s in series.series(S(), rows)] == ["paper r = 5", "paper r = 20", "paper r = 220",
+                                                          "paper r = 1000"]
+
+
+def test_same_data_same_bytes(committed, tmp_path):
+    for d in ("a", "b"):
+        render(["error-vs-sigma", committed["results/paper_noise"], "--format", "pdf,svg,png", "--dpi", "60",
+                "--out", str(tmp_path / d)])
+    for name in sorted(os.listdir(tmp_path / "a")):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+
+
+def example6(path, xi0=1e-2, dt=0.5, t_end=12.0):
+    """Example 6 in closed form: ξ(t) = 2 atan(exp(t − ln cot(ξ0/2))), D = |ξ(t) − ξ(t − δt)|/δt and
+    τ = (1/δt)∫ ξ ds over [t − δt, t] (k = 1; Simpson's rule on 64 intervals), with made-up τ̂ columns
+    in non-numeric order."""
+    def xi(t):
+        return 2 * np.arctan(np.exp(t - np.log(1 / np.tan(xi0 / 2))))
+    t = np.arange(dt, t_end + dt / 2, dt)
+    s = np.linspace(0, 1, 65)
+    w = np.array([1] + [4 if i % 2 else 2 for i in range(1, 64)] + [1]) / (3 * 64)
+    tau = np.array([np.sum(w * xi(tk - dt + s * dt)) for tk in t])
+    rows = np.column_stack([t, xi(t), np.abs(xi(t) - xi(t - dt)) / dt, tau, 20 * tau, 5 * tau])
+    np.savetxt(path, rows, delimiter=",", header="t,xi,D,tau,tau_hat_r20,tau_hat_r5", comments="")
+    return rows
+
+
+def test_fig2_example6(captured, tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    rows = example6(run / "fig2_smoothness.csv")
+    assert np.all(rows[:, 2] <= rows[:, 3])  # Proposition 5: D <= tau, the data drawn are right
+    render(["paper", str(run), "--format", "pdf", "--out", str(tmp_path / "f")])
+    assert [s for _, s, _ in captured.figs] == ["fig2"]  # no fig4_*.csv: Fig. 2 only
+    fig, stem, caption = captured.figs[0]
+    assert "Example 6" in caption
+    check_figure(fig)
+    panels = data_axes(fig)
+    np.testing.assert_array_equal(panels[0].get_lines()[0].get_ydata(), rows[:, 1])
+    assert legend_texts(fig) == [r"$D_{\delta t}\xi$ (Euler derivative)", r"$\tau$ (smoothness bound)",
+                                 r"$\hat\tau$, r = 5", r"$\hat\tau$, r = 20"]
+    np.testing.assert_array_equal(panels[1].get_lines()[2].get_ydata(), rows[:, 5])
+
+
+def test_median_points_are_medians_of_the_trials(small_run, captured, tmp_path):
+    render(["error-vs-sigma", small_run, "--stat", "median", "--format", "pdf", "--out", str(tmp_path)])
+    fig, stem, caption = captured.figs[0]
+    assert stem.endswith("dt0.001") and caption.startswith("impact-msd") and "Points: median" in caption
+    trials = list(csv.DictReader(open(os.path.join(small_run, "trials.csv"))))
+    ln = data_axes(fig)[0].get_lines()[0]  # e_alpha, paper r = 20
+    for x, y in zip(ln.get_xdata(), ln.get_ydata()):
+        v = [float(t["e_alpha"]) for t in trials
+             if t["dt"] == "0.001" and float(t["sigma"]) == x and t["detector"] == "paper" and t["r"] == "20"]
+        assert len(v) == 5 and y == np.median(v)
+
+
+def test_fig2_from_reproduce_example6(example6_run, captured, tmp_path):
+    render(["paper", example6_run, "--format", "pdf,png", "--dpi", "60", "--width", "single", "--out",
+            str(tmp_path)])
+    check_files(str(tmp_path), ["fig2"], n=False)
+    fig, _, _ = captured.figs[0]
+    check_figure(fig)
+    assert legend_texts(fig)[2:] == [r"$\hat\tau$, r = 1", r"$\hat\tau$, r = 2", r"$\hat\tau$, r = 5"]
+    bottom = data_axes(fig)[1]
+    d, tau = bottom.get_lines()[0].get_ydata(), bottom.get_lines()[1].get_ydata()
+    assert np.all(d <= tau)  # Proposition 5 in what is drawn

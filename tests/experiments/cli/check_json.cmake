@@ -1,0 +1,17 @@
+# Checks the --json file of `hysid identify` (FILE): status ok, and as many standard errors and
+# covariance rows as estimates (N).
+file(READ ${FILE} json)
+string(JSON status GET "${json}" status)
+if(NOT status STREQUAL "ok")
+  message(FATAL_ERROR "status is '${status}', expected ok")
+endif()
+foreach(key estimate standard_errors covariance)
+  string(JSON len LENGTH "${json}" ${key})
+  if(NOT len EQUAL N)
+    message(FATAL_ERROR "${key} has ${len} entries, expected ${N}")
+  endif()
+endforeach()
+string(JSON jumps GET "${json}" detector jumps_detected)
+if(NOT jumps EQUAL 14)
+  message(FATAL_ERROR "detector.jumps_detected = ${jumps}, expected 14")
+endif()

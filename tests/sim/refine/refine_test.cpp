@@ -1,0 +1,172 @@
+// The output-error refinement: reaches the bound on the §5 system, and each bad case (a start that
+// diverges, a Zeno fit, a changed jump count, data with NaN) gives a status with its reason and
+// keeps the recursive estimate.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "core/identify/identifier.hpp"
+#include "core/model/builtin/bouncing_ball.hpp"
+#include "core/model/builtin/impact_msd.hpp"
+#include "sim/measurement.hpp"
+#include "sim/refine/refine.hpp"
+
+namespace hysid {
+namespace {
+
+struct Run {
+  Model model{ImpactMsd{}};
+  SampleGrid grid{20.0, 5e-4};
+  Vec x0 = (Vec(2) << 20.0, 0.0).finished();
+  Trajectory truth = Simulate(model, x0, grid);
+  Mat y;
+  std::vector<std::uint8_t> gamma;  // the true jump samples
+  explicit Run(double sigma) {
+    y = AddMeasurementNoise(truth.x, Vec::Constant(2, sigma), NoiseKey{.seed = 7, .stream = 0});
+    gamma.assign(truth.j.size(), 0);
+    for (std::size_t k = 1; k < truth.j.size(); ++k) gamma[k] = truth.j[k] != truth.j[k - 1];
+  }
+};
+
+void RequireKept(const RefineResult& r) {
+  CHECK_FALSE(r.ok());
+  CHECK_FALSE(r.reason.empty());
+  CHECK(r.estimate.alpha == r.start.alpha);
+  CHECK(r.estimate.beta == r.start.beta);
+  CHECK(r.standard_errors.size() == 0);
+}
+
+TEST_CASE("refinement of the §5 system from the recursive estimate reaches the CRLB", "[refine]") {
+  const Run run(0.25);
+  IdentifierSettings settings;
+  settings.detector.name = "residual";
+  settings.data_rtol = settings.data_atol = 1e-12;
+  const IdentifyResult recursive = Identify(run.model, run.y, run.grid.dt, settings);
+  REQUIRE(recursive.jumps_detected == 14);
+  const RefineResult r = RefineIdentification(run.model, run.y, run.grid.dt, recursive);
+  INFO(r.reason);
+  REQUIRE(r.ok());
+  CHECK(r.model_jumps == 14);
+  CHECK(r.normalized_rms == Approx(1.0).margin(0.05));
+  CHECK(std::abs(r.lag1) < 0.05);
+  const Crlb bound = ComputeCrlb(run.model, run.x0, run.grid, Vec::Constant(2, 0.25), r.unknowns);
+  REQUIRE(bound.ok());
+  const Vec error = r.estimate.Theta(r.unknowns) - HybridParameters::Of(run.model, run.x0).Theta(r.unknowns);
+  for (Eigen::Index i = 0; i < error.size(); ++i) {
+    CHECK(std::abs(error[i]) < 4 * bound.sd[i]);
+    CHECK(r.standard_errors[i] == Approx(bound.sd[i]).epsilon(0.05));
+  }
+}
+
+TEST_CASE("noise-free data: the refinement recovers α and β to 1e-9", "[refine]") {
+  const Run run(0.0);
+  Vec alpha0 = run.model.alpha(), beta0 = run.model.beta();
+  alpha0[1] *= 1.01;
+  beta0[1] -= 0.005;
+  const RefineResult r = Refine(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
+  INFO(r.reason);
+  REQUIRE(r.ok());
+  CHECK((r.estimate.alpha - run.model.alpha()).norm() < 1e-9);
+  CHECK((r.estimate.beta - run.model.beta()).norm() < 1e-9);
+}
+
+TEST_CASE("a start far from the truth: not ok, recursive estimate kept", "[refine]") {
+  const Run run(0.05);
+  Vec alpha0 = run.model.alpha();
+  alpha0[1] = 20.0;  // stiffness 4× off: twice the frequency, a different number of impacts
+  const RefineResult r = Refine(run.model, run.y, run.grid.dt, alpha0, run.model.beta(), run.gamma);
+  RequireKept(r);
+}
+
+TEST_CASE("a detector that missed a jump: the fitted model's jump count disagrees", "[refine]") {
+  Run run(0.05);
+  std::size_t k = run.gamma.size() / 2;
+  while (run.gamma[k] == 0) ++k;
+  run.gamma[k] = 0;
+  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  INFO(ToString(r.status) << ": " << r.reason);
+  RequireKept(r);
+  CHECK(r.detected_jumps == 13);
+  CHECK((r.status == RefineStatus::kJumpCountMismatch || r.status == RefineStatus::kResidualRms ||
+         r.status == RefineStatus::kResidualCorrelation || r.status == RefineStatus::kNotConverged));
+}
+
+TEST_CASE("data with NaN: status non-finite-data naming the sample", "[refine]") {
+  Run run(0.05);
+  run.y(1, 100) = std::nan("");
+  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  RequireKept(r);
+  CHECK(r.status == RefineStatus::kNonFiniteData);
+  CHECK_THAT(r.reason, Catch::Contains("sample 100 component 2"));
+}
+
+TEST_CASE("a ball at rest after its Zeno time: not ok (the fit cannot rest)", "[refine]") {
+  const Model model{BouncingBall{}};
+  const SampleGrid grid{3.0, 1e-3};
+  const Vec x0 = (Vec(2) << 1.0, 0.0).finished();
+  const Trajectory t = Simulate(model, x0, grid);
+  REQUIRE(t.status.completed());
+  // Data: the ball's first 3 s, then 2 s at rest on the floor with 6 jumps detected.
+  const long k3 = t.size(), k_count = k3 + 2000;
+  Mat y = Mat::Zero(2, k_count);
+  y.leftCols(k3) = t.x;
+  std::vector<std::uint8_t> gamma(static_cast<std::size_t>(k_count), 0);
+  for (long k = 1; k < k3; ++k) gamma[static_cast<std::size_t>(k)] = t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
+  const RefineResult r = Refine(model, y, grid.dt, model.alpha(), model.beta(), gamma);
+  INFO(ToString(r.status) << ": " << r.reason);
+  RequireKept(r);
+  CHECK((r.status == RefineStatus::kZeno || r.status == RefineStatus::kStartFailed ||
+         r.status == RefineStatus::kNotConverged || r.status == RefineStatus::kJumpCountMismatch));
+}
+
+TEST_CASE("a ball run to its Zeno time and resting: the part before the dense bounces is fit", "[refine]") {
+  const Model model{BouncingBall{}};
+  const SampleGrid grid{10.0, 1e-3};
+  const Vec x0 = (Vec(2) << 1.0, 0.0).finished();
+  const Trajectory t = Simulate(model, x0, grid);
+  REQUIRE(t.status.stop == SimStop::kZeno);
+  const long kz = t.size(), k_count = kz + 1000;  // 1 s at rest on the floor after the Zeno time
+  Mat y = Mat::Zero(2, k_count);
+  y.leftCols(kz) = t.x;
+  std::vector<std::uint8_t> gamma(static_cast<std::size_t>(k_count), 0);
+  for (long k = 1; k < kz; ++k) gamma[static_cast<std::size_t>(k)] = t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
+  Vec beta0 = model.beta();
+  beta0[1] = 0.79;
+  const RefineResult r = Refine(model, y, grid.dt, model.alpha(), beta0, gamma);
+  INFO(ToString(r.status) << ": " << r.reason);
+  REQUIRE(r.ok());
+  CHECK(r.samples_used < kz);
+  CHECK(r.samples_used > kz / 2);
+  CHECK((r.estimate.alpha - model.alpha()).norm() < 1e-8);
+  CHECK((r.estimate.beta - model.beta()).norm() < 1e-8);
+}
+
+TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the fit is Zeno", "[refine]") {
+  const Model model{BouncingBall{}};
+  const SampleGrid grid{10.0, 1e-3};
+  const Vec x0 = (Vec(2) << 1.0, 0.0).finished();
+  const Trajectory t = Simulate(model, x0, grid);
+  REQUIRE(t.status.stop == SimStop::kZeno);
+  std::vector<std::uint8_t> gamma(static_cast<std::size_t>(t.size()), 0);
+  for (std::size_t k = 1; k < gamma.size(); ++k) gamma[k] = t.j[k] != t.j[k - 1];
+  RefineOptions options;
+  options.min_jump_interval = 0;
+  const RefineResult r = Refine(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
+  INFO(ToString(r.status) << ": " << r.reason);
+  RequireKept(r);
+  CHECK(r.status == RefineStatus::kZeno);
+}
+
+TEST_CASE("bad options and inputs name the field", "[refine]") {
+  const Run run(0.05);
+  RefineOptions o;
+  o.rms_low = 2.0;
+  CHECK_THROWS_WITH(Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, o),
+                    Catch::Contains("RefineOptions::rms_low = 2"));
+  std::vector<std::uint8_t> short_gamma(10, 0);
+  CHECK_THROWS_WITH(Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), short_gamma),
+                    Catch::Contains("gamma has 10 entries"));
+}
+
+}  // namespace
+}  // namespace hysid
