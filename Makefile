@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=
 
-.PHONY: run test build deps configure clean
+.PHONY: run test build deps configure clean check-sanitize deps-sanitize
 
 deps:
 	./scripts/install-deps.sh
@@ -24,3 +24,11 @@ test: build
 
 clean:
 	rm -rf $(BUILD_DIR)
+
+# Sanitizers and fuzzers (docs/architecture.md "Robustness"): ASan+UBSan (gcc), UBSan with
+# float-cast-overflow (clang 14), libFuzzer harnesses for FUZZ_SECONDS each (default 60).
+deps-sanitize:
+	./scripts/install-deps.sh sanitize
+
+check-sanitize: deps-sanitize
+	JOBS=$(JOBS) ./scripts/check-sanitize.sh

@@ -2,6 +2,8 @@
 # Installs the Debian packages hysid needs to build, test, benchmark and plot.
 # Skips apt entirely when every package is already installed, so repeated
 # `make run` / `make test` calls cost nothing. Needs root (or sudo) otherwise.
+# `install-deps.sh sanitize` installs what `make check-sanitize` needs in addition: clang 14 (its
+# UBSan checks float-to-int casts, GCC's does not) and libFuzzer.
 set -euo pipefail
 
 packages=(
@@ -13,6 +15,10 @@ packages=(
   python3 python3-matplotlib python3-numpy python3-pytest
   slurm-wlm munge
 )
+
+if [ "${1:-}" = "sanitize" ]; then
+  packages=(clang-14 libfuzzer-14-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -245,6 +245,10 @@ class Run {
     }
   }
 
+  // Intervals count as shrinking only when each is below this fraction of the one before: constant
+  // intervals (a stiff spring's half-periods) equal up to rounding are not an accumulation.
+  static constexpr double kZenoMaxRatio = 1.0 - 1e-3;
+
   bool CheckZenoAndBudget() {
     const auto& jumps = out_.jumps;
     const int window = options_.zeno_window;
@@ -255,7 +259,7 @@ class Run {
       for (int i = 0; shrinking && i < window; ++i) {
         const double newer = jumps[m - 1 - i].t - jumps[m - 2 - i].t;
         const double older = jumps[m - 2 - i].t - jumps[m - 3 - i].t;
-        shrinking = newer < older;
+        shrinking = newer < kZenoMaxRatio * older;
       }
       if (shrinking) {
         const double prev = jumps[m - 2].t - jumps[m - 3].t;

@@ -2,10 +2,13 @@
 //
 // Writing: every number with %.17g (round-trips doubles exactly); the file is written under a
 // temporary name and renamed on Commit(), so a reader never sees half a file.
-// Reading: errors name the file, the line and the column.
+// Reading: errors name the file, the line and the column. Lines and cells are bounded (limits.hpp:
+// HYSID_MAX_CSV_LINE, HYSID_MAX_CSV_CELL) before a line is split; a header is required (a first
+// line of numbers is refused) and must be plain (no quotes).
 #pragma once
 
 #include <cstdio>
+#include <istream>
 #include <filesystem>
 #include <span>
 #include <string>
@@ -26,14 +29,26 @@ class CsvWriter {
   void Row(std::span<const double> values);
   // A row whose cells are already text (for string columns).
   void TextRow(std::span<const std::string> cells);
-  // Flushes, closes and renames the temporary file onto the target. Throws on I/O failure.
-  void Commit();
+  // Flushes, closes and renames the temporary file onto the target. Throws on I/O failure
+  // (the message carries strerror); the temporary file is removed on every failure.
+  void Commit() {
+    Close();
+    Publish();
+  }
+  // The two halves of Commit, for a set of files committed together: Close() flushes and closes
+  // the temporary file, Publish() renames it onto the target. Until Publish() the destructor
+  // removes the temporary file.
+  void Close();
+  void Publish();
+  const std::filesystem::path& path() const { return path_; }
 
  private:
   void FlushIfLarge();
   std::filesystem::path path_;
   std::filesystem::path tmp_path_;
+  void Fail(const char* what, int error_number);
   std::FILE* file_ = nullptr;
+  bool published_ = false;
   fmt::memory_buffer buffer_;
   std::size_t columns_ = 0;
 };
@@ -52,5 +67,10 @@ struct CsvTable {
 // Throws std::invalid_argument "FILE:LINE: column C ('name'): ..." for a non-numeric or
 // non-finite cell or a wrong number of cells, and "FILE: ..." for a missing or empty file.
 CsvTable ReadCsv(const std::filesystem::path& path);
+CsvTable ReadCsvStream(std::istream& in, const std::string& name);
+
+// Reads one line (without its '\n') into `line`, refusing with "NAME:LINE_NO: ..." a line longer
+// than the limit HYSID_MAX_CSV_LINE before it is held whole. False at end of input.
+bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& name, long line_no);
 
 }  // namespace hysid

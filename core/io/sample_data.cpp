@@ -1,6 +1,7 @@
 #include "core/io/sample_data.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -11,7 +12,11 @@
 namespace hysid {
 
 SampleData ReadSampleData(const std::string& path, int state_size) {
-  const CsvTable table = ReadCsv(path);
+  return SampleDataFromTable(ReadCsv(path), state_size);
+}
+
+SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
+  const std::string& path = table.path;
   SampleData data;
   data.path = path;
   const int cols = static_cast<int>(table.header.size());
@@ -42,6 +47,19 @@ SampleData ReadSampleData(const std::string& path, int state_size) {
   if (k < 3) {
     throw std::invalid_argument(
         fmt::format("{}: {} samples; the identifier needs at least 3", path, k));
+  }
+  // Magnitudes: beyond kMaxMagnitude, squares and sums in the estimators and set metrics overflow.
+  std::vector<int> checked = state;
+  checked.push_back(0);
+  for (int c : checked) {
+    const auto& col = table.columns[static_cast<std::size_t>(c)];
+    for (std::size_t r = 0; r < col.size(); ++r) {
+      if (std::abs(col[r]) > kMaxMagnitude) {
+        throw std::invalid_argument(fmt::format(
+            "{}:{}: column {} ('{}'): {} is out of range: |value| must be ≤ {:g} (rescale the data)", path,
+            table.line_of_row[r], c + 1, table.header[static_cast<std::size_t>(c)], col[r], kMaxMagnitude));
+      }
+    }
   }
   data.t = table.columns[0];
   const std::string tname = table.header[0];
@@ -77,9 +95,9 @@ SampleData ReadSampleData(const std::string& path, int state_size) {
     std::vector<int> j(static_cast<std::size_t>(k));
     for (long r = 0; r < k; ++r) {
       const double v = table.columns[static_cast<std::size_t>(jc)][static_cast<std::size_t>(r)];
-      if (v != std::floor(v) || v < 0) {
+      if (v != std::floor(v) || v < 0 || v > static_cast<double>(std::numeric_limits<int>::max())) {
         throw std::invalid_argument(fmt::format(
-            "{}:{}: column {} ('j'): {} is not a jump count (a non-negative integer)", path,
+            "{}:{}: column {} ('j'): {} is not a jump count (an integer in [0, 2147483647])", path,
             table.line_of_row[static_cast<std::size_t>(r)], jc + 1, v));
       }
       j[static_cast<std::size_t>(r)] = static_cast<int>(v);

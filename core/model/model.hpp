@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -96,7 +97,10 @@ concept HasGuardProjection = requires(const M& m, int i, VecRef x) { m.ProjectOn
 
 class Model {
  public:
-  template <HybridModel M>
+  // Not for Model itself: checking HybridModel<Model> would recurse into this constructor (clang 14
+  // rejects that; g++ 12 accepts it).
+  template <class M>
+    requires(!std::is_same_v<std::remove_cvref_t<M>, Model>) && HybridModel<M>
   explicit Model(M model) : impl_(std::make_shared<const Impl<M>>(std::move(model))) {
     Init();
   }

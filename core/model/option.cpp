@@ -1,6 +1,7 @@
 #include "core/model/option.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -40,7 +41,12 @@ std::string CheckValue(OptionType type, const Interval& range, const std::vector
     return fmt::format("must be one of {}", fmt::join(choices, ", "));
   }
   if (type == OptionType::kInteger && v != std::floor(v)) return "must be an integer";
-  return range.Contains(v) ? std::string() : range.ToString();
+  if (!range.Contains(v)) return range.ToString();
+  // Integer options are int fields: a value beyond int's range would not survive the conversion.
+  if (type == OptionType::kInteger && std::abs(v) > static_cast<double>(std::numeric_limits<int>::max())) {
+    return fmt::format("must be at most {} in magnitude", std::numeric_limits<int>::max());
+  }
+  return {};
 }
 
 std::string FormatValue(OptionType type, const std::vector<std::string_view>& choices, double v) {

@@ -1,6 +1,9 @@
 // The hysid command line: one subcommand per file, each registered by an Add*Command function.
 #pragma once
 
+#include <charconv>
+#include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -37,6 +40,17 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args);
 
+// A run that finished with a failed status (exit 1) or was interrupted (exit 130): thrown after
+// the outputs are written, so that `main` returns the code and destructors still run.
+class RunFailed : public std::runtime_error {
+ public:
+  RunFailed(const std::string& what, int code = 1) : std::runtime_error(what), code_(code) {}
+  int code() const { return code_; }
+
+ private:
+  int code_;
+};
+
 // A bad flag value: `what` names the flag, e.g. "--dt = -1: must be > 0".
 [[noreturn]] void BadFlag(const std::string& what);
 
@@ -48,6 +62,20 @@ Model MakeModel(const Environment& env, const std::string& name, const std::stri
                 const std::vector<std::string>& params);
 // Adds --model-file to a subcommand that has --model (the two exclude each other).
 void AddModelFileOption(CLI::App& cmd, std::string& file);
+
+// A CLI11 validator for unsigned 64-bit options: refuses a leading '-' (CLI11 would wrap -1 to
+// 2^64 − 1) and a decimal beyond 2^64 − 1 (CLI11 would saturate it to 2^64 − 1).
+inline const CLI::Validator NonNegativeInteger(
+    [](const std::string& text) {
+      if (text.find('-') != std::string::npos) return std::string("must be ≥ 0, got ") + text;
+      std::uint64_t value = 0;
+      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+      if (ec == std::errc::result_out_of_range) {
+        return std::string("must be ≤ 18446744073709551615 (2^64 − 1), got ") + text;
+      }
+      return std::string();
+    },
+    "NONNEGATIVE", "non-negative integer");
 
 // Checks that every entry is finite; `flag` names the option in the error.
 void RequireFinite(const std::string& flag, const std::vector<double>& values);

@@ -1,19 +1,47 @@
 #include "experiments/cli/entry.hpp"
 
+// Exit codes (docs/architecture.md "Robustness"): 0 success, 1 a run that finished with a failed
+// status, 2 bad input or usage, 130 interrupted.
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <string>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include "core/io/limits.hpp"
 #include "experiments/cli/cli.hpp"
 #include "hysid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
 
 namespace hysid::cli {
+namespace {
+
+constexpr const char* kExitCodes =
+    "Exit codes: 0 success; 1 a run that finished with a failed status (solver failure, Zeno where\n"
+    "not expected, fit not ok); 2 bad input or usage; 130 interrupted.";
+
+// "hysid frobnicate": CLI11 would say "A subcommand is required"; name the word and the subcommands.
+bool UnknownSubcommand(const CLI::App& app, int argc, char** argv) {
+  if (argc < 2 || argv[1][0] == '-') return false;
+  for (const CLI::App* sub : app.get_subcommands({})) {
+    if (sub->get_name() == argv[1]) return false;
+  }
+  std::vector<std::string> names;
+  for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+  std::fprintf(stderr, "hysid: error: unknown subcommand '%s' (known: %s; see hysid --help)\n",
+               Abbreviated(argv[1]).c_str(), fmt::format("{}", fmt::join(names, ", ")).c_str());
+  return true;
+}
+
+}  // namespace
 
 int Main(int argc, char** argv, ModelRegistry registry) {
   Environment env{std::move(registry)};
   CLI::App app{"hysid: identify hybrid dynamical systems from sampled states", "hysid"};
   app.require_subcommand(1);
+  app.footer(kExitCodes);
   app.set_version_flag("--version", HYSID_VERSION " (" HYSID_GIT_REVISION ")");
   AddSimulateCommand(app, env);
   AddModelsCommand(app, env);
@@ -21,6 +49,7 @@ int Main(int argc, char** argv, ModelRegistry registry) {
   AddReproduceCommand(app, env);
   AddSweepCommand(app, env);
   AddCrlbCommand(app, env);
+  if (UnknownSubcommand(app, argc, argv)) return 2;
 
   try {
     app.parse(argc, argv);
@@ -33,10 +62,15 @@ int Main(int argc, char** argv, ModelRegistry registry) {
   } catch (const CLI::RuntimeError& e) {
     return e.get_exit_code();  // a run that finished with a status that is not ok (already printed)
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "hysid: error: %s\n", e.what());
-    return 2;  // usage: CLI11's own codes (105, 108, ...) are not part of hysid's exit-code policy
+    // CLI11's own codes (104 conversion, 106 required, 109 extras, ...) are all usage errors.
+    std::fprintf(stderr, "hysid: error: %s (see hysid %s--help)\n", Abbreviated(e.what(), 300).c_str(),
+                 app.get_subcommands().empty() ? "" : (app.get_subcommands()[0]->get_name() + " ").c_str());
+    return 2;
+  } catch (const RunFailed& e) {
+    std::fprintf(stderr, "hysid: %s\n", e.what());
+    return e.code();
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "hysid: error: %s\n", e.what());
+    std::fprintf(stderr, "hysid: error: %s\n", Abbreviated(e.what(), 2000).c_str());
     return 2;
   }
   return 0;

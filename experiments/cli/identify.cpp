@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/io/csv.hpp"
+#include "core/io/files.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/sets/set_metrics.hpp"
@@ -290,6 +291,8 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();
+  if (!args.trace.empty()) CheckOutputPath("--trace", args.trace);
+  if (!args.hulls.empty()) CheckOutputPath("--hulls", args.hulls);
   const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
   PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
   PrintEstimates(model.spec(), args, result);
@@ -298,7 +301,13 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
     WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }
   if (!args.hulls.empty()) WriteHulls(args.hulls, model.state_size(), result);
-  return RefineAndReport(model, data, result, settings.sigma, args.refine);
+  const int code = RefineAndReport(model, data, result, settings.sigma, args.refine);
+  if (code == 0 && args.refine.refine == "none" &&
+      (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
+    throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
+                                ToString(result.flow_status), ToString(result.jump_status)));
+  }
+  return code;
 }
 
 }  // namespace

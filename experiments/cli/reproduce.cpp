@@ -239,7 +239,7 @@ void AddReproduceCommand(CLI::App& app, Environment& env) {
   cmd->add_option("study", args->study, "paper or example6")->capture_default_str();
   cmd->add_option("--out", args->out, "output directory (default: results/<study>)");
   cmd->add_option("--sigma", args->sigma, "noise of the noisy experiment")->capture_default_str();
-  cmd->add_option("--seed", args->seed, "noise seed")->capture_default_str();
+  cmd->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")->capture_default_str()->check(NonNegativeInteger);
   cmd->add_option("--estimator", args->estimator,
                   "rls (as published), gtls or frisch (errors-in-variables)")
       ->capture_default_str();

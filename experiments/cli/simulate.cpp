@@ -4,13 +4,19 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "core/io/csv.hpp"
+#include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
@@ -24,8 +30,9 @@ struct SimulateArgs {
   std::string model_file;  // --model-file: instead of --model
   std::vector<std::string> params;
   std::vector<double> x0;
-  double t_end = NAN;  // NaN: the model's default
-  double dt = NAN;
+  double t_end = 0.0;  // used when given (t_end_given), else the model's default
+  double dt = 0.0;
+  bool t_end_given = false, dt_given = false;
   std::vector<double> sigma{0.0};
   std::uint64_t seed = 1;
   std::uint64_t trial = 0;
@@ -39,14 +46,55 @@ std::filesystem::path SidecarPath(const std::filesystem::path& csv) {
   return p.replace_extension(".json");
 }
 
+// Renames the closed trajectory and jump files onto their names and writes the sidecar; when one
+// step fails, the files of this set already renamed are removed, so no partial set remains.
+void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& sidecar, const std::string& meta) {
+  std::vector<std::filesystem::path> done;
+  try {
+    traj.Publish();
+    done.push_back(traj.path());
+    if (jumps) {
+      jumps->Publish();
+      done.push_back(jumps->path());
+    }
+    WriteFileAtomically(sidecar, meta);
+  } catch (...) {
+    std::error_code ec;
+    for (const auto& p : done) std::filesystem::remove(p, ec);
+    throw;
+  }
+}
+
+// The trajectory, its sidecar and the jumps file must be three files (compared as absolute,
+// normalized paths: `--jumps-out ./t.json` is the sidecar of `--out t.csv`).
+void CheckDistinctOutputs(const SimulateArgs& args) {
+  std::vector<std::pair<std::string, std::string>> outputs{{"--out", args.out},
+                                                           {"--out (sidecar)", SidecarPath(args.out).string()}};
+  if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
+  const auto same = [](const std::string& a, const std::string& b) {
+    const auto norm = [](const std::string& p) { return std::filesystem::weakly_canonical(std::filesystem::absolute(p)); };
+    return norm(a) == norm(b);
+  };
+  for (std::size_t a = 0; a < outputs.size(); ++a) {
+    for (std::size_t b = a + 1; b < outputs.size(); ++b) {
+      if (same(outputs[a].second, outputs[b].second)) {
+        BadFlag(fmt::format("{} {}: the same file as {} {}; give each output its own name", outputs[b].first,
+                            outputs[b].second, outputs[a].first, outputs[a].second));
+      }
+    }
+  }
+}
+
 SampleGrid GridFlags(const SimulateArgs& args, const ModelSpec& spec) {
-  SampleGrid grid{.t_end = std::isnan(args.t_end) ? spec.default_t_end : args.t_end,
-                  .dt = std::isnan(args.dt) ? spec.default_dt : args.dt};
-  if (!std::isfinite(grid.dt) || grid.dt <= 0) BadFlag(fmt::format("--dt = {}: must be > 0", grid.dt));
-  if (!std::isfinite(grid.t_end) || grid.t_end <= 0) {
-    BadFlag(fmt::format("--t-end = {}: must be > 0", grid.t_end));
+  SampleGrid grid{.t_end = args.t_end_given ? args.t_end : spec.default_t_end,
+                  .dt = args.dt_given ? args.dt : spec.default_dt};
+  for (const auto& [flag, v] : {std::pair{"--dt", grid.dt}, std::pair{"--t-end", grid.t_end}}) {
+    if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
+    if (v <= 0) BadFlag(fmt::format("{} = {}: must be > 0", flag, v));
   }
   if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
+  CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(grid.t_end / grid.dt, 9e18)) + 1,
+             fmt::format("--t-end {} / --dt {}", grid.t_end, grid.dt));
   return grid;
 }
 
@@ -69,12 +117,16 @@ Vec InitialStateFlag(const SimulateArgs& args, const Model& model) {
   return x0;
 }
 
-void WriteTrajectory(const std::string& path, const Trajectory& traj, const Mat& y) {
-  const auto n = static_cast<int>(traj.x.rows());
+std::vector<std::string> TrajectoryHeader(int n) {
   std::vector<std::string> header{"t", "j"};
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("y{}", i));
-  CsvWriter csv(path, header);
+  return header;
+}
+
+// Writes and closes (not yet publishes) the trajectory file.
+void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y) {
+  const auto n = static_cast<int>(traj.x.rows());
   std::vector<double> row(static_cast<std::size_t>(2 + 2 * n));
   for (long k = 0; k < traj.size(); ++k) {
     row[0] = traj.t[static_cast<std::size_t>(k)];
@@ -85,15 +137,19 @@ void WriteTrajectory(const std::string& path, const Trajectory& traj, const Mat&
     }
     csv.Row(row);
   }
-  csv.Commit();
+  csv.Close();
 }
 
-void WriteJumps(const std::string& path, const Trajectory& traj) {
-  const auto n = static_cast<int>(traj.x.rows());
+std::vector<std::string> JumpsHeader(int n) {
   std::vector<std::string> jheader{"j", "t_jump"};
   for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("pre_x{}", i));
   for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("post_x{}", i));
-  CsvWriter jumps(path, jheader);
+  return jheader;
+}
+
+// Writes and closes (not yet publishes) the jumps file.
+void WriteJumps(CsvWriter& jumps, const Trajectory& traj) {
+  const auto n = static_cast<int>(traj.x.rows());
   std::vector<double> jrow(static_cast<std::size_t>(2 + 2 * n));
   for (const JumpRecord& jr : traj.jumps) {
     jrow[0] = jr.j;
@@ -104,11 +160,11 @@ void WriteJumps(const std::string& path, const Trajectory& traj) {
     }
     jumps.Row(jrow);
   }
-  jumps.Commit();
+  jumps.Close();
 }
 
 // FILE.json beside the trajectory: the run's inputs, the solver's tolerances and outcome.
-std::filesystem::path WriteSidecar(const SimulateArgs& args, const Model& model, const Vec& x0,
+std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec& x0,
                                    const SampleGrid& grid, const Vec& sigma, const Trajectory& traj) {
   const ModelSpec& spec = model.spec();
   nlohmann::json params;
@@ -135,9 +191,7 @@ std::filesystem::path WriteSidecar(const SimulateArgs& args, const Model& model,
       {"context", BuildContext()},
   };
   if (traj.status.stop == SimStop::kZeno) meta["zeno_time"] = traj.status.zeno_time;
-  const auto meta_path = SidecarPath(args.out);
-  std::ofstream(meta_path) << meta.dump(2) << "\n";
-  return meta_path;
+  return meta.dump(2) + "\n";
 }
 
 void RunSimulate(const SimulateArgs& args, const Environment& env) {
@@ -147,18 +201,35 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Vec x0 = InitialStateFlag(args, model);
   const Vec sigma = SigmaFlag(args.sigma, model.state_size());
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
+  // Outputs checked before the run; written as one set below.
+  CheckOutputPath("--out", args.out);
+  CheckOutputPath("--out (sidecar)", SidecarPath(args.out));
+  if (!args.jumps_out.empty()) CheckOutputPath("--jumps-out", args.jumps_out);
+  CheckDistinctOutputs(args);
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
-  WriteTrajectory(args.out, traj, AddMeasurementNoise(traj.x, sigma, key));
-  if (!args.jumps_out.empty()) WriteJumps(args.jumps_out, traj);
-  const std::filesystem::path meta_path = WriteSidecar(args, model, x0, grid, sigma, traj);
+  const int n = model.state_size();
+  CsvWriter csv(args.out, TrajectoryHeader(n));
+  WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key));
+  std::optional<CsvWriter> jumps;
+  if (!args.jumps_out.empty()) {
+    jumps.emplace(args.jumps_out, JumpsHeader(n));
+    WriteJumps(*jumps, traj);
+  }
+  const std::filesystem::path meta_path = SidecarPath(args.out);
+  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path, SidecarText(args, model, x0, grid, sigma, traj));
   std::printf("model %s, seed %llu, %ld samples, %zu jumps\n", spec.name.c_str(),
               static_cast<unsigned long long>(args.seed), traj.size(), traj.jumps.size());
   std::printf("status: %s (t = %.17g): %s\n", ToString(traj.status.stop), traj.status.t_reached,
               traj.status.message.c_str());
   std::printf("wrote %s, %s%s%s\n", args.out.c_str(), meta_path.c_str(),
               args.jumps_out.empty() ? "" : ", ", args.jumps_out.c_str());
+  // A zeno stop is a finding about the model (the trajectory is valid up to it); others are failures.
+  if (traj.status.stop != SimStop::kCompleted && traj.status.stop != SimStop::kZeno) {
+    throw RunFailed(fmt::format("simulate: the run stopped with status {}: {}", ToString(traj.status.stop),
+                                traj.status.message));
+  }
 }
 
 }  // namespace
@@ -174,22 +245,27 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option("--param", args->params, "set a parameter, name=value (repeatable)");
   sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")
       ->delimiter(',');
-  sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");
-  sub->add_option("--dt", args->dt, "sample time delta-t in seconds (default: the model's)");
+  CLI::Option* t_end = sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");
+  CLI::Option* dt = sub->add_option("--dt", args->dt, "sample time delta-t in seconds (default: the model's)");
   sub->add_option("--sigma", args->sigma,
                   "measurement noise standard deviation: one value, or one per state")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--seed", args->seed, "noise seed")->capture_default_str();
+  sub->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")->capture_default_str()->check(NonNegativeInteger);
   sub->add_option("--trial", args->trial, "trial index (selects an independent noise stream)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(NonNegativeInteger);
   sub->add_option("--rtol", args->sim.rtol, "CVODE relative tolerance")->capture_default_str();
   sub->add_option("--atol", args->sim.atol, "CVODE absolute tolerance")->capture_default_str();
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
   sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")
       ->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
-  sub->callback([args, &env] { RunSimulate(*args, env); });
+  sub->callback([args, &env, t_end, dt] {
+    args->t_end_given = t_end->count() > 0;
+    args->dt_given = dt->count() > 0;
+    RunSimulate(*args, env);
+  });
 }
 
 void PrintModel(const Model& m, bool full) {

@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"
@@ -51,8 +53,14 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
   } else {
     BadFlag(fmt::format("--progress = '{}': expected auto, bar, lines or none", args.progress));
   }
+  if (!args.dry_run) {
+    CheckOutputDirectory("--out", options.out);
+  } else if (std::error_code ec; std::filesystem::exists(options.out, ec) && !std::filesystem::is_directory(options.out, ec)) {
+    BadFlag(fmt::format("--out {}: exists and is not a directory", options.out.string()));
+  }
   const std::vector<SweepCell> cells = EnumerateCells(config);
-  const long units = static_cast<long>(cells.size()) * config.trials;
+  const long units = CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
+                                    fmt::format("{}: {} cells × {} trials", args.file, cells.size(), config.trials));
   std::fprintf(stderr, "%s: %zu cells x %ld trials = %ld trials (shard %s) -> %s\n", args.file.c_str(),
                cells.size(), config.trials, units, options.shard.ToString().c_str(), options.out.c_str());
   if (args.dry_run) return;
@@ -73,7 +81,7 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
                  "interrupted: %ld of %ld trials are in %s/trials.journal; run the same command again to "
                  "finish the rest\n",
                  o.units_resumed + o.units_run, o.units_shard, options.out.c_str());
-    std::exit(130);
+    throw RunFailed("sweep interrupted", 130);
   }
   std::printf("%ld trials (%ld resumed, %ld run, %ld failed), %ld trajectories simulated, %.1f s\n", o.units_shard,
               o.units_resumed, o.units_run, o.failures, o.trajectories, o.wall_seconds);

@@ -5,17 +5,28 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+// toml++ 3.3.0 turns its internal assertions into __builtin_assume under NDEBUG (clang) and into
+// assert() otherwise; both are reachable from malformed input (upstream issues 294/295). With NDEBUG
+// undefined and TOML_ASSERT a no-op, neither happens in any build type: the parser's own checks
+// report the error. Non-ASCII input that reaches its __builtin_unreachable is refused before parsing
+// (CheckTomlCharacters below).
+#pragma push_macro("NDEBUG")
+#undef NDEBUG
+#define TOML_ASSERT(expr) static_cast<void>(0)
 #include <toml++/toml.h>
+#pragma pop_macro("NDEBUG")
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
 #include "core/model_file/model_file.hpp"
+#include "core/io/limits.hpp"
 #include "experiments/sweep/plan.hpp"
 
 namespace hysid {
@@ -31,8 +42,10 @@ class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
+  static long Line(const toml::node* node) { return node ? static_cast<long>(node->source().begin.line) : 0; }
+
   [[noreturn]] void Fail(const toml::node* node, const std::string& key, const std::string& what) const {
-    const long line = node ? static_cast<long>(node->source().begin.line) : 0;
+    const long line = Line(node);
     if (line > 0) throw std::invalid_argument(fmt::format("{}:{}: {}: {}", file_, line, key, what));
     throw std::invalid_argument(fmt::format("{}: {}: {}", file_, key, what));
   }
@@ -57,9 +70,17 @@ class Reader {
     return v;
   }
 
-  long Integer(const toml::node& node, const std::string& key) const {
+  // A 64-bit integer in [lo, hi]; the error quotes the value as written.
+  std::int64_t Integer(const toml::node& node, const std::string& key,
+                       std::int64_t lo = std::numeric_limits<std::int64_t>::min(),
+                       std::int64_t hi = std::numeric_limits<std::int64_t>::max()) const {
     if (!node.is_integer()) Fail(&node, key, fmt::format("expected an integer, got {}", TypeName(node)));
-    return static_cast<long>(*node.value<std::int64_t>());
+    const std::int64_t v = *node.value_exact<std::int64_t>();
+    if (v < lo || v > hi) Fail(&node, key, fmt::format("{} is out of range [{}, {}]", v, lo, hi));
+    return v;
+  }
+  int Int(const toml::node& node, const std::string& key, int lo) const {
+    return static_cast<int>(Integer(node, key, lo, std::numeric_limits<int>::max()));
   }
 
   bool Boolean(const toml::node& node, const std::string& key) const {
@@ -100,11 +121,12 @@ class Reader {
       }
       const double from = Number(*t.get("from"), key + ".from");
       const double to = Number(*t.get("to"), key + ".to");
-      const long count = Integer(*t.get("count"), key + ".count");
+      const std::int64_t count = Integer(*t.get("count"), key + ".count");
       const bool log = t.contains("log") && Boolean(*t.get("log"), key + ".log");
       if (count < 1) Fail(t.get("count"), key + ".count", fmt::format("{} must be ≥ 1", count));
+      CheckLimit(kMaxAxisValues, count, fmt::format("{}:{}: {}.count", file_, Line(t.get("count")), key));
       if (log && (from <= 0 || to <= 0)) Fail(&node, key, "a log range needs from > 0 and to > 0");
-      for (long i = 0; i < count; ++i) {
+      for (std::int64_t i = 0; i < count; ++i) {
         const double u = count == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(count - 1);
         out.push_back(ShortDecimal(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
                                        : from + u * (to - from)));
@@ -314,6 +336,26 @@ std::vector<Kind> KindAxis(const Reader& rd, const toml::table& grid, const char
   return kinds;
 }
 
+// The number of cells, before EnumerateCells allocates them: per (estimator, detector), the product of
+// the sizes of the axes it reads.
+void CheckCellCount(const SweepConfig& c) {
+  const std::string where = fmt::format("{}: [grid] cells", c.source);
+  std::int64_t per_base = 0;  // cells per (model, δt, σ, refine)
+  for (EstimatorKind e : c.grid.estimator) {
+    for (DetectorKind d : c.grid.detector) {
+      std::int64_t n = 1;
+      for (const OptionAxis& a : c.grid.options) {
+        if (Reads(a, e, d)) n = CheckedProduct(kMaxCells, n, static_cast<std::int64_t>(a.values.size()), where);
+      }
+      per_base += n;
+    }
+  }
+  std::int64_t cells = per_base;
+  for (std::size_t n : {c.models.size(), c.grid.dt.size(), c.grid.sigma.size(), c.grid.refine.size()}) {
+    cells = CheckedProduct(kMaxCells, cells, static_cast<std::int64_t>(n), where);
+  }
+}
+
 void CheckGridSteps(const Reader& rd, const toml::table& grid, const SweepConfig& c) {
   for (double s : c.grid.sigma) {
     if (s < 0) rd.Fail(grid.get("sigma"), "grid.sigma", fmt::format("{} must be ≥ 0", s));
@@ -321,6 +363,9 @@ void CheckGridSteps(const Reader& rd, const toml::table& grid, const SweepConfig
   for (double dt : c.grid.dt) {
     if (dt <= 0) rd.Fail(grid.get("dt"), "grid.dt", fmt::format("{} must be > 0", dt));
     for (const SweepModel& m : c.models) {
+      CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(m.t_end / dt, 9e18)) + 1,
+                 fmt::format("{}:{}: grid.dt = {} with t_end = {} of model '{}'", c.source,
+                             Reader::Line(grid.get("dt")), dt, m.t_end, m.name));
       if (2 * dt > m.t_end) {
         rd.Fail(grid.get("dt"), "grid.dt",
                 fmt::format("{} leaves fewer than 3 samples in t_end = {} of model '{}'", dt, m.t_end, m.name));
@@ -425,8 +470,8 @@ void ParseSimulator(const Reader& rd, const toml::table& root, SimOptions* sim) 
     const std::string key = fmt::format("simulator.{}", k.str());
     if (k == "rtol") sim->rtol = rd.Number(v, key);
     if (k == "atol") sim->atol = rd.Number(v, key);
-    if (k == "max_steps") sim->max_steps = rd.Integer(v, key);
-    if (k == "max_jumps") sim->max_jumps = static_cast<int>(rd.Integer(v, key));
+    if (k == "max_steps") sim->max_steps = rd.Integer(v, key, 1);
+    if (k == "max_jumps") sim->max_jumps = rd.Int(v, key, 1);
     std::string error;
     if (!sim->IsValid(&error)) rd.Fail(&v, key, error);
   }
@@ -442,9 +487,10 @@ void ParseRun(const Reader& rd, const toml::table& root, SweepConfig* c) {
     if (k == "trials") {
       c->trials = rd.Integer(v, key);
       if (c->trials < 1) rd.Fail(&v, key, fmt::format("{} must be ≥ 1", c->trials));
+      CheckLimit(kMaxTrials, c->trials, fmt::format("{}:{}: {}", c->source, Reader::Line(&v), key));
     }
     if (k == "seed") {
-      const long seed = rd.Integer(v, key);
+      const std::int64_t seed = rd.Integer(v, key);
       if (seed < 0) rd.Fail(&v, key, fmt::format("{} must be ≥ 0", seed));
       c->seed = static_cast<std::uint64_t>(seed);
     }
@@ -509,8 +555,61 @@ Model SweepModel::Build(const ModelRegistry& registry) const {
   return model;
 }
 
+// Refuses a non-ASCII byte outside comments, one-line strings and multi-line literal strings: toml++
+// 3.3.0 classifies such characters with a table that ends in __builtin_unreachable for U+00A1–U+0499
+// (e.g. "û" where whitespace may stand, or after a line-ending backslash in a """ string).
+void CheckTomlCharacters(std::string_view text, const std::string& name) {
+  enum class In { kCode, kComment, kBasic, kLiteral, kMultiBasic, kMultiLiteral } in = In::kCode;
+  long line = 1;
+  const auto starts = [&](std::size_t i, std::string_view s) { return text.substr(i, s.size()) == s; };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      if (in != In::kMultiBasic && in != In::kMultiLiteral) in = In::kCode;
+      continue;
+    }
+    if (static_cast<unsigned char>(c) >= 0x80 && (in == In::kCode || in == In::kMultiBasic)) {
+      throw std::invalid_argument(fmt::format(
+          "{}:{}: a non-ASCII character {}; sweep files may use them only in comments and one-line strings", name,
+          line, in == In::kCode ? "outside a string or comment" : "in a \"\"\" string"));
+    }
+    switch (in) {
+      case In::kCode:
+        if (c == '#') in = In::kComment;
+        if (c == '"') in = starts(i, "\"\"\"") ? (i += 2, In::kMultiBasic) : In::kBasic;
+        if (c == '\'') in = starts(i, "\'\'\'") ? (i += 2, In::kMultiLiteral) : In::kLiteral;
+        break;
+      case In::kBasic:
+      case In::kMultiBasic:
+        if (c == '\\' && i + 1 < text.size() && text[i + 1] != '\n') {
+          ++i;  // an escaped character (a non-ASCII one is caught on the next byte for """ strings)
+          if (static_cast<unsigned char>(text[i]) >= 0x80) --i;
+        } else if (in == In::kBasic && c == '"') {
+          in = In::kCode;
+        } else if (in == In::kMultiBasic && starts(i, "\"\"\"")) {
+          in = In::kCode;
+          i += 2;
+        }
+        break;
+      case In::kLiteral:
+        if (c == '\'') in = In::kCode;
+        break;
+      case In::kMultiLiteral:
+        if (starts(i, "\'\'\'")) {
+          in = In::kCode;
+          i += 2;
+        }
+        break;
+      case In::kComment:
+        break;
+    }
+  }
+}
+
 SweepConfig ParseSweepText(std::string_view text, const std::string& name, const ModelRegistry& registry) {
   const Reader rd(name);
+  CheckTomlCharacters(text, name);
   toml::table root;
   try {
     root = toml::parse(text, name);
@@ -526,6 +625,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   ParseGrid(rd, root, &c);
   ParseSimulator(rd, root, &c.simulator);
   ParseRun(rd, root, &c);
+  CheckCellCount(c);
   if (const toml::node* sn = root.get("summary")) ParseSummary(rd, rd.Table(*sn, "summary"), &c);
   return c;
 }

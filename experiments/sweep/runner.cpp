@@ -15,6 +15,8 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "experiments/sweep/journal.hpp"
 #include "experiments/sweep/tables.hpp"
@@ -37,15 +39,39 @@ nlohmann::json ReadJson(const fs::path& path) {
   }
 }
 
-void WriteJson(const fs::path& path, const nlohmann::json& j) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << j.dump(2) << "\n";
-    if (!out) throw std::runtime_error(fmt::format("{}: write failed", tmp.string()));
+void WriteJson(const fs::path& path, const nlohmann::json& j) { WriteFileAtomically(path, j.dump(2) + "\n"); }
+
+// A recovered row must be the unit it claims: in range, in the shard, and with the cell, trial and
+// cell keys (model, δt, σ, r, false_alarm, estimator, detector) the plan gives that id.
+void CheckRecovered(const Journal& journal, const SweepConfig& config, const std::vector<SweepCell>& cells,
+                    const Shard& shard, long units_total) {
+  for (const auto& entry : journal.recovered()) {
+    const long id = entry.first;
+    const std::vector<std::string>& row = entry.second;
+    const auto fail = [&](const std::string& what) {
+      throw std::invalid_argument(fmt::format("{}:{}: the row of unit {} {}; the journal is not this sweep's: "
+                                              "delete the directory or use another --out",
+                                              journal.path().string(), journal.line_of(id), id, what));
+    };
+    if (id >= units_total) fail(fmt::format("is beyond the sweep's {} units", units_total));
+    if (!shard.Contains(id)) fail(fmt::format("is not in shard {}", shard.ToString()));
+    const UnitId u = UnitOf(id, config.trials);
+    const SweepCell& c = cells[static_cast<std::size_t>(u.cell)];
+    // The key columns of trials.csv (trial.cpp): unit, cell, trial, model, dt, sigma, the option axes,
+    // estimator, detector and, with grid.refine, refine.
+    std::vector<std::string> expected{fmt::format("{}", id), fmt::format("{}", u.cell), fmt::format("{}", u.trial),
+                                      config.models[static_cast<std::size_t>(c.model)].name, FormatNumber(c.dt),
+                                      FormatNumber(c.sigma)};
+    for (double v : c.options) expected.push_back(FormatNumber(v));
+    expected.emplace_back(ToString(c.estimator));
+    expected.emplace_back(config.oracle ? std::string("oracle") : std::string(ToString(c.detector)));
+    if (config.grid.refine_axis) expected.push_back(c.refine);
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      if (row[i] != expected[i]) {
+        fail(fmt::format("has {} in column {}, the plan has {}", Abbreviated(row[i], 40), i + 1, expected[i]));
+      }
+    }
   }
-  fs::rename(tmp, path);
 }
 
 // Every cell must have at most one baseline cell (else summary.csv could not pair it).
@@ -92,10 +118,13 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
   const std::vector<std::string> header = TrialHeader(config, models);
   CheckBaseline(config, cells);
   SweepOutcome outcome;
-  outcome.units_total = static_cast<long>(cells.size()) * config.trials;
+  outcome.units_total = CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
+                                       fmt::format("{}: {} cells × {} trials", config.source, cells.size(),
+                                                   config.trials));
 
   // The directory's identity: a different sweep or shard is refused, not mixed in.
-  fs::create_directories(options.out);
+  CheckOutputDirectory("--out", options.out);
+  const DirectoryLock lock(options.out);
   const nlohmann::json identity = {{"hysid_sweep", 1},
                                    {"hash", config.Hash()},
                                    {"shard", options.shard.ToString()},
@@ -122,7 +151,8 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
 
   std::vector<long> todo;
   {
-    Journal journal(options.out / "trials.journal", JournalHeader(header));
+    Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(), options.shard.ToString());
+    CheckRecovered(journal, config, cells, options.shard, outcome.units_total);
     for (long id = 0; id < outcome.units_total; ++id) {
       if (!options.shard.Contains(id)) continue;
       ++outcome.units_shard;
@@ -216,7 +246,9 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
   }
 
   // Every unit of the shard is in the journal: write the tables from it.
-  const Journal journal(options.out / "trials.journal", JournalHeader(header));
+  const Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(),
+                        options.shard.ToString());
+  CheckRecovered(journal, config, cells, options.shard, outcome.units_total);
   std::map<long, std::vector<std::string>> rows;
   const long status_col = std::find(header.begin(), header.end(), "status") - header.begin();
   for (const auto& [id, cells_of_row] : journal.recovered()) {
@@ -247,6 +279,16 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
 
 void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
   if (dirs.empty()) throw std::invalid_argument("hysid merge: give the shard directories");
+  for (const fs::path& dir : dirs) {
+    std::error_code ec;
+    if (fs::exists(out, ec) && fs::equivalent(dir, out, ec)) {
+      throw std::invalid_argument(fmt::format(
+          "--out {}: is one of the shard directories being merged ({}); give another output directory",
+          out.string(), dir.string()));
+    }
+  }
+  CheckOutputDirectory("--out", out);
+  const DirectoryLock lock(out);
   std::string hash;
   long n_shards = -1, total = -1;
   std::set<long> seen_k;

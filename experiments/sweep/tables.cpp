@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -12,6 +13,7 @@
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
 #include "core/io/csv.hpp"
+#include "core/io/limits.hpp"
 #include "core/stats/quantiles.hpp"
 #include "experiments/sweep/journal.hpp"
 #include "experiments/sweep/trial.hpp"
@@ -25,6 +27,17 @@ long Column(const std::vector<std::string>& header, const std::string& name) {
   const auto it = std::find(header.begin(), header.end(), name);
   if (it == header.end()) throw std::logic_error(fmt::format("trials table has no column '{}'", name));
   return it - header.begin();
+}
+
+// A metric cell of a unit's row; a cell that is not a number (a corrupt row) is named, not guessed.
+double MetricValue(const std::string& text, long unit, const std::string& column) {
+  double v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || end != text.data() + text.size()) {
+    throw std::invalid_argument(
+        fmt::format("the row of unit {}: column '{}': '{}' is not a number", unit, column, Abbreviated(text)));
+  }
+  return v;
 }
 
 }  // namespace
@@ -165,9 +178,9 @@ std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
         continue;
       }
       std::vector<double>& v = c.values[std::stol(cells[trial_col])];
-      for (long m : metric_col) {
-        const std::string& text = cells[static_cast<std::size_t>(m)];
-        v.push_back(text.empty() ? kNaN : std::stod(text));
+      for (std::size_t m = 0; m < metric_col.size(); ++m) {
+        const std::string& text = cells[static_cast<std::size_t>(metric_col[m])];
+        v.push_back(text.empty() ? kNaN : MetricValue(text, it->first, metrics[m]));
       }
     }
     out.push_back(std::move(c));
@@ -269,7 +282,7 @@ void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* 
   if (!in) throw std::invalid_argument(fmt::format("{}: cannot open", path.string()));
   std::string line;
   long line_no = 0;
-  while (std::getline(in, line)) {
+  while (ReadBoundedLine(in, line, path.string(), line_no + 1)) {
     ++line_no;
     std::vector<std::string> cells = SplitCsvLine(line);
     if (line_no == 1) {
@@ -281,11 +294,10 @@ void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* 
                                               cells.size(), header->size()));
     }
     long unit = 0;
-    try {
-      unit = std::stol(cells[0]);
-    } catch (const std::exception&) {
+    const auto [end, ec] = std::from_chars(cells[0].data(), cells[0].data() + cells[0].size(), unit);
+    if (ec != std::errc() || end != cells[0].data() + cells[0].size() || unit < 0) {
       throw std::invalid_argument(fmt::format("{}:{}: column 1 ('unit'): '{}' is not a unit id", path.string(),
-                                              line_no, cells[0]));
+                                              line_no, Abbreviated(cells[0])));
     }
     if (!rows->emplace(unit, std::move(cells)).second) {
       throw std::invalid_argument(fmt::format("{}:{}: unit {} appears twice", path.string(), line_no, unit));

@@ -88,6 +88,22 @@ TEST_CASE("bouncing ball stops with Zeno status near the analytic accumulation t
   CHECK(traj.t.back() <= tz);
 }
 
+TEST_CASE("a stiff spring's constant jump intervals are not Zeno", "[sim]") {
+  // a = 1e12: impacts every half-period π/ω ≈ 3.14 µs, below zeno_interval, constant up to rounding.
+  // Not an accumulation: the run goes on until the jump budget, with the intervals' closed form.
+  Model model{ImpactMsd{}};
+  model.SetParameter("a", 1e12);
+  SimOptions options;
+  options.max_jumps = 200;
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4}, options);
+  CHECK(traj.status.stop == SimStop::kJumpBudget);
+  REQUIRE(traj.jumps.size() == 200);
+  const double half_period = std::numbers::pi / std::sqrt(1e12 - 0.1 * 0.1 / 4.0);
+  for (std::size_t i = 1; i < traj.jumps.size(); ++i) {
+    CHECK(traj.jumps[i].t - traj.jumps[i - 1].t == Approx(half_period).epsilon(1e-6));
+  }
+}
+
 TEST_CASE("jump budget stops a run with its own status", "[sim]") {
   const Model model{ImpactMsd{}};
   SimOptions options;

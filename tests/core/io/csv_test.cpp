@@ -1,10 +1,16 @@
 // CSV writing (exact round trip, atomic commit) and reading (errors naming file, line, column).
 #include <catch2/catch.hpp>
 
+#include <sys/resource.h>
+
+#include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "core/io/csv.hpp"
+#include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 
 namespace hysid {
 namespace {
@@ -50,6 +56,109 @@ TEST_CASE("comments and blank lines are skipped, line numbers stay right", "[csv
   REQUIRE(t.rows() == 2);
   CHECK(t.line_of_row == std::vector<long>{4, 6});
   CHECK(t.columns[1][1] == 2.0);
+}
+
+// RLIMIT_FSIZE makes writes beyond `bytes` fail with EFBIG (SIGXFSZ ignored): a short write without
+// root or a full disk. Restores the limit on destruction.
+struct FileSizeLimit {
+  rlimit old{};
+  explicit FileSizeLimit(rlim_t bytes) {
+    std::signal(SIGXFSZ, SIG_IGN);
+    getrlimit(RLIMIT_FSIZE, &old);
+    rlimit lim = old;
+    lim.rlim_cur = bytes;
+    setrlimit(RLIMIT_FSIZE, &lim);
+  }
+  ~FileSizeLimit() { setrlimit(RLIMIT_FSIZE, &old); }
+};
+
+TEST_CASE("a failed write names errno and leaves no temporary file", "[csv][files]") {
+  const auto dir = std::filesystem::temp_directory_path() / "hysid-test-csv" / "short";
+  std::filesystem::remove_all(dir);
+  const auto path = dir / "big.csv";
+  std::string message;
+  {
+    CsvWriter writer(path, {"a", "b"});
+    const FileSizeLimit limit(64 * 1024);
+    try {
+      for (int i = 0; i < 100000; ++i) writer.Row(std::vector<double>{1.0 / 3.0, static_cast<double>(i)});
+      writer.Commit();
+    } catch (const std::runtime_error& e) {
+      message = e.what();
+    }
+  }
+  CHECK_THAT(message, Catch::Contains("big.csv.tmp: write failed: File too large"));
+  CHECK_FALSE(std::filesystem::exists(path));
+  CHECK_FALSE(std::filesystem::exists(dir / "big.csv.tmp"));
+  // The same through WriteFileAtomically.
+  {
+    const FileSizeLimit limit(1000);
+    CHECK_THROWS_WITH(WriteFileAtomically(dir / "meta.json", std::string(5000, 'x')),
+                      Catch::Contains("meta.json.tmp: write failed: File too large"));
+  }
+  CHECK_FALSE(std::filesystem::exists(dir / "meta.json.tmp"));
+  CHECK_FALSE(std::filesystem::exists(dir / "meta.json"));
+  // A rename onto a non-empty directory fails: errno text, temporary removed.
+  std::filesystem::create_directories(dir / "taken" / "inside");
+  {
+    CsvWriter writer(dir / "taken", {"a"});
+    CHECK_THROWS_WITH(writer.Commit(), Catch::Contains("taken: cannot rename the temporary file onto it: Is a directory"));
+  }
+  CHECK_FALSE(std::filesystem::exists(dir / "taken.tmp"));
+  // Checked before any computation: a directory, a file as directory.
+  CHECK_THROWS_WITH(CheckOutputPath("--trace", dir), Catch::Contains("--trace") && Catch::Contains("is a directory"));
+  std::ofstream(dir / "plain") << "x";
+  CHECK_THROWS_WITH(CheckOutputPath("--trace", dir / "plain" / "x.csv"),
+                    Catch::Contains("--trace") && Catch::Contains("exists and is not a directory"));
+}
+
+TEST_CASE("headers must be headers: quoted names and numbers are refused", "[csv]") {
+  std::istringstream quoted("\"t\",\"y1\"\n0,1\n");
+  CHECK_THROWS_WITH(ReadCsvStream(quoted, "q.csv"), Catch::Contains("q.csv:1: column 1 of the header") &&
+                                                        Catch::Contains("is quoted"));
+  std::istringstream numbers("# comment\n0,20,0\n1,19,1\n");
+  CHECK_THROWS_WITH(ReadCsvStream(numbers, "n.csv"), Catch::Contains("n.csv:2: the first line is numbers, not a header"));
+  std::istringstream fine("t,y1\n0,1e308\n");
+  CHECK(ReadCsvStream(fine, "f.csv").columns[1][0] == 1e308);
+}
+
+TEST_CASE("lines and cells are bounded before a line is split; messages never echo a huge cell", "[csv][limits]") {
+  const std::string big(2u << 20, '7');  // 2 MiB of digits, beyond the default line limit
+  std::istringstream long_line("t,y\n0," + big + "\n");
+  try {
+    ReadCsvStream(long_line, "l.csv");
+    FAIL("no error");
+  } catch (const std::invalid_argument& e) {
+    CHECK_THAT(e.what(), Catch::Contains("l.csv:2: the line is longer than the limit of 1048576 bytes per CSV line") &&
+                             Catch::Contains("HYSID_MAX_CSV_LINE"));
+    CHECK(std::string(e.what()).size() < 300);
+  }
+  ::setenv("HYSID_MAX_CSV_LINE", "10000000", 1);
+  std::istringstream long_cell("t,y\n0," + big + "\n");
+  try {
+    ReadCsvStream(long_cell, "c.csv");
+    FAIL("no error");
+  } catch (const std::invalid_argument& e) {
+    CHECK_THAT(e.what(), Catch::Contains("c.csv:2: column 2: the cell '7777") &&
+                             Catch::Contains("(2097152 bytes)") && Catch::Contains("HYSID_MAX_CSV_CELL"));
+    CHECK(std::string(e.what()).size() < 300);
+  }
+  ::setenv("HYSID_MAX_CSV_LINE", "many", 1);
+  std::istringstream any("t\n0\n");
+  CHECK_THROWS_WITH(ReadCsvStream(any, "a.csv"), Catch::Contains("HYSID_MAX_CSV_LINE = 'many': must be a positive integer"));
+  ::unsetenv("HYSID_MAX_CSV_LINE");
+  // A non-numeric cell is echoed cut to 60 bytes.
+  std::istringstream word("t\n" + std::string(1000, 'x') + "\n");
+  CHECK_THROWS_WITH(ReadCsvStream(word, "w.csv"), Catch::Contains("… (1000 bytes)' is not a number"));
+}
+
+TEST_CASE("bytes echoed in a message are printable: control and invalid UTF-8 bytes as \\xNN", "[csv]") {
+  std::istringstream binary(std::string("t,y\n0,1\n\x01\x02", 10) + std::string(1, '\0') + ",\xff\xfe\n");
+  CHECK_THROWS_WITH(ReadCsvStream(binary, "b.csv"), "b.csv:3: column 1 ('t'): '\\x01\\x02\\x00' is not a number");
+  CHECK(Printable("a\tb\x7f") == "a\\x09b\\x7f");
+  CHECK(Printable("\xc3\xbb ok \xc3") == "\xc3\xbb ok \\xc3");  // û kept, a cut sequence escaped
+  CHECK(Printable("\xe2\x88") == "\\xe2\\x88");
+  CHECK(Abbreviated(std::string(100, '\n'), 2) == "\\x0a\\x0a… (100 bytes)");
 }
 
 }  // namespace

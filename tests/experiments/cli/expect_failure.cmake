@@ -1,10 +1,11 @@
-# Runs CMD (a ;-list) and passes only when it exits non-zero (exactly EXIT when given) with stderr matching REGEX on one line.
-execute_process(COMMAND ${CMD} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-if(rc EQUAL 0)
-  message(FATAL_ERROR "expected a failure, got exit 0\nstdout: ${out}\nstderr: ${err}")
+# Runs CMD (a ;-list) and passes only when it exits with CODE (default 2: bad input or usage) with
+# stderr matching REGEX on one line.
+if(NOT DEFINED CODE)
+  set(CODE 2)
 endif()
-if(DEFINED EXIT AND NOT rc EQUAL EXIT)
-  message(FATAL_ERROR "expected exit ${EXIT}, got ${rc}\nstderr: ${err}")
+execute_process(COMMAND ${CMD} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL CODE)
+  message(FATAL_ERROR "expected exit ${CODE}, got exit ${rc}\nstdout: ${out}\nstderr: ${err}")
 endif()
 if(NOT err MATCHES "${REGEX}")
   message(FATAL_ERROR "exit ${rc}, but stderr does not match '${REGEX}':\n${err}")

@@ -281,7 +281,7 @@ TEST_CASE("sweep: a killed run resumes to exactly the uninterrupted rows", "[swe
   // A run killed mid-write: the first rows of the journal, then half a line.
   const std::string journal = Slurp(full / "trials.journal");
   std::size_t pos = 0;
-  for (int i = 0; i < 1 + 17; ++i) pos = journal.find('\n', pos) + 1;
+  for (int i = 0; i < 2 + 17; ++i) pos = journal.find('\n', pos) + 1;
   const std::size_t torn = journal.find('\n', pos) - 20;
   fs::copy_file(full / "sweep.json", cut / "sweep.json");
   std::ofstream(cut / "trials.journal", std::ios::binary) << journal.substr(0, torn);
@@ -311,9 +311,149 @@ TEST_CASE("sweep: a killed run resumes to exactly the uninterrupted rows", "[swe
   const fs::path bad = TempDir("badjournal");
   fs::copy_file(full / "sweep.json", bad / "sweep.json");
   std::string broken = journal;
-  broken.insert(journal.find('\n') + 1, "garbage\n");
+  broken.insert(journal.find('\n', journal.find('\n') + 1) + 1, "garbage\n");
   std::ofstream(bad / "trials.journal", std::ios::binary) << broken;
-  CHECK_THROWS_WITH(Run(c, bad, 1), Catch::Contains("trials.journal:2: malformed journal row"));
+  CHECK_THROWS_WITH(Run(c, bad, 1), Catch::Contains("trials.journal:3: malformed journal row"));
+}
+
+namespace {
+
+// The journal's lines (identity, columns, rows).
+std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::stringstream ss(text);
+  for (std::string l; std::getline(ss, l);) lines.push_back(l);
+  return lines;
+}
+
+std::string Unlines(const std::vector<std::string>& lines) {
+  std::string s;
+  for (const auto& l : lines) s += l + "\n";
+  return s;
+}
+
+// A run directory holding `journal` (and sweep.json unless `with_identity` is false).
+fs::path Planted(const std::string& name, const fs::path& from, const std::string& journal, bool with_identity) {
+  const fs::path dir = TempDir(name);
+  if (with_identity) fs::copy_file(from / "sweep.json", dir / "sweep.json");
+  std::ofstream(dir / "trials.journal", std::ios::binary) << journal;
+  return dir;
+}
+
+}  // namespace
+
+TEST_CASE("sweep: a corrupt or foreign journal never reaches trials.csv", "[sweep][journal]") {
+  const SweepConfig c = ParseSweepText(kSweep, "journal.toml", Registry());
+  SweepConfig other = c;
+  other.seed = 99;  // another sweep: same cells, other noise
+  const fs::path full = TempDir("jfull"), foreign = TempDir("jforeign");
+  Run(c, full, 2);
+  Run(other, foreign, 2);
+  const std::vector<std::string> mine = Lines(Slurp(full / "trials.journal"));
+  const std::vector<std::string> theirs = Lines(Slurp(foreign / "trials.journal"));
+  REQUIRE(mine.size() == 2 + 48);
+  CHECK_THAT(mine[0], Catch::StartsWith("# hysid journal sweep=" + c.Hash() + " shard=1/1"));
+  CHECK_THAT(mine[5], Catch::EndsWith(std::string(",").append(c.Hash())));
+
+  // Another sweep's journal, with sweep.json deleted: refused by its first line.
+  CHECK_THROWS_WITH(Run(c, Planted("j1", full, Slurp(foreign / "trials.journal"), false), 1),
+                    Catch::Contains("trials.journal:1: the journal is of another sweep or shard"));
+  // A foreign row for a unit missing from ours (its first line forged to ours): refused by its hash.
+  {
+    std::vector<std::string> lines(mine.begin(), mine.begin() + 10);
+    lines.push_back(theirs[20]);
+    CHECK_THROWS_WITH(Run(c, Planted("j2", full, Unlines(lines), true), 1),
+                      Catch::Contains("trials.journal:11: the row of unit") && Catch::Contains("a foreign row"));
+  }
+  // A foreign duplicate placed first, its hash rewritten to ours: refused as a different duplicate.
+  {
+    std::vector<std::string> lines(mine.begin(), mine.begin() + 2);
+    std::string forged = theirs[2].substr(0, theirs[2].rfind(',') + 1) + c.Hash();
+    lines.push_back(forged);
+    lines.insert(lines.end(), mine.begin() + 2, mine.end());
+    const std::string first_unit = forged.substr(0, forged.find(','));
+    const bool same = forged.substr(0, forged.rfind(',')) == mine[2].substr(0, mine[2].rfind(','));
+    if (!same) {
+      CHECK_THROWS_WITH(Run(c, Planted("j3", full, Unlines(lines), true), 1),
+                        Catch::Contains("appears again (first on line 3) with different content"));
+    }
+  }
+  // A row claiming a unit id whose plan differs (cell/trial/keys), or beyond the sweep.
+  {
+    // Unit 47's row replaced by another unit's row relabelled 47.
+    std::vector<std::string> lines(mine.begin(), mine.end());
+    const auto unit_of = [](const std::string& l) { return l.substr(0, l.find(',')); };
+    const auto it47 = std::find_if(lines.begin() + 2, lines.end(), [&](const auto& l) { return unit_of(l) == "47"; });
+    REQUIRE(it47 != lines.end());
+    const std::string& other_row = unit_of(lines[2]) == "47" ? lines[3] : lines[2];
+    const std::string moved = "47" + other_row.substr(other_row.find(','));
+    *it47 = moved;
+    CHECK_THROWS_WITH(Run(c, Planted("j4", full, Unlines(lines), true), 1),
+                      Catch::Contains("the row of unit 47 has") && Catch::Contains("the plan has"));
+    const std::string beyond = "4800" + mine[3].substr(mine[3].find(','));
+    std::vector<std::string> b(mine.begin(), mine.begin() + 3);
+    b.push_back(beyond);
+    CHECK_THROWS_WITH(Run(c, Planted("j5", full, Unlines(b), true), 1),
+                      Catch::Contains("is beyond the sweep's 48 units"));
+  }
+  // An identical duplicate (a unit run twice) and a torn last line: resumed to the exact table.
+  {
+    std::vector<std::string> lines(mine.begin(), mine.begin() + 20);
+    lines.push_back(mine[5]);
+    std::string text = Unlines(lines) + mine[20].substr(0, 30);
+    const fs::path dir = Planted("j6", full, text, true);
+    const SweepOutcome o = Run(c, dir, 2);
+    CHECK(o.units_resumed == 18);
+    CHECK(Slurp(dir / "trials.csv") == Slurp(full / "trials.csv"));
+  }
+  // A torn line in the middle (two writers interleaved): refused, not guessed.
+  {
+    std::vector<std::string> lines(mine.begin(), mine.end());
+    lines[10] = lines[10].substr(0, 25) + lines[11];
+    CHECK_THROWS_WITH(Run(c, Planted("j7", full, Unlines(lines), true), 1),
+                      Catch::Contains("trials.journal:11: malformed journal row"));
+  }
+  // Two writers: the directory is locked while a run holds it.
+  {
+    const DirectoryLock held(full);
+    CHECK_THROWS_WITH(Run(c, full, 1), Catch::Contains("another hysid process is running in this directory"));
+  }
+  CHECK_NOTHROW(Run(c, full, 1));
+}
+
+TEST_CASE("sweep: sizes are checked against named limits before allocation", "[sweep][limits]") {
+  const std::string base = "[model]\nname = \"impact-msd\"\n[grid]\nsigma = 0.0\n";
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[run]\ntrials = 4611686018427387904\n"),
+             Catch::Contains("run.trials: 4611686018427387904 exceeds the limit of 10000000 units") &&
+                 Catch::Contains("HYSID_MAX_TRIALS"));
+  CHECK_THAT(ErrorOf(base + "dt = { from = 1e-4, to = 1e-3, count = 1000000000000 }\n"),
+             Catch::Contains("bad.toml:5: grid.dt.count: 1000000000000 exceeds the limit of 100000 values per grid "
+                             "axis (raise it with HYSID_MAX_AXIS_VALUES=N)"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-9\n"), Catch::Contains("samples per trajectory") &&
+                                                  Catch::Contains("HYSID_MAX_SAMPLES"));
+  // 10 000 cells × 10 000 trials: within each limit alone, beyond the product's.
+  const SweepConfig big = ParseSweepText(
+      base + "dt = 1e-3\nr = { from = 2, to = 300, count = 10000 }\n[run]\ntrials = 10000\n", "big.toml", Registry());
+  CHECK_THROWS_WITH(Run(big, TempDir("big"), 1), Catch::Contains("10000 cells × 10000 trials") &&
+                                                     Catch::Contains("HYSID_MAX_TRIALS"));
+  // TOML integers: read as 64 bits and range-checked, the error quoting the value as written.
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\nmax_jumps = 4294967296\n"),
+             Catch::Contains("simulator.max_jumps: 4294967296 is out of range [1, 2147483647]"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = -4294967296\n"),
+             Catch::Contains("identifier.window: window = -4294967296: must be >= 0"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = 4294967296\n"),
+             Catch::Contains("identifier.window: window = 4294967296: must be at most 2147483647 in magnitude"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[run]\nseed = -1\n"), Catch::Contains("run.seed: -1 must be ≥ 0"));
+}
+
+TEST_CASE("merge refuses an input directory as its output", "[sweep][shard]") {
+  const SweepConfig c = ParseSweepText(kSweep, "mergeout.toml", Registry());
+  const fs::path a = TempDir("mo1"), b = TempDir("mo2");
+  Run(c, a, 1, Shard{1, 2});
+  Run(c, b, 1, Shard{2, 2});
+  const std::string before = Slurp(a / "trials.csv");
+  CHECK_THROWS_WITH(MergeShards({a, b}, a / "." ), Catch::Contains("is one of the shard directories"));
+  CHECK(Slurp(a / "trials.csv") == before);
 }
 
 TEST_CASE("sweep: shards merged equal the unsharded run", "[sweep][shard]") {

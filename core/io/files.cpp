@@ -1,0 +1,81 @@
+#include "core/io/files.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+#include <system_error>
+
+#include <fmt/format.h>
+
+namespace hysid {
+
+namespace fs = std::filesystem;
+
+std::string IoError(const fs::path& path, const char* what, int error_number) {
+  return fmt::format("{}: {}: {}", path.string(), what,
+                     error_number ? std::strerror(error_number) : "short write (no error reported)");
+}
+
+void CheckOutputDirectory(const std::string& label, const fs::path& dir) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+    throw std::invalid_argument(fmt::format("{} {}: exists and is not a directory", label, dir.string()));
+  }
+  if (!fs::exists(dir, ec)) {
+    fs::create_directories(dir, ec);
+    if (ec) {
+      throw std::invalid_argument(
+          fmt::format("{} {}: cannot create the directory: {}", label, dir.string(), ec.message()));
+    }
+  }
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    throw std::invalid_argument(fmt::format("{} {}: not writable: {}", label, dir.string(), std::strerror(errno)));
+  }
+}
+
+void CheckOutputPath(const std::string& label, const fs::path& path) {
+  if (path.empty()) throw std::invalid_argument(fmt::format("{}: empty path", label));
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    throw std::invalid_argument(fmt::format("{} {}: is a directory, expected a file name", label, path.string()));
+  }
+  const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  CheckOutputDirectory(label, dir);
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) {
+    throw std::invalid_argument(fmt::format("{} {}: exists and is not a regular file", label, path.string()));
+  }
+}
+
+void WriteFileAtomically(const fs::path& path, std::string_view text) {
+  fs::path tmp = path;
+  tmp += ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error(IoError(tmp, "cannot open for writing", errno));
+  std::size_t done = 0;
+  int error = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      error = n < 0 ? errno : ENOSPC;
+      break;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::close(fd) != 0 && error == 0) error = errno ? errno : EIO;
+  if (error == 0 && std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int e = errno;
+    ::unlink(tmp.c_str());
+    throw std::runtime_error(IoError(path, "cannot rename the temporary file onto it", e));
+  }
+  if (error != 0) {
+    ::unlink(tmp.c_str());
+    throw std::runtime_error(IoError(tmp, "write failed", error));
+  }
+}
+
+}  // namespace hysid

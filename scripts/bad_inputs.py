@@ -1,0 +1,334 @@
+#!/usr/bin/env python3
+"""Runs hysid on a list of bad inputs and writes docs/bad-inputs.md: each input, its exit code and its
+message. Every case must exit 2 (bad input or usage) or 1 (a run that finished with a failed status),
+without a crash, with exactly one line starting with "hysid:" on stderr, its last line, which names the
+case's subject (the file, flag, key or run directory at fault; for run directories and flags the
+script derives it from the command, see subject()). Inputs are created in a scratch directory under
+relative names, so the table does not depend on where it runs.
+
+Usage: scripts/bad_inputs.py HYSID OUT.md           writes the table
+       scripts/bad_inputs.py --check HYSID DOC.md   checks every case and that DOC.md is what the
+                                                    first form writes (the ctest bad_inputs.table)
+"""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+SIM = ["--out", "o/t.csv"]
+BASE = '[model]\nname = "impact-msd"\nt_end = 4.0\n[grid]\nsigma = 0.0\n'
+
+
+def files():
+    """name -> content of the inputs the cases read."""
+    f = {
+        "quoted.csv": '"t","y1","y2"\n0,1,2\n0.1,1,2\n0.2,1,2\n',
+        "noheader.csv": "0,20,0\n0.0005,19.9,-0.1\n0.001,19.8,-0.2\n",
+        "jhuge.csv": "t,j,y1,y2\n0,0,1,2\n0.1,10000000000,1,2\n0.2,0,1,2\n",
+        "jfrac.csv": "t,j,y1,y2\n0,0,1,2\n0.1,0.5,1,2\n0.2,0,1,2\n",
+        "jneg.csv": "t,j,y1,y2\n0,0,1,2\n0.1,-1,1,2\n0.2,0,1,2\n",
+        "big.csv": "t,y1,y2\n0,1,2\n0.1,1e308,2\n0.2,1,2\n",
+        "overflow.csv": "t,y1,y2\n0,1,2\n0.1,1e400,2\n0.2,1,2\n",
+        "nan.csv": "t,y1,y2\n0,1,2\n0.1,nan,2\n0.2,1,2\n",
+        "inf.csv": "t,y1,y2\n0,1,2\n0.1,1,-inf\n0.2,1,2\n",
+        "word.csv": "t,y1,y2\n0,1,2\n0.1,abc,2\n0.2,1,2\n",
+        "emptycell.csv": "t,y1,y2\n0,1,2\n0.1,,2\n0.2,1,2\n",
+        "ragged.csv": "t,y1,y2\n0,1,2\n0.1,1\n0.2,1,2\n",
+        "extra.csv": "t,y1,y2\n0,1,2\n0.1,1,2,3\n0.2,1,2\n",
+        "emptyhead.csv": "t,,y2\n0,1,2\n0.1,1,2\n0.2,1,2\n",
+        "empty.csv": "",
+        "comments.csv": "# only\n\n# comments\n",
+        "headeronly.csv": "t,y1,y2\n",
+        "two.csv": "t,y1,y2\n0,1,2\n0.1,1,2\n",
+        "onecol.csv": "t,y1\n0,1\n0.1,1\n0.2,1\n",
+        "backwards.csv": "t,y1,y2\n0,1,2\n0.2,1,2\n0.1,1,2\n",
+        "same.csv": "t,y1,y2\n0,1,2\n0.1,1,2\n0.1,1,2\n",
+        "irregular.csv": "t,y1,y2\n0,1,2\n0.1,1,2\n0.25,1,2\n0.3,1,2\n",
+        "longcell.csv": "t,y1,y2\n0,1,2\n0.1," + "1" * 5000 + ",2\n0.2,1,2\n",
+        "longline.csv": "t,y1,y2\n0,1,2\n0.1," + "1," * 600000 + "2\n",
+        "binary.csv": "t,y1,y2\n\x00\x01\x02,\xff\xfe,1\n",
+        "hex.csv": "t,y1,y2\n0,0x10,2\n0.1,1,2\n0.2,1,2\n",
+        "empty.toml": "",
+        "syntax.toml": "[model\nname = 1\n",
+        "nomodel.toml": "[grid]\nsigma = 0.0\ndt = 1e-3\n",
+        "nogrid.toml": '[model]\nname = "impact-msd"\n',
+        "unknownkey.toml": BASE + "dt = 1e-3\ncolour = 1\n",
+        "unknownmodel.toml": '[model]\nname = "pendulum"\n[grid]\nsigma = 0.0\ndt = 1e-3\n',
+        "badparam.toml": '[model]\nname = "impact-msd"\nparams = { k = 1.0 }\n[grid]\nsigma = 0.0\ndt = 1e-3\n',
+        "x0len.toml": '[model]\nname = "impact-msd"\nx0 = [1.0]\n[grid]\nsigma = 0.0\ndt = 1e-3\n',
+        "x0both.toml": '[model]\nname = "impact-msd"\nx0 = [1.0, 0.0]\nx0_range = [[0, 1], [0, 1]]\n'
+                       '[grid]\nsigma = 0.0\ndt = 1e-3\n',
+        "x0range.toml": '[model]\nname = "impact-msd"\nx0_range = [[2, 1], [0, 1]]\n[grid]\nsigma = 0.0\ndt = 1e-3\n',
+        "tend.toml": '[model]\nname = "impact-msd"\nt_end = -1.0\n[grid]\nsigma = 0.0\ndt = 1e-3\n',
+        "dtneg.toml": BASE + "dt = -1e-3\n",
+        "dtstring.toml": BASE + 'dt = "fast"\n',
+        "dtbig.toml": BASE + "dt = 3.0\n",
+        "dttiny.toml": BASE + "dt = 1e-12\n",
+        "dtdup.toml": BASE + "dt = [1e-3, 1e-3]\n",
+        "dtempty.toml": BASE + "dt = []\n",
+        "sigmaneg.toml": '[model]\nname = "impact-msd"\n[grid]\nsigma = -0.1\ndt = 1e-3\n',
+        "rsmall.toml": BASE + "dt = 1e-3\nr = 0.5\n",
+        "countzero.toml": BASE + "dt = { from = 1e-3, to = 2e-3, count = 0 }\n",
+        "counthuge.toml": BASE + "dt = { from = 1e-3, to = 2e-3, count = 1000000000000 }\n",
+        "countmiss.toml": BASE + "dt = { from = 1e-3, to = 2e-3 }\n",
+        "logneg.toml": BASE + "dt = { from = -1e-3, to = 2e-3, count = 3, log = true }\n",
+        "falsealarm.toml": BASE + "dt = 1e-3\nfalse_alarm = 0.7\n",
+        "estimator.toml": BASE + 'dt = 1e-3\nestimator = "kalman"\n',
+        "detector.toml": BASE + 'dt = 1e-3\ndetector = "oracle"\n',
+        "trialszero.toml": BASE + "dt = 1e-3\n[run]\ntrials = 0\n",
+        "trials2p62.toml": BASE + "dt = 1e-3\n[run]\ntrials = 4611686018427387904\n",
+        "trials1e12.toml": BASE + "dt = 1e-3\n[run]\ntrials = 1000000000000\n",
+        "cellsxtrials.toml": BASE + "dt = 1e-3\nr = { from = 2, to = 300, count = 10000 }\n[run]\ntrials = 10000\n",
+        "seedneg.toml": BASE + "dt = 1e-3\n[run]\nseed = -1\n",
+        "seedfloat.toml": BASE + "dt = 1e-3\n[run]\nseed = 1.5\n",
+        "maxjumps.toml": BASE + "dt = 1e-3\n[simulator]\nmax_jumps = 4294967296\n",
+        "window.toml": BASE + "dt = 1e-3\n[identifier]\nwindow = -4294967296\n",
+        "rtol.toml": BASE + "dt = 1e-3\n[simulator]\nrtol = -1.0\n",
+        "nonascii.toml": BASE + "dt = 1e-3 \u00fb\n",
+        "mlstring.toml": 'a = """\\\n\u00fb"""\n',
+        "bracket.toml": "[&\n",
+        "nanvalue.toml": BASE + "dt = nan\n",
+        "ok.toml": BASE + "dt = 2e-3\n[run]\ntrials = 1\n",
+    }
+    return f
+
+
+def cases():
+    """(description, argv after hysid). Setup steps are run by main() first."""
+    return [
+        ("unknown subcommand", ["frobnicate"]),
+        ("no subcommand", []),
+        ("unknown flag", ["simulate", "--bogus", "1"] + SIM),
+        ("flag without its value", ["simulate", "--dt"]),
+        ("required flag missing", ["simulate"]),
+        ("not a number", ["simulate", "--dt", "abc"] + SIM),
+        ("--dt nan", ["simulate", "--dt", "nan"] + SIM),
+        ("--t-end nan", ["simulate", "--t-end", "nan"] + SIM),
+        ("--dt inf", ["simulate", "--dt", "inf"] + SIM),
+        ("--dt 0", ["simulate", "--dt", "0"] + SIM),
+        ("--dt -1", ["simulate", "--dt", "-1"] + SIM),
+        ("--dt beyond the sample limit", ["simulate", "--dt", "1e-7"] + SIM),
+        ("--t-end 0", ["simulate", "--t-end", "0"] + SIM),
+        ("--seed -1", ["simulate", "--seed", "-1"] + SIM),
+        ("--trial -1", ["simulate", "--trial", "-1"] + SIM),
+        ("--seed 2^64", ["simulate", "--seed", "18446744073709551616"] + SIM),
+        ("--sigma negative", ["simulate", "--sigma", "-0.1"] + SIM),
+        ("--sigma of the wrong length", ["simulate", "--sigma", "1,2,3"] + SIM),
+        ("--x0 of the wrong length", ["simulate", "--x0", "1,2,3"] + SIM),
+        ("--x0 outside C and D", ["simulate", "--x0", "-1,0"] + SIM),
+        ("--x0 nan", ["simulate", "--x0", "nan,0"] + SIM),
+        ("--param unknown", ["simulate", "--param", "k=1"] + SIM),
+        ("--param inf", ["simulate", "--param", "a=inf"] + SIM),
+        ("--param without =", ["simulate", "--param", "a"] + SIM),
+        ("--model unknown", ["simulate", "--model", "pendulum"] + SIM),
+        ("--rtol negative", ["simulate", "--rtol", "-1"] + SIM),
+        ("--max-jumps 0", ["simulate", "--max-jumps", "0"] + SIM),
+        ("--out a directory", ["simulate", "--out", "o"]),
+        ("--out under a file", ["simulate", "--out", "ok.toml/t.csv"]),
+        ("--jumps-out a directory", ["simulate", "--jumps-out", "o"] + SIM),
+        ("--jumps-out the sidecar of --out", ["simulate", "--jumps-out", "./o/t.json"] + SIM),
+        ("jump budget exhausted (exit 1)", ["simulate", "--max-jumps", "2"] + SIM),
+        ("stiff spring a = 1e12: not Zeno (exit 1, budget)", ["simulate", "--param", "a=1e12", "--max-jumps", "1000"] + SIM),
+    ] + [
+        (f"identify: {d}", ["identify", "--data", f])
+        for d, f in [
+            ("quoted header", "quoted.csv"), ("no header", "noheader.csv"), ("j = 1e10", "jhuge.csv"),
+            ("j = 0.5", "jfrac.csv"), ("j = -1", "jneg.csv"), ("a cell of 1e308", "big.csv"),
+            ("a cell of 1e400", "overflow.csv"), ("nan cell", "nan.csv"), ("-inf cell", "inf.csv"),
+            ("a word", "word.csv"), ("an empty cell", "emptycell.csv"), ("too few cells", "ragged.csv"),
+            ("too many cells", "extra.csv"), ("an empty header name", "emptyhead.csv"),
+            ("empty file", "empty.csv"), ("only comments", "comments.csv"), ("header only", "headeronly.csv"),
+            ("2 samples", "two.csv"), ("too few columns", "onecol.csv"), ("time backwards", "backwards.csv"),
+            ("time repeated", "same.csv"), ("irregular sampling", "irregular.csv"),
+            ("a 5000-byte cell", "longcell.csv"), ("a 1.2 MB line", "longline.csv"), ("binary bytes", "binary.csv"),
+            ("hexadecimal", "hex.csv"), ("missing file", "nosuch.csv"), ("a directory", "o"),
+        ]
+    ] + [
+        ("identify: --trace a directory", ["identify", "--data", "sim.csv", "--trace", "o"]),
+        ("identify: --r 1", ["identify", "--r", "1", "--data", "sim.csv"]),
+        ("identify: --forgetting 2", ["identify", "--forgetting", "2", "--data", "sim.csv"]),
+        ("identify: --false-alarm 0", ["identify", "--detector", "residual", "--false-alarm", "0", "--data", "sim.csv"]),
+        ("identify: --data-atol nan", ["identify", "--detector", "residual", "--data-atol", "nan", "--data", "sim.csv"]),
+        ("identify: --estimator unknown", ["identify", "--estimator", "kalman", "--data", "sim.csv"]),
+        ("identify: noise shape not square", ["identify", "--estimator", "gtls", "--flow-noise-shape", "1,0,0",
+                                             "--data", "sim.csv"]),
+    ] + [
+        (f"sweep: {d}", ["sweep", f, "--out", "run", "--dry-run"])
+        for d, f in [
+            ("empty file", "empty.toml"), ("TOML syntax", "syntax.toml"), ("no [model]", "nomodel.toml"),
+            ("no [grid]", "nogrid.toml"), ("unknown key", "unknownkey.toml"), ("unknown model", "unknownmodel.toml"),
+            ("unknown parameter", "badparam.toml"), ("x0 length", "x0len.toml"), ("x0 and x0_range", "x0both.toml"),
+            ("x0_range lo > hi", "x0range.toml"), ("t_end < 0", "tend.toml"), ("dt < 0", "dtneg.toml"),
+            ("dt a string", "dtstring.toml"), ("dt > t_end/2", "dtbig.toml"), ("dt beyond the sample limit", "dttiny.toml"),
+            ("dt twice", "dtdup.toml"), ("dt empty", "dtempty.toml"), ("sigma < 0", "sigmaneg.toml"),
+            ("r ≤ 1", "rsmall.toml"), ("range count 0", "countzero.toml"), ("range count 1e12", "counthuge.toml"),
+            ("range without count", "countmiss.toml"), ("log range from < 0", "logneg.toml"),
+            ("false_alarm 0.7", "falsealarm.toml"), ("unknown estimator", "estimator.toml"),
+            ("unknown detector", "detector.toml"), ("trials = 0", "trialszero.toml"), ("trials = 2^62", "trials2p62.toml"),
+            ("trials = 1e12", "trials1e12.toml"), ("seed = -1", "seedneg.toml"), ("seed = 1.5", "seedfloat.toml"),
+            ("max_jumps = 2^32", "maxjumps.toml"), ("window = -2^32", "window.toml"), ("rtol < 0", "rtol.toml"),
+            ("non-ASCII outside strings", "nonascii.toml"), ("non-ASCII after a line-ending backslash", "mlstring.toml"),
+            ("'[&' (a toml++ assertion)", "bracket.toml"), ("dt = nan", "nanvalue.toml"),
+            ("missing file", "nosuch.toml"),
+        ]
+    ] + [
+        ("sweep: 10 000 cells × 10 000 trials", ["sweep", "cellsxtrials.toml", "--out", "run"]),
+        ("sweep: --out a file", ["sweep", "ok.toml", "--out", "ok.toml"]),
+        ("sweep: --shard 0/2", ["sweep", "ok.toml", "--shard", "0/2", "--out", "run"]),
+        ("sweep: --threads -1", ["sweep", "ok.toml", "--threads", "-1", "--out", "run"]),
+        ("sweep: --progress fancy", ["sweep", "ok.toml", "--progress", "fancy", "--out", "run"]),
+        ("sweep: HYSID_MAX_TRIALS=many", ["env:HYSID_MAX_TRIALS=many", "sweep", "ok.toml", "--out", "run"]),
+        ("sweep: another sweep's journal (sweep.json deleted)", ["sweep", "ok.toml", "--out", "foreign"]),
+        ("sweep: a foreign row in the journal", ["sweep", "ok.toml", "--out", "forged"]),
+        ("sweep: a torn line inside the journal", ["sweep", "ok.toml", "--out", "torn"]),
+        ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
+        ("merge: output is an input", ["merge", "done", "--out", "done"]),
+        ("merge: not a run directory", ["merge", "o", "--out", "m"]),
+    ]
+
+
+# Cases whose message names something the command line does not show as its last flag or file.
+SUBJECTS = {
+    "no subcommand": "subcommand",
+    "required flag missing": "--out",
+    "--out a directory": "--out",
+    "--out under a file": "--out",
+    "jump budget exhausted (exit 1)": "jump budget",
+    "stiff spring a = 1e12: not Zeno (exit 1, budget)": "jump budget",
+    "sweep: --out a file": "--out",
+    "sweep: HYSID_MAX_TRIALS=many": "HYSID_MAX_TRIALS",
+    "sweep: another sweep's journal (sweep.json deleted)": "foreign/trials.journal:1",
+    "sweep: a foreign row in the journal": "forged/trials.journal:3",
+    "sweep: a torn line inside the journal": "torn/trials.journal:3",
+    "sweep: the run directory is locked": "locked",
+    "merge: output is an input": "--out",
+    "merge: not a run directory": "o:",
+}
+
+
+def subject(desc, args):
+    """What the message must name: the last flag other than --out/--data/--dry-run, else the input file."""
+    if desc in SUBJECTS:
+        return SUBJECTS[desc]
+    args = [a for a in args if not a.startswith("env:")]
+    flags = [a for a in args if a.startswith("--") and a not in ("--out", "--data", "--dry-run")]
+    if flags:
+        return flags[-1]
+    if args[0] == "identify":
+        return args[args.index("--data") + 1]
+    return args[1] if len(args) > 1 else args[0]
+
+
+def run(hysid, args, cwd):
+    env = dict(os.environ)
+    while args and args[0].startswith("env:"):
+        k, v = args[0][4:].split("=", 1)
+        env[k] = v
+        args = args[1:]
+    p = subprocess.run([hysid] + args, cwd=cwd, env=env, capture_output=True)
+    return p.returncode, p.stderr.decode("utf-8", "replace")
+
+
+def setup(hysid, d):
+    for name, text in files().items():
+        with open(os.path.join(d, name), "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+    os.makedirs(os.path.join(d, "o"))
+    subprocess.run([hysid, "simulate", "--sigma", "0.1", "--out", "sim.csv"], cwd=d, check=True, capture_output=True)
+    # A finished run, and run directories corrupted from it.
+    subprocess.run([hysid, "sweep", "ok.toml", "--out", "done", "--progress", "none"], cwd=d, check=True,
+                   capture_output=True)
+    other = files()["ok.toml"].replace("trials = 1", "trials = 1\nseed = 7")
+    with open(os.path.join(d, "other.toml"), "w") as f:
+        f.write(other)
+    subprocess.run([hysid, "sweep", "other.toml", "--out", "theirs", "--progress", "none"], cwd=d, check=True,
+                   capture_output=True)
+    mine = open(os.path.join(d, "done", "trials.journal")).read().splitlines(True)
+    theirs = open(os.path.join(d, "theirs", "trials.journal")).read().splitlines(True)
+    for name, lines, identity in [("foreign", theirs, False), ("forged", mine[:2] + theirs[2:3], True),
+                                  ("torn", mine[:2] + [mine[2][:20] + mine[2]], True), ("locked", mine, True)]:
+        os.makedirs(os.path.join(d, name))
+        with open(os.path.join(d, name, "trials.journal"), "w") as f:
+            f.writelines(lines)
+        if identity:
+            with open(os.path.join(d, "done", "sweep.json")) as src, open(os.path.join(d, name, "sweep.json"), "w") as dst:
+                dst.write(src.read())
+
+
+def check_case(desc, args, code, err):
+    """The policy every case must meet, or a description of how it fails."""
+    lines = [l for l in err.strip().splitlines() if l.strip()]
+    said = [l for l in lines if l.startswith("hysid:")]
+    want = subject(desc, args)
+    if code not in (1, 2):
+        return f"exit {code} (a crash or an accepted input)"
+    if len(said) != 1 or lines[-1] != said[0]:
+        return "not exactly one 'hysid:' line, the last on stderr"
+    if len(said[0]) > 400:
+        return "a message longer than 400 characters"
+    if want not in said[0]:
+        return f"the message does not name {want!r}"
+    return None
+
+
+def table(rows):
+    cell = lambda s: s.replace("|", "\\|").replace("\n", " ")
+    out = ("# Bad inputs and their messages\n\n"
+           "Generated by `scripts/bad_inputs.py build/bin/hysid docs/bad-inputs.md`; the test\n"
+           "`bad_inputs.table` runs `scripts/bad_inputs.py --check` and fails when a case crashes, exits other\n"
+           "than 2 (bad input or usage) or 1 (a run that finished with a failed status), prints other than one\n"
+           "`hysid:` line naming the file, line, key, flag or directory at fault, or when this file is not\n"
+           "what the script writes. Each input is run in a scratch directory.\n"
+           f"{len(rows)} inputs.\n\n| # | input | command | exit | message |\n|---|---|---|---|---|\n")
+    for i, (desc, cmd, code, msg) in enumerate(rows, 1):
+        out += f"| {i} | {cell(desc)} | `{cell(cmd)}` | {code} | {cell(msg)} |\n"
+    return out
+
+
+def normalized(text):
+    """The table with long decimals and sweep hashes masked: the last digits of a stop time may differ
+    between compilers, and a sweep's hash changes whenever the configuration gains a field."""
+    return re.sub(r"\b[0-9a-f]{16}\b", "<hash>", re.sub(r"\d+\.\d{6,}", "<t>", text))
+
+
+def main():
+    check = sys.argv[1] == "--check"
+    hysid, out = os.path.abspath(sys.argv[1 + check]), sys.argv[2 + check]
+    rows, bad = [], []
+    with tempfile.TemporaryDirectory(prefix="hysid-bad-inputs-") as d:
+        setup(hysid, d)
+        import fcntl
+        lock = open(os.path.join(d, "locked", ".lock"), "w")
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        for desc, args in cases():
+            code, err = run(hysid, list(args), d)
+            problem = check_case(desc, args, code, err)
+            if problem:
+                bad.append(f"{desc}: {problem}; exit {code}, stderr {err!r:.300}")
+            lines = [l for l in err.strip().splitlines() if l.strip()]
+            msg = lines[-1] if lines else ""
+            shown = " ".join(a for a in args if not a.startswith("env:"))
+            env = " ".join(a[4:] for a in args if a.startswith("env:"))
+            cmd = (env + " " if env else "") + "hysid " + shown
+            rows.append((desc, cmd.replace(d, "."), code, msg.replace(d, ".")))
+    text = table(rows)
+    if check:
+        with open(out, encoding="utf-8") as f:
+            doc = f.read()
+        if normalized(doc) != normalized(text):
+            old, new = normalized(doc).splitlines(), normalized(text).splitlines()
+            diff = [f"  doc: {a}\n  now: {b}" for a, b in zip(old, new) if a != b][:5]
+            bad.append(f"{out} is not current (regenerate: scripts/bad_inputs.py HYSID {out}); "
+                       f"{len(old)} vs {len(new)} lines, first differences:\n" + "\n".join(diff))
+    else:
+        with open(out, "w", encoding="utf-8") as f:
+            f.write(text)
+    if bad:
+        print("\n".join(bad), file=sys.stderr)
+        sys.exit(1)
+    print(f"{len(rows)} bad inputs: each refused by name" + (f", {out} current" if check else f", wrote {out}"))
+
+
+if __name__ == "__main__":
+    main()
