@@ -11,7 +11,7 @@
 namespace hysid {
 namespace {
 
-// The example of README.md ("Adding a model"), verbatim but for the hysid:: prefixes.
+// The example of docs/extending.md ("A model in C++"), verbatim but for the hysid:: prefixes.
 struct VanDerPolWall {
   ModelSpec Spec() const {
     return {.name = "vdp-wall",
@@ -146,7 +146,7 @@ TEST_CASE("distance to the jump set D = {xi1 = 0, xi2 <= 0} of the built-in mode
     CHECK(d(3.0, 4.0) == 5.0);    // nearest point of D is the origin
     CHECK(d(0.0, 2.0) == 2.0);
   }
-  // The README's example model does not provide it: NaN.
+  // The example model of docs/extending.md does not provide it: NaN.
   const Model vdp{VanDerPolWall{}};
   CHECK_FALSE(vdp.has_jump_set_distance());
   CHECK(std::isnan(vdp.DistanceToJumpSet(Vec::Zero(2))));

@@ -19,7 +19,7 @@ SampleSet Set(std::initializer_list<std::pair<double, double>> pts) {
   return s;
 }
 
-// A model without DistanceToJumpSet (the README's example has none either).
+// A model without DistanceToJumpSet (the example of docs/extending.md has none either).
 struct NoDistance {
   ModelSpec Spec() const {
     return {.name = "no-distance",
