@@ -58,7 +58,7 @@ struct ModelSpec {
   double default_t_end = 10.0;
   double default_dt = 1e-3;
   // Human-readable equations, one per line (flow, jump, guards, sets), for `hysid models --show`.
-  std::string equations;
+  std::string equations = {};
 };
 
 // Which member functions a model struct must provide. ξ has size n = spec.state_names.size().
