@@ -411,9 +411,10 @@ void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
   }
   if (c->oracle) {  // the true labels replace the detector: nothing of it to vary
     for (const auto& [k, v] : grid) {
+      const std::string name(k.str());  // a structured binding cannot be captured by clang 14
       const bool detector_key = k == "detector" || std::any_of(c->grid.options.begin(), c->grid.options.end(),
                                                                 [&](const OptionAxis& a) {
-                                                                  return a.name == k.str() &&
+                                                                  return a.name == name &&
                                                                          a.family == OptionAxis::Family::kDetector;
                                                                 });
       if (detector_key) rd.Fail(&v, "grid." + std::string(k.str()), "not used with identifier.oracle = true");
@@ -526,8 +527,9 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
       }
     } else {
       const double x = rd.Number(v, key);
+      const std::string name(k.str());  // a structured binding cannot be captured by clang 14
       const auto it = std::find_if(g.options.begin(), g.options.end(),
-                                   [&](const OptionAxis& a) { return a.name == k.str(); });
+                                   [&](const OptionAxis& a) { return a.name == name; });
       const std::vector<double>& axis = k == "sigma" ? g.sigma : it->values;
       if (std::find(axis.begin(), axis.end(), x) == axis.end()) {
         rd.Fail(&v, key, fmt::format("{} is not on grid.{} ({})", x, k.str(), fmt::join(axis, ", ")));
