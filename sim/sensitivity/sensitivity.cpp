@@ -13,6 +13,8 @@
 #include <sundials/sundials_context.h>
 #include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
+#include "sim/sundials_ptr.hpp"
+
 namespace hysid {
 
 Unknowns Unknowns::Of(const Model& model, bool with_x0) {
@@ -78,24 +80,10 @@ bool SensitivityOptions::IsValid(std::string* error) const { return sim.IsValid(
 
 namespace {
 
-// ---- RAII for the SUNDIALS objects (freed in reverse order of creation) -------------------------
-struct ContextDeleter {
-  void operator()(SUNContext ctx) const { SUNContext_Free(&ctx); }
-};
-struct NVectorDeleter {
-  void operator()(N_Vector v) const { N_VDestroy(v); }
-};
-struct NonlinearSolverDeleter {
-  void operator()(SUNNonlinearSolver s) const { SUNNonlinSolFree(s); }
-};
-struct CvodeDeleter {
-  void operator()(void* mem) const { CVodeFree(&mem); }
-};
-using ContextPtr = std::unique_ptr<std::remove_pointer_t<SUNContext>, ContextDeleter>;
-using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
-using NonlinearSolverPtr =
-    std::unique_ptr<std::remove_pointer_t<SUNNonlinearSolver>, NonlinearSolverDeleter>;
-using CvodePtr = std::unique_ptr<void, CvodeDeleter>;
+using sundials_ptr::ContextPtr;
+using sundials_ptr::CvodePtr;
+using sundials_ptr::NonlinearSolverPtr;
+using sundials_ptr::NVectorPtr;
 
 class VectorArray {
  public:

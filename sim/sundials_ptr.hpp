@@ -1,0 +1,33 @@
+// Owning handles for the SUNDIALS objects of one integration (context, vectors, nonlinear solver,
+// CVODES memory), each freed by its own SUNDIALS call; declare them in creation order so they are
+// freed in reverse. Internal to sim/: the simulator and the sensitivity integration use them.
+#pragma once
+
+#include <memory>
+#include <type_traits>
+
+#include <cvodes/cvodes.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sundials/sundials_nonlinearsolver.h>
+
+namespace hysid::sundials_ptr {
+
+struct ContextDeleter {
+  void operator()(SUNContext ctx) const { SUNContext_Free(&ctx); }
+};
+struct NVectorDeleter {
+  void operator()(N_Vector v) const { N_VDestroy(v); }
+};
+struct NonlinearSolverDeleter {
+  void operator()(SUNNonlinearSolver s) const { SUNNonlinSolFree(s); }
+};
+struct CvodeDeleter {
+  void operator()(void* mem) const { CVodeFree(&mem); }
+};
+using ContextPtr = std::unique_ptr<std::remove_pointer_t<SUNContext>, ContextDeleter>;
+using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
+using NonlinearSolverPtr = std::unique_ptr<std::remove_pointer_t<SUNNonlinearSolver>, NonlinearSolverDeleter>;
+using CvodePtr = std::unique_ptr<void, CvodeDeleter>;
+
+}  // namespace hysid::sundials_ptr
