@@ -20,6 +20,7 @@ using sundials_ptr::ContextPtr;
 using sundials_ptr::CvodePtr;
 using sundials_ptr::NonlinearSolverPtr;
 using sundials_ptr::NVectorPtr;
+using sundials_ptr::ToCvodeDirection;
 
 // What CVODE's callbacks see.
 struct CallbackData {
@@ -55,15 +56,6 @@ int GuardFunctions(sunrealtype /*t*/, N_Vector y, sunrealtype* gout, void* user_
 void CaptureError(int /*error_code*/, const char* module, const char* function, char* msg,
                   void* user_data) {
   static_cast<CallbackData*>(user_data)->last_error = fmt::format("{}/{}: {}", module, function, msg);
-}
-
-int ToCvodeDirection(Crossing c) {
-  switch (c) {
-    case Crossing::kFalling: return -1;
-    case Crossing::kRising: return 1;
-    case Crossing::kBoth: return 0;
-  }
-  return 0;
 }
 
 // One simulation: owns the CVODE objects and writes samples and jumps into the trajectory.

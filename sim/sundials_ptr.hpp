@@ -1,6 +1,7 @@
 // Owning handles for the SUNDIALS objects of one integration (context, vectors, nonlinear solver,
 // CVODES memory), each freed by its own SUNDIALS call; declare them in creation order so they are
-// freed in reverse. Internal to sim/: the simulator and the sensitivity integration use them.
+// freed in reverse. Also the guard direction in CVODE's convention. Internal to sim/: the simulator
+// and the sensitivity integration use them.
 #pragma once
 
 #include <memory>
@@ -10,6 +11,8 @@
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
 #include <sundials/sundials_nonlinearsolver.h>
+
+#include "core/model/model.hpp"
 
 namespace hysid::sundials_ptr {
 
@@ -29,5 +32,15 @@ using ContextPtr = std::unique_ptr<std::remove_pointer_t<SUNContext>, ContextDel
 using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
 using NonlinearSolverPtr = std::unique_ptr<std::remove_pointer_t<SUNNonlinearSolver>, NonlinearSolverDeleter>;
 using CvodePtr = std::unique_ptr<void, CvodeDeleter>;
+
+// CVodeSetRootDirection's value for a guard's crossing direction.
+inline int ToCvodeDirection(Crossing c) {
+  switch (c) {
+    case Crossing::kFalling: return -1;
+    case Crossing::kRising: return 1;
+    case Crossing::kBoth: return 0;
+  }
+  return 0;
+}
 
 }  // namespace hysid::sundials_ptr

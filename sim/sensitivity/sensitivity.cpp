@@ -84,6 +84,7 @@ using sundials_ptr::ContextPtr;
 using sundials_ptr::CvodePtr;
 using sundials_ptr::NonlinearSolverPtr;
 using sundials_ptr::NVectorPtr;
+using sundials_ptr::ToCvodeDirection;
 
 class VectorArray {
  public:
@@ -160,15 +161,6 @@ int GuardFunctions(sunrealtype /*t*/, N_Vector y, sunrealtype* gout, void* user_
 
 void CaptureError(int /*code*/, const char* module, const char* function, char* msg, void* user_data) {
   static_cast<CallbackData*>(user_data)->last_error = fmt::format("{}/{}: {}", module, function, msg);
-}
-
-int ToCvodeDirection(Crossing c) {
-  switch (c) {
-    case Crossing::kFalling: return -1;
-    case Crossing::kRising: return 1;
-    case Crossing::kBoth: return 0;
-  }
-  return 0;
 }
 
 // Central-difference Jacobian (m × n) of a map ℝⁿ → ℝᵐ at x; step 1e-5·max(1, |x_i|).
