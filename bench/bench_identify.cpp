@@ -27,9 +27,8 @@ Mat PaperSamples(double sigma) {
 // `hysid identify`, reproduce and sweeps), or one Identifier::Step call per sample; the counter is
 // per sample.
 void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char* detector = "paper",
-                   bool known_sigma = false, bool localize = false,
-                   const std::string& estimator = "rls", bool data_accuracy = false,
-                   bool one_at_a_time = false, bool model_file = false) {
+                   bool known_sigma = false, bool localize = false, const std::string& estimator = "rls",
+                   bool data_accuracy = false, bool one_at_a_time = false, bool model_file = false) {
   // The built-in C++ struct, or the same model from models/impact-msd.toml (muParser).
   const Model model = model_file ? LoadModelFile(HYSID_MODELS_DIR "/impact-msd.toml") : Model{ImpactMsd{}};
   const Mat y = PaperSamples(sigma);
@@ -54,9 +53,9 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
     }
     benchmark::DoNotOptimize(id.alpha_hat().data());
   }
-  state.counters["per_sample"] = benchmark::Counter(
-      static_cast<double>(y.cols()),
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["per_sample"] =
+      benchmark::Counter(static_cast<double>(y.cols()),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
 // Detector (paper, r = 220) + regressions + RLS for α and β; no sample sets.
@@ -155,9 +154,9 @@ void BM_IdentifyStepFusedReference(benchmark::State& state) {
     benchmark::DoNotOptimize(b);
   }
   state.counters["jumps"] = static_cast<double>(jumps);
-  state.counters["per_sample"] = benchmark::Counter(
-      static_cast<double>(y.cols()),
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["per_sample"] =
+      benchmark::Counter(static_cast<double>(y.cols()),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_IdentifyStepFusedReference)->Unit(benchmark::kMillisecond);
 
@@ -172,9 +171,9 @@ void BM_SampleSetAdd(benchmark::State& state) {
     vertices = static_cast<long>(set.vertices().cols());
     benchmark::DoNotOptimize(vertices);
   }
-  state.counters["per_sample"] = benchmark::Counter(
-      static_cast<double>(y.cols()),
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["per_sample"] =
+      benchmark::Counter(static_cast<double>(y.cols()),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.counters["vertices"] = static_cast<double>(vertices);
 }
 BENCHMARK(BM_SampleSetAdd)->Arg(0)->Arg(25)->Unit(benchmark::kMillisecond);

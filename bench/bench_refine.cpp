@@ -35,7 +35,8 @@ void BM_SensitivityTrajectory(benchmark::State& state) {
   const Model model{ImpactMsd{}};
   const SensitivityOptions o{.sim = Tolerance(state), .sensitivities = true};
   for (auto _ : state) {
-    SensitivityTrajectory s = SimulateSensitivities(model, HybridParameters::Of(model, kX0), Unknowns::Of(model), kGrid, o);
+    SensitivityTrajectory s =
+        SimulateSensitivities(model, HybridParameters::Of(model, kX0), Unknowns::Of(model), kGrid, o);
     benchmark::DoNotOptimize(s.sensitivities.data());
   }
 }

@@ -66,22 +66,24 @@ py::array_t<double> ToArray(const Vec& v) {
 Vec PerState(const py::object& value, int n, const char* what) {
   if (value.is_none()) return {};
   std::vector<double> v = py::isinstance<py::sequence>(value) ? value.cast<std::vector<double>>()
-                                                                : std::vector<double>{value.cast<double>()};
+                                                              : std::vector<double>{value.cast<double>()};
   if (v.size() == 1) return Vec::Constant(n, v[0]);
   if (static_cast<int>(v.size()) != n) {
-    throw std::invalid_argument(fmt::format("{} has {} values; give one, or one per state ({})", what, v.size(), n));
+    throw std::invalid_argument(
+        fmt::format("{} has {} values; give one, or one per state ({})", what, v.size(), n));
   }
   return Eigen::Map<const Vec>(v.data(), n);
 }
 
 py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
-                  std::optional<double> dt, const py::object& sigma, std::uint64_t seed, std::uint64_t trial,
-                  double rtol, double atol) {
+                      std::optional<double> dt, const py::object& sigma, std::uint64_t seed,
+                      std::uint64_t trial, double rtol, double atol) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   const std::vector<double> start = x0.value_or(spec.default_x0);
   if (static_cast<int>(start.size()) != n) {
-    throw std::invalid_argument(fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
+    throw std::invalid_argument(
+        fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
   }
   const SampleGrid grid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)};
   if (std::string e; !grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
@@ -91,7 +93,8 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
   if (std::string e; !options.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
   Vec s = PerState(sigma, n, "sigma");
   if (s.size() == 0) s = Vec::Zero(n);
-  if ((s.array() < 0.0).any() || !s.allFinite()) throw std::invalid_argument("sigma: must be finite and >= 0");
+  if ((s.array() < 0.0).any() || !s.allFinite())
+    throw std::invalid_argument("sigma: must be finite and >= 0");
   Trajectory traj;
   Mat y;
   {
@@ -154,7 +157,8 @@ py::dict Unknowns(const std::vector<Parameter>& params, const Vec& values) {
 }
 
 // The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`.
-py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& recursive, const Vec& sigma) {
+py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& recursive,
+                 const Vec& sigma) {
   RefineOptions options;
   options.sigma = sigma;
   RefineResult r;
@@ -179,11 +183,13 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
   return out;
 }
 
-py::dict Identify(const Model& model, const InArray& y, double dt, const IdentifyArgs& args, const py::object& sigma) {
+py::dict Identify(const Model& model, const InArray& y, double dt, const IdentifyArgs& args,
+                  const py::object& sigma) {
   const int n = model.state_size();
   if (y.ndim() != 2 || y.shape(1) != n) {
-    throw std::invalid_argument(fmt::format("y must be a (samples, {}) array, one row per sample; got shape ({})", n,
-                                            fmt::join(std::vector<py::ssize_t>(y.shape(), y.shape() + y.ndim()), ", ")));
+    throw std::invalid_argument(
+        fmt::format("y must be a (samples, {}) array, one row per sample; got shape ({})", n,
+                    fmt::join(std::vector<py::ssize_t>(y.shape(), y.shape() + y.ndim()), ", ")));
   }
   if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
   const Mat samples = Eigen::Map<const Mat>(y.data(), n, y.shape(0));  // row-major K × n = n × K
@@ -223,7 +229,8 @@ py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out,
   const SweepConfig config = ParseSweepFile(file, Builtins());
   SweepOptions options;
   options.out = out.empty() ? config.out : out;
-  if (options.out.empty()) throw std::invalid_argument(fmt::format("out: not given, and {} has no run.out", file.string()));
+  if (options.out.empty())
+    throw std::invalid_argument(fmt::format("out: not given, and {} has no run.out", file.string()));
   if (threads < 0) throw std::invalid_argument(fmt::format("threads = {}: must be >= 0", threads));
   options.threads = threads;
   options.progress = Progress::Mode::kNone;
@@ -245,15 +252,18 @@ py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out,
 
 py::dict Parameters(const Model& m) {
   py::dict d;
-  for (std::size_t i = 0; i < m.spec().alpha.size(); ++i) d[py::str(m.spec().alpha[i].name)] = m.alpha()[Eigen::Index(i)];
-  for (std::size_t i = 0; i < m.spec().beta.size(); ++i) d[py::str(m.spec().beta[i].name)] = m.beta()[Eigen::Index(i)];
+  for (std::size_t i = 0; i < m.spec().alpha.size(); ++i)
+    d[py::str(m.spec().alpha[i].name)] = m.alpha()[Eigen::Index(i)];
+  for (std::size_t i = 0; i < m.spec().beta.size(); ++i)
+    d[py::str(m.spec().beta[i].name)] = m.beta()[Eigen::Index(i)];
   return d;
 }
 
 void BindModel(py::module_& m) {
   py::class_<Model>(m, "Model", "A hybrid model: a built-in name (hysid.models()) or a model file (TOML)")
       .def(py::init(&MakeModel), py::arg("name_or_file"))
-      .def_static("from_file", [](const std::filesystem::path& p) { return LoadModelFile(p); }, py::arg("path"))
+      .def_static(
+          "from_file", [](const std::filesystem::path& p) { return LoadModelFile(p); }, py::arg("path"))
       .def_property_readonly("name", &Model::name)
       .def_property_readonly("description", [](const Model& x) { return x.spec().description; })
       .def_property_readonly("state_names", [](const Model& x) { return x.spec().state_names; })
@@ -262,8 +272,13 @@ void BindModel(py::module_& m) {
       .def_property_readonly("default_x0", [](const Model& x) { return x.spec().default_x0; })
       .def_property_readonly("default_t_end", [](const Model& x) { return x.spec().default_t_end; })
       .def_property_readonly("default_dt", [](const Model& x) { return x.spec().default_dt; })
-      .def("set", [](Model& x, const std::string& name, double v) { x.SetParameter(name, v); return x; },
-           py::arg("name"), py::arg("value"), "sets an unknown parameter's true value; returns the model")
+      .def(
+          "set",
+          [](Model& x, const std::string& name, double v) {
+            x.SetParameter(name, v);
+            return x;
+          },
+          py::arg("name"), py::arg("value"), "sets an unknown parameter's true value; returns the model")
       .def("__repr__", [](const Model& x) { return fmt::format("hysid.Model('{}')", x.name()); });
   py::implicitly_convertible<std::string, Model>();
 }
@@ -276,28 +291,33 @@ PYBIND11_MODULE(hysid, m) {
   m.doc() = "Identification of hybrid dynamical systems from sampled states (the hysid C++ library)";
   py::register_exception<std::invalid_argument>(m, "InputError", PyExc_ValueError);
   BindModel(m);
-  m.def("models", [] { return Builtins().names(); }, "the built-in model names");
-  m.def("simulate", &SimulateDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
-        py::arg("dt") = py::none(), py::arg("sigma") = 0.0, py::arg("seed") = 1, py::arg("trial") = 0,
-        py::arg("rtol") = 1e-12, py::arg("atol") = 1e-12,
+  m.def(
+      "models", [] { return Builtins().names(); }, "the built-in model names");
+  m.def("simulate", &SimulateDict, py::arg("model"), py::arg("x0") = py::none(),
+        py::arg("t_end") = py::none(), py::arg("dt") = py::none(), py::arg("sigma") = 0.0,
+        py::arg("seed") = 1, py::arg("trial") = 0, py::arg("rtol") = 1e-12, py::arg("atol") = 1e-12,
         "One trajectory: dict with t, j, x and y (samples × states), dt, jumps, status, message");
   m.def(
       "identify",
-      [](const Model& model, const InArray& y, double dt, const std::string& estimator, const std::string& detector,
-         double r, double tau0, const std::string& bound, double false_alarm, const py::object& sigma,
-         double forgetting, double jump_forgetting, bool localize, bool second_pass, bool sets, bool trace,
-         double data_rtol, double data_atol, const std::string& refine) {
-        const IdentifyArgs a{estimator, detector, bound, r, tau0, false_alarm, forgetting, jump_forgetting,
-                             data_rtol, data_atol, localize, second_pass, sets, trace, refine};
+      [](const Model& model, const InArray& y, double dt, const std::string& estimator,
+         const std::string& detector, double r, double tau0, const std::string& bound, double false_alarm,
+         const py::object& sigma, double forgetting, double jump_forgetting, bool localize, bool second_pass,
+         bool sets, bool trace, double data_rtol, double data_atol, const std::string& refine) {
+        const IdentifyArgs a{estimator,  detector,        bound,     r,         tau0,     false_alarm,
+                             forgetting, jump_forgetting, data_rtol, data_atol, localize, second_pass,
+                             sets,       trace,           refine};
         return Identify(model, y, dt, a, sigma);
       },
-      py::arg("model"), py::arg("y"), py::arg("dt"), py::arg("estimator") = "rls", py::arg("detector") = "paper",
-      py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto", py::arg("false_alarm") = 1e-8,
-      py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0, py::arg("jump_forgetting") = 1.0,
-      py::arg("localize") = false, py::arg("second_pass") = false, py::arg("sets") = true, py::arg("trace") = true,
-      py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0, py::arg("refine") = "none",
-      "The identifier on samples y (samples × states) at spacing dt, as `hysid identify`: dict with alpha, beta "
-      "(full vectors), estimates (the unknowns by name), gamma, statistic, threshold, alpha_trace, beta_trace, "
+      py::arg("model"), py::arg("y"), py::arg("dt"), py::arg("estimator") = "rls",
+      py::arg("detector") = "paper", py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto",
+      py::arg("false_alarm") = 1e-8, py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0,
+      py::arg("jump_forgetting") = 1.0, py::arg("localize") = false, py::arg("second_pass") = false,
+      py::arg("sets") = true, py::arg("trace") = true, py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
+      py::arg("refine") = "none",
+      "The identifier on samples y (samples × states) at spacing dt, as `hysid identify`: dict with alpha, "
+      "beta "
+      "(full vectors), estimates (the unknowns by name), gamma, statistic, threshold, alpha_trace, "
+      "beta_trace, "
       "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; refine='ml' adds refined (status, "
       "reason, estimates and standard_errors by name, covariance, alpha, beta, x0) as `--refine ml`");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,

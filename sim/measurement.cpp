@@ -14,8 +14,7 @@ namespace {
 
 using Block = r123::Philox4x64::ctr_type;
 
-Block Philox(const NoiseKey& key, std::uint64_t c0, std::uint64_t c1, std::uint64_t c2,
-             std::uint64_t c3) {
+Block Philox(const NoiseKey& key, std::uint64_t c0, std::uint64_t c1, std::uint64_t c2, std::uint64_t c3) {
   const r123::Philox4x64 generator;
   const r123::Philox4x64::key_type k = {{key.seed, key.stream}};
   return generator(Block{{c0, c1, c2, c3}}, k);
@@ -41,7 +40,8 @@ struct Ziggurat {
     x[1] = kR;
     x[kLayers] = 0.0;
     for (int i = 2; i < kLayers; ++i) {
-      x[static_cast<std::size_t>(i)] = std::sqrt(-2.0 * std::log(kV / x[static_cast<std::size_t>(i - 1)] + f));
+      x[static_cast<std::size_t>(i)] =
+          std::sqrt(-2.0 * std::log(kV / x[static_cast<std::size_t>(i - 1)] + f));
       f = std::exp(-0.5 * x[static_cast<std::size_t>(i)] * x[static_cast<std::size_t>(i)]);
     }
     for (std::size_t i = 0; i < kLayers; ++i) ratio[i] = x[i + 1] / x[i];
@@ -92,7 +92,8 @@ double SlowNormal(const Ziggurat& z, const NoiseKey& key, std::uint64_t m, std::
 inline double Normal(const Ziggurat& z, const NoiseKey& key, std::uint64_t m, std::uint64_t w) {
   const std::size_t i = Layer(w);
   const double u = SignedUniform(w);
-  if (std::abs(u) < z.ratio[i]) [[likely]] return u * z.x[i];
+  if (std::abs(u) < z.ratio[i]) [[likely]]
+    return u * z.x[i];
   return SlowNormal(z, key, m, w);
 }
 
@@ -103,8 +104,7 @@ void CheckSigma(const Mat& x, const Vec& sigma) {
   }
   for (Eigen::Index i = 0; i < sigma.size(); ++i) {
     if (!(sigma[i] >= 0.0) || !std::isfinite(sigma[i])) {
-      throw std::invalid_argument(
-          fmt::format("sigma[{}] = {}: must be finite and >= 0", i, sigma[i]));
+      throw std::invalid_argument(fmt::format("sigma[{}] = {}: must be finite and >= 0", i, sigma[i]));
     }
   }
 }
@@ -119,8 +119,7 @@ Normal4 StandardNormals(const NoiseKey& key, RandomPurpose purpose, std::uint64_
   return Normal4{{a.x, a.y, b.x, b.y}};
 }
 
-Uniform4 Uniforms(const NoiseKey& key, RandomPurpose purpose, std::uint64_t counter,
-                  std::uint64_t block) {
+Uniform4 Uniforms(const NoiseKey& key, RandomPurpose purpose, std::uint64_t counter, std::uint64_t block) {
   const auto r = Draw(key, purpose, counter, block);
   Uniform4 u{};
   for (int i = 0; i < 4; ++i) u.v[i] = r123::u01<double>(r[static_cast<std::size_t>(i)]);
@@ -177,8 +176,8 @@ Mat AddMeasurementNoisePerSample(const Mat& x, const Vec& sigma, const NoiseKey&
       const auto r = Draw(key, RandomPurpose::kMeasurementNoise, static_cast<std::uint64_t>(k),
                           static_cast<std::uint64_t>(block));
       for (Eigen::Index pair = 0; pair < 2 && block * 4 + pair * 2 < n; ++pair) {
-        const auto e = r123::boxmuller(r[static_cast<std::size_t>(2 * pair)],
-                                       r[static_cast<std::size_t>(2 * pair + 1)]);
+        const auto e =
+            r123::boxmuller(r[static_cast<std::size_t>(2 * pair)], r[static_cast<std::size_t>(2 * pair + 1)]);
         const Eigen::Index i = block * 4 + pair * 2;
         y(i, k) += sigma[i] * e.x;
         if (i + 1 < n) y(i + 1, k) += sigma[i + 1] * e.y;

@@ -27,10 +27,10 @@ struct NoiseKey {
 
 // Purposes keep independent draws of one (seed, stream) apart.
 enum class RandomPurpose : std::uint64_t {
-  kMeasurementNoise = 0,   // StandardNormals and AddMeasurementNoisePerSample
-  kInitialState = 1,       // Uniforms for drawn initial states
-  kNoiseStream = 2,        // FillStandardNormals: one block of four normals per counter
-  kNoiseStreamRetry = 3,   // FillStandardNormals: the ziggurat's rejected words (+ 256·attempt)
+  kMeasurementNoise = 0,  // StandardNormals and AddMeasurementNoisePerSample
+  kInitialState = 1,      // Uniforms for drawn initial states
+  kNoiseStream = 2,       // FillStandardNormals: one block of four normals per counter
+  kNoiseStreamRetry = 3,  // FillStandardNormals: the ziggurat's rejected words (+ 256·attempt)
 };
 
 // Four independent standard normals for (key, purpose, counter, block): Box–Muller on the four
@@ -45,8 +45,7 @@ Normal4 StandardNormals(const NoiseKey& key, RandomPurpose purpose, std::uint64_
 struct Uniform4 {
   double v[4];
 };
-Uniform4 Uniforms(const NoiseKey& key, RandomPurpose purpose, std::uint64_t counter,
-                  std::uint64_t block = 0);
+Uniform4 Uniforms(const NoiseKey& key, RandomPurpose purpose, std::uint64_t counter, std::uint64_t block = 0);
 
 // out[j] = normal number first + j of the stream `key`, j < count (see the top of this file).
 void FillStandardNormals(const NoiseKey& key, std::uint64_t first, double* out, std::size_t count);

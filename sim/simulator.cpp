@@ -53,8 +53,7 @@ int GuardFunctions(sunrealtype /*t*/, N_Vector y, sunrealtype* gout, void* user_
   return 0;
 }
 
-void CaptureError(int /*error_code*/, const char* module, const char* function, char* msg,
-                  void* user_data) {
+void CaptureError(int /*error_code*/, const char* module, const char* function, char* msg, void* user_data) {
   static_cast<CallbackData*>(user_data)->last_error = fmt::format("{}/{}: {}", module, function, msg);
 }
 
@@ -87,21 +86,20 @@ class Run {
     EmitAt(t_, x_);  // sample 0
     while (next_sample_ < sample_count_) {
       if (stats_steps_ >= options_.max_steps) {
-        return Fail(SimStop::kSolverFailure,
-                    fmt::format("step budget of {} CVODE steps exhausted at t = {:.17g}",
-                                options_.max_steps, t_));
+        return Fail(
+            SimStop::kSolverFailure,
+            fmt::format("step budget of {} CVODE steps exhausted at t = {:.17g}", options_.max_steps, t_));
       }
       sunrealtype tret = 0.0;
       const int flag = CVode(cvode_.get(), t_last_, y_.get(), &tret, CV_ONE_STEP);
       ++stats_steps_;
       if (flag < 0) {
         if (data_.nonfinite_rhs) {
-          return Fail(SimStop::kNonFinite,
-                      fmt::format("flow map is not finite near t = {:.17g}", tret));
+          return Fail(SimStop::kNonFinite, fmt::format("flow map is not finite near t = {:.17g}", tret));
         }
         return Fail(SimStop::kSolverFailure,
-                    fmt::format("CVode returned {} at t = {:.17g}: {}",
-                                CVodeGetReturnFlagName(flag), tret, data_.last_error));
+                    fmt::format("CVode returned {} at t = {:.17g}: {}", CVodeGetReturnFlagName(flag), tret,
+                                data_.last_error));
       }
       const Eigen::Map<const Eigen::VectorXd> y(N_VGetArrayPointer_Serial(y_.get()), n_);
       if (!y.allFinite()) {
@@ -123,8 +121,7 @@ class Run {
       t_ = tret;
       if (!model_.InFlowSet(y) && !model_.InJumpSet(y)) {
         return Fail(SimStop::kLeftDomain,
-                    fmt::format("state left C and D at t = {:.17g} without a located crossing",
-                                tret));
+                    fmt::format("state left C and D at t = {:.17g} without a located crossing", tret));
       }
       if (flag == CV_TSTOP_RETURN) {
         // Samples at t_last (within rounding) are taken from the returned state.
@@ -253,9 +250,8 @@ class Run {
       }
     }
     if (jumps_ >= options_.max_jumps) {
-      return FailBool(SimStop::kJumpBudget,
-                      fmt::format("jump budget of {} jumps exhausted at t = {:.17g}",
-                                  options_.max_jumps, t_));
+      return FailBool(SimStop::kJumpBudget, fmt::format("jump budget of {} jumps exhausted at t = {:.17g}",
+                                                        options_.max_jumps, t_));
     }
     return true;
   }
@@ -272,8 +268,7 @@ class Run {
   // (q + 1 CVodeGetDky calls) and evaluate them by Horner's rule per sample.
   void EmitInterpolated(double t_hi, bool inclusive) {
     long end = next_sample_;
-    while (end < sample_count_ &&
-           (inclusive ? SampleTime(end) <= t_hi : SampleTime(end) < t_hi)) {
+    while (end < sample_count_ && (inclusive ? SampleTime(end) <= t_hi : SampleTime(end) < t_hi)) {
       ++end;
     }
     const long count = end - next_sample_;
@@ -320,9 +315,8 @@ class Run {
 
   bool Check(int flag, const char* function) {
     if (flag >= 0) return true;
-    return FailBool(SimStop::kSolverFailure,
-                    fmt::format("{} returned {}: {}", function, CVodeGetReturnFlagName(flag),
-                                data_.last_error));
+    return FailBool(SimStop::kSolverFailure, fmt::format("{} returned {}: {}", function,
+                                                         CVodeGetReturnFlagName(flag), data_.last_error));
   }
 
   bool FailBool(SimStop stop, std::string message) {
@@ -383,13 +377,13 @@ bool SampleGrid::IsValid(std::string* error) const {
     return fail(fmt::format("SampleGrid::dt = {}. Violated constraint: dt > 0 and finite", dt));
   }
   if (!std::isfinite(t_end) || !(t_end > 0.0)) {
-    return fail(
-        fmt::format("SampleGrid::t_end = {}. Violated constraint: t_end > 0 and finite", t_end));
+    return fail(fmt::format("SampleGrid::t_end = {}. Violated constraint: t_end > 0 and finite", t_end));
   }
   if (t_end / dt > 1e9) {
-    return fail(fmt::format("SampleGrid: t_end/dt = {:.3g}. Violated constraint: at most 1e9 "
-                            "samples",
-                            t_end / dt));
+    return fail(
+        fmt::format("SampleGrid: t_end/dt = {:.3g}. Violated constraint: at most 1e9 "
+                    "samples",
+                    t_end / dt));
   }
   return true;
 }
@@ -406,20 +400,18 @@ bool SimOptions::IsValid(std::string* error) const {
     return fail(fmt::format("SimOptions::atol = {}. Violated constraint: atol > 0", atol));
   }
   if (max_steps < 1) {
-    return fail(fmt::format("SimOptions::max_steps = {}. Violated constraint: max_steps >= 1",
-                            max_steps));
+    return fail(fmt::format("SimOptions::max_steps = {}. Violated constraint: max_steps >= 1", max_steps));
   }
   if (max_jumps < 1) {
-    return fail(fmt::format("SimOptions::max_jumps = {}. Violated constraint: max_jumps >= 1",
-                            max_jumps));
+    return fail(fmt::format("SimOptions::max_jumps = {}. Violated constraint: max_jumps >= 1", max_jumps));
   }
   if (!(zeno_interval >= 0.0)) {
-    return fail(fmt::format(
-        "SimOptions::zeno_interval = {}. Violated constraint: zeno_interval >= 0", zeno_interval));
+    return fail(fmt::format("SimOptions::zeno_interval = {}. Violated constraint: zeno_interval >= 0",
+                            zeno_interval));
   }
   if (zeno_window < 1) {
-    return fail(fmt::format("SimOptions::zeno_window = {}. Violated constraint: zeno_window >= 1",
-                            zeno_window));
+    return fail(
+        fmt::format("SimOptions::zeno_window = {}. Violated constraint: zeno_window >= 1", zeno_window));
   }
   if (max_jumps_at_one_time < 1) {
     return fail(fmt::format("SimOptions::max_jumps_at_one_time = {}. Violated constraint: >= 1",
@@ -440,18 +432,16 @@ const char* ToString(SimStop stop) {
   return "unknown";
 }
 
-Trajectory Simulate(const Model& model, const Vec& x0, const SampleGrid& grid,
-                    const SimOptions& options) {
+Trajectory Simulate(const Model& model, const Vec& x0, const SampleGrid& grid, const SimOptions& options) {
   std::string error;
   if (!grid.IsValid(&error) || !options.IsValid(&error)) throw std::invalid_argument(error);
   if (x0.size() != model.state_size()) {
-    throw std::invalid_argument(fmt::format("x0 has {} entries; model '{}' has {} states",
-                                            x0.size(), model.name(), model.state_size()));
+    throw std::invalid_argument(fmt::format("x0 has {} entries; model '{}' has {} states", x0.size(),
+                                            model.name(), model.state_size()));
   }
   if (!x0.allFinite()) throw std::invalid_argument("x0 is not finite");
   if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
-    throw std::invalid_argument(
-        fmt::format("x0 lies outside C and D of model '{}'", model.name()));
+    throw std::invalid_argument(fmt::format("x0 lies outside C and D of model '{}'", model.name()));
   }
   Run run(model, grid, options);
   return run.Execute(x0);

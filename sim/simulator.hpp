@@ -62,11 +62,11 @@ struct SimStatus {
 };
 
 struct JumpRecord {
-  int j = 0;          // jump counter after the jump (1 for the first jump)
-  double t = 0.0;     // jump time
-  int guard = -1;     // guard that fired (-1: initial state or chained jump inside D)
-  Vec pre;            // ξ(t, j − 1), on the guard
-  Vec post;           // ξ(t, j) = ψ(pre)β
+  int j = 0;       // jump counter after the jump (1 for the first jump)
+  double t = 0.0;  // jump time
+  int guard = -1;  // guard that fired (-1: initial state or chained jump inside D)
+  Vec pre;         // ξ(t, j − 1), on the guard
+  Vec post;        // ξ(t, j) = ψ(pre)β
 };
 
 struct SolverStats {

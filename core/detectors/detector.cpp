@@ -18,7 +18,8 @@ bool DetectorSettings::IsValid(std::string* error) const {
 bool DetectorDescriptor::Reads(std::string_view option) const { return ReadsOption(options, option); }
 
 const std::vector<const DetectorDescriptor*>& DetectorDescriptors() {
-  static const std::vector<const DetectorDescriptor*> all{&PaperDetectorDescriptor(), &ResidualDetectorDescriptor()};
+  static const std::vector<const DetectorDescriptor*> all{&PaperDetectorDescriptor(),
+                                                          &ResidualDetectorDescriptor()};
   return all;
 }
 
@@ -28,7 +29,9 @@ const DetectorDescriptor& DescriptorOf(DetectorKind kind) {
 
 std::vector<std::string> DetectorNames() { return DescriptorNames(DetectorDescriptors()); }
 
-DetectorKind ParseDetectorKind(std::string_view name) { return ParseKind(DetectorDescriptors(), name, "detector"); }
+DetectorKind ParseDetectorKind(std::string_view name) {
+  return ParseKind(DetectorDescriptors(), name, "detector");
+}
 
 std::string_view ToString(DetectorKind kind) { return DescriptorOf(kind).name; }
 

@@ -25,19 +25,19 @@ using ConstMatMap = Eigen::Map<const Mat>;
 // valid for the call only.
 struct SampleContext {
   const Model* model = nullptr;
-  double dt = 0.0;                 // δt
-  ConstVecMap prev{nullptr, 0};    // ξ(t−δt) (measured)
-  ConstVecMap cur{nullptr, 0};     // ξ(t)
+  double dt = 0.0;               // δt
+  ConstVecMap prev{nullptr, 0};  // ξ(t−δt) (measured)
+  ConstVecMap cur{nullptr, 0};   // ξ(t)
   // The flow regression of this pair on the identified rows: y = Φ α_u (see core/model/regression.hpp).
   ConstMatMap flow_phi{nullptr, 0, 0};
   ConstVecMap flow_y{nullptr, 0};
-  ConstVecMap alpha_hat{nullptr, 0};      // full α̂ (known entries at their known values)
+  ConstVecMap alpha_hat{nullptr, 0};  // full α̂ (known entries at their known values)
   // Of the unknown entries, when the estimator has one (RLS: P, Cov(α̂) ≈ residual variance × P).
   const Mat* alpha_covariance = nullptr;
-  long flow_updates = 0;                  // flow samples the α estimator has seen
-  long version = 0;                       // changes whenever α̂ changes (for caching)
-  const SampleSet* flow_set = nullptr;    // Λ, whose hull is Ĉ (may be null or empty)
-  const Vec* sigma = nullptr;             // measurement noise σ per component, when known
+  long flow_updates = 0;                // flow samples the α estimator has seen
+  long version = 0;                     // changes whenever α̂ changes (for caching)
+  const SampleSet* flow_set = nullptr;  // Λ, whose hull is Ĉ (may be null or empty)
+  const Vec* sigma = nullptr;           // measurement noise σ per component, when known
   // Accuracy of the data apart from σ: component j off by up to data_rtol·|ξ_j| + data_atol.
   double data_rtol = 0.0, data_atol = 0.0;
 };
@@ -87,14 +87,24 @@ inline const std::vector<Option<DetectorSettings>>& DetectorOptions() {
   using S = DetectorSettings;
   using T = OptionType;
   static const std::vector<Option<S>> table{
-      Describe<&S::r>({.name = "r", .type = T::kReal, .range = {1, kUnbounded, true, true},
-                       .help = "multiplicative constant r > 1 of the smoothness bound", .sweepable = true}),
-      Describe<&S::tau0>({.name = "tau0", .type = T::kReal, .range = {0, kUnbounded, true, true},
+      Describe<&S::r>({.name = "r",
+                       .type = T::kReal,
+                       .range = {1, kUnbounded, true, true},
+                       .help = "multiplicative constant r > 1 of the smoothness bound",
+                       .sweepable = true}),
+      Describe<&S::tau0>({.name = "tau0",
+                          .type = T::kReal,
+                          .range = {0, kUnbounded, true, true},
                           .help = "initial smoothness bound"}),
-      Describe<&S::bound>({.name = "bound", .type = T::kChoice, .choices = {"auto", "paper", "homogeneous"},
+      Describe<&S::bound>({.name = "bound",
+                           .type = T::kChoice,
+                           .choices = {"auto", "paper", "homogeneous"},
                            .help = "auto, paper or homogeneous bound"}),
-      Describe<&S::false_alarm>({.name = "false_alarm", .type = T::kReal, .range = {0, 0.5, true, true},
-                                 .help = "false-alarm probability per flow sample", .sweepable = true}),
+      Describe<&S::false_alarm>({.name = "false_alarm",
+                                 .type = T::kReal,
+                                 .range = {0, 0.5, true, true},
+                                 .help = "false-alarm probability per flow sample",
+                                 .sweepable = true}),
   };
   return table;
 }
@@ -102,8 +112,8 @@ inline const std::vector<Option<DetectorSettings>>& DetectorOptions() {
 // One detector, described once: the factory, the command line and sweep files read this.
 struct DetectorDescriptor {
   DetectorKind kind;
-  std::string_view name;  // "paper", as given by --detector and in sweep files
-  std::string_view help;  // one line
+  std::string_view name;                  // "paper", as given by --detector and in sweep files
+  std::string_view help;                  // one line
   std::vector<std::string_view> options;  // the DetectorOptions() it reads
   // What it reports per sample (Decision::statistic, Decision::threshold): trace column names.
   std::string_view statistic, threshold;

@@ -9,9 +9,7 @@
 #include "core/sets/sample_set.hpp"
 
 namespace hysid {
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 // Squared spectral norm of a small matrix: the squared row norm for one row, else λmax(AAᵀ).
 [[gnu::noinline]] double SpectralNormSquared(const Eigen::Ref<const Mat>& a) {
@@ -90,7 +88,8 @@ void VertexJacobianSup::SetPoints(const Mat& points) {
   column_sup_.setZero(p);
   for (int k = 0; k < p; ++k) {
     const Vec unit = Vec::Unit(p, k);
-    for (Eigen::Index v = 0; v < points_.cols(); ++v) column_sup_[k] = std::max(column_sup_[k], NormAt(v, unit));
+    for (Eigen::Index v = 0; v < points_.cols(); ++v)
+      column_sup_[k] = std::max(column_sup_[k], NormAt(v, unit));
   }
 }
 
@@ -181,8 +180,8 @@ void PaperDetector::Reset() {
 
 Decision PaperDetector::Classify(const SampleContext& c) {
   if (constant_jacobian_) {
-    return ClassifyConstant(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat.data(),
-                            c.version, c.flow_updates);
+    return ClassifyConstant(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat.data(), c.version,
+                            c.flow_updates);
   }
   Decision d;
   double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;

@@ -118,8 +118,9 @@ class PaperDetector final : public JumpDetector {
   // The decision is taken on squares, D² > τ̂², so that no square root sits on the chain
   // α̂ → τ̂ → γ → α̂ of consecutive samples; D and τ̂ themselves are computed off that chain.
   template <int N = 0>
-  [[gnu::always_inline]] Decision ClassifyConstant(const double* prev, const double* cur, Eigen::Index n, double dt,
-                            const double* alpha_hat, long version, long flow_updates) {
+  [[gnu::always_inline]] Decision ClassifyConstant(const double* prev, const double* cur, Eigen::Index n,
+                                                   double dt, const double* alpha_hat, long version,
+                                                   long flow_updates) {
     Decision d;
     double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
     Prologue<N>(prev, cur, n, dt, &d, &d2, &cur_norm, &prev_norm);
@@ -148,8 +149,9 @@ class PaperDetector final : public JumpDetector {
   // instructions here: ‖ξ(t−δt)‖ is the previous call's ‖ξ(t)‖ when the pairs are consecutive, and
   // D and ‖ξ(t)‖ share one packed square root.
   template <int N = 0>
-  [[gnu::always_inline]] void Prologue(const double* prev, const double* cur, Eigen::Index n_dynamic, double dt, Decision* d,
-                double* d2_out, double* cur_norm, double* prev_norm) {
+  [[gnu::always_inline]] void Prologue(const double* prev, const double* cur, Eigen::Index n_dynamic,
+                                       double dt, Decision* d, double* d2_out, double* cur_norm,
+                                       double* prev_norm) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
     const double inv_dt = 1.0 / dt;
     double d2 = 0.0, cur2 = 0.0;

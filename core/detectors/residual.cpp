@@ -5,8 +5,8 @@
 #include <limits>
 #include <numbers>
 
-#include "core/stats/quantiles.hpp"
 #include "core/model/regression.hpp"
+#include "core/stats/quantiles.hpp"
 
 namespace hysid {
 
@@ -89,9 +89,9 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
 
 // V_i = Σ_j (σ_j² + d_j(t)²) a_ij² + (σ_j² + d_j(t−δt)²) b_ij², a = e_i − (δt/2)J_i(ξ(t)),
 // b = e_i + (δt/2)J_i(ξ(t−δt)), d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0 when σ is not given).
-void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_data, Eigen::Index n, double dt,
-                                     ConstVecRef alpha_hat, long version, const Vec* sigma, double data_rtol,
-                                     double data_atol) {
+void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_data, Eigen::Index n,
+                                     double dt, ConstVecRef alpha_hat, long version, const Vec* sigma,
+                                     double data_rtol, double data_atol) {
   const ConstVecMap prev(prev_data, n), cur(cur_data, n);
   const bool have_sigma = sigma != nullptr && sigma->size() == n;
   auto var = [&](Eigen::Index j, double x) {
@@ -163,7 +163,8 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
       }
       lev = std::max(0.0, lev);
     }
-    const double z2 = RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise);
+    const double z2 =
+        RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise);
     z2max = std::max(z2max, z2);
   }
   d.statistic = std::sqrt(z2max);

@@ -85,11 +85,11 @@ class ResidualDetector final : public JumpDetector {
   // (column-major) or null; the other arguments as in SampleContext. N = n and M = the number of
   // unknowns when known at compile time (the loops unroll), else 0.
   template <int N, int M>
-  [[gnu::always_inline]] Decision ClassifyObserveRow(const double* prev, const double* cur, Eigen::Index n_dynamic,
-                                                     double dt, const double* phi, double y,
-                                                     ConstVecMap alpha_hat, const double* cov, long version,
-                                                     long flow_updates, const Vec* sigma, double data_rtol,
-                                                     double data_atol) {
+  [[gnu::always_inline]] Decision ClassifyObserveRow(const double* prev, const double* cur,
+                                                     Eigen::Index n_dynamic, double dt, const double* phi,
+                                                     double y, ConstVecMap alpha_hat, const double* cov,
+                                                     long version, long flow_updates, const Vec* sigma,
+                                                     double data_rtol, double data_atol) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
     const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
     Decision d;
@@ -154,7 +154,7 @@ class ResidualDetector final : public JumpDetector {
   std::vector<int> rows_;     // identified state rows
   std::vector<int> unknown_;  // unknown α columns (columns of flow_phi)
   int unknowns_ = 0;
-  double kappa_;              // E[min(Z², kClip²)], Z ~ N(0, 1)
+  double kappa_;  // E[min(Z², kClip²)], Z ~ N(0, 1)
   // Quantile cache on the ν grid.
   std::vector<long> grid_;
   std::vector<double> grid_q_;

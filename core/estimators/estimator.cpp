@@ -40,9 +40,9 @@ bool EstimatorDescriptor::Reads(std::string_view option) const { return ReadsOpt
 
 void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   if (phi.cols() != theta_.size() || phi.rows() != y.size()) {
-    throw std::invalid_argument(fmt::format(
-        "{}: regression of size Phi {}x{}, y {} does not match {} parameters", name(), phi.rows(),
-        phi.cols(), y.size(), theta_.size()));
+    throw std::invalid_argument(
+        fmt::format("{}: regression of size Phi {}x{}, y {} does not match {} parameters", name(), phi.rows(),
+                    phi.cols(), y.size(), theta_.size()));
   }
   if (!Admit(phi.allFinite() && y.allFinite())) return;
   DoUpdate(phi, y);
@@ -60,14 +60,17 @@ const EstimatorDescriptor& DescriptorOf(EstimatorKind kind) {
 
 std::vector<std::string> EstimatorNames() { return DescriptorNames(EstimatorDescriptors()); }
 
-EstimatorKind ParseEstimatorKind(std::string_view name) { return ParseKind(EstimatorDescriptors(), name, "estimator"); }
+EstimatorKind ParseEstimatorKind(std::string_view name) {
+  return ParseKind(EstimatorDescriptors(), name, "estimator");
+}
 
 std::string_view ToString(EstimatorKind kind) { return DescriptorOf(kind).name; }
 
 std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0) {
   const EstimatorDescriptor& d = DescriptorOf(settings.kind);
   std::string error;
-  if (!settings.IsValid(&error)) throw std::invalid_argument(fmt::format("estimator '{}': {}", d.name, error));
+  if (!settings.IsValid(&error))
+    throw std::invalid_argument(fmt::format("estimator '{}': {}", d.name, error));
   return d.make(settings, theta0);
 }
 

@@ -19,8 +19,8 @@ namespace hysid {
 
 enum class EstimatorStatus {
   kOk,
-  kNotExcited,   // too few independent rows so far: the estimate is the prior / partial
-  kNonGeneric,   // TLS non-generic case: the extreme eigenvector has no θ component
+  kNotExcited,      // too few independent rows so far: the estimate is the prior / partial
+  kNonGeneric,      // TLS non-generic case: the extreme eigenvector has no θ component
   kIllConditioned,  // an update was skipped because a factorisation failed
 };
 const char* ToString(EstimatorStatus status);
@@ -68,20 +68,34 @@ inline const std::vector<Option<EstimatorSettings>>& EstimatorOptions() {
   using S = EstimatorSettings;
   using T = OptionType;
   static const std::vector<Option<S>> table{
-      Describe<&S::forgetting>({.name = "forgetting", .type = T::kReal, .range = {0, 1, true, false},
+      Describe<&S::forgetting>({.name = "forgetting",
+                                .type = T::kReal,
+                                .range = {0, 1, true, false},
                                 .help = "exponential forgetting factor lambda (1 = none)"}),
-      Describe<&S::p0>({.name = "p0", .type = T::kReal, .range = {0, kUnbounded, true, true},
+      Describe<&S::p0>({.name = "p0",
+                        .type = T::kReal,
+                        .range = {0, kUnbounded, true, true},
                         .help = "initial covariance P0 = p0 I (prior ridge I/p0)"}),
-      Describe<&S::refactor_every>({.name = "refactor_every", .type = T::kInteger, .range = {1, kUnbounded},
+      Describe<&S::refactor_every>({.name = "refactor_every",
+                                    .type = T::kInteger,
+                                    .range = {1, kUnbounded},
                                     .help = "exact refactorisation every this many rows"}),
-      Describe<&S::window>({.name = "window", .type = T::kInteger, .range = {0, kUnbounded},
+      Describe<&S::window>({.name = "window",
+                            .type = T::kInteger,
+                            .range = {0, kUnbounded},
                             .help = "window in rows (0 = growing)"}),
-      Describe<&S::frisch_box>({.name = "frisch_box", .type = T::kChoice, .choices = {"intersect", "cumulative"},
+      Describe<&S::frisch_box>({.name = "frisch_box",
+                                .type = T::kChoice,
+                                .choices = {"intersect", "cumulative"},
                                 .help = "cumulative (box of the simplex of all rows) or intersect (BBRF)"}),
-      Describe<&S::frisch_point>({.name = "frisch_point", .type = T::kChoice, .choices = {"centre", "rls"},
+      Describe<&S::frisch_point>({.name = "frisch_point",
+                                  .type = T::kChoice,
+                                  .choices = {"centre", "rls"},
                                   .help = "rls (RLS clamped into the boxes) or centre (of the box)"}),
       Describe<&S::frisch_confidence>(
-          {.name = "frisch_confidence", .type = T::kReal, .range = {0, 1, false, true},
+          {.name = "frisch_confidence",
+           .type = T::kReal,
+           .range = {0, 1, false, true},
            .help = "confidence of the sampling allowance added to the boxes (0 = none)"}),
   };
   return table;
@@ -139,11 +153,11 @@ class Estimator {
 // One estimator, described once: the factory, the command line and sweep files read this.
 struct EstimatorDescriptor {
   EstimatorKind kind;
-  std::string_view name;  // "rls", as given by --estimator and in sweep files
-  std::string_view help;  // one line
+  std::string_view name;                  // "rls", as given by --estimator and in sweep files
+  std::string_view help;                  // one line
   std::vector<std::string_view> options;  // the EstimatorOptions() it reads
-  bool needs_noise_shape = false;          // the identifier derives one when none is given
-  bool reports_box = false;                // solution_box()
+  bool needs_noise_shape = false;         // the identifier derives one when none is given
+  bool reports_box = false;               // solution_box()
   std::unique_ptr<Estimator> (*make)(const EstimatorSettings& settings, const Vec& theta0) = nullptr;
   bool Reads(std::string_view option) const;
 };

@@ -42,8 +42,8 @@ constexpr double kInfiniteVertex = 1e-12;
 
 }  // namespace
 
-Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, FrischBox box,
-               FrischPoint point, const Mat& noise_shape, double confidence)
+Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, FrischBox box, FrischPoint point,
+               const Mat& noise_shape, double confidence)
     : Estimator(theta0),
       theta0_(theta0),
       window_(window),
@@ -54,22 +54,19 @@ Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, Fris
       rls_(theta0, p0, forgetting) {
   const long m = theta0.size() + 1;
   if (window < 0 || (window > 0 && window < m)) {
-    throw std::invalid_argument(fmt::format(
-        "frisch: window = {}: must be 0 (growing) or >= parameters + 1 = {}", window, m));
+    throw std::invalid_argument(
+        fmt::format("frisch: window = {}: must be 0 (growing) or >= parameters + 1 = {}", window, m));
   }
   if (!(forgetting > 0.0 && forgetting <= 1.0)) {
-    throw std::invalid_argument(
-        fmt::format("frisch: forgetting = {}: must be in (0, 1]", forgetting));
+    throw std::invalid_argument(fmt::format("frisch: forgetting = {}: must be in (0, 1]", forgetting));
   }
   if (!(confidence >= 0.0 && confidence < 1.0)) {
-    throw std::invalid_argument(
-        fmt::format("frisch: confidence = {}: must be in [0, 1)", confidence));
+    throw std::invalid_argument(fmt::format("frisch: confidence = {}: must be in [0, 1)", confidence));
   }
   if (noise_shape.size() != 0) {
     if (noise_shape.rows() != m || noise_shape.cols() != m) {
-      throw std::invalid_argument(fmt::format(
-          "frisch: noise_shape is {}x{}, expected {}x{} (parameters + 1)", noise_shape.rows(),
-          noise_shape.cols(), m, m));
+      throw std::invalid_argument(fmt::format("frisch: noise_shape is {}x{}, expected {}x{} (parameters + 1)",
+                                              noise_shape.rows(), noise_shape.cols(), m, m));
     }
     if (!noise_shape.allFinite() || (noise_shape.diagonal().array() < 0.0).any()) {
       throw std::invalid_argument("frisch: noise_shape must be finite with a diagonal >= 0");
@@ -127,8 +124,7 @@ double Frisch::BoxVolume() const {
   return (upper_ - lower_).prod();
 }
 
-bool Frisch::WindowBox(const Mat& sigma, double count, double quantile, VecRef lower,
-                       VecRef upper) {
+bool Frisch::WindowBox(const Mat& sigma, double count, double quantile, VecRef lower, VecRef upper) {
   const Eigen::Index m = sigma.rows();
   const Eigen::Index p = m - 1;
   for (Eigen::Index i = 0; i < m; ++i) {

@@ -36,7 +36,8 @@
 // noise covariance to each window instead of sampled noise. With sampled noise each window box misses
 // θ with some probability q > 0, the intersection keeps θ only if every window contains it,
 // probability ≈ (1−q)^K → 0 over K windows, and the box shrinks onto a wrong point rather than
-// becoming empty. tests/core/estimators/frisch_test.cpp measures the coverages with and without the allowance.
+// becoming empty. tests/core/estimators/frisch_test.cpp measures the coverages with and without the
+// allowance.
 //
 // Both boxes are always maintained (two O(m³) factorisations per window); frisch_box selects the one
 // reported by lower()/upper(); the intersected one is also available.
@@ -49,8 +50,8 @@
 // σ_y = 0.3, 2000 rows, window 200; mean ‖θ̂ − θ‖ over 300 runs): RLS 0.217; "rls" with c = 0.95
 // 0.217 (both boxes contain θ in 300/300 runs); "rls" with c = 0 0.155 (but the intersected box
 // contains θ in only 28 % of the runs); centre of the cumulative box 0.265. On the §5 system the
-// plain BBRF (c = 0) collapses onto wrong values (docs/results.md, errors-in-variables estimators). Before the first box
-// the estimate is the internal RLS estimate and status() is kNotExcited.
+// plain BBRF (c = 0) collapses onto wrong values (docs/results.md, errors-in-variables estimators). Before
+// the first box the estimate is the internal RLS estimate and status() is kNotExcited.
 //
 // Degenerate windows are skipped (skipped_windows()): a zero or collinear column (Cholesky pivot² of
 // the equilibrated Σ < 1e-12), exact noise-free data (then Σ is singular: the Frisch set collapses to
@@ -93,8 +94,8 @@ class Frisch final : public Estimator {
   // exact (noise-free) columns; nothing else of it is used. Throws std::invalid_argument naming the
   // field otherwise.
   // confidence ∈ [0, 1): the sampling allowance added to every window box (see above; 0 = none).
-  Frisch(const Vec& theta0, int window, double forgetting, double p0, FrischBox box,
-         FrischPoint point, const Mat& noise_shape = Mat(), double confidence = 0.0);
+  Frisch(const Vec& theta0, int window, double forgetting, double p0, FrischBox box, FrischPoint point,
+         const Mat& noise_shape = Mat(), double confidence = 0.0);
 
   std::string name() const override { return "frisch"; }
   void Reset() override;
@@ -145,7 +146,7 @@ class Frisch final : public Estimator {
   bool has_inter_ = false, has_cum_ = false;
   long rows_in_block_ = 0;
   double all_weight_ = 0.0;
-  long blocks_ = 0;             // block windows so far (for the union-bound level)
+  long blocks_ = 0;                            // block windows so far (for the union-bound level)
   double cum_dof_ = 0.0, cum_quantile_ = 0.0;  // cached t quantile of the cumulative box
   long rows_ = 0;
   long windows_ = 0;

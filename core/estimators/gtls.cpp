@@ -31,25 +31,22 @@ constexpr double kGenericTolerance = 1e-8;
 Mat CheckedShape(const Mat& shape, Eigen::Index m) {
   if (shape.size() == 0) return Mat::Identity(m, m);
   if (shape.rows() != m || shape.cols() != m) {
-    throw std::invalid_argument(fmt::format(
-        "gtls: noise_shape is {}x{}, expected {}x{} (parameters + 1)", shape.rows(), shape.cols(),
-        m, m));
+    throw std::invalid_argument(fmt::format("gtls: noise_shape is {}x{}, expected {}x{} (parameters + 1)",
+                                            shape.rows(), shape.cols(), m, m));
   }
   if (!shape.allFinite()) throw std::invalid_argument("gtls: noise_shape must be finite");
   const double asym = (shape - shape.transpose()).cwiseAbs().maxCoeff();
   const double size = shape.cwiseAbs().maxCoeff();
   if (!(size > 0.0)) throw std::invalid_argument("gtls: noise_shape must not be zero");
   if (asym > 1e-12 * size) {
-    throw std::invalid_argument(
-        fmt::format("gtls: noise_shape is not symmetric (max |C - C^T| = {})", asym));
+    throw std::invalid_argument(fmt::format("gtls: noise_shape is not symmetric (max |C - C^T| = {})", asym));
   }
   const Mat sym = 0.5 * (shape + shape.transpose());
-  const double min_eig = Eigen::SelfAdjointEigenSolver<Mat>(sym, Eigen::EigenvaluesOnly)
-                             .eigenvalues()
-                             .minCoeff();
+  const double min_eig =
+      Eigen::SelfAdjointEigenSolver<Mat>(sym, Eigen::EigenvaluesOnly).eigenvalues().minCoeff();
   if (min_eig < -1e-12 * size) {
-    throw std::invalid_argument(fmt::format(
-        "gtls: noise_shape must be positive semidefinite (smallest eigenvalue {})", min_eig));
+    throw std::invalid_argument(
+        fmt::format("gtls: noise_shape must be positive semidefinite (smallest eigenvalue {})", min_eig));
   }
   return sym;
 }
@@ -66,8 +63,7 @@ Gtls::Gtls(const Vec& theta0, const Mat& noise_shape, double forgetting, int ref
     throw std::invalid_argument(fmt::format("gtls: forgetting = {}: must be in (0, 1]", forgetting));
   }
   if (refactor_every < 1) {
-    throw std::invalid_argument(
-        fmt::format("gtls: refactor_every = {}: must be >= 1", refactor_every));
+    throw std::invalid_argument(fmt::format("gtls: refactor_every = {}: must be >= 1", refactor_every));
   }
   Reset();
 }
@@ -146,7 +142,7 @@ bool Gtls::Factorize() {
   p_ = 0.5 * (p_ + p_.transpose()).eval();
   // M = L⁻¹ (DCD) L⁻ᵀ, symmetric PSD; its top eigenvector u gives v = D L⁻ᵀ u.
   const Mat cd = scale_.asDiagonal() * c_ * scale_.asDiagonal();
-  const Mat half = l.triangularView<Eigen::Lower>().solve(cd);                   // L⁻¹ C_d
+  const Mat half = l.triangularView<Eigen::Lower>().solve(cd);                    // L⁻¹ C_d
   Mat mm = l.triangularView<Eigen::Lower>().solve(half.transpose()).transpose();  // L⁻¹ C_d L⁻ᵀ
   mm = 0.5 * (mm + mm.transpose()).eval();
   const Eigen::SelfAdjointEigenSolver<Mat> eig(mm);

@@ -71,11 +71,11 @@ class Gtls final : public Estimator {
   bool FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const;
 
   Vec theta0_;
-  Mat c_;        // C, (p+1)²
-  Mat s_;        // S
-  Mat p_;        // ≈ S⁻¹ (of the slightly ridged S, see above)
-  Vec v_;        // generalized eigenvector
-  Vec scale_;    // D from the last refactorisation
+  Mat c_;          // C, (p+1)²
+  Mat s_;          // S
+  Mat p_;          // ≈ S⁻¹ (of the slightly ridged S, see above)
+  Vec v_;          // generalized eigenvector
+  Vec scale_;      // D from the last refactorisation
   Vec z_, g_, t_;  // work vectors
   double lambda_;
   int refactor_every_;
@@ -84,7 +84,7 @@ class Gtls final : public Estimator {
   long rows_since_refactor_ = 0;
   bool started_ = false;
   bool needs_refactor_ = false;
-  mutable Mat cov_;              // covariance_matrix() cache
+  mutable Mat cov_;                // covariance_matrix() cache
   mutable long cov_updates_ = -1;  // updates_ when cov_ was computed (−1: never, −2: not available)
 };
 

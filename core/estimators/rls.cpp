@@ -36,8 +36,8 @@ void Rls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
   if (phi.rows() == 1) {
     ScalarUpdate(phi.data(), phi.outerStride(), y[0]);
   } else {
-    const Mat pphi_t = p_ * phi.transpose();                       // p × rows
-    Mat gamma = phi * pphi_t;                                      // rows × rows
+    const Mat pphi_t = p_ * phi.transpose();  // p × rows
+    Mat gamma = phi * pphi_t;                 // rows × rows
     gamma.diagonal().array() += lambda_;
     const Eigen::LLT<Mat> llt(gamma);
     if (llt.info() != Eigen::Success) {

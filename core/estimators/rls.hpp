@@ -22,9 +22,8 @@ namespace detail {
 // outerStride() = the parent's row count. Returns false (nothing changed) when φᵀPφ + λ is not a
 // positive finite number.
 template <int P>
-inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, double* g,
-                     const double* phi, Eigen::Index stride, double y, double lambda,
-                     double max_trace) {
+inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, double* g, const double* phi,
+                            Eigen::Index stride, double y, double lambda, double max_trace) {
   const Eigen::Index p = P > 0 ? P : p_dynamic;
   double denom = lambda;
   double pred = 0.0;
@@ -57,7 +56,6 @@ inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, d
 }
 
 }  // namespace detail
-
 
 // Recursive least squares; reads forgetting and p0.
 const EstimatorDescriptor& RlsDescriptor();

@@ -20,7 +20,7 @@ struct Example6Options {
 struct Example6Point {
   double t = 0, xi = 0, xi_prev = 0;  // ξ(t), ξ(t − δt)
   double euler = 0;                   // D(t)
-  double tau = 0;                     // τ(t), the integral by 20-point Gauss–Legendre (error < 1e-14 relative)
+  double tau = 0;  // τ(t), the integral by 20-point Gauss–Legendre (error < 1e-14 relative)
 };
 
 // ξ(t) in closed form.

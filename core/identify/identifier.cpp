@@ -19,8 +19,8 @@ Vec Prior(const Vec& given, const RegressionLayout& layout, const char* field) {
   const auto u = static_cast<Eigen::Index>(layout.unknown.size());
   if (given.size() == 0) return Vec::Zero(u);
   if (given.size() != u) {
-    throw std::invalid_argument(fmt::format("IdentifierSettings::{} has {} entries; the model has {} unknowns",
-                                            field, given.size(), u));
+    throw std::invalid_argument(fmt::format(
+        "IdentifierSettings::{} has {} entries; the model has {} unknowns", field, given.size(), u));
   }
   return given;
 }
@@ -84,7 +84,8 @@ struct Identifier::State {
     block_y.resize(std::size_t(kFeedBlock));
     // The common configurations get direct, inlined calls instead of the virtual interfaces: RLS
     // for α on one identified row, and with it the paper detector on a model with a constant flow
-    // Jacobian. Same arithmetic in the same order (tests/core/identify/identifier_test.cpp checks bit-equality).
+    // Jacobian. Same arithmetic in the same order (tests/core/identify/identifier_test.cpp checks
+    // bit-equality).
     if (s.direct_calls && builder.flow_layout().rows.size() == 1) {
       rls = dynamic_cast<Rls*>(flow.get());
       if (rls != nullptr) {
@@ -97,9 +98,9 @@ struct Identifier::State {
       }
     }
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
-      throw std::invalid_argument(fmt::format(
-          "IdentifierSettings::sigma has {} entries; the model has {} states", s.sigma.size(),
-          m.state_size()));
+      throw std::invalid_argument(
+          fmt::format("IdentifierSettings::sigma has {} entries; the model has {} states", s.sigma.size(),
+                      m.state_size()));
     }
   }
 
@@ -109,10 +110,10 @@ struct Identifier::State {
   RegressionBuilder builder;
   std::unique_ptr<Estimator> flow, jump;
   std::unique_ptr<JumpDetector> detector;
-  Rls* rls = nullptr;              // the α estimator, when it is RLS on one row (direct_calls)
-  PaperDetector* paper = nullptr;  // with rls: the detector, when it is the paper's (constant Jacobian)
+  Rls* rls = nullptr;                    // the α estimator, when it is RLS on one row (direct_calls)
+  PaperDetector* paper = nullptr;        // with rls: the detector, when it is the paper's (constant Jacobian)
   ResidualDetector* residual = nullptr;  // with rls: the detector, when it is the residual detector
-  RowBlockFn row_block = nullptr;  // with rls: RowBlock for the model's sizes
+  RowBlockFn row_block = nullptr;        // with rls: RowBlock for the model's sizes
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -140,8 +141,8 @@ Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& 
   if (!(dt > 0.0) || !std::isfinite(dt)) {
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
   }
-  if (!(settings.data_rtol >= 0.0) || !std::isfinite(settings.data_rtol) ||
-      !(settings.data_atol >= 0.0) || !std::isfinite(settings.data_atol)) {
+  if (!(settings.data_rtol >= 0.0) || !std::isfinite(settings.data_rtol) || !(settings.data_atol >= 0.0) ||
+      !std::isfinite(settings.data_atol)) {
     throw std::invalid_argument(fmt::format("data_rtol = {}, data_atol = {}: must be finite and >= 0",
                                             settings.data_rtol, settings.data_atol));
   }
@@ -183,8 +184,9 @@ Decision Identifier::Step(ConstVecRef x, bool gamma) { return Advance(x, &gamma)
 Decision Identifier::Advance(ConstVecRef x, const bool* given) {
   State& s = *s_;
   if (x.size() != s.prev.size()) {
-    throw std::invalid_argument(fmt::format("Identifier::Step: sample has {} entries; model '{}' has {} states",
-                                            x.size(), s.model.name(), s.prev.size()));
+    throw std::invalid_argument(
+        fmt::format("Identifier::Step: sample has {} entries; model '{}' has {} states", x.size(),
+                    s.model.name(), s.prev.size()));
   }
   if (!s.has_prev) {
     ++s.samples;
@@ -225,22 +227,21 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given) {
 SampleContext Identifier::Context(State& s, const double* x, const double* phi, const double* y,
                                   const Vec& alpha_class) {
   const Eigen::Index n = s.prev.size(), rows = s.phi.rows(), u = s.phi.cols();
-  return SampleContext{
-      .model = &s.model,
-      .dt = s.dt,
-      .prev = ConstVecMap(s.prev.data(), n),
-      .cur = ConstVecMap(x, n),
-      .flow_phi = ConstMatMap(phi, rows, u),
-      .flow_y = ConstVecMap(y, rows),
-      .alpha_hat = ConstVecMap(alpha_class.data(), alpha_class.size()),
-      .alpha_covariance = s.frozen ? (s.frozen_covariance ? &*s.frozen_covariance : nullptr)
-                                   : s.flow->covariance_matrix(),
-      .flow_updates = s.frozen ? s.frozen_updates : s.flow->updates(),
-      .version = s.frozen ? -2 : s.version,
-      .flow_set = s.settings.sets ? &s.flow_set : nullptr,
-      .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
-      .data_rtol = s.settings.data_rtol,
-      .data_atol = s.settings.data_atol};
+  return SampleContext{.model = &s.model,
+                       .dt = s.dt,
+                       .prev = ConstVecMap(s.prev.data(), n),
+                       .cur = ConstVecMap(x, n),
+                       .flow_phi = ConstMatMap(phi, rows, u),
+                       .flow_y = ConstVecMap(y, rows),
+                       .alpha_hat = ConstVecMap(alpha_class.data(), alpha_class.size()),
+                       .alpha_covariance = s.frozen ? (s.frozen_covariance ? &*s.frozen_covariance : nullptr)
+                                                    : s.flow->covariance_matrix(),
+                       .flow_updates = s.frozen ? s.frozen_updates : s.flow->updates(),
+                       .version = s.frozen ? -2 : s.version,
+                       .flow_set = s.settings.sets ? &s.flow_set : nullptr,
+                       .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
+                       .data_rtol = s.settings.data_rtol,
+                       .data_atol = s.settings.data_atol};
 }
 
 // One identified row estimated by RLS (s.rls set), for `count` consecutive samples x_k = xs + k·n
@@ -248,8 +249,8 @@ SampleContext Identifier::Context(State& s, const double* x, const double* phi, 
 // paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the detector's
 // interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
 template <int N, int P, Identifier::DetectorCall kCall>
-void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
-                          const double* y, Decision* decisions) {
+void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
+                          Decision* decisions) {
   const Eigen::Index n = N > 0 ? N : s.prev.size();
   const Eigen::Index u = P > 0 ? P : s.phi.cols();
   for (Eigen::Index k = 0; k < count; ++k) {
@@ -276,8 +277,8 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
       const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
                                    : s.rls->covariance_matrix()->data();
       d = s.residual->ClassifyObserveRow<N, P>(
-          s.prev.data(), x, n, s.dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()), cov,
-          s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : s.rls->updates(),
+          s.prev.data(), x, n, s.dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()),
+          cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : s.rls->updates(),
           s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
       update(d);
     } else {
@@ -303,8 +304,9 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
   State& s = *s_;
   const Eigen::Index n = s.prev.size(), count = samples.cols();
   if (samples.rows() != n) {
-    throw std::invalid_argument(fmt::format("Identifier::Feed: samples have {} rows; model '{}' has {} states",
-                                            samples.rows(), s.model.name(), n));
+    throw std::invalid_argument(
+        fmt::format("Identifier::Feed: samples have {} rows; model '{}' has {} states", samples.rows(),
+                    s.model.name(), n));
   }
   Eigen::Index k = 0;
   auto step = [&](Eigen::Index col) {
@@ -318,10 +320,9 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
   if (!s.has_prev && k < count) step(k++);
   while (k < count) {
     const Eigen::Index len = std::min<Eigen::Index>(kFeedBlock, count - k);
-    s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(),
-                       s.block_y.data());
+    s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(), s.block_y.data());
     s.row_block(s, samples.col(k).data(), len, s.block_phi.data(), s.block_y.data(),
-                   decisions == nullptr ? nullptr : decisions + k);
+                decisions == nullptr ? nullptr : decisions + k);
     k += len;
   }
 }
@@ -372,8 +373,9 @@ IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double d
   if (settings.flow_estimator.NeedsNoiseShape() || settings.jump_estimator.NeedsNoiseShape()) {
     const bool given = settings.sigma.size() != 0;
     if (given && settings.sigma.size() != model.state_size()) {
-      throw std::invalid_argument(fmt::format("IdentifierSettings::sigma has {} entries; the model has {} states",
-                                              settings.sigma.size(), model.state_size()));
+      throw std::invalid_argument(
+          fmt::format("IdentifierSettings::sigma has {} entries; the model has {} states",
+                      settings.sigma.size(), model.state_size()));
     }
     if (y.cols() >= 4 && y.allFinite()) {
       r->noise_sigma = given ? settings.sigma : EstimateNoiseSigma(y);
@@ -419,8 +421,10 @@ void Pass(Identifier& id, const Mat& y, const IdentifyOptions& options, Identify
     return;
   }
   for (Eigen::Index k = 0; k < count; ++k) {
-    Record(k, options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[std::size_t(k)] != 0),
-           r);
+    Record(
+        k,
+        options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[std::size_t(k)] != 0),
+        r);
     if (!options.trace) continue;
     r->alpha_trace.col(k) = id.alpha_hat();
     r->beta_trace.col(k) = id.beta_hat();

@@ -45,7 +45,7 @@ struct IdentifierSettings {
   // Maintain Λ, Γ and their hulls (Algorithm 2), for any number of states (core/sets/sample_set.hpp:
   // 1-D intervals, 2-D angular rings, n ≥ 3 boundary stars; all exact and incremental).
   bool sets = true;
-  Vec sigma;         // measurement noise σ per component when known (empty: unknown)
+  Vec sigma;  // measurement noise σ per component when known (empty: unknown)
   // Accuracy of the data apart from the random noise: component j may be off by up to
   // data_rtol·|ξ_j| + data_atol (simulated data: the integrator's tolerances; 0 = exact up to
   // rounding). The residual detector adds it to its measurement-noise model; nothing else uses it.
@@ -56,8 +56,8 @@ struct IdentifierSettings {
   bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
   // Direct, inlined calls instead of the virtual interfaces: to RLS for α on one identified row, and
   // then also to the paper detector on a constant-Jacobian model or to the residual detector, with
-  // compile-time sizes for n = 2 and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost per sample). false:
-  // always the interfaces (for tests and comparisons).
+  // compile-time sizes for n = 2 and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost
+  // per sample). false: always the interfaces (for tests and comparisons).
   bool direct_calls = true;
 };
 
@@ -113,13 +113,12 @@ class Identifier {
  private:
   struct State;
   static constexpr Eigen::Index kFeedBlock = 256;  // samples per block of regressions in Feed
-  using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*,
-                              Decision*);
+  using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*, Decision*);
   // The detector of a row block: through its interface, or called directly.
   enum DetectorCall { kInterface, kPaperDirect, kResidualDirect };
   template <int N, int P, DetectorCall kCall>
-  static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
-                       const double* y, Decision* decisions);
+  static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
+                       Decision* decisions);
   template <DetectorCall kCall>
   static RowBlockFn ChooseRowBlock(int n, int u);
   static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
@@ -140,17 +139,17 @@ struct IdentifyOptions {
 };
 
 struct IdentifyResult {
-  Vec alpha_hat, beta_hat;              // final, full vectors
-  std::vector<std::uint8_t> gamma;      // per sample (gamma[0] = 0)
-  std::vector<double> statistic;        // detector statistic per sample (paper: D_δt ξ)
-  std::vector<double> threshold;        // its threshold (paper: τ̂)
-  Mat alpha_trace, beta_trace;          // |α| × K and |β| × K when options.trace
+  Vec alpha_hat, beta_hat;          // final, full vectors
+  std::vector<std::uint8_t> gamma;  // per sample (gamma[0] = 0)
+  std::vector<double> statistic;    // detector statistic per sample (paper: D_δt ξ)
+  std::vector<double> threshold;    // its threshold (paper: τ̂)
+  Mat alpha_trace, beta_trace;      // |α| × K and |β| × K when options.trace
   long jumps_detected = 0;
   EstimatorStatus flow_status = EstimatorStatus::kNotExcited;
   EstimatorStatus jump_status = EstimatorStatus::kNotExcited;
-  Mat flow_hull, jump_hull;             // n × h hull vertices of Λ and Γ (when settings.sets)
+  Mat flow_hull, jump_hull;  // n × h hull vertices of Λ and Γ (when settings.sets)
   double flow_hull_volume = 0.0, jump_hull_volume = 0.0;
-  long jumps_localized = 0;             // settings.localize: jumps regressed at the located instant
+  long jumps_localized = 0;  // settings.localize: jumps regressed at the located instant
   // settings.second_pass: the first pass's outcome and what the second changed. gamma, estimates
   // and traces above are the second pass's.
   bool second_pass = false;
@@ -171,7 +170,7 @@ struct IdentifyResult {
 // gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD
 // of second differences, core/model/noise_shape.hpp); C from WithNoiseShapes over up to 256 evenly spaced
 // columns of y.
-IdentifyResult Identify(const Model& model, const Mat& y, double dt,
-                        const IdentifierSettings& settings, const IdentifyOptions& options = {});
+IdentifyResult Identify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                        const IdentifyOptions& options = {});
 
 }  // namespace hysid

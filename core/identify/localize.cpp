@@ -90,7 +90,8 @@ bool JumpLocalizer::Locate(ConstVecRef prev, ConstVecRef cur, double dt, ConstVe
       }
       // Regula falsi converges from one side; also stop on a tiny step.
       if (std::abs(f) <= 4.0 * std::numeric_limits<double>::epsilon() *
-                             (std::abs(post_[known_rows_[std::size_t(row)]]) + std::abs(jump_[known_rows_[std::size_t(row)]]))) {
+                             (std::abs(post_[known_rows_[std::size_t(row)]]) +
+                              std::abs(jump_[known_rows_[std::size_t(row)]]))) {
         a = b = theta;
         break;
       }

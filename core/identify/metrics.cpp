@@ -22,17 +22,21 @@ double Confusion::recall() const {
 
 Confusion CompareJumps(const std::vector<int>& j_true, const std::vector<std::uint8_t>& gamma) {
   if (j_true.size() != gamma.size()) {
-    throw std::invalid_argument(fmt::format("CompareJumps: {} truth labels for {} decisions",
-                                            j_true.size(), gamma.size()));
+    throw std::invalid_argument(
+        fmt::format("CompareJumps: {} truth labels for {} decisions", j_true.size(), gamma.size()));
   }
   Confusion c;
   for (std::size_t k = 1; k < gamma.size(); ++k) {
     const bool truth = j_true[k] != j_true[k - 1];
     const bool flagged = gamma[k] != 0;
-    if (truth && flagged) ++c.tp;
-    else if (!truth && flagged) ++c.fp;
-    else if (truth) ++c.fn;
-    else ++c.tn;
+    if (truth && flagged)
+      ++c.tp;
+    else if (!truth && flagged)
+      ++c.fp;
+    else if (truth)
+      ++c.fn;
+    else
+      ++c.tn;
   }
   return c;
 }

@@ -117,8 +117,9 @@ bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& nam
     any = true;
     if (c == '\n') return true;
     if (line.size() >= max) {
-      throw std::invalid_argument(fmt::format("{}:{}: the line is longer than the limit of {} {} (raise it with {}=N)",
-                                              name, line_no, max, kMaxCsvLine.what, kMaxCsvLine.variable));
+      throw std::invalid_argument(
+          fmt::format("{}:{}: the line is longer than the limit of {} {} (raise it with {}=N)", name, line_no,
+                      max, kMaxCsvLine.what, kMaxCsvLine.variable));
     }
     line.push_back(static_cast<char>(c));
   }
@@ -140,11 +141,12 @@ std::vector<std::string> Split(std::string_view line, const std::string& name, l
   std::size_t start = 0;
   while (true) {
     const std::size_t comma = line.find(',', start);
-    const std::string_view cell = Trim(line.substr(start, comma == std::string_view::npos ? comma : comma - start));
+    const std::string_view cell =
+        Trim(line.substr(start, comma == std::string_view::npos ? comma : comma - start));
     if (cell.size() > max) {
       throw std::invalid_argument(fmt::format(
-          "{}:{}: column {}: the cell '{}' is longer than the limit of {} {} (raise it with {}=N)", name, line_no,
-          cells.size() + 1, Abbreviated(cell, 40), max, kMaxCsvCell.what, kMaxCsvCell.variable));
+          "{}:{}: column {}: the cell '{}' is longer than the limit of {} {} (raise it with {}=N)", name,
+          line_no, cells.size() + 1, Abbreviated(cell, 40), max, kMaxCsvCell.what, kMaxCsvCell.variable));
     }
     cells.emplace_back(cell);
     if (comma == std::string_view::npos) break;
@@ -166,19 +168,22 @@ void CheckHeader(const CsvTable& table, long line_no) {
   for (std::size_t c = 0; c < table.header.size(); ++c) {
     const std::string& h = table.header[c];
     if (h.empty()) {
-      throw std::invalid_argument(fmt::format("{}:{}: column {} of the header is empty", table.path, line_no, c + 1));
+      throw std::invalid_argument(
+          fmt::format("{}:{}: column {} of the header is empty", table.path, line_no, c + 1));
     }
     if (h.find_first_of("\"'") != std::string::npos) {
-      throw std::invalid_argument(fmt::format(
-          "{}:{}: column {} of the header ({}) is quoted; hysid reads plain CSV: write the names without quotes",
-          table.path, line_no, c + 1, Abbreviated(h, 40)));
+      throw std::invalid_argument(
+          fmt::format("{}:{}: column {} of the header ({}) is quoted; hysid reads plain CSV: write the names "
+                      "without quotes",
+                      table.path, line_no, c + 1, Abbreviated(h, 40)));
     }
     double v = 0;
     all_numbers = all_numbers && ParseNumber(h, &v);
   }
   if (all_numbers) {
-    throw std::invalid_argument(fmt::format(
-        "{}:{}: the first line is numbers, not a header; add a header line such as t,y1,y2", table.path, line_no));
+    throw std::invalid_argument(
+        fmt::format("{}:{}: the first line is numbers, not a header; add a header line such as t,y1,y2",
+                    table.path, line_no));
   }
 }
 
@@ -213,8 +218,8 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
     }
     const std::vector<std::string> cells = Split(trimmed, name, line_no);
     if (cells.size() != table.header.size()) {
-      throw std::invalid_argument(fmt::format("{}:{}: {} cells, the header has {} columns", table.path, line_no,
-                                              cells.size(), table.header.size()));
+      throw std::invalid_argument(fmt::format("{}:{}: {} cells, the header has {} columns", table.path,
+                                              line_no, cells.size(), table.header.size()));
     }
     for (std::size_t c = 0; c < cells.size(); ++c) {
       double value = 0.0;

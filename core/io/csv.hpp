@@ -8,8 +8,8 @@
 #pragma once
 
 #include <cstdio>
-#include <istream>
 #include <filesystem>
+#include <istream>
 #include <span>
 #include <string>
 #include <vector>

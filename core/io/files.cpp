@@ -33,7 +33,8 @@ void CheckOutputDirectory(const std::string& label, const fs::path& dir) {
     }
   }
   if (::access(dir.c_str(), W_OK | X_OK) != 0) {
-    throw std::invalid_argument(fmt::format("{} {}: not writable: {}", label, dir.string(), std::strerror(errno)));
+    throw std::invalid_argument(
+        fmt::format("{} {}: not writable: {}", label, dir.string(), std::strerror(errno)));
   }
 }
 
@@ -41,7 +42,8 @@ void CheckOutputPath(const std::string& label, const fs::path& path) {
   if (path.empty()) throw std::invalid_argument(fmt::format("{}: empty path", label));
   std::error_code ec;
   if (fs::is_directory(path, ec)) {
-    throw std::invalid_argument(fmt::format("{} {}: is a directory, expected a file name", label, path.string()));
+    throw std::invalid_argument(
+        fmt::format("{} {}: is a directory, expected a file name", label, path.string()));
   }
   const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
   CheckOutputDirectory(label, dir);

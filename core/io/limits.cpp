@@ -33,8 +33,9 @@ void CheckLimit(const Limit& limit, std::int64_t value, const std::string& where
 std::int64_t CheckedProduct(const Limit& limit, std::int64_t a, std::int64_t b, const std::string& where) {
   std::int64_t p = 0;
   if (__builtin_mul_overflow(a, b, &p)) {
-    throw std::invalid_argument(fmt::format("{}: {} × {} overflows 64 bits; the limit is {} {} (raise it with {}=N)",
-                                            where, a, b, LimitValue(limit), limit.what, limit.variable));
+    throw std::invalid_argument(
+        fmt::format("{}: {} × {} overflows 64 bits; the limit is {} {} (raise it with {}=N)", where, a, b,
+                    LimitValue(limit), limit.what, limit.variable));
   }
   CheckLimit(limit, p, where);
   return p;

@@ -38,15 +38,14 @@ SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
     }
   }
   if (static_cast<int>(state.size()) < state_size) {
-    throw std::invalid_argument(fmt::format(
-        "{}:1: {} columns ({}); need time + {} state columns for the model", path, cols,
-        fmt::join(table.header, ","), state_size));
+    throw std::invalid_argument(
+        fmt::format("{}:1: {} columns ({}); need time + {} state columns for the model", path, cols,
+                    fmt::join(table.header, ","), state_size));
   }
   for (int c : state) data.state_columns.push_back(table.header[static_cast<std::size_t>(c)]);
   const long k = table.rows();
   if (k < 3) {
-    throw std::invalid_argument(
-        fmt::format("{}: {} samples; the identifier needs at least 3", path, k));
+    throw std::invalid_argument(fmt::format("{}: {} samples; the identifier needs at least 3", path, k));
   }
   // Magnitudes: beyond kMaxMagnitude, squares and sums in the estimators and set metrics overflow.
   std::vector<int> checked = state;
@@ -66,9 +65,9 @@ SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
   for (long i = 1; i < k; ++i) {
     const auto u = static_cast<std::size_t>(i);
     if (!(data.t[u] > data.t[u - 1])) {
-      throw std::invalid_argument(fmt::format(
-          "{}:{}: column 1 ('{}'): time {} is not after {} (line {}): time must increase", path,
-          table.line_of_row[u], tname, data.t[u], data.t[u - 1], table.line_of_row[u - 1]));
+      throw std::invalid_argument(
+          fmt::format("{}:{}: column 1 ('{}'): time {} is not after {} (line {}): time must increase", path,
+                      table.line_of_row[u], tname, data.t[u], data.t[u - 1], table.line_of_row[u - 1]));
     }
   }
   data.dt = (data.t.back() - data.t.front()) / static_cast<double>(k - 1);
@@ -81,10 +80,10 @@ SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
   }
   if (worst > 1e-6) {
     const auto u = static_cast<std::size_t>(worst_row);
-    throw std::invalid_argument(fmt::format(
-        "{}:{}: column 1 ('{}'): irregular sampling: step {} differs from the mean step {} by "
-        "{:.3g}% (hysid needs a uniform δt; the tolerance is 1e-4%)",
-        path, table.line_of_row[u], tname, data.t[u] - data.t[u - 1], data.dt, 100.0 * worst));
+    throw std::invalid_argument(
+        fmt::format("{}:{}: column 1 ('{}'): irregular sampling: step {} differs from the mean step {} by "
+                    "{:.3g}% (hysid needs a uniform δt; the tolerance is 1e-4%)",
+                    path, table.line_of_row[u], tname, data.t[u] - data.t[u - 1], data.dt, 100.0 * worst));
   }
   data.y.resize(state_size, k);
   for (int i = 0; i < state_size; ++i) {
@@ -96,9 +95,9 @@ SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
     for (long r = 0; r < k; ++r) {
       const double v = table.columns[static_cast<std::size_t>(jc)][static_cast<std::size_t>(r)];
       if (v != std::floor(v) || v < 0 || v > static_cast<double>(std::numeric_limits<int>::max())) {
-        throw std::invalid_argument(fmt::format(
-            "{}:{}: column {} ('j'): {} is not a jump count (an integer in [0, 2147483647])", path,
-            table.line_of_row[static_cast<std::size_t>(r)], jc + 1, v));
+        throw std::invalid_argument(
+            fmt::format("{}:{}: column {} ('j'): {} is not a jump count (an integer in [0, 2147483647])",
+                        path, table.line_of_row[static_cast<std::size_t>(r)], jc + 1, v));
       }
       j[static_cast<std::size_t>(r)] = static_cast<int>(v);
     }

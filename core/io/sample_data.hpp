@@ -24,9 +24,9 @@ inline constexpr double kMaxMagnitude = 1e150;
 struct SampleData {
   std::string path;
   std::vector<double> t;
-  double dt = 0.0;                 // the mean step (t_K − t_0)/K
-  Mat y;                           // n × K measured states
-  std::optional<std::vector<int>> j;  // ground-truth jump counter, when the file has one
+  double dt = 0.0;                         // the mean step (t_K − t_0)/K
+  Mat y;                                   // n × K measured states
+  std::optional<std::vector<int>> j;       // ground-truth jump counter, when the file has one
   std::vector<std::string> state_columns;  // the header names used for the state
 };
 

@@ -21,8 +21,7 @@ void Model::Init() {
   const std::string& name = spec_.name;
   const int n = state_size();
   Require(!name.empty(), "?", "ModelSpec::name is empty");
-  Require(n >= 1 && n <= kMaxStates, name,
-          fmt::format("state size {} outside [1, {}]", n, kMaxStates));
+  Require(n >= 1 && n <= kMaxStates, name, fmt::format("state size {} outside [1, {}]", n, kMaxStates));
   Require(!spec_.alpha.empty() && static_cast<int>(spec_.alpha.size()) <= kMaxParameters, name,
           "alpha must have between 1 and 32 entries");
   Require(!spec_.beta.empty() && static_cast<int>(spec_.beta.size()) <= kMaxParameters, name,
@@ -40,8 +39,7 @@ void Model::Init() {
     for (int r : *rows) Require(r >= 0 && r < n, name, fmt::format("row {} outside [0, {})", r, n));
   }
   Require(!spec_.guards.empty(), name, "a hybrid model needs at least one guard");
-  Require(static_cast<int>(spec_.default_x0.size()) == n, name,
-          "default_x0 must have one entry per state");
+  Require(static_cast<int>(spec_.default_x0.size()) == n, name, "default_x0 must have one entry per state");
   alpha_.resize(static_cast<Eigen::Index>(spec_.alpha.size()));
   for (std::size_t i = 0; i < spec_.alpha.size(); ++i) alpha_[Eigen::Index(i)] = spec_.alpha[i].value;
   beta_.resize(static_cast<Eigen::Index>(spec_.beta.size()));
@@ -55,12 +53,10 @@ void Model::SetParameter(std::string_view pname, double value) {
       if (p.name != pname) continue;
       if (p.known) {
         throw std::invalid_argument(fmt::format(
-            "parameter '{}' of model '{}' is a known constant of the model structure", pname,
-            spec_.name));
+            "parameter '{}' of model '{}' is a known constant of the model structure", pname, spec_.name));
       }
       if (!std::isfinite(value)) {
-        throw std::invalid_argument(
-            fmt::format("parameter '{}' = {}: must be finite", pname, value));
+        throw std::invalid_argument(fmt::format("parameter '{}' = {}: must be finite", pname, value));
       }
       p.value = value;
       (*vec)[Eigen::Index(i)] = value;
@@ -73,8 +69,8 @@ void Model::SetParameter(std::string_view pname, double value) {
       if (!p.known) known += (known.empty() ? "" : ", ") + p.name;
     }
   }
-  throw std::invalid_argument(fmt::format("model '{}' has no parameter '{}' (parameters: {})",
-                                          spec_.name, pname, known));
+  throw std::invalid_argument(
+      fmt::format("model '{}' has no parameter '{}' (parameters: {})", spec_.name, pname, known));
 }
 
 void Model::SetParameter(std::string_view assignment) {
@@ -88,8 +84,7 @@ void Model::SetParameter(std::string_view assignment) {
   double value = 0.0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
   if (ec != std::errc() || end != text.data() + text.size() || text.empty()) {
-    throw std::invalid_argument(
-        fmt::format("parameter '{}': value '{}' is not a number", pname, text));
+    throw std::invalid_argument(fmt::format("parameter '{}': value '{}' is not a number", pname, text));
   }
   SetParameter(pname, value);
 }

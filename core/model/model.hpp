@@ -9,8 +9,8 @@
 #include <limits>
 #include <memory>
 #include <string>
-#include <type_traits>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -65,13 +65,13 @@ struct ModelSpec {
 template <class M>
 concept HybridModel = std::copy_constructible<M> &&
     requires(const M& m, ConstVecRef x, MatRef out_mat, VecRef out_vec) {
-      { m.Spec() } -> std::convertible_to<ModelSpec>;
-      m.Phi(x, out_mat);    // φ(ξ), n × |α|
-      m.Psi(x, out_mat);    // ψ(ξ), n × |β|
-      m.Guards(x, out_vec); // h_i(ξ), one per spec.guards entry
-      { m.InFlowSet(x) } -> std::convertible_to<bool>;
-      { m.InJumpSet(x) } -> std::convertible_to<bool>;
-    };
+  { m.Spec() } -> std::convertible_to<ModelSpec>;
+  m.Phi(x, out_mat);     // φ(ξ), n × |α|
+  m.Psi(x, out_mat);     // ψ(ξ), n × |β|
+  m.Guards(x, out_vec);  // h_i(ξ), one per spec.guards entry
+  { m.InFlowSet(x) } -> std::convertible_to<bool>;
+  { m.InJumpSet(x) } -> std::convertible_to<bool>;
+};
 
 template <class M>
 concept HasFlowJacobian = requires(const M& m, ConstVecRef x, ConstVecRef alpha, MatRef jac) {
@@ -93,15 +93,17 @@ concept HasPhiColumns = requires(const M& m, const double* x, Eigen::Index count
 };
 
 template <class M>
-concept HasGuardProjection = requires(const M& m, int i, VecRef x) { m.ProjectOntoGuard(i, x); };
+concept HasGuardProjection = requires(const M& m, int i, VecRef x) {
+  m.ProjectOntoGuard(i, x);
+};
 
 class Model {
  public:
   // Not for Model itself: checking HybridModel<Model> would recurse into this constructor (clang 14
   // rejects that; g++ 12 accepts it).
   template <class M>
-    requires(!std::is_same_v<std::remove_cvref_t<M>, Model>) && HybridModel<M>
-  explicit Model(M model) : impl_(std::make_shared<const Impl<M>>(std::move(model))) {
+  requires(!std::is_same_v<std::remove_cvref_t<M>, Model>) && HybridModel<M> explicit Model(M model)
+      : impl_(std::make_shared<const Impl<M>>(std::move(model))) {
     Init();
   }
 
@@ -140,8 +142,12 @@ class Model {
   double DistanceToJumpSet(const ConstVecRef& x) const { return impl_->DistanceToJumpSet(x); }
 
   // f(ξ) = φ(ξ)α and g(ξ) = ψ(ξ)β with the given parameter vectors.
-  void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const { impl_->Flow(x, alpha, dxdt); }
-  void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const { impl_->Jump(x, beta, xplus); }
+  void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const {
+    impl_->Flow(x, alpha, dxdt);
+  }
+  void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const {
+    impl_->Jump(x, beta, xplus);
+  }
   // ∂(φ(ξ)α)/∂ξ, n × n: analytic when the struct provides it, else central differences.
   void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const {
     impl_->FlowJacobian(x, alpha, jac);
@@ -152,8 +158,8 @@ class Model {
   static constexpr int kMaxParameters = 32;
 
  private:
-  using ScratchMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
-                                   kMaxStates, kMaxParameters>;
+  using ScratchMat =
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxStates, kMaxParameters>;
 
   struct Concept {
     virtual ~Concept() = default;
@@ -197,7 +203,9 @@ class Model {
       if constexpr (HasGuardProjection<M>) m_.ProjectOntoGuard(i, x);
     }
     bool ProvidesJumpSetDistance() const override {
-      if constexpr (requires { { m_.ProvidesJumpSetDistance() } -> std::convertible_to<bool>; }) {
+      if constexpr (requires {
+                      { m_.ProvidesJumpSetDistance() } -> std::convertible_to<bool>;
+                    }) {
         return m_.ProvidesJumpSetDistance();  // a struct whose distance is optional at run time
       } else {
         return HasJumpSetDistance<M>;

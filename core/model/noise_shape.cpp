@@ -13,8 +13,8 @@ namespace {
 void CheckInputs(const Model& model, ConstVecRef sigma, const Mat& states, const char* what) {
   const int n = model.state_size();
   if (sigma.size() != n) {
-    throw std::invalid_argument(fmt::format("{}: sigma has {} entries, model '{}' has {} states",
-                                            what, sigma.size(), model.name(), n));
+    throw std::invalid_argument(fmt::format("{}: sigma has {} entries, model '{}' has {} states", what,
+                                            sigma.size(), model.name(), n));
   }
   for (Eigen::Index i = 0; i < sigma.size(); ++i) {
     if (!(sigma[i] >= 0.0) || !std::isfinite(sigma[i])) {
@@ -23,8 +23,8 @@ void CheckInputs(const Model& model, ConstVecRef sigma, const Mat& states, const
     }
   }
   if (states.rows() != n || states.cols() < 1) {
-    throw std::invalid_argument(fmt::format("{}: states is {}x{}, expected {} x (at least 1)",
-                                            what, states.rows(), states.cols(), n));
+    throw std::invalid_argument(fmt::format("{}: states is {}x{}, expected {} x (at least 1)", what,
+                                            states.rows(), states.cols(), n));
   }
   if (!states.allFinite()) throw std::invalid_argument(fmt::format("{}: states must be finite", what));
 }
@@ -32,8 +32,8 @@ void CheckInputs(const Model& model, ConstVecRef sigma, const Mat& states, const
 // Ĝ for one row r at state x: rows = unknown columns' gradients, last = −gradient of the known part.
 // `map` evaluates φ (or ψ) into an n × parameter matrix.
 template <class Map>
-Mat AugmentedJacobian(const Map& map, const RegressionLayout& layout, const Vec& known_values,
-                      int r, const Vec& x) {
+Mat AugmentedJacobian(const Map& map, const RegressionLayout& layout, const Vec& known_values, int r,
+                      const Vec& x) {
   const int n = layout.state_size;
   const int u = static_cast<int>(layout.unknown.size());
   Mat out = Mat::Zero(u + 1, n);
@@ -104,8 +104,8 @@ Mat JumpNoiseShape(const Model& model, ConstVecRef sigma, const Mat& states) {
 
 Vec EstimateNoiseSigma(const Mat& y) {
   if (y.cols() < 4) {
-    throw std::invalid_argument(fmt::format(
-        "EstimateNoiseSigma: y has {} samples (columns), need at least 4", y.cols()));
+    throw std::invalid_argument(
+        fmt::format("EstimateNoiseSigma: y has {} samples (columns), need at least 4", y.cols()));
   }
   if (!y.allFinite()) throw std::invalid_argument("EstimateNoiseSigma: y must be finite");
   const Eigen::Index k = y.cols() - 2;

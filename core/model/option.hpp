@@ -30,7 +30,7 @@ template <class S>
 struct Option {
   std::string_view name{};  // the field's name: TOML key; the flag is "--" + name with '-' for '_'
   OptionType type = OptionType::kReal;
-  Interval range{};                        // kReal, kInteger
+  Interval range{};                         // kReal, kInteger
   std::vector<std::string_view> choices{};  // kChoice: the enumerators' names, in enumerator order
   std::string_view help{};
   bool sweepable = false;  // a sweep grid may give a list of values
@@ -118,14 +118,15 @@ std::vector<std::string> DescriptorNames(const std::vector<const D*>& all) {
 }
 // Throws std::invalid_argument "unknown FAMILY 'x' (known: a, b)".
 template <class D>
-decltype(D::kind) ParseKind(const std::vector<const D*>& all, std::string_view name, std::string_view family) {
+decltype(D::kind) ParseKind(const std::vector<const D*>& all, std::string_view name,
+                            std::string_view family) {
   std::string known;
   for (const D* d : all) {
     if (d->name == name) return d->kind;
     known += (known.empty() ? "" : ", ") + std::string(d->name);
   }
-  throw std::invalid_argument("unknown " + std::string(family) + " '" + std::string(name) + "' (known: " + known +
-                              ")");
+  throw std::invalid_argument("unknown " + std::string(family) + " '" + std::string(name) +
+                              "' (known: " + known + ")");
 }
 inline bool ReadsOption(const std::vector<std::string_view>& options, std::string_view name) {
   for (std::string_view o : options) {

@@ -5,8 +5,7 @@
 namespace hysid {
 namespace {
 
-RegressionLayout MakeLayout(const std::vector<Parameter>& params, const std::vector<int>& rows,
-                            int n) {
+RegressionLayout MakeLayout(const std::vector<Parameter>& params, const std::vector<int>& rows, int n) {
   RegressionLayout layout;
   layout.rows = rows;
   layout.state_size = n;
@@ -82,8 +81,7 @@ void RegressionBuilder::Flow(const ConstVecRef& prev, const ConstVecRef& cur, do
   }
 }
 
-void RegressionBuilder::FlowRow(const double* prev, const double* cur, double dt, double* phi,
-                                double* y) {
+void RegressionBuilder::FlowRow(const double* prev, const double* cur, double dt, double* phi, double* y) {
   FlowRows(prev, cur, 1, dt, phi, y);
 }
 
@@ -100,8 +98,8 @@ void RegressionBuilder::FlowRows(const double* prev, const double* xs, Eigen::In
 
 // U, K: the number of unknown and known columns when known at compile time (else 0, 0).
 template <int U, int K>
-void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen::Index count,
-                                    double dt, double* phi, double* y) {
+void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen::Index count, double dt,
+                                    double* phi, double* y) {
   const Eigen::Index n = last_cur_.size(), m = alpha_.size();
   const std::size_t u = U + K > 0 ? std::size_t(U) : row_unknown_.size();
   const std::size_t k = U + K > 0 ? std::size_t(K) : row_known_.size();
@@ -136,7 +134,8 @@ void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen:
       double yi = cur[r] - before[r];
       for (std::size_t c = 0; c < k; ++c) yi -= h * (row_prev[u + c] + row_cur[u + c]) * known_alpha[c];
       y[s] = yi;
-      for (std::size_t c = 0; c < u; ++c) phi[s * Eigen::Index(u) + Eigen::Index(c)] = h * (row_prev[c] + row_cur[c]);
+      for (std::size_t c = 0; c < u; ++c)
+        phi[s * Eigen::Index(u) + Eigen::Index(c)] = h * (row_prev[c] + row_cur[c]);
       for (std::size_t c = 0; c < u + k; ++c) row_prev[c] = row_cur[c];
     }
   }

@@ -47,8 +47,7 @@ class RegressionBuilder {
   // with x_k = xs[k·n .. k·n + n): row k of Φ at phi + k·|u|, y_k at y[k]. φ is evaluated for blocks
   // of samples with one call (Model::PhiColumns) and each state's φ once. Same values as FlowRow on
   // each pair.
-  void FlowRows(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi,
-                double* y);
+  void FlowRows(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi, double* y);
   // Jump regression: ξ_r(t) on ψ_{r,u}(ξ(t−δt)).
   void Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y);
 
@@ -72,7 +71,7 @@ class RegressionBuilder {
   std::vector<Eigen::Index> row_unknown_, row_known_;
   std::vector<double> row_known_alpha_;
   double row_last_[Model::kMaxParameters] = {};  // row r of φ at last_cur_ (one-row layouts)
-  std::vector<double> phi_block_;  // φ of up to kBlock states
+  std::vector<double> phi_block_;                // φ of up to kBlock states
 };
 
 }  // namespace hysid

@@ -28,10 +28,10 @@ namespace {
 // joined into one muParser expression list "e1, e2, ..." evaluated with one call.
 struct ExprMatrix {
   Eigen::Index rows = 0, cols = 0;
-  std::vector<double> constant;   // rows·cols values (0 where the entry is an expression)
+  std::vector<double> constant;     // rows·cols values (0 where the entry is an expression)
   std::vector<Eigen::Index> index;  // column-major position of each expression
-  std::vector<std::string> text;  // every entry as written (for the equations)
-  std::string joined;             // the expressions, comma-separated
+  std::vector<std::string> text;    // every entry as written (for the equations)
+  std::string joined;               // the expressions, comma-separated
 };
 
 // The parsed file, shared (immutable) by every copy of the model.
@@ -54,7 +54,8 @@ struct Compiled {
 };
 
 void Bind(mu::Parser& p, const Definition& def, Compiled& c, const std::string& expr) {
-  for (std::size_t i = 0; i < def.spec.state_names.size(); ++i) p.DefineVar(def.spec.state_names[i], &c.var[i]);
+  for (std::size_t i = 0; i < def.spec.state_names.size(); ++i)
+    p.DefineVar(def.spec.state_names[i], &c.var[i]);
   p.SetExpr(expr.empty() ? "0" : expr);
 }
 
@@ -77,7 +78,8 @@ Compiled& Local(const std::shared_ptr<const Definition>& def) {
   thread_local std::uint64_t last_id = 0;
   thread_local Compiled* last = nullptr;
   if (last_id == def->id) return *last;
-  thread_local std::map<std::uint64_t, std::pair<std::weak_ptr<const Definition>, std::unique_ptr<Compiled>>> cache;
+  thread_local std::map<std::uint64_t, std::pair<std::weak_ptr<const Definition>, std::unique_ptr<Compiled>>>
+      cache;
   std::erase_if(cache, [](const auto& e) { return e.second.first.expired(); });
   auto it = cache.find(def->id);
   if (it == cache.end()) it = cache.emplace(def->id, std::pair{std::weak_ptr(def), Compile(*def)}).first;
@@ -171,7 +173,8 @@ class Reader {
   static std::string Join(const std::string& prefix, std::string_view key) {
     return prefix.empty() ? std::string(key) : fmt::format("{}.{}", prefix, key);
   }
-  void OnlyKeys(const toml::table& t, const std::string& prefix, std::initializer_list<std::string_view> keys) const {
+  void OnlyKeys(const toml::table& t, const std::string& prefix,
+                std::initializer_list<std::string_view> keys) const {
     for (auto&& [k, v] : t) {
       if (std::find(keys.begin(), keys.end(), k.str()) == keys.end()) {
         Fail(&v, Join(prefix, k.str()), fmt::format("unknown key (allowed: {})", fmt::join(keys, ", ")));
@@ -221,8 +224,9 @@ std::pair<double, bool> CheckExpression(const Reader& rd, const toml::node* node
     return {v[0], !p.GetUsedVar().empty()};
   } catch (const mu::Parser::exception_type& e) {
     if (e.GetCode() == mu::ecUNASSIGNABLE_TOKEN) {
-      rd.Fail(node, key, fmt::format("\"{}\": unknown symbol \"{}\" (the variables are the states: {})", expr,
-                                     e.GetToken(), fmt::join(states, ", ")));
+      rd.Fail(node, key,
+              fmt::format("\"{}\": unknown symbol \"{}\" (the variables are the states: {})", expr,
+                          e.GetToken(), fmt::join(states, ", ")));
     }
     rd.Fail(node, key, fmt::format("\"{}\": {}", expr, e.GetMsg()));
   }
@@ -249,7 +253,8 @@ ExprMatrix ParseMatrix(const Reader& rd, const toml::node& node, const std::stri
     const std::string rkey = fmt::format("{}[{}]", key, i);
     const toml::array& row = rd.Array(arr[std::size_t(i)], rkey);
     if (static_cast<Eigen::Index>(row.size()) != cols) {
-      rd.Fail(&arr[std::size_t(i)], rkey, fmt::format("has {} entries, expected {} (one per parameter)", row.size(), cols));
+      rd.Fail(&arr[std::size_t(i)], rkey,
+              fmt::format("has {} entries, expected {} (one per parameter)", row.size(), cols));
     }
     for (Eigen::Index j = 0; j < cols; ++j) {
       const std::string ekey = fmt::format("{}[{}][{}]", key, i, j);
@@ -320,7 +325,8 @@ std::vector<std::string> ParseStates(const Reader& rd, const toml::table& root) 
     } catch (const mu::Parser::exception_type& e) {
       rd.Fail(&arr[i], key, fmt::format("\"{}\" is not a valid variable name: {}", s, e.GetMsg()));
     }
-    if (std::find(states.begin(), states.end(), s) != states.end()) rd.Fail(&arr[i], key, fmt::format("\"{}\" twice", s));
+    if (std::find(states.begin(), states.end(), s) != states.end())
+      rd.Fail(&arr[i], key, fmt::format("\"{}\" twice", s));
     states.push_back(std::move(s));
   }
   return states;
@@ -405,9 +411,11 @@ void ParseDefaults(const Reader& rd, const toml::table& root, ModelSpec& spec) {
   const toml::node& x0 = rd.Require(t, "defaults", "x0");
   const toml::array& arr = rd.Array(x0, "defaults.x0");
   if (arr.size() != spec.state_names.size()) {
-    rd.Fail(&x0, "defaults.x0", fmt::format("has {} entries, expected {} (one per state)", arr.size(), spec.state_names.size()));
+    rd.Fail(&x0, "defaults.x0",
+            fmt::format("has {} entries, expected {} (one per state)", arr.size(), spec.state_names.size()));
   }
-  for (std::size_t i = 0; i < arr.size(); ++i) spec.default_x0.push_back(rd.Number(arr[i], fmt::format("defaults.x0[{}]", i)));
+  for (std::size_t i = 0; i < arr.size(); ++i)
+    spec.default_x0.push_back(rd.Number(arr[i], fmt::format("defaults.x0[{}]", i)));
   for (auto [k, field] : {std::pair{"t_end", &spec.default_t_end}, std::pair{"dt", &spec.default_dt}}) {
     const toml::node& n = rd.Require(t, "defaults", k);
     *field = rd.Number(n, fmt::format("defaults.{}", k));
@@ -423,8 +431,9 @@ std::string RowText(const ExprMatrix& m, Eigen::Index row, const std::vector<Par
     const bool expr = std::find(m.index.begin(), m.index.end(), at) != m.index.end();
     if (!expr && m.constant[std::size_t(at)] == 0.0) continue;
     const std::string& e = m.text[std::size_t(at)];
-    terms.push_back(!expr && m.constant[std::size_t(at)] == 1.0 ? params[std::size_t(j)].name
-                                                                 : fmt::format("{}*({})", params[std::size_t(j)].name, e));
+    terms.push_back(!expr && m.constant[std::size_t(at)] == 1.0
+                        ? params[std::size_t(j)].name
+                        : fmt::format("{}*({})", params[std::size_t(j)].name, e));
   }
   return terms.empty() ? "0" : fmt::format("{}", fmt::join(terms, " + "));
 }
@@ -449,7 +458,9 @@ std::string Equations(const Definition& def) {
 }
 
 std::shared_ptr<Definition> ParseDefinition(const Reader& rd, const toml::table& root) {
-  rd.OnlyKeys(root, "", {"name", "description", "states", "alpha", "beta", "flow", "jump", "guard", "sets", "defaults"});
+  rd.OnlyKeys(
+      root, "",
+      {"name", "description", "states", "alpha", "beta", "flow", "jump", "guard", "sets", "defaults"});
   auto def = std::make_shared<Definition>();
   ModelSpec& spec = def->spec;
   spec.name = rd.String(rd.Require(root, "", "name"), "name");
@@ -458,16 +469,18 @@ std::shared_ptr<Definition> ParseDefinition(const Reader& rd, const toml::table&
   spec.alpha = ParseParameters(rd, root, "alpha");
   spec.beta = ParseParameters(rd, root, "beta");
   const auto n = static_cast<Eigen::Index>(spec.state_names.size());
-  for (auto [key, matrix, params, rows] :
-       {std::tuple{"flow", &def->phi, &spec.alpha, &spec.flow_rows}, std::tuple{"jump", &def->psi, &spec.beta, &spec.jump_rows}}) {
+  for (auto [key, matrix, params, rows] : {std::tuple{"flow", &def->phi, &spec.alpha, &spec.flow_rows},
+                                           std::tuple{"jump", &def->psi, &spec.beta, &spec.jump_rows}}) {
     const toml::table& t = rd.Table(rd.Require(root, "", key), key);
     const char* mkey = std::string_view(key) == "flow" ? "phi" : "psi";
     rd.OnlyKeys(t, key, {mkey, "rows", "jacobian_constant"});
-    if (std::string_view(key) == "jump" && t.get("jacobian_constant")) rd.Fail(t.get("jacobian_constant"), "jump.jacobian_constant", "only [flow] has it");
+    if (std::string_view(key) == "jump" && t.get("jacobian_constant"))
+      rd.Fail(t.get("jacobian_constant"), "jump.jacobian_constant", "only [flow] has it");
     *matrix = ParseMatrix(rd, rd.Require(t, key, mkey), fmt::format("{}.{}", key, mkey), n,
                           static_cast<Eigen::Index>(params->size()), spec.state_names);
     *rows = ParseRows(rd, t, key, spec.state_names);
-    if (const toml::node* jc = t.get("jacobian_constant")) spec.flow_jacobian_constant = rd.Bool(*jc, "flow.jacobian_constant");
+    if (const toml::node* jc = t.get("jacobian_constant"))
+      spec.flow_jacobian_constant = rd.Bool(*jc, "flow.jacobian_constant");
   }
   ParseGuards(rd, root, *def);
   ParseSets(rd, root, *def);
@@ -494,9 +507,10 @@ void CheckDefaultTrajectory(const Reader& rd, const toml::table& root, const Mod
   for (std::size_t g = 0; g < fired.size(); ++g) {
     if (fired[g] > 0) continue;
     rd.Fail(guards->get(g), fmt::format("guard[{}].h", g),
-            fmt::format("guard \"{}\" never reaches D on the default trajectory (x0 = ({}), t_end = {}; simulation {}: {})",
-                        s.guards[g].name, fmt::join(s.default_x0, ", "), s.default_t_end, ToString(traj.status.stop),
-                        traj.status.message));
+            fmt::format("guard \"{}\" never reaches D on the default trajectory (x0 = ({}), t_end = {}; "
+                        "simulation {}: {})",
+                        s.guards[g].name, fmt::join(s.default_x0, ", "), s.default_t_end,
+                        ToString(traj.status.stop), traj.status.message));
   }
 }
 
@@ -508,7 +522,8 @@ Model ParseModelText(std::string_view text, const std::string& name, const Model
   try {
     root = toml::parse(text, name);
   } catch (const toml::parse_error& e) {
-    throw std::invalid_argument(fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
+    throw std::invalid_argument(
+        fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
   }
   std::shared_ptr<const Definition> def = ParseDefinition(rd, root);
   Model model = [&] {

@@ -253,7 +253,9 @@ struct Geometry3 {
   using Point = Epick::Point_3;
   explicit Geometry3(int /*n*/) {}
   Point Make(const double* x) const { return Point(x[0], x[1], x[2]); }
-  CGAL::Orientation Orient(const Point* const* p) const { return CGAL::orientation(*p[0], *p[1], *p[2], *p[3]); }
+  CGAL::Orientation Orient(const Point* const* p) const {
+    return CGAL::orientation(*p[0], *p[1], *p[2], *p[3]);
+  }
 };
 
 template <class DimensionTag>
@@ -291,7 +293,8 @@ class StarHull final : public Star {
   using Pointers = boost::container::small_vector<const Point*, 9>;
 
   // simplex: n × (n + 1) affinely independent points; c strictly inside it.
-  StarHull(int n, const Mat& simplex, const Vec& c) : n_(n), geometry_(n), c_(geometry_.Make(c.data())), c_coords_(c) {
+  StarHull(int n, const Mat& simplex, const Vec& c)
+      : n_(n), geometry_(n), c_(geometry_.Make(c.data())), c_coords_(c) {
     for (int j = 0; j <= n; ++j) AddPoint(simplex.col(j).data());
     // Facet j: every vertex but j; across the ridge opposite the slot of vertex k lies facet k.
     std::vector<int> ids;
@@ -389,7 +392,9 @@ class StarHull final : public Star {
   int Vertex(int f, int i) const { return fv_[std::size_t(f) * std::size_t(n_) + std::size_t(i)]; }
   int& Neighbour(int f, int i) { return fn_[std::size_t(f) * std::size_t(n_) + std::size_t(i)]; }
   int Neighbour(int f, int i) const { return fn_[std::size_t(f) * std::size_t(n_) + std::size_t(i)]; }
-  Eigen::Map<const Vec> Coords(int v) const { return Eigen::Map<const Vec>(coords_.data() + std::size_t(v) * std::size_t(n_), n_); }
+  Eigen::Map<const Vec> Coords(int v) const {
+    return Eigen::Map<const Vec>(coords_.data() + std::size_t(v) * std::size_t(n_), n_);
+  }
 
   int AddPoint(const double* x) {
     points_.push_back(geometry_.Make(x));
@@ -584,20 +589,21 @@ class StarHull final : public Star {
     const auto key = [&](const Entry& e) { return keys_.begin() + std::ptrdiff_t(e.key); };
     std::sort(entries_.begin(), entries_.end(), [&](const Entry& a, const Entry& b) {
       if (n_ == 4) return a.packed < b.packed;
-      return std::lexicographical_compare(key(a), key(a) + std::ptrdiff_t(width), key(b), key(b) + std::ptrdiff_t(width));
+      return std::lexicographical_compare(key(a), key(a) + std::ptrdiff_t(width), key(b),
+                                          key(b) + std::ptrdiff_t(width));
     });
     Demand(entries_.size() % 2 == 0, "an unpaired ridge on the horizon");
     for (std::size_t k = 0; k < entries_.size(); k += 2) {
       const Entry& a = entries_[k];
       const Entry& b = entries_[k + 1];
       Demand(std::equal(key(a), key(a) + std::ptrdiff_t(width), key(b)) &&
-                 (k + 2 >= entries_.size() || !std::equal(key(a), key(a) + std::ptrdiff_t(width), key(entries_[k + 2]))),
+                 (k + 2 >= entries_.size() ||
+                  !std::equal(key(a), key(a) + std::ptrdiff_t(width), key(entries_[k + 2]))),
              "a ridge through the new vertex shared by other than two facets");
       Neighbour(a.facet, a.slot) = b.facet;
       Neighbour(b.facet, b.slot) = a.facet;
     }
   }
-
 
   struct Entry {
     int facet, slot;
@@ -784,7 +790,8 @@ Mat BatchExtremePoints(const Mat& points) {
   if (n == 3) {
     std::vector<Epick::Point_3> in, out;
     in.reserve(static_cast<std::size_t>(points.cols()));
-    for (Eigen::Index k = 0; k < points.cols(); ++k) in.emplace_back(points(0, k), points(1, k), points(2, k));
+    for (Eigen::Index k = 0; k < points.cols(); ++k)
+      in.emplace_back(points(0, k), points(1, k), points(2, k));
     if (!in.empty()) CGAL::extreme_points_3(in, std::back_inserter(out));
     std::vector<Vec> cols;
     for (const auto& p : out) cols.push_back((Vec(3) << p.x(), p.y(), p.z()).finished());

@@ -23,10 +23,10 @@ class HullNd {
   bool Add(const ConstVecRef& x);
   int dimension() const;  // affine dimension of the hull, −1 when empty
   Mat Vertices() const;   // n × h extreme points, in lexicographic order of their coordinates
-  bool Contains(const ConstVecRef& x) const;             // exact: inside or on the boundary
-  double SquaredDistance(const ConstVecRef& x) const;    // floating point; 0 inside; +inf when empty
-  double Volume() const;                                 // n-dimensional; 0 below full dimension
-  std::vector<Mat> Simplices() const;                    // a triangulation of the hull (see HullSimplices)
+  bool Contains(const ConstVecRef& x) const;           // exact: inside or on the boundary
+  double SquaredDistance(const ConstVecRef& x) const;  // floating point; 0 inside; +inf when empty
+  double Volume() const;                               // n-dimensional; 0 below full dimension
+  std::vector<Mat> Simplices() const;                  // a triangulation of the hull (see HullSimplices)
 
  private:
   struct Impl;

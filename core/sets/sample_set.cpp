@@ -33,18 +33,14 @@ void Demand(bool ok, const char* what) {
   }
 }
 
-bool LexLess(const Point& a, const Point& b) {
-  return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-}
+bool LexLess(const Point& a, const Point& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); }
 
 // Angular order around c, from the direction +x1 counter-clockwise. Exact: the half-plane
 // (angle in [0, π) or [π, 2π)) is decided by comparing coordinates with c's, the order inside a
 // half-plane by CGAL::orientation. Points equal to c are never compared.
 struct AngularLess {
   Point c;
-  int Half(const Point& p) const {
-    return (p.y() < c.y() || (p.y() == c.y() && p.x() < c.x())) ? 1 : 0;
-  }
+  int Half(const Point& p) const { return (p.y() < c.y() || (p.y() == c.y() && p.x() < c.x())) ? 1 : 0; }
   bool operator()(const Point& a, const Point& b) const {
     const int ha = Half(a), hb = Half(b);
     if (ha != hb) return ha < hb;
@@ -87,21 +83,16 @@ class Hull2 {
         if (LexLess(b_, a_)) std::swap(a_, b_);
         dim_ = 1;
         return true;
-      case 1:
-        return AddToSegment(q);
-      default:
-        return has_reference_ ? AddToRing(q) : AddToPlain(q);
+      case 1: return AddToSegment(q);
+      default: return has_reference_ ? AddToRing(q) : AddToPlain(q);
     }
   }
 
   bool Contains(const Point& q) const {
     switch (dim_) {
-      case -1:
-        return false;
-      case 0:
-        return q == a_;
-      case 1:
-        return CGAL::orientation(a_, b_, q) == CGAL::COLLINEAR && !LexLess(q, a_) && !LexLess(b_, q);
+      case -1: return false;
+      case 0: return q == a_;
+      case 1: return CGAL::orientation(a_, b_, q) == CGAL::COLLINEAR && !LexLess(q, a_) && !LexLess(b_, q);
       default:
         if (!has_reference_) return PlainContains(q);
         if (q == center()) return true;
@@ -116,12 +107,9 @@ class Hull2 {
   double SquaredDistance(const Point& q) const {
     if (Contains(q)) return 0.0;
     switch (dim_) {
-      case -1:
-        return std::numeric_limits<double>::infinity();
-      case 0:
-        return SquaredDistanceToSegment(q, a_, a_);
-      case 1:
-        return SquaredDistanceToSegment(q, a_, b_);
+      case -1: return std::numeric_limits<double>::infinity();
+      case 0: return SquaredDistanceToSegment(q, a_, a_);
+      case 1: return SquaredDistanceToSegment(q, a_, b_);
       default: {
         const std::vector<Point> v = Vertices();
         double best = std::numeric_limits<double>::infinity();
@@ -136,14 +124,9 @@ class Hull2 {
   std::vector<Point> Vertices() const {
     std::vector<Point> v;
     switch (dim_) {
-      case -1:
-        break;
-      case 0:
-        v = {a_};
-        break;
-      case 1:
-        v = {a_, b_};
-        break;
+      case -1: break;
+      case 0: v = {a_}; break;
+      case 1: v = {a_, b_}; break;
       default:
         if (has_reference_) {
           v.assign(ring_.begin(), ring_.end());
@@ -283,8 +266,7 @@ class Hull2 {
     const Point& p1 = plain_[h / 3];
     const Point& p2 = plain_[(2 * h) / 3];
     const Point c((p0.x() + p1.x() + p2.x()) / 3.0, (p0.y() + p1.y() + p2.y()) / 3.0);
-    if (CGAL::orientation(p0, p1, c) != CGAL::LEFT_TURN ||
-        CGAL::orientation(p1, p2, c) != CGAL::LEFT_TURN ||
+    if (CGAL::orientation(p0, p1, c) != CGAL::LEFT_TURN || CGAL::orientation(p1, p2, c) != CGAL::LEFT_TURN ||
         CGAL::orientation(p2, p0, c) != CGAL::LEFT_TURN) {
       return;
     }
@@ -339,8 +321,8 @@ struct SampleSet::Impl {
   long added = 0;
   long non_finite = 0;
   long version = 0;
-  Hull2 hull2;                // n = 2
-  double lo = 0.0, hi = 0.0;  // n = 1 (valid when added > 0)
+  Hull2 hull2;                           // n = 2
+  double lo = 0.0, hi = 0.0;             // n = 1 (valid when added > 0)
   std::unique_ptr<internal::HullNd> nd;  // n ≥ 3
 };
 
@@ -409,8 +391,8 @@ Mat SampleSet::vertices() const {
 bool SampleSet::Contains(ConstVecRef x, double tolerance) const {
   const Impl& s = *impl_;
   if (x.size() != s.n) {
-    throw std::invalid_argument(fmt::format(
-        "SampleSet::Contains: point has {} components; the set has dimension {}", x.size(), s.n));
+    throw std::invalid_argument(
+        fmt::format("SampleSet::Contains: point has {} components; the set has dimension {}", x.size(), s.n));
   }
   if (!x.allFinite()) return false;
   const double tol = std::max(tolerance, 0.0);
@@ -471,8 +453,7 @@ Mat BatchHullVertices(const Mat& points) {
 
 std::vector<Mat> HullSimplices(const Mat& points) {
   if (points.rows() < 3) {
-    throw std::invalid_argument(
-        fmt::format("HullSimplices: {} rows; implemented for n >= 3", points.rows()));
+    throw std::invalid_argument(fmt::format("HullSimplices: {} rows; implemented for n >= 3", points.rows()));
   }
   internal::HullNd hull(static_cast<int>(points.rows()));
   for (Eigen::Index k = 0; k < points.cols(); ++k) {

@@ -83,15 +83,15 @@ class SampleSet {
   // std::invalid_argument when x.size() != dimension().
   void Add(const ConstVecRef& x);
   int dimension() const;
-  long size() const;            // finite samples added (inside the hull or not)
-  long non_finite() const;      // samples ignored because a component was NaN or ±inf
-  int hull_dimension() const;   // affine dimension of the hull: -1 empty, 0 point, 1 segment, 2 polygon, ... n
-  Mat vertices() const;         // n × h extreme points (2-D: counter-clockwise; n ≥ 3: lexicographic)
+  long size() const;           // finite samples added (inside the hull or not)
+  long non_finite() const;     // samples ignored because a component was NaN or ±inf
+  int hull_dimension() const;  // affine dimension of the hull: -1 empty, 0 point, 1 segment, 2 polygon, ... n
+  Mat vertices() const;        // n × h extreme points (2-D: counter-clockwise; n ≥ 3: lexicographic)
   // Inside or on the hull, or within Euclidean distance `tolerance` of it (also for a degenerate
   // hull: a point, a segment, a polygon in 3-D, ...). With tolerance 0 the test is exact. False for
   // an empty hull or a non-finite x. Throws std::invalid_argument when x.size() != dimension().
   bool Contains(ConstVecRef x, double tolerance = 0.0) const;
-  long version() const;         // incremented whenever the hull changes (0 while empty)
+  long version() const;  // incremented whenever the hull changes (0 while empty)
   // n-dimensional volume: length in 1-D, area in 2-D, volume for n ≥ 3; 0 when the hull has a lower
   // affine dimension than n.
   double Volume() const;

@@ -19,7 +19,8 @@ constexpr double kQuadraturePoints = 65536.0;
 double JumpHausdorff(const Model& model, const Mat& hull) {
   if (!model.has_jump_set_distance() || hull.cols() == 0) return std::numeric_limits<double>::quiet_NaN();
   double worst = 0.0;
-  for (Eigen::Index i = 0; i < hull.cols(); ++i) worst = std::max(worst, model.DistanceToJumpSet(hull.col(i)));
+  for (Eigen::Index i = 0; i < hull.cols(); ++i)
+    worst = std::max(worst, model.DistanceToJumpSet(hull.col(i)));
   return worst;
 }
 
@@ -84,7 +85,8 @@ double PolygonOutsideShare(const Model& model, const Mat& v) {
 // the midpoint rule.
 class KuhnCentroids {
  public:
-  KuhnCentroids(int d, long m) : d_(d), m_(m), z_(std::size_t(d)), y_(d), run_end_(std::size_t(d)), next_(std::size_t(d)) {}
+  KuhnCentroids(int d, long m)
+      : d_(d), m_(m), z_(std::size_t(d)), y_(d), run_end_(std::size_t(d)), next_(std::size_t(d)) {}
 
   template <class Visit>
   void ForEach(Visit&& visit) {
@@ -158,7 +160,8 @@ double SimplicesOutsideShare(const Model& model, const std::vector<Mat>& simplic
   for (std::size_t s = 0; s < simplices.size(); ++s) {
     if (volume[s] <= 0.0) continue;
     const Mat& v = simplices[s];
-    const long m = std::max(1L, static_cast<long>(std::ceil(std::pow(kQuadraturePoints * volume[s] / total, 1.0 / d))));
+    const long m =
+        std::max(1L, static_cast<long>(std::ceil(std::pow(kQuadraturePoints * volume[s] / total, 1.0 / d))));
     const Mat steps = (v.rightCols(d) - v.leftCols(d)) / static_cast<double>(m);
     long cells = 0, out = 0;
     KuhnCentroids(d, m).ForEach([&](const Vec& y) {
@@ -169,7 +172,8 @@ double SimplicesOutsideShare(const Model& model, const std::vector<Mat>& simplic
     long expected = 1;
     for (int k = 0; k < d; ++k) expected *= m;
     if (cells != expected) {  // internal invariant: the subdivision has m^d cells
-      std::fprintf(stderr, "hysid: internal error in CompareSets: %ld Kuhn cells, expected %ld\n", cells, expected);
+      std::fprintf(stderr, "hysid: internal error in CompareSets: %ld Kuhn cells, expected %ld\n", cells,
+                   expected);
       std::abort();
     }
     outside += volume[s] * static_cast<double>(out) / static_cast<double>(cells);
@@ -183,14 +187,10 @@ double FlowOutsideShare(const Model& model, const Mat& hull) {
                             : SimplicesOutsideShare(model, HullSimplices(hull));
   }
   switch (hull.cols()) {
-    case 0:
-      return std::numeric_limits<double>::quiet_NaN();
-    case 1:
-      return model.InFlowSet(hull.col(0)) ? 0.0 : 1.0;
-    case 2:
-      return SegmentOutsideShare(model, hull.col(0), hull.col(1));
-    default:
-      return PolygonOutsideShare(model, hull);
+    case 0: return std::numeric_limits<double>::quiet_NaN();
+    case 1: return model.InFlowSet(hull.col(0)) ? 0.0 : 1.0;
+    case 2: return SegmentOutsideShare(model, hull.col(0), hull.col(1));
+    default: return PolygonOutsideShare(model, hull);
   }
 }
 
@@ -199,8 +199,9 @@ double FlowOutsideShare(const Model& model, const Mat& hull) {
 SetMetrics CompareSets(const Model& model, const Mat& flow_hull, const Mat& jump_hull) {
   for (const Mat* hull : {&flow_hull, &jump_hull}) {
     if (hull->rows() != model.state_size()) {
-      throw std::invalid_argument(fmt::format("CompareSets: hull vertices have {} rows; model '{}' has {} states",
-                                              hull->rows(), model.name(), model.state_size()));
+      throw std::invalid_argument(
+          fmt::format("CompareSets: hull vertices have {} rows; model '{}' has {} states", hull->rows(),
+                      model.name(), model.state_size()));
     }
   }
   SetMetrics m;

@@ -52,12 +52,12 @@ void CheckTail(double p, const char* what) {
 
 double RegularizedIncompleteBeta(double x, double a, double b) {
   if (!(a > 0.0) || !(b > 0.0) || !(x >= 0.0 && x <= 1.0)) {
-    throw std::invalid_argument(
-        fmt::format("RegularizedIncompleteBeta: x = {}, a = {}, b = {}: need x in [0, 1], a, b > 0", x, a, b));
+    throw std::invalid_argument(fmt::format(
+        "RegularizedIncompleteBeta: x = {}, a = {}, b = {}: need x in [0, 1], a, b > 0", x, a, b));
   }
   if (x == 0.0 || x == 1.0) return x;
-  const double log_front = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) +
-                           b * std::log1p(-x);
+  const double log_front =
+      std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
   const double front = std::exp(log_front);
   if (x < (a + 1.0) / (a + b + 2.0)) return front * BetaContinuedFraction(x, a, b) / a;
   return 1.0 - front * BetaContinuedFraction(1.0 - x, b, a) / b;
@@ -83,7 +83,8 @@ double StudentUpperQuantile(double p, double nu) {
   // f(t) = (1 + t²/ν)^{−(ν+1)/2} / (√ν B(ν/2, 1/2)). Safeguarded Newton on the tail: a Newton step
   // that leaves the bracket [lo, hi] is replaced by bisection; stops at 1e-14 relative.
   auto tail = [&](double t) { return 0.5 * RegularizedIncompleteBeta(nu / (nu + t * t), 0.5 * nu, 0.5); };
-  const double log_norm = -0.5 * std::log(nu) - (std::lgamma(0.5 * nu) + std::lgamma(0.5) - std::lgamma(0.5 * nu + 0.5));
+  const double log_norm =
+      -0.5 * std::log(nu) - (std::lgamma(0.5 * nu) + std::lgamma(0.5) - std::lgamma(0.5 * nu + 0.5));
   auto density = [&](double t) { return std::exp(log_norm - 0.5 * (nu + 1.0) * std::log1p(t * t / nu)); };
   double lo = 0.0, hi = 1.0;
   while (tail(hi) > p) {

@@ -33,11 +33,12 @@ struct WallMsd {
         .default_x0 = {0.0, 5.0},
         .default_t_end = 20.0,
         .default_dt = 5e-4,
-        .equations = "flow: x' = alpha_x*v, v' = -k*x - b*v\n"
-                     "jump: x+ = beta_x*x, v+ = -lambda*v + mu\n"
-                     "guard wall: h(xi) = x - 1 (rising)\n"
-                     "C: x < 1 || (x == 1 && v <= 0)\n"
-                     "D: x == 1 && v >= 0\n",
+        .equations =
+            "flow: x' = alpha_x*v, v' = -k*x - b*v\n"
+            "jump: x+ = beta_x*x, v+ = -lambda*v + mu\n"
+            "guard wall: h(xi) = x - 1 (rising)\n"
+            "C: x < 1 || (x == 1 && v <= 0)\n"
+            "D: x == 1 && v >= 0\n",
     };
   }
   void Phi(ConstVecRef x, MatRef phi) const { phi << x[1], 0.0, 0.0, 0.0, -x[0], -x[1]; }

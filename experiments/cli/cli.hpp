@@ -10,9 +10,8 @@
 #include <CLI/CLI.hpp>
 
 #include "core/identify/identifier.hpp"
-#include "core/model/model.hpp"
-#include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
+#include "core/model/model.hpp"
 #include "core/model/registry.hpp"
 
 namespace hysid::cli {
@@ -55,8 +54,7 @@ class RunFailed : public std::runtime_error {
 [[noreturn]] void BadFlag(const std::string& what);
 
 // Builds a model from its name and "name=value" assignments; errors name --model / --param.
-Model MakeModel(const Environment& env, const std::string& name,
-                const std::vector<std::string>& params);
+Model MakeModel(const Environment& env, const std::string& name, const std::vector<std::string>& params);
 // The same from a model file when `file` is not empty (errors name --model-file), else by name.
 Model MakeModel(const Environment& env, const std::string& name, const std::string& file,
                 const std::vector<std::string>& params);

@@ -11,8 +11,7 @@ namespace hysid::cli {
 
 void BadFlag(const std::string& what) { throw std::invalid_argument(what); }
 
-Model MakeModel(const Environment& env, const std::string& name,
-                const std::vector<std::string>& params) {
+Model MakeModel(const Environment& env, const std::string& name, const std::vector<std::string>& params) {
   return MakeModel(env, name, "", params);
 }
 
@@ -36,7 +35,8 @@ Model MakeModel(const Environment& env, const std::string& name, const std::stri
 }
 
 void AddModelFileOption(CLI::App& cmd, std::string& file) {
-  CLI::Option* opt = cmd.add_option("--model-file", file, "a model file (TOML, see models/*.toml) instead of --model");
+  CLI::Option* opt =
+      cmd.add_option("--model-file", file, "a model file (TOML, see models/*.toml) instead of --model");
   if (CLI::Option* model = cmd.get_option_no_throw("--model")) opt->excludes(model);
 }
 

@@ -1,25 +1,25 @@
 // hysid identify: the paper's identifier on measured samples from a CSV.
 #include <algorithm>
 #include <cmath>
-#include <utility>
 #include <cstdio>
-#include <functional>
-#include <map>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <string>
+#include <utility>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
-#include "core/io/csv.hpp"
-#include "core/io/files.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
+#include "core/io/csv.hpp"
+#include "core/io/files.hpp"
+#include "core/io/sample_data.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "experiments/cli/cli.hpp"
-#include "core/io/sample_data.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -68,10 +68,10 @@ void AddOptionFlags(std::vector<OptionFlag>* flags, const std::vector<Option<S>>
                     std::string_view prefix, std::string_view whose) {
   const IdentifierSettings defaults;
   for (const Option<S>& o : table) {
-    flags->push_back({FlagName(o.name, prefix),
-                      fmt::format("{}: {}{}", ReadBy(o.name, descriptors), o.help, whose),
-                      o.Format(o.get(defaults.*member)),
-                      [&o, member](IdentifierSettings& s, std::string_view text) { o.set(s.*member, o.Parse(text)); }});
+    flags->push_back(
+        {FlagName(o.name, prefix), fmt::format("{}: {}{}", ReadBy(o.name, descriptors), o.help, whose),
+         o.Format(o.get(defaults.*member)),
+         [&o, member](IdentifierSettings& s, std::string_view text) { o.set(s.*member, o.Parse(text)); }});
   }
 }
 
@@ -81,8 +81,8 @@ const std::vector<OptionFlag>& OptionFlags() {
     AddOptionFlags(&f, DetectorOptions(), DetectorDescriptors(), &IdentifierSettings::detector, "", "");
     AddOptionFlags(&f, EstimatorOptions(), EstimatorDescriptors(), &IdentifierSettings::flow_estimator, "",
                    " (alpha estimator)");
-    AddOptionFlags(&f, EstimatorOptions(), EstimatorDescriptors(), &IdentifierSettings::jump_estimator, "jump",
-                   " (beta estimator)");
+    AddOptionFlags(&f, EstimatorOptions(), EstimatorDescriptors(), &IdentifierSettings::jump_estimator,
+                   "jump", " (beta estimator)");
     return f;
   }();
   return flags;
@@ -93,9 +93,11 @@ Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
   RequireFinite(flag, v);
   const auto m = static_cast<Eigen::Index>(std::lround(std::sqrt(double(v.size()))));
   if (m * m != static_cast<Eigen::Index>(v.size())) {
-    BadFlag(fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major", flag, v.size()));
+    BadFlag(
+        fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major", flag, v.size()));
   }
-  return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(v.data(), m, m));
+  return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      v.data(), m, m));
 }
 
 // The identifier's settings from the flags; errors name the flag.
@@ -115,8 +117,10 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   settings.jump_estimator.noise_shape = NoiseShapeFlag(args.jump_shape, "--jump-noise-shape");
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
-  for (const auto& [flag, value] : {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
-    if (!(value >= 0.0) || !std::isfinite(value)) BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
+  for (const auto& [flag, value] :
+       {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
+    if (!(value >= 0.0) || !std::isfinite(value))
+      BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
   }
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
@@ -153,7 +157,8 @@ std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* se
 std::string DetectorOptionText(const DetectorSettings& s) {
   std::vector<std::string> parts;
   for (const auto& o : DetectorOptions()) {
-    if (DescriptorOf(s.kind).Reads(o.name)) parts.push_back(fmt::format("{} = {}", o.name, o.Format(o.get(s))));
+    if (DescriptorOf(s.kind).Reads(o.name))
+      parts.push_back(fmt::format("{} = {}", o.name, o.Format(o.get(s))));
   }
   return fmt::format("{}", fmt::join(parts, ", "));
 }
@@ -198,7 +203,8 @@ void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const Ident
   std::printf("jumps detected: %ld (flow estimator %s, jump estimator %s)\n", result.jumps_detected,
               ToString(result.flow_status), ToString(result.jump_status));
   // Estimators that report one (frisch): the solution boxes of the unknowns, in the order printed above.
-  for (const auto& [box, what] : {std::pair{&result.flow_box, "alpha"}, std::pair{&result.jump_box, "beta"}}) {
+  for (const auto& [box, what] :
+       {std::pair{&result.flow_box, "alpha"}, std::pair{&result.jump_box, "beta"}}) {
     if (box->size() == 0) continue;
     std::printf("%s box %s:", args.estimator.c_str(), what);
     for (Eigen::Index i = 0; i < box->rows(); ++i) std::printf(" [%.6g, %.6g]", (*box)(i, 0), (*box)(i, 1));
@@ -208,9 +214,10 @@ void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const Ident
     std::printf("jumps localised: %ld of %ld\n", result.jumps_localized, result.jumps_detected);
   }
   if (result.second_pass) {
-    std::printf("second pass: %ld samples flow -> jump, %ld jump -> flow (first pass: %ld jumps)\n",
-                result.reclassified_to_jump, result.reclassified_to_flow,
-                static_cast<long>(std::count(result.first_pass_gamma.begin(), result.first_pass_gamma.end(), 1)));
+    std::printf(
+        "second pass: %ld samples flow -> jump, %ld jump -> flow (first pass: %ld jumps)\n",
+        result.reclassified_to_jump, result.reclassified_to_flow,
+        static_cast<long>(std::count(result.first_pass_gamma.begin(), result.first_pass_gamma.end(), 1)));
   }
 }
 
@@ -240,7 +247,8 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyRes
 // q), γ, the estimates, and the truth when the data has it.
 void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
                 const SampleData& data, const IdentifyResult& result) {
-  std::vector<std::string> header{"t", std::string(detector.statistic), std::string(detector.threshold), "gamma"};
+  std::vector<std::string> header{"t", std::string(detector.statistic), std::string(detector.threshold),
+                                  "gamma"};
   for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
   for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
   if (data.j) header.insert(header.end(), {"j", "true_jump"});
@@ -248,7 +256,8 @@ void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDe
   std::vector<double> row(header.size());
   for (std::size_t k = 0; k < data.t.size(); ++k) {
     std::size_t c = 0;
-    for (double v : {data.t[k], result.statistic[k], result.threshold[k], double(result.gamma[k])}) row[c++] = v;
+    for (double v : {data.t[k], result.statistic[k], result.threshold[k], double(result.gamma[k])})
+      row[c++] = v;
     for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
       if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
     }
@@ -326,10 +335,12 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
   AddModelFileOption(*cmd, args->model_file);
   cmd->add_option("--param", args->params, "NAME=VALUE: the model's true value (for error metrics)");
-  cmd->add_option("--data", args->data, "CSV: time, then the measured state (y1..yn if present); "
-                                        "a column j is taken as ground truth")
+  cmd->add_option("--data", args->data,
+                  "CSV: time, then the measured state (y1..yn if present); "
+                  "a column j is taken as ground truth")
       ->required();
-  cmd->add_option("--estimator", args->estimator, PluginHelp("estimator of alpha and beta", EstimatorDescriptors()))
+  cmd->add_option("--estimator", args->estimator,
+                  PluginHelp("estimator of alpha and beta", EstimatorDescriptors()))
       ->capture_default_str();
   cmd->add_option("--detector", args->detector, PluginHelp("jump detector", DetectorDescriptors()))
       ->capture_default_str();
@@ -342,7 +353,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                   "gtls/frisch: noise covariance shape C of the flow rows [phi, y], row-major, "
                   "instead of the one derived from sigma and dt")
       ->delimiter(',');
-  cmd->add_option("--jump-noise-shape", args->jump_shape, "gtls/frisch: the same for the jump rows")->delimiter(',');
+  cmd->add_option("--jump-noise-shape", args->jump_shape, "gtls/frisch: the same for the jump rows")
+      ->delimiter(',');
   cmd->add_flag("--localize", args->localize,
                 "regress each jump at its located instant inside (t-dt, t] (flows forward and "
                 "backward with the estimated flow until the jump's known rows agree)");
@@ -352,15 +364,18 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                   "known measurement noise σ (one, or one per state); gtls/frisch estimate it "
                   "from the data when not given")
       ->delimiter(',');
-  CLI::Option* rtol_option = cmd->add_option("--data-rtol", args->data_rtol,
-                  "residual detector: relative accuracy of the data apart from the noise (simulated "
-                  "data: the integrator's rtol, e.g. 1e-12 for `hysid simulate`)")
-      ->capture_default_str();
-  CLI::Option* atol_option = cmd->add_option("--data-atol", args->data_atol,
-                  "residual detector: absolute accuracy of the data apart from the noise (simulated "
-                  "data: the integrator's atol)")
-      ->capture_default_str();
-  cmd->add_option("--trace", args->trace, "per-sample CSV: t, the detector's statistic and threshold, gamma, estimates");
+  CLI::Option* rtol_option =
+      cmd->add_option("--data-rtol", args->data_rtol,
+                      "residual detector: relative accuracy of the data apart from the noise (simulated "
+                      "data: the integrator's rtol, e.g. 1e-12 for `hysid simulate`)")
+          ->capture_default_str();
+  CLI::Option* atol_option =
+      cmd->add_option("--data-atol", args->data_atol,
+                      "residual detector: absolute accuracy of the data apart from the noise (simulated "
+                      "data: the integrator's atol)")
+          ->capture_default_str();
+  cmd->add_option("--trace", args->trace,
+                  "per-sample CSV: t, the detector's statistic and threshold, gamma, estimates");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
   cmd->callback([args, &env, rtol_option, atol_option, option_flags] {
     args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;

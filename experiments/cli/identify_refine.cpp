@@ -107,8 +107,9 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
                   "recursive estimate alone")
       ->check(CLI::IsMember({"ml", "none"}))
       ->capture_default_str();
-  cmd->add_option("--json", args.json, "write estimates, standard errors, covariance, detector counts "
-                                       "and status as JSON");
+  cmd->add_option("--json", args.json,
+                  "write estimates, standard errors, covariance, detector counts "
+                  "and status as JSON");
 }
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
@@ -136,9 +137,10 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                   r.span_reason.c_str());
     }
     if (r.ok()) {
-      std::printf("  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
-                  r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
-                  fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
+      std::printf(
+          "  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
+          r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
+          fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
     } else {
       std::printf("  the recursive estimate is kept\n");
     }

@@ -10,10 +10,10 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "core/io/csv.hpp"
 #include "core/identify/example6.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
+#include "core/io/csv.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
@@ -47,10 +47,16 @@ void RunExample6(const std::string& out_dir) {
   const double rs[] = {1.0, 2.0, 5.0};
   const std::filesystem::path out(out_dir);
   std::filesystem::create_directories(out);
-  CsvWriter csv(out / "fig2_smoothness.csv", {"t", "xi", "D", "tau", "tau_hat_r1", "tau_hat_r2", "tau_hat_r5"});
+  CsvWriter csv(out / "fig2_smoothness.csv",
+                {"t", "xi", "D", "tau", "tau_hat_r1", "tau_hat_r2", "tau_hat_r5"});
   for (long i = 0; i <= 950; ++i) {
     const Example6Point p = Example6At(options.dt + 0.01 * static_cast<double>(i), options);
-    const double row[] = {p.t, p.xi, p.euler, p.tau, Example6TauHat(p, rs[0]), Example6TauHat(p, rs[1]),
+    const double row[] = {p.t,
+                          p.xi,
+                          p.euler,
+                          p.tau,
+                          Example6TauHat(p, rs[0]),
+                          Example6TauHat(p, rs[1]),
                           Example6TauHat(p, rs[2])};
     csv.Row(row);
   }
@@ -117,8 +123,8 @@ std::pair<double, double> WriteTauFile(const std::filesystem::path& path, const 
     const double rt = detector.r * tau[u];
     const double et = std::abs(res.threshold[u] - rt);
     const bool true_jump = k > 0 && traj.j[u] != traj.j[u - 1];
-    const double row[] = {traj.t[u], res.statistic[u], res.threshold[u], rt, et,
-                          double(res.gamma[u]), true_jump ? 1.0 : 0.0};
+    const double row[] = {traj.t[u], res.statistic[u],     res.threshold[u],     rt,
+                          et,        double(res.gamma[u]), true_jump ? 1.0 : 0.0};
     tcsv.Row(row);
     if (paper_detector && k > 0 && res.threshold[u] != detector.tau0 && rt > 0) {
       rel_sum += et / rt;
@@ -135,8 +141,8 @@ void WriteParamsFile(const std::filesystem::path& path, const Model& model, cons
   CsvWriter pcsv(path, {"t", "a_hat", "b_hat", "lambda_hat", "mu_hat", "e_alpha", "e_beta"});
   for (long k = 0; k < traj.size(); ++k) {
     const Vec a = res.alpha_trace.col(k), b = res.beta_trace.col(k);
-    const double row[] = {traj.t[std::size_t(k)], a[1], a[2], b[1], b[2],
-                          (model.alpha() - a).norm(), (model.beta() - b).norm()};
+    const double row[] = {traj.t[std::size_t(k)],   a[1], a[2], b[1], b[2], (model.alpha() - a).norm(),
+                          (model.beta() - b).norm()};
     pcsv.Row(row);
   }
   pcsv.Commit();
@@ -154,23 +160,33 @@ nlohmann::json RunPaperExperiment(const Experiment& ex, const ReproduceArgs& arg
   const ParameterErrors e = CompareParameters(model, res.alpha_hat, res.beta_hat);
   const auto [mean_rel, mean_rel_flow] = WriteTauFile(out / ex.tau_file, traj, tau, settings.detector, res);
   WriteParamsFile(out / ex.params_file, model, traj, res);
-  const double srow[] = {ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2],
-                         e.e_alpha, e.e_beta, double(res.jumps_detected), double(c.tp + c.fn),
-                         double(c.fp), double(c.fn), mean_rel, mean_rel_flow};
+  const double srow[] = {ex.sigma,
+                         res.alpha_hat[1],
+                         res.alpha_hat[2],
+                         res.beta_hat[1],
+                         res.beta_hat[2],
+                         e.e_alpha,
+                         e.e_beta,
+                         double(res.jumps_detected),
+                         double(c.tp + c.fn),
+                         double(c.fp),
+                         double(c.fn),
+                         mean_rel,
+                         mean_rel_flow};
   std::vector<std::string> cells{ex.name};
   for (double v : srow) cells.push_back(fmt::format("{:.17g}", v));
   summary.TextRow(cells);
-  std::printf("%-8s sigma %-5g a^ %.6f b^ %.6f lambda^ %.6f mu^ %.6f | e_alpha %.3g e_beta %.3g | "
-              "jumps %ld/%ld, false %ld, missed %ld | mean rel. tau^ error %.2f%% (t >= 1 s: %.2f%%)\n",
-              ex.name, ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2],
-              e.e_alpha, e.e_beta, res.jumps_detected, c.tp + c.fn, c.fp, c.fn, 100 * mean_rel,
-              100 * mean_rel_flow);
+  std::printf(
+      "%-8s sigma %-5g a^ %.6f b^ %.6f lambda^ %.6f mu^ %.6f | e_alpha %.3g e_beta %.3g | "
+      "jumps %ld/%ld, false %ld, missed %ld | mean rel. tau^ error %.2f%% (t >= 1 s: %.2f%%)\n",
+      ex.name, ex.sigma, res.alpha_hat[1], res.alpha_hat[2], res.beta_hat[1], res.beta_hat[2], e.e_alpha,
+      e.e_beta, res.jumps_detected, c.tp + c.fn, c.fp, c.fn, 100 * mean_rel, 100 * mean_rel_flow);
   if (res.second_pass) {
-    std::printf("         second pass: %ld samples flow -> jump, %ld jump -> flow\n", res.reclassified_to_jump,
-                res.reclassified_to_flow);
+    std::printf("         second pass: %ld samples flow -> jump, %ld jump -> flow\n",
+                res.reclassified_to_jump, res.reclassified_to_flow);
   }
-  nlohmann::json entry = {{"name", ex.name}, {"sigma", ex.sigma}, {"tau", ex.tau_file},
-                          {"params", ex.params_file}};
+  nlohmann::json entry = {
+      {"name", ex.name}, {"sigma", ex.sigma}, {"tau", ex.tau_file}, {"params", ex.params_file}};
   if (res.noise_sigma.size()) {  // gtls / frisch: the σ their noise shapes came from
     entry["noise_shape_sigma"] = std::vector<double>(res.noise_sigma.begin(), res.noise_sigma.end());
     entry["noise_shape_sigma_estimated"] = res.noise_sigma_estimated;
@@ -202,13 +218,14 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   std::filesystem::create_directories(out);
   WriteFig4(out, traj);
   const std::vector<double> tau = TrueSmoothnessBound(model, traj.x, settings.detector);
-  CsvWriter summary(out / "summary.csv",
-                    {"experiment", "sigma", "a_hat", "b_hat", "lambda_hat", "mu_hat", "e_alpha",
-                     "e_beta", "jumps_detected", "true_jumps", "false_jumps", "missed_jumps",
-                     "mean_rel_tau_error", "mean_rel_tau_error_after_1s"});
+  CsvWriter summary(
+      out / "summary.csv",
+      {"experiment", "sigma", "a_hat", "b_hat", "lambda_hat", "mu_hat", "e_alpha", "e_beta", "jumps_detected",
+       "true_jumps", "false_jumps", "missed_jumps", "mean_rel_tau_error", "mean_rel_tau_error_after_1s"});
   nlohmann::json experiments = nlohmann::json::array();
-  for (const Experiment& ex : {Experiment{"nominal", "fig5_tau_nominal.csv", "fig6_params_nominal.csv", 0.0},
-                               Experiment{"noisy", "fig7_tau_noisy.csv", "fig8_params_noisy.csv", args.sigma}}) {
+  for (const Experiment& ex :
+       {Experiment{"nominal", "fig5_tau_nominal.csv", "fig6_params_nominal.csv", 0.0},
+        Experiment{"noisy", "fig7_tau_noisy.csv", "fig8_params_noisy.csv", args.sigma}}) {
     experiments.push_back(RunPaperExperiment(ex, args, model, traj, settings, tau, out, summary));
   }
   summary.Commit();
@@ -226,22 +243,25 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
       {"context", BuildContext()},
   };
   std::ofstream(out / "run.json") << meta.dump(2) << "\n";
-  std::printf("wrote %s/{fig4_trajectory,fig4_jumps,fig5_tau_nominal,fig6_params_nominal,"
-              "fig7_tau_noisy,fig8_params_noisy,summary}.csv and run.json\n",
-              args.out.c_str());
+  std::printf(
+      "wrote %s/{fig4_trajectory,fig4_jumps,fig5_tau_nominal,fig6_params_nominal,"
+      "fig7_tau_noisy,fig8_params_noisy,summary}.csv and run.json\n",
+      args.out.c_str());
 }
 
 }  // namespace
 
 void AddReproduceCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<ReproduceArgs>();
-  CLI::App* cmd = app.add_subcommand("reproduce", "re-run a study of the paper (paper = Sec. 5, example6 = Fig. 2)");
+  CLI::App* cmd =
+      app.add_subcommand("reproduce", "re-run a study of the paper (paper = Sec. 5, example6 = Fig. 2)");
   cmd->add_option("study", args->study, "paper or example6")->capture_default_str();
   cmd->add_option("--out", args->out, "output directory (default: results/<study>)");
   cmd->add_option("--sigma", args->sigma, "noise of the noisy experiment")->capture_default_str();
-  cmd->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")->capture_default_str()->check(NonNegativeInteger);
-  cmd->add_option("--estimator", args->estimator,
-                  "rls (as published), gtls or frisch (errors-in-variables)")
+  cmd->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
+      ->capture_default_str()
+      ->check(NonNegativeInteger);
+  cmd->add_option("--estimator", args->estimator, "rls (as published), gtls or frisch (errors-in-variables)")
       ->capture_default_str();
   cmd->add_option("--detector", args->detector,
                   "paper (as published, r = 220) or residual (tuning-free; the tau columns then "

@@ -48,7 +48,8 @@ std::filesystem::path SidecarPath(const std::filesystem::path& csv) {
 
 // Renames the closed trajectory and jump files onto their names and writes the sidecar; when one
 // step fails, the files of this set already renamed are removed, so no partial set remains.
-void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& sidecar, const std::string& meta) {
+void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& sidecar,
+                const std::string& meta) {
   std::vector<std::filesystem::path> done;
   try {
     traj.Publish();
@@ -68,11 +69,13 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
 // The trajectory, its sidecar and the jumps file must be three files (compared as absolute,
 // normalized paths: `--jumps-out ./t.json` is the sidecar of `--out t.csv`).
 void CheckDistinctOutputs(const SimulateArgs& args) {
-  std::vector<std::pair<std::string, std::string>> outputs{{"--out", args.out},
-                                                           {"--out (sidecar)", SidecarPath(args.out).string()}};
+  std::vector<std::pair<std::string, std::string>> outputs{
+      {"--out", args.out}, {"--out (sidecar)", SidecarPath(args.out).string()}};
   if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
   const auto same = [](const std::string& a, const std::string& b) {
-    const auto norm = [](const std::string& p) { return std::filesystem::weakly_canonical(std::filesystem::absolute(p)); };
+    const auto norm = [](const std::string& p) {
+      return std::filesystem::weakly_canonical(std::filesystem::absolute(p));
+    };
     return norm(a) == norm(b);
   };
   for (std::size_t a = 0; a < outputs.size(); ++a) {
@@ -105,14 +108,14 @@ Vec InitialStateFlag(const SimulateArgs& args, const Model& model) {
   if (!args.x0.empty()) {
     RequireFinite("--x0", args.x0);
     if (static_cast<int>(args.x0.size()) != n) {
-      BadFlag(fmt::format("--x0 has {} values; model '{}' has {} states ({})", args.x0.size(),
-                          spec.name, n, fmt::join(spec.state_names, ", ")));
+      BadFlag(fmt::format("--x0 has {} values; model '{}' has {} states ({})", args.x0.size(), spec.name, n,
+                          fmt::join(spec.state_names, ", ")));
     }
     x0 = Eigen::Map<const Vec>(args.x0.data(), n);
   }
   if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
-    BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'",
-                        fmt::join(x0, ","), spec.name));
+    BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'", fmt::join(x0, ","),
+                        spec.name));
   }
   return x0;
 }
@@ -164,12 +167,14 @@ void WriteJumps(CsvWriter& jumps, const Trajectory& traj) {
 }
 
 // FILE.json beside the trajectory: the run's inputs, the solver's tolerances and outcome.
-std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec& x0,
-                                   const SampleGrid& grid, const Vec& sigma, const Trajectory& traj) {
+std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec& x0, const SampleGrid& grid,
+                        const Vec& sigma, const Trajectory& traj) {
   const ModelSpec& spec = model.spec();
   nlohmann::json params;
-  for (std::size_t i = 0; i < spec.alpha.size(); ++i) params[spec.alpha[i].name] = model.alpha()[Eigen::Index(i)];
-  for (std::size_t i = 0; i < spec.beta.size(); ++i) params[spec.beta[i].name] = model.beta()[Eigen::Index(i)];
+  for (std::size_t i = 0; i < spec.alpha.size(); ++i)
+    params[spec.alpha[i].name] = model.alpha()[Eigen::Index(i)];
+  for (std::size_t i = 0; i < spec.beta.size(); ++i)
+    params[spec.beta[i].name] = model.beta()[Eigen::Index(i)];
   nlohmann::json meta = {
       {"command", "simulate"},
       {"model", spec.name},
@@ -180,8 +185,12 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
       {"sigma", std::vector<double>(sigma.begin(), sigma.end())},
       {"seed", args.seed},
       {"trial", args.trial},
-      {"solver", {{"rtol", args.sim.rtol}, {"atol", args.sim.atol}, {"max_jumps", args.sim.max_jumps},
-                  {"steps", traj.stats.steps}, {"rhs_evals", traj.stats.rhs_evals}}},
+      {"solver",
+       {{"rtol", args.sim.rtol},
+        {"atol", args.sim.atol},
+        {"max_jumps", args.sim.max_jumps},
+        {"steps", traj.stats.steps},
+        {"rhs_evals", traj.stats.rhs_evals}}},
       {"status", ToString(traj.status.stop)},
       {"t_reached", traj.status.t_reached},
       {"message", traj.status.message},
@@ -223,8 +232,8 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
               static_cast<unsigned long long>(args.seed), traj.size(), traj.jumps.size());
   std::printf("status: %s (t = %.17g): %s\n", ToString(traj.status.stop), traj.status.t_reached,
               traj.status.message.c_str());
-  std::printf("wrote %s, %s%s%s\n", args.out.c_str(), meta_path.c_str(),
-              args.jumps_out.empty() ? "" : ", ", args.jumps_out.c_str());
+  std::printf("wrote %s, %s%s%s\n", args.out.c_str(), meta_path.c_str(), args.jumps_out.empty() ? "" : ", ",
+              args.jumps_out.c_str());
   // A zeno stop is a finding about the model (the trajectory is valid up to it); others are failures.
   if (traj.status.stop != SimStop::kCompleted && traj.status.stop != SimStop::kZeno) {
     throw RunFailed(fmt::format("simulate: the run stopped with status {}: {}", ToString(traj.status.stop),
@@ -243,23 +252,23 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
   AddModelFileOption(*sub, args->model_file);
   sub->add_option("--param", args->params, "set a parameter, name=value (repeatable)");
-  sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")
-      ->delimiter(',');
+  sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")->delimiter(',');
   CLI::Option* t_end = sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");
-  CLI::Option* dt = sub->add_option("--dt", args->dt, "sample time delta-t in seconds (default: the model's)");
-  sub->add_option("--sigma", args->sigma,
-                  "measurement noise standard deviation: one value, or one per state")
+  CLI::Option* dt =
+      sub->add_option("--dt", args->dt, "sample time delta-t in seconds (default: the model's)");
+  sub->add_option("--sigma", args->sigma, "measurement noise standard deviation: one value, or one per state")
       ->delimiter(',')
       ->capture_default_str();
-  sub->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")->capture_default_str()->check(NonNegativeInteger);
+  sub->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
+      ->capture_default_str()
+      ->check(NonNegativeInteger);
   sub->add_option("--trial", args->trial, "trial index (selects an independent noise stream)")
       ->capture_default_str()
       ->check(NonNegativeInteger);
   sub->add_option("--rtol", args->sim.rtol, "CVODE relative tolerance")->capture_default_str();
   sub->add_option("--atol", args->sim.atol, "CVODE absolute tolerance")->capture_default_str();
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
-  sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")
-      ->required();
+  sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
   sub->callback([args, &env, t_end, dt] {
     args->t_end_given = t_end->count() > 0;
@@ -286,7 +295,8 @@ void PrintModel(const Model& m, bool full) {
     for (int r : rows) out.push_back(s.state_names[std::size_t(r)]);
     return fmt::format("{}", fmt::join(out, ", "));
   };
-  std::printf("  identified rows: flow %s; jump %s\n", names(s.flow_rows).c_str(), names(s.jump_rows).c_str());
+  std::printf("  identified rows: flow %s; jump %s\n", names(s.flow_rows).c_str(),
+              names(s.jump_rows).c_str());
   std::printf("  flow Jacobian: %s; distance to D: %s\n",
               s.flow_jacobian_constant ? "constant" : "depends on the state",
               m.has_jump_set_distance() ? "given" : "not given (set metrics are NaN)");

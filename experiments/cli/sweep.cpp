@@ -55,12 +55,14 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
   }
   if (!args.dry_run) {
     CheckOutputDirectory("--out", options.out);
-  } else if (std::error_code ec; std::filesystem::exists(options.out, ec) && !std::filesystem::is_directory(options.out, ec)) {
+  } else if (std::error_code ec;
+             std::filesystem::exists(options.out, ec) && !std::filesystem::is_directory(options.out, ec)) {
     BadFlag(fmt::format("--out {}: exists and is not a directory", options.out.string()));
   }
   const std::vector<SweepCell> cells = EnumerateCells(config);
-  const long units = CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
-                                    fmt::format("{}: {} cells × {} trials", args.file, cells.size(), config.trials));
+  const long units =
+      CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
+                     fmt::format("{}: {} cells × {} trials", args.file, cells.size(), config.trials));
   std::fprintf(stderr, "%s: %zu cells x %ld trials = %ld trials (shard %s) -> %s\n", args.file.c_str(),
                cells.size(), config.trials, units, options.shard.ToString().c_str(), options.out.c_str());
   if (args.dry_run) return;
@@ -83,8 +85,8 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
                  o.units_resumed + o.units_run, o.units_shard, options.out.c_str());
     throw RunFailed("sweep interrupted", 130);
   }
-  std::printf("%ld trials (%ld resumed, %ld run, %ld failed), %ld trajectories simulated, %.1f s\n", o.units_shard,
-              o.units_resumed, o.units_run, o.failures, o.trajectories, o.wall_seconds);
+  std::printf("%ld trials (%ld resumed, %ld run, %ld failed), %ld trajectories simulated, %.1f s\n",
+              o.units_shard, o.units_resumed, o.units_run, o.failures, o.trajectories, o.wall_seconds);
   std::printf("wrote %s/{trials,summary,timings}.csv and run.json\n", options.out.c_str());
 }
 
@@ -98,7 +100,8 @@ void AddSweepCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--out", args->out, "run directory (default: the file's run.out)");
   cmd->add_option("--threads", args->threads, "worker threads (0: all cores); results do not depend on it")
       ->capture_default_str();
-  cmd->add_option("--shard", args->shard, "K/N: run only the units with id mod N = K-1 (merge with `hysid merge`)")
+  cmd->add_option("--shard", args->shard,
+                  "K/N: run only the units with id mod N = K-1 (merge with `hysid merge`)")
       ->capture_default_str();
   cmd->add_option("--progress", args->progress, "auto (bar on a terminal, lines otherwise), bar, lines, none")
       ->capture_default_str();

@@ -25,8 +25,8 @@
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
-#include "core/model_file/model_file.hpp"
 #include "core/io/limits.hpp"
+#include "core/model_file/model_file.hpp"
 #include "experiments/sweep/plan.hpp"
 
 namespace hysid {
@@ -51,10 +51,12 @@ class Reader {
   }
 
   // Rejects keys that are not in `allowed`.
-  void OnlyKeys(const toml::table& table, const std::string& prefix, const std::vector<std::string>& allowed) const {
+  void OnlyKeys(const toml::table& table, const std::string& prefix,
+                const std::vector<std::string>& allowed) const {
     for (auto&& [k, v] : table) {
       if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
-        Fail(&v, Join(prefix, k.str()), fmt::format("unknown key (known here: {})", fmt::join(allowed, ", ")));
+        Fail(&v, Join(prefix, k.str()),
+             fmt::format("unknown key (known here: {})", fmt::join(allowed, ", ")));
       }
     }
   }
@@ -117,7 +119,8 @@ class Reader {
       const auto& t = *node.as_table();
       OnlyKeys(t, key, {"from", "to", "count", "log"});
       for (const char* k : {"from", "to", "count"}) {
-        if (!t.contains(k)) Fail(&node, key, fmt::format("a range needs from, to and count (missing '{}')", k));
+        if (!t.contains(k))
+          Fail(&node, key, fmt::format("a range needs from, to and count (missing '{}')", k));
       }
       const double from = Number(*t.get("from"), key + ".from");
       const double to = Number(*t.get("to"), key + ".to");
@@ -132,7 +135,8 @@ class Reader {
                                        : from + u * (to - from)));
       }
     } else {
-      Fail(&node, key, fmt::format("expected a number, a list or {{ from, to, count }}, got {}", TypeName(node)));
+      Fail(&node, key,
+           fmt::format("expected a number, a list or {{ from, to, count }}, got {}", TypeName(node)));
     }
     if (out.empty()) Fail(&node, key, "empty grid: give at least one value");
     return out;
@@ -144,7 +148,8 @@ class Reader {
       out.push_back(String(node, key));
     } else if (node.is_array()) {
       const auto& arr = *node.as_array();
-      for (std::size_t i = 0; i < arr.size(); ++i) out.push_back(String(arr[i], fmt::format("{}[{}]", key, i)));
+      for (std::size_t i = 0; i < arr.size(); ++i)
+        out.push_back(String(arr[i], fmt::format("{}[{}]", key, i)));
     } else {
       Fail(&node, key, fmt::format("expected a string or a list of strings, got {}", TypeName(node)));
     }
@@ -187,7 +192,8 @@ SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string&
   if (name && file) rd.Fail(file, key + ".file", "give name or file, not both");
   if (file) {
     // Relative to the sweep file's folder.
-    const std::filesystem::path path = std::filesystem::path(rd.file()).parent_path() / rd.String(*file, key + ".file");
+    const std::filesystem::path path =
+        std::filesystem::path(rd.file()).parent_path() / rd.String(*file, key + ".file");
     try {
       m.from_file = std::make_shared<const Model>(LoadModelFile(path));
     } catch (const std::invalid_argument& e) {
@@ -196,11 +202,14 @@ SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string&
     m.file = path.lexically_normal().string();
     m.name = m.from_file->name();
   } else {
-    if (!name) rd.Fail(&t, key + ".name", "missing (the model's registry name, see `hysid models`, or file = a model file)");
+    if (!name)
+      rd.Fail(&t, key + ".name",
+              "missing (the model's registry name, see `hysid models`, or file = a model file)");
     m.name = rd.String(*name, key + ".name");
     if (!registry.Contains(m.name)) {
       std::vector<std::string> names = registry.names();
-      rd.Fail(name, key + ".name", fmt::format("unknown model '{}' (known: {})", m.name, fmt::join(names, ", ")));
+      rd.Fail(name, key + ".name",
+              fmt::format("unknown model '{}' (known: {})", m.name, fmt::join(names, ", ")));
     }
   }
   Model model = m.from_file ? *m.from_file : registry.Make(m.name);
@@ -223,13 +232,15 @@ SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string&
   if (x0) {
     m.x0 = rd.NumberList(*x0, key + ".x0");
     if (static_cast<int>(m.x0.size()) != n) {
-      rd.Fail(x0, key + ".x0", fmt::format("has {} entries, model '{}' has {} states", m.x0.size(), m.name, n));
+      rd.Fail(x0, key + ".x0",
+              fmt::format("has {} entries, model '{}' has {} states", m.x0.size(), m.name, n));
     }
   } else if (range) {
     if (!range->is_array()) rd.Fail(range, key + ".x0_range", "expected a list of [lo, hi] pairs");
     const auto& arr = *range->as_array();
     if (static_cast<int>(arr.size()) != n) {
-      rd.Fail(range, key + ".x0_range", fmt::format("has {} entries, model '{}' has {} states", arr.size(), m.name, n));
+      rd.Fail(range, key + ".x0_range",
+              fmt::format("has {} entries, model '{}' has {} states", arr.size(), m.name, n));
     }
     for (std::size_t i = 0; i < arr.size(); ++i) {
       const std::string ik = fmt::format("{}.x0_range[{}]", key, i);
@@ -286,20 +297,24 @@ const std::vector<IdentifierKey>& IdentifierKeys() {
 std::vector<OptionAxis> SweepableAxes(const IdentifierSettings& s) {
   std::vector<OptionAxis> axes;
   for (const auto& o : EstimatorOptions()) {
-    if (o.sweepable) axes.push_back({OptionAxis::Family::kEstimator, std::string(o.name), {o.get(s.flow_estimator)}});
+    if (o.sweepable)
+      axes.push_back({OptionAxis::Family::kEstimator, std::string(o.name), {o.get(s.flow_estimator)}});
   }
   for (const auto& o : DetectorOptions()) {
-    if (o.sweepable) axes.push_back({OptionAxis::Family::kDetector, std::string(o.name), {o.get(s.detector)}});
+    if (o.sweepable)
+      axes.push_back({OptionAxis::Family::kDetector, std::string(o.name), {o.get(s.detector)}});
   }
   return axes;
 }
 
 std::string Constraint(const OptionAxis& axis, double v) {
-  if (axis.family == OptionAxis::Family::kEstimator) return FindOption(EstimatorOptions(), axis.name)->Check(v);
+  if (axis.family == OptionAxis::Family::kEstimator)
+    return FindOption(EstimatorOptions(), axis.name)->Check(v);
   return FindOption(DetectorOptions(), axis.name)->Check(v);
 }
 
-std::vector<SweepModel> ParseModels(const Reader& rd, const toml::table& root, const ModelRegistry& registry) {
+std::vector<SweepModel> ParseModels(const Reader& rd, const toml::table& root,
+                                    const ModelRegistry& registry) {
   std::vector<SweepModel> out;
   const toml::node* models = root.get("model");
   if (!models) rd.Fail(nullptr, "model", "missing: a [model] table with at least name");
@@ -323,7 +338,8 @@ std::vector<Kind> KindAxis(const Reader& rd, const toml::table& grid, const char
                            Kind (*parse)(std::string_view)) {
   const std::string key = fmt::format("grid.{}", name);
   const toml::node* node = grid.get(name);
-  const std::vector<std::string> names = node ? rd.StringAxis(*node, key) : std::vector<std::string>{fallback};
+  const std::vector<std::string> names =
+      node ? rd.StringAxis(*node, key) : std::vector<std::string>{fallback};
   if (node) NoDuplicates(rd, *node, key, names);
   std::vector<Kind> kinds;
   for (const std::string& n : names) {
@@ -345,7 +361,8 @@ void CheckCellCount(const SweepConfig& c) {
     for (DetectorKind d : c.grid.detector) {
       std::int64_t n = 1;
       for (const OptionAxis& a : c.grid.options) {
-        if (Reads(a, e, d)) n = CheckedProduct(kMaxCells, n, static_cast<std::int64_t>(a.values.size()), where);
+        if (Reads(a, e, d))
+          n = CheckedProduct(kMaxCells, n, static_cast<std::int64_t>(a.values.size()), where);
       }
       per_base += n;
     }
@@ -367,8 +384,9 @@ void CheckGridSteps(const Reader& rd, const toml::table& grid, const SweepConfig
                  fmt::format("{}:{}: grid.dt = {} with t_end = {} of model '{}'", c.source,
                              Reader::Line(grid.get("dt")), dt, m.t_end, m.name));
       if (2 * dt > m.t_end) {
-        rd.Fail(grid.get("dt"), "grid.dt",
-                fmt::format("{} leaves fewer than 3 samples in t_end = {} of model '{}'", dt, m.t_end, m.name));
+        rd.Fail(
+            grid.get("dt"), "grid.dt",
+            fmt::format("{} leaves fewer than 3 samples in t_end = {} of model '{}'", dt, m.t_end, m.name));
       }
     }
   }
@@ -389,7 +407,8 @@ void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
     c->grid.refine_axis = true;
     c->grid.refine = rd.StringAxis(*rn, "grid.refine");
     for (const std::string& m : c->grid.refine) {
-      if (m != "none" && m != "ml") rd.Fail(rn, "grid.refine", fmt::format("unknown '{}' (known: none, ml)", m));
+      if (m != "none" && m != "ml")
+        rd.Fail(rn, "grid.refine", fmt::format("unknown '{}' (known: none, ml)", m));
     }
     NoDuplicates(rd, *rn, "grid.refine", c->grid.refine);
   }
@@ -405,18 +424,19 @@ void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
     const std::string key = "grid." + axis.name;
     axis.values = rd.NumberAxis(*node, key);
     for (double v : axis.values) {
-      if (std::string what = Constraint(axis, v); !what.empty()) rd.Fail(node, key, fmt::format("{} {}", v, what));
+      if (std::string what = Constraint(axis, v); !what.empty())
+        rd.Fail(node, key, fmt::format("{} {}", v, what));
     }
     NoDuplicates(rd, *node, key, axis.values);
   }
   if (c->oracle) {  // the true labels replace the detector: nothing of it to vary
     for (const auto& [k, v] : grid) {
       const std::string name(k.str());  // a structured binding cannot be captured by clang 14
-      const bool detector_key = k == "detector" || std::any_of(c->grid.options.begin(), c->grid.options.end(),
-                                                                [&](const OptionAxis& a) {
-                                                                  return a.name == name &&
-                                                                         a.family == OptionAxis::Family::kDetector;
-                                                                });
+      const bool detector_key =
+          k == "detector" ||
+          std::any_of(c->grid.options.begin(), c->grid.options.end(), [&](const OptionAxis& a) {
+            return a.name == name && a.family == OptionAxis::Family::kDetector;
+          });
       if (detector_key) rd.Fail(&v, "grid." + std::string(k.str()), "not used with identifier.oracle = true");
     }
   }
@@ -510,7 +530,8 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
   std::vector<std::string> allowed{"sigma", "estimator", "detector"};
   for (const OptionAxis& a : g.options) allowed.push_back(a.name);
   rd.OnlyKeys(b, "summary.baseline", allowed);
-  if (b.empty()) rd.Fail(bn, "summary.baseline", fmt::format("empty: name at least one of {}", fmt::join(allowed, ", ")));
+  if (b.empty())
+    rd.Fail(bn, "summary.baseline", fmt::format("empty: name at least one of {}", fmt::join(allowed, ", ")));
   for (auto&& [k, v] : b) {
     const std::string key = fmt::format("summary.baseline.{}", k.str());
     std::string text;
@@ -573,8 +594,8 @@ void CheckTomlCharacters(std::string_view text, const std::string& name) {
     }
     if (static_cast<unsigned char>(c) >= 0x80 && (in == In::kCode || in == In::kMultiBasic)) {
       throw std::invalid_argument(fmt::format(
-          "{}:{}: a non-ASCII character {}; sweep files may use them only in comments and one-line strings", name,
-          line, in == In::kCode ? "outside a string or comment" : "in a \"\"\" string"));
+          "{}:{}: a non-ASCII character {}; sweep files may use them only in comments and one-line strings",
+          name, line, in == In::kCode ? "outside a string or comment" : "in a \"\"\" string"));
     }
     switch (in) {
       case In::kCode:
@@ -603,8 +624,7 @@ void CheckTomlCharacters(std::string_view text, const std::string& name) {
           i += 2;
         }
         break;
-      case In::kComment:
-        break;
+      case In::kComment: break;
     }
   }
 }
@@ -681,7 +701,9 @@ nlohmann::json SweepConfig::ToJson() const {
       {"grid", g},
       {"identifier", id},
       {"simulator",
-       {{"rtol", simulator.rtol}, {"atol", simulator.atol}, {"max_steps", simulator.max_steps},
+       {{"rtol", simulator.rtol},
+        {"atol", simulator.atol},
+        {"max_steps", simulator.max_steps},
         {"max_jumps", simulator.max_jumps}}},
       {"run", {{"trials", trials}, {"seed", seed}}},
   };

@@ -26,14 +26,14 @@
 namespace hysid {
 
 struct SweepModel {
-  std::string name;                                      // registry name (or the model file's name)
-  std::string file;                                      // model file, when given instead of a name
-  std::shared_ptr<const Model> from_file;                // the loaded model file (else null)
-  std::vector<std::pair<std::string, double>> params;    // true parameter values set by the file
-  std::vector<double> x0;                                // fixed initial state, or
-  std::vector<std::array<double, 2>> x0_range;           // [lo, hi] per component, drawn per trial
-  double t_end = 20.0;                                   // s
-  Model Build(const ModelRegistry& registry) const;      // with params applied
+  std::string name;                                    // registry name (or the model file's name)
+  std::string file;                                    // model file, when given instead of a name
+  std::shared_ptr<const Model> from_file;              // the loaded model file (else null)
+  std::vector<std::pair<std::string, double>> params;  // true parameter values set by the file
+  std::vector<double> x0;                              // fixed initial state, or
+  std::vector<std::array<double, 2>> x0_range;         // [lo, hi] per component, drawn per trial
+  double t_end = 20.0;                                 // s
+  Model Build(const ModelRegistry& registry) const;    // with params applied
 };
 
 // The values of one sweepable option (EstimatorOptions() or DetectorOptions() with sweepable set): a
@@ -69,9 +69,9 @@ struct SweepConfig {
   // [summary] baseline: per-cell keys (sigma, r, false_alarm, estimator, detector) and their values
   // as trials.csv writes them; summary.csv compares every cell with its baseline (tables.hpp).
   std::vector<std::pair<std::string, std::string>> baseline;
-  long trials = 10;               // per cell
-  std::uint64_t seed = 1;         // master seed
-  std::string out;                // run directory
+  long trials = 10;        // per cell
+  std::uint64_t seed = 1;  // master seed
+  std::string out;         // run directory
 
   // Canonical JSON of everything that determines the results (not `source`, not `out`).
   nlohmann::json ToJson() const;
@@ -82,7 +82,6 @@ struct SweepConfig {
 // Throws std::invalid_argument "FILE:LINE: KEY: problem" (or "FILE: ..." when unreadable).
 SweepConfig ParseSweepFile(const std::filesystem::path& path, const ModelRegistry& registry);
 // The same from text (`name` stands for the file in errors).
-SweepConfig ParseSweepText(std::string_view text, const std::string& name,
-                           const ModelRegistry& registry);
+SweepConfig ParseSweepText(std::string_view text, const std::string& name, const ModelRegistry& registry);
 
 }  // namespace hysid

@@ -51,8 +51,8 @@ void WriteAll(int fd, const std::string& text, const std::filesystem::path& path
 
 }  // namespace
 
-Journal::Journal(const std::filesystem::path& path, const std::vector<std::string>& header, const std::string& hash,
-                 const std::string& shard)
+Journal::Journal(const std::filesystem::path& path, const std::vector<std::string>& header,
+                 const std::string& hash, const std::string& shard)
     : path_(path), hash_(hash), columns_(header.size()) {
   const std::string identity = fmt::format("# hysid journal sweep={} shard={}", hash, shard);
   std::vector<std::string> full = header;
@@ -123,10 +123,11 @@ void Journal::AddRow(const std::string& line, long line_no) {
                                             Abbreviated(line, 60)));
   }
   if (cells.back() != hash_) {
-    throw std::invalid_argument(fmt::format(
-        "{}:{}: the row of unit {} belongs to sweep {}, not to this sweep {} (a foreign row); use another --out, "
-        "or delete the directory",
-        path_.string(), line_no, unit, Abbreviated(cells.back(), 40), hash_));
+    throw std::invalid_argument(
+        fmt::format("{}:{}: the row of unit {} belongs to sweep {}, not to this sweep {} (a foreign row); "
+                    "use another --out, "
+                    "or delete the directory",
+                    path_.string(), line_no, unit, Abbreviated(cells.back(), 40), hash_));
   }
   cells.pop_back();
   const auto [it, inserted] = recovered_.emplace(unit, cells);

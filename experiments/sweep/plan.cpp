@@ -13,7 +13,7 @@ namespace hysid {
 
 bool Reads(const OptionAxis& axis, EstimatorKind estimator, DetectorKind detector) {
   return axis.family == OptionAxis::Family::kEstimator ? DescriptorOf(estimator).Reads(axis.name)
-                                                        : DescriptorOf(detector).Reads(axis.name);
+                                                       : DescriptorOf(detector).Reads(axis.name);
 }
 
 double SweepCell::option(const SweepGrid& grid, std::string_view name) const {
@@ -130,7 +130,8 @@ std::vector<TrajectoryGroup> GroupUnits(const SweepConfig& config, const std::ve
 }
 
 NoiseKey TrialNoiseKey(const SweepConfig& config, int model, double dt, long trial) {
-  return NoiseKey{config.seed, static_cast<std::uint64_t>(trial),
+  return NoiseKey{config.seed,
+                  static_cast<std::uint64_t>(trial),
                   {static_cast<std::uint64_t>(model), std::bit_cast<std::uint64_t>(dt)}};
 }
 

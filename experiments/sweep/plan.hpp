@@ -14,7 +14,7 @@ namespace hysid {
 
 struct SweepCell {
   long index = 0;
-  int model = 0;      // index into SweepConfig::models
+  int model = 0;  // index into SweepConfig::models
   double dt = 0.0;
   double sigma = 0.0;
   // One value per SweepGrid::options axis; NaN when neither the estimator nor the detector reads it.

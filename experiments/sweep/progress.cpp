@@ -49,8 +49,9 @@ Progress::~Progress() {
 }
 
 void Progress::Loop() {
-  const auto period = mode_ == Mode::kBar ? std::chrono::milliseconds(250)
-                                          : std::chrono::milliseconds(static_cast<long>(line_interval_ * 1000));
+  const auto period = mode_ == Mode::kBar
+                          ? std::chrono::milliseconds(250)
+                          : std::chrono::milliseconds(static_cast<long>(line_interval_ * 1000));
   std::unique_lock lock(mutex_);
   while (!cv_.wait_for(lock, period, [this] { return stop_; })) Print(false);
 }

@@ -17,8 +17,8 @@
 
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
-#include "experiments/sweep/run_context.hpp"
 #include "experiments/sweep/journal.hpp"
+#include "experiments/sweep/run_context.hpp"
 #include "experiments/sweep/tables.hpp"
 #include "experiments/sweep/trial.hpp"
 #include "sim/simulator.hpp"
@@ -49,9 +49,10 @@ void CheckRecovered(const Journal& journal, const SweepConfig& config, const std
     const long id = entry.first;
     const std::vector<std::string>& row = entry.second;
     const auto fail = [&](const std::string& what) {
-      throw std::invalid_argument(fmt::format("{}:{}: the row of unit {} {}; the journal is not this sweep's: "
-                                              "delete the directory or use another --out",
-                                              journal.path().string(), journal.line_of(id), id, what));
+      throw std::invalid_argument(
+          fmt::format("{}:{}: the row of unit {} {}; the journal is not this sweep's: "
+                      "delete the directory or use another --out",
+                      journal.path().string(), journal.line_of(id), id, what));
     };
     if (id >= units_total) fail(fmt::format("is beyond the sweep's {} units", units_total));
     if (!shard.Contains(id)) fail(fmt::format("is not in shard {}", shard.ToString()));
@@ -59,16 +60,18 @@ void CheckRecovered(const Journal& journal, const SweepConfig& config, const std
     const SweepCell& c = cells[static_cast<std::size_t>(u.cell)];
     // The key columns of trials.csv (trial.cpp): unit, cell, trial, model, dt, sigma, the option axes,
     // estimator, detector and, with grid.refine, refine.
-    std::vector<std::string> expected{fmt::format("{}", id), fmt::format("{}", u.cell), fmt::format("{}", u.trial),
-                                      config.models[static_cast<std::size_t>(c.model)].name, FormatNumber(c.dt),
-                                      FormatNumber(c.sigma)};
+    std::vector<std::string> expected{
+        fmt::format("{}", id),      fmt::format("{}", u.cell),
+        fmt::format("{}", u.trial), config.models[static_cast<std::size_t>(c.model)].name,
+        FormatNumber(c.dt),         FormatNumber(c.sigma)};
     for (double v : c.options) expected.push_back(FormatNumber(v));
     expected.emplace_back(ToString(c.estimator));
     expected.emplace_back(config.oracle ? std::string("oracle") : std::string(ToString(c.detector)));
     if (config.grid.refine_axis) expected.push_back(c.refine);
     for (std::size_t i = 0; i < expected.size(); ++i) {
       if (row[i] != expected[i]) {
-        fail(fmt::format("has {} in column {}, the plan has {}", Abbreviated(row[i], 40), i + 1, expected[i]));
+        fail(
+            fmt::format("has {} in column {}, the plan has {}", Abbreviated(row[i], 40), i + 1, expected[i]));
       }
     }
   }
@@ -111,16 +114,17 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
                       const std::atomic<bool>* stop) {
   const auto t0 = Clock::now();
   if (options.out.empty()) throw std::invalid_argument("no output directory: give --out or run.out");
-  if (options.threads < 0) throw std::invalid_argument(fmt::format("--threads = {}: must be ≥ 1", options.threads));
+  if (options.threads < 0)
+    throw std::invalid_argument(fmt::format("--threads = {}: must be ≥ 1", options.threads));
   std::vector<Model> models;
   for (const SweepModel& m : config.models) models.push_back(m.Build(registry));
   const std::vector<SweepCell> cells = EnumerateCells(config);
   const std::vector<std::string> header = TrialHeader(config, models);
   CheckBaseline(config, cells);
   SweepOutcome outcome;
-  outcome.units_total = CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
-                                       fmt::format("{}: {} cells × {} trials", config.source, cells.size(),
-                                                   config.trials));
+  outcome.units_total =
+      CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
+                     fmt::format("{}: {} cells × {} trials", config.source, cells.size(), config.trials));
 
   // The directory's identity: a different sweep or shard is refused, not mixed in.
   CheckOutputDirectory("--out", options.out);
@@ -151,7 +155,8 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
 
   std::vector<long> todo;
   {
-    Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(), options.shard.ToString());
+    Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(),
+                    options.shard.ToString());
     CheckRecovered(journal, config, cells, options.shard, outcome.units_total);
     for (long id = 0; id < outcome.units_total; ++id) {
       if (!options.shard.Contains(id)) continue;
@@ -164,7 +169,8 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
     }
     const std::vector<TrajectoryGroup> groups = GroupUnits(config, cells, todo);
     const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(threads));
     std::atomic<long> run{0}, trajectories{0};
     const auto stopped = [stop] { return stop && stop->load(std::memory_order_relaxed); };
     {
@@ -218,16 +224,16 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
               FillStandardNormals(TrialNoiseKey(config, g.model, g.dt, trial), 0, normals.data(),
                                   static_cast<std::size_t>(normals.size()));
             }
-            const TrialInputs in{&x0, &truth, &normals, &noisy, sim_error,
-                                 config.grid.refine_axis ? &crlb : nullptr};
+            const TrialInputs in{&x0,    &truth,    &normals,
+                                 &noisy, sim_error, config.grid.refine_axis ? &crlb : nullptr};
             for (const long id : ids) {
               if (stopped()) return;
               const auto start = Clock::now();
               std::vector<std::string> row =
-                  RunTrial(config, models, cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)], id,
-                           trial, in);
-              row.push_back(
-                  fmt::format("{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
+                  RunTrial(config, models, cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)],
+                           id, trial, in);
+              row.push_back(fmt::format(
+                  "{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
               journal.Append(row);
               run.fetch_add(1, std::memory_order_relaxed);
               progress.Tick(samples_of(id));
@@ -318,9 +324,9 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
       throw std::invalid_argument(fmt::format("{}: shard {} given twice", dir.string(), shard.ToString()));
     }
     if (!fs::exists(dir / "trials.csv")) {
-      throw std::invalid_argument(fmt::format(
-          "{}: shard {} is not complete (no trials.csv); run its command again to finish it", dir.string(),
-          shard.ToString()));
+      throw std::invalid_argument(
+          fmt::format("{}: shard {} is not complete (no trials.csv); run its command again to finish it",
+                      dir.string(), shard.ToString()));
     }
     std::vector<std::string> h;
     std::map<long, std::vector<std::string>> r;
@@ -329,11 +335,12 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
     std::map<long, std::vector<std::string>> timing;
     ReadTrialsCsv(dir / "timings.csv", &th, &timing);
     if (header.empty()) header = h;
-    if (h != header) throw std::invalid_argument(fmt::format("{}: trials.csv has other columns", dir.string()));
+    if (h != header)
+      throw std::invalid_argument(fmt::format("{}: trials.csv has other columns", dir.string()));
     for (auto& [unit, cells] : r) {
       if (!shard.Contains(unit)) {
-        throw std::invalid_argument(fmt::format("{}: unit {} does not belong to shard {}", dir.string(), unit,
-                                                shard.ToString()));
+        throw std::invalid_argument(
+            fmt::format("{}: unit {} does not belong to shard {}", dir.string(), unit, shard.ToString()));
       }
       const auto t = timing.find(unit);
       cells.push_back(t == timing.end() ? std::string() : t->second.back());
@@ -341,10 +348,12 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
     }
   }
   for (long k = 1; k <= n_shards; ++k) {
-    if (!seen_k.count(k)) throw std::invalid_argument(fmt::format("hysid merge: shard {}/{} is missing", k, n_shards));
+    if (!seen_k.count(k))
+      throw std::invalid_argument(fmt::format("hysid merge: shard {}/{} is missing", k, n_shards));
   }
   if (static_cast<long>(rows.size()) != total) {
-    throw std::invalid_argument(fmt::format("hysid merge: {} units in the shards, the sweep has {}", rows.size(), total));
+    throw std::invalid_argument(
+        fmt::format("hysid merge: {} units in the shards, the sweep has {}", rows.size(), total));
   }
   fs::create_directories(out);
   WriteSweepTables(out, header, rows, BaselineFromJson(config));

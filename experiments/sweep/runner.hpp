@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "core/model/registry.hpp"
-#include "experiments/sweep/progress.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"
+#include "experiments/sweep/progress.hpp"
 
 namespace hysid {
 
@@ -22,12 +22,12 @@ struct SweepOptions {
 };
 
 struct SweepOutcome {
-  long units_total = 0;    // whole sweep
-  long units_shard = 0;    // this shard's
-  long units_resumed = 0;  // found in the journal
-  long units_run = 0;      // run now
-  long failures = 0;       // rows whose status is not ok (whole shard)
-  long trajectories = 0;   // noise-free simulations run now
+  long units_total = 0;      // whole sweep
+  long units_shard = 0;      // this shard's
+  long units_resumed = 0;    // found in the journal
+  long units_run = 0;        // run now
+  long failures = 0;         // rows whose status is not ok (whole shard)
+  long trajectories = 0;     // noise-free simulations run now
   bool interrupted = false;  // `stop` was raised: outputs not written, the journal holds the rows
   double wall_seconds = 0.0;
 };

@@ -34,8 +34,8 @@ double MetricValue(const std::string& text, long unit, const std::string& column
   double v = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
   if (ec != std::errc() || end != text.data() + text.size()) {
-    throw std::invalid_argument(
-        fmt::format("the row of unit {}: column '{}': '{}' is not a number", unit, column, Abbreviated(text)));
+    throw std::invalid_argument(fmt::format("the row of unit {}: column '{}': '{}' is not a number", unit,
+                                            column, Abbreviated(text)));
   }
   return v;
 }
@@ -87,7 +87,8 @@ const std::vector<std::string>& BaselineKeyNames() {
 }
 
 std::vector<long> MatchBaselines(const std::vector<std::string>& key_names,
-                                 const std::vector<std::vector<std::string>>& cell_keys, const Baseline& baseline) {
+                                 const std::vector<std::vector<std::string>>& cell_keys,
+                                 const Baseline& baseline) {
   std::vector<const std::string*> named(key_names.size(), nullptr);
   for (const auto& [k, v] : baseline) {
     const auto it = std::find(key_names.begin(), key_names.end(), k);
@@ -117,8 +118,8 @@ namespace {
 
 // One cell's rows: its keys, counts, and each trial's metric values (NaN: none).
 struct CellRows {
-  std::vector<std::string> keys;      // the summary's key columns
-  std::vector<std::string> match;     // BaselineKeyNames() columns
+  std::vector<std::string> keys;   // the summary's key columns
+  std::vector<std::string> match;  // BaselineKeyNames() columns
   long n = 0, failures = 0;
   std::map<long, std::vector<double>> values;  // trial → one value per metric
   std::array<double, 2> crlb{0.0, 0.0};        // Σ crlb_e_alpha, crlb_e_beta over the rows with one
@@ -210,8 +211,8 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   // or to "refine" when the sweep has that axis.
   std::vector<std::string> keys{"cell"};
   const auto model_col = static_cast<std::size_t>(Column(trial_header, "model"));
-  const auto last_col = static_cast<std::size_t>(
-      Column(trial_header, Has(trial_header, "refine") ? "refine" : "detector"));
+  const auto last_col =
+      static_cast<std::size_t>(Column(trial_header, Has(trial_header, "refine") ? "refine" : "detector"));
   keys.insert(keys.end(), trial_header.begin() + static_cast<long>(model_col),
               trial_header.begin() + static_cast<long>(last_col) + 1);
   const bool efficiency = Has(trial_header, "crlb_e_alpha");
@@ -232,10 +233,12 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   if (!baseline.empty()) {
     header.push_back("baseline_cell");
     for (const auto& m : metrics) {
-      for (const char* stat : {"diff_n", "diff_mean", "diff_ci95_lo", "diff_ci95_hi"}) header.push_back(m + "_" + stat);
+      for (const char* stat : {"diff_n", "diff_mean", "diff_ci95_lo", "diff_ci95_hi"})
+        header.push_back(m + "_" + stat);
     }
   }
-  if (efficiency) header.insert(header.end(), {"crlb_e_alpha", "crlb_e_beta", "efficiency_alpha", "efficiency_beta"});
+  if (efficiency)
+    header.insert(header.end(), {"crlb_e_alpha", "crlb_e_beta", "efficiency_alpha", "efficiency_beta"});
   CsvWriter summary(dir / "summary.csv", header);
   for (std::size_t ci = 0; ci < cells.size(); ++ci) {
     const CellRows& c = cells[ci];
@@ -290,14 +293,14 @@ void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* 
       continue;
     }
     if (cells.size() != header->size()) {
-      throw std::invalid_argument(fmt::format("{}:{}: {} cells, expected {}", path.string(), line_no,
-                                              cells.size(), header->size()));
+      throw std::invalid_argument(
+          fmt::format("{}:{}: {} cells, expected {}", path.string(), line_no, cells.size(), header->size()));
     }
     long unit = 0;
     const auto [end, ec] = std::from_chars(cells[0].data(), cells[0].data() + cells[0].size(), unit);
     if (ec != std::errc() || end != cells[0].data() + cells[0].size() || unit < 0) {
-      throw std::invalid_argument(fmt::format("{}:{}: column 1 ('unit'): '{}' is not a unit id", path.string(),
-                                              line_no, Abbreviated(cells[0])));
+      throw std::invalid_argument(fmt::format("{}:{}: column 1 ('unit'): '{}' is not a unit id",
+                                              path.string(), line_no, Abbreviated(cells[0])));
     }
     if (!rows->emplace(unit, std::move(cells)).second) {
       throw std::invalid_argument(fmt::format("{}:{}: unit {} appears twice", path.string(), line_no, unit));

@@ -29,7 +29,8 @@ using Baseline = std::vector<std::pair<std::string, std::string>>;
 // baseline does not name matches anything when it is empty in either cell (an axis one of the two
 // detectors does not use). −1 when no cell matches, −2 when several do.
 std::vector<long> MatchBaselines(const std::vector<std::string>& key_names,
-                                 const std::vector<std::vector<std::string>>& cell_keys, const Baseline& baseline);
+                                 const std::vector<std::vector<std::string>>& cell_keys,
+                                 const Baseline& baseline);
 
 // The key columns MatchBaselines compares (trials.csv names).
 const std::vector<std::string>& BaselineKeyNames();

@@ -62,8 +62,9 @@ std::string FormatNumber(double v) { return std::isnan(v) ? std::string() : fmt:
 
 const std::vector<std::string>& SummaryMetrics() {
   static const std::vector<std::string> metrics{
-      "misclassification", "precision", "recall", "fp", "fn", "e_alpha", "e_beta", "rel_alpha", "rel_beta",
-      "jump_hausdorff", "flow_outside_share"};
+      "misclassification", "precision", "recall",    "fp",       "fn",
+      "e_alpha",           "e_beta",    "rel_alpha", "rel_beta", "jump_hausdorff",
+      "flow_outside_share"};
   return metrics;
 }
 
@@ -98,7 +99,8 @@ struct TrialColumn {
 std::string Integer(long v) { return fmt::format("{}", v); }
 // Metrics: empty unless the row's status is ok.
 TrialColumn Metric(std::string name, double (*get)(const TrialOutcome&)) {
-  return {std::move(name), [get](const TrialOutcome& o) { return o.ok() ? FormatNumber(get(o)) : std::string(); }};
+  return {std::move(name),
+          [get](const TrialOutcome& o) { return o.ok() ? FormatNumber(get(o)) : std::string(); }};
 }
 TrialColumn Count(std::string name, long (*get)(const TrialOutcome&)) {
   return {std::move(name), [get](const TrialOutcome& o) { return o.ok() ? Integer(get(o)) : std::string(); }};
@@ -119,11 +121,14 @@ void KeyColumns(const SweepConfig& config, int states, std::vector<TrialColumn>*
     cols->push_back({config.grid.options[i].name,
                      [i](const TrialOutcome& o) { return FormatNumber(o.cell->options[i]); }});
   }
-  cols->push_back({"estimator", [](const TrialOutcome& o) { return std::string(ToString(o.cell->estimator)); }});
+  cols->push_back(
+      {"estimator", [](const TrialOutcome& o) { return std::string(ToString(o.cell->estimator)); }});
   cols->push_back({"detector", [](const TrialOutcome& o) {
-                     return o.config->oracle ? std::string("oracle") : std::string(ToString(o.cell->detector));
+                     return o.config->oracle ? std::string("oracle")
+                                             : std::string(ToString(o.cell->detector));
                    }});
-  if (config.grid.refine_axis) cols->push_back({"refine", [](const TrialOutcome& o) { return o.cell->refine; }});
+  if (config.grid.refine_axis)
+    cols->push_back({"refine", [](const TrialOutcome& o) { return o.cell->refine; }});
   for (int i = 0; i < states; ++i) {
     cols->push_back({fmt::format("x0_{}", i + 1), [i](const TrialOutcome& o) {
                        return i < o.x0.size() ? FormatNumber(o.x0[i]) : std::string();
@@ -171,7 +176,8 @@ void EstimateColumns(const std::vector<Model>& models, std::vector<TrialColumn>*
                          std::string text;
                          for (std::size_t i = 0; i < params.size(); ++i) {
                            if (params[i].name == name && !params[i].known && o.have_estimates) {
-                             text = FormatNumber((alpha ? o.alpha_hat : o.beta_hat)[static_cast<Eigen::Index>(i)]);
+                             text = FormatNumber(
+                                 (alpha ? o.alpha_hat : o.beta_hat)[static_cast<Eigen::Index>(i)]);
                            }
                          }
                          return text;
@@ -294,11 +300,11 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
     o.message = sim_error;
   } else if (!truth.status.completed()) {
     o.status = ToString(truth.status.stop);
-    o.message = truth.status.stop == SimStop::kZeno
-                    ? fmt::format("Zeno: jumps accumulate at t = {:.6g} s before t_end = {} s; shorten t_end",
-                                  truth.status.zeno_time,
-                                  config.models[static_cast<std::size_t>(cell.model)].t_end)
-                    : truth.status.message;
+    o.message =
+        truth.status.stop == SimStop::kZeno
+            ? fmt::format("Zeno: jumps accumulate at t = {:.6g} s before t_end = {} s; shorten t_end",
+                          truth.status.zeno_time, config.models[static_cast<std::size_t>(cell.model)].t_end)
+            : truth.status.message;
   } else {
     try {
       Identify(config, in, &o);

@@ -40,7 +40,8 @@ bool RefineOptions::IsValid(std::string* error) const {
     return fail(fmt::format("RefineOptions::noise_tolerance = {}: must be finite and > 0", noise_tolerance));
   }
   if (!(polish_tolerance > 0.0) || !std::isfinite(polish_tolerance)) {
-    return fail(fmt::format("RefineOptions::polish_tolerance = {}: must be finite and > 0", polish_tolerance));
+    return fail(
+        fmt::format("RefineOptions::polish_tolerance = {}: must be finite and > 0", polish_tolerance));
   }
   if (max_iterations < 1) {
     return fail(fmt::format("RefineOptions::max_iterations = {}: must be >= 1", max_iterations));
@@ -59,8 +60,8 @@ bool RefineOptions::IsValid(std::string* error) const {
     return fail(fmt::format("RefineOptions::max_lag1 = {}: must be in (0, 1]", max_lag1));
   }
   if (!(jump_time_tolerance >= 0.0) || !std::isfinite(jump_time_tolerance)) {
-    return fail(fmt::format("RefineOptions::jump_time_tolerance = {}: must be finite and >= 0",
-                            jump_time_tolerance));
+    return fail(
+        fmt::format("RefineOptions::jump_time_tolerance = {}: must be finite and >= 0", jump_time_tolerance));
   }
   if (max_span_retries < 0) {
     return fail(fmt::format("RefineOptions::max_span_retries = {}: must be >= 0", max_span_retries));
@@ -111,8 +112,7 @@ struct FitProblem {
   mutable SensitivityTrajectory cached;
   SensitivityTrajectory SimulateCached(const ConstVecRef& theta) const {
     if (cached_theta.size() == theta.size() && cached_theta == theta &&
-        cached.trajectory.status.stop == SimStop::kCompleted &&
-        cached.sensitivities.cols() == y->cols()) {
+        cached.trajectory.status.stop == SimStop::kCompleted && cached.sensitivities.cols() == y->cols()) {
       return cached;
     }
     return Simulate(theta, true);
@@ -248,8 +248,8 @@ void CheckJumps(const FitProblem& problem, const RefineOptions& options, const H
   const SensitivityTrajectory plain = SimulatePlain(problem, fit);
   const SimStatus& st = plain.trajectory.status;
   r.model_jumps = static_cast<int>(plain.trajectory.jumps.size());
-  problem.disagreement =
-      FirstDisagreement(plain.trajectory.jumps, problem.segments, problem.grid.dt, options.jump_time_tolerance);
+  problem.disagreement = FirstDisagreement(plain.trajectory.jumps, problem.segments, problem.grid.dt,
+                                           options.jump_time_tolerance);
   if (st.stop == SimStop::kZeno) {
     return Fail(r, RefineStatus::kZeno, fmt::format("the fitted model is Zeno: {}", st.message));
   }
@@ -257,7 +257,8 @@ void CheckJumps(const FitProblem& problem, const RefineOptions& options, const H
     return Fail(r, RefineStatus::kNotConverged,
                 fmt::format("the fitted model does not simulate: {}: {}", ToString(st.stop), st.message));
   }
-  if (r.model_jumps != r.detected_jumps && AccumulatesWithinASample(plain.trajectory.jumps, problem.grid.dt)) {
+  if (r.model_jumps != r.detected_jumps &&
+      AccumulatesWithinASample(plain.trajectory.jumps, problem.grid.dt)) {
     const auto& jumps = plain.trajectory.jumps;
     return Fail(r, RefineStatus::kZeno,
                 fmt::format("the fitted model's jumps accumulate (Zeno) near t = {:.6g}: {} jumps, the last "
@@ -279,7 +280,8 @@ void CheckJumps(const FitProblem& problem, const RefineOptions& options, const H
     if (off > options.jump_time_tolerance) {
       return Fail(r, RefineStatus::kJumpCountMismatch,
                   fmt::format("fitted jump {} at t = {:.6g} is {:.3g} samples from the detected "
-                              "interval ({:.6g}, {:.6g}]", j + 1, t, off, lo, hi));
+                              "interval ({:.6g}, {:.6g}]",
+                              j + 1, t, off, lo, hi));
     }
   }
 }
@@ -322,7 +324,8 @@ void CheckResiduals(const FitProblem& problem, const RefineOptions& options, con
   if (above_floor && std::abs(r.lag1) > options.max_lag1) {
     return Fail(r, RefineStatus::kResidualCorrelation,
                 fmt::format("lag-1 autocorrelation of the residuals {:.4g} (|.| > {:g}): the model or "
-                            "the detected jumps do not fit the data", r.lag1, options.max_lag1));
+                            "the detected jumps do not fit the data",
+                            r.lag1, options.max_lag1));
   }
 }
 
@@ -338,9 +341,11 @@ void CheckInputs(const Model& model, const Mat& y, double dt, const Vec& alpha0,
     throw std::invalid_argument("Refine: alpha0/beta0 must be the model's full parameter vectors");
   }
   if (static_cast<Eigen::Index>(gamma.size()) != y.cols()) {
-    throw std::invalid_argument(fmt::format("Refine: gamma has {} entries for {} samples", gamma.size(), y.cols()));
+    throw std::invalid_argument(
+        fmt::format("Refine: gamma has {} entries for {} samples", gamma.size(), y.cols()));
   }
-  if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument(fmt::format("Refine: dt = {}: must be > 0", dt));
+  if (!(dt > 0.0) || !std::isfinite(dt))
+    throw std::invalid_argument(fmt::format("Refine: dt = {}: must be > 0", dt));
   if (options.sigma.size() != 0 && options.sigma.size() != model.state_size()) {
     throw std::invalid_argument(fmt::format("RefineOptions::sigma has {} entries; the model has {} states",
                                             options.sigma.size(), model.state_size()));
@@ -370,8 +375,9 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
   // Residuals at the integration accuracy (noise-free data): polish at the tighter tolerances.
   const SensitivityTrajectory at_fit = problem.SimulateCached(theta);
   if (at_fit.ok() && options.polish_tolerance < problem.options.sim.rtol) {
-    const Vec sigma_hat = ((*problem.y - at_fit.trajectory.x).rowwise().squaredNorm() /
-                           static_cast<double>(problem.y->cols())).cwiseSqrt();
+    const Vec sigma_hat =
+        ((*problem.y - at_fit.trajectory.x).rowwise().squaredNorm() / static_cast<double>(problem.y->cols()))
+            .cwiseSqrt();
     if ((sigma_hat.array() < NumericalFloor(*problem.y, problem.options.sim).array()).all()) {
       problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
       const ceres::Solver::Summary polish = Solve(problem, options, theta);
@@ -431,8 +437,8 @@ long FitSamples(const Model& model, const Mat& y, double dt, const std::vector<s
 }
 
 // Fits the first `used` samples; false (r untouched but its status) when they are too few.
-long FitPrefix(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
-               long used, const RefineOptions& options, RefineResult& r) {
+long FitPrefix(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma, long used,
+               const RefineOptions& options, RefineResult& r) {
   r.samples_used = used;
   r.detected_jumps = 0;
   for (long k = 1; k < used; ++k) r.detected_jumps += gamma[static_cast<std::size_t>(k)] != 0;
@@ -458,8 +464,10 @@ void FitWithRetries(const Model& model, const Mat& y, double dt, const std::vect
     r.refined = r.start;
     r.model_jumps = -1;
     r.iterations = 0;
-    r.span_reason = fmt::format("the fit of the first {} samples ended in {}: the model's jumps and the "
-                                "detected ones disagree from sample {}", used, ToString(failed.status), cut);
+    r.span_reason = fmt::format(
+        "the fit of the first {} samples ended in {}: the model's jumps and the "
+        "detected ones disagree from sample {}",
+        used, ToString(failed.status), cut);
     used = shorter;
     cut = FitPrefix(model, y, dt, gamma, used, options, r);
     if (!r.ok() && r.status != RefineStatus::kJumpCountMismatch && r.status != RefineStatus::kStartFailed) {

@@ -61,10 +61,10 @@ struct RefineOptions {
   int max_iterations = 50;
   double function_tolerance = 1e-9;   // Ceres: relative cost decrease
   double parameter_tolerance = 1e-9;  // Ceres: relative step
-  Vec sigma;                 // per component (n entries ≥ 0) when known; empty: estimated
-  double rms_low = 0.8;      // σ given: normalised residual RMS in [rms_low, rms_high]
-  double rms_high = 1.25;    // σ estimated: residual σ̂ ≤ rms_high × MAD σ̂ (core/model/noise_shape)
-  double max_lag1 = 0.2;     // |lag-1 autocorrelation| of the normalised residuals
+  Vec sigma;                          // per component (n entries ≥ 0) when known; empty: estimated
+  double rms_low = 0.8;               // σ given: normalised residual RMS in [rms_low, rms_high]
+  double rms_high = 1.25;  // σ estimated: residual σ̂ ≤ rms_high × MAD σ̂ (core/model/noise_shape)
+  double max_lag1 = 0.2;   // |lag-1 autocorrelation| of the normalised residuals
   double jump_time_tolerance = 3.0;
   // Detected jumps closer than this many samples are not resolved reliably (a bouncing ball nearing
   // its Zeno time): the samples before the first such jump are fit (RefineResult::samples_used).
@@ -91,16 +91,16 @@ struct RefineResult {
   // its square-rooted diagonal.
   Mat covariance;
   Vec standard_errors;
-  Vec sigma;                  // σ used for the covariance (n)
+  Vec sigma;  // σ used for the covariance (n)
   bool sigma_estimated = false;
   double normalized_rms = 0.0;  // σ given: RMS of r/σ; estimated: max_i σ̂_i / MAD σ̂_i
   double lag1 = 0.0;            // lag-1 autocorrelation of the normalised residuals
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;  // ½ Σ (r/σ_w)² with the weighting σ
-  long samples_used = 0;  // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
+  long samples_used = 0;    // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
   std::string span_reason;  // why samples_used < K ("" when all samples are fit)
-  int detected_jumps = 0;  // in the fitted prefix
-  int model_jumps = -1;  // of the fitted model over the horizon (−1: not simulated)
+  int detected_jumps = 0;   // in the fitted prefix
+  int model_jumps = -1;     // of the fitted model over the horizon (−1: not simulated)
 };
 
 // y: n × K samples at t_k = k·dt; alpha0, beta0: full vectors (the recursive estimate); gamma: one

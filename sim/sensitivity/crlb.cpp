@@ -42,9 +42,8 @@ Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma) {
 
 double MeanGaussianNorm(const Mat& covariance) {
   if (covariance.size() == 0) return 0.0;
-  const Vec lambda = Eigen::SelfAdjointEigenSolver<Mat>(covariance, Eigen::EigenvaluesOnly)
-                         .eigenvalues()
-                         .cwiseMax(0.0);
+  const Vec lambda =
+      Eigen::SelfAdjointEigenSolver<Mat>(covariance, Eigen::EigenvaluesOnly).eigenvalues().cwiseMax(0.0);
   const double scale = lambda.sum();
   if (!(scale > 0.0)) return 0.0;
   // E√X with X = Σ λ_i χ²₁ = scale·X', X' = Σ (λ_i/scale) χ²₁; integrate in u = ln s.
@@ -67,11 +66,11 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
   out.fisher = fisher;
   const Eigen::LDLT<Mat> ldlt(fisher);
   const double largest = fisher.diagonal().cwiseAbs().maxCoeff();
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
-      !(ldlt.vectorD().minCoeff() > 1e-14 * largest)) {
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() || !(ldlt.vectorD().minCoeff() > 1e-14 * largest)) {
     out.status = CrlbStatus::kSingular;
-    out.message = "the Fisher information is singular: some direction of the parameters is not "
-                  "identifiable from these samples";
+    out.message =
+        "the Fisher information is singular: some direction of the parameters is not "
+        "identifiable from these samples";
     return out;
   }
   out.covariance = ldlt.solve(Mat::Identity(fisher.rows(), fisher.cols()));
@@ -87,8 +86,7 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options) {
   if (sigma.size() != model.state_size() || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
-    throw std::invalid_argument(
-        fmt::format("sigma must have {} finite entries > 0", model.state_size()));
+    throw std::invalid_argument(fmt::format("sigma must have {} finite entries > 0", model.state_size()));
   }
   const SensitivityTrajectory s =
       SimulateSensitivities(model, HybridParameters::Of(model, x0), unknowns, grid, options);

@@ -47,8 +47,10 @@ bool Unknowns::IsValid(const Model& model, std::string* error) const {
     for (int i : idx) {
       if (i < 0 || i >= size || !seen.insert(i).second) {
         if (error) {
-          *error = fmt::format("Unknowns::{} has index {}. Violated constraint: distinct indices in "
-                               "[0, {})", field, i, size);
+          *error = fmt::format(
+              "Unknowns::{} has index {}. Violated constraint: distinct indices in "
+              "[0, {})",
+              field, i, size);
         }
         return false;
       }
@@ -133,8 +135,8 @@ int FlowRhs(sunrealtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
 }
 
 // S_i' = (∂f/∂ξ) S_i + ∂f/∂θ_i; ∂f/∂α_i = column i of φ, zero for β and ξ0.
-int SensitivityRhs(int ns, sunrealtype /*t*/, N_Vector y, N_Vector /*ydot*/, N_Vector* ys,
-                   N_Vector* ysdot, void* user_data, N_Vector /*tmp1*/, N_Vector /*tmp2*/) {
+int SensitivityRhs(int ns, sunrealtype /*t*/, N_Vector y, N_Vector /*ydot*/, N_Vector* ys, N_Vector* ysdot,
+                   void* user_data, N_Vector /*tmp1*/, N_Vector /*tmp2*/) {
   auto* data = static_cast<CallbackData*>(user_data);
   const Eigen::Index n = N_VGetLength_Serial(y);
   const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), n);
@@ -187,8 +189,14 @@ class SensRun {
  public:
   SensRun(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
           const SampleGrid& grid, const SensitivityOptions& options, const std::vector<int>* segments)
-      : model_(model), params_(params), unknowns_(unknowns), options_(options), segments_(segments),
-        n_(model.state_size()), p_(unknowns.size(model.state_size())), sens_(options.sensitivities) {
+      : model_(model),
+        params_(params),
+        unknowns_(unknowns),
+        options_(options),
+        segments_(segments),
+        n_(model.state_size()),
+        p_(unknowns.size(model.state_size())),
+        sens_(options.sensitivities) {
     sample_count_ = grid.size();
     dt_ = grid.dt;
     t_last_ = static_cast<double>(sample_count_ - 1) * dt_;
@@ -218,8 +226,8 @@ class SensRun {
     if (segments_ ? RunMatched() : RunPlain()) {
       out_.trajectory.status.stop = SimStop::kCompleted;
       out_.trajectory.status.t_reached = t_last_;
-      out_.trajectory.status.message = fmt::format("completed: {} samples, {} jumps", sample_count_,
-                                                   out_.trajectory.jumps.size());
+      out_.trajectory.status.message =
+          fmt::format("completed: {} samples, {} jumps", sample_count_, out_.trajectory.jumps.size());
     }
     return Finish();
   }
@@ -230,7 +238,8 @@ class SensRun {
 
   bool Setup() {
     SUNContext ctx = nullptr;
-    if (SUNContext_Create(nullptr, &ctx) != 0) return Fail(SimStop::kSolverFailure, "SUNContext_Create failed");
+    if (SUNContext_Create(nullptr, &ctx) != 0)
+      return Fail(SimStop::kSolverFailure, "SUNContext_Create failed");
     ctx_.reset(ctx);
     y_.reset(N_VNew_Serial(n_, ctx_.get()));
     if (!y_) return Fail(SimStop::kSolverFailure, "N_VNew_Serial failed");
@@ -371,8 +380,8 @@ class SensRun {
       end.d.col(static_cast<Eigen::Index>(i)) += data_.phi.col(unknowns_.alpha[i]);
     }
   }
-  // ξ(t) into out[0..n) from the last step's polynomial: CVodeGetDky for a few samples per step; for many, its
-  // q + 1 Taylor coefficients at t_n once (as Simulate) and Horner's rule per sample.
+  // ξ(t) into out[0..n) from the last step's polynomial: CVodeGetDky for a few samples per step; for many,
+  // its q + 1 Taylor coefficients at t_n once (as Simulate) and Horner's rule per sample.
   void InterpolateState(double t, double* out) {
     void* mem = cvode_.get();
     if (coefficients_state_ == 0) {
@@ -565,8 +574,8 @@ class SensRun {
   bool Missing(int j) {
     out_.missing_jumps = segments_->back() - j;
     return Fail(SimStop::kCompleted,  // the status says completed; missing_jumps says what is wrong
-                fmt::format("the model makes {} jump(s) before the last sample time; the data show {}",
-                            j, segments_->back()));
+                fmt::format("the model makes {} jump(s) before the last sample time; the data show {}", j,
+                            segments_->back()));
   }
 
   // ---- jumps ------------------------------------------------------------------------------------
@@ -583,7 +592,8 @@ class SensRun {
       if (!(std::abs(rate) > 1e-14 * std::max(1.0, grad.norm() * f_minus.norm()))) {
         return Fail(SimStop::kSolverFailure,
                     fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no "
-                                "sensitivity", t_));
+                                "sensitivity",
+                                t_));
       }
       dt_dtheta = -(grad * S_) / rate;
     }
@@ -645,7 +655,8 @@ class SensRun {
         out_.trajectory.status.zeno_time = jumps[m - 1].t + last * rho / (1.0 - rho);
         return Fail(SimStop::kZeno,
                     fmt::format("Zeno: jump interval {:.3g} s and shrinking after {} jumps; estimated "
-                                "accumulation time {:.17g}", last, m, out_.trajectory.status.zeno_time));
+                                "accumulation time {:.17g}",
+                                last, m, out_.trajectory.status.zeno_time));
       }
     }
     if (static_cast<int>(m) >= options_.sim.max_jumps) {
@@ -664,8 +675,8 @@ class SensRun {
 
   bool Check(int flag, const char* function) {
     if (flag >= 0) return true;
-    return Fail(SimStop::kSolverFailure, fmt::format("{} returned {}: {}", function,
-                                                     CVodeGetReturnFlagName(flag), data_.last_error));
+    return Fail(SimStop::kSolverFailure,
+                fmt::format("{} returned {}: {}", function, CVodeGetReturnFlagName(flag), data_.last_error));
   }
 
   // Records why the run stopped (kCompleted with a message: matched mode's missing segments, which
@@ -735,8 +746,8 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
   }
   auto check = [&](const Vec& v, Eigen::Index size, const char* what) {
     if (v.size() != size) {
-      throw std::invalid_argument(fmt::format("HybridParameters::{} has {} entries; model '{}' has {}",
-                                              what, v.size(), model.name(), size));
+      throw std::invalid_argument(fmt::format("HybridParameters::{} has {} entries; model '{}' has {}", what,
+                                              v.size(), model.name(), size));
     }
     if (!v.allFinite()) throw std::invalid_argument(fmt::format("HybridParameters::{} is not finite", what));
   };
@@ -772,9 +783,9 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
     const int prev = k == 0 ? 0 : segment_of_sample[k - 1];
     const int step = segment_of_sample[k] - prev;
     if (step != 0 && !(step == 1 && k > 0)) {
-      throw std::invalid_argument(fmt::format(
-          "segment_of_sample[{}] = {} after {}: must start at 0 and grow by 0 or 1 per sample", k,
-          segment_of_sample[k], prev));
+      throw std::invalid_argument(
+          fmt::format("segment_of_sample[{}] = {} after {}: must start at 0 and grow by 0 or 1 per sample", k,
+                      segment_of_sample[k], prev));
     }
   }
   SensRun run(model, params, unknowns, grid, options, &segment_of_sample);

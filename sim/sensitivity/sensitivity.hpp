@@ -56,8 +56,8 @@ struct SensitivityOptions {
 struct SensitivityTrajectory {
   // t, j (the segment each sample was read from), x, jumps, status: as Simulate in plain mode.
   Trajectory trajectory;
-  int parameters = 0;   // p
-  Mat sensitivities;    // (n·p) × K: column k holds S_k (n × p, column-major); empty when not asked
+  int parameters = 0;       // p
+  Mat sensitivities;        // (n·p) × K: column k holds S_k (n × p, column-major); empty when not asked
   Mat jump_time_gradients;  // p × (jumps): ∂t_j/∂θ
   // Matched mode only: segments the model never reached before the last sample time (the samples
   // then stop at the last segment reached, status.message says so; use ok(), not the status alone),

@@ -16,8 +16,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return r;
   }();
   try {
-    const hysid::SweepConfig c =
-        hysid::ParseSweepText(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.toml", registry);
+    const hysid::SweepConfig c = hysid::ParseSweepText(
+        std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.toml", registry);
     if (c.trials < 1 || c.models.empty() || c.grid.dt.empty() || c.grid.sigma.empty()) __builtin_trap();
     if (c.grid.dt.size() * c.grid.sigma.size() * c.grid.r.size() <= 10000) {
       if (hysid::EnumerateCells(c).empty()) __builtin_trap();

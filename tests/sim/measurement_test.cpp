@@ -64,8 +64,8 @@ TEST_CASE("the normal stream passes Kolmogorov–Smirnov and χ² tests (fixed s
     }
     CHECK(chi2 < 107.6);
     // The tail beyond r = 3.654 (probability 2.58e-4 both sides) is drawn: ≈ 258 of 1e6.
-    const double tail = static_cast<double>(std::count_if(v.begin(), v.end(),
-                                                          [](double x) { return std::abs(x) > 3.6541528853610088; }));
+    const double tail = static_cast<double>(
+        std::count_if(v.begin(), v.end(), [](double x) { return std::abs(x) > 3.6541528853610088; }));
     const double expected_tail = n * 2 * (1 - NormalCdf(3.6541528853610088));
     CHECK(std::abs(tail - expected_tail) <= 5 * std::sqrt(expected_tail));
   }
@@ -89,9 +89,12 @@ TEST_CASE("a stream is the same drawn whole, in slices, on two threads, or in re
   b.join();
   CHECK(sliced == whole);
   // Another seed, stream or sub word gives another stream.
-  CHECK(Stream(NoiseKey{43, 5, {1, 0x3f40624dd2f1a9fcull}}, 8) != std::vector<double>(whole.begin(), whole.begin() + 8));
-  CHECK(Stream(NoiseKey{42, 6, {1, 0x3f40624dd2f1a9fcull}}, 8) != std::vector<double>(whole.begin(), whole.begin() + 8));
-  CHECK(Stream(NoiseKey{42, 5, {2, 0x3f40624dd2f1a9fcull}}, 8) != std::vector<double>(whole.begin(), whole.begin() + 8));
+  CHECK(Stream(NoiseKey{43, 5, {1, 0x3f40624dd2f1a9fcull}}, 8) !=
+        std::vector<double>(whole.begin(), whole.begin() + 8));
+  CHECK(Stream(NoiseKey{42, 6, {1, 0x3f40624dd2f1a9fcull}}, 8) !=
+        std::vector<double>(whole.begin(), whole.begin() + 8));
+  CHECK(Stream(NoiseKey{42, 5, {2, 0x3f40624dd2f1a9fcull}}, 8) !=
+        std::vector<double>(whole.begin(), whole.begin() + 8));
   CHECK(Stream(NoiseKey{42, 5, {1, 0}}, 8) != std::vector<double>(whole.begin(), whole.begin() + 8));
 }
 
@@ -127,8 +130,8 @@ TEST_CASE("the per-sample draw is Box–Muller on one Philox call per sample", "
   Mat parallel(2, x.cols());
   auto draw = [&](long begin, long end) {
     for (long k = end - 1; k >= begin; --k) {
-      const Normal4 n = StandardNormals(NoiseKey{42, 5}, RandomPurpose::kMeasurementNoise,
-                                        static_cast<std::uint64_t>(k));
+      const Normal4 n =
+          StandardNormals(NoiseKey{42, 5}, RandomPurpose::kMeasurementNoise, static_cast<std::uint64_t>(k));
       parallel(0, k) = sigma[0] * n.v[0];
       parallel(1, k) = sigma[1] * n.v[1];
     }

@@ -26,8 +26,7 @@ inline EivData MakeEivData(const Vec& theta, const Vec& sigma_phi, double sigma_
   for (long r = 0; r < rows; ++r) {
     for (Eigen::Index b = 0; b < draws.size() / 4; ++b) {
       const Normal4 n = StandardNormals(NoiseKey{seed, run}, RandomPurpose::kMeasurementNoise,
-                                        static_cast<std::uint64_t>(r),
-                                        static_cast<std::uint64_t>(b));
+                                        static_cast<std::uint64_t>(r), static_cast<std::uint64_t>(b));
       for (int i = 0; i < 4; ++i) draws[4 * b + i] = n.v[i];
     }
     double y0 = 0.0;

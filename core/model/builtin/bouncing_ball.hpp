@@ -32,11 +32,12 @@ struct BouncingBall {
         .default_x0 = {1.0, 0.0},
         .default_t_end = 10.0,
         .default_dt = 1e-3,
-        .equations = "flow: h' = alpha_h*v, v' = -g\n"
-                     "jump: h+ = beta_h*h, v+ = -lambda*v + mu\n"
-                     "guard floor: h(xi) = h (falling)\n"
-                     "C: h > 0 || (h == 0 && v >= 0)\n"
-                     "D: h == 0 && v <= 0\n",
+        .equations =
+            "flow: h' = alpha_h*v, v' = -g\n"
+            "jump: h+ = beta_h*h, v+ = -lambda*v + mu\n"
+            "guard floor: h(xi) = h (falling)\n"
+            "C: h > 0 || (h == 0 && v >= 0)\n"
+            "D: h == 0 && v <= 0\n",
     };
   }
   void Phi(ConstVecRef x, MatRef phi) const {

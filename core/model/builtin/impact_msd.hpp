@@ -31,11 +31,12 @@ struct ImpactMsd {
         .default_x0 = {20.0, 0.0},
         .default_t_end = 20.0,
         .default_dt = 5e-4,
-        .equations = "flow: x' = alpha_x*v, v' = -a*x - b*v\n"
-                     "jump: x+ = beta_x*x, v+ = -lambda*v + mu\n"
-                     "guard wall: h(xi) = x (falling)\n"
-                     "C: x > 0 || (x == 0 && v >= 0)\n"
-                     "D: x == 0 && v <= 0\n",
+        .equations =
+            "flow: x' = alpha_x*v, v' = -a*x - b*v\n"
+            "jump: x+ = beta_x*x, v+ = -lambda*v + mu\n"
+            "guard wall: h(xi) = x (falling)\n"
+            "C: x > 0 || (x == 0 && v >= 0)\n"
+            "D: x == 0 && v <= 0\n",
     };
   }
   void Phi(ConstVecRef x, MatRef phi) const {

@@ -31,11 +31,12 @@ struct ImpactPendulum {
         .default_x0 = {1.2, 0.0},
         .default_t_end = 20.0,
         .default_dt = 1e-3,
-        .equations = "flow: theta' = alpha_theta*omega, omega' = -a*sin(theta) - b*omega\n"
-                     "jump: theta+ = beta_theta*theta, omega+ = -lambda*omega + mu\n"
-                     "guard wall: h(xi) = theta (falling)\n"
-                     "C: theta > 0 || (theta == 0 && omega >= 0)\n"
-                     "D: theta == 0 && omega <= 0\n",
+        .equations =
+            "flow: theta' = alpha_theta*omega, omega' = -a*sin(theta) - b*omega\n"
+            "jump: theta+ = beta_theta*theta, omega+ = -lambda*omega + mu\n"
+            "guard wall: h(xi) = theta (falling)\n"
+            "C: theta > 0 || (theta == 0 && omega >= 0)\n"
+            "D: theta == 0 && omega <= 0\n",
     };
   }
   void Phi(ConstVecRef x, MatRef phi) const {

@@ -37,8 +37,8 @@ struct Run {
   ParameterErrors errors;
 };
 
-Run Identified(const Model& model, const Vec& x0, double t_end, double dt, double sigma,
-               std::uint64_t seed, const IdentifierSettings& settings) {
+Run Identified(const Model& model, const Vec& x0, double t_end, double dt, double sigma, std::uint64_t seed,
+               const IdentifierSettings& settings) {
   Run r;
   r.traj = Simulate(model, x0, SampleGrid{t_end, dt});
   REQUIRE(r.traj.status.completed());
@@ -186,8 +186,7 @@ TEST_CASE("the localiser finds the simulator's jump instants", "[localize]") {
   CHECK_FALSE(on_ball.Locate(a, b, 1e-3, ball.alpha(), &loc));
 }
 
-TEST_CASE("bouncing ball and impact pendulum: misclassification <= 1e-4, several seeds",
-          "[residual]") {
+TEST_CASE("bouncing ball and impact pendulum: misclassification <= 1e-4, several seeds", "[residual]") {
   const Model ball{BouncingBall{}};        // h0 = 1, λ = 0.8: 6 bounces in 3 s (Zeno at 4.06 s)
   const Model pendulum{ImpactPendulum{}};  // 20 impacts in 20 s
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
@@ -246,7 +245,8 @@ TEST_CASE("second pass recovers a jump missed during the warm-up", "[residual][s
   CHECK(r.result.reclassified_to_jump == 1);
   CHECK(r.result.reclassified_to_flow == 0);
   CHECK(r.result.jumps_detected == static_cast<long>(r.traj.jumps.size()));
-  const ParameterErrors e1 = CompareParameters(model, r.result.first_pass_alpha_hat, r.result.first_pass_beta_hat);
+  const ParameterErrors e1 =
+      CompareParameters(model, r.result.first_pass_alpha_hat, r.result.first_pass_beta_hat);
   INFO("e_beta first pass " << e1.e_beta << ", second " << r.errors.e_beta);
   CHECK(r.errors.e_beta < e1.e_beta);
 }

@@ -23,8 +23,10 @@ std::unique_ptr<Estimator> MakeFrisch(int p, int window, const std::string& box,
   s.kind = EstimatorKind::kFrisch;
   s.window = window;
   s.frisch_confidence = confidence;
-  FindOption(EstimatorOptions(), "frisch_box")->set(s, FindOption(EstimatorOptions(), "frisch_box")->Parse(box));
-  FindOption(EstimatorOptions(), "frisch_point")->set(s, FindOption(EstimatorOptions(), "frisch_point")->Parse(point));
+  FindOption(EstimatorOptions(), "frisch_box")
+      ->set(s, FindOption(EstimatorOptions(), "frisch_box")->Parse(box));
+  FindOption(EstimatorOptions(), "frisch_point")
+      ->set(s, FindOption(EstimatorOptions(), "frisch_point")->Parse(point));
   return MakeEstimator(s, Vec::Zero(p));
 }
 
@@ -67,8 +69,9 @@ TEST_CASE("frisch vertices are the elementary regressions", "[frisch]") {
   CHECK(f.kalman_condition());
 }
 
-TEST_CASE("frisch box coverage with diagonal noise: plain BBRF loses the truth, the sampling allowance keeps it",
-          "[frisch]") {
+TEST_CASE(
+    "frisch box coverage with diagonal noise: plain BBRF loses the truth, the sampling allowance keeps it",
+    "[frisch]") {
   Vec theta(2), sigma_phi(2);
   theta << 1.5, -0.7;
   sigma_phi << 0.4, 0.3;
@@ -93,8 +96,7 @@ TEST_CASE("frisch box coverage with diagonal noise: plain BBRF loses the truth, 
         if (b == 0) {
           // Point "rls": RLS clamped into the intersected box (then into the reported one).
           err_clamped[m] += (f.estimate() - theta).norm();
-          const bool inside = f.Contains(theta) &&
-                              (theta.array() >= f.intersect_lower().array()).all() &&
+          const bool inside = f.Contains(theta) && (theta.array() >= f.intersect_lower().array()).all() &&
                               (theta.array() <= f.intersect_upper().array()).all();
           if (inside) {
             // Clamping into boxes that contain θ cannot increase any coordinate's error.
@@ -112,17 +114,18 @@ TEST_CASE("frisch box coverage with diagonal noise: plain BBRF loses the truth, 
     err_centre += (centre->estimate() - theta).norm();
   }
   auto rate = [&](int m, int b) { return double(covered[m][b]) / runs; };
-  std::printf("[frisch] %d runs x %ld rows, window %d, sigma_phi (%.1f, %.1f), sigma_y %.1f\n",
-              runs, rows, window, sigma_phi[0], sigma_phi[1], sigma_y);
+  std::printf("[frisch] %d runs x %ld rows, window %d, sigma_phi (%.1f, %.1f), sigma_y %.1f\n", runs, rows,
+              window, sigma_phi[0], sigma_phi[1], sigma_y);
   for (int m = 0; m < 2; ++m) {
-    std::printf("[frisch] confidence %.2f: coverage cumulative %.3f (mean box volume %.4f), intersect "
-                "%.3f (volume %.4f); mean |theta_hat - theta| of RLS clamped into intersect %.4f\n",
-                0.95 * m, rate(m, 0), volume[m][0] / runs, rate(m, 1), volume[m][1] / runs,
-                err_clamped[m] / runs);
+    std::printf(
+        "[frisch] confidence %.2f: coverage cumulative %.3f (mean box volume %.4f), intersect "
+        "%.3f (volume %.4f); mean |theta_hat - theta| of RLS clamped into intersect %.4f\n",
+        0.95 * m, rate(m, 0), volume[m][0] / runs, rate(m, 1), volume[m][1] / runs, err_clamped[m] / runs);
   }
-  std::printf("[frisch] mean |theta_hat - theta|: RLS %.4f, centre of the cumulative box %.4f; "
-              "runs with an empty BBRF intersection %d\n",
-              err_rls / runs, err_centre / runs, empties);
+  std::printf(
+      "[frisch] mean |theta_hat - theta|: RLS %.4f, centre of the cumulative box %.4f; "
+      "runs with an empty BBRF intersection %d\n",
+      err_rls / runs, err_centre / runs, empties);
   // Plain Frisch (no allowance): the cumulative box keeps θ, the intersection of 10 sampled windows
   // misses it far more often (see frisch.hpp) — and that shrinkage is what makes the clamped RLS
   // point better than RLS.
@@ -184,12 +187,12 @@ TEST_CASE("frisch with an exact column: the face box keeps the truth and is smal
     err_point += (ff.estimate() - theta).norm();
     err_rls += (ff.rls_estimate() - theta).norm();
   }
-  std::printf("[frisch] exact column, %d runs x %ld rows: coverage face %.3f (mean volume %.4f; "
-              "without the allowance %.3f), full simplex %.3f (mean volume %.4f); "
-              "mean |theta_hat - theta| %.4f (RLS %.4f)\n",
-              runs, rows, double(covered_face) / runs, volume_face / runs,
-              double(covered_plain) / runs, double(covered_full) / runs, volume_full / runs,
-              err_point / runs, err_rls / runs);
+  std::printf(
+      "[frisch] exact column, %d runs x %ld rows: coverage face %.3f (mean volume %.4f; "
+      "without the allowance %.3f), full simplex %.3f (mean volume %.4f); "
+      "mean |theta_hat - theta| %.4f (RLS %.4f)\n",
+      runs, rows, double(covered_face) / runs, volume_face / runs, double(covered_plain) / runs,
+      double(covered_full) / runs, volume_full / runs, err_point / runs, err_rls / runs);
   CHECK(double(covered_face) / runs >= 0.95);
   CHECK(volume_face <= 0.5 * volume_full);
   // Without the allowance the face box is the population statement only: the intercept is the same at

@@ -17,8 +17,8 @@ namespace {
 using testing::EivData;
 using testing::MakeEivData;
 
-std::unique_ptr<Estimator> Make(const std::string& name, const Mat& shape, int p,
-                                double forgetting = 1.0, int refactor_every = 500) {
+std::unique_ptr<Estimator> Make(const std::string& name, const Mat& shape, int p, double forgetting = 1.0,
+                                int refactor_every = 500) {
   EstimatorSettings s;
   s.kind = ParseEstimatorKind(name);
   s.noise_shape = shape;
@@ -80,12 +80,13 @@ TEST_CASE("gtls with the true C removes the attenuation bias that RLS shows at l
   const Vec predicted = theta.array() / (1.0 + sigma_phi.array().square());
   const Vec ls_mean = mean(ls), ls_se = stderr_of(ls), gt_mean = mean(gt), gt_se = stderr_of(gt);
   std::printf("[gtls] %d runs x %ld rows, theta = (%.3f, %.3f)\n", runs, rows, theta[0], theta[1]);
-  std::printf("[gtls] RLS  mean (%.4f, %.4f) +- (%.4f, %.4f); predicted attenuation factors "
-              "(%.4f, %.4f) -> (%.4f, %.4f)\n",
-              ls_mean[0], ls_mean[1], ls_se[0], ls_se[1], predicted[0] / theta[0],
-              predicted[1] / theta[1], predicted[0], predicted[1]);
-  std::printf("[gtls] GTLS mean (%.4f, %.4f) +- (%.4f, %.4f); mean sigma^2 estimate %.4f\n",
-              gt_mean[0], gt_mean[1], gt_se[0], gt_se[1], noise_var.mean());
+  std::printf(
+      "[gtls] RLS  mean (%.4f, %.4f) +- (%.4f, %.4f); predicted attenuation factors "
+      "(%.4f, %.4f) -> (%.4f, %.4f)\n",
+      ls_mean[0], ls_mean[1], ls_se[0], ls_se[1], predicted[0] / theta[0], predicted[1] / theta[1],
+      predicted[0], predicted[1]);
+  std::printf("[gtls] GTLS mean (%.4f, %.4f) +- (%.4f, %.4f); mean sigma^2 estimate %.4f\n", gt_mean[0],
+              gt_mean[1], gt_se[0], gt_se[1], noise_var.mean());
   for (int i = 0; i < 2; ++i) {
     INFO("component " << i);
     // RLS: the predicted attenuation (finite-sample terms are O(1/rows) = 0.001, added to 3 SE).

@@ -61,8 +61,7 @@ TEST_CASE("WithNoiseShapes: impact-msd closed forms, sigma 0, user shapes, rls u
   // A shape given by the user is kept; rls gets none.
   IdentifierSettings user = Named("gtls");
   user.flow_estimator.noise_shape = Mat::Identity(3, 3);
-  CHECK(WithNoiseShapes(model, dt, user, V2(0.3, 0.6), x0).flow_estimator.noise_shape ==
-        Mat::Identity(3, 3));
+  CHECK(WithNoiseShapes(model, dt, user, V2(0.3, 0.6), x0).flow_estimator.noise_shape == Mat::Identity(3, 3));
   CHECK(WithNoiseShapes(model, dt, Named("rls"), V2(0.3, 0.6), x0).flow_estimator.noise_shape.size() == 0);
   CHECK_THROWS_WITH(WithNoiseShapes(model, dt, Named("gtls"), Vec::Ones(3), x0),
                     Catch::Contains("sigma has 3 entries"));
@@ -70,8 +69,7 @@ TEST_CASE("WithNoiseShapes: impact-msd closed forms, sigma 0, user shapes, rls u
   IdentifierSettings streaming = Named("gtls");
   streaming.sigma = V2(0.3, 0.6);
   Identifier sid(model, dt, streaming);
-  CHECK((dynamic_cast<const Gtls&>(sid.flow_estimator()).noise_shape() - flow).norm() <=
-        1e-6 * flow.norm());
+  CHECK((dynamic_cast<const Gtls&>(sid.flow_estimator()).noise_shape() - flow).norm() <= 1e-6 * flow.norm());
 }
 
 TEST_CASE("Identify with gtls: sigma estimated from the data when not given, used as given otherwise",
@@ -87,8 +85,8 @@ TEST_CASE("Identify with gtls: sigma estimated from the data when not given, use
               estimated.noise_sigma[0], estimated.noise_sigma[1]);
   CHECK(estimated.noise_sigma[0] == Approx(sigma[0]).epsilon(0.03));
   CHECK(estimated.noise_sigma[1] == Approx(sigma[1]).epsilon(0.03));
-  const Mat expected = WithNoiseShapes(model, traj.dt, Named("gtls"), estimated.noise_sigma,
-                                       V2(20.0, 0.0)).flow_estimator.noise_shape;
+  const Mat expected = WithNoiseShapes(model, traj.dt, Named("gtls"), estimated.noise_sigma, V2(20.0, 0.0))
+                           .flow_estimator.noise_shape;
   CHECK((estimated.flow_noise_shape - expected).norm() <= 1e-6 * expected.norm());
   IdentifierSettings given = Named("gtls");
   given.sigma = sigma;
@@ -133,8 +131,8 @@ TEST_CASE("§5 at sigma 2 with the true jumps: RLS attenuates a as predicted, gt
   const int runs = 100;
   Vec ls(runs), gt(runs);
   RegressionBuilder builder(model);
-  IdentifierSettings settings = WithNoiseShapes(model, traj.dt, Named("gtls"), V2(sigma, sigma),
-                                                V2(20.0, 0.0));
+  IdentifierSettings settings =
+      WithNoiseShapes(model, traj.dt, Named("gtls"), V2(sigma, sigma), V2(20.0, 0.0));
   EstimatorSettings rls_settings;
   Mat phi(1, 2);
   Vec yf(1);
@@ -154,9 +152,10 @@ TEST_CASE("§5 at sigma 2 with the true jumps: RLS attenuates a as predicted, gt
   auto se = [&](const Vec& v) {
     return std::sqrt((v.array() - v.mean()).square().sum() / (runs - 1) / runs);
   };
-  std::printf("[eiv] §5 sigma 2, %d runs, true jumps: E[x^2] = %.2f, predicted RLS a^ %.4f; "
-              "RLS %.4f +- %.4f, gtls %.4f +- %.4f (mean +- SE)\n",
-              runs, ex2, predicted, ls.mean(), se(ls), gt.mean(), se(gt));
+  std::printf(
+      "[eiv] §5 sigma 2, %d runs, true jumps: E[x^2] = %.2f, predicted RLS a^ %.4f; "
+      "RLS %.4f +- %.4f, gtls %.4f +- %.4f (mean +- SE)\n",
+      runs, ex2, predicted, ls.mean(), se(ls), gt.mean(), se(gt));
   CHECK(std::abs(ls.mean() - predicted) <= 3.0 * se(ls));
   CHECK(std::abs(ls.mean() - 5.0) >= 3.0 * se(ls));
   CHECK(std::abs(gt.mean() - 5.0) <= 3.0 * se(gt));

@@ -8,10 +8,10 @@
 
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
-#include "core/sets/set_metrics.hpp"
 #include "core/model/builtin/bouncing_ball.hpp"
 #include "core/model/builtin/impact_msd.hpp"
 #include "core/model/builtin/impact_pendulum.hpp"
+#include "core/sets/set_metrics.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 
@@ -34,7 +34,6 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
   CHECK(e.e_alpha < 1e-4);
   CHECK(e.e_beta < 1e-3);
 }
-
 
 TEST_CASE("given labels replace the detector: the true labels reproduce a perfect detector bit for bit",
           "[identify][labels]") {
@@ -78,26 +77,27 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
       {"§5 noise-free, sets", Model{ImpactMsd{}}, 0.0, 220.0, 1.0, true, false, false},
       {"§5 sigma 0.25", Model{ImpactMsd{}}, 0.25, 220.0, 1.0, false, false, false},
       {"§5 sigma 0.25, r 20 (false jumps)", Model{ImpactMsd{}}, 0.25, 20.0, 1.0, false, false, false},
-      {"§5 sigma 0.05, forgetting, second pass, localize", Model{ImpactMsd{}}, 0.05, 220.0, 0.999,
-       true, true, true},
+      {"§5 sigma 0.05, forgetting, second pass, localize", Model{ImpactMsd{}}, 0.05, 220.0, 0.999, true, true,
+       true},
       {"bouncing ball (homogeneous bound)", Model{BouncingBall{}}, 0.01, 220.0, 1.0, true, false, false},
-      {"§5 sigma 0.25, residual detector (direct RLS only)", Model{ImpactMsd{}}, 0.25, 220.0, 1.0,
-       false, true, true, "residual"},
-      {"impact pendulum, residual detector", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, true, false,
-       false, "residual"},
-      {"§5 sigma 0.1, residual detector, σ given", Model{ImpactMsd{}}, 0.1, 220.0, 1.0, false, false,
-       false, "residual", true},
+      {"§5 sigma 0.25, residual detector (direct RLS only)", Model{ImpactMsd{}}, 0.25, 220.0, 1.0, false,
+       true, true, "residual"},
+      {"impact pendulum, residual detector", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, true, false, false,
+       "residual"},
+      {"§5 sigma 0.1, residual detector, σ given", Model{ImpactMsd{}}, 0.1, 220.0, 1.0, false, false, false,
+       "residual", true},
       {"§5 sigma 0.05, residual detector, data accuracy (sweeps)", Model{ImpactMsd{}}, 0.05, 220.0, 1.0,
        false, false, false, "residual", false, true},
       {"§5 noise-free, residual detector, data accuracy", Model{ImpactMsd{}}, 0.0, 220.0, 1.0, false, false,
        false, "residual", false, true},
-      {"impact pendulum, residual detector, σ given", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, false,
-       false, false, "residual", true},
+      {"impact pendulum, residual detector, σ given", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, false, false,
+       false, "residual", true},
   };
   for (const Case& k : cases) {
     INFO(k.what);
     const auto& spec = k.model.spec();
-    const Trajectory traj = Simulate(k.model, DefaultState(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
+    const Trajectory traj =
+        Simulate(k.model, DefaultState(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
     const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(k.model.state_size(), k.sigma), NoiseKey{3, 0});
     IdentifierSettings s;
     s.detector.kind = ParseDetectorKind(k.detector);
@@ -155,7 +155,9 @@ TEST_CASE("Identifier::Feed in uneven chunks, mixed with Step, equals Step sampl
     std::size_t differ = 0;
     for (std::size_t i = 0; i < want.size(); ++i) {
       differ += (want[i].gamma != got[i].gamma || want[i].statistic != got[i].statistic ||
-                 want[i].threshold != got[i].threshold) ? 1 : 0;
+                 want[i].threshold != got[i].threshold)
+                    ? 1
+                    : 0;
     }
     CHECK(differ == 0);
     CHECK(fed.alpha_hat() == one.alpha_hat());
@@ -167,7 +169,8 @@ TEST_CASE("Identifier::Feed in uneven chunks, mixed with Step, equals Step sampl
     CHECK(fed.jump_set().vertices() == one.jump_set().vertices());
   }
   Identifier id(model, traj.dt, IdentifierSettings{});
-  CHECK_THROWS_WITH(id.Feed(Mat::Zero(3, 4), nullptr), Catch::Contains("3 rows") && Catch::Contains("2 states"));
+  CHECK_THROWS_WITH(id.Feed(Mat::Zero(3, 4), nullptr),
+                    Catch::Contains("3 rows") && Catch::Contains("2 states"));
   CHECK_THROWS_WITH(id.Step(Vec::Zero(3)), Catch::Contains("3 entries") && Catch::Contains("2 states"));
 }
 
@@ -271,9 +274,13 @@ struct ImpactMsdLag {
     return {.name = "impact-msd-lag",
             .description = "test only",
             .state_names = {"x", "v", "z"},
-            .alpha = {{"alpha_x", 1.0, true, ""}, {"a", 5.0, false, ""}, {"b", 0.1, false, ""},
+            .alpha = {{"alpha_x", 1.0, true, ""},
+                      {"a", 5.0, false, ""},
+                      {"b", 0.1, false, ""},
                       {"alpha_z", 1.0, true, ""}},
-            .beta = {{"beta_x", 1.0, true, ""}, {"lambda", 0.99, false, ""}, {"mu", 0.0, false, ""},
+            .beta = {{"beta_x", 1.0, true, ""},
+                     {"lambda", 0.99, false, ""},
+                     {"mu", 0.0, false, ""},
                      {"beta_z", 1.0, true, ""}},
             .flow_rows = {1},
             .jump_rows = {1},
@@ -325,7 +332,8 @@ TEST_CASE("identifier with 3 states: hulls of Λ and Γ are CGAL's batch hulls, 
     const bool next_is_jump = k + 1 < traj.size() && gamma[std::size_t(k + 1)];
     (next_is_jump ? jump_idx : flow_idx).push_back(k);
   }
-  Mat flow_pts(3, static_cast<Eigen::Index>(flow_idx.size())), jump_pts(3, static_cast<Eigen::Index>(jump_idx.size()));
+  Mat flow_pts(3, static_cast<Eigen::Index>(flow_idx.size())),
+      jump_pts(3, static_cast<Eigen::Index>(jump_idx.size()));
   for (std::size_t i = 0; i < flow_idx.size(); ++i) flow_pts.col(Eigen::Index(i)) = traj.x.col(flow_idx[i]);
   for (std::size_t i = 0; i < jump_idx.size(); ++i) jump_pts.col(Eigen::Index(i)) = traj.x.col(jump_idx[i]);
   CHECK(id.flow_set().size() == flow_pts.cols());
@@ -333,7 +341,8 @@ TEST_CASE("identifier with 3 states: hulls of Λ and Γ are CGAL's batch hulls, 
   for (Eigen::Index i = 0; i < flow_pts.cols(); ++i) REQUIRE(id.flow_set().Contains(flow_pts.col(i)));
   for (Eigen::Index i = 0; i < jump_pts.cols(); ++i) REQUIRE(id.jump_set().Contains(jump_pts.col(i)));
   const Mat flow_batch = BatchHullVertices(flow_pts), jump_batch = BatchHullVertices(jump_pts);
-  INFO("hull vertices: C^ " << flow_batch.cols() << ", D^ " << jump_batch.cols() << "; identification " << seconds << " s");
+  INFO("hull vertices: C^ " << flow_batch.cols() << ", D^ " << jump_batch.cols() << "; identification "
+                            << seconds << " s");
   CHECK(id.flow_set().hull_dimension() == 3);
   CHECK(id.jump_set().hull_dimension() == 3);
   CHECK(id.flow_set().vertices() == flow_batch);
@@ -406,8 +415,7 @@ TEST_CASE("metrics: confusion counts and parameter errors by hand", "[metrics]")
   CHECK(e.rel_alpha == Approx(3.0 / std::hypot(5.0, 0.1)));
 }
 
-TEST_CASE("true smoothness bound of impact-msd is ‖(a, b)‖ times the trapezoid state norm",
-          "[metrics]") {
+TEST_CASE("true smoothness bound of impact-msd is ‖(a, b)‖ times the trapezoid state norm", "[metrics]") {
   const Model model{ImpactMsd{}};
   Mat x(2, 3);
   x << 3, 0, 4,  //

@@ -45,8 +45,7 @@ TEST_CASE("bad CSV cells name file, line and column", "[csv]") {
                     Catch::Contains("nan.csv:3") && Catch::Contains("column 2 ('x')"));
   CHECK_THROWS_WITH(ReadCsv(TempFile("word.csv", "t,x\n0,abc\n")),
                     Catch::Contains("word.csv:2") && Catch::Contains("'x'"));
-  CHECK_THROWS_WITH(ReadCsv(TempFile("short.csv", "t,x\n0,1\n1\n")),
-                    Catch::Contains("short.csv:3"));
+  CHECK_THROWS_WITH(ReadCsv(TempFile("short.csv", "t,x\n0,1\n1\n")), Catch::Contains("short.csv:3"));
   CHECK_THROWS_WITH(ReadCsv(TempFile("empty.csv", "")), Catch::Contains("empty.csv"));
   CHECK_THROWS_WITH(ReadCsv("/nonexistent/file.csv"), Catch::Contains("/nonexistent/file.csv"));
 }
@@ -102,11 +101,13 @@ TEST_CASE("a failed write names errno and leaves no temporary file", "[csv][file
   std::filesystem::create_directories(dir / "taken" / "inside");
   {
     CsvWriter writer(dir / "taken", {"a"});
-    CHECK_THROWS_WITH(writer.Commit(), Catch::Contains("taken: cannot rename the temporary file onto it: Is a directory"));
+    CHECK_THROWS_WITH(writer.Commit(),
+                      Catch::Contains("taken: cannot rename the temporary file onto it: Is a directory"));
   }
   CHECK_FALSE(std::filesystem::exists(dir / "taken.tmp"));
   // Checked before any computation: a directory, a file as directory.
-  CHECK_THROWS_WITH(CheckOutputPath("--trace", dir), Catch::Contains("--trace") && Catch::Contains("is a directory"));
+  CHECK_THROWS_WITH(CheckOutputPath("--trace", dir),
+                    Catch::Contains("--trace") && Catch::Contains("is a directory"));
   std::ofstream(dir / "plain") << "x";
   CHECK_THROWS_WITH(CheckOutputPath("--trace", dir / "plain" / "x.csv"),
                     Catch::Contains("--trace") && Catch::Contains("exists and is not a directory"));
@@ -114,23 +115,26 @@ TEST_CASE("a failed write names errno and leaves no temporary file", "[csv][file
 
 TEST_CASE("headers must be headers: quoted names and numbers are refused", "[csv]") {
   std::istringstream quoted("\"t\",\"y1\"\n0,1\n");
-  CHECK_THROWS_WITH(ReadCsvStream(quoted, "q.csv"), Catch::Contains("q.csv:1: column 1 of the header") &&
-                                                        Catch::Contains("is quoted"));
+  CHECK_THROWS_WITH(ReadCsvStream(quoted, "q.csv"),
+                    Catch::Contains("q.csv:1: column 1 of the header") && Catch::Contains("is quoted"));
   std::istringstream numbers("# comment\n0,20,0\n1,19,1\n");
-  CHECK_THROWS_WITH(ReadCsvStream(numbers, "n.csv"), Catch::Contains("n.csv:2: the first line is numbers, not a header"));
+  CHECK_THROWS_WITH(ReadCsvStream(numbers, "n.csv"),
+                    Catch::Contains("n.csv:2: the first line is numbers, not a header"));
   std::istringstream fine("t,y1\n0,1e308\n");
   CHECK(ReadCsvStream(fine, "f.csv").columns[1][0] == 1e308);
 }
 
-TEST_CASE("lines and cells are bounded before a line is split; messages never echo a huge cell", "[csv][limits]") {
+TEST_CASE("lines and cells are bounded before a line is split; messages never echo a huge cell",
+          "[csv][limits]") {
   const std::string big(2u << 20, '7');  // 2 MiB of digits, beyond the default line limit
   std::istringstream long_line("t,y\n0," + big + "\n");
   try {
     ReadCsvStream(long_line, "l.csv");
     FAIL("no error");
   } catch (const std::invalid_argument& e) {
-    CHECK_THAT(e.what(), Catch::Contains("l.csv:2: the line is longer than the limit of 1048576 bytes per CSV line") &&
-                             Catch::Contains("HYSID_MAX_CSV_LINE"));
+    CHECK_THAT(e.what(),
+               Catch::Contains("l.csv:2: the line is longer than the limit of 1048576 bytes per CSV line") &&
+                   Catch::Contains("HYSID_MAX_CSV_LINE"));
     CHECK(std::string(e.what()).size() < 300);
   }
   ::setenv("HYSID_MAX_CSV_LINE", "10000000", 1);
@@ -145,7 +149,8 @@ TEST_CASE("lines and cells are bounded before a line is split; messages never ec
   }
   ::setenv("HYSID_MAX_CSV_LINE", "many", 1);
   std::istringstream any("t\n0\n");
-  CHECK_THROWS_WITH(ReadCsvStream(any, "a.csv"), Catch::Contains("HYSID_MAX_CSV_LINE = 'many': must be a positive integer"));
+  CHECK_THROWS_WITH(ReadCsvStream(any, "a.csv"),
+                    Catch::Contains("HYSID_MAX_CSV_LINE = 'many': must be a positive integer"));
   ::unsetenv("HYSID_MAX_CSV_LINE");
   // A non-numeric cell is echoed cut to 60 bytes.
   std::istringstream word("t\n" + std::string(1000, 'x') + "\n");
@@ -154,7 +159,8 @@ TEST_CASE("lines and cells are bounded before a line is split; messages never ec
 
 TEST_CASE("bytes echoed in a message are printable: control and invalid UTF-8 bytes as \\xNN", "[csv]") {
   std::istringstream binary(std::string("t,y\n0,1\n\x01\x02", 10) + std::string(1, '\0') + ",\xff\xfe\n");
-  CHECK_THROWS_WITH(ReadCsvStream(binary, "b.csv"), "b.csv:3: column 1 ('t'): '\\x01\\x02\\x00' is not a number");
+  CHECK_THROWS_WITH(ReadCsvStream(binary, "b.csv"),
+                    "b.csv:3: column 1 ('t'): '\\x01\\x02\\x00' is not a number");
   CHECK(Printable("a\tb\x7f") == "a\\x09b\\x7f");
   CHECK(Printable("\xc3\xbb ok \xc3") == "\xc3\xbb ok \\xc3");  // û kept, a cut sequence escaped
   CHECK(Printable("\xe2\x88") == "\\xe2\\x88");

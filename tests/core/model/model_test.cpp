@@ -26,12 +26,10 @@ struct VanDerPolWall {
             .default_x0 = {1.0, 0.0}};
   }
   void Phi(ConstVecRef x, MatRef phi) const {  // φ(ξ), n × |α|
-    phi << x[1], 0.0,
-           -x[0], (1 - x[0] * x[0]) * x[1];
+    phi << x[1], 0.0, -x[0], (1 - x[0] * x[0]) * x[1];
   }
   void Psi(ConstVecRef x, MatRef psi) const {  // ψ(ξ), n × |β|
-    psi << x[0], 0.0,
-           0.0, -x[1];
+    psi << x[0], 0.0, 0.0, -x[1];
   }
   void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
   bool InFlowSet(ConstVecRef x) const { return x[0] >= 0.0; }
@@ -96,8 +94,8 @@ TEST_CASE("parameters are set by name, with clear errors", "[model]") {
   CHECK(m.alpha()[1] == 7.5);
   m.SetParameter("lambda", 0.5);
   CHECK(m.beta()[1] == 0.5);
-  CHECK_THROWS_WITH(m.SetParameter("k=1"), Catch::Contains("no parameter 'k'") &&
-                                                Catch::Contains("a, b, lambda, mu"));
+  CHECK_THROWS_WITH(m.SetParameter("k=1"),
+                    Catch::Contains("no parameter 'k'") && Catch::Contains("a, b, lambda, mu"));
   CHECK_THROWS_WITH(m.SetParameter("alpha_x=2"), Catch::Contains("known constant"));
   CHECK_THROWS_WITH(m.SetParameter("a=abc"), Catch::Contains("not a number"));
   CHECK_THROWS_WITH(m.SetParameter("a"), Catch::Contains("name=value"));
@@ -111,8 +109,7 @@ TEST_CASE("parameters are set by name, with clear errors", "[model]") {
 TEST_CASE("the registry knows the built-in models and names them on a miss", "[model]") {
   ModelRegistry registry;
   RegisterBuiltinModels(registry);
-  CHECK(registry.names() ==
-        std::vector<std::string>{"bouncing-ball", "impact-msd", "impact-pendulum"});
+  CHECK(registry.names() == std::vector<std::string>{"bouncing-ball", "impact-msd", "impact-pendulum"});
   CHECK(registry.Make("impact-pendulum").name() == "impact-pendulum");
   CHECK_THROWS_WITH(registry.Make("pendulum"), Catch::Contains("impact-pendulum"));
   registry.Register(VanDerPolWall{});
@@ -139,11 +136,11 @@ TEST_CASE("distance to the jump set D = {xi1 = 0, xi2 <= 0} of the built-in mode
     INFO(m.name());
     REQUIRE(m.has_jump_set_distance());
     auto d = [&](double a, double b) { return m.DistanceToJumpSet((Vec(2) << a, b).finished()); };
-    CHECK(d(0.0, -3.0) == 0.0);   // on D
-    CHECK(d(0.0, 0.0) == 0.0);    // its end point
-    CHECK(d(0.5, -3.0) == 0.5);   // beside it
+    CHECK(d(0.0, -3.0) == 0.0);  // on D
+    CHECK(d(0.0, 0.0) == 0.0);   // its end point
+    CHECK(d(0.5, -3.0) == 0.5);  // beside it
     CHECK(d(-0.5, -3.0) == 0.5);
-    CHECK(d(3.0, 4.0) == 5.0);    // nearest point of D is the origin
+    CHECK(d(3.0, 4.0) == 5.0);  // nearest point of D is the origin
     CHECK(d(0.0, 2.0) == 2.0);
   }
   // The example model of docs/extending.md does not provide it: NaN.

@@ -42,8 +42,8 @@ TEST_CASE("noise shapes of impact-msd: closed forms", "[noise_shape]") {
 }
 
 // Empirical covariance of (noisy row − clean row) over many noise draws, for a fixed state pair.
-Mat EmpiricalFlowNoise(const Model& model, const Vec& prev, const Vec& cur, const Vec& sigma,
-                       double dt, int draws) {
+Mat EmpiricalFlowNoise(const Model& model, const Vec& prev, const Vec& cur, const Vec& sigma, double dt,
+                       int draws) {
   RegressionBuilder builder(model);
   const int u = static_cast<int>(builder.flow_layout().unknown.size());
   Mat phi0(1, u), phi(1, u);
@@ -52,8 +52,8 @@ Mat EmpiricalFlowNoise(const Model& model, const Vec& prev, const Vec& cur, cons
   Mat acc = Mat::Zero(u + 1, u + 1);
   Vec w(u + 1);
   for (int k = 0; k < draws; ++k) {
-    const Normal4 n = StandardNormals(NoiseKey{99, 0}, RandomPurpose::kMeasurementNoise,
-                                      static_cast<std::uint64_t>(k));
+    const Normal4 n =
+        StandardNormals(NoiseKey{99, 0}, RandomPurpose::kMeasurementNoise, static_cast<std::uint64_t>(k));
     const Vec p = prev + sigma.cwiseProduct(V2(n.v[0], n.v[1]));
     const Vec c = cur + sigma.cwiseProduct(V2(n.v[2], n.v[3]));
     builder.Flow(p, c, dt, phi, y);
@@ -63,8 +63,7 @@ Mat EmpiricalFlowNoise(const Model& model, const Vec& prev, const Vec& cur, cons
   return acc / draws;
 }
 
-TEST_CASE("flow noise shape matches the regression rows' noise (trapezoid cross term = 0)",
-          "[noise_shape]") {
+TEST_CASE("flow noise shape matches the regression rows' noise (trapezoid cross term = 0)", "[noise_shape]") {
   const double dt = 0.01;
   const int draws = 40000;
   for (const Model& model : {Model(ImpactMsd{}), Model(ImpactPendulum{})}) {
@@ -112,11 +111,9 @@ TEST_CASE("noise shape errors name the field", "[noise_shape]") {
   const Mat states = Mat::Zero(2, 1);
   CHECK_THROWS_WITH(FlowNoiseShape(model, Vec::Ones(3), 0.01, states),
                     Catch::Contains("sigma has 3 entries"));
-  CHECK_THROWS_WITH(FlowNoiseShape(model, V2(0.1, -1.0), 0.01, states),
-                    Catch::Contains("sigma[1] = -1"));
+  CHECK_THROWS_WITH(FlowNoiseShape(model, V2(0.1, -1.0), 0.01, states), Catch::Contains("sigma[1] = -1"));
   CHECK_THROWS_WITH(FlowNoiseShape(model, V2(0.1, 0.1), 0.0, states), Catch::Contains("dt = 0"));
-  CHECK_THROWS_WITH(JumpNoiseShape(model, V2(0.1, 0.1), Mat::Zero(3, 1)),
-                    Catch::Contains("states is 3x1"));
+  CHECK_THROWS_WITH(JumpNoiseShape(model, V2(0.1, 0.1), Mat::Zero(3, 1)), Catch::Contains("states is 3x1"));
   CHECK_THROWS_WITH(EstimateNoiseSigma(Mat::Zero(2, 3)), Catch::Contains("at least 4"));
 }
 

@@ -20,7 +20,8 @@ struct FourUnknowns {
     ModelSpec spec;
     spec.name = "four-unknowns";
     spec.state_names = {"x", "v"};
-    for (const char* a : {"a1", "a2", "a3", "a4"}) spec.alpha.push_back(Parameter{.name = a, .value = 1.0, .known = false, .description = ""});
+    for (const char* a : {"a1", "a2", "a3", "a4"})
+      spec.alpha.push_back(Parameter{.name = a, .value = 1.0, .known = false, .description = ""});
     spec.beta = {Parameter{.name = "b", .value = 1.0, .known = false, .description = ""}};
     spec.flow_rows = {1};
     spec.jump_rows = {1};
@@ -65,8 +66,7 @@ TEST_CASE("flow regression of impact-msd is the trapezoid rule in closed form", 
   CHECK(y[0] == -1.25 - -1.0);
 }
 
-TEST_CASE("FlowRow and FlowRows equal Flow pair by pair, across blocks and restarts",
-          "[regression]") {
+TEST_CASE("FlowRow and FlowRows equal Flow pair by pair, across blocks and restarts", "[regression]") {
   const Model models[] = {Model{ImpactMsd{}}, Model{BouncingBall{}}, Model{ImpactPendulum{}},
                           Model{FourUnknowns{}}};
   const Mat x = Samples(700);

@@ -48,7 +48,9 @@ struct WallMsd {
   void ProjectOntoGuard(int /*guard*/, VecRef x) const { x[0] = 1.0; }
 };
 
-std::string ModelPath(const std::string& name) { return std::string(HYSID_MODELS_DIR) + "/" + name + ".toml"; }
+std::string ModelPath(const std::string& name) {
+  return std::string(HYSID_MODELS_DIR) + "/" + name + ".toml";
+}
 
 void RequireSameSpec(const ModelSpec& a, const ModelSpec& b) {
   REQUIRE(a.name == b.name);
@@ -249,14 +251,16 @@ TEST_CASE("bad model files are refused naming file, line, key and expression", "
                Contains("m.toml:6: flow.phi[1]: has 3 entries, expected 2"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "psi = [[\"x\", 0], [0, \"-v\"]]", "psi = [[\"x\", 0]]")),
                Contains("m.toml:9: jump.psi: has 1 rows, expected 2"));
-  REQUIRE_THAT(ErrorOf(Replace(kGood, "\"-v\"]]", "\"-v*(\"]]")), Contains("m.toml:9: jump.psi[1][1]: \"-v*(\""));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "\"-v\"]]", "\"-v*(\"]]")),
+               Contains("m.toml:9: jump.psi[1][1]: \"-v*(\""));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "direction = \"falling\"", "direction = \"down\"")),
                Contains("m.toml:14: guard[0].direction: \"down\": expected falling, rising or both"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "rows = [\"v\"]\n[jump]", "rows = [\"w\"]\n[jump]")),
                Contains("m.toml:7: flow.rows: \"w\" is not a state"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "t_end = 5.0", "t_end = 5.0\nhorizon = 3")),
                Contains("m.toml:21: defaults.horizon: unknown key"));
-  REQUIRE_THAT(ErrorOf(Replace(kGood, "D = \"x == 0 && v <= 0\"\n", "")), Contains("m.toml:15: sets.D: missing"));
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "D = \"x == 0 && v <= 0\"\n", "")),
+               Contains("m.toml:15: sets.D: missing"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "x0 = [1.0, 0.0]", "x0 = [-1.0, 0.0]")),
                Contains("m.toml:19: defaults.x0: (-1, 0) is outside C and D"));
   // x oscillates in [-1, 1] without the wall: x + 10 never reaches zero.

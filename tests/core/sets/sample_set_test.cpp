@@ -50,13 +50,13 @@ TEST_CASE("square: vertices counter-clockwise, area, membership and distance tol
   CHECK(s.vertices() == Cols({{0, 0}, {1, 0}, {1, 1}, {0, 1}}));
   CHECK(s.Volume() == 1.0);
   CHECK(s.Contains(P(0.5, 0.5)));
-  CHECK(s.Contains(P(1, 1)));          // a vertex
-  CHECK(s.Contains(P(0.25, 1)));       // on an edge
+  CHECK(s.Contains(P(1, 1)));     // a vertex
+  CHECK(s.Contains(P(0.25, 1)));  // on an edge
   CHECK_FALSE(s.Contains(P(1 + 1e-12, 0.5)));
   CHECK(s.Contains(P(1 + 1e-12, 0.5), 1e-9));
   CHECK_FALSE(s.Contains(P(2, 0.5), 0.99));  // distance 1 to the edge x = 1
   CHECK(s.Contains(P(2, 0.5), 1.0));
-  CHECK_FALSE(s.Contains(P(2, 2), 1.414));   // distance √2 to the corner (1, 1)
+  CHECK_FALSE(s.Contains(P(2, 2), 1.414));  // distance √2 to the corner (1, 1)
   CHECK(s.Contains(P(2, 2), 1.4143));
   CHECK_FALSE(s.Contains(P(std::nan(""), 0.5), 10.0));
 }
@@ -128,8 +128,7 @@ TEST_CASE("a diagonal segment is extended exactly, then promoted on the other si
   CHECK(t.vertices() == Cols({{-2, -2}, {1, 0}, {3, 3}}));
 }
 
-TEST_CASE("samples on a ray from the reference point through a vertex, and across angle 0",
-          "[sets]") {
+TEST_CASE("samples on a ray from the reference point through a vertex, and across angle 0", "[sets]") {
   // The first triangle's centroid (1, 1) is the reference point (exact in floating point).
   SampleSet s(2);
   Mat all(2, 0);
@@ -144,13 +143,13 @@ TEST_CASE("samples on a ray from the reference point through a vertex, and acros
   add(0, 0);
   add(3, 0);
   add(0, 3);
-  add(5, -1);   // on the ray (1,1) → (3,0), beyond (3,0): replaces it
+  add(5, -1);  // on the ray (1,1) → (3,0), beyond (3,0): replaces it
   CHECK(s.vertices() == Cols({{0, 0}, {5, -1}, {0, 3}}));
   add(-1, -1);  // on the ray through (0,0): replaces it
   CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {0, 3}}));
   add(6, 0.5);  // its angle around (1,1) is above every vertex's: the wedge wraps around 0
   CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {6, 0.5}, {0, 3}}));
-  add(12, 3);   // makes (6, 0.5) interior: it lies above the new edge (5,−1)–(12,3)
+  add(12, 3);  // makes (6, 0.5) interior: it lies above the new edge (5,−1)–(12,3)
   CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {12, 3}, {0, 3}}));
   add(1, 1e6);  // far above: removes (12, 3)'s neighbour (0, 3)
   CHECK(s.vertices() == Cols({{-1, -1}, {5, -1}, {12, 3}, {1, 1e6}}));
@@ -203,8 +202,8 @@ TEST_CASE("random point sets give the batch CGAL hull, vertex for vertex", "[set
         switch (kind) {
           case 0: pts.col(k) << uniform(rng), uniform(rng); break;
           case 1: pts.col(k) << normal(rng), 3.0 * normal(rng); break;
-          case 2: pts.col(k) << grid(rng), grid(rng); break;  // many collinear triples, duplicates
-          default: {                                          // on the circle of radius 5
+          case 2: pts.col(k) << grid(rng), grid(rng); break;            // many collinear triples, duplicates
+          default: {                                                    // on the circle of radius 5
             const int i = grid(rng), sign = uniform(rng) < 0 ? -1 : 1;  // 3-4-5 and axis points
             const double table[][2] = {{5, 0}, {3, 4}, {4, 3}, {0, 5}, {-3, 4}, {-4, 3}};
             const auto& e = table[std::abs(i) % 6];
@@ -229,8 +228,7 @@ TEST_CASE("random point sets give the batch CGAL hull, vertex for vertex", "[set
   }
 }
 
-TEST_CASE("a sampled circle: every sample is a vertex, inner samples do not bump the version",
-          "[sets]") {
+TEST_CASE("a sampled circle: every sample is a vertex, inner samples do not bump the version", "[sets]") {
   SampleSet s(2);
   const int count = 1000;
   for (int k = 0; k < count; ++k) {
@@ -250,8 +248,7 @@ TEST_CASE("a sampled circle: every sample is a vertex, inner samples do not bump
   CHECK(s.Volume() == Approx(0.5 * count * std::sin(2.0 * std::numbers::pi / count)).epsilon(1e-12));
 }
 
-TEST_CASE("a triangle too thin for a rounded interior reference point still gives exact hulls",
-          "[sets]") {
+TEST_CASE("a triangle too thin for a rounded interior reference point still gives exact hulls", "[sets]") {
   // The rounded centroid of (0,0), (3,0), (0,d) with d the smallest subnormal is (1, 0): on an edge.
   const double d = std::numeric_limits<double>::denorm_min();
   SampleSet s(2);
@@ -280,7 +277,6 @@ TEST_CASE("a moved-from set's hull lives on in the target", "[sets]") {
   CHECK(t.vertices() == Cols({{0, 0}, {2, 0}, {2, 2}, {0, 2}}));
   CHECK(t.Volume() == 4.0);
 }
-
 
 // ---------------------------------------------------------------------------------------------
 // n ≥ 3
@@ -354,10 +350,10 @@ TEST_CASE("3-D cube: edge and face points first, then corners: the 8 corners, vo
   CHECK(s.Volume() == 0.0);
   // Edge midpoints and face centres of [0, 2]^3 first (collinear, then coplanar, then a solid whose
   // vertices later end up on edges and faces), then the corners, an interior point and repeats.
-  const Mat pts = nd::Cols({V({1, 0, 0}), V({0, 0, 0}), V({2, 0, 0}), V({1, 1, 0}), V({0, 1, 0}),
-                            V({1, 1, 2}), V({0, 2, 0}), V({2, 2, 0}), V({2, 0, 2}), V({1, 1, 1}),
-                            V({0, 0, 2}), V({2, 2, 2}), V({0, 2, 2}), V({2, 0, 0}), V({1, 2, 1}),
-                            V({2, 1, 1})});
+  const Mat pts =
+      nd::Cols({V({1, 0, 0}), V({0, 0, 0}), V({2, 0, 0}), V({1, 1, 0}), V({0, 1, 0}), V({1, 1, 2}),
+                V({0, 2, 0}), V({2, 2, 0}), V({2, 0, 2}), V({1, 1, 1}), V({0, 0, 2}), V({2, 2, 2}),
+                V({0, 2, 2}), V({2, 0, 0}), V({1, 2, 1}), V({2, 1, 1})});
   std::vector<int> dims;
   for (Eigen::Index k = 0; k < pts.cols(); ++k) {
     const bool inside = s.Contains(pts.col(k));
@@ -422,7 +418,8 @@ TEST_CASE("3-D degenerate hulls: a point, a segment, a plane, then a pyramid", "
   SampleSet p(3);
   Mat grid(3, 16);
   for (int i = 0; i < 4; ++i) {
-    for (int j = 0; j < 4; ++j) grid.col(4 * ((i + 2 * j) % 4) + j) = V({double(i), double(j), double(i + j)});
+    for (int j = 0; j < 4; ++j)
+      grid.col(4 * ((i + 2 * j) % 4) + j) = V({double(i), double(j), double(i + j)});
   }
   for (Eigen::Index k = 0; k < grid.cols(); ++k) p.Add(grid.col(k));
   CHECK(p.hull_dimension() == 2);
@@ -442,7 +439,8 @@ TEST_CASE("3-D degenerate hulls: a point, a segment, a plane, then a pyramid", "
   CHECK(p.version() == v + 1);
   CHECK(p.hull_dimension() == 3);
   CHECK(p.Volume() == Approx(9.0).epsilon(1e-12));
-  CHECK(p.vertices() == nd::Lex(nd::Cols({V({0, 0, 0}), V({0, 3, 3}), V({3, 0, 3}), V({3, 3, 6}), V({2, 2, 1})})));
+  CHECK(p.vertices() ==
+        nd::Lex(nd::Cols({V({0, 0, 0}), V({0, 3, 3}), V({3, 0, 3}), V({3, 3, 6}), V({2, 2, 1})})));
   CHECK(p.Contains(V({1, 1, 2})));
 }
 
@@ -507,7 +505,8 @@ TEST_CASE("random 3-D, 4-D and 5-D clouds give the batch extreme points", "[sets
             const int table4[][4] = {{0, 0, 0, 5}, {1, 2, 2, 4}, {2, 4, 1, 2}, {0, 3, 4, 0}, {4, 2, 2, 1}};
             const int table5[][5] = {{0, 0, 0, 0, 5}, {1, 2, 2, 0, 4}, {2, 4, 1, 0, 2}, {0, 3, 0, 4, 0},
                                      {4, 2, 0, 2, 1}, {2, 2, 2, 2, 3}, {1, 0, 2, 2, 4}};
-            const int row = std::abs(grid(rng)) + (uniform(rng) < 0 ? 0 : 1) + (n == 5 ? 3 * (uniform(rng) < 0) : 0);
+            const int row =
+                std::abs(grid(rng)) + (uniform(rng) < 0 ? 0 : 1) + (n == 5 ? 3 * (uniform(rng) < 0) : 0);
             for (int i = 0; i < n; ++i) {
               const int e = n == 3 ? table3[row % 6][i] : n == 4 ? table4[row % 5][i] : table5[row % 7][i];
               pts(i, k) = (uniform(rng) < 0 ? -1 : 1) * e;
@@ -534,8 +533,7 @@ TEST_CASE("random 3-D, 4-D and 5-D clouds give the batch extreme points", "[sets
 
 // A trajectory-like stream: a 3-D spiral whose early samples are all extreme (in convex position,
 // each new one sees O(h) boundary facets), then loops inside the hull.
-TEST_CASE("a 3-D spiral: extreme points of a trajectory, inner loops leave the version alone",
-          "[sets][nd]") {
+TEST_CASE("a 3-D spiral: extreme points of a trajectory, inner loops leave the version alone", "[sets][nd]") {
   const int count = 4000;
   Mat pts(3, count);
   for (int k = 0; k < count; ++k) {
@@ -572,7 +570,8 @@ TEST_CASE("3-D: non-finite samples are ignored and counted, a moved set keeps it
   t.Add(V({1, 1, 1}));
   CHECK(t.hull_dimension() == 3);
   CHECK(t.Volume() == Approx(1.0 / 6 + 1.0 / 3).epsilon(1e-12));  // the corner plus its opposite tetrahedron
-  CHECK(t.vertices() == nd::Lex(nd::Cols({V({0, 0, 0}), V({1, 0, 0}), V({0, 1, 0}), V({0, 0, 1}), V({1, 1, 1})})));
+  CHECK(t.vertices() ==
+        nd::Lex(nd::Cols({V({0, 0, 0}), V({1, 0, 0}), V({0, 1, 0}), V({0, 0, 1}), V({1, 1, 1})})));
   // The batch hull skips non-finite columns.
   CHECK(BatchHullVertices(nd::Cols({V({0, 0, 0}), V({NAN, 0, 0}), V({1, 0, 0})})) ==
         nd::Cols({V({0, 0, 0}), V({1, 0, 0})}));

@@ -180,7 +180,8 @@ TEST_CASE("3-D set metrics of degenerate hulls and jump_hausdorff from the verti
   CHECK(std::isnan(Share({}, SampleSet(3))));
   // D̂ with vertices at distances 0, 0.3, 0 and √(0.1² + 0.4²) from the half-plane D, and an interior point.
   const Model model{HalfSpace3{}};
-  const SampleSet d_hat = Set3({V3(0, -1, 0), V3(0.3, -2, 1), V3(0, -4, -1), V3(0.1, 0.4, 2), V3(0.1, -1.5, 0.5)});
+  const SampleSet d_hat =
+      Set3({V3(0, -1, 0), V3(0.3, -2, 1), V3(0, -4, -1), V3(0.1, 0.4, 2), V3(0.1, -1.5, 0.5)});
   CHECK(CompareSets(model, square, d_hat).jump_hausdorff == Approx(std::sqrt(0.17)).epsilon(1e-15));
   CHECK(std::isnan(CompareSets(model, square, SampleSet(3)).jump_hausdorff));
 }

@@ -78,7 +78,8 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
   const Model model = c.models[0].Build(Registry());
   Vec x0(2);
   x0 << 20.0, 0.0;
-  const Crlb direct = ComputeCrlb(model, x0, SampleGrid{3.0, 1e-3}, Vec::Constant(2, 0.2), Unknowns::Of(model));
+  const Crlb direct =
+      ComputeCrlb(model, x0, SampleGrid{3.0, 1e-3}, Vec::Constant(2, 0.2), Unknowns::Of(model));
   REQUIRE(direct.ok());
   long paired = 0;
   for (long trial = 0; trial < c.trials; ++trial) {
@@ -119,7 +120,8 @@ TEST_CASE("sweep: without a refine axis the tables keep their columns", "[sweep]
   CHECK_FALSE(c.grid.refine_axis);
   CHECK(EnumerateCells(c).size() == 2u);
   CHECK_FALSE(c.ToJson()["grid"].contains("refine"));
-  CHECK_THROWS_WITH(ParseSweepText(std::string(kSweep).replace(std::string(kSweep).find("\"ml\""), 4, "\"map\""),
-                                   "bad.toml", Registry()),
-                    Catch::Contains("grid.refine") && Catch::Contains("unknown 'map'"));
+  CHECK_THROWS_WITH(
+      ParseSweepText(std::string(kSweep).replace(std::string(kSweep).find("\"ml\""), 4, "\"map\""),
+                     "bad.toml", Registry()),
+      Catch::Contains("grid.refine") && Catch::Contains("unknown 'map'"));
 }

@@ -11,13 +11,13 @@
 #include <catch2/catch.hpp>
 #include <fmt/format.h>
 
+#include "core/identify/identifier.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/journal.hpp"
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "experiments/sweep/tables.hpp"
-#include "core/identify/identifier.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 
@@ -99,7 +99,8 @@ TEST_CASE("sweep files: every error names file, line and key", "[sweep][config]"
              Catch::Contains("bad.toml:4: grid.sigma: empty grid"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [0.1]\ndt = [1e-3, -1e-3]\n"),
              Catch::Contains("bad.toml:5: grid.dt: -0.001 must be > 0"));
-  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [0.1]\ndt = 0\n"), Catch::Contains("bad.toml:5: grid.dt: 0 must be > 0"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [0.1]\ndt = 0\n"),
+             Catch::Contains("bad.toml:5: grid.dt: 0 must be > 0"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = [-0.1]\ndt = 1e-3\n"),
              Catch::Contains("bad.toml:4: grid.sigma: -0.1 must be ≥ 0"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nr = [1.0]\n"),
@@ -122,7 +123,8 @@ TEST_CASE("sweep files: every error names file, line and key", "[sweep][config]"
              Catch::Contains("bad.toml:7: identifier.false_alarm:"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nfalse_alarm = [0.7]\n"),
              Catch::Contains("bad.toml:6: grid.false_alarm: 0.7 must be in (0, 0.5)"));
-  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = [1e-3, 1e-3]\n"), Catch::Contains("grid.dt: value 0.001 appears twice"));
+  CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = [1e-3, 1e-3]\n"),
+             Catch::Contains("grid.dt: value 0.001 appears twice"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\n"), Catch::Contains("bad.toml:3: grid.dt: missing"));
   CHECK_THAT(ErrorOf(head + "[grid\n"), Catch::Contains("bad.toml:3: TOML syntax"));
   CHECK_THAT(ErrorOf(head + "t_end = 1.0\n[grid]\nsigma = 0\ndt = 0.6\n"),
@@ -130,7 +132,8 @@ TEST_CASE("sweep files: every error names file, line and key", "[sweep][config]"
   const fs::path empty = TempDir("empty") / "empty.toml";
   std::ofstream(empty) << "\n";
   CHECK_THROWS_WITH(ParseSweepFile(empty, Registry()), Catch::Contains("empty.toml: empty sweep file"));
-  CHECK_THROWS_WITH(ParseSweepFile("/nonexistent/x.toml", Registry()), Catch::Contains("/nonexistent/x.toml: cannot open"));
+  CHECK_THROWS_WITH(ParseSweepFile("/nonexistent/x.toml", Registry()),
+                    Catch::Contains("/nonexistent/x.toml: cannot open"));
 }
 
 TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
@@ -147,7 +150,8 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
   CHECK(c.grid.sigma[1] == 0.1);
   CHECK(c.grid.dt[1] == 1e-3);
   const SweepConfig log_grid = ParseSweepText(
-      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.01, to = 1.0, count = 5, log = true }\ndt = 1e-3\n",
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = { from = 0.01, to = 1.0, count = 5, log = true }\ndt "
+      "= 1e-3\n",
       "ok.toml", Registry());
   CHECK(log_grid.grid.sigma == std::vector<double>{0.01, 0.0316227766017, 0.1, 0.316227766017, 1.0});
   CHECK(c.models[0].x0 == std::vector<double>{20.0, 0.0});  // the model's default
@@ -182,10 +186,12 @@ TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
 TEST_CASE("sweep files: option keys from the option tables, and oracle labels", "[sweep][config]") {
   const std::string head = "[model]\nname = \"impact-msd\"\n";
   // Every estimator option, for the α estimator and (jump_NAME) the β estimator; choices by name.
-  const SweepConfig c = ParseSweepText(head + "[grid]\nsigma = 0.1\ndt = 1e-3\nestimator = \"frisch\"\n"
-                                              "[identifier]\nfrisch_box = \"intersect\"\njump_window = 50\n"
-                                              "frisch_confidence = 0.0\nbound = \"homogeneous\"\noracle = true\n",
-                                       "ok.toml", Registry());
+  const SweepConfig c =
+      ParseSweepText(head +
+                         "[grid]\nsigma = 0.1\ndt = 1e-3\nestimator = \"frisch\"\n"
+                         "[identifier]\nfrisch_box = \"intersect\"\njump_window = 50\n"
+                         "frisch_confidence = 0.0\nbound = \"homogeneous\"\noracle = true\n",
+                     "ok.toml", Registry());
   CHECK(c.identifier.flow_estimator.frisch_box == FrischBox::kIntersect);
   CHECK(c.identifier.jump_estimator.frisch_box == FrischBox::kCumulative);
   CHECK(c.identifier.flow_estimator.window == 200);
@@ -201,8 +207,9 @@ TEST_CASE("sweep files: option keys from the option tables, and oracle labels", 
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nr = [5.0, 20.0]\n[identifier]\noracle = true\n"),
              Catch::Contains("grid.r: not used with identifier.oracle = true"));
   // The oracle's rows: detector "oracle", every jump found, no false one, at σ = 0.1.
-  const SweepConfig o = ParseSweepText(head + "t_end = 4.0\n[grid]\nsigma = 0.1\ndt = 1e-3\n"
-                                              "[identifier]\noracle = true\nsets = false\n[run]\ntrials = 2\n",
+  const SweepConfig o = ParseSweepText(head +
+                                           "t_end = 4.0\n[grid]\nsigma = 0.1\ndt = 1e-3\n"
+                                           "[identifier]\noracle = true\nsets = false\n[run]\ntrials = 2\n",
                                        "oracle.toml", Registry());
   const fs::path dir = TempDir("oracle");
   Run(o, dir, 1);
@@ -333,7 +340,8 @@ std::string Unlines(const std::vector<std::string>& lines) {
 }
 
 // A run directory holding `journal` (and sweep.json unless `with_identity` is false).
-fs::path Planted(const std::string& name, const fs::path& from, const std::string& journal, bool with_identity) {
+fs::path Planted(const std::string& name, const fs::path& from, const std::string& journal,
+                 bool with_identity) {
   const fs::path dir = TempDir(name);
   if (with_identity) fs::copy_file(from / "sweep.json", dir / "sweep.json");
   std::ofstream(dir / "trials.journal", std::ios::binary) << journal;
@@ -362,8 +370,9 @@ TEST_CASE("sweep: a corrupt or foreign journal never reaches trials.csv", "[swee
   {
     std::vector<std::string> lines(mine.begin(), mine.begin() + 10);
     lines.push_back(theirs[20]);
-    CHECK_THROWS_WITH(Run(c, Planted("j2", full, Unlines(lines), true), 1),
-                      Catch::Contains("trials.journal:11: the row of unit") && Catch::Contains("a foreign row"));
+    CHECK_THROWS_WITH(
+        Run(c, Planted("j2", full, Unlines(lines), true), 1),
+        Catch::Contains("trials.journal:11: the row of unit") && Catch::Contains("a foreign row"));
   }
   // A foreign duplicate placed first, its hash rewritten to ours: refused as a different duplicate.
   {
@@ -383,7 +392,8 @@ TEST_CASE("sweep: a corrupt or foreign journal never reaches trials.csv", "[swee
     // Unit 47's row replaced by another unit's row relabelled 47.
     std::vector<std::string> lines(mine.begin(), mine.end());
     const auto unit_of = [](const std::string& l) { return l.substr(0, l.find(',')); };
-    const auto it47 = std::find_if(lines.begin() + 2, lines.end(), [&](const auto& l) { return unit_of(l) == "47"; });
+    const auto it47 =
+        std::find_if(lines.begin() + 2, lines.end(), [&](const auto& l) { return unit_of(l) == "47"; });
     REQUIRE(it47 != lines.end());
     const std::string& other_row = unit_of(lines[2]) == "47" ? lines[3] : lines[2];
     const std::string moved = "47" + other_row.substr(other_row.find(','));
@@ -426,23 +436,26 @@ TEST_CASE("sweep: sizes are checked against named limits before allocation", "[s
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[run]\ntrials = 4611686018427387904\n"),
              Catch::Contains("run.trials: 4611686018427387904 exceeds the limit of 10000000 units") &&
                  Catch::Contains("HYSID_MAX_TRIALS"));
-  CHECK_THAT(ErrorOf(base + "dt = { from = 1e-4, to = 1e-3, count = 1000000000000 }\n"),
-             Catch::Contains("bad.toml:5: grid.dt.count: 1000000000000 exceeds the limit of 100000 values per grid "
-                             "axis (raise it with HYSID_MAX_AXIS_VALUES=N)"));
-  CHECK_THAT(ErrorOf(base + "dt = 1e-9\n"), Catch::Contains("samples per trajectory") &&
-                                                  Catch::Contains("HYSID_MAX_SAMPLES"));
+  CHECK_THAT(
+      ErrorOf(base + "dt = { from = 1e-4, to = 1e-3, count = 1000000000000 }\n"),
+      Catch::Contains("bad.toml:5: grid.dt.count: 1000000000000 exceeds the limit of 100000 values per grid "
+                      "axis (raise it with HYSID_MAX_AXIS_VALUES=N)"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-9\n"),
+             Catch::Contains("samples per trajectory") && Catch::Contains("HYSID_MAX_SAMPLES"));
   // 10 000 cells × 10 000 trials: within each limit alone, beyond the product's.
-  const SweepConfig big = ParseSweepText(
-      base + "dt = 1e-3\nr = { from = 2, to = 300, count = 10000 }\n[run]\ntrials = 10000\n", "big.toml", Registry());
-  CHECK_THROWS_WITH(Run(big, TempDir("big"), 1), Catch::Contains("10000 cells × 10000 trials") &&
-                                                     Catch::Contains("HYSID_MAX_TRIALS"));
+  const SweepConfig big =
+      ParseSweepText(base + "dt = 1e-3\nr = { from = 2, to = 300, count = 10000 }\n[run]\ntrials = 10000\n",
+                     "big.toml", Registry());
+  CHECK_THROWS_WITH(Run(big, TempDir("big"), 1),
+                    Catch::Contains("10000 cells × 10000 trials") && Catch::Contains("HYSID_MAX_TRIALS"));
   // TOML integers: read as 64 bits and range-checked, the error quoting the value as written.
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\nmax_jumps = 4294967296\n"),
              Catch::Contains("simulator.max_jumps: 4294967296 is out of range [1, 2147483647]"));
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = -4294967296\n"),
              Catch::Contains("identifier.window: window = -4294967296: must be >= 0"));
-  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = 4294967296\n"),
-             Catch::Contains("identifier.window: window = 4294967296: must be at most 2147483647 in magnitude"));
+  CHECK_THAT(
+      ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = 4294967296\n"),
+      Catch::Contains("identifier.window: window = 4294967296: must be at most 2147483647 in magnitude"));
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[run]\nseed = -1\n"), Catch::Contains("run.seed: -1 must be ≥ 0"));
 }
 
@@ -452,7 +465,7 @@ TEST_CASE("merge refuses an input directory as its output", "[sweep][shard]") {
   Run(c, a, 1, Shard{1, 2});
   Run(c, b, 1, Shard{2, 2});
   const std::string before = Slurp(a / "trials.csv");
-  CHECK_THROWS_WITH(MergeShards({a, b}, a / "." ), Catch::Contains("is one of the shard directories"));
+  CHECK_THROWS_WITH(MergeShards({a, b}, a / "."), Catch::Contains("is one of the shard directories"));
   CHECK(Slurp(a / "trials.csv") == before);
 }
 
@@ -470,9 +483,12 @@ TEST_CASE("sweep: shards merged equal the unsharded run", "[sweep][shard]") {
   MergeShards(dirs, merged);
   CHECK(Slurp(merged / "trials.csv") == Slurp(full / "trials.csv"));
   CHECK(Slurp(merged / "summary.csv") == Slurp(full / "summary.csv"));
-  CHECK_THROWS_WITH(MergeShards({dirs[0], dirs[1]}, TempDir("merged2")), Catch::Contains("shard 3/3 is missing"));
-  CHECK_THROWS_WITH(MergeShards({dirs[0], dirs[0], dirs[1]}, TempDir("merged3")), Catch::Contains("given twice"));
-  CHECK_THROWS_WITH(MergeShards({dirs[0], full}, TempDir("merged4")), Catch::Contains("does not split into 3"));
+  CHECK_THROWS_WITH(MergeShards({dirs[0], dirs[1]}, TempDir("merged2")),
+                    Catch::Contains("shard 3/3 is missing"));
+  CHECK_THROWS_WITH(MergeShards({dirs[0], dirs[0], dirs[1]}, TempDir("merged3")),
+                    Catch::Contains("given twice"));
+  CHECK_THROWS_WITH(MergeShards({dirs[0], full}, TempDir("merged4")),
+                    Catch::Contains("does not split into 3"));
   CHECK_THROWS_WITH(ParseShard("3/2"), Catch::Contains("--shard = '3/2'"));
   CHECK_THROWS_WITH(ParseShard("x"), Catch::Contains("expected K/N"));
 }
@@ -504,19 +520,21 @@ TEST_CASE("sweep: Zeno runs are rows with their status, not an aborted sweep", "
 TEST_CASE("sweep files: a model file instead of a registry name", "[sweep][config]") {
   const std::string sweep = std::string(HYSID_MODELS_DIR) + "/sweep.toml";  // files relative to it
   const SweepConfig c = ParseSweepText(
-      "[model]\nfile = \"wall-msd.toml\"\nparams = { k = 3.0 }\n[grid]\nsigma = 0.0\ndt = 1e-3\nr = 5.0\n", sweep,
-      Registry());
+      "[model]\nfile = \"wall-msd.toml\"\nparams = { k = 3.0 }\n[grid]\nsigma = 0.0\ndt = 1e-3\nr = 5.0\n",
+      sweep, Registry());
   REQUIRE(c.models.size() == 1u);
   CHECK(c.models[0].name == "wall-msd");
   CHECK(c.models[0].x0 == std::vector<double>{0.0, 5.0});  // the file's default
   const Model m = c.models[0].Build(Registry());
   CHECK(m.alpha()[1] == 3.0);
   CHECK(c.ToJson()["model"][0]["equations"].get<std::string>().find("h(xi) = x - 1") != std::string::npos);
-  CHECK_THROWS_WITH(ParseSweepText("[model]\nfile = \"nope.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep, Registry()),
-                    Catch::Contains("sweep.toml:2: model.file: ") && Catch::Contains("nope.toml: cannot read"));
   CHECK_THROWS_WITH(
-      ParseSweepText("[model]\nname = \"impact-msd\"\nfile = \"wall-msd.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep,
-                     Registry()),
+      ParseSweepText("[model]\nfile = \"nope.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep, Registry()),
+      Catch::Contains("sweep.toml:2: model.file: ") && Catch::Contains("nope.toml: cannot read"));
+  CHECK_THROWS_WITH(
+      ParseSweepText(
+          "[model]\nname = \"impact-msd\"\nfile = \"wall-msd.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep,
+          Registry()),
       Catch::Contains("sweep.toml:3: model.file: give name or file, not both"));
 }
 
@@ -573,7 +591,8 @@ seed = 5
   }
   CHECK(checked == 8);
   // The same normals as AddMeasurementNoise with that key.
-  CHECK(AddMeasurementNoise(truth.x, Vec::Constant(2, 0.2), TrialNoiseKey(c, 0, 2e-3, 1)) == truth.x + 0.2 * e);
+  CHECK(AddMeasurementNoise(truth.x, Vec::Constant(2, 0.2), TrialNoiseKey(c, 0, 2e-3, 1)) ==
+        truth.x + 0.2 * e);
 
   // Paired differences: every cell's baseline is the paper detector at r = 220 with its δt and σ;
   // the differences recomputed from trials.csv.
@@ -612,14 +631,18 @@ seed = 5
   }
 
   // Baseline errors: name the file, the key and the constraint.
-  const std::string head = "[model]\nname = \"impact-msd\"\n[grid]\nsigma = [0.1]\ndt = 1e-3\nr = [20.0, 220.0]\n"
-                           "detector = [\"paper\", \"residual\"]\n[summary]\n";
+  const std::string head =
+      "[model]\nname = \"impact-msd\"\n[grid]\nsigma = [0.1]\ndt = 1e-3\nr = [20.0, 220.0]\n"
+      "detector = [\"paper\", \"residual\"]\n[summary]\n";
   CHECK_THAT(ErrorOf(head + "baseline = { detector = \"kalman\" }\n"),
              Catch::Contains("bad.toml:9: summary.baseline.detector: 'kalman' is not on grid.detector"));
-  CHECK_THAT(ErrorOf(head + "baseline = { r = 50.0 }\n"), Catch::Contains("summary.baseline.r: 50 is not on grid.r"));
-  CHECK_THAT(ErrorOf(head + "baseline = { dt = 1e-3 }\n"), Catch::Contains("summary.baseline.dt: unknown key"));
+  CHECK_THAT(ErrorOf(head + "baseline = { r = 50.0 }\n"),
+             Catch::Contains("summary.baseline.r: 50 is not on grid.r"));
+  CHECK_THAT(ErrorOf(head + "baseline = { dt = 1e-3 }\n"),
+             Catch::Contains("summary.baseline.dt: unknown key"));
   CHECK_THAT(ErrorOf(head + "baseline = { detector = \"residual\", r = 20.0 }\n"),
              Catch::Contains("summary.baseline.r: detector 'residual' does not use r"));
-  const SweepConfig ambiguous = ParseSweepText(head + "baseline = { detector = \"paper\" }\n", "amb.toml", Registry());
+  const SweepConfig ambiguous =
+      ParseSweepText(head + "baseline = { detector = \"paper\" }\n", "amb.toml", Registry());
   CHECK_THROWS_WITH(Run(ambiguous, TempDir("amb"), 1), Catch::Contains("matches several cells"));
 }

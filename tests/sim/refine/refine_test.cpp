@@ -83,7 +83,8 @@ TEST_CASE("a detector that missed a jump: the fitted model's jump count disagree
   std::size_t k = run.gamma.size() / 2;
   while (run.gamma[k] == 0) ++k;
   run.gamma[k] = 0;
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  const RefineResult r =
+      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
   CHECK(r.detected_jumps == 13);
@@ -94,7 +95,8 @@ TEST_CASE("a detector that missed a jump: the fitted model's jump count disagree
 TEST_CASE("data with NaN: status non-finite-data naming the sample", "[refine]") {
   Run run(0.05);
   run.y(1, 100) = std::nan("");
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  const RefineResult r =
+      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   RequireKept(r);
   CHECK(r.status == RefineStatus::kNonFiniteData);
   CHECK_THAT(r.reason, Catch::Contains("sample 100 component 2"));
@@ -111,7 +113,9 @@ TEST_CASE("a ball at rest after its Zeno time: not ok (the fit cannot rest)", "[
   Mat y = Mat::Zero(2, k_count);
   y.leftCols(k3) = t.x;
   std::vector<std::uint8_t> gamma(static_cast<std::size_t>(k_count), 0);
-  for (long k = 1; k < k3; ++k) gamma[static_cast<std::size_t>(k)] = t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
+  for (long k = 1; k < k3; ++k)
+    gamma[static_cast<std::size_t>(k)] =
+        t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
   const RefineResult r = Refine(model, y, grid.dt, model.alpha(), model.beta(), gamma);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
@@ -129,7 +133,9 @@ TEST_CASE("a ball run to its Zeno time and resting: the part before the dense bo
   Mat y = Mat::Zero(2, k_count);
   y.leftCols(kz) = t.x;
   std::vector<std::uint8_t> gamma(static_cast<std::size_t>(k_count), 0);
-  for (long k = 1; k < kz; ++k) gamma[static_cast<std::size_t>(k)] = t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
+  for (long k = 1; k < kz; ++k)
+    gamma[static_cast<std::size_t>(k)] =
+        t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
   Vec beta0 = model.beta();
   beta0[1] = 0.79;
   const RefineResult r = Refine(model, y, grid.dt, model.alpha(), beta0, gamma);
@@ -185,15 +191,18 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
           "[refine]") {
   BallRun run;
   REQUIRE(run.truth.status.completed());
-  const RefineResult all = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  const RefineResult all =
+      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   REQUIRE(all.ok());
   const long missed = run.RemoveJump(all.samples_used, true);
   RefineOptions no_retry;
   no_retry.max_span_retries = 0;
-  const RefineResult kept = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_retry);
+  const RefineResult kept =
+      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_retry);
   INFO(ToString(kept.status) << ": " << kept.reason);
   CHECK(kept.status == RefineStatus::kJumpCountMismatch);
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  const RefineResult r =
+      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   INFO(ToString(r.status) << ": " << r.reason << "; " << r.span_reason);
   REQUIRE(r.ok());
   CHECK(r.samples_used < missed);
@@ -203,8 +212,9 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
   CHECK(r.detected_jumps >= kept.detected_jumps / 2);
   CHECK_THAT(r.span_reason, Catch::Contains("jump-count-mismatch"));
   CHECK(r.model_jumps == r.detected_jumps);
-  const Vec theta = r.estimate.Theta(r.unknowns), truth = HybridParameters{run.model.alpha(), run.model.beta(),
-                                                                            run.truth.x.col(0)}.Theta(r.unknowns);
+  const Vec theta = r.estimate.Theta(r.unknowns),
+            truth =
+                HybridParameters{run.model.alpha(), run.model.beta(), run.truth.x.col(0)}.Theta(r.unknowns);
   for (Eigen::Index i = 0; i < theta.size(); ++i) {
     INFO(r.names[static_cast<std::size_t>(i)] << " = " << theta[i] << ", se " << r.standard_errors[i]);
     CHECK(std::abs(theta[i] - truth[i]) < 4.0 * r.standard_errors[i]);
@@ -214,7 +224,8 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
 TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help, not ok", "[refine]") {
   BallRun run;
   run.RemoveJump(static_cast<long>(run.gamma.size()), false);
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+  const RefineResult r =
+      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
 }

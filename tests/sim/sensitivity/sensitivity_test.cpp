@@ -90,7 +90,8 @@ TEST_CASE("matched mode: same as plain on the true segments, smooth in θ off th
   const SensitivityTrajectory plain = SimulateSensitivities(model, nominal, u, grid);
   REQUIRE(plain.ok());
   REQUIRE(plain.trajectory.jumps.size() >= 3);
-  const SensitivityTrajectory same = SimulateSensitivitiesMatched(model, nominal, u, grid, plain.trajectory.j);
+  const SensitivityTrajectory same =
+      SimulateSensitivitiesMatched(model, nominal, u, grid, plain.trajectory.j);
   REQUIRE(same.ok());
   CHECK(same.extra_jumps == 0);
   CHECK((same.trajectory.x - plain.trajectory.x).cwiseAbs().maxCoeff() < 1e-8);
@@ -111,8 +112,10 @@ TEST_CASE("matched mode: same as plain on the true segments, smooth in θ off th
     Vec tp = theta, tm = theta;
     tp[i] += h;
     tm[i] -= h;
-    const auto plus = SimulateSensitivitiesMatched(model, nominal.WithTheta(u, tp), u, grid, seg, {.sim = {}, .sensitivities = false});
-    const auto minus = SimulateSensitivitiesMatched(model, nominal.WithTheta(u, tm), u, grid, seg, {.sim = {}, .sensitivities = false});
+    const auto plus = SimulateSensitivitiesMatched(model, nominal.WithTheta(u, tp), u, grid, seg,
+                                                   {.sim = {}, .sensitivities = false});
+    const auto minus = SimulateSensitivitiesMatched(model, nominal.WithTheta(u, tm), u, grid, seg,
+                                                    {.sim = {}, .sensitivities = false});
     REQUIRE(plus.ok());
     REQUIRE(minus.ok());
     double err = 0.0, scale = 0.0;
@@ -146,7 +149,8 @@ TEST_CASE("matched mode: a model with fewer jumps than the data reports them mis
 
 TEST_CASE("CRLB of the §5 system (x0 unknown) within 2 % of the independent figures", "[sensitivity]") {
   const Model model{ImpactMsd{}};
-  const Crlb c = ComputeCrlb(model, DefaultX0(model), SampleGrid{20.0, 5e-4}, Vec::Ones(2), Unknowns::Of(model));
+  const Crlb c =
+      ComputeCrlb(model, DefaultX0(model), SampleGrid{20.0, 5e-4}, Vec::Ones(2), Unknowns::Of(model));
   REQUIRE(c.ok());
   CHECK(c.jumps == 14);
   const double expected[] = {2.0825e-4, 1.0913e-3, 8.3699e-4, 1.0947e-2, 9.6756e-3, 1.7499e-2};
@@ -164,9 +168,12 @@ TEST_CASE("CRLB of the §5 system (x0 unknown) within 2 % of the independent fig
 
 TEST_CASE("mean Gaussian norm: closed forms in 1, 2 and 3 dimensions", "[sensitivity]") {
   const double s = 0.3;
-  CHECK(MeanGaussianNorm(Mat::Identity(1, 1) * s * s) == Approx(s * std::sqrt(2 / std::numbers::pi)).epsilon(1e-10));
-  CHECK(MeanGaussianNorm(Mat::Identity(2, 2) * s * s) == Approx(s * std::sqrt(std::numbers::pi / 2)).epsilon(1e-10));
-  CHECK(MeanGaussianNorm(Mat::Identity(3, 3) * s * s) == Approx(2 * s * std::sqrt(2 / std::numbers::pi)).epsilon(1e-10));
+  CHECK(MeanGaussianNorm(Mat::Identity(1, 1) * s * s) ==
+        Approx(s * std::sqrt(2 / std::numbers::pi)).epsilon(1e-10));
+  CHECK(MeanGaussianNorm(Mat::Identity(2, 2) * s * s) ==
+        Approx(s * std::sqrt(std::numbers::pi / 2)).epsilon(1e-10));
+  CHECK(MeanGaussianNorm(Mat::Identity(3, 3) * s * s) ==
+        Approx(2 * s * std::sqrt(2 / std::numbers::pi)).epsilon(1e-10));
   // Rotation invariance: a correlated 2-D covariance with eigenvalues 4 and 0 is |N(0, 4)|.
   Mat c(2, 2);
   c << 2, 2, 2, 2;
@@ -178,11 +185,13 @@ TEST_CASE("bad inputs name the field", "[sensitivity]") {
   const Model model{ImpactMsd{}};
   Unknowns u = Unknowns::Of(model);
   u.alpha.push_back(7);
-  CHECK_THROWS_WITH(SimulateSensitivities(model, HybridParameters::Of(model, DefaultX0(model)), u, SampleGrid{1.0, 1e-3}),
-                    Catch::Contains("Unknowns::alpha has index 7"));
+  CHECK_THROWS_WITH(
+      SimulateSensitivities(model, HybridParameters::Of(model, DefaultX0(model)), u, SampleGrid{1.0, 1e-3}),
+      Catch::Contains("Unknowns::alpha has index 7"));
   std::vector<int> seg(1001, 0);
   seg[5] = 2;
-  CHECK_THROWS_WITH(SimulateSensitivitiesMatched(model, HybridParameters::Of(model, DefaultX0(model)), Unknowns::Of(model), SampleGrid{1.0, 1e-3}, seg),
+  CHECK_THROWS_WITH(SimulateSensitivitiesMatched(model, HybridParameters::Of(model, DefaultX0(model)),
+                                                 Unknowns::Of(model), SampleGrid{1.0, 1e-3}, seg),
                     Catch::Contains("segment_of_sample[5] = 2"));
 }
 
