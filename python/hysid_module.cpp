@@ -120,11 +120,11 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
 }
 
 struct IdentifyArgs {
-  std::string estimator = "rls", detector = "paper", bound = "auto";
+  std::string estimator = "rls", detector = "residual", bound = "auto";  // the command line's defaults
   double r = 220.0, tau0 = 1e5, false_alarm = 1e-8, forgetting = 1.0, jump_forgetting = 1.0;
   double data_rtol = 0.0, data_atol = 0.0;
   bool localize = false, second_pass = false, sets = true, trace = true;
-  std::string refine = "none";  // "ml": the output-error refinement after the recursive run
+  std::string refine = "ml";  // the output-error refinement after the recursive run; "none": without
 };
 
 IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
@@ -309,17 +309,18 @@ PYBIND11_MODULE(hysid, m) {
         return Identify(model, y, dt, a, sigma);
       },
       py::arg("model"), py::arg("y"), py::arg("dt"), py::arg("estimator") = "rls",
-      py::arg("detector") = "paper", py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto",
-      py::arg("false_alarm") = 1e-8, py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0,
-      py::arg("jump_forgetting") = 1.0, py::arg("localize") = false, py::arg("second_pass") = false,
-      py::arg("sets") = true, py::arg("trace") = true, py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
-      py::arg("refine") = "none",
+      py::arg("detector") = "residual", py::arg("r") = 220.0, py::arg("tau0") = 1e5,
+      py::arg("bound") = "auto", py::arg("false_alarm") = 1e-8, py::arg("sigma") = py::none(),
+      py::arg("forgetting") = 1.0, py::arg("jump_forgetting") = 1.0, py::arg("localize") = false,
+      py::arg("second_pass") = false, py::arg("sets") = true, py::arg("trace") = true,
+      py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0, py::arg("refine") = "ml",
       "The identifier on samples y (samples × states) at spacing dt, as `hysid identify`: dict with alpha, "
       "beta "
       "(full vectors), estimates (the unknowns by name), gamma, statistic, threshold, alpha_trace, "
       "beta_trace, "
-      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; refine='ml' adds refined (status, "
-      "reason, estimates and standard_errors by name, covariance, alpha, beta, x0) as `--refine ml`");
+      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; refine='ml' (the default) adds "
+      "refined (status, reason, estimates and standard_errors by name, covariance, alpha, beta, x0) as "
+      "`--refine ml`. Defaults are the command line's: detector='residual', refine='ml'");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
         "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts");
 }
