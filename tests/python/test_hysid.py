@@ -76,6 +76,23 @@ def test_identify_equals_cli(paper_data, tmp_path):
     np.testing.assert_array_equal(fit["beta_trace"][:, 1:], cols[:, 6:8])
 
 
+def test_identify_defaults_are_the_cli_defaults(paper_data, tmp_path):
+    """No tuning arguments: the residual detector and the refinement, as `hysid identify` with no flags
+    (which reads the data accuracy, the solver's 1e-12, from the simulation's sidecar)."""
+    import json
+    out = tmp_path / "fit.json"
+    subprocess.run([BIN, "identify", "--data", str(paper_data), "--json", str(out)], capture_output=True,
+                   text=True)
+    cli_fit = json.loads(out.read_text())
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
+    fit = hysid.identify("impact-msd", y, dt=5e-4, data_rtol=1e-12, data_atol=1e-12)
+    assert fit["jumps_detected"] == cli_fit["detector"]["jumps_detected"] == 14
+    assert fit["refined"]["status"] == cli_fit["status"] == "ok"
+    np.testing.assert_allclose(list(fit["refined"]["estimates"].values()), cli_fit["estimate"], rtol=1e-12)
+    np.testing.assert_allclose(list(fit["refined"]["standard_errors"].values()), cli_fit["standard_errors"],
+                               rtol=1e-12)
+
+
 def test_model_file_identifies_like_builtin(paper_data):
     y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
     a = hysid.identify("impact-msd", y, dt=5e-4, estimator="gtls", refine="none")
