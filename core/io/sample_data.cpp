@@ -28,8 +28,9 @@ struct Columns {
 int FindColumn(const CsvTable& table, const std::string& name) {
   const int c = table.Find(name);
   if (c < 0) {
-    throw std::invalid_argument(fmt::format("{}:1: no column '{}' (the columns are {})", table.path,
-                                            Abbreviated(name, 40), fmt::join(table.header, ",")));
+    throw std::invalid_argument(
+        fmt::format("{}:1: SampleDataOptions::columns: no column '{}' (the columns are {})", table.path,
+                    Abbreviated(name, 40), fmt::join(table.header, ",")));
   }
   return c;
 }
@@ -50,8 +51,10 @@ Columns NamedColumns(const CsvTable& table, int state_size, const std::vector<st
     }
   }
   if (any_state && static_cast<int>(c.state.size()) != state_size) {
-    throw std::invalid_argument(fmt::format("{}:1: {} state columns named ({}); the model has {} states",
-                                            table.path, c.state.size(), fmt::join(spec, ","), state_size));
+    throw std::invalid_argument(
+        fmt::format("{}:1: SampleDataOptions::columns: {} state columns named ({}); the "
+                    "model has {} states",
+                    table.path, c.state.size(), fmt::join(spec, ","), state_size));
   }
   return c;
 }
@@ -229,9 +232,11 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
   d.path = fmt::format("{}", fmt::join(paths, ", "));
   const auto k = static_cast<long>(d.t.size());
   if (k < 3) {
-    throw std::invalid_argument(fmt::format(
-        "{}: {} samples{}; the identifier needs at least 3", d.path, k,
-        d.missing_rows ? fmt::format(" ({} rows with a missing value left out)", d.missing_rows) : ""));
+    throw std::invalid_argument(
+        fmt::format("{}: {} samples{}; the identifier needs at least 3", d.path, k,
+                    d.missing_rows ? fmt::format(" ({} {} with a missing value left out)", d.missing_rows,
+                                                 d.missing_rows == 1 ? "row" : "rows")
+                                   : ""));
   }
   CutGaps(d.path, options, d);
   d.y = Eigen::Map<const Mat>(y.data(), state_size, k);

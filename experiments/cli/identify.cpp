@@ -305,11 +305,23 @@ void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
   std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
 }
 
+// The data files; a message about the column choice names the flag.
+SampleData ReadData(const IdentifyArgs& args, int state_size) {
+  try {
+    return ReadSampleData(args.data, state_size, {.columns = args.columns, .max_gap = args.max_gap});
+  } catch (const std::invalid_argument& e) {
+    std::string message = e.what();
+    const std::string field = "SampleDataOptions::columns";
+    if (const auto at = message.find(field); at != std::string::npos)
+      message.replace(at, field.size(), "--columns");
+    throw std::invalid_argument(message);
+  }
+}
+
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model, args.model_file, args.params);
   IdentifierSettings settings = BuildSettings(args, model);
-  const SampleData data = ReadSampleData(args.data, model.state_size(),
-                                         SampleDataOptions{.columns = args.columns, .max_gap = args.max_gap});
+  const SampleData data = ReadData(args, model.state_size());
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();

@@ -85,15 +85,15 @@ TEST_CASE("columns by name: t=, run= and the states in model order", "[sample_da
   CHECK(d.t == std::vector<double>{0, 0.1, 0.2, 0.3});
   CHECK(d.run_names.size() == 2);
   CHECK_THROWS_WITH(SampleDataFromTables({t}, 2, {.columns = {"t=time", "pos", "v"}}),
-                    "c.csv:1: no column 'pos' (the columns are v,time,id,x)");
+                    "c.csv:1: SampleDataOptions::columns: no column 'pos' (the columns are v,time,id,x)");
   CHECK_THROWS_WITH(SampleDataFromTables({t}, 2, {.columns = {"x"}}),
-                    "c.csv:1: 1 state columns named (x); the model has 2 states");
+                    "c.csv:1: SampleDataOptions::columns: 1 state columns named (x); the model has 2 states");
 }
 
 TEST_CASE("too few samples after the missing rows are left out", "[sample_data]") {
   CHECK_THROWS_WITH(
       SampleDataFromTable(Table("t,x,v\n0,1,2\n0.1,nan,2\n0.2,1,2\n", "s.csv"), 2),
-      "s.csv: 2 samples (1 rows with a missing value left out); the identifier needs at least 3");
+      "s.csv: 2 samples (1 row with a missing value left out); the identifier needs at least 3");
 }
 
 }  // namespace
