@@ -248,6 +248,43 @@ SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
   return SampleDataFromTables({table}, state_size, {});
 }
 
+SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, const std::vector<Mat>& y,
+                                double dt, const SampleDataOptions& options) {
+  if (times.size() != y.size() || y.empty()) {
+    throw std::invalid_argument(fmt::format("{} runs of samples, {} of times", y.size(), times.size()));
+  }
+  std::vector<CsvTable> tables;
+  for (std::size_t r = 0; r < y.size(); ++r) {
+    CsvTable t;
+    t.path = fmt::format("run {}", r + 1);
+    const Eigen::Index k_count = y[r].cols();
+    if (!times[r].empty() && static_cast<Eigen::Index>(times[r].size()) != k_count) {
+      throw std::invalid_argument(fmt::format("{}: {} samples, {} times", t.path, k_count, times[r].size()));
+    }
+    if (times[r].empty() && (!(dt > 0.0) || !std::isfinite(dt))) {
+      throw std::invalid_argument(fmt::format("{}: no times, and dt = {}: must be > 0", t.path, dt));
+    }
+    t.header.push_back("t");
+    t.columns.emplace_back();
+    for (Eigen::Index i = 0; i < y[r].rows(); ++i) {
+      t.header.push_back(fmt::format("y{}", i + 1));
+      t.columns.emplace_back(static_cast<std::size_t>(k_count));
+      for (Eigen::Index k = 0; k < k_count; ++k) {
+        const double v = y[r](i, k);
+        t.columns.back()[static_cast<std::size_t>(k)] =
+            std::isfinite(v) ? v : std::numeric_limits<double>::quiet_NaN();
+      }
+    }
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      t.columns[0].push_back(times[r].empty() ? static_cast<double>(k) * dt
+                                              : times[r][static_cast<std::size_t>(k)]);
+      t.line_of_row.push_back(static_cast<long>(k) + 1);
+    }
+    tables.push_back(std::move(t));
+  }
+  return SampleDataFromTables(tables, static_cast<int>(y.front().rows()), options);
+}
+
 SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
                           const SampleDataOptions& options) {
   std::vector<CsvTable> tables;

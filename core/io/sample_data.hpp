@@ -67,5 +67,10 @@ SampleData ReadSampleData(const std::string& path, int state_size);
 SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_size,
                                 const SampleDataOptions& options = {});
 SampleData SampleDataFromTable(const CsvTable& table, int state_size);
+// Runs given as arrays (the Python module): y[r] is run r's n × K samples (a non-finite entry: the
+// sample is missing), times[r] its K times, or empty for k·dt. The same checks and chains; an error
+// names "run R" (1-based) as the file and the sample number (1-based) as the line.
+SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, const std::vector<Mat>& y,
+                                double dt, const SampleDataOptions& options = {});
 
 }  // namespace hysid

@@ -105,30 +105,13 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   return j;
 }
 
-// The chains of the data (runs cut at gaps and missing rows) with the detector's γ.
-std::vector<RefineChain> ChainsOf(const SampleData& data, const IdentifyResult& recursive) {
-  std::vector<RefineChain> chains;
-  const auto k_count = static_cast<std::size_t>(data.y.cols());
-  for (std::size_t k = 0; k < k_count;) {
-    std::size_t end = k + 1;
-    while (end < k_count && !data.chain_start[end]) ++end;
-    RefineChain c;
-    c.t.assign(data.t.begin() + static_cast<long>(k), data.t.begin() + static_cast<long>(end));
-    c.y = data.y.middleCols(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(end - k));
-    c.gamma.assign(recursive.gamma.begin() + static_cast<long>(k),
-                   recursive.gamma.begin() + static_cast<long>(end));
-    chains.push_back(std::move(c));
-    k = end;
-  }
-  return chains;
-}
-
 RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                            const Vec& sigma) {
   RefineOptions options;
   options.sigma = sigma;
   if (data.uniform) return RefineIdentification(model, data.y, data.dt, recursive, options);
-  return RefineChains(model, ChainsOf(data, recursive), recursive.alpha_hat, recursive.beta_hat, options);
+  return RefineChains(model, SplitChains(data.t, data.y, data.chain_start, recursive.gamma),
+                      recursive.alpha_hat, recursive.beta_hat, options);
 }
 
 }  // namespace

@@ -122,6 +122,12 @@ struct RefineChain {
   std::vector<std::uint8_t> gamma;  // 1 = a jump detected in (t_{k−1}, t_k]; gamma[0] is ignored
 };
 
+// The chains of samples (t, y: n × K, gamma as RefineChain's) cut where chain_start is 1 (sample 0
+// always starts one). Throws std::invalid_argument for sizes that disagree.
+std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
+                                     const std::vector<std::uint8_t>& chain_start,
+                                     const std::vector<std::uint8_t>& gamma);
+
 // Several chains of one system (several runs, or one run cut at gaps and missing samples), samples
 // at their own times. θ = (unknown α, unknown β) shared, plus one initial state per chain (its own
 // Ceres parameter block, start: the chain's first sample). Each chain is simulated on its own times

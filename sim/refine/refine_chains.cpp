@@ -413,6 +413,29 @@ void SetWeights(const RefineOptions& options, const Vec& mad_sigma, const Mat& y
 
 }  // namespace
 
+std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
+                                     const std::vector<std::uint8_t>& chain_start,
+                                     const std::vector<std::uint8_t>& gamma) {
+  const auto k_count = static_cast<std::size_t>(y.cols());
+  if (t.size() != k_count || chain_start.size() != k_count || gamma.size() != k_count) {
+    throw std::invalid_argument(
+        fmt::format("SplitChains: {} samples, {} times, {} chain_start, {} gamma entries", k_count, t.size(),
+                    chain_start.size(), gamma.size()));
+  }
+  std::vector<RefineChain> chains;
+  for (std::size_t k = 0; k < k_count;) {
+    std::size_t end = k + 1;
+    while (end < k_count && !chain_start[end]) ++end;
+    RefineChain c;
+    c.t.assign(t.begin() + static_cast<long>(k), t.begin() + static_cast<long>(end));
+    c.y = y.middleCols(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(end - k));
+    c.gamma.assign(gamma.begin() + static_cast<long>(k), gamma.begin() + static_cast<long>(end));
+    chains.push_back(std::move(c));
+    k = end;
+  }
+  return chains;
+}
+
 RefineResult RefineChains(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                           const Vec& beta0, const RefineOptions& options) {
   CheckChainsInputs(model, alpha0, beta0, options);
