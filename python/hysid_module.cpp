@@ -130,7 +130,7 @@ struct IdentifyArgs {
 
 IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
   IdentifierSettings s;
-  s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(a.estimator);
+  s.UseEstimator(ParseEstimatorKind(a.estimator));
   s.flow_estimator.forgetting = a.forgetting;
   s.jump_estimator.forgetting = a.jump_forgetting;
   s.detector.kind = ParseDetectorKind(a.detector);

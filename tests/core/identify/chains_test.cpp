@@ -113,6 +113,13 @@ TEST_CASE("a chain break: no trapezoid row or detector statistic across it", "[i
   CHECK(skipped.jumps_detected == 13);
   const ParameterErrors e = CompareParameters(model, skipped.alpha_hat, skipped.beta_hat);
   CHECK(e.e_alpha < 1e-4);
+  // The integral estimator (sums of consecutive rows) on two chains: a break ends its segment
+  // (Estimator::Break) as a jump does.
+  IdentifierSettings integral;
+  integral.UseEstimator(EstimatorKind::kIntegral);
+  const IdentifyResult ri = Identify(model, traj.x, traj.dt, integral, options);
+  CHECK(ri.chains == 2);
+  CHECK(CompareParameters(model, ri.alpha_hat, ri.beta_hat).e_alpha < 1e-6);
 }
 
 }  // namespace
