@@ -77,9 +77,16 @@ Vec PerState(const py::object& value, int n, const char* what) {
   return Eigen::Map<const Vec>(v.data(), n);
 }
 
-py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
-                      std::optional<double> dt, const py::object& sigma, std::uint64_t seed,
-                      std::uint64_t trial, double rtol, double atol) {
+// The start state (x0 or the model's), the sample grid (t_end, dt or the model's) and the solver
+// options of a simulation, checked; errors name the argument.
+struct Run {
+  Vec x0;
+  SampleGrid grid;
+  SimOptions sim;
+};
+
+Run CheckedRun(const Model& model, const std::optional<std::vector<double>>& x0, std::optional<double> t_end,
+               std::optional<double> dt, double rtol, double atol) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   const std::vector<double> start = x0.value_or(spec.default_x0);
@@ -87,12 +94,21 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
     throw std::invalid_argument(
         fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
   }
-  const SampleGrid grid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)};
-  if (std::string e; !grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
-  SimOptions options;
-  options.rtol = rtol;
-  options.atol = atol;
-  if (std::string e; !options.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  Run run{Eigen::Map<const Vec>(start.data(), n),
+          SampleGrid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)},
+          SimOptions{}};
+  if (std::string e; !run.grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
+  run.sim.rtol = rtol;
+  run.sim.atol = atol;
+  if (std::string e; !run.sim.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  return run;
+}
+
+py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
+                      std::optional<double> dt, const py::object& sigma, std::uint64_t seed,
+                      std::uint64_t trial, double rtol, double atol) {
+  const int n = model.state_size();
+  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
   Vec s = PerState(sigma, n, "sigma");
   if (s.size() == 0) s = Vec::Zero(n);
   if ((s.array() < 0.0).any() || !s.allFinite())
@@ -101,7 +117,7 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
   Mat y;
   {
     py::gil_scoped_release release;
-    traj = hysid::Simulate(model, Eigen::Map<const Vec>(start.data(), n), grid, options);
+    traj = hysid::Simulate(model, run.x0, run.grid, run.sim);
     y = AddMeasurementNoise(traj.x, s, NoiseKey{.seed = seed, .stream = trial});
   }
   py::list jumps;
@@ -114,7 +130,7 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
   out["j"] = py::array_t<int>(py::ssize_t(traj.j.size()), traj.j.data());
   out["x"] = Transposed(traj.x);
   out["y"] = Transposed(y);
-  out["dt"] = grid.dt;
+  out["dt"] = run.grid.dt;
   out["jumps"] = jumps;
   out["status"] = ToString(traj.status.stop);
   out["message"] = traj.status.message;
@@ -328,19 +344,10 @@ py::dict Parameters(const Model& m) {
 py::dict CrlbDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
                   std::optional<double> dt, const py::object& sigma, bool x0_known, double rtol,
                   double atol) {
-  const ModelSpec& spec = model.spec();
   const int n = model.state_size();
-  const std::vector<double> start = x0.value_or(spec.default_x0);
-  if (static_cast<int>(start.size()) != n) {
-    throw std::invalid_argument(
-        fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
-  }
-  const SampleGrid grid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)};
-  if (std::string e; !grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
+  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
   SensitivityOptions options;
-  options.sim.rtol = rtol;
-  options.sim.atol = atol;
-  if (std::string e; !options.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  options.sim = run.sim;
   const Vec s = PerState(sigma, n, "sigma");
   if (s.size() == 0 || !s.allFinite() || !(s.array() > 0.0).all()) {
     throw std::invalid_argument("sigma: must be finite and > 0");
@@ -348,8 +355,7 @@ py::dict CrlbDict(const Model& model, std::optional<std::vector<double>> x0, std
   Crlb c;
   {
     py::gil_scoped_release release;
-    c = ComputeCrlb(model, Eigen::Map<const Vec>(start.data(), n), grid, s, Unknowns::Of(model, !x0_known),
-                    options);
+    c = ComputeCrlb(model, run.x0, run.grid, s, Unknowns::Of(model, !x0_known), options);
   }
   py::dict sd;
   for (std::size_t i = 0; i < c.names.size() && c.ok(); ++i) sd[py::str(c.names[i])] = c.sd[Eigen::Index(i)];

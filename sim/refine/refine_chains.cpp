@@ -7,10 +7,10 @@
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
-#include <glog/logging.h>
 
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/refine.hpp"
+#include "sim/refine/solve.hpp"
 
 namespace hysid {
 namespace {
@@ -182,25 +182,7 @@ ceres::Solver::Summary SolveChains(const ChainsProblem& problem, const RefineOpt
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
     cp.AddResidualBlock(new ChainCost(problem, problem.fits[c]), nullptr, theta.data(), x0[c].data());
   }
-  ceres::Solver::Options so;
-  so.minimizer_type = ceres::TRUST_REGION;
-  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::DENSE_SCHUR;  // the chains' x0 blocks eliminated
-  so.max_num_iterations = options.max_iterations;
-  so.function_tolerance = options.function_tolerance;
-  so.parameter_tolerance = options.parameter_tolerance;
-  so.gradient_tolerance = 1e-16;
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
-  so.num_threads = 1;
-  static const bool quiet = [] {
-    FLAGS_minloglevel = google::GLOG_FATAL;
-    return true;
-  }();
-  (void)quiet;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &cp, &summary);
-  return summary;
+  return SolveLeastSquares(cp, options, ceres::DENSE_SCHUR);  // the chains' x0 blocks eliminated
 }
 
 // Chain f's jumps at the fit (matched mode) against its detected intervals: Zeno, count, times.
