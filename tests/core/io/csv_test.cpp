@@ -12,20 +12,20 @@
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
+#include "tests/testing/temp_dir.hpp"
 
 namespace hysid {
 namespace {
 
 std::filesystem::path TempFile(const std::string& name, const std::string& text) {
-  const auto dir = std::filesystem::temp_directory_path() / "hysid-test-csv";
-  std::filesystem::create_directories(dir);
+  static const auto dir = testing::FreshTempDir("csv");
   const auto path = dir / name;
   std::ofstream(path) << text;
   return path;
 }
 
 TEST_CASE("doubles round-trip exactly through a CSV", "[csv]") {
-  const auto path = std::filesystem::temp_directory_path() / "hysid-test-csv" / "sub" / "rt.csv";
+  const auto path = testing::FreshTempDir("csv-rt") / "sub" / "rt.csv";
   std::filesystem::remove(path);
   const std::vector<double> row = {0.1, 1.0 / 3.0, -2.5e-300, 6.02214076e23};
   {
@@ -74,7 +74,7 @@ struct FileSizeLimit {
 };
 
 TEST_CASE("a failed write names errno and leaves no temporary file", "[csv][files]") {
-  const auto dir = std::filesystem::temp_directory_path() / "hysid-test-csv" / "short";
+  const auto dir = testing::FreshTempDir("csv-short");
   std::filesystem::remove_all(dir);
   const auto path = dir / "big.csv";
   std::string message;
