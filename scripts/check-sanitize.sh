@@ -15,7 +15,8 @@ steps=("$@")
 [ ${#steps[@]} -eq 0 ] && steps=(asan ub fuzz)
 launcher=()
 command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHYSID_BUILD_BENCH=OFF "${launcher[@]}")
+# No Python module: a library built with ASan cannot be loaded into the system's python3.
+common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHYSID_BUILD_BENCH=OFF -DHYSID_BUILD_PYTHON=OFF "${launcher[@]}")
 # Debug information records the build directory; the install test checks that no installed file
 # names it, so paths below the source tree are recorded relative to it.
 prefix_map="-ffile-prefix-map=$PWD/="
