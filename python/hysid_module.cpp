@@ -1,6 +1,6 @@
-// The `hysid` Python module: models (built-in names or model files), simulate, identify and sweeps,
-// calling the same C++ as the command line. NumPy arrays in and out; samples are rows (K × n). No
-// Python code runs per sample, and the GIL is released while C++ computes.
+// The `hysid` Python module: models (built-in names or model files), simulate, identify, the
+// Cramér–Rao bound and sweeps, calling the same C++ as the command line. NumPy arrays in and out; samples are
+// rows (K × n). No Python code runs per sample, and the GIL is released while C++ computes.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -23,6 +23,7 @@
 #include "experiments/sweep/runner.hpp"
 #include "sim/measurement.hpp"
 #include "sim/refine/refine.hpp"
+#include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
 
 namespace py = pybind11;
@@ -120,16 +121,16 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
 }
 
 struct IdentifyArgs {
-  std::string estimator = "rls", detector = "paper", bound = "auto";
+  std::string estimator = "rls", detector = "residual", bound = "auto";
   double r = 220.0, tau0 = 1e5, false_alarm = 1e-8, forgetting = 1.0, jump_forgetting = 1.0;
   double data_rtol = 0.0, data_atol = 0.0;
   bool localize = false, second_pass = false, sets = true, trace = true;
-  std::string refine = "none";  // "ml": the output-error refinement after the recursive run
+  std::string refine = "ml";  // "none": the recursive (paper-method) estimate only
 };
 
 IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
   IdentifierSettings s;
-  s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(a.estimator);
+  s.UseEstimator(ParseEstimatorKind(a.estimator));
   s.flow_estimator.forgetting = a.forgetting;
   s.jump_estimator.forgetting = a.jump_forgetting;
   s.detector.kind = ParseDetectorKind(a.detector);
@@ -259,6 +260,49 @@ py::dict Parameters(const Model& m) {
   return d;
 }
 
+// The bound as `hysid crlb`: at the model's true α, β and x0 over the model's (or the given) grid.
+py::dict CrlbDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
+                  std::optional<double> dt, const py::object& sigma, bool x0_known, double rtol,
+                  double atol) {
+  const ModelSpec& spec = model.spec();
+  const int n = model.state_size();
+  const std::vector<double> start = x0.value_or(spec.default_x0);
+  if (static_cast<int>(start.size()) != n) {
+    throw std::invalid_argument(
+        fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
+  }
+  const SampleGrid grid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)};
+  if (std::string e; !grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
+  SensitivityOptions options;
+  options.sim.rtol = rtol;
+  options.sim.atol = atol;
+  if (std::string e; !options.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  const Vec s = PerState(sigma, n, "sigma");
+  if (s.size() == 0 || !s.allFinite() || !(s.array() > 0.0).all()) {
+    throw std::invalid_argument("sigma: must be finite and > 0");
+  }
+  Crlb c;
+  {
+    py::gil_scoped_release release;
+    c = ComputeCrlb(model, Eigen::Map<const Vec>(start.data(), n), grid, s, Unknowns::Of(model, !x0_known),
+                    options);
+  }
+  py::dict sd;
+  for (std::size_t i = 0; i < c.names.size() && c.ok(); ++i) sd[py::str(c.names[i])] = c.sd[Eigen::Index(i)];
+  py::dict out;
+  out["status"] = ToString(c.status);
+  out["message"] = c.message;
+  out["names"] = c.names;
+  out["sd"] = sd;
+  out["covariance"] = Transposed(c.covariance);  // symmetric
+  out["fisher"] = Transposed(c.fisher);
+  out["mean_e_alpha"] = c.mean_e_alpha;
+  out["mean_e_beta"] = c.mean_e_beta;
+  out["jumps"] = c.jumps;
+  out["samples"] = c.samples;
+  return out;
+}
+
 void BindModel(py::module_& m) {
   py::class_<Model>(m, "Model", "A hybrid model: a built-in name (hysid.models()) or a model file (TOML)")
       .def(py::init(&MakeModel), py::arg("name_or_file"))
@@ -309,17 +353,23 @@ PYBIND11_MODULE(hysid, m) {
         return Identify(model, y, dt, a, sigma);
       },
       py::arg("model"), py::arg("y"), py::arg("dt"), py::arg("estimator") = "rls",
-      py::arg("detector") = "paper", py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto",
-      py::arg("false_alarm") = 1e-8, py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0,
-      py::arg("jump_forgetting") = 1.0, py::arg("localize") = false, py::arg("second_pass") = false,
-      py::arg("sets") = true, py::arg("trace") = true, py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
-      py::arg("refine") = "none",
+      py::arg("detector") = "residual", py::arg("r") = 220.0, py::arg("tau0") = 1e5,
+      py::arg("bound") = "auto", py::arg("false_alarm") = 1e-8, py::arg("sigma") = py::none(),
+      py::arg("forgetting") = 1.0, py::arg("jump_forgetting") = 1.0, py::arg("localize") = false,
+      py::arg("second_pass") = false, py::arg("sets") = true, py::arg("trace") = true,
+      py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0, py::arg("refine") = "ml",
       "The identifier on samples y (samples × states) at spacing dt, as `hysid identify`: dict with alpha, "
       "beta "
       "(full vectors), estimates (the unknowns by name), gamma, statistic, threshold, alpha_trace, "
       "beta_trace, "
-      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; refine='ml' adds refined (status, "
-      "reason, estimates and standard_errors by name, covariance, alpha, beta, x0) as `--refine ml`");
+      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; with refine='ml' (the default, as "
+      "`hysid identify`) also refined (status, reason, estimates and standard_errors by name, covariance, "
+      "alpha, beta, x0); refine='none' and detector='paper' give the paper's online method");
+  m.def("crlb", &CrlbDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
+        py::arg("dt") = py::none(), py::arg("sigma") = 1.0, py::arg("x0_known") = false,
+        py::arg("rtol") = SimOptions{}.rtol, py::arg("atol") = SimOptions{}.atol,
+        "The Cramér–Rao lower bound as `hysid crlb`: dict with status, message, names, sd (by name), "
+        "covariance, fisher, mean_e_alpha, mean_e_beta, jumps, samples");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
         "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts");
 }

@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 
 #include <fmt/format.h>
 
 #include "core/detectors/paper.hpp"
 #include "core/detectors/residual.hpp"
+#include "core/estimators/integral.hpp"
 #include "core/estimators/rls.hpp"
 #include "core/identify/localize.hpp"
 #include "core/model/noise_shape.hpp"
@@ -60,6 +62,11 @@ IdentifierSettings WithNoiseShapes(const Model& model, double dt, const Identifi
   return out;
 }
 
+void IdentifierSettings::UseEstimator(EstimatorKind kind) {
+  flow_estimator.kind = kind;
+  jump_estimator.kind = DescriptorOf(kind).flow_only ? EstimatorKind::kRls : kind;
+}
+
 struct Identifier::State {
   State(const Model& m, double step, const IdentifierSettings& s)
       : model(m),
@@ -88,14 +95,19 @@ struct Identifier::State {
     // bit-equality).
     if (s.direct_calls && builder.flow_layout().rows.size() == 1) {
       rls = dynamic_cast<Rls*>(flow.get());
-      if (rls != nullptr) {
+      integral = dynamic_cast<IntegralLs*>(flow.get());
+      if (rls != nullptr || integral != nullptr) {
         if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
         residual = dynamic_cast<ResidualDetector*>(detector.get());
         const int u = static_cast<int>(builder.flow_layout().unknown.size());
-        row_block = paper != nullptr      ? ChooseRowBlock<kPaperDirect>(m.state_size(), u)
-                    : residual != nullptr ? ChooseRowBlock<kResidualDirect>(m.state_size(), u)
-                                          : ChooseRowBlock<kInterface>(m.state_size(), u);
+        row_block = rls != nullptr ? ChooseRowBlock<Rls>(*this, m.state_size(), u)
+                                   : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
       }
+    }
+    if (DescriptorOf(s.jump_estimator.kind).flow_only) {
+      throw std::invalid_argument(
+          fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
+                      ToString(s.jump_estimator.kind)));
     }
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
       throw std::invalid_argument(
@@ -110,10 +122,14 @@ struct Identifier::State {
   RegressionBuilder builder;
   std::unique_ptr<Estimator> flow, jump;
   std::unique_ptr<JumpDetector> detector;
-  Rls* rls = nullptr;                    // the α estimator, when it is RLS on one row (direct_calls)
-  PaperDetector* paper = nullptr;        // with rls: the detector, when it is the paper's (constant Jacobian)
-  ResidualDetector* residual = nullptr;  // with rls: the detector, when it is the residual detector
-  RowBlockFn row_block = nullptr;        // with rls: RowBlock for the model's sizes
+  // The α estimator on one identified row (direct_calls), when it is RLS or integral.
+  Rls* rls = nullptr;
+  IntegralLs* integral = nullptr;
+  // With either: the detector, when it is the paper's (on a constant Jacobian) or the residual
+  // detector, and RowBlock for the model's sizes.
+  PaperDetector* paper = nullptr;
+  ResidualDetector* residual = nullptr;
+  RowBlockFn row_block = nullptr;
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -172,6 +188,7 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
     s.builder.Jump(s.prev, x, s.psi, s.yj);
   }
   s.jump->Update(s.psi, s.yj);
+  s.flow->Break();
   ++s.jumps;
   if (s.settings.sets) s.jump_set.Add(s.prev);
 }
@@ -194,13 +211,13 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given) {
     s.has_prev = true;
     return {};
   }
-  if (s.rls != nullptr && given == nullptr) {  // the row block counts the sample
+  if (s.row_block != nullptr && given == nullptr) {  // the row block counts the sample
     s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
     Decision d;
     s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
     return d;
   }
-  // Several identified rows, an estimator other than RLS, or given labels: the interfaces throughout.
+  // Several identified rows, another estimator, or given labels: the interfaces throughout.
   ++s.samples;
   s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
   const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
@@ -244,13 +261,19 @@ SampleContext Identifier::Context(State& s, const double* x, const double* phi, 
                        .data_atol = s.settings.data_atol};
 }
 
-// One identified row estimated by RLS (s.rls set), for `count` consecutive samples x_k = xs + k·n
-// after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built. kPaper: the
-// paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the detector's
-// interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
-template <int N, int P, Identifier::DetectorCall kCall>
+// One identified row estimated by RLS or integral (E, s.rls or s.integral set), for `count` consecutive
+// samples x_k = xs + k·n after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built.
+// kPaper: the paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the
+// detector's interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
+template <int N, int P, Identifier::DetectorCall kCall, class E>
 void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
                           Decision* decisions) {
+  E* est = nullptr;
+  if constexpr (std::is_same_v<E, Rls>) {
+    est = s.rls;
+  } else {
+    est = s.integral;
+  }
   const Eigen::Index n = N > 0 ? N : s.prev.size();
   const Eigen::Index u = P > 0 ? P : s.phi.cols();
   for (Eigen::Index k = 0; k < count; ++k) {
@@ -259,7 +282,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
     auto update = [&](const Decision& d) {
       if (!d.gamma) {
-        s.rls->UpdateRow<P>(phi + k * u, y[k]);
+        est->template UpdateRow<P>(phi + k * u, y[k]);
         AfterFlowUpdate<P>(s);
       } else {
         AfterJump(s, ConstVecMap(x, n), alpha_class);
@@ -269,16 +292,16 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     if constexpr (kCall == kPaperDirect) {
       d = s.paper->ClassifyConstant<N>(s.prev.data(), x, n, s.dt, alpha_class.data(),
                                        s.frozen ? -2 : s.version,
-                                       s.frozen ? s.frozen_updates : s.rls->updates());
+                                       s.frozen ? s.frozen_updates : est->updates());
       update(d);
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
       // covariance pointer, taken before the update).
       const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
-                                   : s.rls->covariance_matrix()->data();
+                                   : est->covariance_matrix()->data();
       d = s.residual->ClassifyObserveRow<N, P>(
           s.prev.data(), x, n, s.dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()),
-          cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : s.rls->updates(),
+          cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : est->updates(),
           s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
       update(d);
     } else {
@@ -292,12 +315,19 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   }
 }
 
-template <Identifier::DetectorCall kCall>
+template <Identifier::DetectorCall kCall, class E>
 Identifier::RowBlockFn Identifier::ChooseRowBlock(int n, int u) {
-  if (n == 2 && u == 2) return &RowBlock<2, 2, kCall>;
-  if (n == 2 && u == 1) return &RowBlock<2, 1, kCall>;
-  if (n == 2 && u == 3) return &RowBlock<2, 3, kCall>;
-  return &RowBlock<0, 0, kCall>;
+  if (n == 2 && u == 2) return &RowBlock<2, 2, kCall, E>;
+  if (n == 2 && u == 1) return &RowBlock<2, 1, kCall, E>;
+  if (n == 2 && u == 3) return &RowBlock<2, 3, kCall, E>;
+  return &RowBlock<0, 0, kCall, E>;
+}
+
+template <class E>
+Identifier::RowBlockFn Identifier::ChooseRowBlock(const State& s, int n, int u) {
+  return s.paper != nullptr      ? ChooseRowBlock<kPaperDirect, E>(n, u)
+         : s.residual != nullptr ? ChooseRowBlock<kResidualDirect, E>(n, u)
+                                 : ChooseRowBlock<kInterface, E>(n, u);
 }
 
 void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
@@ -313,7 +343,7 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
     const Decision d = Step(samples.col(col));
     if (decisions != nullptr) decisions[col] = d;
   };
-  if (s.rls == nullptr || (count > 1 && samples.outerStride() != n)) {
+  if (s.row_block == nullptr || (count > 1 && samples.outerStride() != n)) {
     for (; k < count; ++k) step(k);
     return;
   }

@@ -59,6 +59,10 @@ struct IdentifierSettings {
   // compile-time sizes for n = 2 and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost
   // per sample). false: always the interfaces (for tests and comparisons).
   bool direct_calls = true;
+
+  // Chooses the estimator for α and β: `kind` for both, except that a flow-only estimator
+  // (descriptor flow_only, e.g. integral) leaves β to rls.
+  void UseEstimator(EstimatorKind kind);
 };
 
 // Noise shapes of the errors-in-variables estimators. For each of flow_estimator and jump_estimator
@@ -116,11 +120,14 @@ class Identifier {
   using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*, Decision*);
   // The detector of a row block: through its interface, or called directly.
   enum DetectorCall { kInterface, kPaperDirect, kResidualDirect };
-  template <int N, int P, DetectorCall kCall>
+  // E: the α estimator's type on the direct path (Rls or IntegralLs).
+  template <int N, int P, DetectorCall kCall, class E>
   static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
                        Decision* decisions);
-  template <DetectorCall kCall>
+  template <DetectorCall kCall, class E>
   static RowBlockFn ChooseRowBlock(int n, int u);
+  template <class E>
+  static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
   static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
                                const Vec& alpha_class);
   template <int P>

@@ -168,9 +168,12 @@ void PrintSettings(const IdentifyArgs& args, const ModelSpec& spec, const Sample
                    const IdentifyResult& result) {
   std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(), data.path.c_str(),
               fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(), data.t.size(), data.dt);
-  std::printf("estimator %s, detector %s (%s; data accuracy rtol %g, atol %g: %s)", args.estimator.c_str(),
-              args.detector.c_str(), DetectorOptionText(settings.detector).c_str(), settings.data_rtol,
-              settings.data_atol, accuracy_source.c_str());
+  const std::string beta = settings.jump_estimator.kind == settings.flow_estimator.kind
+                               ? ""
+                               : fmt::format(" (beta: {})", ToString(settings.jump_estimator.kind));
+  std::printf("estimator %s%s, detector %s (%s; data accuracy rtol %g, atol %g: %s)", args.estimator.c_str(),
+              beta.c_str(), args.detector.c_str(), DetectorOptionText(settings.detector).c_str(),
+              settings.data_rtol, settings.data_atol, accuracy_source.c_str());
   std::printf("%s%s\n", args.localize ? ", localised jumps" : "", args.second_pass ? ", second pass" : "");
   if (result.noise_sigma.size()) {
     std::printf("noise shapes C from sigma = (%s)%s, dt = %.6g (flow C diagonal: %s; jump C diagonal: %s)\n",

@@ -94,6 +94,7 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
                    {"jump_estimator", ToString(recursive.jump_status)}};
   j["model_jumps"] = r.model_jumps;
   j["samples_used"] = r.samples_used;
+  j["start_repair"] = r.start_repair;
   if (bound.ok()) j["crlb_sd"] = vec(bound.sd);
   return j;
 }
@@ -136,6 +137,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                   static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
                   r.span_reason.c_str());
     }
+    if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
     if (r.ok()) {
       std::printf(
           "  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",

@@ -16,6 +16,10 @@
 // autocorrelation exceeds max_lag1 (when they are above the integration accuracy). Never NaN.
 // A jump-count mismatch or a failed start is first retried on a span that ends before the first
 // disagreement between the model's jumps and the detected ones (RefineOptions::max_span_retries).
+// A fit that still fails (other than for the data or their length) is tried once more from a
+// repaired start (sim/refine/start.hpp: detections the local flows do not need dropped, the others
+// moved to where the flows meet, missed jumps added, β and ξ0 re-estimated); the status is then
+// that fit's when it is ok, else the first fit's.
 #pragma once
 
 #include <cstdint>
@@ -23,6 +27,7 @@
 #include <vector>
 
 #include "core/identify/identifier.hpp"
+#include "sim/refine/start.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
 namespace hysid {
@@ -74,6 +79,9 @@ struct RefineOptions {
   // mismatch or start failure), the span is cut to end ceil(jump_time_tolerance) + 2 samples before
   // the first disagreement and fit again, at most this many times (0: never).
   int max_span_retries = 3;
+  // A failed fit is tried again from a repaired start (see above); false: never.
+  bool repair_start = true;
+  StartRepairOptions start_repair;
   // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
   bool IsValid(std::string* error) const;
 };
@@ -97,10 +105,11 @@ struct RefineResult {
   double lag1 = 0.0;            // lag-1 autocorrelation of the normalised residuals
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;  // ½ Σ (r/σ_w)² with the weighting σ
-  long samples_used = 0;    // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
-  std::string span_reason;  // why samples_used < K ("" when all samples are fit)
-  int detected_jumps = 0;   // in the fitted prefix
-  int model_jumps = -1;     // of the fitted model over the horizon (−1: not simulated)
+  long samples_used = 0;     // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
+  std::string span_reason;   // why samples_used < K ("" when all samples are fit)
+  int detected_jumps = 0;    // in the fitted prefix (of the repaired detections when start_repair is set)
+  std::string start_repair;  // what the repaired start changed, when the result comes from it ("" else)
+  int model_jumps = -1;      // of the fitted model over the horizon (−1: not simulated)
 };
 
 // y: n × K samples at t_k = k·dt; alpha0, beta0: full vectors (the recursive estimate); gamma: one

@@ -64,7 +64,8 @@ def test_identify_equals_cli(paper_data, tmp_path):
     printed = cli("identify", "--data", paper_data, "--detector", "paper", "--refine", "none", "--trace", trace)
     expected = {k: float(v) for k, v in re.findall(r"(?:alpha|beta) +(\w+) += (\S+)", printed)}
     table = np.loadtxt(paper_data, delimiter=",", skiprows=1)
-    fit = hysid.identify("impact-msd", table[:, 4:6], dt=5e-4)
+    fit = hysid.identify("impact-msd", table[:, 4:6], dt=5e-4, detector="paper", refine="none")
+    assert "refined" not in fit
     assert set(fit["estimates"]) == set(expected) == {"a", "b", "lambda", "mu"}
     for name, value in expected.items():  # printed with 10 significant digits
         assert fit["estimates"][name] == pytest.approx(value, rel=1e-9, abs=1e-12)
@@ -75,11 +76,28 @@ def test_identify_equals_cli(paper_data, tmp_path):
     np.testing.assert_array_equal(fit["beta_trace"][:, 1:], cols[:, 6:8])
 
 
+def test_identify_defaults_are_the_cli_defaults(paper_data, tmp_path):
+    """No tuning arguments: the residual detector and the refinement, as `hysid identify` with no flags
+    (which reads the data accuracy, the solver's 1e-12, from the simulation's sidecar)."""
+    import json
+    out = tmp_path / "fit.json"
+    subprocess.run([BIN, "identify", "--data", str(paper_data), "--json", str(out)], capture_output=True,
+                   text=True)
+    cli_fit = json.loads(out.read_text())
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
+    fit = hysid.identify("impact-msd", y, dt=5e-4, data_rtol=1e-12, data_atol=1e-12)
+    assert fit["jumps_detected"] == cli_fit["detector"]["jumps_detected"] == 14
+    assert fit["refined"]["status"] == cli_fit["status"] == "ok"
+    np.testing.assert_allclose(list(fit["refined"]["estimates"].values()), cli_fit["estimate"], rtol=1e-12)
+    np.testing.assert_allclose(list(fit["refined"]["standard_errors"].values()), cli_fit["standard_errors"],
+                               rtol=1e-12)
+
+
 def test_model_file_identifies_like_builtin(paper_data):
     y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
-    a = hysid.identify("impact-msd", y, dt=5e-4, estimator="gtls", detector="residual")
+    a = hysid.identify("impact-msd", y, dt=5e-4, estimator="gtls", refine="none")
     b = hysid.identify(hysid.Model.from_file(MODELS / "impact-msd.toml"), y, dt=5e-4, estimator="gtls",
-                       detector="residual")
+                       refine="none")
     np.testing.assert_array_equal(a["alpha"], b["alpha"])
     np.testing.assert_array_equal(a["beta"], b["beta"])
     np.testing.assert_array_equal(a["gamma"], b["gamma"])
@@ -110,7 +128,7 @@ def test_refinement_equals_cli(paper_data, tmp_path):
                     "--json", str(out)], capture_output=True, text=True)
     cli_fit = json.loads(out.read_text())
     y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
-    fit = hysid.identify("impact-msd", y, dt=5e-4, detector="residual", refine="ml")["refined"]
+    fit = hysid.identify("impact-msd", y, dt=5e-4)["refined"]  # the defaults: residual detector, refine='ml'
     assert fit["status"] == cli_fit["status"]
     assert list(fit["estimates"]) == cli_fit["names"]
     np.testing.assert_allclose(list(fit["estimates"].values()), cli_fit["estimate"], rtol=1e-12)
@@ -118,3 +136,21 @@ def test_refinement_equals_cli(paper_data, tmp_path):
         np.testing.assert_allclose(list(fit["standard_errors"].values()), cli_fit["standard_errors"], rtol=1e-12)
     with pytest.raises(ValueError, match="refine = 'x'"):
         hysid.identify("impact-msd", y, dt=5e-4, refine="x")
+
+
+def test_crlb_equals_cli():
+    """hysid.crlb is `hysid crlb`: the same sd (printed to 6 digits); the bound scales with sigma."""
+    printed = cli("crlb", "--model", "impact-msd", "--sigma", "0.5")
+    expected = {k: float(v) for k, v in re.findall(r"^  (\S+) += \S+ +sd (\S+)$", printed, re.M)}
+    bound = hysid.crlb("impact-msd", sigma=0.5)
+    assert bound["status"] == "ok" and bound["jumps"] == 14
+    assert list(bound["sd"]) == bound["names"] == list(expected)
+    for name, sd in expected.items():
+        assert bound["sd"][name] == pytest.approx(sd, rel=1e-5)
+    np.testing.assert_allclose(np.sqrt(np.diag(bound["covariance"])), list(bound["sd"].values()), rtol=1e-12)
+    doubled = hysid.crlb("impact-msd", sigma=1.0)
+    assert doubled["mean_e_alpha"] == pytest.approx(2 * bound["mean_e_alpha"], rel=1e-9)
+    known = hysid.crlb("impact-msd", sigma=0.5, x0_known=True)
+    assert known["names"] == ["a", "b", "lambda", "mu"]
+    with pytest.raises(ValueError, match="sigma: must be finite and > 0"):
+        hysid.crlb("impact-msd", sigma=0.0)
