@@ -90,9 +90,7 @@ void ResidualDetector::Reset() {
   have_jac_ = false;
 }
 
-double ResidualDetector::Quantile() {
-  const long nu = std::min(scale_samples_, kMemory);
-  if (nu == cached_nu_) return cached_q_;
+double ResidualDetector::QuantileAt(long nu) {
   // Largest grid point ≤ ν.
   const auto it = std::upper_bound(grid_.begin(), grid_.end(), nu);
   const auto idx = static_cast<std::size_t>(std::distance(grid_.begin(), it) - 1);
@@ -206,29 +204,6 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
 void ResidualDetector::Observe(const SampleContext& /*context*/, const Decision& /*decision*/) {
   if (!active_) return;
   UpdateScale();
-}
-
-void ResidualDetector::UpdateScale() {
-  const long n = std::min(scale_samples_ + 1, kMemory);
-  // 1/kMemory folded by the compiler (the same correctly rounded quotient) once n stays there.
-  constexpr double kMemoryWeight = 1.0 / static_cast<double>(kMemory);
-  const double w = n == kMemory ? kMemoryWeight : 1.0 / static_cast<double>(n);
-  for (std::size_t i = 0; i < rows_.size(); ++i) {
-    double r = rho2_[i] / (1.0 + lev_[i]);
-    // Clipping can only act when r exceeds kClip² (σ² + s²), a lower bound of kClip² · reference
-    // (rounded sums and products of non-negative terms are monotonic): below it the reference and
-    // its division are skipped, with the same result.
-    const double base = noise_[i] + excess_[i];
-    if (scale_samples_ >= kUnclipped && !(r <= kClip * kClip * base)) {
-      // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
-      // clipping everything to zero).
-      const double reference = base + round2_[i] / (1.0 + lev_[i]) + std::numeric_limits<double>::min();
-      r = std::min(r, kClip * kClip * reference);
-    }
-    const double x = (r - kappa_ * noise_[i]) / kappa_;
-    excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
-  }
-  ++scale_samples_;
 }
 
 }  // namespace hysid
