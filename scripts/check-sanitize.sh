@@ -15,7 +15,11 @@ steps=("$@")
 [ ${#steps[@]} -eq 0 ] && steps=(asan ub fuzz)
 launcher=()
 command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHYSID_BUILD_BENCHMARKS=OFF "${launcher[@]}")
+# No Python module: a library built with ASan cannot be loaded into the system's python3.
+common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHYSID_BUILD_BENCH=OFF -DHYSID_BUILD_PYTHON=OFF "${launcher[@]}")
+# Debug information records the build directory; the install test checks that no installed file
+# names it, so paths below the source tree are recorded relative to it.
+prefix_map="-ffile-prefix-map=$PWD/="
 # TBB's worker threads are still alive at exit; LeakSanitizer would report their stacks.
 # ASan reserves terabytes of address space for its shadow memory, so `ulimit -v` cannot bound it;
 # hard_rss_limit_mb makes each process stop itself at 3 GB resident instead.
@@ -27,13 +31,13 @@ for step in "${steps[@]}"; do
   case "$step" in
     asan)
       cmake -S . -B build-asan "${common[@]}" -DCMAKE_CXX_COMPILER=g++ \
-        -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+        -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer $prefix_map"
       cmake --build build-asan -j "$jobs"
       ctest --test-dir build-asan --no-tests=error --output-on-failure -j "$jobs"
       ;;
     ub)
       cmake -S . -B build-clang-ub "${common[@]}" -DCMAKE_CXX_COMPILER=clang++-14 \
-        -DCMAKE_CXX_FLAGS="-fsanitize=undefined,float-cast-overflow -fno-sanitize-recover=all -fno-omit-frame-pointer"
+        -DCMAKE_CXX_FLAGS="-fsanitize=undefined,float-cast-overflow -fno-sanitize-recover=all -fno-omit-frame-pointer $prefix_map"
       cmake --build build-clang-ub -j "$jobs"
       ctest --test-dir build-clang-ub --no-tests=error --output-on-failure -j "$jobs"
       ;;

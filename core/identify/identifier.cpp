@@ -361,6 +361,17 @@ void Identifier::Finish() {
   if (s_->has_prev && s_->settings.sets) s_->flow_set.Add(s_->prev);
 }
 
+void Identifier::Restart() {
+  Finish();
+  s_->flow->Break();  // estimators on consecutive rows (integral) do not join rows across the break
+  s_->has_prev = false;
+}
+
+void Identifier::SetStep(double dt) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
+  s_->dt = dt;
+}
+
 void Identifier::BeginSecondPass() {
   State& s = *s_;
   s.frozen = true;
@@ -436,9 +447,43 @@ void Record(Eigen::Index k, const Decision& d, IdentifyResult* r) {
   r->threshold[static_cast<std::size_t>(k)] = d.threshold;
 }
 
+// Irregular sampling, chains or non-finite columns: one Step per sample, with its own δt and a
+// Restart at each chain start and after each skipped column.
+bool NeedsChains(const Mat& y, const IdentifyOptions& options) {
+  return !options.times.empty() || !options.chain_start.empty() || !y.allFinite();
+}
+
+void ChainPass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+  r->skipped_samples = 0;
+  r->chains = 0;
+  bool open = false;
+  for (Eigen::Index k = 0; k < y.cols(); ++k) {
+    const auto u = static_cast<std::size_t>(k);
+    if (!options.chain_start.empty() && options.chain_start[u] && open) {
+      id.Restart();
+      open = false;
+    }
+    if (!y.col(k).allFinite()) {
+      ++r->skipped_samples;
+      Record(k, Decision{}, r);
+      if (open) id.Restart();
+      open = false;
+    } else {
+      if (open && !options.times.empty()) id.SetStep(options.times[u] - options.times[u - 1]);
+      r->chains += open ? 0 : 1;
+      open = true;
+      Record(k, options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[u] != 0), r);
+    }
+    if (!options.trace) continue;
+    r->alpha_trace.col(k) = id.alpha_hat();
+    r->beta_trace.col(k) = id.beta_hat();
+  }
+}
+
 // One pass over the samples. Without a trace or labels, samples go to Feed in chunks (its block
 // path); a trace needs α̂, β̂ after each sample, labels a Step with each.
 void Pass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+  if (NeedsChains(y, options)) return ChainPass(id, y, options, r);
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
     constexpr Eigen::Index kChunk = 4096;
@@ -504,6 +549,13 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
   if (!options.labels.empty() && static_cast<Eigen::Index>(options.labels.size()) != y.cols()) {
     throw std::invalid_argument(fmt::format("IdentifyOptions::labels has {} entries; the data has {} samples",
                                             options.labels.size(), y.cols()));
+  }
+  for (const auto& [what, size] :
+       {std::pair{"times", options.times.size()}, std::pair{"chain_start", options.chain_start.size()}}) {
+    if (size != 0 && static_cast<Eigen::Index>(size) != y.cols()) {
+      throw std::invalid_argument(
+          fmt::format("IdentifyOptions::{} has {} entries; the data has {} samples", what, size, y.cols()));
+    }
   }
   IdentifyResult r;
   Identifier id(model, dt, ResolveNoiseShapes(model, y, dt, settings, &r));

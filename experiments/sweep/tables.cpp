@@ -289,7 +289,7 @@ void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* 
   long line_no = 0;
   while (ReadBoundedLine(in, line, path.string(), line_no + 1)) {
     ++line_no;
-    std::vector<std::string> cells = SplitCsvLine(line);
+    std::vector<std::string> cells = SplitCsvLine(line, path.string(), line_no);
     if (line_no == 1) {
       *header = std::move(cells);
       continue;

@@ -1,4 +1,5 @@
 #include "sim/refine/refine.hpp"
+#include "sim/refine/solve.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -182,26 +183,7 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem cp(po);
   cp.AddResidualBlock(new OutputErrorCost(problem), nullptr, theta.data());
-  ceres::Solver::Options so;
-  so.minimizer_type = ceres::TRUST_REGION;
-  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // p ≤ a dozen: JᵀJ, not a QR of n·K rows
-  so.max_num_iterations = options.max_iterations;
-  so.function_tolerance = options.function_tolerance;
-  so.parameter_tolerance = options.parameter_tolerance;
-  so.gradient_tolerance = 1e-16;
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
-  so.num_threads = 1;
-  // Ceres reports a failed evaluation through glog as well; the status carries it here.
-  static const bool quiet = [] {
-    FLAGS_minloglevel = google::GLOG_FATAL;
-    return true;
-  }();
-  (void)quiet;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &cp, &summary);
-  return summary;
+  return SolveLeastSquares(cp, options, ceres::DENSE_NORMAL_CHOLESKY);  // p ≤ a dozen: JᵀJ
 }
 
 // The last three jump intervals shrink and the last two are below one sample: the jumps accumulate
@@ -575,6 +557,30 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
 RefineResult RefineIdentification(const Model& model, const Mat& y, double dt,
                                   const IdentifyResult& recursive, const RefineOptions& options) {
   return Refine(model, y, dt, recursive.alpha_hat, recursive.beta_hat, recursive.gamma, options);
+}
+
+ceres::Solver::Summary SolveLeastSquares(ceres::Problem& problem, const RefineOptions& options,
+                                         ceres::LinearSolverType linear_solver) {
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = linear_solver;
+  so.max_num_iterations = options.max_iterations;
+  so.function_tolerance = options.function_tolerance;
+  so.parameter_tolerance = options.parameter_tolerance;
+  so.gradient_tolerance = 1e-16;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  so.num_threads = 1;
+  // Ceres reports a failed evaluation through glog as well; the status carries it here.
+  static const bool quiet = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)quiet;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  return summary;
 }
 
 }  // namespace hysid

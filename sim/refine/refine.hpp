@@ -110,6 +110,11 @@ struct RefineResult {
   int detected_jumps = 0;    // in the fitted prefix (of the repaired detections when start_repair is set)
   std::string start_repair;  // what the repaired start changed, when the result comes from it ("" else)
   int model_jumps = -1;      // of the fitted model over the horizon (−1: not simulated)
+  // RefineChains: the initial state fitted for each chain (start: its first sample; empty for a
+  // chain left out), how many chains were fit and how many left out (too short, or their first
+  // sample outside C ∪ D).
+  std::vector<Vec> chain_x0;
+  long chains_used = 0, chains_skipped = 0;
 };
 
 // y: n × K samples at t_k = k·dt; alpha0, beta0: full vectors (the recursive estimate); gamma: one
@@ -118,6 +123,30 @@ struct RefineResult {
 // statuses.
 RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alpha0, const Vec& beta0,
                     const std::vector<std::uint8_t>& gamma, const RefineOptions& options = {});
+
+// One chain of samples for RefineChains: consecutive samples of one run, no gap between them.
+struct RefineChain {
+  std::vector<double> t;            // sample times, increasing (any origin)
+  Mat y;                            // n × K, finite
+  std::vector<std::uint8_t> gamma;  // 1 = a jump detected in (t_{k−1}, t_k]; gamma[0] is ignored
+};
+
+// The chains of samples (t, y: n × K, gamma as RefineChain's) cut where chain_start is 1 (sample 0
+// always starts one). Throws std::invalid_argument for sizes that disagree.
+std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
+                                     const std::vector<std::uint8_t>& chain_start,
+                                     const std::vector<std::uint8_t>& gamma);
+
+// Several chains of one system (several runs, or one run cut at gaps and missing samples), samples
+// at their own times. θ = (unknown α, unknown β) shared, plus one initial state per chain (its own
+// Ceres parameter block, start: the chain's first sample). Each chain is simulated on its own times
+// from its own start; nothing is integrated across a gap. Per chain the span rule of Refine
+// (min_jump_interval) applies; chains with fewer than 2n + 2 samples are left out. Checks as Refine,
+// per chain (start, Zeno, jump count and times) and pooled (σ, RMS, lag-1 within chains); no span
+// retries. names, covariance and standard_errors cover the shared unknowns only (their block of the
+// joint F⁻¹), `unknowns` has x0 = false; estimate.x0 is the first fitted chain's, chain_x0 all.
+RefineResult RefineChains(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                          const Vec& beta0, const RefineOptions& options = {});
 
 // The same from an identification run: its α̂, β̂ and γ.
 RefineResult RefineIdentification(const Model& model, const Mat& y, double dt,

@@ -20,6 +20,7 @@
 #include "experiments/sweep/tables.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
+#include "tests/testing/temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace hysid;
@@ -33,12 +34,7 @@ ModelRegistry Registry() {
 }
 
 // A fresh directory for one test case.
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("hysid_test_sweep_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return testing::FreshTempDir("sweep-" + name); }
 
 std::string Slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
