@@ -23,10 +23,13 @@ fi
 # The installed CLI on an installed model file.
 "$prefix/bin/hysid" models --show "$prefix/share/hysid/models/wall-msd.toml" | grep -q "guard wall: h(xi) = x - 1 (rising)"
 
-# The example project, found through CMAKE_PREFIX_PATH only.
+# The example project, found through CMAKE_PREFIX_PATH only, with hysid's compiler and flags (a
+# sanitizer build's libraries need the sanitizer's runtime at link time).
+cache() { sed -n "s/^$1:[A-Z]*=//p" "$build/CMakeCache.txt"; }
 cmake -S "$source/examples/own-model" -B "$work" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_CXX_COMPILER="$(cache CMAKE_CXX_COMPILER)" -DCMAKE_CXX_FLAGS="$(cache CMAKE_CXX_FLAGS)" \
       -DCMAKE_PREFIX_PATH="$prefix" > "$build/install-test/configure.log"
-cmake --build "$work" > "$build/install-test/build.log"
+cmake --build "$work" > "$build/install-test/build.log" || { tail -20 "$build/install-test/build.log"; exit 1; }
 "$work/my-hysid" models --show wall-msd-cpp | grep -q "wall-msd-cpp: mass on a spring hitting a wall at x = 1 (C++)"
 "$work/my-hysid" simulate --model wall-msd-cpp --sigma 1e-4 --seed 2 --out "$work/wall.csv" > /dev/null
 out=$("$work/my-hysid" identify --model wall-msd-cpp --data "$work/wall.csv")
