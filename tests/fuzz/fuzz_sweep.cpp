@@ -19,9 +19,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const hysid::SweepConfig c = hysid::ParseSweepText(
         std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.toml", registry);
     if (c.trials < 1 || c.models.empty() || c.grid.dt.empty() || c.grid.sigma.empty()) __builtin_trap();
-    if (c.grid.dt.size() * c.grid.sigma.size() * c.grid.r.size() <= 10000) {
-      if (hysid::EnumerateCells(c).empty()) __builtin_trap();
-    }
+    std::size_t size = c.grid.dt.size() * c.grid.sigma.size() * c.grid.estimator.size() *
+                       c.grid.detector.size() * c.grid.refine.size();
+    for (const hysid::OptionAxis& axis : c.grid.options) size *= axis.values.size();
+    if (size <= 10000 && hysid::EnumerateCells(c).empty()) __builtin_trap();
     (void)c.Hash();
   } catch (const std::invalid_argument&) {
   }
