@@ -26,7 +26,7 @@ clean:
 	rm -rf $(BUILD_DIR)
 
 # Sanitizers and fuzzers (docs/architecture.md "Robustness"): ASan+UBSan (gcc), UBSan with
-# float-cast-overflow (clang 14), libFuzzer harnesses for FUZZ_SECONDS each (default 60).
+# float-cast-overflow (clang 14), libFuzzer harnesses for FUZZ_RUNS executions each (default 1 M).
 deps-sanitize:
 	./scripts/install-deps.sh sanitize
 

@@ -37,7 +37,7 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
   settings.detector.kind = ParseDetectorKind(detector);
   settings.localize = localize;
   if (known_sigma) settings.sigma = Vec::Constant(2, sigma);
-  settings.flow_estimator.kind = settings.jump_estimator.kind = ParseEstimatorKind(estimator);
+  settings.UseEstimator(ParseEstimatorKind(estimator));
   if (data_accuracy) {  // as in sweeps: the simulator's tolerances as the data's accuracy
     settings.data_rtol = SimOptions{}.rtol;
     settings.data_atol = SimOptions{}.atol;
@@ -73,6 +73,12 @@ void BM_IdentifyStepModelFile(benchmark::State& state) {
   RunIdentifier(state, false, 0.0, "paper", false, false, "rls", false, false, true);
 }
 BENCHMARK(BM_IdentifyStepModelFile)->Unit(benchmark::kMillisecond);
+
+// The integral estimator for α in place of RLS (β: rls), through the estimator interface.
+void BM_IdentifyStepIntegral(benchmark::State& state) {
+  RunIdentifier(state, false, 0.0, "paper", false, false, "integral");
+}
+BENCHMARK(BM_IdentifyStepIntegral)->Unit(benchmark::kMillisecond);
 
 // The same plus Algorithm 2 (incremental hulls of Λ and Γ).
 void BM_IdentifyStepWithHulls(benchmark::State& state) { RunIdentifier(state, true, 0.0); }

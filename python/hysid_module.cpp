@@ -1,6 +1,6 @@
-// The `hysid` Python module: models (built-in names or model files), simulate, identify and sweeps,
-// calling the same C++ as the command line. NumPy arrays in and out; samples are rows (K × n). No
-// Python code runs per sample, and the GIL is released while C++ computes.
+// The `hysid` Python module: models (built-in names or model files), simulate, identify, the
+// Cramér–Rao bound and sweeps, calling the same C++ as the command line. NumPy arrays in and out; samples are
+// rows (K × n). No Python code runs per sample, and the GIL is released while C++ computes.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -17,12 +17,14 @@
 #include <fmt/ranges.h>
 
 #include "core/identify/identifier.hpp"
+#include "core/io/sample_data.hpp"
 #include "core/model/registry.hpp"
 #include "core/model_file/model_file.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "sim/measurement.hpp"
 #include "sim/refine/refine.hpp"
+#include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
 
 namespace py = pybind11;
@@ -75,9 +77,16 @@ Vec PerState(const py::object& value, int n, const char* what) {
   return Eigen::Map<const Vec>(v.data(), n);
 }
 
-py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
-                      std::optional<double> dt, const py::object& sigma, std::uint64_t seed,
-                      std::uint64_t trial, double rtol, double atol) {
+// The start state (x0 or the model's), the sample grid (t_end, dt or the model's) and the solver
+// options of a simulation, checked; errors name the argument.
+struct Run {
+  Vec x0;
+  SampleGrid grid;
+  SimOptions sim;
+};
+
+Run CheckedRun(const Model& model, const std::optional<std::vector<double>>& x0, std::optional<double> t_end,
+               std::optional<double> dt, double rtol, double atol) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   const std::vector<double> start = x0.value_or(spec.default_x0);
@@ -85,12 +94,21 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
     throw std::invalid_argument(
         fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
   }
-  const SampleGrid grid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)};
-  if (std::string e; !grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
-  SimOptions options;
-  options.rtol = rtol;
-  options.atol = atol;
-  if (std::string e; !options.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  Run run{Eigen::Map<const Vec>(start.data(), n),
+          SampleGrid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)},
+          SimOptions{}};
+  if (std::string e; !run.grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
+  run.sim.rtol = rtol;
+  run.sim.atol = atol;
+  if (std::string e; !run.sim.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  return run;
+}
+
+py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
+                      std::optional<double> dt, const py::object& sigma, std::uint64_t seed,
+                      std::uint64_t trial, double rtol, double atol) {
+  const int n = model.state_size();
+  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
   Vec s = PerState(sigma, n, "sigma");
   if (s.size() == 0) s = Vec::Zero(n);
   if ((s.array() < 0.0).any() || !s.allFinite())
@@ -99,7 +117,7 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
   Mat y;
   {
     py::gil_scoped_release release;
-    traj = hysid::Simulate(model, Eigen::Map<const Vec>(start.data(), n), grid, options);
+    traj = hysid::Simulate(model, run.x0, run.grid, run.sim);
     y = AddMeasurementNoise(traj.x, s, NoiseKey{.seed = seed, .stream = trial});
   }
   py::list jumps;
@@ -112,7 +130,7 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
   out["j"] = py::array_t<int>(py::ssize_t(traj.j.size()), traj.j.data());
   out["x"] = Transposed(traj.x);
   out["y"] = Transposed(y);
-  out["dt"] = grid.dt;
+  out["dt"] = run.grid.dt;
   out["jumps"] = jumps;
   out["status"] = ToString(traj.status.stop);
   out["message"] = traj.status.message;
@@ -120,16 +138,16 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
 }
 
 struct IdentifyArgs {
-  std::string estimator = "rls", detector = "paper", bound = "auto";
+  std::string estimator = "rls", detector = "residual", bound = "auto";
   double r = 220.0, tau0 = 1e5, false_alarm = 1e-8, forgetting = 1.0, jump_forgetting = 1.0;
   double data_rtol = 0.0, data_atol = 0.0;
   bool localize = false, second_pass = false, sets = true, trace = true;
-  std::string refine = "none";  // "ml": the output-error refinement after the recursive run
+  std::string refine = "ml";  // "none": the recursive (paper-method) estimate only
 };
 
 IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
   IdentifierSettings s;
-  s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(a.estimator);
+  s.UseEstimator(ParseEstimatorKind(a.estimator));
   s.flow_estimator.forgetting = a.forgetting;
   s.jump_estimator.forgetting = a.jump_forgetting;
   s.detector.kind = ParseDetectorKind(a.detector);
@@ -156,15 +174,19 @@ py::dict Unknowns(const std::vector<Parameter>& params, const Vec& values) {
   return out;
 }
 
-// The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`.
+// The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`: one uniform
+// run (Refine), or the chains of irregular or several runs (RefineChains).
 py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& recursive,
-                 const Vec& sigma) {
+                 const Vec& sigma, const SampleData* chains) {
   RefineOptions options;
   options.sigma = sigma;
   RefineResult r;
   {
     py::gil_scoped_release release;
-    r = RefineIdentification(model, y, dt, recursive, options);
+    r = chains == nullptr
+            ? RefineIdentification(model, y, dt, recursive, options)
+            : RefineChains(model, SplitChains(chains->t, y, chains->chain_start, recursive.gamma),
+                           recursive.alpha_hat, recursive.beta_hat, options);
   }
   py::dict out, estimates, errors;
   const Vec theta = r.estimate.Theta(r.unknowns);
@@ -180,24 +202,30 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
   out["alpha"] = ToArray(r.estimate.alpha);
   out["beta"] = ToArray(r.estimate.beta);
   out["x0"] = ToArray(r.estimate.x0);
+  if (chains != nullptr) {
+    py::list x0;
+    for (const Vec& v : r.chain_x0) x0.append(v.size() ? py::object(ToArray(v)) : py::object(py::none()));
+    out["chain_x0"] = x0;
+    out["chains_used"] = r.chains_used;
+    out["chains_skipped"] = r.chains_skipped;
+  }
   return out;
 }
 
-py::dict Identify(const Model& model, const InArray& y, double dt, const IdentifyArgs& args,
-                  const py::object& sigma) {
-  const int n = model.state_size();
-  if (y.ndim() != 2 || y.shape(1) != n) {
-    throw std::invalid_argument(
-        fmt::format("y must be a (samples, {}) array, one row per sample; got shape ({})", n,
-                    fmt::join(std::vector<py::ssize_t>(y.shape(), y.shape() + y.ndim()), ", ")));
+// The identifier on n × K samples; `chains` (irregular times, several runs, missing samples) gives
+// each sample pair its own step and restarts the chains.
+py::dict Fit(const Model& model, const Mat& samples, double dt, const IdentifyArgs& args,
+             const py::object& sigma, const SampleData* chains) {
+  const IdentifierSettings settings = Settings(args, PerState(sigma, model.state_size(), "sigma"));
+  IdentifyOptions options{.trace = args.trace};
+  if (chains != nullptr) {
+    options.times = chains->t;
+    options.chain_start = chains->chain_start;
   }
-  if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
-  const Mat samples = Eigen::Map<const Mat>(y.data(), n, y.shape(0));  // row-major K × n = n × K
-  const IdentifierSettings settings = Settings(args, PerState(sigma, n, "sigma"));
   IdentifyResult r;
   {
     py::gil_scoped_release release;
-    r = hysid::Identify(model, samples, dt, settings, IdentifyOptions{.trace = args.trace});
+    r = hysid::Identify(model, samples, dt, settings, options);
   }
   const ModelSpec& spec = model.spec();
   py::dict out;
@@ -218,10 +246,63 @@ py::dict Identify(const Model& model, const InArray& y, double dt, const Identif
   out["flow_hull"] = Transposed(r.flow_hull);
   out["jump_hull"] = Transposed(r.jump_hull);
   if (args.refine == "ml") {
-    out["refined"] = Refined(model, samples, dt, r, settings.sigma);
+    out["refined"] = Refined(model, samples, dt, r, settings.sigma, chains);
   } else if (args.refine != "none") {
     throw std::invalid_argument(fmt::format("refine = '{}': expected 'none' or 'ml'", args.refine));
   }
+  return out;
+}
+
+// A (samples, n) array as n × K.
+Mat Samples(const py::object& y, int n, const std::string& what) {
+  const InArray a = py::cast<InArray>(y);
+  if (a.ndim() != 2 || a.shape(1) != n) {
+    throw std::invalid_argument(
+        fmt::format("{} must be a (samples, {}) array, one row per sample; got shape ({})", what, n,
+                    fmt::join(std::vector<py::ssize_t>(a.shape(), a.shape() + a.ndim()), ", ")));
+  }
+  return Eigen::Map<const Mat>(a.data(), n, a.shape(0));  // row-major K × n = n × K
+}
+
+bool IsList(const py::object& o) { return py::isinstance<py::list>(o) || py::isinstance<py::tuple>(o); }
+
+// y and t as runs: one array, or a list of arrays (one per run); t None: k·dt.
+SampleData RunsOf(const Model& model, const py::object& y, const py::object& t, double dt, double max_gap) {
+  const py::list ys = IsList(y) ? py::list(y) : py::list(py::make_tuple(y));
+  std::vector<Mat> runs;
+  std::vector<std::vector<double>> times(ys.size());
+  for (std::size_t r = 0; r < ys.size(); ++r) {
+    runs.push_back(Samples(ys[r], model.state_size(), ys.size() > 1 ? fmt::format("y[{}]", r) : "y"));
+  }
+  if (!t.is_none()) {
+    const py::list ts = IsList(t) ? py::list(t) : py::list(py::make_tuple(t));
+    if (ts.size() != ys.size()) {
+      throw std::invalid_argument(fmt::format("t has {} runs; y has {}", ts.size(), ys.size()));
+    }
+    for (std::size_t r = 0; r < ts.size(); ++r) times[r] = py::cast<std::vector<double>>(ts[r]);
+  }
+  py::gil_scoped_release release;
+  return SampleDataFromArrays(times, runs, dt, {.max_gap = max_gap});
+}
+
+py::dict Identify(const Model& model, const py::object& y, std::optional<double> dt, const py::object& t,
+                  std::optional<double> max_gap, const IdentifyArgs& args, const py::object& sigma) {
+  if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
+    throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
+  if (max_gap && (!(*max_gap > 0.0) || !std::isfinite(*max_gap))) {
+    throw std::invalid_argument(fmt::format("max_gap = {}: must be > 0", *max_gap));
+  }
+  if (!IsList(y) && t.is_none() && !max_gap) {  // one run on a uniform grid
+    if (!dt) throw std::invalid_argument("dt: required when t is not given");
+    const Mat samples = Samples(y, model.state_size(), "y");
+    if (samples.allFinite()) return Fit(model, samples, *dt, args, sigma, nullptr);
+  }
+  const SampleData data = RunsOf(model, y, t, dt.value_or(0.0), max_gap.value_or(0.0));
+  py::dict out = Fit(model, data.y, data.dt, args, sigma, data.uniform ? nullptr : &data);
+  out["t"] = py::array_t<double>(py::ssize_t(data.t.size()), data.t.data());
+  out["run"] = py::array_t<int>(py::ssize_t(data.run.size()), data.run.data());
+  out["chains"] = data.chains();
+  out["missing_rows"] = data.missing_rows;
   return out;
 }
 
@@ -257,6 +338,39 @@ py::dict Parameters(const Model& m) {
   for (std::size_t i = 0; i < m.spec().beta.size(); ++i)
     d[py::str(m.spec().beta[i].name)] = m.beta()[Eigen::Index(i)];
   return d;
+}
+
+// The bound as `hysid crlb`: at the model's true α, β and x0 over the model's (or the given) grid.
+py::dict CrlbDict(const Model& model, std::optional<std::vector<double>> x0, std::optional<double> t_end,
+                  std::optional<double> dt, const py::object& sigma, bool x0_known, double rtol,
+                  double atol) {
+  const int n = model.state_size();
+  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
+  SensitivityOptions options;
+  options.sim = run.sim;
+  const Vec s = PerState(sigma, n, "sigma");
+  if (s.size() == 0 || !s.allFinite() || !(s.array() > 0.0).all()) {
+    throw std::invalid_argument("sigma: must be finite and > 0");
+  }
+  Crlb c;
+  {
+    py::gil_scoped_release release;
+    c = ComputeCrlb(model, run.x0, run.grid, s, Unknowns::Of(model, !x0_known), options);
+  }
+  py::dict sd;
+  for (std::size_t i = 0; i < c.names.size() && c.ok(); ++i) sd[py::str(c.names[i])] = c.sd[Eigen::Index(i)];
+  py::dict out;
+  out["status"] = ToString(c.status);
+  out["message"] = c.message;
+  out["names"] = c.names;
+  out["sd"] = sd;
+  out["covariance"] = Transposed(c.covariance);  // symmetric
+  out["fisher"] = Transposed(c.fisher);
+  out["mean_e_alpha"] = c.mean_e_alpha;
+  out["mean_e_beta"] = c.mean_e_beta;
+  out["jumps"] = c.jumps;
+  out["samples"] = c.samples;
+  return out;
 }
 
 void BindModel(py::module_& m) {
@@ -299,27 +413,40 @@ PYBIND11_MODULE(hysid, m) {
         "One trajectory: dict with t, j, x and y (samples × states), dt, jumps, status, message");
   m.def(
       "identify",
-      [](const Model& model, const InArray& y, double dt, const std::string& estimator,
-         const std::string& detector, double r, double tau0, const std::string& bound, double false_alarm,
-         const py::object& sigma, double forgetting, double jump_forgetting, bool localize, bool second_pass,
-         bool sets, bool trace, double data_rtol, double data_atol, const std::string& refine) {
+      [](const Model& model, const py::object& y, std::optional<double> dt, const py::object& t,
+         std::optional<double> max_gap, const std::string& estimator, const std::string& detector, double r,
+         double tau0, const std::string& bound, double false_alarm, const py::object& sigma,
+         double forgetting, double jump_forgetting, bool localize, bool second_pass, bool sets, bool trace,
+         double data_rtol, double data_atol, const std::string& refine) {
         const IdentifyArgs a{estimator,  detector,        bound,     r,         tau0,     false_alarm,
                              forgetting, jump_forgetting, data_rtol, data_atol, localize, second_pass,
                              sets,       trace,           refine};
-        return Identify(model, y, dt, a, sigma);
+        return Identify(model, y, dt, t, max_gap, a, sigma);
       },
-      py::arg("model"), py::arg("y"), py::arg("dt"), py::arg("estimator") = "rls",
-      py::arg("detector") = "paper", py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto",
-      py::arg("false_alarm") = 1e-8, py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0,
-      py::arg("jump_forgetting") = 1.0, py::arg("localize") = false, py::arg("second_pass") = false,
-      py::arg("sets") = true, py::arg("trace") = true, py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
-      py::arg("refine") = "none",
-      "The identifier on samples y (samples × states) at spacing dt, as `hysid identify`: dict with alpha, "
-      "beta "
-      "(full vectors), estimates (the unknowns by name), gamma, statistic, threshold, alpha_trace, "
-      "beta_trace, "
-      "jumps_detected, flow_status, jump_status, flow_hull, jump_hull; refine='ml' adds refined (status, "
-      "reason, estimates and standard_errors by name, covariance, alpha, beta, x0) as `--refine ml`");
+      py::arg("model"), py::arg("y"), py::arg("dt") = py::none(), py::arg("t") = py::none(),
+      py::arg("max_gap") = py::none(), py::arg("estimator") = "rls", py::arg("detector") = "residual",
+      py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto", py::arg("false_alarm") = 1e-8,
+      py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0, py::arg("jump_forgetting") = 1.0,
+      py::arg("localize") = false, py::arg("second_pass") = false, py::arg("sets") = true,
+      py::arg("trace") = true, py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
+      py::arg("refine") = "ml",
+      "The identifier on samples y (samples × states) at spacing dt, or at times t (one per sample), as "
+      "`hysid identify`; y (and t) may be lists of arrays, one per run of the system (alpha, beta shared); a "
+      "row with a NaN is left out and restarts the chain, as does a step longer than max_gap (default 5 x "
+      "the "
+      "median step). Dict with alpha, beta (full vectors), estimates (the unknowns by name), gamma, "
+      "statistic, "
+      "threshold, alpha_trace, beta_trace, jumps_detected, flow_status, jump_status, flow_hull, jump_hull; "
+      "with refine='ml' (the default, as `hysid identify`) also refined (status, reason, estimates and "
+      "standard_errors by name, covariance, alpha, beta, x0; with runs or times also chain_x0); "
+      "refine='none' "
+      "and detector='paper' give the paper's online method. With t, runs, NaN rows or max_gap the per-sample "
+      "arrays are over the samples used, listed in t and run, with chains and missing_rows");
+  m.def("crlb", &CrlbDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
+        py::arg("dt") = py::none(), py::arg("sigma") = 1.0, py::arg("x0_known") = false,
+        py::arg("rtol") = SimOptions{}.rtol, py::arg("atol") = SimOptions{}.atol,
+        "The Cramér–Rao lower bound as `hysid crlb`: dict with status, message, names, sd (by name), "
+        "covariance, fisher, mean_e_alpha, mean_e_beta, jumps, samples");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
         "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts");
 }

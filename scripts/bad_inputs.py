@@ -23,7 +23,11 @@ BASE = '[model]\nname = "impact-msd"\nt_end = 4.0\n[grid]\nsigma = 0.0\n'
 def files():
     """name -> content of the inputs the cases read."""
     f = {
-        "quoted.csv": '"t","y1","y2"\n0,1,2\n0.1,1,2\n0.2,1,2\n',
+        "unclosed.csv": 't,y1,y2\n0,1,2\n0.1,"1,2\n0.2,1,2\n',
+        "afterquote.csv": 't,y1,y2\n0,1,2\n0.1,"1"x,2\n0.2,1,2\n',
+        "notime.csv": "t,y1,y2\n0,1,2\n,1,2\n0.2,1,2\n",
+        "runsplit.csv": "run,t,y1,y2\n1,0,1,2\n2,0,1,2\n1,0.1,1,2\n",
+        "runfrac.csv": "run,t,y1,y2\n1.5,0,1,2\n1.5,0.1,1,2\n1.5,0.2,1,2\n",
         "noheader.csv": "0,20,0\n0.0005,19.9,-0.1\n0.001,19.8,-0.2\n",
         "jhuge.csv": "t,j,y1,y2\n0,0,1,2\n0.1,10000000000,1,2\n0.2,0,1,2\n",
         "jfrac.csv": "t,j,y1,y2\n0,0,1,2\n0.1,0.5,1,2\n0.2,0,1,2\n",
@@ -44,7 +48,6 @@ def files():
         "onecol.csv": "t,y1\n0,1\n0.1,1\n0.2,1\n",
         "backwards.csv": "t,y1,y2\n0,1,2\n0.2,1,2\n0.1,1,2\n",
         "same.csv": "t,y1,y2\n0,1,2\n0.1,1,2\n0.1,1,2\n",
-        "irregular.csv": "t,y1,y2\n0,1,2\n0.1,1,2\n0.25,1,2\n0.3,1,2\n",
         "longcell.csv": "t,y1,y2\n0,1,2\n0.1," + "1" * 5000 + ",2\n0.2,1,2\n",
         "longline.csv": "t,y1,y2\n0,1,2\n0.1," + "1," * 600000 + "2\n",
         "binary.csv": "t,y1,y2\n\x00\x01\x02,\xff\xfe,1\n",
@@ -133,20 +136,26 @@ def cases():
     ] + [
         (f"identify: {d}", ["identify", "--data", f])
         for d, f in [
-            ("quoted header", "quoted.csv"), ("no header", "noheader.csv"), ("j = 1e10", "jhuge.csv"),
+            ("a quote not closed", "unclosed.csv"), ("text after a closing quote", "afterquote.csv"),
+            ("time missing", "notime.csv"), ("a run's rows not contiguous", "runsplit.csv"),
+            ("a fractional run number", "runfrac.csv"), ("no header", "noheader.csv"), ("j = 1e10", "jhuge.csv"),
             ("j = 0.5", "jfrac.csv"), ("j = -1", "jneg.csv"), ("a cell of 1e308", "big.csv"),
             ("a cell of 1e400", "overflow.csv"), ("nan cell", "nan.csv"), ("-inf cell", "inf.csv"),
             ("a word", "word.csv"), ("an empty cell", "emptycell.csv"), ("too few cells", "ragged.csv"),
             ("too many cells", "extra.csv"), ("an empty header name", "emptyhead.csv"),
             ("empty file", "empty.csv"), ("only comments", "comments.csv"), ("header only", "headeronly.csv"),
             ("2 samples", "two.csv"), ("too few columns", "onecol.csv"), ("time backwards", "backwards.csv"),
-            ("time repeated", "same.csv"), ("irregular sampling", "irregular.csv"),
+            ("time repeated", "same.csv"),
             ("a 5000-byte cell", "longcell.csv"), ("a 1.2 MB line", "longline.csv"), ("binary bytes", "binary.csv"),
             ("hexadecimal", "hex.csv"), ("missing file", "nosuch.csv"), ("a directory", "o"),
         ]
     ] + [
         ("identify: --trace a directory", ["identify", "--data", "sim.csv", "--trace", "o"]),
         ("identify: --r 1", ["identify", "--r", "1", "--data", "sim.csv"]),
+        ("identify: --columns names a column that is not there",
+         ["identify", "--columns", "t=time,x,v", "--data", "sim.csv"]),
+        ("identify: --columns names one state of two", ["identify", "--columns", "y1", "--data", "sim.csv"]),
+        ("identify: --max-gap 0", ["identify", "--max-gap", "0", "--data", "sim.csv"]),
         ("identify: --forgetting 2", ["identify", "--forgetting", "2", "--data", "sim.csv"]),
         ("identify: --false-alarm 0", ["identify", "--detector", "residual", "--false-alarm", "0", "--data", "sim.csv"]),
         ("identify: --data-atol nan", ["identify", "--detector", "residual", "--data-atol", "nan", "--data", "sim.csv"]),

@@ -1,18 +1,25 @@
 #!/usr/bin/env bash
 # `make check-sanitize`: the test suite under GCC's ASan+UBSan (build-asan/) and under clang 14's
 # UBSan with float-cast-overflow (build-clang-ub/; GCC's UBSan does not check float-to-int casts),
-# then the libFuzzer harnesses of tests/fuzz (build-fuzz/), each for FUZZ_SECONDS (default 60) from
-# a copy of its seed corpus in tests/fuzz/corpus/. Fails on any test failure or sanitizer report.
+# then the libFuzzer harnesses of tests/fuzz (build-fuzz/), each for FUZZ_RUNS executions (default
+# 1 000 000) from a copy of its seed corpus in tests/fuzz/corpus/, stopped after FUZZ_SECONDS
+# (default 900) at the latest. Fails on any test failure, sanitizer report, or a harness that did not
+# reach FUZZ_RUNS.
 # Usage: scripts/check-sanitize.sh [asan|ub|fuzz ...]   (default: all three)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs="${JOBS:-$(nproc 2>/dev/null || echo 2)}"
-fuzz_seconds="${FUZZ_SECONDS:-60}"
+fuzz_runs="${FUZZ_RUNS:-1000000}"
+fuzz_seconds="${FUZZ_SECONDS:-900}"
 steps=("$@")
 [ ${#steps[@]} -eq 0 ] && steps=(asan ub fuzz)
 launcher=()
 command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHYSID_BUILD_BENCHMARKS=OFF "${launcher[@]}")
+# No Python module: a library built with ASan cannot be loaded into the system's python3.
+common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHYSID_BUILD_BENCH=OFF -DHYSID_BUILD_PYTHON=OFF "${launcher[@]}")
+# Debug information records the build directory; the install test checks that no installed file
+# names it, so paths below the source tree are recorded relative to it.
+prefix_map="-ffile-prefix-map=$PWD/="
 # TBB's worker threads are still alive at exit; LeakSanitizer would report their stacks.
 # ASan reserves terabytes of address space for its shadow memory, so `ulimit -v` cannot bound it;
 # hard_rss_limit_mb makes each process stop itself at 3 GB resident instead.
@@ -24,13 +31,13 @@ for step in "${steps[@]}"; do
   case "$step" in
     asan)
       cmake -S . -B build-asan "${common[@]}" -DCMAKE_CXX_COMPILER=g++ \
-        -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+        -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer $prefix_map"
       cmake --build build-asan -j "$jobs"
       ctest --test-dir build-asan --no-tests=error --output-on-failure -j "$jobs"
       ;;
     ub)
       cmake -S . -B build-clang-ub "${common[@]}" -DCMAKE_CXX_COMPILER=clang++-14 \
-        -DCMAKE_CXX_FLAGS="-fsanitize=undefined,float-cast-overflow -fno-sanitize-recover=all -fno-omit-frame-pointer"
+        -DCMAKE_CXX_FLAGS="-fsanitize=undefined,float-cast-overflow -fno-sanitize-recover=all -fno-omit-frame-pointer $prefix_map"
       cmake --build build-clang-ub -j "$jobs"
       ctest --test-dir build-clang-ub --no-tests=error --output-on-failure -j "$jobs"
       ;;
@@ -43,13 +50,17 @@ for step in "${steps[@]}"; do
         rm -rf "$work"; mkdir -p "$work"
         cp tests/fuzz/corpus/"$h"/* "$work"/
         # -rss_limit_mb: the named limits keep a 1 MiB line far below it.
-        build-fuzz/bin/fuzz_"$h" "$work" -max_total_time="$fuzz_seconds" -max_len=65536 -rss_limit_mb=2048 \
+        build-fuzz/bin/fuzz_"$h" "$work" -runs="$fuzz_runs" -max_total_time="$fuzz_seconds" -max_len=65536 -rss_limit_mb=2048 \
           -artifact_prefix=build-fuzz/crash-"$h"- -print_final_stats=1 2>&1 | tee build-fuzz/fuzz-"$h".log |
           grep -E "^(Done|stat::number_of_executed_units)|ERROR|SUMMARY" || true
         if grep -q -E "^(==[0-9]+==ERROR|SUMMARY: )" build-fuzz/fuzz-"$h".log; then
           echo "fuzz_$h: a finding, see build-fuzz/fuzz-$h.log" >&2; exit 1
         fi
         grep -q "^Done" build-fuzz/fuzz-"$h".log || { echo "fuzz_$h did not finish" >&2; exit 1; }
+        runs=$(sed -n 's/^Done \([0-9]*\) runs.*/\1/p' build-fuzz/fuzz-"$h".log)
+        if [ "${runs:-0}" -lt "$fuzz_runs" ]; then
+          echo "fuzz_$h: ${runs:-0} executions in ${fuzz_seconds} s, fewer than FUZZ_RUNS=$fuzz_runs" >&2; exit 1
+        fi
       done
       ;;
     *) echo "check-sanitize: unknown step '$step' (asan, ub, fuzz)" >&2; exit 2 ;;

@@ -11,6 +11,7 @@
 #include <sundials/sundials_context.h>
 #include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
+#include "sim/nordsieck.hpp"
 #include "sim/sundials_ptr.hpp"
 
 namespace hysid {
@@ -156,7 +157,11 @@ class Run {
     if (!cvode_) return FailBool(SimStop::kSolverFailure, "CVodeCreate failed");
     void* mem = cvode_.get();
     if (!Check(CVodeSetErrHandlerFn(mem, CaptureError, &data_), "CVodeSetErrHandlerFn")) return false;
-    if (!Check(CVodeInit(mem, FlowRhs, 0.0, y_.get()), "CVodeInit")) return false;
+    {
+      const nordsieck::CloneRecorder recorder(y_.get());
+      if (!Check(CVodeInit(mem, FlowRhs, 0.0, y_.get()), "CVodeInit")) return false;
+      history_.Locate(mem, recorder.clones(), n_);
+    }
     if (!Check(CVodeSStolerances(mem, options_.rtol, options_.atol), "CVodeSStolerances")) return false;
     nls_.reset(SUNNonlinSol_FixedPoint(y_.get(), 0, ctx_.get()));
     if (!nls_) return FailBool(SimStop::kSolverFailure, "SUNNonlinSol_FixedPoint failed");
@@ -264,8 +269,9 @@ class Run {
   }
 
   // Samples with t_k < t_hi (or ≤ when inclusive) from the last step's interpolating polynomial.
-  // Few samples: CVodeGetDky each. Many: read the polynomial's q + 1 Taylor coefficients at t_n once
-  // (q + 1 CVodeGetDky calls) and evaluate them by Horner's rule per sample.
+  // Few samples: y(t_k) each, as CVodeGetDky(t_k, 0). Many: the polynomial's q + 1 Taylor
+  // coefficients at t_n once (as CVodeGetDky(t_n, k), k = 0..q), then Horner's rule per sample. Both
+  // read CVODE's Nordsieck array directly when history_ allows (the same bits, sim/nordsieck.hpp).
   void EmitInterpolated(double t_hi, bool inclusive) {
     long end = next_sample_;
     while (end < sample_count_ && (inclusive ? SampleTime(end) <= t_hi : SampleTime(end) < t_hi)) {
@@ -279,24 +285,42 @@ class Run {
     CVodeGetLastOrder(mem, &q);
     CVodeGetCurrentTime(mem, &tn);
     CVodeGetLastStep(mem, &h);
-    const Eigen::Map<const Eigen::VectorXd> tmp(N_VGetArrayPointer_Serial(scratch_.get()), n_);
+    const bool direct = history_.Prepare(mem, q, tn, h, scratch_.get());
+    double* tmp = N_VGetArrayPointer_Serial(scratch_.get());
     if (count <= q + 1 || h == 0.0) {
       for (long k = next_sample_; k < end; ++k) {
         const double t = std::min(SampleTime(k), t_hi);
-        CVodeGetDky(mem, t, 0, scratch_.get());
-        EmitAt(SampleTime(k), tmp);
+        if (direct) {
+          history_.Dky(t, 0, tmp);
+        } else {
+          CVodeGetDky(mem, t, 0, scratch_.get());
+        }
+        EmitAt(SampleTime(k), Eigen::Map<const Eigen::VectorXd>(tmp, n_));
       }
       return;
     }
-    // coefficients_.col(k) = h^k / k! · y^(k)(t_n), so y(t) = Σ_k coefficients_.col(k) s^k,
-    // s = (t − t_n)/h: exactly the polynomial CVodeGetDky evaluates.
+    TaylorCoefficients(q, tn, h, direct);
+    EmitHorner(q, tn, h, t_hi, end);
+  }
+
+  // coefficients_.col(k) = h^k / k! · y^(k)(t_n), so y(t) = Σ_k coefficients_.col(k) s^k,
+  // s = (t − t_n)/h: exactly the polynomial CVodeGetDky evaluates.
+  void TaylorCoefficients(int q, double tn, double h, bool direct) {
     coefficients_.resize(n_, q + 1);
+    double* tmp = N_VGetArrayPointer_Serial(scratch_.get());
     double scale = 1.0;
     for (int k = 0; k <= q; ++k) {
-      CVodeGetDky(mem, tn, k, scratch_.get());
-      coefficients_.col(k) = scale * tmp;
+      if (direct) {
+        history_.DkyAtTn(k, tmp);
+      } else {
+        CVodeGetDky(cvode_.get(), tn, k, scratch_.get());
+      }
+      for (long i = 0; i < n_; ++i) coefficients_(i, k) = scale * tmp[i];
       scale *= h / static_cast<double>(k + 1);
     }
+  }
+
+  void EmitHorner(int q, double tn, double h, double t_hi, long end) {
     const double* c = coefficients_.data();  // column-major n × (q + 1)
     const long n = n_;
     for (long k = next_sample_; k < end; ++k) {
@@ -351,6 +375,7 @@ class Run {
   double t_ = 0.0;
   Vec x_;
   Mat coefficients_;
+  nordsieck::History history_;
   long stats_steps_ = 0;
   long rhs_evals_ = 0;
   long root_evals_ = 0;

@@ -4,11 +4,35 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <vector>
 
 #include "core/model/regression.hpp"
 #include "core/stats/quantiles.hpp"
 
 namespace hysid {
+namespace {
+
+// StudentUpperQuantile(tail, ν), remembered per thread: the runs of a sweep ask for the same few
+// dozen (tail, ν) pairs, and each costs a Newton solve with incomplete beta functions. A pure
+// function of its arguments, so the cache changes no result.
+double CachedStudentUpperQuantile(double tail, long nu) {
+  struct Entry {
+    double tail;
+    long nu;
+    double q;
+  };
+  thread_local std::vector<Entry> cache;
+  for (const Entry& e : cache) {
+    if (e.tail == tail && e.nu == nu) return e.q;
+  }
+  constexpr std::size_t kMaxEntries = 1024;
+  if (cache.size() >= kMaxEntries) cache.clear();
+  const double q = StudentUpperQuantile(tail, static_cast<double>(nu));
+  cache.push_back(Entry{tail, nu, q});
+  return q;
+}
+
+}  // namespace
 
 const DetectorDescriptor& ResidualDetectorDescriptor() {
   static const DetectorDescriptor d{
@@ -66,15 +90,13 @@ void ResidualDetector::Reset() {
   have_jac_ = false;
 }
 
-double ResidualDetector::Quantile() {
-  const long nu = std::min(scale_samples_, kMemory);
-  if (nu == cached_nu_) return cached_q_;
+double ResidualDetector::QuantileAt(long nu) {
   // Largest grid point ≤ ν.
   const auto it = std::upper_bound(grid_.begin(), grid_.end(), nu);
   const auto idx = static_cast<std::size_t>(std::distance(grid_.begin(), it) - 1);
   if (grid_q_[idx] < 0.0) {
     const double tail = false_alarm_ / (2.0 * static_cast<double>(rows_.size()));
-    grid_q_[idx] = StudentUpperQuantile(tail, static_cast<double>(grid_[idx]));
+    grid_q_[idx] = CachedStudentUpperQuantile(tail, grid_[idx]);
   }
   cached_nu_ = nu;
   cached_q_ = grid_q_[idx];
@@ -182,24 +204,6 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
 void ResidualDetector::Observe(const SampleContext& /*context*/, const Decision& /*decision*/) {
   if (!active_) return;
   UpdateScale();
-}
-
-void ResidualDetector::UpdateScale() {
-  const long n = std::min(scale_samples_ + 1, kMemory);
-  const double w = 1.0 / static_cast<double>(n);
-  for (std::size_t i = 0; i < rows_.size(); ++i) {
-    double r = rho2_[i] / (1.0 + lev_[i]);
-    if (scale_samples_ >= kUnclipped) {
-      // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
-      // clipping everything to zero).
-      const double reference =
-          noise_[i] + excess_[i] + round2_[i] / (1.0 + lev_[i]) + std::numeric_limits<double>::min();
-      r = std::min(r, kClip * kClip * reference);
-    }
-    const double x = (r - kappa_ * noise_[i]) / kappa_;
-    excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
-  }
-  ++scale_samples_;
 }
 
 }  // namespace hysid

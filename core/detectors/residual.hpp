@@ -126,14 +126,20 @@ class ResidualDetector final : public JumpDetector {
   }
 
  private:
-  double Quantile();
+  // q for ν = min(scale samples, kMemory): cached while ν stays on one value (from kMemory on).
+  double Quantile() {
+    const long nu = std::min(scale_samples_, kMemory);
+    return nu == cached_nu_ ? cached_q_ : QuantileAt(nu);
+  }
+  double QuantileAt(long nu);
   void NoiseVariance(const SampleContext& c);
   void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
                      long version, const Vec* sigma, double data_rtol, double data_atol);
   // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); stores what
   // UpdateScale needs.
-  double RowStatistic(std::size_t i, double rho, double lev, double magnitude, const double* prev,
-                      const double* cur, double y, bool known_noise) {
+  [[gnu::always_inline]] double RowStatistic(std::size_t i, double rho, double lev, double magnitude,
+                                             const double* prev, const double* cur, double y,
+                                             bool known_noise) {
     constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
     const int r = rows_[i];
     const double round = kRound * (std::abs(cur[r]) + std::abs(prev[r]) + magnitude + std::abs(y));
@@ -147,7 +153,28 @@ class ResidualDetector final : public JumpDetector {
     return v > 0.0 ? rho * rho / v : (rho == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
   }
   // The robust scale update of Observe (active_ set).
-  void UpdateScale();
+  [[gnu::always_inline]] void UpdateScale() {
+    const long n = std::min(scale_samples_ + 1, kMemory);
+    // 1/kMemory folded by the compiler (the same correctly rounded quotient) once n stays there.
+    constexpr double kMemoryWeight = 1.0 / static_cast<double>(kMemory);
+    const double w = n == kMemory ? kMemoryWeight : 1.0 / static_cast<double>(n);
+    for (std::size_t i = 0; i < rows_.size(); ++i) {
+      double r = rho2_[i] / (1.0 + lev_[i]);
+      // Clipping can only act when r exceeds kClip² (σ² + s²), a lower bound of kClip² · reference
+      // (rounded sums and products of non-negative terms are monotonic): below it the reference and
+      // its division are skipped, with the same result.
+      const double base = noise_[i] + excess_[i];
+      if (scale_samples_ >= kUnclipped && !(r <= kClip * kClip * base)) {
+        // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
+        // clipping everything to zero).
+        const double reference = base + round2_[i] / (1.0 + lev_[i]) + std::numeric_limits<double>::min();
+        r = std::min(r, kClip * kClip * reference);
+      }
+      const double x = (r - kappa_ * noise_[i]) / kappa_;
+      excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
+    }
+    ++scale_samples_;
+  }
 
   Model model_;
   double false_alarm_;

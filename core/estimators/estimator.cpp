@@ -9,6 +9,7 @@
 
 #include "core/estimators/frisch.hpp"
 #include "core/estimators/gtls.hpp"
+#include "core/estimators/integral.hpp"
 #include "core/estimators/rls.hpp"
 
 namespace hysid {
@@ -50,7 +51,7 @@ void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
 
 const std::vector<const EstimatorDescriptor*>& EstimatorDescriptors() {
   static const std::vector<const EstimatorDescriptor*> all{&RlsDescriptor(), &GtlsDescriptor(),
-                                                           &FrischDescriptor()};
+                                                           &FrischDescriptor(), &IntegralDescriptor()};
   return all;
 }
 

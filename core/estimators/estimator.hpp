@@ -1,8 +1,8 @@
 // Recursive linear estimators for θ in y = Φθ (+ noise), one vector measurement per update.
 //
-// Pluggable (EstimatorKind: rls, and the errors-in-variables estimators gtls, frisch; each described
-// once by an EstimatorDescriptor): the identifier keeps one estimator for α (flow regression) and one
-// for β (jump regression), as in Algorithm 1.
+// Pluggable (EstimatorKind: rls, the errors-in-variables estimators gtls, frisch, and integral, for
+// α only; each described once by an EstimatorDescriptor): the identifier keeps one estimator for α
+// (flow regression) and one for β (jump regression), as in Algorithm 1.
 // An estimator never produces NaN: degenerate data (no excitation, repeated rows, a zero column) is
 // reported in status() and the estimate is left where it was.
 #pragma once
@@ -25,7 +25,7 @@ enum class EstimatorStatus {
 };
 const char* ToString(EstimatorStatus status);
 
-enum class EstimatorKind { kRls, kGtls, kFrisch };
+enum class EstimatorKind { kRls, kGtls, kFrisch, kIntegral };
 // frisch: the box rule (core/estimators/frisch.hpp) and the point estimate.
 enum class FrischBox { kIntersect, kCumulative };
 enum class FrischPoint { kCentre, kClampedRls };
@@ -123,6 +123,9 @@ class Estimator {
   virtual std::string name() const = 0;
   // Back to the prior θ0.
   virtual void Reset() = 0;
+  // The next row does not continue the trajectory of the previous ones (a jump, a gap in the data,
+  // another run). Only estimators that integrate consecutive rows (`integral`) use it.
+  virtual void Break() {}
 
  protected:
   explicit Estimator(Vec theta0) : theta_(std::move(theta0)) {}
@@ -158,6 +161,10 @@ struct EstimatorDescriptor {
   std::vector<std::string_view> options;  // the EstimatorOptions() it reads
   bool needs_noise_shape = false;         // the identifier derives one when none is given
   bool reports_box = false;               // solution_box()
+  // Its rows must be the consecutive flow differences of one trajectory (Break() between pieces):
+  // an α estimator only; where one kind is chosen for both, β gets rls (IdentifierSettings::
+  // UseEstimator).
+  bool flow_only = false;
   std::unique_ptr<Estimator> (*make)(const EstimatorSettings& settings, const Vec& theta0) = nullptr;
   bool Reads(std::string_view option) const;
 };
@@ -165,7 +172,7 @@ struct EstimatorDescriptor {
 // Every estimator, in the order of EstimatorKind.
 const std::vector<const EstimatorDescriptor*>& EstimatorDescriptors();
 const EstimatorDescriptor& DescriptorOf(EstimatorKind kind);
-// Throws std::invalid_argument "unknown estimator 'x' (known: rls, gtls, frisch)".
+// Throws std::invalid_argument "unknown estimator 'x' (known: rls, gtls, frisch, integral)".
 EstimatorKind ParseEstimatorKind(std::string_view name);
 std::string_view ToString(EstimatorKind kind);
 std::vector<std::string> EstimatorNames();

@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 
 #include <fmt/format.h>
 
 #include "core/detectors/paper.hpp"
 #include "core/detectors/residual.hpp"
+#include "core/estimators/integral.hpp"
 #include "core/estimators/rls.hpp"
 #include "core/identify/localize.hpp"
 #include "core/model/noise_shape.hpp"
@@ -60,6 +62,11 @@ IdentifierSettings WithNoiseShapes(const Model& model, double dt, const Identifi
   return out;
 }
 
+void IdentifierSettings::UseEstimator(EstimatorKind kind) {
+  flow_estimator.kind = kind;
+  jump_estimator.kind = DescriptorOf(kind).flow_only ? EstimatorKind::kRls : kind;
+}
+
 struct Identifier::State {
   State(const Model& m, double step, const IdentifierSettings& s)
       : model(m),
@@ -88,14 +95,19 @@ struct Identifier::State {
     // bit-equality).
     if (s.direct_calls && builder.flow_layout().rows.size() == 1) {
       rls = dynamic_cast<Rls*>(flow.get());
-      if (rls != nullptr) {
+      integral = dynamic_cast<IntegralLs*>(flow.get());
+      if (rls != nullptr || integral != nullptr) {
         if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
         residual = dynamic_cast<ResidualDetector*>(detector.get());
         const int u = static_cast<int>(builder.flow_layout().unknown.size());
-        row_block = paper != nullptr      ? ChooseRowBlock<kPaperDirect>(m.state_size(), u)
-                    : residual != nullptr ? ChooseRowBlock<kResidualDirect>(m.state_size(), u)
-                                          : ChooseRowBlock<kInterface>(m.state_size(), u);
+        row_block = rls != nullptr ? ChooseRowBlock<Rls>(*this, m.state_size(), u)
+                                   : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
       }
+    }
+    if (DescriptorOf(s.jump_estimator.kind).flow_only) {
+      throw std::invalid_argument(
+          fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
+                      ToString(s.jump_estimator.kind)));
     }
     if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
       throw std::invalid_argument(
@@ -110,10 +122,14 @@ struct Identifier::State {
   RegressionBuilder builder;
   std::unique_ptr<Estimator> flow, jump;
   std::unique_ptr<JumpDetector> detector;
-  Rls* rls = nullptr;                    // the α estimator, when it is RLS on one row (direct_calls)
-  PaperDetector* paper = nullptr;        // with rls: the detector, when it is the paper's (constant Jacobian)
-  ResidualDetector* residual = nullptr;  // with rls: the detector, when it is the residual detector
-  RowBlockFn row_block = nullptr;        // with rls: RowBlock for the model's sizes
+  // The α estimator on one identified row (direct_calls), when it is RLS or integral.
+  Rls* rls = nullptr;
+  IntegralLs* integral = nullptr;
+  // With either: the detector, when it is the paper's (on a constant Jacobian) or the residual
+  // detector, and RowBlock for the model's sizes.
+  PaperDetector* paper = nullptr;
+  ResidualDetector* residual = nullptr;
+  RowBlockFn row_block = nullptr;
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -172,6 +188,7 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
     s.builder.Jump(s.prev, x, s.psi, s.yj);
   }
   s.jump->Update(s.psi, s.yj);
+  s.flow->Break();
   ++s.jumps;
   if (s.settings.sets) s.jump_set.Add(s.prev);
 }
@@ -194,13 +211,13 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given) {
     s.has_prev = true;
     return {};
   }
-  if (s.rls != nullptr && given == nullptr) {  // the row block counts the sample
+  if (s.row_block != nullptr && given == nullptr) {  // the row block counts the sample
     s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
     Decision d;
     s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
     return d;
   }
-  // Several identified rows, an estimator other than RLS, or given labels: the interfaces throughout.
+  // Several identified rows, another estimator, or given labels: the interfaces throughout.
   ++s.samples;
   s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
   const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
@@ -244,13 +261,19 @@ SampleContext Identifier::Context(State& s, const double* x, const double* phi, 
                        .data_atol = s.settings.data_atol};
 }
 
-// One identified row estimated by RLS (s.rls set), for `count` consecutive samples x_k = xs + k·n
-// after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built. kPaper: the
-// paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the detector's
-// interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
-template <int N, int P, Identifier::DetectorCall kCall>
+// One identified row estimated by RLS or integral (E, s.rls or s.integral set), for `count` consecutive
+// samples x_k = xs + k·n after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built.
+// kPaper: the paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the
+// detector's interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
+template <int N, int P, Identifier::DetectorCall kCall, class E>
 void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
                           Decision* decisions) {
+  E* est = nullptr;
+  if constexpr (std::is_same_v<E, Rls>) {
+    est = s.rls;
+  } else {
+    est = s.integral;
+  }
   const Eigen::Index n = N > 0 ? N : s.prev.size();
   const Eigen::Index u = P > 0 ? P : s.phi.cols();
   for (Eigen::Index k = 0; k < count; ++k) {
@@ -259,7 +282,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
     auto update = [&](const Decision& d) {
       if (!d.gamma) {
-        s.rls->UpdateRow<P>(phi + k * u, y[k]);
+        est->template UpdateRow<P>(phi + k * u, y[k]);
         AfterFlowUpdate<P>(s);
       } else {
         AfterJump(s, ConstVecMap(x, n), alpha_class);
@@ -269,16 +292,16 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     if constexpr (kCall == kPaperDirect) {
       d = s.paper->ClassifyConstant<N>(s.prev.data(), x, n, s.dt, alpha_class.data(),
                                        s.frozen ? -2 : s.version,
-                                       s.frozen ? s.frozen_updates : s.rls->updates());
+                                       s.frozen ? s.frozen_updates : est->updates());
       update(d);
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
       // covariance pointer, taken before the update).
       const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
-                                   : s.rls->covariance_matrix()->data();
+                                   : est->covariance_matrix()->data();
       d = s.residual->ClassifyObserveRow<N, P>(
           s.prev.data(), x, n, s.dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()),
-          cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : s.rls->updates(),
+          cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : est->updates(),
           s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
       update(d);
     } else {
@@ -292,12 +315,19 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   }
 }
 
-template <Identifier::DetectorCall kCall>
+template <Identifier::DetectorCall kCall, class E>
 Identifier::RowBlockFn Identifier::ChooseRowBlock(int n, int u) {
-  if (n == 2 && u == 2) return &RowBlock<2, 2, kCall>;
-  if (n == 2 && u == 1) return &RowBlock<2, 1, kCall>;
-  if (n == 2 && u == 3) return &RowBlock<2, 3, kCall>;
-  return &RowBlock<0, 0, kCall>;
+  if (n == 2 && u == 2) return &RowBlock<2, 2, kCall, E>;
+  if (n == 2 && u == 1) return &RowBlock<2, 1, kCall, E>;
+  if (n == 2 && u == 3) return &RowBlock<2, 3, kCall, E>;
+  return &RowBlock<0, 0, kCall, E>;
+}
+
+template <class E>
+Identifier::RowBlockFn Identifier::ChooseRowBlock(const State& s, int n, int u) {
+  return s.paper != nullptr      ? ChooseRowBlock<kPaperDirect, E>(n, u)
+         : s.residual != nullptr ? ChooseRowBlock<kResidualDirect, E>(n, u)
+                                 : ChooseRowBlock<kInterface, E>(n, u);
 }
 
 void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
@@ -313,7 +343,7 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
     const Decision d = Step(samples.col(col));
     if (decisions != nullptr) decisions[col] = d;
   };
-  if (s.rls == nullptr || (count > 1 && samples.outerStride() != n)) {
+  if (s.row_block == nullptr || (count > 1 && samples.outerStride() != n)) {
     for (; k < count; ++k) step(k);
     return;
   }
@@ -329,6 +359,17 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
 
 void Identifier::Finish() {
   if (s_->has_prev && s_->settings.sets) s_->flow_set.Add(s_->prev);
+}
+
+void Identifier::Restart() {
+  Finish();
+  s_->flow->Break();  // estimators on consecutive rows (integral) do not join rows across the break
+  s_->has_prev = false;
+}
+
+void Identifier::SetStep(double dt) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument(fmt::format("dt = {}: must be > 0", dt));
+  s_->dt = dt;
 }
 
 void Identifier::BeginSecondPass() {
@@ -406,9 +447,43 @@ void Record(Eigen::Index k, const Decision& d, IdentifyResult* r) {
   r->threshold[static_cast<std::size_t>(k)] = d.threshold;
 }
 
+// Irregular sampling, chains or non-finite columns: one Step per sample, with its own δt and a
+// Restart at each chain start and after each skipped column.
+bool NeedsChains(const Mat& y, const IdentifyOptions& options) {
+  return !options.times.empty() || !options.chain_start.empty() || !y.allFinite();
+}
+
+void ChainPass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+  r->skipped_samples = 0;
+  r->chains = 0;
+  bool open = false;
+  for (Eigen::Index k = 0; k < y.cols(); ++k) {
+    const auto u = static_cast<std::size_t>(k);
+    if (!options.chain_start.empty() && options.chain_start[u] && open) {
+      id.Restart();
+      open = false;
+    }
+    if (!y.col(k).allFinite()) {
+      ++r->skipped_samples;
+      Record(k, Decision{}, r);
+      if (open) id.Restart();
+      open = false;
+    } else {
+      if (open && !options.times.empty()) id.SetStep(options.times[u] - options.times[u - 1]);
+      r->chains += open ? 0 : 1;
+      open = true;
+      Record(k, options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[u] != 0), r);
+    }
+    if (!options.trace) continue;
+    r->alpha_trace.col(k) = id.alpha_hat();
+    r->beta_trace.col(k) = id.beta_hat();
+  }
+}
+
 // One pass over the samples. Without a trace or labels, samples go to Feed in chunks (its block
 // path); a trace needs α̂, β̂ after each sample, labels a Step with each.
 void Pass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+  if (NeedsChains(y, options)) return ChainPass(id, y, options, r);
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
     constexpr Eigen::Index kChunk = 4096;
@@ -474,6 +549,13 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
   if (!options.labels.empty() && static_cast<Eigen::Index>(options.labels.size()) != y.cols()) {
     throw std::invalid_argument(fmt::format("IdentifyOptions::labels has {} entries; the data has {} samples",
                                             options.labels.size(), y.cols()));
+  }
+  for (const auto& [what, size] :
+       {std::pair{"times", options.times.size()}, std::pair{"chain_start", options.chain_start.size()}}) {
+    if (size != 0 && static_cast<Eigen::Index>(size) != y.cols()) {
+      throw std::invalid_argument(
+          fmt::format("IdentifyOptions::{} has {} entries; the data has {} samples", what, size, y.cols()));
+    }
   }
   IdentifyResult r;
   Identifier id(model, dt, ResolveNoiseShapes(model, y, dt, settings, &r));

@@ -59,6 +59,10 @@ struct IdentifierSettings {
   // compile-time sizes for n = 2 and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost
   // per sample). false: always the interfaces (for tests and comparisons).
   bool direct_calls = true;
+
+  // Chooses the estimator for α and β: `kind` for both, except that a flow-only estimator
+  // (descriptor flow_only, e.g. integral) leaves β to rls.
+  void UseEstimator(EstimatorKind kind);
 };
 
 // Noise shapes of the errors-in-variables estimators. For each of flow_estimator and jump_estimator
@@ -96,6 +100,12 @@ class Identifier {
   void Feed(const ConstMatRef& samples, Decision* decisions);
   // Ends the stream: the newest sample joins Λ (the paper puts every ξ(t) in Λ until a jump moves it).
   void Finish();
+  // Ends a chain (a gap, a missing sample, the end of a run): the newest sample joins Λ, and the next
+  // sample only initialises, so no regression or detector statistic spans the break. Estimators
+  // (told by Estimator::Break, as at a jump), sets and the detector's learned state carry on.
+  void Restart();
+  // δt of the following sample pairs (irregular sampling). Throws std::invalid_argument unless > 0.
+  void SetStep(double dt);
   // Starts a second pass over the same stream: α̂ and its covariance are frozen for classification,
   // the estimators and sets restart from their priors, the detector keeps what it has learned.
   void BeginSecondPass();
@@ -116,11 +126,14 @@ class Identifier {
   using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*, Decision*);
   // The detector of a row block: through its interface, or called directly.
   enum DetectorCall { kInterface, kPaperDirect, kResidualDirect };
-  template <int N, int P, DetectorCall kCall>
+  // E: the α estimator's type on the direct path (Rls or IntegralLs).
+  template <int N, int P, DetectorCall kCall, class E>
   static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
                        Decision* decisions);
-  template <DetectorCall kCall>
+  template <DetectorCall kCall, class E>
   static RowBlockFn ChooseRowBlock(int n, int u);
+  template <class E>
+  static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
   static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
                                const Vec& alpha_class);
   template <int P>
@@ -130,12 +143,19 @@ class Identifier {
   std::unique_ptr<State> s_;
 };
 
-// A whole run: samples y (n × K, column k measured at t_k = kδt).
+// A whole run: samples y (n × K, column k measured at t_k = kδt, or at times[k]).
 struct IdentifyOptions {
   bool trace = false;  // keep per-sample α̂, β̂ (else only γ, statistic, threshold)
   // Given labels γ per sample (one per column of y) instead of the detector's decisions, e.g. the
   // true jumps, to study the estimators alone. Empty: the detector decides.
   std::vector<std::uint8_t> labels{};
+  // Irregular sampling: the time of each sample (one per column of y); each pair uses its own step.
+  // Empty: t_k = kδt.
+  std::vector<double> times{};
+  // 1 where a chain starts (a new run, a gap, after a missing sample): Identifier::Restart before that
+  // sample. Empty: one chain. With either of these two, or a non-finite column in y, samples are fed
+  // one by one; a column with a non-finite entry is skipped (γ = 0, statistic 0) and breaks the chain.
+  std::vector<std::uint8_t> chain_start{};
 };
 
 struct IdentifyResult {
@@ -165,6 +185,9 @@ struct IdentifyResult {
   // Estimators that report a solution box (frisch): the final boxes of the unknowns, u × 2 (lower,
   // upper); empty otherwise.
   Mat flow_box, jump_box;
+  // IdentifyOptions::chain_start or non-finite columns: samples skipped, chains fed.
+  long skipped_samples = 0;
+  long chains = 1;
 };
 
 // gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <system_error>
 
@@ -134,33 +135,95 @@ std::string_view Trim(std::string_view s) {
   return s.substr(b, e - b);
 }
 
-// Splits on commas; every cell is checked against the cell limit before it is copied.
-std::vector<std::string> Split(std::string_view line, const std::string& name, long line_no) {
+void CheckCellSize(std::string_view cell, const std::string& name, long line_no, std::size_t column) {
   const auto max = static_cast<std::size_t>(LimitValue(kMaxCsvCell));
-  std::vector<std::string> cells;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    const std::string_view cell =
-        Trim(line.substr(start, comma == std::string_view::npos ? comma : comma - start));
-    if (cell.size() > max) {
-      throw std::invalid_argument(fmt::format(
-          "{}:{}: column {}: the cell '{}' is longer than the limit of {} {} (raise it with {}=N)", name,
-          line_no, cells.size() + 1, Abbreviated(cell, 40), max, kMaxCsvCell.what, kMaxCsvCell.variable));
+  if (cell.size() > max) {
+    throw std::invalid_argument(fmt::format(
+        "{}:{}: column {}: the cell '{}' is longer than the limit of {} {} (raise it with {}=N)", name,
+        line_no, column, Abbreviated(cell, 40), max, kMaxCsvCell.what, kMaxCsvCell.variable));
+  }
+}
+
+// A quoted field starting at rec[open] (the quote): its text into *cell, the index after the closing
+// quote into *end. False when the record ends inside the quotes.
+bool QuotedField(std::string_view rec, std::size_t open, std::string* cell, std::size_t* end) {
+  std::size_t j = open + 1;
+  while (j < rec.size()) {
+    const std::size_t quote = rec.find('"', j);
+    if (quote == std::string_view::npos) return false;
+    cell->append(rec.substr(j, quote - j));
+    if (quote + 1 < rec.size() && rec[quote + 1] == '"') {  // "" inside quotes
+      cell->push_back('"');
+      j = quote + 2;
+      continue;
     }
-    cells.emplace_back(cell);
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
+    *end = quote + 1;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool SplitCsvRecord(std::string_view rec, const std::string& name, long line_no,
+                    std::vector<std::string>* cells) {
+  cells->clear();
+  std::size_t i = 0;
+  const std::size_t n = rec.size();
+  while (true) {
+    std::size_t b = i;
+    while (b < n && (rec[b] == ' ' || rec[b] == '\t')) ++b;
+    std::string cell;
+    if (b < n && rec[b] == '"') {
+      std::size_t j = 0;
+      if (!QuotedField(rec, b, &cell, &j)) return false;
+      while (j < n && (rec[j] == ' ' || rec[j] == '\t' || rec[j] == '\r')) ++j;
+      if (j < n && rec[j] != ',') {
+        throw std::invalid_argument(fmt::format(
+            "{}:{}: column {}: text '{}' after the closing quote of a quoted cell (write a quote "
+            "inside quotes as \"\")",
+            name, line_no, cells->size() + 1, Abbreviated(rec.substr(j, rec.find(',', j) - j), 40)));
+      }
+      CheckCellSize(cell, name, line_no, cells->size() + 1);
+      i = j;
+    } else {
+      const std::size_t comma = rec.find(',', i);
+      const std::string_view raw = Trim(rec.substr(i, comma == std::string_view::npos ? comma : comma - i));
+      CheckCellSize(raw, name, line_no, cells->size() + 1);
+      cell.assign(raw);
+      i = comma == std::string_view::npos ? n : comma;
+    }
+    cells->push_back(std::move(cell));
+    if (i >= n) return true;
+    ++i;  // past the comma
+  }
+}
+
+std::vector<std::string> SplitCsvLine(std::string_view line, const std::string& name, long line_no) {
+  std::vector<std::string> cells;
+  if (!SplitCsvRecord(line, name, line_no, &cells)) {
+    throw std::invalid_argument(
+        fmt::format("{}:{}: column {}: the quoted cell is not closed", name, line_no, cells.size() + 1));
   }
   return cells;
 }
 
-bool ParseNumber(const std::string& cell, double* value) {
+namespace {
+
+bool ParseNumber(std::string_view cell, double* value) {
+  cell = Trim(cell);
   const char* first = cell.data();
   const char* last = cell.data() + cell.size();
   if (!cell.empty() && *first == '+') ++first;
   const auto [end, ec] = std::from_chars(first, last, *value);
   return !cell.empty() && ec == std::errc() && end == last;
+}
+
+// Empty, NA, or a number that reads as NaN (nan, NaN, -nan).
+bool IsMissing(std::string_view cell, double* value) {
+  cell = Trim(cell);
+  if (cell.empty() || cell == "NA") return true;
+  return ParseNumber(cell, value) && std::isnan(*value);
 }
 
 void CheckHeader(const CsvTable& table, long line_no) {
@@ -171,12 +234,6 @@ void CheckHeader(const CsvTable& table, long line_no) {
       throw std::invalid_argument(
           fmt::format("{}:{}: column {} of the header is empty", table.path, line_no, c + 1));
     }
-    if (h.find_first_of("\"'") != std::string::npos) {
-      throw std::invalid_argument(
-          fmt::format("{}:{}: column {} of the header ({}) is quoted; hysid reads plain CSV: write the names "
-                      "without quotes",
-                      table.path, line_no, c + 1, Abbreviated(h, 40)));
-    }
     double v = 0;
     all_numbers = all_numbers && ParseNumber(h, &v);
   }
@@ -185,6 +242,59 @@ void CheckHeader(const CsvTable& table, long line_no) {
         fmt::format("{}:{}: the first line is numbers, not a header; add a header line such as t,y1,y2",
                     table.path, line_no));
   }
+}
+
+// The record that starts with `line` (line *line_no): further lines are appended while a quoted
+// field is open. Its cells into *cells; *line_no ends at the record's last line.
+void ReadRecord(std::istream& in, const std::string& name, std::string line, long* line_no,
+                std::vector<std::string>* cells) {
+  const long first = *line_no;
+  const auto max = static_cast<std::size_t>(LimitValue(kMaxCsvLine));
+  std::string record = std::move(line);
+  while (!SplitCsvRecord(record, name, first, cells)) {
+    if (!ReadBoundedLine(in, line, name, *line_no + 1)) {
+      throw std::invalid_argument(
+          fmt::format("{}:{}: column {}: the quoted cell is not closed before the end "
+                      "of the file",
+                      name, first, cells->size() + 1));
+    }
+    ++*line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (record.size() + line.size() + 1 > max) {
+      throw std::invalid_argument(fmt::format(
+          "{}:{}: the record (a quoted cell over several lines) is longer than the limit of {} {} (raise it "
+          "with {}=N)",
+          name, first, max, kMaxCsvLine.what, kMaxCsvLine.variable));
+    }
+    record.push_back('\n');
+    record += line;
+  }
+}
+
+// One data row into the table's columns: numbers, missing cells as NaN.
+void AddRow(CsvTable& table, const std::vector<std::string>& cells, long line_no) {
+  if (cells.size() != table.header.size()) {
+    throw std::invalid_argument(fmt::format("{}:{}: {} cells, the header has {} columns", table.path, line_no,
+                                            cells.size(), table.header.size()));
+  }
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    double value = 0.0;
+    if (IsMissing(cells[c], &value)) {
+      table.columns[c].push_back(std::numeric_limits<double>::quiet_NaN());
+      ++table.missing_cells;
+      continue;
+    }
+    if (!ParseNumber(cells[c], &value)) {
+      throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not a number", table.path,
+                                              line_no, c + 1, table.header[c], Abbreviated(cells[c])));
+    }
+    if (!std::isfinite(value)) {
+      throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not finite", table.path,
+                                              line_no, c + 1, table.header[c], Abbreviated(cells[c])));
+    }
+    table.columns[c].push_back(value);
+  }
+  table.line_of_row.push_back(line_no);
 }
 
 }  // namespace
@@ -203,37 +313,24 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
   CsvTable table;
   table.path = name;
   std::string line;
+  std::vector<std::string> cells;
   long line_no = 0;
   bool have_header = false;
   while (ReadBoundedLine(in, line, name, line_no + 1)) {
     ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
     const std::string_view trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
+    const long first = line_no;
+    ReadRecord(in, name, line, &line_no, &cells);
     if (!have_header) {
-      table.header = Split(trimmed, name, line_no);
-      CheckHeader(table, line_no);
+      table.header = std::move(cells);
+      CheckHeader(table, first);
       table.columns.assign(table.header.size(), {});
       have_header = true;
       continue;
     }
-    const std::vector<std::string> cells = Split(trimmed, name, line_no);
-    if (cells.size() != table.header.size()) {
-      throw std::invalid_argument(fmt::format("{}:{}: {} cells, the header has {} columns", table.path,
-                                              line_no, cells.size(), table.header.size()));
-    }
-    for (std::size_t c = 0; c < cells.size(); ++c) {
-      double value = 0.0;
-      if (!ParseNumber(cells[c], &value)) {
-        throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not a number", table.path,
-                                                line_no, c + 1, table.header[c], Abbreviated(cells[c])));
-      }
-      if (!std::isfinite(value)) {
-        throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not finite", table.path,
-                                                line_no, c + 1, table.header[c], Abbreviated(cells[c])));
-      }
-      table.columns[c].push_back(value);
-    }
-    table.line_of_row.push_back(line_no);
+    AddRow(table, cells, first);
   }
   if (!have_header) throw std::invalid_argument(fmt::format("{}: file is empty", table.path));
   return table;

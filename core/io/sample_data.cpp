@@ -1,109 +1,299 @@
 #include "core/io/sample_data.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 #include "core/io/csv.hpp"
+#include "core/io/limits.hpp"
 
 namespace hysid {
 
-SampleData ReadSampleData(const std::string& path, int state_size) {
-  return SampleDataFromTable(ReadCsv(path), state_size);
+long SampleData::chains() const { return std::count(chain_start.begin(), chain_start.end(), 1); }
+
+namespace {
+
+struct Columns {
+  int time = -1;
+  std::vector<int> state;
+  int run = -1;
+  int j = -1;
+};
+
+int FindColumn(const CsvTable& table, const std::string& name) {
+  const int c = table.Find(name);
+  if (c < 0) {
+    throw std::invalid_argument(
+        fmt::format("{}:1: SampleDataOptions::columns: no column '{}' (the columns are {})", table.path,
+                    Abbreviated(name, 40), fmt::join(table.header, ",")));
+  }
+  return c;
+}
+
+// The columns named by `spec` ("t=NAME", "run=NAME", state names).
+Columns NamedColumns(const CsvTable& table, int state_size, const std::vector<std::string>& spec) {
+  Columns c;
+  c.run = -1;
+  bool any_state = false;
+  for (const std::string& entry : spec) {
+    if (entry.rfind("t=", 0) == 0) {
+      c.time = FindColumn(table, entry.substr(2));
+    } else if (entry.rfind("run=", 0) == 0) {
+      c.run = FindColumn(table, entry.substr(4));
+    } else {
+      c.state.push_back(FindColumn(table, entry));
+      any_state = true;
+    }
+  }
+  if (any_state && static_cast<int>(c.state.size()) != state_size) {
+    throw std::invalid_argument(
+        fmt::format("{}:1: SampleDataOptions::columns: {} state columns named ({}); the "
+                    "model has {} states",
+                    table.path, c.state.size(), fmt::join(spec, ","), state_size));
+  }
+  return c;
+}
+
+// The default rule: y1..yn if present, else the first n columns after time other than j and run.
+std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, const Columns& c) {
+  std::vector<int> state;
+  for (int i = 1; i <= state_size; ++i) {
+    const int col = table.Find(fmt::format("y{}", i));
+    if (col < 0) break;
+    state.push_back(col);
+  }
+  if (static_cast<int>(state.size()) == state_size) return state;
+  state.clear();
+  const int cols = static_cast<int>(table.header.size());
+  for (int col = 0; col < cols && static_cast<int>(state.size()) < state_size; ++col) {
+    if (col == c.time || col == c.run || col == c.j) continue;
+    const std::string& h = table.header[static_cast<std::size_t>(col)];
+    if (h != "j" && h != "run") state.push_back(col);
+  }
+  return state;
+}
+
+Columns ResolveColumns(const CsvTable& table, int state_size, const SampleDataOptions& options) {
+  Columns c = NamedColumns(table, state_size, options.columns);
+  if (c.run < 0) c.run = table.Find("run");
+  c.j = table.Find("j");
+  if (c.time < 0) c.time = c.run == 0 ? 1 : 0;  // the first column, after a leading run column
+  if (c.time >= static_cast<int>(table.header.size())) {
+    throw std::invalid_argument(
+        fmt::format("{}:1: only a run column; need time + {} state columns", table.path, state_size));
+  }
+  if (c.state.empty()) c.state = DefaultStateColumns(table, state_size, c);
+  if (static_cast<int>(c.state.size()) < state_size) {
+    throw std::invalid_argument(
+        fmt::format("{}:1: {} columns ({}); need time + {} state columns for the model", table.path,
+                    table.header.size(), fmt::join(table.header, ","), state_size));
+  }
+  return c;
+}
+
+std::string ColumnName(const CsvTable& table, int c) {
+  return fmt::format("column {} ('{}')", c + 1, table.header[static_cast<std::size_t>(c)]);
+}
+
+// Time, run and j cells, and the magnitude of state cells, of row r.
+void CheckRow(const CsvTable& table, const Columns& c, std::size_t r) {
+  const long line = table.line_of_row[r];
+  auto cell = [&](int col) { return table.columns[static_cast<std::size_t>(col)][r]; };
+  if (std::isnan(cell(c.time))) {
+    throw std::invalid_argument(
+        fmt::format("{}:{}: {}: the time is missing", table.path, line, ColumnName(table, c.time)));
+  }
+  std::vector<int> checked = c.state;
+  checked.push_back(c.time);
+  for (int col : checked) {
+    if (std::abs(cell(col)) > kMaxMagnitude) {  // false for NaN (a missing state cell)
+      throw std::invalid_argument(
+          fmt::format("{}:{}: {}: {} is out of range: |value| must be ≤ {:g} (rescale the data)", table.path,
+                      line, ColumnName(table, col), cell(col), kMaxMagnitude));
+    }
+  }
+  if (c.run >= 0) {
+    const double v = cell(c.run);
+    if (!(v == std::floor(v)) || std::abs(v) > 1e15) {
+      throw std::invalid_argument(fmt::format("{}:{}: {}: {} is not a run number (an integer)", table.path,
+                                              line, ColumnName(table, c.run), v));
+    }
+  }
+  if (c.j >= 0) {
+    const double v = cell(c.j);
+    if (v != std::floor(v) || v < 0 || v > static_cast<double>(std::numeric_limits<int>::max())) {
+      throw std::invalid_argument(
+          fmt::format("{}:{}: column {} ('j'): {} is not a jump count (an integer in [0, 2147483647])",
+                      table.path, line, c.j + 1, v));
+    }
+  }
+}
+
+// Appends the rows of one table to `out`: runs, chains at missing rows, time order.
+void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::vector<double>& y,
+                 std::vector<int>& j) {
+  std::map<long, int> seen;  // run number -> its index in out.run_names
+  long current = 0;
+  int run_index = -1;
+  bool break_next = true;
+  int j_offset = j.empty() ? 0 : j.back();
+  const auto t_col = static_cast<std::size_t>(c.time);
+  for (std::size_t r = 0; r < table.columns[0].size(); ++r) {
+    CheckRow(table, c, r);
+    const long run = c.run >= 0 ? static_cast<long>(table.columns[static_cast<std::size_t>(c.run)][r]) : 0;
+    if (run_index < 0 || run != current) {
+      if (seen.count(run)) {
+        throw std::invalid_argument(
+            fmt::format("{}:{}: {}: run {} appears again after run {}; the rows of a run must be contiguous",
+                        table.path, table.line_of_row[r], ColumnName(table, c.run), run, current));
+      }
+      run_index = static_cast<int>(out.run_names.size());
+      seen[run] = run_index;
+      out.run_names.push_back(c.run >= 0 ? fmt::format("{} run {}", table.path, run) : table.path);
+      current = run;
+      break_next = true;
+      if (!j.empty()) j_offset = j.back();
+    } else if (!(table.columns[t_col][r] > table.columns[t_col][r - 1])) {
+      throw std::invalid_argument(
+          fmt::format("{}:{}: {}: time {} is not after {} (line {}): time must increase", table.path,
+                      table.line_of_row[r], ColumnName(table, c.time), table.columns[t_col][r],
+                      table.columns[t_col][r - 1], table.line_of_row[r - 1]));
+    }
+    bool missing = false;
+    for (int col : c.state) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
+    if (missing) {
+      if (out.missing_rows++ == 0) out.first_missing_line = table.line_of_row[r];
+      break_next = true;
+      continue;
+    }
+    out.t.push_back(table.columns[t_col][r]);
+    for (int col : c.state) y.push_back(table.columns[static_cast<std::size_t>(col)][r]);
+    if (c.j >= 0) j.push_back(j_offset + static_cast<int>(table.columns[static_cast<std::size_t>(c.j)][r]));
+    out.run.push_back(run_index);
+    out.chain_start.push_back(break_next ? 1 : 0);
+    out.line.push_back(table.line_of_row[r]);
+    break_next = false;
+  }
+}
+
+// Steps within chains: their median, the gap rule, and whether the data are one uniform chain.
+void CutGaps(const std::string& path, const SampleDataOptions& options, SampleData& d) {
+  std::vector<double> steps;
+  for (std::size_t k = 1; k < d.t.size(); ++k) {
+    if (!d.chain_start[k]) steps.push_back(d.t[k] - d.t[k - 1]);
+  }
+  if (steps.empty()) {
+    throw std::invalid_argument(fmt::format("{}: no two consecutive samples without a missing value", path));
+  }
+  std::vector<double> sorted = steps;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  d.max_gap = options.max_gap > 0.0 ? options.max_gap : kDefaultGapFactor * median;
+  for (std::size_t k = 1; k < d.t.size(); ++k) {
+    if (!d.chain_start[k] && d.t[k] - d.t[k - 1] > d.max_gap) {
+      d.chain_start[k] = 1;
+      ++d.gaps;
+    }
+  }
+  const double mean = (d.t.back() - d.t.front()) / static_cast<double>(d.t.size() - 1);
+  double worst = 0.0;
+  for (double s : steps) worst = std::max(worst, std::abs(s - mean) / mean);
+  d.uniform = d.run_names.size() == 1 && d.chains() == 1 && worst <= 1e-6;
+  d.dt = d.uniform ? mean : median;
+}
+
+}  // namespace
+
+SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_size,
+                                const SampleDataOptions& options) {
+  if (!(options.max_gap >= 0.0) || !std::isfinite(options.max_gap)) {
+    throw std::invalid_argument(fmt::format(
+        "SampleDataOptions::max_gap = {}: must be finite and >= 0 (0: the default)", options.max_gap));
+  }
+  SampleData d;
+  std::vector<std::string> paths;
+  std::vector<double> y;
+  std::vector<int> j;
+  bool all_j = true;
+  for (const CsvTable& table : tables) {
+    paths.push_back(table.path);
+    const Columns c = ResolveColumns(table, state_size, options);
+    all_j = all_j && c.j >= 0;
+    std::vector<std::string> names;
+    for (int col : c.state) names.push_back(table.header[static_cast<std::size_t>(col)]);
+    if (d.state_columns.empty()) d.state_columns = names;
+    AppendTable(table, c, d, y, j);
+  }
+  d.path = fmt::format("{}", fmt::join(paths, ", "));
+  const auto k = static_cast<long>(d.t.size());
+  if (k < 3) {
+    throw std::invalid_argument(
+        fmt::format("{}: {} samples{}; the identifier needs at least 3", d.path, k,
+                    d.missing_rows ? fmt::format(" ({} {} with a missing value left out)", d.missing_rows,
+                                                 d.missing_rows == 1 ? "row" : "rows")
+                                   : ""));
+  }
+  CutGaps(d.path, options, d);
+  d.y = Eigen::Map<const Mat>(y.data(), state_size, k);
+  if (all_j) d.j = std::move(j);
+  return d;
 }
 
 SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
-  const std::string& path = table.path;
-  SampleData data;
-  data.path = path;
-  const int cols = static_cast<int>(table.header.size());
-  // State columns: y1..yn if present, else the first n non-time, non-j columns.
-  std::vector<int> state;
-  bool all_y = true;
-  for (int i = 1; i <= state_size; ++i) {
-    const int c = table.Find(fmt::format("y{}", i));
-    if (c < 0) {
-      all_y = false;
-      break;
+  return SampleDataFromTables({table}, state_size, {});
+}
+
+SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, const std::vector<Mat>& y,
+                                double dt, const SampleDataOptions& options) {
+  if (times.size() != y.size() || y.empty()) {
+    throw std::invalid_argument(fmt::format("{} runs of samples, {} of times", y.size(), times.size()));
+  }
+  std::vector<CsvTable> tables;
+  for (std::size_t r = 0; r < y.size(); ++r) {
+    CsvTable t;
+    t.path = fmt::format("run {}", r + 1);
+    const Eigen::Index k_count = y[r].cols();
+    if (!times[r].empty() && static_cast<Eigen::Index>(times[r].size()) != k_count) {
+      throw std::invalid_argument(fmt::format("{}: {} samples, {} times", t.path, k_count, times[r].size()));
     }
-    state.push_back(c);
-  }
-  if (!all_y) {
-    state.clear();
-    for (int c = 1; c < cols && static_cast<int>(state.size()) < state_size; ++c) {
-      if (table.header[static_cast<std::size_t>(c)] != "j") state.push_back(c);
+    if (times[r].empty() && (!(dt > 0.0) || !std::isfinite(dt))) {
+      throw std::invalid_argument(fmt::format("{}: no times, and dt = {}: must be > 0", t.path, dt));
     }
-  }
-  if (static_cast<int>(state.size()) < state_size) {
-    throw std::invalid_argument(
-        fmt::format("{}:1: {} columns ({}); need time + {} state columns for the model", path, cols,
-                    fmt::join(table.header, ","), state_size));
-  }
-  for (int c : state) data.state_columns.push_back(table.header[static_cast<std::size_t>(c)]);
-  const long k = table.rows();
-  if (k < 3) {
-    throw std::invalid_argument(fmt::format("{}: {} samples; the identifier needs at least 3", path, k));
-  }
-  // Magnitudes: beyond kMaxMagnitude, squares and sums in the estimators and set metrics overflow.
-  std::vector<int> checked = state;
-  checked.push_back(0);
-  for (int c : checked) {
-    const auto& col = table.columns[static_cast<std::size_t>(c)];
-    for (std::size_t r = 0; r < col.size(); ++r) {
-      if (std::abs(col[r]) > kMaxMagnitude) {
-        throw std::invalid_argument(fmt::format(
-            "{}:{}: column {} ('{}'): {} is out of range: |value| must be ≤ {:g} (rescale the data)", path,
-            table.line_of_row[r], c + 1, table.header[static_cast<std::size_t>(c)], col[r], kMaxMagnitude));
+    t.header.push_back("t");
+    t.columns.emplace_back();
+    for (Eigen::Index i = 0; i < y[r].rows(); ++i) {
+      t.header.push_back(fmt::format("y{}", i + 1));
+      t.columns.emplace_back(static_cast<std::size_t>(k_count));
+      for (Eigen::Index k = 0; k < k_count; ++k) {
+        const double v = y[r](i, k);
+        t.columns.back()[static_cast<std::size_t>(k)] =
+            std::isfinite(v) ? v : std::numeric_limits<double>::quiet_NaN();
       }
     }
-  }
-  data.t = table.columns[0];
-  const std::string tname = table.header[0];
-  for (long i = 1; i < k; ++i) {
-    const auto u = static_cast<std::size_t>(i);
-    if (!(data.t[u] > data.t[u - 1])) {
-      throw std::invalid_argument(
-          fmt::format("{}:{}: column 1 ('{}'): time {} is not after {} (line {}): time must increase", path,
-                      table.line_of_row[u], tname, data.t[u], data.t[u - 1], table.line_of_row[u - 1]));
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      t.columns[0].push_back(times[r].empty() ? static_cast<double>(k) * dt
+                                              : times[r][static_cast<std::size_t>(k)]);
+      t.line_of_row.push_back(static_cast<long>(k) + 1);
     }
+    tables.push_back(std::move(t));
   }
-  data.dt = (data.t.back() - data.t.front()) / static_cast<double>(k - 1);
-  double worst = 0.0;
-  long worst_row = 0;
-  for (long i = 1; i < k; ++i) {
-    const auto u = static_cast<std::size_t>(i);
-    const double dev = std::abs((data.t[u] - data.t[u - 1]) - data.dt) / data.dt;
-    if (dev > worst) worst = dev, worst_row = i;
-  }
-  if (worst > 1e-6) {
-    const auto u = static_cast<std::size_t>(worst_row);
-    throw std::invalid_argument(
-        fmt::format("{}:{}: column 1 ('{}'): irregular sampling: step {} differs from the mean step {} by "
-                    "{:.3g}% (hysid needs a uniform δt; the tolerance is 1e-4%)",
-                    path, table.line_of_row[u], tname, data.t[u] - data.t[u - 1], data.dt, 100.0 * worst));
-  }
-  data.y.resize(state_size, k);
-  for (int i = 0; i < state_size; ++i) {
-    const auto& col = table.columns[static_cast<std::size_t>(state[static_cast<std::size_t>(i)])];
-    for (long r = 0; r < k; ++r) data.y(i, r) = col[static_cast<std::size_t>(r)];
-  }
-  if (const int jc = table.Find("j"); jc >= 0) {
-    std::vector<int> j(static_cast<std::size_t>(k));
-    for (long r = 0; r < k; ++r) {
-      const double v = table.columns[static_cast<std::size_t>(jc)][static_cast<std::size_t>(r)];
-      if (v != std::floor(v) || v < 0 || v > static_cast<double>(std::numeric_limits<int>::max())) {
-        throw std::invalid_argument(
-            fmt::format("{}:{}: column {} ('j'): {} is not a jump count (an integer in [0, 2147483647])",
-                        path, table.line_of_row[static_cast<std::size_t>(r)], jc + 1, v));
-      }
-      j[static_cast<std::size_t>(r)] = static_cast<int>(v);
-    }
-    data.j = std::move(j);
-  }
-  return data;
+  return SampleDataFromTables(tables, static_cast<int>(y.front().rows()), options);
+}
+
+SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
+                          const SampleDataOptions& options) {
+  std::vector<CsvTable> tables;
+  for (const std::string& p : paths) tables.push_back(ReadCsv(p));
+  return SampleDataFromTables(tables, state_size, options);
+}
+
+SampleData ReadSampleData(const std::string& path, int state_size) {
+  return ReadSampleData(std::vector<std::string>{path}, state_size, {});
 }
 
 }  // namespace hysid

@@ -1,14 +1,23 @@
-// Measured samples read from a CSV for `hysid identify`.
+// Measured samples read from CSV files for `hysid identify`: one or more runs of one system, each
+// cut into chains of consecutive samples.
 //
-// Layout: a header line; the first column is time; the measured state is the columns y1..yn when
-// all are present (so `hysid simulate` output is used as is), otherwise the first n columns after
-// time other than `j`. A column named `j` (jump counter) is ground truth when present.
-// Checks, each an error naming file, line and column: the CSV's own (non-numeric, non-finite,
-// wrong cell count, empty), too few columns for the model, fewer than 3 samples, time not strictly
-// increasing, irregular sampling (a step off the mean step by more than 1e-6 relative), a time or
-// state cell beyond ±kMaxMagnitude, and a `j` cell that is not an integer in [0, 2^31 − 1].
+// Columns: SampleDataOptions::columns when given (`t=NAME` the time column, `run=NAME` the run
+// column, the other entries the state columns in model order); otherwise time is the first column (the second
+// after a leading run column), the measured state is y1..yn when all are present (so `hysid simulate` output
+// is used as is), else the first n columns other than time, `j` and `run`. A column named `j` (jump
+// counter) is ground truth when present; a column named `run` (or the one named by `run=`) splits a file into
+// runs, whose rows must be contiguous. Each file is one run otherwise.
+// Chains: a run is cut into chains at a row with a missing state cell (empty, nan, NA: the row is
+// dropped and counted) and at a step longer than the maximum gap (default kDefaultGapFactor × the
+// median step). Steps may differ from sample to sample; time must increase within a run.
+// Checks, each an error naming file, line and column: the CSV's own (non-numeric, infinite, wrong
+// cell count, empty, quoting), too few columns for the model, an unknown column name, fewer than 3
+// samples, time missing or not strictly increasing, a time or state cell beyond ±kMaxMagnitude, a
+// `j` cell that is not an integer in [0, 2^31 − 1], a run cell that is missing or not an integer, the
+// rows of a run not contiguous.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,19 +29,48 @@ namespace hysid {
 
 // The largest |value| accepted for time and state cells.
 inline constexpr double kMaxMagnitude = 1e150;
+// The default maximum gap, in median steps.
+inline constexpr double kDefaultGapFactor = 5.0;
+
+struct SampleDataOptions {
+  // Column choice by header name: "t=NAME" (time), "run=NAME" (run column), the rest the states in
+  // model order (exactly n of them when any is given). Empty: the default rule above.
+  std::vector<std::string> columns{};
+  // A step longer than this (seconds) starts a new chain. 0: kDefaultGapFactor × the median step.
+  double max_gap = 0.0;
+};
 
 struct SampleData {
-  std::string path;
-  std::vector<double> t;
-  double dt = 0.0;                         // the mean step (t_K − t_0)/K
-  Mat y;                                   // n × K measured states
-  std::optional<std::vector<int>> j;       // ground-truth jump counter, when the file has one
+  std::string path;                   // the file, or the files joined with ", "
+  std::vector<double> t;              // per sample: its time (the run's own clock)
+  double dt = 0.0;                    // uniform data: the mean step (t_K − t_0)/K; else the median step
+  double max_gap = 0.0;               // the maximum gap in use
+  bool uniform = true;                // one run, one chain, every step within 1e-6 relative of the mean step
+  Mat y;                              // n × K measured states (finite; rows with missing cells are dropped)
+  std::optional<std::vector<int>> j;  // ground-truth jump counter, when every file has one
   std::vector<std::string> state_columns;  // the header names used for the state
+  std::vector<int> run;                    // per sample: its run (0-based)
+  std::vector<std::uint8_t> chain_start;   // per sample: 1 where a chain starts (sample 0 included)
+  std::vector<long> line;                  // per sample: its line in its file
+  std::vector<std::string> run_names;      // per run: "FILE" or "FILE run R"
+  long missing_rows = 0;                   // rows dropped for a missing state cell
+  long first_missing_line = 0;             // the first such row's line (0: none)
+  long gaps = 0;                           // chain breaks at a step longer than max_gap
+  long chains() const;
 };
 
 // Throws std::invalid_argument with "FILE:LINE: column C ('name'): ..." or "FILE: ..." messages.
+SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
+                          const SampleDataOptions& options = {});
 SampleData ReadSampleData(const std::string& path, int state_size);
-// The same checks on a table already read (ReadCsvStream); errors name table.path.
+// The same checks on tables already read (ReadCsvStream); errors name table.path.
+SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_size,
+                                const SampleDataOptions& options = {});
 SampleData SampleDataFromTable(const CsvTable& table, int state_size);
+// Runs given as arrays (the Python module): y[r] is run r's n × K samples (a non-finite entry: the
+// sample is missing), times[r] its K times, or empty for k·dt. The same checks and chains; an error
+// names "run R" (1-based) as the file and the sample number (1-based) as the line.
+SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, const std::vector<Mat>& y,
+                                double dt, const SampleDataOptions& options = {});
 
 }  // namespace hysid

@@ -48,7 +48,7 @@ void RequireFinite(const std::string& flag, const std::vector<double>& values) {
 
 void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings) {
   try {
-    settings->flow_estimator.kind = settings->jump_estimator.kind = ParseEstimatorKind(estimator);
+    settings->UseEstimator(ParseEstimatorKind(estimator));
   } catch (const std::invalid_argument& e) {
     BadFlag(fmt::format("--estimator: {}", e.what()));
   }

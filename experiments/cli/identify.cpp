@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -17,6 +18,7 @@
 #include "core/identify/metrics.hpp"
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "core/io/sample_data.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "experiments/cli/cli.hpp"
@@ -28,7 +30,9 @@ struct IdentifyArgs {
   std::string model = "impact-msd";
   std::string model_file;  // --model-file: instead of --model
   std::vector<std::string> params;
-  std::string data;
+  std::vector<std::string> data;     // --data, repeatable: one run per file (or a run column)
+  std::vector<std::string> columns;  // --columns t=NAME,STATE,...[,run=NAME]
+  double max_gap = 0.0;              // --max-gap (0: 5 × the median step)
   std::string estimator = "rls";
   std::string detector = "residual";
   // Plugin options given on the command line, by flag ("--r", "--jump-forgetting"): the text to parse.
@@ -139,7 +143,7 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
 // Returns where the accuracy came from.
 std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* settings) {
   if (args.data_accuracy_given) return "as given";
-  const std::filesystem::path sidecar = std::filesystem::path(args.data).replace_extension(".json");
+  const std::filesystem::path sidecar = std::filesystem::path(args.data.front()).replace_extension(".json");
   std::ifstream in(sidecar);
   if (!in) return "none given";
   const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
@@ -166,11 +170,22 @@ std::string DetectorOptionText(const DetectorSettings& s) {
 void PrintSettings(const IdentifyArgs& args, const ModelSpec& spec, const SampleData& data,
                    const IdentifierSettings& settings, const std::string& accuracy_source,
                    const IdentifyResult& result) {
-  std::printf("model %s, data %s (%s), %zu samples, dt = %.6g\n", spec.name.c_str(), data.path.c_str(),
-              fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(), data.t.size(), data.dt);
-  std::printf("estimator %s, detector %s (%s; data accuracy rtol %g, atol %g: %s)", args.estimator.c_str(),
-              args.detector.c_str(), DetectorOptionText(settings.detector).c_str(), settings.data_rtol,
-              settings.data_atol, accuracy_source.c_str());
+  std::printf("model %s, data %s (%s), %zu samples, dt = %.6g%s\n", spec.name.c_str(), data.path.c_str(),
+              fmt::format("{}", fmt::join(data.state_columns, ",")).c_str(), data.t.size(), data.dt,
+              data.uniform ? "" : " (median step)");
+  if (!data.uniform) {
+    std::printf(
+        "runs: %zu, chains: %ld (gaps longer than %.6g s: %ld; rows with a missing value: %ld%s); "
+        "each sample pair uses its own step\n",
+        data.run_names.size(), data.chains(), data.max_gap, data.gaps, data.missing_rows,
+        data.missing_rows ? fmt::format(", the first on line {}", data.first_missing_line).c_str() : "");
+  }
+  const std::string beta = settings.jump_estimator.kind == settings.flow_estimator.kind
+                               ? ""
+                               : fmt::format(" (beta: {})", ToString(settings.jump_estimator.kind));
+  std::printf("estimator %s%s, detector %s (%s; data accuracy rtol %g, atol %g: %s)", args.estimator.c_str(),
+              beta.c_str(), args.detector.c_str(), DetectorOptionText(settings.detector).c_str(),
+              settings.data_rtol, settings.data_atol, accuracy_source.c_str());
   std::printf("%s%s\n", args.localize ? ", localised jumps" : "", args.second_pass ? ", second pass" : "");
   if (result.noise_sigma.size()) {
     std::printf("noise shapes C from sigma = (%s)%s, dt = %.6g (flow C diagonal: %s; jump C diagonal: %s)\n",
@@ -293,15 +308,32 @@ void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
   std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
 }
 
+// The data files; a message about the column choice names the flag.
+SampleData ReadData(const IdentifyArgs& args, int state_size) {
+  try {
+    return ReadSampleData(args.data, state_size, {.columns = args.columns, .max_gap = args.max_gap});
+  } catch (const std::invalid_argument& e) {
+    std::string message = e.what();
+    const std::string field = "SampleDataOptions::columns";
+    if (const auto at = message.find(field); at != std::string::npos)
+      message.replace(at, field.size(), "--columns");
+    throw std::invalid_argument(message);
+  }
+}
+
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model, args.model_file, args.params);
   IdentifierSettings settings = BuildSettings(args, model);
-  const SampleData data = ReadSampleData(args.data, model.state_size());
+  const SampleData data = ReadData(args, model.state_size());
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();
   if (!args.trace.empty()) CheckOutputPath("--trace", args.trace);
   if (!args.hulls.empty()) CheckOutputPath("--hulls", args.hulls);
+  if (!data.uniform) {  // each pair with its own step, chains restarted at runs, gaps and missing rows
+    options.times = data.t;
+    options.chain_start = data.chain_start;
+  }
   const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
   PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
   PrintEstimates(model.spec(), args, result);
@@ -336,9 +368,25 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   AddModelFileOption(*cmd, args->model_file);
   cmd->add_option("--param", args->params, "NAME=VALUE: the model's true value (for error metrics)");
   cmd->add_option("--data", args->data,
-                  "CSV: time, then the measured state (y1..yn if present); "
-                  "a column j is taken as ground truth")
+                  "CSV (RFC 4180): time, then the measured state (y1..yn if present); a column j is taken "
+                  "as ground truth, a column run splits the file into runs; repeat --data for several "
+                  "runs of one system (alpha, beta shared). Empty, nan or NA state cells: the row is "
+                  "left out and the chain restarts")
       ->required();
+  cmd->add_option("--columns", args->columns,
+                  "columns by header name: t=NAME (time), the state columns in model order, "
+                  "optionally run=NAME (run column), e.g. t=time,x1,x2")
+      ->delimiter(',');
+  cmd->add_option("--max-gap", args->max_gap,
+                  "seconds: a step longer than this restarts the chain (no regression or detector "
+                  "statistic across it); default 5 x the median step")
+      ->each([](const std::string& text) {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || *end != '\0' || !(v > 0.0) || !std::isfinite(v)) {
+          BadFlag(fmt::format("--max-gap = {}: must be a number > 0 (seconds)", Abbreviated(text, 40)));
+        }
+      });
   cmd->add_option("--estimator", args->estimator,
                   PluginHelp("estimator of alpha and beta", EstimatorDescriptors()))
       ->capture_default_str();

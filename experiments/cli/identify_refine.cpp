@@ -94,8 +94,25 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
                    {"jump_estimator", ToString(recursive.jump_status)}};
   j["model_jumps"] = r.model_jumps;
   j["samples_used"] = r.samples_used;
+  j["start_repair"] = r.start_repair;
+  if (!r.chain_x0.empty()) {
+    nlohmann::json x0 = nlohmann::json::array();
+    for (const Vec& v : r.chain_x0) x0.push_back(v.size() ? nlohmann::json(vec(v)) : nlohmann::json());
+    j["chain_x0"] = x0;
+    j["chains_used"] = r.chains_used;
+    j["chains_skipped"] = r.chains_skipped;
+  }
   if (bound.ok()) j["crlb_sd"] = vec(bound.sd);
   return j;
+}
+
+RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                           const Vec& sigma) {
+  RefineOptions options;
+  options.sigma = sigma;
+  if (data.uniform) return RefineIdentification(model, data.y, data.dt, recursive, options);
+  return RefineChains(model, SplitChains(data.t, data.y, data.chain_start, recursive.gamma),
+                      recursive.alpha_hat, recursive.beta_hat, options);
 }
 
 }  // namespace
@@ -116,26 +133,31 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                     const Vec& sigma, const RefineArgs& args) {
   RefineResult r;
   if (args.refine == "ml") {
-    RefineOptions options;
-    options.sigma = sigma;
-    r = RefineIdentification(model, data.y, data.dt, recursive, options);
+    r = RunRefinement(model, data, recursive, sigma);
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
     r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0)};
   }
-  const Truth truth = data.j ? ReadTruth(data.path, model.state_size()) : Truth{};
+  const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
   const Crlb bound = TruthBound(model, truth, used, data.dt);
   const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
   if (args.refine == "ml") {
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
                 ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
-    if (r.samples_used < data.y.cols()) {
+    if (!data.uniform) {
+      std::printf(
+          "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "
+          "than %d samples or a first sample outside C and D); %ld of %ld samples\n",
+          r.chains_used, r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
+          static_cast<long>(data.y.cols()));
+    } else if (r.samples_used < data.y.cols()) {
       std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
                   static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
                   r.span_reason.c_str());
     }
+    if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
     if (r.ok()) {
       std::printf(
           "  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",

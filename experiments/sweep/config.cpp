@@ -537,7 +537,8 @@ void ParseRun(const Reader& rd, const toml::table& root, SweepConfig* c) {
 }
 
 // [summary] baseline = { key = value, ... }: each value must be on the grid's axis (sigma, estimator,
-// detector or a sweepable option such as r); the detector named, if any, must read the options named.
+// detector, refine or a sweepable option such as r); the detector named, if any, must read the options
+// named.
 void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
   rd.OnlyKeys(t, "summary", {"baseline"});
   const toml::node* bn = t.get("baseline");
@@ -545,6 +546,7 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
   const toml::table& b = rd.Table(*bn, "summary.baseline");
   const SweepGrid& g = c->grid;
   std::vector<std::string> allowed{"sigma", "estimator", "detector"};
+  if (g.refine_axis) allowed.emplace_back("refine");
   for (const OptionAxis& a : g.options) allowed.push_back(a.name);
   rd.OnlyKeys(b, "summary.baseline", allowed);
   if (b.empty())
@@ -552,13 +554,15 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
   for (auto&& [k, v] : b) {
     const std::string key = fmt::format("summary.baseline.{}", k.str());
     std::string text;
-    if (k == "estimator" || k == "detector") {
+    if (k == "estimator" || k == "detector" || k == "refine") {
       text = rd.String(v, key);
       std::vector<std::string> axis;
       if (k == "estimator") {
         for (EstimatorKind e : g.estimator) axis.emplace_back(ToString(e));
-      } else {
+      } else if (k == "detector") {
         for (DetectorKind d : g.detector) axis.emplace_back(ToString(d));
+      } else {
+        axis = g.refine;
       }
       if (std::find(axis.begin(), axis.end(), text) == axis.end()) {
         rd.Fail(&v, key, fmt::format("'{}' is not on grid.{} ({})", text, k.str(), fmt::join(axis, ", ")));

@@ -66,7 +66,7 @@ struct SweepConfig {
   // the detector column then reads "oracle". The grid may not give a detector or a detector option.
   bool oracle = false;
   SimOptions simulator;
-  // [summary] baseline: per-cell keys (sigma, r, false_alarm, estimator, detector) and their values
+  // [summary] baseline: per-cell keys (sigma, r, false_alarm, estimator, detector, refine) and their values
   // as trials.csv writes them; summary.csv compares every cell with its baseline (tables.hpp).
   std::vector<std::pair<std::string, std::string>> baseline;
   long trials = 10;        // per cell

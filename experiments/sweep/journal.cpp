@@ -12,24 +12,11 @@
 
 #include <fmt/format.h>
 
+#include "core/io/csv.hpp"
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
 
 namespace hysid {
-
-std::vector<std::string> SplitCsvLine(const std::string& line) {
-  std::vector<std::string> cells;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    if (comma == std::string::npos) {
-      cells.push_back(line.substr(start));
-      return cells;
-    }
-    cells.push_back(line.substr(start, comma - start));
-    start = comma + 1;
-  }
-}
 
 std::string JoinCsvLine(const std::vector<std::string>& cells) {
   std::string s;
@@ -105,7 +92,7 @@ void Journal::ReadExisting(const std::string& identity, const std::string& head)
 }
 
 void Journal::AddRow(const std::string& line, long line_no) {
-  std::vector<std::string> cells = SplitCsvLine(line);
+  std::vector<std::string> cells = SplitCsvLine(line, path_.string(), line_no);
   long unit = -1;
   try {
     std::size_t used = 0;

@@ -61,8 +61,8 @@ class DirectoryLock {
   int fd_ = -1;
 };
 
-// Splits one CSV line of plain cells (no quoting) on commas.
-std::vector<std::string> SplitCsvLine(const std::string& line);
+// One journal line from its cells (plain cells: the trial columns hold no comma, quote or line
+// break). Lines are read back with SplitCsvLine (core/io/csv.hpp).
 std::string JoinCsvLine(const std::vector<std::string>& cells);
 
 }  // namespace hysid

@@ -24,7 +24,7 @@ double SweepCell::option(const SweepGrid& grid, std::string_view name) const {
 }
 
 void SweepCell::Apply(const SweepGrid& grid, IdentifierSettings* s) const {
-  s->flow_estimator.kind = s->jump_estimator.kind = estimator;
+  s->UseEstimator(estimator);
   s->detector.kind = detector;
   for (std::size_t i = 0; i < grid.options.size(); ++i) {
     if (std::isnan(options[i])) continue;

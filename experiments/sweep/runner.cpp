@@ -87,6 +87,7 @@ void CheckBaseline(const SweepConfig& config, const std::vector<SweepCell>& cell
     for (double v : c.options) k.push_back(FormatNumber(v));
     k.emplace_back(ToString(c.estimator));
     k.emplace_back(ToString(c.detector));
+    k.emplace_back(config.grid.refine_axis ? c.refine : std::string());
     keys.push_back(std::move(k));
   }
   const std::vector<long> base = MatchBaselines(BaselineKeyNames(), keys, config.baseline);

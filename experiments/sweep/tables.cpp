@@ -71,7 +71,7 @@ MetricSummary Summarize(std::vector<double> v) {
 
 const std::vector<std::string>& BaselineKeyNames() {
   // The order of SweepCell's keys: model, δt, σ, the sweepable options (estimators' then detectors', as
-  // SweepGrid::options), estimator, detector.
+  // SweepGrid::options), estimator, detector, refine (empty without a refine axis).
   static const std::vector<std::string> names = [] {
     std::vector<std::string> n{"model", "dt", "sigma"};
     for (const auto& o : EstimatorOptions()) {
@@ -80,7 +80,7 @@ const std::vector<std::string>& BaselineKeyNames() {
     for (const auto& o : DetectorOptions()) {
       if (o.sweepable) n.emplace_back(o.name);
     }
-    n.insert(n.end(), {"estimator", "detector"});
+    n.insert(n.end(), {"estimator", "detector", "refine"});
     return n;
   }();
   return names;
@@ -158,7 +158,8 @@ std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
                                    const std::vector<std::string>& metrics) {
   std::vector<long> key_col, match_col, metric_col;
   for (const auto& k : keys) key_col.push_back(Column(header, k));
-  for (const auto& k : BaselineKeyNames()) match_col.push_back(Column(header, k));
+  for (const auto& k : BaselineKeyNames())
+    match_col.push_back(k == "refine" && !Has(header, k) ? -1 : Column(header, k));
   for (const auto& m : metrics) metric_col.push_back(Column(header, m));
   const auto cell_col = static_cast<std::size_t>(Column(header, "cell"));
   const auto trial_col = static_cast<std::size_t>(Column(header, "trial"));
@@ -169,7 +170,8 @@ std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
     const std::string cell = it->second[cell_col];
     CellRows c;
     for (long k : key_col) c.keys.push_back(it->second[static_cast<std::size_t>(k)]);
-    for (long k : match_col) c.match.push_back(it->second[static_cast<std::size_t>(k)]);
+    for (long k : match_col)
+      c.match.push_back(k < 0 ? std::string() : it->second[static_cast<std::size_t>(k)]);
     for (; it != rows.end() && it->second[cell_col] == cell; ++it) {
       const auto& cells = it->second;
       ++c.n;
@@ -331,7 +333,7 @@ void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* 
   long line_no = 0;
   while (ReadBoundedLine(in, line, path.string(), line_no + 1)) {
     ++line_no;
-    std::vector<std::string> cells = SplitCsvLine(line);
+    std::vector<std::string> cells = SplitCsvLine(line, path.string(), line_no);
     if (line_no == 1) {
       *header = std::move(cells);
       continue;

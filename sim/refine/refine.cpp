@@ -1,4 +1,5 @@
 #include "sim/refine/refine.hpp"
+#include "sim/refine/solve.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -182,26 +183,7 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem cp(po);
   cp.AddResidualBlock(new OutputErrorCost(problem), nullptr, theta.data());
-  ceres::Solver::Options so;
-  so.minimizer_type = ceres::TRUST_REGION;
-  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // p ≤ a dozen: JᵀJ, not a QR of n·K rows
-  so.max_num_iterations = options.max_iterations;
-  so.function_tolerance = options.function_tolerance;
-  so.parameter_tolerance = options.parameter_tolerance;
-  so.gradient_tolerance = 1e-16;
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
-  so.num_threads = 1;
-  // Ceres reports a failed evaluation through glog as well; the status carries it here.
-  static const bool quiet = [] {
-    FLAGS_minloglevel = google::GLOG_FATAL;
-    return true;
-  }();
-  (void)quiet;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &cp, &summary);
-  return summary;
+  return SolveLeastSquares(cp, options, ceres::DENSE_NORMAL_CHOLESKY);  // p ≤ a dozen: JᵀJ
 }
 
 // The last three jump intervals shrink and the last two are below one sample: the jumps accumulate
@@ -362,7 +344,7 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
     problem.disagreement = FirstDisagreement(plain.trajectory.jumps, problem.segments, problem.grid.dt,
                                              std::numeric_limits<double>::infinity());
     return Fail(r, RefineStatus::kStartFailed,
-                fmt::format("the recursive estimate does not simulate on the detected segments: {}",
+                fmt::format("the start does not simulate on the detected segments: {}",
                             at_start.trajectory.status.message));
   }
   const ceres::Solver::Summary summary = Solve(problem, options, theta);
@@ -411,6 +393,19 @@ long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval) {
   return static_cast<long>(gamma.size());
 }
 
+// The fit's integration options and residual weights 1/σ_i (σ given, else the MAD estimate).
+void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
+                  Vec* weight) {
+  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
+  *sens = options.sensitivity;
+  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
+  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
+                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
+                                      options.sensitivity.sim.rtol);
+  sens->sim.rtol = sens->sim.atol = tolerance;
+  *weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, sens->sim)).cwiseInverse();
+}
+
 // Returns the first sample at which the model's jumps and the detected ones disagree (−1: none).
 long FitSamples(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
                 const RefineOptions& options, RefineResult& r) {
@@ -424,14 +419,7 @@ long FitSamples(const Model& model, const Mat& y, double dt, const std::vector<s
   problem.unknowns = r.unknowns;
   problem.start = r.start;
   const Vec mad_sigma = EstimateNoiseSigma(y);
-  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
-  problem.options = options.sensitivity;
-  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
-  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
-                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
-                                      options.sensitivity.sim.rtol);
-  problem.options.sim.rtol = problem.options.sim.atol = tolerance;
-  problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, problem.options.sim)).cwiseInverse();
+  FitWeighting(y, options, mad_sigma, &problem.options, &problem.weight);
   RunRefinement(problem, options, mad_sigma, r);
   return problem.disagreement;
 }
@@ -477,6 +465,54 @@ void FitWithRetries(const Model& model, const Mat& y, double dt, const std::vect
   }
 }
 
+// The span of the fit (FitLength) and its reason; false (status too-few-samples) when too short.
+bool FitSpan(const std::vector<std::uint8_t>& gamma, int p, const RefineOptions& options, RefineResult& r,
+             long* used) {
+  *used = FitLength(gamma, options.min_jump_interval);
+  if (*used < static_cast<long>(gamma.size())) {
+    r.span_reason = fmt::format("later detected jumps are closer than {} samples", options.min_jump_interval);
+  }
+  if (*used >= p + 2) return true;
+  r.samples_used = *used;
+  Fail(r, RefineStatus::kTooFewSamples,
+       fmt::format("{} samples before the detected jumps come closer than {} samples, for {} unknowns", *used,
+                   options.min_jump_interval, p));
+  return false;
+}
+
+// After a failed fit from the recursive estimate, or one that is ok on a span shortened by the
+// retries: the fit from a repaired start (RepairStart). Its result replaces r when it is ok (and, r
+// ok, fits more samples); else r is kept, and when r is not ok its reason says how the second
+// attempt ended.
+void FitFromRepairedStart(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
+                          int p, const RefineOptions& options, RefineResult& r) {
+  if (r.status == RefineStatus::kNonFiniteData || r.status == RefineStatus::kTooFewSamples) return;
+  SensitivityOptions sens;
+  Vec weight;
+  FitWeighting(y, options, EstimateNoiseSigma(y), &sens, &weight);
+  const StartRepair repair =
+      RepairStart(model, y, dt, gamma, r.start, r.unknowns, weight, sens, options.start_repair);
+  if (!repair.ok) return;
+  RefineResult second;
+  second.unknowns = r.unknowns;
+  second.names = r.names;
+  second.start = repair.start;
+  second.refined = repair.start;
+  long used = 0;
+  if (FitSpan(repair.gamma, p, options, second, &used)) {
+    FitWithRetries(model, y, dt, repair.gamma, used, p, options, second);
+  }
+  if (second.ok() && (!r.ok() || second.samples_used > r.samples_used)) {
+    second.start = r.start;  // the recursive estimate, kept when the result is not ok
+    second.start_repair = repair.Summary();
+    r = std::move(second);
+    return;
+  }
+  if (r.ok()) return;
+  r.reason += fmt::format("; from a repaired start ({}): {}: {}", repair.Summary(), ToString(second.status),
+                          second.reason);
+}
+
 }  // namespace
 
 RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alpha0, const Vec& beta0,
@@ -502,18 +538,13 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
     Fail(r, RefineStatus::kTooFewSamples, fmt::format("{} samples for {} unknowns", y.cols(), p));
     return r;
   }
-  long used = FitLength(gamma, options.min_jump_interval);
-  if (used < y.cols()) {
-    r.span_reason = fmt::format("later detected jumps are closer than {} samples", options.min_jump_interval);
-  }
-  if (used < p + 2) {
-    r.samples_used = used;
-    Fail(r, RefineStatus::kTooFewSamples,
-         fmt::format("{} samples before the detected jumps come closer than {} samples, for {} unknowns",
-                     used, options.min_jump_interval, p));
-    return r;
-  }
+  long used = 0;
+  if (!FitSpan(gamma, p, options, r, &used)) return r;
   FitWithRetries(model, y, dt, gamma, used, p, options, r);
+  // Not ok, or ok only on a span cut short by the retries: the repaired start may fit more.
+  if ((!r.ok() || r.samples_used < used) && options.repair_start) {
+    FitFromRepairedStart(model, y, dt, gamma, p, options, r);
+  }
   if (r.ok()) {
     r.estimate = r.refined;
   } else {
@@ -526,6 +557,30 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
 RefineResult RefineIdentification(const Model& model, const Mat& y, double dt,
                                   const IdentifyResult& recursive, const RefineOptions& options) {
   return Refine(model, y, dt, recursive.alpha_hat, recursive.beta_hat, recursive.gamma, options);
+}
+
+ceres::Solver::Summary SolveLeastSquares(ceres::Problem& problem, const RefineOptions& options,
+                                         ceres::LinearSolverType linear_solver) {
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = linear_solver;
+  so.max_num_iterations = options.max_iterations;
+  so.function_tolerance = options.function_tolerance;
+  so.parameter_tolerance = options.parameter_tolerance;
+  so.gradient_tolerance = 1e-16;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  so.num_threads = 1;
+  // Ceres reports a failed evaluation through glog as well; the status carries it here.
+  static const bool quiet = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)quiet;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  return summary;
 }
 
 }  // namespace hysid

@@ -16,6 +16,10 @@
 // autocorrelation exceeds max_lag1 (when they are above the integration accuracy). Never NaN.
 // A jump-count mismatch or a failed start is first retried on a span that ends before the first
 // disagreement between the model's jumps and the detected ones (RefineOptions::max_span_retries).
+// A fit that still fails (other than for the data or their length) is tried once more from a
+// repaired start (sim/refine/start.hpp: detections the local flows do not need dropped, the others
+// moved to where the flows meet, missed jumps added, β and ξ0 re-estimated); the status is then
+// that fit's when it is ok, else the first fit's.
 #pragma once
 
 #include <cstdint>
@@ -23,6 +27,7 @@
 #include <vector>
 
 #include "core/identify/identifier.hpp"
+#include "sim/refine/start.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
 namespace hysid {
@@ -74,6 +79,9 @@ struct RefineOptions {
   // mismatch or start failure), the span is cut to end ceil(jump_time_tolerance) + 2 samples before
   // the first disagreement and fit again, at most this many times (0: never).
   int max_span_retries = 3;
+  // A failed fit is tried again from a repaired start (see above); false: never.
+  bool repair_start = true;
+  StartRepairOptions start_repair;
   // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
   bool IsValid(std::string* error) const;
 };
@@ -97,10 +105,16 @@ struct RefineResult {
   double lag1 = 0.0;            // lag-1 autocorrelation of the normalised residuals
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;  // ½ Σ (r/σ_w)² with the weighting σ
-  long samples_used = 0;    // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
-  std::string span_reason;  // why samples_used < K ("" when all samples are fit)
-  int detected_jumps = 0;   // in the fitted prefix
-  int model_jumps = -1;     // of the fitted model over the horizon (−1: not simulated)
+  long samples_used = 0;     // the fitted prefix of the samples (see RefineOptions::min_jump_interval)
+  std::string span_reason;   // why samples_used < K ("" when all samples are fit)
+  int detected_jumps = 0;    // in the fitted prefix (of the repaired detections when start_repair is set)
+  std::string start_repair;  // what the repaired start changed, when the result comes from it ("" else)
+  int model_jumps = -1;      // of the fitted model over the horizon (−1: not simulated)
+  // RefineChains: the initial state fitted for each chain (start: its first sample; empty for a
+  // chain left out), how many chains were fit and how many left out (too short, or their first
+  // sample outside C ∪ D).
+  std::vector<Vec> chain_x0;
+  long chains_used = 0, chains_skipped = 0;
 };
 
 // y: n × K samples at t_k = k·dt; alpha0, beta0: full vectors (the recursive estimate); gamma: one
@@ -109,6 +123,30 @@ struct RefineResult {
 // statuses.
 RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alpha0, const Vec& beta0,
                     const std::vector<std::uint8_t>& gamma, const RefineOptions& options = {});
+
+// One chain of samples for RefineChains: consecutive samples of one run, no gap between them.
+struct RefineChain {
+  std::vector<double> t;            // sample times, increasing (any origin)
+  Mat y;                            // n × K, finite
+  std::vector<std::uint8_t> gamma;  // 1 = a jump detected in (t_{k−1}, t_k]; gamma[0] is ignored
+};
+
+// The chains of samples (t, y: n × K, gamma as RefineChain's) cut where chain_start is 1 (sample 0
+// always starts one). Throws std::invalid_argument for sizes that disagree.
+std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
+                                     const std::vector<std::uint8_t>& chain_start,
+                                     const std::vector<std::uint8_t>& gamma);
+
+// Several chains of one system (several runs, or one run cut at gaps and missing samples), samples
+// at their own times. θ = (unknown α, unknown β) shared, plus one initial state per chain (its own
+// Ceres parameter block, start: the chain's first sample). Each chain is simulated on its own times
+// from its own start; nothing is integrated across a gap. Per chain the span rule of Refine
+// (min_jump_interval) applies; chains with fewer than 2n + 2 samples are left out. Checks as Refine,
+// per chain (start, Zeno, jump count and times) and pooled (σ, RMS, lag-1 within chains); no span
+// retries. names, covariance and standard_errors cover the shared unknowns only (their block of the
+// joint F⁻¹), `unknowns` has x0 = false; estimate.x0 is the first fitted chain's, chain_x0 all.
+RefineResult RefineChains(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                          const Vec& beta0, const RefineOptions& options = {});
 
 // The same from an identification run: its α̂, β̂ and γ.
 RefineResult RefineIdentification(const Model& model, const Mat& y, double dt,

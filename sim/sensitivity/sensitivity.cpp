@@ -188,7 +188,8 @@ enum class Leg { kForward, kBackward };
 class SensRun {
  public:
   SensRun(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
-          const SampleGrid& grid, const SensitivityOptions& options, const std::vector<int>* segments)
+          const SampleGrid& grid, const SensitivityOptions& options, const std::vector<int>* segments,
+          const std::vector<double>* times = nullptr)
       : model_(model),
         params_(params),
         unknowns_(unknowns),
@@ -197,9 +198,10 @@ class SensRun {
         n_(model.state_size()),
         p_(unknowns.size(model.state_size())),
         sens_(options.sensitivities) {
-    sample_count_ = grid.size();
-    dt_ = grid.dt;
-    t_last_ = static_cast<double>(sample_count_ - 1) * dt_;
+    times_ = times;
+    sample_count_ = times ? static_cast<long>(times->size()) : grid.size();
+    dt_ = times ? times->back() / static_cast<double>(std::max<long>(1, sample_count_ - 1)) : grid.dt;
+    t_last_ = times ? times->back() : static_cast<double>(sample_count_ - 1) * dt_;
     Trajectory& tr = out_.trajectory;
     tr.dt = dt_;
     tr.t.assign(static_cast<std::size_t>(sample_count_), 0.0);
@@ -233,7 +235,9 @@ class SensRun {
   }
 
  private:
-  double SampleTime(long k) const { return static_cast<double>(k) * dt_; }
+  double SampleTime(long k) const {
+    return times_ ? (*times_)[static_cast<std::size_t>(k)] : static_cast<double>(k) * dt_;
+  }
   int jumps() const { return static_cast<int>(out_.trajectory.jumps.size()); }
 
   bool Setup() {
@@ -715,7 +719,8 @@ class SensRun {
   int n_ = 0, p_ = 0;
   bool sens_ = true;
   long sample_count_ = 0;
-  double dt_ = 0.0, t_last_ = 0.0;
+  double dt_ = 0.0, t_last_ = 0.0;              // with times_: dt_ is the mean step
+  const std::vector<double>* times_ = nullptr;  // sample times (irregular sampling), or null: k·dt_
   double t_ = 0.0;
   Vec x_;
   Mat S_;
@@ -769,12 +774,9 @@ SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridPara
   return run.Execute();
 }
 
-SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
-                                                   const Unknowns& unknowns, const SampleGrid& grid,
-                                                   const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options) {
-  CheckInputs(model, params, unknowns, grid, options);
-  const auto k_count = static_cast<std::size_t>(grid.size());
+namespace {
+
+void CheckSegments(const std::vector<int>& segment_of_sample, std::size_t k_count) {
   if (segment_of_sample.size() != k_count) {
     throw std::invalid_argument(fmt::format("segment_of_sample has {} entries; the grid has {} samples",
                                             segment_of_sample.size(), k_count));
@@ -788,7 +790,38 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
                       segment_of_sample[k], prev));
     }
   }
+}
+
+}  // namespace
+
+SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
+                                                   const Unknowns& unknowns, const SampleGrid& grid,
+                                                   const std::vector<int>& segment_of_sample,
+                                                   const SensitivityOptions& options) {
+  CheckInputs(model, params, unknowns, grid, options);
+  CheckSegments(segment_of_sample, static_cast<std::size_t>(grid.size()));
   SensRun run(model, params, unknowns, grid, options, &segment_of_sample);
+  return run.Execute();
+}
+
+SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
+                                                   const Unknowns& unknowns, const std::vector<double>& times,
+                                                   const std::vector<int>& segment_of_sample,
+                                                   const SensitivityOptions& options) {
+  if (times.size() < 2 || times[0] != 0.0) {
+    throw std::invalid_argument(fmt::format("times: {} samples, first {}: need at least 2, the first at 0",
+                                            times.size(), times.empty() ? 0.0 : times[0]));
+  }
+  for (std::size_t k = 1; k < times.size(); ++k) {
+    if (!(times[k] > times[k - 1]) || !std::isfinite(times[k])) {
+      throw std::invalid_argument(
+          fmt::format("times[{}] = {} after {}: must increase", k, times[k], times[k - 1]));
+    }
+  }
+  const SampleGrid grid{.t_end = times.back(), .dt = times.back() / static_cast<double>(times.size() - 1)};
+  CheckInputs(model, params, unknowns, grid, options);
+  CheckSegments(segment_of_sample, times.size());
+  SensRun run(model, params, unknowns, grid, options, &segment_of_sample, &times);
   return run.Execute();
 }
 

@@ -84,5 +84,11 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
                                                    const Unknowns& unknowns, const SampleGrid& grid,
                                                    const std::vector<int>& segment_of_sample,
                                                    const SensitivityOptions& options = {});
+// The same on samples at their own times (irregular sampling; times[0] = 0, increasing): sample k at
+// times[k] instead of k·δt.
+SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
+                                                   const Unknowns& unknowns, const std::vector<double>& times,
+                                                   const std::vector<int>& segment_of_sample,
+                                                   const SensitivityOptions& options = {});
 
 }  // namespace hysid

@@ -64,7 +64,8 @@ def test_identify_equals_cli(paper_data, tmp_path):
     printed = cli("identify", "--data", paper_data, "--detector", "paper", "--refine", "none", "--trace", trace)
     expected = {k: float(v) for k, v in re.findall(r"(?:alpha|beta) +(\w+) += (\S+)", printed)}
     table = np.loadtxt(paper_data, delimiter=",", skiprows=1)
-    fit = hysid.identify("impact-msd", table[:, 4:6], dt=5e-4)
+    fit = hysid.identify("impact-msd", table[:, 4:6], dt=5e-4, detector="paper", refine="none")
+    assert "refined" not in fit
     assert set(fit["estimates"]) == set(expected) == {"a", "b", "lambda", "mu"}
     for name, value in expected.items():  # printed with 10 significant digits
         assert fit["estimates"][name] == pytest.approx(value, rel=1e-9, abs=1e-12)
@@ -75,11 +76,28 @@ def test_identify_equals_cli(paper_data, tmp_path):
     np.testing.assert_array_equal(fit["beta_trace"][:, 1:], cols[:, 6:8])
 
 
+def test_identify_defaults_are_the_cli_defaults(paper_data, tmp_path):
+    """No tuning arguments: the residual detector and the refinement, as `hysid identify` with no flags
+    (which reads the data accuracy, the solver's 1e-12, from the simulation's sidecar)."""
+    import json
+    out = tmp_path / "fit.json"
+    subprocess.run([BIN, "identify", "--data", str(paper_data), "--json", str(out)], capture_output=True,
+                   text=True)
+    cli_fit = json.loads(out.read_text())
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
+    fit = hysid.identify("impact-msd", y, dt=5e-4, data_rtol=1e-12, data_atol=1e-12)
+    assert fit["jumps_detected"] == cli_fit["detector"]["jumps_detected"] == 14
+    assert fit["refined"]["status"] == cli_fit["status"] == "ok"
+    np.testing.assert_allclose(list(fit["refined"]["estimates"].values()), cli_fit["estimate"], rtol=1e-12)
+    np.testing.assert_allclose(list(fit["refined"]["standard_errors"].values()), cli_fit["standard_errors"],
+                               rtol=1e-12)
+
+
 def test_model_file_identifies_like_builtin(paper_data):
     y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
-    a = hysid.identify("impact-msd", y, dt=5e-4, estimator="gtls", detector="residual")
+    a = hysid.identify("impact-msd", y, dt=5e-4, estimator="gtls", refine="none")
     b = hysid.identify(hysid.Model.from_file(MODELS / "impact-msd.toml"), y, dt=5e-4, estimator="gtls",
-                       detector="residual")
+                       refine="none")
     np.testing.assert_array_equal(a["alpha"], b["alpha"])
     np.testing.assert_array_equal(a["beta"], b["beta"])
     np.testing.assert_array_equal(a["gamma"], b["gamma"])
@@ -110,7 +128,7 @@ def test_refinement_equals_cli(paper_data, tmp_path):
                     "--json", str(out)], capture_output=True, text=True)
     cli_fit = json.loads(out.read_text())
     y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:, 4:6]
-    fit = hysid.identify("impact-msd", y, dt=5e-4, detector="residual", refine="ml")["refined"]
+    fit = hysid.identify("impact-msd", y, dt=5e-4)["refined"]  # the defaults: residual detector, refine='ml'
     assert fit["status"] == cli_fit["status"]
     assert list(fit["estimates"]) == cli_fit["names"]
     np.testing.assert_allclose(list(fit["estimates"].values()), cli_fit["estimate"], rtol=1e-12)
@@ -118,3 +136,61 @@ def test_refinement_equals_cli(paper_data, tmp_path):
         np.testing.assert_allclose(list(fit["standard_errors"].values()), cli_fit["standard_errors"], rtol=1e-12)
     with pytest.raises(ValueError, match="refine = 'x'"):
         hysid.identify("impact-msd", y, dt=5e-4, refine="x")
+
+
+def test_crlb_equals_cli():
+    """hysid.crlb is `hysid crlb`: the same sd (printed to 6 digits); the bound scales with sigma."""
+    printed = cli("crlb", "--model", "impact-msd", "--sigma", "0.5")
+    expected = {k: float(v) for k, v in re.findall(r"^  (\S+) += \S+ +sd (\S+)$", printed, re.M)}
+    bound = hysid.crlb("impact-msd", sigma=0.5)
+    assert bound["status"] == "ok" and bound["jumps"] == 14
+    assert list(bound["sd"]) == bound["names"] == list(expected)
+    for name, sd in expected.items():
+        assert bound["sd"][name] == pytest.approx(sd, rel=1e-5)
+    np.testing.assert_allclose(np.sqrt(np.diag(bound["covariance"])), list(bound["sd"].values()), rtol=1e-12)
+    doubled = hysid.crlb("impact-msd", sigma=1.0)
+    assert doubled["mean_e_alpha"] == pytest.approx(2 * bound["mean_e_alpha"], rel=1e-9)
+    known = hysid.crlb("impact-msd", sigma=0.5, x0_known=True)
+    assert known["names"] == ["a", "b", "lambda", "mu"]
+    with pytest.raises(ValueError, match="sigma: must be finite and > 0"):
+        hysid.crlb("impact-msd", sigma=0.0)
+
+
+def test_identify_times_on_the_grid_equal_dt():
+    """t given as the grid's own times (exact: δt a power of two) is the dt path, bit for bit."""
+    traj = hysid.simulate("impact-msd", t_end=5.0, dt=1.0 / 2048, sigma=0.05, seed=5)
+    a = hysid.identify("impact-msd", traj["y"], dt=1.0 / 2048, refine="none")
+    b = hysid.identify("impact-msd", traj["y"], t=traj["t"], refine="none")
+    np.testing.assert_array_equal(a["alpha"], b["alpha"])
+    np.testing.assert_array_equal(a["gamma"], b["gamma"])
+    assert b["chains"] == 1
+
+
+def test_identify_runs_with_missing_rows_equals_cli(tmp_path):
+    """Two runs with NaN rows, refined: the estimates of `hysid identify --data a --data b` and within
+    4 standard errors of the truth."""
+    import json
+    runs = []
+    for r, x0 in enumerate([(20.0, 0.0), (12.0, 6.0)]):
+        traj = hysid.simulate("impact-msd", x0=list(x0), t_end=10.0, sigma=0.02, seed=9, trial=r)
+        y = traj["y"].copy()
+        y[[500 + 3000 * r, 7000 + 1000 * r], r] = np.nan
+        runs.append((traj["t"], y))
+        with open(tmp_path / f"run{r}.csv", "w") as f:
+            f.write("t,x,v\n")
+            for t, (x, v) in zip(traj["t"], y):
+                f.write(f"{t!r},{'' if np.isnan(x) else repr(x)},{'nan' if np.isnan(v) else repr(v)}\n")
+    fit = hysid.identify("impact-msd", [y for _, y in runs], t=[t for t, _ in runs], detector="residual",
+                         refine="ml")
+    assert fit["chains"] == 6 and fit["missing_rows"] == 4
+    refined = fit["refined"]
+    assert refined["status"] == "ok", refined["reason"]
+    truth = {"a": 5.0, "b": 0.1, "lambda": 0.99, "mu": 0.0}
+    for name, value in refined["estimates"].items():
+        assert abs(value - truth[name]) < 4 * refined["standard_errors"][name]
+    out = tmp_path / "fit.json"
+    subprocess.run([BIN, "identify", "--data", str(tmp_path / "run0.csv"), "--data", str(tmp_path / "run1.csv"),
+                    "--json", str(out)], check=True, capture_output=True)
+    cli_fit = json.loads(out.read_text())
+    for name, value in zip(cli_fit["names"], cli_fit["estimate"]):
+        assert refined["estimates"][name] == pytest.approx(value, rel=1e-12)

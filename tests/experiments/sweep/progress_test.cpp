@@ -10,13 +10,14 @@
 #include <string>
 
 #include "experiments/sweep/progress.hpp"
+#include "tests/testing/temp_dir.hpp"
 
 namespace {
 
 // Runs `body` with stderr sent to a file; returns what was written.
 template <class F>
 std::string CaptureStderr(F body) {
-  const auto path = std::filesystem::temp_directory_path() / "hysid_progress_test.txt";
+  static const auto path = hysid::testing::FreshTempDir("progress") / "stderr.txt";
   std::fflush(stderr);
   const int saved = ::dup(STDERR_FILENO);
   REQUIRE(std::freopen(path.c_str(), "w", stderr) != nullptr);

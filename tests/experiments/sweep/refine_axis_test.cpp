@@ -17,6 +17,7 @@
 #include "experiments/sweep/runner.hpp"
 #include "experiments/sweep/tables.hpp"
 #include "sim/sensitivity/crlb.hpp"
+#include "tests/testing/temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace hysid;
@@ -65,7 +66,7 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
   REQUIRE(cells.size() == 4u);  // σ × refine, refine fastest
   CHECK(cells[0].refine == "none");
   CHECK(cells[1].refine == "ml");
-  const fs::path dir = fs::temp_directory_path() / "hysid_test_sweep_refine";
+  const fs::path dir = testing::FreshTempDir("sweep-refine");
   fs::remove_all(dir);
   SweepOptions o;
   o.out = dir;

@@ -21,6 +21,7 @@
 #include "experiments/sweep/tables.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
+#include "tests/testing/temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace hysid;
@@ -34,12 +35,7 @@ ModelRegistry Registry() {
 }
 
 // A fresh directory for one test case.
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("hysid_test_sweep_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return testing::FreshTempDir("sweep-" + name); }
 
 std::string Slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -722,4 +718,56 @@ seed = 5
   CHECK(run.find("\"models\"") != std::string::npos);
   CHECK(run.find("\"name\": \"lambda\"") != std::string::npos);
   CHECK(run.find("\"value\": 0.9") != std::string::npos);
+}
+
+TEST_CASE("sweep: refine as a baseline key pairs each refined cell with its recursive one", "[sweep][crn]") {
+  const std::string text = R"(
+[model]
+name = "impact-msd"
+x0 = [20.0, 0.0]
+t_end = 3.0
+[grid]
+sigma = 0.05
+dt = 1e-3
+detector = "residual"
+refine = ["none", "ml"]
+[identifier]
+sets = false
+[summary]
+baseline = { refine = "none" }
+[run]
+trials = 3
+seed = 5
+)";
+  const SweepConfig c = ParseSweepText(text, "refine.toml", Registry());
+  const fs::path dir = TempDir("refine_baseline");
+  Run(c, dir, 2);
+  std::vector<std::string> header, sh;
+  std::map<long, std::vector<std::string>> rows, summary;
+  ReadTrialsCsv(dir / "trials.csv", &header, &rows);
+  fs::copy_file(dir / "summary.csv", dir / "summary_as_trials.csv");
+  ReadTrialsCsv(dir / "summary_as_trials.csv", &sh, &summary);
+  const auto col = [](const std::vector<std::string>& h, const char* n) {
+    return static_cast<std::size_t>(std::find(h.begin(), h.end(), n) - h.begin());
+  };
+  const std::vector<SweepCell> cells = EnumerateCells(c);
+  REQUIRE(cells.size() == 2u);
+  long none = -1, ml = -1;
+  for (const SweepCell& cell : cells) (cell.refine == "none" ? none : ml) = cell.index;
+  REQUIRE((none >= 0 && ml >= 0));
+  CHECK(summary.at(ml)[col(sh, "baseline_cell")] == fmt::format("{}", none));
+  CHECK(summary.at(none)[col(sh, "baseline_cell")] == fmt::format("{}", none));
+  std::vector<double> d;
+  for (long t = 0; t < c.trials; ++t) {
+    d.push_back(std::stod(rows.at(ml * c.trials + t)[col(header, "e_beta")]) -
+                std::stod(rows.at(none * c.trials + t)[col(header, "e_beta")]));
+  }
+  CHECK(summary.at(ml)[col(sh, "e_beta_diff_mean")] == fmt::format("{}", Summarize(d).mean));
+  CHECK(Summarize(d).mean < 0.0);  // the refinement improves on the recursive β̂ in this run
+
+  const std::string head = "[model]\nname = \"impact-msd\"\n[grid]\nsigma = [0.1]\ndt = 1e-3\n";
+  CHECK_THAT(ErrorOf(head + "refine = [\"none\", \"ml\"]\n[summary]\nbaseline = { refine = \"x\" }\n"),
+             Catch::Contains("summary.baseline.refine: 'x' is not on grid.refine (none, ml)"));
+  CHECK_THAT(ErrorOf(head + "[summary]\nbaseline = { refine = \"none\" }\n"),
+             Catch::Contains("summary.baseline.refine: unknown key"));
 }

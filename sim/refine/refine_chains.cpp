@@ -1,0 +1,463 @@
+// RefineChains: the output-error refinement of several chains of samples at their own times, α and β
+// shared, one initial state per chain (sim/refine/refine.hpp).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include "core/model/noise_shape.hpp"
+#include "sim/refine/refine.hpp"
+#include "sim/refine/solve.hpp"
+
+namespace hysid {
+namespace {
+
+// One chain as fit: the span used, its times from 0, its detected segments.
+struct ChainFit {
+  long index = 0;  // in the caller's list
+  std::vector<double> times;
+  Mat y;
+  std::vector<int> segments;
+  Vec x0;
+};
+
+struct ChainsProblem {
+  const Model* model = nullptr;
+  Unknowns unknowns;  // α, β and x0: the sensitivity layout of one chain
+  HybridParameters start;
+  std::vector<ChainFit> fits;
+  Vec weight;  // 1/σ_i
+  SensitivityOptions options;
+  int shared = 0;  // |α_u| + |β_u|
+
+  SensitivityTrajectory Simulate(const ChainFit& c, const double* theta, const double* x0, bool sens) const {
+    Vec full(shared + model->state_size());
+    full.head(shared) = Eigen::Map<const Vec>(theta, shared);
+    full.tail(model->state_size()) = Eigen::Map<const Vec>(x0, model->state_size());
+    const HybridParameters p = start.WithTheta(unknowns, full);
+    if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() ||
+        (!model->InFlowSet(p.x0) && !model->InJumpSet(p.x0))) {
+      SensitivityTrajectory bad;
+      bad.trajectory.status.stop = SimStop::kLeftDomain;
+      bad.trajectory.status.message = "x0 outside C and D, or parameters not finite";
+      return bad;
+    }
+    SensitivityOptions o = options;
+    o.sensitivities = sens;
+    return SimulateSensitivitiesMatched(*model, p, unknowns, c.times, c.segments, o);
+  }
+};
+
+class ChainCost final : public ceres::CostFunction {
+ public:
+  ChainCost(const ChainsProblem& problem, const ChainFit& chain) : problem_(problem), chain_(chain) {
+    set_num_residuals(static_cast<int>(chain.y.size()));
+    mutable_parameter_block_sizes()->push_back(problem.shared);
+    mutable_parameter_block_sizes()->push_back(problem.model->state_size());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const bool jac = jacobians != nullptr && (jacobians[0] != nullptr || jacobians[1] != nullptr);
+    const SensitivityTrajectory s = problem_.Simulate(chain_, parameters[0], parameters[1], jac);
+    if (!s.ok()) return false;
+    const Eigen::Index n = chain_.y.rows(), k_count = chain_.y.cols();
+    Eigen::Map<Mat> r(residuals, n, k_count);
+    r = problem_.weight.asDiagonal() * (chain_.y - s.trajectory.x);
+    if (!r.allFinite()) return false;
+    if (!jac) return true;
+    const int shared = problem_.shared, p = s.parameters;
+    const double* w = problem_.weight.data();
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      const double* sk = s.sensitivities.col(k).data();  // n × p, column-major
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const Eigen::Index row = k * n + i;
+        if (jacobians[0] != nullptr) {
+          for (int c = 0; c < shared; ++c) jacobians[0][row * shared + c] = -w[i] * sk[c * n + i];
+        }
+        if (jacobians[1] != nullptr) {
+          for (int c = shared; c < p; ++c) jacobians[1][row * n + (c - shared)] = -w[i] * sk[c * n + i];
+        }
+      }
+    }
+    return true;
+  }
+
+ private:
+  const ChainsProblem& problem_;
+  const ChainFit& chain_;
+};
+
+void Fail(RefineResult& r, RefineStatus status, std::string reason) {
+  r.status = status;
+  r.reason = std::move(reason);
+}
+
+// Samples before the first detected jump that follows the previous one by fewer than `min_interval`.
+long SpanOf(const std::vector<std::uint8_t>& gamma, long min_interval) {
+  long previous = 0;
+  for (std::size_t k = 1; k < gamma.size(); ++k) {
+    if (gamma[k] == 0) continue;
+    const auto kk = static_cast<long>(k);
+    if (previous > 0 && kk - previous < min_interval) return previous;
+    previous = kk;
+  }
+  return static_cast<long>(gamma.size());
+}
+
+void CheckChainInput(const Model& model, const RefineChain& c, std::size_t index) {
+  if (c.y.rows() != model.state_size() || static_cast<Eigen::Index>(c.t.size()) != c.y.cols() ||
+      c.gamma.size() != c.t.size()) {
+    throw std::invalid_argument(fmt::format(
+        "RefineChains: chain {}: y is {} × {}, {} times, {} gamma entries; "
+        "model '{}' has {} states",
+        index + 1, c.y.rows(), c.y.cols(), c.t.size(), c.gamma.size(), model.name(), model.state_size()));
+  }
+  for (std::size_t k = 1; k < c.t.size(); ++k) {
+    if (!(c.t[k] > c.t[k - 1]) || !std::isfinite(c.t[k])) {
+      throw std::invalid_argument(fmt::format("RefineChains: chain {}: time {} after {}: must increase",
+                                              index + 1, c.t[k], c.t[k - 1]));
+    }
+  }
+}
+
+// The chains as fit: span rule, too short or outside C ∪ D left out.
+std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<RefineChain>& chains,
+                                    const RefineOptions& options, RefineResult& r) {
+  const int n = model.state_size();
+  std::vector<ChainFit> fits;
+  r.chain_x0.assign(chains.size(), Vec());
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    CheckChainInput(model, chains[c], c);
+    const RefineChain& in = chains[c];
+    const long used = SpanOf(in.gamma, options.min_jump_interval);
+    if (used < 2 * n + 2 || !in.y.leftCols(used).allFinite() ||
+        (!model.InFlowSet(in.y.col(0)) && !model.InJumpSet(in.y.col(0)))) {
+      ++r.chains_skipped;
+      continue;
+    }
+    ChainFit f;
+    f.index = static_cast<long>(c);
+    f.y = in.y.leftCols(used);
+    f.x0 = in.y.col(0);
+    int j = 0;
+    for (long k = 0; k < used; ++k) {
+      const auto u = static_cast<std::size_t>(k);
+      f.times.push_back(in.t[u] - in.t[0]);
+      j += (k > 0 && in.gamma[u] != 0) ? 1 : 0;
+      f.segments.push_back(j);
+    }
+    r.detected_jumps += j;
+    r.samples_used += used;
+    fits.push_back(std::move(f));
+  }
+  r.chains_used = static_cast<long>(fits.size());
+  return fits;
+}
+
+Mat Concatenated(const std::vector<ChainFit>& fits, int n) {
+  Eigen::Index k = 0;
+  for (const ChainFit& f : fits) k += f.y.cols();
+  Mat all(n, k);
+  k = 0;
+  for (const ChainFit& f : fits) {
+    all.middleCols(k, f.y.cols()) = f.y;
+    k += f.y.cols();
+  }
+  return all;
+}
+
+// Integration accuracy per component: residuals below 1e3 × this say nothing about the noise.
+Vec Floor(const Mat& y, const SimOptions& sim) {
+  return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
+}
+
+ceres::Solver::Summary SolveChains(const ChainsProblem& problem, const RefineOptions& options, Vec& theta,
+                                   std::vector<Vec>& x0) {
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem cp(po);
+  for (std::size_t c = 0; c < problem.fits.size(); ++c) {
+    cp.AddResidualBlock(new ChainCost(problem, problem.fits[c]), nullptr, theta.data(), x0[c].data());
+  }
+  return SolveLeastSquares(cp, options, ceres::DENSE_SCHUR);  // the chains' x0 blocks eliminated
+}
+
+// Chain f's jumps at the fit (matched mode) against its detected intervals: Zeno, count, times.
+void CheckChainJumps(const ChainFit& f, const SensitivityTrajectory& s, const RefineOptions& options,
+                     RefineResult& r) {
+  const SimStatus& st = s.trajectory.status;
+  const long chain = f.index + 1;
+  if (st.stop == SimStop::kZeno) {
+    return Fail(r, RefineStatus::kZeno,
+                fmt::format("chain {}: the fitted model is Zeno: {}", chain, st.message));
+  }
+  if (s.extra_jumps > 0) {
+    return Fail(
+        r, RefineStatus::kJumpCountMismatch,
+        fmt::format("chain {}: the fitted model jumps {} more times than detected", chain, s.extra_jumps));
+  }
+  std::size_t j = 0;
+  for (std::size_t k = 1; k < f.segments.size() && j < s.trajectory.jumps.size(); ++k) {
+    if (f.segments[k] == f.segments[k - 1]) continue;
+    const double lo = f.times[k - 1], hi = f.times[k], t = s.trajectory.jumps[j++].t;
+    const double off = (t < lo ? lo - t : (t > hi ? t - hi : 0.0)) / (hi - lo);
+    if (off > options.jump_time_tolerance) {
+      return Fail(r, RefineStatus::kJumpCountMismatch,
+                  fmt::format("chain {}: fitted jump {} at t = {:.6g} is {:.3g} samples from the detected "
+                              "interval ({:.6g}, {:.6g}] (chain times from 0)",
+                              chain, j, t, off, lo, hi));
+    }
+  }
+}
+
+// The names of the joint θ: the shared unknowns, then x0 of each fitted chain.
+std::vector<std::string> JointNames(const Model& model, const ChainsProblem& problem) {
+  Unknowns shared = problem.unknowns;
+  shared.x0 = false;
+  std::vector<std::string> names = shared.Names(model);
+  const std::vector<std::string> all = problem.unknowns.Names(model);
+  for (const ChainFit& f : problem.fits) {
+    for (int i = 0; i < model.state_size(); ++i) {
+      names.push_back(
+          fmt::format("{} chain {}", all[static_cast<std::size_t>(problem.shared + i)], f.index + 1));
+    }
+  }
+  return names;
+}
+
+// The joint Fisher information: shared block plus one x0 block per chain.
+Mat JointFisher(const ChainsProblem& problem, const std::vector<SensitivityTrajectory>& sims,
+                const Vec& sigma) {
+  const int s = problem.shared, n = problem.model->state_size();
+  const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
+  Mat f = Mat::Zero(total, total);
+  for (std::size_t c = 0; c < sims.size(); ++c) {
+    const Mat fc = FisherInformation(sims[c], sigma);
+    const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
+    f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
+    f.block(0, o, s, n) = fc.topRightCorner(s, n);
+    f.block(o, 0, n, s) = fc.bottomLeftCorner(n, s);
+    f.block(o, o, n, n) = fc.bottomRightCorner(n, n);
+  }
+  return f;
+}
+
+// σ, the covariance of the shared unknowns, normalised RMS and lag-1 (within chains), pooled.
+void CheckPooled(const Model& model, const ChainsProblem& problem,
+                 const std::vector<SensitivityTrajectory>& sims, const Vec& mad_sigma,
+                 const RefineOptions& options, RefineResult& r) {
+  const int n = model.state_size();
+  const Mat y = Concatenated(problem.fits, n);
+  Mat res(n, y.cols());
+  Eigen::Index k = 0;
+  for (std::size_t c = 0; c < sims.size(); ++c) {
+    res.middleCols(k, problem.fits[c].y.cols()) = problem.fits[c].y - sims[c].trajectory.x;
+    k += problem.fits[c].y.cols();
+  }
+  const double p = problem.shared + n * static_cast<double>(sims.size());
+  const Vec sigma_hat = (res.rowwise().squaredNorm() / (static_cast<double>(y.cols()) - p / n)).cwiseSqrt();
+  const Vec floor = Floor(y, problem.options.sim);
+  r.sigma_estimated = options.sigma.size() == 0;
+  r.sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);
+  const Crlb bound =
+      CrlbFromFisher(JointFisher(problem, sims, r.sigma), problem.unknowns, JointNames(model, problem));
+  if (!bound.ok()) return Fail(r, RefineStatus::kSingularFisher, bound.message);
+  r.covariance = bound.covariance.topLeftCorner(problem.shared, problem.shared);
+  r.standard_errors = bound.sd.head(problem.shared);
+  const Mat z = r.sigma.cwiseInverse().asDiagonal() * res;
+  r.normalized_rms = 0.0;
+  if (r.sigma_estimated) {
+    for (int i = 0; i < n; ++i) {
+      if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
+    }
+  } else {
+    r.normalized_rms = std::sqrt(z.squaredNorm() / static_cast<double>(z.size()));
+  }
+  double lag = 0.0;
+  k = 0;
+  for (const ChainFit& f : problem.fits) {
+    const Eigen::Index m = f.y.cols();
+    lag += (z.middleCols(k, m - 1).array() * z.middleCols(k + 1, m - 1).array()).sum();
+    k += m;
+  }
+  r.lag1 = z.squaredNorm() > 0.0 ? lag / z.squaredNorm() : 0.0;
+  const bool above_floor = (sigma_hat.array() > floor.array()).all();
+  if (r.normalized_rms > options.rms_high ||
+      (!r.sigma_estimated && above_floor && r.normalized_rms < options.rms_low)) {
+    return Fail(r, RefineStatus::kResidualRms,
+                fmt::format("normalised residual RMS {:.4g} outside [{:g}, {:g}]{}", r.normalized_rms,
+                            r.sigma_estimated ? 0.0 : options.rms_low, options.rms_high,
+                            r.sigma_estimated ? " (residual sigma over the MAD estimate)" : ""));
+  }
+  if (above_floor && std::abs(r.lag1) > options.max_lag1) {
+    return Fail(r, RefineStatus::kResidualCorrelation,
+                fmt::format("lag-1 autocorrelation of the residuals {:.4g} (|.| > {:g}): the model or the "
+                            "detected jumps do not fit the data",
+                            r.lag1, options.max_lag1));
+  }
+}
+
+// Each chain simulated at (theta, x0); false with kStartFailed / kNotConverged naming the chain.
+bool SimulateAll(const ChainsProblem& problem, const Vec& theta, const std::vector<Vec>& x0, bool sens,
+                 RefineStatus failure, const char* what, std::vector<SensitivityTrajectory>* sims,
+                 RefineResult& r) {
+  sims->clear();
+  for (std::size_t c = 0; c < problem.fits.size(); ++c) {
+    sims->push_back(problem.Simulate(problem.fits[c], theta.data(), x0[c].data(), sens));
+    if (!sims->back().ok()) {
+      Fail(r, failure,
+           fmt::format("{} chain {}: {}", what, problem.fits[c].index + 1,
+                       sims->back().trajectory.status.message));
+      return false;
+    }
+  }
+  return true;
+}
+
+// Solve, polish for noise-free data, then the checks at the fit.
+void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& options, const Vec& mad_sigma,
+               RefineResult& r) {
+  Vec theta = r.start.Theta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, false});
+  std::vector<Vec> x0;
+  for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
+  std::vector<SensitivityTrajectory> sims;
+  if (!SimulateAll(problem, theta, x0, false, RefineStatus::kStartFailed,
+                   "the recursive estimate does not simulate on the detected segments of", &sims, r)) {
+    return;
+  }
+  ceres::Solver::Summary summary = SolveChains(problem, options, theta, x0);
+  r.iterations = static_cast<int>(summary.iterations.size());
+  r.initial_cost = summary.initial_cost;
+  r.final_cost = summary.final_cost;
+  if (summary.termination_type != ceres::CONVERGENCE || !theta.allFinite()) {
+    return Fail(r, RefineStatus::kNotConverged, fmt::format("Ceres: {}", summary.message));
+  }
+  if (!SimulateAll(problem, theta, x0, true, RefineStatus::kNotConverged, "the fit does not simulate on",
+                   &sims, r)) {
+    return;
+  }
+  const Mat y = Concatenated(problem.fits, model.state_size());
+  double sq = 0.0;
+  for (std::size_t c = 0; c < sims.size(); ++c)
+    sq += (problem.fits[c].y - sims[c].trajectory.x).squaredNorm();
+  if (options.polish_tolerance < problem.options.sim.rtol &&
+      std::sqrt(sq / static_cast<double>(y.size())) < Floor(y, problem.options.sim).minCoeff()) {
+    problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
+    summary = SolveChains(problem, options, theta, x0);
+    r.iterations += static_cast<int>(summary.iterations.size());
+    r.final_cost = summary.final_cost;
+    if (summary.termination_type != ceres::CONVERGENCE || !theta.allFinite()) {
+      return Fail(r, RefineStatus::kNotConverged, fmt::format("Ceres (polish): {}", summary.message));
+    }
+    if (!SimulateAll(problem, theta, x0, true, RefineStatus::kNotConverged, "the fit does not simulate on",
+                     &sims, r)) {
+      return;
+    }
+  }
+  r.refined = r.start.WithTheta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, false}, theta);
+  r.refined.x0 = x0.front();
+  r.model_jumps = 0;
+  for (std::size_t c = 0; c < sims.size(); ++c) {
+    r.chain_x0[static_cast<std::size_t>(problem.fits[c].index)] = x0[c];
+    r.model_jumps += static_cast<int>(sims[c].trajectory.jumps.size()) + sims[c].extra_jumps;
+    if (r.ok()) CheckChainJumps(problem.fits[c], sims[c], options, r);
+  }
+  if (r.ok()) CheckPooled(model, problem, sims, mad_sigma, options, r);
+}
+
+void CheckChainsInputs(const Model& model, const Vec& alpha0, const Vec& beta0,
+                       const RefineOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument(error);
+  if (alpha0.size() != model.alpha_size() || beta0.size() != model.beta_size()) {
+    throw std::invalid_argument("RefineChains: alpha0/beta0 must be the model's full parameter vectors");
+  }
+  if (options.sigma.size() != 0 && options.sigma.size() != model.state_size()) {
+    throw std::invalid_argument(fmt::format("RefineOptions::sigma has {} entries; the model has {} states",
+                                            options.sigma.size(), model.state_size()));
+  }
+}
+
+// The weights and the integration tolerance (Refine's rule) from the fitted samples.
+void SetWeights(const RefineOptions& options, const Vec& mad_sigma, const Mat& y, ChainsProblem& problem) {
+  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
+  problem.options = options.sensitivity;
+  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
+  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
+                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
+                                      options.sensitivity.sim.rtol);
+  problem.options.sim.rtol = problem.options.sim.atol = tolerance;
+  problem.weight = weighting.cwiseMax(1e-3 * Floor(y, problem.options.sim)).cwiseInverse();
+}
+
+}  // namespace
+
+std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
+                                     const std::vector<std::uint8_t>& chain_start,
+                                     const std::vector<std::uint8_t>& gamma) {
+  const auto k_count = static_cast<std::size_t>(y.cols());
+  if (t.size() != k_count || chain_start.size() != k_count || gamma.size() != k_count) {
+    throw std::invalid_argument(
+        fmt::format("SplitChains: {} samples, {} times, {} chain_start, {} gamma entries", k_count, t.size(),
+                    chain_start.size(), gamma.size()));
+  }
+  std::vector<RefineChain> chains;
+  for (std::size_t k = 0; k < k_count;) {
+    std::size_t end = k + 1;
+    while (end < k_count && !chain_start[end]) ++end;
+    RefineChain c;
+    c.t.assign(t.begin() + static_cast<long>(k), t.begin() + static_cast<long>(end));
+    c.y = y.middleCols(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(end - k));
+    c.gamma.assign(gamma.begin() + static_cast<long>(k), gamma.begin() + static_cast<long>(end));
+    chains.push_back(std::move(c));
+    k = end;
+  }
+  return chains;
+}
+
+RefineResult RefineChains(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                          const Vec& beta0, const RefineOptions& options) {
+  CheckChainsInputs(model, alpha0, beta0, options);
+  const int n = model.state_size();
+  RefineResult r;
+  r.unknowns = Unknowns::Of(model, /*with_x0=*/false);
+  r.names = r.unknowns.Names(model);
+  r.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : Vec(chains[0].y.col(0))};
+  r.refined = r.estimate = r.start;
+  ChainsProblem problem;
+  problem.model = &model;
+  problem.unknowns = Unknowns::Of(model, /*with_x0=*/true);
+  problem.shared = r.unknowns.size(n);
+  problem.fits = PrepareChains(model, chains, options, r);
+  if (!problem.fits.empty()) r.start.x0 = r.refined.x0 = r.estimate.x0 = problem.fits.front().x0;
+  const double p = problem.shared + static_cast<double>(n) * static_cast<double>(problem.fits.size());
+  if (problem.fits.empty() || problem.shared == 0 || static_cast<double>(r.samples_used) < p / n + 2) {
+    Fail(
+        r, RefineStatus::kTooFewSamples,
+        fmt::format("{} samples in {} chains ({} left out: fewer than {} samples or a first sample outside C "
+                    "and D) for {} unknowns",
+                    r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
+    return r;
+  }
+  if (!alpha0.allFinite() || !beta0.allFinite()) {
+    Fail(r, RefineStatus::kStartFailed, "the recursive estimate is not finite");
+    return r;
+  }
+  const Mat y = Concatenated(problem.fits, n);
+  const Vec mad_sigma = EstimateNoiseSigma(y);
+  problem.start = r.start;
+  SetWeights(options, mad_sigma, y, problem);
+  RunChains(model, problem, options, mad_sigma, r);
+  if (r.ok()) {
+    r.estimate = r.refined;
+  } else {
+    r.covariance.resize(0, 0);
+    r.standard_errors.resize(0);
+  }
+  return r;
+}
+
+}  // namespace hysid

@@ -1,0 +1,55 @@
+// A repaired start for the output-error refinement, from the recursive α̂ and the detected jumps.
+//
+// Used when the fit from the recursive estimate on the detected segments fails. Around each
+// detected jump, the flow with α̂ is fit by least squares to a window of samples on each side (the
+// state at one sample of the window is the unknown; forward with α̂, backward as the forward flow of
+// −α̂, guard crossings ignored), and to the two windows as one flow:
+// - a detection where the single flow fits nearly as well (χ² gain of the split below
+//   `split_threshold`) is dropped (a false alarm: it cut a flow in two, which no model reproduces);
+// - a kept detection moves to the sample within `search` samples where the two fitted flows meet
+//   best (the detector localises a jump up to a few samples);
+// - β (its unknown entries) is re-estimated by linear least squares ψ(ξ⁻)β = ξ⁺ on the identified
+//   jump rows, ξ⁻ and ξ⁺ the two fitted flows at the samples before and after each kept jump, and
+//   ξ0 is the fitted flow of the first window at sample 0 (the recursive β̂ leans on the raw samples
+//   around each detection, and a false detection's row can ruin it);
+// - a jump that the model started from the repaired values makes inside a segment, with no detection
+//   within `search` samples (a detector that missed a jump), is tested in the same way and kept
+//   when the data show it.
+// Nothing here decides the status: the refinement fits from the repaired start and checks the fit
+// as usual.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sim/sensitivity/sensitivity.hpp"
+
+namespace hysid {
+
+struct StartRepairOptions {
+  long window = 200;              // samples on each side of a detection fit by the local flows
+  long min_window = 10;           // detections closer than this are one jump; a missed jump is looked
+                                  // for this far from the segment's ends
+  long search = 10;               // a detection moves by at most this many samples at a time
+  long predicted_search = 50;     // the same for a jump the model makes where none was detected
+  double split_threshold = 50.0;  // χ² gain (Σ (r/σ)²) of a jump over one flow below which it is dropped
+  int max_iterations = 20;        // Ceres iterations of one local fit
+  int max_rounds = 4;             // rounds of looking for missed jumps
+};
+
+struct StartRepair {
+  bool ok = false;  // false: no usable repair (message says why)
+  std::string message;
+  std::vector<std::uint8_t> gamma;  // the repaired jump labels
+  HybridParameters start;           // α̂, the re-estimated β and ξ0
+  int dropped = 0, moved = 0, added = 0;
+  std::string Summary() const;  // "dropped 1 detection, moved 0, added 0; β, ξ0 re-estimated"
+};
+
+// weight: 1/σ_i per component; options: the integration options of the fit.
+StartRepair RepairStart(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
+                        const HybridParameters& recursive, const Unknowns& unknowns, const Vec& weight,
+                        const SensitivityOptions& options, const StartRepairOptions& repair = {});
+
+}  // namespace hysid

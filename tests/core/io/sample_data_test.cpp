@@ -1,0 +1,100 @@
+// Sample data: runs, chains (missing rows, gaps), irregular steps, column choice, and the refusals that
+// name file, line and column.
+#include <catch2/catch.hpp>
+
+#include <sstream>
+
+#include "core/io/sample_data.hpp"
+
+namespace hysid {
+namespace {
+
+CsvTable Table(const std::string& text, const std::string& name = "d.csv") {
+  std::istringstream in(text);
+  return ReadCsvStream(in, name);
+}
+
+TEST_CASE("uniform data: one run, one chain, the mean step", "[sample_data]") {
+  const SampleData d = SampleDataFromTable(Table("t,j,y1,y2\n0,0,1,2\n0.5,0,3,4\n1,1,5,6\n"), 2);
+  CHECK(d.uniform);
+  CHECK(d.dt == 0.5);
+  CHECK(d.chains() == 1);
+  CHECK(d.state_columns == std::vector<std::string>{"y1", "y2"});
+  CHECK(d.y(1, 2) == 6.0);
+  REQUIRE(d.j);
+  CHECK(*d.j == std::vector<int>{0, 0, 1});
+}
+
+TEST_CASE("a missing state cell drops its row and starts a chain; a long step starts a chain",
+          "[sample_data]") {
+  // Steps 0.1 except one of 0.7 (> 5 × the median 0.1): chains at sample 0, after line 4, at t = 1.3.
+  const std::string text =
+      "t,x,v\n0,1,2\n0.1,1,2\n0.2,,2\n0.3,1,2\n0.4,1,NA\n0.5,1,2\n0.6,1,2\n1.3,1,2\n1.4,1,2\n";
+  const SampleData d = SampleDataFromTable(Table(text), 2);
+  CHECK_FALSE(d.uniform);
+  CHECK(d.missing_rows == 2);
+  CHECK(d.first_missing_line == 4);
+  CHECK(d.gaps == 1);
+  CHECK(d.dt == Approx(0.1));
+  CHECK(d.max_gap == Approx(0.5));
+  CHECK(d.t == std::vector<double>{0, 0.1, 0.3, 0.5, 0.6, 1.3, 1.4});
+  CHECK(d.chain_start == std::vector<std::uint8_t>{1, 0, 1, 1, 0, 1, 0});
+  CHECK(d.line == std::vector<long>{2, 3, 5, 7, 8, 9, 10});
+  // A larger maximum gap keeps t = 1.3 in its chain.
+  const SampleData wide = SampleDataFromTables({Table(text)}, 2, {.max_gap = 1.0});
+  CHECK(wide.gaps == 0);
+  CHECK(wide.chains() == 3);
+}
+
+TEST_CASE("irregular steps are accepted; time must still increase", "[sample_data]") {
+  const SampleData d = SampleDataFromTable(Table("t,x,v\n0,1,2\n0.101,1,2\n0.199,1,2\n0.3,1,2\n"), 2);
+  CHECK_FALSE(d.uniform);
+  CHECK(d.chains() == 1);
+  CHECK(d.dt == Approx(0.101));  // the median of 0.101, 0.098, 0.101
+  CHECK_THROWS_WITH(SampleDataFromTable(Table("t,x,v\n0,1,2\n0.1,1,2\n0.1,1,2\n", "b.csv"), 2),
+                    "b.csv:4: column 1 ('t'): time 0.1 is not after 0.1 (line 3): time must increase");
+  CHECK_THROWS_WITH(SampleDataFromTable(Table("t,x,v\n0,1,2\n,1,2\n0.2,1,2\n", "m.csv"), 2),
+                    "m.csv:3: column 1 ('t'): the time is missing");
+}
+
+TEST_CASE("several runs: files and a run column; each run starts a chain and its own clock",
+          "[sample_data]") {
+  const CsvTable a = Table("t,j,x,v\n0,0,1,2\n0.1,0,1,2\n0.2,1,1,2\n", "a.csv");
+  const CsvTable b = Table("run,t,j,x,v\n7,0,0,5,6\n7,0.1,1,5,6\n3,0,0,8,9\n3,0.1,0,8,9\n", "b.csv");
+  const SampleData d = SampleDataFromTables({a, b}, 2);
+  CHECK(d.run_names == std::vector<std::string>{"a.csv", "b.csv run 7", "b.csv run 3"});
+  CHECK(d.run == std::vector<int>{0, 0, 0, 1, 1, 2, 2});
+  CHECK(d.chain_start == std::vector<std::uint8_t>{1, 0, 0, 1, 0, 1, 0});
+  CHECK(d.path == "a.csv, b.csv");
+  CHECK(d.state_columns == std::vector<std::string>{"x", "v"});
+  REQUIRE(d.j);  // jump counters continue across runs, so no run start looks like a jump
+  CHECK(*d.j == std::vector<int>{0, 0, 1, 1, 2, 2, 2});
+  CHECK_THROWS_WITH(SampleDataFromTable(Table("run,t,x,v\n1,0,1,2\n2,0,1,2\n1,0.1,1,2\n", "r.csv"), 2),
+                    "r.csv:4: column 1 ('run'): run 1 appears again after run 2; the rows of a run must be "
+                    "contiguous");
+  CHECK_THROWS_WITH(SampleDataFromTable(Table("run,t,x,v\n1.5,0,1,2\n", "f.csv"), 2),
+                    "f.csv:2: column 1 ('run'): 1.5 is not a run number (an integer)");
+}
+
+TEST_CASE("columns by name: t=, run= and the states in model order", "[sample_data]") {
+  const CsvTable t = Table("v,time,id,x\n2,0,1,1\n3,0.1,1,1.5\n4,0.2,2,0\n5,0.3,2,0.5\n", "c.csv");
+  const SampleData d = SampleDataFromTables({t}, 2, {.columns = {"t=time", "x", "v", "run=id"}});
+  CHECK(d.state_columns == std::vector<std::string>{"x", "v"});
+  CHECK(d.y(0, 1) == 1.5);
+  CHECK(d.y(1, 3) == 5.0);
+  CHECK(d.t == std::vector<double>{0, 0.1, 0.2, 0.3});
+  CHECK(d.run_names.size() == 2);
+  CHECK_THROWS_WITH(SampleDataFromTables({t}, 2, {.columns = {"t=time", "pos", "v"}}),
+                    "c.csv:1: SampleDataOptions::columns: no column 'pos' (the columns are v,time,id,x)");
+  CHECK_THROWS_WITH(SampleDataFromTables({t}, 2, {.columns = {"x"}}),
+                    "c.csv:1: SampleDataOptions::columns: 1 state columns named (x); the model has 2 states");
+}
+
+TEST_CASE("too few samples after the missing rows are left out", "[sample_data]") {
+  CHECK_THROWS_WITH(
+      SampleDataFromTable(Table("t,x,v\n0,1,2\n0.1,nan,2\n0.2,1,2\n", "s.csv"), 2),
+      "s.csv: 2 samples (1 row with a missing value left out); the identifier needs at least 3");
+}
+
+}  // namespace
+}  // namespace hysid

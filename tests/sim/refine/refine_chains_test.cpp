@@ -1,0 +1,145 @@
+// The refinement of several chains (RefineChains): one chain agrees with Refine, splitting a run into
+// chains costs information but keeps the estimate honest, samples at their own times, and a chain
+// whose detected jumps are wrong gives a status that names it.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "core/model/builtin/impact_msd.hpp"
+#include "sim/measurement.hpp"
+#include "sim/refine/refine.hpp"
+
+namespace hysid {
+namespace {
+
+struct Run {
+  Model model{ImpactMsd{}};
+  Trajectory truth;
+  Mat y;
+  std::vector<std::uint8_t> gamma;  // the true jump samples
+  Run(const Vec& x0, double sigma, std::uint64_t stream, double t_end = 10.0, double dt = 5e-4)
+      : truth(Simulate(model, x0, SampleGrid{t_end, dt})) {
+    y = AddMeasurementNoise(truth.x, Vec::Constant(2, sigma), NoiseKey{.seed = 11, .stream = stream});
+    gamma.assign(truth.j.size(), 0);
+    for (std::size_t k = 1; k < truth.j.size(); ++k) gamma[k] = truth.j[k] != truth.j[k - 1];
+  }
+  // Samples [from, to) as one chain.
+  RefineChain Chain(long from, long to) const {
+    RefineChain c;
+    c.t.assign(truth.t.begin() + from, truth.t.begin() + to);
+    c.y = y.middleCols(from, to - from);
+    c.gamma.assign(gamma.begin() + from, gamma.begin() + to);
+    return c;
+  }
+};
+
+Vec Start(const Model& m) {  // a recursive-quality start: α, β off by about 1e-3
+  return (Vec(3) << m.alpha()[0], m.alpha()[1] * 1.001, m.alpha()[2] * 0.999).finished();
+}
+
+TEST_CASE("one chain on a uniform grid: RefineChains gives Refine's estimate and standard errors",
+          "[refine][chains]") {
+  const Run run((Vec(2) << 20.0, 0.0).finished(), 0.05, 0);
+  const Vec alpha0 = Start(run.model), beta0 = run.model.beta();
+  const RefineResult one = Refine(run.model, run.y, 5e-4, alpha0, beta0, run.gamma);
+  const RefineResult chains = RefineChains(run.model, {run.Chain(0, run.truth.size())}, alpha0, beta0);
+  INFO(one.reason << " / " << chains.reason);
+  REQUIRE(one.ok());
+  REQUIRE(chains.ok());
+  const Vec a = one.estimate.Theta(chains.unknowns), b = chains.estimate.Theta(chains.unknowns);
+  for (Eigen::Index i = 0; i < a.size(); ++i) {
+    CHECK(std::abs(a[i] - b[i]) < 1e-3 * one.standard_errors[i]);
+    CHECK(chains.standard_errors[i] == Approx(one.standard_errors[i]).epsilon(1e-4));
+  }
+  CHECK((chains.chain_x0[0] - one.estimate.x0).norm() < 1e-6);
+  CHECK(chains.chains_used == 1);
+}
+
+TEST_CASE("three runs, one cut in two: joint α, β within 4 se, the cut costs information",
+          "[refine][chains]") {
+  const Run a((Vec(2) << 20.0, 0.0).finished(), 0.05, 1), b((Vec(2) << 15.0, 5.0).finished(), 0.05, 2),
+      c((Vec(2) << 10.0, -10.0).finished(), 0.05, 3);
+  const Vec alpha0 = Start(a.model), beta0 = a.model.beta();
+  const long half = a.truth.size() / 2;
+  const RefineResult whole = RefineChains(
+      a.model, {a.Chain(0, a.truth.size()), b.Chain(0, b.truth.size()), c.Chain(0, c.truth.size())}, alpha0,
+      beta0);
+  const RefineResult cut = RefineChains(a.model,
+                                        {a.Chain(0, half), a.Chain(half + 1, a.truth.size()),
+                                         b.Chain(0, b.truth.size()), c.Chain(0, c.truth.size())},
+                                        alpha0, beta0);
+  INFO(whole.reason << " / " << cut.reason);
+  REQUIRE(whole.ok());
+  REQUIRE(cut.ok());
+  CHECK(cut.chains_used == 4);
+  CHECK(cut.chain_x0.size() == 4);
+  const Vec truth = HybridParameters::Of(a.model, Vec::Zero(2)).Theta(whole.unknowns);
+  for (const RefineResult* r : {&whole, &cut}) {
+    const Vec e = r->estimate.Theta(r->unknowns) - truth;
+    for (Eigen::Index i = 0; i < e.size(); ++i) CHECK(std::abs(e[i]) < 4 * r->standard_errors[i]);
+  }
+  for (Eigen::Index i = 0; i < truth.size(); ++i) CHECK(cut.standard_errors[i] >= whole.standard_errors[i]);
+  // The second chain of the cut run starts at its own first sample, fitted near the true state there.
+  CHECK((cut.chain_x0[1] - a.truth.x.col(half + 1)).norm() < 0.05);
+}
+
+TEST_CASE("samples at their own times: the model is read at each sample's time", "[refine][chains]") {
+  // Every other sample of a run on a grid of 2.5e-4: steps of 2.5e-4 and 7.5e-4 alternate.
+  const Run fine((Vec(2) << 20.0, 0.0).finished(), 0.05, 4, 10.0, 2.5e-4);
+  RefineChain irregular;
+  for (long k = 0; k < fine.truth.size(); ++k) {
+    if (k % 4 == 1 || k % 4 == 2) continue;  // keep samples 0, 3, 4, 7, 8, ...
+    const auto u = static_cast<std::size_t>(k);
+    irregular.t.push_back(fine.truth.t[u]);
+    irregular.gamma.push_back(0);
+  }
+  irregular.y.resize(2, static_cast<Eigen::Index>(irregular.t.size()));
+  long i = 0;
+  int j_prev = 0;
+  for (long k = 0; k < fine.truth.size(); ++k) {
+    if (k % 4 == 1 || k % 4 == 2) continue;
+    irregular.y.col(i) = fine.y.col(k);
+    const int j = fine.truth.j[static_cast<std::size_t>(k)];
+    irregular.gamma[static_cast<std::size_t>(i)] = i > 0 && j != j_prev;
+    j_prev = j;
+    ++i;
+  }
+  const RefineResult r = RefineChains(fine.model, {irregular}, Start(fine.model), fine.model.beta());
+  INFO(r.reason);
+  REQUIRE(r.ok());
+  const Vec e =
+      r.estimate.Theta(r.unknowns) - HybridParameters::Of(fine.model, Vec::Zero(2)).Theta(r.unknowns);
+  for (Eigen::Index k = 0; k < e.size(); ++k) CHECK(std::abs(e[k]) < 4 * r.standard_errors[k]);
+  CHECK(r.normalized_rms == Approx(1.0).margin(0.05));
+}
+
+TEST_CASE("a chain with a missed jump, or too short to fit: a status, never a silent ok",
+          "[refine][chains]") {
+  const Run a((Vec(2) << 20.0, 0.0).finished(), 0.05, 5), b((Vec(2) << 15.0, 5.0).finished(), 0.05, 6);
+  RefineChain wrong = b.Chain(0, b.truth.size());
+  std::size_t k = 1;
+  while (wrong.gamma[k] == 0) ++k;
+  wrong.gamma[k] = 0;  // the detector "missed" the first jump of chain 2
+  const RefineResult r =
+      RefineChains(a.model, {a.Chain(0, a.truth.size()), wrong}, Start(a.model), a.model.beta());
+  INFO(r.reason);
+  CHECK_FALSE(r.ok());  // measured: not-converged (the matched flow continues past the missed jump)
+  CHECK_FALSE(r.reason.empty());
+  CHECK(r.standard_errors.size() == 0);
+  CHECK(r.estimate.alpha == r.start.alpha);
+  // A spurious detected jump near the end of chain 2: the model never reaches that many segments.
+  RefineChain extra = b.Chain(0, b.truth.size());
+  extra.gamma[extra.gamma.size() - 20] = 1;
+  const RefineResult s =
+      RefineChains(a.model, {a.Chain(0, a.truth.size()), extra}, Start(a.model), a.model.beta());
+  CHECK(s.status == RefineStatus::kStartFailed);
+  CHECK_THAT(s.reason, Catch::Contains("chain 2"));
+  // Chains of fewer than 2n + 2 samples are left out and counted; none left: too few samples.
+  const RefineResult tiny =
+      RefineChains(a.model, {a.Chain(0, 5), a.Chain(10, 15)}, Start(a.model), a.model.beta());
+  CHECK(tiny.status == RefineStatus::kTooFewSamples);
+  CHECK(tiny.chains_skipped == 2);
+}
+
+}  // namespace
+}  // namespace hysid

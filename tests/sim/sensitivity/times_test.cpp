@@ -1,0 +1,61 @@
+// Matched sensitivities on samples at their own times: the same as the grid where the times are the
+// grid's, and the simulator's states where they are not.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <vector>
+
+#include "core/model/builtin/impact_msd.hpp"
+#include "sim/sensitivity/sensitivity.hpp"
+
+namespace hysid {
+namespace {
+
+constexpr double kDt = 1.0 / 1024.0;  // k·δt exact
+
+TEST_CASE("times equal to the grid's give the grid's states and sensitivities bit for bit", "[sensitivity]") {
+  const Model model{ImpactMsd{}};
+  const Vec x0 = (Vec(2) << 20.0, 0.0).finished();
+  const SampleGrid grid{5.0, kDt};
+  const Trajectory truth = Simulate(model, x0, grid);
+  const HybridParameters p = HybridParameters::Of(model, x0);
+  const Unknowns u = Unknowns::Of(model);
+  const SensitivityTrajectory on_grid = SimulateSensitivitiesMatched(model, p, u, grid, truth.j);
+  const SensitivityTrajectory timed = SimulateSensitivitiesMatched(model, p, u, truth.t, truth.j);
+  REQUIRE(on_grid.ok());
+  REQUIRE(timed.ok());
+  CHECK(timed.trajectory.x == on_grid.trajectory.x);
+  CHECK(timed.sensitivities == on_grid.sensitivities);
+}
+
+TEST_CASE("irregular times: the states are the simulator's at those times", "[sensitivity]") {
+  const Model model{ImpactMsd{}};
+  const Vec x0 = (Vec(2) << 20.0, 0.0).finished();
+  const Trajectory fine = Simulate(model, x0, SampleGrid{5.0, kDt / 8});
+  std::vector<double> times;
+  std::vector<int> segments;
+  std::vector<long> index;
+  for (long k = 0; 8 * k + 3 < fine.size(); ++k) {
+    const long i = k == 0 ? 0 : 8 * k + (k % 3 == 0 ? -1 : (k % 3 == 1 ? 0 : 3));
+    times.push_back(fine.t[static_cast<std::size_t>(i)]);
+    segments.push_back(fine.j[static_cast<std::size_t>(i)]);
+    index.push_back(i);
+  }
+  SensitivityOptions o;
+  o.sim.rtol = o.sim.atol = 1e-11;
+  const SensitivityTrajectory s = SimulateSensitivitiesMatched(model, HybridParameters::Of(model, x0),
+                                                               Unknowns::Of(model), times, segments, o);
+  REQUIRE(s.ok());
+  double worst = 0.0;
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    worst = std::max(worst, (s.trajectory.x.col(static_cast<Eigen::Index>(k)) - fine.x.col(index[k])).norm());
+  }
+  CHECK(worst < 1e-7);
+  CHECK_THROWS_WITH(
+      SimulateSensitivitiesMatched(model, HybridParameters::Of(model, x0), Unknowns::Of(model),
+                                   std::vector<double>{0.0, 0.2, 0.1}, std::vector<int>{0, 0, 0}),
+      "times[2] = 0.1 after 0.2: must increase");
+}
+
+}  // namespace
+}  // namespace hysid
