@@ -154,9 +154,14 @@ class Run:
         return f"{self.dir} ({what})"
 
     def true_params(self, model):
-        """{name: value} of `model`'s parameters: --truth, else run.json's config.model[].params."""
+        """{name: value} of `model`'s parameters: --truth, else run.json's resolved models[] (unknown
+        parameters), else its config.model[].params."""
         if self.truth:
             return self.truth
+        for m in self.meta.get("models", []):  # the resolved models of the run
+            if m.get("name") == model:
+                return {p["name"]: float(p["value"]) for p in m.get("alpha", []) + m.get("beta", [])
+                        if not p.get("known")}
         for m in self.meta.get("config", {}).get("model", []):
             if m.get("name") == model and m.get("params"):
                 return {name: float(v) for name, v in m["params"]}

@@ -55,7 +55,7 @@ def text_width(text, size):
     return w
 
 
-def label_cells(fig, panels, norm, size=7):
+def label_cells(fig, panels, norm, size=style.CELL_LABEL_PT):
     """After one layout pass: x tick labels turned vertical where upright ones would run together, and
     each cell labelled with its rate where the widest label fits with 1 pt either side.
     panels: [(ax, matrix)]. Returns whether the cells were labelled."""

@@ -11,6 +11,9 @@ import matplotlib.ticker as mticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 STYLE = os.path.join(os.path.dirname(__file__), "hysid.mplstyle")
+# Heat-map cell labels (pt): readable at one column's width; a map whose cells are too narrow for them
+# at this size shows the colour bar only.
+CELL_LABEL_PT = 8
 WIDTHS = {"single": 3.5, "double": 7.16}  # inches: one column / the full page of a two-column paper
 FORMATS = ("pdf", "svg", "png")
 DPI = 300  # of PNG files (--dpi)

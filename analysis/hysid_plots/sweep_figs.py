@@ -177,7 +177,15 @@ def relative_error(run, out_dir, formats, width, stat="mean"):
             true = truth[name]
             scale = abs(true) if true != 0 else 1.0
 
-            def point(r, col=col, true=true, scale=scale):
+            # The sweep's own rel_err_NAME column when trials.csv has it (rel_err_beta_NAME for a β
+            # parameter that shares an α parameter's name), else computed from the estimate column.
+            rel = f"rel_err_beta_{name}" if f"rel_err_beta_{name}" in run.trials.header and kind == "beta" \
+                else f"rel_err_{name}"
+            rel = rel if rel in run.trials.header else None
+
+            def point(r, col=col, true=true, scale=scale, rel=rel):
+                if rel is not None:
+                    return iv.of_values(r, run.trials.column(r["cell"], rel), col)
                 v = np.abs(run.trials.column(r["cell"], col) - true) / scale
                 return iv.of_values(r, v, col)
             h, ys, xs, ns = draw_series(ax, lines, point)

@@ -217,71 +217,64 @@ void Gtls::SetThetaFromEigenvector() {
   status_ = EstimatorStatus::kOk;
 }
 
-void Gtls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
-  const Eigen::Index p = phi.cols();
-  const Eigen::Index m = p + 1;
-  const Eigen::Index rows = phi.rows();
+// Forgetting: S ← λS, P ← P/λ and the weight ← λ·weight, unless every row of the block is zero.
+void Gtls::Forget(const ConstMatRef& phi, const ConstVecRef& y) {
   bool any = false;
-  for (Eigen::Index r = 0; r < rows && !any; ++r) any = phi.row(r).any() || y[r] != 0.0;
+  for (Eigen::Index r = 0; r < phi.rows() && !any; ++r) any = phi.row(r).any() || y[r] != 0.0;
+  if (!any || lambda_ == 1.0) return;
+  const Eigen::Index m = phi.cols() + 1;
   double* s = s_.data();
   double* pp = p_.data();
-  if (any && lambda_ != 1.0) {
-    const double inv = 1.0 / lambda_;
-    for (Eigen::Index i = 0; i < m * m; ++i) {
-      s[i] *= lambda_;
-      pp[i] *= inv;
-    }
-    weight_ *= lambda_;
+  const double inv = 1.0 / lambda_;
+  for (Eigen::Index i = 0; i < m * m; ++i) {
+    s[i] *= lambda_;
+    pp[i] *= inv;
   }
-  double* z = z_.data();
+  weight_ *= lambda_;
+}
+
+// S += z zᵀ for the row z = [φ_r, y_r] held in z_; once started, P = S⁻¹ follows by Sherman–Morrison
+// (a non-positive or non-finite denominator asks for a refactorization instead).
+void Gtls::AddRow(Eigen::Index m) {
+  double* s = s_.data();
+  double* pp = p_.data();
+  const double* z = z_.data();
   double* g = g_.data();
-  for (Eigen::Index r = 0; r < rows; ++r) {
-    for (Eigen::Index i = 0; i < p; ++i) z[i] = phi(r, i);
-    z[p] = y[r];
-    for (Eigen::Index c = 0; c < m; ++c) {
-      for (Eigen::Index i = 0; i < m; ++i) s[c * m + i] += z[i] * z[c];
-    }
-    weight_ += 1.0;
-    ++rows_;
-    ++rows_since_refactor_;
-    if (!started_ || needs_refactor_) continue;
-    // Sherman–Morrison on P.
-    double den = 1.0;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      double acc = 0.0;
-      for (Eigen::Index k = 0; k < m; ++k) acc += pp[k * m + i] * z[k];
-      g[i] = acc;
-      den += z[i] * acc;
-    }
-    if (!(den > 0.0) || !std::isfinite(den)) {
-      needs_refactor_ = true;
-      continue;
-    }
-    const double inv = 1.0 / den;
-    for (Eigen::Index c = 0; c < m; ++c) {
-      for (Eigen::Index i = c; i < m; ++i) {
-        const double val = pp[c * m + i] - g[i] * g[c] * inv;
-        pp[c * m + i] = val;
-        pp[i * m + c] = val;
-      }
-    }
+  for (Eigen::Index c = 0; c < m; ++c) {
+    for (Eigen::Index i = 0; i < m; ++i) s[c * m + i] += z[i] * z[c];
   }
-  if (!started_) {
-    if (rows_ >= 2 * m && Factorize()) {
-      started_ = true;
-    } else {
-      ProvisionalLeastSquares();
-    }
+  weight_ += 1.0;
+  ++rows_;
+  ++rows_since_refactor_;
+  if (!started_ || needs_refactor_) return;
+  double den = 1.0;
+  for (Eigen::Index i = 0; i < m; ++i) {
+    double acc = 0.0;
+    for (Eigen::Index k = 0; k < m; ++k) acc += pp[k * m + i] * z[k];
+    g[i] = acc;
+    den += z[i] * acc;
+  }
+  if (!(den > 0.0) || !std::isfinite(den)) {
+    needs_refactor_ = true;
     return;
   }
-  if (needs_refactor_ || rows_since_refactor_ >= refactor_every_) {
-    Factorize();
-    return;
+  const double inv = 1.0 / den;
+  for (Eigen::Index c = 0; c < m; ++c) {
+    for (Eigen::Index i = c; i < m; ++i) {
+      const double val = pp[c * m + i] - g[i] * g[c] * inv;
+      pp[c * m + i] = val;
+      pp[i * m + c] = val;
+    }
   }
-  // One sweep of inverse iteration: v ← P C v / ‖·‖.
+}
+
+// One sweep of inverse iteration: v ← P C v / ‖·‖, then θ from v.
+void Gtls::InverseIterationStep(Eigen::Index m) {
   const double* cc = c_.data();
+  const double* pp = p_.data();
   double* t = t_.data();
   double* v = v_.data();
+  double* g = g_.data();
   for (Eigen::Index i = 0; i < m; ++i) {
     double acc = 0.0;
     for (Eigen::Index k = 0; k < m; ++k) acc += cc[k * m + i] * v[k];
@@ -302,6 +295,31 @@ void Gtls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
   const double inv = 1.0 / std::sqrt(norm2);
   for (Eigen::Index i = 0; i < m; ++i) v[i] = g[i] * inv;
   SetThetaFromEigenvector();
+}
+
+void Gtls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
+  const Eigen::Index p = phi.cols();
+  const Eigen::Index m = p + 1;
+  Forget(phi, y);
+  double* z = z_.data();
+  for (Eigen::Index r = 0; r < phi.rows(); ++r) {
+    for (Eigen::Index i = 0; i < p; ++i) z[i] = phi(r, i);
+    z[p] = y[r];
+    AddRow(m);
+  }
+  if (!started_) {
+    if (rows_ >= 2 * m && Factorize()) {
+      started_ = true;
+    } else {
+      ProvisionalLeastSquares();
+    }
+    return;
+  }
+  if (needs_refactor_ || rows_since_refactor_ >= refactor_every_) {
+    Factorize();
+    return;
+  }
+  InverseIterationStep(m);
 }
 
 }  // namespace hysid

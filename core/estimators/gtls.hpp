@@ -62,6 +62,9 @@ class Gtls final : public Estimator {
   void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) override;
   // Exact refactorisation + eigen solve; false (and a status) when S is not usable.
   bool Factorize();
+  void Forget(const ConstMatRef& phi, const ConstVecRef& y);
+  void AddRow(Eigen::Index m);
+  void InverseIterationStep(Eigen::Index m);
   void SetThetaFromEigenvector();
   // Before the batch start: θ = least squares of the rows so far once they determine it (so that
   // users of the estimate, e.g. the jump detector's τ̂, see a sensible value); status kNotExcited.

@@ -49,6 +49,8 @@
 #include <boost/container/small_vector.hpp>
 #include <boost/iterator/indirect_iterator.hpp>
 
+#include "core/sets/demand.hpp"
+
 namespace hysid::internal {
 namespace {
 
@@ -57,13 +59,8 @@ using KernelD = CGAL::Epick_d<CGAL::Dynamic_dimension_tag>;
 using PointD = KernelD::Point_d;
 using Triangulation = CGAL::Triangulation<KernelD>;
 
-// Internal invariant (style tier b): always on, aborts.
-void Demand(bool ok, const char* what) {
-  if (!ok) {
-    std::fprintf(stderr, "hysid: internal error in SampleSet (n >= 3): %s\n", what);
-    std::abort();
-  }
-}
+// Internal invariants (style tier b): always on, abort.
+void Demand(bool ok, const char* what) { sets_internal::Demand(ok, "SampleSet (n >= 3)", what); }
 
 bool Outside(Triangulation::Locate_type lt) {
   return lt == Triangulation::OUTSIDE_CONVEX_HULL || lt == Triangulation::OUTSIDE_AFFINE_HULL;

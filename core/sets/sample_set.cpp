@@ -17,6 +17,7 @@
 #include <CGAL/convex_hull_2.h>
 #include <fmt/format.h>
 
+#include "core/sets/demand.hpp"
 #include "core/sets/hull_nd.hpp"
 
 namespace hysid {
@@ -25,13 +26,8 @@ namespace {
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = Kernel::Point_2;
 
-// Internal invariant (style tier b): always on, aborts.
-void Demand(bool ok, const char* what) {
-  if (!ok) {
-    std::fprintf(stderr, "hysid: internal error in SampleSet: %s\n", what);
-    std::abort();
-  }
-}
+// Internal invariants (style tier b): always on, abort.
+void Demand(bool ok, const char* what) { sets_internal::Demand(ok, "SampleSet", what); }
 
 bool LexLess(const Point& a, const Point& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); }
 

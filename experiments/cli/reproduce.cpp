@@ -206,11 +206,11 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   // §5.2: a = 5, b = 0.1, λ = 0.99, μ = 0, ξ0 = (20, 0), 20 s, δt = 0.5 ms, r = 220, τ̂0 = 1e5.
   Model model = env.models.Make("impact-msd");
   for (const char* p : {"a=5", "b=0.1", "lambda=0.99", "mu=0"}) model.SetParameter(std::string_view(p));
-  const double dt = 5e-4;
+  const double dt = 5e-4, t_end = 20.0;
   const IdentifierSettings settings = PaperSettings(args, model, dt);
   Vec x0(2);
   x0 << 20.0, 0.0;
-  const Trajectory traj = Simulate(model, x0, SampleGrid{20.0, dt});
+  const Trajectory traj = Simulate(model, x0, SampleGrid{t_end, dt});
   if (!traj.status.completed()) {
     throw std::runtime_error(fmt::format("simulation of the §5 system failed: {}", traj.status.message));
   }
@@ -240,6 +240,7 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
       {"localize", args.localize},
       {"second_pass", args.second_pass},
       {"p0", settings.flow_estimator.p0},
+      {"model", ResolvedModelJson(model, {x0[0], x0[1]}, {dt}, t_end)},
       {"context", BuildContext()},
   };
   std::ofstream(out / "run.json") << meta.dump(2) << "\n";

@@ -183,74 +183,91 @@ void NoDuplicates(const Reader& rd, const toml::node& node, const std::string& k
   }
 }
 
-SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string& key,
-                      const ModelRegistry& registry) {
-  rd.OnlyKeys(t, key, {"name", "file", "params", "x0", "x0_range", "t_end"});
-  SweepModel m;
+// model.name (a registry name) or model.file (a model file, relative to the sweep file's folder).
+void ParseModelSource(const Reader& rd, const toml::table& t, const std::string& key,
+                      const ModelRegistry& registry, SweepModel* m) {
   const toml::node* name = t.get("name");
   const toml::node* file = t.get("file");
   if (name && file) rd.Fail(file, key + ".file", "give name or file, not both");
   if (file) {
-    // Relative to the sweep file's folder.
     const std::filesystem::path path =
         std::filesystem::path(rd.file()).parent_path() / rd.String(*file, key + ".file");
     try {
-      m.from_file = std::make_shared<const Model>(LoadModelFile(path));
+      m->from_file = std::make_shared<const Model>(LoadModelFile(path));
     } catch (const std::invalid_argument& e) {
       rd.Fail(file, key + ".file", e.what());
     }
-    m.file = path.lexically_normal().string();
-    m.name = m.from_file->name();
-  } else {
-    if (!name)
-      rd.Fail(&t, key + ".name",
-              "missing (the model's registry name, see `hysid models`, or file = a model file)");
-    m.name = rd.String(*name, key + ".name");
-    if (!registry.Contains(m.name)) {
-      std::vector<std::string> names = registry.names();
-      rd.Fail(name, key + ".name",
-              fmt::format("unknown model '{}' (known: {})", m.name, fmt::join(names, ", ")));
-    }
+    m->file = path.lexically_normal().string();
+    m->name = m->from_file->name();
+    return;
   }
-  Model model = m.from_file ? *m.from_file : registry.Make(m.name);
-  if (const toml::node* p = t.get("params")) {
-    for (auto&& [k, v] : rd.Table(*p, key + ".params")) {
-      const std::string pk = fmt::format("{}.params.{}", key, k.str());
-      const double value = rd.Number(v, pk);
-      try {
-        model.SetParameter(k.str(), value);
-      } catch (const std::invalid_argument& e) {
-        rd.Fail(&v, pk, e.what());
-      }
-      m.params.emplace_back(std::string(k.str()), value);
-    }
+  if (!name)
+    rd.Fail(&t, key + ".name",
+            "missing (the model's registry name, see `hysid models`, or file = a model file)");
+  m->name = rd.String(*name, key + ".name");
+  if (!registry.Contains(m->name)) {
+    std::vector<std::string> names = registry.names();
+    rd.Fail(name, key + ".name",
+            fmt::format("unknown model '{}' (known: {})", m->name, fmt::join(names, ", ")));
   }
+}
+
+// model.params: each value set on `model` (an unknown name or a bad value names its key).
+void ParseModelParams(const Reader& rd, const toml::table& t, const std::string& key, Model* model,
+                      SweepModel* m) {
+  const toml::node* p = t.get("params");
+  if (!p) return;
+  for (auto&& [k, v] : rd.Table(*p, key + ".params")) {
+    const std::string pk = fmt::format("{}.params.{}", key, k.str());
+    const double value = rd.Number(v, pk);
+    try {
+      model->SetParameter(k.str(), value);
+    } catch (const std::invalid_argument& e) {
+      rd.Fail(&v, pk, e.what());
+    }
+    m->params.emplace_back(std::string(k.str()), value);
+  }
+}
+
+// model.x0 (n numbers) or model.x0_range (n [lo, hi] pairs), else the model's default x0.
+void ParseInitialState(const Reader& rd, const toml::table& t, const std::string& key, const Model& model,
+                       SweepModel* m) {
   const int n = model.state_size();
   const toml::node* x0 = t.get("x0");
   const toml::node* range = t.get("x0_range");
   if (x0 && range) rd.Fail(range, key + ".x0_range", "give x0 or x0_range, not both");
   if (x0) {
-    m.x0 = rd.NumberList(*x0, key + ".x0");
-    if (static_cast<int>(m.x0.size()) != n) {
+    m->x0 = rd.NumberList(*x0, key + ".x0");
+    if (static_cast<int>(m->x0.size()) != n) {
       rd.Fail(x0, key + ".x0",
-              fmt::format("has {} entries, model '{}' has {} states", m.x0.size(), m.name, n));
+              fmt::format("has {} entries, model '{}' has {} states", m->x0.size(), m->name, n));
     }
   } else if (range) {
     if (!range->is_array()) rd.Fail(range, key + ".x0_range", "expected a list of [lo, hi] pairs");
     const auto& arr = *range->as_array();
     if (static_cast<int>(arr.size()) != n) {
       rd.Fail(range, key + ".x0_range",
-              fmt::format("has {} entries, model '{}' has {} states", arr.size(), m.name, n));
+              fmt::format("has {} entries, model '{}' has {} states", arr.size(), m->name, n));
     }
     for (std::size_t i = 0; i < arr.size(); ++i) {
       const std::string ik = fmt::format("{}.x0_range[{}]", key, i);
       const std::vector<double> lohi = rd.NumberList(arr[i], ik);
       if (lohi.size() != 2 || lohi[0] > lohi[1]) rd.Fail(&arr[i], ik, "expected [lo, hi] with lo ≤ hi");
-      m.x0_range.push_back({lohi[0], lohi[1]});
+      m->x0_range.push_back({lohi[0], lohi[1]});
     }
   } else {
-    m.x0 = model.spec().default_x0;
+    m->x0 = model.spec().default_x0;
   }
+}
+
+SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string& key,
+                      const ModelRegistry& registry) {
+  rd.OnlyKeys(t, key, {"name", "file", "params", "x0", "x0_range", "t_end"});
+  SweepModel m;
+  ParseModelSource(rd, t, key, registry, &m);
+  Model model = m.from_file ? *m.from_file : registry.Make(m.name);
+  ParseModelParams(rd, t, key, &model, &m);
+  ParseInitialState(rd, t, key, model, &m);
   m.t_end = model.spec().default_t_end;
   if (const toml::node* te = t.get("t_end")) {
     m.t_end = rd.Number(*te, key + ".t_end");

@@ -63,10 +63,7 @@ void Journal::ReadExisting(const std::string& identity, const std::string& head)
   while (pos < text.size()) {
     const std::size_t nl = text.find('\n', pos);
     ++line_no;
-    if (nl == std::string::npos) {  // torn last line: dropped
-      ++dropped_;
-      break;
-    }
+    if (nl == std::string::npos) break;  // a torn last line: dropped
     const std::string line = text.substr(pos, nl - pos);
     if (line_no == 1 && line != identity) {
       throw std::invalid_argument(fmt::format(

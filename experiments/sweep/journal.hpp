@@ -31,7 +31,6 @@ class Journal {
   const std::map<long, std::vector<std::string>>& recovered() const { return recovered_; }
   // The file line a recovered unit was read from.
   long line_of(long unit) const { return lines_.at(unit); }
-  long dropped_torn_lines() const { return dropped_; }
   const std::filesystem::path& path() const { return path_; }
 
   // Appends one row (thread-safe). Its first cell is the unit id; the hash is appended here.
@@ -47,7 +46,6 @@ class Journal {
   std::mutex mutex_;
   std::map<long, std::vector<std::string>> recovered_;
   std::map<long, long> lines_;
-  long dropped_ = 0;
 };
 
 // An exclusive advisory lock (flock) on DIR/.lock for the lifetime of the object. Throws

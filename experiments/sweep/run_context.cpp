@@ -31,4 +31,20 @@ nlohmann::json BuildContext() {
   };
 }
 
+nlohmann::json ResolvedModelJson(const Model& model, const std::vector<double>& x0,
+                                 const std::vector<double>& dt, double t_end) {
+  const auto params = [](const std::vector<Parameter>& ps) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const Parameter& p : ps) out.push_back({{"name", p.name}, {"value", p.value}, {"known", p.known}});
+    return out;
+  };
+  return {{"name", model.name()},
+          {"states", model.spec().state_names},
+          {"alpha", params(model.spec().alpha)},
+          {"beta", params(model.spec().beta)},
+          {"x0", x0},
+          {"dt", dt},
+          {"t_end", t_end}};
+}
+
 }  // namespace hysid

@@ -109,6 +109,233 @@ Baseline BaselineFromJson(const nlohmann::json& config) {
   return b;
 }
 
+// Claims the run directory for this sweep and shard: writes sweep.json, or checks that the one there
+// names this sweep and shard (a different sweep or shard is refused, not mixed in).
+void ClaimDirectory(const SweepConfig& config, const SweepOptions& options, long units_total,
+                    std::size_t n_cells) {
+  const nlohmann::json identity = {
+      {"hysid_sweep", 1},           {"hash", config.Hash()}, {"shard", options.shard.ToString()},
+      {"units_total", units_total}, {"cells", n_cells},      {"source", config.source},
+      {"config", config.ToJson()}};
+  const fs::path identity_path = options.out / "sweep.json";
+  if (!fs::exists(identity_path)) {
+    WriteJson(identity_path, identity);
+    return;
+  }
+  const nlohmann::json old = ReadJson(identity_path);
+  if (old.value("hash", "") != identity["hash"]) {
+    throw std::invalid_argument(fmt::format(
+        "{}: holds the results of a different sweep configuration (hash {} here, {} now); use another "
+        "--out or delete the directory",
+        options.out.string(), old.value("hash", "?"), config.Hash()));
+  }
+  if (old.value("shard", "") != identity["shard"]) {
+    throw std::invalid_argument(fmt::format("{}: holds shard {}, not shard {}", options.out.string(),
+                                            old.value("shard", "?"), options.shard.ToString()));
+  }
+}
+
+// The shard's units that the journal does not hold yet; counts the shard's and the resumed units.
+std::vector<long> PendingUnits(const Journal& journal, const Shard& shard, SweepOutcome* outcome) {
+  std::vector<long> todo;
+  for (long id = 0; id < outcome->units_total; ++id) {
+    if (!shard.Contains(id)) continue;
+    ++outcome->units_shard;
+    if (journal.recovered().count(id)) {
+      ++outcome->units_resumed;
+    } else {
+      todo.push_back(id);
+    }
+  }
+  return todo;
+}
+
+// What the units of one trajectory group share: x0, the noise-free trajectory (or the simulator's
+// refusal) and, with grid.refine, the CRLB at σ = 1.
+struct GroupTruth {
+  Vec x0;
+  Trajectory truth;
+  std::string sim_error;
+  Crlb crlb;
+};
+
+// Runs the pending units of a shard in parallel and appends each row to the journal.
+class UnitRunner {
+ public:
+  UnitRunner(const SweepConfig& config, const std::vector<Model>& models, const std::vector<SweepCell>& cells,
+             Journal* journal, const std::atomic<bool>* stop)
+      : config_(config), models_(models), cells_(cells), journal_(journal), stop_(stop) {}
+
+  // The ETA weight of a unit: a trial costs about its number of samples.
+  long SamplesOf(long id) const {
+    const SweepCell& cell = CellOf(id);
+    return static_cast<long>(config_.models[static_cast<std::size_t>(cell.model)].t_end / cell.dt) + 1;
+  }
+
+  // One task per (group, trial): the trial's standard normals are drawn once and shared by the
+  // group's units of that trial (common random numbers); a task never waits, so each thread holds
+  // at most one task's normals, and `isolate` keeps a thread waiting for its group's tasks from
+  // starting another group (one trajectory per thread).
+  void Run(const std::vector<TrajectoryGroup>& groups, Progress* progress) {
+    tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t gi) {
+      if (Stopped()) return;
+      const TrajectoryGroup& g = groups[gi];
+      const GroupTruth truth = SimulateGroup(g);
+      const std::vector<std::vector<long>> by_trial = UnitsByTrial(g, config_.trials);
+      tbb::this_task_arena::isolate([&] {
+        tbb::parallel_for(std::size_t{0}, by_trial.size(),
+                          [&](std::size_t ti) { RunTrialUnits(g, truth, by_trial[ti], progress); });
+      });
+    });
+  }
+
+  long units_run() const { return run_.load(); }
+  long trajectories() const { return trajectories_.load(); }
+
+ private:
+  const SweepCell& CellOf(long id) const {
+    return cells_[static_cast<std::size_t>(UnitOf(id, config_.trials).cell)];
+  }
+  bool Stopped() const { return stop_ != nullptr && stop_->load(std::memory_order_relaxed); }
+
+  GroupTruth SimulateGroup(const TrajectoryGroup& g) {
+    const SweepModel& sm = config_.models[static_cast<std::size_t>(g.model)];
+    const Model& model = models_[static_cast<std::size_t>(g.model)];
+    GroupTruth out;
+    out.x0 = InitialState(config_, g.model, g.x0_trial < 0 ? 0 : g.x0_trial);
+    try {
+      out.truth = Simulate(model, out.x0, SampleGrid{sm.t_end, g.dt}, config_.simulator);
+    } catch (const std::invalid_argument& e) {
+      out.sim_error = e.what();
+    }
+    trajectories_.fetch_add(1, std::memory_order_relaxed);
+    out.crlb.status = CrlbStatus::kSimulationFailed;
+    if (config_.grid.refine_axis && out.sim_error.empty() && out.truth.status.completed()) {
+      out.crlb = UnitCrlb(model, out.x0, g.dt, sm.t_end);
+    }
+    return out;
+  }
+
+  // The units `ids` of one trial of group `g`, in order, on the trial's shared noise.
+  void RunTrialUnits(const TrajectoryGroup& g, const GroupTruth& truth, const std::vector<long>& ids,
+                     Progress* progress) {
+    const long trial = UnitOf(ids.front(), config_.trials).trial;
+    Mat normals, noisy;
+    const bool noisy_units =
+        std::any_of(ids.begin(), ids.end(), [&](long id) { return CellOf(id).sigma > 0; });
+    if (noisy_units && truth.sim_error.empty() && truth.truth.status.completed() && !Stopped()) {
+      normals.resize(truth.truth.x.rows(), truth.truth.x.cols());
+      FillStandardNormals(TrialNoiseKey(config_, g.model, g.dt, trial), 0, normals.data(),
+                          static_cast<std::size_t>(normals.size()));
+    }
+    const TrialInputs in{&truth.x0, &truth.truth,    &normals,
+                         &noisy,    truth.sim_error, config_.grid.refine_axis ? &truth.crlb : nullptr};
+    for (const long id : ids) {
+      if (Stopped()) return;
+      const auto start = Clock::now();
+      std::vector<std::string> row = RunTrial(config_, models_, CellOf(id), id, trial, in);
+      row.push_back(
+          fmt::format("{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
+      journal_->Append(row);
+      run_.fetch_add(1, std::memory_order_relaxed);
+      progress->Tick(SamplesOf(id));
+    }
+  }
+
+  const SweepConfig& config_;
+  const std::vector<Model>& models_;
+  const std::vector<SweepCell>& cells_;
+  Journal* journal_;
+  const std::atomic<bool>* stop_;
+  std::atomic<long> run_{0}, trajectories_{0};
+};
+
+int ThreadCount(const SweepOptions& options) {
+  return options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+}
+
+// Runs the shard's units that the journal does not hold yet (all of them in a fresh directory).
+void RunPendingUnits(const SweepConfig& config, const std::vector<Model>& models,
+                     const std::vector<SweepCell>& cells, const std::vector<std::string>& header,
+                     const SweepOptions& options, const std::atomic<bool>* stop, SweepOutcome* outcome) {
+  Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(),
+                  options.shard.ToString());
+  CheckRecovered(journal, config, cells, options.shard, outcome->units_total);
+  const std::vector<long> todo = PendingUnits(journal, options.shard, outcome);
+  const std::vector<TrajectoryGroup> groups = GroupUnits(config, cells, todo);
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            static_cast<std::size_t>(ThreadCount(options)));
+  UnitRunner runner(config, models, cells, &journal, stop);
+  {
+    double total_weight = 0, done_weight = 0;
+    for (long id = 0; id < outcome->units_total; ++id) {
+      if (!options.shard.Contains(id)) continue;
+      total_weight += static_cast<double>(runner.SamplesOf(id));
+      if (journal.recovered().count(id)) done_weight += static_cast<double>(runner.SamplesOf(id));
+    }
+    Progress progress("trials", outcome->units_shard, outcome->units_resumed, options.progress, total_weight,
+                      done_weight);
+    runner.Run(groups, &progress);
+  }
+  outcome->units_run = runner.units_run();
+  outcome->trajectories = runner.trajectories();
+}
+
+// Every unit of the shard is in the journal: writes trials.csv, timings.csv and summary.csv from it
+// and counts the failures.
+void WriteShardTables(const SweepConfig& config, const std::vector<SweepCell>& cells,
+                      const std::vector<std::string>& header, const SweepOptions& options,
+                      SweepOutcome* outcome) {
+  const Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(),
+                        options.shard.ToString());
+  CheckRecovered(journal, config, cells, options.shard, outcome->units_total);
+  std::map<long, std::vector<std::string>> rows;
+  const long status_col = std::find(header.begin(), header.end(), "status") - header.begin();
+  for (const auto& [id, cells_of_row] : journal.recovered()) {
+    if (!options.shard.Contains(id) || id >= outcome->units_total) continue;
+    if (cells_of_row[static_cast<std::size_t>(status_col)] != kTrialOk) ++outcome->failures;
+    rows.emplace(id, cells_of_row);
+  }
+  WriteSweepTables(options.out, header, rows, config.baseline);
+}
+
+// The resolved models of the sweep: every parameter value, x0 (or its range), δt grid and horizon
+// actually simulated.
+nlohmann::json ResolvedModels(const SweepConfig& config, const std::vector<Model>& models) {
+  nlohmann::json out = nlohmann::json::array();
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    const SweepModel& sm = config.models[i];
+    nlohmann::json m = ResolvedModelJson(models[i], sm.x0, config.grid.dt, sm.t_end);
+    if (!sm.x0_range.empty()) {
+      m.erase("x0");
+      m["x0_range"] = sm.x0_range;
+    }
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+nlohmann::json SweepRunJson(const SweepConfig& config, const std::vector<Model>& models,
+                            const SweepOptions& options, const SweepOutcome& outcome) {
+  return {{"command", "hysid sweep"},
+          {"source", config.source},
+          {"hash", config.Hash()},
+          {"master_seed", config.seed},
+          {"config", config.ToJson()},
+          {"models", ResolvedModels(config, models)},
+          {"shard", options.shard.ToString()},
+          {"threads", ThreadCount(options)},
+          {"units_total", outcome.units_total},
+          {"units_shard", outcome.units_shard},
+          {"units_resumed", outcome.units_resumed},
+          {"units_run", outcome.units_run},
+          {"failures", outcome.failures},
+          {"trajectories_simulated", outcome.trajectories},
+          {"wall_seconds", outcome.wall_seconds},
+          {"wall_seconds_note", "this invocation only (a resumed run's earlier part is not included)"},
+          {"context", BuildContext()}};
+}
+
 }  // namespace
 
 SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, const SweepOptions& options,
@@ -126,165 +353,24 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
   outcome.units_total =
       CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
                      fmt::format("{}: {} cells × {} trials", config.source, cells.size(), config.trials));
-
-  // The directory's identity: a different sweep or shard is refused, not mixed in.
   CheckOutputDirectory("--out", options.out);
   const DirectoryLock lock(options.out);
-  const nlohmann::json identity = {{"hysid_sweep", 1},
-                                   {"hash", config.Hash()},
-                                   {"shard", options.shard.ToString()},
-                                   {"units_total", outcome.units_total},
-                                   {"cells", cells.size()},
-                                   {"source", config.source},
-                                   {"config", config.ToJson()}};
-  const fs::path identity_path = options.out / "sweep.json";
-  if (fs::exists(identity_path)) {
-    const nlohmann::json old = ReadJson(identity_path);
-    if (old.value("hash", "") != identity["hash"]) {
-      throw std::invalid_argument(fmt::format(
-          "{}: holds the results of a different sweep configuration (hash {} here, {} now); use another "
-          "--out or delete the directory",
-          options.out.string(), old.value("hash", "?"), config.Hash()));
-    }
-    if (old.value("shard", "") != identity["shard"]) {
-      throw std::invalid_argument(fmt::format("{}: holds shard {}, not shard {}", options.out.string(),
-                                              old.value("shard", "?"), options.shard.ToString()));
-    }
-  } else {
-    WriteJson(identity_path, identity);
-  }
-
-  std::vector<long> todo;
-  {
-    Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(),
-                    options.shard.ToString());
-    CheckRecovered(journal, config, cells, options.shard, outcome.units_total);
-    for (long id = 0; id < outcome.units_total; ++id) {
-      if (!options.shard.Contains(id)) continue;
-      ++outcome.units_shard;
-      if (journal.recovered().count(id)) {
-        ++outcome.units_resumed;
-      } else {
-        todo.push_back(id);
-      }
-    }
-    const std::vector<TrajectoryGroup> groups = GroupUnits(config, cells, todo);
-    const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
-                              static_cast<std::size_t>(threads));
-    std::atomic<long> run{0}, trajectories{0};
-    const auto stopped = [stop] { return stop && stop->load(std::memory_order_relaxed); };
-    {
-      // Weights for the ETA: a trial costs about its number of samples.
-      const auto samples_of = [&](long id) {
-        const SweepCell& cell = cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)];
-        return static_cast<long>(config.models[static_cast<std::size_t>(cell.model)].t_end / cell.dt) + 1;
-      };
-      double total_weight = 0, done_weight = 0;
-      for (long id = 0; id < outcome.units_total; ++id) {
-        if (!options.shard.Contains(id)) continue;
-        total_weight += static_cast<double>(samples_of(id));
-        if (journal.recovered().count(id)) done_weight += static_cast<double>(samples_of(id));
-      }
-      Progress progress("trials", outcome.units_shard, outcome.units_resumed, options.progress, total_weight,
-                        done_weight);
-      // One task per (group, trial): the trial's standard normals are drawn once and shared by the
-      // group's units of that trial (common random numbers); a task never waits, so each thread holds
-      // at most one task's normals, and `isolate` keeps a thread waiting for its group's tasks from
-      // starting another group (one trajectory per thread).
-      tbb::parallel_for(std::size_t{0}, groups.size(), [&](std::size_t gi) {
-        if (stopped()) return;
-        const TrajectoryGroup& g = groups[gi];
-        const SweepModel& sm = config.models[static_cast<std::size_t>(g.model)];
-        const Vec x0 = InitialState(config, g.model, g.x0_trial < 0 ? 0 : g.x0_trial);
-        Trajectory truth;
-        std::string sim_error;
-        try {
-          truth = Simulate(models[static_cast<std::size_t>(g.model)], x0, SampleGrid{sm.t_end, g.dt},
-                           config.simulator);
-        } catch (const std::invalid_argument& e) {
-          sim_error = e.what();
-        }
-        trajectories.fetch_add(1, std::memory_order_relaxed);
-        Crlb crlb;
-        crlb.status = CrlbStatus::kSimulationFailed;
-        if (config.grid.refine_axis && sim_error.empty() && truth.status.completed()) {
-          crlb = UnitCrlb(models[static_cast<std::size_t>(g.model)], x0, g.dt, sm.t_end);
-        }
-        const std::vector<std::vector<long>> by_trial = UnitsByTrial(g, config.trials);
-        tbb::this_task_arena::isolate([&] {
-          tbb::parallel_for(std::size_t{0}, by_trial.size(), [&](std::size_t ti) {
-            const std::vector<long>& ids = by_trial[ti];
-            const long trial = UnitOf(ids.front(), config.trials).trial;
-            Mat normals, noisy;
-            const bool noisy_units = std::any_of(ids.begin(), ids.end(), [&](long id) {
-              return cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)].sigma > 0;
-            });
-            if (noisy_units && sim_error.empty() && truth.status.completed() && !stopped()) {
-              normals.resize(truth.x.rows(), truth.x.cols());
-              FillStandardNormals(TrialNoiseKey(config, g.model, g.dt, trial), 0, normals.data(),
-                                  static_cast<std::size_t>(normals.size()));
-            }
-            const TrialInputs in{&x0,    &truth,    &normals,
-                                 &noisy, sim_error, config.grid.refine_axis ? &crlb : nullptr};
-            for (const long id : ids) {
-              if (stopped()) return;
-              const auto start = Clock::now();
-              std::vector<std::string> row =
-                  RunTrial(config, models, cells[static_cast<std::size_t>(UnitOf(id, config.trials).cell)],
-                           id, trial, in);
-              row.push_back(fmt::format(
-                  "{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
-              journal.Append(row);
-              run.fetch_add(1, std::memory_order_relaxed);
-              progress.Tick(samples_of(id));
-            }
-          });
-        });
-      });
-    }
-    outcome.units_run = run.load();
-    outcome.trajectories = trajectories.load();
-  }
+  ClaimDirectory(config, options, outcome.units_total, cells.size());
+  RunPendingUnits(config, models, cells, header, options, stop, &outcome);
   outcome.wall_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   if (outcome.units_resumed + outcome.units_run < outcome.units_shard) {
     outcome.interrupted = true;
     return outcome;
   }
-
-  // Every unit of the shard is in the journal: write the tables from it.
-  const Journal journal(options.out / "trials.journal", JournalHeader(header), config.Hash(),
-                        options.shard.ToString());
-  CheckRecovered(journal, config, cells, options.shard, outcome.units_total);
-  std::map<long, std::vector<std::string>> rows;
-  const long status_col = std::find(header.begin(), header.end(), "status") - header.begin();
-  for (const auto& [id, cells_of_row] : journal.recovered()) {
-    if (!options.shard.Contains(id) || id >= outcome.units_total) continue;
-    if (cells_of_row[static_cast<std::size_t>(status_col)] != kTrialOk) ++outcome.failures;
-    rows.emplace(id, cells_of_row);
-  }
-  WriteSweepTables(options.out, header, rows, config.baseline);
-  WriteJson(options.out / "run.json",
-            {{"command", "hysid sweep"},
-             {"source", config.source},
-             {"hash", config.Hash()},
-             {"master_seed", config.seed},
-             {"config", config.ToJson()},
-             {"shard", options.shard.ToString()},
-             {"threads", options.threads > 0 ? options.threads : tbb::info::default_concurrency()},
-             {"units_total", outcome.units_total},
-             {"units_shard", outcome.units_shard},
-             {"units_resumed", outcome.units_resumed},
-             {"units_run", outcome.units_run},
-             {"failures", outcome.failures},
-             {"trajectories_simulated", outcome.trajectories},
-             {"wall_seconds", outcome.wall_seconds},
-             {"wall_seconds_note", "this invocation only (a resumed run's earlier part is not included)"},
-             {"context", BuildContext()}});
+  WriteShardTables(config, cells, header, options, &outcome);
+  WriteJson(options.out / "run.json", SweepRunJson(config, models, options, outcome));
   return outcome;
 }
 
-void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
+namespace {
+
+// The shard directories must not include the output directory.
+void CheckMergeOutput(const std::vector<fs::path>& dirs, const fs::path& out) {
   if (dirs.empty()) throw std::invalid_argument("hysid merge: give the shard directories");
   for (const fs::path& dir : dirs) {
     std::error_code ec;
@@ -294,74 +380,93 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
           out.string(), dir.string()));
     }
   }
+}
+
+// One complete shard directory: its identity and its rows, each with its wall_ms as the last cell.
+struct ShardTables {
+  nlohmann::json identity;
+  Shard shard;
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+};
+
+ShardTables ReadShardTables(const fs::path& dir) {
+  const fs::path idp = dir / "sweep.json";
+  if (!fs::exists(idp)) {
+    throw std::invalid_argument(fmt::format("{}: not a sweep run directory (no sweep.json)", dir.string()));
+  }
+  ShardTables s;
+  s.identity = ReadJson(idp);
+  s.shard = ParseShard(s.identity.value("shard", ""));
+  if (!fs::exists(dir / "trials.csv")) {
+    throw std::invalid_argument(
+        fmt::format("{}: shard {} is not complete (no trials.csv); run its command again to finish it",
+                    dir.string(), s.shard.ToString()));
+  }
+  ReadTrialsCsv(dir / "trials.csv", &s.header, &s.rows);
+  std::vector<std::string> th;
+  std::map<long, std::vector<std::string>> timing;
+  ReadTrialsCsv(dir / "timings.csv", &th, &timing);
+  for (auto& [unit, cells] : s.rows) {
+    if (!s.shard.Contains(unit)) {
+      throw std::invalid_argument(
+          fmt::format("{}: unit {} does not belong to shard {}", dir.string(), unit, s.shard.ToString()));
+    }
+    const auto t = timing.find(unit);
+    cells.push_back(t == timing.end() ? std::string() : t->second.back());
+  }
+  return s;
+}
+
+// `s` must be another shard of the same sweep as `first`, split the same way, with the same columns.
+void CheckSameSweep(const fs::path& dir, const ShardTables& s, const ShardTables& first) {
+  const std::string hash = first.identity.value("hash", "");
+  if (s.identity.value("hash", "") != hash) {
+    throw std::invalid_argument(fmt::format("{}: a different sweep (hash {}, the first shard has {})",
+                                            dir.string(), s.identity.value("hash", "?"), hash));
+  }
+  if (s.shard.n != first.shard.n) {
+    throw std::invalid_argument(fmt::format("{}: shard {} does not split into {} like the first",
+                                            dir.string(), s.shard.ToString(), first.shard.n));
+  }
+  if (s.header != first.header)
+    throw std::invalid_argument(fmt::format("{}: trials.csv has other columns", dir.string()));
+}
+
+}  // namespace
+
+void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
+  CheckMergeOutput(dirs, out);
   CheckOutputDirectory("--out", out);
   const DirectoryLock lock(out);
-  std::string hash;
-  long n_shards = -1, total = -1;
+  ShardTables first;
   std::set<long> seen_k;
-  std::vector<std::string> header;
-  nlohmann::json config;
   std::map<long, std::vector<std::string>> rows;
   for (const fs::path& dir : dirs) {
-    const fs::path idp = dir / "sweep.json";
-    if (!fs::exists(idp)) {
-      throw std::invalid_argument(fmt::format("{}: not a sweep run directory (no sweep.json)", dir.string()));
+    ShardTables s = ReadShardTables(dir);
+    if (seen_k.empty()) first = s;
+    CheckSameSweep(dir, s, first);
+    if (!seen_k.insert(s.shard.k).second) {
+      throw std::invalid_argument(fmt::format("{}: shard {} given twice", dir.string(), s.shard.ToString()));
     }
-    const nlohmann::json id = ReadJson(idp);
-    const Shard shard = ParseShard(id.value("shard", ""));
-    if (hash.empty()) {
-      hash = id.value("hash", "");
-      n_shards = shard.n;
-      total = id.value("units_total", -1L);
-      config = id.value("config", nlohmann::json{});
-    } else if (id.value("hash", "") != hash) {
-      throw std::invalid_argument(fmt::format("{}: a different sweep (hash {}, the first shard has {})",
-                                              dir.string(), id.value("hash", "?"), hash));
-    } else if (shard.n != n_shards) {
-      throw std::invalid_argument(fmt::format("{}: shard {} does not split into {} like the first",
-                                              dir.string(), shard.ToString(), n_shards));
-    }
-    if (!seen_k.insert(shard.k).second) {
-      throw std::invalid_argument(fmt::format("{}: shard {} given twice", dir.string(), shard.ToString()));
-    }
-    if (!fs::exists(dir / "trials.csv")) {
-      throw std::invalid_argument(
-          fmt::format("{}: shard {} is not complete (no trials.csv); run its command again to finish it",
-                      dir.string(), shard.ToString()));
-    }
-    std::vector<std::string> h;
-    std::map<long, std::vector<std::string>> r;
-    ReadTrialsCsv(dir / "trials.csv", &h, &r);
-    std::vector<std::string> th;
-    std::map<long, std::vector<std::string>> timing;
-    ReadTrialsCsv(dir / "timings.csv", &th, &timing);
-    if (header.empty()) header = h;
-    if (h != header)
-      throw std::invalid_argument(fmt::format("{}: trials.csv has other columns", dir.string()));
-    for (auto& [unit, cells] : r) {
-      if (!shard.Contains(unit)) {
-        throw std::invalid_argument(
-            fmt::format("{}: unit {} does not belong to shard {}", dir.string(), unit, shard.ToString()));
-      }
-      const auto t = timing.find(unit);
-      cells.push_back(t == timing.end() ? std::string() : t->second.back());
-      rows.emplace(unit, std::move(cells));
-    }
+    rows.merge(s.rows);
   }
-  for (long k = 1; k <= n_shards; ++k) {
+  for (long k = 1; k <= first.shard.n; ++k) {
     if (!seen_k.count(k))
-      throw std::invalid_argument(fmt::format("hysid merge: shard {}/{} is missing", k, n_shards));
+      throw std::invalid_argument(fmt::format("hysid merge: shard {}/{} is missing", k, first.shard.n));
   }
+  const long total = first.identity.value("units_total", -1L);
   if (static_cast<long>(rows.size()) != total) {
     throw std::invalid_argument(
         fmt::format("hysid merge: {} units in the shards, the sweep has {}", rows.size(), total));
   }
   fs::create_directories(out);
-  WriteSweepTables(out, header, rows, BaselineFromJson(config));
+  const nlohmann::json config = first.identity.value("config", nlohmann::json{});
+  WriteSweepTables(out, first.header, rows, BaselineFromJson(config));
   std::vector<std::string> names;
   for (const auto& d : dirs) names.push_back(d.string());
   WriteJson(out / "run.json", {{"command", "hysid merge"},
-                               {"hash", hash},
+                               {"hash", first.identity.value("hash", "")},
                                {"config", config},
                                {"shards", names},
                                {"units_total", total},

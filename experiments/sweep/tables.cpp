@@ -154,8 +154,8 @@ std::array<std::string, 4> EfficiencyCells(const CellRows& c, double e_alpha_mea
 
 std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
                                    const std::map<long, std::vector<std::string>>& rows,
-                                   const std::vector<std::string>& keys) {
-  const std::vector<std::string>& metrics = SummaryMetrics();
+                                   const std::vector<std::string>& keys,
+                                   const std::vector<std::string>& metrics) {
   std::vector<long> key_col, match_col, metric_col;
   for (const auto& k : keys) key_col.push_back(Column(header, k));
   for (const auto& k : BaselineKeyNames())
@@ -191,91 +191,135 @@ std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
   return out;
 }
 
-}  // namespace
-
-void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::string>& trial_header,
-                      const std::map<long, std::vector<std::string>>& rows, const Baseline& baseline) {
-  const std::size_t nt = trial_header.size();
-  {
-    CsvWriter trials(dir / "trials.csv", trial_header);
-    CsvWriter timings(dir / "timings.csv", {"unit", "cell", "trial", "wall_ms"});
-    for (const auto& [unit, cells] : rows) {
-      trials.TextRow(std::span<const std::string>(cells.data(), nt));
-      const std::string t[] = {cells[0], cells[1], cells[2], cells.back()};
-      timings.TextRow(t);
-    }
-    trials.Commit();
-    timings.Commit();
-  }
-
-  // summary.csv
-  // The cell's keys: "cell" and the columns from "model" to "detector" (dt, σ, the option axes, ...)
-  // or to "refine" when the sweep has that axis.
+// The summary's key columns: "cell" and the trial columns from "model" to "detector" (dt, σ, the option
+// axes, ...) or to "refine" when the sweep has that axis.
+std::vector<std::string> SummaryKeys(const std::vector<std::string>& trial_header) {
   std::vector<std::string> keys{"cell"};
   const auto model_col = static_cast<std::size_t>(Column(trial_header, "model"));
   const auto last_col =
       static_cast<std::size_t>(Column(trial_header, Has(trial_header, "refine") ? "refine" : "detector"));
   keys.insert(keys.end(), trial_header.begin() + static_cast<long>(model_col),
               trial_header.begin() + static_cast<long>(last_col) + 1);
+  return keys;
+}
+
+// The metrics summary.csv aggregates: SummaryMetrics(), then the per-parameter rel_err_* columns of
+// the trials table (their statistics come last, after the baseline and efficiency columns).
+std::vector<std::string> CellMetrics(const std::vector<std::string>& trial_header) {
+  std::vector<std::string> metrics = SummaryMetrics();
+  for (const std::string& h : trial_header) {
+    if (h.rfind(kRelativeErrorPrefix, 0) == 0) metrics.push_back(h);
+  }
+  return metrics;
+}
+
+constexpr std::array<const char*, 5> kStats{"mean", "median", "std", "ci95_lo", "ci95_hi"};
+
+std::vector<std::string> SummaryHeader(const std::vector<std::string>& keys,
+                                       const std::vector<std::string>& metrics, bool baseline,
+                                       bool efficiency) {
+  const std::size_t n_core = SummaryMetrics().size();
+  std::vector<std::string> header = keys;
+  header.insert(header.end(), {"trials", "failures"});
+  for (std::size_t m = 0; m < n_core; ++m) {
+    for (const char* stat : kStats) header.push_back(metrics[m] + "_" + stat);
+  }
+  if (baseline) {
+    header.push_back("baseline_cell");
+    for (std::size_t m = 0; m < n_core; ++m) {
+      for (const char* stat : {"diff_n", "diff_mean", "diff_ci95_lo", "diff_ci95_hi"})
+        header.push_back(metrics[m] + "_" + stat);
+    }
+  }
+  if (efficiency)
+    header.insert(header.end(), {"crlb_e_alpha", "crlb_e_beta", "efficiency_alpha", "efficiency_beta"});
+  for (std::size_t m = n_core; m < metrics.size(); ++m) {
+    for (const char* stat : kStats) header.push_back(metrics[m] + "_" + stat);
+  }
+  return header;
+}
+
+// The statistics of metric m over the cell's trials with a value.
+MetricSummary MetricOf(const CellRows& c, std::size_t m) {
+  std::vector<double> v;
+  for (const auto& [trial, values] : c.values) {
+    if (!std::isnan(values[m])) v.push_back(values[m]);
+  }
+  return Summarize(std::move(v));
+}
+
+void AppendStats(const MetricSummary& s, std::vector<std::string>* out) {
+  for (double x : {s.mean, s.median, s.std, s.ci_lo, s.ci_hi}) out->push_back(FormatNumber(x));
+}
+
+// The baseline cell and the paired differences cell − baseline of each of the first n_metrics metrics.
+void AppendBaselineDiffs(const CellRows& c, const CellRows* b, std::size_t n_metrics,
+                         std::vector<std::string>* out) {
+  out->push_back(b != nullptr ? b->keys[0] : std::string());
+  for (std::size_t m = 0; m < n_metrics; ++m) {
+    std::vector<double> d;
+    for (const auto& [trial, values] : c.values) {
+      const auto bt = b != nullptr ? b->values.find(trial) : c.values.end();
+      if (b == nullptr || bt == b->values.end()) continue;
+      if (!std::isnan(values[m]) && !std::isnan(bt->second[m])) d.push_back(values[m] - bt->second[m]);
+    }
+    const MetricSummary s = Summarize(std::move(d));
+    out->push_back(b != nullptr ? fmt::format("{}", s.n) : std::string());
+    for (double x : {s.mean, s.ci_lo, s.ci_hi}) out->push_back(FormatNumber(x));
+  }
+}
+
+void WriteTrialAndTimingTables(const std::filesystem::path& dir, const std::vector<std::string>& trial_header,
+                               const std::map<long, std::vector<std::string>>& rows) {
+  const std::size_t nt = trial_header.size();
+  CsvWriter trials(dir / "trials.csv", trial_header);
+  CsvWriter timings(dir / "timings.csv", {"unit", "cell", "trial", "wall_ms"});
+  for (const auto& [unit, cells] : rows) {
+    trials.TextRow(std::span<const std::string>(cells.data(), nt));
+    const std::string t[] = {cells[0], cells[1], cells[2], cells.back()};
+    timings.TextRow(t);
+  }
+  trials.Commit();
+  timings.Commit();
+}
+
+}  // namespace
+
+void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::string>& trial_header,
+                      const std::map<long, std::vector<std::string>>& rows, const Baseline& baseline) {
+  WriteTrialAndTimingTables(dir, trial_header, rows);
+  const std::vector<std::string> keys = SummaryKeys(trial_header);
   const bool efficiency = Has(trial_header, "crlb_e_alpha");
-  const std::vector<std::string>& metrics = SummaryMetrics();
-  const std::vector<CellRows> cells = CollectCells(trial_header, rows, keys);
+  const std::vector<std::string> metrics = CellMetrics(trial_header);
+  const std::size_t n_core = SummaryMetrics().size();
+  const std::vector<CellRows> cells = CollectCells(trial_header, rows, keys, metrics);
   std::vector<long> base;
   if (!baseline.empty()) {
     std::vector<std::vector<std::string>> match;
     for (const CellRows& c : cells) match.push_back(c.match);
     base = MatchBaselines(BaselineKeyNames(), match, baseline);
   }
-
-  std::vector<std::string> header = keys;
-  header.insert(header.end(), {"trials", "failures"});
-  for (const auto& m : metrics) {
-    for (const char* stat : {"mean", "median", "std", "ci95_lo", "ci95_hi"}) header.push_back(m + "_" + stat);
-  }
-  if (!baseline.empty()) {
-    header.push_back("baseline_cell");
-    for (const auto& m : metrics) {
-      for (const char* stat : {"diff_n", "diff_mean", "diff_ci95_lo", "diff_ci95_hi"})
-        header.push_back(m + "_" + stat);
-    }
-  }
-  if (efficiency)
-    header.insert(header.end(), {"crlb_e_alpha", "crlb_e_beta", "efficiency_alpha", "efficiency_beta"});
-  CsvWriter summary(dir / "summary.csv", header);
+  CsvWriter summary(dir / "summary.csv", SummaryHeader(keys, metrics, !baseline.empty(), efficiency));
   for (std::size_t ci = 0; ci < cells.size(); ++ci) {
     const CellRows& c = cells[ci];
     std::vector<std::string> out = c.keys;
     out.push_back(fmt::format("{}", c.n));
     out.push_back(fmt::format("{}", c.failures));
-    std::map<std::string, double> means;
-    for (std::size_t m = 0; m < metrics.size(); ++m) {
-      std::vector<double> v;
-      for (const auto& [trial, values] : c.values) {
-        if (!std::isnan(values[m])) v.push_back(values[m]);
-      }
-      const MetricSummary s = Summarize(std::move(v));
-      means[metrics[m]] = s.mean;
-      for (double x : {s.mean, s.median, s.std, s.ci_lo, s.ci_hi}) out.push_back(FormatNumber(x));
-    }
+    std::vector<MetricSummary> stats;
+    for (std::size_t m = 0; m < metrics.size(); ++m) stats.push_back(MetricOf(c, m));
+    for (std::size_t m = 0; m < n_core; ++m) AppendStats(stats[m], &out);
     if (!baseline.empty()) {
       const CellRows* b = base[ci] >= 0 ? &cells[static_cast<std::size_t>(base[ci])] : nullptr;
-      out.push_back(b != nullptr ? b->keys[0] : std::string());
-      for (std::size_t m = 0; m < metrics.size(); ++m) {
-        std::vector<double> d;
-        for (const auto& [trial, values] : c.values) {
-          const auto bt = b != nullptr ? b->values.find(trial) : c.values.end();
-          if (b == nullptr || bt == b->values.end()) continue;
-          if (!std::isnan(values[m]) && !std::isnan(bt->second[m])) d.push_back(values[m] - bt->second[m]);
-        }
-        const MetricSummary s = Summarize(std::move(d));
-        out.push_back(b != nullptr ? fmt::format("{}", s.n) : std::string());
-        for (double x : {s.mean, s.ci_lo, s.ci_hi}) out.push_back(FormatNumber(x));
-      }
+      AppendBaselineDiffs(c, b, n_core, &out);
     }
     if (efficiency) {
-      const std::array<std::string, 4> e = EfficiencyCells(c, means["e_alpha"], means["e_beta"]);
+      const auto mean_of = [&](const char* name) {
+        return stats[static_cast<std::size_t>(Column(metrics, name))].mean;
+      };
+      const std::array<std::string, 4> e = EfficiencyCells(c, mean_of("e_alpha"), mean_of("e_beta"));
       out.insert(out.end(), e.begin(), e.end());
     }
+    for (std::size_t m = n_core; m < metrics.size(); ++m) AppendStats(stats[m], &out);
     summary.TextRow(out);
   }
   summary.Commit();

@@ -186,6 +186,31 @@ void EstimateColumns(const std::vector<Model>& models, std::vector<TrialColumn>*
   }
 }
 
+// rel_err_NAME of each unknown parameter name over the models: |θ̂ − θ| / |θ| against the row's model's
+// true value θ, or |θ̂ − θ| where θ = 0.
+void RelativeErrorColumns(const std::vector<Model>& models, std::vector<TrialColumn>* cols) {
+  const std::vector<std::string> alpha_names = UnknownNames(models, true);
+  for (bool alpha : {true, false}) {
+    for (const std::string& name : UnknownNames(models, alpha)) {
+      const bool clash =
+          !alpha && std::find(alpha_names.begin(), alpha_names.end(), name) != alpha_names.end();
+      cols->push_back({kRelativeErrorPrefix + std::string(clash ? "beta_" : "") + name,
+                       [alpha, name](const TrialOutcome& o) {
+                         const auto& params = alpha ? o.model->spec().alpha : o.model->spec().beta;
+                         const Vec& hat = alpha ? o.alpha_hat : o.beta_hat;
+                         std::string text;
+                         for (std::size_t i = 0; i < params.size(); ++i) {
+                           if (params[i].name != name || params[i].known || !o.ok()) continue;
+                           const double truth = params[i].value;
+                           const double err = std::abs(hat[static_cast<Eigen::Index>(i)] - truth);
+                           text = FormatNumber(truth != 0 ? err / std::abs(truth) : err);
+                         }
+                         return text;
+                       }});
+    }
+  }
+}
+
 // grid.refine: the refinement's status and the cell's CRLB-implied mean errors (the σ = 1 bound scaled
 // by σ; empty for σ = 0 or without a bound).
 void RefineColumns(std::vector<TrialColumn>* cols) {
@@ -205,6 +230,7 @@ std::vector<TrialColumn> TrialColumns(const SweepConfig& config, const std::vect
   OutcomeColumns(&cols);
   if (config.grid.refine_axis) RefineColumns(&cols);
   EstimateColumns(models, &cols);
+  RelativeErrorColumns(models, &cols);
   return cols;
 }
 

@@ -21,8 +21,14 @@ namespace hysid {
 // Status values of a row.
 inline constexpr const char* kTrialOk = "ok";
 
+// Prefix of the per-parameter error columns of trials.csv (summary.csv aggregates them too).
+inline constexpr const char* kRelativeErrorPrefix = "rel_err_";
+
 // Columns of trials.csv for this sweep: identification, grid keys, x0, status, then the metrics
-// (kSummaryMetrics among them), then α̂ and β̂ per unknown parameter name (union over the models).
+// (SummaryMetrics() among them), then α̂ and β̂ per unknown parameter name (union over the models), then
+// rel_err_NAME = |θ̂ − θ| / |θ| per unknown parameter name (|θ̂ − θ| where the true θ is 0; α's names,
+// then β's, a β name that is also an α name as rel_err_beta_NAME; empty where the row's model has no
+// such unknown or the status is not ok).
 // With grid.refine: `refine` after `detector`, and refine_status, crlb_e_alpha, crlb_e_beta (the
 // cell's CRLB-implied mean errors at its σ; empty for σ = 0) after flow_hull/jump_hull columns.
 std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models);

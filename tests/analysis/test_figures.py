@@ -310,3 +310,14 @@ def test_fig2_from_reproduce_example6(example6_run, captured, tmp_path):
     bottom = data_axes(fig)[1]
     d, tau = bottom.get_lines()[0].get_ydata(), bottom.get_lines()[1].get_ydata()
     assert np.all(d <= tau)  # Proposition 5 in what is drawn
+
+
+def test_heat_map_cell_labels_are_at_least_8_pt(committed_figs):
+    for rel in ("results/robustness_map", "results/paper_noise"):
+        for fig, stem, _ in committed_figs[rel][1]:
+            if not stem.startswith(("misclassification_map", "detector_comparison")):
+                continue
+            assert abs(fig.get_size_inches()[0] - style.WIDTHS["single"]) < 1e-9
+            for ax in fig.axes:
+                for t in ax.texts:
+                    assert t.get_fontsize() >= 8, (stem, t.get_text(), t.get_fontsize())

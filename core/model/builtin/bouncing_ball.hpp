@@ -7,14 +7,13 @@
 //   t_Z = √(2h0/g) + 2λ√(2gh0) / (g(1 − λ))   for ξ(0) = (h0, 0).
 #pragma once
 
-#include <algorithm>
-#include <cmath>
+#include <string>
 
-#include "core/model/model.hpp"
+#include "core/model/builtin/wall_impact.hpp"
 
 namespace hysid {
 
-struct BouncingBall {
+struct BouncingBall : WallImpact {
   ModelSpec Spec() const {
     return ModelSpec{
         .name = "bouncing-ball",
@@ -22,9 +21,7 @@ struct BouncingBall {
         .state_names = {"h", "v"},
         .alpha = {{"alpha_h", 1.0, true, "coefficient of v in h' (known)"},
                   {"g", 9.81, false, "gravitational acceleration"}},
-        .beta = {{"beta_h", 1.0, true, "coefficient of h in h+ (known)"},
-                 {"lambda", 0.8, false, "restitution coefficient"},
-                 {"mu", 0.0, false, "additive impact term"}},
+        .beta = JumpParameters("h", 0.8),
         .flow_rows = {1},
         .jump_rows = {1},
         .guards = {{"floor", Crossing::kFalling}},
@@ -32,28 +29,13 @@ struct BouncingBall {
         .default_x0 = {1.0, 0.0},
         .default_t_end = 10.0,
         .default_dt = 1e-3,
-        .equations =
-            "flow: h' = alpha_h*v, v' = -g\n"
-            "jump: h+ = beta_h*h, v+ = -lambda*v + mu\n"
-            "guard floor: h(xi) = h (falling)\n"
-            "C: h > 0 || (h == 0 && v >= 0)\n"
-            "D: h == 0 && v <= 0\n",
+        .equations = std::string("flow: h' = alpha_h*v, v' = -g\n") + JumpEquations("h", "v", "floor"),
     };
   }
   void Phi(ConstVecRef x, MatRef phi) const {
     phi << x[1], 0.0,  //
         0.0, -1.0;
   }
-  void Psi(ConstVecRef x, MatRef psi) const {
-    psi << x[0], 0.0, 0.0,  //
-        0.0, -x[1], 1.0;
-  }
-  void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
-  bool InFlowSet(ConstVecRef x) const { return x[0] > 0.0 || (x[0] == 0.0 && x[1] >= 0.0); }
-  bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0 && x[1] <= 0.0; }
-  // dist(ξ, D) for the half-line D = {ξ1 = 0, ξ2 ≤ 0}: √(ξ1² + max(ξ2, 0)²).
-  double DistanceToJumpSet(ConstVecRef x) const { return std::hypot(x[0], std::max(x[1], 0.0)); }
-  void ProjectOntoGuard(int /*guard*/, VecRef x) const { x[0] = 0.0; }
   void FlowJacobian(ConstVecRef /*x*/, ConstVecRef alpha, MatRef jac) const {
     jac << 0.0, alpha[0],  //
         0.0, 0.0;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 #include <catch2/catch.hpp>
 #include <fmt/format.h>
@@ -641,6 +642,82 @@ seed = 5
   const SweepConfig ambiguous =
       ParseSweepText(head + "baseline = { detector = \"paper\" }\n", "amb.toml", Registry());
   CHECK_THROWS_WITH(Run(ambiguous, TempDir("amb"), 1), Catch::Contains("matches several cells"));
+}
+
+TEST_CASE("sweep: per-parameter relative errors from the estimate columns, and their cell means",
+          "[sweep][summary]") {
+  const SweepConfig c = ParseSweepText(R"(
+[model]
+name = "impact-msd"
+params = { a = 4.0, b = 0.2, lambda = 0.9, mu = 0.0 }
+x0 = [15.0, 0.0]
+t_end = 4.0
+
+[grid]
+sigma = [0.0, 0.05]
+dt = [1e-3]
+estimator = ["rls", "gtls"]
+
+[run]
+trials = 3
+seed = 5
+)",
+                                       "rel.toml", Registry());
+  const fs::path dir = TempDir("relative_errors");
+  Run(c, dir, 2);
+  std::vector<std::string> header;
+  std::map<long, std::vector<std::string>> rows;
+  ReadTrialsCsv(dir / "trials.csv", &header, &rows);
+  const auto col = [&](const std::string& n) {
+    const auto it = std::find(header.begin(), header.end(), n);
+    REQUIRE(it != header.end());
+    return static_cast<std::size_t>(it - header.begin());
+  };
+  // The true values written above; μ = 0 has the absolute error.
+  const std::vector<std::tuple<std::string, std::string, double>> params{{"a", "alpha_hat_a", 4.0},
+                                                                         {"b", "alpha_hat_b", 0.2},
+                                                                         {"lambda", "beta_hat_lambda", 0.9},
+                                                                         {"mu", "beta_hat_mu", 0.0}};
+  std::map<std::string, std::map<std::string, std::vector<double>>> by_cell;  // cell → name → values
+  for (const auto& [id, r] : rows) {
+    REQUIRE(r[col("status")] == "ok");
+    for (const auto& [name, hat_col, truth] : params) {
+      const double hat = std::stod(r[col(hat_col)]);
+      const double expected = truth != 0 ? std::fabs(hat - truth) / std::fabs(truth) : std::fabs(hat - truth);
+      const double got = std::stod(r[col("rel_err_" + name)]);
+      CHECK(got == Approx(expected).epsilon(1e-15).margin(1e-300));
+      by_cell[r[col("cell")]][name].push_back(got);
+    }
+  }
+  // summary.csv: the mean of each cell's rel_err_NAME column, with a Student-t interval around it.
+  std::vector<std::string> sh;
+  std::map<long, std::vector<std::string>> srows;
+  ReadTrialsCsv(dir / "summary.csv", &sh, &srows);  // keyed by the first column, "cell"
+  REQUIRE(srows.size() == 4u);
+  const auto scol = [&](const std::string& n) {
+    const auto it = std::find(sh.begin(), sh.end(), n);
+    REQUIRE(it != sh.end());
+    return static_cast<std::size_t>(it - sh.begin());
+  };
+  for (const auto& [cell, r] : srows) {
+    for (const auto& [name, hat_col, truth] : params) {
+      const std::vector<double>& v = by_cell[std::to_string(cell)][name];
+      REQUIRE(v.size() == 3u);
+      const double mean = (v[0] + v[1] + v[2]) / 3.0;
+      CHECK(std::stod(r[scol("rel_err_" + name + "_mean")]) == Approx(mean).epsilon(1e-12).margin(1e-300));
+      const std::string lo = r[scol("rel_err_" + name + "_ci95_lo")],
+                        hi = r[scol("rel_err_" + name + "_ci95_hi")];
+      if (!lo.empty()) {
+        CHECK(std::stod(lo) <= mean);
+        CHECK(std::stod(hi) >= mean);
+      }
+    }
+  }
+  // run.json records the true values the sweep used.
+  const std::string run = Slurp(dir / "run.json");
+  CHECK(run.find("\"models\"") != std::string::npos);
+  CHECK(run.find("\"name\": \"lambda\"") != std::string::npos);
+  CHECK(run.find("\"value\": 0.9") != std::string::npos);
 }
 
 TEST_CASE("sweep: refine as a baseline key pairs each refined cell with its recursive one", "[sweep][crn]") {

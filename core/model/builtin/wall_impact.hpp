@@ -1,0 +1,43 @@
+// The impact the built-in models share: a wall (or floor) at ξ1 = 0 hit from above, with restitution
+// λ and an additive impact term μ.
+//   ξ+ = [ξ1; −λξ2 + μ] = ψ(ξ)β,  ψ = [[ξ1, 0, 0], [0, −ξ2, 1]],  β = (1, λ, μ)
+//   guard h(ξ) = ξ1 (falling),  C = {ξ1 ≥ 0} \ {ξ1 = 0, ξ2 < 0},  D = {ξ1 = 0, ξ2 ≤ 0}
+// A model derives from it and adds its flow (Spec, Phi, FlowJacobian).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/model/model.hpp"
+
+namespace hysid {
+
+struct WallImpact {
+  // β = (beta_POS = 1 known, λ, μ = 0) for the position state named `pos`.
+  static std::vector<Parameter> JumpParameters(const std::string& pos, double lambda) {
+    return {{"beta_" + pos, 1.0, true, "coefficient of " + pos + " in " + pos + "+ (known)"},
+            {"lambda", lambda, false, "restitution coefficient"},
+            {"mu", 0.0, false, "additive impact term"}};
+  }
+  // The jump, guard and set lines of ModelSpec::equations for the states (pos, vel).
+  static std::string JumpEquations(const std::string& pos, const std::string& vel, const std::string& guard) {
+    return "jump: " + pos + "+ = beta_" + pos + "*" + pos + ", " + vel + "+ = -lambda*" + vel + " + mu\n" +
+           "guard " + guard + ": h(xi) = " + pos + " (falling)\n" +            //
+           "C: " + pos + " > 0 || (" + pos + " == 0 && " + vel + " >= 0)\n" +  //
+           "D: " + pos + " == 0 && " + vel + " <= 0\n";
+  }
+  void Psi(ConstVecRef x, MatRef psi) const {
+    psi << x[0], 0.0, 0.0,  //
+        0.0, -x[1], 1.0;
+  }
+  void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
+  bool InFlowSet(ConstVecRef x) const { return x[0] > 0.0 || (x[0] == 0.0 && x[1] >= 0.0); }
+  bool InJumpSet(ConstVecRef x) const { return x[0] == 0.0 && x[1] <= 0.0; }
+  // dist(ξ, D) for the half-line D = {ξ1 = 0, ξ2 ≤ 0}: √(ξ1² + max(ξ2, 0)²).
+  double DistanceToJumpSet(ConstVecRef x) const { return std::hypot(x[0], std::max(x[1], 0.0)); }
+  void ProjectOntoGuard(int /*guard*/, VecRef x) const { x[0] = 0.0; }
+};
+
+}  // namespace hysid
