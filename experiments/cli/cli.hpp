@@ -8,6 +8,8 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
@@ -77,6 +79,14 @@ inline const CLI::Validator NonNegativeInteger(
 
 // Checks that every entry is finite; `flag` names the option in the error.
 void RequireFinite(const std::string& flag, const std::vector<double>& values);
+
+// "rls (recursive least squares); gtls (...); …" from the descriptors, for a flag's help.
+template <class Descriptor>
+std::string PluginHelp(const char* what, const std::vector<const Descriptor*>& descriptors) {
+  std::vector<std::string> parts;
+  for (const Descriptor* d : descriptors) parts.push_back(fmt::format("{} ({})", d->name, d->help));
+  return fmt::format("{}: {}", what, fmt::join(parts, "; "));
+}
 
 // --estimator and --detector by name into both estimators' and the detector's kind; errors name the flag.
 void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings);

@@ -353,14 +353,6 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
 
 }  // namespace
 
-// "rls (recursive least squares), gtls (...) or frisch (...)" from the descriptors.
-template <class Descriptor>
-std::string PluginHelp(const char* what, const std::vector<const Descriptor*>& descriptors) {
-  std::vector<std::string> parts;
-  for (const Descriptor* d : descriptors) parts.push_back(fmt::format("{} ({})", d->name, d->help));
-  return fmt::format("{}: {}", what, fmt::join(parts, "; "));
-}
-
 void AddIdentifyCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<IdentifyArgs>();
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");

@@ -262,7 +262,8 @@ void AddReproduceCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
       ->capture_default_str()
       ->check(NonNegativeInteger);
-  cmd->add_option("--estimator", args->estimator, "rls (as published), gtls or frisch (errors-in-variables)")
+  cmd->add_option("--estimator", args->estimator,
+                  PluginHelp("estimator of alpha and beta (rls as published)", EstimatorDescriptors()))
       ->capture_default_str();
   cmd->add_option("--detector", args->detector,
                   "paper (as published, r = 220) or residual (tuning-free; the tau columns then "
