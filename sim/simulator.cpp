@@ -17,11 +17,7 @@
 namespace hysid {
 namespace {
 
-using sundials_ptr::ContextPtr;
-using sundials_ptr::CvodePtr;
-using sundials_ptr::NonlinearSolverPtr;
-using sundials_ptr::NVectorPtr;
-using sundials_ptr::ToCvodeDirection;
+using namespace sundials_ptr;  // the owning SUNDIALS handles (sim/sundials_ptr.hpp)
 
 // What CVODE's callbacks see.
 struct CallbackData {

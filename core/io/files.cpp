@@ -6,6 +6,8 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <system_error>
 
@@ -14,6 +16,17 @@
 namespace hysid {
 
 namespace fs = std::filesystem;
+
+std::string ReadWholeFile(const fs::path& path, const char* what) {
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  if (in) text << in.rdbuf();
+  if (!in || in.bad()) {
+    throw std::invalid_argument(IoError(path, fmt::format("cannot read the {}", what).c_str(), errno));
+  }
+  return text.str();
+}
 
 std::string IoError(const fs::path& path, const char* what, int error_number) {
   return fmt::format("{}: {}: {}", path.string(), what,

@@ -1,4 +1,5 @@
-// Output files: checked before a computation, written under a temporary name and renamed.
+// Input files read whole; output files checked before a computation, written under a temporary name
+// and renamed.
 #pragma once
 
 #include <filesystem>
@@ -18,6 +19,10 @@ void CheckOutputDirectory(const std::string& label, const std::filesystem::path&
 // Writes `text` to PATH.tmp and renames it onto PATH; the temporary is removed on every failure.
 // Throws std::runtime_error "PATH.tmp: write failed: <strerror>".
 void WriteFileAtomically(const std::filesystem::path& path, std::string_view text);
+
+// The whole of an input file (a model file, a sweep file). Throws std::invalid_argument
+// "PATH: cannot read the WHAT: <strerror(errno)>".
+std::string ReadWholeFile(const std::filesystem::path& path, const char* what);
 
 // "PATH: WHAT: <strerror(errno)>", or "...: short write" when errno is 0.
 std::string IoError(const std::filesystem::path& path, const char* what, int error_number);

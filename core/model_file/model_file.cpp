@@ -19,6 +19,7 @@
 #include <muParser.h>
 #include <toml++/toml.h>
 
+#include "core/io/files.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {
@@ -538,11 +539,7 @@ Model ParseModelText(std::string_view text, const std::string& name, const Model
 }
 
 Model LoadModelFile(const std::filesystem::path& path, const ModelFileOptions& options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::invalid_argument(fmt::format("{}: cannot read the model file", path.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ParseModelText(text.str(), path.string(), options);
+  return ParseModelText(ReadWholeFile(path, "model file"), path.string(), options);
 }
 
 }  // namespace hysid

@@ -25,6 +25,7 @@
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
+#include "core/io/files.hpp"
 #include "core/io/limits.hpp"
 #include "core/model_file/model_file.hpp"
 #include "experiments/sweep/plan.hpp"
@@ -674,11 +675,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
 }
 
 SweepConfig ParseSweepFile(const std::filesystem::path& path, const ModelRegistry& registry) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::invalid_argument(fmt::format("{}: cannot open the sweep file", path.string()));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
+  const std::string text = ReadWholeFile(path, "sweep file");
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
     throw std::invalid_argument(fmt::format("{}: empty sweep file", path.string()));
   }

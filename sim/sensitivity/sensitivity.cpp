@@ -82,11 +82,7 @@ bool SensitivityOptions::IsValid(std::string* error) const { return sim.IsValid(
 
 namespace {
 
-using sundials_ptr::ContextPtr;
-using sundials_ptr::CvodePtr;
-using sundials_ptr::NonlinearSolverPtr;
-using sundials_ptr::NVectorPtr;
-using sundials_ptr::ToCvodeDirection;
+using namespace sundials_ptr;  // the owning SUNDIALS handles (sim/sundials_ptr.hpp)
 
 class VectorArray {
  public:

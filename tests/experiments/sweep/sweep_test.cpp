@@ -130,7 +130,7 @@ TEST_CASE("sweep files: every error names file, line and key", "[sweep][config]"
   std::ofstream(empty) << "\n";
   CHECK_THROWS_WITH(ParseSweepFile(empty, Registry()), Catch::Contains("empty.toml: empty sweep file"));
   CHECK_THROWS_WITH(ParseSweepFile("/nonexistent/x.toml", Registry()),
-                    Catch::Contains("/nonexistent/x.toml: cannot open"));
+                    Catch::Contains("/nonexistent/x.toml: cannot read the sweep file: No such file"));
 }
 
 TEST_CASE("sweep files: ranges, defaults and cells", "[sweep][config]") {
