@@ -20,6 +20,7 @@
 #include <toml++/toml.h>
 
 #include "core/io/files.hpp"
+#include "core/io/toml_guard.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {
@@ -519,6 +520,7 @@ void CheckDefaultTrajectory(const Reader& rd, const toml::table& root, const Mod
 
 Model ParseModelText(std::string_view text, const std::string& name, const ModelFileOptions& options) {
   const Reader rd(name);
+  CheckTomlCharacters(text, name);
   toml::table root;
   try {
     root = toml::parse(text, name);

@@ -16,7 +16,7 @@
 // assert() otherwise; both are reachable from malformed input (upstream issues 294/295). With NDEBUG
 // undefined and TOML_ASSERT a no-op, neither happens in any build type: the parser's own checks
 // report the error. Non-ASCII input that reaches its __builtin_unreachable is refused before parsing
-// (CheckTomlCharacters below).
+// (CheckTomlCharacters, core/io/toml_guard.hpp).
 #pragma push_macro("NDEBUG")
 #undef NDEBUG
 #define TOML_ASSERT(expr) static_cast<void>(0)
@@ -27,6 +27,7 @@
 #include "core/estimators/estimator.hpp"
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
+#include "core/io/toml_guard.hpp"
 #include "core/model_file/model_file.hpp"
 #include "experiments/sweep/plan.hpp"
 
@@ -598,57 +599,6 @@ Model SweepModel::Build(const ModelRegistry& registry) const {
   Model model = from_file ? *from_file : registry.Make(name);
   for (const auto& [k, v] : params) model.SetParameter(k, v);
   return model;
-}
-
-// Refuses a non-ASCII byte outside comments, one-line strings and multi-line literal strings: toml++
-// 3.3.0 classifies such characters with a table that ends in __builtin_unreachable for U+00A1–U+0499
-// (e.g. "û" where whitespace may stand, or after a line-ending backslash in a """ string).
-void CheckTomlCharacters(std::string_view text, const std::string& name) {
-  enum class In { kCode, kComment, kBasic, kLiteral, kMultiBasic, kMultiLiteral } in = In::kCode;
-  long line = 1;
-  const auto starts = [&](std::size_t i, std::string_view s) { return text.substr(i, s.size()) == s; };
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (c == '\n') {
-      ++line;
-      if (in != In::kMultiBasic && in != In::kMultiLiteral) in = In::kCode;
-      continue;
-    }
-    if (static_cast<unsigned char>(c) >= 0x80 && (in == In::kCode || in == In::kMultiBasic)) {
-      throw std::invalid_argument(fmt::format(
-          "{}:{}: a non-ASCII character {}; sweep files may use them only in comments and one-line strings",
-          name, line, in == In::kCode ? "outside a string or comment" : "in a \"\"\" string"));
-    }
-    switch (in) {
-      case In::kCode:
-        if (c == '#') in = In::kComment;
-        if (c == '"') in = starts(i, "\"\"\"") ? (i += 2, In::kMultiBasic) : In::kBasic;
-        if (c == '\'') in = starts(i, "\'\'\'") ? (i += 2, In::kMultiLiteral) : In::kLiteral;
-        break;
-      case In::kBasic:
-      case In::kMultiBasic:
-        if (c == '\\' && i + 1 < text.size() && text[i + 1] != '\n') {
-          ++i;  // an escaped character (a non-ASCII one is caught on the next byte for """ strings)
-          if (static_cast<unsigned char>(text[i]) >= 0x80) --i;
-        } else if (in == In::kBasic && c == '"') {
-          in = In::kCode;
-        } else if (in == In::kMultiBasic && starts(i, "\"\"\"")) {
-          in = In::kCode;
-          i += 2;
-        }
-        break;
-      case In::kLiteral:
-        if (c == '\'') in = In::kCode;
-        break;
-      case In::kMultiLiteral:
-        if (starts(i, "\'\'\'")) {
-          in = In::kCode;
-          i += 2;
-        }
-        break;
-      case In::kComment: break;
-    }
-  }
 }
 
 SweepConfig ParseSweepText(std::string_view text, const std::string& name, const ModelRegistry& registry) {

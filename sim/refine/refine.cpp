@@ -97,13 +97,7 @@ struct FitProblem {
     SensitivityOptions o = options;
     o.sensitivities = sensitivities;
     const HybridParameters p = start.WithTheta(unknowns, theta);
-    if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() ||
-        (!model->InFlowSet(p.x0) && !model->InJumpSet(p.x0))) {
-      SensitivityTrajectory bad;
-      bad.trajectory.status.stop = SimStop::kLeftDomain;
-      bad.trajectory.status.message = "x0 outside C and D, or parameters not finite";
-      return bad;
-    }
+    if (!Admissible(*model, p)) return LeftDomain();
     return SimulateSensitivitiesMatched(*model, p, unknowns, grid, segments, o);
   }
 
@@ -169,15 +163,6 @@ std::string FirstNonFinite(const Mat& y) {
 }
 
 // Integration accuracy per component: residuals below 1e3 × this say nothing about the noise.
-Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
-  return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
-}
-
-void Fail(RefineResult& r, RefineStatus status, std::string reason) {
-  r.status = status;
-  r.reason = std::move(reason);
-}
-
 ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& options, Vec& theta) {
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -285,30 +270,8 @@ void CheckResiduals(const FitProblem& problem, const RefineOptions& options, con
   r.covariance = bound.covariance;
   r.standard_errors = bound.sd;
   const Mat z = r.sigma.cwiseInverse().asDiagonal() * res;
-  if (r.sigma_estimated) {
-    r.normalized_rms = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
-    }
-  } else {
-    r.normalized_rms = std::sqrt(z.squaredNorm() / static_cast<double>(z.size()));
-  }
   const double lag = (z.leftCols(k_count - 1).array() * z.rightCols(k_count - 1).array()).sum();
-  r.lag1 = z.squaredNorm() > 0.0 ? lag / z.squaredNorm() : 0.0;
-  const bool above_floor = (sigma_hat.array() > floor.array()).all();
-  if (r.normalized_rms > options.rms_high ||
-      (!r.sigma_estimated && above_floor && r.normalized_rms < options.rms_low)) {
-    return Fail(r, RefineStatus::kResidualRms,
-                fmt::format("normalised residual RMS {:.4g} outside [{:g}, {:g}]{}", r.normalized_rms,
-                            r.sigma_estimated ? 0.0 : options.rms_low, options.rms_high,
-                            r.sigma_estimated ? " (residual sigma over the MAD estimate)" : ""));
-  }
-  if (above_floor && std::abs(r.lag1) > options.max_lag1) {
-    return Fail(r, RefineStatus::kResidualCorrelation,
-                fmt::format("lag-1 autocorrelation of the residuals {:.4g} (|.| > {:g}): the model or "
-                            "the detected jumps do not fit the data",
-                            r.lag1, options.max_lag1));
-  }
+  JudgeResiduals(z, lag, sigma_hat, mad_sigma, floor, options, r);
 }
 
 void CheckInputs(const Model& model, const Mat& y, double dt, const Vec& alpha0, const Vec& beta0,
@@ -378,19 +341,6 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
   }
   CheckJumps(problem, options, r.refined, r);
   if (r.ok()) CheckResiduals(problem, options, s, mad_sigma, r);
-}
-
-// The samples before the first detected jump that follows the previous one by fewer than
-// `min_interval` samples (jumps that close are not resolved reliably: the part before them is fit).
-long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval) {
-  long previous = 0;
-  for (std::size_t k = 1; k < gamma.size(); ++k) {
-    if (gamma[k] == 0) continue;
-    const auto kk = static_cast<long>(k);
-    if (previous > 0 && kk - previous < min_interval) return previous;
-    previous = kk;
-  }
-  return static_cast<long>(gamma.size());
 }
 
 // The fit's integration options and residual weights 1/σ_i (σ given, else the MAD estimate).
@@ -581,6 +531,65 @@ ceres::Solver::Summary SolveLeastSquares(ceres::Problem& problem, const RefineOp
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   return summary;
+}
+
+Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
+  return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
+}
+
+void Fail(RefineResult& r, RefineStatus status, std::string reason) {
+  r.status = status;
+  r.reason = std::move(reason);
+}
+
+void JudgeResiduals(const Mat& z, double lag, const Vec& sigma_hat, const Vec& mad_sigma, const Vec& floor,
+                    const RefineOptions& options, RefineResult& r) {
+  r.normalized_rms = 0.0;
+  if (r.sigma_estimated) {
+    for (Eigen::Index i = 0; i < sigma_hat.size(); ++i) {
+      if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
+    }
+  } else {
+    r.normalized_rms = std::sqrt(z.squaredNorm() / static_cast<double>(z.size()));
+  }
+  r.lag1 = z.squaredNorm() > 0.0 ? lag / z.squaredNorm() : 0.0;
+  const bool above_floor = (sigma_hat.array() > floor.array()).all();
+  if (r.normalized_rms > options.rms_high ||
+      (!r.sigma_estimated && above_floor && r.normalized_rms < options.rms_low)) {
+    return Fail(r, RefineStatus::kResidualRms,
+                fmt::format("normalised residual RMS {:.4g} outside [{:g}, {:g}]{}", r.normalized_rms,
+                            r.sigma_estimated ? 0.0 : options.rms_low, options.rms_high,
+                            r.sigma_estimated ? " (residual sigma over the MAD estimate)" : ""));
+  }
+  if (above_floor && std::abs(r.lag1) > options.max_lag1) {
+    return Fail(r, RefineStatus::kResidualCorrelation,
+                fmt::format("lag-1 autocorrelation of the residuals {:.4g} (|.| > {:g}): the model or "
+                            "the detected jumps do not fit the data",
+                            r.lag1, options.max_lag1));
+  }
+}
+
+long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval) {
+  long previous = 0;
+  for (std::size_t k = 1; k < gamma.size(); ++k) {
+    if (gamma[k] == 0) continue;
+    const auto kk = static_cast<long>(k);
+    if (previous > 0 && kk - previous < min_interval) return previous;
+    previous = kk;
+  }
+  return static_cast<long>(gamma.size());
+}
+
+bool Admissible(const Model& model, const HybridParameters& p) {
+  return p.alpha.allFinite() && p.beta.allFinite() && p.x0.allFinite() &&
+         (model.InFlowSet(p.x0) || model.InJumpSet(p.x0));
+}
+
+SensitivityTrajectory LeftDomain() {
+  SensitivityTrajectory bad;
+  bad.trajectory.status.stop = SimStop::kLeftDomain;
+  bad.trajectory.status.message = "x0 outside C and D, or parameters not finite";
+  return bad;
 }
 
 }  // namespace hysid

@@ -38,13 +38,7 @@ struct ChainsProblem {
     full.head(shared) = Eigen::Map<const Vec>(theta, shared);
     full.tail(model->state_size()) = Eigen::Map<const Vec>(x0, model->state_size());
     const HybridParameters p = start.WithTheta(unknowns, full);
-    if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() ||
-        (!model->InFlowSet(p.x0) && !model->InJumpSet(p.x0))) {
-      SensitivityTrajectory bad;
-      bad.trajectory.status.stop = SimStop::kLeftDomain;
-      bad.trajectory.status.message = "x0 outside C and D, or parameters not finite";
-      return bad;
-    }
+    if (!Admissible(*model, p)) return LeftDomain();
     SensitivityOptions o = options;
     o.sensitivities = sens;
     return SimulateSensitivitiesMatched(*model, p, unknowns, c.times, c.segments, o);
@@ -90,23 +84,6 @@ class ChainCost final : public ceres::CostFunction {
   const ChainFit& chain_;
 };
 
-void Fail(RefineResult& r, RefineStatus status, std::string reason) {
-  r.status = status;
-  r.reason = std::move(reason);
-}
-
-// Samples before the first detected jump that follows the previous one by fewer than `min_interval`.
-long SpanOf(const std::vector<std::uint8_t>& gamma, long min_interval) {
-  long previous = 0;
-  for (std::size_t k = 1; k < gamma.size(); ++k) {
-    if (gamma[k] == 0) continue;
-    const auto kk = static_cast<long>(k);
-    if (previous > 0 && kk - previous < min_interval) return previous;
-    previous = kk;
-  }
-  return static_cast<long>(gamma.size());
-}
-
 void CheckChainInput(const Model& model, const RefineChain& c, std::size_t index) {
   if (c.y.rows() != model.state_size() || static_cast<Eigen::Index>(c.t.size()) != c.y.cols() ||
       c.gamma.size() != c.t.size()) {
@@ -132,7 +109,7 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
   for (std::size_t c = 0; c < chains.size(); ++c) {
     CheckChainInput(model, chains[c], c);
     const RefineChain& in = chains[c];
-    const long used = SpanOf(in.gamma, options.min_jump_interval);
+    const long used = FitLength(in.gamma, options.min_jump_interval);
     if (used < 2 * n + 2 || !in.y.leftCols(used).allFinite() ||
         (!model.InFlowSet(in.y.col(0)) && !model.InJumpSet(in.y.col(0)))) {
       ++r.chains_skipped;
@@ -170,10 +147,6 @@ Mat Concatenated(const std::vector<ChainFit>& fits, int n) {
 }
 
 // Integration accuracy per component: residuals below 1e3 × this say nothing about the noise.
-Vec Floor(const Mat& y, const SimOptions& sim) {
-  return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
-}
-
 ceres::Solver::Summary SolveChains(const ChainsProblem& problem, const RefineOptions& options, Vec& theta,
                                    std::vector<Vec>& x0) {
   ceres::Problem::Options po;
@@ -259,7 +232,7 @@ void CheckPooled(const Model& model, const ChainsProblem& problem,
   }
   const double p = problem.shared + n * static_cast<double>(sims.size());
   const Vec sigma_hat = (res.rowwise().squaredNorm() / (static_cast<double>(y.cols()) - p / n)).cwiseSqrt();
-  const Vec floor = Floor(y, problem.options.sim);
+  const Vec floor = NumericalFloor(y, problem.options.sim);
   r.sigma_estimated = options.sigma.size() == 0;
   r.sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);
   const Crlb bound =
@@ -268,14 +241,6 @@ void CheckPooled(const Model& model, const ChainsProblem& problem,
   r.covariance = bound.covariance.topLeftCorner(problem.shared, problem.shared);
   r.standard_errors = bound.sd.head(problem.shared);
   const Mat z = r.sigma.cwiseInverse().asDiagonal() * res;
-  r.normalized_rms = 0.0;
-  if (r.sigma_estimated) {
-    for (int i = 0; i < n; ++i) {
-      if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
-    }
-  } else {
-    r.normalized_rms = std::sqrt(z.squaredNorm() / static_cast<double>(z.size()));
-  }
   double lag = 0.0;
   k = 0;
   for (const ChainFit& f : problem.fits) {
@@ -283,21 +248,7 @@ void CheckPooled(const Model& model, const ChainsProblem& problem,
     lag += (z.middleCols(k, m - 1).array() * z.middleCols(k + 1, m - 1).array()).sum();
     k += m;
   }
-  r.lag1 = z.squaredNorm() > 0.0 ? lag / z.squaredNorm() : 0.0;
-  const bool above_floor = (sigma_hat.array() > floor.array()).all();
-  if (r.normalized_rms > options.rms_high ||
-      (!r.sigma_estimated && above_floor && r.normalized_rms < options.rms_low)) {
-    return Fail(r, RefineStatus::kResidualRms,
-                fmt::format("normalised residual RMS {:.4g} outside [{:g}, {:g}]{}", r.normalized_rms,
-                            r.sigma_estimated ? 0.0 : options.rms_low, options.rms_high,
-                            r.sigma_estimated ? " (residual sigma over the MAD estimate)" : ""));
-  }
-  if (above_floor && std::abs(r.lag1) > options.max_lag1) {
-    return Fail(r, RefineStatus::kResidualCorrelation,
-                fmt::format("lag-1 autocorrelation of the residuals {:.4g} (|.| > {:g}): the model or the "
-                            "detected jumps do not fit the data",
-                            r.lag1, options.max_lag1));
-  }
+  JudgeResiduals(z, lag, sigma_hat, mad_sigma, floor, options, r);
 }
 
 // Each chain simulated at (theta, x0); false with kStartFailed / kNotConverged naming the chain.
@@ -344,7 +295,7 @@ void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& 
   for (std::size_t c = 0; c < sims.size(); ++c)
     sq += (problem.fits[c].y - sims[c].trajectory.x).squaredNorm();
   if (options.polish_tolerance < problem.options.sim.rtol &&
-      std::sqrt(sq / static_cast<double>(y.size())) < Floor(y, problem.options.sim).minCoeff()) {
+      std::sqrt(sq / static_cast<double>(y.size())) < NumericalFloor(y, problem.options.sim).minCoeff()) {
     problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
     summary = SolveChains(problem, options, theta, x0);
     r.iterations += static_cast<int>(summary.iterations.size());
@@ -390,7 +341,7 @@ void SetWeights(const RefineOptions& options, const Vec& mad_sigma, const Mat& y
                                       std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
                                       options.sensitivity.sim.rtol);
   problem.options.sim.rtol = problem.options.sim.atol = tolerance;
-  problem.weight = weighting.cwiseMax(1e-3 * Floor(y, problem.options.sim)).cwiseInverse();
+  problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, problem.options.sim)).cwiseInverse();
 }
 
 }  // namespace

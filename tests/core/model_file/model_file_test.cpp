@@ -247,6 +247,9 @@ TEST_CASE("bad model files are refused naming file, line, key and expression", "
   using Catch::Matchers::Contains;
   REQUIRE_THAT(ErrorOf(Replace(kGood, "[0, \"-x\"]", "[0, \"-y\"]")),
                Contains("m.toml:6: flow.phi[1][1]: \"-y\": unknown symbol \"y\""));
+  // toml++ 3.3.0 must never see a non-ASCII byte where it reaches __builtin_unreachable.
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "t_end = 5.0", "t_end = 5.0 \xc3\xbb")),
+               Contains("a non-ASCII character outside a string or comment"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "[0, \"-x\"]", "[0, \"-x\", 1]")),
                Contains("m.toml:6: flow.phi[1]: has 3 entries, expected 2"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "psi = [[\"x\", 0], [0, \"-v\"]]", "psi = [[\"x\", 0]]")),
