@@ -11,13 +11,15 @@
 //   A = Σ_segments Σ_r Σ_k (I_k − Ī)(I_k − Ī)ᵀ,   b = Σ … (I_k − Ī)(z_k − z̄),
 //   α̂ = (A + I/p0)⁻¹ (b + α0/p0),
 // accumulated with Welford's centred updates (with d = I_k − Ī_{k−1}: M += (1 − 1/n) d dᵀ) and
-// solved after every row by a p × p Cholesky factorisation (p ≤ 3 in the built-in models). Consecutive-sample
-// rows lose the information of every sample between a segment's ends (their noise telescopes away and only
-// the two end samples remain); these rows keep it: on the §5 system the mean e_α is within a few times the
-// Cramér–Rao bound (docs/results.md), where rls on the same rows is 30–40 times above it. The rows must be
-// the consecutive differences of one trajectory, so this estimator is for α only (its descriptor's flow_only;
-// as the β estimator rls is used). covariance_matrix() is A⁻¹/2: the covariance of α̂ in units of one
-// trapezoid row's residual variance (2σ² for white noise σ²), the scale the detectors multiply it by.
+// solved after every row (closed form for p = 2, LDLᵀ otherwise). Consecutive-sample rows lose the
+// information of every sample between a segment's ends (their noise telescopes away and only the
+// two end samples remain); these rows keep it: on the §5 system the mean e_α is 3.7 times the
+// Cramér–Rao-implied value, where rls on the same rows is 22–93 times (docs/results.md).
+// The rows must be the consecutive differences of one trajectory, so this estimator is for α only
+// (its descriptor's flow_only; as the β estimator rls is used). covariance_matrix() is A⁻¹/2: the
+// covariance of α̂ in units of one trapezoid row's residual variance (2σ² for white noise σ²), the
+// scale the detectors multiply it by. The status is not-excited until p + 1 rows with Φ ≠ 0 have
+// come and the centred information has full rank.
 #pragma once
 
 #include <cmath>
