@@ -43,14 +43,22 @@ void BM_SensitivityTrajectory(benchmark::State& state) {
 }
 BENCHMARK(BM_SensitivityTrajectory)->Arg(12)->Arg(10)->Unit(benchmark::kMillisecond);
 
-void BM_RefineSection5(benchmark::State& state) {
-  const Model model{ImpactMsd{}};
-  const Trajectory truth = Simulate(model, kX0, kGrid);
-  const Mat y = AddMeasurementNoise(truth.x, Vec::Constant(2, 0.25), NoiseKey{.seed = 1, .stream = 0});
+// The §5 trajectory with σ = 0.25 noise (seed 1) and its recursive estimate (residual detector).
+Mat Section5Data() {
+  const Trajectory truth = Simulate(Model{ImpactMsd{}}, kX0, kGrid);
+  return AddMeasurementNoise(truth.x, Vec::Constant(2, 0.25), NoiseKey{.seed = 1, .stream = 0});
+}
+IdentifyResult Section5Recursive(const Model& model, const Mat& y) {
   IdentifierSettings settings;
   settings.detector.kind = DetectorKind::kResidual;
   settings.data_rtol = settings.data_atol = 1e-12;
-  const IdentifyResult recursive = Identify(model, y, kGrid.dt, settings);
+  return Identify(model, y, kGrid.dt, settings);
+}
+
+void BM_RefineSection5(benchmark::State& state) {
+  const Model model{ImpactMsd{}};
+  const Mat y = Section5Data();
+  const IdentifyResult recursive = Section5Recursive(model, y);
   int iterations = 0;
   for (auto _ : state) {
     RefineResult r = RefineIdentification(model, y, kGrid.dt, recursive);
@@ -66,12 +74,8 @@ BENCHMARK(BM_RefineSection5)->Unit(benchmark::kMillisecond);
 // the fit on the detected segments fails, and the fit from the repaired start is timed with it.
 void BM_RefineRepairedStart(benchmark::State& state) {
   const Model model{ImpactMsd{}};
-  const Trajectory truth = Simulate(model, kX0, kGrid);
-  const Mat y = AddMeasurementNoise(truth.x, Vec::Constant(2, 0.25), NoiseKey{.seed = 1, .stream = 0});
-  IdentifierSettings settings;
-  settings.detector.kind = DetectorKind::kResidual;
-  settings.data_rtol = settings.data_atol = 1e-12;
-  IdentifyResult recursive = Identify(model, y, kGrid.dt, settings);
+  const Mat y = Section5Data();
+  IdentifyResult recursive = Section5Recursive(model, y);
   recursive.gamma[1911] = 1;
   int iterations = 0;
   for (auto _ : state) {

@@ -191,14 +191,7 @@ class Run {
     if (CVodeGetNumGEvals(cvode_.get(), &v) == CV_SUCCESS) root_evals_ += v;
   }
 
-  int FiredGuard() const {
-    std::vector<int> found(static_cast<std::size_t>(model_.guard_count()), 0);
-    CVodeGetRootInfo(cvode_.get(), found.data());
-    for (std::size_t i = 0; i < found.size(); ++i) {
-      if (found[i] != 0) return static_cast<int>(i);
-    }
-    return 0;
-  }
+  int FiredGuard() const { return sundials_ptr::FiredGuard(cvode_.get(), model_.guard_count()); }
 
   // Applies the jump map at t_ to x_, then again while ξ+ ∈ D (rule 1). False when stopped.
   bool JumpChain(int guard) {

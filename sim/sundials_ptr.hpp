@@ -1,11 +1,12 @@
 // Owning handles for the SUNDIALS objects of one integration (context, vectors, nonlinear solver,
 // CVODES memory), each freed by its own SUNDIALS call; declare them in creation order so they are
-// freed in reverse. Also the guard direction in CVODE's convention. Internal to sim/: the simulator
-// and the sensitivity integration use them.
+// freed in reverse. Also the guard direction in CVODE's convention and the guard a root return
+// found. Internal to sim/: the simulator and the sensitivity integration use them.
 #pragma once
 
 #include <memory>
 #include <type_traits>
+#include <vector>
 
 #include <cvodes/cvodes.h>
 #include <nvector/nvector_serial.h>
@@ -39,6 +40,16 @@ inline int ToCvodeDirection(Crossing c) {
     case Crossing::kFalling: return -1;
     case Crossing::kRising: return 1;
     case Crossing::kBoth: return 0;
+  }
+  return 0;
+}
+
+// The guard whose root CVODE returned (the first of several found at once); 0 if none.
+inline int FiredGuard(void* cvode, int guard_count) {
+  std::vector<int> found(static_cast<std::size_t>(guard_count), 0);
+  CVodeGetRootInfo(cvode, found.data());
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    if (found[i] != 0) return static_cast<int>(i);
   }
   return 0;
 }

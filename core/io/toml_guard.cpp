@@ -54,4 +54,14 @@ void CheckTomlCharacters(std::string_view text, const std::string& name) {
   }
 }
 
+toml::table ParseToml(std::string_view text, const std::string& name) {
+  CheckTomlCharacters(text, name);
+  try {
+    return toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw std::invalid_argument(
+        fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
+  }
+}
+
 }  // namespace hysid

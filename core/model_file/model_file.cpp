@@ -520,14 +520,7 @@ void CheckDefaultTrajectory(const Reader& rd, const toml::table& root, const Mod
 
 Model ParseModelText(std::string_view text, const std::string& name, const ModelFileOptions& options) {
   const Reader rd(name);
-  CheckTomlCharacters(text, name);
-  toml::table root;
-  try {
-    root = toml::parse(text, name);
-  } catch (const toml::parse_error& e) {
-    throw std::invalid_argument(
-        fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
-  }
+  const toml::table root = ParseToml(text, name);
   std::shared_ptr<const Definition> def = ParseDefinition(rd, root);
   Model model = [&] {
     try {

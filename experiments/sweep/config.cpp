@@ -603,14 +603,7 @@ Model SweepModel::Build(const ModelRegistry& registry) const {
 
 SweepConfig ParseSweepText(std::string_view text, const std::string& name, const ModelRegistry& registry) {
   const Reader rd(name);
-  CheckTomlCharacters(text, name);
-  toml::table root;
-  try {
-    root = toml::parse(text, name);
-  } catch (const toml::parse_error& e) {
-    throw std::invalid_argument(
-        fmt::format("{}:{}: TOML syntax: {}", name, e.source().begin.line, e.description()));
-  }
+  const toml::table root = ParseToml(text, name);
   rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run", "summary"});
   SweepConfig c;
   c.source = name;

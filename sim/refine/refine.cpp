@@ -495,12 +495,7 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
   if ((!r.ok() || r.samples_used < used) && options.repair_start) {
     FitFromRepairedStart(model, y, dt, gamma, p, options, r);
   }
-  if (r.ok()) {
-    r.estimate = r.refined;
-  } else {
-    r.covariance.resize(0, 0);
-    r.standard_errors.resize(0);
-  }
+  Conclude(r);
   return r;
 }
 
@@ -540,6 +535,15 @@ Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
 void Fail(RefineResult& r, RefineStatus status, std::string reason) {
   r.status = status;
   r.reason = std::move(reason);
+}
+
+void Conclude(RefineResult& r) {
+  if (r.ok()) {
+    r.estimate = r.refined;
+  } else {
+    r.covariance.resize(0, 0);
+    r.standard_errors.resize(0);
+  }
 }
 
 void JudgeResiduals(const Mat& z, double lag, const Vec& sigma_hat, const Vec& mad_sigma, const Vec& floor,

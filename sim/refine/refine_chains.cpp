@@ -402,12 +402,7 @@ RefineResult RefineChains(const Model& model, const std::vector<RefineChain>& ch
   problem.start = r.start;
   SetWeights(options, mad_sigma, y, problem);
   RunChains(model, problem, options, mad_sigma, r);
-  if (r.ok()) {
-    r.estimate = r.refined;
-  } else {
-    r.covariance.resize(0, 0);
-    r.standard_errors.resize(0);
-  }
+  Conclude(r);
   return r;
 }
 

@@ -31,6 +31,10 @@ SensitivityTrajectory LeftDomain();
 // A failed fit: its status and the reason printed with it.
 void Fail(RefineResult& r, RefineStatus status, std::string reason);
 
+// The end of a fit: an ok fit's refined parameters become the estimate; a fit not ok keeps the
+// recursive estimate and reports no covariance or standard errors.
+void Conclude(RefineResult& r);
+
 // The fit's residual checks from the normalised residuals z (n × K), their lag-1 sum `lag`, the
 // residual σ, its MAD estimate from the data and the floor: sets normalized_rms and lag1, and fails
 // with kResidualRms (RMS outside [rms_low, rms_high]; with σ estimated, σ over the MAD estimate above

@@ -453,14 +453,7 @@ class SensRun {
     if (sens_) *s = window_b_.s;  // read by Advance at this return
   }
 
-  int FiredGuard() const {
-    std::vector<int> found(static_cast<std::size_t>(model_.guard_count()), 0);
-    CVodeGetRootInfo(cvode_.get(), found.data());
-    for (std::size_t i = 0; i < found.size(); ++i) {
-      if (found[i] != 0) return static_cast<int>(i);
-    }
-    return 0;
-  }
+  int FiredGuard() const { return sundials_ptr::FiredGuard(cvode_.get(), model_.guard_count()); }
 
   // ---- plain mode: as Simulate ------------------------------------------------------------------
   bool RunPlain() {
