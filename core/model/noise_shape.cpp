@@ -59,6 +59,23 @@ Mat AugmentedJacobian(const Map& map, const RegressionLayout& layout, const Vec&
   return out;
 }
 
+// The mean over the columns x of `states` and the identified rows r of the layout of the per-row C,
+// symmetrised. `map` evaluates φ (or ψ); add(Ĝ, σ², r, c) adds one row's C (with Ĝ from
+// AugmentedJacobian) to c.
+template <class Map, class AddRow>
+Mat MeanShape(const Map& map, const RegressionLayout& layout, const Vec& known_values, ConstVecRef sigma,
+              const Mat& states, const AddRow& add) {
+  const Eigen::Index m = static_cast<Eigen::Index>(layout.unknown.size()) + 1;
+  const Vec r2 = sigma.array().square();
+  Mat c = Mat::Zero(m, m);
+  for (Eigen::Index k = 0; k < states.cols(); ++k) {
+    const Vec x = states.col(k);
+    for (int r : layout.rows) add(AugmentedJacobian(map, layout, known_values, r, x), r2, r, c);
+  }
+  c /= static_cast<double>(states.cols() * static_cast<Eigen::Index>(layout.rows.size()));
+  return 0.5 * (c + c.transpose());
+}
+
 }  // namespace
 
 Mat FlowNoiseShape(const Model& model, ConstVecRef sigma, double dt, const Mat& states) {
@@ -66,40 +83,24 @@ Mat FlowNoiseShape(const Model& model, ConstVecRef sigma, double dt, const Mat& 
   if (!(dt > 0.0) || !std::isfinite(dt)) {
     throw std::invalid_argument(fmt::format("FlowNoiseShape: dt = {}: must be > 0", dt));
   }
-  const RegressionLayout layout = RegressionLayout::Flow(model);
-  const Eigen::Index m = static_cast<Eigen::Index>(layout.unknown.size()) + 1;
-  const Vec r2 = sigma.array().square();
   auto map = [&](const Vec& x, Mat& out) { model.Phi(x, out); };
-  Mat c = Mat::Zero(m, m);
-  for (Eigen::Index k = 0; k < states.cols(); ++k) {
-    const Vec x = states.col(k);
-    for (int r : layout.rows) {
-      const Mat g = AugmentedJacobian(map, layout, model.alpha(), r, x);
-      c += 0.5 * dt * dt * g * r2.asDiagonal() * g.transpose();
-      c(m - 1, m - 1) += 2.0 * r2[r];
-    }
-  }
-  c /= static_cast<double>(states.cols() * static_cast<Eigen::Index>(layout.rows.size()));
-  return 0.5 * (c + c.transpose());
+  // (δt²/2) Ĝ R Ĝᵀ + 2 R_rr in the last diagonal entry.
+  auto add = [dt](const Mat& g, const Vec& r2, int r, Mat& c) {
+    c += 0.5 * dt * dt * g * r2.asDiagonal() * g.transpose();
+    c(c.rows() - 1, c.cols() - 1) += 2.0 * r2[r];
+  };
+  return MeanShape(map, RegressionLayout::Flow(model), model.alpha(), sigma, states, add);
 }
 
 Mat JumpNoiseShape(const Model& model, ConstVecRef sigma, const Mat& states) {
   CheckInputs(model, sigma, states, "JumpNoiseShape");
-  const RegressionLayout layout = RegressionLayout::Jump(model);
-  const Eigen::Index m = static_cast<Eigen::Index>(layout.unknown.size()) + 1;
-  const Vec r2 = sigma.array().square();
   auto map = [&](const Vec& x, Mat& out) { model.Psi(x, out); };
-  Mat c = Mat::Zero(m, m);
-  for (Eigen::Index k = 0; k < states.cols(); ++k) {
-    const Vec x = states.col(k);
-    for (int r : layout.rows) {
-      const Mat j = AugmentedJacobian(map, layout, model.beta(), r, x);
-      c += j * r2.asDiagonal() * j.transpose();
-      c(m - 1, m - 1) += r2[r];
-    }
-  }
-  c /= static_cast<double>(states.cols() * static_cast<Eigen::Index>(layout.rows.size()));
-  return 0.5 * (c + c.transpose());
+  // Ĵ R Ĵᵀ + R_rr in the last diagonal entry.
+  auto add = [](const Mat& j, const Vec& r2, int r, Mat& c) {
+    c += j * r2.asDiagonal() * j.transpose();
+    c(c.rows() - 1, c.cols() - 1) += r2[r];
+  };
+  return MeanShape(map, RegressionLayout::Jump(model), model.beta(), sigma, states, add);
 }
 
 Vec EstimateNoiseSigma(const Mat& y) {

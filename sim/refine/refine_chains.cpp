@@ -268,6 +268,24 @@ bool SimulateAll(const ChainsProblem& problem, const Vec& theta, const std::vect
   return true;
 }
 
+// A Ceres solve from (theta, x0), then each chain simulated with sensitivities at the fit. Adds the
+// iterations to r, sets its final cost (and *initial_cost when given); false with kNotConverged
+// ("LABEL: Ceres' message") or the chain that does not simulate.
+bool SolveAndSimulate(const ChainsProblem& problem, const RefineOptions& options, const char* label,
+                      Vec& theta, std::vector<Vec>& x0, std::vector<SensitivityTrajectory>* sims,
+                      RefineResult& r, double* initial_cost = nullptr) {
+  const ceres::Solver::Summary summary = SolveChains(problem, options, theta, x0);
+  r.iterations += static_cast<int>(summary.iterations.size());
+  if (initial_cost) *initial_cost = summary.initial_cost;
+  r.final_cost = summary.final_cost;
+  if (summary.termination_type != ceres::CONVERGENCE || !theta.allFinite()) {
+    Fail(r, RefineStatus::kNotConverged, fmt::format("{}: {}", label, summary.message));
+    return false;
+  }
+  return SimulateAll(problem, theta, x0, true, RefineStatus::kNotConverged, "the fit does not simulate on",
+                     sims, r);
+}
+
 // Solve, polish for noise-free data, then the checks at the fit.
 void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& options, const Vec& mad_sigma,
                RefineResult& r) {
@@ -279,17 +297,8 @@ void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& 
                    "the recursive estimate does not simulate on the detected segments of", &sims, r)) {
     return;
   }
-  ceres::Solver::Summary summary = SolveChains(problem, options, theta, x0);
-  r.iterations = static_cast<int>(summary.iterations.size());
-  r.initial_cost = summary.initial_cost;
-  r.final_cost = summary.final_cost;
-  if (summary.termination_type != ceres::CONVERGENCE || !theta.allFinite()) {
-    return Fail(r, RefineStatus::kNotConverged, fmt::format("Ceres: {}", summary.message));
-  }
-  if (!SimulateAll(problem, theta, x0, true, RefineStatus::kNotConverged, "the fit does not simulate on",
-                   &sims, r)) {
-    return;
-  }
+  r.iterations = 0;
+  if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, &sims, r, &r.initial_cost)) return;
   const Mat y = Concatenated(problem.fits, model.state_size());
   double sq = 0.0;
   for (std::size_t c = 0; c < sims.size(); ++c)
@@ -297,16 +306,7 @@ void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& 
   if (options.polish_tolerance < problem.options.sim.rtol &&
       std::sqrt(sq / static_cast<double>(y.size())) < NumericalFloor(y, problem.options.sim).minCoeff()) {
     problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
-    summary = SolveChains(problem, options, theta, x0);
-    r.iterations += static_cast<int>(summary.iterations.size());
-    r.final_cost = summary.final_cost;
-    if (summary.termination_type != ceres::CONVERGENCE || !theta.allFinite()) {
-      return Fail(r, RefineStatus::kNotConverged, fmt::format("Ceres (polish): {}", summary.message));
-    }
-    if (!SimulateAll(problem, theta, x0, true, RefineStatus::kNotConverged, "the fit does not simulate on",
-                     &sims, r)) {
-      return;
-    }
+    if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, &sims, r)) return;
   }
   r.refined = r.start.WithTheta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, false}, theta);
   r.refined.x0 = x0.front();
