@@ -3,6 +3,7 @@
 
 #include <charconv>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -60,8 +61,26 @@ Model MakeModel(const Environment& env, const std::string& name, const std::vect
 // The same from a model file when `file` is not empty (errors name --model-file), else by name.
 Model MakeModel(const Environment& env, const std::string& name, const std::string& file,
                 const std::vector<std::string>& params);
-// Adds --model-file to a subcommand that has --model (the two exclude each other).
-void AddModelFileOption(CLI::App& cmd, std::string& file);
+// --model, --model-file (instead of --model) and --param of a subcommand that runs one model.
+struct ModelFlags {
+  std::string name = "impact-msd";
+  std::string file;
+  std::vector<std::string> params;
+};
+// Adds the three flags to `cmd`; `param_help` is --param's help.
+void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_help);
+// The model the flags name; errors name --model, --model-file or --param.
+Model MakeModel(const Environment& env, const ModelFlags& flags);
+
+// --x0, --t-end and --dt of a subcommand that simulates one trajectory; each not given means the
+// model's default (ModelSpec::default_x0, default_t_end, default_dt).
+struct TrajectoryFlags {
+  std::vector<double> x0;
+  std::optional<double> t_end, dt;
+};
+void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags);
+// --x0 or the model's default; BadFlag when it has the wrong size or lies outside C and D.
+Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model);
 
 // A CLI11 validator for unsigned 64-bit options: refuses a leading '-' (CLI11 would wrap -1 to
 // 2^64 − 1) and a decimal beyond 2^64 − 1 (CLI11 would saturate it to 2^64 − 1).
@@ -91,7 +110,7 @@ std::string PluginHelp(const char* what, const std::vector<const Descriptor*>& d
 // --estimator and --detector by name into both estimators' and the detector's kind; errors name the flag.
 void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings);
 
-// --sigma: one value for every state or one per state, each finite and >= 0.
-Vec SigmaFlag(const std::vector<double>& values, int states);
+// --sigma: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
+Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero = true);
 
 }  // namespace hysid::cli

@@ -34,10 +34,41 @@ Model MakeModel(const Environment& env, const std::string& name, const std::stri
   return model;
 }
 
-void AddModelFileOption(CLI::App& cmd, std::string& file) {
-  CLI::Option* opt =
-      cmd.add_option("--model-file", file, "a model file (TOML, see models/*.toml) instead of --model");
-  if (CLI::Option* model = cmd.get_option_no_throw("--model")) opt->excludes(model);
+Model MakeModel(const Environment& env, const ModelFlags& flags) {
+  return MakeModel(env, flags.name, flags.file, flags.params);
+}
+
+void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_help) {
+  CLI::Option* model = cmd.add_option("--model", flags.name, "model name (see `hysid models`)");
+  model->capture_default_str();
+  cmd.add_option("--model-file", flags.file, "a model file (TOML, see models/*.toml) instead of --model")
+      ->excludes(model);
+  cmd.add_option("--param", flags.params, param_help);
+}
+
+void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags) {
+  cmd.add_option("--x0", flags.x0, "initial state, comma-separated (default: the model's)")->delimiter(',');
+  cmd.add_option("--t-end", flags.t_end, "horizon in seconds (default: the model's)");
+  cmd.add_option("--dt", flags.dt, "sample time delta-t in seconds (default: the model's)");
+}
+
+Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
+  const ModelSpec& spec = model.spec();
+  const int n = model.state_size();
+  Vec x0 = DefaultState(model);
+  if (!flags.x0.empty()) {
+    RequireFinite("--x0", flags.x0);
+    if (static_cast<int>(flags.x0.size()) != n) {
+      BadFlag(fmt::format("--x0 has {} values; model '{}' has {} states ({})", flags.x0.size(), spec.name, n,
+                          fmt::join(spec.state_names, ", ")));
+    }
+    x0 = Eigen::Map<const Vec>(flags.x0.data(), n);
+  }
+  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
+    BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'", fmt::join(x0, ","),
+                        spec.name));
+  }
+  return x0;
 }
 
 void RequireFinite(const std::string& flag, const std::vector<double>& values) {
@@ -59,7 +90,7 @@ void SetPluginKinds(const std::string& estimator, const std::string& detector, I
   }
 }
 
-Vec SigmaFlag(const std::vector<double>& values, int states) {
+Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero) {
   RequireFinite("--sigma", values);
   Vec sigma(states);
   if (values.size() == 1) {
@@ -69,7 +100,9 @@ Vec SigmaFlag(const std::vector<double>& values, int states) {
   } else {
     BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})", values.size(), states));
   }
-  if ((sigma.array() < 0.0).any()) BadFlag(fmt::format("--sigma = {}: must be >= 0", fmt::join(values, ",")));
+  if (allow_zero ? (sigma.array() < 0.0).any() : (sigma.array() <= 0.0).any()) {
+    BadFlag(fmt::format("--sigma = {}: must be {} 0", fmt::join(values, ","), allow_zero ? ">=" : ">"));
+  }
   return sigma;
 }
 

@@ -14,51 +14,23 @@ namespace hysid::cli {
 namespace {
 
 struct CrlbArgs {
-  std::string model = "impact-msd";
-  std::string model_file;  // --model-file: instead of --model
-  std::vector<std::string> params;
-  std::vector<double> x0;
-  double t_end = NAN;  // NaN: the model's default
-  double dt = NAN;
+  ModelFlags model;
+  TrajectoryFlags trajectory;
   std::vector<double> sigma{1.0};
   bool x0_known = false;
   SensitivityOptions options;
 };
 
-Vec ParseSigma(const std::vector<double>& values, int n) {
-  RequireFinite("--sigma", values);
-  Vec sigma(n);
-  if (values.size() == 1) {
-    sigma.setConstant(values[0]);
-  } else if (static_cast<int>(values.size()) == n) {
-    sigma = Eigen::Map<const Vec>(values.data(), n);
-  } else {
-    BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})", values.size(), n));
-  }
-  if (!(sigma.array() > 0.0).all()) BadFlag(fmt::format("--sigma = {}: must be > 0", fmt::join(values, ",")));
-  return sigma;
-}
-
 int RunCrlb(const CrlbArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.model_file, args.params);
+  const Model model = MakeModel(env, args.model);
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
-  const SampleGrid grid{.t_end = std::isnan(args.t_end) ? spec.default_t_end : args.t_end,
-                        .dt = std::isnan(args.dt) ? spec.default_dt : args.dt};
+  const SampleGrid grid{.t_end = args.trajectory.t_end.value_or(spec.default_t_end),
+                        .dt = args.trajectory.dt.value_or(spec.default_dt)};
   if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
   if (std::string e; !args.options.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol: {}", e));
-  Vec x0 = Eigen::Map<const Vec>(spec.default_x0.data(), n);
-  if (!args.x0.empty()) {
-    RequireFinite("--x0", args.x0);
-    if (static_cast<int>(args.x0.size()) != n) {
-      BadFlag(fmt::format("--x0 has {} values; model '{}' has {} states", args.x0.size(), spec.name, n));
-    }
-    x0 = Eigen::Map<const Vec>(args.x0.data(), n);
-  }
-  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
-    BadFlag(fmt::format("--x0 = {}: outside C and D of '{}'", fmt::join(x0, ","), spec.name));
-  }
-  const Vec sigma = ParseSigma(args.sigma, n);
+  const Vec x0 = InitialStateFlag(args.trajectory, model);
+  const Vec sigma = SigmaFlag(args.sigma, n, /*allow_zero=*/false);
   const Unknowns unknowns = Unknowns::Of(model, !args.x0_known);
   const Crlb c = ComputeCrlb(model, x0, grid, sigma, unknowns, args.options);
   std::printf("model %s, x0 = (%s), t_end = %g, dt = %g (%ld samples), sigma = (%s), x0 %s\n",
@@ -93,12 +65,8 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
       "Cramér–Rao lower bound of the unknown alpha, beta and x0 for samples with Gaussian noise\n"
       "sigma: per-parameter sd and the CRLB-implied mean e_alpha, e_beta. Exit 1 when the bound\n"
       "cannot be computed (simulation stopped, singular Fisher information).");
-  sub->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
-  AddModelFileOption(*sub, args->model_file);
-  sub->add_option("--param", args->params, "set a true parameter, name=value (repeatable)");
-  sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")->delimiter(',');
-  sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");
-  sub->add_option("--dt", args->dt, "sample time in seconds (default: the model's)");
+  AddModelFlags(*sub, args->model, "set a true parameter, name=value (repeatable)");
+  AddTrajectoryFlags(*sub, args->trajectory);
   sub->add_option("--sigma", args->sigma, "measurement noise sd: one value, or one per state")
       ->delimiter(',')
       ->capture_default_str();

@@ -27,9 +27,7 @@ namespace hysid::cli {
 namespace {
 
 struct IdentifyArgs {
-  std::string model = "impact-msd";
-  std::string model_file;  // --model-file: instead of --model
-  std::vector<std::string> params;
+  ModelFlags model;
   std::vector<std::string> data;     // --data, repeatable: one run per file (or a run column)
   std::vector<std::string> columns;  // --columns t=NAME,STATE,...[,run=NAME]
   double max_gap = 0.0;              // --max-gap (0: 5 × the median step)
@@ -322,7 +320,7 @@ SampleData ReadData(const IdentifyArgs& args, int state_size) {
 }
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.model_file, args.params);
+  const Model model = MakeModel(env, args.model);
   IdentifierSettings settings = BuildSettings(args, model);
   const SampleData data = ReadData(args, model.state_size());
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
@@ -356,9 +354,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
 void AddIdentifyCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<IdentifyArgs>();
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
-  cmd->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
-  AddModelFileOption(*cmd, args->model_file);
-  cmd->add_option("--param", args->params, "NAME=VALUE: the model's true value (for error metrics)");
+  AddModelFlags(*cmd, args->model, "NAME=VALUE: the model's true value (for error metrics)");
   cmd->add_option("--data", args->data,
                   "CSV (RFC 4180): time, then the measured state (y1..yn if present); a column j is taken "
                   "as ground truth, a column run splits the file into runs; repeat --data for several "

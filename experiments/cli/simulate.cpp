@@ -26,13 +26,8 @@ namespace hysid::cli {
 namespace {
 
 struct SimulateArgs {
-  std::string model = "impact-msd";
-  std::string model_file;  // --model-file: instead of --model
-  std::vector<std::string> params;
-  std::vector<double> x0;
-  double t_end = 0.0;  // used when given (t_end_given), else the model's default
-  double dt = 0.0;
-  bool t_end_given = false, dt_given = false;
+  ModelFlags model;
+  TrajectoryFlags trajectory;
   std::vector<double> sigma{0.0};
   std::uint64_t seed = 1;
   std::uint64_t trial = 0;
@@ -89,8 +84,8 @@ void CheckDistinctOutputs(const SimulateArgs& args) {
 }
 
 SampleGrid GridFlags(const SimulateArgs& args, const ModelSpec& spec) {
-  SampleGrid grid{.t_end = args.t_end_given ? args.t_end : spec.default_t_end,
-                  .dt = args.dt_given ? args.dt : spec.default_dt};
+  SampleGrid grid{.t_end = args.trajectory.t_end.value_or(spec.default_t_end),
+                  .dt = args.trajectory.dt.value_or(spec.default_dt)};
   for (const auto& [flag, v] : {std::pair{"--dt", grid.dt}, std::pair{"--t-end", grid.t_end}}) {
     if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
     if (v <= 0) BadFlag(fmt::format("{} = {}: must be > 0", flag, v));
@@ -99,25 +94,6 @@ SampleGrid GridFlags(const SimulateArgs& args, const ModelSpec& spec) {
   CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(grid.t_end / grid.dt, 9e18)) + 1,
              fmt::format("--t-end {} / --dt {}", grid.t_end, grid.dt));
   return grid;
-}
-
-Vec InitialStateFlag(const SimulateArgs& args, const Model& model) {
-  const ModelSpec& spec = model.spec();
-  const int n = model.state_size();
-  Vec x0 = DefaultState(model);
-  if (!args.x0.empty()) {
-    RequireFinite("--x0", args.x0);
-    if (static_cast<int>(args.x0.size()) != n) {
-      BadFlag(fmt::format("--x0 has {} values; model '{}' has {} states ({})", args.x0.size(), spec.name, n,
-                          fmt::join(spec.state_names, ", ")));
-    }
-    x0 = Eigen::Map<const Vec>(args.x0.data(), n);
-  }
-  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
-    BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'", fmt::join(x0, ","),
-                        spec.name));
-  }
-  return x0;
 }
 
 std::vector<std::string> TrajectoryHeader(int n) {
@@ -204,10 +180,10 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
 }
 
 void RunSimulate(const SimulateArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model, args.model_file, args.params);
+  const Model model = MakeModel(env, args.model);
   const ModelSpec& spec = model.spec();
   const SampleGrid grid = GridFlags(args, spec);
-  const Vec x0 = InitialStateFlag(args, model);
+  const Vec x0 = InitialStateFlag(args.trajectory, model);
   const Vec sigma = SigmaFlag(args.sigma, model.state_size());
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
   // Outputs checked before the run; written as one set below.
@@ -249,13 +225,8 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       "simulate",
       "Simulate one trajectory: samples t_k = k*dt with jump counter, true and measured state.\n"
       "Defaults are the model's (impact-msd: the paper's Sec. 5 values).");
-  sub->add_option("--model", args->model, "model name (see `hysid models`)")->capture_default_str();
-  AddModelFileOption(*sub, args->model_file);
-  sub->add_option("--param", args->params, "set a parameter, name=value (repeatable)");
-  sub->add_option("--x0", args->x0, "initial state, comma-separated (default: the model's)")->delimiter(',');
-  CLI::Option* t_end = sub->add_option("--t-end", args->t_end, "horizon in seconds (default: the model's)");
-  CLI::Option* dt =
-      sub->add_option("--dt", args->dt, "sample time delta-t in seconds (default: the model's)");
+  AddModelFlags(*sub, args->model, "set a parameter, name=value (repeatable)");
+  AddTrajectoryFlags(*sub, args->trajectory);
   sub->add_option("--sigma", args->sigma, "measurement noise standard deviation: one value, or one per state")
       ->delimiter(',')
       ->capture_default_str();
@@ -270,11 +241,7 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
   sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
-  sub->callback([args, &env, t_end, dt] {
-    args->t_end_given = t_end->count() > 0;
-    args->dt_given = dt->count() > 0;
-    RunSimulate(*args, env);
-  });
+  sub->callback([args, &env] { RunSimulate(*args, env); });
 }
 
 void PrintModel(const Model& m, bool full) {
