@@ -1,4 +1,4 @@
-// Per-sample cost of Estimator::Update for every estimator of the factory (EstimatorNames(): rls,
+// Per-sample cost of Estimator::Update for every estimator of the factory (PluginNames<EstimatorKind>(): rls,
 // gtls, frisch) at p = 2, 4, 8 unknown parameters (rows z = [φ; y] of length p + 1).
 // One scalar row per update (the identified-row case of the §5 system), drawn from the static
 // errors-in-variables problem of tests/testing/eiv_problem.hpp (x ~ N(0, I), θ_i = 1/(i+1), σ = 0.3 on every
@@ -27,7 +27,7 @@ void BM_EstimatorUpdate(benchmark::State& state, const std::string& name, int wi
   const testing::EivData d = testing::MakeEivData(theta, sigma_phi, 0.3, kRows, 1, 0);
   const Mat rows = d.phi.transpose();  // p × kRows: each regression row contiguous
   EstimatorSettings settings;
-  settings.kind = ParseEstimatorKind(name);
+  settings.kind = ParseKind<EstimatorKind>(name);
   Mat c = Mat::Identity(p + 1, p + 1) * 0.09;
   settings.noise_shape = c;
   settings.window = window;
@@ -48,7 +48,7 @@ void BM_EstimatorUpdate(benchmark::State& state, const std::string& name, int wi
 
 int main(int argc, char** argv) {
   std::vector<std::pair<std::string, int>> cases;
-  for (const std::string& name : hysid::EstimatorNames()) {
+  for (const std::string& name : hysid::PluginNames<hysid::EstimatorKind>()) {
     cases.emplace_back(name, hysid::EstimatorSettings{}.window);
   }
   cases.emplace_back("frisch", 0);

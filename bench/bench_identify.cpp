@@ -34,10 +34,10 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
   const Mat y = PaperSamples(sigma);
   IdentifierSettings settings;
   settings.sets = sets;
-  settings.detector.kind = ParseDetectorKind(detector);
+  settings.detector.kind = ParseKind<DetectorKind>(detector);
   settings.localize = localize;
   if (known_sigma) settings.sigma = Vec::Constant(2, sigma);
-  settings.UseEstimator(ParseEstimatorKind(estimator));
+  settings.UseEstimator(ParseKind<EstimatorKind>(estimator));
   if (data_accuracy) {  // as in sweeps: the simulator's tolerances as the data's accuracy
     settings.data_rtol = SimOptions{}.rtol;
     settings.data_atol = SimOptions{}.atol;
@@ -194,7 +194,7 @@ void BM_IdentifyStepEstimator(benchmark::State& state, const std::string& name) 
 }  // namespace hysid
 
 int main(int argc, char** argv) {
-  for (const std::string& name : hysid::EstimatorNames()) {
+  for (const std::string& name : hysid::PluginNames<hysid::EstimatorKind>()) {
     const std::string bench = "BM_IdentifyStepEstimator/" + name;
     benchmark::RegisterBenchmark(bench.c_str(), hysid::BM_IdentifyStepEstimator, name)
         ->Unit(benchmark::kMillisecond);

@@ -147,10 +147,10 @@ struct IdentifyArgs {
 
 IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
   IdentifierSettings s;
-  s.UseEstimator(ParseEstimatorKind(a.estimator));
+  s.UseEstimator(ParseKind<EstimatorKind>(a.estimator));
   s.flow_estimator.forgetting = a.forgetting;
   s.jump_estimator.forgetting = a.jump_forgetting;
-  s.detector.kind = ParseDetectorKind(a.detector);
+  s.detector.kind = ParseKind<DetectorKind>(a.detector);
   s.detector.r = a.r;
   s.detector.tau0 = a.tau0;
   const auto* bound = FindOption(DetectorOptions(), "bound");

@@ -12,6 +12,7 @@
 
 #include "core/model/model.hpp"
 #include "core/model/option.hpp"
+#include "core/model/plugin.hpp"
 
 namespace hysid {
 
@@ -109,25 +110,18 @@ inline const std::vector<Option<DetectorSettings>>& DetectorOptions() {
   return table;
 }
 
-// One detector, described once: the factory, the command line and sweep files read this.
-struct DetectorDescriptor {
-  DetectorKind kind;
-  std::string_view name;                  // "paper", as given by --detector and in sweep files
-  std::string_view help;                  // one line
-  std::vector<std::string_view> options;  // the DetectorOptions() it reads
-  // What it reports per sample (Decision::statistic, Decision::threshold): trace column names.
+// What a detector's descriptor adds to the common part (core/model/plugin.hpp): the trace column
+// names of what it reports per sample (Decision::statistic, Decision::threshold).
+struct DetectorTraits {
   std::string_view statistic, threshold;
-  std::unique_ptr<JumpDetector> (*make)(const DetectorSettings& settings, const Model& model) = nullptr;
-  bool Reads(std::string_view option) const;
 };
-
-// Every detector, in the order of DetectorKind.
-const std::vector<const DetectorDescriptor*>& DetectorDescriptors();
-const DetectorDescriptor& DescriptorOf(DetectorKind kind);
-// Throws std::invalid_argument "unknown detector 'x' (known: paper, residual)".
-DetectorKind ParseDetectorKind(std::string_view name);
-std::string_view ToString(DetectorKind kind);
-std::vector<std::string> DetectorNames();
+// One detector, described once: the factory, the command line and sweep files read this.
+using DetectorDescriptor =
+    PluginDescriptor<DetectorKind, DetectorTraits,
+                     std::unique_ptr<JumpDetector> (*)(const DetectorSettings&, const Model&)>;
+// Every detector, in the order of DetectorKind; ParseKind<DetectorKind>("x") throws
+// "unknown detector 'x' (known: paper, residual)".
+const PluginList<DetectorDescriptor>& Plugins(DetectorKind);
 
 // Throws std::invalid_argument naming the detector and the field for invalid settings.
 std::unique_ptr<JumpDetector> MakeDetector(const DetectorSettings& settings, const Model& model);

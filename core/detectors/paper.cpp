@@ -25,8 +25,7 @@ const DetectorDescriptor& PaperDetectorDescriptor() {
       .name = "paper",
       .help = "the paper's smoothness bound tau^ = (r/2) L^ (|x(t)| + |x(t-dt)|), tuned by r",
       .options = {"r", "tau0", "bound"},
-      .statistic = "D",
-      .threshold = "tau_hat",
+      .traits = {.statistic = "D", .threshold = "tau_hat"},
       .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
         return std::make_unique<PaperDetector>(s, m);
       }};

@@ -40,8 +40,7 @@ const DetectorDescriptor& ResidualDetectorDescriptor() {
       .name = "residual",
       .help = "tuning-free: one-step prediction residual of the flow model, tested at false_alarm",
       .options = {"false_alarm"},
-      .statistic = "z",
-      .threshold = "q",
+      .traits = {.statistic = "z", .threshold = "q"},
       .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
         return std::make_unique<ResidualDetector>(s, m);
       }};

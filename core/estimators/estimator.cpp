@@ -34,10 +34,8 @@ bool EstimatorSettings::IsValid(std::string* error) const {
 }
 
 bool EstimatorSettings::NeedsNoiseShape() const {
-  return DescriptorOf(kind).needs_noise_shape && noise_shape.size() == 0;
+  return DescriptorOf(kind).traits.needs_noise_shape && noise_shape.size() == 0;
 }
-
-bool EstimatorDescriptor::Reads(std::string_view option) const { return ReadsOption(options, option); }
 
 void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   if (phi.cols() != theta_.size() || phi.rows() != y.size()) {
@@ -49,30 +47,14 @@ void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   DoUpdate(phi, y);
 }
 
-const std::vector<const EstimatorDescriptor*>& EstimatorDescriptors() {
-  static const std::vector<const EstimatorDescriptor*> all{&RlsDescriptor(), &GtlsDescriptor(),
-                                                           &FrischDescriptor(), &IntegralDescriptor()};
-  return all;
+const PluginList<EstimatorDescriptor>& Plugins(EstimatorKind) {
+  static const PluginList<EstimatorDescriptor> list{
+      "estimator", {&RlsDescriptor(), &GtlsDescriptor(), &FrischDescriptor(), &IntegralDescriptor()}};
+  return list;
 }
-
-const EstimatorDescriptor& DescriptorOf(EstimatorKind kind) {
-  return FindDescriptor(EstimatorDescriptors(), kind, "estimator");
-}
-
-std::vector<std::string> EstimatorNames() { return DescriptorNames(EstimatorDescriptors()); }
-
-EstimatorKind ParseEstimatorKind(std::string_view name) {
-  return ParseKind(EstimatorDescriptors(), name, "estimator");
-}
-
-std::string_view ToString(EstimatorKind kind) { return DescriptorOf(kind).name; }
 
 std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0) {
-  const EstimatorDescriptor& d = DescriptorOf(settings.kind);
-  std::string error;
-  if (!settings.IsValid(&error))
-    throw std::invalid_argument(fmt::format("estimator '{}': {}", d.name, error));
-  return d.make(settings, theta0);
+  return MakePlugin(settings, theta0);
 }
 
 }  // namespace hysid

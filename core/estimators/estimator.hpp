@@ -14,6 +14,7 @@
 
 #include "core/model/model.hpp"
 #include "core/model/option.hpp"
+#include "core/model/plugin.hpp"
 
 namespace hysid {
 
@@ -153,29 +154,22 @@ class Estimator {
   long skipped_ = 0;
 };
 
-// One estimator, described once: the factory, the command line and sweep files read this.
-struct EstimatorDescriptor {
-  EstimatorKind kind;
-  std::string_view name;                  // "rls", as given by --estimator and in sweep files
-  std::string_view help;                  // one line
-  std::vector<std::string_view> options;  // the EstimatorOptions() it reads
-  bool needs_noise_shape = false;         // the identifier derives one when none is given
-  bool reports_box = false;               // solution_box()
+// What an estimator's descriptor adds to the common part (core/model/plugin.hpp).
+struct EstimatorTraits {
+  bool needs_noise_shape = false;  // the identifier derives one when none is given
+  bool reports_box = false;        // solution_box()
   // Its rows must be the consecutive flow differences of one trajectory (Break() between pieces):
   // an α estimator only; where one kind is chosen for both, β gets rls (IdentifierSettings::
   // UseEstimator).
   bool flow_only = false;
-  std::unique_ptr<Estimator> (*make)(const EstimatorSettings& settings, const Vec& theta0) = nullptr;
-  bool Reads(std::string_view option) const;
 };
-
-// Every estimator, in the order of EstimatorKind.
-const std::vector<const EstimatorDescriptor*>& EstimatorDescriptors();
-const EstimatorDescriptor& DescriptorOf(EstimatorKind kind);
-// Throws std::invalid_argument "unknown estimator 'x' (known: rls, gtls, frisch, integral)".
-EstimatorKind ParseEstimatorKind(std::string_view name);
-std::string_view ToString(EstimatorKind kind);
-std::vector<std::string> EstimatorNames();
+// One estimator, described once: the factory, the command line and sweep files read this.
+using EstimatorDescriptor =
+    PluginDescriptor<EstimatorKind, EstimatorTraits,
+                     std::unique_ptr<Estimator> (*)(const EstimatorSettings&, const Vec&)>;
+// Every estimator, in the order of EstimatorKind; ParseKind<EstimatorKind>("x") throws
+// "unknown estimator 'x' (known: rls, gtls, frisch, integral)".
+const PluginList<EstimatorDescriptor>& Plugins(EstimatorKind);
 
 // Throws std::invalid_argument naming the estimator and the field for invalid settings.
 std::unique_ptr<Estimator> MakeEstimator(const EstimatorSettings& settings, const Vec& theta0);

@@ -19,8 +19,7 @@ const EstimatorDescriptor& FrischDescriptor() {
       .name = "frisch",
       .help = "recursive Frisch scheme: a solution box and a point in it",
       .options = {"forgetting", "p0", "window", "frisch_box", "frisch_point", "frisch_confidence"},
-      .needs_noise_shape = true,
-      .reports_box = true,
+      .traits = {.needs_noise_shape = true, .reports_box = true},
       .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
         return std::make_unique<Frisch>(theta0, s.window, s.forgetting, s.p0, s.frisch_box, s.frisch_point,
                                         s.noise_shape, s.frisch_confidence);

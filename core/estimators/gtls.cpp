@@ -16,7 +16,7 @@ const EstimatorDescriptor& GtlsDescriptor() {
       .name = "gtls",
       .help = "recursive generalized total least squares (noise shape C from sigma and dt)",
       .options = {"forgetting", "refactor_every"},
-      .needs_noise_shape = true,
+      .traits = {.needs_noise_shape = true},
       .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
         return std::make_unique<Gtls>(theta0, s.noise_shape, s.forgetting, s.refactor_every);
       }};

@@ -13,7 +13,7 @@ const EstimatorDescriptor& IntegralDescriptor() {
       .name = "integral",
       .help = "least squares on integral rows, one offset per flow segment (alpha only)",
       .options = {"p0"},
-      .flow_only = true,
+      .traits = {.flow_only = true},
       .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
         return std::make_unique<IntegralLs>(theta0, s.p0);
       }};

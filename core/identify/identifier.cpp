@@ -64,7 +64,7 @@ IdentifierSettings WithNoiseShapes(const Model& model, double dt, const Identifi
 
 void IdentifierSettings::UseEstimator(EstimatorKind kind) {
   flow_estimator.kind = kind;
-  jump_estimator.kind = DescriptorOf(kind).flow_only ? EstimatorKind::kRls : kind;
+  jump_estimator.kind = DescriptorOf(kind).traits.flow_only ? EstimatorKind::kRls : kind;
 }
 
 struct Identifier::State {
@@ -104,7 +104,7 @@ struct Identifier::State {
                                    : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
       }
     }
-    if (DescriptorOf(s.jump_estimator.kind).flow_only) {
+    if (DescriptorOf(s.jump_estimator.kind).traits.flow_only) {
       throw std::invalid_argument(
           fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
                       ToString(s.jump_estimator.kind)));
@@ -432,10 +432,10 @@ IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double d
       resolved = ResolvedAtDefault(model, dt, settings);
     }
   }
-  if (DescriptorOf(resolved.flow_estimator.kind).needs_noise_shape) {
+  if (DescriptorOf(resolved.flow_estimator.kind).traits.needs_noise_shape) {
     r->flow_noise_shape = resolved.flow_estimator.noise_shape;
   }
-  if (DescriptorOf(resolved.jump_estimator.kind).needs_noise_shape) {
+  if (DescriptorOf(resolved.jump_estimator.kind).traits.needs_noise_shape) {
     r->jump_noise_shape = resolved.jump_estimator.noise_shape;
   }
   return resolved;

@@ -100,41 +100,6 @@ const Option<S>* FindOption(const std::vector<Option<S>>& table, std::string_vie
   return nullptr;
 }
 
-// Plugin descriptors (EstimatorDescriptor, DetectorDescriptor): a `kind` enumerator, a `name`, and
-// the names of the `options` it reads. `family` ("estimator", "detector") names them in errors.
-template <class D>
-const D& FindDescriptor(const std::vector<const D*>& all, decltype(D::kind) kind, std::string_view family) {
-  for (const D* d : all) {
-    if (d->kind == kind) return *d;
-  }
-  throw std::invalid_argument(std::string(family) + " kind " + std::to_string(static_cast<int>(kind)) +
-                              ": no such " + std::string(family));
-}
-template <class D>
-std::vector<std::string> DescriptorNames(const std::vector<const D*>& all) {
-  std::vector<std::string> names;
-  for (const D* d : all) names.emplace_back(d->name);
-  return names;
-}
-// Throws std::invalid_argument "unknown FAMILY 'x' (known: a, b)".
-template <class D>
-decltype(D::kind) ParseKind(const std::vector<const D*>& all, std::string_view name,
-                            std::string_view family) {
-  std::string known;
-  for (const D* d : all) {
-    if (d->name == name) return d->kind;
-    known += (known.empty() ? "" : ", ") + std::string(d->name);
-  }
-  throw std::invalid_argument("unknown " + std::string(family) + " '" + std::string(name) +
-                              "' (known: " + known + ")");
-}
-inline bool ReadsOption(const std::vector<std::string_view>& options, std::string_view name) {
-  for (std::string_view o : options) {
-    if (o == name) return true;
-  }
-  return false;
-}
-
 // "--frisch-box" for "frisch_box" (with an optional prefix: "--jump-frisch-box").
 std::string FlagName(std::string_view name, std::string_view prefix = {});
 

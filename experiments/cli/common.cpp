@@ -79,12 +79,12 @@ void RequireFinite(const std::string& flag, const std::vector<double>& values) {
 
 void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings) {
   try {
-    settings->UseEstimator(ParseEstimatorKind(estimator));
+    settings->UseEstimator(ParseKind<EstimatorKind>(estimator));
   } catch (const std::invalid_argument& e) {
     BadFlag(fmt::format("--estimator: {}", e.what()));
   }
   try {
-    settings->detector.kind = ParseDetectorKind(detector);
+    settings->detector.kind = ParseKind<DetectorKind>(detector);
   } catch (const std::invalid_argument& e) {
     BadFlag(fmt::format("--detector: {}", e.what()));
   }

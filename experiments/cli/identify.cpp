@@ -80,10 +80,10 @@ void AddOptionFlags(std::vector<OptionFlag>* flags, const std::vector<Option<S>>
 const std::vector<OptionFlag>& OptionFlags() {
   static const std::vector<OptionFlag> flags = [] {
     std::vector<OptionFlag> f;
-    AddOptionFlags(&f, DetectorOptions(), DetectorDescriptors(), &IdentifierSettings::detector, "", "");
-    AddOptionFlags(&f, EstimatorOptions(), EstimatorDescriptors(), &IdentifierSettings::flow_estimator, "",
-                   " (alpha estimator)");
-    AddOptionFlags(&f, EstimatorOptions(), EstimatorDescriptors(), &IdentifierSettings::jump_estimator,
+    AddOptionFlags(&f, DetectorOptions(), AllPlugins<DetectorKind>(), &IdentifierSettings::detector, "", "");
+    AddOptionFlags(&f, EstimatorOptions(), AllPlugins<EstimatorKind>(), &IdentifierSettings::flow_estimator,
+                   "", " (alpha estimator)");
+    AddOptionFlags(&f, EstimatorOptions(), AllPlugins<EstimatorKind>(), &IdentifierSettings::jump_estimator,
                    "jump", " (beta estimator)");
     return f;
   }();
@@ -260,8 +260,8 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyRes
 // q), γ, the estimates, and the truth when the data has it.
 void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
                 const SampleData& data, const IdentifyResult& result) {
-  std::vector<std::string> header{"t", std::string(detector.statistic), std::string(detector.threshold),
-                                  "gamma"};
+  std::vector<std::string> header{"t", std::string(detector.traits.statistic),
+                                  std::string(detector.traits.threshold), "gamma"};
   for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
   for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
   if (data.j) header.insert(header.end(), {"j", "true_jump"});
@@ -376,9 +376,9 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
         }
       });
   cmd->add_option("--estimator", args->estimator,
-                  PluginHelp("estimator of alpha and beta", EstimatorDescriptors()))
+                  PluginHelp("estimator of alpha and beta", AllPlugins<EstimatorKind>()))
       ->capture_default_str();
-  cmd->add_option("--detector", args->detector, PluginHelp("jump detector", DetectorDescriptors()))
+  cmd->add_option("--detector", args->detector, PluginHelp("jump detector", AllPlugins<DetectorKind>()))
       ->capture_default_str();
   std::vector<std::pair<std::string, CLI::Option*>> option_flags;
   for (const OptionFlag& f : OptionFlags()) {

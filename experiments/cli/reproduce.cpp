@@ -263,7 +263,7 @@ void AddReproduceCommand(CLI::App& app, Environment& env) {
       ->capture_default_str()
       ->check(NonNegativeInteger);
   cmd->add_option("--estimator", args->estimator,
-                  PluginHelp("estimator of alpha and beta (rls as published)", EstimatorDescriptors()))
+                  PluginHelp("estimator of alpha and beta (rls as published)", AllPlugins<EstimatorKind>()))
       ->capture_default_str();
   cmd->add_option("--detector", args->detector,
                   "paper (as published, r = 220) or residual (tuning-free; the tau columns then "

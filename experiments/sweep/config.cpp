@@ -459,8 +459,8 @@ void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
       if (detector_key) rd.Fail(&v, "grid." + std::string(k.str()), "not used with identifier.oracle = true");
     }
   }
-  c->grid.estimator = KindAxis(rd, grid, "estimator", "rls", &ParseEstimatorKind);
-  c->grid.detector = KindAxis(rd, grid, "detector", "paper", &ParseDetectorKind);
+  c->grid.estimator = KindAxis(rd, grid, "estimator", "rls", &ParseKind<EstimatorKind>);
+  c->grid.detector = KindAxis(rd, grid, "detector", "paper", &ParseKind<DetectorKind>);
 }
 
 void SetIdentifierKey(const Reader& rd, const toml::node& v, const std::string& key, const IdentifierKey& k,
@@ -583,7 +583,7 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
     c->baseline.emplace_back(std::string(k.str()), text);
   }
   if (const toml::node* d = b.get("detector")) {
-    const DetectorDescriptor& det = DescriptorOf(ParseDetectorKind(*d->value<std::string>()));
+    const DetectorDescriptor& det = DescriptorOf(ParseKind<DetectorKind>(*d->value<std::string>()));
     for (const OptionAxis& a : g.options) {
       if (a.family == OptionAxis::Family::kDetector && b.contains(a.name) && !det.Reads(a.name)) {
         rd.Fail(b.get(a.name), "summary.baseline." + a.name,

@@ -25,7 +25,7 @@ namespace {
 
 IdentifierSettings Residual() {
   IdentifierSettings s;
-  s.detector.kind = ParseDetectorKind("residual");
+  s.detector.kind = ParseKind<DetectorKind>("residual");
   s.sets = false;
   return s;
 }
@@ -73,7 +73,7 @@ TEST_CASE("residual detector settings errors name the field", "[residual]") {
   CHECK_THROWS_WITH(MakeDetector(s, model), Catch::Contains("false_alarm"));
   s.false_alarm = 1e-6;
   CHECK(MakeDetector(s, model)->name() == "residual");
-  CHECK_THROWS_WITH(ParseDetectorKind("residuals"), Catch::Contains("residual"));
+  CHECK_THROWS_WITH(ParseKind<DetectorKind>("residuals"), Catch::Contains("residual"));
 }
 
 TEST_CASE("§5 at dt = 5 ms, sigma = 0: all 14 jumps, no false ones", "[residual]") {
@@ -98,7 +98,7 @@ TEST_CASE("noise-free §5 with every estimator: the data accuracy keeps gtls fro
   const Model model{ImpactMsd{}};
   for (const char* estimator : {"rls", "gtls", "frisch"}) {
     IdentifierSettings s = Residual();
-    s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(estimator);
+    s.flow_estimator.kind = s.jump_estimator.kind = ParseKind<EstimatorKind>(estimator);
     s.data_rtol = SimOptions{}.rtol;
     s.data_atol = SimOptions{}.atol;
     const Run r = Identified(model, DefaultState(model), 20.0, 5e-4, 0.0, 1, s);
@@ -109,7 +109,7 @@ TEST_CASE("noise-free §5 with every estimator: the data accuracy keeps gtls fro
     CHECK(r.errors.e_alpha < 1e-6);
   }
   IdentifierSettings exact = Residual();
-  exact.flow_estimator.kind = exact.jump_estimator.kind = ParseEstimatorKind("gtls");
+  exact.flow_estimator.kind = exact.jump_estimator.kind = ParseKind<EstimatorKind>("gtls");
   const Run r = Identified(model, DefaultState(model), 20.0, 5e-4, 0.0, 1, exact);
   CHECK(r.confusion.fp > 0);
   exact.data_rtol = -1e-12;

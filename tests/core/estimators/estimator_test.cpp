@@ -1,6 +1,6 @@
-// Every estimator of the factory (EstimatorNames()) on degenerate data: finite estimates always, and
-// the errors-in-variables estimators say so in their status. RLS counts rows with φ ≠ 0
-// towards excitation, so its status is not checked here (see tests/core/estimators/rls_test.cpp).
+// Every estimator of the factory (PluginNames<EstimatorKind>()) on degenerate data: finite estimates always,
+// and the errors-in-variables estimators say so in their status. RLS counts rows with φ ≠ 0 towards
+// excitation, so its status is not checked here (see tests/core/estimators/rls_test.cpp).
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -19,10 +19,10 @@ void CheckFinite(const Estimator& e) {
 TEST_CASE("every estimator by name: degenerate data gives finite estimates and a status",
           "[estimator][eiv]") {
   const testing::EivData d = testing::MakeEivData(Vec::Ones(3), Vec::Constant(3, 0.2), 0.2, 300, 8, 0);
-  for (const std::string& name : EstimatorNames()) {
+  for (const std::string& name : PluginNames<EstimatorKind>()) {
     INFO("estimator " << name);
     EstimatorSettings s;
-    s.kind = ParseEstimatorKind(name);
+    s.kind = ParseKind<EstimatorKind>(name);
     s.window = 20;
     const bool eiv = name != "rls";
     SECTION("no excitation, with forgetting: " + name) {

@@ -20,7 +20,7 @@ using testing::MakeEivData;
 std::unique_ptr<Estimator> Make(const std::string& name, const Mat& shape, int p, double forgetting = 1.0,
                                 int refactor_every = 500) {
   EstimatorSettings s;
-  s.kind = ParseEstimatorKind(name);
+  s.kind = ParseKind<EstimatorKind>(name);
   s.noise_shape = shape;
   s.forgetting = forgetting;
   s.refactor_every = refactor_every;

@@ -164,9 +164,9 @@ TEST_CASE("integral estimator: not excited until p + 1 informative rows; non-fin
 
 TEST_CASE("integral estimator is for alpha only", "[integral]") {
   const EstimatorDescriptor& d = DescriptorOf(EstimatorKind::kIntegral);
-  CHECK(d.flow_only);
+  CHECK(d.traits.flow_only);
   CHECK(d.name == "integral");
-  CHECK(ParseEstimatorKind("integral") == EstimatorKind::kIntegral);
+  CHECK(ParseKind<EstimatorKind>("integral") == EstimatorKind::kIntegral);
 }
 
 }  // namespace

@@ -134,7 +134,7 @@ TEST_CASE("RLS stays finite on unexciting data with forgetting", "[rls]") {
   CHECK(rls->estimate().allFinite());
   // Wrong sizes and unknown names are errors.
   CHECK_THROWS_WITH(rls->Update(Mat::Zero(1, 3), y), Catch::Contains("3"));
-  CHECK_THROWS_WITH(ParseEstimatorKind("kalman"), Catch::Contains("known: rls"));
+  CHECK_THROWS_WITH(ParseKind<EstimatorKind>("kalman"), Catch::Contains("known: rls"));
   EstimatorSettings bad_forgetting;
   bad_forgetting.forgetting = 1.5;
   CHECK_THROWS_WITH(MakeEstimator(bad_forgetting, Vec::Zero(2)), Catch::Contains("forgetting"));

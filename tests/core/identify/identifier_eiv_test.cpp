@@ -31,7 +31,7 @@ Mat Diag3(double a, double b, double c) {
 IdentifierSettings Named(const std::string& name) {
   IdentifierSettings s;
   s.sets = false;
-  s.flow_estimator.kind = s.jump_estimator.kind = ParseEstimatorKind(name);
+  s.flow_estimator.kind = s.jump_estimator.kind = ParseKind<EstimatorKind>(name);
   return s;
 }
 

@@ -100,7 +100,7 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
         Simulate(k.model, DefaultState(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
     const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(k.model.state_size(), k.sigma), NoiseKey{3, 0});
     IdentifierSettings s;
-    s.detector.kind = ParseDetectorKind(k.detector);
+    s.detector.kind = ParseKind<DetectorKind>(k.detector);
     s.detector.r = k.r;
     s.flow_estimator.forgetting = k.forgetting;
     s.sets = k.sets;

@@ -159,7 +159,7 @@ TEST_CASE("the wall model: file and C++ give the same trajectory and the same es
   for (const char* estimator : {"rls", "gtls"}) {
     INFO(estimator);
     IdentifierSettings settings;
-    settings.flow_estimator.kind = settings.jump_estimator.kind = ParseEstimatorKind(estimator);
+    settings.flow_estimator.kind = settings.jump_estimator.kind = ParseKind<EstimatorKind>(estimator);
     const IdentifyResult a = Identify(file, y, 5e-4, settings), b = Identify(cpp, y, 5e-4, settings);
     REQUIRE(a.jumps_detected == b.jumps_detected);
     REQUIRE(a.jumps_detected >= 3);
