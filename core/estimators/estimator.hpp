@@ -129,7 +129,7 @@ class Estimator {
   virtual void Break() {}
 
  protected:
-  explicit Estimator(Vec theta0) : theta_(std::move(theta0)) {}
+  explicit Estimator(const Vec& theta0) : theta0_(theta0), theta_(theta0) {}
   // The rule for every update: a non-finite regression is skipped and counted, a finite one counted
   // as an update. Returns whether to update.
   bool Admit(bool finite) {
@@ -141,13 +141,15 @@ class Estimator {
     return true;
   }
   virtual void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) = 0;
-  // Reset's common part: status kNotExcited, no updates, none skipped.
-  void ResetCounts() {
+  // Reset's common part: θ back to the prior θ0, status kNotExcited, no updates, none skipped.
+  void ResetToPrior() {
+    theta_ = theta0_;
     status_ = EstimatorStatus::kNotExcited;
     updates_ = 0;
     skipped_ = 0;
   }
 
+  const Vec theta0_;  // the prior
   Vec theta_;
   EstimatorStatus status_ = EstimatorStatus::kNotExcited;
   long updates_ = 0;

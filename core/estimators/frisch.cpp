@@ -44,7 +44,6 @@ constexpr double kInfiniteVertex = 1e-12;
 Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, FrischBox box, FrischPoint point,
                const Mat& noise_shape, double confidence)
     : Estimator(theta0),
-      theta0_(theta0),
       window_(window),
       lambda_(forgetting),
       confidence_(confidence),
@@ -83,7 +82,6 @@ Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, Fris
 void Frisch::Reset() {
   const Eigen::Index p = theta0_.size();
   const Eigen::Index m = p + 1;
-  theta_ = theta0_;
   rls_.Reset();
   block_sigma_ = Mat::Zero(m, m);
   all_sigma_ = Mat::Zero(m, m);
@@ -107,7 +105,7 @@ void Frisch::Reset() {
   empty_intersections_ = 0;
   has_box_ = false;
   kalman_ = false;
-  ResetCounts();
+  ResetToPrior();
 }
 
 bool Frisch::Contains(ConstVecRef theta, double tolerance) const {

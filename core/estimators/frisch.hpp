@@ -131,7 +131,6 @@ class Frisch final : public Estimator {
   void TakeWindow(const Mat& block, double block_count, const Mat& all, double all_count);
   void SetPoint();
 
-  Vec theta0_;
   std::vector<Eigen::Index> noisy_;  // columns of z = [φ; y] that may carry noise (vertex columns)
   int window_;
   double lambda_;

@@ -55,7 +55,6 @@ Mat CheckedShape(const Mat& shape, Eigen::Index m) {
 
 Gtls::Gtls(const Vec& theta0, const Mat& noise_shape, double forgetting, int refactor_every)
     : Estimator(theta0),
-      theta0_(theta0),
       c_(CheckedShape(noise_shape, theta0.size() + 1)),
       lambda_(forgetting),
       refactor_every_(refactor_every) {
@@ -70,7 +69,6 @@ Gtls::Gtls(const Vec& theta0, const Mat& noise_shape, double forgetting, int ref
 
 void Gtls::Reset() {
   const Eigen::Index m = theta0_.size() + 1;
-  theta_ = theta0_;
   s_ = Mat::Zero(m, m);
   p_ = Mat::Zero(m, m);
   v_ = Vec::Zero(m);
@@ -85,7 +83,7 @@ void Gtls::Reset() {
   rows_since_refactor_ = 0;
   started_ = false;
   needs_refactor_ = false;
-  ResetCounts();
+  ResetToPrior();
 }
 
 double Gtls::noise_variance() const {

@@ -73,7 +73,6 @@ class Gtls final : public Estimator {
   // positive definite to kRankTolerance.
   bool FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const;
 
-  Vec theta0_;
   Mat c_;          // C, (p+1)²
   Mat s_;          // S
   Mat p_;          // ≈ S⁻¹ (of the slightly ridged S, see above)

@@ -20,13 +20,10 @@ const EstimatorDescriptor& IntegralDescriptor() {
   return d;
 }
 
-IntegralLs::IntegralLs(const Vec& theta0, double p0) : Estimator(theta0), theta0_(theta0), ridge_(1.0 / p0) {
-  Reset();
-}
+IntegralLs::IntegralLs(const Vec& theta0, double p0) : Estimator(theta0), ridge_(1.0 / p0) { Reset(); }
 
 void IntegralLs::Reset() {
   const auto p = static_cast<std::size_t>(theta0_.size());
-  theta_ = theta0_;
   a_closed_.assign(p * p, 0.0);
   b_closed_.assign(p, 0.0);
   m_.assign(p * p, 0.0);
@@ -39,7 +36,7 @@ void IntegralLs::Reset() {
   n_ = 0;
   rows_ = 0;
   informative_ = 0;
-  ResetCounts();
+  ResetToPrior();
 }
 
 const Mat* IntegralLs::covariance_matrix() const {

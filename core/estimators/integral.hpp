@@ -137,7 +137,6 @@ class IntegralLs final : public Estimator {
   // a pivot is not a positive finite number.
   bool SolveLdlt(Eigen::Index p, const double* a, double* v);
 
-  Vec theta0_;
   double ridge_;  // 1/p0
   // Closed segments: A and b (centred, offsets eliminated); p × p row-major, p.
   std::vector<double> a_closed_, b_closed_;

@@ -18,17 +18,15 @@ const EstimatorDescriptor& RlsDescriptor() {
   return d;
 }
 
-Rls::Rls(const Vec& theta0, double p0, double forgetting)
-    : Estimator(theta0), theta0_(theta0), p0_(p0), lambda_(forgetting) {
+Rls::Rls(const Vec& theta0, double p0, double forgetting) : Estimator(theta0), p0_(p0), lambda_(forgetting) {
   max_trace_ = p0_ * static_cast<double>(theta0.size());
   Reset();
 }
 
 void Rls::Reset() {
-  theta_ = theta0_;
   p_ = p0_ * Mat::Identity(theta0_.size(), theta0_.size());
   work_.resize(theta0_.size());
-  ResetCounts();
+  ResetToPrior();
   rank_updates_ = 0;
 }
 

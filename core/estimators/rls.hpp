@@ -114,7 +114,6 @@ class Rls final : public Estimator {
     if (!ok) status_ = EstimatorStatus::kIllConditioned;
   }
 
-  Vec theta0_;
   Mat p_;
   double p0_;
   double lambda_;
