@@ -146,6 +146,9 @@ class Identifier {
 // A whole run: samples y (n × K, column k measured at t_k = kδt, or at times[k]).
 struct IdentifyOptions {
   bool trace = false;  // keep per-sample α̂, β̂ (else only γ, statistic, threshold)
+  // Keep the detector's statistic and threshold per sample; without them, IdentifyResult's
+  // statistic and threshold are empty (sweeps, which count γ against the truth, skip them).
+  bool statistics = true;
   // Given labels γ per sample (one per column of y) instead of the detector's decisions, e.g. the
   // true jumps, to study the estimators alone. Empty: the detector decides.
   std::vector<std::uint8_t> labels{};
