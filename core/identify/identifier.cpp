@@ -106,6 +106,7 @@ struct Identifier::State {
                                    : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
       }
     }
+    if (s.direct_calls && builder.jump_layout().rows.size() == 1) jump_rls = dynamic_cast<Rls*>(jump.get());
     if (DescriptorOf(s.jump_estimator.kind).flow_only) {
       throw std::invalid_argument(
           fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
@@ -127,7 +128,9 @@ struct Identifier::State {
   // The α estimator on one identified row (direct_calls), when it is RLS or integral.
   Rls* rls = nullptr;
   IntegralLs* integral = nullptr;
-  // With either: the detector, when it is the paper's (on a constant Jacobian) or the residual
+  // The β estimator on one identified row (direct_calls), when it is RLS.
+  Rls* jump_rls = nullptr;
+  // With rls or integral: the detector, when it is the paper's (on a constant Jacobian) or the residual
   // detector, and RowBlock for the model's sizes.
   PaperDetector* paper = nullptr;
   ResidualDetector* residual = nullptr;
@@ -189,7 +192,11 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
   } else {
     s.builder.Jump(s.prev, x, s.psi, s.yj);
   }
-  s.jump->Update(s.psi, s.yj);
+  if (s.jump_rls != nullptr) {
+    s.jump_rls->UpdateRow<0>(s.psi.data(), s.yj[0]);  // = Update on the one row, without the interface
+  } else {
+    s.jump->Update(s.psi, s.yj);
+  }
   s.flow->Break();
   ++s.jumps;
   if (s.settings.sets) s.jump_set.Add(s.prev);

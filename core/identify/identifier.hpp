@@ -56,8 +56,9 @@ struct IdentifierSettings {
   bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
   // Direct, inlined calls instead of the virtual interfaces: to RLS for α on one identified row, and
   // then also to the paper detector on a constant-Jacobian model or to the residual detector, with
-  // compile-time sizes for n = 2 and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost
-  // per sample). false: always the interfaces (for tests and comparisons).
+  // compile-time sizes for n = 2 and 1–3 unknowns; to RLS for β on one identified row (same results,
+  // bit for bit; see BENCHMARKS.md for the cost per sample). false: always the interfaces (for tests
+  // and comparisons).
   bool direct_calls = true;
 
   // Chooses the estimator for α and β: `kind` for both, except that a flow-only estimator
