@@ -1,6 +1,8 @@
 #include "core/identify/identifier.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
@@ -104,6 +106,7 @@ struct Identifier::State {
                                    : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
       }
     }
+    if (s.direct_calls && builder.jump_layout().rows.size() == 1) jump_rls = dynamic_cast<Rls*>(jump.get());
     if (DescriptorOf(s.jump_estimator.kind).traits.flow_only) {
       throw std::invalid_argument(
           fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
@@ -125,7 +128,9 @@ struct Identifier::State {
   // The α estimator on one identified row (direct_calls), when it is RLS or integral.
   Rls* rls = nullptr;
   IntegralLs* integral = nullptr;
-  // With either: the detector, when it is the paper's (on a constant Jacobian) or the residual
+  // The β estimator on one identified row (direct_calls), when it is RLS.
+  Rls* jump_rls = nullptr;
+  // With rls or integral: the detector, when it is the paper's (on a constant Jacobian) or the residual
   // detector, and RowBlock for the model's sizes.
   PaperDetector* paper = nullptr;
   ResidualDetector* residual = nullptr;
@@ -187,7 +192,11 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
   } else {
     s.builder.Jump(s.prev, x, s.psi, s.yj);
   }
-  s.jump->Update(s.psi, s.yj);
+  if (s.jump_rls != nullptr) {
+    s.jump_rls->UpdateRow<0>(s.psi.data(), s.yj[0]);  // = Update on the one row, without the interface
+  } else {
+    s.jump->Update(s.psi, s.yj);
+  }
   s.flow->Break();
   ++s.jumps;
   if (s.settings.sets) s.jump_set.Add(s.prev);
@@ -443,14 +452,24 @@ IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double d
 
 void Record(Eigen::Index k, const Decision& d, IdentifyResult* r) {
   r->gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
+  if (r->statistic.empty()) return;  // IdentifyOptions::statistics off
   r->statistic[static_cast<std::size_t>(k)] = d.statistic;
   r->threshold[static_cast<std::size_t>(k)] = d.threshold;
+}
+
+// Whether every entry is finite: one pass without an early exit, which the compiler vectorises
+// (Eigen's allFinite stops at the first non-finite entry, one entry at a time).
+bool AllFinite(const Mat& y) {
+  const double* v = y.data();
+  bool finite = true;
+  for (Eigen::Index i = 0; i < y.size(); ++i) finite &= std::abs(v[i]) <= std::numeric_limits<double>::max();
+  return finite;
 }
 
 // Irregular sampling, chains or non-finite columns: one Step per sample, with its own δt and a
 // Restart at each chain start and after each skipped column.
 bool NeedsChains(const Mat& y, const IdentifyOptions& options) {
-  return !options.times.empty() || !options.chain_start.empty() || !y.allFinite();
+  return !options.times.empty() || !options.chain_start.empty() || !AllFinite(y);
 }
 
 void ChainPass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
@@ -561,8 +580,10 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
   Identifier id(model, dt, ResolveNoiseShapes(model, y, dt, settings, &r));
   const auto count = static_cast<std::size_t>(y.cols());
   r.gamma.resize(count);
-  r.statistic.resize(count);
-  r.threshold.resize(count);
+  if (options.statistics) {
+    r.statistic.resize(count);
+    r.threshold.resize(count);
+  }
   if (options.trace) {
     r.alpha_trace.resize(model.alpha_size(), y.cols());
     r.beta_trace.resize(model.beta_size(), y.cols());

@@ -56,8 +56,9 @@ struct IdentifierSettings {
   bool second_pass = false;  // Identify(): re-classify with the final α̂ and re-estimate
   // Direct, inlined calls instead of the virtual interfaces: to RLS for α on one identified row, and
   // then also to the paper detector on a constant-Jacobian model or to the residual detector, with
-  // compile-time sizes for n = 2 and 1–3 unknowns (same results, bit for bit; see BENCHMARKS.md for the cost
-  // per sample). false: always the interfaces (for tests and comparisons).
+  // compile-time sizes for n = 2 and 1–3 unknowns; to RLS for β on one identified row (same results,
+  // bit for bit; see BENCHMARKS.md for the cost per sample). false: always the interfaces (for tests
+  // and comparisons).
   bool direct_calls = true;
 
   // Chooses the estimator for α and β: `kind` for both, except that a flow-only estimator
@@ -146,6 +147,9 @@ class Identifier {
 // A whole run: samples y (n × K, column k measured at t_k = kδt, or at times[k]).
 struct IdentifyOptions {
   bool trace = false;  // keep per-sample α̂, β̂ (else only γ, statistic, threshold)
+  // Keep the detector's statistic and threshold per sample; without them, IdentifyResult's
+  // statistic and threshold are empty (sweeps, which count γ against the truth, skip them).
+  bool statistics = true;
   // Given labels γ per sample (one per column of y) instead of the detector's decisions, e.g. the
   // true jumps, to study the estimators alone. Empty: the detector decides.
   std::vector<std::uint8_t> labels{};

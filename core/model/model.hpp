@@ -25,6 +25,15 @@ using ConstVecRef = Eigen::Ref<const Eigen::VectorXd>;
 using MatRef = Eigen::Ref<Eigen::MatrixXd>;
 using ConstMatRef = Eigen::Ref<const Eigen::MatrixXd>;
 
+// Sets the R × C matrix m from its entries listed row by row: what a comma initialiser does, without
+// its per-entry bookkeeping on a Ref (models' φ, ψ and Jacobians are evaluated every sample).
+template <int R, int C>
+inline void SetRowMajor(MatRef m, const double (&entries)[R * C]) {
+  for (int i = 0; i < R; ++i) {
+    for (int j = 0; j < C; ++j) m(i, j) = entries[i * C + j];
+  }
+}
+
 // Direction in which a guard function h(ξ) must cross zero for the crossing to reach D.
 enum class Crossing { kFalling, kRising, kBoth };
 

@@ -220,7 +220,8 @@ class UnitRunner {
   void RunTrialUnits(const TrajectoryGroup& g, const GroupTruth& truth, const std::vector<long>& ids,
                      Progress* progress) {
     const long trial = UnitOf(ids.front(), config_.trials).trial;
-    Mat normals, noisy;
+    Mat normals;
+    NoisySamples noisy;
     const bool noisy_units =
         std::any_of(ids.begin(), ids.end(), [&](long id) { return CellOf(id).sigma > 0; });
     if (noisy_units && truth.sim_error.empty() && truth.truth.status.completed() && !Stopped()) {

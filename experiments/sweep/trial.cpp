@@ -264,11 +264,15 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     if (in.normals == nullptr || in.normals->cols() != truth.x.cols() || in.noisy == nullptr) {
       throw std::logic_error("RunTrial: σ > 0 without the trial's standard normals");
     }
-    in.noisy->noalias() = truth.x + cell.sigma * *in.normals;  // x(i, k) + σ·E(i, k)
+    if (in.noisy->sigma != cell.sigma || in.noisy->y.cols() != truth.x.cols()) {
+      in.noisy->y.noalias() = truth.x + cell.sigma * *in.normals;  // x(i, k) + σ·E(i, k)
+      in.noisy->sigma = cell.sigma;
+    }
   }
   IdentifyOptions options;
+  options.statistics = false;
   if (config.oracle) options.labels = TrueLabels(truth);
-  const Mat& y = cell.sigma > 0 ? *in.noisy : truth.x;
+  const Mat& y = cell.sigma > 0 ? in.noisy->y : truth.x;
   const IdentifyResult res = hysid::Identify(model, y, truth.dt, s, options);
   o->alpha_hat = res.alpha_hat;
   o->beta_hat = res.beta_hat;

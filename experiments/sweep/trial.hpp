@@ -38,12 +38,17 @@ const std::vector<std::string>& SummaryMetrics();
 
 // What the units of one (group, trial) share: the group's noise-free trajectory from `x0`, the
 // trial's standard normals (n × K, the stream TrialNoiseKey; empty when no unit of the trial has
-// σ > 0 or the simulation failed) and a buffer for the noisy samples y = x + σ·normals.
+// σ > 0 or the simulation failed) and a buffer for the noisy samples y = x + σ·normals, kept while
+// consecutive units have the same σ.
+struct NoisySamples {
+  Mat y;
+  double sigma = 0.0;  // the σ of y; 0: y not filled
+};
 struct TrialInputs {
   const Vec* x0 = nullptr;
   const Trajectory* truth = nullptr;
   const Mat* normals = nullptr;
-  Mat* noisy = nullptr;
+  NoisySamples* noisy = nullptr;
   std::string sim_error;  // non-empty: the simulator rejected the run (the row's status is "error")
   // With grid.refine: the group's CRLB at σ = 1 (its mean errors scale linearly with σ), or null.
   const Crlb* crlb = nullptr;

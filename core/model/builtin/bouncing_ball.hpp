@@ -33,12 +33,12 @@ struct BouncingBall : WallImpact {
     };
   }
   void Phi(ConstVecRef x, MatRef phi) const {
-    phi << x[1], 0.0,  //
-        0.0, -1.0;
+    SetRowMajor<2, 2>(phi, {x[1], 0.0,  //
+                            0.0, -1.0});
   }
   void FlowJacobian(ConstVecRef /*x*/, ConstVecRef alpha, MatRef jac) const {
-    jac << 0.0, alpha[0],  //
-        0.0, 0.0;
+    SetRowMajor<2, 2>(jac, {0.0, alpha[0],  //
+                            0.0, 0.0});
   }
 };
 

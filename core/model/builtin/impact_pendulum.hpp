@@ -34,12 +34,12 @@ struct ImpactPendulum : WallImpact {
     };
   }
   void Phi(ConstVecRef x, MatRef phi) const {
-    phi << x[1], 0.0, 0.0,  //
-        0.0, -std::sin(x[0]), -x[1];
+    SetRowMajor<2, 3>(phi, {x[1], 0.0, 0.0,  //
+                            0.0, -std::sin(x[0]), -x[1]});
   }
   void FlowJacobian(ConstVecRef x, ConstVecRef alpha, MatRef jac) const {
-    jac << 0.0, alpha[0],  //
-        -alpha[1] * std::cos(x[0]), -alpha[2];
+    SetRowMajor<2, 2>(jac, {0.0, alpha[0],  //
+                            -alpha[1] * std::cos(x[0]), -alpha[2]});
   }
 };
 

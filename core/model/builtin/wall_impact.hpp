@@ -29,8 +29,8 @@ struct WallImpact {
            "D: " + pos + " == 0 && " + vel + " <= 0\n";
   }
   void Psi(ConstVecRef x, MatRef psi) const {
-    psi << x[0], 0.0, 0.0,  //
-        0.0, -x[1], 1.0;
+    SetRowMajor<2, 3>(psi, {x[0], 0.0, 0.0,  //
+                            0.0, -x[1], 1.0});
   }
   void Guards(ConstVecRef x, VecRef h) const { h[0] = x[0]; }
   bool InFlowSet(ConstVecRef x) const { return x[0] > 0.0 || (x[0] == 0.0 && x[1] >= 0.0); }

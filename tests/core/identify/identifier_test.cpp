@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "core/identify/identifier.hpp"
@@ -116,6 +117,7 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
     CHECK(direct.alpha_trace == generic.alpha_trace);
     CHECK(direct.beta_trace == generic.beta_trace);
     CHECK(direct.flow_status == generic.flow_status);
+    CHECK(direct.jump_status == generic.jump_status);
     CHECK(direct.jumps_detected > 0);
     for (const IdentifyResult* r : {&direct, &fed}) {
       CHECK(r->gamma == generic.gamma);
@@ -127,6 +129,30 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
       CHECK(r->jump_hull == generic.jump_hull);
       CHECK(r->jumps_detected == generic.jumps_detected);
     }
+  }
+}
+
+TEST_CASE(
+    "without statistics, Identify gives the same decisions and estimates, and a non-finite "
+    "sample still breaks the chain",
+    "[identify]") {
+  const Model model{ImpactMsd{}};
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});
+  Mat y = AddMeasurementNoise(traj.x, Vec::Constant(2, 0.05), NoiseKey{5, 0});
+  for (bool gap : {false, true}) {
+    INFO("non-finite sample " << gap);
+    if (gap) y(1, 20000) = std::numeric_limits<double>::infinity();
+    const IdentifyResult full = Identify(model, y, traj.dt, IdentifierSettings{});
+    const IdentifyResult lean =
+        Identify(model, y, traj.dt, IdentifierSettings{}, IdentifyOptions{.statistics = false});
+    CHECK(full.statistic.size() == static_cast<std::size_t>(y.cols()));
+    CHECK(lean.statistic.empty());
+    CHECK(lean.threshold.empty());
+    CHECK(lean.gamma == full.gamma);
+    CHECK(lean.alpha_hat == full.alpha_hat);
+    CHECK(lean.beta_hat == full.beta_hat);
+    CHECK(full.skipped_samples == (gap ? 1 : 0));
+    CHECK(lean.skipped_samples == full.skipped_samples);
   }
 }
 
@@ -405,6 +431,8 @@ TEST_CASE("metrics: confusion counts and parameter errors by hand", "[metrics]")
   CHECK(c.precision() == 0.5);
   CHECK(c.recall() == 0.5);
   CHECK_THROWS(CompareJumps(j, std::vector<std::uint8_t>(3)));
+  CHECK(CompareJumps({}, {}).total() == 0);
+  CHECK(CompareJumps({4}, {1}).total() == 0);  // the first sample has no predecessor
   const Model model{ImpactMsd{}};
   Vec a = model.alpha(), b = model.beta();
   a[1] += 3.0;
