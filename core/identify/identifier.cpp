@@ -69,6 +69,24 @@ void IdentifierSettings::UseEstimator(EstimatorKind kind) {
   jump_estimator.kind = DescriptorOf(kind).traits.flow_only ? EstimatorKind::kRls : kind;
 }
 
+namespace {
+
+// Rls::UpdateRow for P unknowns (0: any), and the one for p unknowns.
+template <int P>
+void RlsUpdateRow(Rls& rls, const double* phi, double y) {
+  rls.UpdateRow<P>(phi, y);
+}
+void (*ChooseJumpRow(int p))(Rls&, const double*, double) {
+  switch (p) {
+    case 1: return &RlsUpdateRow<1>;
+    case 2: return &RlsUpdateRow<2>;
+    case 3: return &RlsUpdateRow<3>;
+    default: return &RlsUpdateRow<0>;
+  }
+}
+
+}  // namespace
+
 struct Identifier::State {
   State(const Model& m, double step, const IdentifierSettings& s)
       : model(m),
@@ -106,7 +124,10 @@ struct Identifier::State {
                                    : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
       }
     }
-    if (s.direct_calls && builder.jump_layout().rows.size() == 1) jump_rls = dynamic_cast<Rls*>(jump.get());
+    if (s.direct_calls && builder.jump_layout().rows.size() == 1) {
+      jump_rls = dynamic_cast<Rls*>(jump.get());
+      jump_row = ChooseJumpRow(static_cast<int>(builder.jump_layout().unknown.size()));
+    }
     if (DescriptorOf(s.jump_estimator.kind).traits.flow_only) {
       throw std::invalid_argument(
           fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
@@ -130,6 +151,7 @@ struct Identifier::State {
   IntegralLs* integral = nullptr;
   // The β estimator on one identified row (direct_calls), when it is RLS.
   Rls* jump_rls = nullptr;
+  void (*jump_row)(Rls&, const double*, double) = nullptr;  // its UpdateRow for |u| unknowns
   // With rls or integral: the detector, when it is the paper's (on a constant Jacobian) or the residual
   // detector, and RowBlock for the model's sizes.
   PaperDetector* paper = nullptr;
@@ -193,7 +215,7 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
     s.builder.Jump(s.prev, x, s.psi, s.yj);
   }
   if (s.jump_rls != nullptr) {
-    s.jump_rls->UpdateRow<0>(s.psi.data(), s.yj[0]);  // = Update on the one row, without the interface
+    s.jump_row(*s.jump_rls, s.psi.data(), s.yj[0]);  // = Update on the one row, without the interface
   } else {
     s.jump->Update(s.psi, s.yj);
   }
@@ -457,14 +479,9 @@ void Record(Eigen::Index k, const Decision& d, IdentifyResult* r) {
   r->threshold[static_cast<std::size_t>(k)] = d.threshold;
 }
 
-// Whether every entry is finite: one pass without an early exit, which the compiler vectorises
-// (Eigen's allFinite stops at the first non-finite entry, one entry at a time).
-bool AllFinite(const Mat& y) {
-  const double* v = y.data();
-  bool finite = true;
-  for (Eigen::Index i = 0; i < y.size(); ++i) finite &= std::abs(v[i]) <= std::numeric_limits<double>::max();
-  return finite;
-}
+// Whether every entry is finite: 0·v is 0 for a finite v and NaN for ±inf or NaN, and Eigen sums
+// with vector instructions (its allFinite stops at the first non-finite entry, one entry at a time).
+bool AllFinite(const Mat& y) { return (y.array() * 0.0).sum() == 0.0; }
 
 // Irregular sampling, chains or non-finite columns: one Step per sample, with its own δt and a
 // Restart at each chain start and after each skipped column.
