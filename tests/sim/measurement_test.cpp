@@ -88,6 +88,15 @@ TEST_CASE("a stream is the same drawn whole, in slices, on two threads, or in re
   a.join();
   b.join();
   CHECK(sliced == whole);
+  // Forwards, six at a time from an offset of 2: whole blocks of four alone, and the pairs of blocks.
+  for (std::size_t width : {6, 13}) {
+    std::vector<double> forward(n);
+    FillStandardNormals(key, 0, forward.data(), 2);
+    for (std::size_t lo = 2; lo < n; lo += width) {
+      FillStandardNormals(key, lo, forward.data() + lo, std::min(width, n - lo));
+    }
+    CHECK(forward == whole);
+  }
   // Another seed, stream or sub word gives another stream.
   CHECK(Stream(NoiseKey{43, 5, {1, 0x3f40624dd2f1a9fcull}}, 8) !=
         std::vector<double>(whole.begin(), whole.begin() + 8));
