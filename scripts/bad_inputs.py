@@ -296,8 +296,10 @@ def table(rows):
 
 
 def normalized(text):
-    """The table with long decimals and sweep hashes masked: the last digits of a stop time may differ
-    between compilers, and a sweep's hash changes whenever the configuration gains a field."""
+    """The table with long decimals, sweep hashes and the length of a quoted journal row masked: the
+    last digits of a stop time may differ between compilers, a sweep's hash changes whenever the
+    configuration gains a field, and a journal row ends with its trial's run time."""
+    text = re.sub(r"… \(\d+ bytes\)", "… (<n> bytes)", text)
     return re.sub(r"\b[0-9a-f]{16}\b", "<hash>", re.sub(r"\d+\.\d{6,}", "<t>", text))
 
 
