@@ -81,6 +81,17 @@ bool History::CheckOrder(void* cvode_mem, N_Vector scratch) {
 
 void History::Dky(double t, int k, double* out) const {
   const double s = (t - tn_) / h_;
+  if (k == 0 && q_ < kPowers) {
+    // c_j = s^j, formed as the loop below forms it (1 times s, j times), once for every j.
+    double power[kPowers];
+    power[0] = 1.0;
+    for (int j = 1; j <= q_; ++j) power[j] = power[j - 1] * s;
+    for (long i = 0; i < n_; ++i) out[i] = power[q_] * zn_[q_][i];
+    for (int j = q_ - 1; j >= 0; --j) {
+      for (long i = 0; i < n_; ++i) out[i] += power[j] * zn_[j][i];
+    }
+    return;
+  }
   for (int j = q_; j >= k; --j) {
     double c = 1.0;
     for (int i = j; i >= j - k + 1; --i) c *= i;

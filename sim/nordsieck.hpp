@@ -52,6 +52,7 @@ class History {
 
  private:
   bool CheckOrder(void* cvode_mem, N_Vector scratch);
+  static constexpr int kPowers = 13;  // s^0..s^12: CVODE's Adams orders go up to 12
 
   std::vector<const double*> zn_;
   long n_ = 0;

@@ -315,10 +315,20 @@ class Run {
     for (long k = next_sample_; k < end; ++k) {
       const double s = (std::min(SampleTime(k), t_hi) - tn) / h;
       double* out = out_.x.col(k).data();
-      for (long i = 0; i < n; ++i) {
-        double v = c[q * n + i];
-        for (int d = q - 1; d >= 0; --d) v = v * s + c[d * n + i];
-        out[i] = v;
+      if (n == 2) {  // the two chains side by side, in registers (the same operations per component)
+        double v0 = c[q * 2], v1 = c[q * 2 + 1];
+        for (int d = q - 1; d >= 0; --d) {
+          v0 = v0 * s + c[d * 2];
+          v1 = v1 * s + c[d * 2 + 1];
+        }
+        out[0] = v0;
+        out[1] = v1;
+      } else {
+        for (long i = 0; i < n; ++i) {
+          double v = c[q * n + i];
+          for (int d = q - 1; d >= 0; --d) v = v * s + c[d * n + i];
+          out[i] = v;
+        }
       }
       out_.t.push_back(SampleTime(k));
       out_.j.push_back(jumps_);

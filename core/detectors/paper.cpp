@@ -173,7 +173,7 @@ void PaperDetector::Reset() {
   cached_hull_version_ = -1;
   cached_l2_ = 0.0;
   cached_l_ = 0.0;
-  last_x_.resize(0);
+  last_n_ = 0;
   last_norm_ = 0.0;
 }
 

@@ -54,7 +54,8 @@ namespace detail {
 
 // αᵀQα for a symmetric p × p matrix Q (column-major); P = p when known at compile time, else 0.
 template <int P>
-inline double QuadraticForm(Eigen::Index p_dynamic, const double* q, const double* alpha) {
+[[gnu::always_inline]] inline double QuadraticForm(Eigen::Index p_dynamic, const double* q,
+                                                   const double* alpha) {
   const Eigen::Index p = P > 0 ? P : p_dynamic;
   double s = 0.0;
   for (Eigen::Index c = 0; c < p; ++c) {
@@ -108,6 +109,8 @@ class PaperDetector final : public JumpDetector {
   PaperDetector(const DetectorSettings& settings, const Model& model);
   Decision Classify(const SampleContext& context) override;
   std::string name() const override { return "paper"; }
+  // One identified flow row: ‖J̄_r(α)‖² is a quadratic form in α (ClassifyConstant<N, true>).
+  bool one_row() const { return reduced_rows_ == 1; }
   void Reset() override;
 
   // The decision for a model with a constant flow Jacobian, from the pair ξ(t−δt), ξ(t) (n entries
@@ -117,7 +120,8 @@ class PaperDetector final : public JumpDetector {
   //
   // The decision is taken on squares, D² > τ̂², so that no square root sits on the chain
   // α̂ → τ̂ → γ → α̂ of consecutive samples; D and τ̂ themselves are computed off that chain.
-  template <int N = 0>
+  // kOneRow: the caller knows that one_row() holds (no call to the general norm in the code).
+  template <int N = 0, bool kOneRow = false>
   [[gnu::always_inline]] Decision ClassifyConstant(const double* prev, const double* cur, Eigen::Index n,
                                                    double dt, const double* alpha_hat, long version,
                                                    long flow_updates) {
@@ -126,7 +130,7 @@ class PaperDetector final : public JumpDetector {
     Prologue<N>(prev, cur, n, dt, &d, &d2, &cur_norm, &prev_norm);
     if (WarmUp(flow_updates, &d)) return d;
     if (version != cached_version_) {
-      cached_l2_ = LinearNormSquared(alpha_hat);
+      cached_l2_ = kOneRow ? OneRowNormSquared(alpha_hat) : LinearNormSquared(alpha_hat);
       cached_l_ = std::sqrt(cached_l2_);
       cached_version_ = version;
     }
@@ -165,17 +169,19 @@ class PaperDetector final : public JumpDetector {
     d->statistic = roots[0];
     *d2_out = d2;
     *cur_norm = roots[1];
-    bool consecutive = last_x_.size() == n;
+    bool consecutive = last_n_ == n;
     for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = last_x_[i] == prev[i];
     *prev_norm = consecutive ? last_norm_ : BoundNorm(prev, n, mode_);
-    if (last_x_.size() != n) last_x_.resize(n);
+    last_n_ = n;
     for (Eigen::Index i = 0; i < n; ++i) last_x_[i] = cur[i];
     last_norm_ = roots[1];
   }
   // ‖J̄_r(α)‖₂² for a constant Jacobian. One identified row: ‖Gα‖² = αᵀ(GᵀG)α with GᵀG
   // precomputed; more rows: the spectral norm of the reshaped Gα.
   double LinearNormSquared(const double* alpha) {
-    if (reduced_rows_ != 1) return SpectralLinearNormSquared(alpha);
+    return reduced_rows_ != 1 ? SpectralLinearNormSquared(alpha) : OneRowNormSquared(alpha);
+  }
+  [[gnu::always_inline]] double OneRowNormSquared(const double* alpha) const {
     const Eigen::Index p = gram_.rows();
     const double* q = gram_.data();
     switch (p) {
@@ -204,7 +210,8 @@ class PaperDetector final : public JumpDetector {
   double cached_l2_ = 0.0;
   double cached_l_ = 0.0;  // √cached_l2_ (constant Jacobians)
   // ξ(t) of the previous call and its BoundNorm: the next call's ξ(t−δt) when pairs are consecutive.
-  Vec last_x_;
+  double last_x_[Model::kMaxStates] = {};
+  Eigen::Index last_n_ = 0;  // 0: no previous call
   double last_norm_ = 0.0;
   VertexJacobianSup vertex_sup_;
   JacobianScratch scratch_;

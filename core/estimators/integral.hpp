@@ -70,7 +70,10 @@ class IntegralLs final : public Estimator {
     const Eigen::Index p = P > 0 ? P : theta_.size();
     double* cum = cum_phi_.data() + r * p;
     double* mean = mean_phi_.data() + r * p;
-    double* d = work_.data();
+    // d in registers when p is known at compile time (a scalar store read back as a vector would
+    // not be forwarded).
+    double d_local[P > 0 ? P : 1];
+    double* d = P > 0 ? d_local : work_.data();
     const double w = 1.0 / static_cast<double>(n_), keep = 1.0 - w;
     for (Eigen::Index i = 0; i < p; ++i) {
       cum[i] += phi[i * stride];

@@ -16,6 +16,46 @@ namespace hysid {
 
 namespace detail {
 
+// Two-parameter RLS on one scalar row, in scalars: P = [[p00, p10], [p10, p11]] (P stays symmetric:
+// every update writes both off-diagonal entries from one value), θ = (t0, t1). A loop that keeps it
+// in local variables across rows (the identifier's per-sample path) and ScalarRlsUpdate<2> share
+// this arithmetic, so both give the same bits.
+struct Rls2State {
+  double t0, t1, p00, p10, p11;
+
+  // ScalarRlsUpdate's steps for p = 2; false (nothing changed) when φᵀPφ + λ is not a positive
+  // finite number.
+  [[gnu::always_inline]] bool Update(double f0, double f1, double y, double lambda, double max_trace) {
+    double g0 = 0.0, g1 = 0.0, denom = lambda, pred = 0.0;
+    g0 += p00 * f0;
+    g0 += p10 * f1;
+    denom += f0 * g0;
+    pred += f0 * t0;
+    g1 += p10 * f0;
+    g1 += p11 * f1;
+    denom += f1 * g1;
+    pred += f1 * t1;
+    if (!(denom > 0.0) || !std::isfinite(denom)) return false;
+    const double e = y - pred;
+    const double inv = 1.0 / denom;
+    t0 += g0 * inv * e;
+    t1 += g1 * inv * e;
+    p00 = p00 - g0 * g0 * inv;
+    p10 = p10 - g1 * g0 * inv;
+    p11 = p11 - g1 * g1 * inv;
+    double trace = 0.0;
+    trace += p00;
+    trace += p11;
+    if (lambda != 1.0 && trace < max_trace) {
+      const double scale = 1.0 / lambda;
+      p00 *= scale;
+      p10 *= scale;
+      p11 *= scale;
+    }
+    return true;
+  }
+};
+
 // One scalar row, the common case (one identified state component). P = the parameter count when
 // known at compile time (the loops unroll), or 0 for any p. `stride` is the distance between φ's
 // entries: a 1×p row of a column-major matrix binds to ConstMatRef without a copy and then has
@@ -24,6 +64,16 @@ namespace detail {
 template <int P>
 inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, double* g, const double* phi,
                             Eigen::Index stride, double y, double lambda, double max_trace) {
+  if constexpr (P == 2) {
+    Rls2State r{theta[0], theta[1], pp[0], pp[1], pp[3]};
+    if (!r.Update(phi[0], phi[stride], y, lambda, max_trace)) return false;
+    theta[0] = r.t0;
+    theta[1] = r.t1;
+    pp[0] = r.p00;
+    pp[1] = pp[2] = r.p10;
+    pp[3] = r.p11;
+    return true;
+  }
   const Eigen::Index p = P > 0 ? P : p_dynamic;
   double denom = lambda;
   double pred = 0.0;
@@ -72,6 +122,36 @@ class Rls final : public Estimator {
   // P = the parameter count when known at compile time (the loops unroll), else 0.
   template <int P = 0>
   void UpdateRow(const double* phi, double y) {
+    AdmitRow<P>(phi, y, [&] { ScalarUpdate<P>(phi, 1, y); });
+  }
+
+  // Two parameters only: θ and P as scalars (Load2), updated by UpdateRowIn with UpdateRow<2>'s
+  // arithmetic while the caller keeps them in local variables, and written back by Store2 before
+  // anything else reads the estimate or the covariance. The counters and the status stay in the
+  // object.
+  detail::Rls2State Load2() const {
+    const double* pp = p_.data();
+    return {theta_[0], theta_[1], pp[0], pp[1], pp[3]};
+  }
+  void Store2(const detail::Rls2State& r) {
+    double* pp = p_.data();
+    theta_[0] = r.t0;
+    theta_[1] = r.t1;
+    pp[0] = r.p00;
+    pp[1] = pp[2] = r.p10;
+    pp[3] = r.p11;
+  }
+  [[gnu::always_inline]] void UpdateRowIn(detail::Rls2State& r, const double* phi, double y) {
+    AdmitRow<2>(phi, y, [&] {
+      if (!r.Update(phi[0], phi[1], y, lambda_, max_trace_)) status_ = EstimatorStatus::kIllConditioned;
+    });
+  }
+
+ private:
+  // A row that is not finite is skipped (counted); otherwise `update` runs and the row counts
+  // towards excitation when φ ≠ 0.
+  template <int P, class F>
+  [[gnu::always_inline]] void AdmitRow(const double* phi, double y, F&& update) {
     const Eigen::Index p = P > 0 ? P : theta_.size();
     bool finite = std::isfinite(y);
     bool any = false;
@@ -80,11 +160,9 @@ class Rls final : public Estimator {
       any = any || phi[i] != 0.0;
     }
     if (!Admit(finite)) return;
-    ScalarUpdate<P>(phi, 1, y);
+    update();
     CountExcitation(any ? 1 : 0);
   }
-
- private:
   void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) override;
   // Rows that carry information (φ ≠ 0) count towards excitation.
   void CountExcitation(long informative_rows) {

@@ -117,6 +117,7 @@ struct Identifier::State {
       integral = dynamic_cast<IntegralLs*>(flow.get());
       if (rls != nullptr || integral != nullptr) {
         if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
+        if (paper != nullptr && !paper->one_row()) paper = nullptr;
         residual = dynamic_cast<ResidualDetector*>(detector.get());
         const int u = static_cast<int>(builder.flow_layout().unknown.size());
         row_block = rls != nullptr ? ChooseRowBlock<Rls>(*this, m.state_size(), u)
@@ -194,15 +195,14 @@ Identifier::~Identifier() = default;
 Identifier::Identifier(Identifier&&) noexcept = default;
 Identifier& Identifier::operator=(Identifier&&) noexcept = default;
 
-// γ = 0, after the α estimator's update: α̂, its version, Λ.
+// γ = 0, after the α estimator's update to θ (its estimate): α̂ and its version (the caller adds
+// ξ(t−δt) to Λ).
 template <int P>
-void Identifier::AfterFlowUpdate(State& s) {
-  const double* theta = s.flow->estimate().data();
+void Identifier::AfterFlowUpdate(State& s, const double* theta) {
   const int* unknown = s.builder.flow_layout().unknown.data();
   const int u = P > 0 ? P : static_cast<int>(s.builder.flow_layout().unknown.size());
   for (int i = 0; i < u; ++i) s.alpha_full[unknown[i]] = theta[i];
   ++s.version;
-  if (s.settings.sets) s.flow_set.Add(s.prev);
 }
 
 // γ = 1: the jump regression (at the located instant when asked and found), β̂, Γ.
@@ -260,7 +260,8 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given) {
   }
   if (!d.gamma) {
     s.flow->Update(s.phi, s.y);
-    AfterFlowUpdate<0>(s);
+    AfterFlowUpdate<0>(s, s.flow->estimate().data());
+    if (s.settings.sets) s.flow_set.Add(s.prev);
   } else {
     AfterJump(s, x, alpha_class);
   }
@@ -306,23 +307,35 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   }
   const Eigen::Index n = N > 0 ? N : s.prev.size();
   const Eigen::Index u = P > 0 ? P : s.phi.cols();
+  // RLS with two unknowns beside the paper detector: θ and P stay in local variables through the
+  // block (Rls::Load2, UpdateRowIn, Store2; nothing in the block reads them from the estimator).
+  constexpr bool kLocal = kCall == kPaperDirect && std::is_same_v<E, Rls> && P == 2;
+  [[maybe_unused]] detail::Rls2State local{};
+  if constexpr (kLocal) local = est->Load2();
   for (Eigen::Index k = 0; k < count; ++k) {
     const double* x = xs + k * n;
     ++s.samples;
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
     auto update = [&](const Decision& d) {
       if (!d.gamma) {
-        est->template UpdateRow<P>(phi + k * u, y[k]);
-        AfterFlowUpdate<P>(s);
+        if constexpr (kLocal) {
+          est->UpdateRowIn(local, phi + k * u, y[k]);
+          const double theta[2] = {local.t0, local.t1};
+          AfterFlowUpdate<P>(s, theta);
+        } else {
+          est->template UpdateRow<P>(phi + k * u, y[k]);
+          AfterFlowUpdate<P>(s, est->estimate().data());
+        }
+        if (s.settings.sets) s.flow_set.Add(s.prev);
       } else {
         AfterJump(s, ConstVecMap(x, n), alpha_class);
       }
     };
     Decision d;
     if constexpr (kCall == kPaperDirect) {
-      d = s.paper->ClassifyConstant<N>(s.prev.data(), x, n, s.dt, alpha_class.data(),
-                                       s.frozen ? -2 : s.version,
-                                       s.frozen ? s.frozen_updates : est->updates());
+      d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, s.dt, alpha_class.data(),
+                                             s.frozen ? -2 : s.version,
+                                             s.frozen ? s.frozen_updates : est->updates());
       update(d);
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
@@ -343,6 +356,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     for (Eigen::Index i = 0; i < n; ++i) s.prev[i] = x[i];
     if (decisions != nullptr) decisions[k] = d;
   }
+  if constexpr (kLocal) est->Store2(local);
 }
 
 template <Identifier::DetectorCall kCall, class E>

@@ -138,7 +138,7 @@ class Identifier {
   static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
                                const Vec& alpha_class);
   template <int P>
-  static void AfterFlowUpdate(State& s);
+  [[gnu::always_inline]] static inline void AfterFlowUpdate(State& s, const double* theta);
   static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);
   Decision Advance(ConstVecRef x, const bool* given);
   std::unique_ptr<State> s_;

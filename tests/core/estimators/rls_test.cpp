@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 
 #include "core/estimators/estimator.hpp"
+#include "core/estimators/rls.hpp"
 #include "sim/measurement.hpp"
 
 namespace hysid {
@@ -138,6 +139,41 @@ TEST_CASE("RLS stays finite on unexciting data with forgetting", "[rls]") {
   EstimatorSettings bad_forgetting;
   bad_forgetting.forgetting = 1.5;
   CHECK_THROWS_WITH(MakeEstimator(bad_forgetting, Vec::Zero(2)), Catch::Contains("forgetting"));
+}
+
+TEST_CASE("the two-parameter scalar update equals the general-p loop bit for bit", "[rls]") {
+  // detail::Rls2State (the identifier's per-sample path, and ScalarRlsUpdate<2>) against
+  // ScalarRlsUpdate<0>, the loop for any p, on the same rows: without and with forgetting (the
+  // division by λ taken while trace(P) is below max_trace, skipped above), and a row whose φᵀPφ + λ
+  // is not positive (nothing changes).
+  const Mat rows = RandomRows(400, 3, 11);
+  for (const double lambda : {1.0, 0.95}) {
+    INFO("lambda " << lambda);
+    const double max_trace = 2.0 * 100.0;
+    double theta[2] = {0.5, -1.0}, pp[4] = {100.0, 0.0, 0.0, 100.0}, g[2];
+    detail::Rls2State r{theta[0], theta[1], pp[0], pp[1], pp[3]};
+    long scaled = 0;
+    for (Eigen::Index k = 0; k < rows.rows(); ++k) {
+      const double phi[2] = {rows(k, 0), rows(k, 1)};
+      const double y = 0.3 * phi[0] - 2.0 * phi[1] + 0.1 * rows(k, 2);
+      const bool general = detail::ScalarRlsUpdate<0>(2, pp, theta, g, phi, 1, y, lambda, max_trace);
+      const bool two = r.Update(phi[0], phi[1], y, lambda, max_trace);
+      REQUIRE(general == two);
+      REQUIRE(r.t0 == theta[0]);
+      REQUIRE(r.t1 == theta[1]);
+      REQUIRE(r.p00 == pp[0]);
+      REQUIRE(r.p10 == pp[1]);
+      REQUIRE(pp[1] == pp[2]);
+      REQUIRE(r.p11 == pp[3]);
+      scaled += pp[0] + pp[3] < max_trace ? 1 : 0;
+    }
+    if (lambda != 1.0) CHECK(scaled > 0);
+    const double before[5] = {r.t0, r.t1, r.p00, r.p10, r.p11};
+    CHECK_FALSE(r.Update(1.0, 0.0, 1.0, -1e9, max_trace));  // φᵀPφ + λ < 0
+    CHECK(before[0] == r.t0);
+    CHECK(before[2] == r.p00);
+    CHECK(before[4] == r.p11);
+  }
 }
 
 }  // namespace
