@@ -467,11 +467,12 @@ RefineResult FitChainsWithRetries(const Model& model, const std::vector<RefineCh
 // The recursive start: α0, β0, each chain's detected labels and its first sample, all samples allowed.
 ChainsStart RecursiveStart(const std::vector<RefineChain>& chains, const Vec& alpha0, const Vec& beta0,
                            int n) {
+  auto first = [n](const RefineChain& c) { return c.y.cols() > 0 ? Vec(c.y.col(0)) : Vec::Zero(n).eval(); };
   ChainsStart s;
-  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : Vec(chains[0].y.col(0))};
+  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : first(chains[0])};
   for (const RefineChain& c : chains) {
     s.gamma.push_back(c.gamma);
-    s.x0.push_back(c.y.col(0));
+    s.x0.push_back(first(c));
     s.limit.push_back(c.y.cols());
     s.reason.emplace_back();
   }

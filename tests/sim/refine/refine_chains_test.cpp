@@ -159,6 +159,10 @@ TEST_CASE("without recoveries, a chain with a missed jump, or too short to fit: 
   CHECK(tiny.status == RefineStatus::kTooFewSamples);
   CHECK(tiny.chains_skipped == 2);
   CHECK_THAT(tiny.chain_span_reason[0], Catch::Contains("left out: 5 samples"));
+  const RefineResult empty =
+      RefineChains(a.model, {a.Chain(0, 0), a.Chain(10, 15)}, Start(a.model), a.model.beta());
+  CHECK(empty.status == RefineStatus::kTooFewSamples);
+  CHECK(empty.chain_samples_used == std::vector<long>{0, 0});
 }
 
 // Two runs of 10 s; the second one ends `tail` samples after its last jump.
