@@ -19,7 +19,7 @@ namespace {
 
 // What one fit of the chains starts from.
 struct ChainsStart {
-  HybridParameters start;                        // α, β (x0: the first fitted chain's, set by the fit)
+  HybridParameters start;  // α, β (x0: chain 1's start; the fit reports its first chain's)
   std::vector<std::vector<std::uint8_t>> gamma;  // per chain: its jump labels
   std::vector<Vec> x0;                           // per chain: its initial state's start
   std::vector<long> limit;                       // per chain: the samples the span retries leave
