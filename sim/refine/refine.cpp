@@ -1,5 +1,6 @@
 #include "sim/refine/refine.hpp"
 #include "sim/refine/solve.hpp"
+#include "sim/refine/span.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -181,27 +182,6 @@ bool AccumulatesWithinASample(const std::vector<JumpRecord>& jumps, double dt) {
   return i1 < i2 && i2 < i3 && i2 < dt;
 }
 
-// The first sample at which the model's jumps (in order) and the detected ones disagree: the
-// earlier of the model's jump j and detected jump j when they are more than `tolerance` samples
-// apart, or the first jump either has without a counterpart. −1 when they all agree.
-long FirstDisagreement(const std::vector<JumpRecord>& jumps, const std::vector<int>& segments, double dt,
-                       double tolerance) {
-  std::vector<long> detected;  // first sample of each later segment
-  for (std::size_t k = 1; k < segments.size(); ++k) {
-    if (segments[k] != segments[k - 1]) detected.push_back(static_cast<long>(k));
-  }
-  const std::size_t common = std::min(jumps.size(), detected.size());
-  for (std::size_t j = 0; j < common; ++j) {
-    const double t = jumps[j].t;
-    const double lo = static_cast<double>(detected[j] - 1) * dt, hi = static_cast<double>(detected[j]) * dt;
-    const double off = t < lo ? (lo - t) / dt : (t > hi ? (t - hi) / dt : 0.0);
-    if (off > tolerance) return std::min(detected[j] - 1, static_cast<long>(std::floor(t / dt)));
-  }
-  if (jumps.size() > common) return static_cast<long>(std::floor(jumps[common].t / dt));
-  if (detected.size() > common) return detected[common] - 1;
-  return -1;
-}
-
 // The model at p on its own over the span (plain mode, states only).
 SensitivityTrajectory SimulatePlain(const FitProblem& problem, const HybridParameters& p) {
   SensitivityOptions o = problem.options;
@@ -215,8 +195,8 @@ void CheckJumps(const FitProblem& problem, const RefineOptions& options, const H
   const SensitivityTrajectory plain = SimulatePlain(problem, fit);
   const SimStatus& st = plain.trajectory.status;
   r.model_jumps = static_cast<int>(plain.trajectory.jumps.size());
-  problem.disagreement = FirstDisagreement(plain.trajectory.jumps, problem.segments, problem.grid.dt,
-                                           options.jump_time_tolerance);
+  problem.disagreement = FirstDisagreement(plain.trajectory.jumps, problem.segments,
+                                           SampleClock{.dt = problem.grid.dt}, options.jump_time_tolerance);
   if (st.stop == SimStop::kZeno) {
     return Fail(r, RefineStatus::kZeno, fmt::format("the fitted model is Zeno: {}", st.message));
   }
@@ -304,8 +284,9 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
   if (!at_start.ok()) {
     // The start's jump times drift from the data (it is not fit yet): only its jump count is compared.
     const SensitivityTrajectory plain = SimulatePlain(problem, r.start);
-    problem.disagreement = FirstDisagreement(plain.trajectory.jumps, problem.segments, problem.grid.dt,
-                                             std::numeric_limits<double>::infinity());
+    problem.disagreement =
+        FirstDisagreement(plain.trajectory.jumps, problem.segments, SampleClock{.dt = problem.grid.dt},
+                          std::numeric_limits<double>::infinity());
     return Fail(r, RefineStatus::kStartFailed,
                 fmt::format("the start does not simulate on the detected segments: {}",
                             at_start.trajectory.status.message));
@@ -343,19 +324,6 @@ void RunRefinement(FitProblem& problem, const RefineOptions& options, const Vec&
   if (r.ok()) CheckResiduals(problem, options, s, mad_sigma, r);
 }
 
-// The fit's integration options and residual weights 1/σ_i (σ given, else the MAD estimate).
-void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
-                  Vec* weight) {
-  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
-  *sens = options.sensitivity;
-  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
-  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
-                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
-                                      options.sensitivity.sim.rtol);
-  sens->sim.rtol = sens->sim.atol = tolerance;
-  *weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, sens->sim)).cwiseInverse();
-}
-
 // Returns the first sample at which the model's jumps and the detected ones disagree (−1: none).
 long FitSamples(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
                 const RefineOptions& options, RefineResult& r) {
@@ -391,9 +359,8 @@ long FitPrefix(const Model& model, const Mat& y, double dt, const std::vector<st
 void FitWithRetries(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
                     long used, int p, const RefineOptions& options, RefineResult& r) {
   long cut = FitPrefix(model, y, dt, gamma, used, options, r);
-  const long margin = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 2;
-  for (int retry = 0; retry < options.max_span_retries && !r.ok(); ++retry) {
-    if (r.status != RefineStatus::kJumpCountMismatch && r.status != RefineStatus::kStartFailed) break;
+  const long margin = SpanMargin(options);
+  for (int retry = 0; retry < options.max_span_retries && SpanRetryable(r.status); ++retry) {
     const long shorter = cut - margin;
     if (cut < 0 || shorter >= used || shorter < p + 2) break;
     const RefineResult failed = r;
@@ -402,13 +369,10 @@ void FitWithRetries(const Model& model, const Mat& y, double dt, const std::vect
     r.refined = r.start;
     r.model_jumps = -1;
     r.iterations = 0;
-    r.span_reason = fmt::format(
-        "the fit of the first {} samples ended in {}: the model's jumps and the "
-        "detected ones disagree from sample {}",
-        used, ToString(failed.status), cut);
+    r.span_reason = SpanRetryReason(used, failed.status, cut);
     used = shorter;
     cut = FitPrefix(model, y, dt, gamma, used, options, r);
-    if (!r.ok() && r.status != RefineStatus::kJumpCountMismatch && r.status != RefineStatus::kStartFailed) {
+    if (!r.ok() && !SpanRetryable(r.status)) {
       r = failed;  // the shorter span fails for another reason: the first failure is reported
       break;
     }
@@ -420,7 +384,7 @@ bool FitSpan(const std::vector<std::uint8_t>& gamma, int p, const RefineOptions&
              long* used) {
   *used = FitLength(gamma, options.min_jump_interval);
   if (*used < static_cast<long>(gamma.size())) {
-    r.span_reason = fmt::format("later detected jumps are closer than {} samples", options.min_jump_interval);
+    r.span_reason = CloseJumpsReason(options);
   }
   if (*used >= p + 2) return true;
   r.samples_used = *used;
@@ -452,15 +416,7 @@ void FitFromRepairedStart(const Model& model, const Mat& y, double dt, const std
   if (FitSpan(repair.gamma, p, options, second, &used)) {
     FitWithRetries(model, y, dt, repair.gamma, used, p, options, second);
   }
-  if (second.ok() && (!r.ok() || second.samples_used > r.samples_used)) {
-    second.start = r.start;  // the recursive estimate, kept when the result is not ok
-    second.start_repair = repair.Summary();
-    r = std::move(second);
-    return;
-  }
-  if (r.ok()) return;
-  r.reason += fmt::format("; from a repaired start ({}): {}: {}", repair.Summary(), ToString(second.status),
-                          second.reason);
+  AdoptRepaired(r, std::move(second), repair.Summary());
 }
 
 }  // namespace
@@ -530,6 +486,18 @@ ceres::Solver::Summary SolveLeastSquares(ceres::Problem& problem, const RefineOp
 
 Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
   return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
+}
+
+void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
+                  Vec* weight) {
+  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
+  *sens = options.sensitivity;
+  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
+  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
+                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
+                                      options.sensitivity.sim.rtol);
+  sens->sim.rtol = sens->sim.atol = tolerance;
+  *weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, sens->sim)).cwiseInverse();
 }
 
 void Fail(RefineResult& r, RefineStatus status, std::string reason) {

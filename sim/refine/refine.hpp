@@ -112,9 +112,12 @@ struct RefineResult {
   int model_jumps = -1;      // of the fitted model over the horizon (−1: not simulated)
   // RefineChains: the initial state fitted for each chain (start: its first sample; empty for a
   // chain left out), how many chains were fit and how many left out (too short, or their first
-  // sample outside C ∪ D).
+  // sample outside C ∪ D), and per chain the samples fit (0: left out) and why the others were left
+  // out ("" when all were fit; span_reason joins them, "chain c: …").
   std::vector<Vec> chain_x0;
   long chains_used = 0, chains_skipped = 0;
+  std::vector<long> chain_samples_used;
+  std::vector<std::string> chain_span_reason;
 };
 
 // y: n × K samples at t_k = k·dt; alpha0, beta0: full vectors (the recursive estimate); gamma: one
@@ -142,9 +145,14 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
 // Ceres parameter block, start: the chain's first sample). Each chain is simulated on its own times
 // from its own start; nothing is integrated across a gap. Per chain the span rule of Refine
 // (min_jump_interval) applies; chains with fewer than 2n + 2 samples are left out. Checks as Refine,
-// per chain (start, Zeno, jump count and times) and pooled (σ, RMS, lag-1 within chains); no span
-// retries. names, covariance and standard_errors cover the shared unknowns only (their block of the
-// joint F⁻¹), `unknowns` has x0 = false; estimate.x0 is the first fitted chain's, chain_x0 all.
+// per chain (start, Zeno, jump count and times) and pooled (σ, RMS, lag-1 within chains). Recoveries
+// as Refine's: a jump-count mismatch or start failure of one chain cuts that chain's span before its
+// first disagreement and fits again (max_span_retries per chain; chain_span_reason says why); a fit
+// still not ok, or ok only on cut spans, is tried from a repaired start (each chain's labels and
+// initial state from RepairStart on that chain, α̂ kept, β from all chains' jump regressions pooled),
+// adopted when it is ok (start_repair). names, covariance and standard_errors cover the shared
+// unknowns only (their block of the joint F⁻¹), `unknowns` has x0 = false; estimate.x0 is the first
+// fitted chain's, chain_x0 all.
 RefineResult RefineChains(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                           const Vec& beta0, const RefineOptions& options = {});
 

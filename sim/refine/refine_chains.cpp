@@ -7,13 +7,31 @@
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/refine.hpp"
 #include "sim/refine/solve.hpp"
+#include "sim/refine/span.hpp"
 
 namespace hysid {
 namespace {
+
+// What one fit of the chains starts from.
+struct ChainsStart {
+  HybridParameters start;  // α, β (x0: chain 1's start; the fit reports its first chain's)
+  std::vector<std::vector<std::uint8_t>> gamma;  // per chain: its jump labels
+  std::vector<Vec> x0;                           // per chain: its initial state's start
+  std::vector<long> limit;                       // per chain: the samples the span retries leave
+  std::vector<std::string> reason;               // per chain: why the retries cut it ("" when not)
+};
+
+// The chain whose failure the span retries may mend, and its first sample at which the model's jumps
+// and the detected ones disagree (−1: none).
+struct ChainFailure {
+  long chain = -1;  // in the caller's list
+  long disagreement = -1;
+};
 
 // One chain as fit: the span used, its times from 0, its detected segments.
 struct ChainFit {
@@ -32,12 +50,17 @@ struct ChainsProblem {
   Vec weight;  // 1/σ_i
   SensitivityOptions options;
   int shared = 0;  // |α_u| + |β_u|
+  ChainFailure failure;
 
-  SensitivityTrajectory Simulate(const ChainFit& c, const double* theta, const double* x0, bool sens) const {
+  HybridParameters At(const double* theta, const double* x0) const {
     Vec full(shared + model->state_size());
     full.head(shared) = Eigen::Map<const Vec>(theta, shared);
     full.tail(model->state_size()) = Eigen::Map<const Vec>(x0, model->state_size());
-    const HybridParameters p = start.WithTheta(unknowns, full);
+    return start.WithTheta(unknowns, full);
+  }
+
+  SensitivityTrajectory Simulate(const ChainFit& c, const double* theta, const double* x0, bool sens) const {
+    const HybridParameters p = At(theta, x0);
     if (!Admissible(*model, p)) return LeftDomain();
     SensitivityOptions o = options;
     o.sensitivities = sens;
@@ -100,46 +123,68 @@ void CheckChainInput(const Model& model, const RefineChain& c, std::size_t index
   }
 }
 
-// The chains as fit: span rule, too short or outside C ∪ D left out.
-std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<RefineChain>& chains,
-                                    const RefineOptions& options, RefineResult& r) {
+// Why chain `in` is left out ("" when it is fit), its span `used`.
+std::string LeftOut(const Model& model, const RefineChain& in, long used) {
   const int n = model.state_size();
+  if (used < 2 * n + 2) return fmt::format("left out: {} samples to fit, fewer than {}", used, 2 * n + 2);
+  if (!in.y.leftCols(used).allFinite()) return "left out: samples not finite";
+  if (!model.InFlowSet(in.y.col(0)) && !model.InJumpSet(in.y.col(0))) {
+    return "left out: the first sample lies outside C and D";
+  }
+  return "";
+}
+
+// The chains as fit from s: span rule and retry limits, too short or outside C ∪ D left out; each
+// chain's samples and span reason in r.
+std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<RefineChain>& chains,
+                                    const ChainsStart& s, const RefineOptions& options, RefineResult& r) {
   std::vector<ChainFit> fits;
   r.chain_x0.assign(chains.size(), Vec());
+  r.chain_samples_used.assign(chains.size(), 0);
+  r.chain_span_reason.assign(chains.size(), "");
   for (std::size_t c = 0; c < chains.size(); ++c) {
-    CheckChainInput(model, chains[c], c);
     const RefineChain& in = chains[c];
-    const long used = FitLength(in.gamma, options.min_jump_interval);
-    if (used < 2 * n + 2 || !in.y.leftCols(used).allFinite() ||
-        (!model.InFlowSet(in.y.col(0)) && !model.InJumpSet(in.y.col(0)))) {
+    const long whole = FitLength(s.gamma[c], options.min_jump_interval), used = std::min(whole, s.limit[c]);
+    r.chain_span_reason[c] =
+        used < whole ? s.reason[c] : (whole < in.y.cols() ? CloseJumpsReason(options) : "");
+    if (const std::string out = LeftOut(model, in, used); !out.empty()) {
+      r.chain_span_reason[c] = out;
       ++r.chains_skipped;
       continue;
     }
     ChainFit f;
     f.index = static_cast<long>(c);
     f.y = in.y.leftCols(used);
-    f.x0 = in.y.col(0);
+    f.x0 = s.x0[c];
     int j = 0;
     for (long k = 0; k < used; ++k) {
       const auto u = static_cast<std::size_t>(k);
       f.times.push_back(in.t[u] - in.t[0]);
-      j += (k > 0 && in.gamma[u] != 0) ? 1 : 0;
+      j += (k > 0 && s.gamma[c][u] != 0) ? 1 : 0;
       f.segments.push_back(j);
     }
     r.detected_jumps += j;
     r.samples_used += used;
+    r.chain_samples_used[c] = used;
     fits.push_back(std::move(f));
   }
   r.chains_used = static_cast<long>(fits.size());
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    if (r.chain_span_reason[c].empty()) continue;
+    r.span_reason +=
+        fmt::format("{}chain {}: {}", r.span_reason.empty() ? "" : "; ", c + 1, r.chain_span_reason[c]);
+  }
   return fits;
 }
 
-Mat Concatenated(const std::vector<ChainFit>& fits, int n) {
+// The samples of the chains side by side (Part: ChainFit or RefineChain).
+template <class Part>
+Mat Concatenated(const std::vector<Part>& fits, int n) {
   Eigen::Index k = 0;
-  for (const ChainFit& f : fits) k += f.y.cols();
+  for (const Part& f : fits) k += f.y.cols();
   Mat all(n, k);
   k = 0;
-  for (const ChainFit& f : fits) {
+  for (const Part& f : fits) {
     all.middleCols(k, f.y.cols()) = f.y;
     k += f.y.cols();
   }
@@ -286,6 +331,22 @@ bool SolveAndSimulate(const ChainsProblem& problem, const RefineOptions& options
                      sims, r);
 }
 
+// The failure of fit c (chain f's model at p on its own over its span, plain mode, states only): the
+// first sample at which its jumps and the chain's detected ones disagree by more than `tolerance`
+// samples (Refine's rule), for the span retries.
+void NoteFailure(ChainsProblem& problem, std::size_t c, const HybridParameters& p, double tolerance) {
+  const ChainFit& f = problem.fits[c];
+  problem.failure = ChainFailure{.chain = f.index};
+  if (!Admissible(*problem.model, p)) return;
+  SensitivityOptions o = problem.options;
+  o.sensitivities = false;
+  const double t_end = f.times.back();
+  const SampleGrid grid{t_end, t_end / static_cast<double>(f.times.size() - 1)};
+  const SensitivityTrajectory plain = SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o);
+  problem.failure.disagreement =
+      FirstDisagreement(plain.trajectory.jumps, f.segments, SampleClock{.times = &f.times}, tolerance);
+}
+
 // Solve, polish for noise-free data, then the checks at the fit.
 void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& options, const Vec& mad_sigma,
                RefineResult& r) {
@@ -295,7 +356,10 @@ void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& 
   std::vector<SensitivityTrajectory> sims;
   if (!SimulateAll(problem, theta, x0, false, RefineStatus::kStartFailed,
                    "the recursive estimate does not simulate on the detected segments of", &sims, r)) {
-    return;
+    // The start's jump times drift from the data (it is not fit yet): only its jump count is compared.
+    const std::size_t c = sims.size() - 1;
+    return NoteFailure(problem, c, problem.At(theta.data(), x0[c].data()),
+                       std::numeric_limits<double>::infinity());
   }
   r.iterations = 0;
   if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, &sims, r, &r.initial_cost)) return;
@@ -314,13 +378,15 @@ void RunChains(const Model& model, ChainsProblem& problem, const RefineOptions& 
   for (std::size_t c = 0; c < sims.size(); ++c) {
     r.chain_x0[static_cast<std::size_t>(problem.fits[c].index)] = x0[c];
     r.model_jumps += static_cast<int>(sims[c].trajectory.jumps.size()) + sims[c].extra_jumps;
-    if (r.ok()) CheckChainJumps(problem.fits[c], sims[c], options, r);
+    if (!r.ok()) continue;
+    CheckChainJumps(problem.fits[c], sims[c], options, r);
+    if (!r.ok()) NoteFailure(problem, c, problem.At(theta.data(), x0[c].data()), options.jump_time_tolerance);
   }
   if (r.ok()) CheckPooled(model, problem, sims, mad_sigma, options, r);
 }
 
-void CheckChainsInputs(const Model& model, const Vec& alpha0, const Vec& beta0,
-                       const RefineOptions& options) {
+void CheckChainsInputs(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                       const Vec& beta0, const RefineOptions& options) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument(error);
   if (alpha0.size() != model.alpha_size() || beta0.size() != model.beta_size()) {
@@ -330,18 +396,159 @@ void CheckChainsInputs(const Model& model, const Vec& alpha0, const Vec& beta0,
     throw std::invalid_argument(fmt::format("RefineOptions::sigma has {} entries; the model has {} states",
                                             options.sigma.size(), model.state_size()));
   }
+  for (std::size_t c = 0; c < chains.size(); ++c) CheckChainInput(model, chains[c], c);
 }
 
-// The weights and the integration tolerance (Refine's rule) from the fitted samples.
-void SetWeights(const RefineOptions& options, const Vec& mad_sigma, const Mat& y, ChainsProblem& problem) {
-  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
-  problem.options = options.sensitivity;
-  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
-  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
-                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
-                                      options.sensitivity.sim.rtol);
-  problem.options.sim.rtol = problem.options.sim.atol = tolerance;
-  problem.weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, problem.options.sim)).cwiseInverse();
+// One fit of the chains from s: the chains as fit, the start, the solve and the checks. A failure the
+// span retries may mend names its chain in *failure.
+RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chains, const ChainsStart& s,
+                       const RefineOptions& options, ChainFailure* failure) {
+  const int n = model.state_size();
+  RefineResult r;
+  r.unknowns = Unknowns::Of(model, /*with_x0=*/false);
+  r.names = r.unknowns.Names(model);
+  r.start = r.refined = r.estimate = s.start;
+  ChainsProblem problem;
+  problem.model = &model;
+  problem.unknowns = Unknowns::Of(model, /*with_x0=*/true);
+  problem.shared = r.unknowns.size(n);
+  problem.fits = PrepareChains(model, chains, s, options, r);
+  if (!problem.fits.empty()) r.start.x0 = r.refined.x0 = r.estimate.x0 = problem.fits.front().x0;
+  const double p = problem.shared + static_cast<double>(n) * static_cast<double>(problem.fits.size());
+  if (problem.fits.empty() || problem.shared == 0 || static_cast<double>(r.samples_used) < p / n + 2) {
+    Fail(
+        r, RefineStatus::kTooFewSamples,
+        fmt::format("{} samples in {} chains ({} left out: fewer than {} samples or a first sample outside C "
+                    "and D) for {} unknowns",
+                    r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
+    return r;
+  }
+  if (!r.start.alpha.allFinite() || !r.start.beta.allFinite()) {
+    Fail(r, RefineStatus::kStartFailed, "the recursive estimate is not finite");
+    return r;
+  }
+  const Mat y = Concatenated(problem.fits, n);
+  const Vec mad_sigma = EstimateNoiseSigma(y);
+  problem.start = r.start;
+  FitWeighting(y, options, mad_sigma, &problem.options, &problem.weight);
+  RunChains(model, problem, options, mad_sigma, r);
+  *failure = problem.failure;
+  return r;
+}
+
+// The fit from s; while it fails because a chain's model and its detected jumps disagree (a jump the
+// detector missed, or one it added), that chain's span is cut to end SpanMargin samples before the
+// first disagreement and the chains are fit again, at most max_span_retries times per chain. A retry
+// that fails for another reason leaves the failure before it. *first_used: the samples of the first fit.
+RefineResult FitChainsWithRetries(const Model& model, const std::vector<RefineChain>& chains, ChainsStart s,
+                                  const RefineOptions& options, long* first_used) {
+  ChainFailure failure;
+  RefineResult r = FitChains(model, chains, s, options, &failure);
+  *first_used = r.samples_used;
+  std::vector<int> retries(chains.size(), 0);
+  const long margin = SpanMargin(options), shortest = 2L * model.state_size() + 2;
+  while (SpanRetryable(r.status) && failure.chain >= 0) {
+    const auto c = static_cast<std::size_t>(failure.chain);
+    const long used = r.chain_samples_used[c], shorter = failure.disagreement - margin;
+    if (retries[c] == options.max_span_retries || failure.disagreement < 0 || shorter >= used ||
+        shorter < shortest) {
+      break;
+    }
+    ++retries[c];
+    s.limit[c] = shorter;
+    s.reason[c] = SpanRetryReason(used, r.status, failure.disagreement);
+    RefineResult next = FitChains(model, chains, s, options, &failure);
+    if (!next.ok() && !SpanRetryable(next.status)) break;  // the failure before this retry is reported
+    r = std::move(next);
+  }
+  return r;
+}
+
+// The recursive start: α0, β0, each chain's detected labels and its first sample, all samples allowed.
+ChainsStart RecursiveStart(const std::vector<RefineChain>& chains, const Vec& alpha0, const Vec& beta0,
+                           int n) {
+  auto first = [n](const RefineChain& c) { return c.y.cols() > 0 ? Vec(c.y.col(0)) : Vec::Zero(n).eval(); };
+  ChainsStart s;
+  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : first(chains[0])};
+  for (const RefineChain& c : chains) {
+    s.gamma.push_back(c.gamma);
+    s.x0.push_back(first(c));
+    s.limit.push_back(c.y.cols());
+    s.reason.emplace_back();
+  }
+  return s;
+}
+
+// The rows of one chain's β regression appended to the stacked ones.
+void AppendRows(const StartRepair& repair, Mat& rows, Vec& rhs) {
+  const Eigen::Index m = rows.rows(), add = repair.jump_rows.rows();
+  rows.conservativeResize(m + add, repair.jump_rows.cols());
+  rhs.conservativeResize(m + add);
+  rows.bottomRows(add) = repair.jump_rows;
+  rhs.tail(add) = repair.jump_rhs;
+}
+
+// The repaired start of the chains (sim/refine/start.hpp): RepairStart on each chain that can be fit
+// (all its samples, read as a grid at the chain's mean step: the repair is only a start, the fit reads
+// each sample at its own time) gives that chain's labels and initial state; α stays the recursive α̂,
+// β's unknown entries solve all chains' jump regressions stacked. false when the data are not finite
+// or no chain is repaired; *summary: the changes summed over the chains, and the chains changed.
+bool RepairChains(const Model& model, const std::vector<RefineChain>& chains, const ChainsStart& recursive,
+                  const RefineOptions& options, ChainsStart* out, std::string* summary) {
+  for (const RefineChain& c : chains) {
+    if (!c.y.allFinite()) return false;
+  }
+  const Mat y = Concatenated(chains, model.state_size());
+  SensitivityOptions sens;
+  Vec weight;
+  FitWeighting(y, options, EstimateNoiseSigma(y), &sens, &weight);
+  const Unknowns unknowns = Unknowns::Of(model, /*with_x0=*/true);
+  *out = recursive;
+  StartRepair total;
+  Mat rows(0, static_cast<Eigen::Index>(unknowns.beta.size()));
+  Vec rhs(0);
+  std::vector<std::size_t> changed;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    const RefineChain& in = chains[c];
+    const long k_count = in.y.cols();
+    if (!LeftOut(model, in, k_count).empty()) continue;
+    const double dt = (in.t.back() - in.t.front()) / static_cast<double>(k_count - 1);
+    const HybridParameters from{recursive.start.alpha, recursive.start.beta, in.y.col(0)};
+    const StartRepair repair =
+        RepairStart(model, in.y, dt, in.gamma, from, unknowns, weight, sens, options.start_repair);
+    if (!repair.ok) continue;
+    out->gamma[c] = repair.gamma;
+    out->x0[c] = repair.start.x0;
+    AppendRows(repair, rows, rhs);
+    total.dropped += repair.dropped;
+    total.moved += repair.moved;
+    total.added += repair.added;
+    if (repair.dropped + repair.moved + repair.added > 0) changed.push_back(c + 1);
+    total.ok = true;
+  }
+  if (!total.ok) return false;
+  out->start.beta = SolveJumpRows(unknowns, rows, rhs, recursive.start.beta);
+  *summary = total.Summary();
+  if (!changed.empty()) {
+    *summary += fmt::format("; detections changed in chain{} {}", changed.size() > 1 ? "s" : "",
+                            fmt::join(changed, ", "));
+  }
+  return true;
+}
+
+// After a failed fit from the recursive estimate, or one ok only on spans cut short by the retries:
+// the fit (with its own retries) from the repaired start, adopted as Refine adopts its own.
+void FitChainsFromRepairedStart(const Model& model, const std::vector<RefineChain>& chains,
+                                const ChainsStart& recursive, const RefineOptions& options, RefineResult& r) {
+  if (r.status == RefineStatus::kTooFewSamples || !recursive.start.alpha.allFinite() ||
+      !recursive.start.beta.allFinite()) {
+    return;
+  }
+  ChainsStart repaired;
+  std::string summary;
+  if (!RepairChains(model, chains, recursive, options, &repaired, &summary)) return;
+  long first_used = 0;
+  AdoptRepaired(r, FitChainsWithRetries(model, chains, repaired, options, &first_used), summary);
 }
 
 }  // namespace
@@ -371,37 +578,14 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
 
 RefineResult RefineChains(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                           const Vec& beta0, const RefineOptions& options) {
-  CheckChainsInputs(model, alpha0, beta0, options);
-  const int n = model.state_size();
-  RefineResult r;
-  r.unknowns = Unknowns::Of(model, /*with_x0=*/false);
-  r.names = r.unknowns.Names(model);
-  r.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : Vec(chains[0].y.col(0))};
-  r.refined = r.estimate = r.start;
-  ChainsProblem problem;
-  problem.model = &model;
-  problem.unknowns = Unknowns::Of(model, /*with_x0=*/true);
-  problem.shared = r.unknowns.size(n);
-  problem.fits = PrepareChains(model, chains, options, r);
-  if (!problem.fits.empty()) r.start.x0 = r.refined.x0 = r.estimate.x0 = problem.fits.front().x0;
-  const double p = problem.shared + static_cast<double>(n) * static_cast<double>(problem.fits.size());
-  if (problem.fits.empty() || problem.shared == 0 || static_cast<double>(r.samples_used) < p / n + 2) {
-    Fail(
-        r, RefineStatus::kTooFewSamples,
-        fmt::format("{} samples in {} chains ({} left out: fewer than {} samples or a first sample outside C "
-                    "and D) for {} unknowns",
-                    r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
-    return r;
+  CheckChainsInputs(model, chains, alpha0, beta0, options);
+  const ChainsStart recursive = RecursiveStart(chains, alpha0, beta0, model.state_size());
+  long first_used = 0;
+  RefineResult r = FitChainsWithRetries(model, chains, recursive, options, &first_used);
+  // Not ok, or ok only on spans cut short by the retries: the repaired start may fit more.
+  if ((!r.ok() || r.samples_used < first_used) && options.repair_start) {
+    FitChainsFromRepairedStart(model, chains, recursive, options, r);
   }
-  if (!alpha0.allFinite() || !beta0.allFinite()) {
-    Fail(r, RefineStatus::kStartFailed, "the recursive estimate is not finite");
-    return r;
-  }
-  const Mat y = Concatenated(problem.fits, n);
-  const Vec mad_sigma = EstimateNoiseSigma(y);
-  problem.start = r.start;
-  SetWeights(options, mad_sigma, y, problem);
-  RunChains(model, problem, options, mad_sigma, r);
   Conclude(r);
   return r;
 }

@@ -19,6 +19,11 @@ ceres::Solver::Summary SolveLeastSquares(ceres::Problem& problem, const RefineOp
 // The integration accuracy per state component: residuals below it are numerical, not noise.
 Vec NumericalFloor(const Mat& y, const SimOptions& sim);
 
+// The fit's integration options (RefineOptions::noise_tolerance's rule) and residual weights 1/σ_i
+// (σ given, else the MAD estimate) for the samples y.
+void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
+                  Vec* weight);
+
 // The samples before the first detected jump that follows the previous one by fewer than
 // `min_interval` samples (jumps that close are not resolved reliably: the part before them is fit).
 long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval);

@@ -246,15 +246,19 @@ Cleaned Clean(const LocalFlows& flows, const std::vector<long>& candidates,
   return c;
 }
 
-// β's unknown entries by least squares on the identified jump rows: ψ(ξ⁻)β = ξ⁺.
-Vec JumpLeastSquares(const Model& model, const Unknowns& u, const Cleaned& c, const Vec& beta) {
+// The rows of ψ(ξ⁻)β = ξ⁺ on the identified jump rows, for β's unknown entries (the known entries
+// moved to the right side).
+void JumpRows(const Model& model, const Unknowns& u, const Cleaned& c, const Vec& beta, StartRepair* out) {
   const std::vector<int>& rows = model.spec().jump_rows;
   const auto tested = std::count_if(c.pre.begin(), c.pre.end(), [](const Vec& v) { return v.size() > 0; });
   const auto m = static_cast<Eigen::Index>(tested) * static_cast<Eigen::Index>(rows.size());
   const auto q = static_cast<Eigen::Index>(u.beta.size());
-  if (q == 0 || m < q) return beta;
-  Mat a(m, q), psi(model.state_size(), model.beta_size());
-  Vec b(m), known = beta;
+  Mat& a = out->jump_rows;
+  Vec& b = out->jump_rhs;
+  a.resize(m, q);
+  b.resize(m);
+  Mat psi(model.state_size(), model.beta_size());
+  Vec known = beta;
   for (int i : u.beta) known[i] = 0.0;
   Eigen::Index row = 0;
   for (std::size_t j = 0; j < c.pre.size(); ++j) {
@@ -265,13 +269,6 @@ Vec JumpLeastSquares(const Model& model, const Unknowns& u, const Cleaned& c, co
       b[row++] = c.post[j][r] - psi.row(r).dot(known);
     }
   }
-  const Eigen::ColPivHouseholderQR<Mat> qr(a);
-  if (qr.rank() < q) return beta;
-  const Vec solved = qr.solve(b);
-  if (!solved.allFinite()) return beta;
-  Vec out = beta;
-  for (Eigen::Index col = 0; col < q; ++col) out[u.beta[static_cast<std::size_t>(col)]] = solved[col];
-  return out;
 }
 
 // The first jump the model makes inside each segment between `jumps`, simulated from the fitted flow
@@ -330,7 +327,8 @@ StartRepair RepairStart(const Model& model, const Mat& y, double dt, const std::
   Cleaned c = Clean(flows, candidates, predicted, repair);
   out.start = recursive;
   for (int round = 0;; ++round) {
-    out.start.beta = JumpLeastSquares(model, unknowns, c, recursive.beta);
+    JumpRows(model, unknowns, c, recursive.beta, &out);
+    out.start.beta = SolveJumpRows(unknowns, out.jump_rows, out.jump_rhs, recursive.beta);
     const LocalFit first = flows.Fit(0, std::min(c.jumps.empty() ? k_count : c.jumps.front(), repair.window));
     const Vec x0 = flows.StateAt(first, 0);
     out.start.x0 = x0.size() > 0 && (model.InFlowSet(x0) || model.InJumpSet(x0)) ? x0 : recursive.x0;
@@ -348,6 +346,18 @@ StartRepair RepairStart(const Model& model, const Mat& y, double dt, const std::
   out.gamma.assign(gamma.size(), 0);
   for (long k : c.jumps) out.gamma[static_cast<std::size_t>(k)] = 1;
   out.ok = true;
+  return out;
+}
+
+Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, const Vec& beta) {
+  const auto q = static_cast<Eigen::Index>(unknowns.beta.size());
+  if (q == 0 || rows.rows() < q) return beta;
+  const Eigen::ColPivHouseholderQR<Mat> qr(rows);
+  if (qr.rank() < q) return beta;
+  const Vec solved = qr.solve(rhs);
+  if (!solved.allFinite()) return beta;
+  Vec out = beta;
+  for (Eigen::Index col = 0; col < q; ++col) out[unknowns.beta[static_cast<std::size_t>(col)]] = solved[col];
   return out;
 }
 

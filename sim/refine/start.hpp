@@ -44,6 +44,10 @@ struct StartRepair {
   std::vector<std::uint8_t> gamma;  // the repaired jump labels
   HybridParameters start;           // α̂, the re-estimated β and ξ0
   int dropped = 0, moved = 0, added = 0;
+  // The rows of the β regression ψ(ξ⁻)β = ξ⁺ behind start.beta (columns: β's unknown entries; right
+  // side: less the known entries), for pooling several chains of one system (SolveJumpRows).
+  Mat jump_rows;
+  Vec jump_rhs;
   std::string Summary() const;  // "dropped 1 detection, moved 0, added 0; β, ξ0 re-estimated"
 };
 
@@ -51,5 +55,9 @@ struct StartRepair {
 StartRepair RepairStart(const Model& model, const Mat& y, double dt, const std::vector<std::uint8_t>& gamma,
                         const HybridParameters& recursive, const Unknowns& unknowns, const Vec& weight,
                         const SensitivityOptions& options, const StartRepairOptions& repair = {});
+
+// β with its unknown entries the least-squares solution of the regression rows (StartRepair's, or
+// several stacked); `beta` unchanged when the rows are fewer than the unknowns or rank-deficient.
+Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, const Vec& beta);
 
 }  // namespace hysid

@@ -1,9 +1,11 @@
 // The refinement of several chains (RefineChains): one chain agrees with Refine, splitting a run into
-// chains costs information but keeps the estimate honest, samples at their own times, and a chain
-// whose detected jumps are wrong gives a status that names it.
+// chains costs information but keeps the estimate honest, samples at their own times, a chain whose
+// detected jumps are wrong gives a status that names it, and the recoveries (the span of that chain
+// cut before the disagreement, the repaired start) mend what they can.
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <string>
 
 #include "core/model/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
@@ -35,6 +37,23 @@ struct Run {
 
 Vec Start(const Model& m) {  // a recursive-quality start: α, β off by about 1e-3
   return (Vec(3) << m.alpha()[0], m.alpha()[1] * 1.001, m.alpha()[2] * 0.999).finished();
+}
+
+// Neither span retries nor the repaired start: the fit from the recursive estimate and its checks.
+RefineOptions NoRecovery() {
+  RefineOptions o;
+  o.max_span_retries = 0;
+  o.repair_start = false;
+  return o;
+}
+
+// Each shared unknown within k of its standard errors of the truth.
+void RequireNearTruth(const Model& model, const RefineResult& r, double k) {
+  const Vec e = r.estimate.Theta(r.unknowns) - HybridParameters::Of(model, Vec::Zero(2)).Theta(r.unknowns);
+  for (Eigen::Index i = 0; i < e.size(); ++i) {
+    INFO(r.names[static_cast<std::size_t>(i)] << ": error " << e[i] << ", se " << r.standard_errors[i]);
+    CHECK(std::abs(e[i]) < k * r.standard_errors[i]);
+  }
 }
 
 TEST_CASE("one chain on a uniform grid: RefineChains gives Refine's estimate and standard errors",
@@ -113,15 +132,15 @@ TEST_CASE("samples at their own times: the model is read at each sample's time",
   CHECK(r.normalized_rms == Approx(1.0).margin(0.05));
 }
 
-TEST_CASE("a chain with a missed jump, or too short to fit: a status, never a silent ok",
+TEST_CASE("without recoveries, a chain with a missed jump, or too short to fit: a status, never a silent ok",
           "[refine][chains]") {
   const Run a((Vec(2) << 20.0, 0.0).finished(), 0.05, 5), b((Vec(2) << 15.0, 5.0).finished(), 0.05, 6);
   RefineChain wrong = b.Chain(0, b.truth.size());
   std::size_t k = 1;
   while (wrong.gamma[k] == 0) ++k;
   wrong.gamma[k] = 0;  // the detector "missed" the first jump of chain 2
-  const RefineResult r =
-      RefineChains(a.model, {a.Chain(0, a.truth.size()), wrong}, Start(a.model), a.model.beta());
+  const RefineResult r = RefineChains(a.model, {a.Chain(0, a.truth.size()), wrong}, Start(a.model),
+                                      a.model.beta(), NoRecovery());
   INFO(r.reason);
   CHECK_FALSE(r.ok());  // measured: not-converged (the matched flow continues past the missed jump)
   CHECK_FALSE(r.reason.empty());
@@ -130,8 +149,8 @@ TEST_CASE("a chain with a missed jump, or too short to fit: a status, never a si
   // A spurious detected jump near the end of chain 2: the model never reaches that many segments.
   RefineChain extra = b.Chain(0, b.truth.size());
   extra.gamma[extra.gamma.size() - 20] = 1;
-  const RefineResult s =
-      RefineChains(a.model, {a.Chain(0, a.truth.size()), extra}, Start(a.model), a.model.beta());
+  const RefineResult s = RefineChains(a.model, {a.Chain(0, a.truth.size()), extra}, Start(a.model),
+                                      a.model.beta(), NoRecovery());
   CHECK(s.status == RefineStatus::kStartFailed);
   CHECK_THAT(s.reason, Catch::Contains("chain 2"));
   // Chains of fewer than 2n + 2 samples are left out and counted; none left: too few samples.
@@ -139,6 +158,100 @@ TEST_CASE("a chain with a missed jump, or too short to fit: a status, never a si
       RefineChains(a.model, {a.Chain(0, 5), a.Chain(10, 15)}, Start(a.model), a.model.beta());
   CHECK(tiny.status == RefineStatus::kTooFewSamples);
   CHECK(tiny.chains_skipped == 2);
+  CHECK_THAT(tiny.chain_span_reason[0], Catch::Contains("left out: 5 samples"));
+  const RefineResult empty =
+      RefineChains(a.model, {a.Chain(0, 0), a.Chain(10, 15)}, Start(a.model), a.model.beta());
+  CHECK(empty.status == RefineStatus::kTooFewSamples);
+  CHECK(empty.chain_samples_used == std::vector<long>{0, 0});
+}
+
+// Two runs of 10 s; the second one ends `tail` samples after its last jump.
+struct TwoRuns {
+  Run a{(Vec(2) << 20.0, 0.0).finished(), 0.05, 7}, b{(Vec(2) << 15.0, 5.0).finished(), 0.05, 8};
+  long last = 0;  // b's last jump
+  RefineChain second;
+  explicit TwoRuns(long tail) {
+    for (long k = 1; k < b.truth.size(); ++k) last = b.gamma[static_cast<std::size_t>(k)] ? k : last;
+    second = b.Chain(0, std::min(last + tail, b.truth.size()));
+  }
+  RefineResult Fit(const RefineOptions& options = {}) const {
+    return RefineChains(a.model, {a.Chain(0, a.truth.size()), second}, Start(a.model), a.model.beta(),
+                        options);
+  }
+};
+
+TEST_CASE("a chain whose detector missed its last jump, near its end: that chain's span is cut before it",
+          "[refine][chains]") {
+  TwoRuns runs(30);  // too close to the end for the repaired start to add the jump
+  runs.second.gamma[static_cast<std::size_t>(runs.last)] = 0;
+  const RefineResult kept = runs.Fit(NoRecovery());
+  INFO(ToString(kept.status) << ": " << kept.reason);
+  CHECK(kept.status == RefineStatus::kJumpCountMismatch);
+  CHECK_THAT(kept.reason, Catch::Contains("chain 2"));
+  CHECK(kept.standard_errors.size() == 0);
+  CHECK(kept.estimate.alpha == kept.start.alpha);
+  const RefineResult r = runs.Fit();
+  INFO(ToString(r.status) << ": " << r.reason << " | " << r.span_reason << " | " << r.start_repair);
+  REQUIRE(r.ok());
+  CHECK(r.start_repair.empty());
+  CHECK(r.chain_samples_used[0] == runs.a.truth.size());
+  CHECK(r.chain_span_reason[0].empty());
+  // Chain 2 ends the margin (ceil(jump_time_tolerance) + 2 samples) before the missed jump.
+  CHECK(r.chain_samples_used[1] == runs.last - 5);
+  CHECK(r.samples_used == runs.a.truth.size() + runs.last - 5);
+  CHECK_THAT(r.chain_span_reason[1], Catch::Contains("ended in jump-count-mismatch"));
+  CHECK_THAT(r.chain_span_reason[1], Catch::Contains("disagree from sample " + std::to_string(runs.last)));
+  CHECK_THAT(r.span_reason, Catch::StartsWith("chain 2: "));
+  CHECK(r.model_jumps == r.detected_jumps);
+  RequireNearTruth(runs.a.model, r, 4.0);
+}
+
+TEST_CASE("a chain whose detector missed its first jump: the span cannot help; the repaired start adds it",
+          "[refine][chains]") {
+  TwoRuns runs(1000);
+  std::size_t k = 1;
+  while (runs.second.gamma[k] == 0) ++k;
+  runs.second.gamma[k] = 0;
+  RefineOptions retries_only;
+  retries_only.repair_start = false;
+  for (const RefineOptions& o : {NoRecovery(), retries_only}) {
+    const RefineResult kept = runs.Fit(o);
+    INFO(ToString(kept.status) << ": " << kept.reason);
+    CHECK_FALSE(kept.ok());
+    CHECK_FALSE(kept.reason.empty());
+    CHECK(kept.standard_errors.size() == 0);
+  }
+  const RefineResult r = runs.Fit();
+  INFO(ToString(r.status) << ": " << r.reason << " | " << r.start_repair);
+  REQUIRE(r.ok());
+  CHECK_THAT(r.start_repair, Catch::Contains("0 dropped, 0 moved, 1 added"));
+  CHECK_THAT(r.start_repair, Catch::Contains("changed in chain 2"));
+  CHECK(r.samples_used == runs.a.truth.size() + runs.second.y.cols());
+  CHECK(r.span_reason.empty());
+  CHECK(r.model_jumps == r.detected_jumps);
+  CHECK(r.start.beta == runs.a.model.beta());  // the start reported is the caller's
+  RequireNearTruth(runs.a.model, r, 4.0);
+}
+
+TEST_CASE("a spurious detection near a chain's end: the retries fit less, the repaired start drops it",
+          "[refine][chains]") {
+  TwoRuns runs(1000);
+  const std::size_t spurious = runs.second.gamma.size() - 20;
+  runs.second.gamma[spurious] = 1;
+  CHECK(runs.Fit(NoRecovery()).status == RefineStatus::kStartFailed);
+  RefineOptions retries_only;
+  retries_only.repair_start = false;
+  const RefineResult cut = runs.Fit(retries_only);
+  INFO(ToString(cut.status) << ": " << cut.reason << " | " << cut.span_reason);
+  REQUIRE(cut.ok());
+  CHECK(cut.chain_samples_used[1] < static_cast<long>(spurious));
+  CHECK_THAT(cut.chain_span_reason[1], Catch::Contains("ended in start-failed"));
+  const RefineResult r = runs.Fit();
+  INFO(ToString(r.status) << ": " << r.reason << " | " << r.start_repair);
+  REQUIRE(r.ok());
+  CHECK_THAT(r.start_repair, Catch::Contains("1 dropped, 0 moved, 0 added"));
+  CHECK(r.chain_samples_used[1] == runs.second.y.cols());
+  RequireNearTruth(runs.a.model, r, 4.0);
 }
 
 }  // namespace
