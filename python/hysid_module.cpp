@@ -206,6 +206,8 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
     py::list x0;
     for (const Vec& v : r.chain_x0) x0.append(v.size() ? py::object(ToArray(v)) : py::object(py::none()));
     out["chain_x0"] = x0;
+    out["chain_samples_used"] = r.chain_samples_used;
+    out["chain_span_reason"] = r.chain_span_reason;
     out["chains_used"] = r.chains_used;
     out["chains_skipped"] = r.chains_skipped;
   }
@@ -438,7 +440,8 @@ PYBIND11_MODULE(hysid, m) {
       "statistic, "
       "threshold, alpha_trace, beta_trace, jumps_detected, flow_status, jump_status, flow_hull, jump_hull; "
       "with refine='ml' (the default, as `hysid identify`) also refined (status, reason, estimates and "
-      "standard_errors by name, covariance, alpha, beta, x0; with runs or times also chain_x0); "
+      "standard_errors by name, covariance, alpha, beta, x0; with runs or times also chain_x0, "
+      "chain_samples_used, chain_span_reason); "
       "refine='none' "
       "and detector='paper' give the paper's online method. With t, runs, NaN rows or max_gap the per-sample "
       "arrays are over the samples used, listed in t and run, with chains and missing_rows");

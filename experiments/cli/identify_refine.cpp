@@ -99,6 +99,8 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
     nlohmann::json x0 = nlohmann::json::array();
     for (const Vec& v : r.chain_x0) x0.push_back(v.size() ? nlohmann::json(vec(v)) : nlohmann::json());
     j["chain_x0"] = x0;
+    j["chain_samples_used"] = r.chain_samples_used;
+    j["chain_span_reason"] = r.chain_span_reason;
     j["chains_used"] = r.chains_used;
     j["chains_skipped"] = r.chains_skipped;
   }
@@ -152,6 +154,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
           "than %d samples or a first sample outside C and D); %ld of %ld samples\n",
           r.chains_used, r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
           static_cast<long>(data.y.cols()));
+      if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
     } else if (r.samples_used < data.y.cols()) {
       std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
                   static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,

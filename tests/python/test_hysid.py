@@ -194,3 +194,8 @@ def test_identify_runs_with_missing_rows_equals_cli(tmp_path):
     cli_fit = json.loads(out.read_text())
     for name, value in zip(cli_fit["names"], cli_fit["estimate"]):
         assert refined["estimates"][name] == pytest.approx(value, rel=1e-12)
+    # Per chain: the samples fit add up to the total, and the module says the same as the command line.
+    assert len(refined["chain_samples_used"]) == fit["chains"]
+    assert sum(refined["chain_samples_used"]) == cli_fit["samples_used"]
+    assert refined["chain_samples_used"] == cli_fit["chain_samples_used"]
+    assert refined["chain_span_reason"] == cli_fit["chain_span_reason"]

@@ -115,6 +115,9 @@ def main():
         worst = max(worst, z)
         print(f"{name}: {est:.10g} ± {se:.3g}, truth {truth[name]}: |error|/se = {z:.2f}")
     print(f"max |error|/se = {worst:.2f} over {len(fit['names'])} estimates; chains {fit['chains_used']}")
+    if sum(fit["chain_samples_used"]) != fit["samples_used"] or \
+            len(fit["chain_samples_used"]) != len(fit["chain_x0"]):
+        sys.exit("FAILED: the per-chain sample counts do not add up to samples_used")
     if fit["status"] != "ok" or worst > 4.0 or len(fit["names"]) != 4:
         sys.exit("FAILED: status not ok or an estimate beyond 4 standard errors")
 
