@@ -307,6 +307,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   }
   const Eigen::Index n = N > 0 ? N : s.prev.size();
   const Eigen::Index u = P > 0 ? P : s.phi.cols();
+  const double dt = s.dt;  // a local: what the detectors derive from δt is computed once per block
   // RLS with two unknowns beside the paper detector: θ and P stay in local variables through the
   // block (Rls::Load2, UpdateRowIn, Store2; nothing in the block reads them from the estimator).
   constexpr bool kLocal = kCall == kPaperDirect && std::is_same_v<E, Rls> && P == 2;
@@ -333,7 +334,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     };
     Decision d;
     if constexpr (kCall == kPaperDirect) {
-      d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, s.dt, alpha_class.data(),
+      d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, dt, alpha_class.data(),
                                              s.frozen ? -2 : s.version,
                                              s.frozen ? s.frozen_updates : est->updates());
       update(d);
@@ -343,7 +344,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
       const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
                                    : est->covariance_matrix()->data();
       d = s.residual->ClassifyObserveRow<N, P>(
-          s.prev.data(), x, n, s.dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()),
+          s.prev.data(), x, n, dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()),
           cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : est->updates(),
           s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
       update(d);
