@@ -84,42 +84,24 @@ namespace {
 
 using namespace sundials_ptr;  // the owning SUNDIALS handles (sim/sundials_ptr.hpp)
 
-class VectorArray {
- public:
-  VectorArray() = default;
-  VectorArray(N_Vector like, int count) : v_(N_VCloneVectorArray(count, like)), count_(count) {}
-  ~VectorArray() {
-    if (v_) N_VDestroyVectorArray(v_, count_);
-  }
-  VectorArray(const VectorArray&) = delete;
-  VectorArray& operator=(const VectorArray&) = delete;
-  VectorArray& operator=(VectorArray&& o) noexcept {
-    std::swap(v_, o.v_);
-    std::swap(count_, o.count_);
-    return *this;
-  }
-  N_Vector* get() const { return v_; }
-  double* data(int i) const { return N_VGetArrayPointer_Serial(v_[i]); }
-
- private:
-  N_Vector* v_ = nullptr;
-  int count_ = 0;
-};
-
-// What the CVODES callbacks see.
+// What the CVODE callbacks see.
 struct CallbackData {
   const Model* model = nullptr;
   const Vec* alpha = nullptr;
   const std::vector<int>* alpha_unknown = nullptr;
+  int n = 0;  // states; the integrated vector is ξ, or ξ and then S (n × p, column-major)
+  int p = 0;  // sensitivities integrated with ξ (0: none)
   int guard_count = 0;
   bool nonfinite_rhs = false;
   Mat jac, phi;  // scratch, n × n and n × |α|
   std::string last_error;
 };
 
+// ξ' = f(ξ) = φ(ξ)α and, when the sensitivities are integrated with ξ, S' = (∂f/∂ξ) S + ∂f/∂θ:
+// column i of ∂f/∂θ is column i of φ for α's unknowns, zero for β's and ξ0's.
 int FlowRhs(sunrealtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
   auto* data = static_cast<CallbackData*>(user_data);
-  const Eigen::Index n = N_VGetLength_Serial(y);
+  const Eigen::Index n = data->n, p = data->p;
   const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), n);
   Eigen::Map<Vec> f(N_VGetArrayPointer_Serial(ydot), n);
   data->model->Flow(x, *data->alpha, f);
@@ -127,31 +109,20 @@ int FlowRhs(sunrealtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
     data->nonfinite_rhs = true;
     return -1;
   }
-  return 0;
-}
-
-// S_i' = (∂f/∂ξ) S_i + ∂f/∂θ_i; ∂f/∂α_i = column i of φ, zero for β and ξ0.
-int SensitivityRhs(int ns, sunrealtype /*t*/, N_Vector y, N_Vector /*ydot*/, N_Vector* ys, N_Vector* ysdot,
-                   void* user_data, N_Vector /*tmp1*/, N_Vector /*tmp2*/) {
-  auto* data = static_cast<CallbackData*>(user_data);
-  const Eigen::Index n = N_VGetLength_Serial(y);
-  const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), n);
+  if (p == 0) return 0;
+  const Eigen::Map<const Mat> s(N_VGetArrayPointer_Serial(y) + n, n, p);
+  Eigen::Map<Mat> sdot(N_VGetArrayPointer_Serial(ydot) + n, n, p);
   data->model->FlowJacobian(x, *data->alpha, data->jac);
   data->model->Phi(x, data->phi);
+  sdot.noalias() = data->jac * s;
   const auto& au = *data->alpha_unknown;
-  for (int i = 0; i < ns; ++i) {
-    const Eigen::Map<const Vec> s(N_VGetArrayPointer_Serial(ys[i]), n);
-    Eigen::Map<Vec> sdot(N_VGetArrayPointer_Serial(ysdot[i]), n);
-    sdot.noalias() = data->jac * s;
-    if (i < static_cast<int>(au.size())) sdot += data->phi.col(au[static_cast<std::size_t>(i)]);
-  }
+  for (std::size_t i = 0; i < au.size(); ++i) sdot.col(static_cast<Eigen::Index>(i)) += data->phi.col(au[i]);
   return 0;
 }
 
 int GuardFunctions(sunrealtype /*t*/, N_Vector y, sunrealtype* gout, void* user_data) {
   auto* data = static_cast<CallbackData*>(user_data);
-  const Eigen::Index n = N_VGetLength_Serial(y);
-  const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), n);
+  const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), data->n);
   Eigen::Map<Vec> h(gout, data->guard_count);
   data->model->Guards(x, h);
   return 0;
@@ -180,7 +151,7 @@ Mat CentralDifference(const F& map, const Vec& x, Eigen::Index m) {
 
 enum class Leg { kForward, kBackward };
 
-// One integration: owns the CVODES objects; plain or matched (segment_of_sample) mode.
+// One integration: owns the CVODE objects; plain or matched (segment_of_sample) mode.
 class SensRun {
  public:
   SensRun(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
@@ -209,6 +180,8 @@ class SensRun {
     data_.model = &model_;
     data_.alpha = &params_.alpha;
     data_.alpha_unknown = &unknowns_.alpha;
+    data_.n = n_;
+    data_.p = sens_ ? p_ : 0;
     data_.guard_count = model_.guard_count();
     data_.jac.resize(n_, n_);
     data_.phi.resize(n_, model_.alpha_size());
@@ -241,11 +214,15 @@ class SensRun {
     if (SUNContext_Create(nullptr, &ctx) != 0)
       return Fail(SimStop::kSolverFailure, "SUNContext_Create failed");
     ctx_.reset(ctx);
-    y_.reset(N_VNew_Serial(n_, ctx_.get()));
+    // With sensitivities, ξ and S (n × p, column-major) are integrated as one vector by CVODE: one
+    // set of vector operations per step instead of CVODES' p + 1 (its simultaneous corrector), and
+    // the error test covers S as CVODES' sensitivity error control does.
+    y_.reset(N_VNew_Serial(sens_ ? n_ * (1 + p_) : n_, ctx_.get()));
     if (!y_) return Fail(SimStop::kSolverFailure, "N_VNew_Serial failed");
     // Fused vector kernels (off by default for serial vectors; clones inherit them): the Adams
     // updates and the dense output then run as one loop each.
     N_VEnableFusedOps_Serial(y_.get(), SUNTRUE);
+    N_VConst(0.0, y_.get());
     Eigen::Map<Vec>(N_VGetArrayPointer_Serial(y_.get()), n_) = params_.x0;
     cvode_.reset(CVodeCreate(CV_ADAMS, ctx_.get()));
     if (!cvode_) return Fail(SimStop::kSolverFailure, "CVodeCreate failed");
@@ -258,39 +235,16 @@ class SensRun {
       return false;
     }
     nls_.reset(SUNNonlinSol_FixedPoint(y_.get(), 0, ctx_.get()));
-    if (!nls_ || !Check(CVodeSetNonlinearSolver(mem, nls_.get()), "CVodeSetNonlinearSolver")) return false;
-    return !sens_ || SetupSensitivities();
-  }
-
-  bool SetupSensitivities() {
-    void* mem = cvode_.get();
-    ys_ = VectorArray(y_.get(), p_);
-    ys_out_ = VectorArray(y_.get(), p_);
-    for (int i = 0; i < p_; ++i) N_VConst(0.0, ys_.get()[i]);
-    if (!Check(CVodeSensInit(mem, p_, CV_SIMULTANEOUS, SensitivityRhs, ys_.get()), "CVodeSensInit")) {
-      return false;
-    }
-    const std::vector<double> abstol(static_cast<std::size_t>(p_), options_.sim.atol);
-    if (!Check(CVodeSensSStolerances(mem, options_.sim.rtol, const_cast<double*>(abstol.data())),
-               "CVodeSensSStolerances") ||
-        !Check(CVodeSetSensErrCon(mem, SUNTRUE), "CVodeSetSensErrCon")) {
-      return false;
-    }
-    nls_sens_.reset(SUNNonlinSol_FixedPointSens(p_ + 1, y_.get(), 0, ctx_.get()));
-    return nls_sens_ &&
-           Check(CVodeSetNonlinearSolverSensSim(mem, nls_sens_.get()), "CVodeSetNonlinearSolverSensSim");
+    return nls_ && Check(CVodeSetNonlinearSolver(mem, nls_.get()), "CVodeSetNonlinearSolver");
   }
 
   // Restarts the integration at (t_, x_, S_) towards `tstop`, with or without the guards.
   bool Start(double tstop, bool roots) {
     void* mem = cvode_.get();
     Eigen::Map<Vec>(N_VGetArrayPointer_Serial(y_.get()), n_) = x_;
+    if (sens_) Eigen::Map<Mat>(N_VGetArrayPointer_Serial(y_.get()) + n_, n_, p_) = S_;
     AccumulateCounters();
     if (!Check(CVodeReInit(mem, t_, y_.get()), "CVodeReInit")) return false;
-    if (sens_) {
-      for (int i = 0; i < p_; ++i) Eigen::Map<Vec>(ys_.data(i), n_) = S_.col(i);
-      if (!Check(CVodeSensReInit(mem, CV_SIMULTANEOUS, ys_.get()), "CVodeSensReInit")) return false;
-    }
     if (!Check(CVodeSetStopTime(mem, tstop), "CVodeSetStopTime")) return false;
     if (sens_) {
       SetWindowEnd(window_b_, t_, x_, S_);
@@ -313,7 +267,7 @@ class SensRun {
   // One internal step; the flag (≥ 0) or −1 after recording the failure. *tret: the time reached.
   int Step(double tout, double* tret) {
     if (steps_ >= options_.sim.max_steps) {
-      Fail(SimStop::kSolverFailure, fmt::format("step budget of {} CVODES steps exhausted near t = {:.17g}",
+      Fail(SimStop::kSolverFailure, fmt::format("step budget of {} CVODE steps exhausted near t = {:.17g}",
                                                 options_.sim.max_steps, *tret));
       return -1;
     }
@@ -335,10 +289,10 @@ class SensRun {
     return flag;
   }
 
-  // Sample k on segment `segment`: the state from CVODES' interpolating polynomial, S_k by cubic
+  // Sample k on segment `segment`: the state from CVODE's interpolating polynomial, S_k by cubic
   // Hermite interpolation between the last two returns (S and S' at both ends; error ~h⁴/384·|S⁗|,
-  // about 1e-9 relative on the §5 system at rtol 1e-12). One CVodeGetSens per step instead of one
-  // CVodeGetSensDky per sample, which cost 10× a plain trajectory.
+  // about 1e-9 relative on the §5 system at rtol 1e-12): cheaper per sample than the polynomial of
+  // all n(1 + p) entries.
   void Emit(long k, int segment) {
     const double t = SampleTime(k);
     InterpolateState(t, out_.trajectory.x.col(k).data());
@@ -424,10 +378,7 @@ class SensRun {
     coefficients_state_ = 0;
     if (!sens_) return;
     std::swap(window_a_, window_b_);
-    sunrealtype t = 0.0;
-    CVodeGetSens(cvode_.get(), &t, ys_out_.get());
-    returned_s_.resize(n_, p_);
-    for (int i = 0; i < p_; ++i) returned_s_.col(i) = Eigen::Map<const Vec>(ys_out_.data(i), n_);
+    returned_s_ = Eigen::Map<const Mat>(N_VGetArrayPointer_Serial(y_.get()) + n_, n_, p_);
     SetWindowEnd(window_b_, tret, Eigen::Map<const Vec>(N_VGetArrayPointer_Serial(y_.get()), n_),
                  returned_s_);
   }
@@ -727,8 +678,7 @@ class SensRun {
   ContextPtr ctx_;
   NVectorPtr y_;
   NVectorPtr scratch_;
-  VectorArray ys_, ys_out_;
-  NonlinearSolverPtr nls_, nls_sens_;
+  NonlinearSolverPtr nls_;
   CvodePtr cvode_;
 };
 

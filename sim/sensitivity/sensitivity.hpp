@@ -1,7 +1,8 @@
 // Forward sensitivities of a hybrid trajectory, S_k = ∂ξ(t_k)/∂θ, θ = (unknown α, unknown β, ξ0).
 //
 // Flow:  S' = (∂f/∂ξ) S + ∂f/∂θ with f = φ(ξ)α (∂f/∂α_i = column i of φ), integrated with the state
-//        by CVODES (Adams, simultaneous fixed-point corrector, sensitivities in the error test).
+//        as one vector (ξ, then S column-major) by CVODE (Adams, fixed-point corrector; S is in the
+//        error test).
 // Jump:  at a guard crossing h(ξ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β, flow f⁺ after:
 //          ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻)
 //          S⁺ = (∂g/∂ξ)(S⁻ + f⁻ ∂t_j/∂θ) + ∂g/∂θ − f⁺ ∂t_j/∂θ      (saltation; Hiskens & Pai 2000)
