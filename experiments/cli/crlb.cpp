@@ -71,8 +71,10 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
       ->delimiter(',')
       ->capture_default_str();
   sub->add_flag("--x0-known", args->x0_known, "x0 is known (not estimated)");
-  sub->add_option("--rtol", args->options.sim.rtol, "CVODES relative tolerance")->capture_default_str();
-  sub->add_option("--atol", args->options.sim.atol, "CVODES absolute tolerance")->capture_default_str();
+  sub->add_option("--rtol", args->options.sim.rtol, "CVODE relative tolerance (states and sensitivities)")
+      ->capture_default_str();
+  sub->add_option("--atol", args->options.sim.atol, "CVODE absolute tolerance (states and sensitivities)")
+      ->capture_default_str();
   sub->callback([args, &env] {
     const int code = RunCrlb(*args, env);
     if (code != 0) throw CLI::RuntimeError(code);
