@@ -16,6 +16,7 @@
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
+#include "sim/simulator.hpp"
 
 namespace hysid::cli {
 
@@ -81,6 +82,9 @@ struct TrajectoryFlags {
 void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags);
 // --x0 or the model's default; BadFlag when it has the wrong size or lies outside C and D.
 Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model);
+// The sample grid of --t-end and --dt (or the model's defaults); BadFlag when either is not a finite
+// positive number or the grid exceeds the samples limit (core/io/limits.hpp).
+SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model);
 
 // A CLI11 validator for unsigned 64-bit options: refuses a leading '-' (CLI11 would wrap -1 to
 // 2^64 − 1) and a decimal beyond 2^64 − 1 (CLI11 would saturate it to 2^64 − 1).
@@ -112,5 +116,9 @@ void SetPluginKinds(const std::string& estimator, const std::string& detector, I
 
 // --sigma: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
 Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero = true);
+// Adds --sigma (comma-separated) with the given help; read it with SigmaFlag.
+CLI::Option* AddSigmaOption(CLI::App& cmd, std::vector<double>& sigma, const std::string& help);
+// Adds --rtol and --atol, the integrator's tolerances; `covers` ends their help (may be empty).
+void AddToleranceOptions(CLI::App& cmd, SimOptions& sim, const std::string& covers);
 
 }  // namespace hysid::cli

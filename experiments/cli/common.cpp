@@ -1,9 +1,13 @@
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/io/limits.hpp"
 #include "core/model_file/model_file.hpp"
 #include "experiments/cli/cli.hpp"
 
@@ -52,6 +56,20 @@ void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags) {
   cmd.add_option("--dt", flags.dt, "sample time delta-t in seconds (default: the model's)");
 }
 
+SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model) {
+  const ModelSpec& spec = model.spec();
+  const SampleGrid grid{.t_end = flags.t_end.value_or(spec.default_t_end),
+                        .dt = flags.dt.value_or(spec.default_dt)};
+  for (const auto& [flag, v] : {std::pair{"--dt", grid.dt}, std::pair{"--t-end", grid.t_end}}) {
+    if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
+    if (v <= 0) BadFlag(fmt::format("{} = {}: must be > 0", flag, v));
+  }
+  if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
+  CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(grid.t_end / grid.dt, 9e18)) + 1,
+             fmt::format("--t-end {} / --dt {}", grid.t_end, grid.dt));
+  return grid;
+}
+
 Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
@@ -88,6 +106,16 @@ void SetPluginKinds(const std::string& estimator, const std::string& detector, I
   } catch (const std::invalid_argument& e) {
     BadFlag(fmt::format("--detector: {}", e.what()));
   }
+}
+
+CLI::Option* AddSigmaOption(CLI::App& cmd, std::vector<double>& sigma, const std::string& help) {
+  return cmd.add_option("--sigma", sigma, help)->delimiter(',');
+}
+
+void AddToleranceOptions(CLI::App& cmd, SimOptions& sim, const std::string& covers) {
+  const std::string suffix = covers.empty() ? "" : " (" + covers + ")";
+  cmd.add_option("--rtol", sim.rtol, "CVODE relative tolerance" + suffix)->capture_default_str();
+  cmd.add_option("--atol", sim.atol, "CVODE absolute tolerance" + suffix)->capture_default_str();
 }
 
 Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero) {

@@ -25,9 +25,7 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model);
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
-  const SampleGrid grid{.t_end = args.trajectory.t_end.value_or(spec.default_t_end),
-                        .dt = args.trajectory.dt.value_or(spec.default_dt)};
-  if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
+  const SampleGrid grid = GridFlag(args.trajectory, model);
   if (std::string e; !args.options.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol: {}", e));
   const Vec x0 = InitialStateFlag(args.trajectory, model);
   const Vec sigma = SigmaFlag(args.sigma, n, /*allow_zero=*/false);
@@ -67,14 +65,10 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
       "cannot be computed (simulation stopped, singular Fisher information).");
   AddModelFlags(*sub, args->model, "set a true parameter, name=value (repeatable)");
   AddTrajectoryFlags(*sub, args->trajectory);
-  sub->add_option("--sigma", args->sigma, "measurement noise sd: one value, or one per state")
-      ->delimiter(',')
+  AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per state")
       ->capture_default_str();
   sub->add_flag("--x0-known", args->x0_known, "x0 is known (not estimated)");
-  sub->add_option("--rtol", args->options.sim.rtol, "CVODE relative tolerance (states and sensitivities)")
-      ->capture_default_str();
-  sub->add_option("--atol", args->options.sim.atol, "CVODE absolute tolerance (states and sensitivities)")
-      ->capture_default_str();
+  AddToleranceOptions(*sub, args->options.sim, "states and sensitivities");
   sub->callback([args, &env] {
     const int code = RunCrlb(*args, env);
     if (code != 0) throw CLI::RuntimeError(code);

@@ -396,10 +396,9 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                 "backward with the estimated flow until the jump's known rows agree)");
   cmd->add_flag("--second-pass", args->second_pass,
                 "re-classify every sample with the final estimates, re-estimate, report the changes");
-  cmd->add_option("--sigma", args->sigma,
-                  "known measurement noise σ (one, or one per state); gtls/frisch estimate it "
-                  "from the data when not given")
-      ->delimiter(',');
+  AddSigmaOption(*cmd, args->sigma,
+                 "known measurement noise σ (one, or one per state); gtls/frisch estimate it from the data "
+                 "when not given");
   CLI::Option* rtol_option =
       cmd->add_option("--data-rtol", args->data_rtol,
                       "residual detector: relative accuracy of the data apart from the noise (simulated "

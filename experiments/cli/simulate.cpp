@@ -83,19 +83,6 @@ void CheckDistinctOutputs(const SimulateArgs& args) {
   }
 }
 
-SampleGrid GridFlags(const SimulateArgs& args, const ModelSpec& spec) {
-  SampleGrid grid{.t_end = args.trajectory.t_end.value_or(spec.default_t_end),
-                  .dt = args.trajectory.dt.value_or(spec.default_dt)};
-  for (const auto& [flag, v] : {std::pair{"--dt", grid.dt}, std::pair{"--t-end", grid.t_end}}) {
-    if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
-    if (v <= 0) BadFlag(fmt::format("{} = {}: must be > 0", flag, v));
-  }
-  if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
-  CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(grid.t_end / grid.dt, 9e18)) + 1,
-             fmt::format("--t-end {} / --dt {}", grid.t_end, grid.dt));
-  return grid;
-}
-
 std::vector<std::string> TrajectoryHeader(int n) {
   std::vector<std::string> header{"t", "j"};
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
@@ -182,7 +169,7 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
 void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model);
   const ModelSpec& spec = model.spec();
-  const SampleGrid grid = GridFlags(args, spec);
+  const SampleGrid grid = GridFlag(args.trajectory, model);
   const Vec x0 = InitialStateFlag(args.trajectory, model);
   const Vec sigma = SigmaFlag(args.sigma, model.state_size());
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
@@ -227,8 +214,7 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       "Defaults are the model's (impact-msd: the paper's Sec. 5 values).");
   AddModelFlags(*sub, args->model, "set a parameter, name=value (repeatable)");
   AddTrajectoryFlags(*sub, args->trajectory);
-  sub->add_option("--sigma", args->sigma, "measurement noise standard deviation: one value, or one per state")
-      ->delimiter(',')
+  AddSigmaOption(*sub, args->sigma, "measurement noise standard deviation: one value, or one per state")
       ->capture_default_str();
   sub->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
       ->capture_default_str()
@@ -236,8 +222,7 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option("--trial", args->trial, "trial index (selects an independent noise stream)")
       ->capture_default_str()
       ->check(NonNegativeInteger);
-  sub->add_option("--rtol", args->sim.rtol, "CVODE relative tolerance")->capture_default_str();
-  sub->add_option("--atol", args->sim.atol, "CVODE absolute tolerance")->capture_default_str();
+  AddToleranceOptions(*sub, args->sim, "");
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
   sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
