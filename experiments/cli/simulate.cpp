@@ -16,7 +16,6 @@
 
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
-#include "core/io/limits.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
