@@ -23,6 +23,18 @@ namespace detail {
 struct Rls2State {
   double t0, t1, p00, p10, p11;
 
+  // From and to θ (2 entries) and P (2 × 2, column-major).
+  static Rls2State Load(const double* theta, const double* pp) {
+    return {theta[0], theta[1], pp[0], pp[1], pp[3]};
+  }
+  void Store(double* theta, double* pp) const {
+    theta[0] = t0;
+    theta[1] = t1;
+    pp[0] = p00;
+    pp[1] = pp[2] = p10;
+    pp[3] = p11;
+  }
+
   // ScalarRlsUpdate's steps for p = 2; false (nothing changed) when φᵀPφ + λ is not a positive
   // finite number.
   [[gnu::always_inline]] bool Update(double f0, double f1, double y, double lambda, double max_trace) {
@@ -65,13 +77,9 @@ template <int P>
 inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, double* g, const double* phi,
                             Eigen::Index stride, double y, double lambda, double max_trace) {
   if constexpr (P == 2) {
-    Rls2State r{theta[0], theta[1], pp[0], pp[1], pp[3]};
+    Rls2State r = Rls2State::Load(theta, pp);
     if (!r.Update(phi[0], phi[stride], y, lambda, max_trace)) return false;
-    theta[0] = r.t0;
-    theta[1] = r.t1;
-    pp[0] = r.p00;
-    pp[1] = pp[2] = r.p10;
-    pp[3] = r.p11;
+    r.Store(theta, pp);
     return true;
   }
   const Eigen::Index p = P > 0 ? P : p_dynamic;
@@ -129,18 +137,8 @@ class Rls final : public Estimator {
   // arithmetic while the caller keeps them in local variables, and written back by Store2 before
   // anything else reads the estimate or the covariance. The counters and the status stay in the
   // object.
-  detail::Rls2State Load2() const {
-    const double* pp = p_.data();
-    return {theta_[0], theta_[1], pp[0], pp[1], pp[3]};
-  }
-  void Store2(const detail::Rls2State& r) {
-    double* pp = p_.data();
-    theta_[0] = r.t0;
-    theta_[1] = r.t1;
-    pp[0] = r.p00;
-    pp[1] = pp[2] = r.p10;
-    pp[3] = r.p11;
-  }
+  detail::Rls2State Load2() const { return detail::Rls2State::Load(theta_.data(), p_.data()); }
+  void Store2(const detail::Rls2State& r) { r.Store(theta_.data(), p_.data()); }
   [[gnu::always_inline]] void UpdateRowIn(detail::Rls2State& r, const double* phi, double y) {
     AdmitRow<2>(phi, y, [&] {
       if (!r.Update(phi[0], phi[1], y, lambda_, max_trace_)) status_ = EstimatorStatus::kIllConditioned;
