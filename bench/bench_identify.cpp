@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
-#include "core/model/builtin/impact_msd.hpp"
 #include "core/model_file/model_file.hpp"
 #include "core/sets/sample_set.hpp"
 #include "sim/measurement.hpp"

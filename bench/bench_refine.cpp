@@ -3,8 +3,8 @@
 // recursive start and, after a false detection, from the repaired start.
 #include <benchmark/benchmark.h>
 
+#include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
-#include "core/model/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
 #include "sim/refine/refine.hpp"
 #include "sim/sensitivity/sensitivity.hpp"

@@ -1,9 +1,9 @@
 // Cost of one simulated trajectory (CVODE + root finding + dense-output sampling).
 #include <benchmark/benchmark.h>
 
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "core/builtin/impact_pendulum.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/builtin/builtin.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
 #include "core/model/registry.hpp"

@@ -5,10 +5,6 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
-
 namespace hysid {
 
 void ModelRegistry::Register(const std::string& name, Factory factory) {
@@ -32,12 +28,6 @@ std::vector<std::string> ModelRegistry::names() const {
   std::vector<std::string> out;
   for (const auto& [name, factory] : factories_) out.push_back(name);
   return out;
-}
-
-void RegisterBuiltinModels(ModelRegistry& registry) {
-  registry.Register(ImpactMsd{});
-  registry.Register(BouncingBall{});
-  registry.Register(ImpactPendulum{});
 }
 
 }  // namespace hysid

@@ -1,5 +1,5 @@
 // Models by name. A registry is an ordinary object: the command line builds one and fills it with
-// RegisterBuiltinModels; a program that adds its own model calls Register itself.
+// RegisterBuiltinModels (core/builtin/builtin.hpp); a program that adds its own model calls Register itself.
 #pragma once
 
 #include <functional>
@@ -30,8 +30,5 @@ class ModelRegistry {
  private:
   std::map<std::string, Factory, std::less<>> factories_;
 };
-
-// impact-msd, bouncing-ball, impact-pendulum.
-void RegisterBuiltinModels(ModelRegistry& registry);
 
 }  // namespace hysid

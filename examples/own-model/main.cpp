@@ -6,6 +6,7 @@
 #include <cmath>
 #include <utility>
 
+#include "core/builtin/builtin.hpp"
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/cli/entry.hpp"

@@ -1,6 +1,7 @@
 // The public entry point of the hysid command line. A program that adds its own models builds a
-// registry (RegisterBuiltinModels plus its own Register calls) and returns Main(argc, argv, registry):
-// every subcommand (models, simulate, identify, reproduce, sweep, merge) then knows those models by name.
+// registry (RegisterBuiltinModels, core/builtin/builtin.hpp, plus its own Register calls) and returns
+// Main(argc, argv, registry): every subcommand (models, simulate, identify, reproduce, sweep, merge) then
+// knows those models by name.
 #pragma once
 
 #include "core/model/registry.hpp"

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "core/builtin/builtin.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"

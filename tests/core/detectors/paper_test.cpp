@@ -5,8 +5,8 @@
 #include <cmath>
 #include <random>
 
+#include "core/builtin/impact_pendulum.hpp"
 #include "core/detectors/paper.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
 
 namespace hysid {
 namespace {

@@ -9,13 +9,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "core/builtin/impact_pendulum.hpp"
 #include "core/detectors/detector.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/localize.hpp"
 #include "core/identify/metrics.hpp"
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
 #include "core/stats/quantiles.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"

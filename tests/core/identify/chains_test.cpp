@@ -7,9 +7,9 @@
 #include <limits>
 #include <vector>
 
+#include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
-#include "core/model/builtin/impact_msd.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {

@@ -5,11 +5,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/builtin/impact_msd.hpp"
 #include "core/estimators/frisch.hpp"
 #include "core/estimators/gtls.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
-#include "core/model/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 

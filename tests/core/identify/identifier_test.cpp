@@ -7,11 +7,11 @@
 #include <limits>
 #include <vector>
 
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "core/builtin/impact_pendulum.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"

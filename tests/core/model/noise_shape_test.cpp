@@ -5,8 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "core/builtin/impact_pendulum.hpp"
 #include "core/model/noise_shape.hpp"
 #include "core/model/regression.hpp"
 #include "sim/measurement.hpp"

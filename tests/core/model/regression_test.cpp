@@ -4,9 +4,9 @@
 
 #include <vector>
 
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "core/builtin/impact_pendulum.hpp"
 #include "core/model/regression.hpp"
 #include "sim/measurement.hpp"
 

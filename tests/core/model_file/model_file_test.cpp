@@ -10,10 +10,10 @@
 #include <thread>
 #include <vector>
 
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "core/builtin/impact_pendulum.hpp"
 #include "core/identify/identifier.hpp"
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
 #include "core/model_file/model_file.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"

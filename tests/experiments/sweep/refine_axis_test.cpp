@@ -11,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "core/builtin/builtin.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"

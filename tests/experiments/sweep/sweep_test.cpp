@@ -12,6 +12,7 @@
 #include <catch2/catch.hpp>
 #include <fmt/format.h>
 
+#include "core/builtin/builtin.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/sweep/config.hpp"

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <string>
 
-#include "core/model/builtin/impact_msd.hpp"
+#include "core/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
 #include "sim/refine/refine.hpp"
 

@@ -5,9 +5,9 @@
 
 #include <cmath>
 
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
 #include "sim/refine/refine.hpp"
 

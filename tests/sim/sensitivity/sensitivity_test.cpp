@@ -6,9 +6,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "core/model/builtin/bouncing_ball.hpp"
-#include "core/model/builtin/impact_msd.hpp"
-#include "core/model/builtin/impact_pendulum.hpp"
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "core/builtin/impact_pendulum.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
 namespace hysid {

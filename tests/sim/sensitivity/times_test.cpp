@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "core/model/builtin/impact_msd.hpp"
+#include "core/builtin/impact_msd.hpp"
 #include "sim/sensitivity/sensitivity.hpp"
 
 namespace hysid {

@@ -2,32 +2,18 @@
 // λ and an additive impact term μ.
 //   ξ+ = [ξ1; −λξ2 + μ] = ψ(ξ)β,  ψ = [[ξ1, 0, 0], [0, −ξ2, 1]],  β = (1, λ, μ)
 //   guard h(ξ) = ξ1 (falling),  C = {ξ1 ≥ 0} \ {ξ1 = 0, ξ2 < 0},  D = {ξ1 = 0, ξ2 ≤ 0}
-// A model derives from it and adds its flow (Spec, Phi, FlowJacobian).
+// A model derives from it (or from WallOscillator) and adds its spec (from its model file) and its
+// flow (Phi, FlowJacobian).
 #pragma once
 
 #include <algorithm>
 #include <cmath>
-#include <string>
-#include <vector>
 
 #include "core/model/model.hpp"
 
 namespace hysid {
 
 struct WallImpact {
-  // β = (beta_POS = 1 known, λ, μ = 0) for the position state named `pos`.
-  static std::vector<Parameter> JumpParameters(const std::string& pos, double lambda) {
-    return {{"beta_" + pos, 1.0, true, "coefficient of " + pos + " in " + pos + "+ (known)"},
-            {"lambda", lambda, false, "restitution coefficient"},
-            {"mu", 0.0, false, "additive impact term"}};
-  }
-  // The jump, guard and set lines of ModelSpec::equations for the states (pos, vel).
-  static std::string JumpEquations(const std::string& pos, const std::string& vel, const std::string& guard) {
-    return "jump: " + pos + "+ = beta_" + pos + "*" + pos + ", " + vel + "+ = -lambda*" + vel + " + mu\n" +
-           "guard " + guard + ": h(xi) = " + pos + " (falling)\n" +            //
-           "C: " + pos + " > 0 || (" + pos + " == 0 && " + vel + " >= 0)\n" +  //
-           "D: " + pos + " == 0 && " + vel + " <= 0\n";
-  }
   void Psi(ConstVecRef x, MatRef psi) const {
     SetRowMajor<2, 3>(psi, {x[0], 0.0, 0.0,  //
                             0.0, -x[1], 1.0});

@@ -7,31 +7,13 @@
 //   t_Z = √(2h0/g) + 2λ√(2gh0) / (g(1 − λ))   for ξ(0) = (h0, 0).
 #pragma once
 
-#include <string>
-
-#include "core/model/builtin/wall_impact.hpp"
+#include "core/builtin/spec.hpp"
+#include "core/builtin/wall_impact.hpp"
 
 namespace hysid {
 
 struct BouncingBall : WallImpact {
-  ModelSpec Spec() const {
-    return ModelSpec{
-        .name = "bouncing-ball",
-        .description = "ball under gravity with restitution (affine flow, Zeno)",
-        .state_names = {"h", "v"},
-        .alpha = {{"alpha_h", 1.0, true, "coefficient of v in h' (known)"},
-                  {"g", 9.81, false, "gravitational acceleration"}},
-        .beta = JumpParameters("h", 0.8),
-        .flow_rows = {1},
-        .jump_rows = {1},
-        .guards = {{"floor", Crossing::kFalling}},
-        .flow_jacobian_constant = true,
-        .default_x0 = {1.0, 0.0},
-        .default_t_end = 10.0,
-        .default_dt = 1e-3,
-        .equations = std::string("flow: h' = alpha_h*v, v' = -g\n") + JumpEquations("h", "v", "floor"),
-    };
-  }
+  ModelSpec Spec() const { return BuiltinSpec("bouncing-ball"); }  // models/bouncing-ball.toml
   void Phi(ConstVecRef x, MatRef phi) const {
     SetRowMajor<2, 2>(phi, {x[1], 0.0,  //
                             0.0, -1.0});
