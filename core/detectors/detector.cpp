@@ -16,8 +16,8 @@ bool DetectorSettings::IsValid(std::string* error) const {
 }
 
 const PluginList<DetectorDescriptor>& Plugins(DetectorKind) {
-  static const PluginList<DetectorDescriptor> list{
-      "detector", {&PaperDetectorDescriptor(), &ResidualDetectorDescriptor()}};
+  static const PluginList<DetectorDescriptor> list{"detector",
+                                                   {PaperDetectorDescriptor(), ResidualDetectorDescriptor()}};
   return list;
 }
 

@@ -86,23 +86,17 @@ struct DetectorSettings {
 // Each option of DetectorSettings, described once (name = field = TOML key, flag --name).
 inline const std::vector<Option<DetectorSettings>>& DetectorOptions() {
   using S = DetectorSettings;
-  using T = OptionType;
   static const std::vector<Option<S>> table{
       Describe<&S::r>({.name = "r",
-                       .type = T::kReal,
                        .range = {1, kUnbounded, true, true},
                        .help = "multiplicative constant r > 1 of the smoothness bound",
                        .sweepable = true}),
-      Describe<&S::tau0>({.name = "tau0",
-                          .type = T::kReal,
-                          .range = {0, kUnbounded, true, true},
-                          .help = "initial smoothness bound"}),
+      Describe<&S::tau0>(
+          {.name = "tau0", .range = {0, kUnbounded, true, true}, .help = "initial smoothness bound"}),
       Describe<&S::bound>({.name = "bound",
-                           .type = T::kChoice,
                            .choices = {"auto", "paper", "homogeneous"},
                            .help = "auto, paper or homogeneous bound"}),
       Describe<&S::false_alarm>({.name = "false_alarm",
-                                 .type = T::kReal,
                                  .range = {0, 0.5, true, true},
                                  .help = "false-alarm probability per flow sample",
                                  .sweepable = true}),
@@ -115,10 +109,9 @@ inline const std::vector<Option<DetectorSettings>>& DetectorOptions() {
 struct DetectorTraits {
   std::string_view statistic, threshold;
 };
+using DetectorFactory = std::unique_ptr<JumpDetector> (*)(const DetectorSettings&, const Model&);
 // One detector, described once: the factory, the command line and sweep files read this.
-using DetectorDescriptor =
-    PluginDescriptor<DetectorKind, DetectorTraits,
-                     std::unique_ptr<JumpDetector> (*)(const DetectorSettings&, const Model&)>;
+using DetectorDescriptor = PluginDescriptor<DetectorKind, DetectorTraits, DetectorFactory>;
 // Every detector, in the order of DetectorKind; ParseKind<DetectorKind>("x") throws
 // "unknown detector 'x' (known: paper, residual)".
 const PluginList<DetectorDescriptor>& Plugins(DetectorKind);

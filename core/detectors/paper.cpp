@@ -19,19 +19,6 @@ namespace {}  // namespace
   return std::max(0.0, eig.eigenvalues().maxCoeff());
 }
 
-const DetectorDescriptor& PaperDetectorDescriptor() {
-  static const DetectorDescriptor d{
-      .kind = DetectorKind::kPaper,
-      .name = "paper",
-      .help = "the paper's smoothness bound tau^ = (r/2) L^ (|x(t)| + |x(t-dt)|), tuned by r",
-      .options = {"r", "tau0", "bound"},
-      .traits = {.statistic = "D", .threshold = "tau_hat"},
-      .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
-        return std::make_unique<PaperDetector>(s, m);
-      }};
-  return d;
-}
-
 BoundMode ResolveBoundMode(BoundRule bound, const Model& model) {
   if (bound == BoundRule::kPaper) return BoundMode::kPaper;
   if (bound == BoundRule::kHomogeneous) return BoundMode::kHomogeneous;
@@ -208,6 +195,16 @@ Decision PaperDetector::Classify(const SampleContext& c) {
   d.gamma = d2 > half_r * half_r * l2 * s * s;
   d.threshold = half_r * std::sqrt(l2) * s;
   return d;
+}
+
+DetectorDescriptor PaperDetectorDescriptor() {
+  return {.name = "paper",
+          .help = "the paper's smoothness bound tau^ = (r/2) L^ (|x(t)| + |x(t-dt)|), tuned by r",
+          .options = {"r", "tau0", "bound"},
+          .traits = {.statistic = "D", .threshold = "tau_hat"},
+          .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
+            return std::make_unique<PaperDetector>(s, m);
+          }};
 }
 
 }  // namespace hysid

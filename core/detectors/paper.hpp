@@ -102,7 +102,7 @@ class VertexJacobianSup {
 };
 
 // Reads r, tau0 and bound; reports D_δt ξ and τ̂.
-const DetectorDescriptor& PaperDetectorDescriptor();
+DetectorDescriptor PaperDetectorDescriptor();
 
 class PaperDetector final : public JumpDetector {
  public:

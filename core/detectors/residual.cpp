@@ -34,18 +34,6 @@ double CachedStudentUpperQuantile(double tail, long nu) {
 
 }  // namespace
 
-const DetectorDescriptor& ResidualDetectorDescriptor() {
-  static const DetectorDescriptor d{
-      .kind = DetectorKind::kResidual,
-      .name = "residual",
-      .help = "tuning-free: one-step prediction residual of the flow model, tested at false_alarm",
-      .options = {"false_alarm"},
-      .traits = {.statistic = "z", .threshold = "q"},
-      .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
-        return std::make_unique<ResidualDetector>(s, m);
-      }};
-  return d;
-}
 namespace {
 
 // E[min(Z², c²)] for Z ~ N(0, 1): P(|Z| < c) − 2cφ(c) + c²·P(|Z| > c).
@@ -203,6 +191,16 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
 void ResidualDetector::Observe(const SampleContext& /*context*/, const Decision& /*decision*/) {
   if (!active_) return;
   UpdateScale();
+}
+
+DetectorDescriptor ResidualDetectorDescriptor() {
+  return {.name = "residual",
+          .help = "tuning-free: one-step prediction residual of the flow model, tested at false_alarm",
+          .options = {"false_alarm"},
+          .traits = {.statistic = "z", .threshold = "q"},
+          .make = [](const DetectorSettings& s, const Model& m) -> std::unique_ptr<JumpDetector> {
+            return std::make_unique<ResidualDetector>(s, m);
+          }};
 }
 
 }  // namespace hysid

@@ -61,7 +61,7 @@
 namespace hysid {
 
 // Reads false_alarm; reports max |z| and the quantile q.
-const DetectorDescriptor& ResidualDetectorDescriptor();
+DetectorDescriptor ResidualDetectorDescriptor();
 
 class ResidualDetector final : public JumpDetector {
  public:

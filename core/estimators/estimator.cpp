@@ -14,16 +14,6 @@
 
 namespace hysid {
 
-const char* ToString(EstimatorStatus status) {
-  switch (status) {
-    case EstimatorStatus::kOk: return "ok";
-    case EstimatorStatus::kNotExcited: return "not-excited";
-    case EstimatorStatus::kNonGeneric: return "non-generic";
-    case EstimatorStatus::kIllConditioned: return "ill-conditioned";
-  }
-  return "?";
-}
-
 bool EstimatorSettings::IsValid(std::string* error) const {
   if (!CheckOptions(EstimatorOptions(), *this, error)) return false;
   if (!noise_shape.allFinite()) {
@@ -47,9 +37,19 @@ void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   DoUpdate(phi, y);
 }
 
+const char* ToString(EstimatorStatus status) {
+  switch (status) {
+    case EstimatorStatus::kOk: return "ok";
+    case EstimatorStatus::kNotExcited: return "not-excited";
+    case EstimatorStatus::kNonGeneric: return "non-generic";
+    case EstimatorStatus::kIllConditioned: return "ill-conditioned";
+  }
+  return "?";
+}
+
 const PluginList<EstimatorDescriptor>& Plugins(EstimatorKind) {
   static const PluginList<EstimatorDescriptor> list{
-      "estimator", {&RlsDescriptor(), &GtlsDescriptor(), &FrischDescriptor(), &IntegralDescriptor()}};
+      "estimator", {RlsDescriptor(), GtlsDescriptor(), FrischDescriptor(), IntegralDescriptor()}};
   return list;
 }
 

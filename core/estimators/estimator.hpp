@@ -67,35 +67,26 @@ struct EstimatorSettings {
 // Each option of EstimatorSettings, described once (name = field = TOML key, flag --name).
 inline const std::vector<Option<EstimatorSettings>>& EstimatorOptions() {
   using S = EstimatorSettings;
-  using T = OptionType;
   static const std::vector<Option<S>> table{
       Describe<&S::forgetting>({.name = "forgetting",
-                                .type = T::kReal,
                                 .range = {0, 1, true, false},
                                 .help = "exponential forgetting factor lambda (1 = none)"}),
       Describe<&S::p0>({.name = "p0",
-                        .type = T::kReal,
                         .range = {0, kUnbounded, true, true},
                         .help = "initial covariance P0 = p0 I (prior ridge I/p0)"}),
       Describe<&S::refactor_every>({.name = "refactor_every",
-                                    .type = T::kInteger,
                                     .range = {1, kUnbounded},
                                     .help = "exact refactorisation every this many rows"}),
-      Describe<&S::window>({.name = "window",
-                            .type = T::kInteger,
-                            .range = {0, kUnbounded},
-                            .help = "window in rows (0 = growing)"}),
+      Describe<&S::window>(
+          {.name = "window", .range = {0, kUnbounded}, .help = "window in rows (0 = growing)"}),
       Describe<&S::frisch_box>({.name = "frisch_box",
-                                .type = T::kChoice,
                                 .choices = {"intersect", "cumulative"},
                                 .help = "cumulative (box of the simplex of all rows) or intersect (BBRF)"}),
       Describe<&S::frisch_point>({.name = "frisch_point",
-                                  .type = T::kChoice,
                                   .choices = {"centre", "rls"},
                                   .help = "rls (RLS clamped into the boxes) or centre (of the box)"}),
       Describe<&S::frisch_confidence>(
           {.name = "frisch_confidence",
-           .type = T::kReal,
            .range = {0, 1, false, true},
            .help = "confidence of the sampling allowance added to the boxes (0 = none)"}),
   };
@@ -165,10 +156,9 @@ struct EstimatorTraits {
   // UseEstimator).
   bool flow_only = false;
 };
+using EstimatorFactory = std::unique_ptr<Estimator> (*)(const EstimatorSettings&, const Vec& theta0);
 // One estimator, described once: the factory, the command line and sweep files read this.
-using EstimatorDescriptor =
-    PluginDescriptor<EstimatorKind, EstimatorTraits,
-                     std::unique_ptr<Estimator> (*)(const EstimatorSettings&, const Vec&)>;
+using EstimatorDescriptor = PluginDescriptor<EstimatorKind, EstimatorTraits, EstimatorFactory>;
 // Every estimator, in the order of EstimatorKind; ParseKind<EstimatorKind>("x") throws
 // "unknown estimator 'x' (known: rls, gtls, frisch, integral)".
 const PluginList<EstimatorDescriptor>& Plugins(EstimatorKind);

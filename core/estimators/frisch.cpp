@@ -13,20 +13,6 @@
 
 namespace hysid {
 
-const EstimatorDescriptor& FrischDescriptor() {
-  static const EstimatorDescriptor d{
-      .kind = EstimatorKind::kFrisch,
-      .name = "frisch",
-      .help = "recursive Frisch scheme: a solution box and a point in it",
-      .options = {"forgetting", "p0", "window", "frisch_box", "frisch_point", "frisch_confidence"},
-      .traits = {.needs_noise_shape = true, .reports_box = true},
-      .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
-        return std::make_unique<Frisch>(theta0, s.window, s.forgetting, s.p0, s.frisch_box, s.frisch_point,
-                                        s.noise_shape, s.frisch_confidence);
-      }};
-  return d;
-}
-
 Mat Frisch::solution_box() const {
   if (!has_box_) return Mat();
   Mat box(lower_.size(), 2);
@@ -80,6 +66,7 @@ Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, Fris
 }
 
 void Frisch::Reset() {
+  ResetToPrior();
   const Eigen::Index p = theta0_.size();
   const Eigen::Index m = p + 1;
   rls_.Reset();
@@ -105,7 +92,6 @@ void Frisch::Reset() {
   empty_intersections_ = 0;
   has_box_ = false;
   kalman_ = false;
-  ResetToPrior();
 }
 
 bool Frisch::Contains(ConstVecRef theta, double tolerance) const {
@@ -307,6 +293,17 @@ void Frisch::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
     TakeWindow(all, all_weight_, all, all_weight_);
   }
   SetPoint();
+}
+
+EstimatorDescriptor FrischDescriptor() {
+  return {.name = "frisch",
+          .help = "recursive Frisch scheme: a solution box and a point in it",
+          .options = {"forgetting", "p0", "window", "frisch_box", "frisch_point", "frisch_confidence"},
+          .traits = {.needs_noise_shape = true, .reports_box = true},
+          .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
+            return std::make_unique<Frisch>(theta0, s.window, s.forgetting, s.p0, s.frisch_box,
+                                            s.frisch_point, s.noise_shape, s.frisch_confidence);
+          }};
 }
 
 }  // namespace hysid

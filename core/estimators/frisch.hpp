@@ -86,7 +86,7 @@ namespace hysid {
 
 // The recursive Frisch scheme; reads window, forgetting, p0 and the frisch_* options, needs a noise
 // shape (its zero diagonal entries), reports a solution box.
-const EstimatorDescriptor& FrischDescriptor();
+EstimatorDescriptor FrischDescriptor();
 
 class Frisch final : public Estimator {
  public:

@@ -10,18 +10,6 @@
 
 namespace hysid {
 
-const EstimatorDescriptor& GtlsDescriptor() {
-  static const EstimatorDescriptor d{
-      .kind = EstimatorKind::kGtls,
-      .name = "gtls",
-      .help = "recursive generalized total least squares (noise shape C from sigma and dt)",
-      .options = {"forgetting", "refactor_every"},
-      .traits = {.needs_noise_shape = true},
-      .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
-        return std::make_unique<Gtls>(theta0, s.noise_shape, s.forgetting, s.refactor_every);
-      }};
-  return d;
-}
 namespace {
 
 constexpr double kRankTolerance = 1e-10;  // smallest admissible Cholesky pivot² of D S_φφ D
@@ -68,6 +56,7 @@ Gtls::Gtls(const Vec& theta0, const Mat& noise_shape, double forgetting, int ref
 }
 
 void Gtls::Reset() {
+  ResetToPrior();
   const Eigen::Index m = theta0_.size() + 1;
   s_ = Mat::Zero(m, m);
   p_ = Mat::Zero(m, m);
@@ -83,7 +72,6 @@ void Gtls::Reset() {
   rows_since_refactor_ = 0;
   started_ = false;
   needs_refactor_ = false;
-  ResetToPrior();
 }
 
 double Gtls::noise_variance() const {
@@ -318,6 +306,16 @@ void Gtls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
     return;
   }
   InverseIterationStep(m);
+}
+
+EstimatorDescriptor GtlsDescriptor() {
+  return {.name = "gtls",
+          .help = "recursive generalized total least squares (noise shape C from sigma and dt)",
+          .options = {"forgetting", "refactor_every"},
+          .traits = {.needs_noise_shape = true},
+          .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
+            return std::make_unique<Gtls>(theta0, s.noise_shape, s.forgetting, s.refactor_every);
+          }};
 }
 
 }  // namespace hysid

@@ -33,7 +33,7 @@
 namespace hysid {
 
 // Recursive generalized total least squares; reads forgetting and refactor_every, needs a noise shape.
-const EstimatorDescriptor& GtlsDescriptor();
+EstimatorDescriptor GtlsDescriptor();
 
 class Gtls final : public Estimator {
  public:

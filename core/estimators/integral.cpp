@@ -7,19 +7,6 @@
 
 namespace hysid {
 
-const EstimatorDescriptor& IntegralDescriptor() {
-  static const EstimatorDescriptor d{
-      .kind = EstimatorKind::kIntegral,
-      .name = "integral",
-      .help = "least squares on integral rows, one offset per flow segment (alpha only)",
-      .options = {"p0"},
-      .traits = {.flow_only = true},
-      .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
-        return std::make_unique<IntegralLs>(theta0, s.p0);
-      }};
-  return d;
-}
-
 IntegralLs::IntegralLs(const Vec& theta0, double p0) : Estimator(theta0), ridge_(1.0 / p0) { Reset(); }
 
 void IntegralLs::Reset() {
@@ -123,6 +110,16 @@ void IntegralLs::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
     if (phi.row(r).any()) ++informative_;
   }
   Solve<0>();
+}
+
+EstimatorDescriptor IntegralDescriptor() {
+  return {.name = "integral",
+          .help = "least squares on integral rows, one offset per flow segment (alpha only)",
+          .options = {"p0"},
+          .traits = {.flow_only = true},
+          .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
+            return std::make_unique<IntegralLs>(theta0, s.p0);
+          }};
 }
 
 }  // namespace hysid

@@ -30,7 +30,7 @@
 namespace hysid {
 
 // Integral-row least squares; reads p0.
-const EstimatorDescriptor& IntegralDescriptor();
+EstimatorDescriptor IntegralDescriptor();
 
 class IntegralLs final : public Estimator {
  public:

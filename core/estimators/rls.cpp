@@ -6,18 +6,6 @@
 
 namespace hysid {
 
-const EstimatorDescriptor& RlsDescriptor() {
-  static const EstimatorDescriptor d{
-      .kind = EstimatorKind::kRls,
-      .name = "rls",
-      .help = "recursive least squares",
-      .options = {"forgetting", "p0"},
-      .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
-        return std::make_unique<Rls>(theta0, s.p0, s.forgetting);
-      }};
-  return d;
-}
-
 Rls::Rls(const Vec& theta0, double p0, double forgetting) : Estimator(theta0), p0_(p0), lambda_(forgetting) {
   max_trace_ = p0_ * static_cast<double>(theta0.size());
   Reset();
@@ -51,6 +39,15 @@ void Rls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
   long informative = 0;
   for (Eigen::Index r = 0; r < phi.rows(); ++r) informative += phi.row(r).any() ? 1 : 0;
   CountExcitation(informative);
+}
+
+EstimatorDescriptor RlsDescriptor() {
+  return {.name = "rls",
+          .help = "recursive least squares",
+          .options = {"forgetting", "p0"},
+          .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
+            return std::make_unique<Rls>(theta0, s.p0, s.forgetting);
+          }};
 }
 
 }  // namespace hysid

@@ -116,7 +116,7 @@ inline bool ScalarRlsUpdate(Eigen::Index p_dynamic, double* pp, double* theta, d
 }  // namespace detail
 
 // Recursive least squares; reads forgetting and p0.
-const EstimatorDescriptor& RlsDescriptor();
+EstimatorDescriptor RlsDescriptor();
 
 class Rls final : public Estimator {
  public:

@@ -29,7 +29,7 @@ struct Interval {
 template <class S>
 struct Option {
   std::string_view name{};  // the field's name: TOML key; the flag is "--" + name with '-' for '_'
-  OptionType type = OptionType::kReal;
+  OptionType type = OptionType::kReal;      // Describe sets it from the field's type
   Interval range{};                         // kReal, kInteger
   std::vector<std::string_view> choices{};  // kChoice: the enumerators' names, in enumerator order
   std::string_view help{};
@@ -53,6 +53,10 @@ struct Field;
 template <class S, class T, T S::*M>
 struct Field<M> {
   using Settings = S;
+  // An enum is a choice among its enumerators, an integral type an integer, anything else real.
+  static constexpr OptionType kType = std::is_enum_v<T>       ? OptionType::kChoice
+                                      : std::is_integral_v<T> ? OptionType::kInteger
+                                                              : OptionType::kReal;
   static double Get(const S& s) {
     if constexpr (std::is_enum_v<T>) {
       return static_cast<double>(static_cast<int>(s.*M));
@@ -69,10 +73,11 @@ struct Field<M> {
   }
 };
 
-// The option `o` with get and set taken from the member M:
-//   Describe<&DetectorSettings::r>({.name = "r", .type = OptionType::kReal, ...}).
+// The option `o` with its type, get and set taken from the member M:
+//   Describe<&DetectorSettings::r>({.name = "r", .range = {1, kUnbounded, true, true}, ...}).
 template <auto M>
 Option<typename Field<M>::Settings> Describe(Option<typename Field<M>::Settings> o) {
+  o.type = Field<M>::kType;
   o.get = &Field<M>::Get;
   o.set = &Field<M>::Set;
   return o;

@@ -1,6 +1,7 @@
 // Plugin families (estimators, detectors) described as data. A plugin is a PluginDescriptor: its
-// kind, name, help, the options it reads, what its family adds, and its factory. A family is the
-// PluginList that `Plugins(kind)` returns for its Kind type; the look-ups below serve every family
+// name, help, the options it reads, what its family adds, and its factory. A family is the
+// PluginList that `Plugins(kind)` returns for its Kind type, one descriptor per enumerator of Kind
+// in enumerator order (the enumerators are 0, 1, ...); the look-ups below serve every family
 // (docs/architecture.md, "Estimator and detector descriptors").
 #pragma once
 
@@ -11,11 +12,11 @@
 
 namespace hysid {
 
-// One plugin of the family with enumerators `Kind`. `traits` holds what the family adds (an
-// estimator's needs, a detector's trace columns); `make` builds the plugin from checked settings.
+// One plugin of the family with enumerators `Kind` (its kind is its place in the family's list).
+// `traits` holds what the family adds (an estimator's needs, a detector's trace columns); `make`
+// builds the plugin from checked settings.
 template <class Kind, class Traits, class Make>
 struct PluginDescriptor {
-  Kind kind;
   std::string_view name;                  // as given on the command line and in sweep files
   std::string_view help;                  // one line
   std::vector<std::string_view> options;  // the family's options (EstimatorOptions()...) it reads
@@ -34,7 +35,7 @@ struct PluginDescriptor {
 template <class Descriptor>
 struct PluginList {
   std::string_view family;
-  std::vector<const Descriptor*> all;
+  std::vector<Descriptor> all;
 };
 
 // A Kind whose family is declared as `const PluginList<...>& Plugins(Kind)` (found by its type).
@@ -53,9 +54,8 @@ const auto& AllPlugins() {
 template <PluginKind Kind>
 const auto& DescriptorOf(Kind kind) {
   const auto& list = Plugins(kind);
-  for (const auto* d : list.all) {
-    if (d->kind == kind) return *d;
-  }
+  const auto index = static_cast<std::size_t>(kind);
+  if (index < list.all.size()) return list.all[index];
   const std::string family(list.family);
   throw std::invalid_argument(family + " kind " + std::to_string(static_cast<int>(kind)) + ": no such " +
                               family);
@@ -69,7 +69,7 @@ std::string_view ToString(Kind kind) {
 template <PluginKind Kind>
 std::vector<std::string> PluginNames() {
   std::vector<std::string> names;
-  for (const auto* d : AllPlugins<Kind>()) names.emplace_back(d->name);
+  for (const auto& d : AllPlugins<Kind>()) names.emplace_back(d.name);
   return names;
 }
 
@@ -78,9 +78,9 @@ template <PluginKind Kind>
 Kind ParseKind(std::string_view name) {
   const auto& list = Plugins(Kind{});
   std::string known;
-  for (const auto* d : list.all) {
-    if (d->name == name) return d->kind;
-    known += (known.empty() ? "" : ", ") + std::string(d->name);
+  for (std::size_t i = 0; i < list.all.size(); ++i) {
+    if (list.all[i].name == name) return static_cast<Kind>(i);
+    known += (known.empty() ? "" : ", ") + std::string(list.all[i].name);
   }
   throw std::invalid_argument("unknown " + std::string(list.family) + " '" + std::string(name) +
                               "' (known: " + known + ")");

@@ -689,8 +689,6 @@ struct HullNd::Impl {
 
 HullNd::HullNd(int n) : impl_(std::make_unique<Impl>(n)) {}
 HullNd::~HullNd() = default;
-HullNd::HullNd(HullNd&&) noexcept = default;
-HullNd& HullNd::operator=(HullNd&&) noexcept = default;
 
 bool HullNd::Add(const ConstVecRef& x) {
   Impl& s = *impl_;

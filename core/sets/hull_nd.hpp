@@ -12,12 +12,8 @@ namespace hysid::internal {
 
 class HullNd {
  public:
-  explicit HullNd(int n);  // n ≥ 3
+  explicit HullNd(int n);  // n ≥ 3; neither copied nor moved (SampleSet holds it by pointer)
   ~HullNd();
-  HullNd(HullNd&&) noexcept;
-  HullNd& operator=(HullNd&&) noexcept;
-  HullNd(const HullNd&) = delete;
-  HullNd& operator=(const HullNd&) = delete;
 
   // x has n finite components (the caller checks). Returns true when the hull changed.
   bool Add(const ConstVecRef& x);

@@ -105,9 +105,9 @@ void RequireFinite(const std::string& flag, const std::vector<double>& values);
 
 // "rls (recursive least squares); gtls (...); …" from the descriptors, for a flag's help.
 template <class Descriptor>
-std::string PluginHelp(const char* what, const std::vector<const Descriptor*>& descriptors) {
+std::string PluginHelp(const char* what, const std::vector<Descriptor>& descriptors) {
   std::vector<std::string> parts;
-  for (const Descriptor* d : descriptors) parts.push_back(fmt::format("{} ({})", d->name, d->help));
+  for (const Descriptor& d : descriptors) parts.push_back(fmt::format("{} ({})", d.name, d.help));
   return fmt::format("{}: {}", what, fmt::join(parts, "; "));
 }
 

@@ -56,17 +56,17 @@ struct OptionFlag {
 };
 
 template <class S>
-std::string ReadBy(std::string_view option, const std::vector<const S*>& descriptors) {
+std::string ReadBy(std::string_view option, const std::vector<S>& descriptors) {
   std::vector<std::string_view> names;
-  for (const S* d : descriptors) {
-    if (d->Reads(option)) names.push_back(d->name);
+  for (const S& d : descriptors) {
+    if (d.Reads(option)) names.push_back(d.name);
   }
   return fmt::format("{}", fmt::join(names, ", "));
 }
 
 template <class S, class Descriptor>
 void AddOptionFlags(std::vector<OptionFlag>* flags, const std::vector<Option<S>>& table,
-                    const std::vector<const Descriptor*>& descriptors, S IdentifierSettings::*member,
+                    const std::vector<Descriptor>& descriptors, S IdentifierSettings::*member,
                     std::string_view prefix, std::string_view whose) {
   const IdentifierSettings defaults;
   for (const Option<S>& o : table) {

@@ -7,6 +7,7 @@
 
 #include "core/estimators/estimator.hpp"
 #include "tests/testing/eiv_problem.hpp"
+#include "tests/testing/plugin_list.hpp"
 
 namespace hysid {
 namespace {
@@ -14,6 +15,18 @@ namespace {
 void CheckFinite(const Estimator& e) {
   CHECK(e.estimate().allFinite());
   if (const auto cov = e.covariance_matrix()) CHECK(cov->allFinite());
+}
+
+TEST_CASE("a kind's descriptor is the one at its place in the list: names and classes agree", "[estimator]") {
+  testing::CheckPluginList<EstimatorKind>({{EstimatorKind::kRls, "rls"},
+                                           {EstimatorKind::kGtls, "gtls"},
+                                           {EstimatorKind::kFrisch, "frisch"},
+                                           {EstimatorKind::kIntegral, "integral"}},
+                                          [](EstimatorKind kind) {
+                                            EstimatorSettings s;
+                                            s.kind = kind;
+                                            return MakeEstimator(s, Vec::Zero(2));
+                                          });
 }
 
 TEST_CASE("every estimator by name: degenerate data gives finite estimates and a status",
