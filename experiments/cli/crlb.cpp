@@ -58,17 +58,18 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
 
 void AddCrlbCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<CrlbArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "crlb",
-      "Cramér–Rao lower bound of the unknown alpha, beta and x0 for samples with Gaussian noise\n"
-      "sigma: per-parameter sd and the CRLB-implied mean e_alpha, e_beta. Exit 1 when the bound\n"
-      "cannot be computed (simulation stopped, singular Fisher information).");
+  CLI::App* sub =
+      app.add_subcommand("crlb", "Cramér–Rao lower bound of a model's unknown alpha, beta and x0");
   AddModelFlags(*sub, args->model, "set a true parameter, name=value (repeatable)");
   AddTrajectoryFlags(*sub, args->trajectory);
   AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per state")
       ->capture_default_str();
   sub->add_flag("--x0-known", args->x0_known, "x0 is known (not estimated)");
   AddToleranceOptions(*sub, args->options.sim, "states and sensitivities");
+  sub->footer(
+      "The bound for samples with Gaussian noise sigma: per-parameter sd and the CRLB-implied mean\n"
+      "e_alpha, e_beta. Exit 1 when it cannot be computed (simulation stopped, singular Fisher "
+      "information).");
   sub->callback([args, &env] {
     const int code = RunCrlb(*args, env);
     if (code != 0) throw CLI::RuntimeError(code);

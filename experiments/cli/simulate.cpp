@@ -207,10 +207,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
 
 void AddSimulateCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<SimulateArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "simulate",
-      "Simulate one trajectory: samples t_k = k*dt with jump counter, true and measured state.\n"
-      "Defaults are the model's (impact-msd: the paper's Sec. 5 values).");
+  CLI::App* sub = app.add_subcommand("simulate", "simulate one trajectory of a model, measured with noise");
   AddModelFlags(*sub, args->model, "set a parameter, name=value (repeatable)");
   AddTrajectoryFlags(*sub, args->trajectory);
   AddSigmaOption(*sub, args->sigma, "measurement noise standard deviation: one value, or one per state")
@@ -225,6 +222,9 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
   sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
+  sub->footer(
+      "Samples t_k = k*dt with jump counter, true and measured state. Defaults are the model's\n"
+      "(impact-msd: the paper's Sec. 5 values).");
   sub->callback([args, &env] { RunSimulate(*args, env); });
 }
 
@@ -256,7 +256,7 @@ void PrintModel(const Model& m, bool full) {
 }
 
 void AddModelsCommand(CLI::App& app, Environment& env) {
-  CLI::App* sub = app.add_subcommand("models", "List the built-in models and their parameters");
+  CLI::App* sub = app.add_subcommand("models", "list the built-in models and their parameters");
   auto show = std::make_shared<std::string>();
   sub->add_option("--show", *show,
                   "one model's equations, sets and parameters: a registered name or a model file");
