@@ -9,7 +9,6 @@
 #include "core/sets/sample_set.hpp"
 
 namespace hysid {
-namespace {}  // namespace
 
 // Squared spectral norm of a small matrix: the squared row norm for one row, else λmax(AAᵀ).
 [[gnu::noinline]] double SpectralNormSquared(const Eigen::Ref<const Mat>& a) {
