@@ -12,15 +12,12 @@
 #include "core/identify/metrics.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
+#include "tests/testing/vec.hpp"
 
 namespace hysid {
 namespace {
 
-Vec V2(double a, double b) {
-  Vec v(2);
-  v << a, b;
-  return v;
-}
+using testing::V;
 
 Mat Diag3(double a, double b, double c) {
   Mat m = Mat::Zero(3, 3);
@@ -39,35 +36,35 @@ TEST_CASE("WithNoiseShapes: impact-msd closed forms, sigma 0, user shapes, rls u
           "[identify][eiv]") {
   const Model model{ImpactMsd{}};
   const double dt = 5e-4;
-  const Vec x0 = V2(20.0, 0.0);
+  const Vec x0 = V(20.0, 0.0);
   // Row v: z = [(δt/2)(−x_k − x_{k−1}), (δt/2)(−v_k − v_{k−1}), Δv]; jump z = [−v_{k−1}, 1, v_k].
-  const IdentifierSettings gtls = WithNoiseShapes(model, dt, Named("gtls"), V2(0.3, 0.6), x0);
+  const IdentifierSettings gtls = WithNoiseShapes(model, dt, Named("gtls"), V(0.3, 0.6), x0);
   const Mat flow = Diag3(0.5 * dt * dt * 0.09, 0.5 * dt * dt * 0.36, 2.0 * 0.36);
   CHECK((gtls.flow_estimator.noise_shape - flow).norm() <= 1e-6 * flow.norm());
   CHECK((gtls.jump_estimator.noise_shape - Diag3(0.36, 0.0, 0.36)).norm() <= 1e-9);
   // frisch gets the same shapes (it uses the zero diagonal entry: μ's column is exact).
-  const IdentifierSettings frisch = WithNoiseShapes(model, dt, Named("frisch"), V2(0.3, 0.6), x0);
+  const IdentifierSettings frisch = WithNoiseShapes(model, dt, Named("frisch"), V(0.3, 0.6), x0);
   CHECK(frisch.jump_estimator.noise_shape == gtls.jump_estimator.noise_shape);
   Identifier id(model, dt, frisch);
   const auto& jump = dynamic_cast<const Frisch&>(id.jump_estimator());
   CHECK(jump.noisy_columns() == std::vector<Eigen::Index>{0, 2});
   // σ = 0 (noise-free data): the shape of equal noise, σ = 1.
-  const IdentifierSettings zero = WithNoiseShapes(model, dt, Named("gtls"), V2(0.0, 0.0), x0);
+  const IdentifierSettings zero = WithNoiseShapes(model, dt, Named("gtls"), V(0.0, 0.0), x0);
   CHECK((zero.flow_estimator.noise_shape - Diag3(0.5 * dt * dt, 0.5 * dt * dt, 2.0)).norm() <= 1e-6);
   // σ = (0.3, 0): no noise reaches the jump regression (it only sees v) — least squares.
-  const IdentifierSettings half = WithNoiseShapes(model, dt, Named("gtls"), V2(0.3, 0.0), x0);
+  const IdentifierSettings half = WithNoiseShapes(model, dt, Named("gtls"), V(0.3, 0.0), x0);
   CHECK(half.jump_estimator.noise_shape == Diag3(0.0, 0.0, 1.0));
   CHECK(half.flow_estimator.noise_shape(0, 0) > 0.0);
   // A shape given by the user is kept; rls gets none.
   IdentifierSettings user = Named("gtls");
   user.flow_estimator.noise_shape = Mat::Identity(3, 3);
-  CHECK(WithNoiseShapes(model, dt, user, V2(0.3, 0.6), x0).flow_estimator.noise_shape == Mat::Identity(3, 3));
-  CHECK(WithNoiseShapes(model, dt, Named("rls"), V2(0.3, 0.6), x0).flow_estimator.noise_shape.size() == 0);
+  CHECK(WithNoiseShapes(model, dt, user, V(0.3, 0.6), x0).flow_estimator.noise_shape == Mat::Identity(3, 3));
+  CHECK(WithNoiseShapes(model, dt, Named("rls"), V(0.3, 0.6), x0).flow_estimator.noise_shape.size() == 0);
   CHECK_THROWS_WITH(WithNoiseShapes(model, dt, Named("gtls"), Vec::Ones(3), x0),
                     Catch::Contains("sigma has 3 entries"));
   // The streaming Identifier derives them itself (σ given, else ones) at the model's x0.
   IdentifierSettings streaming = Named("gtls");
-  streaming.sigma = V2(0.3, 0.6);
+  streaming.sigma = V(0.3, 0.6);
   Identifier sid(model, dt, streaming);
   CHECK((dynamic_cast<const Gtls&>(sid.flow_estimator()).noise_shape() - flow).norm() <= 1e-6 * flow.norm());
 }
@@ -75,9 +72,9 @@ TEST_CASE("WithNoiseShapes: impact-msd closed forms, sigma 0, user shapes, rls u
 TEST_CASE("Identify with gtls: sigma estimated from the data when not given, used as given otherwise",
           "[identify][eiv]") {
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, V2(20.0, 0.0), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, V(20.0, 0.0), SampleGrid{20.0, 5e-4});
   REQUIRE(traj.status.completed());
-  const Vec sigma = V2(0.1, 0.4);  // unequal: the ratio matters for C
+  const Vec sigma = V(0.1, 0.4);  // unequal: the ratio matters for C
   const Mat y = AddMeasurementNoise(traj.x, sigma, NoiseKey{11, 0});
   const IdentifyResult estimated = Identify(model, y, traj.dt, Named("gtls"));
   REQUIRE(estimated.noise_sigma_estimated);
@@ -85,7 +82,7 @@ TEST_CASE("Identify with gtls: sigma estimated from the data when not given, use
               estimated.noise_sigma[0], estimated.noise_sigma[1]);
   CHECK(estimated.noise_sigma[0] == Approx(sigma[0]).epsilon(0.03));
   CHECK(estimated.noise_sigma[1] == Approx(sigma[1]).epsilon(0.03));
-  const Mat expected = WithNoiseShapes(model, traj.dt, Named("gtls"), estimated.noise_sigma, V2(20.0, 0.0))
+  const Mat expected = WithNoiseShapes(model, traj.dt, Named("gtls"), estimated.noise_sigma, V(20.0, 0.0))
                            .flow_estimator.noise_shape;
   CHECK((estimated.flow_noise_shape - expected).norm() <= 1e-6 * expected.norm());
   IdentifierSettings given = Named("gtls");
@@ -101,7 +98,7 @@ TEST_CASE("Identify with gtls: sigma estimated from the data when not given, use
 
 TEST_CASE("noise-free §5 with gtls and frisch: all 14 jumps, e_alpha < 1e-4", "[identify][eiv]") {
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, V2(20.0, 0.0), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, V(20.0, 0.0), SampleGrid{20.0, 5e-4});
   REQUIRE(traj.status.completed());
   for (const char* name : {"gtls", "frisch"}) {
     const IdentifyResult r = Identify(model, traj.x, traj.dt, Named(name));
@@ -123,7 +120,7 @@ TEST_CASE("§5 at sigma 2 with the true jumps: RLS attenuates a as predicted, gt
   // has variance δt²σ²/2 against the signal δt²·E[x²], so plim â_LS ≈ a·E[x²]/(E[x²] + σ²/2)
   // (the small x–v correlation neglected). 100 seeds, oracle labels (no detector).
   const Model model{ImpactMsd{}};
-  const Trajectory traj = Simulate(model, V2(20.0, 0.0), SampleGrid{20.0, 5e-4});
+  const Trajectory traj = Simulate(model, V(20.0, 0.0), SampleGrid{20.0, 5e-4});
   REQUIRE(traj.status.completed());
   const double sigma = 2.0;
   const double ex2 = traj.x.row(0).array().square().mean();
@@ -131,13 +128,12 @@ TEST_CASE("§5 at sigma 2 with the true jumps: RLS attenuates a as predicted, gt
   const int runs = 100;
   Vec ls(runs), gt(runs);
   RegressionBuilder builder(model);
-  IdentifierSettings settings =
-      WithNoiseShapes(model, traj.dt, Named("gtls"), V2(sigma, sigma), V2(20.0, 0.0));
+  IdentifierSettings settings = WithNoiseShapes(model, traj.dt, Named("gtls"), V(sigma, sigma), V(20.0, 0.0));
   EstimatorSettings rls_settings;
   Mat phi(1, 2);
   Vec yf(1);
   for (int run = 0; run < runs; ++run) {
-    const Mat y = AddMeasurementNoise(traj.x, V2(sigma, sigma), NoiseKey{2024, std::uint64_t(run)});
+    const Mat y = AddMeasurementNoise(traj.x, V(sigma, sigma), NoiseKey{2024, std::uint64_t(run)});
     auto rls = MakeEstimator(rls_settings, Vec::Zero(2));
     auto gtls = MakeEstimator(settings.flow_estimator, Vec::Zero(2));
     for (long k = 1; k < y.cols(); ++k) {

@@ -11,19 +11,16 @@
 #include "core/model/regression.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
+#include "tests/testing/vec.hpp"
 
 namespace hysid {
 namespace {
 
-Vec V2(double a, double b) {
-  Vec v(2);
-  v << a, b;
-  return v;
-}
+using testing::V;
 
 TEST_CASE("noise shapes of impact-msd: closed forms", "[noise_shape]") {
   const Model model(ImpactMsd{});
-  const Vec sigma = V2(0.05, 0.2);
+  const Vec sigma = V(0.05, 0.2);
   const double dt = 5e-4;
   Mat states(2, 2);
   states << 3.0, 0.0, -1.0, 4.0;  // affine φ: C does not depend on the state
@@ -54,8 +51,8 @@ Mat EmpiricalFlowNoise(const Model& model, const Vec& prev, const Vec& cur, cons
   for (int k = 0; k < draws; ++k) {
     const Normal4 n =
         StandardNormals(NoiseKey{99, 0}, RandomPurpose::kMeasurementNoise, static_cast<std::uint64_t>(k));
-    const Vec p = prev + sigma.cwiseProduct(V2(n.v[0], n.v[1]));
-    const Vec c = cur + sigma.cwiseProduct(V2(n.v[2], n.v[3]));
+    const Vec p = prev + sigma.cwiseProduct(V(n.v[0], n.v[1]));
+    const Vec c = cur + sigma.cwiseProduct(V(n.v[2], n.v[3]));
     builder.Flow(p, c, dt, phi, y);
     w << (phi - phi0).transpose(), y - y0;
     acc += w * w.transpose();
@@ -67,8 +64,8 @@ TEST_CASE("flow noise shape matches the regression rows' noise (trapezoid cross 
   const double dt = 0.01;
   const int draws = 40000;
   for (const Model& model : {Model(ImpactMsd{}), Model(ImpactPendulum{})}) {
-    const Vec sigma = model.name() == "impact-msd" ? V2(0.05, 0.2) : V2(0.01, 0.05);
-    const Vec prev = V2(0.8, -0.3), cur = V2(0.797, -0.31);
+    const Vec sigma = model.name() == "impact-msd" ? V(0.05, 0.2) : V(0.01, 0.05);
+    const Vec prev = V(0.8, -0.3), cur = V(0.797, -0.31);
     const Mat empirical = EmpiricalFlowNoise(model, prev, cur, sigma, dt, draws);
     Mat mid(2, 1);
     mid.col(0) = 0.5 * (prev + cur);
@@ -93,7 +90,7 @@ TEST_CASE("MAD of second differences recovers sigma on a simulated trajectory", 
   REQUIRE(traj.status.completed());
   REQUIRE(!traj.jumps.empty());  // jumps are outliers the median must ignore
   for (double scale : {0.01, 0.1}) {
-    const Vec sigma = V2(1.0, 4.0) * scale;
+    const Vec sigma = V(1.0, 4.0) * scale;
     const Mat y = AddMeasurementNoise(traj.x, sigma, NoiseKey{5, 1});
     const Vec estimate = EstimateNoiseSigma(y);
     std::printf("[noise_shape] sigma (%.3f, %.3f) -> estimate (%.4f, %.4f), %zu jumps, %ld samples\n",
@@ -111,9 +108,9 @@ TEST_CASE("noise shape errors name the field", "[noise_shape]") {
   const Mat states = Mat::Zero(2, 1);
   CHECK_THROWS_WITH(FlowNoiseShape(model, Vec::Ones(3), 0.01, states),
                     Catch::Contains("sigma has 3 entries"));
-  CHECK_THROWS_WITH(FlowNoiseShape(model, V2(0.1, -1.0), 0.01, states), Catch::Contains("sigma[1] = -1"));
-  CHECK_THROWS_WITH(FlowNoiseShape(model, V2(0.1, 0.1), 0.0, states), Catch::Contains("dt = 0"));
-  CHECK_THROWS_WITH(JumpNoiseShape(model, V2(0.1, 0.1), Mat::Zero(3, 1)), Catch::Contains("states is 3x1"));
+  CHECK_THROWS_WITH(FlowNoiseShape(model, V(0.1, -1.0), 0.01, states), Catch::Contains("sigma[1] = -1"));
+  CHECK_THROWS_WITH(FlowNoiseShape(model, V(0.1, 0.1), 0.0, states), Catch::Contains("dt = 0"));
+  CHECK_THROWS_WITH(JumpNoiseShape(model, V(0.1, 0.1), Mat::Zero(3, 1)), Catch::Contains("states is 3x1"));
   CHECK_THROWS_WITH(EstimateNoiseSigma(Mat::Zero(2, 3)), Catch::Contains("at least 4"));
 }
 

@@ -13,15 +13,12 @@
 #include <Eigen/LU>
 
 #include "core/sets/sample_set.hpp"
+#include "tests/testing/vec.hpp"
 
 namespace hysid {
 namespace {
 
-Vec P(double x, double y) {
-  Vec v(2);
-  v << x, y;
-  return v;
-}
+using testing::V;
 
 Mat Cols(std::initializer_list<std::pair<double, double>> pts) {
   Mat m(2, static_cast<Eigen::Index>(pts.size()));
@@ -49,16 +46,16 @@ TEST_CASE("square: vertices counter-clockwise, area, membership and distance tol
   CHECK(s.hull_dimension() == 2);
   CHECK(s.vertices() == Cols({{0, 0}, {1, 0}, {1, 1}, {0, 1}}));
   CHECK(s.Volume() == 1.0);
-  CHECK(s.Contains(P(0.5, 0.5)));
-  CHECK(s.Contains(P(1, 1)));     // a vertex
-  CHECK(s.Contains(P(0.25, 1)));  // on an edge
-  CHECK_FALSE(s.Contains(P(1 + 1e-12, 0.5)));
-  CHECK(s.Contains(P(1 + 1e-12, 0.5), 1e-9));
-  CHECK_FALSE(s.Contains(P(2, 0.5), 0.99));  // distance 1 to the edge x = 1
-  CHECK(s.Contains(P(2, 0.5), 1.0));
-  CHECK_FALSE(s.Contains(P(2, 2), 1.414));  // distance √2 to the corner (1, 1)
-  CHECK(s.Contains(P(2, 2), 1.4143));
-  CHECK_FALSE(s.Contains(P(std::nan(""), 0.5), 10.0));
+  CHECK(s.Contains(V(0.5, 0.5)));
+  CHECK(s.Contains(V(1, 1)));     // a vertex
+  CHECK(s.Contains(V(0.25, 1)));  // on an edge
+  CHECK_FALSE(s.Contains(V(1 + 1e-12, 0.5)));
+  CHECK(s.Contains(V(1 + 1e-12, 0.5), 1e-9));
+  CHECK_FALSE(s.Contains(V(2, 0.5), 0.99));  // distance 1 to the edge x = 1
+  CHECK(s.Contains(V(2, 0.5), 1.0));
+  CHECK_FALSE(s.Contains(V(2, 2), 1.414));  // distance √2 to the corner (1, 1)
+  CHECK(s.Contains(V(2, 2), 1.4143));
+  CHECK_FALSE(s.Contains(V(std::nan(""), 0.5), 10.0));
 }
 
 TEST_CASE("triangle: area 6 and the distance to the hypotenuse", "[sets]") {
@@ -67,8 +64,8 @@ TEST_CASE("triangle: area 6 and the distance to the hypotenuse", "[sets]") {
   CHECK(s.vertices() == Cols({{0, 0}, {4, 0}, {0, 3}}));
   CHECK(s.Volume() == 6.0);
   // (4, 3) is 12/5 from the line 3x + 4y = 12.
-  CHECK_FALSE(s.Contains(P(4, 3), 2.39));
-  CHECK(s.Contains(P(4, 3), 2.41));
+  CHECK_FALSE(s.Contains(V(4, 3), 2.39));
+  CHECK(s.Contains(V(4, 3), 2.41));
   CHECK(s.version() == 4);  // (1, 1) was a vertex until (0, 0) made it interior
 }
 
@@ -77,18 +74,18 @@ TEST_CASE("degenerate hulls: empty, a point, a segment on xi1 = 0, then a polygo
   CHECK(s.hull_dimension() == -1);
   CHECK(s.vertices().cols() == 0);
   CHECK(s.vertices().rows() == 2);
-  CHECK_FALSE(s.Contains(P(0, 0), 1.0));
+  CHECK_FALSE(s.Contains(V(0, 0), 1.0));
   CHECK(s.Volume() == 0.0);
   CHECK(s.version() == 0);
 
-  s.Add(P(0, -1));
+  s.Add(V(0, -1));
   CHECK(s.hull_dimension() == 0);
-  s.Add(P(0, -1));  // duplicate
+  s.Add(V(0, -1));  // duplicate
   CHECK(s.version() == 1);
   CHECK(s.vertices() == Cols({{0, -1}}));
-  CHECK(s.Contains(P(0, -1)));
-  CHECK_FALSE(s.Contains(P(0, -2)));
-  CHECK(s.Contains(P(0, -2), 1.0));
+  CHECK(s.Contains(V(0, -1)));
+  CHECK_FALSE(s.Contains(V(0, -2)));
+  CHECK(s.Contains(V(0, -2), 1.0));
 
   // Jump samples of impact-msd on the wall: the hull is a segment of the half-line D.
   AddChecked(s, Cols({{0, -5}, {0, -3}, {0, -2}, {0, -5}}));
@@ -96,24 +93,24 @@ TEST_CASE("degenerate hulls: empty, a point, a segment on xi1 = 0, then a polygo
   CHECK(s.version() == 2);
   CHECK(s.vertices() == Cols({{0, -5}, {0, -1}}));
   CHECK(s.Volume() == 0.0);
-  CHECK(s.Contains(P(0, -3)));
-  CHECK_FALSE(s.Contains(P(0, 0)));
-  CHECK_FALSE(s.Contains(P(1e-300, -3)));
-  CHECK(s.Contains(P(0, 0), 1.0));
-  CHECK(s.Contains(P(0.5, -3), 0.5));
-  CHECK_FALSE(s.Contains(P(0.5, -3), 0.49));
+  CHECK(s.Contains(V(0, -3)));
+  CHECK_FALSE(s.Contains(V(0, 0)));
+  CHECK_FALSE(s.Contains(V(1e-300, -3)));
+  CHECK(s.Contains(V(0, 0), 1.0));
+  CHECK(s.Contains(V(0.5, -3), 0.5));
+  CHECK_FALSE(s.Contains(V(0.5, -3), 0.49));
   // Extending the segment at both ends.
   AddChecked(s, Cols({{0, -7}, {0, 2}}));
   CHECK(s.vertices() == Cols({{0, -7}, {0, 2}}));
 
   // The first point off the line promotes the hull to a triangle.
-  s.Add(P(1, -3));
+  s.Add(V(1, -3));
   CHECK(s.hull_dimension() == 2);
   CHECK(s.version() == 5);
   CHECK(s.vertices() == Cols({{0, -7}, {1, -3}, {0, 2}}));
   CHECK(s.Volume() == 4.5);  // base 9 on xi1 = 0, height 1
-  CHECK(s.Contains(P(0, 0)));
-  CHECK(s.Contains(P(0.5, -3)));
+  CHECK(s.Contains(V(0, 0)));
+  CHECK(s.Contains(V(0.5, -3)));
 }
 
 TEST_CASE("a diagonal segment is extended exactly, then promoted on the other side", "[sets]") {
@@ -134,7 +131,7 @@ TEST_CASE("samples on a ray from the reference point through a vertex, and acros
   Mat all(2, 0);
   auto add = [&](double x, double y) {
     const long before = s.version();
-    s.Add(P(x, y));
+    s.Add(V(x, y));
     all.conservativeResize(2, all.cols() + 1);
     all.col(all.cols() - 1) << x, y;
     CHECK(s.version() == before + 1);
@@ -157,9 +154,9 @@ TEST_CASE("samples on a ray from the reference point through a vertex, and acros
 
 TEST_CASE("non-finite samples are ignored and counted", "[sets]") {
   SampleSet s(2);
-  s.Add(P(0, 0));
-  s.Add(P(std::numeric_limits<double>::quiet_NaN(), 1));
-  s.Add(P(1, std::numeric_limits<double>::infinity()));
+  s.Add(V(0, 0));
+  s.Add(V(std::numeric_limits<double>::quiet_NaN(), 1));
+  s.Add(V(1, std::numeric_limits<double>::infinity()));
   CHECK(s.size() == 1);
   CHECK(s.non_finite() == 2);
   CHECK(s.version() == 1);
@@ -233,7 +230,7 @@ TEST_CASE("a sampled circle: every sample is a vertex, inner samples do not bump
   const int count = 1000;
   for (int k = 0; k < count; ++k) {
     const double a = 2.0 * std::numbers::pi * k / count;
-    s.Add(P(std::cos(a), std::sin(a)));
+    s.Add(V(std::cos(a), std::sin(a)));
   }
   CHECK(s.vertices().cols() == BatchHullVertices(s.vertices()).cols());
   CHECK(s.vertices().cols() == count);  // strictly convex: no sample is dropped
@@ -241,7 +238,7 @@ TEST_CASE("a sampled circle: every sample is a vertex, inner samples do not bump
   CHECK(v == count);
   for (int k = 0; k < count; ++k) {  // a smaller circle, in the same angular order as a trajectory
     const double a = 2.0 * std::numbers::pi * (k + 0.5) / count;
-    s.Add(P(0.9 * std::cos(a), 0.9 * std::sin(a)));
+    s.Add(V(0.9 * std::cos(a), 0.9 * std::sin(a)));
   }
   CHECK(s.version() == v);
   // Area of the inscribed regular 1000-gon: (n/2) sin(2π/n).
@@ -273,7 +270,7 @@ TEST_CASE("a moved-from set's hull lives on in the target", "[sets]") {
   SampleSet s(2);
   AddChecked(s, Cols({{0, 0}, {2, 0}, {0, 2}}));
   SampleSet t = std::move(s);
-  t.Add(P(2, 2));
+  t.Add(V(2, 2));
   CHECK(t.vertices() == Cols({{0, 0}, {2, 0}, {2, 2}, {0, 2}}));
   CHECK(t.Volume() == 4.0);
 }

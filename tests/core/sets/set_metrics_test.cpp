@@ -9,9 +9,12 @@
 #include "core/builtin/impact_msd.hpp"
 #include "core/builtin/impact_pendulum.hpp"
 #include "core/sets/set_metrics.hpp"
+#include "tests/testing/vec.hpp"
 
 namespace hysid {
 namespace {
+
+using testing::V;
 
 SampleSet Set(std::initializer_list<std::pair<double, double>> pts) {
   SampleSet s(2);
@@ -125,8 +128,6 @@ struct HalfSpace3 {
   double DistanceToJumpSet(ConstVecRef x) const { return std::hypot(x[0], std::max(x[1], 0.0)); }
 };
 
-Vec V3(double x, double y, double z) { return (Vec(3) << x, y, z).finished(); }
-
 SampleSet Set3(std::initializer_list<Vec> pts) {
   SampleSet s(3);
   for (const Vec& x : pts) s.Add(x);
@@ -135,12 +136,12 @@ SampleSet Set3(std::initializer_list<Vec> pts) {
 
 // The unit cube: corners, with an interior point and a face centre among them.
 SampleSet UnitCube() {
-  return Set3({V3(0.5, 0.5, 0.5), V3(0, 0, 0), V3(1, 0, 0), V3(0, 1, 0), V3(1, 1, 0), V3(1, 0.5, 0.5),
-               V3(0, 0, 1), V3(1, 0, 1), V3(0, 1, 1), V3(1, 1, 1)});
+  return Set3({V(0.5, 0.5, 0.5), V(0, 0, 0), V(1, 0, 0), V(0, 1, 0), V(1, 1, 0), V(1, 0.5, 0.5), V(0, 0, 1),
+               V(1, 0, 1), V(0, 1, 1), V(1, 1, 1)});
 }
 
 double Share(const HalfSpace3& c, const SampleSet& flow) {
-  return CompareSets(Model{c}, flow, Set3({V3(0, -1, 0)})).flow_outside_share;
+  return CompareSets(Model{c}, flow, Set3({V(0, -1, 0)})).flow_outside_share;
 }
 
 TEST_CASE("3-D flow_outside_share: the unit cube cut by planes, against exact volumes", "[set-metrics]") {
@@ -154,34 +155,33 @@ TEST_CASE("3-D flow_outside_share: the unit cube cut by planes, against exact vo
   // x1 + x2 + x3 < 0.5 is the corner tetrahedron of volume 0.5³/6 = 1/48.
   CHECK(Share({.w = Vec::Ones(3), .b = 0.5}, cube) == Approx(1.0 / 48.0).margin(5e-3));
   // x1 < 0.3: a slab of volume 0.3.
-  CHECK(Share({.w = V3(1, 0, 0), .b = 0.3}, cube) == Approx(0.3).margin(5e-3));
+  CHECK(Share({.w = V(1, 0, 0), .b = 0.3}, cube) == Approx(0.3).margin(5e-3));
   // All of the cube inside C, all outside: exact.
-  CHECK(Share({.w = V3(1, 0, 0), .b = 0.0}, cube) == 0.0);
-  CHECK(Share({.w = V3(1, 0, 0), .b = 1.5}, cube) == 1.0);
+  CHECK(Share({.w = V(1, 0, 0), .b = 0.0}, cube) == 0.0);
+  CHECK(Share({.w = V(1, 0, 0), .b = 1.5}, cube) == 1.0);
   // The SampleSet overload is the vertex overload.
   const Model model{HalfSpace3{}};
-  const SampleSet jump = Set3({V3(0, -1, 0)});
+  const SampleSet jump = Set3({V(0, -1, 0)});
   CHECK(CompareSets(model, cube, jump).flow_outside_share ==
         CompareSets(model, cube.vertices(), jump.vertices()).flow_outside_share);
   CHECK_THROWS_AS(CompareSets(model, Mat::Zero(2, 3), jump.vertices()), std::invalid_argument);
 }
 
 TEST_CASE("3-D set metrics of degenerate hulls and jump_hausdorff from the vertices", "[set-metrics]") {
-  const SampleSet jump = Set3({V3(0, -1, 0)});
+  const SampleSet jump = Set3({V(0, -1, 0)});
   // A square in the plane x3 = 2, half of it with x1 < 0: the share of its area (cut along an edge
   // of its triangles' sub-triangles: exact up to rounding).
-  const SampleSet square = Set3({V3(-1, -1, 2), V3(1, -1, 2), V3(1, 1, 2), V3(-1, 1, 2), V3(0, 0, 2)});
+  const SampleSet square = Set3({V(-1, -1, 2), V(1, -1, 2), V(1, 1, 2), V(-1, 1, 2), V(0, 0, 2)});
   REQUIRE(square.hull_dimension() == 2);
-  CHECK(Share({.w = V3(1, 0, 0), .b = 0.0}, square) == Approx(0.5).margin(5e-3));
+  CHECK(Share({.w = V(1, 0, 0), .b = 0.0}, square) == Approx(0.5).margin(5e-3));
   // A segment on the x1 axis from −1 to 3: the midpoint rule puts x1 = 0 on a cell boundary.
-  CHECK(Share({.w = V3(1, 0, 0), .b = 0.0}, Set3({V3(-1, 0, 0), V3(3, 0, 0), V3(1, 0, 0)})) == 0.25);
-  CHECK(Share({.w = V3(1, 0, 0), .b = 0.0}, Set3({V3(-1, 0, 0)})) == 1.0);
-  CHECK(Share({.w = V3(1, 0, 0), .b = 0.0}, Set3({V3(1, 5, 5)})) == 0.0);
+  CHECK(Share({.w = V(1, 0, 0), .b = 0.0}, Set3({V(-1, 0, 0), V(3, 0, 0), V(1, 0, 0)})) == 0.25);
+  CHECK(Share({.w = V(1, 0, 0), .b = 0.0}, Set3({V(-1, 0, 0)})) == 1.0);
+  CHECK(Share({.w = V(1, 0, 0), .b = 0.0}, Set3({V(1, 5, 5)})) == 0.0);
   CHECK(std::isnan(Share({}, SampleSet(3))));
   // D̂ with vertices at distances 0, 0.3, 0 and √(0.1² + 0.4²) from the half-plane D, and an interior point.
   const Model model{HalfSpace3{}};
-  const SampleSet d_hat =
-      Set3({V3(0, -1, 0), V3(0.3, -2, 1), V3(0, -4, -1), V3(0.1, 0.4, 2), V3(0.1, -1.5, 0.5)});
+  const SampleSet d_hat = Set3({V(0, -1, 0), V(0.3, -2, 1), V(0, -4, -1), V(0.1, 0.4, 2), V(0.1, -1.5, 0.5)});
   CHECK(CompareSets(model, square, d_hat).jump_hausdorff == Approx(std::sqrt(0.17)).epsilon(1e-15));
   CHECK(std::isnan(CompareSets(model, square, SampleSet(3)).jump_hausdorff));
 }

@@ -1,0 +1,30 @@
+# Runs CMD (a ;-list) and passes only when it exits with code CODE and
+#  - with ERROR_LINE: its stderr is one line matching that regex (CODE defaults to 2, bad input);
+#  - with REGEX: its stdout matches every regex of that ;-list (CODE defaults to 0; 1 is a run that
+#    finished with a status that is not ok). An unbalanced square bracket in a regex would stop the
+#    list from splitting.
+if(NOT DEFINED CODE)
+  if(DEFINED ERROR_LINE)
+    set(CODE 2)
+  else()
+    set(CODE 0)
+  endif()
+endif()
+execute_process(COMMAND ${CMD} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL CODE)
+  message(FATAL_ERROR "expected exit ${CODE}, got exit ${rc}\nstdout: ${out}\nstderr: ${err}")
+endif()
+if(DEFINED ERROR_LINE)
+  string(STRIP "${err}" stripped)
+  if(NOT err MATCHES "${ERROR_LINE}" OR stripped MATCHES "\n")
+    message(FATAL_ERROR "stderr is not one line matching '${ERROR_LINE}':\n${err}")
+  endif()
+  message(STATUS "exit ${rc}: ${err}")
+  return()
+endif()
+foreach(re IN LISTS REGEX)
+  if(NOT out MATCHES "${re}")
+    message(FATAL_ERROR "stdout does not match '${re}':\n${out}")
+  endif()
+endforeach()
+message(STATUS "${out}")
