@@ -115,8 +115,7 @@ double VertexJacobianSup::Sup(ConstVecRef alpha) {
 }
 
 PaperDetector::PaperDetector(const DetectorSettings& settings, const Model& model)
-    : r_(settings.r),
-      tau0_(settings.tau0),
+    : settings_(settings),
       mode_(ResolveBoundMode(settings.bound, model)),
       constant_jacobian_(model.spec().flow_jacobian_constant),
       vertex_sup_(model, mode_) {
@@ -190,7 +189,7 @@ Decision PaperDetector::Classify(const SampleContext& c) {
   const double l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, pair_, scratch_);
   const double l2 = std::max(cached_l2_, l * l);
   const double s = cur_norm + prev_norm;
-  const double half_r = 0.5 * r_;
+  const double half_r = 0.5 * settings_.r;
   d.gamma = d2 > half_r * half_r * l2 * s * s;
   d.threshold = half_r * std::sqrt(l2) * s;
   return d;

@@ -135,7 +135,7 @@ class PaperDetector final : public JumpDetector {
       cached_version_ = version;
     }
     const double s = cur_norm + prev_norm;
-    const double half_r = 0.5 * r_;
+    const double half_r = 0.5 * settings_.r;
     d.gamma = d2 > half_r * half_r * cached_l2_ * s * s;
     d.threshold = half_r * cached_l_ * s;
     return d;
@@ -145,7 +145,7 @@ class PaperDetector final : public JumpDetector {
   // Until α̂ has seen as many flow samples as it has unknowns: τ̂ = τ̂0. True when that decides.
   bool WarmUp(long flow_updates, Decision* d) const {
     if (flow_updates >= unknowns_) return false;
-    d->threshold = tau0_;
+    d->threshold = settings_.tau0;
     d->gamma = d->statistic > d->threshold;
     return true;
   }
@@ -194,8 +194,7 @@ class PaperDetector final : public JumpDetector {
   }
   double SpectralLinearNormSquared(const double* alpha);
 
-  double r_;
-  double tau0_;
+  const DetectorSettings settings_;  // reads r, tau0 and bound
   BoundMode mode_;
   bool constant_jacobian_;
   int unknowns_;

@@ -46,7 +46,7 @@ double ClippedSecondMoment(double c) {
 }  // namespace
 
 ResidualDetector::ResidualDetector(const DetectorSettings& settings, const Model& model)
-    : model_(model), false_alarm_(settings.false_alarm), kappa_(ClippedSecondMoment(kClip)) {
+    : model_(model), settings_(settings), kappa_(ClippedSecondMoment(kClip)) {
   const RegressionLayout layout = RegressionLayout::Flow(model);
   rows_ = layout.rows;
   unknown_ = layout.unknown;
@@ -82,7 +82,7 @@ double ResidualDetector::QuantileAt(long nu) {
   const auto it = std::upper_bound(grid_.begin(), grid_.end(), nu);
   const auto idx = static_cast<std::size_t>(std::distance(grid_.begin(), it) - 1);
   if (grid_q_[idx] < 0.0) {
-    const double tail = false_alarm_ / (2.0 * static_cast<double>(rows_.size()));
+    const double tail = settings_.false_alarm / (2.0 * static_cast<double>(rows_.size()));
     grid_q_[idx] = CachedStudentUpperQuantile(tail, grid_[idx]);
   }
   cached_nu_ = nu;

@@ -177,7 +177,7 @@ class ResidualDetector final : public JumpDetector {
   }
 
   Model model_;
-  double false_alarm_;
+  const DetectorSettings settings_;  // reads false_alarm
   std::vector<int> rows_;     // identified state rows
   std::vector<int> unknown_;  // unknown α columns (columns of flow_phi)
   int unknowns_ = 0;
