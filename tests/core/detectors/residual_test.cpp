@@ -1,4 +1,4 @@
-// Issue 6: the tuning-free residual detector, sub-sample jump localisation and the second pass,
+// The tuning-free residual detector, sub-sample jump localisation and the second pass,
 // against the simulator's ground truth. Nothing here is tuned per system, δt or noise level: every
 // run uses the default false-alarm probability (DetectorSettings::false_alarm = 1e-8) unless the
 // test is about that probability.
