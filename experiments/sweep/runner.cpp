@@ -137,8 +137,8 @@ void ClaimDirectory(const SweepConfig& config, const SweepOptions& options, long
   const nlohmann::json old = ReadJson(identity_path);
   if (old.value("hash", "") != identity["hash"]) {
     throw std::invalid_argument(fmt::format(
-        "{}: holds the results of a different sweep configuration (hash {} here, {} now); use another "
-        "--out or delete the directory",
+        "{}: holds another study (sweep hash {} there, {} now: the sweep file or a model file it names "
+        "changed what a trial computes); use another --out or delete the directory",
         options.out.string(), old.value("hash", "?"), config.Hash()));
   }
   if (old.value("shard", "") != identity["shard"]) {

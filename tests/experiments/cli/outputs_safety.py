@@ -189,7 +189,7 @@ def one_study_per_directory(d):
             f.write(text.replace(old, new))
         p = run(["sweep", "s.toml", "--out", "run", "--progress", "none"], sd)
         err = p.stderr.decode(errors="replace")
-        expect(p.returncode == 2 and "run: holds the results of a different sweep" in err,
+        expect(p.returncode == 2 and "run: holds another study" in err,
                f"resume after a change of the {what}: exit {p.returncode}, {err!r:.300}")
         expect(all(digest(os.path.join(sd, "run", f)) == h for f, h in tables.items()), f"{what}: tables changed")
         cases += 1

@@ -311,7 +311,7 @@ TEST_CASE("sweep: a killed run resumes to exactly the uninterrupted rows", "[swe
   const SweepConfig other = ParseSweepText(std::string(kSweep) + "", "resume.toml", Registry());
   SweepConfig changed = other;
   changed.seed = 12;
-  CHECK_THROWS_WITH(Run(changed, cut, 1), Catch::Contains("different sweep configuration"));
+  CHECK_THROWS_WITH(Run(changed, cut, 1), Catch::Contains("holds another study"));
   // A malformed row before the end is an error naming the journal line.
   const fs::path bad = TempDir("badjournal");
   fs::copy_file(full / "sweep.json", bad / "sweep.json");
@@ -525,7 +525,11 @@ TEST_CASE("sweep files: a model file instead of a registry name", "[sweep][confi
   CHECK(c.models[0].x0 == std::vector<double>{0.0, 5.0});  // the file's default
   const Model m = c.models[0].Build(Registry());
   CHECK(m.alpha()[1] == 3.0);
-  CHECK(c.ToJson()["model"][0]["equations"].get<std::string>().find("h(xi) = x - 1") != std::string::npos);
+  const nlohmann::json definition = c.ToJson()["model"][0]["definition"];
+  CHECK(definition["equations"].get<std::string>().find("h(xi) = x - 1 (rising), projected: x+ = 1") !=
+        std::string::npos);
+  CHECK(definition["alpha"][1] == nlohmann::json({{"name", "k"}, {"value", 4.0}, {"known", false}}));
+  CHECK(definition["default_x0"] == nlohmann::json({0.0, 5.0}));
   CHECK_THROWS_WITH(
       ParseSweepText("[model]\nfile = \"nope.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep, Registry()),
       Catch::Contains("sweep.toml:2: model.file: ") && Catch::Contains("nope.toml: cannot read"));
