@@ -131,6 +131,15 @@ void ClaimDirectory(const SweepConfig& config, const SweepOptions& options, long
       {"config", config.ToJson()}};
   const fs::path identity_path = options.out / "sweep.json";
   if (!fs::exists(identity_path)) {
+    // Tables without a sweep.json or a journal are another run's (a merge's): never overwritten.
+    for (const char* name : kRunFiles) {
+      if (!fs::exists(options.out / "trials.journal") && fs::exists(options.out / name)) {
+        throw std::invalid_argument(fmt::format(
+            "{}: holds another study ({} without sweep.json or trials.journal, e.g. the output of "
+            "`hysid merge`); use another --out",
+            options.out.string(), name));
+      }
+    }
     WriteJson(identity_path, identity);
     return;
   }

@@ -203,13 +203,17 @@ def one_study_per_directory(d):
     expect(p.returncode == 0, f"merge into a new directory: {p.stderr!r:.300}")
     p = run(["merge", other, "--out", "merged"], sd)
     expect(p.returncode == 0, f"merge again over the same study's merge: {p.stderr!r:.300}")
+    keep = {f: digest(os.path.join(sd, "merged", f)) for f in ["trials.csv", "summary.csv", "run.json"]}
+    p = run(["sweep", "s.toml", "--out", "merged", "--progress", "none"], sd)
+    expect_refused(p, "merged: holds another study", "sweep --out onto a merge's directory")
+    expect(all(digest(os.path.join(sd, "merged", f)) == h for f, h in keep.items()), "sweep replaced a merge")
     # Another study: the changed model file swept into a new directory.
     flow_set = os.path.join(d, "study-flow-set")
     subprocess.run([HYSID, "sweep", "s.toml", "--out", "changed", "--progress", "none"], cwd=flow_set, check=True,
                    capture_output=True)
     p = run(["merge", os.path.join(flow_set, "changed"), "--out", "merged"], sd)
     expect_refused(p, "--out", "merge over another study's merge")
-    return cases + 4
+    return cases + 5
 
 
 def names_escaped(d):
