@@ -122,6 +122,7 @@ def safety_setup(hysid, d):
     os.symlink(os.path.join(d, "wall.toml"), os.path.join(d, "soft-wall.toml"))
     subprocess.run([hysid, "sweep", "study.toml", "--out", "study", "--progress", "none"], cwd=d, check=True,
                    capture_output=True)
+    subprocess.run([hysid, "merge", "done", "--out", "merged"], cwd=d, check=True, capture_output=True)
     with open(os.path.join(d, "study-model.toml"), "w") as f:
         f.write(WALL.replace('name = "k", value = 4.0', 'name = "k", value = 6.0'))
 
@@ -144,6 +145,7 @@ def safety_cases():
         ("sweep: the sweep file is the run's summary.csv", ["sweep", "in/summary.csv", "--out", "in"]),
         ("sweep: resumed after the model file's k changed", ["sweep", "study.toml", "--out", "study"]),
         ("merge: --out is another sweep's run directory", ["merge", "done", "--out", "theirs"]),
+        ("sweep: --out holds a merge's tables", ["sweep", "ok.toml", "--out", "merged"]),
         ("model file: '=' for '==' in sets.D", ["simulate", "--model-file", "assignD.toml"] + SIM),
         ("model file: an assignment in flow.phi", ["simulate", "--model-file", "assignphi.toml"] + SIM),
     ]
@@ -155,6 +157,7 @@ SAFETY_SUBJECTS = {
     "simulate: --jumps-out is the --model-file through a symbolic link": "--jumps-out",
     "sweep: resumed after the model file's k changed": "study: holds",
     "merge: --out is another sweep's run directory": "--out theirs",
+    "sweep: --out holds a merge's tables": "merged: holds another study",
     "model file: '=' for '==' in sets.D": "assignD.toml:39: sets.D",
     "model file: an assignment in flow.phi": "assignphi.toml:21: flow.phi[0][0]",
 }
