@@ -94,7 +94,73 @@ def files():
         "nanvalue.toml": BASE + "dt = nan\n",
         "ok.toml": BASE + "dt = 2e-3\n[run]\ntrials = 1\n",
     }
+    f.update(safety_files())
     return f
+
+
+# Outputs never replace inputs, one study per run directory, expressions that may not assign: the inputs.
+WALL = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "models", "wall-msd.toml")).read()
+STUDY = '[model]\nfile = "study-model.toml"\nt_end = 4.0\n[grid]\nsigma = 0.0\ndt = 2e-3\n[run]\ntrials = 1\n'
+
+
+def safety_files():
+    return {
+        "wall.toml": WALL,
+        "wallm.json": WALL,
+        "study-model.toml": WALL,
+        "study.toml": STUDY,
+        "in/summary.csv": BASE + "dt = 2e-3\n[run]\ntrials = 1\n",
+        "assignD.toml": WALL.replace('D = "x == 1 && v >= 0"', 'D = "x = 1 && v >= 0"'),
+        "assignphi.toml": WALL.replace('phi = [["v", 0, 0],', 'phi = [["v = v*2", 0, 0],'),
+    }
+
+
+def safety_setup(hysid, d):
+    """After the files: links to the data, a finished study whose model file then changes."""
+    os.link(os.path.join(d, "sim.csv"), os.path.join(d, "hard-sim.csv"))
+    os.symlink(os.path.join(d, "sim.csv"), os.path.join(d, "soft-sim.csv"))
+    os.symlink(os.path.join(d, "wall.toml"), os.path.join(d, "soft-wall.toml"))
+    subprocess.run([hysid, "sweep", "study.toml", "--out", "study", "--progress", "none"], cwd=d, check=True,
+                   capture_output=True)
+    subprocess.run([hysid, "merge", "done", "--out", "merged"], cwd=d, check=True, capture_output=True)
+    with open(os.path.join(d, "study-model.toml"), "w") as f:
+        f.write(WALL.replace('name = "k", value = 4.0', 'name = "k", value = 6.0'))
+
+
+def safety_cases():
+    data = ["identify", "--refine", "none", "--data", "sim.csv"]
+    return [
+        ("identify: --trace is the --data file", data + ["--trace", "sim.csv"]),
+        ("identify: --hulls is the --data file through a hard link", data + ["--hulls", "hard-sim.csv"]),
+        ("identify: --json is the --data file through a symbolic link", data + ["--json", "soft-sim.csv"]),
+        ("identify: --json is the sidecar of --data", data + ["--json", "sim.json"]),
+        ("identify: --json a directory", data + ["--json", "o"]),
+        ("identify: --json under a file", data + ["--json", "ok.toml/x.json"]),
+        ("identify: --hulls the same file as --trace", data + ["--trace", "o/x.csv", "--hulls", "./o/x.csv"]),
+        ("simulate: --out is the --model-file", ["simulate", "--model-file", "wall.toml", "--out", "wall.toml"]),
+        ("simulate: the sidecar of --out is the --model-file",
+         ["simulate", "--model-file", "wallm.json", "--out", "wallm.csv"]),
+        ("simulate: --jumps-out is the --model-file through a symbolic link",
+         ["simulate", "--model-file", "wall.toml", "--jumps-out", "soft-wall.toml"] + SIM),
+        ("sweep: the sweep file is the run's summary.csv", ["sweep", "in/summary.csv", "--out", "in"]),
+        ("sweep: resumed after the model file's k changed", ["sweep", "study.toml", "--out", "study"]),
+        ("merge: --out is another sweep's run directory", ["merge", "done", "--out", "theirs"]),
+        ("sweep: --out holds a merge's tables", ["sweep", "ok.toml", "--out", "merged"]),
+        ("model file: '=' for '==' in sets.D", ["simulate", "--model-file", "assignD.toml"] + SIM),
+        ("model file: an assignment in flow.phi", ["simulate", "--model-file", "assignphi.toml"] + SIM),
+    ]
+
+
+SAFETY_SUBJECTS = {
+    "simulate: --out is the --model-file": "--out wall.toml",
+    "simulate: the sidecar of --out is the --model-file": "--out (sidecar)",
+    "simulate: --jumps-out is the --model-file through a symbolic link": "--jumps-out",
+    "sweep: resumed after the model file's k changed": "study: holds",
+    "merge: --out is another sweep's run directory": "--out theirs",
+    "sweep: --out holds a merge's tables": "merged: holds another study",
+    "model file: '=' for '==' in sets.D": "assignD.toml:39: sets.D",
+    "model file: an assignment in flow.phi": "assignphi.toml:21: flow.phi[0][0]",
+}
 
 
 def cases():
@@ -194,7 +260,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ]
+    ] + safety_cases()
 
 
 # Cases whose message names something the command line does not show as its last flag or file.
@@ -213,6 +279,7 @@ SUBJECTS = {
     "sweep: the run directory is locked": "locked",
     "merge: output is an input": "--out",
     "merge: not a run directory": "o:",
+    **SAFETY_SUBJECTS,
 }
 
 
@@ -241,6 +308,7 @@ def run(hysid, args, cwd):
 
 def setup(hysid, d):
     for name, text in files().items():
+        os.makedirs(os.path.dirname(os.path.join(d, name)), exist_ok=True)
         with open(os.path.join(d, name), "w", encoding="utf-8", newline="") as f:
             f.write(text)
     os.makedirs(os.path.join(d, "o"))
@@ -263,6 +331,7 @@ def setup(hysid, d):
         if identity:
             with open(os.path.join(d, "done", "sweep.json")) as src, open(os.path.join(d, name, "sweep.json"), "w") as dst:
                 dst.write(src.read())
+    safety_setup(hysid, d)
 
 
 def check_case(desc, args, code, err):

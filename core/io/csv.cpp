@@ -16,37 +16,57 @@
 
 namespace hysid {
 
-CsvWriter::CsvWriter(const std::filesystem::path& path, const std::vector<std::string>& header)
-    : path_(path), columns_(header.size()) {
-  if (path_.has_parent_path()) {
+namespace {
+
+const std::filesystem::path& WithParentDirectory(const std::filesystem::path& path) {
+  if (path.has_parent_path()) {
     std::error_code ec;
-    std::filesystem::create_directories(path_.parent_path(), ec);
+    std::filesystem::create_directories(path.parent_path(), ec);
     if (ec) {
       throw std::runtime_error(
-          fmt::format("{}: cannot create the directory: {}", path_.parent_path().string(), ec.message()));
+          fmt::format("{}: cannot create the directory: {}", path.parent_path().string(), ec.message()));
     }
   }
-  tmp_path_ = path_;
-  tmp_path_ += ".tmp";
-  file_ = std::fopen(tmp_path_.c_str(), "wb");
-  if (!file_) throw std::runtime_error(IoError(tmp_path_, "cannot open for writing", errno));
+  return path;
+}
+
+void AppendCell(fmt::memory_buffer* buffer, std::string_view text) {
+  const std::string cell = CsvCell(text);
+  buffer->append(cell.data(), cell.data() + cell.size());
+}
+
+}  // namespace
+
+std::string CsvCell(std::string_view text) {
+  const bool quote = text.find_first_of(",\"\r\n") != std::string_view::npos ||
+                     (!text.empty() && (text.front() == ' ' || text.front() == '\t' || text.back() == ' ' ||
+                                        text.back() == '\t'));
+  if (!quote) return std::string(text);
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"') out.push_back('"');
+    out.push_back(c);
+  }
+  out.push_back('"');
+  return out;
+}
+
+std::string JoinCsvRecord(std::span<const std::string> cells) {
+  std::string s;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    if (i) s.push_back(',');
+    s += CsvCell(cells[i]);
+  }
+  return s;
+}
+
+CsvWriter::CsvWriter(const std::filesystem::path& path, const std::vector<std::string>& header)
+    : file_(WithParentDirectory(path)), columns_(header.size()) {
   for (std::size_t i = 0; i < header.size(); ++i) {
     if (i) buffer_.push_back(',');
-    fmt::format_to(std::back_inserter(buffer_), "{}", header[i]);
+    AppendCell(&buffer_, header[i]);
   }
   buffer_.push_back('\n');
-}
-
-CsvWriter::~CsvWriter() {
-  if (file_) std::fclose(file_);
-  if (!published_) ::unlink(tmp_path_.c_str());
-}
-
-void CsvWriter::Fail(const char* what, int error_number) {
-  if (file_) std::fclose(file_);
-  file_ = nullptr;
-  ::unlink(tmp_path_.c_str());
-  throw std::runtime_error(IoError(tmp_path_, what, error_number));
 }
 
 void CsvWriter::Row(std::span<const double> values) {
@@ -61,7 +81,7 @@ void CsvWriter::Row(std::span<const double> values) {
 void CsvWriter::TextRow(std::span<const std::string> cells) {
   for (std::size_t i = 0; i < cells.size(); ++i) {
     if (i) buffer_.push_back(',');
-    buffer_.append(cells[i]);
+    AppendCell(&buffer_, cells[i]);
   }
   buffer_.push_back('\n');
   FlushIfLarge();
@@ -69,33 +89,17 @@ void CsvWriter::TextRow(std::span<const std::string> cells) {
 
 void CsvWriter::FlushIfLarge() {
   if (buffer_.size() < (1u << 16)) return;
-  errno = 0;
-  if (std::fwrite(buffer_.data(), 1, buffer_.size(), file_) != buffer_.size()) Fail("write failed", errno);
+  file_.Write(std::string_view(buffer_.data(), buffer_.size()));
   buffer_.clear();
 }
 
 void CsvWriter::Close() {
-  if (!file_) throw std::logic_error(fmt::format("{}: closed twice", tmp_path_.string()));
-  errno = 0;
-  if (std::fwrite(buffer_.data(), 1, buffer_.size(), file_) != buffer_.size()) Fail("write failed", errno);
+  file_.Write(std::string_view(buffer_.data(), buffer_.size()));
   buffer_.clear();
-  errno = 0;
-  if (std::fflush(file_) != 0) Fail("write failed", errno);
-  std::FILE* f = file_;
-  file_ = nullptr;
-  errno = 0;
-  if (std::fclose(f) != 0) Fail("write failed (close)", errno);
+  file_.Close();
 }
 
-void CsvWriter::Publish() {
-  if (file_ || published_) throw std::logic_error(fmt::format("{}: Publish before Close", path_.string()));
-  if (std::rename(tmp_path_.c_str(), path_.c_str()) != 0) {
-    const int e = errno;
-    ::unlink(tmp_path_.c_str());
-    throw std::runtime_error(IoError(path_, "cannot rename the temporary file onto it", e));
-  }
-  published_ = true;
-}
+void CsvWriter::Publish() { file_.Publish(); }
 
 int CsvTable::Find(const std::string& name) const {
   for (std::size_t i = 0; i < header.size(); ++i) {
@@ -334,6 +338,15 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
   }
   if (!have_header) throw std::invalid_argument(fmt::format("{}: file is empty", table.path));
   return table;
+}
+
+bool ReadCsvRecord(std::istream& in, const std::string& name, long* line_no, std::vector<std::string>* cells) {
+  std::string line;
+  if (!ReadBoundedLine(in, line, name, *line_no + 1)) return false;
+  ++*line_no;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  ReadRecord(in, name, line, line_no, cells);
+  return true;
 }
 
 }  // namespace hysid

@@ -20,42 +20,47 @@
 
 #include <fmt/format.h>
 
+#include "core/io/files.hpp"
+
 namespace hysid {
 
 class CsvWriter {
  public:
-  // Creates the parent directory. Throws std::runtime_error when the file cannot be opened.
+  // Creates the parent directory. Throws std::runtime_error when the file cannot be created. Header
+  // names are written as CsvCell gives them.
   CsvWriter(const std::filesystem::path& path, const std::vector<std::string>& header);
-  ~CsvWriter();
   CsvWriter(const CsvWriter&) = delete;
   CsvWriter& operator=(const CsvWriter&) = delete;
 
   void Row(std::span<const double> values);
-  // A row whose cells are already text (for string columns).
+  // A row whose cells are text (for string columns), each written as CsvCell gives it.
   void TextRow(std::span<const std::string> cells);
-  // Flushes, closes and renames the temporary file onto the target. Throws on I/O failure
-  // (the message carries strerror); the temporary file is removed on every failure.
+  // Writes, closes and renames the temporary file onto the target (AtomicFile, core/io/files.hpp).
+  // Throws on I/O failure (the message carries the path and strerror); the temporary file is removed
+  // on every failure.
   void Commit() {
     Close();
     Publish();
   }
-  // The two halves of Commit, for a set of files committed together: Close() flushes and closes
+  // The two halves of Commit, for a set of files committed together: Close() writes and closes
   // the temporary file, Publish() renames it onto the target. Until Publish() the destructor
   // removes the temporary file.
   void Close();
   void Publish();
-  const std::filesystem::path& path() const { return path_; }
+  const std::filesystem::path& path() const { return file_.path(); }
 
  private:
   void FlushIfLarge();
-  std::filesystem::path path_;
-  std::filesystem::path tmp_path_;
-  void Fail(const char* what, int error_number);
-  std::FILE* file_ = nullptr;
-  bool published_ = false;
+  AtomicFile file_;
   fmt::memory_buffer buffer_;
   std::size_t columns_ = 0;
 };
+
+// A cell as RFC 4180 writes it: quoted (with " doubled) when it holds a comma, a quote, a line break
+// or a leading or trailing space or tab (which the reader would trim); else as it is.
+std::string CsvCell(std::string_view text);
+// Cells joined with commas, each through CsvCell (one record, without a line break at the end).
+std::string JoinCsvRecord(std::span<const std::string> cells);
 
 struct CsvTable {
   std::string path;
@@ -85,6 +90,11 @@ bool SplitCsvRecord(std::string_view record, const std::string& name, long line_
 // The same for a record known to be complete (one line of a file hysid wrote): an open quote is an
 // error "NAME:LINE_NO: column C: the quoted cell is not closed".
 std::vector<std::string> SplitCsvLine(std::string_view line, const std::string& name, long line_no);
+
+// Reads the record that starts at the next line of `in` (further lines appended while a quoted cell is
+// open) into *cells; *line_no is the line before it on entry and its last line on return. False at
+// end of input. Throws as SplitCsvRecord, and "NAME:LINE: ... not closed before the end of the file".
+bool ReadCsvRecord(std::istream& in, const std::string& name, long* line_no, std::vector<std::string>* cells);
 
 // Reads one line (without its '\n') into `line`, refusing with "NAME:LINE_NO: ..." a line longer
 // than the limit HYSID_MAX_CSV_LINE before it is held whole. False at end of input.

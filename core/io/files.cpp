@@ -1,8 +1,10 @@
 #include "core/io/files.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -33,6 +35,40 @@ std::string IoError(const fs::path& path, const char* what, int error_number) {
                      error_number ? std::strerror(error_number) : "short write (no error reported)");
 }
 
+namespace {
+
+// The absolute path with symbolic links resolved as far as the path exists.
+fs::path Resolved(const fs::path& path) {
+  std::error_code ec;
+  fs::path r = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  return ec ? fs::absolute(path, ec).lexically_normal() : r;
+}
+
+}  // namespace
+
+void InputFiles::Add(const std::string& label, const fs::path& path) {
+  struct stat st {};
+  if (path.empty() || ::stat(path.c_str(), &st) != 0) return;
+  inputs_.push_back({label, path, Resolved(path), static_cast<unsigned long long>(st.st_dev),
+                     static_cast<unsigned long long>(st.st_ino)});
+}
+
+void InputFiles::CheckNotInput(const std::string& label, const fs::path& path) const {
+  struct stat st {};
+  const bool exists = ::stat(path.c_str(), &st) == 0;
+  const fs::path resolved = Resolved(path);
+  for (const Input& in : inputs_) {
+    const bool same_file = exists && static_cast<unsigned long long>(st.st_dev) == in.device &&
+                           static_cast<unsigned long long>(st.st_ino) == in.inode;
+    if (!same_file && resolved != in.resolved) continue;
+    throw std::invalid_argument(
+        fmt::format("{} {}: is the input {} {}{}; an output never replaces an input of the same run: give "
+                    "another name",
+                    label, path.string(), in.label, in.path.string(),
+                    resolved == in.resolved ? "" : " (the same file through a link)"));
+  }
+}
+
 void CheckOutputDirectory(const std::string& label, const fs::path& dir) {
   std::error_code ec;
   if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
@@ -51,13 +87,14 @@ void CheckOutputDirectory(const std::string& label, const fs::path& dir) {
   }
 }
 
-void CheckOutputPath(const std::string& label, const fs::path& path) {
+void CheckOutputPath(const std::string& label, const fs::path& path, const InputFiles& inputs) {
   if (path.empty()) throw std::invalid_argument(fmt::format("{}: empty path", label));
   std::error_code ec;
   if (fs::is_directory(path, ec)) {
     throw std::invalid_argument(
         fmt::format("{} {}: is a directory, expected a file name", label, path.string()));
   }
+  inputs.CheckNotInput(label, path);
   const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
   CheckOutputDirectory(label, dir);
   if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) {
@@ -65,32 +102,89 @@ void CheckOutputPath(const std::string& label, const fs::path& path) {
   }
 }
 
-void WriteFileAtomically(const fs::path& path, std::string_view text) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw std::runtime_error(IoError(tmp, "cannot open for writing", errno));
-  std::size_t done = 0;
-  int error = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      error = n < 0 ? errno : ENOSPC;
-      break;
+void CheckOutputPaths(const std::vector<std::pair<std::string, fs::path>>& outputs, const InputFiles& inputs) {
+  for (std::size_t a = 0; a < outputs.size(); ++a) {
+    CheckOutputPath(outputs[a].first, outputs[a].second, inputs);
+    for (std::size_t b = 0; b < a; ++b) {
+      if (Resolved(outputs[a].second) != Resolved(outputs[b].second)) continue;
+      throw std::invalid_argument(fmt::format("{} {}: the same file as {} {}; give each output its own name",
+                                              outputs[a].first, outputs[a].second.string(), outputs[b].first,
+                                              outputs[b].second.string()));
     }
+  }
+}
+
+AtomicFile::AtomicFile(const fs::path& path) : path_(path) {
+  static std::atomic<unsigned> counter{0};
+  int error = 0;
+  for (int attempt = 0; attempt < 100 && fd_ < 0; ++attempt) {
+    tmp_ = path_;
+    tmp_ += fmt::format(".{}-{}.tmp", ::getpid(), counter.fetch_add(1));
+    fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    error = fd_ < 0 ? errno : 0;
+    if (fd_ < 0 && error != EEXIST) break;
+  }
+  if (fd_ < 0) throw std::runtime_error(IoError(path_, "cannot create a temporary file beside it", error));
+}
+
+AtomicFile::~AtomicFile() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!published_) ::unlink(tmp_.c_str());
+}
+
+void AtomicFile::Fail(const char* what, int error_number) {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  ::unlink(tmp_.c_str());
+  throw std::runtime_error(IoError(path_, what, error_number));
+}
+
+void AtomicFile::Write(std::string_view text) {
+  if (fd_ < 0) throw std::logic_error(fmt::format("{}: written after Close", path_.string()));
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd_, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) Fail("write failed", n < 0 ? errno : ENOSPC);
     done += static_cast<std::size_t>(n);
   }
-  if (::close(fd) != 0 && error == 0) error = errno ? errno : EIO;
-  if (error == 0 && std::rename(tmp.c_str(), path.c_str()) != 0) {
+}
+
+void AtomicFile::Close() {
+  if (fd_ < 0) throw std::logic_error(fmt::format("{}: closed twice", path_.string()));
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) {
     const int e = errno;
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(IoError(path, "cannot rename the temporary file onto it", e));
+    ::unlink(tmp_.c_str());
+    throw std::runtime_error(IoError(path_, "write failed (close)", e));
   }
-  if (error != 0) {
-    ::unlink(tmp.c_str());
-    throw std::runtime_error(IoError(tmp, "write failed", error));
+}
+
+void AtomicFile::Publish() {
+  if (fd_ >= 0 || published_) throw std::logic_error(fmt::format("{}: Publish before Close", path_.string()));
+  if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
+    const int e = errno;
+    ::unlink(tmp_.c_str());
+    throw std::runtime_error(IoError(path_, "cannot rename the temporary file onto it", e));
   }
+  published_ = true;
+}
+
+void WriteFileAtomically(const fs::path& path, std::string_view text) {
+  AtomicFile file(path);
+  file.Write(text);
+  file.Close();
+  file.Publish();
+}
+
+bool FlushStandardOutput(std::string* error) {
+  errno = 0;
+  const bool flushed = std::fflush(stdout) == 0;
+  const int e = errno;
+  if (flushed && !std::ferror(stdout)) return true;
+  *error = IoError("standard output", "write failed", e ? e : EIO);
+  return false;
 }
 
 }  // namespace hysid

@@ -211,12 +211,38 @@ class Reader {
   std::string file_;
 };
 
+// Whether `expr` holds muParser's assignment operator ("x = 1" written for "x == 1"), read with the
+// parser's own operator table in its order ("<=", ">=", "!=", "==" before "="), as its tokenizer reads
+// operators. Assignment is the one operator with a side effect: it writes to the state variable that
+// every later entry evaluated in the same call reads.
+bool HasAssignment(const mu::Parser& p, std::string_view expr) {
+  const mu::char_type** ops = p.GetOprtDef();
+  for (std::size_t i = 0; i < expr.size();) {
+    std::size_t step = 1;
+    for (int k = 0; ops[k] != nullptr; ++k) {
+      const std::string_view op(ops[k]);
+      if (expr.substr(i, op.size()) != op) continue;
+      if (k == mu::cmASSIGN) return true;
+      step = op.size();
+      break;
+    }
+    i += step;
+  }
+  return false;
+}
+
 // Compiles one expression alone at the given state names; throws naming the key and the text.
 // Returns the value at ξ = 0 and whether the expression uses a state.
 std::pair<double, bool> CheckExpression(const Reader& rd, const toml::node* node, const std::string& key,
                                         const std::string& expr, const std::vector<std::string>& states) {
   std::array<double, Model::kMaxStates> var{};
   mu::Parser p;
+  if (HasAssignment(p, expr)) {
+    rd.Fail(node, key,
+            fmt::format("\"{}\": '=' is muParser's assignment (it would change a state for every later "
+                        "entry); an expression may not assign: write '==' to compare",
+                        expr));
+  }
   try {
     for (std::size_t i = 0; i < states.size(); ++i) p.DefineVar(states[i], &var[i]);
     p.SetExpr(expr);
@@ -374,6 +400,7 @@ void ParseGuards(const Reader& rd, const toml::table& root, Definition& def) {
         const std::string text = EntryText(rd, v, fmt::format("{}.{}", pkey, k.str()));
         CheckExpression(rd, &v, fmt::format("{}.{}", pkey, k.str()), text, states);
         assigned.push_back(static_cast<int>(it - states.begin()));
+        proj.text.push_back(fmt::format("{}+ = {}", k.str(), text));
         proj.index.push_back(static_cast<Eigen::Index>(exprs.size()));
         exprs.push_back("(" + text + ")");
       }
@@ -451,8 +478,9 @@ std::string Equations(const Definition& def) {
   }
   constexpr const char* kDirection[] = {"falling", "rising", "both"};
   for (std::size_t g = 0; g < s.guards.size(); ++g) {
-    out += fmt::format("guard {}: h(xi) = {} ({})\n", s.guards[g].name, def.guards.text[g],
-                       kDirection[static_cast<int>(s.guards[g].direction)]);
+    out += fmt::format("guard {}: h(xi) = {} ({}){}{}\n", s.guards[g].name, def.guards.text[g],
+                       kDirection[static_cast<int>(s.guards[g].direction)],
+                       def.project[g].text.empty() ? "" : ", projected: ", fmt::join(def.project[g].text, ", "));
   }
   out += fmt::format("C: {}\nD: {}\n", def.in_c, def.in_d);
   if (!def.distance.empty()) out += fmt::format("dist(xi, D) = {}\n", def.distance);

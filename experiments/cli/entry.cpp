@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/io/files.hpp"
 #include "core/io/limits.hpp"
 #include "experiments/cli/cli.hpp"
 #include "hysid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
@@ -35,22 +36,8 @@ bool UnknownSubcommand(const CLI::App& app, int argc, char** argv) {
   return true;
 }
 
-}  // namespace
-
-int Main(int argc, char** argv, ModelRegistry registry) {
-  Environment env{std::move(registry)};
-  CLI::App app{"hysid: identify hybrid dynamical systems from sampled states", "hysid"};
-  app.require_subcommand(1);
-  app.footer(kExitCodes);
-  app.set_version_flag("--version", HYSID_VERSION " (" HYSID_GIT_REVISION ")");
-  AddSimulateCommand(app, env);
-  AddModelsCommand(app, env);
-  AddIdentifyCommand(app, env);
-  AddReproduceCommand(app, env);
-  AddSweepCommand(app, env);
-  AddCrlbCommand(app, env);
-  if (UnknownSubcommand(app, argc, argv)) return 2;
-
+// Parses and runs; the exit code.
+int RunParsed(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -74,6 +61,31 @@ int Main(int argc, char** argv, ModelRegistry registry) {
     return 2;
   }
   return 0;
+}
+
+}  // namespace
+
+int Main(int argc, char** argv, ModelRegistry registry) {
+  Environment env{std::move(registry)};
+  CLI::App app{"hysid: identify hybrid dynamical systems from sampled states", "hysid"};
+  app.require_subcommand(1);
+  app.footer(kExitCodes);
+  app.set_version_flag("--version", HYSID_VERSION " (" HYSID_GIT_REVISION ")");
+  AddSimulateCommand(app, env);
+  AddModelsCommand(app, env);
+  AddIdentifyCommand(app, env);
+  AddReproduceCommand(app, env);
+  AddSweepCommand(app, env);
+  AddCrlbCommand(app, env);
+  if (UnknownSubcommand(app, argc, argv)) return 2;
+
+  int code = RunParsed(app, argc, argv);
+  // Everything printed must have arrived (a full disk, a closed pipe with SIGPIPE ignored).
+  if (std::string error; !FlushStandardOutput(&error)) {
+    std::fprintf(stderr, "hysid: error: %s\n", error.c_str());
+    if (code == 0) code = 2;
+  }
+  return code;
 }
 
 }  // namespace hysid::cli

@@ -319,6 +319,23 @@ SampleData ReadData(const IdentifyArgs& args, int state_size) {
   }
 }
 
+// --trace, --hulls and --json: each writable, no two the same file, none an input of this run (a
+// --data file, its sidecar FILE.json, the model file).
+void CheckOutputs(const IdentifyArgs& args) {
+  InputFiles inputs;
+  for (const std::string& d : args.data) {
+    inputs.Add("--data", d);
+    inputs.Add("--data (sidecar)", std::filesystem::path(d).replace_extension(".json"));
+  }
+  inputs.Add("--model-file", args.model.file);
+  std::vector<std::pair<std::string, std::filesystem::path>> outputs;
+  for (const auto& [flag, path] : {std::pair{"--trace", &args.trace}, std::pair{"--hulls", &args.hulls},
+                                   std::pair{"--json", &args.refine.json}}) {
+    if (!path->empty()) outputs.emplace_back(flag, *path);
+  }
+  CheckOutputPaths(outputs, inputs);
+}
+
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model);
   IdentifierSettings settings = BuildSettings(args, model);
@@ -326,8 +343,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();
-  if (!args.trace.empty()) CheckOutputPath("--trace", args.trace);
-  if (!args.hulls.empty()) CheckOutputPath("--hulls", args.hulls);
+  CheckOutputs(args);
   if (!data.uniform) {  // each pair with its own step, chains restarted at runs, gaps and missing rows
     options.times = data.t;
     options.chain_start = data.chain_start;

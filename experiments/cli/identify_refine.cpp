@@ -9,6 +9,7 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
 #include "sim/refine/refine.hpp"
 
@@ -177,7 +178,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                 bound.mean_e_beta);
   }
   if (!args.json.empty()) {
-    std::ofstream(args.json) << ToJson(r, recursive, args.refine, bound).dump(2) << "\n";
+    WriteFileAtomically(args.json, ToJson(r, recursive, args.refine, bound).dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
   std::printf("status: %s\n", args.refine == "none" ? "recursive (no refinement)" : ToString(r.status));

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -14,6 +13,7 @@
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/io/csv.hpp"
+#include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
@@ -46,7 +46,7 @@ void RunExample6(const std::string& out_dir) {
   const Example6Options options;
   const double rs[] = {1.0, 2.0, 5.0};
   const std::filesystem::path out(out_dir);
-  std::filesystem::create_directories(out);
+  CheckOutputDirectory("--out", out);
   CsvWriter csv(out / "fig2_smoothness.csv",
                 {"t", "xi", "D", "tau", "tau_hat_r1", "tau_hat_r2", "tau_hat_r5"});
   for (long i = 0; i <= 950; ++i) {
@@ -65,7 +65,7 @@ void RunExample6(const std::string& out_dir) {
                                {"paper", "Example 6 / Fig. 2: xi' = sin(xi), xi0 = 1e-2, dt = 0.5, k = 1"},
                                {"r", rs},
                                {"context", BuildContext()}};
-  std::ofstream(out / "example6.json") << meta.dump(2) << "\n";
+  WriteFileAtomically(out / "example6.json", meta.dump(2) + "\n");
   std::printf("wrote %s/fig2_smoothness.csv and example6.json\n", out_dir.c_str());
 }
 
@@ -210,12 +210,12 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   const IdentifierSettings settings = PaperSettings(args, model, dt);
   Vec x0(2);
   x0 << 20.0, 0.0;
+  const std::filesystem::path out(args.out);
+  CheckOutputDirectory("--out", out);
   const Trajectory traj = Simulate(model, x0, SampleGrid{t_end, dt});
   if (!traj.status.completed()) {
     throw std::runtime_error(fmt::format("simulation of the §5 system failed: {}", traj.status.message));
   }
-  const std::filesystem::path out(args.out);
-  std::filesystem::create_directories(out);
   WriteFig4(out, traj);
   const std::vector<double> tau = TrueSmoothnessBound(model, traj.x, settings.detector);
   CsvWriter summary(
@@ -243,7 +243,7 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
       {"model", ResolvedModelJson(model, {x0[0], x0[1]}, {dt}, t_end)},
       {"context", BuildContext()},
   };
-  std::ofstream(out / "run.json") << meta.dump(2) << "\n";
+  WriteFileAtomically(out / "run.json", meta.dump(2) + "\n");
   std::printf(
       "wrote %s/{fig4_trajectory,fig4_jumps,fig5_tau_nominal,fig6_params_nominal,"
       "fig7_tau_noisy,fig8_params_noisy,summary}.csv and run.json\n",

@@ -60,28 +60,6 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
   }
 }
 
-// The trajectory, its sidecar and the jumps file must be three files (compared as absolute,
-// normalized paths: `--jumps-out ./t.json` is the sidecar of `--out t.csv`).
-void CheckDistinctOutputs(const SimulateArgs& args) {
-  std::vector<std::pair<std::string, std::string>> outputs{
-      {"--out", args.out}, {"--out (sidecar)", SidecarPath(args.out).string()}};
-  if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
-  const auto same = [](const std::string& a, const std::string& b) {
-    const auto norm = [](const std::string& p) {
-      return std::filesystem::weakly_canonical(std::filesystem::absolute(p));
-    };
-    return norm(a) == norm(b);
-  };
-  for (std::size_t a = 0; a < outputs.size(); ++a) {
-    for (std::size_t b = a + 1; b < outputs.size(); ++b) {
-      if (same(outputs[a].second, outputs[b].second)) {
-        BadFlag(fmt::format("{} {}: the same file as {} {}; give each output its own name", outputs[b].first,
-                            outputs[b].second, outputs[a].first, outputs[a].second));
-      }
-    }
-  }
-}
-
 std::vector<std::string> TrajectoryHeader(int n) {
   std::vector<std::string> header{"t", "j"};
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
@@ -173,10 +151,13 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Vec sigma = SigmaFlag(args.sigma, model.state_size());
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
   // Outputs checked before the run; written as one set below.
-  CheckOutputPath("--out", args.out);
-  CheckOutputPath("--out (sidecar)", SidecarPath(args.out));
-  if (!args.jumps_out.empty()) CheckOutputPath("--jumps-out", args.jumps_out);
-  CheckDistinctOutputs(args);
+  // The trajectory, its sidecar and the jumps file are three files, none of them the model file.
+  std::vector<std::pair<std::string, std::filesystem::path>> outputs{{"--out", args.out},
+                                                                     {"--out (sidecar)", SidecarPath(args.out)}};
+  if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
+  InputFiles inputs;
+  inputs.Add("--model-file", args.model.file);
+  CheckOutputPaths(outputs, inputs);
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};

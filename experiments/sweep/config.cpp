@@ -30,6 +30,7 @@
 #include "core/io/toml_guard.hpp"
 #include "core/model_file/model_file.hpp"
 #include "experiments/sweep/plan.hpp"
+#include "experiments/sweep/run_context.hpp"
 
 namespace hysid {
 namespace {
@@ -631,7 +632,7 @@ nlohmann::json SweepConfig::ToJson() const {
     nlohmann::json params = nlohmann::json::array();
     for (const auto& [k, v] : m.params) params.push_back({k, v});
     nlohmann::json j = {{"name", m.name}, {"params", params}, {"t_end", m.t_end}};
-    if (m.from_file) j["equations"] = m.from_file->spec().equations;  // what the file defines
+    if (m.from_file) j["definition"] = ModelDefinitionJson(*m.from_file);  // all the file defines
     if (!m.x0_range.empty()) {
       j["x0_range"] = m.x0_range;
     } else {

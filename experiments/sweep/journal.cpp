@@ -18,14 +18,7 @@
 
 namespace hysid {
 
-std::string JoinCsvLine(const std::vector<std::string>& cells) {
-  std::string s;
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    if (i) s.push_back(',');
-    s += cells[i];
-  }
-  return s;
-}
+std::string JoinCsvLine(const std::vector<std::string>& cells) { return JoinCsvRecord(cells); }
 
 namespace {
 
@@ -53,36 +46,50 @@ Journal::Journal(const std::filesystem::path& path, const std::vector<std::strin
 }
 
 void Journal::ReadExisting(const std::string& identity, const std::string& head) {
-  std::ifstream in(path_, std::ios::binary);
-  if (!in) throw std::invalid_argument(IoError(path_, "cannot open the journal", errno));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
-  std::size_t pos = 0, keep = 0;  // keep: bytes of complete, valid content
-  long line_no = 0, complete = 0;
+  const std::string text = ReadWholeFile(path_, "journal");
+  std::size_t pos = 0, keep = 0;  // keep: bytes of complete, valid records
+  long line_no = 0, record_no = 0;
+  std::vector<std::string> cells;
   while (pos < text.size()) {
-    const std::size_t nl = text.find('\n', pos);
-    ++line_no;
-    if (nl == std::string::npos) break;  // a torn last line: dropped
-    const std::string line = text.substr(pos, nl - pos);
-    if (line_no == 1 && line != identity) {
+    // One record: lines are joined while a quoted cell (a name with a line break) is open.
+    const long first_line = line_no + 1;
+    std::size_t end = pos;
+    bool complete = false;
+    if (record_no == 0) {  // the identity line, compared as it is (a foreign first line may hold a quote)
+      const std::size_t nl = text.find('\n');
+      if (nl != std::string::npos) {
+        ++line_no;
+        end = nl + 1;
+        complete = true;
+      }
+    }
+    while (!complete) {
+      const std::size_t nl = text.find('\n', end);
+      if (nl == std::string::npos) break;  // a torn last record: dropped
+      ++line_no;
+      end = nl + 1;
+      complete = SplitCsvRecord(std::string_view(text).substr(pos, nl - pos), path_.string(), first_line, &cells);
+    }
+    if (!complete) break;
+    const std::string record = text.substr(pos, end - 1 - pos);
+    ++record_no;
+    if (record_no == 1 && record != identity) {
       throw std::invalid_argument(fmt::format(
           "{}:1: the journal is of another sweep or shard ('{}', this run is '{}'); use another --out, or "
           "delete the directory",
-          path_.string(), Abbreviated(line, 80), identity));
+          path_.string(), Abbreviated(record, 80), identity));
     }
-    if (line_no == 2 && line != head) {
+    if (record_no == 2 && record != head) {
       throw std::invalid_argument(fmt::format(
-          "{}:2: the journal's columns differ from this sweep's (another hysid version?); use another --out, "
+          "{}:{}: the journal's columns differ from this sweep's (another hysid version?); use another --out, "
           "or delete the directory",
-          path_.string()));
+          path_.string(), first_line));
     }
-    if (line_no > 2) AddRow(line, line_no);
-    pos = nl + 1;
+    if (record_no > 2) AddRow(record, first_line);
+    pos = end;
     keep = pos;
-    ++complete;
   }
-  if (complete < 2) {  // not even a complete header: start over
+  if (record_no < 2) {  // not even a complete header: start over
     std::filesystem::remove(path_);
     recovered_.clear();
     lines_.clear();
@@ -92,7 +99,8 @@ void Journal::ReadExisting(const std::string& identity, const std::string& head)
 }
 
 void Journal::AddRow(const std::string& line, long line_no) {
-  std::vector<std::string> cells = SplitCsvLine(line, path_.string(), line_no);
+  std::vector<std::string> cells;
+  SplitCsvRecord(line, path_.string(), line_no, &cells);
   long unit = -1;
   try {
     std::size_t used = 0;

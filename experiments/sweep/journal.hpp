@@ -1,7 +1,8 @@
 // The append-only record of finished units (DIR/trials.journal) that makes a sweep resumable.
 //
-// Line 1 names the sweep: "# hysid journal sweep=HASH shard=K/N"; line 2 holds the columns (the
-// caller's plus "sweep"); every other line is one unit's row, its first cell the unit id and its
+// Record 1 names the sweep: "# hysid journal sweep=HASH shard=K/N"; record 2 holds the columns (the
+// caller's plus "sweep"); every other record is one unit's row (a record is one line unless a name
+// holds a line break; cells are quoted per RFC 4180), its first cell the unit id and its
 // last the sweep's hash, appended with a single write(2) on an O_APPEND descriptor, so a kill
 // (SIGINT or SIGKILL) leaves at most one torn line at the end.
 //
@@ -61,8 +62,9 @@ class DirectoryLock {
   int fd_ = -1;
 };
 
-// One journal line from its cells (plain cells: the trial columns hold no comma, quote or line
-// break). Lines are read back with SplitCsvLine (core/io/csv.hpp).
+// One journal record from its cells, each quoted per RFC 4180 when it holds a comma, a quote or a line
+// break (a model or parameter name may); read back with SplitCsvRecord (core/io/csv.hpp), lines joined
+// while a quoted cell is open.
 std::string JoinCsvLine(const std::vector<std::string>& cells);
 
 }  // namespace hysid

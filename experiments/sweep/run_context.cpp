@@ -31,17 +31,37 @@ nlohmann::json BuildContext() {
   };
 }
 
+namespace {
+
+nlohmann::json ParametersJson(const std::vector<Parameter>& ps) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const Parameter& p : ps) out.push_back({{"name", p.name}, {"value", p.value}, {"known", p.known}});
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json ModelDefinitionJson(const Model& model) {
+  const ModelSpec& s = model.spec();
+  return {{"name", s.name},
+          {"states", s.state_names},
+          {"alpha", ParametersJson(s.alpha)},
+          {"beta", ParametersJson(s.beta)},
+          {"flow_rows", s.flow_rows},
+          {"jump_rows", s.jump_rows},
+          {"flow_jacobian_constant", s.flow_jacobian_constant},
+          {"equations", s.equations},
+          {"default_x0", s.default_x0},
+          {"default_t_end", s.default_t_end},
+          {"default_dt", s.default_dt}};
+}
+
 nlohmann::json ResolvedModelJson(const Model& model, const std::vector<double>& x0,
                                  const std::vector<double>& dt, double t_end) {
-  const auto params = [](const std::vector<Parameter>& ps) {
-    nlohmann::json out = nlohmann::json::array();
-    for (const Parameter& p : ps) out.push_back({{"name", p.name}, {"value", p.value}, {"known", p.known}});
-    return out;
-  };
   return {{"name", model.name()},
           {"states", model.spec().state_names},
-          {"alpha", params(model.spec().alpha)},
-          {"beta", params(model.spec().beta)},
+          {"alpha", ParametersJson(model.spec().alpha)},
+          {"beta", ParametersJson(model.spec().beta)},
           {"x0", x0},
           {"dt", dt},
           {"t_end", t_end}};

@@ -17,4 +17,10 @@ nlohmann::json BuildContext();
 nlohmann::json ResolvedModelJson(const Model& model, const std::vector<double>& x0,
                                  const std::vector<double>& dt, double t_end);
 
+// Everything about a model that changes what a trial computes: its equations (φ, ψ, guards with
+// their directions and projections, C, D, the distance to D), every α and β entry with its value and
+// whether it is known, the states, identified rows, the flow Jacobian flag and the defaults (x0,
+// t_end, δt). Not its description. Part of a sweep's identity for a model file.
+nlohmann::json ModelDefinitionJson(const Model& model);
+
 }  // namespace hysid

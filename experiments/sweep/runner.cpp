@@ -109,6 +109,18 @@ Baseline BaselineFromJson(const nlohmann::json& config) {
   return b;
 }
 
+// The files a run directory holds (written by `sweep`; `merge` writes the tables and run.json).
+constexpr const char* kRunFiles[] = {"sweep.json", "trials.journal", "trials.csv",
+                                     "summary.csv", "timings.csv",    "run.json"};
+
+// No file the sweep writes may be the sweep file or a model file it reads.
+void CheckRunFilesNotInputs(const SweepConfig& config, const fs::path& out) {
+  InputFiles inputs;
+  inputs.Add("sweep file", config.source);
+  for (const SweepModel& m : config.models) inputs.Add(fmt::format("model.file of '{}'", m.name), m.file);
+  for (const char* name : kRunFiles) inputs.CheckNotInput("--out", out / name);
+}
+
 // Claims the run directory for this sweep and shard: writes sweep.json, or checks that the one there
 // names this sweep and shard (a different sweep or shard is refused, not mixed in).
 void ClaimDirectory(const SweepConfig& config, const SweepOptions& options, long units_total,
@@ -119,14 +131,23 @@ void ClaimDirectory(const SweepConfig& config, const SweepOptions& options, long
       {"config", config.ToJson()}};
   const fs::path identity_path = options.out / "sweep.json";
   if (!fs::exists(identity_path)) {
+    // Tables without a sweep.json or a journal are another run's (a merge's): never overwritten.
+    for (const char* name : kRunFiles) {
+      if (!fs::exists(options.out / "trials.journal") && fs::exists(options.out / name)) {
+        throw std::invalid_argument(fmt::format(
+            "{}: holds another study ({} without sweep.json or trials.journal, e.g. the output of "
+            "`hysid merge`); use another --out",
+            options.out.string(), name));
+      }
+    }
     WriteJson(identity_path, identity);
     return;
   }
   const nlohmann::json old = ReadJson(identity_path);
   if (old.value("hash", "") != identity["hash"]) {
     throw std::invalid_argument(fmt::format(
-        "{}: holds the results of a different sweep configuration (hash {} here, {} now); use another "
-        "--out or delete the directory",
+        "{}: holds another study (sweep hash {} there, {} now: the sweep file or a model file it names "
+        "changed what a trial computes); use another --out or delete the directory",
         options.out.string(), old.value("hash", "?"), config.Hash()));
   }
   if (old.value("shard", "") != identity["shard"]) {
@@ -355,6 +376,7 @@ SweepOutcome RunSweep(const SweepConfig& config, const ModelRegistry& registry, 
       CheckedProduct(kMaxTrials, static_cast<std::int64_t>(cells.size()), config.trials,
                      fmt::format("{}: {} cells × {} trials", config.source, cells.size(), config.trials));
   CheckOutputDirectory("--out", options.out);
+  CheckRunFilesNotInputs(config, options.out);
   const DirectoryLock lock(options.out);
   ClaimDirectory(config, options, outcome.units_total, cells.size());
   RunPendingUnits(config, models, cells, header, options, stop, &outcome);
@@ -380,6 +402,33 @@ void CheckMergeOutput(const std::vector<fs::path>& dirs, const fs::path& out) {
           "--out {}: is one of the shard directories being merged ({}); give another output directory",
           out.string(), dir.string()));
     }
+  }
+}
+
+// The output directory of `merge` holds no run files, or an earlier merge of the same sweep (which is
+// replaced); a sweep's run directory or another study's merge is refused, not overwritten.
+void CheckMergeTarget(const fs::path& out, const std::string& hash) {
+  std::error_code ec;
+  const auto refuse = [&](const std::string& what) {
+    throw std::invalid_argument(fmt::format(
+        "--out {}: {}; merge writes its tables only into a new directory or over an earlier merge of the "
+        "same sweep: give another --out",
+        out.string(), what));
+  };
+  if (fs::exists(out / "sweep.json", ec) || fs::exists(out / "trials.journal", ec)) {
+    refuse("is the run directory of a sweep (it holds sweep.json or trials.journal)");
+  }
+  if (fs::exists(out / "run.json", ec)) {
+    nlohmann::json old = ReadJson(out / "run.json");
+    if (!old.is_object()) old = nlohmann::json::object();
+    if (old.value("command", "") != "hysid merge" || old.value("hash", "") != hash) {
+      refuse(fmt::format("holds another study (run.json: {}, hash {}; these shards are sweep {})",
+                         old.value("command", "?"), old.value("hash", "?"), hash));
+    }
+    return;
+  }
+  for (const char* name : kRunFiles) {
+    if (fs::exists(out / name, ec)) refuse(fmt::format("holds {} of an unknown study (no run.json)", name));
   }
 }
 
@@ -461,7 +510,7 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
     throw std::invalid_argument(
         fmt::format("hysid merge: {} units in the shards, the sweep has {}", rows.size(), total));
   }
-  fs::create_directories(out);
+  CheckMergeTarget(out, first.identity.value("hash", ""));
   const nlohmann::json config = first.identity.value("config", nlohmann::json{});
   WriteSweepTables(out, first.header, rows, BaselineFromJson(config));
   std::vector<std::string> names;

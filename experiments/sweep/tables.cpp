@@ -329,12 +329,10 @@ void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* 
                    std::map<long, std::vector<std::string>>* rows) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::invalid_argument(fmt::format("{}: cannot open", path.string()));
-  std::string line;
   long line_no = 0;
-  while (ReadBoundedLine(in, line, path.string(), line_no + 1)) {
-    ++line_no;
-    std::vector<std::string> cells = SplitCsvLine(line, path.string(), line_no);
-    if (line_no == 1) {
+  std::vector<std::string> cells;
+  while (ReadCsvRecord(in, path.string(), &line_no, &cells)) {
+    if (header->empty()) {
       *header = std::move(cells);
       continue;
     }

@@ -73,6 +73,14 @@ struct FileSizeLimit {
   ~FileSizeLimit() { setrlimit(RLIMIT_FSIZE, &old); }
 };
 
+// No temporary file (NAME.<pid>-<n>.tmp) left in `dir`.
+bool NoTemporaries(const std::filesystem::path& dir) {
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir)) {
+    if (e.path().extension() == ".tmp") return false;
+  }
+  return true;
+}
+
 TEST_CASE("a failed write names errno and leaves no temporary file", "[csv][files]") {
   const auto dir = testing::FreshTempDir("csv-short");
   std::filesystem::remove_all(dir);
@@ -88,16 +96,16 @@ TEST_CASE("a failed write names errno and leaves no temporary file", "[csv][file
       message = e.what();
     }
   }
-  CHECK_THAT(message, Catch::Contains("big.csv.tmp: write failed: File too large"));
+  CHECK_THAT(message, Catch::Contains("big.csv: write failed: File too large"));
   CHECK_FALSE(std::filesystem::exists(path));
-  CHECK_FALSE(std::filesystem::exists(dir / "big.csv.tmp"));
+  CHECK(NoTemporaries(dir));
   // The same through WriteFileAtomically.
   {
     const FileSizeLimit limit(1000);
     CHECK_THROWS_WITH(WriteFileAtomically(dir / "meta.json", std::string(5000, 'x')),
-                      Catch::Contains("meta.json.tmp: write failed: File too large"));
+                      Catch::Contains("meta.json: write failed: File too large"));
   }
-  CHECK_FALSE(std::filesystem::exists(dir / "meta.json.tmp"));
+  CHECK(NoTemporaries(dir));
   CHECK_FALSE(std::filesystem::exists(dir / "meta.json"));
   // A rename onto a non-empty directory fails: errno text, temporary removed.
   std::filesystem::create_directories(dir / "taken" / "inside");
@@ -106,13 +114,97 @@ TEST_CASE("a failed write names errno and leaves no temporary file", "[csv][file
     CHECK_THROWS_WITH(writer.Commit(),
                       Catch::Contains("taken: cannot rename the temporary file onto it: Is a directory"));
   }
-  CHECK_FALSE(std::filesystem::exists(dir / "taken.tmp"));
+  CHECK(NoTemporaries(dir));
   // Checked before any computation: a directory, a file as directory.
   CHECK_THROWS_WITH(CheckOutputPath("--trace", dir),
                     Catch::Contains("--trace") && Catch::Contains("is a directory"));
   std::ofstream(dir / "plain") << "x";
   CHECK_THROWS_WITH(CheckOutputPath("--trace", dir / "plain" / "x.csv"),
                     Catch::Contains("--trace") && Catch::Contains("exists and is not a directory"));
+}
+
+// A full disk at every size of the new content: the older good file stays whole, never a 0-byte or
+// truncated one, and no temporary file is left.
+TEST_CASE("a failed rewrite keeps the older file byte for byte", "[files]") {
+  const auto dir = testing::FreshTempDir("files-keep");
+  const auto path = dir / "result.json";
+  const std::string good = "{\"a good\": \"result\"}\n";
+  WriteFileAtomically(path, good);
+  for (const rlim_t limit : {rlim_t{0}, rlim_t{1}, rlim_t{100}, rlim_t{4095}, rlim_t{65536}}) {
+    INFO("file size limit " << limit);
+    {
+      const FileSizeLimit full(limit);
+      CHECK_THROWS_WITH(WriteFileAtomically(path, std::string(100000, 'x')),
+                        Catch::Contains("result.json: write failed: File too large"));
+      CHECK_THROWS_WITH(
+          [&] {
+            CsvWriter csv(path, {"a"});
+            for (int i = 0; i < 20000; ++i) csv.Row(std::vector<double>{1.0 / 3.0});
+            csv.Commit();
+          }(),
+          Catch::Contains("result.json: write failed: File too large"));
+    }
+    std::ifstream in(path);
+    CHECK(std::string(std::istreambuf_iterator<char>(in), {}) == good);
+    CHECK(NoTemporaries(dir));
+  }
+}
+
+// An output that is an input is refused however it is spelled: the same name, another relative
+// spelling, an absolute path, a hard link, a symbolic link, a link to its directory.
+TEST_CASE("an output that is one of the inputs is refused under every name", "[files]") {
+  namespace fs = std::filesystem;
+  const auto dir = fs::canonical(testing::FreshTempDir("files-inputs"));
+  fs::create_directories(dir / "sub");
+  std::ofstream(dir / "sub" / "data.csv") << "t,y1\n0,1\n";
+  fs::create_hard_link(dir / "sub" / "data.csv", dir / "hard.csv");
+  fs::create_symlink(dir / "sub" / "data.csv", dir / "soft.csv");
+  fs::create_directory_symlink(dir / "sub", dir / "subdir-link");
+  InputFiles inputs;
+  inputs.Add("--data", dir / "sub" / "data.csv");
+  inputs.Add("--model-file", dir / "no-such.toml");  // a missing input is its reader's error
+  for (const fs::path& name : {dir / "sub" / "data.csv", dir / "sub" / ".." / "sub" / "data.csv",
+                               dir / "hard.csv", dir / "soft.csv", dir / "subdir-link" / "data.csv"}) {
+    INFO(name);
+    CHECK_THROWS_WITH(CheckOutputPath("--json", name, inputs),
+                      Catch::Contains("--json " + name.string() + ": is the input --data"));
+  }
+  CHECK_NOTHROW(CheckOutputPath("--json", dir / "sub" / "other.csv", inputs));
+  CHECK_NOTHROW(CheckOutputPath("--json", dir / "no-such.toml", inputs));
+  CHECK_THROWS_WITH(CheckOutputPaths({{"--trace", dir / "a.csv"}, {"--hulls", dir / "sub" / ".." / "a.csv"}}),
+                    Catch::Contains("--hulls") && Catch::Contains("the same file as --trace"));
+}
+
+// Any text survives a write and a read as one cell: commas, quotes, line breaks, edge spaces.
+TEST_CASE("names are quoted per RFC 4180 and read back as written", "[csv]") {
+  const std::vector<std::string> names{"wall,msd", "say \"hi\"", "two\nlines", "cr\rmid", " edge ", "\t",
+                                       "",         "\"",          ",",            "plain",     "k_hat"};
+  for (const std::string& a : names) {
+    for (const std::string& b : names) {
+      const std::vector<std::string> cells{a, b, "1"};
+      std::vector<std::string> back;
+      REQUIRE(SplitCsvRecord(JoinCsvRecord(cells), "t", 1, &back));
+      CHECK(back == cells);
+    }
+  }
+  CHECK(CsvCell("plain") == "plain");
+  CHECK(CsvCell("wall,msd") == "\"wall,msd\"");
+  CHECK(CsvCell("a\"b") == "\"a\"\"b\"");
+  // Through a file: the header and a text row, read back record by record across the line breaks.
+  const auto path = testing::FreshTempDir("csv-names") / "names.csv";
+  {
+    CsvWriter csv(path, names);
+    csv.TextRow(names);
+    csv.Commit();
+  }
+  std::ifstream in(path, std::ios::binary);
+  long line = 0;
+  std::vector<std::string> cells;
+  for (int record = 0; record < 2; ++record) {
+    REQUIRE(ReadCsvRecord(in, "names.csv", &line, &cells));
+    CHECK(cells == names);
+  }
+  CHECK_FALSE(ReadCsvRecord(in, "names.csv", &line, &cells));
 }
 
 TEST_CASE("headers must be headers: numbers and empty names are refused", "[csv]") {

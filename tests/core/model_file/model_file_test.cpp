@@ -2,6 +2,7 @@
 // trajectories and identification runs agree; every kind of bad file is refused naming the file,
 // the line, the key and the expression.
 #include <catch2/catch.hpp>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -274,6 +275,62 @@ TEST_CASE("bad model files are refused naming file, line, key and expression", "
   REQUIRE_THAT(ErrorOf("name = \n"), Contains("m.toml:1: TOML syntax"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "h = \"x\"", "h = \"2\"")),
                Contains("m.toml:13: guard[0].h: \"2\" does not depend on the state"));
+}
+
+// Every place a model file holds an expression (φ and ψ entries, a guard's h and projection, C, D, the
+// distance to D), each with '=' written for '==' or as an assignment: refused naming the file, line,
+// key and expression; the comparisons that contain '=' are accepted in the same places.
+TEST_CASE("an expression may not assign: every expression key, every assignment form", "[model_file]") {
+  using Catch::Matchers::Contains;
+  const std::string with_projection = Replace(kGood, "direction = \"falling\"",
+                                              "direction = \"falling\"\nproject = { x = \"0\" }");
+  const std::string with_distance = Replace(kGood, "D = \"x == 0 && v <= 0\"",
+                                            "D = \"x == 0 && v <= 0\"\ndistance_to_D = \"abs(x)\"");
+  struct Place {
+    std::string text, entry, key;
+    int line;
+  };
+  const std::vector<Place> places{
+      {kGood, "\"-x\"", "flow.phi[1][1]", 6},
+      {kGood, "\"-v\"", "jump.psi[1][1]", 9},
+      {kGood, "h = \"x\"", "guard[0].h", 13},
+      {with_projection, "x = \"0\"", "guard[0].project.x", 15},
+      {kGood, "C = \"x >= 0\"", "sets.C", 16},
+      {kGood, "D = \"x == 0 && v <= 0\"", "sets.D", 17},
+      {with_distance, "distance_to_D = \"abs(x)\"", "sets.distance_to_D", 18},
+  };
+  for (const Place& p : places) {
+    const std::string lhs = p.entry.substr(0, p.entry.find('"'));
+    for (const std::string bad : {"v = v*2", "x = 1 && v >= 0", "(v = 0) + x", "x + (v = 2)"}) {
+      INFO(p.key << ": " << bad);
+      const std::string error = ErrorOf(Replace(p.text, p.entry, lhs + "\"" + bad + "\""));
+      CHECK_THAT(error, Contains(fmt::format("m.toml:{}: {}: \"{}\": '=' is muParser's assignment", p.line,
+                                             p.key, bad)));
+    }
+    for (const std::string fine : {"x == 0 || v <= 0", "x >= 0 && v != 1"}) {
+      INFO(p.key << ": " << fine);
+      CHECK_THAT(ErrorOf(Replace(p.text, p.entry, lhs + "\"" + fine + "\"")),
+                 !Contains("assignment"));
+    }
+  }
+}
+
+// Entries see the state as given: φ evaluated at ξ gives the same matrix every time, and an entry
+// that reads v after one that scales it reads the v passed in.
+TEST_CASE("entries of one matrix do not affect each other or later evaluations", "[model_file]") {
+  const Model m = ParseModelText(Replace(kGood, "phi = [[\"v\", 0], [0, \"-x\"]]",
+                                         "phi = [[\"v*2\", 0], [\"v\", \"-x\"]]"),
+                                 "m.toml", {.check_guards = false});
+  Vec x(2);
+  x << 0.5, 3.0;
+  Mat first(2, 2), again(2, 2);
+  m.Phi(x, first);
+  m.Phi(x, again);
+  CHECK(first(0, 0) == 6.0);
+  CHECK(first(1, 0) == 3.0);
+  CHECK(first(1, 1) == -0.5);
+  CHECK(first == again);
+  CHECK(x(1) == 3.0);
 }
 
 }  // namespace

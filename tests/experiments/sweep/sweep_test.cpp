@@ -311,7 +311,7 @@ TEST_CASE("sweep: a killed run resumes to exactly the uninterrupted rows", "[swe
   const SweepConfig other = ParseSweepText(std::string(kSweep) + "", "resume.toml", Registry());
   SweepConfig changed = other;
   changed.seed = 12;
-  CHECK_THROWS_WITH(Run(changed, cut, 1), Catch::Contains("different sweep configuration"));
+  CHECK_THROWS_WITH(Run(changed, cut, 1), Catch::Contains("holds another study"));
   // A malformed row before the end is an error naming the journal line.
   const fs::path bad = TempDir("badjournal");
   fs::copy_file(full / "sweep.json", bad / "sweep.json");
@@ -457,6 +457,35 @@ TEST_CASE("sweep: sizes are checked against named limits before allocation", "[s
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[run]\nseed = -1\n"), Catch::Contains("run.seed: -1 must be ≥ 0"));
 }
 
+TEST_CASE("journal: names with commas, quotes and line breaks are recovered, a torn quoted tail is cut",
+          "[sweep][journal]") {
+  const fs::path dir = TempDir("journal-names");
+  const fs::path path = dir / "trials.journal";
+  const std::vector<std::string> header{"unit", "model", "k,\"1\"\nnew", "wall_ms"};
+  const std::vector<std::vector<std::string>> rows{
+      {"0", "wall,msd", "a \"quoted\"\nvalue", "1.5"}, {"1", " edge ", "", "2"}, {"2", "plain", "\r", "3"}};
+  {
+    Journal journal(path, header, "feedbeef00000000", "1/1");
+    for (const auto& r : rows) journal.Append(r);
+  }
+  // Every prefix of the file: the complete records before it are recovered, the rest cut off.
+  const std::string full = Slurp(path);
+  const std::size_t head = full.find("wall_ms,sweep\n") + std::string("wall_ms,sweep\n").size();
+  for (std::size_t cut = head; cut <= full.size(); ++cut) {
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << full.substr(0, cut);
+    const Journal journal(path, header, "feedbeef00000000", "1/1");
+    std::size_t complete = 0;
+    for (std::size_t end = head; end < cut; ++complete) {
+      const std::size_t next = full.find(",feedbeef00000000\n", end);
+      if (next == std::string::npos || next + 18 > cut) break;
+      end = next + 18;
+    }
+    INFO("cut at byte " << cut);
+    REQUIRE(journal.recovered().size() == complete);
+    for (std::size_t i = 0; i < complete; ++i) CHECK(journal.recovered().at(static_cast<long>(i)) == rows[i]);
+  }
+}
+
 TEST_CASE("merge refuses an input directory as its output", "[sweep][shard]") {
   const SweepConfig c = ParseSweepText(kSweep, "mergeout.toml", Registry());
   const fs::path a = TempDir("mo1"), b = TempDir("mo2");
@@ -525,7 +554,11 @@ TEST_CASE("sweep files: a model file instead of a registry name", "[sweep][confi
   CHECK(c.models[0].x0 == std::vector<double>{0.0, 5.0});  // the file's default
   const Model m = c.models[0].Build(Registry());
   CHECK(m.alpha()[1] == 3.0);
-  CHECK(c.ToJson()["model"][0]["equations"].get<std::string>().find("h(xi) = x - 1") != std::string::npos);
+  const nlohmann::json definition = c.ToJson()["model"][0]["definition"];
+  CHECK(definition["equations"].get<std::string>().find("h(xi) = x - 1 (rising), projected: x+ = 1") !=
+        std::string::npos);
+  CHECK(definition["alpha"][1] == nlohmann::json({{"name", "k"}, {"value", 4.0}, {"known", false}}));
+  CHECK(definition["default_x0"] == nlohmann::json({0.0, 5.0}));
   CHECK_THROWS_WITH(
       ParseSweepText("[model]\nfile = \"nope.toml\"\n[grid]\nsigma = 0.0\ndt = 1e-3\n", sweep, Registry()),
       Catch::Contains("sweep.toml:2: model.file: ") && Catch::Contains("nope.toml: cannot read"));
