@@ -44,12 +44,14 @@ class TomlReader {
   static std::string TypeName(const toml::node& node);
 
   // Every key of `table` (at `prefix`) must be one of `known`.
-  void OnlyKeys(const toml::table& table, std::string_view prefix, const std::vector<std::string>& known) const;
+  void OnlyKeys(const toml::table& table, std::string_view prefix,
+                const std::vector<std::string>& known) const;
   // table[key], else "missing" (with ": hint" when given). `prefix` empty: the top level.
   const toml::node& Require(const toml::table& table, std::string_view prefix, std::string_view key,
                             std::string_view hint = {}) const;
   // At most one of the two keys.
-  void NotBoth(const toml::table& table, std::string_view prefix, std::string_view a, std::string_view b) const;
+  void NotBoth(const toml::table& table, std::string_view prefix, std::string_view a,
+               std::string_view b) const;
 
   // Typed values (inline tables are tables).
   std::string String(const toml::node& node, std::string_view key) const;
@@ -69,8 +71,8 @@ class TomlReader {
             std::string_view per) const;
   void NotEmpty(const toml::node* node, std::string_view key, std::size_t size, std::string_view what) const;
   // The position of `name` in `known`, else "unknown WHAT 'name' (known: ...)".
-  std::size_t Choice(const toml::node* node, std::string_view key, std::string_view what, const std::string& name,
-                     const std::vector<std::string>& known) const;
+  std::size_t Choice(const toml::node* node, std::string_view key, std::string_view what,
+                     const std::string& name, const std::vector<std::string>& known) const;
   // "VALUE appears twice" (VALUE as the caller quotes it).
   [[noreturn]] void Twice(const toml::node* node, std::string_view key, std::string_view value) const;
 

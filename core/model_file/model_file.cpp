@@ -185,12 +185,13 @@ std::pair<double, bool> CheckExpression(const TomlReader& rd, const toml::node* 
 std::string EntryText(const TomlReader& rd, const toml::node& n, const std::string& key) {
   if (n.is_string()) return std::string(*n.value<std::string>());
   if (n.is_number()) return fmt::format("{}", rd.Number(n, key));
-  rd.Fail(&n, key, fmt::format("expected an expression (a string) or a number, got {}", TomlReader::TypeName(n)));
+  rd.Fail(&n, key,
+          fmt::format("expected an expression (a string) or a number, got {}", TomlReader::TypeName(n)));
 }
 
 // A rows × cols matrix (a list of rows) of expressions.
-ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::string& key, Eigen::Index rows,
-                       Eigen::Index cols, const std::vector<std::string>& states) {
+ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::string& key,
+                       Eigen::Index rows, Eigen::Index cols, const std::vector<std::string>& states) {
   const toml::array& arr = rd.Array(node, key);
   rd.Size(&node, key, arr.size(), std::size_t(rows), "one row per state");
   ExprMatrix m{rows, cols, std::vector<double>(std::size_t(rows * cols), 0.0), {}, {}, {}};
@@ -253,7 +254,8 @@ std::vector<std::string> ParseStates(const TomlReader& rd, const toml::table& ro
   const toml::array& arr = rd.Array(rd.Require(root, "", "states"), "states");
   rd.NotEmpty(&arr, "states", arr.size(), "state");
   if (arr.size() > std::size_t(Model::kMaxStates)) {
-    rd.Fail(&arr, "states", fmt::format("has {} entries, at most {} (hysid's limit)", arr.size(), Model::kMaxStates));
+    rd.Fail(&arr, "states",
+            fmt::format("has {} entries, at most {} (hysid's limit)", arr.size(), Model::kMaxStates));
   }
   std::vector<std::string> states;
   mu::Parser probe;
@@ -266,7 +268,8 @@ std::vector<std::string> ParseStates(const TomlReader& rd, const toml::table& ro
     } catch (const mu::Parser::exception_type& e) {
       rd.Fail(&arr[i], key, fmt::format("'{}' is not a valid variable name: {}", s, e.GetMsg()));
     }
-    if (std::find(states.begin(), states.end(), s) != states.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", s));
+    if (std::find(states.begin(), states.end(), s) != states.end())
+      rd.Twice(&arr[i], key, fmt::format("'{}'", s));
     states.push_back(std::move(s));
   }
   return states;
@@ -405,8 +408,9 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
     const toml::table& t = rd.Table(rd.Require(root, "", key), key);
     const bool flow = std::string_view(key) == "flow";
     const char* mkey = flow ? "phi" : "psi";
-    rd.OnlyKeys(t, key, flow ? std::vector<std::string>{mkey, "rows", "jacobian_constant"}
-                             : std::vector<std::string>{mkey, "rows"});
+    rd.OnlyKeys(t, key,
+                flow ? std::vector<std::string>{mkey, "rows", "jacobian_constant"}
+                     : std::vector<std::string>{mkey, "rows"});
     *matrix = ParseMatrix(rd, rd.Require(t, key, mkey), TomlReader::Join(key, mkey), n,
                           static_cast<Eigen::Index>(params->size()), spec.state_names);
     *rows = ParseRows(rd, t, key, spec.state_names);

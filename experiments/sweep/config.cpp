@@ -33,12 +33,16 @@ double ShortDecimal(double v) { return std::strtod(fmt::format("{:.12g}", v).c_s
 
 // A value of a grid axis given twice.
 template <class T>
-void NoDuplicates(const TomlReader& rd, const toml::node& node, const std::string& key, const std::vector<T>& v) {
+void NoDuplicates(const TomlReader& rd, const toml::node& node, const std::string& key,
+                  const std::vector<T>& v) {
   std::set<T> seen;
   for (const T& x : v) {
     if (seen.insert(x).second) continue;
-    if constexpr (std::is_same_v<T, std::string>) rd.Twice(&node, key, fmt::format("'{}'", x));
-    else rd.Twice(&node, key, fmt::format("{}", x));
+    if constexpr (std::is_same_v<T, std::string>) {
+      rd.Twice(&node, key, fmt::format("'{}'", x));
+    } else {
+      rd.Twice(&node, key, fmt::format("{}", x));
+    }
   }
 }
 
@@ -73,7 +77,8 @@ std::vector<double> NumberAxis(const TomlReader& rd, const toml::node& node, con
     out = NumberRange(rd, *node.as_table(), key);
   } else {
     rd.Fail(&node, key,
-            fmt::format("expected a number, a list or {{ from, to, count }}, got {}", TomlReader::TypeName(node)));
+            fmt::format("expected a number, a list or {{ from, to, count }}, got {}",
+                        TomlReader::TypeName(node)));
   }
   rd.NotEmpty(&node, key, out.size(), "value");
   return out;
@@ -242,15 +247,16 @@ std::vector<SweepModel> ParseModels(const TomlReader& rd, const toml::table& roo
       out.push_back(ParseModel(rd, rd.Table(arr[i], k), k, registry));
     }
   } else {
-    rd.Fail(models, "model",
-            fmt::format("expected a [model] table or [[model]] tables, got {}", TomlReader::TypeName(*models)));
+    rd.Fail(
+        models, "model",
+        fmt::format("expected a [model] table or [[model]] tables, got {}", TomlReader::TypeName(*models)));
   }
   return out;
 }
 
 template <class Kind>
-std::vector<Kind> KindAxis(const TomlReader& rd, const toml::table& grid, const char* name, const char* fallback,
-                           Kind (*parse)(std::string_view)) {
+std::vector<Kind> KindAxis(const TomlReader& rd, const toml::table& grid, const char* name,
+                           const char* fallback, Kind (*parse)(std::string_view)) {
   const std::string key = fmt::format("grid.{}", name);
   const toml::node* node = grid.get(name);
   const std::vector<std::string> names =
@@ -296,8 +302,8 @@ void CheckGridSteps(const TomlReader& rd, const toml::table& grid, const SweepCo
     rd.Above(grid.get("dt"), "grid.dt", dt, 0.0);
     for (const SweepModel& m : c.models) {
       CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(m.t_end / dt, 9e18)) + 1,
-                 rd.Where(grid.get("dt"), fmt::format("grid.dt = {} with t_end = {} of model '{}'", dt, m.t_end,
-                                                      m.name)));
+                 rd.Where(grid.get("dt"),
+                          fmt::format("grid.dt = {} with t_end = {} of model '{}'", dt, m.t_end, m.name)));
       if (2 * dt > m.t_end) {
         rd.Fail(
             grid.get("dt"), "grid.dt",
@@ -352,8 +358,8 @@ void ParseGrid(const TomlReader& rd, const toml::table& root, SweepConfig* c) {
   c->grid.detector = KindAxis(rd, grid, "detector", "paper", &ParseKind<DetectorKind>);
 }
 
-void SetIdentifierKey(const TomlReader& rd, const toml::node& v, const std::string& key, const IdentifierKey& k,
-                      IdentifierSettings* s) {
+void SetIdentifierKey(const TomlReader& rd, const toml::node& v, const std::string& key,
+                      const IdentifierKey& k, IdentifierSettings* s) {
   double value = 0.0;
   try {
     if (k.type == OptionType::kChoice) {
@@ -400,7 +406,8 @@ void ParseSimulator(const TomlReader& rd, const toml::table& root, SimOptions* s
     if (k == "rtol") sim->rtol = rd.Number(v, key);
     if (k == "atol") sim->atol = rd.Number(v, key);
     if (k == "max_steps") sim->max_steps = rd.Integer(v, key, 1);
-    if (k == "max_jumps") sim->max_jumps = static_cast<int>(rd.Integer(v, key, 1, std::numeric_limits<int>::max()));
+    if (k == "max_jumps")
+      sim->max_jumps = static_cast<int>(rd.Integer(v, key, 1, std::numeric_limits<int>::max()));
     std::string error;
     if (!sim->IsValid(&error)) rd.Fail(&v, key, error);
   }

@@ -44,12 +44,16 @@ TEST_CASE("typed values read back, and each wrong type names what it got", "[tom
   REQUIRE(rd.Boolean(*t.get("b"), "t.b"));
   REQUIRE(rd.Table(*t.get("inline"), "t.inline").contains("a"));
   REQUIRE(rd.Array(*t.get("list"), "t.list").size() == 3);
-  REQUIRE(ErrorOf([&] { rd.Number(*t.get("s"), "t.s"); }) == "f.toml:3: t.s: expected a number, got a string");
-  REQUIRE(ErrorOf([&] { rd.String(*t.get("n"), "t.n"); }) == "f.toml:4: t.n: expected a string, got a number");
-  REQUIRE(ErrorOf([&] { rd.Integer(*t.get("n"), "t.n"); }) == "f.toml:4: t.n: expected an integer, got a number");
+  REQUIRE(ErrorOf([&] { rd.Number(*t.get("s"), "t.s"); }) ==
+          "f.toml:3: t.s: expected a number, got a string");
+  REQUIRE(ErrorOf([&] { rd.String(*t.get("n"), "t.n"); }) ==
+          "f.toml:4: t.n: expected a string, got a number");
+  REQUIRE(ErrorOf([&] { rd.Integer(*t.get("n"), "t.n"); }) ==
+          "f.toml:4: t.n: expected an integer, got a number");
   REQUIRE(ErrorOf([&] { rd.Boolean(*t.get("i"), "t.i"); }) ==
           "f.toml:5: t.i: expected true or false, got an integer");
-  REQUIRE(ErrorOf([&] { rd.Table(*t.get("list"), "t.list"); }) == "f.toml:8: t.list: expected a table, got a list");
+  REQUIRE(ErrorOf([&] { rd.Table(*t.get("list"), "t.list"); }) ==
+          "f.toml:8: t.list: expected a table, got a list");
   REQUIRE(ErrorOf([&] { rd.Array(*t.get("inline"), "t.inline"); }) ==
           "f.toml:9: t.inline: expected a list, got a table");
   REQUIRE(ErrorOf([&] { rd.Numbers(*t.get("list"), "t.list"); }) ==
@@ -60,8 +64,9 @@ TEST_CASE("keys: unknown, missing (with and without a line), exclusive", "[toml]
   const toml::table root = ParseToml(kText, "f.toml");
   const TomlReader rd("f.toml");
   const toml::table& t = *root.get("t")->as_table();
-  REQUIRE(ErrorOf([&] { rd.OnlyKeys(t, "t", {"s", "n", "i", "big", "b", "list", "inline"}); }) ==
-          "f.toml:10: t.nan: unknown key (known here: s, n, i, big, b, list, inline)");
+  REQUIRE(ErrorOf([&] {
+            rd.OnlyKeys(t, "t", {"s", "n", "i", "big", "b", "list", "inline"});
+          }) == "f.toml:10: t.nan: unknown key (known here: s, n, i, big, b, list, inline)");
   REQUIRE(ErrorOf([&] { rd.Require(t, "t", "x"); }) == "f.toml:2: t.x: missing");
   REQUIRE(ErrorOf([&] { rd.Require(root, "", "grid", "a [grid] table"); }) ==
           "f.toml: grid: missing: a [grid] table");
@@ -85,8 +90,9 @@ TEST_CASE("ranges, sizes and names: one wording each", "[toml]") {
   REQUIRE(ErrorOf([&] { rd.NotEmpty(t.get("list"), "t.list", 0, "value"); }) ==
           "f.toml:8: t.list: empty: give at least one value");
   REQUIRE(rd.Choice(t.get("s"), "t.s", "state", "v", {"x", "v"}) == 1);
-  REQUIRE(ErrorOf([&] { rd.Choice(t.get("s"), "t.s", "state", "w", {"x", "v"}); }) ==
-          "f.toml:3: t.s: unknown state 'w' (known: x, v)");
+  REQUIRE(ErrorOf([&] {
+            rd.Choice(t.get("s"), "t.s", "state", "w", {"x", "v"});
+          }) == "f.toml:3: t.s: unknown state 'w' (known: x, v)");
   REQUIRE(ErrorOf([&] { rd.Twice(t.get("s"), "t.s", "'word'"); }) == "f.toml:3: t.s: 'word' appears twice");
 }
 
