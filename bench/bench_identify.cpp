@@ -7,9 +7,9 @@
 
 #include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
-#include "core/model_file/model_file.hpp"
 #include "core/sets/sample_set.hpp"
 #include "sim/measurement.hpp"
+#include "sim/model_check/model_check.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {

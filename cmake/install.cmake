@@ -1,5 +1,5 @@
 # `cmake --install build --prefix P`: P/bin/hysid, P/lib/libhysid_*.a, the public headers under
-# P/include/hysid (the source layout), the CMake package P/lib/cmake/hysid (find_package(hysid) →
+# P/include/hysid (each library's FILE_SET HEADERS, in the source layout), the CMake package P/lib/cmake/hysid (find_package(hysid) →
 # hysid::hysid and one target per library, dependencies found by hysidConfig.cmake), the model
 # files under P/share/hysid/models and the license.
 include(GNUInstallDirs)
@@ -14,11 +14,9 @@ add_library(hysid::hysid ALIAS hysid_all)
 
 install(TARGETS ${hysid_libraries} hysid_all random123 EXPORT hysidTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
-        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+        FILE_SET HEADERS DESTINATION ${HYSID_INSTALL_INCLUDEDIR})
 install(TARGETS hysid RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-install(DIRECTORY core sim experiments
-        DESTINATION ${HYSID_INSTALL_INCLUDEDIR}
-        FILES_MATCHING PATTERN "*.hpp")
 install(DIRECTORY models/ DESTINATION ${CMAKE_INSTALL_DATADIR}/hysid/models FILES_MATCHING PATTERN "*.toml")
 install(FILES LICENSE README.md DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/hysid)
 install(EXPORT hysidTargets NAMESPACE hysid:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/hysid)

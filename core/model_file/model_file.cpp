@@ -17,11 +17,10 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <muParser.h>
-#include <toml++/toml.h>
 
 #include "core/io/files.hpp"
 #include "core/io/toml_guard.hpp"
-#include "sim/simulator.hpp"
+#include "core/io/toml_reader.hpp"
 
 namespace hysid {
 namespace {
@@ -157,59 +156,7 @@ struct FileModel {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Reading the TOML file. Every error names the file, the line and the key.
-
-class Reader {
- public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-  [[noreturn]] void Fail(const toml::node* node, const std::string& key, const std::string& what) const {
-    const long line = node ? static_cast<long>(node->source().begin.line) : 0;
-    if (line > 0) throw std::invalid_argument(fmt::format("{}:{}: {}: {}", file_, line, key, what));
-    throw std::invalid_argument(fmt::format("{}: {}: {}", file_, key, what));
-  }
-  const toml::node& Require(const toml::table& t, const std::string& prefix, const char* key) const {
-    const toml::node* n = t.get(key);
-    if (!n) Fail(&t, Join(prefix, key), "missing");
-    return *n;
-  }
-  static std::string Join(const std::string& prefix, std::string_view key) {
-    return prefix.empty() ? std::string(key) : fmt::format("{}.{}", prefix, key);
-  }
-  void OnlyKeys(const toml::table& t, const std::string& prefix,
-                std::initializer_list<std::string_view> keys) const {
-    for (auto&& [k, v] : t) {
-      if (std::find(keys.begin(), keys.end(), k.str()) == keys.end()) {
-        Fail(&v, Join(prefix, k.str()), fmt::format("unknown key (allowed: {})", fmt::join(keys, ", ")));
-      }
-    }
-  }
-  std::string String(const toml::node& n, const std::string& key) const {
-    if (!n.is_string()) Fail(&n, key, "expected a string");
-    return std::string(*n.value<std::string>());
-  }
-  double Number(const toml::node& n, const std::string& key) const {
-    const std::optional<double> v = n.value<double>();
-    if (!v || !(n.is_integer() || n.is_floating_point())) Fail(&n, key, "expected a number");
-    if (!std::isfinite(*v)) Fail(&n, key, fmt::format("{} must be finite", *v));
-    return *v;
-  }
-  bool Bool(const toml::node& n, const std::string& key) const {
-    if (!n.is_boolean()) Fail(&n, key, "expected true or false");
-    return *n.value<bool>();
-  }
-  const toml::table& Table(const toml::node& n, const std::string& key) const {
-    if (!n.is_table()) Fail(&n, key, "expected a table");
-    return *n.as_table();
-  }
-  const toml::array& Array(const toml::node& n, const std::string& key) const {
-    if (!n.is_array()) Fail(&n, key, "expected an array");
-    return *n.as_array();
-  }
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
-};
+// Reading the TOML file (core/io/toml_reader.hpp): every error names the file, the line and the key.
 
 // Whether `expr` holds muParser's assignment operator ("x = 1" written for "x == 1"), read with the
 // parser's own operator table in its order ("<=", ">=", "!=", "==" before "="), as its tokenizer reads
@@ -233,7 +180,7 @@ bool HasAssignment(const mu::Parser& p, std::string_view expr) {
 
 // Compiles one expression alone at the given state names; throws naming the key and the text.
 // Returns the value at ξ = 0 and whether the expression uses a state.
-std::pair<double, bool> CheckExpression(const Reader& rd, const toml::node* node, const std::string& key,
+std::pair<double, bool> CheckExpression(const TomlReader& rd, const toml::node* node, const std::string& key,
                                         const std::string& expr, const std::vector<std::string>& states) {
   std::array<double, Model::kMaxStates> var{};
   mu::Parser p;
@@ -261,31 +208,27 @@ std::pair<double, bool> CheckExpression(const Reader& rd, const toml::node* node
 }
 
 // An entry of a matrix: a number or a string expression.
-std::string EntryText(const Reader& rd, const toml::node& n, const std::string& key) {
+std::string EntryText(const TomlReader& rd, const toml::node& n, const std::string& key) {
   if (n.is_string()) return std::string(*n.value<std::string>());
-  if (n.is_integer() || n.is_floating_point()) return fmt::format("{}", rd.Number(n, key));
-  rd.Fail(&n, key, "expected an expression (string) or a number");
+  if (n.is_number()) return fmt::format("{}", rd.Number(n, key));
+  rd.Fail(&n, key,
+          fmt::format("expected an expression (a string) or a number, got {}", TomlReader::TypeName(n)));
 }
 
 // A rows × cols matrix (a list of rows) of expressions.
-ExprMatrix ParseMatrix(const Reader& rd, const toml::node& node, const std::string& key, Eigen::Index rows,
-                       Eigen::Index cols, const std::vector<std::string>& states) {
+ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::string& key,
+                       Eigen::Index rows, Eigen::Index cols, const std::vector<std::string>& states) {
   const toml::array& arr = rd.Array(node, key);
-  if (static_cast<Eigen::Index>(arr.size()) != rows) {
-    rd.Fail(&node, key, fmt::format("has {} rows, expected {} (one per state)", arr.size(), rows));
-  }
+  rd.Size(&node, key, arr.size(), std::size_t(rows), "one row per state");
   ExprMatrix m{rows, cols, std::vector<double>(std::size_t(rows * cols), 0.0), {}, {}, {}};
   m.text.resize(std::size_t(rows * cols));
   std::vector<std::string> exprs;
   for (Eigen::Index i = 0; i < rows; ++i) {
-    const std::string rkey = fmt::format("{}[{}]", key, i);
+    const std::string rkey = TomlReader::Index(key, std::size_t(i));
     const toml::array& row = rd.Array(arr[std::size_t(i)], rkey);
-    if (static_cast<Eigen::Index>(row.size()) != cols) {
-      rd.Fail(&arr[std::size_t(i)], rkey,
-              fmt::format("has {} entries, expected {} (one per parameter)", row.size(), cols));
-    }
+    rd.Size(&arr[std::size_t(i)], rkey, row.size(), std::size_t(cols), "one per parameter");
     for (Eigen::Index j = 0; j < cols; ++j) {
-      const std::string ekey = fmt::format("{}[{}][{}]", key, i, j);
+      const std::string ekey = TomlReader::Index(rkey, std::size_t(j));
       const std::string text = EntryText(rd, row[std::size_t(j)], ekey);
       const auto [value, uses_state] = CheckExpression(rd, &row[std::size_t(j)], ekey, text, states);
       const Eigen::Index at = j * rows + i;
@@ -302,79 +245,94 @@ ExprMatrix ParseMatrix(const Reader& rd, const toml::node& node, const std::stri
   return m;
 }
 
-std::vector<Parameter> ParseParameters(const Reader& rd, const toml::table& root, const char* which) {
+std::vector<Parameter> ParseParameters(const TomlReader& rd, const toml::table& root, const char* which) {
   const toml::array& arr = rd.Array(rd.Require(root, "", which), which);
-  if (arr.empty()) rd.Fail(&arr, which, "give at least one parameter");
+  rd.NotEmpty(&arr, which, arr.size(), "parameter");
   std::vector<Parameter> out;
   for (std::size_t i = 0; i < arr.size(); ++i) {
-    const std::string key = fmt::format("{}[{}]", which, i);
+    const std::string key = TomlReader::Index(which, i);
     const toml::table& t = rd.Table(arr[i], key);
     rd.OnlyKeys(t, key, {"name", "value", "known", "description"});
     Parameter p;
     p.name = rd.String(rd.Require(t, key, "name"), key + ".name");
     p.value = rd.Number(rd.Require(t, key, "value"), key + ".value");
-    if (const toml::node* k = t.get("known")) p.known = rd.Bool(*k, key + ".known");
+    if (const toml::node* k = t.get("known")) p.known = rd.Boolean(*k, key + ".known");
     if (const toml::node* d = t.get("description")) p.description = rd.String(*d, key + ".description");
     out.push_back(std::move(p));
   }
   return out;
 }
 
-std::vector<int> ParseRows(const Reader& rd, const toml::table& t, const std::string& prefix,
+std::vector<int> ParseRows(const TomlReader& rd, const toml::table& t, const std::string& prefix,
                            const std::vector<std::string>& states) {
   const std::string key = prefix + ".rows";
   const toml::array& arr = rd.Array(rd.Require(t, prefix, "rows"), key);
-  if (arr.empty()) rd.Fail(&arr, key, "name at least one state whose row carries unknown parameters");
+  rd.NotEmpty(&arr, key, arr.size(), "state whose row carries unknown parameters");
   std::vector<int> rows;
   for (std::size_t i = 0; i < arr.size(); ++i) {
-    const std::string name = rd.String(arr[i], fmt::format("{}[{}]", key, i));
-    const auto it = std::find(states.begin(), states.end(), name);
-    if (it == states.end()) {
-      rd.Fail(&arr[i], key, fmt::format("\"{}\" is not a state (states: {})", name, fmt::join(states, ", ")));
-    }
-    rows.push_back(static_cast<int>(it - states.begin()));
+    const std::string ikey = TomlReader::Index(key, i);
+    rows.push_back(static_cast<int>(rd.Choice(&arr[i], ikey, "state", rd.String(arr[i], ikey), states)));
   }
   return rows;
 }
 
-std::vector<std::string> ParseStates(const Reader& rd, const toml::table& root) {
+std::vector<std::string> ParseStates(const TomlReader& rd, const toml::table& root) {
   const toml::array& arr = rd.Array(rd.Require(root, "", "states"), "states");
-  if (arr.empty() || arr.size() > std::size_t(Model::kMaxStates)) {
-    rd.Fail(&arr, "states", fmt::format("{} states: give between 1 and {}", arr.size(), Model::kMaxStates));
+  rd.NotEmpty(&arr, "states", arr.size(), "state");
+  if (arr.size() > std::size_t(Model::kMaxStates)) {
+    rd.Fail(&arr, "states",
+            fmt::format("has {} entries, at most {} (hysid's limit)", arr.size(), Model::kMaxStates));
   }
   std::vector<std::string> states;
   mu::Parser probe;
   for (std::size_t i = 0; i < arr.size(); ++i) {
-    const std::string key = fmt::format("states[{}]", i);
+    const std::string key = TomlReader::Index("states", i);
     std::string s = rd.String(arr[i], key);
     try {
       double dummy = 0;
       probe.DefineVar(s, &dummy);
     } catch (const mu::Parser::exception_type& e) {
-      rd.Fail(&arr[i], key, fmt::format("\"{}\" is not a valid variable name: {}", s, e.GetMsg()));
+      rd.Fail(&arr[i], key, fmt::format("'{}' is not a valid variable name: {}", s, e.GetMsg()));
     }
     if (std::find(states.begin(), states.end(), s) != states.end())
-      rd.Fail(&arr[i], key, fmt::format("\"{}\" twice", s));
+      rd.Twice(&arr[i], key, fmt::format("'{}'", s));
     states.push_back(std::move(s));
   }
   return states;
 }
 
-Crossing ParseDirection(const Reader& rd, const toml::node& n, const std::string& key) {
-  const std::string d = rd.String(n, key);
-  if (d == "falling") return Crossing::kFalling;
-  if (d == "rising") return Crossing::kRising;
-  if (d == "both") return Crossing::kBoth;
-  rd.Fail(&n, key, fmt::format("\"{}\": expected falling, rising or both", d));
+Crossing ParseDirection(const TomlReader& rd, const toml::node& n, const std::string& key) {
+  // In the order of the enumerators.
+  static const std::vector<std::string> kDirections{"falling", "rising", "both"};
+  return static_cast<Crossing>(rd.Choice(&n, key, "direction", rd.String(n, key), kDirections));
 }
 
-void ParseGuards(const Reader& rd, const toml::table& root, Definition& def) {
+// guard[g].project: { state = expression, ... }, assigned when a jump starts on the guard.
+void ParseProjection(const TomlReader& rd, const toml::node& node, const std::string& key, Definition& def) {
   const std::vector<std::string>& states = def.spec.state_names;
+  ExprMatrix& proj = def.project.back();
+  std::vector<std::string> exprs;
+  for (auto&& [k, v] : rd.Table(node, key)) {
+    const std::string skey = TomlReader::Join(key, k.str());
+    const std::size_t state = rd.Choice(&v, skey, "state", std::string(k.str()), states);
+    const std::string text = EntryText(rd, v, skey);
+    CheckExpression(rd, &v, skey, text, states);
+    def.project_states.back().push_back(static_cast<int>(state));
+    proj.text.push_back(fmt::format("{}+ = {}", k.str(), text));
+    proj.index.push_back(static_cast<Eigen::Index>(exprs.size()));
+    exprs.push_back("(" + text + ")");
+  }
+  proj.rows = static_cast<Eigen::Index>(exprs.size());
+  proj.cols = 1;
+  proj.constant.assign(exprs.size(), 0.0);
+  proj.joined = fmt::format("{}", fmt::join(exprs, ","));
+}
+
+void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def) {
   const toml::array& arr = rd.Array(rd.Require(root, "", "guard"), "guard");
-  if (arr.empty()) rd.Fail(&arr, "guard", "give at least one [[guard]]");
-  toml::array h_column;
+  rd.NotEmpty(&arr, "guard", arr.size(), "[[guard]]");
   for (std::size_t g = 0; g < arr.size(); ++g) {
-    const std::string key = fmt::format("guard[{}]", g);
+    const std::string key = TomlReader::Index("guard", g);
     const toml::table& t = rd.Table(arr[g], key);
     rd.OnlyKeys(t, key, {"name", "h", "direction", "project"});
     Guard guard;
@@ -383,72 +341,46 @@ void ParseGuards(const Reader& rd, const toml::table& root, Definition& def) {
     def.spec.guards.push_back(guard);
     const toml::node& h = rd.Require(t, key, "h");
     const std::string text = EntryText(rd, h, key + ".h");
-    if (!CheckExpression(rd, &h, key + ".h", text, states).second) {
+    if (!CheckExpression(rd, &h, key + ".h", text, def.spec.state_names).second) {
       rd.Fail(&h, key + ".h", fmt::format("\"{}\" does not depend on the state", text));
     }
     def.guards.text.push_back(text);
     def.guards.index.push_back(static_cast<Eigen::Index>(g));
     def.guards.joined += (g ? ",(" : "(") + text + ")";
-    ExprMatrix proj;
-    std::vector<int> assigned;
-    if (const toml::node* p = t.get("project")) {
-      const std::string pkey = key + ".project";
-      std::vector<std::string> exprs;
-      for (auto&& [k, v] : rd.Table(*p, pkey)) {
-        const auto it = std::find(states.begin(), states.end(), k.str());
-        if (it == states.end()) rd.Fail(&v, pkey, fmt::format("\"{}\" is not a state", k.str()));
-        const std::string text = EntryText(rd, v, fmt::format("{}.{}", pkey, k.str()));
-        CheckExpression(rd, &v, fmt::format("{}.{}", pkey, k.str()), text, states);
-        assigned.push_back(static_cast<int>(it - states.begin()));
-        proj.text.push_back(fmt::format("{}+ = {}", k.str(), text));
-        proj.index.push_back(static_cast<Eigen::Index>(exprs.size()));
-        exprs.push_back("(" + text + ")");
-      }
-      proj.rows = static_cast<Eigen::Index>(exprs.size());
-      proj.cols = 1;
-      proj.constant.assign(exprs.size(), 0.0);
-      proj.joined = fmt::format("{}", fmt::join(exprs, ","));
-    }
-    def.project.push_back(std::move(proj));
-    def.project_states.push_back(std::move(assigned));
+    def.project.emplace_back();
+    def.project_states.emplace_back();
+    if (const toml::node* p = t.get("project")) ParseProjection(rd, *p, key + ".project", def);
   }
   def.guards.rows = static_cast<Eigen::Index>(arr.size());
   def.guards.cols = 1;
   def.guards.constant.assign(arr.size(), 0.0);
 }
 
-void ParseSets(const Reader& rd, const toml::table& root, Definition& def) {
+void ParseSets(const TomlReader& rd, const toml::table& root, Definition& def) {
   const toml::table& t = rd.Table(rd.Require(root, "", "sets"), "sets");
   rd.OnlyKeys(t, "sets", {"C", "D", "distance_to_D"});
-  auto one = [&](const char* k, bool required) -> std::string {
-    const toml::node* n = t.get(k);
-    if (!n && !required) return {};
-    if (!n) rd.Fail(&t, fmt::format("sets.{}", k), "missing");
-    const std::string key = fmt::format("sets.{}", k);
-    const std::string text = EntryText(rd, *n, key);
-    CheckExpression(rd, n, key, text, def.spec.state_names);
+  auto one = [&](const char* k) -> std::string {
+    const std::string key = TomlReader::Join("sets", k);
+    const toml::node& n = rd.Require(t, "sets", k);
+    const std::string text = EntryText(rd, n, key);
+    CheckExpression(rd, &n, key, text, def.spec.state_names);
     return text;
   };
-  def.in_c = one("C", true);
-  def.in_d = one("D", true);
-  def.distance = one("distance_to_D", false);
+  def.in_c = one("C");
+  def.in_d = one("D");
+  if (t.contains("distance_to_D")) def.distance = one("distance_to_D");
 }
 
-void ParseDefaults(const Reader& rd, const toml::table& root, ModelSpec& spec) {
+void ParseDefaults(const TomlReader& rd, const toml::table& root, ModelSpec& spec) {
   const toml::table& t = rd.Table(rd.Require(root, "", "defaults"), "defaults");
   rd.OnlyKeys(t, "defaults", {"x0", "t_end", "dt"});
   const toml::node& x0 = rd.Require(t, "defaults", "x0");
-  const toml::array& arr = rd.Array(x0, "defaults.x0");
-  if (arr.size() != spec.state_names.size()) {
-    rd.Fail(&x0, "defaults.x0",
-            fmt::format("has {} entries, expected {} (one per state)", arr.size(), spec.state_names.size()));
-  }
-  for (std::size_t i = 0; i < arr.size(); ++i)
-    spec.default_x0.push_back(rd.Number(arr[i], fmt::format("defaults.x0[{}]", i)));
+  spec.default_x0 = rd.Numbers(x0, "defaults.x0");
+  rd.Size(&x0, "defaults.x0", spec.default_x0.size(), spec.state_names.size(), "one per state");
   for (auto [k, field] : {std::pair{"t_end", &spec.default_t_end}, std::pair{"dt", &spec.default_dt}}) {
     const toml::node& n = rd.Require(t, "defaults", k);
-    *field = rd.Number(n, fmt::format("defaults.{}", k));
-    if (*field <= 0) rd.Fail(&n, fmt::format("defaults.{}", k), fmt::format("{} must be > 0", *field));
+    *field = rd.Number(n, TomlReader::Join("defaults", k));
+    rd.Above(&n, TomlReader::Join("defaults", k), *field, 0.0);
   }
 }
 
@@ -487,7 +419,7 @@ std::string Equations(const Definition& def) {
   return out;
 }
 
-std::shared_ptr<Definition> ParseDefinition(const Reader& rd, const toml::table& root) {
+std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::table& root) {
   rd.OnlyKeys(
       root, "",
       {"name", "description", "states", "alpha", "beta", "flow", "jump", "guard", "sets", "defaults"});
@@ -502,15 +434,16 @@ std::shared_ptr<Definition> ParseDefinition(const Reader& rd, const toml::table&
   for (auto [key, matrix, params, rows] : {std::tuple{"flow", &def->phi, &spec.alpha, &spec.flow_rows},
                                            std::tuple{"jump", &def->psi, &spec.beta, &spec.jump_rows}}) {
     const toml::table& t = rd.Table(rd.Require(root, "", key), key);
-    const char* mkey = std::string_view(key) == "flow" ? "phi" : "psi";
-    rd.OnlyKeys(t, key, {mkey, "rows", "jacobian_constant"});
-    if (std::string_view(key) == "jump" && t.get("jacobian_constant"))
-      rd.Fail(t.get("jacobian_constant"), "jump.jacobian_constant", "only [flow] has it");
-    *matrix = ParseMatrix(rd, rd.Require(t, key, mkey), fmt::format("{}.{}", key, mkey), n,
+    const bool flow = std::string_view(key) == "flow";
+    const char* mkey = flow ? "phi" : "psi";
+    rd.OnlyKeys(t, key,
+                flow ? std::vector<std::string>{mkey, "rows", "jacobian_constant"}
+                     : std::vector<std::string>{mkey, "rows"});
+    *matrix = ParseMatrix(rd, rd.Require(t, key, mkey), TomlReader::Join(key, mkey), n,
                           static_cast<Eigen::Index>(params->size()), spec.state_names);
     *rows = ParseRows(rd, t, key, spec.state_names);
     if (const toml::node* jc = t.get("jacobian_constant"))
-      spec.flow_jacobian_constant = rd.Bool(*jc, "flow.jacobian_constant");
+      spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
   }
   ParseGuards(rd, root, *def);
   ParseSets(rd, root, *def);
@@ -520,49 +453,34 @@ std::shared_ptr<Definition> ParseDefinition(const Reader& rd, const toml::table&
   return def;
 }
 
-// The default trajectory must start in C ∪ D and reach D through every guard at least once.
-void CheckDefaultTrajectory(const Reader& rd, const toml::table& root, const Model& model) {
-  const ModelSpec& s = model.spec();
-  const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), model.state_size());
-  const toml::node* x0_node = root.at_path("defaults.x0").node();
-  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
-    rd.Fail(x0_node, "defaults.x0", fmt::format("({}) is outside C and D", fmt::join(s.default_x0, ", ")));
-  }
-  const Trajectory traj = Simulate(model, x0, SampleGrid{.t_end = s.default_t_end, .dt = s.default_dt});
-  std::vector<long> fired(s.guards.size(), 0);
-  for (const JumpRecord& j : traj.jumps) {
-    if (j.guard >= 0) ++fired[std::size_t(j.guard)];
-  }
-  const toml::array* guards = root.get("guard")->as_array();
-  for (std::size_t g = 0; g < fired.size(); ++g) {
-    if (fired[g] > 0) continue;
-    rd.Fail(guards->get(g), fmt::format("guard[{}].h", g),
-            fmt::format("guard \"{}\" never reaches D on the default trajectory (x0 = ({}), t_end = {}; "
-                        "simulation {}: {})",
-                        s.guards[g].name, fmt::join(s.default_x0, ", "), s.default_t_end,
-                        ToString(traj.status.stop), traj.status.message));
-  }
-}
-
 }  // namespace
 
-Model ParseModelText(std::string_view text, const std::string& name, const ModelFileOptions& options) {
-  const Reader rd(name);
+ModelFile ParseModelFile(std::string_view text, const std::string& name) {
+  const TomlReader rd(name);
   const toml::table root = ParseToml(text, name);
   std::shared_ptr<const Definition> def = ParseDefinition(rd, root);
-  Model model = [&] {
-    try {
-      return Model(FileModel{def});
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(fmt::format("{}: {}", name, e.what()));
-    }
-  }();
-  if (options.check_guards) CheckDefaultTrajectory(rd, root, model);
-  return model;
+  ModelFile out{[&] {
+                  try {
+                    return Model(FileModel{def});
+                  } catch (const std::invalid_argument& e) {
+                    throw std::invalid_argument(fmt::format("{}: {}", name, e.what()));
+                  }
+                }(),
+                {}};
+  const ModelSpec& s = def->spec;
+  const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), out.model.state_size());
+  if (!out.model.InFlowSet(x0) && !out.model.InJumpSet(x0)) {
+    rd.Fail(root.at_path("defaults.x0").node(), "defaults.x0",
+            fmt::format("({}) is outside C and D", fmt::join(s.default_x0, ", ")));
+  }
+  const toml::array& guards = *root.get("guard")->as_array();
+  for (std::size_t g = 0; g < guards.size(); ++g)
+    out.guard_where.push_back(rd.Where(guards.get(g), TomlReader::Join(TomlReader::Index("guard", g), "h")));
+  return out;
 }
 
-Model LoadModelFile(const std::filesystem::path& path, const ModelFileOptions& options) {
-  return ParseModelText(ReadWholeFile(path, "model file"), path.string(), options);
+ModelFile ReadModelFile(const std::filesystem::path& path) {
+  return ParseModelFile(ReadWholeFile(path, "model file"), path.string());
 }
 
 }  // namespace hysid

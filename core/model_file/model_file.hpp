@@ -1,25 +1,30 @@
 // Model files: a TOML file that describes a hybrid model completely (states, parameters, φ and ψ as
 // matrices of expressions in the states, identified rows, guards, C, D, defaults), evaluated with
 // muParser. The result is an ordinary hysid::Model. docs/architecture.md "Model files" has the format.
+//
+// What can be checked without simulating is checked here; the programs load model files through
+// sim/model_check/model_check.hpp, which also simulates the default trajectory.
 #pragma once
 
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/model/model.hpp"
 
 namespace hysid {
 
-struct ModelFileOptions {
-  // Simulate the default trajectory and require every guard to reach D on it at least once.
-  bool check_guards = true;
+struct ModelFile {
+  Model model;
+  // Per guard, "FILE:LINE: guard[g].h": where a message about the guard points.
+  std::vector<std::string> guard_where;
 };
 
-// Reads, compiles and checks a model file. Throws std::invalid_argument "FILE:LINE: KEY: problem"
-// (or "FILE: ..." when the file cannot be read).
-Model LoadModelFile(const std::filesystem::path& path, const ModelFileOptions& options = {});
+// Reads, compiles and checks a model file (its default x0 must lie in C ∪ D). Throws
+// std::invalid_argument "FILE:LINE: KEY: problem" (or "FILE: ..." when the file cannot be read).
+ModelFile ReadModelFile(const std::filesystem::path& path);
 // The same from text; `name` stands for the file in errors.
-Model ParseModelText(std::string_view text, const std::string& name, const ModelFileOptions& options = {});
+ModelFile ParseModelFile(std::string_view text, const std::string& name);
 
 }  // namespace hysid

@@ -8,8 +8,8 @@
 #include <fmt/ranges.h>
 
 #include "core/io/limits.hpp"
-#include "core/model_file/model_file.hpp"
 #include "experiments/cli/cli.hpp"
+#include "sim/model_check/model_check.hpp"
 
 namespace hysid::cli {
 

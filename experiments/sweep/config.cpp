@@ -9,28 +9,20 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
-// toml++ 3.3.0 turns its internal assertions into __builtin_assume under NDEBUG (clang) and into
-// assert() otherwise; both are reachable from malformed input (upstream issues 294/295). With NDEBUG
-// undefined and TOML_ASSERT a no-op, neither happens in any build type: the parser's own checks
-// report the error. Non-ASCII input that reaches its __builtin_unreachable is refused before parsing
-// (CheckTomlCharacters, core/io/toml_guard.hpp).
-#pragma push_macro("NDEBUG")
-#undef NDEBUG
-#define TOML_ASSERT(expr) static_cast<void>(0)
-#include <toml++/toml.h>
-#pragma pop_macro("NDEBUG")
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
 #include "core/io/toml_guard.hpp"
-#include "core/model_file/model_file.hpp"
+#include "core/io/toml_reader.hpp"
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/run_context.hpp"
+#include "sim/model_check/model_check.hpp"
 
 namespace hysid {
 namespace {
@@ -40,159 +32,80 @@ namespace {
 // grid then matches what a user types when filtering the tables.
 double ShortDecimal(double v) { return std::strtod(fmt::format("{:.12g}", v).c_str(), nullptr); }
 
-// Reads one TOML document; every error names file, line and the dotted key.
-class Reader {
- public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  static long Line(const toml::node* node) { return node ? static_cast<long>(node->source().begin.line) : 0; }
-
-  [[noreturn]] void Fail(const toml::node* node, const std::string& key, const std::string& what) const {
-    const long line = Line(node);
-    if (line > 0) throw std::invalid_argument(fmt::format("{}:{}: {}: {}", file_, line, key, what));
-    throw std::invalid_argument(fmt::format("{}: {}: {}", file_, key, what));
-  }
-
-  // Rejects keys that are not in `allowed`.
-  void OnlyKeys(const toml::table& table, const std::string& prefix,
-                const std::vector<std::string>& allowed) const {
-    for (auto&& [k, v] : table) {
-      if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
-        Fail(&v, Join(prefix, k.str()),
-             fmt::format("unknown key (known here: {})", fmt::join(allowed, ", ")));
-      }
-    }
-  }
-
-  static std::string Join(const std::string& prefix, std::string_view key) {
-    return prefix.empty() ? std::string(key) : fmt::format("{}.{}", prefix, key);
-  }
-
-  double Number(const toml::node& node, const std::string& key) const {
-    if (!node.is_number()) Fail(&node, key, fmt::format("expected a number, got {}", TypeName(node)));
-    const double v = *node.value<double>();
-    if (!std::isfinite(v)) Fail(&node, key, "must be finite");
-    return v;
-  }
-
-  // A 64-bit integer in [lo, hi]; the error quotes the value as written.
-  std::int64_t Integer(const toml::node& node, const std::string& key,
-                       std::int64_t lo = std::numeric_limits<std::int64_t>::min(),
-                       std::int64_t hi = std::numeric_limits<std::int64_t>::max()) const {
-    if (!node.is_integer()) Fail(&node, key, fmt::format("expected an integer, got {}", TypeName(node)));
-    const std::int64_t v = *node.value_exact<std::int64_t>();
-    if (v < lo || v > hi) Fail(&node, key, fmt::format("{} is out of range [{}, {}]", v, lo, hi));
-    return v;
-  }
-  int Int(const toml::node& node, const std::string& key, int lo) const {
-    return static_cast<int>(Integer(node, key, lo, std::numeric_limits<int>::max()));
-  }
-
-  bool Boolean(const toml::node& node, const std::string& key) const {
-    if (!node.is_boolean()) Fail(&node, key, fmt::format("expected true or false, got {}", TypeName(node)));
-    return *node.value<bool>();
-  }
-
-  std::string String(const toml::node& node, const std::string& key) const {
-    if (!node.is_string()) Fail(&node, key, fmt::format("expected a string, got {}", TypeName(node)));
-    return *node.value<std::string>();
-  }
-
-  const toml::table& Table(const toml::node& node, const std::string& key) const {
-    if (!node.is_table()) Fail(&node, key, fmt::format("expected a table, got {}", TypeName(node)));
-    return *node.as_table();
-  }
-
-  std::vector<double> NumberList(const toml::node& node, const std::string& key) const {
-    if (!node.is_array()) Fail(&node, key, fmt::format("expected a list of numbers, got {}", TypeName(node)));
-    std::vector<double> out;
-    const auto& arr = *node.as_array();
-    for (std::size_t i = 0; i < arr.size(); ++i) out.push_back(Number(arr[i], fmt::format("{}[{}]", key, i)));
-    return out;
-  }
-
-  // A grid axis of numbers: a number, a list, or { from, to, count [, log] }. Never empty.
-  std::vector<double> NumberAxis(const toml::node& node, const std::string& key) const {
-    std::vector<double> out;
-    if (node.is_number()) {
-      out.push_back(Number(node, key));
-    } else if (node.is_array()) {
-      out = NumberList(node, key);
-    } else if (node.is_table()) {
-      const auto& t = *node.as_table();
-      OnlyKeys(t, key, {"from", "to", "count", "log"});
-      for (const char* k : {"from", "to", "count"}) {
-        if (!t.contains(k))
-          Fail(&node, key, fmt::format("a range needs from, to and count (missing '{}')", k));
-      }
-      const double from = Number(*t.get("from"), key + ".from");
-      const double to = Number(*t.get("to"), key + ".to");
-      const std::int64_t count = Integer(*t.get("count"), key + ".count");
-      const bool log = t.contains("log") && Boolean(*t.get("log"), key + ".log");
-      if (count < 1) Fail(t.get("count"), key + ".count", fmt::format("{} must be ≥ 1", count));
-      CheckLimit(kMaxAxisValues, count, fmt::format("{}:{}: {}.count", file_, Line(t.get("count")), key));
-      if (log && (from <= 0 || to <= 0)) Fail(&node, key, "a log range needs from > 0 and to > 0");
-      for (std::int64_t i = 0; i < count; ++i) {
-        const double u = count == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(count - 1);
-        out.push_back(ShortDecimal(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
-                                       : from + u * (to - from)));
-      }
-    } else {
-      Fail(&node, key,
-           fmt::format("expected a number, a list or {{ from, to, count }}, got {}", TypeName(node)));
-    }
-    if (out.empty()) Fail(&node, key, "empty grid: give at least one value");
-    return out;
-  }
-
-  std::vector<std::string> StringAxis(const toml::node& node, const std::string& key) const {
-    std::vector<std::string> out;
-    if (node.is_string()) {
-      out.push_back(String(node, key));
-    } else if (node.is_array()) {
-      const auto& arr = *node.as_array();
-      for (std::size_t i = 0; i < arr.size(); ++i)
-        out.push_back(String(arr[i], fmt::format("{}[{}]", key, i)));
-    } else {
-      Fail(&node, key, fmt::format("expected a string or a list of strings, got {}", TypeName(node)));
-    }
-    if (out.empty()) Fail(&node, key, "empty grid: give at least one value");
-    return out;
-  }
-
-  static std::string TypeName(const toml::node& node) {
-    switch (node.type()) {
-      case toml::node_type::table: return "a table";
-      case toml::node_type::array: return "a list";
-      case toml::node_type::string: return "a string";
-      case toml::node_type::integer: return "an integer";
-      case toml::node_type::floating_point: return "a number";
-      case toml::node_type::boolean: return "a boolean";
-      default: return "a date/time";
-    }
-  }
-
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
-};
-
+// A value of a grid axis given twice.
 template <class T>
-void NoDuplicates(const Reader& rd, const toml::node& node, const std::string& key, const std::vector<T>& v) {
+void NoDuplicates(const TomlReader& rd, const toml::node& node, const std::string& key,
+                  const std::vector<T>& v) {
   std::set<T> seen;
   for (const T& x : v) {
-    if (!seen.insert(x).second) rd.Fail(&node, key, fmt::format("value {} appears twice", x));
+    if (seen.insert(x).second) continue;
+    if constexpr (std::is_same_v<T, std::string>) {
+      rd.Twice(&node, key, fmt::format("'{}'", x));
+    } else {
+      rd.Twice(&node, key, fmt::format("{}", x));
+    }
   }
 }
 
+// A range { from, to, count [, log] } of a grid axis.
+std::vector<double> NumberRange(const TomlReader& rd, const toml::table& t, const std::string& key) {
+  rd.OnlyKeys(t, key, {"from", "to", "count", "log"});
+  constexpr std::string_view kHint = "a range needs from, to and count";
+  const double from = rd.Number(rd.Require(t, key, "from", kHint), key + ".from");
+  const double to = rd.Number(rd.Require(t, key, "to", kHint), key + ".to");
+  const toml::node& count_node = rd.Require(t, key, "count", kHint);
+  const std::int64_t count = rd.Integer(count_node, key + ".count", 1);
+  const bool log = t.contains("log") && rd.Boolean(*t.get("log"), key + ".log");
+  CheckLimit(kMaxAxisValues, count, rd.Where(&count_node, key + ".count"));
+  if (log && (from <= 0 || to <= 0)) rd.Fail(&t, key, "a log range needs from > 0 and to > 0");
+  std::vector<double> out;
+  for (std::int64_t i = 0; i < count; ++i) {
+    const double u = count == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(count - 1);
+    out.push_back(ShortDecimal(log ? std::exp(std::log(from) + u * (std::log(to) - std::log(from)))
+                                   : from + u * (to - from)));
+  }
+  return out;
+}
+
+// A grid axis of numbers: a number, a list, or { from, to, count [, log] }. Never empty.
+std::vector<double> NumberAxis(const TomlReader& rd, const toml::node& node, const std::string& key) {
+  std::vector<double> out;
+  if (node.is_number()) {
+    out.push_back(rd.Number(node, key));
+  } else if (node.is_array()) {
+    out = rd.Numbers(node, key);
+  } else if (node.is_table()) {
+    out = NumberRange(rd, *node.as_table(), key);
+  } else {
+    rd.Fail(&node, key,
+            fmt::format("expected a number, a list or {{ from, to, count }}, got {}",
+                        TomlReader::TypeName(node)));
+  }
+  rd.NotEmpty(&node, key, out.size(), "value");
+  return out;
+}
+
+// A grid axis of names: a string or a list of strings. Never empty.
+std::vector<std::string> StringAxis(const TomlReader& rd, const toml::node& node, const std::string& key) {
+  std::vector<std::string> out;
+  if (node.is_array()) {
+    const auto& arr = *node.as_array();
+    for (std::size_t i = 0; i < arr.size(); ++i) out.push_back(rd.String(arr[i], TomlReader::Index(key, i)));
+  } else if (node.is_string()) {
+    out.push_back(rd.String(node, key));
+  } else {
+    rd.Fail(&node, key,
+            fmt::format("expected a string or a list of strings, got {}", TomlReader::TypeName(node)));
+  }
+  rd.NotEmpty(&node, key, out.size(), "value");
+  return out;
+}
+
 // model.name (a registry name) or model.file (a model file, relative to the sweep file's folder).
-void ParseModelSource(const Reader& rd, const toml::table& t, const std::string& key,
+void ParseModelSource(const TomlReader& rd, const toml::table& t, const std::string& key,
                       const ModelRegistry& registry, SweepModel* m) {
-  const toml::node* name = t.get("name");
-  const toml::node* file = t.get("file");
-  if (name && file) rd.Fail(file, key + ".file", "give name or file, not both");
-  if (file) {
+  rd.NotBoth(t, key, "name", "file");
+  if (const toml::node* file = t.get("file")) {
     const std::filesystem::path path =
         std::filesystem::path(rd.file()).parent_path() / rd.String(*file, key + ".file");
     try {
@@ -204,19 +117,14 @@ void ParseModelSource(const Reader& rd, const toml::table& t, const std::string&
     m->name = m->from_file->name();
     return;
   }
-  if (!name)
-    rd.Fail(&t, key + ".name",
-            "missing (the model's registry name, see `hysid models`, or file = a model file)");
-  m->name = rd.String(*name, key + ".name");
-  if (!registry.Contains(m->name)) {
-    std::vector<std::string> names = registry.names();
-    rd.Fail(name, key + ".name",
-            fmt::format("unknown model '{}' (known: {})", m->name, fmt::join(names, ", ")));
-  }
+  const toml::node& name =
+      rd.Require(t, key, "name", "the model's registry name (see `hysid models`), or file = a model file");
+  m->name = rd.String(name, key + ".name");
+  rd.Choice(&name, key + ".name", "model", m->name, registry.names());
 }
 
 // model.params: each value set on `model` (an unknown name or a bad value names its key).
-void ParseModelParams(const Reader& rd, const toml::table& t, const std::string& key, Model* model,
+void ParseModelParams(const TomlReader& rd, const toml::table& t, const std::string& key, Model* model,
                       SweepModel* m) {
   const toml::node* p = t.get("params");
   if (!p) return;
@@ -233,29 +141,22 @@ void ParseModelParams(const Reader& rd, const toml::table& t, const std::string&
 }
 
 // model.x0 (n numbers) or model.x0_range (n [lo, hi] pairs), else the model's default x0.
-void ParseInitialState(const Reader& rd, const toml::table& t, const std::string& key, const Model& model,
+void ParseInitialState(const TomlReader& rd, const toml::table& t, const std::string& key, const Model& model,
                        SweepModel* m) {
-  const int n = model.state_size();
-  const toml::node* x0 = t.get("x0");
-  const toml::node* range = t.get("x0_range");
-  if (x0 && range) rd.Fail(range, key + ".x0_range", "give x0 or x0_range, not both");
-  if (x0) {
-    m->x0 = rd.NumberList(*x0, key + ".x0");
-    if (static_cast<int>(m->x0.size()) != n) {
-      rd.Fail(x0, key + ".x0",
-              fmt::format("has {} entries, model '{}' has {} states", m->x0.size(), m->name, n));
-    }
-  } else if (range) {
-    if (!range->is_array()) rd.Fail(range, key + ".x0_range", "expected a list of [lo, hi] pairs");
-    const auto& arr = *range->as_array();
-    if (static_cast<int>(arr.size()) != n) {
-      rd.Fail(range, key + ".x0_range",
-              fmt::format("has {} entries, model '{}' has {} states", arr.size(), m->name, n));
-    }
+  const std::size_t n = static_cast<std::size_t>(model.state_size());
+  const std::string per_state = fmt::format("one per state of model '{}'", m->name);
+  rd.NotBoth(t, key, "x0", "x0_range");
+  if (const toml::node* x0 = t.get("x0")) {
+    m->x0 = rd.Numbers(*x0, key + ".x0");
+    rd.Size(x0, key + ".x0", m->x0.size(), n, per_state);
+  } else if (const toml::node* range = t.get("x0_range")) {
+    const toml::array& arr = rd.Array(*range, key + ".x0_range");
+    rd.Size(range, key + ".x0_range", arr.size(), n, per_state);
     for (std::size_t i = 0; i < arr.size(); ++i) {
-      const std::string ik = fmt::format("{}.x0_range[{}]", key, i);
-      const std::vector<double> lohi = rd.NumberList(arr[i], ik);
-      if (lohi.size() != 2 || lohi[0] > lohi[1]) rd.Fail(&arr[i], ik, "expected [lo, hi] with lo ≤ hi");
+      const std::string ik = TomlReader::Index(key + ".x0_range", i);
+      const std::vector<double> lohi = rd.Numbers(arr[i], ik);
+      rd.Size(&arr[i], ik, lohi.size(), 2, "[lo, hi]");
+      rd.AtLeast(&arr[i], TomlReader::Index(ik, 1), lohi[1], lohi[0]);
       m->x0_range.push_back({lohi[0], lohi[1]});
     }
   } else {
@@ -263,7 +164,7 @@ void ParseInitialState(const Reader& rd, const toml::table& t, const std::string
   }
 }
 
-SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string& key,
+SweepModel ParseModel(const TomlReader& rd, const toml::table& t, const std::string& key,
                       const ModelRegistry& registry) {
   rd.OnlyKeys(t, key, {"name", "file", "params", "x0", "x0_range", "t_end"});
   SweepModel m;
@@ -274,7 +175,7 @@ SweepModel ParseModel(const Reader& rd, const toml::table& t, const std::string&
   m.t_end = model.spec().default_t_end;
   if (const toml::node* te = t.get("t_end")) {
     m.t_end = rd.Number(*te, key + ".t_end");
-    if (m.t_end <= 0) rd.Fail(te, key + ".t_end", fmt::format("{} must be > 0", m.t_end));
+    rd.Above(te, key + ".t_end", m.t_end, 0.0);
   }
   return m;
 }
@@ -333,33 +234,34 @@ std::string Constraint(const OptionAxis& axis, double v) {
   return FindOption(DetectorOptions(), axis.name)->Check(v);
 }
 
-std::vector<SweepModel> ParseModels(const Reader& rd, const toml::table& root,
+std::vector<SweepModel> ParseModels(const TomlReader& rd, const toml::table& root,
                                     const ModelRegistry& registry) {
   std::vector<SweepModel> out;
-  const toml::node* models = root.get("model");
-  if (!models) rd.Fail(nullptr, "model", "missing: a [model] table with at least name");
+  const toml::node* models = &rd.Require(root, "", "model", "a [model] table with at least name");
   if (models->is_table()) {
     out.push_back(ParseModel(rd, *models->as_table(), "model", registry));
   } else if (models->is_array()) {
     const auto& arr = *models->as_array();
-    if (arr.empty()) rd.Fail(models, "model", "empty grid: give at least one model");
+    rd.NotEmpty(models, "model", arr.size(), "model");
     for (std::size_t i = 0; i < arr.size(); ++i) {
       const std::string k = fmt::format("model[{}]", i);
       out.push_back(ParseModel(rd, rd.Table(arr[i], k), k, registry));
     }
   } else {
-    rd.Fail(models, "model", "expected a [model] table or [[model]] tables");
+    rd.Fail(
+        models, "model",
+        fmt::format("expected a [model] table or [[model]] tables, got {}", TomlReader::TypeName(*models)));
   }
   return out;
 }
 
 template <class Kind>
-std::vector<Kind> KindAxis(const Reader& rd, const toml::table& grid, const char* name, const char* fallback,
-                           Kind (*parse)(std::string_view)) {
+std::vector<Kind> KindAxis(const TomlReader& rd, const toml::table& grid, const char* name,
+                           const char* fallback, Kind (*parse)(std::string_view)) {
   const std::string key = fmt::format("grid.{}", name);
   const toml::node* node = grid.get(name);
   const std::vector<std::string> names =
-      node ? rd.StringAxis(*node, key) : std::vector<std::string>{fallback};
+      node ? StringAxis(rd, *node, key) : std::vector<std::string>{fallback};
   if (node) NoDuplicates(rd, *node, key, names);
   std::vector<Kind> kinds;
   for (const std::string& n : names) {
@@ -393,16 +295,16 @@ void CheckCellCount(const SweepConfig& c) {
   }
 }
 
-void CheckGridSteps(const Reader& rd, const toml::table& grid, const SweepConfig& c) {
+void CheckGridSteps(const TomlReader& rd, const toml::table& grid, const SweepConfig& c) {
   for (double s : c.grid.sigma) {
-    if (s < 0) rd.Fail(grid.get("sigma"), "grid.sigma", fmt::format("{} must be ≥ 0", s));
+    rd.AtLeast(grid.get("sigma"), "grid.sigma", s, 0.0);
   }
   for (double dt : c.grid.dt) {
-    if (dt <= 0) rd.Fail(grid.get("dt"), "grid.dt", fmt::format("{} must be > 0", dt));
+    rd.Above(grid.get("dt"), "grid.dt", dt, 0.0);
     for (const SweepModel& m : c.models) {
       CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(m.t_end / dt, 9e18)) + 1,
-                 fmt::format("{}:{}: grid.dt = {} with t_end = {} of model '{}'", c.source,
-                             Reader::Line(grid.get("dt")), dt, m.t_end, m.name));
+                 rd.Where(grid.get("dt"),
+                          fmt::format("grid.dt = {} with t_end = {} of model '{}'", dt, m.t_end, m.name)));
       if (2 * dt > m.t_end) {
         rd.Fail(
             grid.get("dt"), "grid.dt",
@@ -415,34 +317,27 @@ void CheckGridSteps(const Reader& rd, const toml::table& grid, const SweepConfig
 }
 
 // [grid]: after [identifier], whose values are the defaults of the option axes.
-void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
-  const toml::node* grid_node = root.get("grid");
-  if (!grid_node) rd.Fail(nullptr, "grid", "missing: a [grid] table (at least sigma and dt)");
-  const toml::table& grid = rd.Table(*grid_node, "grid");
+void ParseGrid(const TomlReader& rd, const toml::table& root, SweepConfig* c) {
+  const toml::table& grid =
+      rd.Table(rd.Require(root, "", "grid", "a [grid] table (at least sigma and dt)"), "grid");
   c->grid.options = SweepableAxes(c->identifier);
   std::vector<std::string> allowed{"sigma", "dt", "estimator", "detector", "refine"};
   for (const OptionAxis& a : c->grid.options) allowed.push_back(a.name);
   rd.OnlyKeys(grid, "grid", allowed);
   if (const toml::node* rn = grid.get("refine")) {
     c->grid.refine_axis = true;
-    c->grid.refine = rd.StringAxis(*rn, "grid.refine");
-    for (const std::string& m : c->grid.refine) {
-      if (m != "none" && m != "ml")
-        rd.Fail(rn, "grid.refine", fmt::format("unknown '{}' (known: none, ml)", m));
-    }
+    c->grid.refine = StringAxis(rd, *rn, "grid.refine");
+    for (const std::string& m : c->grid.refine) rd.Choice(rn, "grid.refine", "refinement", m, {"none", "ml"});
     NoDuplicates(rd, *rn, "grid.refine", c->grid.refine);
   }
-  for (const char* k : {"sigma", "dt"}) {
-    if (!grid.contains(k)) rd.Fail(grid_node, fmt::format("grid.{}", k), "missing");
-  }
-  c->grid.sigma = rd.NumberAxis(*grid.get("sigma"), "grid.sigma");
-  c->grid.dt = rd.NumberAxis(*grid.get("dt"), "grid.dt");
+  c->grid.sigma = NumberAxis(rd, rd.Require(grid, "grid", "sigma"), "grid.sigma");
+  c->grid.dt = NumberAxis(rd, rd.Require(grid, "grid", "dt"), "grid.dt");
   CheckGridSteps(rd, grid, *c);
   for (OptionAxis& axis : c->grid.options) {
     const toml::node* node = grid.get(axis.name);
     if (!node) continue;
     const std::string key = "grid." + axis.name;
-    axis.values = rd.NumberAxis(*node, key);
+    axis.values = NumberAxis(rd, *node, key);
     for (double v : axis.values) {
       if (std::string what = Constraint(axis, v); !what.empty())
         rd.Fail(node, key, fmt::format("{} {}", v, what));
@@ -464,8 +359,8 @@ void ParseGrid(const Reader& rd, const toml::table& root, SweepConfig* c) {
   c->grid.detector = KindAxis(rd, grid, "detector", "paper", &ParseKind<DetectorKind>);
 }
 
-void SetIdentifierKey(const Reader& rd, const toml::node& v, const std::string& key, const IdentifierKey& k,
-                      IdentifierSettings* s) {
+void SetIdentifierKey(const TomlReader& rd, const toml::node& v, const std::string& key,
+                      const IdentifierKey& k, IdentifierSettings* s) {
   double value = 0.0;
   try {
     if (k.type == OptionType::kChoice) {
@@ -480,7 +375,7 @@ void SetIdentifierKey(const Reader& rd, const toml::node& v, const std::string& 
   k.set(*s, value);
 }
 
-void ParseIdentifier(const Reader& rd, const toml::table& root, SweepConfig* c) {
+void ParseIdentifier(const TomlReader& rd, const toml::table& root, SweepConfig* c) {
   const toml::node* idn = root.get("identifier");
   if (!idn) return;
   const toml::table& id = rd.Table(*idn, "identifier");
@@ -502,7 +397,7 @@ void ParseIdentifier(const Reader& rd, const toml::table& root, SweepConfig* c) 
   }
 }
 
-void ParseSimulator(const Reader& rd, const toml::table& root, SimOptions* sim) {
+void ParseSimulator(const TomlReader& rd, const toml::table& root, SimOptions* sim) {
   const toml::node* sn = root.get("simulator");
   if (!sn) return;
   const toml::table& st = rd.Table(*sn, "simulator");
@@ -512,13 +407,14 @@ void ParseSimulator(const Reader& rd, const toml::table& root, SimOptions* sim) 
     if (k == "rtol") sim->rtol = rd.Number(v, key);
     if (k == "atol") sim->atol = rd.Number(v, key);
     if (k == "max_steps") sim->max_steps = rd.Integer(v, key, 1);
-    if (k == "max_jumps") sim->max_jumps = rd.Int(v, key, 1);
+    if (k == "max_jumps")
+      sim->max_jumps = static_cast<int>(rd.Integer(v, key, 1, std::numeric_limits<int>::max()));
     std::string error;
     if (!sim->IsValid(&error)) rd.Fail(&v, key, error);
   }
 }
 
-void ParseRun(const Reader& rd, const toml::table& root, SweepConfig* c) {
+void ParseRun(const TomlReader& rd, const toml::table& root, SweepConfig* c) {
   const toml::node* rn = root.get("run");
   if (!rn) return;
   const toml::table& run = rd.Table(*rn, "run");
@@ -526,14 +422,11 @@ void ParseRun(const Reader& rd, const toml::table& root, SweepConfig* c) {
   for (auto&& [k, v] : run) {
     const std::string key = fmt::format("run.{}", k.str());
     if (k == "trials") {
-      c->trials = rd.Integer(v, key);
-      if (c->trials < 1) rd.Fail(&v, key, fmt::format("{} must be ≥ 1", c->trials));
-      CheckLimit(kMaxTrials, c->trials, fmt::format("{}:{}: {}", c->source, Reader::Line(&v), key));
+      c->trials = rd.Integer(v, key, 1);
+      CheckLimit(kMaxTrials, c->trials, rd.Where(&v, key));
     }
     if (k == "seed") {
-      const std::int64_t seed = rd.Integer(v, key);
-      if (seed < 0) rd.Fail(&v, key, fmt::format("{} must be ≥ 0", seed));
-      c->seed = static_cast<std::uint64_t>(seed);
+      c->seed = static_cast<std::uint64_t>(rd.Integer(v, key, 0));
     }
     if (k == "out") c->out = rd.String(v, key);
   }
@@ -542,7 +435,7 @@ void ParseRun(const Reader& rd, const toml::table& root, SweepConfig* c) {
 // [summary] baseline = { key = value, ... }: each value must be on the grid's axis (sigma, estimator,
 // detector, refine or a sweepable option such as r); the detector named, if any, must read the options
 // named.
-void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
+void ParseSummary(const TomlReader& rd, const toml::table& t, SweepConfig* c) {
   rd.OnlyKeys(t, "summary", {"baseline"});
   const toml::node* bn = t.get("baseline");
   if (bn == nullptr) return;
@@ -552,8 +445,7 @@ void ParseSummary(const Reader& rd, const toml::table& t, SweepConfig* c) {
   if (g.refine_axis) allowed.emplace_back("refine");
   for (const OptionAxis& a : g.options) allowed.push_back(a.name);
   rd.OnlyKeys(b, "summary.baseline", allowed);
-  if (b.empty())
-    rd.Fail(bn, "summary.baseline", fmt::format("empty: name at least one of {}", fmt::join(allowed, ", ")));
+  rd.NotEmpty(bn, "summary.baseline", b.size(), fmt::format("of {}", fmt::join(allowed, ", ")));
   for (auto&& [k, v] : b) {
     const std::string key = fmt::format("summary.baseline.{}", k.str());
     std::string text;
@@ -603,7 +495,7 @@ Model SweepModel::Build(const ModelRegistry& registry) const {
 }
 
 SweepConfig ParseSweepText(std::string_view text, const std::string& name, const ModelRegistry& registry) {
-  const Reader rd(name);
+  const TomlReader rd(name);
   const toml::table root = ParseToml(text, name);
   rd.OnlyKeys(root, "", {"model", "grid", "identifier", "simulator", "run", "summary"});
   SweepConfig c;

@@ -1,4 +1,4 @@
-"""Shared fixtures of the analysis tests (run by CTest as sweep.plots with Debian's python3-pytest).
+"""Shared fixtures of the analysis tests (ctest runs each item, label plots, with Debian's python3-pytest).
 
 HYSID_SWEEP_RUN: a run directory of tests/data/sweep_small.toml (fixture test sweep.small);
 HYSID_PAPER_RUN: the output of `hysid reproduce paper` (fixture test analysis.paper_run);

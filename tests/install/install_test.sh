@@ -16,6 +16,20 @@ for f in bin/hysid lib/cmake/hysid/hysidConfig.cmake lib/cmake/hysid/hysidTarget
          share/hysid/models/wall-msd.toml share/doc/hysid/LICENSE; do
   [ -e "$prefix/$f" ] || { echo "FAIL: $prefix/$f not installed"; exit 1; }
 done
+# Only public headers: each one's own includes installed too, none reaching a PRIVATE dependency
+# (Ceres, CGAL, toml++, muParser, SUNDIALS, CLI11), and the internal ones absent.
+inc=$prefix/include/hysid
+for h in sim/refine/solve.hpp core/sets/hull_nd.hpp core/io/toml_reader.hpp experiments/cli/cli.hpp; do
+  [ ! -e "$inc/$h" ] || { echo "FAIL: the internal header $h is installed"; exit 1; }
+done
+while IFS= read -r h; do
+  for dep in $(sed -n 's/^#include "\([^"]*\)".*/\1/p' "$h"); do
+    [ -e "$inc/$dep" ] || { echo "FAIL: ${h#$inc/} includes $dep, which is not installed"; exit 1; }
+  done
+  if grep -En '^#include <((ceres|CGAL|toml\+\+|cvodes|nvector|sundials|CLI)/|muParser)' "$h"; then
+    echo "FAIL: ${h#$inc/} includes a header of a PRIVATE dependency"; exit 1
+  fi
+done < <(find "$inc" -name '*.hpp')
 if grep -rl --binary-files=text -F "$build" "$prefix"; then
   echo "FAIL: the installed files above refer to the build directory $build"; exit 1
 fi

@@ -125,5 +125,5 @@ TEST_CASE("sweep: without a refine axis the tables keep their columns", "[sweep]
   CHECK_THROWS_WITH(
       ParseSweepText(std::string(kSweep).replace(std::string(kSweep).find("\"ml\""), 4, "\"map\""),
                      "bad.toml", Registry()),
-      Catch::Contains("grid.refine") && Catch::Contains("unknown 'map'"));
+      Catch::Contains("grid.refine") && Catch::Contains("unknown refinement 'map' (known: none, ml)"));
 }
