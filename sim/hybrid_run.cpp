@@ -1,5 +1,7 @@
 #include "sim/hybrid_run.hpp"
 
+#include <algorithm>
+
 #include <cvodes/cvodes.h>
 #include <fmt/format.h>
 #include <sundials/sundials_context.h>
@@ -44,20 +46,27 @@ constexpr double kZenoMaxRatio = 1.0 - 1e-3;
 }  // namespace
 
 Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const SampleTimes& samples,
-               const SimOptions& options, Payload* payload)
+               const SimOptions& options, Payload* payload, SampleOrder order)
     : model_(model),
       alpha_(alpha),
       beta_(beta),
       samples_(samples),
       options_(options),
       payload_(payload),
+      order_(order),
       n_(model.state_size()) {
   t_last_ = samples_.at(samples_.count - 1);
   out_.dt = samples_.dt;
-  out_.t.assign(static_cast<std::size_t>(samples_.count), 0.0);
-  out_.j.assign(static_cast<std::size_t>(samples_.count), 0);
+  const auto count = static_cast<std::size_t>(samples_.count);
+  if (order_ == SampleOrder::kIncreasing) {
+    out_.t.reserve(count);
+    out_.j.reserve(count);
+  } else {
+    out_.t.assign(count, 0.0);
+    out_.j.assign(count, 0);
+    filled_.assign(count, 0);
+  }
   out_.x.resize(n_, samples_.count);
-  filled_.assign(static_cast<std::size_t>(samples_.count), 0);
   data_.model = &model_;
   data_.alpha = &alpha_;
   data_.payload = payload_;
@@ -264,16 +273,28 @@ bool Engine::CheckZenoAndBudget() {
   return true;
 }
 
-void Engine::Mark(long k, int segment) {
-  out_.t[static_cast<std::size_t>(k)] = samples_.at(k);
-  out_.j[static_cast<std::size_t>(k)] = segment;
-  filled_[static_cast<std::size_t>(k)] = 1;
+// Times and segments of samples begin..end−1 (appended in increasing order, else at their places).
+void Engine::Mark(long begin, long end, int segment) {
+  const auto b = static_cast<std::size_t>(begin), e = static_cast<std::size_t>(end);
+  if (order_ == SampleOrder::kIncreasing) {
+    if (samples_.times) {
+      out_.t.insert(out_.t.end(), samples_.times->begin() + begin, samples_.times->begin() + end);
+    } else {
+      for (long k = begin; k < end; ++k) out_.t.push_back(static_cast<double>(k) * samples_.dt);
+    }
+    out_.j.resize(e, segment);
+    return;
+  }
+  for (long k = begin; k < end; ++k) out_.t[static_cast<std::size_t>(k)] = samples_.at(k);
+  std::fill(out_.j.begin() + b, out_.j.begin() + e, segment);
+  std::fill(filled_.begin() + b, filled_.begin() + e, 1);
 }
 
 void Engine::EmitCurrent(long begin, long end, int segment) {
+  if (end <= begin) return;
+  Mark(begin, end, segment);
   for (long k = begin; k < end; ++k) {
     out_.x.col(k) = x_;
-    Mark(k, segment);
     if (payload_) payload_->SampleCurrent(k);
   }
 }
@@ -290,22 +311,24 @@ void Engine::EmitStep(long begin, long end, int segment) {
   CVodeGetCurrentTime(mem, &tn);
   CVodeGetLastStep(mem, &h);
   const bool direct = history_.Prepare(mem, q, tn, h, scratch_.get());
+  Mark(begin, end, segment);
   if (end - begin > q + 1 && h != 0.0) {
     TaylorCoefficients(q, tn, h, direct);
-    EmitHorner(q, tn, h, begin, end, segment);
-    return;
-  }
-  double* tmp = N_VGetArrayPointer_Serial(scratch_.get());
-  for (long k = begin; k < end; ++k) {
-    const double t = samples_.at(k);
-    if (direct) {
-      history_.Dky(t, 0, tmp);
-    } else {
-      CVodeGetDky(mem, t, 0, scratch_.get());
+    EmitHorner(q, tn, h, begin, end);
+  } else {
+    double* tmp = N_VGetArrayPointer_Serial(scratch_.get());
+    for (long k = begin; k < end; ++k) {
+      const double t = out_.t[static_cast<std::size_t>(k)];
+      if (direct) {
+        history_.Dky(t, 0, tmp);
+      } else {
+        CVodeGetDky(mem, t, 0, scratch_.get());
+      }
+      out_.x.col(k) = Eigen::Map<const Vec>(tmp, n_);
     }
-    out_.x.col(k) = Eigen::Map<const Vec>(tmp, n_);
-    Mark(k, segment);
-    if (payload_) payload_->Sample(k, t);
+  }
+  if (payload_) {
+    for (long k = begin; k < end; ++k) payload_->Sample(k, out_.t[static_cast<std::size_t>(k)]);
   }
 }
 
@@ -326,12 +349,11 @@ void Engine::TaylorCoefficients(int q, double tn, double h, bool direct) {
   }
 }
 
-void Engine::EmitHorner(int q, double tn, double h, long begin, long end, int segment) {
+void Engine::EmitHorner(int q, double tn, double h, long begin, long end) {
   const double* c = coefficients_.data();  // column-major n × (q + 1)
   const long n = n_;
   for (long k = begin; k < end; ++k) {
-    const double t = samples_.at(k);
-    const double s = (t - tn) / h;
+    const double s = (out_.t[static_cast<std::size_t>(k)] - tn) / h;
     double* out = out_.x.col(k).data();
     if (n == 2) {  // the two chains side by side, in registers (the same operations per component)
       double v0 = c[q * 2], v1 = c[q * 2 + 1];
@@ -348,8 +370,6 @@ void Engine::EmitHorner(int q, double tn, double h, long begin, long end, int se
         out[i] = v;
       }
     }
-    Mark(k, segment);
-    if (payload_) payload_->Sample(k, t);
   }
 }
 
@@ -383,8 +403,10 @@ Trajectory Engine::Finish() {
   out_.stats.steps = steps_;
   out_.stats.rhs_evals = rhs_evals_;
   out_.stats.root_evals = root_evals_;
-  long prefix = 0;  // the samples up to the first one not emitted
-  while (prefix < samples_.count && filled_[static_cast<std::size_t>(prefix)]) ++prefix;
+  // The samples up to the first one not emitted.
+  const long prefix = order_ == SampleOrder::kIncreasing
+                          ? static_cast<long>(out_.t.size())
+                          : std::find(filled_.begin(), filled_.end(), 0) - filled_.begin();
   out_.t.resize(static_cast<std::size_t>(prefix));
   out_.j.resize(static_cast<std::size_t>(prefix));
   out_.x.conservativeResize(n_, prefix);

@@ -77,12 +77,15 @@ struct CallbackData {
   std::string last_error;  // CVODE's last error message, for the status
 };
 
+// How a run emits its samples: in increasing order (the plain loop), or in any order (each once).
+enum class SampleOrder { kIncreasing, kAny };
+
 // One run. Run() is the plain loop (sample k on the segment the model is in at t_k); the primitives
 // below it let a caller drive other sample orders (the matched sensitivities) under the same rules.
 class Engine {
  public:
   Engine(const Model& model, const Vec& alpha, const Vec& beta, const SampleTimes& samples,
-         const SimOptions& options, Payload* payload);
+         const SimOptions& options, Payload* payload, SampleOrder order = SampleOrder::kIncreasing);
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;
 
@@ -121,9 +124,9 @@ class Engine {
  private:
   bool JumpChain(int guard);
   bool CheckZenoAndBudget();
-  void Mark(long k, int segment);
+  void Mark(long begin, long end, int segment);
   void TaylorCoefficients(int q, double tn, double h, bool direct);
-  void EmitHorner(int q, double tn, double h, long begin, long end, int segment);
+  void EmitHorner(int q, double tn, double h, long begin, long end);
   bool Check(int flag, const char* function);
   void AccumulateCounters();
 
@@ -133,13 +136,14 @@ class Engine {
   SampleTimes samples_;
   SimOptions options_;
   Payload* payload_;
+  SampleOrder order_;
   long n_ = 0;
   double t_last_ = 0.0;
   double t_ = 0.0;
   Vec x_;
   bool at_init_ = true;  // CVODE holds (0, x0) from CVodeInit: the first Start needs no CVodeReInit
   bool roots_ = false;
-  std::vector<char> filled_;
+  std::vector<char> filled_;  // SampleOrder::kAny: which samples were emitted
   Mat coefficients_;
   nordsieck::History history_;
   long steps_ = 0, rhs_evals_ = 0, root_evals_ = 0;

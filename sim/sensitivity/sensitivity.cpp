@@ -355,7 +355,8 @@ SensitivityTrajectory Integrate(const Model& model, const HybridParameters& para
   out.parameters = unknowns.size(model.state_size());
   std::optional<SensitivityPayload> payload;
   if (options.sensitivities) payload.emplace(model, params, unknowns, samples.count);
-  hybrid::Engine engine(model, params.alpha, params.beta, samples, options.sim, payload ? &*payload : nullptr);
+  hybrid::Engine engine(model, params.alpha, params.beta, samples, options.sim, payload ? &*payload : nullptr,
+                        segments ? hybrid::SampleOrder::kAny : hybrid::SampleOrder::kIncreasing);
   if (segments == nullptr) {
     out.trajectory = engine.Run(params.x0);
   } else {
