@@ -100,15 +100,18 @@ class Engine {
   bool DisableRoots();
   // One internal step: the flag (CV_SUCCESS, CV_ROOT_RETURN, CV_TSTOP_RETURN) or −1 when stopped.
   int Step(double tstop, double* tret);
-  // Samples begin..end−1 (any order of times, all within the last step) on segment `segment`.
+  // Samples begin..end−1, all within the last step, on segment `segment` (kIncreasing: begin is
+  // the number emitted so far; kAny: each sample once, ranges in any order, forward or backward).
   void EmitStep(long begin, long end, int segment);
-  // Samples begin..end−1 at the current state (no step taken since it).
+  // Samples begin..end−1 at the current state (no step taken since it), as EmitStep.
   void EmitCurrent(long begin, long end, int segment);
   // At a root return at tret: the returned state and payload become current; the guard that fired.
   int AdoptRoot(double tret);
   // The jumps at t() from x() (put on `guard` first), then the Zeno rule and the jump budget.
   bool Jumps(int guard);
+  // Records the stop (at t()) and its message; always false.
   bool Fail(SimStop stop, std::string message);
+  // Records the run as completed to the last sample time.
   void Complete();
   // The trajectory: samples up to the first one not emitted, jumps, status, counters.
   Trajectory Finish();
