@@ -1,5 +1,5 @@
 // Dense output of CVODE's last step read from its Nordsieck array, to the bit what CVodeGetDky
-// returns, without its per-call overhead. Internal to sim/ (used by the simulator).
+// returns, without its per-call overhead. Internal to sim/ (used by the hybrid run loop).
 //
 // CVodeGetDky(t, k) forms k!/h^k · Σ_{j=k..q} (j!/(k!(j−k)!))·s^(j−k) z_n[j], s = (t − t_n)/h, from the
 // Nordsieck array z_n[0..q] of the last step. CVODE's public headers do not expose z_n, but its

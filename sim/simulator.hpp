@@ -1,10 +1,11 @@
 // Hybrid simulator on SUNDIALS CVODE with exact jump location.
 //
 // System:   ξ' = φ(ξ)α on C, ξ+ = ψ(ξ)β on D (a hysid::Model with its true α, β).
-// Method:   CVODE Adams–Moulton with fixed-point iteration; CVODE's root finding, filtered by each
+// Method:   the hybrid run loop (sim/hybrid_run.hpp, shared with the sensitivities) with no payload:
+//           CVODE Adams–Moulton with fixed-point iteration; CVODE's root finding, filtered by each
 //           guard's crossing direction, locates the crossings to solver precision; the state is put
-//           on the guard, the jump map applied, and CVODE re-initialised. Jumps have priority when
-//           ξ ∈ C ∩ D (HyEQ rule 1).
+//           on the guard, the jump map applied (again while ξ+ ∈ D), and CVODE re-initialised. Jumps
+//           have priority when ξ ∈ C ∩ D (HyEQ rule 1).
 // Samples:  t_k = k·δt for k = 0..K, K = ⌊t_end/δt⌋, read from CVODE's interpolating polynomial
 //           (dense output). A sample at or after a jump's time is post-jump: hybrid time (t_k, j_k)
 //           with j_k the number of jumps at times ≤ t_k.
@@ -32,8 +33,9 @@ struct SimOptions {
   long max_steps = 2000000;  // internal CVODE steps over the whole run
   int max_jumps = 100000;    // jump budget
   // Zeno: the run stops when the interval between consecutive jumps has shrunk for
-  // zeno_window jumps in a row and fallen below zeno_interval (seconds). 1e-5 s keeps the
-  // last bounces of a ball well above atol (peak height g·Δ²/8 ≈ 1.2e-10 at Δ = 1e-5).
+  // zeno_window jumps in a row (each below (1 − 1e-3) times the one before: constant intervals
+  // are no accumulation) and fallen below zeno_interval (seconds). 1e-5 s keeps the last
+  // bounces of a ball well above atol (peak height g·Δ²/8 ≈ 1.2e-10 at Δ = 1e-5).
   double zeno_interval = 1e-5;
   int zeno_window = 3;
   // A chain of jumps at one instant (ξ+ ∈ D again) longer than this is Zeno at that instant.

@@ -1,7 +1,7 @@
 // Owning handles for the SUNDIALS objects of one integration (context, vectors, nonlinear solver,
 // CVODES memory), each freed by its own SUNDIALS call; declare them in creation order so they are
 // freed in reverse. Also the guard direction in CVODE's convention and the guard a root return
-// found. Internal to sim/: the simulator and the sensitivity integration use them.
+// found. Internal to sim/: the hybrid run loop (sim/hybrid_run.hpp) uses them.
 #pragma once
 
 #include <memory>

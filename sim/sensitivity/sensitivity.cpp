@@ -2,18 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <memory>
+#include <optional>
 #include <set>
 #include <stdexcept>
-#include <type_traits>
 
 #include <cvodes/cvodes.h>
 #include <fmt/format.h>
-#include <nvector/nvector_serial.h>
-#include <sundials/sundials_context.h>
-#include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
-#include "sim/sundials_ptr.hpp"
+#include "sim/hybrid_run.hpp"
 
 namespace hysid {
 
@@ -82,56 +78,6 @@ bool SensitivityOptions::IsValid(std::string* error) const { return sim.IsValid(
 
 namespace {
 
-using namespace sundials_ptr;  // the owning SUNDIALS handles (sim/sundials_ptr.hpp)
-
-// What the CVODE callbacks see.
-struct CallbackData {
-  const Model* model = nullptr;
-  const Vec* alpha = nullptr;
-  const std::vector<int>* alpha_unknown = nullptr;
-  int n = 0;  // states; the integrated vector is ξ, or ξ and then S (n × p, column-major)
-  int p = 0;  // sensitivities integrated with ξ (0: none)
-  int guard_count = 0;
-  bool nonfinite_rhs = false;
-  Mat jac, phi;  // scratch, n × n and n × |α|
-  std::string last_error;
-};
-
-// ξ' = f(ξ) = φ(ξ)α and, when the sensitivities are integrated with ξ, S' = (∂f/∂ξ) S + ∂f/∂θ:
-// column i of ∂f/∂θ is column i of φ for α's unknowns, zero for β's and ξ0's.
-int FlowRhs(sunrealtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
-  auto* data = static_cast<CallbackData*>(user_data);
-  const Eigen::Index n = data->n, p = data->p;
-  const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), n);
-  Eigen::Map<Vec> f(N_VGetArrayPointer_Serial(ydot), n);
-  data->model->Flow(x, *data->alpha, f);
-  if (!f.allFinite() || !x.allFinite()) {
-    data->nonfinite_rhs = true;
-    return -1;
-  }
-  if (p == 0) return 0;
-  const Eigen::Map<const Mat> s(N_VGetArrayPointer_Serial(y) + n, n, p);
-  Eigen::Map<Mat> sdot(N_VGetArrayPointer_Serial(ydot) + n, n, p);
-  data->model->FlowJacobian(x, *data->alpha, data->jac);
-  data->model->Phi(x, data->phi);
-  sdot.noalias() = data->jac * s;
-  const auto& au = *data->alpha_unknown;
-  for (std::size_t i = 0; i < au.size(); ++i) sdot.col(static_cast<Eigen::Index>(i)) += data->phi.col(au[i]);
-  return 0;
-}
-
-int GuardFunctions(sunrealtype /*t*/, N_Vector y, sunrealtype* gout, void* user_data) {
-  auto* data = static_cast<CallbackData*>(user_data);
-  const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), data->n);
-  Eigen::Map<Vec> h(gout, data->guard_count);
-  data->model->Guards(x, h);
-  return 0;
-}
-
-void CaptureError(int /*code*/, const char* module, const char* function, char* msg, void* user_data) {
-  static_cast<CallbackData*>(user_data)->last_error = fmt::format("{}/{}: {}", module, function, msg);
-}
-
 // Central-difference Jacobian (m × n) of a map ℝⁿ → ℝᵐ at x; step 1e-5·max(1, |x_i|).
 template <class F>
 Mat CentralDifference(const F& map, const Vec& x, Eigen::Index m) {
@@ -149,537 +95,235 @@ Mat CentralDifference(const F& map, const Vec& x, Eigen::Index m) {
   return jac;
 }
 
-enum class Leg { kForward, kBackward };
-
-// One integration: owns the CVODE objects; plain or matched (segment_of_sample) mode.
-class SensRun {
+// S = ∂ξ/∂θ (n × p, column-major) as the run loop's payload: its flow, the saltation rule at the
+// jumps, and S_k by cubic Hermite interpolation between the last two solver returns (S and S' at
+// both ends; error ~h⁴/384·|S⁗|, about 1e-9 relative on the §5 system at rtol 1e-12): cheaper per
+// sample than the polynomial of all n·p entries.
+class SensitivityPayload final : public hybrid::Payload {
  public:
-  SensRun(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
-          const SampleGrid& grid, const SensitivityOptions& options, const std::vector<int>* segments,
-          const std::vector<double>* times = nullptr)
+  SensitivityPayload(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
+                     long sample_count)
       : model_(model),
         params_(params),
         unknowns_(unknowns),
-        options_(options),
-        segments_(segments),
         n_(model.state_size()),
         p_(unknowns.size(model.state_size())),
-        sens_(options.sensitivities) {
-    times_ = times;
-    sample_count_ = times ? static_cast<long>(times->size()) : grid.size();
-    dt_ = times ? times->back() / static_cast<double>(std::max<long>(1, sample_count_ - 1)) : grid.dt;
-    t_last_ = times ? times->back() : static_cast<double>(sample_count_ - 1) * dt_;
-    Trajectory& tr = out_.trajectory;
-    tr.dt = dt_;
-    tr.t.assign(static_cast<std::size_t>(sample_count_), 0.0);
-    tr.j.assign(static_cast<std::size_t>(sample_count_), 0);
-    tr.x.resize(n_, sample_count_);
-    out_.parameters = p_;
-    if (sens_) out_.sensitivities.resize(static_cast<Eigen::Index>(n_) * p_, sample_count_);
-    filled_.assign(static_cast<std::size_t>(sample_count_), 0);
-    data_.model = &model_;
-    data_.alpha = &params_.alpha;
-    data_.alpha_unknown = &unknowns_.alpha;
-    data_.n = n_;
-    data_.p = sens_ ? p_ : 0;
-    data_.guard_count = model_.guard_count();
-    data_.jac.resize(n_, n_);
-    data_.phi.resize(n_, model_.alpha_size());
+        jac_(n_, n_),
+        phi_(n_, model.alpha_size()) {
+    s_ = Mat::Zero(n_, p_);
+    if (unknowns_.x0) s_.rightCols(n_).setIdentity();
+    sensitivities_.resize(static_cast<Eigen::Index>(n_) * p_, sample_count);
+    jump_time_gradients_.resize(p_, 0);
   }
 
-  SensitivityTrajectory Execute() {
-    if (!Setup()) return Finish();
-    t_ = 0.0;
-    x_ = params_.x0;
-    S_ = Mat::Zero(n_, p_);
-    if (unknowns_.x0) S_.rightCols(n_).setIdentity();
-    if (model_.InJumpSet(x_) && !JumpAt(-1, /*fixed_time=*/true)) return Finish();
-    if (segments_ ? RunMatched() : RunPlain()) {
-      out_.trajectory.status.stop = SimStop::kCompleted;
-      out_.trajectory.status.t_reached = t_last_;
-      out_.trajectory.status.message =
-          fmt::format("completed: {} samples, {} jumps", sample_count_, out_.trajectory.jumps.size());
-    }
-    return Finish();
+  long size() const override { return static_cast<long>(n_) * p_; }
+  void Flow(const double* x, const double* s, double* sdot) override {
+    Eigen::Map<Mat> d(sdot, n_, p_);
+    Derivative(Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_), d);
+  }
+  void Restart(double t, const Vec& x, double* extra) override {
+    Eigen::Map<Mat>(extra, n_, p_) = s_;
+    SetWindowEnd(window_b_, t, x, s_);
+    window_a_ = window_b_;
+  }
+  void Returned(double t, const double* x, const double* s) override {  // the window: (previous, t)
+    std::swap(window_a_, window_b_);
+    SetWindowEnd(window_b_, t, Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_));
+  }
+  void AdoptReturned() override { s_ = window_b_.s; }
+  bool BeginJumps(double t, int guard, const Vec& x, std::string* why) override;
+  void Jump(const Vec& pre) override;
+  void EndJumps(const Vec& post) override;
+  void Sample(long k, double t) override;
+  void SampleCurrent(long k) override { sensitivities_.col(k) = Eigen::Map<const Vec>(s_.data(), s_.size()); }
+
+  // The samples' S_k and ∂t_j/∂θ, the first `samples` columns and `jumps` columns.
+  void MoveInto(SensitivityTrajectory* out) {
+    out->sensitivities = std::move(sensitivities_);
+    out->sensitivities.conservativeResize(Eigen::NoChange, out->trajectory.size());
+    out->jump_time_gradients = std::move(jump_time_gradients_);
   }
 
  private:
-  double SampleTime(long k) const {
-    return times_ ? (*times_)[static_cast<std::size_t>(k)] : static_cast<double>(k) * dt_;
-  }
-  int jumps() const { return static_cast<int>(out_.trajectory.jumps.size()); }
-
-  bool Setup() {
-    SUNContext ctx = nullptr;
-    if (SUNContext_Create(nullptr, &ctx) != 0)
-      return Fail(SimStop::kSolverFailure, "SUNContext_Create failed");
-    ctx_.reset(ctx);
-    // With sensitivities, ξ and S (n × p, column-major) are integrated as one vector by CVODE: one
-    // set of vector operations per step instead of CVODES' p + 1 (its simultaneous corrector), and
-    // the error test covers S as CVODES' sensitivity error control does.
-    y_.reset(N_VNew_Serial(sens_ ? n_ * (1 + p_) : n_, ctx_.get()));
-    if (!y_) return Fail(SimStop::kSolverFailure, "N_VNew_Serial failed");
-    // Fused vector kernels (off by default for serial vectors; clones inherit them): the Adams
-    // updates and the dense output then run as one loop each.
-    N_VEnableFusedOps_Serial(y_.get(), SUNTRUE);
-    N_VConst(0.0, y_.get());
-    Eigen::Map<Vec>(N_VGetArrayPointer_Serial(y_.get()), n_) = params_.x0;
-    cvode_.reset(CVodeCreate(CV_ADAMS, ctx_.get()));
-    if (!cvode_) return Fail(SimStop::kSolverFailure, "CVodeCreate failed");
-    void* mem = cvode_.get();
-    if (!Check(CVodeSetErrHandlerFn(mem, CaptureError, &data_), "CVodeSetErrHandlerFn") ||
-        !Check(CVodeInit(mem, FlowRhs, 0.0, y_.get()), "CVodeInit") ||
-        !Check(CVodeSStolerances(mem, options_.sim.rtol, options_.sim.atol), "CVodeSStolerances") ||
-        !Check(CVodeSetUserData(mem, &data_), "CVodeSetUserData") ||
-        !Check(CVodeSetMaxNumSteps(mem, -1), "CVodeSetMaxNumSteps")) {
-      return false;
-    }
-    nls_.reset(SUNNonlinSol_FixedPoint(y_.get(), 0, ctx_.get()));
-    return nls_ && Check(CVodeSetNonlinearSolver(mem, nls_.get()), "CVodeSetNonlinearSolver");
-  }
-
-  // Restarts the integration at (t_, x_, S_) towards `tstop`, with or without the guards.
-  bool Start(double tstop, bool roots) {
-    void* mem = cvode_.get();
-    Eigen::Map<Vec>(N_VGetArrayPointer_Serial(y_.get()), n_) = x_;
-    if (sens_) Eigen::Map<Mat>(N_VGetArrayPointer_Serial(y_.get()) + n_, n_, p_) = S_;
-    AccumulateCounters();
-    if (!Check(CVodeReInit(mem, t_, y_.get()), "CVodeReInit")) return false;
-    if (!Check(CVodeSetStopTime(mem, tstop), "CVodeSetStopTime")) return false;
-    if (sens_) {
-      SetWindowEnd(window_b_, t_, x_, S_);
-      window_a_ = window_b_;
-    }
-    return roots ? EnableRoots() : Check(CVodeRootInit(mem, 0, nullptr), "CVodeRootInit");
-  }
-
-  bool EnableRoots() {
-    void* mem = cvode_.get();
-    if (!Check(CVodeRootInit(mem, model_.guard_count(), GuardFunctions), "CVodeRootInit")) return false;
-    std::vector<int> directions;
-    for (const Guard& g : model_.spec().guards) directions.push_back(ToCvodeDirection(g.direction));
-    return Check(CVodeSetRootDirection(mem, directions.data()), "CVodeSetRootDirection") &&
-           Check(CVodeSetNoInactiveRootWarn(mem), "CVodeSetNoInactiveRootWarn");
-  }
-
-  bool DisableRoots() { return Check(CVodeRootInit(cvode_.get(), 0, nullptr), "CVodeRootInit"); }
-
-  // One internal step; the flag (≥ 0) or −1 after recording the failure. *tret: the time reached.
-  int Step(double tout, double* tret) {
-    if (steps_ >= options_.sim.max_steps) {
-      Fail(SimStop::kSolverFailure, fmt::format("step budget of {} CVODE steps exhausted near t = {:.17g}",
-                                                options_.sim.max_steps, *tret));
-      return -1;
-    }
-    ++steps_;
-    const int flag = CVode(cvode_.get(), tout, y_.get(), tret, CV_ONE_STEP);
-    if (flag < 0) {
-      if (data_.nonfinite_rhs) {
-        Fail(SimStop::kNonFinite, fmt::format("flow map is not finite near t = {:.17g}", *tret));
-      } else {
-        Fail(SimStop::kSolverFailure, fmt::format("CVode returned {} at t = {:.17g}: {}",
-                                                  CVodeGetReturnFlagName(flag), *tret, data_.last_error));
-      }
-      return -1;
-    }
-    if (!Eigen::Map<const Vec>(N_VGetArrayPointer_Serial(y_.get()), n_).allFinite()) {
-      Fail(SimStop::kNonFinite, fmt::format("state not finite at t = {:.17g}", *tret));
-      return -1;
-    }
-    return flag;
-  }
-
-  // Sample k on segment `segment`: the state from CVODE's interpolating polynomial, S_k by cubic
-  // Hermite interpolation between the last two returns (S and S' at both ends; error ~h⁴/384·|S⁗|,
-  // about 1e-9 relative on the §5 system at rtol 1e-12): cheaper per sample than the polynomial of
-  // all n(1 + p) entries.
-  void Emit(long k, int segment) {
-    const double t = SampleTime(k);
-    InterpolateState(t, out_.trajectory.x.col(k).data());
-    MarkSample(k, segment);
-    if (!sens_) return;
-    double* s = out_.sensitivities.col(k).data();
-    const Eigen::Index size = static_cast<Eigen::Index>(n_) * p_;
-    const double h = window_b_.t - window_a_.t;
-    if (h == 0.0) {
-      std::copy_n(window_b_.s.data(), size, s);
-      return;
-    }
-    const double u = (t - window_a_.t) / h, u2 = u * u, u3 = u2 * u;
-    const double ca = 2 * u3 - 3 * u2 + 1, cda = (u3 - 2 * u2 + u) * h, cb = -2 * u3 + 3 * u2,
-                 cdb = (u3 - u2) * h;
-    const double *sa = window_a_.s.data(), *da = window_a_.d.data(), *sb = window_b_.s.data(),
-                 *db = window_b_.d.data();
-    for (Eigen::Index i = 0; i < size; ++i) s[i] = ca * sa[i] + cda * da[i] + cb * sb[i] + cdb * db[i];
-  }
-
-  void MarkSample(long k, int segment) {
-    out_.trajectory.t[static_cast<std::size_t>(k)] = SampleTime(k);
-    out_.trajectory.j[static_cast<std::size_t>(k)] = segment;
-    filled_[static_cast<std::size_t>(k)] = 1;
-  }
-
   // S and S' = (∂f/∂ξ)S + ∂f/∂θ at one end of the interpolation window.
   struct WindowEnd {
     double t = 0.0;
     Mat s, d;
   };
-  void SetWindowEnd(WindowEnd& end, double t, const Vec& x, const Mat& s) {
+
+  // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, zero for β's and ξ0's.
+  void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, Eigen::Ref<Mat> out) {
+    model_.FlowJacobian(x, params_.alpha, jac_);
+    model_.Phi(x, phi_);
+    out.noalias() = jac_ * s;
+    const auto& au = unknowns_.alpha;
+    for (std::size_t i = 0; i < au.size(); ++i) out.col(static_cast<Eigen::Index>(i)) += phi_.col(au[i]);
+  }
+  void SetWindowEnd(WindowEnd& end, double t, const ConstVecRef& x, const Eigen::Ref<const Mat>& s) {
     end.t = t;
     end.s = s;
-    model_.FlowJacobian(x, params_.alpha, data_.jac);
-    model_.Phi(x, data_.phi);
-    end.d.noalias() = data_.jac * s;
-    for (std::size_t i = 0; i < unknowns_.alpha.size(); ++i) {
-      end.d.col(static_cast<Eigen::Index>(i)) += data_.phi.col(unknowns_.alpha[i]);
+    end.d.resize(n_, p_);
+    Derivative(x, s, end.d);
+  }
+  Eigen::RowVectorXd GuardGradient(int guard, const Vec& x) const {
+    const Mat jac = CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h); }, x, model_.guard_count());
+    return jac.row(guard);
+  }
+
+  const Model& model_;
+  const HybridParameters& params_;
+  const Unknowns& unknowns_;
+  int n_ = 0, p_ = 0;
+  Mat jac_, phi_;                 // scratch, n × n and n × |α|
+  Mat s_;                         // S at the current state (the run loop's restart point)
+  WindowEnd window_a_, window_b_;
+  Eigen::RowVectorXd dt_dtheta_;  // ∂t_j/∂θ of the jumps under way
+  Mat total_;                     // S⁻ + f⁻ ∂t_j/∂θ, then through each jump of the chain
+  Mat sensitivities_, jump_time_gradients_;
+};
+
+// ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻) at a guard crossing (zero for the initial state's jumps, at t = 0
+// whatever θ); total = S⁻ + f⁻ ∂t_j/∂θ.
+bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::string* why) {
+  Vec f_minus(n_);
+  model_.Flow(x, params_.alpha, f_minus);
+  dt_dtheta_ = Eigen::RowVectorXd::Zero(p_);
+  if (guard >= 0) {
+    const Eigen::RowVectorXd grad = GuardGradient(guard, x);
+    const double rate = grad.dot(f_minus);
+    if (!(std::abs(rate) > 1e-14 * std::max(1.0, grad.norm() * f_minus.norm()))) {
+      *why = fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no sensitivity", t);
+      return false;
     }
+    dt_dtheta_ = -(grad * s_) / rate;
   }
-  // ξ(t) into out[0..n) from the last step's polynomial: CVodeGetDky for a few samples per step; for many,
-  // its q + 1 Taylor coefficients at t_n once (as Simulate) and Horner's rule per sample.
-  void InterpolateState(double t, double* out) {
-    void* mem = cvode_.get();
-    if (coefficients_state_ == 0) {
-      int q = 0;
-      sunrealtype tn = 0.0, h = 0.0;
-      CVodeGetLastOrder(mem, &q);
-      CVodeGetCurrentTime(mem, &tn);
-      CVodeGetLastStep(mem, &h);
-      coefficients_state_ = 1;
-      if (h != 0.0 && std::abs(h) > (q + 1) * dt_) {
-        coefficients_.resize(n_, q + 1);
-        double scale = 1.0;
-        for (int k = 0; k <= q; ++k) {
-          CVodeGetDky(mem, tn, k, y_scratch());
-          coefficients_.col(k) = scale * Eigen::Map<const Vec>(N_VGetArrayPointer_Serial(y_scratch()), n_);
-          scale *= h / static_cast<double>(k + 1);
-        }
-        horner_tn_ = tn;
-        horner_h_ = h;
-        coefficients_state_ = 2;
-      }
-    }
-    if (coefficients_state_ == 1) {
-      CVodeGetDky(mem, t, 0, y_scratch());
-      std::copy_n(N_VGetArrayPointer_Serial(y_scratch()), n_, out);
-      return;
-    }
-    const double u = (t - horner_tn_) / horner_h_;
-    const Eigen::Index q = coefficients_.cols() - 1;
-    const double* c = coefficients_.data();  // column-major n × (q + 1)
-    for (int i = 0; i < n_; ++i) {
-      double v = c[q * n_ + i];
-      for (Eigen::Index d = q - 1; d >= 0; --d) v = v * u + c[d * n_ + i];
-      out[i] = v;
-    }
+  total_ = s_ + f_minus * dt_dtheta_;
+  return true;
+}
+
+// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state.
+void SensitivityPayload::Jump(const Vec& pre) {
+  const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { model_.Jump(z, params_.beta, g); }, pre, n_);
+  Mat next = g_x * total_;
+  Mat psi(n_, model_.beta_size());
+  model_.Psi(pre, psi);
+  const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
+  for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
+    next.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
   }
+  total_ = std::move(next);
+  jump_time_gradients_.conservativeResize(Eigen::NoChange, jump_time_gradients_.cols() + 1);
+  jump_time_gradients_.rightCols(1) = dt_dtheta_.transpose();
+}
 
-  // After a return at tret: the window becomes (previous return, tret).
-  void Advance(double tret) {
-    coefficients_state_ = 0;
-    if (!sens_) return;
-    std::swap(window_a_, window_b_);
-    returned_s_ = Eigen::Map<const Mat>(N_VGetArrayPointer_Serial(y_.get()) + n_, n_, p_);
-    SetWindowEnd(window_b_, tret, Eigen::Map<const Vec>(N_VGetArrayPointer_Serial(y_.get()), n_),
-                 returned_s_);
+// S⁺ = total − f⁺ ∂t_j/∂θ.
+void SensitivityPayload::EndJumps(const Vec& post) {
+  Vec f_plus(n_);
+  model_.Flow(post, params_.alpha, f_plus);
+  s_ = total_ - f_plus * dt_dtheta_;
+}
+
+void SensitivityPayload::Sample(long k, double t) {
+  double* s = sensitivities_.col(k).data();
+  const Eigen::Index size = static_cast<Eigen::Index>(n_) * p_;
+  const double h = window_b_.t - window_a_.t;
+  if (h == 0.0) {
+    std::copy_n(window_b_.s.data(), size, s);
+    return;
   }
+  const double u = (t - window_a_.t) / h, u2 = u * u, u3 = u2 * u;
+  const double ca = 2 * u3 - 3 * u2 + 1, cda = (u3 - 2 * u2 + u) * h, cb = -2 * u3 + 3 * u2, cdb = (u3 - u2) * h;
+  const double *sa = window_a_.s.data(), *da = window_a_.d.data(), *sb = window_b_.s.data(),
+               *db = window_b_.d.data();
+  for (Eigen::Index i = 0; i < size; ++i) s[i] = ca * sa[i] + cda * da[i] + cb * sb[i] + cdb * db[i];
+}
 
-  // Sample k set to the given state (and S_ when sens), on segment `segment`.
-  void StoreSample(long k, int segment, const ConstVecRef& x, const Mat* s) {
-    Trajectory& tr = out_.trajectory;
-    tr.t[static_cast<std::size_t>(k)] = SampleTime(k);
-    tr.j[static_cast<std::size_t>(k)] = segment;
-    tr.x.col(k) = x;
-    if (s && sens_) out_.sensitivities.col(k) = Eigen::Map<const Vec>(s->data(), s->size());
-    filled_[static_cast<std::size_t>(k)] = 1;
-  }
+// Matched mode on the run loop's primitives: segment j starts at the model's own jump (t_j(θ),
+// ξ(t_j)); its samples before t_j are read integrating backward, the rest forward, past the model's
+// next crossing (guards off after it) when samples of segment j lie beyond it; then the jumps there.
+class Matched {
+ public:
+  Matched(hybrid::Engine& engine, const std::vector<int>& segments, SensitivityTrajectory& out)
+      : engine_(engine), segments_(segments), out_(out) {}
 
-  N_Vector y_scratch() {
-    if (!scratch_) scratch_.reset(N_VClone(y_.get()));
-    return scratch_.get();
-  }
-
-  // The state and S at the last return (the root, at a root return).
-  void ReadReturned(Vec* x, Mat* s) {
-    *x = Eigen::Map<const Vec>(N_VGetArrayPointer_Serial(y_.get()), n_);
-    if (sens_) *s = window_b_.s;  // read by Advance at this return
-  }
-
-  int FiredGuard() const { return sundials_ptr::FiredGuard(cvode_.get(), model_.guard_count()); }
-
-  // ---- plain mode: as Simulate ------------------------------------------------------------------
-  bool RunPlain() {
-    long next = 0;
-    for (;;) {
-      if (t_ >= t_last_) {  // a jump at the last sample time leaves nothing to integrate
-        for (; next < sample_count_; ++next) StoreSample(next, jumps(), x_, &S_);
-        return true;
-      }
-      if (!Start(t_last_, /*roots=*/true)) return false;
-      if (next == 0) StoreSample(next++, jumps(), x_, &S_);
-      for (;;) {
-        double tret = t_;
-        const int flag = Step(t_last_, &tret);
-        if (flag < 0) return false;
-        Advance(tret);
-        const bool root = flag == CV_ROOT_RETURN;
-        for (; next < sample_count_ && (root ? SampleTime(next) < tret : SampleTime(next) <= tret); ++next) {
-          Emit(next, jumps());
-        }
-        if (flag == CV_TSTOP_RETURN) {
-          for (; next < sample_count_; ++next) Emit(next, jumps());
-          return true;
-        }
-        if (root) {
-          t_ = tret;
-          ReadReturned(&x_, &S_);
-          if (!JumpAt(FiredGuard(), false) || !CheckZenoAndBudget()) return false;
-          break;
-        }
-      }
-    }
-  }
-
-  // ---- matched mode ---------------------------------------------------------------------------
-  bool RunMatched() {
-    const std::vector<int>& seg = *segments_;
-    const int last = seg.back();
+  bool Run() {
+    const int last = segments_.back();
+    const long count = engine_.samples().count;
     long lo = 0;
     for (int j = 0; j <= last; ++j) {
       long hi = lo;
-      while (hi + 1 < sample_count_ && seg[static_cast<std::size_t>(hi + 1)] == j) ++hi;
+      while (hi + 1 < count && segments_[static_cast<std::size_t>(hi + 1)] == j) ++hi;
       long first_forward = lo;
-      while (first_forward <= hi && SampleTime(first_forward) < t_) ++first_forward;
-      if (first_forward > lo && !RunLeg(Leg::kBackward, j, lo, first_forward - 1, false)) return false;
-      if (!RunLeg(Leg::kForward, j, first_forward, hi, j < last)) return false;
+      while (first_forward <= hi && At(first_forward) < engine_.t()) ++first_forward;
+      if (first_forward > lo && !Backward(j, lo, first_forward - 1)) return false;
+      if (!Forward(j, first_forward, hi, j < last)) return false;
       lo = hi + 1;
     }
     return true;
   }
 
-  // Samples [from, to] of segment j, forward (from t_ up; `need_jump`: then jump at the model's next
-  // guard crossing) or backward (from t_ down to `from`).
-  bool RunLeg(Leg leg, int j, long from, long to, bool need_jump) {
-    if (leg == Leg::kForward && t_ >= t_last_) {
-      for (long k = from; k <= to; ++k) StoreSample(k, j, x_, &S_);
-      if (need_jump) return Missing(j);
-      return true;
-    }
-    const double tstop = leg == Leg::kForward ? t_last_ : SampleTime(from);
-    if (!Start(tstop, leg == Leg::kForward)) return false;
-    const Vec x_start = x_;
-    const Mat s_start = S_;
-    long next = leg == Leg::kForward ? from : to;
-    auto pending = [&] { return leg == Leg::kForward ? next <= to : next >= from; };
-    bool jumped = false;
-    double t_jump = 0.0;
-    Vec x_jump;
-    Mat s_jump;
-    int guard = 0;
-    while (pending() || (need_jump && !jumped)) {
-      double tret = t_;
-      const int flag = Step(tstop, &tret);
+ private:
+  double At(long k) const { return engine_.samples().at(k); }
+
+  // Samples to, to − 1, …, from (all before the segment's start), integrating backward; the
+  // segment's start stays the current state.
+  bool Backward(int j, long from, long to) {
+    if (!engine_.Start(At(from), /*roots=*/false)) return false;
+    long next = to;
+    while (next >= from) {
+      double tret = engine_.t();
+      const int flag = engine_.Step(At(from), &tret);
       if (flag < 0) return false;
-      Advance(tret);
-      if (leg == Leg::kForward) {
-        for (; next <= to && SampleTime(next) <= tret; ++next) Emit(next, j);
-      } else {
-        for (; next >= from && SampleTime(next) >= tret; --next) Emit(next, j);
-      }
-      if (flag == CV_ROOT_RETURN) {
-        if (!need_jump) {
-          ++out_.extra_jumps;
-          continue;
-        }
-        if (!jumped) {
-          jumped = true;
-          t_jump = tret;
-          ReadReturned(&x_jump, &s_jump);
-          guard = FiredGuard();
-          if (!DisableRoots()) return false;
-        }
+      long lo = next + 1;
+      while (lo > from && (flag == CV_TSTOP_RETURN || At(lo - 1) >= tret)) --lo;
+      engine_.EmitStep(lo, next + 1, j);
+      next = lo - 1;
+    }
+    return true;
+  }
+
+  // Samples from..to forward from the segment's start; `need_jump`: then the jumps at the model's
+  // first crossing after the start (the current state stays the start when there is none to take).
+  bool Forward(int j, long from, long to, bool need_jump) {
+    if (engine_.t() >= engine_.t_last()) {
+      engine_.EmitCurrent(from, to + 1, j);
+      return need_jump ? Missing(j) : true;
+    }
+    if (!engine_.Start(engine_.t_last(), /*roots=*/true)) return false;
+    long next = from;
+    int guard = -1;
+    while (next <= to || (need_jump && guard < 0)) {
+      double tret = engine_.t();
+      const int flag = engine_.Step(engine_.t_last(), &tret);
+      if (flag < 0) return false;
+      long end = next;
+      while (end <= to && (flag == CV_TSTOP_RETURN || At(end) <= tret)) ++end;
+      engine_.EmitStep(next, end, j);
+      next = end;
+      if (flag == CV_ROOT_RETURN && !need_jump) ++out_.extra_jumps;
+      if (flag == CV_ROOT_RETURN && need_jump && guard < 0) {
+        guard = engine_.AdoptRoot(tret);  // the jump waits until segment j's samples are read
+        if (!engine_.DisableRoots()) return false;
       }
       if (flag == CV_TSTOP_RETURN) {
-        for (; pending(); leg == Leg::kForward ? ++next : --next) Emit(next, j);
-        if (need_jump && !jumped) return Missing(j);
+        if (need_jump && guard < 0) return Missing(j);
         break;
       }
     }
-    if (!jumped) {
-      x_ = x_start;  // a backward leg or the last segment leaves the segment's start in place
-      S_ = s_start;
-      return true;
-    }
-    t_ = t_jump;
-    x_ = x_jump;
-    S_ = s_jump;
-    return JumpAt(guard, false) && CheckZenoAndBudget();
+    return guard < 0 || engine_.Jumps(guard);
   }
 
   bool Missing(int j) {
-    out_.missing_jumps = segments_->back() - j;
-    return Fail(SimStop::kCompleted,  // the status says completed; missing_jumps says what is wrong
-                fmt::format("the model makes {} jump(s) before the last sample time; the data show {}", j,
-                            segments_->back()));
+    out_.missing_jumps = segments_.back() - j;
+    // The status says completed; missing_jumps says what is wrong.
+    return engine_.Fail(SimStop::kCompleted,
+                        fmt::format("the model makes {} jump(s) before the last sample time; the data show {}",
+                                    j, segments_.back()));
   }
 
-  // ---- jumps ------------------------------------------------------------------------------------
-  // Applies the jump map (and the saltation rule) at t_ to x_, S_, again while ξ+ ∈ D.
-  // `fixed_time`: the initial state lies in D (the jump time is 0 whatever θ).
-  bool JumpAt(int guard, bool fixed_time) {
-    if (guard >= 0) model_.ProjectOntoGuard(guard, x_);
-    Vec f_minus(n_), f_plus(n_);
-    model_.Flow(x_, params_.alpha, f_minus);
-    Eigen::RowVectorXd dt_dtheta = Eigen::RowVectorXd::Zero(p_);
-    if (sens_ && !fixed_time && guard >= 0) {
-      const Eigen::RowVectorXd grad = GuardGradient(guard, x_);
-      const double rate = grad.dot(f_minus);
-      if (!(std::abs(rate) > 1e-14 * std::max(1.0, grad.norm() * f_minus.norm()))) {
-        return Fail(SimStop::kSolverFailure,
-                    fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no "
-                                "sensitivity",
-                                t_));
-      }
-      dt_dtheta = -(grad * S_) / rate;
-    }
-    Mat total = S_ + f_minus * dt_dtheta;
-    for (int chain = 0;; ++chain) {
-      if (chain >= options_.sim.max_jumps_at_one_time) {
-        out_.trajectory.status.zeno_time = t_;
-        return Fail(SimStop::kZeno, fmt::format("Zeno: {} jumps at t = {:.17g}", chain, t_));
-      }
-      Vec post(n_);
-      model_.Jump(x_, params_.beta, post);
-      if (sens_) total = JumpSensitivity(x_, total);
-      out_.trajectory.jumps.push_back(JumpRecord{jumps() + 1, t_, chain == 0 ? guard : -1, x_, post});
-      if (sens_) out_.jump_time_gradients.conservativeResize(p_, jumps());
-      if (sens_) out_.jump_time_gradients.col(jumps() - 1) = dt_dtheta.transpose();
-      x_ = post;
-      if (!x_.allFinite()) {
-        return Fail(SimStop::kNonFinite, fmt::format("jump map gave a non-finite state at t = {:.17g}", t_));
-      }
-      if (!model_.InJumpSet(x_)) break;
-    }
-    model_.Flow(x_, params_.alpha, f_plus);
-    if (sens_) S_ = total - f_plus * dt_dtheta;
-    return true;
-  }
-
-  Eigen::RowVectorXd GuardGradient(int guard, const Vec& x) const {
-    const int m = model_.guard_count();
-    const Mat jac = CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h); }, x, m);
-    return jac.row(guard);
-  }
-
-  // (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state x.
-  Mat JumpSensitivity(const Vec& x, const Mat& total) const {
-    const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { model_.Jump(z, params_.beta, g); }, x, n_);
-    Mat out = g_x * total;
-    Mat psi(n_, model_.beta_size());
-    model_.Psi(x, psi);
-    const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
-    for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
-      out.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
-    }
-    return out;
-  }
-
-  // The Zeno rule and the jump budget of SimOptions (as Simulate).
-  bool CheckZenoAndBudget() {
-    const auto& jumps = out_.trajectory.jumps;
-    const int window = options_.sim.zeno_window;
-    const std::size_t m = jumps.size();
-    if (m >= static_cast<std::size_t>(window) + 2) {
-      const double last = jumps[m - 1].t - jumps[m - 2].t;
-      bool shrinking = last < options_.sim.zeno_interval;
-      for (int i = 0; shrinking && i < window; ++i) {
-        shrinking = jumps[m - 1 - i].t - jumps[m - 2 - i].t < jumps[m - 2 - i].t - jumps[m - 3 - i].t;
-      }
-      if (shrinking) {
-        const double rho = last / (jumps[m - 2].t - jumps[m - 3].t);
-        out_.trajectory.status.zeno_time = jumps[m - 1].t + last * rho / (1.0 - rho);
-        return Fail(SimStop::kZeno,
-                    fmt::format("Zeno: jump interval {:.3g} s and shrinking after {} jumps; estimated "
-                                "accumulation time {:.17g}",
-                                last, m, out_.trajectory.status.zeno_time));
-      }
-    }
-    if (static_cast<int>(m) >= options_.sim.max_jumps) {
-      return Fail(SimStop::kJumpBudget, fmt::format("jump budget of {} jumps exhausted at t = {:.17g}",
-                                                    options_.sim.max_jumps, t_));
-    }
-    return true;
-  }
-
-  // ---- bookkeeping ------------------------------------------------------------------------------
-  void AccumulateCounters() {
-    long v = 0;
-    if (CVodeGetNumRhsEvals(cvode_.get(), &v) == CV_SUCCESS) rhs_evals_ += v;
-    if (CVodeGetNumGEvals(cvode_.get(), &v) == CV_SUCCESS) root_evals_ += v;
-  }
-
-  bool Check(int flag, const char* function) {
-    if (flag >= 0) return true;
-    return Fail(SimStop::kSolverFailure,
-                fmt::format("{} returned {}: {}", function, CVodeGetReturnFlagName(flag), data_.last_error));
-  }
-
-  // Records why the run stopped (kCompleted with a message: matched mode's missing segments, which
-  // SensitivityTrajectory::missing_jumps reports). Always false.
-  bool Fail(SimStop stop, std::string message) {
-    SimStatus& st = out_.trajectory.status;
-    st.stop = stop;
-    st.message = std::move(message);
-    st.t_reached = t_;
-    failed_ = true;
-    return false;
-  }
-
-  SensitivityTrajectory Finish() {
-    if (cvode_) AccumulateCounters();
-    Trajectory& tr = out_.trajectory;
-    tr.stats.steps = steps_;
-    tr.stats.rhs_evals = rhs_evals_;
-    tr.stats.root_evals = root_evals_;
-    if (failed_) {  // keep the prefix of samples that were computed
-      long prefix = 0;
-      while (prefix < sample_count_ && filled_[static_cast<std::size_t>(prefix)]) ++prefix;
-      tr.t.resize(static_cast<std::size_t>(prefix));
-      tr.j.resize(static_cast<std::size_t>(prefix));
-      tr.x.conservativeResize(n_, prefix);
-      if (sens_) out_.sensitivities.conservativeResize(Eigen::NoChange, prefix);
-    }
-    return std::move(out_);
-  }
-
-  const Model& model_;
-  HybridParameters params_;
-  Unknowns unknowns_;
-  SensitivityOptions options_;
-  const std::vector<int>* segments_;
-  int n_ = 0, p_ = 0;
-  bool sens_ = true;
-  long sample_count_ = 0;
-  double dt_ = 0.0, t_last_ = 0.0;              // with times_: dt_ is the mean step
-  const std::vector<double>* times_ = nullptr;  // sample times (irregular sampling), or null: k·dt_
-  double t_ = 0.0;
-  Vec x_;
-  Mat S_;
-  std::vector<char> filled_;
-  long steps_ = 0, rhs_evals_ = 0, root_evals_ = 0;
-  bool failed_ = false;
-  WindowEnd window_a_, window_b_;
-  int coefficients_state_ = 0;  // 0: not read for this step, 1: per-sample CVodeGetDky, 2: Horner
-  Mat coefficients_;
-  double horner_tn_ = 0.0, horner_h_ = 1.0;
-  Mat returned_s_;
-  CallbackData data_;
-  SensitivityTrajectory out_;
-  // Declared in creation order; destroyed in reverse.
-  ContextPtr ctx_;
-  NVectorPtr y_;
-  NVectorPtr scratch_;
-  NonlinearSolverPtr nls_;
-  CvodePtr cvode_;
+  hybrid::Engine& engine_;
+  const std::vector<int>& segments_;
+  SensitivityTrajectory& out_;
 };
 
 void CheckInputs(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
@@ -703,14 +347,33 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
   }
 }
 
+// Plain (segments null: Simulate's loop) or matched mode; the sensitivities as the loop's payload.
+SensitivityTrajectory Integrate(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
+                                const hybrid::SampleTimes& samples, const SensitivityOptions& options,
+                                const std::vector<int>* segments) {
+  SensitivityTrajectory out;
+  out.parameters = unknowns.size(model.state_size());
+  std::optional<SensitivityPayload> payload;
+  if (options.sensitivities) payload.emplace(model, params, unknowns, samples.count);
+  hybrid::Engine engine(model, params.alpha, params.beta, samples, options.sim, payload ? &*payload : nullptr,
+                        segments ? hybrid::SampleOrder::kAny : hybrid::SampleOrder::kIncreasing);
+  if (segments == nullptr) {
+    out.trajectory = engine.Run(params.x0);
+  } else {
+    if (engine.Setup(params.x0) && Matched(engine, *segments, out).Run()) engine.Complete();
+    out.trajectory = engine.Finish();
+  }
+  if (payload) payload->MoveInto(&out);
+  return out;
+}
+
 }  // namespace
 
 SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
                                             const Unknowns& unknowns, const SampleGrid& grid,
                                             const SensitivityOptions& options) {
   CheckInputs(model, params, unknowns, grid, options);
-  SensRun run(model, params, unknowns, grid, options, nullptr);
-  return run.Execute();
+  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, nullptr);
 }
 
 namespace {
@@ -739,8 +402,7 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
                                                    const SensitivityOptions& options) {
   CheckInputs(model, params, unknowns, grid, options);
   CheckSegments(segment_of_sample, static_cast<std::size_t>(grid.size()));
-  SensRun run(model, params, unknowns, grid, options, &segment_of_sample);
-  return run.Execute();
+  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, &segment_of_sample);
 }
 
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
@@ -760,8 +422,9 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
   const SampleGrid grid{.t_end = times.back(), .dt = times.back() / static_cast<double>(times.size() - 1)};
   CheckInputs(model, params, unknowns, grid, options);
   CheckSegments(segment_of_sample, times.size());
-  SensRun run(model, params, unknowns, grid, options, &segment_of_sample, &times);
-  return run.Execute();
+  return Integrate(model, params, unknowns,
+                   {.count = static_cast<long>(times.size()), .dt = grid.dt, .times = &times}, options,
+                   &segment_of_sample);
 }
 
 }  // namespace hysid

@@ -1,5 +1,7 @@
 // Forward sensitivities of a hybrid trajectory, S_k = ∂ξ(t_k)/∂θ, θ = (unknown α, unknown β, ξ0).
 //
+// Run:   the hybrid run loop of Simulate (sim/hybrid_run.hpp) with S as its payload: the same jump
+//        chain, Zeno rule, budgets and status, so both stop alike.
 // Flow:  S' = (∂f/∂ξ) S + ∂f/∂θ with f = φ(ξ)α (∂f/∂α_i = column i of φ), integrated with the state
 //        as one vector (ξ, then S column-major) by CVODE (Adams, fixed-point corrector; S is in the
 //        error test).
@@ -9,7 +11,8 @@
 //        ∇h and ∂g/∂ξ by central differences of Model::Guards and Model::Jump (exact up to rounding
 //        for guards and jump maps affine in ξ); ∂g/∂β_i = column i of ψ(ξ⁻). A chain of jumps at one
 //        instant applies (∂g/∂ξ)(·) + ∂g/∂θ once per jump.
-// Modes: plain (SimulateSensitivities): sample k on the segment the model is in at t_k, as Simulate.
+// Modes: plain (SimulateSensitivities): the loop's own run, sample k on the segment the model is in
+//        at t_k, as Simulate (bit for bit in the states when sensitivities = false).
 //        matched (SimulateSensitivitiesMatched): sample k on the segment given by the caller (the
 //        detected jump count); each segment's flow is continued past the model's next jump and
 //        integrated backward before its own start, so no sample changes segment as θ moves.

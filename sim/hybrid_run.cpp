@@ -1,0 +1,416 @@
+#include "sim/hybrid_run.hpp"
+
+#include <algorithm>
+
+#include <cvodes/cvodes.h>
+#include <fmt/format.h>
+#include <sundials/sundials_context.h>
+#include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
+
+namespace hysid::hybrid {
+namespace {
+
+// ξ' = φ(ξ)α into ydot[0..n), then the payload's components.
+int FlowRhs(sunrealtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
+  auto* data = static_cast<CallbackData*>(user_data);
+  const Eigen::Index n = data->n;
+  const double* yp = N_VGetArrayPointer_Serial(y);
+  double* ydotp = N_VGetArrayPointer_Serial(ydot);
+  const Eigen::Map<const Vec> x(yp, n);
+  Eigen::Map<Vec> f(ydotp, n);
+  data->model->Flow(x, *data->alpha, f);
+  if (!f.allFinite() || !x.allFinite()) {
+    data->nonfinite_rhs = true;
+    return -1;  // unrecoverable: CVODE stops with CV_RHSFUNC_FAIL
+  }
+  if (data->payload) data->payload->Flow(yp, yp + n, ydotp + n);
+  return 0;
+}
+
+int GuardFunctions(sunrealtype /*t*/, N_Vector y, sunrealtype* gout, void* user_data) {
+  auto* data = static_cast<CallbackData*>(user_data);
+  const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), data->n);
+  Eigen::Map<Vec> h(gout, data->guard_count);
+  data->model->Guards(x, h);
+  return 0;
+}
+
+void CaptureError(int /*error_code*/, const char* module, const char* function, char* msg, void* user_data) {
+  static_cast<CallbackData*>(user_data)->last_error = fmt::format("{}/{}: {}", module, function, msg);
+}
+
+// Intervals count as shrinking only when each is below this fraction of the one before: constant
+// intervals (a stiff spring's half-periods) equal up to rounding are not an accumulation.
+constexpr double kZenoMaxRatio = 1.0 - 1e-3;
+
+}  // namespace
+
+Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const SampleTimes& samples,
+               const SimOptions& options, Payload* payload, SampleOrder order)
+    : model_(model),
+      alpha_(alpha),
+      beta_(beta),
+      samples_(samples),
+      options_(options),
+      payload_(payload),
+      order_(order),
+      n_(model.state_size()) {
+  t_last_ = samples_.at(samples_.count - 1);
+  out_.dt = samples_.dt;
+  const auto count = static_cast<std::size_t>(samples_.count);
+  if (order_ == SampleOrder::kIncreasing) {
+    out_.t.reserve(count);
+    out_.j.reserve(count);
+  } else {
+    out_.t.assign(count, 0.0);
+    out_.j.assign(count, 0);
+    filled_.assign(count, 0);
+  }
+  out_.x.resize(n_, samples_.count);
+  data_.model = &model_;
+  data_.alpha = &alpha_;
+  data_.payload = payload_;
+  data_.n = n_;
+  data_.guard_count = model_.guard_count();
+}
+
+Trajectory Engine::Run(const Vec& x0) {
+  if (!Setup(x0)) return Finish();
+  const long count = samples_.count;
+  long next = 0;
+  for (;;) {
+    if (t_ >= t_last_) {  // a jump at the last sample time leaves nothing to integrate
+      EmitCurrent(next, count, jumps());
+      Complete();
+      return Finish();
+    }
+    if (!Start(t_last_, /*roots=*/true)) return Finish();
+    if (next == 0) {
+      EmitCurrent(0, 1, jumps());
+      next = 1;
+    }
+    for (;;) {
+      double tret = t_;
+      const int flag = Step(t_last_, &tret);
+      if (flag < 0) return Finish();
+      const bool root = flag == CV_ROOT_RETURN;
+      long end = next;
+      while (end < count && (root ? samples_.at(end) < tret : samples_.at(end) <= tret)) ++end;
+      EmitStep(next, end, jumps());
+      next = end;
+      if (root) {
+        if (!Jumps(AdoptRoot(tret))) return Finish();
+        break;
+      }
+      t_ = tret;
+      if (!model_.InFlowSet(returned()) && !model_.InJumpSet(returned())) {
+        Fail(SimStop::kLeftDomain,
+             fmt::format("state left C and D at t = {:.17g} without a located crossing", tret));
+        return Finish();
+      }
+      if (flag == CV_TSTOP_RETURN) {  // samples at t_last within rounding, from the returned step
+        EmitStep(next, count, jumps());
+        Complete();
+        return Finish();
+      }
+    }
+  }
+}
+
+bool Engine::Setup(const Vec& x0) {
+  SUNContext ctx = nullptr;
+  if (SUNContext_Create(nullptr, &ctx) != 0) return Fail(SimStop::kSolverFailure, "SUNContext_Create failed");
+  ctx_.reset(ctx);
+  const long size = n_ + (payload_ ? payload_->size() : 0);
+  y_.reset(N_VNew_Serial(size, ctx_.get()));
+  scratch_.reset(N_VNew_Serial(size, ctx_.get()));
+  if (!y_ || !scratch_) return Fail(SimStop::kSolverFailure, "N_VNew_Serial failed");
+  // Fused vector kernels (off by default for serial vectors; clones inherit them): CVODE's Adams
+  // updates and CVodeGetDky then run as one loop each instead of chains of N_VLinearSum calls.
+  N_VEnableFusedOps_Serial(y_.get(), SUNTRUE);
+  N_VEnableFusedOps_Serial(scratch_.get(), SUNTRUE);
+  t_ = 0.0;
+  x_ = x0;
+  double* y = N_VGetArrayPointer_Serial(y_.get());
+  Eigen::Map<Vec>(y, n_) = x0;
+  if (payload_) payload_->Restart(t_, x_, y + n_);
+  cvode_.reset(CVodeCreate(CV_ADAMS, ctx_.get()));
+  if (!cvode_) return Fail(SimStop::kSolverFailure, "CVodeCreate failed");
+  void* mem = cvode_.get();
+  if (!Check(CVodeSetErrHandlerFn(mem, CaptureError, &data_), "CVodeSetErrHandlerFn")) return false;
+  {
+    const nordsieck::CloneRecorder recorder(y_.get());
+    if (!Check(CVodeInit(mem, FlowRhs, 0.0, y_.get()), "CVodeInit")) return false;
+    history_.Locate(mem, recorder.clones(), n_);
+  }
+  if (!Check(CVodeSStolerances(mem, options_.rtol, options_.atol), "CVodeSStolerances")) return false;
+  nls_.reset(SUNNonlinSol_FixedPoint(y_.get(), 0, ctx_.get()));
+  if (!nls_) return Fail(SimStop::kSolverFailure, "SUNNonlinSol_FixedPoint failed");
+  if (!Check(CVodeSetNonlinearSolver(mem, nls_.get()), "CVodeSetNonlinearSolver") ||
+      !Check(CVodeSetUserData(mem, &data_), "CVodeSetUserData")) {
+    return false;
+  }
+  // HyEQ rule 1: an initial state in D jumps before it flows.
+  return !model_.InJumpSet(x_) || JumpChain(-1);
+}
+
+bool Engine::Start(double tstop, bool roots) {
+  void* mem = cvode_.get();
+  if (!at_init_) {
+    AccumulateCounters();
+    double* y = N_VGetArrayPointer_Serial(y_.get());
+    Eigen::Map<Vec>(y, n_) = x_;
+    if (payload_) payload_->Restart(t_, x_, y + n_);
+    if (!Check(CVodeReInit(mem, t_, y_.get()), "CVodeReInit")) return false;
+  }
+  at_init_ = false;
+  if (!Check(CVodeSetStopTime(mem, tstop), "CVodeSetStopTime")) return false;
+  if (roots == roots_) return true;
+  if (!roots) return DisableRoots();
+  roots_ = true;
+  if (!Check(CVodeRootInit(mem, model_.guard_count(), GuardFunctions), "CVodeRootInit")) return false;
+  std::vector<int> directions;
+  for (const Guard& g : model_.spec().guards) directions.push_back(sundials_ptr::ToCvodeDirection(g.direction));
+  return Check(CVodeSetRootDirection(mem, directions.data()), "CVodeSetRootDirection") &&
+         Check(CVodeSetNoInactiveRootWarn(mem), "CVodeSetNoInactiveRootWarn");
+}
+
+bool Engine::DisableRoots() {
+  roots_ = false;
+  return Check(CVodeRootInit(cvode_.get(), 0, nullptr), "CVodeRootInit");
+}
+
+int Engine::Step(double tstop, double* tret) {
+  if (steps_ >= options_.max_steps) {
+    Fail(SimStop::kSolverFailure,
+         fmt::format("step budget of {} CVODE steps exhausted at t = {:.17g}", options_.max_steps, t_));
+    return -1;
+  }
+  ++steps_;
+  const int flag = CVode(cvode_.get(), tstop, y_.get(), tret, CV_ONE_STEP);
+  if (flag < 0) {
+    if (data_.nonfinite_rhs) {
+      Fail(SimStop::kNonFinite, fmt::format("flow map is not finite near t = {:.17g}", *tret));
+    } else {
+      Fail(SimStop::kSolverFailure, fmt::format("CVode returned {} at t = {:.17g}: {}",
+                                                CVodeGetReturnFlagName(flag), *tret, data_.last_error));
+    }
+    return -1;
+  }
+  if (!returned().allFinite()) {
+    Fail(SimStop::kNonFinite, fmt::format("state not finite at t = {:.17g}", *tret));
+    return -1;
+  }
+  if (payload_) {
+    const double* y = N_VGetArrayPointer_Serial(y_.get());
+    payload_->Returned(*tret, y, y + n_);
+  }
+  return flag;
+}
+
+int Engine::AdoptRoot(double tret) {
+  t_ = tret;
+  x_ = returned();
+  if (payload_) payload_->AdoptReturned();
+  return sundials_ptr::FiredGuard(cvode_.get(), model_.guard_count());
+}
+
+bool Engine::Jumps(int guard) { return JumpChain(guard) && CheckZenoAndBudget(); }
+
+// Applies the jump map at t_ to x_, then again while ξ+ ∈ D (rule 1).
+bool Engine::JumpChain(int guard) {
+  if (guard >= 0) model_.ProjectOntoGuard(guard, x_);
+  at_init_ = false;
+  std::string why;
+  if (payload_ && !payload_->BeginJumps(t_, guard, x_, &why)) return Fail(SimStop::kSolverFailure, why);
+  Vec post(n_);
+  for (int chain = 0;; ++chain) {
+    if (chain >= options_.max_jumps_at_one_time) {
+      out_.status.zeno_time = t_;
+      return Fail(SimStop::kZeno, fmt::format("Zeno: {} jumps at t = {:.17g} (the jump map keeps the state "
+                                              "in D); estimated accumulation time {:.17g}",
+                                              chain, t_, t_));
+    }
+    model_.Jump(x_, beta_, post);
+    if (payload_) payload_->Jump(x_);
+    out_.jumps.push_back(JumpRecord{jumps() + 1, t_, chain == 0 ? guard : -1, x_, post});
+    x_ = post;
+    if (!x_.allFinite()) {
+      return Fail(SimStop::kNonFinite, fmt::format("jump map gave a non-finite state at t = {:.17g}", t_));
+    }
+    if (!model_.InJumpSet(x_)) break;
+  }
+  if (payload_) payload_->EndJumps(x_);
+  return true;
+}
+
+bool Engine::CheckZenoAndBudget() {
+  const auto& jumps = out_.jumps;
+  const int window = options_.zeno_window;
+  const std::size_t m = jumps.size();
+  if (m >= static_cast<std::size_t>(window) + 2) {
+    const double last = jumps[m - 1].t - jumps[m - 2].t;
+    bool shrinking = last < options_.zeno_interval;
+    for (int i = 0; shrinking && i < window; ++i) {
+      const double newer = jumps[m - 1 - i].t - jumps[m - 2 - i].t;
+      const double older = jumps[m - 2 - i].t - jumps[m - 3 - i].t;
+      shrinking = newer < kZenoMaxRatio * older;
+    }
+    if (shrinking) {
+      const double prev = jumps[m - 2].t - jumps[m - 3].t;
+      const double rho = last / prev;  // geometric ratio of the intervals
+      const double tz = jumps[m - 1].t + last * rho / (1.0 - rho);
+      out_.status.zeno_time = tz;
+      return Fail(SimStop::kZeno, fmt::format("Zeno: jump interval {:.3g} s and shrinking (ratio {:.6g}) "
+                                              "after {} jumps; estimated accumulation time {:.17g}",
+                                              last, rho, m, tz));
+    }
+  }
+  if (static_cast<int>(m) >= options_.max_jumps) {
+    return Fail(SimStop::kJumpBudget,
+                fmt::format("jump budget of {} jumps exhausted at t = {:.17g}", options_.max_jumps, t_));
+  }
+  return true;
+}
+
+// Times and segments of samples begin..end−1 (appended in increasing order, else at their places).
+void Engine::Mark(long begin, long end, int segment) {
+  const auto b = static_cast<std::size_t>(begin), e = static_cast<std::size_t>(end);
+  if (order_ == SampleOrder::kIncreasing) {
+    if (samples_.times) {
+      out_.t.insert(out_.t.end(), samples_.times->begin() + begin, samples_.times->begin() + end);
+    } else {
+      for (long k = begin; k < end; ++k) out_.t.push_back(static_cast<double>(k) * samples_.dt);
+    }
+    out_.j.resize(e, segment);
+    return;
+  }
+  for (long k = begin; k < end; ++k) out_.t[static_cast<std::size_t>(k)] = samples_.at(k);
+  std::fill(out_.j.begin() + b, out_.j.begin() + e, segment);
+  std::fill(filled_.begin() + b, filled_.begin() + e, 1);
+}
+
+void Engine::EmitCurrent(long begin, long end, int segment) {
+  if (end <= begin) return;
+  Mark(begin, end, segment);
+  for (long k = begin; k < end; ++k) {
+    out_.x.col(k) = x_;
+    if (payload_) payload_->SampleCurrent(k);
+  }
+}
+
+// Few samples: ξ(t_k) each, as CVodeGetDky(t_k, 0). Many: the polynomial's q + 1 Taylor coefficients
+// at t_n once (as CVodeGetDky(t_n, k), k = 0..q), then Horner's rule per sample. Both read CVODE's
+// Nordsieck array directly when history_ allows (the same bits, sim/nordsieck.hpp).
+void Engine::EmitStep(long begin, long end, int segment) {
+  if (end <= begin) return;
+  void* mem = cvode_.get();
+  int q = 0;
+  sunrealtype tn = 0.0, h = 0.0;
+  CVodeGetLastOrder(mem, &q);
+  CVodeGetCurrentTime(mem, &tn);
+  CVodeGetLastStep(mem, &h);
+  const bool direct = history_.Prepare(mem, q, tn, h, scratch_.get());
+  Mark(begin, end, segment);
+  if (end - begin > q + 1 && h != 0.0) {
+    TaylorCoefficients(q, tn, h, direct);
+    EmitHorner(q, tn, h, begin, end);
+  } else {
+    double* tmp = N_VGetArrayPointer_Serial(scratch_.get());
+    for (long k = begin; k < end; ++k) {
+      const double t = out_.t[static_cast<std::size_t>(k)];
+      if (direct) {
+        history_.Dky(t, 0, tmp);
+      } else {
+        CVodeGetDky(mem, t, 0, scratch_.get());
+      }
+      out_.x.col(k) = Eigen::Map<const Vec>(tmp, n_);
+    }
+  }
+  if (payload_) {
+    for (long k = begin; k < end; ++k) payload_->Sample(k, out_.t[static_cast<std::size_t>(k)]);
+  }
+}
+
+// coefficients_.col(k) = h^k / k! · ξ^(k)(t_n), so ξ(t) = Σ_k coefficients_.col(k) s^k,
+// s = (t − t_n)/h: exactly the polynomial CVodeGetDky evaluates.
+void Engine::TaylorCoefficients(int q, double tn, double h, bool direct) {
+  coefficients_.resize(n_, q + 1);
+  double* tmp = N_VGetArrayPointer_Serial(scratch_.get());
+  double scale = 1.0;
+  for (int k = 0; k <= q; ++k) {
+    if (direct) {
+      history_.DkyAtTn(k, tmp);
+    } else {
+      CVodeGetDky(cvode_.get(), tn, k, scratch_.get());
+    }
+    for (long i = 0; i < n_; ++i) coefficients_(i, k) = scale * tmp[i];
+    scale *= h / static_cast<double>(k + 1);
+  }
+}
+
+void Engine::EmitHorner(int q, double tn, double h, long begin, long end) {
+  const double* c = coefficients_.data();  // column-major n × (q + 1)
+  const long n = n_;
+  for (long k = begin; k < end; ++k) {
+    const double s = (out_.t[static_cast<std::size_t>(k)] - tn) / h;
+    double* out = out_.x.col(k).data();
+    if (n == 2) {  // the two chains side by side, in registers (the same operations per component)
+      double v0 = c[q * 2], v1 = c[q * 2 + 1];
+      for (int d = q - 1; d >= 0; --d) {
+        v0 = v0 * s + c[d * 2];
+        v1 = v1 * s + c[d * 2 + 1];
+      }
+      out[0] = v0;
+      out[1] = v1;
+    } else {
+      for (long i = 0; i < n; ++i) {
+        double v = c[q * n + i];
+        for (int d = q - 1; d >= 0; --d) v = v * s + c[d * n + i];
+        out[i] = v;
+      }
+    }
+  }
+}
+
+bool Engine::Check(int flag, const char* function) {
+  if (flag >= 0) return true;
+  return Fail(SimStop::kSolverFailure,
+              fmt::format("{} returned {}: {}", function, CVodeGetReturnFlagName(flag), data_.last_error));
+}
+
+bool Engine::Fail(SimStop stop, std::string message) {
+  out_.status.stop = stop;
+  out_.status.message = std::move(message);
+  out_.status.t_reached = t_;
+  return false;
+}
+
+void Engine::Complete() {
+  out_.status.stop = SimStop::kCompleted;
+  out_.status.t_reached = t_last_;
+  out_.status.message = fmt::format("completed: {} samples, {} jumps", samples_.count, jumps());
+}
+
+void Engine::AccumulateCounters() {
+  long v = 0;
+  if (CVodeGetNumRhsEvals(cvode_.get(), &v) == CV_SUCCESS) rhs_evals_ += v;
+  if (CVodeGetNumGEvals(cvode_.get(), &v) == CV_SUCCESS) root_evals_ += v;
+}
+
+Trajectory Engine::Finish() {
+  if (cvode_) AccumulateCounters();
+  out_.stats.steps = steps_;
+  out_.stats.rhs_evals = rhs_evals_;
+  out_.stats.root_evals = root_evals_;
+  // The samples up to the first one not emitted.
+  const long prefix = order_ == SampleOrder::kIncreasing
+                          ? static_cast<long>(out_.t.size())
+                          : std::find(filled_.begin(), filled_.end(), 0) - filled_.begin();
+  out_.t.resize(static_cast<std::size_t>(prefix));
+  out_.j.resize(static_cast<std::size_t>(prefix));
+  out_.x.conservativeResize(n_, prefix);
+  return std::move(out_);
+}
+
+}  // namespace hysid::hybrid
