@@ -112,9 +112,7 @@ RefineResult RunRefinement(const Model& model, const SampleData& data, const Ide
                            const Vec& sigma) {
   RefineOptions options;
   options.sigma = sigma;
-  if (data.uniform) return RefineIdentification(model, data.y, data.dt, recursive, options);
-  return RefineChains(model, SplitChains(data.t, data.y, data.chain_start, recursive.gamma),
-                      recursive.alpha_hat, recursive.beta_hat, options);
+  return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
 }
 
 }  // namespace
