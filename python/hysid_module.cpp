@@ -197,6 +197,7 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
   }
   out["status"] = ToString(r.status);
   out["reason"] = r.reason;
+  out["mended"] = r.mended;  // detections mended from the fitted model ("" when none)
   out["estimates"] = estimates;
   out["standard_errors"] = errors;  // empty unless the fit is ok
   out["covariance"] = Transposed(r.covariance);

@@ -95,6 +95,7 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   j["model_jumps"] = r.model_jumps;
   j["samples_used"] = r.samples_used;
   j["start_repair"] = r.start_repair;
+  j["mended"] = r.mended;
   if (!r.chain_x0.empty()) {
     nlohmann::json x0 = nlohmann::json::array();
     for (const Vec& v : r.chain_x0) x0.push_back(v.size() ? nlohmann::json(vec(v)) : nlohmann::json());
@@ -158,6 +159,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                   static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
                   r.span_reason.c_str());
     }
+    if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
     if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
     if (r.ok()) {
       std::printf(

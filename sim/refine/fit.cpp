@@ -243,7 +243,7 @@ SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit
 // `tolerance` samples apart, or a jump without a counterpart), noted for the span retries.
 void NoteFailure(FitProblem& problem, std::size_t c, const SensitivityTrajectory& plain, double tolerance) {
   const ChainFit& f = problem.fits[c];
-  problem.failure = ChainFailure{.chain = f.index};
+  problem.failure = ChainFailure{.chain = f.index, .disagreement = -1, .model_jumps = {}};
   if (plain.trajectory.status.stop == SimStop::kLeftDomain) return;
   problem.failure.disagreement =
       FirstDisagreement(plain.trajectory.jumps, f.segments, SampleClock{.times = &f.times}, tolerance);
@@ -288,7 +288,9 @@ void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit,
                        label, j, t, off, f.times[k - 1], f.times[k]));
     }
   }
-  if (!r.ok()) NoteFailure(problem, c, plain, options.jump_time_tolerance);
+  if (r.ok()) return;
+  NoteFailure(problem, c, plain, options.jump_time_tolerance);
+  for (const JumpRecord& jump : jumps) problem.failure.model_jumps.push_back(jump.t);
 }
 
 // The joint Fisher information: shared block plus one x0 block per chain.

@@ -24,6 +24,8 @@ struct FitStart {
 struct ChainFailure {
   long chain = -1;  // in the caller's list
   long disagreement = -1;
+  // When the fit ran: the fitted model's own jump times on that chain (from its first sample).
+  std::vector<double> model_jumps;
 };
 
 // One fit from s: the chains as fit (span rule, retry limits, chains too short or outside C ∪ D left

@@ -2,6 +2,7 @@
 // from a repaired start around the one fit of sim/refine/fit.hpp.
 #include "sim/refine/refine.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -122,6 +123,71 @@ std::string FirstNonFinite(const std::vector<RefineChain>& chains) {
   return "";
 }
 
+// Chain c's labels over its first `used` samples mended from its fitted model's own jump times
+// (from the chain's first sample): a model jump with a detection within `reach` samples keeps that
+// detection (the nearest not yet taken), one without is added at the sample whose interval
+// (t_{k−1}, t_k] holds it, and a detection no model jump takes is dropped. false when a model jump
+// lies outside the span or two fall in one interval. *what: "LABEL A added, D dropped".
+bool MendFromModel(const RefineChain& chain, const std::string& label, long used,
+                   const std::vector<double>& jumps, long reach, std::vector<std::uint8_t>* gamma,
+                   std::string* what) {
+  std::vector<std::uint8_t> mended(gamma->size(), 0), taken(gamma->size(), 0);
+  std::copy(gamma->begin() + used, gamma->end(), mended.begin() + used);
+  const auto end = chain.t.begin() + used;
+  int added = 0;
+  for (double tau : jumps) {
+    const long k = std::lower_bound(chain.t.begin(), end, chain.t.front() + tau) - chain.t.begin();
+    if (k < 1 || k >= used) return false;
+    long best = -1;
+    for (long d = std::max(1L, k - reach); d <= std::min(used - 1, k + reach); ++d) {
+      const auto u = static_cast<std::size_t>(d);
+      if ((*gamma)[u] != 0 && !taken[u] && (best < 0 || std::abs(d - k) < std::abs(best - k))) best = d;
+    }
+    const auto at = static_cast<std::size_t>(best >= 0 ? best : k);
+    if (mended[at] != 0) return false;
+    mended[at] = taken[at] = 1;
+    added += best < 0 ? 1 : 0;
+  }
+  int dropped = 0;
+  for (long k = 1; k < used; ++k) {
+    const auto u = static_cast<std::size_t>(k);
+    dropped += (*gamma)[u] != 0 && !taken[u] ? 1 : 0;
+  }
+  if (added + dropped == 0) return false;
+  *gamma = std::move(mended);
+  *what = fmt::format("{}{} added, {} dropped", label, added, dropped);
+  return true;
+}
+
+// After a fit r from s whose jumps disagree with chain `failure.chain`'s detected ones: the fit from
+// r's point with that chain's detections mended from its fitted model. true (r and s replaced) when
+// that fit is ok and fits as many samples as r.
+bool FitMended(const Model& model, const std::vector<RefineChain>& chains, const RefineOptions& options,
+               const ChainFailure& failure, FitStart& s, RefineResult& r) {
+  const auto c = static_cast<std::size_t>(failure.chain);
+  FitStart m = s;
+  m.start.alpha = r.refined.alpha;
+  m.start.beta = r.refined.beta;
+  for (std::size_t i = 0; i < chains.size(); ++i) {
+    if (r.chain_x0[i].size() != 0) m.x0[i] = r.chain_x0[i];
+  }
+  std::string what;
+  const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
+  const std::string label = chains.size() > 1 ? fmt::format("chain {}: ", c + 1) : "";
+  if (!MendFromModel(chains[c], label, r.chain_samples_used[c], failure.model_jumps, reach, &m.gamma[c],
+                     &what)) {
+    return false;
+  }
+  ChainFailure ignored;
+  RefineResult next = FitChains(model, chains, m, options, &ignored);
+  if (!next.ok() || next.samples_used < r.samples_used) return false;  // (added jumps may shorten a span)
+  next.start = r.start;
+  next.mended = r.mended.empty() ? what : r.mended + "; " + what;
+  r = std::move(next);
+  s = std::move(m);
+  return true;
+}
+
 // The fit from s; while it fails because a chain's model and its detected jumps disagree (a jump the
 // detector missed, or one it added), that chain's span is cut to end SpanMargin samples before the
 // first disagreement and the chains are fit again, at most max_span_retries times per chain. A retry
@@ -132,9 +198,14 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
   RefineResult r = FitChains(model, chains, s, options, &failure);
   *first_used = r.samples_used;
   std::vector<int> retries(chains.size(), 0);
+  std::vector<std::uint8_t> mended(chains.size(), 0);
   const long margin = SpanMargin(options), shortest = 2L * model.state_size() + 2;
   while (SpanRetryable(r.status) && failure.chain >= 0) {
     const auto c = static_cast<std::size_t>(failure.chain);
+    if (options.mend_detections && !mended[c] && !failure.model_jumps.empty()) {
+      mended[c] = 1;
+      if (FitMended(model, chains, options, failure, s, r)) break;
+    }
     const long used = r.chain_samples_used[c], shorter = failure.disagreement - margin;
     if (retries[c] == options.max_span_retries || failure.disagreement < 0 || shorter >= used ||
         shorter < shortest) {

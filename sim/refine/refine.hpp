@@ -18,7 +18,12 @@
 // outside [rms_low, rms_high] (σ estimated: the residual σ̂ above rms_high × the MAD estimate), or
 // the residuals' lag-1 autocorrelation within chains exceeds max_lag1 (when they are above the
 // integration accuracy). Never NaN. Messages name the chain when there are several.
-// A jump-count mismatch or a failed start of one chain is first retried with that chain's span
+// A fit whose jumps disagree with a chain's detected ones (count or times) is first tried again
+// with that chain's detections mended from the fitted model: a jump the model makes with no
+// detection within jump_time_tolerance + 1 samples is added at its sample, a detection the model has
+// no jump for is dropped, the others kept; the fit from the fitted point on the mended detections
+// is adopted when it passes every check (the data decide) and fits as many samples, once per chain
+// (`mended` says what changed). A jump-count mismatch or a failed start of one chain is then retried with that chain's span
 // ending before the first disagreement between its model's jumps and its detected ones
 // (RefineOptions::max_span_retries). A fit that still fails (other than for the data or their
 // length), or is ok only on spans the retries cut, is tried once more from a repaired start
@@ -86,6 +91,9 @@ struct RefineOptions {
   // samples before the first disagreement and the chains fit again, at most this many times per
   // chain (0: never).
   int max_span_retries = 3;
+  // A fit whose jumps disagree with a chain's detected ones is tried again with that chain's
+  // detections mended from the fitted model (see above); false: never.
+  bool mend_detections = true;
   // A failed fit is tried again from a repaired start (see above); false: never.
   bool repair_start = true;
   StartRepairOptions start_repair;
@@ -119,6 +127,7 @@ struct RefineResult {
   std::string span_reason;   // why samples were left out ("" when all are fit; "chain c: …" when several)
   int detected_jumps = 0;    // in the fitted spans (of the repaired detections when start_repair is set)
   std::string start_repair;  // what the repaired start changed, when the result comes from it ("" else)
+  std::string mended;        // the detections mended from the fitted model ("" when none)
   int model_jumps = -1;      // of the fitted model on its own over the fitted spans (−1: not simulated)
   // Per chain (the caller's order): the initial state fitted (start: its first sample; empty for a
   // chain left out), the samples fit (0: left out) and why the others were left out ("" when all

@@ -166,7 +166,9 @@ struct TwoRuns {
 
 TEST_CASE("a chain whose detector missed its last jump, near its end: that chain's span is cut before it",
           "[refine][chains]") {
-  TwoRuns runs(30);  // too close to the end for the repaired start to add the jump
+  // Too close to the end for the repaired start to add the jump; the fit distorted by the missed
+  // jump puts its own jump too far from the true one for the fit mended from it to pass its checks.
+  TwoRuns runs(30);
   runs.second.gamma[static_cast<std::size_t>(runs.last)] = 0;
   const RefineResult kept = runs.Fit(NoRecovery());
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -178,6 +180,7 @@ TEST_CASE("a chain whose detector missed its last jump, near its end: that chain
   INFO(ToString(r.status) << ": " << r.reason << " | " << r.span_reason << " | " << r.start_repair);
   REQUIRE(r.ok());
   CHECK(r.start_repair.empty());
+  CHECK(r.mended.empty());
   CHECK(r.chain_samples_used[0] == runs.a.truth.size());
   CHECK(r.chain_span_reason[0].empty());
   // Chain 2 ends the margin (ceil(jump_time_tolerance) + 2 samples) before the missed jump.
