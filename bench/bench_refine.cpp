@@ -61,7 +61,8 @@ void BM_RefineSection5(benchmark::State& state) {
   const IdentifyResult recursive = Section5Recursive(model, y);
   int iterations = 0;
   for (auto _ : state) {
-    RefineResult r = RefineIdentification(model, y, kGrid.dt, recursive);
+    RefineResult r = Refine(model, {RefineChain::Uniform(y, kGrid.dt, recursive.gamma)},
+                            recursive.alpha_hat, recursive.beta_hat);
     if (!r.ok()) state.SkipWithError(r.reason.c_str());
     iterations = r.iterations;
     benchmark::DoNotOptimize(r.covariance.data());
@@ -79,7 +80,8 @@ void BM_RefineRepairedStart(benchmark::State& state) {
   recursive.gamma[1911] = 1;
   int iterations = 0;
   for (auto _ : state) {
-    RefineResult r = RefineIdentification(model, y, kGrid.dt, recursive);
+    RefineResult r = Refine(model, {RefineChain::Uniform(y, kGrid.dt, recursive.gamma)},
+                            recursive.alpha_hat, recursive.beta_hat);
     if (!r.ok() || r.start_repair.empty()) state.SkipWithError("the repaired start did not give the fit");
     iterations = r.iterations;
     benchmark::DoNotOptimize(r.covariance.data());

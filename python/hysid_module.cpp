@@ -175,8 +175,8 @@ py::dict Unknowns(const std::vector<Parameter>& params, const Vec& values) {
   return out;
 }
 
-// The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`: one uniform
-// run (Refine), or the chains of irregular or several runs (RefineChains).
+// The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`: the samples at
+// k·dt, or at the times and in the chains of `chains`.
 py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& recursive,
                  const Vec& sigma, const SampleData* chains) {
   RefineOptions options;
@@ -184,10 +184,10 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
   RefineResult r;
   {
     py::gil_scoped_release release;
-    r = chains == nullptr
-            ? RefineIdentification(model, y, dt, recursive, options)
-            : RefineChains(model, SplitChains(chains->t, y, chains->chain_start, recursive.gamma),
-                           recursive.alpha_hat, recursive.beta_hat, options);
+    std::vector<double> t(static_cast<std::size_t>(y.cols()));
+    for (std::size_t k = 0; k < t.size(); ++k) t[k] = chains ? chains->t[k] : static_cast<double>(k) * dt;
+    r = RefineIdentification(model, t, y, chains ? chains->chain_start : std::vector<std::uint8_t>{},
+                             recursive, options);
   }
   py::dict out, estimates, errors;
   const Vec theta = r.estimate.Theta(r.unknowns);
@@ -197,6 +197,7 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
   }
   out["status"] = ToString(r.status);
   out["reason"] = r.reason;
+  out["mended"] = r.mended;  // detections mended from the fitted model ("" when none)
   out["estimates"] = estimates;
   out["standard_errors"] = errors;  // empty unless the fit is ok
   out["covariance"] = Transposed(r.covariance);

@@ -498,15 +498,18 @@ void Record(Eigen::Index k, const Decision& d, IdentifyResult* r) {
 bool AllFinite(const Mat& y) { return (y.array() * 0.0).sum() == 0.0; }
 
 // Irregular sampling, chains or non-finite columns: one Step per sample, with its own δt and a
-// Restart at each chain start and after each skipped column.
+// Restart at each chain start.
 bool NeedsChains(const Mat& y, const IdentifyOptions& options) {
   return !options.times.empty() || !options.chain_start.empty() || !AllFinite(y);
 }
 
-void ChainPass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+// A column with a non-finite entry is a missing sample: skipped, and the chain goes on (the next pair
+// spans it, its step from the last sample fed: times, else the count of steps of δt).
+void ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
   r->skipped_samples = 0;
   r->chains = 0;
   bool open = false;
+  Eigen::Index last = -1;  // the last sample fed in the open chain
   for (Eigen::Index k = 0; k < y.cols(); ++k) {
     const auto u = static_cast<std::size_t>(k);
     if (!options.chain_start.empty() && options.chain_start[u] && open) {
@@ -516,12 +519,14 @@ void ChainPass(Identifier& id, const Mat& y, const IdentifyOptions& options, Ide
     if (!y.col(k).allFinite()) {
       ++r->skipped_samples;
       Record(k, Decision{}, r);
-      if (open) id.Restart();
-      open = false;
     } else {
-      if (open && !options.times.empty()) id.SetStep(options.times[u] - options.times[u - 1]);
+      if (open) {
+        id.SetStep(options.times.empty() ? static_cast<double>(k - last) * dt
+                                         : options.times[u] - options.times[static_cast<std::size_t>(last)]);
+      }
       r->chains += open ? 0 : 1;
       open = true;
+      last = k;
       Record(k, options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[u] != 0), r);
     }
     if (!options.trace) continue;
@@ -532,8 +537,8 @@ void ChainPass(Identifier& id, const Mat& y, const IdentifyOptions& options, Ide
 
 // One pass over the samples. Without a trace or labels, samples go to Feed in chunks (its block
 // path); a trace needs α̂, β̂ after each sample, labels a Step with each.
-void Pass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
-  if (NeedsChains(y, options)) return ChainPass(id, y, options, r);
+void Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
+  if (NeedsChains(y, options)) return ChainPass(id, y, dt, options, r);
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
     constexpr Eigen::Index kChunk = 4096;
@@ -557,13 +562,13 @@ void Pass(Identifier& id, const Mat& y, const IdentifyOptions& options, Identify
 }
 
 // The second pass: records the first pass's outcome, re-runs, counts the changed classes.
-void SecondPass(Identifier& id, const Mat& y, const IdentifyOptions& options, IdentifyResult* r) {
+void SecondPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
   r->second_pass = true;
   r->first_pass_gamma = r->gamma;
   r->first_pass_alpha_hat = id.alpha_hat();
   r->first_pass_beta_hat = id.beta_hat();
   id.BeginSecondPass();
-  Pass(id, y, options, r);
+  Pass(id, y, dt, options, r);
   for (std::size_t k = 0; k < r->gamma.size(); ++k) {
     r->reclassified_to_jump += (!r->first_pass_gamma[k] && r->gamma[k]) ? 1 : 0;
     r->reclassified_to_flow += (r->first_pass_gamma[k] && !r->gamma[k]) ? 1 : 0;
@@ -619,8 +624,8 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     r.alpha_trace.resize(model.alpha_size(), y.cols());
     r.beta_trace.resize(model.beta_size(), y.cols());
   }
-  Pass(id, y, options, &r);
-  if (settings.second_pass) SecondPass(id, y, options, &r);
+  Pass(id, y, dt, options, &r);
+  if (settings.second_pass) SecondPass(id, y, dt, options, &r);
   Collect(id, settings.sets, &r);
   return r;
 }

@@ -156,9 +156,10 @@ struct IdentifyOptions {
   // Irregular sampling: the time of each sample (one per column of y); each pair uses its own step.
   // Empty: t_k = kδt.
   std::vector<double> times{};
-  // 1 where a chain starts (a new run, a gap, after a missing sample): Identifier::Restart before that
-  // sample. Empty: one chain. With either of these two, or a non-finite column in y, samples are fed
-  // one by one; a column with a non-finite entry is skipped (γ = 0, statistic 0) and breaks the chain.
+  // 1 where a chain starts (a new run, a gap): Identifier::Restart before that sample. Empty: one
+  // chain. With either of these two, or a non-finite column in y, samples are fed one by one; a
+  // column with a non-finite entry is a missing sample: skipped (γ = 0, statistic 0), and the chain
+  // goes on, the next pair's step spanning it (from times, else the steps of δt counted).
   std::vector<std::uint8_t> chain_start{};
 };
 
@@ -189,7 +190,7 @@ struct IdentifyResult {
   // Estimators that report a solution box (frisch): the final boxes of the unknowns, u × 2 (lower,
   // upper); empty otherwise.
   Mat flow_box, jump_box;
-  // IdentifyOptions::chain_start or non-finite columns: samples skipped, chains fed.
+  // IdentifyOptions::chain_start or non-finite columns: samples skipped (non-finite), chains fed.
   long skipped_samples = 0;
   long chains = 1;
 };

@@ -134,7 +134,7 @@ void CheckRow(const CsvTable& table, const Columns& c, std::size_t r) {
   }
 }
 
-// Appends the rows of one table to `out`: runs, chains at missing rows, time order.
+// Appends the rows of one table to `out`: runs, missing rows left out, time order.
 void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::vector<double>& y,
                  std::vector<int>& j) {
   std::map<long, int> seen;  // run number -> its index in out.run_names
@@ -166,9 +166,8 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
     }
     bool missing = false;
     for (int col : c.state) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
-    if (missing) {
+    if (missing) {  // left out; the chain goes on (the gap rule below judges the step across it)
       if (out.missing_rows++ == 0) out.first_missing_line = table.line_of_row[r];
-      break_next = true;
       continue;
     }
     out.t.push_back(table.columns[t_col][r]);
@@ -188,7 +187,7 @@ void CutGaps(const std::string& path, const SampleDataOptions& options, SampleDa
     if (!d.chain_start[k]) steps.push_back(d.t[k] - d.t[k - 1]);
   }
   if (steps.empty()) {
-    throw std::invalid_argument(fmt::format("{}: no two consecutive samples without a missing value", path));
+    throw std::invalid_argument(fmt::format("{}: no run has two samples", path));
   }
   std::vector<double> sorted = steps;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());

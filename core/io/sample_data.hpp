@@ -7,9 +7,10 @@
 // is used as is), else the first n columns other than time, `j` and `run`. A column named `j` (jump
 // counter) is ground truth when present; a column named `run` (or the one named by `run=`) splits a file into
 // runs, whose rows must be contiguous. Each file is one run otherwise.
-// Chains: a run is cut into chains at a row with a missing state cell (empty, nan, NA: the row is
-// dropped and counted) and at a step longer than the maximum gap (default kDefaultGapFactor × the
-// median step). Steps may differ from sample to sample; time must increase within a run.
+// Chains: a run is cut into chains at a step longer than the maximum gap (default kDefaultGapFactor ×
+// the median step). A row with a missing state cell (empty, nan, NA) is dropped and counted; the
+// chain goes on across it (the step from the sample before it to the one after it is judged by the
+// gap rule like any other). Steps may differ from sample to sample; time must increase within a run.
 // Checks, each an error naming file, line and column: the CSV's own (non-numeric, infinite, wrong
 // cell count, empty, quoting), too few columns for the model, an unknown column name, fewer than 3
 // samples, time missing or not strictly increasing, a time or state cell beyond ±kMaxMagnitude, a

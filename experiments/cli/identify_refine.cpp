@@ -96,6 +96,7 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   j["model_jumps"] = r.model_jumps;
   j["samples_used"] = r.samples_used;
   j["start_repair"] = r.start_repair;
+  j["mended"] = r.mended;
   if (!r.chain_x0.empty()) {
     nlohmann::json x0 = nlohmann::json::array();
     for (const Vec& v : r.chain_x0) x0.push_back(v.size() ? nlohmann::json(vec(v)) : nlohmann::json());
@@ -113,9 +114,7 @@ RefineResult RunRefinement(const Model& model, const SampleData& data, const Ide
                            const Vec& sigma) {
   RefineOptions options;
   options.sigma = sigma;
-  if (data.uniform) return RefineIdentification(model, data.y, data.dt, recursive, options);
-  return RefineChains(model, SplitChains(data.t, data.y, data.chain_start, recursive.gamma),
-                      recursive.alpha_hat, recursive.beta_hat, options);
+  return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
 }
 
 }  // namespace
@@ -161,6 +160,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                   static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
                   r.span_reason.c_str());
     }
+    if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
     if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
     if (r.ok()) {
       std::printf(

@@ -280,7 +280,7 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     // The error metrics are the refined estimate's (the recursive one when the fit is not ok).
     RefineOptions ro;
     if (config.known_sigma && cell.sigma > 0) ro.sigma = Vec::Constant(model.state_size(), cell.sigma);
-    const RefineResult rr = RefineIdentification(model, y, truth.dt, res, ro);
+    const RefineResult rr = RefineIdentification(model, truth.t, y, {}, res, ro);
     o->refine_status = ToString(rr.status);
     o->alpha_hat = rr.estimate.alpha;
     o->beta_hat = rr.estimate.beta;

@@ -1,6 +1,6 @@
-// The recoveries the output-error refinements (Refine, RefineChains) share: the span cut before the
-// first disagreement between the model's jumps and the detected ones, and the adoption of the fit
-// from a repaired start. Internal to sim/refine.
+// The recoveries of the output-error refinement: the span cut before the first disagreement between
+// the model's jumps and the detected ones, and the adoption of the fit from a repaired start.
+// Internal to sim/refine.
 #pragma once
 
 #include <string>

@@ -25,11 +25,13 @@ TEST_CASE("uniform data: one run, one chain, the mean step", "[sample_data]") {
   CHECK(*d.j == std::vector<int>{0, 0, 1});
 }
 
-TEST_CASE("a missing state cell drops its row and starts a chain; a long step starts a chain",
+TEST_CASE("a missing state cell drops its row and the chain goes on; a long step starts a chain",
           "[sample_data]") {
-  // Steps 0.1 except one of 0.7 (> 5 × the median 0.1): chains at sample 0, after line 4, at t = 1.3.
+  // Steps 0.1 (0.2 across a dropped row) except one of 0.7 (> 5 × the median 0.1): chains at sample 0
+  // and at t = 1.5.
   const std::string text =
-      "t,x,v\n0,1,2\n0.1,1,2\n0.2,,2\n0.3,1,2\n0.4,1,NA\n0.5,1,2\n0.6,1,2\n1.3,1,2\n1.4,1,2\n";
+      "t,x,v\n0,1,2\n0.1,1,2\n0.2,,2\n0.3,1,2\n0.4,1,NA\n0.5,1,2\n0.6,1,2\n0.7,1,2\n0.8,1,2\n1.5,1,2\n"
+      "1.6,1,2\n";
   const SampleData d = SampleDataFromTable(Table(text), 2);
   CHECK_FALSE(d.uniform);
   CHECK(d.missing_rows == 2);
@@ -37,13 +39,15 @@ TEST_CASE("a missing state cell drops its row and starts a chain; a long step st
   CHECK(d.gaps == 1);
   CHECK(d.dt == Approx(0.1));
   CHECK(d.max_gap == Approx(0.5));
-  CHECK(d.t == std::vector<double>{0, 0.1, 0.3, 0.5, 0.6, 1.3, 1.4});
-  CHECK(d.chain_start == std::vector<std::uint8_t>{1, 0, 1, 1, 0, 1, 0});
-  CHECK(d.line == std::vector<long>{2, 3, 5, 7, 8, 9, 10});
-  // A larger maximum gap keeps t = 1.3 in its chain.
+  CHECK(d.t == std::vector<double>{0, 0.1, 0.3, 0.5, 0.6, 0.7, 0.8, 1.5, 1.6});
+  CHECK(d.chain_start == std::vector<std::uint8_t>{1, 0, 0, 0, 0, 0, 0, 1, 0});
+  CHECK(d.line == std::vector<long>{2, 3, 5, 7, 8, 9, 10, 11, 12});
+  // A larger maximum gap keeps t = 1.5 in its chain; a smaller one cuts at the dropped rows too.
   const SampleData wide = SampleDataFromTables({Table(text)}, 2, {.max_gap = 1.0});
   CHECK(wide.gaps == 0);
-  CHECK(wide.chains() == 3);
+  CHECK(wide.chains() == 1);
+  const SampleData narrow = SampleDataFromTables({Table(text)}, 2, {.max_gap = 0.15});
+  CHECK(narrow.chain_start == std::vector<std::uint8_t>{1, 0, 1, 1, 0, 0, 0, 1, 0});
 }
 
 TEST_CASE("irregular steps are accepted; time must still increase", "[sample_data]") {

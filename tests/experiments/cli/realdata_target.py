@@ -111,14 +111,17 @@ def main():
     truth = {"a": A, "b": B, "lambda": LAMBDA, "mu": MU}
     worst = 0.0
     for name, est, se in zip(fit["names"], fit["estimate"], fit["standard_errors"]):
+        if name not in truth:  # the first chain's initial state
+            continue
         z = abs(est - truth[name]) / se
         worst = max(worst, z)
         print(f"{name}: {est:.10g} ± {se:.3g}, truth {truth[name]}: |error|/se = {z:.2f}")
-    print(f"max |error|/se = {worst:.2f} over {len(fit['names'])} estimates; chains {fit['chains_used']}")
+    print(f"max |error|/se = {worst:.2f} over the {len(truth)} estimates of alpha and beta; "
+          f"chains {fit['chains_used']}")
     if sum(fit["chain_samples_used"]) != fit["samples_used"] or \
             len(fit["chain_samples_used"]) != len(fit["chain_x0"]):
         sys.exit("FAILED: the per-chain sample counts do not add up to samples_used")
-    if fit["status"] != "ok" or worst > 4.0 or len(fit["names"]) != 4:
+    if fit["status"] != "ok" or worst > 4.0 or not set(truth) <= set(fit["names"]):
         sys.exit("FAILED: status not ok or an estimate beyond 4 standard errors")
 
 

@@ -1,5 +1,5 @@
-// The refinement of several chains (RefineChains): one chain agrees with Refine, splitting a run into
-// chains costs information but keeps the estimate honest, samples at their own times, a chain whose
+// The refinement of several chains: splitting a run into chains costs information but keeps the
+// estimate honest, samples at their own times, a chain whose
 // detected jumps are wrong gives a status that names it, and the recoveries (the span of that chain
 // cut before the disagreement, the repaired start) mend what they can.
 #include <catch2/catch.hpp>
@@ -47,31 +47,14 @@ RefineOptions NoRecovery() {
   return o;
 }
 
-// Each shared unknown within k of its standard errors of the truth.
+// Each shared unknown (α, β) within k of its standard errors of the truth.
 void RequireNearTruth(const Model& model, const RefineResult& r, double k) {
-  const Vec e = r.estimate.Theta(r.unknowns) - HybridParameters::Of(model, Vec::Zero(2)).Theta(r.unknowns);
+  const Unknowns shared = Unknowns::Of(model, /*with_x0=*/false);
+  const Vec e = r.estimate.Theta(shared) - HybridParameters::Of(model, Vec::Zero(2)).Theta(shared);
   for (Eigen::Index i = 0; i < e.size(); ++i) {
     INFO(r.names[static_cast<std::size_t>(i)] << ": error " << e[i] << ", se " << r.standard_errors[i]);
     CHECK(std::abs(e[i]) < k * r.standard_errors[i]);
   }
-}
-
-TEST_CASE("one chain on a uniform grid: RefineChains gives Refine's estimate and standard errors",
-          "[refine][chains]") {
-  const Run run((Vec(2) << 20.0, 0.0).finished(), 0.05, 0);
-  const Vec alpha0 = Start(run.model), beta0 = run.model.beta();
-  const RefineResult one = Refine(run.model, run.y, 5e-4, alpha0, beta0, run.gamma);
-  const RefineResult chains = RefineChains(run.model, {run.Chain(0, run.truth.size())}, alpha0, beta0);
-  INFO(one.reason << " / " << chains.reason);
-  REQUIRE(one.ok());
-  REQUIRE(chains.ok());
-  const Vec a = one.estimate.Theta(chains.unknowns), b = chains.estimate.Theta(chains.unknowns);
-  for (Eigen::Index i = 0; i < a.size(); ++i) {
-    CHECK(std::abs(a[i] - b[i]) < 1e-3 * one.standard_errors[i]);
-    CHECK(chains.standard_errors[i] == Approx(one.standard_errors[i]).epsilon(1e-4));
-  }
-  CHECK((chains.chain_x0[0] - one.estimate.x0).norm() < 1e-6);
-  CHECK(chains.chains_used == 1);
 }
 
 TEST_CASE("three runs, one cut in two: joint α, β within 4 se, the cut costs information",
@@ -80,10 +63,10 @@ TEST_CASE("three runs, one cut in two: joint α, β within 4 se, the cut costs i
       c((Vec(2) << 10.0, -10.0).finished(), 0.05, 3);
   const Vec alpha0 = Start(a.model), beta0 = a.model.beta();
   const long half = a.truth.size() / 2;
-  const RefineResult whole = RefineChains(
+  const RefineResult whole = Refine(
       a.model, {a.Chain(0, a.truth.size()), b.Chain(0, b.truth.size()), c.Chain(0, c.truth.size())}, alpha0,
       beta0);
-  const RefineResult cut = RefineChains(a.model,
+  const RefineResult cut = Refine(a.model,
                                         {a.Chain(0, half), a.Chain(half + 1, a.truth.size()),
                                          b.Chain(0, b.truth.size()), c.Chain(0, c.truth.size())},
                                         alpha0, beta0);
@@ -92,7 +75,8 @@ TEST_CASE("three runs, one cut in two: joint α, β within 4 se, the cut costs i
   REQUIRE(cut.ok());
   CHECK(cut.chains_used == 4);
   CHECK(cut.chain_x0.size() == 4);
-  const Vec truth = HybridParameters::Of(a.model, Vec::Zero(2)).Theta(whole.unknowns);
+  // α, β and the first chain's initial state (run a's, in both).
+  const Vec truth = HybridParameters::Of(a.model, a.truth.x.col(0)).Theta(whole.unknowns);
   for (const RefineResult* r : {&whole, &cut}) {
     const Vec e = r->estimate.Theta(r->unknowns) - truth;
     for (Eigen::Index i = 0; i < e.size(); ++i) CHECK(std::abs(e[i]) < 4 * r->standard_errors[i]);
@@ -123,11 +107,11 @@ TEST_CASE("samples at their own times: the model is read at each sample's time",
     j_prev = j;
     ++i;
   }
-  const RefineResult r = RefineChains(fine.model, {irregular}, Start(fine.model), fine.model.beta());
+  const RefineResult r = Refine(fine.model, {irregular}, Start(fine.model), fine.model.beta());
   INFO(r.reason);
   REQUIRE(r.ok());
   const Vec e =
-      r.estimate.Theta(r.unknowns) - HybridParameters::Of(fine.model, Vec::Zero(2)).Theta(r.unknowns);
+      r.estimate.Theta(r.unknowns) - HybridParameters::Of(fine.model, fine.truth.x.col(0)).Theta(r.unknowns);
   for (Eigen::Index k = 0; k < e.size(); ++k) CHECK(std::abs(e[k]) < 4 * r.standard_errors[k]);
   CHECK(r.normalized_rms == Approx(1.0).margin(0.05));
 }
@@ -139,7 +123,7 @@ TEST_CASE("without recoveries, a chain with a missed jump, or too short to fit: 
   std::size_t k = 1;
   while (wrong.gamma[k] == 0) ++k;
   wrong.gamma[k] = 0;  // the detector "missed" the first jump of chain 2
-  const RefineResult r = RefineChains(a.model, {a.Chain(0, a.truth.size()), wrong}, Start(a.model),
+  const RefineResult r = Refine(a.model, {a.Chain(0, a.truth.size()), wrong}, Start(a.model),
                                       a.model.beta(), NoRecovery());
   INFO(r.reason);
   CHECK_FALSE(r.ok());  // measured: not-converged (the matched flow continues past the missed jump)
@@ -149,18 +133,18 @@ TEST_CASE("without recoveries, a chain with a missed jump, or too short to fit: 
   // A spurious detected jump near the end of chain 2: the model never reaches that many segments.
   RefineChain extra = b.Chain(0, b.truth.size());
   extra.gamma[extra.gamma.size() - 20] = 1;
-  const RefineResult s = RefineChains(a.model, {a.Chain(0, a.truth.size()), extra}, Start(a.model),
+  const RefineResult s = Refine(a.model, {a.Chain(0, a.truth.size()), extra}, Start(a.model),
                                       a.model.beta(), NoRecovery());
   CHECK(s.status == RefineStatus::kStartFailed);
   CHECK_THAT(s.reason, Catch::Contains("chain 2"));
   // Chains of fewer than 2n + 2 samples are left out and counted; none left: too few samples.
   const RefineResult tiny =
-      RefineChains(a.model, {a.Chain(0, 5), a.Chain(10, 15)}, Start(a.model), a.model.beta());
+      Refine(a.model, {a.Chain(0, 5), a.Chain(10, 15)}, Start(a.model), a.model.beta());
   CHECK(tiny.status == RefineStatus::kTooFewSamples);
   CHECK(tiny.chains_skipped == 2);
   CHECK_THAT(tiny.chain_span_reason[0], Catch::Contains("left out: 5 samples"));
   const RefineResult empty =
-      RefineChains(a.model, {a.Chain(0, 0), a.Chain(10, 15)}, Start(a.model), a.model.beta());
+      Refine(a.model, {a.Chain(0, 0), a.Chain(10, 15)}, Start(a.model), a.model.beta());
   CHECK(empty.status == RefineStatus::kTooFewSamples);
   CHECK(empty.chain_samples_used == std::vector<long>{0, 0});
 }
@@ -175,14 +159,16 @@ struct TwoRuns {
     second = b.Chain(0, std::min(last + tail, b.truth.size()));
   }
   RefineResult Fit(const RefineOptions& options = {}) const {
-    return RefineChains(a.model, {a.Chain(0, a.truth.size()), second}, Start(a.model), a.model.beta(),
+    return Refine(a.model, {a.Chain(0, a.truth.size()), second}, Start(a.model), a.model.beta(),
                         options);
   }
 };
 
 TEST_CASE("a chain whose detector missed its last jump, near its end: that chain's span is cut before it",
           "[refine][chains]") {
-  TwoRuns runs(30);  // too close to the end for the repaired start to add the jump
+  // Too close to the end for the repaired start to add the jump; the fit distorted by the missed
+  // jump puts its own jump too far from the true one for the fit mended from it to pass its checks.
+  TwoRuns runs(30);
   runs.second.gamma[static_cast<std::size_t>(runs.last)] = 0;
   const RefineResult kept = runs.Fit(NoRecovery());
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -194,6 +180,7 @@ TEST_CASE("a chain whose detector missed its last jump, near its end: that chain
   INFO(ToString(r.status) << ": " << r.reason << " | " << r.span_reason << " | " << r.start_repair);
   REQUIRE(r.ok());
   CHECK(r.start_repair.empty());
+  CHECK(r.mended.empty());
   CHECK(r.chain_samples_used[0] == runs.a.truth.size());
   CHECK(r.chain_span_reason[0].empty());
   // Chain 2 ends the margin (ceil(jump_time_tolerance) + 2 samples) before the missed jump.

@@ -28,6 +28,12 @@ struct Run {
   }
 };
 
+// The refinement of one uniform run.
+RefineResult RefineRun(const Model& model, const Mat& y, double dt, const Vec& alpha0, const Vec& beta0,
+                       const std::vector<std::uint8_t>& gamma, const RefineOptions& options = {}) {
+  return Refine(model, {RefineChain::Uniform(y, dt, gamma)}, alpha0, beta0, options);
+}
+
 void RequireKept(const RefineResult& r) {
   CHECK_FALSE(r.ok());
   CHECK_FALSE(r.reason.empty());
@@ -43,7 +49,7 @@ TEST_CASE("refinement of the §5 system from the recursive estimate reaches the 
   settings.data_rtol = settings.data_atol = 1e-12;
   const IdentifyResult recursive = Identify(run.model, run.y, run.grid.dt, settings);
   REQUIRE(recursive.jumps_detected == 14);
-  const RefineResult r = RefineIdentification(run.model, run.y, run.grid.dt, recursive);
+  const RefineResult r = RefineIdentification(run.model, run.truth.t, run.y, {}, recursive);
   INFO(r.reason);
   REQUIRE(r.ok());
   CHECK(r.model_jumps == 14);
@@ -63,7 +69,7 @@ TEST_CASE("noise-free data: the refinement recovers α and β to 1e-9", "[refine
   Vec alpha0 = run.model.alpha(), beta0 = run.model.beta();
   alpha0[1] *= 1.01;
   beta0[1] -= 0.005;
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
+  const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
   INFO(r.reason);
   REQUIRE(r.ok());
   CHECK((r.estimate.alpha - run.model.alpha()).norm() < 1e-9);
@@ -74,7 +80,7 @@ TEST_CASE("a start far from the truth: not ok, recursive estimate kept", "[refin
   const Run run(0.05);
   Vec alpha0 = run.model.alpha();
   alpha0[1] = 20.0;  // stiffness 4× off: twice the frequency, a different number of impacts
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, alpha0, run.model.beta(), run.gamma);
+  const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, run.model.beta(), run.gamma);
   RequireKept(r);
   // The repaired start keeps α̂: its local flows cannot follow the data, and that fit fails too.
   CHECK_THAT(r.reason, Catch::Contains("from a repaired start"));
@@ -101,7 +107,7 @@ TEST_CASE("a detector that missed a jump: not ok from the recursive start, ok on
   RefineOptions no_repair;
   no_repair.repair_start = false;
   const RefineResult kept =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);
   RequireKept(kept);
   CHECK(kept.detected_jumps == 13);
@@ -109,7 +115,7 @@ TEST_CASE("a detector that missed a jump: not ok from the recursive start, ok on
          kept.status == RefineStatus::kResidualCorrelation || kept.status == RefineStatus::kNotConverged));
   // The repaired start: the model's jump inside the long segment is tested against the data and added.
   const RefineResult r =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   INFO(ToString(r.status) << ": " << r.reason << " | " << r.start_repair);
   REQUIRE(r.ok());
   CHECK_THAT(r.start_repair, Catch::Contains("1 added"));
@@ -136,9 +142,9 @@ TEST_CASE("a false detection and the β̂ it ruined: the repaired start converge
   alpha0[1] += 5e-4;  // the recursive α̂'s error at this σ
   RefineOptions no_repair;
   no_repair.repair_start = false;
-  const RefineResult kept = Refine(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma, no_repair);
+  const RefineResult kept = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma, no_repair);
   RequireKept(kept);
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
+  const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
   INFO(ToString(r.status) << ": " << r.reason);
   REQUIRE(r.ok());
   CHECK_THAT(r.start_repair, Catch::Contains("1 dropped, 0 moved, 0 added"));
@@ -148,7 +154,8 @@ TEST_CASE("a false detection and the β̂ it ruined: the repaired start converge
   RequireWithinBound(run, r, 0.01, 4.0);
 }
 
-TEST_CASE("a detection a few samples late: moved to where the flows meet", "[refine]") {
+TEST_CASE("a detection a few samples late: mended from the fitted model, or moved to where the flows meet",
+          "[refine]") {
   Run run(0.05);
   std::size_t k = run.gamma.size() / 3;
   while (run.gamma[k] == 0) ++k;
@@ -156,18 +163,30 @@ TEST_CASE("a detection a few samples late: moved to where the flows meet", "[ref
   run.gamma[k + 6] = 1;
   Vec beta0 = run.model.beta();
   beta0[1] = 0.9;
-  const RefineResult r = Refine(run.model, run.y, run.grid.dt, run.model.alpha(), beta0, run.gamma);
+  // The fitted model jumps 6 samples before the detection: its jump replaces it.
+  const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), beta0, run.gamma);
   INFO(ToString(r.status) << ": " << r.reason);
   REQUIRE(r.ok());
-  CHECK_THAT(r.start_repair, Catch::Contains("0 dropped, 1 moved, 0 added"));
+  CHECK(r.mended == "1 added, 1 dropped");
+  CHECK(r.start_repair.empty());
   RequireWithinBound(run, r, 0.05, 4.0);
+  // Without the mend, the repaired start moves the detection.
+  RefineOptions no_mend;
+  no_mend.mend_detections = false;
+  const RefineResult moved =
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), beta0, run.gamma, no_mend);
+  INFO(ToString(moved.status) << ": " << moved.reason);
+  REQUIRE(moved.ok());
+  CHECK(moved.mended.empty());
+  CHECK_THAT(moved.start_repair, Catch::Contains("0 dropped, 1 moved, 0 added"));
+  RequireWithinBound(run, moved, 0.05, 4.0);
 }
 
 TEST_CASE("data with NaN: status non-finite-data naming the sample", "[refine]") {
   Run run(0.05);
   run.y(1, 100) = std::nan("");
   const RefineResult r =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   RequireKept(r);
   CHECK(r.status == RefineStatus::kNonFiniteData);
   CHECK_THAT(r.reason, Catch::Contains("sample 100 component 2"));
@@ -187,7 +206,7 @@ TEST_CASE("a ball at rest after its Zeno time: not ok (the fit cannot rest)", "[
   for (long k = 1; k < k3; ++k)
     gamma[static_cast<std::size_t>(k)] =
         t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
-  const RefineResult r = Refine(model, y, grid.dt, model.alpha(), model.beta(), gamma);
+  const RefineResult r = RefineRun(model, y, grid.dt, model.alpha(), model.beta(), gamma);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
   CHECK((r.status == RefineStatus::kZeno || r.status == RefineStatus::kStartFailed ||
@@ -209,7 +228,7 @@ TEST_CASE("a ball run to its Zeno time and resting: the part before the dense bo
         t.j[static_cast<std::size_t>(k)] != t.j[static_cast<std::size_t>(k - 1)];
   Vec beta0 = model.beta();
   beta0[1] = 0.79;
-  const RefineResult r = Refine(model, y, grid.dt, model.alpha(), beta0, gamma);
+  const RefineResult r = RefineRun(model, y, grid.dt, model.alpha(), beta0, gamma);
   INFO(ToString(r.status) << ": " << r.reason);
   REQUIRE(r.ok());
   CHECK(r.samples_used < kz);
@@ -229,7 +248,7 @@ TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the 
   RefineOptions options;
   options.min_jump_interval = 0;
   options.repair_start = false;  // (the repaired start merges bounces closer than 10 samples)
-  const RefineResult r = Refine(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
+  const RefineResult r = RefineRun(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
   CHECK(r.status == RefineStatus::kZeno);
@@ -264,17 +283,17 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
   BallRun run;
   REQUIRE(run.truth.status.completed());
   const RefineResult all =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   REQUIRE(all.ok());
   const long missed = run.RemoveJump(all.samples_used, true);
   RefineOptions no_retry;
   no_retry.max_span_retries = 0;
   const RefineResult kept =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_retry);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_retry);
   INFO(ToString(kept.status) << ": " << kept.reason);
   CHECK(kept.status == RefineStatus::kJumpCountMismatch);
   const RefineResult r =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   INFO(ToString(r.status) << ": " << r.reason << "; " << r.span_reason);
   REQUIRE(r.ok());
   CHECK(r.samples_used < missed);
@@ -300,11 +319,11 @@ TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help
   RefineOptions no_repair;
   no_repair.repair_start = false;
   const RefineResult kept =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);
   RequireKept(kept);
   const RefineResult r =
-      Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
+      RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma);
   INFO(ToString(r.status) << ": " << r.reason << " | " << r.start_repair);
   REQUIRE(r.ok());
   CHECK_THAT(r.start_repair, Catch::Contains("1 added"));
@@ -322,10 +341,10 @@ TEST_CASE("bad options and inputs name the field", "[refine]") {
   const Run run(0.05);
   RefineOptions o;
   o.rms_low = 2.0;
-  CHECK_THROWS_WITH(Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, o),
+  CHECK_THROWS_WITH(RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, o),
                     Catch::Contains("RefineOptions::rms_low = 2"));
   std::vector<std::uint8_t> short_gamma(10, 0);
-  CHECK_THROWS_WITH(Refine(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), short_gamma),
+  CHECK_THROWS_WITH(RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), short_gamma),
                     Catch::Contains("gamma has 10 entries"));
 }
 

@@ -1,0 +1,526 @@
+// One fit of the output-error refinement: the chains as fit, the cost, the solve and its polish, the
+// jump checks per chain and the residual checks pooled (sim/refine/fit.hpp).
+#include "sim/refine/fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+#include <glog/logging.h>
+
+#include "core/model/noise_shape.hpp"
+#include "sim/refine/span.hpp"
+
+namespace hysid {
+namespace {
+
+// One chain as fit: the span used, its times from 0, its detected segments.
+struct ChainFit {
+  long index = 0;  // in the caller's list
+  std::vector<double> times;
+  Mat y;
+  std::vector<int> segments;
+  Vec x0;
+};
+
+// Whether the model can be simulated at p: α, β and x0 finite, x0 in C or D.
+bool Admissible(const Model& model, const HybridParameters& p) {
+  return p.alpha.allFinite() && p.beta.allFinite() && p.x0.allFinite() &&
+         (model.InFlowSet(p.x0) || model.InJumpSet(p.x0));
+}
+
+// The trajectory that stands for one that cannot be simulated (status left-domain, with the reason).
+SensitivityTrajectory LeftDomain() {
+  SensitivityTrajectory bad;
+  bad.trajectory.status.stop = SimStop::kLeftDomain;
+  bad.trajectory.status.message = "x0 outside C and D, or parameters not finite";
+  return bad;
+}
+
+struct FitProblem {
+  const Model* model = nullptr;
+  Unknowns unknowns;  // α, β and x0: the sensitivity layout of one chain
+  HybridParameters start;
+  std::vector<ChainFit> fits;
+  Vec weight;  // 1/σ_i
+  SensitivityOptions options;
+  int shared = 0;        // |α_u| + |β_u|
+  bool several = false;  // more than one chain given: messages name the chain
+  ChainFailure failure;
+  // Per fit: the last evaluation with sensitivities and its point (θ, ξ0_c): Ceres' last accepted
+  // point is usually one, reused for the checks at the fit instead of integrating again.
+  mutable std::vector<Vec> cached_at;
+  mutable std::vector<SensitivityTrajectory> cached;
+
+  HybridParameters At(const double* theta, const double* x0) const {
+    Vec full(shared + model->state_size());
+    full.head(shared) = Eigen::Map<const Vec>(theta, shared);
+    full.tail(model->state_size()) = Eigen::Map<const Vec>(x0, model->state_size());
+    return start.WithTheta(unknowns, full);
+  }
+
+  // Fit c's matched trajectory at (θ, ξ0_c) (states only unless `sens`); ok() false when it fails.
+  SensitivityTrajectory Simulate(std::size_t c, const double* theta, const double* x0, bool sens) const {
+    const HybridParameters p = At(theta, x0);
+    const Vec point = p.Theta(unknowns);
+    if (sens && cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
+    if (!Admissible(*model, p)) return LeftDomain();
+    SensitivityOptions o = options;
+    o.sensitivities = sens;
+    SensitivityTrajectory s = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, o);
+    if (sens && s.ok()) {
+      cached_at[c] = point;
+      cached[c] = s;
+    }
+    return s;
+  }
+
+  // "chain c: " when several chains are given, else "".
+  std::string Label(std::size_t c) const {
+    return several ? fmt::format("chain {}: ", fits[c].index + 1) : std::string();
+  }
+};
+
+class ChainCost final : public ceres::CostFunction {
+ public:
+  ChainCost(const FitProblem& problem, std::size_t chain) : problem_(problem), chain_(chain) {
+    set_num_residuals(static_cast<int>(problem.fits[chain].y.size()));
+    mutable_parameter_block_sizes()->push_back(problem.shared);
+    mutable_parameter_block_sizes()->push_back(problem.model->state_size());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const bool jac = jacobians != nullptr && (jacobians[0] != nullptr || jacobians[1] != nullptr);
+    const SensitivityTrajectory s = problem_.Simulate(chain_, parameters[0], parameters[1], jac);
+    if (!s.ok()) return false;
+    const Mat& y = problem_.fits[chain_].y;
+    const Eigen::Index n = y.rows(), k_count = y.cols();
+    Eigen::Map<Mat> r(residuals, n, k_count);
+    r = problem_.weight.asDiagonal() * (y - s.trajectory.x);
+    if (!r.allFinite()) return false;
+    if (!jac) return true;
+    const int shared = problem_.shared, p = s.parameters;
+    const double* w = problem_.weight.data();
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      const double* sk = s.sensitivities.col(k).data();  // n × p, column-major
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const Eigen::Index row = k * n + i;
+        if (jacobians[0] != nullptr) {
+          for (int c = 0; c < shared; ++c) jacobians[0][row * shared + c] = -w[i] * sk[c * n + i];
+        }
+        if (jacobians[1] != nullptr) {
+          for (int c = shared; c < p; ++c) jacobians[1][row * n + (c - shared)] = -w[i] * sk[c * n + i];
+        }
+      }
+    }
+    return true;
+  }
+
+ private:
+  const FitProblem& problem_;
+  std::size_t chain_;
+};
+
+// Integration accuracy per component: residuals below it are numerical, not noise.
+Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
+  return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
+}
+
+// The samples before the first detected jump that follows the previous one by fewer than
+// `min_interval` samples (jumps that close are not resolved reliably: the part before them is fit).
+long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval) {
+  long previous = 0;
+  for (std::size_t k = 1; k < gamma.size(); ++k) {
+    if (gamma[k] == 0) continue;
+    const auto kk = static_cast<long>(k);
+    if (previous > 0 && kk - previous < min_interval) return previous;
+    previous = kk;
+  }
+  return static_cast<long>(gamma.size());
+}
+
+// The chains as fit from s: span rule and retry limits, too short or outside C ∪ D left out; each
+// chain's samples and span reason in r.
+std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<RefineChain>& chains,
+                                    const FitStart& s, const RefineOptions& options, RefineResult& r) {
+  std::vector<ChainFit> fits;
+  r.chain_x0.assign(chains.size(), Vec());
+  r.chain_samples_used.assign(chains.size(), 0);
+  r.chain_span_reason.assign(chains.size(), "");
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    const RefineChain& in = chains[c];
+    const long whole = FitLength(s.gamma[c], options.min_jump_interval), used = std::min(whole, s.limit[c]);
+    r.chain_span_reason[c] =
+        used < whole ? s.reason[c] : (whole < in.y.cols() ? CloseJumpsReason(options) : "");
+    if (const std::string out = LeftOut(model, in, used); !out.empty()) {
+      r.chain_span_reason[c] = out;
+      ++r.chains_skipped;
+      continue;
+    }
+    ChainFit f;
+    f.index = static_cast<long>(c);
+    f.y = in.y.leftCols(used);
+    f.x0 = s.x0[c];
+    int j = 0;
+    for (long k = 0; k < used; ++k) {
+      const auto u = static_cast<std::size_t>(k);
+      f.times.push_back(in.t[u] - in.t[0]);
+      j += (k > 0 && s.gamma[c][u] != 0) ? 1 : 0;
+      f.segments.push_back(j);
+    }
+    r.detected_jumps += j;
+    r.samples_used += used;
+    r.chain_samples_used[c] = used;
+    fits.push_back(std::move(f));
+  }
+  r.chains_used = static_cast<long>(fits.size());
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    if (r.chain_span_reason[c].empty()) continue;
+    r.span_reason += chains.size() == 1 ? r.chain_span_reason[c]
+                                        : fmt::format("{}chain {}: {}", r.span_reason.empty() ? "" : "; ",
+                                                      c + 1, r.chain_span_reason[c]);
+  }
+  return fits;
+}
+
+// The Ceres solve: Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, the
+// chains' ξ0 blocks eliminated (Schur complement), one thread, Ceres' own logging silenced (the
+// fit's status carries a failed evaluation).
+ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& options, Vec& theta,
+                             std::vector<Vec>& x0) {
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem cp(po);
+  for (std::size_t c = 0; c < problem.fits.size(); ++c) {
+    cp.AddResidualBlock(new ChainCost(problem, c), nullptr, theta.data(), x0[c].data());
+  }
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = ceres::DENSE_SCHUR;
+  so.max_num_iterations = options.max_iterations;
+  so.function_tolerance = options.function_tolerance;
+  so.parameter_tolerance = options.parameter_tolerance;
+  so.gradient_tolerance = 1e-16;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  so.num_threads = 1;
+  static const bool quiet = [] {  // Ceres reports a failed evaluation through glog as well
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)quiet;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &cp, &summary);
+  return summary;
+}
+
+// The last three jump intervals shrink and the last two are below one sample step: the jumps
+// accumulate faster than the samples can show (a Zeno approach).
+bool AccumulatesWithinASample(const std::vector<JumpRecord>& jumps, double step) {
+  const std::size_t m = jumps.size();
+  if (m < 4) return false;
+  const double i1 = jumps[m - 1].t - jumps[m - 2].t, i2 = jumps[m - 2].t - jumps[m - 3].t,
+               i3 = jumps[m - 3].t - jumps[m - 4].t;
+  return i1 < i2 && i2 < i3 && i2 < step;
+}
+
+// The model at p on its own over fit f's span (plain mode, states only): its jumps are what the
+// checks compare with the detected ones. The grid's step is the chain's mean step (only the jumps,
+// located by root finding, are read).
+SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit& f, const HybridParameters& p) {
+  if (!Admissible(*problem.model, p)) return LeftDomain();
+  SensitivityOptions o = problem.options;
+  o.sensitivities = false;
+  const double t_end = f.times.back();
+  const SampleGrid grid{t_end, t_end / static_cast<double>(f.times.size() - 1)};
+  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o);
+}
+
+// The first disagreement of fit c's model on its own at p with its detected jumps (more than
+// `tolerance` samples apart, or a jump without a counterpart), noted for the span retries.
+void NoteFailure(FitProblem& problem, std::size_t c, const SensitivityTrajectory& plain, double tolerance) {
+  const ChainFit& f = problem.fits[c];
+  problem.failure = ChainFailure{.chain = f.index, .disagreement = -1, .model_jumps = {}};
+  if (plain.trajectory.status.stop == SimStop::kLeftDomain) return;
+  problem.failure.disagreement =
+      FirstDisagreement(plain.trajectory.jumps, f.segments, SampleClock{.times = &f.times}, tolerance);
+}
+
+// Fit c's model on its own at the fit against its detected jumps: Zeno, count, times; a failure is
+// noted for the span retries. Adds its jumps to r.model_jumps.
+void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit, const RefineOptions& options,
+                RefineResult& r) {
+  const ChainFit& f = problem.fits[c];
+  const SensitivityTrajectory plain = SimulateOnItsOwn(problem, f, fit);
+  const std::vector<JumpRecord>& jumps = plain.trajectory.jumps;
+  const SimStatus& st = plain.trajectory.status;
+  const int model = static_cast<int>(jumps.size()), detected = f.segments.back();
+  r.model_jumps += model;
+  if (!r.ok()) return;  // an earlier chain failed: only the jumps are counted
+  const std::string label = problem.Label(c);
+  const double step = f.times.back() / static_cast<double>(f.times.size() - 1);
+  if (st.stop == SimStop::kZeno) {
+    Fail(r, RefineStatus::kZeno, fmt::format("{}the fitted model is Zeno: {}", label, st.message));
+  } else if (!st.completed()) {
+    Fail(r, RefineStatus::kNotConverged,
+         fmt::format("{}the fitted model does not simulate: {}: {}", label, ToString(st.stop), st.message));
+  } else if (model != detected && AccumulatesWithinASample(jumps, step)) {
+    Fail(r, RefineStatus::kZeno,
+         fmt::format("{}the fitted model's jumps accumulate (Zeno) near t = {:.6g}: {} jumps, the last ones "
+                     "less than a sample apart, against {} detected",
+                     label, jumps.back().t, model, detected));
+  } else if (model != detected) {
+    Fail(r, RefineStatus::kJumpCountMismatch,
+         fmt::format("{}the fitted model jumps {} times, the detector found {}", label, model, detected));
+  } else {
+    const SampleClock clock{.times = &f.times};
+    std::size_t j = 0;
+    for (std::size_t k = 1; k < f.segments.size() && r.ok(); ++k) {
+      if (f.segments[k] == f.segments[k - 1]) continue;
+      const double t = jumps[j++].t, off = clock.Off(t, static_cast<long>(k));
+      if (off <= options.jump_time_tolerance) continue;
+      Fail(r, RefineStatus::kJumpCountMismatch,
+           fmt::format("{}fitted jump {} at t = {:.6g} is {:.3g} samples from the detected interval "
+                       "({:.6g}, {:.6g}]",
+                       label, j, t, off, f.times[k - 1], f.times[k]));
+    }
+  }
+  if (r.ok()) return;
+  NoteFailure(problem, c, plain, options.jump_time_tolerance);
+  for (const JumpRecord& jump : jumps) problem.failure.model_jumps.push_back(jump.t);
+}
+
+// The joint Fisher information: shared block plus one x0 block per chain.
+Mat JointFisher(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, const Vec& sigma) {
+  const int s = problem.shared, n = problem.model->state_size();
+  const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
+  Mat f = Mat::Zero(total, total);
+  for (std::size_t c = 0; c < sims.size(); ++c) {
+    const Mat fc = FisherInformation(sims[c], sigma);
+    const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
+    f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
+    f.block(0, o, s, n) = fc.topRightCorner(s, n);
+    f.block(o, 0, n, s) = fc.bottomLeftCorner(n, s);
+    f.block(o, o, n, n) = fc.bottomRightCorner(n, n);
+  }
+  return f;
+}
+
+// The names of the joint θ: the shared unknowns, then x0 of each fitted chain (" chain c" when several).
+std::vector<std::string> JointNames(const FitProblem& problem) {
+  const std::vector<std::string> all = problem.unknowns.Names(*problem.model);
+  std::vector<std::string> names(all.begin(), all.begin() + problem.shared);
+  for (const ChainFit& f : problem.fits) {
+    for (std::size_t i = static_cast<std::size_t>(problem.shared); i < all.size(); ++i) {
+      names.push_back(problem.several ? fmt::format("{} chain {}", all[i], f.index + 1) : all[i]);
+    }
+  }
+  return names;
+}
+
+// The residual checks from the normalised residuals z (n × K), their lag-1 sum `lag`, the residual σ,
+// its MAD estimate from the data and the floor: sets normalized_rms and lag1, and fails with
+// kResidualRms (RMS outside [rms_low, rms_high]; with σ estimated, σ over the MAD estimate above
+// rms_high) or kResidualCorrelation (|lag1| > max_lag1 while the residuals are above the floor).
+void JudgeResiduals(const Mat& z, double lag, const Vec& sigma_hat, const Vec& mad_sigma, const Vec& floor,
+                    const RefineOptions& options, RefineResult& r) {
+  r.normalized_rms = 0.0;
+  if (r.sigma_estimated) {
+    for (Eigen::Index i = 0; i < sigma_hat.size(); ++i) {
+      if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
+    }
+  } else {
+    r.normalized_rms = std::sqrt(z.squaredNorm() / static_cast<double>(z.size()));
+  }
+  r.lag1 = z.squaredNorm() > 0.0 ? lag / z.squaredNorm() : 0.0;
+  const bool above_floor = (sigma_hat.array() > floor.array()).all();
+  if (r.normalized_rms > options.rms_high ||
+      (!r.sigma_estimated && above_floor && r.normalized_rms < options.rms_low)) {
+    return Fail(r, RefineStatus::kResidualRms,
+                fmt::format("normalised residual RMS {:.4g} outside [{:g}, {:g}]{}", r.normalized_rms,
+                            r.sigma_estimated ? 0.0 : options.rms_low, options.rms_high,
+                            r.sigma_estimated ? " (residual sigma over the MAD estimate)" : ""));
+  }
+  if (above_floor && std::abs(r.lag1) > options.max_lag1) {
+    return Fail(r, RefineStatus::kResidualCorrelation,
+                fmt::format("lag-1 autocorrelation of the residuals {:.4g} (|.| > {:g}): the model or "
+                            "the detected jumps do not fit the data",
+                            r.lag1, options.max_lag1));
+  }
+}
+
+// The residuals of every fitted span at the fit, side by side.
+Mat Residuals(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims) {
+  Mat res = Concatenated(problem.fits, problem.model->state_size());
+  Eigen::Index k = 0;
+  for (std::size_t c = 0; c < sims.size(); ++c) {
+    res.middleCols(k, problem.fits[c].y.cols()) -= sims[c].trajectory.x;
+    k += problem.fits[c].y.cols();
+  }
+  return res;
+}
+
+// σ, the covariance of the reported unknowns (α, β, the first fitted chain's ξ0), normalised RMS and
+// lag-1 (within chains), pooled over the chains.
+void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims,
+                    const Vec& mad_sigma, const RefineOptions& options, RefineResult& r) {
+  const int n = problem.model->state_size();
+  const Mat y = Concatenated(problem.fits, n), res = Residuals(problem, sims);
+  const double p = problem.shared + n * static_cast<double>(sims.size());
+  const Vec sigma_hat = (res.rowwise().squaredNorm() / (static_cast<double>(y.cols()) - p / n)).cwiseSqrt();
+  const Vec floor = NumericalFloor(y, problem.options.sim);
+  r.sigma_estimated = options.sigma.size() == 0;
+  r.sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);  // noise-free: the accuracy
+  const Crlb bound = CrlbFromFisher(JointFisher(problem, sims, r.sigma), problem.unknowns, JointNames(problem));
+  if (!bound.ok()) return Fail(r, RefineStatus::kSingularFisher, bound.message);
+  r.covariance = bound.covariance.topLeftCorner(problem.shared + n, problem.shared + n);
+  r.standard_errors = bound.sd.head(problem.shared + n);
+  const Mat z = r.sigma.cwiseInverse().asDiagonal() * res;
+  double lag = 0.0;
+  Eigen::Index k = 0;
+  for (const ChainFit& f : problem.fits) {
+    const Eigen::Index m = f.y.cols();
+    lag += (z.middleCols(k, m - 1).array() * z.middleCols(k + 1, m - 1).array()).sum();
+    k += m;
+  }
+  JudgeResiduals(z, lag, sigma_hat, mad_sigma, floor, options, r);
+}
+
+// Each chain simulated at (theta, x0); false with `failure` naming the chain that does not.
+bool SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0, bool sens,
+                 RefineStatus failure, const char* what, std::vector<SensitivityTrajectory>* sims,
+                 RefineResult& r) {
+  sims->clear();
+  for (std::size_t c = 0; c < problem.fits.size(); ++c) {
+    sims->push_back(problem.Simulate(c, theta.data(), x0[c].data(), sens));
+    if (!sims->back().ok()) {
+      Fail(r, failure,
+           fmt::format("{}{}: {}", problem.Label(c), what, sims->back().trajectory.status.message));
+      return false;
+    }
+  }
+  return true;
+}
+
+// A Ceres solve from (theta, x0), then each chain with sensitivities at the fit. Adds the iterations
+// to r, sets its final cost (and *initial_cost when given); false with kNotConverged ("LABEL:
+// Ceres' message") or the chain that does not simulate.
+bool SolveAndSimulate(const FitProblem& problem, const RefineOptions& options, const char* label, Vec& theta,
+                      std::vector<Vec>& x0, std::vector<SensitivityTrajectory>* sims, RefineResult& r,
+                      double* initial_cost = nullptr) {
+  const ceres::Solver::Summary summary = Solve(problem, options, theta, x0);
+  r.iterations += static_cast<int>(summary.iterations.size());
+  if (initial_cost) *initial_cost = summary.initial_cost;
+  r.final_cost = summary.final_cost;
+  if (summary.termination_type != ceres::CONVERGENCE || !theta.allFinite()) {
+    Fail(r, RefineStatus::kNotConverged, fmt::format("{}: {}", label, summary.message));
+    return false;
+  }
+  return SimulateAll(problem, theta, x0, true, RefineStatus::kNotConverged, "the fit does not simulate", sims,
+                     r);
+}
+
+// Residuals at the integration accuracy in every component (noise-free data): each component's
+// residual σ̂_i, pooled over the chains, below that component's own floor (components differ in
+// scale, and so do their integration errors).
+bool AtIntegrationAccuracy(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims) {
+  const Mat y = Concatenated(problem.fits, problem.model->state_size());
+  const Vec sigma_hat =
+      (Residuals(problem, sims).rowwise().squaredNorm() / static_cast<double>(y.cols())).cwiseSqrt();
+  return (sigma_hat.array() < NumericalFloor(y, problem.options.sim).array()).all();
+}
+
+// Solve, polish for noise-free data, then the checks at the fit.
+void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_sigma, RefineResult& r) {
+  Vec theta = r.start.Theta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, false});
+  std::vector<Vec> x0;
+  for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
+  std::vector<SensitivityTrajectory> sims;
+  if (!SimulateAll(problem, theta, x0, false, RefineStatus::kStartFailed,
+                   "the start does not simulate on the detected segments", &sims, r)) {
+    // The start's jump times drift from the data (it is not fit yet): only its jump count is compared.
+    const std::size_t c = sims.size() - 1;
+    const HybridParameters at = problem.At(theta.data(), x0[c].data());
+    return NoteFailure(problem, c, SimulateOnItsOwn(problem, problem.fits[c], at),
+                       std::numeric_limits<double>::infinity());
+  }
+  if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, &sims, r, &r.initial_cost)) return;
+  if (options.polish_tolerance < problem.options.sim.rtol && AtIntegrationAccuracy(problem, sims)) {
+    problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
+    for (Vec& at : problem.cached_at) at.resize(0);  // integrated at the looser tolerances
+    if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, &sims, r)) return;
+  }
+  r.refined = problem.At(theta.data(), x0.front().data());
+  r.model_jumps = 0;
+  for (std::size_t c = 0; c < sims.size(); ++c) {
+    r.chain_x0[static_cast<std::size_t>(problem.fits[c].index)] = x0[c];
+    CheckJumps(problem, c, problem.At(theta.data(), x0[c].data()), options, r);
+  }
+  if (r.ok()) CheckResiduals(problem, sims, mad_sigma, options, r);
+}
+
+}  // namespace
+
+void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
+                  Vec* weight) {
+  const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
+  *sens = options.sensitivity;
+  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
+  const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
+                                      std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
+                                      options.sensitivity.sim.rtol);
+  sens->sim.rtol = sens->sim.atol = tolerance;
+  *weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, sens->sim)).cwiseInverse();
+}
+
+std::string LeftOut(const Model& model, const RefineChain& chain, long used) {
+  const int n = model.state_size();
+  if (used < 2 * n + 2) return fmt::format("left out: {} samples to fit, fewer than {}", used, 2 * n + 2);
+  if (!model.InFlowSet(chain.y.col(0)) && !model.InJumpSet(chain.y.col(0))) {
+    return "left out: the first sample lies outside C and D";
+  }
+  return "";
+}
+
+void Fail(RefineResult& r, RefineStatus status, std::string reason) {
+  r.status = status;
+  r.reason = std::move(reason);
+}
+
+RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chains, const FitStart& s,
+                       const RefineOptions& options, ChainFailure* failure) {
+  const int n = model.state_size();
+  RefineResult r;
+  r.unknowns = Unknowns::Of(model);
+  r.names = r.unknowns.Names(model);
+  r.start = r.refined = r.estimate = s.start;
+  FitProblem problem;
+  problem.model = &model;
+  problem.unknowns = r.unknowns;
+  problem.shared = r.unknowns.size(n) - n;
+  problem.several = chains.size() > 1;
+  problem.fits = PrepareChains(model, chains, s, options, r);
+  if (!problem.fits.empty()) r.start.x0 = r.refined.x0 = r.estimate.x0 = problem.fits.front().x0;
+  const double p = problem.shared + static_cast<double>(n) * static_cast<double>(problem.fits.size());
+  if (problem.fits.empty() || problem.shared == 0 || static_cast<double>(r.samples_used) < p / n + 2) {
+    Fail(r, RefineStatus::kTooFewSamples,
+         fmt::format("{} samples in {} chain(s) ({} left out: fewer than {} samples or a first sample outside "
+                     "C and D) for {} unknowns",
+                     r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
+    return r;
+  }
+  const Mat y = Concatenated(problem.fits, n);
+  const Vec mad_sigma = EstimateNoiseSigma(y);
+  problem.start = r.start;
+  problem.cached_at.resize(problem.fits.size());
+  problem.cached.resize(problem.fits.size());
+  FitWeighting(y, options, mad_sigma, &problem.options, &problem.weight);
+  RunFit(problem, options, mad_sigma, r);
+  *failure = problem.failure;
+  return r;
+}
+
+}  // namespace hysid
