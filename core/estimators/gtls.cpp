@@ -16,8 +16,10 @@ namespace {
 constexpr double kRankTolerance = 1e-10;  // smallest admissible Cholesky pivot² of D S_φφ D
 constexpr double kRidge = 1e-13;          // added to the equilibrated S at refactorisation
 constexpr double kGenericTolerance = 1e-8;
-// Smallest admissible SupportGap (in sampling standard deviations of the noise eigenvalue).
-constexpr double kMinSupport = 10.0;
+// Smallest admissible SupportGap: the weakest regressor direction carries at least the noise's energy,
+// and stands above it by at least 10 sampling standard deviations of the noise eigenvalue (√(2/W)).
+constexpr double kMinSupport = 1.0;
+constexpr double kMinSupportSd = 10.0;
 
 Mat CheckedShape(const Mat& shape, Eigen::Index m) {
   if (shape.size() == 0) return Mat::Identity(m, m);
@@ -160,7 +162,7 @@ double Gtls::SupportGap(const Mat& l, const Mat& cd, double mu_top) const {
   const double mu_block =
       Eigen::SelfAdjointEigenSolver<Mat>(mp, Eigen::EigenvaluesOnly).eigenvalues()[p - 1];
   if (!(mu_block > 0.0)) return std::numeric_limits<double>::infinity();
-  return (mu_top / mu_block - 1.0) * std::sqrt(weight_ / 2.0);
+  return mu_top / mu_block - 1.0;
 }
 
 bool Gtls::FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const {
@@ -217,12 +219,13 @@ void Gtls::SetThetaFromEigenvector() {
   }
   const double inv = -1.0 / v_[m - 1];
   for (Eigen::Index i = 0; i + 1 < m; ++i) theta_[i] = v_[i] * inv;
-  if (!(support_ >= kMinSupport)) {
+  const double needed = std::max(kMinSupport, kMinSupportSd * std::sqrt(2.0 / weight_));
+  if (!(support_ >= needed)) {
     SetNotOk(EstimatorStatus::kIllConditioned,
-             fmt::format("the regressors' weakest direction is within the noise (the smallest generalized "
-                         "eigenvalue of the regressors exceeds the noise's by {:.3g} of its sampling sd; "
-                         "needs {})",
-                         support_, kMinSupport));
+             fmt::format("the regressors' weakest direction is within the noise: its signal-to-noise energy "
+                         "ratio is {:.3g}, needs {:.3g}; the errors-in-variables correction is not determined "
+                         "by the data",
+                         support_, needed));
     return;
   }
   status_ = EstimatorStatus::kOk;

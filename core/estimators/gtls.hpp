@@ -57,8 +57,8 @@ class Gtls final : public Estimator {
   // before the batch start.
   void Refresh();
   long rows() const { return rows_; }
-  // SupportGap at the last refactorisation (0 before the batch start): below 10 the status is
-  // ill-conditioned, the TLS estimate not determined by the data.
+  // SupportGap at the last refactorisation (0 before the batch start). Below max(1, 10·√(2/W)) (the
+  // signal below the noise, or within 10 sampling sd of it) the status is ill-conditioned.
   double support() const { return support_; }
 
  private:
@@ -75,11 +75,12 @@ class Gtls final : public Estimator {
   // The LLT of the equilibrated θ block D·S_θθ·D (d = D's diagonal); false when it is not (yet)
   // positive definite to kRankTolerance.
   bool FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const;
-  // How far the regressors stand above the noise: with ν the smallest generalized eigenvalue of
+  // How far the regressors stand above their noise: with ν the smallest generalized eigenvalue of
   // (S, C) (the noise energy, ≈ σ²W) and ν' that of the regressor block (S_φφ, C_φφ) (interlacing:
-  // ν ≤ ν'), z = (ν'/ν − 1)·√(W/2), the gap in units of ν's sampling spread √(2/W)·ν. l: the
-  // Cholesky factor of the equilibrated S, cd the equilibrated C, mu_top = 1/ν. +∞ when the
-  // regressors carry no noise (C_φφ = 0: least squares).
+  // ν ≤ ν'), g = ν'/ν − 1, the signal-to-noise energy ratio of the regressors' weakest direction.
+  // TLS corrects least squares along that direction by the factor (1 + g)/g: as g → 0 the estimate
+  // is noise divided by noise. l: the Cholesky factor of the equilibrated S, cd the equilibrated C,
+  // mu_top = 1/ν. +∞ when the regressors carry no noise (C_φφ = 0: least squares).
   double SupportGap(const Mat& l, const Mat& cd, double mu_top) const;
 
   Mat c_;          // C, (p+1)²
