@@ -59,6 +59,18 @@ struct Table {
   }
 };
 
+// Runs sweep `c` into a fresh temporary directory named `name` (2 threads, no progress); returns it.
+fs::path RunInTemp(const SweepConfig& c, const std::string& name) {
+  const fs::path dir = testing::FreshTempDir(name);
+  fs::remove_all(dir);
+  SweepOptions o;
+  o.out = dir;
+  o.threads = 2;
+  o.progress = Progress::Mode::kNone;
+  RunSweep(c, Registry(), o, nullptr);
+  return dir;
+}
+
 }  // namespace
 
 TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][refine]") {
@@ -67,13 +79,7 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
   REQUIRE(cells.size() == 4u);  // σ × refine, refine fastest
   CHECK(cells[0].refine == "none");
   CHECK(cells[1].refine == "ml");
-  const fs::path dir = testing::FreshTempDir("sweep-refine");
-  fs::remove_all(dir);
-  SweepOptions o;
-  o.out = dir;
-  o.threads = 2;
-  o.progress = Progress::Mode::kNone;
-  RunSweep(c, Registry(), o, nullptr);
+  const fs::path dir = RunInTemp(c, "sweep-refine");
   Table t;
   ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
 
@@ -122,13 +128,7 @@ TEST_CASE("sweep: a trial whose refinement failed is a failure of its cell, neve
   text.replace(text.find("[0.05, 0.2]"), 11, "[8.0, 15.0]");
   text.replace(text.find("trials = 3"), 10, "trials = 4");
   const SweepConfig c = ParseSweepText(text, "failing.toml", Registry());
-  const fs::path dir = testing::FreshTempDir("sweep-refine-fail");
-  fs::remove_all(dir);
-  SweepOptions o;
-  o.out = dir;
-  o.threads = 2;
-  o.progress = Progress::Mode::kNone;
-  RunSweep(c, Registry(), o, nullptr);
+  const fs::path dir = RunInTemp(c, "sweep-refine-fail");
   Table t;
   ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
   Table s;
