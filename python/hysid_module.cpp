@@ -177,8 +177,10 @@ py::dict Unknowns(const std::vector<Parameter>& params, const Vec& values) {
 
 // The maximum-likelihood refinement of a recursive run, as `hysid identify --refine ml`: the samples at
 // k·dt, or at the times and in the chains of `chains`.
-py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& recursive,
+// From RefinementStart(given): the rls re-run when the α estimator was not ok.
+py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResult& given,
                  const Vec& sigma, const SampleData* chains) {
+  const IdentifyResult& recursive = RefinementStart(given);
   RefineOptions options;
   options.sigma = sigma;
   RefineResult r;
@@ -198,6 +200,7 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
   out["status"] = ToString(r.status);
   out["reason"] = r.reason;
   out["mended"] = r.mended;  // detections mended from the fitted model ("" when none)
+  out["start"] = given.safe_start ? given.safe_start_reason : std::string("the recursive estimate");
   out["estimates"] = estimates;
   out["standard_errors"] = errors;  // empty unless the fit is ok
   out["covariance"] = Transposed(r.covariance);
@@ -247,6 +250,8 @@ py::dict Fit(const Model& model, const Mat& samples, double dt, const IdentifyAr
   out["jumps_detected"] = r.jumps_detected;
   out["flow_status"] = ToString(r.flow_status);
   out["jump_status"] = ToString(r.jump_status);
+  out["flow_reason"] = r.flow_reason;
+  out["jump_reason"] = r.jump_reason;
   out["flow_hull"] = Transposed(r.flow_hull);
   out["jump_hull"] = Transposed(r.jump_hull);
   if (args.refine == "ml") {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -20,7 +21,20 @@ bool EstimatorSettings::IsValid(std::string* error) const {
     if (error) *error = "noise_shape: must be finite";
     return false;
   }
+  if (!(prior_scale.array() > 0.0).all() || !prior_scale.allFinite()) {
+    if (error) *error = "prior_scale: every entry must be finite and > 0";
+    return false;
+  }
   return true;
+}
+
+Vec EstimatorSettings::PriorCovariance(Eigen::Index parameters) const {
+  if (prior_scale.size() == 0) return Vec::Constant(parameters, p0);
+  if (prior_scale.size() != parameters) {
+    throw std::invalid_argument(fmt::format("prior_scale has {} entries; the estimator has {} parameters",
+                                            prior_scale.size(), parameters));
+  }
+  return p0 * prior_scale.array().square().inverse();
 }
 
 bool EstimatorSettings::NeedsNoiseShape() const {
@@ -35,6 +49,11 @@ void Estimator::Update(const ConstMatRef& phi, const ConstVecRef& y) {
   }
   if (!Admit(phi.allFinite() && y.allFinite())) return;
   DoUpdate(phi, y);
+}
+
+void Estimator::SetNotOk(EstimatorStatus status, std::string reason) {
+  status_ = status;
+  reason_ = std::move(reason);
 }
 
 const char* ToString(EstimatorStatus status) {

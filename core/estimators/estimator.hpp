@@ -22,7 +22,8 @@ enum class EstimatorStatus {
   kOk,
   kNotExcited,      // too few independent rows so far: the estimate is the prior / partial
   kNonGeneric,      // TLS non-generic case: the extreme eigenvector has no θ component
-  kIllConditioned,  // an update was skipped because a factorisation failed
+  kIllConditioned,  // the data do not determine the estimate (reason() says why): a factorisation
+                    // failed, or (gtls) the regressors' weakest direction is within the noise
 };
 const char* ToString(EstimatorStatus status);
 
@@ -36,9 +37,13 @@ enum class FrischPoint { kCentre, kClampedRls };
 struct EstimatorSettings {
   EstimatorKind kind = EstimatorKind::kRls;
   double forgetting = 1.0;  // λ ∈ (0, 1]: exponential forgetting (1 = none)
-  // Initial covariance P0 = p0·I (the RLS prior ridge is P0⁻¹ = I/p0). Large: the flow regressors
-  // are O(δt), so ΣΦᵀΦ is small and a 1e4 prior would bias α̂ by ~1e-3 on the §5 system.
+  // Initial covariance P0 = p0·diag(1/g²) with g = prior_scale (the prior ridge P0⁻¹ = diag(g²)/p0
+  // weighs as 1/p0 regression rows of typical size): rls, frisch's rls, integral's ridge.
   double p0 = 1e8;
+  // g: the typical size of each unknown's regression column (its RMS over the data), so that the
+  // prior is the same relative to the data in any units. Empty: ones (P0 = p0·I). Identify() fills
+  // it from the data (RegressorScales in core/identify/identifier.hpp).
+  Vec prior_scale;
   int refactor_every = 500;  // gtls: recompute S⁻¹ from scratch every this many rows
   // frisch: window length in rows (0 = growing window with `forgetting`, box refreshed every update).
   int window = 200;
@@ -57,7 +62,10 @@ struct EstimatorSettings {
   // entries are used (exact columns; empty = none). The identifier fills an empty shape from σ, δt
   // and the model (WithNoiseShapes in core/identify/identifier.hpp, core/model/noise_shape.hpp).
   Mat noise_shape;
-  // Every option in EstimatorOptions() and noise_shape; names the field, e.g.
+  // P0's diagonal p0/g_i² for `parameters` unknowns (prior_scale empty: p0 each). Throws
+  // std::invalid_argument when prior_scale has another size.
+  Vec PriorCovariance(Eigen::Index parameters) const;
+  // Every option in EstimatorOptions(), noise_shape and prior_scale; names the field, e.g.
   // "forgetting = 1.5: must be in (0, 1]".
   bool IsValid(std::string* error) const;
   // True when the estimator's descriptor needs a noise shape and none is given.
@@ -109,6 +117,8 @@ class Estimator {
   // descriptor's reports_box) and has it yet; else empty.
   virtual Mat solution_box() const { return Mat(); }
   EstimatorStatus status() const { return status_; }
+  // Why the status is not ok, in words (empty when ok or not yet excited).
+  const std::string& reason() const { return reason_; }
   long updates() const { return updates_; }
   long skipped() const { return skipped_; }  // non-finite regressions ignored
   int parameter_count() const { return static_cast<int>(theta_.size()); }
@@ -132,10 +142,13 @@ class Estimator {
     return true;
   }
   virtual void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) = 0;
+  // A status other than ok, with its reason (not inline: called from the per-row paths on failure).
+  void SetNotOk(EstimatorStatus status, std::string reason);
   // Reset's common part: θ back to the prior θ0, status kNotExcited, no updates, none skipped.
   void ResetToPrior() {
     theta_ = theta0_;
     status_ = EstimatorStatus::kNotExcited;
+    reason_.clear();
     updates_ = 0;
     skipped_ = 0;
   }
@@ -143,6 +156,7 @@ class Estimator {
   const Vec theta0_;  // the prior
   Vec theta_;
   EstimatorStatus status_ = EstimatorStatus::kNotExcited;
+  std::string reason_;
   long updates_ = 0;
   long skipped_ = 0;
 };

@@ -27,7 +27,7 @@ constexpr double kInfiniteVertex = 1e-12;
 
 }  // namespace
 
-Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, FrischBox box, FrischPoint point,
+Frisch::Frisch(const Vec& theta0, int window, double forgetting, const Vec& p0_diagonal, FrischBox box, FrischPoint point,
                const Mat& noise_shape, double confidence)
     : Estimator(theta0),
       window_(window),
@@ -35,7 +35,7 @@ Frisch::Frisch(const Vec& theta0, int window, double forgetting, double p0, Fris
       confidence_(confidence),
       box_rule_(box),
       point_rule_(point),
-      rls_(theta0, p0, forgetting) {
+      rls_(theta0, p0_diagonal, forgetting) {
   const long m = theta0.size() + 1;
   if (window < 0 || (window > 0 && window < m)) {
     throw std::invalid_argument(
@@ -301,7 +301,7 @@ EstimatorDescriptor FrischDescriptor() {
           .options = {"forgetting", "p0", "window", "frisch_box", "frisch_point", "frisch_confidence"},
           .traits = {.needs_noise_shape = true, .reports_box = true},
           .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
-            return std::make_unique<Frisch>(theta0, s.window, s.forgetting, s.p0, s.frisch_box,
+            return std::make_unique<Frisch>(theta0, s.window, s.forgetting, s.PriorCovariance(theta0.size()), s.frisch_box,
                                             s.frisch_point, s.noise_shape, s.frisch_confidence);
           }};
 }

@@ -94,7 +94,7 @@ class Frisch final : public Estimator {
   // exact (noise-free) columns; nothing else of it is used. Throws std::invalid_argument naming the
   // field otherwise.
   // confidence ∈ [0, 1): the sampling allowance added to every window box (see above; 0 = none).
-  Frisch(const Vec& theta0, int window, double forgetting, double p0, FrischBox box, FrischPoint point,
+  Frisch(const Vec& theta0, int window, double forgetting, const Vec& p0_diagonal, FrischBox box, FrischPoint point,
          const Mat& noise_shape = Mat(), double confidence = 0.0);
 
   std::string name() const override { return "frisch"; }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
@@ -15,6 +16,10 @@ namespace {
 constexpr double kRankTolerance = 1e-10;  // smallest admissible Cholesky pivot² of D S_φφ D
 constexpr double kRidge = 1e-13;          // added to the equilibrated S at refactorisation
 constexpr double kGenericTolerance = 1e-8;
+// Smallest admissible SupportGap: the weakest regressor direction carries at least the noise's energy,
+// and stands above it by at least 10 sampling standard deviations of the noise eigenvalue (√(2/W)).
+constexpr double kMinSupport = 1.0;
+constexpr double kMinSupportSd = 10.0;
 
 Mat CheckedShape(const Mat& shape, Eigen::Index m) {
   if (shape.size() == 0) return Mat::Identity(m, m);
@@ -68,6 +73,7 @@ void Gtls::Reset() {
   g_.resize(m);
   t_.resize(m);
   weight_ = 0.0;
+  support_ = 0.0;
   rows_ = 0;
   rows_since_refactor_ = 0;
   started_ = false;
@@ -118,7 +124,7 @@ bool Gtls::Factorize() {
   sd.diagonal().array() += kRidge;
   const Eigen::LLT<Mat> llt(sd);
   if (llt.info() != Eigen::Success) {
-    status_ = EstimatorStatus::kIllConditioned;
+    SetNotOk(EstimatorStatus::kIllConditioned, "the information matrix [phi y]'[phi y] is not positive definite");
     needs_refactor_ = true;
     return false;
   }
@@ -133,10 +139,11 @@ bool Gtls::Factorize() {
   mm = 0.5 * (mm + mm.transpose()).eval();
   const Eigen::SelfAdjointEigenSolver<Mat> eig(mm);
   if (eig.info() != Eigen::Success || !(eig.eigenvalues()[m - 1] > 0.0)) {
-    status_ = EstimatorStatus::kIllConditioned;
+    SetNotOk(EstimatorStatus::kIllConditioned, "the generalized eigenproblem C v = nu S v failed");
     needs_refactor_ = true;
     return false;
   }
+  support_ = SupportGap(l, cd, eig.eigenvalues()[m - 1]);
   const Vec u = eig.eigenvectors().col(m - 1);
   const Vec vd = l.transpose().triangularView<Eigen::Upper>().solve(u);
   v_ = scale_.asDiagonal() * vd;
@@ -144,6 +151,18 @@ bool Gtls::Factorize() {
   needs_refactor_ = false;
   SetThetaFromEigenvector();
   return true;
+}
+
+double Gtls::SupportGap(const Mat& l, const Mat& cd, double mu_top) const {
+  const Eigen::Index p = l.rows() - 1;
+  const Mat lp = l.topLeftCorner(p, p);
+  const Mat half = lp.triangularView<Eigen::Lower>().solve(cd.topLeftCorner(p, p));
+  Mat mp = lp.triangularView<Eigen::Lower>().solve(half.transpose()).transpose();
+  mp = 0.5 * (mp + mp.transpose()).eval();
+  const double mu_block =
+      Eigen::SelfAdjointEigenSolver<Mat>(mp, Eigen::EigenvaluesOnly).eigenvalues()[p - 1];
+  if (!(mu_block > 0.0)) return std::numeric_limits<double>::infinity();
+  return mu_top / mu_block - 1.0;
 }
 
 bool Gtls::FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const {
@@ -200,7 +219,17 @@ void Gtls::SetThetaFromEigenvector() {
   }
   const double inv = -1.0 / v_[m - 1];
   for (Eigen::Index i = 0; i + 1 < m; ++i) theta_[i] = v_[i] * inv;
+  const double needed = std::max(kMinSupport, kMinSupportSd * std::sqrt(2.0 / weight_));
+  if (!(support_ >= needed)) {
+    SetNotOk(EstimatorStatus::kIllConditioned,
+             fmt::format("the regressors' weakest direction is within the noise: its signal-to-noise energy "
+                         "ratio is {:.3g}, needs {:.3g}; the errors-in-variables correction is not determined "
+                         "by the data",
+                         support_, needed));
+    return;
+  }
   status_ = EstimatorStatus::kOk;
+  reason_.clear();
 }
 
 // Forgetting: S ← λS, P ← P/λ and the weight ← λ·weight, unless every row of the block is zero.
@@ -275,7 +304,7 @@ void Gtls::InverseIterationStep(Eigen::Index m) {
   }
   if (!(norm2 > 0.0) || !std::isfinite(norm2)) {
     needs_refactor_ = true;
-    status_ = EstimatorStatus::kIllConditioned;
+    SetNotOk(EstimatorStatus::kIllConditioned, "inverse iteration lost the eigenvector");
     return;
   }
   const double inv = 1.0 / std::sqrt(norm2);

@@ -57,6 +57,9 @@ class Gtls final : public Estimator {
   // before the batch start.
   void Refresh();
   long rows() const { return rows_; }
+  // SupportGap at the last refactorisation (0 before the batch start). Below max(1, 10·√(2/W)) (the
+  // signal below the noise, or within 10 sampling sd of it) the status is ill-conditioned.
+  double support() const { return support_; }
 
  private:
   void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) override;
@@ -72,6 +75,13 @@ class Gtls final : public Estimator {
   // The LLT of the equilibrated θ block D·S_θθ·D (d = D's diagonal); false when it is not (yet)
   // positive definite to kRankTolerance.
   bool FactorThetaBlock(Vec* d, Eigen::LLT<Mat>* llt) const;
+  // How far the regressors stand above their noise: with ν the smallest generalized eigenvalue of
+  // (S, C) (the noise energy, ≈ σ²W) and ν' that of the regressor block (S_φφ, C_φφ) (interlacing:
+  // ν ≤ ν'), g = ν'/ν − 1, the signal-to-noise energy ratio of the regressors' weakest direction.
+  // TLS corrects least squares along that direction by the factor (1 + g)/g: as g → 0 the estimate
+  // is noise divided by noise. l: the Cholesky factor of the equilibrated S, cd the equilibrated C,
+  // mu_top = 1/ν. +∞ when the regressors carry no noise (C_φφ = 0: least squares).
+  double SupportGap(const Mat& l, const Mat& cd, double mu_top) const;
 
   Mat c_;          // C, (p+1)²
   Mat s_;          // S
@@ -82,6 +92,7 @@ class Gtls final : public Estimator {
   double lambda_;
   int refactor_every_;
   double weight_ = 0.0;
+  double support_ = 0.0;  // SupportGap at the last refactorisation
   long rows_ = 0;
   long rows_since_refactor_ = 0;
   bool started_ = false;

@@ -2,12 +2,22 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
 
 #include <Eigen/Cholesky>
 
 namespace hysid {
 
-IntegralLs::IntegralLs(const Vec& theta0, double p0) : Estimator(theta0), ridge_(1.0 / p0) { Reset(); }
+IntegralLs::IntegralLs(const Vec& theta0, const Vec& p0_diagonal)
+    : Estimator(theta0), ridge_(p0_diagonal.array().inverse()) {
+  if (ridge_.size() != theta0.size()) {
+    throw std::invalid_argument(fmt::format(
+        "integral: P0 has {} diagonal entries; the estimator has {} parameters", ridge_.size(), theta0.size()));
+  }
+  Reset();
+}
 
 void IntegralLs::Reset() {
   const auto p = static_cast<std::size_t>(theta0_.size());
@@ -18,7 +28,7 @@ void IntegralLs::Reset() {
   a_.assign(p * p, 0.0);
   ldlt_.assign(p * p, 0.0);
   work_.assign(p, 0.0);
-  covariance_ = Mat::Identity(theta0_.size(), theta0_.size()) * (0.5 / ridge_);
+  covariance_ = Mat((0.5 * ridge_.array().inverse()).matrix().asDiagonal());
   covariance_stale_ = false;
   n_ = 0;
   rows_ = 0;
@@ -118,7 +128,7 @@ EstimatorDescriptor IntegralDescriptor() {
           .options = {"p0"},
           .traits = {.flow_only = true},
           .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
-            return std::make_unique<IntegralLs>(theta0, s.p0);
+            return std::make_unique<IntegralLs>(theta0, s.PriorCovariance(theta0.size()));
           }};
 }
 

@@ -34,7 +34,8 @@ EstimatorDescriptor IntegralDescriptor();
 
 class IntegralLs final : public Estimator {
  public:
-  IntegralLs(const Vec& theta0, double p0);
+  // The prior ridge diag(1/p0_diagonal) (PriorCovariance).
+  IntegralLs(const Vec& theta0, const Vec& p0_diagonal);
   const Mat* covariance_matrix() const override;
   std::string name() const override { return "integral"; }
   void Reset() override;
@@ -101,10 +102,10 @@ class IntegralLs final : public Estimator {
     double* a = a_.data();
     bool ok = false;
     if constexpr (P == 2) {
-      const double a0 = a_closed_[0] + m_[0] + ridge_, a1 = a_closed_[1] + m_[1];
-      const double a3 = a_closed_[3] + m_[3] + ridge_;
-      const double v0 = b_closed_[0] + c_[0] + ridge_ * theta0_[0];
-      const double v1 = b_closed_[1] + c_[1] + ridge_ * theta0_[1];
+      const double a0 = a_closed_[0] + m_[0] + ridge_[0], a1 = a_closed_[1] + m_[1];
+      const double a3 = a_closed_[3] + m_[3] + ridge_[1];
+      const double v0 = b_closed_[0] + c_[0] + ridge_[0] * theta0_[0];
+      const double v1 = b_closed_[1] + c_[1] + ridge_[1] * theta0_[1];
       a[0] = a0, a[1] = a[2] = a1, a[3] = a3;
       const double det = a0 * a3 - a1 * a1;
       ok = a0 > 0.0 && det > 0.0 && std::isfinite(det);
@@ -117,8 +118,8 @@ class IntegralLs final : public Estimator {
       double* v = work_.data();
       for (Eigen::Index i = 0; i < p * p; ++i) a[i] = a_closed_[i] + m_[i];
       for (Eigen::Index i = 0; i < p; ++i) {
-        a[i * p + i] += ridge_;
-        v[i] = b_closed_[i] + c_[i] + ridge_ * theta0_[i];
+        a[i * p + i] += ridge_[i];
+        v[i] = b_closed_[i] + c_[i] + ridge_[i] * theta0_[i];
       }
       ok = SolveLdlt(p, a, v);
       if (ok) {
@@ -126,7 +127,7 @@ class IntegralLs final : public Estimator {
       }
     }
     if (!ok) {
-      status_ = EstimatorStatus::kIllConditioned;
+      SetNotOk(EstimatorStatus::kIllConditioned, "the normal equations are not positive definite");
       return;
     }
     covariance_stale_ = true;
@@ -140,7 +141,7 @@ class IntegralLs final : public Estimator {
   // a pivot is not a positive finite number.
   bool SolveLdlt(Eigen::Index p, const double* a, double* v);
 
-  double ridge_;  // 1/p0
+  Vec ridge_;  // 1/P0's diagonal
   // Closed segments: A and b (centred, offsets eliminated); p × p row-major, p.
   std::vector<double> a_closed_, b_closed_;
   // The open segment: samples so far (anchor included; 0 = none open), its identified rows, the

@@ -1,18 +1,26 @@
 #include "core/estimators/rls.hpp"
 
 #include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
 
 #include <Eigen/Cholesky>
 
 namespace hysid {
 
-Rls::Rls(const Vec& theta0, double p0, double forgetting) : Estimator(theta0), p0_(p0), lambda_(forgetting) {
-  max_trace_ = p0_ * static_cast<double>(theta0.size());
+Rls::Rls(const Vec& theta0, const Vec& p0_diagonal, double forgetting)
+    : Estimator(theta0), p0_(p0_diagonal), lambda_(forgetting) {
+  if (p0_.size() != theta0.size()) {
+    throw std::invalid_argument(fmt::format("rls: P0 has {} diagonal entries; the estimator has {} parameters",
+                                            p0_.size(), theta0.size()));
+  }
+  max_trace_ = p0_.sum();
   Reset();
 }
 
 void Rls::Reset() {
-  p_ = p0_ * Mat::Identity(theta0_.size(), theta0_.size());
+  p_ = p0_.asDiagonal();
   work_.resize(theta0_.size());
   ResetToPrior();
   rank_updates_ = 0;
@@ -27,7 +35,7 @@ void Rls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
     gamma.diagonal().array() += lambda_;
     const Eigen::LLT<Mat> llt(gamma);
     if (llt.info() != Eigen::Success) {
-      status_ = EstimatorStatus::kIllConditioned;
+      MarkIllConditioned();
       return;
     }
     const Mat k = llt.solve(pphi_t.transpose()).transpose();  // p × rows
@@ -41,12 +49,17 @@ void Rls::DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) {
   CountExcitation(informative);
 }
 
+void Rls::MarkIllConditioned() {
+  SetNotOk(EstimatorStatus::kIllConditioned,
+           "an update was skipped: the innovation covariance lambda + phi P phi' was not positive and finite");
+}
+
 EstimatorDescriptor RlsDescriptor() {
   return {.name = "rls",
           .help = "recursive least squares",
           .options = {"forgetting", "p0"},
           .make = [](const EstimatorSettings& s, const Vec& theta0) -> std::unique_ptr<Estimator> {
-            return std::make_unique<Rls>(theta0, s.p0, s.forgetting);
+            return std::make_unique<Rls>(theta0, s.PriorCovariance(theta0.size()), s.forgetting);
           }};
 }
 

@@ -120,7 +120,8 @@ EstimatorDescriptor RlsDescriptor();
 
 class Rls final : public Estimator {
  public:
-  Rls(const Vec& theta0, double p0, double forgetting);
+  // P0 = diag(p0_diagonal) (PriorCovariance).
+  Rls(const Vec& theta0, const Vec& p0_diagonal, double forgetting);
   const Mat* covariance_matrix() const override { return &p_; }
   std::string name() const override { return "rls"; }
   void Reset() override;
@@ -141,7 +142,7 @@ class Rls final : public Estimator {
   void Store2(const detail::Rls2State& r) { r.Store(theta_.data(), p_.data()); }
   [[gnu::always_inline]] void UpdateRowIn(detail::Rls2State& r, const double* phi, double y) {
     AdmitRow<2>(phi, y, [&] {
-      if (!r.Update(phi[0], phi[1], y, lambda_, max_trace_)) status_ = EstimatorStatus::kIllConditioned;
+      if (!r.Update(phi[0], phi[1], y, lambda_, max_trace_)) MarkIllConditioned();
     });
   }
 
@@ -187,11 +188,13 @@ class Rls final : public Estimator {
         default: ok = detail::ScalarRlsUpdate<0>(p, pp, theta, g, phi, stride, y, lambda_, max_trace_); break;
       }
     }
-    if (!ok) status_ = EstimatorStatus::kIllConditioned;
+    if (!ok) MarkIllConditioned();
   }
+  // An update skipped: φᵀPφ + λ (or the innovation covariance) was not a positive finite number.
+  void MarkIllConditioned();
 
   Mat p_;
-  double p0_;
+  Vec p0_;  // P0's diagonal
   double lambda_;
   double max_trace_;
   Vec work_;  // P φ for the scalar path

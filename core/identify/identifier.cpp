@@ -486,6 +486,51 @@ IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double d
   return resolved;
 }
 
+// The RMS of each unknown's flow (jump) regression column over up to 256 evenly spaced pairs of
+// consecutive finite samples of y (flow rows at step dt); 1 for a column that is zero there. Scales
+// with the data: a column in units of ξ·δt gets its RMS in those units.
+void RegressorScales(const Model& model, const Mat& y, double dt, Vec* flow, Vec* jump) {
+  RegressionBuilder builder(model);
+  const RegressionLayout& fl = builder.flow_layout();
+  const RegressionLayout& jl = builder.jump_layout();
+  Mat phi(fl.rows.size(), fl.unknown.size()), psi(jl.rows.size(), jl.unknown.size());
+  Vec fy(fl.rows.size()), jy(jl.rows.size());
+  Vec f2 = Vec::Zero(phi.cols()), j2 = Vec::Zero(psi.cols());
+  double f_rows = 0.0, j_rows = 0.0;
+  const Eigen::Index pairs = y.cols() - 1, count = std::min<Eigen::Index>(256, pairs);
+  for (Eigen::Index i = 0; i < count; ++i) {
+    const Eigen::Index k = 1 + (count > 1 ? i * (pairs - 1) / (count - 1) : 0);
+    if (!y.col(k - 1).allFinite() || !y.col(k).allFinite()) continue;
+    builder.Flow(y.col(k - 1), y.col(k), dt, phi, fy);
+    builder.Jump(y.col(k - 1), y.col(k), psi, jy);
+    if (phi.allFinite()) {
+      f2 += phi.colwise().squaredNorm().transpose();
+      f_rows += static_cast<double>(phi.rows());
+    }
+    if (psi.allFinite()) {
+      j2 += psi.colwise().squaredNorm().transpose();
+      j_rows += static_cast<double>(psi.rows());
+    }
+  }
+  auto rms = [](const Vec& sum, double rows) {
+    Vec g = (sum / std::max(rows, 1.0)).cwiseSqrt();
+    for (double& v : g) v = v > 0.0 && std::isfinite(v) ? v : 1.0;
+    return g;
+  };
+  *flow = rms(f2, f_rows);
+  *jump = rms(j2, j_rows);
+}
+
+// Empty prior scales of the estimators filled from the data (RegressorScales).
+IdentifierSettings WithPriorScales(const Model& model, const Mat& y, double dt, IdentifierSettings s) {
+  if (y.cols() < 2 || (s.flow_estimator.prior_scale.size() && s.jump_estimator.prior_scale.size())) return s;
+  Vec flow, jump;
+  RegressorScales(model, y, dt, &flow, &jump);
+  if (s.flow_estimator.prior_scale.size() == 0) s.flow_estimator.prior_scale = flow;
+  if (s.jump_estimator.prior_scale.size() == 0) s.jump_estimator.prior_scale = jump;
+  return s;
+}
+
 void Record(Eigen::Index k, const Decision& d, IdentifyResult* r) {
   r->gamma[static_cast<std::size_t>(k)] = d.gamma ? 1 : 0;
   if (r->statistic.empty()) return;  // IdentifyOptions::statistics off
@@ -584,6 +629,8 @@ void Collect(Identifier& id, bool sets, IdentifyResult* r) {
   r->jumps_detected = id.jumps_detected();
   r->flow_status = id.flow_estimator().status();
   r->jump_status = id.jump_estimator().status();
+  r->flow_reason = id.flow_estimator().reason();
+  r->jump_reason = id.jump_estimator().reason();
   r->flow_box = id.flow_estimator().solution_box();
   r->jump_box = id.jump_estimator().solution_box();
   if (!sets) return;
@@ -613,7 +660,7 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     }
   }
   IdentifyResult r;
-  Identifier id(model, dt, ResolveNoiseShapes(model, y, dt, settings, &r));
+  Identifier id(model, dt, WithPriorScales(model, y, dt, ResolveNoiseShapes(model, y, dt, settings, &r)));
   const auto count = static_cast<std::size_t>(y.cols());
   r.gamma.resize(count);
   if (options.statistics) {
@@ -627,7 +674,20 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
   Pass(id, y, dt, options, &r);
   if (settings.second_pass) SecondPass(id, y, dt, options, &r);
   Collect(id, settings.sets, &r);
+  if (r.flow_status != EstimatorStatus::kOk && settings.flow_estimator.kind != EstimatorKind::kRls) {
+    IdentifierSettings safe = settings;
+    safe.flow_estimator.kind = EstimatorKind::kRls;
+    r.safe_start = std::make_shared<const IdentifyResult>(Identify(model, y, dt, safe, options));
+    r.safe_start_reason =
+        fmt::format("the {} estimate of alpha is {}{}{}; the refinement starts from rls (alpha {})",
+                    ToString(settings.flow_estimator.kind), ToString(r.flow_status),
+                    r.flow_reason.empty() ? "" : ": ", r.flow_reason, ToString(r.safe_start->flow_status));
+  }
   return r;
+}
+
+const IdentifyResult& RefinementStart(const IdentifyResult& recursive) {
+  return recursive.safe_start ? *recursive.safe_start : recursive;
 }
 
 }  // namespace hysid

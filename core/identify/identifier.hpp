@@ -22,6 +22,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/detectors/detector.hpp"
@@ -172,6 +173,11 @@ struct IdentifyResult {
   long jumps_detected = 0;
   EstimatorStatus flow_status = EstimatorStatus::kNotExcited;
   EstimatorStatus jump_status = EstimatorStatus::kNotExcited;
+  std::string flow_reason, jump_reason;  // why a status is not ok (Estimator::reason)
+  // When the α estimator ends not ok and is not rls: the same run with rls for α (its own
+  // detections, sets and statuses), from which a refinement starts (RefinementStart), and why.
+  std::shared_ptr<const IdentifyResult> safe_start;
+  std::string safe_start_reason;
   Mat flow_hull, jump_hull;  // n × h hull vertices of Λ and Γ (when settings.sets)
   double flow_hull_volume = 0.0, jump_hull_volume = 0.0;
   long jumps_localized = 0;  // settings.localize: jumps regressed at the located instant
@@ -200,5 +206,9 @@ struct IdentifyResult {
 // columns of y.
 IdentifyResult Identify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
                         const IdentifyOptions& options = {});
+
+// The recursive result a refinement starts from: recursive.safe_start when there is one (the α
+// estimator was not ok), else recursive itself.
+const IdentifyResult& RefinementStart(const IdentifyResult& recursive);
 
 }  // namespace hysid

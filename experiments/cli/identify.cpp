@@ -7,6 +7,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <tuple>
 #include <string>
 #include <utility>
 
@@ -215,6 +216,10 @@ void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const Ident
   }
   std::printf("jumps detected: %ld (flow estimator %s, jump estimator %s)\n", result.jumps_detected,
               ToString(result.flow_status), ToString(result.jump_status));
+  for (const auto& [status, reason, what] : {std::tuple{result.flow_status, &result.flow_reason, "flow"},
+                                             std::tuple{result.jump_status, &result.jump_reason, "jump"}}) {
+    if (status != EstimatorStatus::kOk && !reason->empty()) std::printf("  %s estimator: %s\n", what, reason->c_str());
+  }
   // Estimators that report one (frisch): the solution boxes of the unknowns, in the order printed above.
   for (const auto& [box, what] :
        {std::pair{&result.flow_box, "alpha"}, std::pair{&result.jump_box, "beta"}}) {

@@ -92,7 +92,14 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   j["iterations"] = r.iterations;
   j["detector"] = {{"jumps_detected", recursive.jumps_detected},
                    {"flow_estimator", ToString(recursive.flow_status)},
-                   {"jump_estimator", ToString(recursive.jump_status)}};
+                   {"flow_estimator_reason", recursive.flow_reason},
+                   {"jump_estimator", ToString(recursive.jump_status)},
+                   {"jump_estimator_reason", recursive.jump_reason}};
+  if (recursive.safe_start && refine != "none") {
+    j["start"] = {{"estimator", "rls"},
+                  {"reason", recursive.safe_start_reason},
+                  {"jumps_detected", recursive.safe_start->jumps_detected}};
+  }
   j["model_jumps"] = r.model_jumps;
   j["samples_used"] = r.samples_used;
   j["start_repair"] = r.start_repair;
@@ -110,8 +117,11 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   return j;
 }
 
-RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+// From RefinementStart(recursive): the recursive result itself, or its rls re-run when the α
+// estimator was not ok.
+RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& given,
                            const Vec& sigma) {
+  const IdentifyResult& recursive = RefinementStart(given);
   RefineOptions options;
   options.sigma = sigma;
   return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
@@ -161,6 +171,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                   r.span_reason.c_str());
     }
     if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
+    if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
     if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
     if (r.ok()) {
       std::printf(

@@ -277,20 +277,26 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   o->alpha_hat = res.alpha_hat;
   o->beta_hat = res.beta_hat;
   if (cell.refine == "ml") {
-    // The error metrics are the refined estimate's (the recursive one when the fit is not ok).
+    // The error metrics are the refined estimate's. A fit that is not ok fails the trial (status
+    // refine_failed, no metrics; α̂, β̂ are the recursive estimate it kept), so that no cell averages
+    // recursive estimates into its refined ones.
     RefineOptions ro;
     if (config.known_sigma && cell.sigma > 0) ro.sigma = Vec::Constant(model.state_size(), cell.sigma);
-    const RefineResult rr = RefineIdentification(model, truth.t, y, {}, res, ro);
+    const RefineResult rr = RefineIdentification(model, truth.t, y, {}, RefinementStart(res), ro);
     o->refine_status = ToString(rr.status);
     o->alpha_hat = rr.estimate.alpha;
     o->beta_hat = rr.estimate.beta;
+    if (!rr.ok()) {
+      o->status = kTrialRefineFailed;
+      o->message = fmt::format("refinement {}: {}", ToString(rr.status), rr.reason);
+    }
   }
   o->have_estimates = true;
   o->jumps_detected = res.jumps_detected;
   o->flow_status = ToString(res.flow_status);
   o->jump_status = ToString(res.jump_status);
   o->conf = CompareJumps(truth.j, res.gamma);
-  if (!o->alpha_hat.allFinite() || !o->beta_hat.allFinite()) {
+  if (o->ok() && (!o->alpha_hat.allFinite() || !o->beta_hat.allFinite())) {
     o->status = "non_finite_estimate";
     o->message = "an estimate is not finite";
     return;

@@ -20,6 +20,9 @@ namespace hysid {
 
 // Status values of a row.
 inline constexpr const char* kTrialOk = "ok";
+// With refine = ml: the refinement's status is not ok (refine_status, message say why). The row
+// counts as a failure of its cell; alpha_hat / beta_hat hold the recursive estimate it kept.
+inline constexpr const char* kTrialRefineFailed = "refine_failed";
 
 // Prefix of the per-parameter error columns of trials.csv (summary.csv aggregates them too).
 inline constexpr const char* kRelativeErrorPrefix = "rel_err_";

@@ -65,8 +65,15 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
   out.names = std::move(names);
   out.fisher = fisher;
   const Eigen::LDLT<Mat> ldlt(fisher);
-  const double largest = fisher.diagonal().cwiseAbs().maxCoeff();
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() || !(ldlt.vectorD().minCoeff() > 1e-14 * largest)) {
+  // The rank test on the equilibrated D·F·D (D = diag(F)^(−1/2)): parameters in other units (a state
+  // scaled by 1e6 scales ξ0's and μ's information by 1e-12) do not make F singular.
+  const Vec diag = fisher.diagonal();
+  const bool positive_diagonal = (diag.array() > 0.0).all() && diag.allFinite();
+  const Vec d = positive_diagonal ? Vec(diag.cwiseSqrt().cwiseInverse()) : Vec::Ones(diag.size());
+  const Eigen::LDLT<Mat> equilibrated(d.asDiagonal() * fisher * d.asDiagonal());
+  if (!positive_diagonal || ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
+      equilibrated.info() != Eigen::Success || !equilibrated.isPositive() ||
+      !(equilibrated.vectorD().minCoeff() > 1e-14)) {
     out.status = CrlbStatus::kSingular;
     out.message =
         "the Fisher information is singular: some direction of the parameters is not "

@@ -10,12 +10,14 @@
 #include "core/estimators/estimator.hpp"
 #include "core/estimators/gtls.hpp"
 #include "tests/testing/eiv_problem.hpp"
+#include "tests/testing/vec.hpp"
 
 namespace hysid {
 namespace {
 
 using testing::EivData;
 using testing::MakeEivData;
+using testing::V;
 
 std::unique_ptr<Estimator> Make(const std::string& name, const Mat& shape, int p, double forgetting = 1.0,
                                 int refactor_every = 500) {
@@ -253,6 +255,30 @@ TEST_CASE("gtls degenerate data gives a status, never NaN", "[gtls]") {
     CHECK(g->status() == EstimatorStatus::kOk);
     CHECK((g->estimate() - theta).norm() <= 1e-9);
   }
+}
+
+TEST_CASE("gtls is ill-conditioned, with its reason, when a regressor holds nothing but noise", "[gtls]") {
+  // y = 1.5·x1 + noise; the second regressor is either x2 + noise (a direction well above the noise)
+  // or pure noise (TLS then divides by the gap between two noise eigenvalues: the estimate is not
+  // determined by the data, whatever value it lands on).
+  const long rows = 4000;
+  const EivData signal = MakeEivData(V(1.5, 0.0), V(0.3, 0.3), 0.3, rows, 31, 0);
+  const EivData noise = MakeEivData(V(0.0), V(0.0), 0.3, rows, 31, 1);  // y = 0.3·e: pure noise
+  const Mat shape = Mat::Identity(3, 3);
+  auto good = Make("gtls", shape, 2);
+  Feed(*good, signal);
+  CHECK(good->status() == EstimatorStatus::kOk);
+  CHECK(good->reason().empty());
+  // The weakest regressor direction: unit signal variance over the noise variance 0.09.
+  CHECK(dynamic_cast<const Gtls&>(*good).support() == Approx(1.0 / 0.09).epsilon(0.1));
+  EivData weak = signal;
+  weak.phi.col(1) = noise.y;
+  auto bad = Make("gtls", shape, 2);
+  Feed(*bad, weak);
+  CHECK(bad->status() == EstimatorStatus::kIllConditioned);
+  CHECK(bad->reason().find("within the noise") != std::string::npos);
+  CHECK(dynamic_cast<const Gtls&>(*bad).support() < 0.2);
+  CHECK(bad->estimate().allFinite());
 }
 
 TEST_CASE("gtls settings errors name the field", "[gtls]") {

@@ -132,13 +132,13 @@ TEST_CASE("integral estimator: UpdateRow equals Update; noise-free rows give θ;
   Vec theta(2), theta0 = Vec::Zero(2);
   theta << 5.0, 0.1;
   const auto noisy = RandomSegments({300, 50}, 1, theta, 1e-2, 3);
-  IntegralLs a(theta0, 1e8), b(theta0, 1e8);
+  IntegralLs a(theta0, Vec::Constant(2, 1e8)), b(theta0, Vec::Constant(2, 1e8));
   Feed(&a, noisy, false);
   Feed(&b, noisy, true);
   CHECK(a.estimate() == b.estimate());
   CHECK(*a.covariance_matrix() == *b.covariance_matrix());
   CHECK(a.updates() == 350);
-  IntegralLs exact(theta0, 1e12);
+  IntegralLs exact(theta0, Vec::Constant(2, 1e12));
   Feed(&exact, RandomSegments({100, 100}, 1, theta, 0.0, 4), false);
   CHECK((exact.estimate() - theta).norm() < 1e-8);
   exact.Reset();
@@ -148,7 +148,7 @@ TEST_CASE("integral estimator: UpdateRow equals Update; noise-free rows give θ;
 
 TEST_CASE("integral estimator: not excited until p + 1 informative rows; non-finite rows skipped",
           "[integral]") {
-  IntegralLs e(Vec::Zero(2), 1e8);
+  IntegralLs e(Vec::Zero(2), Vec::Constant(2, 1e8));
   Mat phi(1, 2);
   phi << 0.01, 0.02;
   e.Update(phi, Vec::Constant(1, 0.03));

@@ -59,6 +59,18 @@ struct Table {
   }
 };
 
+// Runs sweep `c` into a fresh temporary directory named `name` (2 threads, no progress); returns it.
+fs::path RunInTemp(const SweepConfig& c, const std::string& name) {
+  const fs::path dir = testing::FreshTempDir(name);
+  fs::remove_all(dir);
+  SweepOptions o;
+  o.out = dir;
+  o.threads = 2;
+  o.progress = Progress::Mode::kNone;
+  RunSweep(c, Registry(), o, nullptr);
+  return dir;
+}
+
 }  // namespace
 
 TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][refine]") {
@@ -67,13 +79,7 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
   REQUIRE(cells.size() == 4u);  // σ × refine, refine fastest
   CHECK(cells[0].refine == "none");
   CHECK(cells[1].refine == "ml");
-  const fs::path dir = testing::FreshTempDir("sweep-refine");
-  fs::remove_all(dir);
-  SweepOptions o;
-  o.out = dir;
-  o.threads = 2;
-  o.progress = Progress::Mode::kNone;
-  RunSweep(c, Registry(), o, nullptr);
+  const fs::path dir = RunInTemp(c, "sweep-refine");
   Table t;
   ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
 
@@ -113,6 +119,46 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
     CHECK(eff == Approx(std::stod(s.At(cell, "e_alpha_mean")) / std::stod(s.At(cell, "crlb_e_alpha"))));
     CHECK(s.At(cell, "refine") == (cell % 2 == 0 ? "none" : "ml"));
   }
+}
+
+TEST_CASE("sweep: a trial whose refinement failed is a failure of its cell, never averaged",
+          "[sweep][refine]") {
+  // At σ = 8 and 15 on 3 s of the §5 system most refinements fail (missed jumps, Zeno fits).
+  std::string text = kSweep;
+  text.replace(text.find("[0.05, 0.2]"), 11, "[8.0, 15.0]");
+  text.replace(text.find("trials = 3"), 10, "trials = 4");
+  const SweepConfig c = ParseSweepText(text, "failing.toml", Registry());
+  const fs::path dir = RunInTemp(c, "sweep-refine-fail");
+  Table t;
+  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
+  Table s;
+  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);
+  long failed_total = 0;
+  for (long cell = 0; cell < 4; ++cell) {
+    long failed = 0, ok = 0;
+    double sum = 0.0;
+    for (long trial = 0; trial < c.trials; ++trial) {
+      const long unit = cell * c.trials + trial;
+      const std::string& refine = t.At(unit, "refine_status");
+      if (t.At(unit, "refine") == "none" || refine == "ok") {
+        CHECK(t.At(unit, "status") == "ok");
+        sum += std::stod(t.At(unit, "e_alpha"));
+        ++ok;
+        continue;
+      }
+      ++failed;
+      REQUIRE_FALSE(refine.empty());
+      CHECK(t.At(unit, "status") == "refine_failed");
+      CHECK(t.At(unit, "message").find("refinement " + refine) == 0);
+      CHECK(t.At(unit, "e_alpha").empty());
+      CHECK_FALSE(t.At(unit, "alpha_hat_a").empty());  // the recursive estimate it kept
+    }
+    CHECK(std::stol(s.At(cell, "failures")) == failed);
+    if (ok > 0) CHECK(std::stod(s.At(cell, "e_alpha_mean")) == Approx(sum / double(ok)).epsilon(1e-12));
+    if (ok == 0) CHECK(s.At(cell, "e_alpha_mean").empty());
+    failed_total += failed;
+  }
+  CHECK(failed_total >= 4);
 }
 
 TEST_CASE("sweep: without a refine axis the tables keep their columns", "[sweep][refine]") {
