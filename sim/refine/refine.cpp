@@ -427,7 +427,9 @@ RefineResult Refine(const Model& model, const Mat& y, double dt, const Vec& alph
   RefineResult r;
   r.unknowns = Unknowns::Of(model);
   r.names = r.unknowns.Names(model);
-  r.start = HybridParameters{alpha0, beta0, y.col(0)};
+  // No sample to start from: the status below, never a read of y.col(0).
+  const Vec first = y.cols() > 0 ? Vec(y.col(0)) : Vec::Zero(model.state_size()).eval();
+  r.start = HybridParameters{alpha0, beta0, first};
   r.refined = r.start;
   r.estimate = r.start;
   const int n = model.state_size(), p = r.unknowns.size(n);
