@@ -117,6 +117,10 @@ bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& nam
     }
     any = true;
     if (c == '\n') return true;
+    if (c == '\r') {  // CR LF, or a CR alone (classic Mac OS): one record separator
+      if (buf->sgetc() == '\n') buf->sbumpc();
+      return true;
+    }
     if (line.size() >= max) {
       throw std::invalid_argument(
           fmt::format("{}:{}: the line is longer than the limit of {} {} (raise it with {}=N)", name, line_no,
@@ -300,6 +304,7 @@ void AddRow(CsvTable& table, const std::vector<std::string>& cells, long line_no
 }  // namespace
 
 CsvTable ReadCsv(const std::filesystem::path& path) {
+  CheckRegularFile(path.string(), "data file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::invalid_argument(IoError(path, "cannot open file", errno));
   std::error_code ec;
@@ -316,8 +321,10 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
   std::vector<std::string> cells;
   long line_no = 0;
   bool have_header = false;
+  const std::int64_t max_rows = LimitValue(kMaxCsvRows);
   while (ReadBoundedLine(in, line, name, line_no + 1)) {
     ++line_no;
+    if (line_no == 1 && line.starts_with(kUtf8Bom)) line.erase(0, kUtf8Bom.size());
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const std::string_view trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
@@ -329,6 +336,9 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
       table.columns.assign(table.header.size(), {});
       have_header = true;
       continue;
+    }
+    if (static_cast<std::int64_t>(table.line_of_row.size()) >= max_rows) {
+      CheckLimit(kMaxCsvRows, max_rows + 1, fmt::format("{}:{}", name, first));
     }
     AddRow(table, cells, first);
   }

@@ -20,6 +20,7 @@
 #include <toml++/toml.h>
 
 #include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "core/io/toml_guard.hpp"
 #include "sim/simulator.hpp"
 
@@ -286,6 +287,10 @@ std::vector<Parameter> ParseParameters(const Reader& rd, const toml::table& root
     rd.OnlyKeys(t, key, {"name", "value", "known", "description"});
     Parameter p;
     p.name = rd.String(rd.Require(t, key, "name"), key + ".name");
+    if (p.name.starts_with("x0[")) {  // the refinement's and the bound's names of the initial state
+      rd.Fail(t.get("name"), key + ".name",
+              fmt::format("\"{}\": names x0[...] are the initial states' (x0[STATE])", p.name));
+    }
     p.value = rd.Number(rd.Require(t, key, "value"), key + ".value");
     if (const toml::node* k = t.get("known")) p.known = rd.Bool(*k, key + ".known");
     if (const toml::node* d = t.get("description")) p.description = rd.String(*d, key + ".description");
@@ -306,7 +311,11 @@ std::vector<int> ParseRows(const Reader& rd, const toml::table& t, const std::st
     if (it == states.end()) {
       rd.Fail(&arr[i], key, fmt::format("\"{}\" is not a state (states: {})", name, fmt::join(states, ", ")));
     }
-    rows.push_back(static_cast<int>(it - states.begin()));
+    const int row = static_cast<int>(it - states.begin());
+    if (std::find(rows.begin(), rows.end(), row) != rows.end()) {
+      rd.Fail(&arr[i], key, fmt::format("\"{}\" twice (each row is fit once)", name));
+    }
+    rows.push_back(row);
   }
   return rows;
 }
@@ -422,6 +431,14 @@ void ParseDefaults(const Reader& rd, const toml::table& root, ModelSpec& spec) {
     const toml::node& n = rd.Require(t, "defaults", k);
     *field = rd.Number(n, fmt::format("defaults.{}", k));
     if (*field <= 0) rd.Fail(&n, fmt::format("defaults.{}", k), fmt::format("{} must be > 0", *field));
+  }
+  // The default trajectory is simulated when the file is loaded: within the samples limit.
+  const double samples = std::min(spec.default_t_end / spec.default_dt, 9e18) + 1.0;
+  if (samples > static_cast<double>(LimitValue(kMaxSamples))) {
+    rd.Fail(&rd.Require(t, "defaults", "dt"), "defaults.dt",
+            fmt::format("t_end {} / dt {}: {:.0f} exceeds the limit of {} {} (raise it with {}=N)",
+                        spec.default_t_end, spec.default_dt, samples, LimitValue(kMaxSamples),
+                        kMaxSamples.what, kMaxSamples.variable));
   }
 }
 
