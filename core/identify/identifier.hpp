@@ -22,6 +22,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/detectors/detector.hpp"
@@ -172,6 +173,9 @@ struct IdentifyResult {
   EstimatorStatus flow_status = EstimatorStatus::kNotExcited;
   EstimatorStatus jump_status = EstimatorStatus::kNotExcited;
   Mat flow_hull, jump_hull;  // n × h hull vertices of Λ and Γ (when settings.sets)
+  // Why the hulls are empty although settings.sets: more states than the limit kMaxHullDimension
+  // (core/io/limits.hpp; exact hulls cost exponentially in the dimension). "" otherwise.
+  std::string sets_skipped;
   double flow_hull_volume = 0.0, jump_hull_volume = 0.0;
   long jumps_localized = 0;  // settings.localize: jumps regressed at the located instant
   // settings.second_pass: the first pass's outcome and what the second changed. gamma, estimates
