@@ -490,6 +490,10 @@ Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
   return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
 }
 
+// The CVODE steps one simulation of a fit may take per sample (the budget is also capped by
+// RefineOptions::sensitivity.sim.max_steps).
+constexpr long kMaxStepsPerSample = 1000;
+
 void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
                   Vec* weight) {
   const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
@@ -499,6 +503,11 @@ void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sig
                                       std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
                                       options.sensitivity.sim.rtol);
   sens->sim.rtol = sens->sim.atol = tolerance;
+  // The work of one simulation grows with the data, not without bound: a trial point whose flow
+  // needs more than kMaxStepsPerSample CVODE steps per sample is far from data sampled that coarsely
+  // (δt longer than the time between jumps made a fit take a minute); its evaluation fails and
+  // Ceres steps back.
+  sens->sim.max_steps = std::min(sens->sim.max_steps, kMaxStepsPerSample * static_cast<long>(y.cols()));
   *weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, sens->sim)).cwiseInverse();
 }
 
