@@ -78,42 +78,44 @@ std::vector<std::string> ListItems(const std::string& flag, const std::string& t
   }
 }
 
-}  // namespace
-
-CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
-                         const std::string& help) {
+// A list flag whose items `convert(text, i, item)` turns into values.
+template <class T, class Convert>
+CLI::Option* AddList(CLI::App& cmd, const std::string& flag, std::vector<T>& values, const std::string& help,
+                     Convert convert) {
   return cmd.add_option_function<std::vector<std::string>>(
       flag,
-      [&values, flag](const std::vector<std::string>& given) {
+      [&values, flag, convert](const std::vector<std::string>& given) {
         values.clear();
         for (const std::string& text : given) {
-          for (std::string& item : ListItems(flag, text)) values.push_back(std::move(item));
+          std::vector<std::string> items = ListItems(flag, text);
+          for (std::size_t i = 0; i < items.size(); ++i) {
+            values.push_back(convert(text, i, std::move(items[i])));
+          }
         }
       },
       help);
 }
 
+}  // namespace
+
+CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
+                         const std::string& help) {
+  return AddList(cmd, flag, values, help,
+                 [](const std::string&, std::size_t, std::string item) { return item; });
+}
+
 CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,
                            const std::string& help) {
-  return cmd.add_option_function<std::vector<std::string>>(
-      flag,
-      [&values, flag](const std::vector<std::string>& given) {
-        values.clear();
-        for (const std::string& text : given) {
-          const std::vector<std::string> items = ListItems(flag, text);
-          for (std::size_t i = 0; i < items.size(); ++i) {
-            char* end = nullptr;
-            const double v = std::strtod(items[i].c_str(), &end);
-            if (end == items[i].c_str() ||
-                std::string_view(end).find_first_not_of(" \t") != std::string::npos) {
-              BadFlag(fmt::format("{} = {}: item {} '{}' is not a number", flag, Abbreviated(text), i + 1,
-                                  Abbreviated(items[i], 40)));
-            }
-            values.push_back(v);
-          }
+  return AddList(
+      cmd, flag, values, help, [flag](const std::string& text, std::size_t i, const std::string& item) {
+        char* end = nullptr;
+        const double v = std::strtod(item.c_str(), &end);
+        if (end == item.c_str() || std::string_view(end).find_first_not_of(" \t") != std::string::npos) {
+          BadFlag(fmt::format("{} = {}: item {} '{}' is not a number", flag, Abbreviated(text), i + 1,
+                              Abbreviated(item, 40)));
         }
-      },
-      help);
+        return v;
+      });
 }
 
 void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags) {
