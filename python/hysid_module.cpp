@@ -6,9 +6,12 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <optional>
 #include <string>
@@ -307,6 +310,29 @@ py::dict Identify(const Model& model, const py::object& y, std::optional<double>
   return out;
 }
 
+// RunSweep on a worker thread while this (Python's) thread checks for signals every 0.1 s: Ctrl-C
+// stops the sweep after the units already running (the journal keeps every finished unit; a rerun
+// resumes) and raises KeyboardInterrupt.
+SweepOutcome RunSweepInterruptible(const SweepConfig& config, const SweepOptions& options) {
+  std::atomic<bool> stop{false};
+  std::future<SweepOutcome> run =
+      std::async(std::launch::async, [&] { return RunSweep(config, Builtins(), options, &stop); });
+  while (true) {
+    {
+      py::gil_scoped_release release;
+      if (run.wait_for(std::chrono::milliseconds(100)) == std::future_status::ready) return run.get();
+    }
+    if (PyErr_CheckSignals() != 0) {  // the handler raised (KeyboardInterrupt): stop between units
+      stop.store(true);
+      {
+        py::gil_scoped_release release;
+        run.wait();
+      }
+      throw py::error_already_set();
+    }
+  }
+}
+
 py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out, int threads) {
   const SweepConfig config = ParseSweepFile(file, Builtins());
   SweepOptions options;
@@ -316,11 +342,7 @@ py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out,
   if (threads < 0) throw std::invalid_argument(fmt::format("threads = {}: must be >= 0", threads));
   options.threads = threads;
   options.progress = Progress::Mode::kNone;
-  SweepOutcome o;
-  {
-    py::gil_scoped_release release;
-    o = RunSweep(config, Builtins(), options);
-  }
+  const SweepOutcome o = RunSweepInterruptible(config, options);
   py::dict d;
   d["out"] = options.out.string();
   d["trials"] = o.units_shard;

@@ -369,3 +369,25 @@ def test_second_pass_at_r_near_one_is_a_refinement_status(paper_data):
     assert p.returncode == 1, p.stderr
     assert "refinement (maximum likelihood on the detected hybrid time domain): too-few-samples" in p.stdout
     assert "error" not in p.stderr
+
+
+def test_ctrl_c_stops_run_sweep_between_units(tmp_path):
+    """KeyboardInterrupt in run_sweep: the sweep stops after the running units, the journal keeps them."""
+    import signal
+    import sys
+    import time
+    sweep = tmp_path / "many.toml"
+    sweep.write_text('[model]\nname = "impact-msd"\n[grid]\nsigma = 0.1\ndt = 5e-4\n[run]\ntrials = 5000\n')
+    out = tmp_path / "run"
+    code = f"import hysid\nhysid.run_sweep({str(sweep)!r}, out={str(out)!r}, threads=1)\n"
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    journal = out / "trials.journal"
+    while p.poll() is None and (not journal.exists() or journal.read_text().count("\n") < 4):
+        time.sleep(0.05)
+    assert p.poll() is None, "the sweep ended before the signal: give it more trials"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=10)
+    assert p.returncode != 0 and "KeyboardInterrupt" in err
+    rows = journal.read_text().splitlines()[2:]
+    assert 2 <= len(rows) < 5000
+    assert not (out / "trials.csv").exists()
