@@ -189,7 +189,11 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyRes
               c.recall());
   std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n", e.e_alpha,
               e.e_beta, e.rel_alpha, e.rel_beta);
-  // Ĉ and D̂ against the model's C and D.
+  // Ĉ and D̂ against the model's C and D (when computed: not beyond the hull dimension limit).
+  if (!result.sets_skipped.empty()) {
+    std::printf("  sets: not computed\n");
+    return;
+  }
   const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
   std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
               static_cast<long>(result.flow_hull.cols()), model.state_size() >= 3 ? "volume" : "area",

@@ -391,3 +391,12 @@ def test_ctrl_c_stops_run_sweep_between_units(tmp_path):
     rows = journal.read_text().splitlines()[2:]
     assert 2 <= len(rows) < 5000
     assert not (out / "trials.csv").exists()
+
+
+def test_cli_reports_hulls_left_out_above_their_limit(paper_data):
+    """Data with the truth (column j) and hulls beyond their limit: the report says so, exit 0."""
+    p = subprocess.run([BIN, "identify", "--data", str(paper_data), "--refine", "none"], capture_output=True,
+                       text=True, env={**os.environ, "HYSID_MAX_HULL_DIMENSION": "1"})
+    assert p.returncode == 0, p.stderr
+    assert "sets C^ and D^: not computed: 2 states exceed the limit of 1 states" in p.stdout
+    assert "  sets: not computed\n" in p.stdout
