@@ -6,9 +6,13 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <future>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +24,7 @@
 #include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
 #include "core/model/registry.hpp"
+#include "experiments/cli/checks.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "sim/measurement.hpp"
@@ -65,17 +70,17 @@ py::array_t<double> ToArray(const Vec& v) {
   return out;
 }
 
-// One value, or one per state; empty when `value` is None.
-Vec PerState(const py::object& value, int n, const char* what) {
+// A number or a sequence of numbers as a list (empty when `value` is None).
+std::vector<double> Values(const py::object& value) {
   if (value.is_none()) return {};
-  std::vector<double> v = py::isinstance<py::sequence>(value) ? value.cast<std::vector<double>>()
-                                                              : std::vector<double>{value.cast<double>()};
-  if (v.size() == 1) return Vec::Constant(n, v[0]);
-  if (static_cast<int>(v.size()) != n) {
-    throw std::invalid_argument(
-        fmt::format("{} has {} values; give one, or one per state ({})", what, v.size(), n));
-  }
-  return Eigen::Map<const Vec>(v.data(), n);
+  return py::isinstance<py::sequence>(value) ? value.cast<std::vector<double>>()
+                                             : std::vector<double>{value.cast<double>()};
+}
+
+// σ checked as the command line's --sigma (experiments/cli/checks.hpp); empty when `value` is None.
+Vec SigmaArgument(const py::object& value, int n, bool allow_zero) {
+  if (value.is_none()) return {};
+  return CheckedSigma(Values(value), n, allow_zero, Spelling::kKeyword);
 }
 
 // The start state (x0 or the model's), the sample grid (t_end, dt or the model's) and the solver
@@ -95,10 +100,10 @@ Run CheckedRun(const Model& model, const std::optional<std::vector<double>>& x0,
     throw std::invalid_argument(
         fmt::format("x0 has {} values; model '{}' has {} states", start.size(), spec.name, n));
   }
+  CheckFinite("x0", start);
   Run run{Eigen::Map<const Vec>(start.data(), n),
-          SampleGrid{.t_end = t_end.value_or(spec.default_t_end), .dt = dt.value_or(spec.default_dt)},
+          CheckedGrid(t_end.value_or(spec.default_t_end), dt.value_or(spec.default_dt), Spelling::kKeyword),
           SimOptions{}};
-  if (std::string e; !run.grid.IsValid(&e)) throw std::invalid_argument(fmt::format("t_end/dt: {}", e));
   run.sim.rtol = rtol;
   run.sim.atol = atol;
   if (std::string e; !run.sim.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
@@ -110,10 +115,8 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
                       std::uint64_t trial, double rtol, double atol) {
   const int n = model.state_size();
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
-  Vec s = PerState(sigma, n, "sigma");
+  Vec s = SigmaArgument(sigma, n, /*allow_zero=*/true);
   if (s.size() == 0) s = Vec::Zero(n);
-  if ((s.array() < 0.0).any() || !s.allFinite())
-    throw std::invalid_argument("sigma: must be finite and >= 0");
   Trajectory traj;
   Mat y;
   {
@@ -139,24 +142,20 @@ py::dict SimulateDict(const Model& model, std::optional<std::vector<double>> x0,
 }
 
 struct IdentifyArgs {
-  std::string estimator = "rls", detector = "residual", bound = "auto";
-  double r = 220.0, tau0 = 1e5, false_alarm = 1e-8, forgetting = 1.0, jump_forgetting = 1.0;
+  std::string estimator = "rls", detector = "residual";
+  // The plugin options given (not None), by keyword, as text: the command line's flags.
+  std::map<std::string, std::string> options;
   double data_rtol = 0.0, data_atol = 0.0;
   bool localize = false, second_pass = false, sets = true, trace = true;
   std::string refine = "ml";  // "none": the recursive (paper-method) estimate only
 };
 
+// The identifier's settings, checked as `hysid identify` checks its flags.
 IdentifierSettings Settings(const IdentifyArgs& a, const Vec& sigma) {
   IdentifierSettings s;
-  s.UseEstimator(ParseKind<EstimatorKind>(a.estimator));
-  s.flow_estimator.forgetting = a.forgetting;
-  s.jump_estimator.forgetting = a.jump_forgetting;
-  s.detector.kind = ParseKind<DetectorKind>(a.detector);
-  s.detector.r = a.r;
-  s.detector.tau0 = a.tau0;
-  const auto* bound = FindOption(DetectorOptions(), "bound");
-  bound->set(s.detector, bound->Parse(a.bound));
-  s.detector.false_alarm = a.false_alarm;
+  SetPluginKinds(a.estimator, a.detector, Spelling::kKeyword, &s);
+  ApplyPluginOptions(a.options, Spelling::kKeyword, &s);
+  CheckDataAccuracy(a.data_rtol, a.data_atol, Spelling::kKeyword);
   s.localize = a.localize;
   s.second_pass = a.second_pass;
   s.sets = a.sets;
@@ -223,7 +222,7 @@ py::dict Refined(const Model& model, const Mat& y, double dt, const IdentifyResu
 // each sample pair its own step and restarts the chains.
 py::dict Fit(const Model& model, const Mat& samples, double dt, const IdentifyArgs& args,
              const py::object& sigma, const SampleData* chains) {
-  const IdentifierSettings settings = Settings(args, PerState(sigma, model.state_size(), "sigma"));
+  const IdentifierSettings settings = Settings(args, SigmaArgument(sigma, model.state_size(), true));
   IdentifyOptions options{.trace = args.trace};
   if (chains != nullptr) {
     options.times = chains->t;
@@ -254,6 +253,7 @@ py::dict Fit(const Model& model, const Mat& samples, double dt, const IdentifyAr
   out["jump_reason"] = r.jump_reason;
   out["flow_hull"] = Transposed(r.flow_hull);
   out["jump_hull"] = Transposed(r.jump_hull);
+  out["sets_skipped"] = r.sets_skipped;
   if (args.refine == "ml") {
     out["refined"] = Refined(model, samples, dt, r, settings.sigma, chains);
   } else if (args.refine != "none") {
@@ -299,20 +299,44 @@ py::dict Identify(const Model& model, const py::object& y, std::optional<double>
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
   if (max_gap && (!(*max_gap > 0.0) || !std::isfinite(*max_gap))) {
-    throw std::invalid_argument(fmt::format("max_gap = {}: must be > 0", *max_gap));
+    throw std::invalid_argument(fmt::format("max_gap = {}: must be a number > 0 (seconds)", *max_gap));
   }
+  if (!IsList(y) && t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
+  // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
+  const SampleData data = RunsOf(model, y, t, dt.value_or(0.0), max_gap.value_or(0.0));
   if (!IsList(y) && t.is_none() && !max_gap) {  // one run on a uniform grid
-    if (!dt) throw std::invalid_argument("dt: required when t is not given");
     const Mat samples = Samples(y, model.state_size(), "y");
     if (samples.allFinite()) return Fit(model, samples, *dt, args, sigma, nullptr);
   }
-  const SampleData data = RunsOf(model, y, t, dt.value_or(0.0), max_gap.value_or(0.0));
   py::dict out = Fit(model, data.y, data.dt, args, sigma, data.uniform ? nullptr : &data);
   out["t"] = py::array_t<double>(py::ssize_t(data.t.size()), data.t.data());
   out["run"] = py::array_t<int>(py::ssize_t(data.run.size()), data.run.data());
   out["chains"] = data.chains();
   out["missing_rows"] = data.missing_rows;
   return out;
+}
+
+// RunSweep on a worker thread while this (Python's) thread checks for signals every 0.1 s: Ctrl-C
+// stops the sweep after the units already running (the journal keeps every finished unit; a rerun
+// resumes) and raises KeyboardInterrupt.
+SweepOutcome RunSweepInterruptible(const SweepConfig& config, const SweepOptions& options) {
+  std::atomic<bool> stop{false};
+  std::future<SweepOutcome> run =
+      std::async(std::launch::async, [&] { return RunSweep(config, Builtins(), options, &stop); });
+  while (true) {
+    {
+      py::gil_scoped_release release;
+      if (run.wait_for(std::chrono::milliseconds(100)) == std::future_status::ready) return run.get();
+    }
+    if (PyErr_CheckSignals() != 0) {  // the handler raised (KeyboardInterrupt): stop between units
+      stop.store(true);
+      {
+        py::gil_scoped_release release;
+        run.wait();
+      }
+      throw py::error_already_set();
+    }
+  }
 }
 
 py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out, int threads) {
@@ -324,11 +348,7 @@ py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out,
   if (threads < 0) throw std::invalid_argument(fmt::format("threads = {}: must be >= 0", threads));
   options.threads = threads;
   options.progress = Progress::Mode::kNone;
-  SweepOutcome o;
-  {
-    py::gil_scoped_release release;
-    o = RunSweep(config, Builtins(), options);
-  }
+  const SweepOutcome o = RunSweepInterruptible(config, options);
   py::dict d;
   d["out"] = options.out.string();
   d["trials"] = o.units_shard;
@@ -357,10 +377,7 @@ py::dict CrlbDict(const Model& model, std::optional<std::vector<double>> x0, std
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
   SensitivityOptions options;
   options.sim = run.sim;
-  const Vec s = PerState(sigma, n, "sigma");
-  if (s.size() == 0 || !s.allFinite() || !(s.array() > 0.0).all()) {
-    throw std::invalid_argument("sigma: must be finite and > 0");
-  }
+  const Vec s = CheckedSigma(Values(sigma), n, /*allow_zero=*/false, Spelling::kKeyword);
   Crlb c;
   {
     py::gil_scoped_release release;
@@ -423,23 +440,40 @@ PYBIND11_MODULE(hysid, m) {
   m.def(
       "identify",
       [](const Model& model, const py::object& y, std::optional<double> dt, const py::object& t,
-         std::optional<double> max_gap, const std::string& estimator, const std::string& detector, double r,
-         double tau0, const std::string& bound, double false_alarm, const py::object& sigma,
-         double forgetting, double jump_forgetting, bool localize, bool second_pass, bool sets, bool trace,
+         std::optional<double> max_gap, const std::string& estimator, const std::string& detector,
+         std::optional<double> r, std::optional<double> tau0, std::optional<std::string> bound,
+         std::optional<double> false_alarm, const py::object& sigma, std::optional<double> forgetting,
+         std::optional<double> jump_forgetting, bool localize, bool second_pass, bool sets, bool trace,
          double data_rtol, double data_atol, const std::string& refine) {
-        const IdentifyArgs a{estimator,  detector,        bound,     r,         tau0,     false_alarm,
-                             forgetting, jump_forgetting, data_rtol, data_atol, localize, second_pass,
-                             sets,       trace,           refine};
+        IdentifyArgs a{.estimator = estimator,
+                       .detector = detector,
+                       .options = {},
+                       .data_rtol = data_rtol,
+                       .data_atol = data_atol,
+                       .localize = localize,
+                       .second_pass = second_pass,
+                       .sets = sets,
+                       .trace = trace,
+                       .refine = refine};
+        for (const auto& [name, v] :
+             {std::pair{"r", r}, std::pair{"tau0", tau0}, std::pair{"false_alarm", false_alarm},
+              std::pair{"forgetting", forgetting}, std::pair{"jump_forgetting", jump_forgetting}}) {
+          if (v) a.options[name] = fmt::format("{}", *v);
+        }
+        if (bound) a.options["bound"] = *bound;
         return Identify(model, y, dt, t, max_gap, a, sigma);
       },
       py::arg("model"), py::arg("y"), py::arg("dt") = py::none(), py::arg("t") = py::none(),
       py::arg("max_gap") = py::none(), py::arg("estimator") = "rls", py::arg("detector") = "residual",
-      py::arg("r") = 220.0, py::arg("tau0") = 1e5, py::arg("bound") = "auto", py::arg("false_alarm") = 1e-8,
-      py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0, py::arg("jump_forgetting") = 1.0,
-      py::arg("localize") = false, py::arg("second_pass") = false, py::arg("sets") = true,
-      py::arg("trace") = true, py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
+      py::arg("r") = py::none(), py::arg("tau0") = py::none(), py::arg("bound") = py::none(),
+      py::arg("false_alarm") = py::none(), py::arg("sigma") = py::none(), py::arg("forgetting") = 1.0,
+      py::arg("jump_forgetting") = 1.0, py::arg("localize") = false, py::arg("second_pass") = false,
+      py::arg("sets") = true, py::arg("trace") = true, py::arg("data_rtol") = 0.0, py::arg("data_atol") = 0.0,
       py::arg("refine") = "ml",
-      "The identifier on samples y (samples × states) at spacing dt, or at times t (one per sample), as "
+      "The identifier on samples y (checked as `hysid identify` checks its flags and data, with the same "
+      "messages; r, tau0, bound, false_alarm, forgetting, jump_forgetting: None for the default, and an "
+      "option the chosen detector or estimator does not read is refused). On samples y (samples × states) at "
+      "spacing dt, or at times t (one per sample), as "
       "`hysid identify`; y (and t) may be lists of arrays, one per run of the system (alpha, beta shared); a "
       "row with a NaN is left out and restarts the chain, as does a step longer than max_gap (default 5 x "
       "the "

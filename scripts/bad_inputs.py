@@ -95,6 +95,7 @@ def files():
         "ok.toml": BASE + "dt = 2e-3\n[run]\ntrials = 1\n",
     }
     f.update(safety_files())
+    f.update(LIMITS_FILES)
     return f
 
 
@@ -217,7 +218,7 @@ def cases():
         ]
     ] + [
         ("identify: --trace a directory", ["identify", "--data", "sim.csv", "--trace", "o"]),
-        ("identify: --r 1", ["identify", "--r", "1", "--data", "sim.csv"]),
+        ("identify: --r 1", ["identify", "--detector", "paper", "--r", "1", "--data", "sim.csv"]),
         ("identify: --columns names a column that is not there",
          ["identify", "--columns", "t=time,x,v", "--data", "sim.csv"]),
         ("identify: --columns names one state of two", ["identify", "--columns", "y1", "--data", "sim.csv"]),
@@ -260,8 +261,44 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases()
+    ] + safety_cases() + LIMITS_CASES
 
+
+# Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
+MSD = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "models", "impact-msd.toml"),
+           encoding="utf-8").read()
+LIMITS_FILES = {
+    "jdown.csv": "t,j,y1,y2\n0,0,1,2\n0.1,1,1,2\n0.2,0,1,2\n0.3,1,1,2\n",
+    "dupcol.csv": "t,y1,y1,y2\n0,1,1,2\n0.1,1,1,2\n0.2,1,1,2\n",
+    "cronly.csv": "t,y1,y2\r0,1,2\r0.1,1,2\r",
+    "tinystep.csv": "t,y1,y2\n0,1,2\n1e-320,1,2\n2e-320,1,2\n",
+    "rowsdup.toml": MSD.replace('rows = ["v"]', 'rows = ["v", "v"]', 1),
+    "x0name.toml": MSD.replace('name = "mu"', 'name = "x0[x]"', 1),
+    "longdefault.toml": re.sub(r"\ndt = [^\n]*", "\ndt = 1e-9", MSD, count=1),
+}
+LIMITS_CASES = [
+    ("--seed 0x10 (only decimal; 010 is ten)", ["simulate", "--seed", "0x10"] + SIM),
+    ("--sigma with an empty item", ["simulate", "--sigma", "0.1,,0.2"] + SIM),
+    ("--x0 with an empty item", ["simulate", "--x0", "1,"] + SIM),
+    ("--param twice", ["simulate", "--param", "a=5", "--param", "a=6"] + SIM),
+    ("identify: an option the detector does not read", ["identify", "--tau0", "10", "--data", "sim.csv"]),
+    ("identify: an option the estimator does not read", ["identify", "--estimator", "gtls", "--jump-p0", "10",
+                                                         "--data", "sim.csv"]),
+    ("reproduce example6: a flag it does not read", ["reproduce", "example6", "--estimator", "bogus"]),
+    ("reproduce: --false-alarm with the paper detector", ["reproduce", "--false-alarm", "1e-3"]),
+    ("identify: j decreasing", ["identify", "--data", "jdown.csv"]),
+    ("identify: two columns named y1", ["identify", "--data", "dupcol.csv"]),
+    ("identify: CR line endings, 2 samples", ["identify", "--data", "cronly.csv"]),
+    ("identify: a time step of 1e-320 s", ["identify", "--data", "tinystep.csv"]),
+    ("identify: a FIFO as data", ["identify", "--data", "fifo.csv"]),
+    ("model file: a row named twice", ["simulate", "--model-file", "rowsdup.toml"] + SIM),
+    ("model file: a parameter named x0[x]", ["simulate", "--model-file", "x0name.toml"] + SIM),
+    ("model file: default trajectory beyond the sample limit", ["simulate", "--model-file", "longdefault.toml"] + SIM),
+    ("model file: a character device", ["simulate", "--model-file", "/dev/zero"] + SIM),
+    ("model file: beyond the size limit", ["env:HYSID_MAX_INPUT_FILE=100", "simulate", "--model-file", "rowsdup.toml"]
+     + SIM),
+    ("sweep: a FIFO as the sweep file", ["sweep", "fifo.csv", "--out", "run", "--dry-run"]),
+]
 
 # Cases whose message names something the command line does not show as its last flag or file.
 SUBJECTS = {
@@ -280,6 +317,7 @@ SUBJECTS = {
     "merge: output is an input": "--out",
     "merge: not a run directory": "o:",
     **SAFETY_SUBJECTS,
+    "model file: beyond the size limit": "rowsdup.toml",
 }
 
 
@@ -312,6 +350,7 @@ def setup(hysid, d):
         with open(os.path.join(d, name), "w", encoding="utf-8", newline="") as f:
             f.write(text)
     os.makedirs(os.path.join(d, "o"))
+    os.mkfifo(os.path.join(d, "fifo.csv"))
     subprocess.run([hysid, "simulate", "--sigma", "0.1", "--out", "sim.csv"], cwd=d, check=True, capture_output=True)
     # A finished run, and run directories corrupted from it.
     subprocess.run([hysid, "sweep", "ok.toml", "--out", "done", "--progress", "none"], cwd=d, check=True,

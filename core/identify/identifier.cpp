@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
@@ -13,6 +14,7 @@
 #include "core/estimators/integral.hpp"
 #include "core/estimators/rls.hpp"
 #include "core/identify/localize.hpp"
+#include "core/io/limits.hpp"
 #include "core/model/noise_shape.hpp"
 
 namespace hysid {
@@ -660,7 +662,13 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     }
   }
   IdentifyResult r;
-  Identifier id(model, dt, WithPriorScales(model, y, dt, ResolveNoiseShapes(model, y, dt, settings, &r)));
+  IdentifierSettings bounded = settings;  // the exact hulls within their dimension limit
+  if (const std::int64_t max = LimitValue(kMaxHullDimension); settings.sets && model.state_size() > max) {
+    bounded.sets = false;
+    r.sets_skipped = fmt::format("{} states exceed the limit of {} {} (raise it with {}=N)",
+                                 model.state_size(), max, kMaxHullDimension.what, kMaxHullDimension.variable);
+  }
+  Identifier id(model, dt, WithPriorScales(model, y, dt, ResolveNoiseShapes(model, y, dt, bounded, &r)));
   const auto count = static_cast<std::size_t>(y.cols());
   r.gamma.resize(count);
   if (options.statistics) {
@@ -673,7 +681,7 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
   }
   Pass(id, y, dt, options, &r);
   if (settings.second_pass) SecondPass(id, y, dt, options, &r);
-  Collect(id, settings.sets, &r);
+  Collect(id, bounded.sets, &r);
   if (r.flow_status != EstimatorStatus::kOk && settings.flow_estimator.kind != EstimatorKind::kRls) {
     IdentifierSettings safe = settings;
     safe.flow_estimator.kind = EstimatorKind::kRls;

@@ -179,6 +179,9 @@ struct IdentifyResult {
   std::shared_ptr<const IdentifyResult> safe_start;
   std::string safe_start_reason;
   Mat flow_hull, jump_hull;  // n × h hull vertices of Λ and Γ (when settings.sets)
+  // Why the hulls are empty although settings.sets: more states than the limit kMaxHullDimension
+  // (core/io/limits.hpp; exact hulls cost exponentially in the dimension). "" otherwise.
+  std::string sets_skipped;
   double flow_hull_volume = 0.0, jump_hull_volume = 0.0;
   long jumps_localized = 0;  // settings.localize: jumps regressed at the located instant
   // settings.second_pass: the first pass's outcome and what the second changed. gamma, estimates

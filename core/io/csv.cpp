@@ -108,8 +108,10 @@ int CsvTable::Find(const std::string& name) const {
   return -1;
 }
 
-bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& name, long line_no) {
+bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& name, long line_no,
+                     bool* lone_cr) {
   line.clear();
+  if (lone_cr != nullptr) *lone_cr = false;
   const auto max = static_cast<std::size_t>(LimitValue(kMaxCsvLine));
   std::streambuf* buf = in.rdbuf();
   bool any = false;
@@ -121,6 +123,14 @@ bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& nam
     }
     any = true;
     if (c == '\n') return true;
+    if (c == '\r') {  // CR LF, or a CR alone (classic Mac OS): one record separator
+      if (buf->sgetc() == '\n') {
+        buf->sbumpc();
+      } else if (lone_cr != nullptr) {
+        *lone_cr = true;
+      }
+      return true;
+    }
     if (line.size() >= max) {
       throw std::invalid_argument(
           fmt::format("{}:{}: the line is longer than the limit of {} {} (raise it with {}=N)", name, line_no,
@@ -248,29 +258,31 @@ void CheckHeader(const CsvTable& table, long line_no) {
   }
 }
 
-// The record that starts with `line` (line *line_no): further lines are appended while a quoted
-// field is open. Its cells into *cells; *line_no ends at the record's last line.
-void ReadRecord(std::istream& in, const std::string& name, std::string line, long* line_no,
+// The record that starts with `line` (line *line_no, ended by a lone CR when `lone_cr`): further
+// lines are appended while a quoted field is open, each joined by the break that ended the line
+// before it (LF for LF and CR LF, CR for a lone CR). Its cells into *cells; *line_no ends at the
+// record's last line.
+void ReadRecord(std::istream& in, const std::string& name, std::string line, bool lone_cr, long* line_no,
                 std::vector<std::string>* cells) {
   const long first = *line_no;
   const auto max = static_cast<std::size_t>(LimitValue(kMaxCsvLine));
   std::string record = std::move(line);
   while (!SplitCsvRecord(record, name, first, cells)) {
-    if (!ReadBoundedLine(in, line, name, *line_no + 1)) {
+    const bool break_is_cr = lone_cr;
+    if (!ReadBoundedLine(in, line, name, *line_no + 1, &lone_cr)) {
       throw std::invalid_argument(
           fmt::format("{}:{}: column {}: the quoted cell is not closed before the end "
                       "of the file",
                       name, first, cells->size() + 1));
     }
     ++*line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
     if (record.size() + line.size() + 1 > max) {
       throw std::invalid_argument(fmt::format(
           "{}:{}: the record (a quoted cell over several lines) is longer than the limit of {} {} (raise it "
           "with {}=N)",
           name, first, max, kMaxCsvLine.what, kMaxCsvLine.variable));
     }
-    record.push_back('\n');
+    record.push_back(break_is_cr ? '\r' : '\n');
     record += line;
   }
 }
@@ -304,6 +316,7 @@ void AddRow(CsvTable& table, const std::vector<std::string>& cells, long line_no
 }  // namespace
 
 CsvTable ReadCsv(const std::filesystem::path& path) {
+  CheckRegularFile(path.string(), "data file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::invalid_argument(IoError(path, "cannot open file", errno));
   std::error_code ec;
@@ -320,19 +333,24 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
   std::vector<std::string> cells;
   long line_no = 0;
   bool have_header = false;
-  while (ReadBoundedLine(in, line, name, line_no + 1)) {
+  const std::int64_t max_rows = LimitValue(kMaxCsvRows);
+  bool lone_cr = false;
+  while (ReadBoundedLine(in, line, name, line_no + 1, &lone_cr)) {
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line_no == 1 && line.starts_with(kUtf8Bom)) line.erase(0, kUtf8Bom.size());
     const std::string_view trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
     const long first = line_no;
-    ReadRecord(in, name, line, &line_no, &cells);
+    ReadRecord(in, name, line, lone_cr, &line_no, &cells);
     if (!have_header) {
       table.header = std::move(cells);
       CheckHeader(table, first);
       table.columns.assign(table.header.size(), {});
       have_header = true;
       continue;
+    }
+    if (static_cast<std::int64_t>(table.line_of_row.size()) >= max_rows) {
+      CheckLimit(kMaxCsvRows, max_rows + 1, fmt::format("{}:{}", name, first));
     }
     AddRow(table, cells, first);
   }
@@ -342,10 +360,10 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
 
 bool ReadCsvRecord(std::istream& in, const std::string& name, long* line_no, std::vector<std::string>* cells) {
   std::string line;
-  if (!ReadBoundedLine(in, line, name, *line_no + 1)) return false;
+  bool lone_cr = false;
+  if (!ReadBoundedLine(in, line, name, *line_no + 1, &lone_cr)) return false;
   ++*line_no;
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  ReadRecord(in, name, line, line_no, cells);
+  ReadRecord(in, name, line, lone_cr, line_no, cells);
   return true;
 }
 

@@ -3,11 +3,12 @@
 // Writing: every number with %.17g (round-trips doubles exactly); the file is written under a
 // temporary name and renamed on Commit(), so a reader never sees half a file.
 // Reading: one record splitter (SplitCsvRecord) for every CSV hysid reads. Fields are separated by
-// commas, records by LF or CRLF; a field may be quoted, and inside quotes a comma, a line break and a
-// doubled quote ("" = ") are text; a quote inside an unquoted field is text. Unquoted fields are
+// commas, records by LF, CRLF or a lone CR (a UTF-8 byte order mark first is skipped); a field may be
+// quoted, and inside quotes a comma, a line break and a doubled quote ("" = ") are text; a quote
+// inside an unquoted field is text. Unquoted fields are
 // trimmed of spaces and tabs. Errors name the file, the line and the column. Records and cells are
-// bounded (limits.hpp: HYSID_MAX_CSV_LINE, HYSID_MAX_CSV_CELL) before they are held whole; a header
-// is required (a first line of numbers is refused).
+// bounded (limits.hpp: HYSID_MAX_CSV_LINE, HYSID_MAX_CSV_CELL) before they are held whole, and so is
+// the number of rows (HYSID_MAX_CSV_ROWS); a header is required (a first line of numbers is refused).
 #pragma once
 
 #include <cstdio>
@@ -77,7 +78,7 @@ struct CsvTable {
 // (outside a record). A missing cell (empty, nan, NaN, NA; quoted or not) is stored as NaN and counted.
 // Throws std::invalid_argument "FILE:LINE: column C ('name'): ..." for a non-numeric or infinite
 // cell, a wrong number of cells, a quote not closed or text after a closing quote, and "FILE: ..."
-// for a missing or empty file.
+// for a missing or empty file, or one that is not a regular file (CheckRegularFile: a FIFO would block).
 CsvTable ReadCsv(const std::filesystem::path& path);
 CsvTable ReadCsvStream(std::istream& in, const std::string& name);
 
@@ -96,8 +97,10 @@ std::vector<std::string> SplitCsvLine(std::string_view line, const std::string& 
 // end of input. Throws as SplitCsvRecord, and "NAME:LINE: ... not closed before the end of the file".
 bool ReadCsvRecord(std::istream& in, const std::string& name, long* line_no, std::vector<std::string>* cells);
 
-// Reads one line (without its '\n') into `line`, refusing with "NAME:LINE_NO: ..." a line longer
-// than the limit HYSID_MAX_CSV_LINE before it is held whole. False at end of input.
-bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& name, long line_no);
+// Reads one line (without its LF, CR LF or lone CR) into `line`, refusing with "NAME:LINE_NO: ..." a
+// line longer than the limit HYSID_MAX_CSV_LINE before it is held whole; *lone_cr (when given) says
+// whether it ended in a CR alone. False at end of input.
+bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& name, long line_no,
+                     bool* lone_cr = nullptr);
 
 }  // namespace hysid

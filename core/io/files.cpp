@@ -15,19 +15,33 @@
 
 #include <fmt/format.h>
 
+#include "core/io/limits.hpp"
+
 namespace hysid {
 
 namespace fs = std::filesystem;
 
 std::string ReadWholeFile(const fs::path& path, const char* what) {
+  CheckRegularFile(path.string(), what);
   errno = 0;
   std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  if (in) text << in.rdbuf();
-  if (!in || in.bad()) {
+  if (!in) throw std::invalid_argument(IoError(path, fmt::format("cannot read the {}", what).c_str(), errno));
+  // In chunks, stopping one chunk past the limit (the file's size may change while it is read).
+  const auto max = static_cast<std::size_t>(LimitValue(kMaxInputFile));
+  std::string text;
+  char chunk[1 << 16];
+  while (text.size() <= max && in.read(chunk, sizeof chunk).gcount() > 0) {
+    text.append(chunk, static_cast<std::size_t>(in.gcount()));
+  }
+  if (in.bad()) {
     throw std::invalid_argument(IoError(path, fmt::format("cannot read the {}", what).c_str(), errno));
   }
-  return text.str();
+  if (text.size() > max) {
+    throw std::invalid_argument(
+        fmt::format("{}: the {} is longer than the limit of {} {} (raise it with {}=N)", path.string(), what,
+                    max, kMaxInputFile.what, kMaxInputFile.variable));
+  }
+  return text;
 }
 
 std::string IoError(const fs::path& path, const char* what, int error_number) {

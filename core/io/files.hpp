@@ -78,7 +78,8 @@ void WriteFileAtomically(const std::filesystem::path& path, std::string_view tex
 bool FlushStandardOutput(std::string* error);
 
 // The whole of an input file (a model file, a sweep file). Throws std::invalid_argument
-// "PATH: cannot read the WHAT: <strerror(errno)>".
+// "PATH: cannot read the WHAT: <strerror(errno)>", and for a file that is not a regular file
+// (CheckRegularFile) or is longer than the limit kMaxInputFile (core/io/limits.hpp).
 std::string ReadWholeFile(const std::filesystem::path& path, const char* what);
 
 // "PATH: WHAT: <strerror(errno)>", or "...: short write" when errno is 0.

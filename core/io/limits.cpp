@@ -1,5 +1,7 @@
 #include "core/io/limits.hpp"
 
+#include <sys/stat.h>
+
 #include <charconv>
 #include <cstdlib>
 #include <stdexcept>
@@ -39,6 +41,18 @@ std::int64_t CheckedProduct(const Limit& limit, std::int64_t a, std::int64_t b, 
   }
   CheckLimit(limit, p, where);
   return p;
+}
+
+void CheckRegularFile(const std::string& path, const char* what) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode) || S_ISDIR(st.st_mode)) return;
+  const char* kind = S_ISFIFO(st.st_mode)   ? "a FIFO"
+                     : S_ISSOCK(st.st_mode) ? "a socket"
+                     : S_ISCHR(st.st_mode)  ? "a character device"
+                     : S_ISBLK(st.st_mode)  ? "a block device"
+                                            : "not a file";
+  throw std::invalid_argument(fmt::format("{}: is {}, not a regular file; give the {} as a file",
+                                          Abbreviated(path, 200), kind, what));
 }
 
 namespace {

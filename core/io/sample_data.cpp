@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <stdexcept>
@@ -78,7 +79,21 @@ std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, cons
   return state;
 }
 
+// Refuses a header that names two columns alike (which one is meant would be a guess).
+void CheckUniqueNames(const CsvTable& table) {
+  std::map<std::string, std::size_t> first;
+  for (std::size_t col = 0; col < table.header.size(); ++col) {
+    const auto [at, fresh] = first.emplace(table.header[col], col);
+    if (!fresh) {
+      throw std::invalid_argument(
+          fmt::format("{}:1: column {} ('{}'): the same name as column {}; column names must be unique",
+                      table.path, col + 1, Abbreviated(table.header[col], 40), at->second + 1));
+    }
+  }
+}
+
 Columns ResolveColumns(const CsvTable& table, int state_size, const SampleDataOptions& options) {
+  CheckUniqueNames(table);
   Columns c = NamedColumns(table, state_size, options.columns);
   if (c.run < 0) c.run = table.Find("run");
   c.j = table.Find("j");
@@ -134,6 +149,46 @@ void CheckRow(const CsvTable& table, const Columns& c, std::size_t r) {
   }
 }
 
+// The ground-truth jump counter of one table: it never decreases within a run, and the runs are joined
+// without a step (run r's counter continues from the last value of the runs before it, whatever
+// value the run starts at), so a run boundary is never a true jump.
+class JumpCounter {
+ public:
+  JumpCounter(const CsvTable& table, const Columns& c, const std::vector<int>& joined)
+      : table_(table), col_(c.j), joined_(joined) {}
+  void StartRun(std::size_t r) {
+    if (col_ < 0) return;
+    offset_ = (joined_.empty() ? 0 : std::int64_t{joined_.back()}) - Cell(r);
+    run_start_ = r;
+  }
+  // Row r's counter does not fall below the run's row before it.
+  void Check(std::size_t r) const {
+    if (col_ < 0 || r == run_start_ || Cell(r) >= Cell(r - 1)) return;
+    throw std::invalid_argument(fmt::format(
+        "{}:{}: column {} ('j'): {} after {} (line {}): a jump counter never decreases within a run",
+        table_.path, table_.line_of_row[r], col_ + 1, Cell(r), Cell(r - 1), table_.line_of_row[r - 1]));
+  }
+  int Joined(std::size_t r) const {
+    const std::int64_t v = offset_ + Cell(r);
+    if (v > std::numeric_limits<int>::max()) {
+      throw std::invalid_argument(
+          fmt::format("{}:{}: column {} ('j'): the runs' jump counters add up to {}, beyond 2147483647",
+                      table_.path, table_.line_of_row[r], col_ + 1, v));
+    }
+    return static_cast<int>(v);
+  }
+
+ private:
+  std::int64_t Cell(std::size_t r) const {
+    return static_cast<std::int64_t>(table_.columns[static_cast<std::size_t>(col_)][r]);
+  }
+  const CsvTable& table_;
+  int col_;
+  const std::vector<int>& joined_;
+  std::int64_t offset_ = 0;
+  std::size_t run_start_ = 0;
+};
+
 // Appends the rows of one table to `out`: runs, missing rows left out, time order.
 void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::vector<double>& y,
                  std::vector<int>& j) {
@@ -141,7 +196,7 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
   long current = 0;
   int run_index = -1;
   bool break_next = true;
-  int j_offset = j.empty() ? 0 : j.back();
+  JumpCounter counter(table, c, j);
   const auto t_col = static_cast<std::size_t>(c.time);
   for (std::size_t r = 0; r < table.columns[0].size(); ++r) {
     CheckRow(table, c, r);
@@ -157,13 +212,19 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
       out.run_names.push_back(c.run >= 0 ? fmt::format("{} run {}", table.path, run) : table.path);
       current = run;
       break_next = true;
-      if (!j.empty()) j_offset = j.back();
+      counter.StartRun(r);
     } else if (!(table.columns[t_col][r] > table.columns[t_col][r - 1])) {
       throw std::invalid_argument(
           fmt::format("{}:{}: {}: time {} is not after {} (line {}): time must increase", table.path,
                       table.line_of_row[r], ColumnName(table, c.time), table.columns[t_col][r],
                       table.columns[t_col][r - 1], table.line_of_row[r - 1]));
+    } else if (table.columns[t_col][r] - table.columns[t_col][r - 1] < kMinStep) {
+      throw std::invalid_argument(fmt::format(
+          "{}:{}: {}: the step {:g} after line {} is below {:g} s (rescale the time)", table.path,
+          table.line_of_row[r], ColumnName(table, c.time),
+          table.columns[t_col][r] - table.columns[t_col][r - 1], table.line_of_row[r - 1], kMinStep));
     }
+    counter.Check(r);
     bool missing = false;
     for (int col : c.state) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
     if (missing) {  // left out; the chain goes on (the gap rule below judges the step across it)
@@ -172,7 +233,7 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
     }
     out.t.push_back(table.columns[t_col][r]);
     for (int col : c.state) y.push_back(table.columns[static_cast<std::size_t>(col)][r]);
-    if (c.j >= 0) j.push_back(j_offset + static_cast<int>(table.columns[static_cast<std::size_t>(c.j)][r]));
+    if (c.j >= 0) j.push_back(counter.Joined(r));
     out.run.push_back(run_index);
     out.chain_start.push_back(break_next ? 1 : 0);
     out.line.push_back(table.line_of_row[r]);
@@ -230,6 +291,7 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
   }
   d.path = fmt::format("{}", fmt::join(paths, ", "));
   const auto k = static_cast<long>(d.t.size());
+  CheckLimit(kMaxSamples, k, d.path);
   if (k < 3) {
     throw std::invalid_argument(
         fmt::format("{}: {} samples{}; the identifier needs at least 3", d.path, k,
@@ -253,6 +315,9 @@ SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, c
     throw std::invalid_argument(fmt::format("{} runs of samples, {} of times", y.size(), times.size()));
   }
   std::vector<CsvTable> tables;
+  std::int64_t samples = 0;  // within the limit before anything is copied
+  for (const Mat& run : y) samples += run.cols();
+  CheckLimit(kMaxSamples, samples, "y");
   for (std::size_t r = 0; r < y.size(); ++r) {
     CsvTable t;
     t.path = fmt::format("run {}", r + 1);

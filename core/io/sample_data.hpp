@@ -6,15 +6,19 @@
 // after a leading run column), the measured state is y1..yn when all are present (so `hysid simulate` output
 // is used as is), else the first n columns other than time, `j` and `run`. A column named `j` (jump
 // counter) is ground truth when present; a column named `run` (or the one named by `run=`) splits a file into
-// runs, whose rows must be contiguous. Each file is one run otherwise.
+// runs, whose rows must be contiguous. Each file is one run otherwise. The `j` of several runs is joined
+// into one counter: each run continues from the previous run's last value, so a run boundary is never a
+// jump.
 // Chains: a run is cut into chains at a step longer than the maximum gap (default kDefaultGapFactor ×
 // the median step). A row with a missing state cell (empty, nan, NA) is dropped and counted; the
 // chain goes on across it (the step from the sample before it to the one after it is judged by the
 // gap rule like any other). Steps may differ from sample to sample; time must increase within a run.
 // Checks, each an error naming file, line and column: the CSV's own (non-numeric, infinite, wrong
 // cell count, empty, quoting), too few columns for the model, an unknown column name, fewer than 3
-// samples, time missing or not strictly increasing, a time or state cell beyond ±kMaxMagnitude, a
-// `j` cell that is not an integer in [0, 2^31 − 1], a run cell that is missing or not an integer, the
+// samples or more than the samples limit (kMaxSamples), time missing, not strictly increasing or
+// a step below kMinStep, a time or state cell beyond ±kMaxMagnitude, a
+// `j` cell that is not an integer in [0, 2^31 − 1] or is below the one before it in its run, two
+// columns of the same name, a run cell that is missing or not an integer, the
 // rows of a run not contiguous.
 #pragma once
 
@@ -30,6 +34,8 @@ namespace hysid {
 
 // The largest |value| accepted for time and state cells.
 inline constexpr double kMaxMagnitude = 1e150;
+// The smallest time step accepted (1 / kMaxMagnitude: rates Δξ/Δt stay within range).
+inline constexpr double kMinStep = 1e-150;
 // The default maximum gap, in median steps.
 inline constexpr double kDefaultGapFactor = 5.0;
 

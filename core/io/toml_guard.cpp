@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "core/io/limits.hpp"
+
 namespace hysid {
 
 void CheckTomlCharacters(std::string_view text, const std::string& name) {
@@ -55,6 +57,7 @@ void CheckTomlCharacters(std::string_view text, const std::string& name) {
 }
 
 toml::table ParseToml(std::string_view text, const std::string& name) {
+  if (text.starts_with(kUtf8Bom)) text.remove_prefix(kUtf8Bom.size());  // as the CSV reader
   CheckTomlCharacters(text, name);
   try {
     return toml::parse(text, name);

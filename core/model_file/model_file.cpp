@@ -19,6 +19,7 @@
 #include <muParser.h>
 
 #include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "core/io/toml_guard.hpp"
 #include "core/io/toml_reader.hpp"
 
@@ -255,6 +256,10 @@ std::vector<Parameter> ParseParameters(const TomlReader& rd, const toml::table& 
     rd.OnlyKeys(t, key, {"name", "value", "known", "description"});
     Parameter p;
     p.name = rd.String(rd.Require(t, key, "name"), key + ".name");
+    if (p.name.starts_with("x0[")) {  // the refinement's and the bound's names of the initial state
+      rd.Fail(t.get("name"), key + ".name",
+              fmt::format("\"{}\": names x0[...] are the initial states' (x0[STATE])", p.name));
+    }
     p.value = rd.Number(rd.Require(t, key, "value"), key + ".value");
     if (const toml::node* k = t.get("known")) p.known = rd.Boolean(*k, key + ".known");
     if (const toml::node* d = t.get("description")) p.description = rd.String(*d, key + ".description");
@@ -271,7 +276,10 @@ std::vector<int> ParseRows(const TomlReader& rd, const toml::table& t, const std
   std::vector<int> rows;
   for (std::size_t i = 0; i < arr.size(); ++i) {
     const std::string ikey = TomlReader::Index(key, i);
-    rows.push_back(static_cast<int>(rd.Choice(&arr[i], ikey, "state", rd.String(arr[i], ikey), states)));
+    const std::string name = rd.String(arr[i], ikey);
+    const int row = static_cast<int>(rd.Choice(&arr[i], ikey, "state", name, states));
+    if (std::find(rows.begin(), rows.end(), row) != rows.end()) rd.Twice(&arr[i], ikey, fmt::format("'{}'", name));
+    rows.push_back(row);
   }
   return rows;
 }
@@ -381,6 +389,14 @@ void ParseDefaults(const TomlReader& rd, const toml::table& root, ModelSpec& spe
     const toml::node& n = rd.Require(t, "defaults", k);
     *field = rd.Number(n, TomlReader::Join("defaults", k));
     rd.Above(&n, TomlReader::Join("defaults", k), *field, 0.0);
+  }
+  // The default trajectory is simulated when the file is loaded: within the samples limit.
+  const double samples = std::min(spec.default_t_end / spec.default_dt, 9e18) + 1.0;
+  if (samples > static_cast<double>(LimitValue(kMaxSamples))) {
+    rd.Fail(&rd.Require(t, "defaults", "dt"), "defaults.dt",
+            fmt::format("t_end {} / dt {}: {:.0f} exceeds the limit of {} {} (raise it with {}=N)",
+                        spec.default_t_end, spec.default_dt, samples, LimitValue(kMaxSamples),
+                        kMaxSamples.what, kMaxSamples.variable));
   }
 }
 

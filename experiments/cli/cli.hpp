@@ -86,19 +86,31 @@ Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model);
 // positive number or the grid exceeds the samples limit (core/io/limits.hpp).
 SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model);
 
-// A CLI11 validator for unsigned 64-bit options: refuses a leading '-' (CLI11 would wrap -1 to
-// 2^64 − 1) and a decimal beyond 2^64 − 1 (CLI11 would saturate it to 2^64 − 1).
+// A CLI11 transformer for unsigned 64-bit options (use with ->transform): decimal digits only (CLI11
+// would wrap -1 to 2^64 − 1, read 010 as octal 8 and 0x10 as hex), at most 2^64 − 1 (CLI11 would
+// saturate), leading zeros dropped so that CLI11 reads the rest as decimal.
 inline const CLI::Validator NonNegativeInteger(
-    [](const std::string& text) {
+    [](std::string& text) {
       if (text.find('-') != std::string::npos) return std::string("must be ≥ 0, got ") + text;
+      if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) {
+        return std::string("must be a decimal integer ≥ 0, got ") + text;
+      }
       std::uint64_t value = 0;
       const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
       if (ec == std::errc::result_out_of_range) {
         return std::string("must be ≤ 18446744073709551615 (2^64 − 1), got ") + text;
       }
+      text = std::to_string(value);
       return std::string();
     },
     "NONNEGATIVE", "non-negative integer");
+
+// Comma-separated lists: each value of the flag (it may be repeated) split at commas; an empty item
+// is refused, as is an item of AddNumberList that is not a number. Each parse replaces `values`.
+CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
+                         const std::string& help);
+CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,
+                           const std::string& help);
 
 // Checks that every entry is finite; `flag` names the option in the error.
 void RequireFinite(const std::string& flag, const std::vector<double>& values);

@@ -1,13 +1,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <map>
 #include <stdexcept>
+#include <string_view>
 #include <utility>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 #include "core/io/limits.hpp"
+#include "experiments/cli/checks.hpp"
 #include "experiments/cli/cli.hpp"
 #include "sim/model_check/model_check.hpp"
 
@@ -28,7 +32,13 @@ Model MakeModel(const Environment& env, const std::string& name, const std::stri
       BadFlag(fmt::format("{}: {}", file.empty() ? "--model" : "--model-file", e.what()));
     }
   }();
+  std::map<std::string, std::string> given;  // name -> the assignment that set it
   for (const std::string& p : params) {
+    const std::string name = p.substr(0, p.find('='));
+    if (const auto [at, fresh] = given.emplace(name, p); !fresh) {
+      BadFlag(fmt::format("--param {}: parameter '{}' is already set by --param {}; give each parameter once",
+                          Abbreviated(p), Abbreviated(name, 40), Abbreviated(at->second)));
+    }
     try {
       model.SetParameter(std::string_view(p));
     } catch (const std::invalid_argument& e) {
@@ -50,24 +60,74 @@ void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_he
   cmd.add_option("--param", flags.params, param_help);
 }
 
+namespace {
+
+// The comma-separated items of one value of `flag`; an empty item is refused (CLI11's own split
+// would drop it and read "0.1,,0.2" as two values).
+std::vector<std::string> ListItems(const std::string& flag, const std::string& text) {
+  std::vector<std::string> items;
+  std::size_t begin = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', begin);
+    items.push_back(text.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+    if (items.back().find_first_not_of(" \t") == std::string::npos) {
+      BadFlag(fmt::format("{} = {}: item {} is empty", flag, Abbreviated(text), items.size()));
+    }
+    if (comma == std::string::npos) return items;
+    begin = comma + 1;
+  }
+}
+
+// A list flag whose items `convert(text, i, item)` turns into values.
+template <class T, class Convert>
+CLI::Option* AddList(CLI::App& cmd, const std::string& flag, std::vector<T>& values, const std::string& help,
+                     Convert convert) {
+  return cmd.add_option_function<std::vector<std::string>>(
+      flag,
+      [&values, flag, convert](const std::vector<std::string>& given) {
+        values.clear();
+        for (const std::string& text : given) {
+          std::vector<std::string> items = ListItems(flag, text);
+          for (std::size_t i = 0; i < items.size(); ++i) {
+            values.push_back(convert(text, i, std::move(items[i])));
+          }
+        }
+      },
+      help);
+}
+
+}  // namespace
+
+CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
+                         const std::string& help) {
+  return AddList(cmd, flag, values, help,
+                 [](const std::string&, std::size_t, std::string item) { return item; });
+}
+
+CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,
+                           const std::string& help) {
+  return AddList(
+      cmd, flag, values, help, [flag](const std::string& text, std::size_t i, const std::string& item) {
+        char* end = nullptr;
+        const double v = std::strtod(item.c_str(), &end);
+        if (end == item.c_str() || std::string_view(end).find_first_not_of(" \t") != std::string::npos) {
+          BadFlag(fmt::format("{} = {}: item {} '{}' is not a number", flag, Abbreviated(text), i + 1,
+                              Abbreviated(item, 40)));
+        }
+        return v;
+      });
+}
+
 void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags) {
-  cmd.add_option("--x0", flags.x0, "initial state, comma-separated (default: the model's)")->delimiter(',');
+  AddNumberList(cmd, "--x0", flags.x0, "initial state, comma-separated (default: the model's)");
   cmd.add_option("--t-end", flags.t_end, "horizon in seconds (default: the model's)");
   cmd.add_option("--dt", flags.dt, "sample time delta-t in seconds (default: the model's)");
 }
 
 SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model) {
   const ModelSpec& spec = model.spec();
-  const SampleGrid grid{.t_end = flags.t_end.value_or(spec.default_t_end),
-                        .dt = flags.dt.value_or(spec.default_dt)};
-  for (const auto& [flag, v] : {std::pair{"--dt", grid.dt}, std::pair{"--t-end", grid.t_end}}) {
-    if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
-    if (v <= 0) BadFlag(fmt::format("{} = {}: must be > 0", flag, v));
-  }
-  if (std::string e; !grid.IsValid(&e)) BadFlag(fmt::format("--t-end/--dt: {}", e));
-  CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(grid.t_end / grid.dt, 9e18)) + 1,
-             fmt::format("--t-end {} / --dt {}", grid.t_end, grid.dt));
-  return grid;
+  return CheckedGrid(flags.t_end.value_or(spec.default_t_end), flags.dt.value_or(spec.default_dt),
+                     Spelling::kFlag);
 }
 
 Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
@@ -89,27 +149,14 @@ Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
   return x0;
 }
 
-void RequireFinite(const std::string& flag, const std::vector<double>& values) {
-  for (double v : values) {
-    if (!std::isfinite(v)) BadFlag(fmt::format("{} = {}: must be finite", flag, v));
-  }
-}
+void RequireFinite(const std::string& flag, const std::vector<double>& values) { CheckFinite(flag, values); }
 
 void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings) {
-  try {
-    settings->UseEstimator(ParseKind<EstimatorKind>(estimator));
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--estimator: {}", e.what()));
-  }
-  try {
-    settings->detector.kind = ParseKind<DetectorKind>(detector);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--detector: {}", e.what()));
-  }
+  hysid::SetPluginKinds(estimator, detector, Spelling::kFlag, settings);
 }
 
 CLI::Option* AddSigmaOption(CLI::App& cmd, std::vector<double>& sigma, const std::string& help) {
-  return cmd.add_option("--sigma", sigma, help)->delimiter(',');
+  return AddNumberList(cmd, "--sigma", sigma, help);
 }
 
 void AddToleranceOptions(CLI::App& cmd, SimOptions& sim, const std::string& covers) {
@@ -119,19 +166,7 @@ void AddToleranceOptions(CLI::App& cmd, SimOptions& sim, const std::string& cove
 }
 
 Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero) {
-  RequireFinite("--sigma", values);
-  Vec sigma(states);
-  if (values.size() == 1) {
-    sigma.setConstant(values[0]);
-  } else if (static_cast<int>(values.size()) == states) {
-    sigma = Eigen::Map<const Vec>(values.data(), states);
-  } else {
-    BadFlag(fmt::format("--sigma has {} values; give one, or one per state ({})", values.size(), states));
-  }
-  if (allow_zero ? (sigma.array() < 0.0).any() : (sigma.array() <= 0.0).any()) {
-    BadFlag(fmt::format("--sigma = {}: must be {} 0", fmt::join(values, ","), allow_zero ? ">=" : ">"));
-  }
-  return sigma;
+  return CheckedSigma(values, states, allow_zero, Spelling::kFlag);
 }
 
 }  // namespace hysid::cli

@@ -22,6 +22,7 @@
 #include "core/io/limits.hpp"
 #include "core/io/sample_data.hpp"
 #include "core/sets/set_metrics.hpp"
+#include "experiments/cli/checks.hpp"
 #include "experiments/cli/cli.hpp"
 
 namespace hysid::cli {
@@ -47,50 +48,6 @@ struct IdentifyArgs {
   RefineArgs refine;  // --refine, --json (identify_refine.cpp)
 };
 
-// Every plugin option as a flag: detector options, the α estimator's, the β estimator's (--jump-NAME).
-struct OptionFlag {
-  std::string flag;
-  std::string help;
-  std::string default_text;
-  // Parses the text into `settings` (throws std::invalid_argument naming the option).
-  std::function<void(IdentifierSettings&, std::string_view)> set;
-};
-
-template <class S>
-std::string ReadBy(std::string_view option, const std::vector<S>& descriptors) {
-  std::vector<std::string_view> names;
-  for (const S& d : descriptors) {
-    if (d.Reads(option)) names.push_back(d.name);
-  }
-  return fmt::format("{}", fmt::join(names, ", "));
-}
-
-template <class S, class Descriptor>
-void AddOptionFlags(std::vector<OptionFlag>* flags, const std::vector<Option<S>>& table,
-                    const std::vector<Descriptor>& descriptors, S IdentifierSettings::*member,
-                    std::string_view prefix, std::string_view whose) {
-  const IdentifierSettings defaults;
-  for (const Option<S>& o : table) {
-    flags->push_back(
-        {FlagName(o.name, prefix), fmt::format("{}: {}{}", ReadBy(o.name, descriptors), o.help, whose),
-         o.Format(o.get(defaults.*member)),
-         [&o, member](IdentifierSettings& s, std::string_view text) { o.set(s.*member, o.Parse(text)); }});
-  }
-}
-
-const std::vector<OptionFlag>& OptionFlags() {
-  static const std::vector<OptionFlag> flags = [] {
-    std::vector<OptionFlag> f;
-    AddOptionFlags(&f, DetectorOptions(), AllPlugins<DetectorKind>(), &IdentifierSettings::detector, "", "");
-    AddOptionFlags(&f, EstimatorOptions(), AllPlugins<EstimatorKind>(), &IdentifierSettings::flow_estimator,
-                   "", " (alpha estimator)");
-    AddOptionFlags(&f, EstimatorOptions(), AllPlugins<EstimatorKind>(), &IdentifierSettings::jump_estimator,
-                   "jump", " (beta estimator)");
-    return f;
-  }();
-  return flags;
-}
-
 Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
   if (v.empty()) return Mat();
   RequireFinite(flag, v);
@@ -107,24 +64,12 @@ Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
 IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   IdentifierSettings settings;
   SetPluginKinds(args.estimator, args.detector, &settings);
-  for (const OptionFlag& f : OptionFlags()) {
-    const auto given = args.options.find(f.flag);
-    if (given == args.options.end()) continue;
-    try {
-      f.set(settings, given->second);
-    } catch (const std::invalid_argument& e) {
-      BadFlag(fmt::format("{}: {}", f.flag, e.what()));
-    }
-  }
+  ApplyPluginOptions(args.options, Spelling::kFlag, &settings);
   settings.flow_estimator.noise_shape = NoiseShapeFlag(args.flow_shape, "--flow-noise-shape");
   settings.jump_estimator.noise_shape = NoiseShapeFlag(args.jump_shape, "--jump-noise-shape");
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
-  for (const auto& [flag, value] :
-       {std::pair{"--data-rtol", args.data_rtol}, std::pair{"--data-atol", args.data_atol}}) {
-    if (!(value >= 0.0) || !std::isfinite(value))
-      BadFlag(fmt::format("{} = {}: must be finite and >= 0", flag, value));
-  }
+  CheckDataAccuracy(args.data_rtol, args.data_atol, Spelling::kFlag);
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
   if (!args.sigma.empty()) settings.sigma = SigmaFlag(args.sigma, model.state_size());
@@ -249,7 +194,11 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyRes
               c.recall());
   std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n", e.e_alpha,
               e.e_beta, e.rel_alpha, e.rel_beta);
-  // Ĉ and D̂ against the model's C and D.
+  // Ĉ and D̂ against the model's C and D (when computed: not beyond the hull dimension limit).
+  if (!result.sets_skipped.empty()) {
+    std::printf("  sets: not computed\n");
+    return;
+  }
   const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
   std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
               static_cast<long>(result.flow_hull.cols()), model.state_size() >= 3 ? "volume" : "area",
@@ -356,6 +305,8 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
   PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
   PrintEstimates(model.spec(), args, result);
+  if (!result.sets_skipped.empty())
+    std::printf("sets C^ and D^: not computed: %s\n", result.sets_skipped.c_str());
   if (data.j) PrintTruth(model, *data.j, result);
   if (!args.trace.empty()) {
     WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
@@ -382,10 +333,9 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                   "runs of one system (alpha, beta shared). Empty, nan or NA state cells: the row is "
                   "left out and the chain restarts")
       ->required();
-  cmd->add_option("--columns", args->columns,
-                  "columns by header name: t=NAME (time), the state columns in model order, "
-                  "optionally run=NAME (run column), e.g. t=time,x1,x2")
-      ->delimiter(',');
+  AddTextList(*cmd, "--columns", args->columns,
+              "columns by header name: t=NAME (time), the state columns in model order, "
+              "optionally run=NAME (run column), e.g. t=time,x1,x2");
   cmd->add_option("--max-gap", args->max_gap,
                   "seconds: a step longer than this restarts the chain (no regression or detector "
                   "statistic across it); default 5 x the median step")
@@ -402,16 +352,15 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_option("--detector", args->detector, PluginHelp("jump detector", AllPlugins<DetectorKind>()))
       ->capture_default_str();
   std::vector<std::pair<std::string, CLI::Option*>> option_flags;
-  for (const OptionFlag& f : OptionFlags()) {
-    CLI::Option* o = cmd->add_option(f.flag, args->options[f.flag], f.help)->default_str(f.default_text);
-    option_flags.emplace_back(f.flag, o);
+  for (const PluginOptionArgument& a : PluginOptionArguments()) {
+    const std::string flag = Spelled(a.name, Spelling::kFlag, a.prefix);
+    option_flags.emplace_back(
+        flag, cmd->add_option(flag, args->options[flag], a.help)->default_str(a.default_text));
   }
-  cmd->add_option("--flow-noise-shape", args->flow_shape,
-                  "gtls/frisch: noise covariance shape C of the flow rows [phi, y], row-major, "
-                  "instead of the one derived from sigma and dt")
-      ->delimiter(',');
-  cmd->add_option("--jump-noise-shape", args->jump_shape, "gtls/frisch: the same for the jump rows")
-      ->delimiter(',');
+  AddNumberList(*cmd, "--flow-noise-shape", args->flow_shape,
+                "gtls/frisch: noise covariance shape C of the flow rows [phi, y], row-major, "
+                "instead of the one derived from sigma and dt");
+  AddNumberList(*cmd, "--jump-noise-shape", args->jump_shape, "gtls/frisch: the same for the jump rows");
   cmd->add_flag("--localize", args->localize,
                 "regress each jump at its located instant inside (t-dt, t] (flows forward and "
                 "backward with the estimated flow until the jump's known rows agree)");

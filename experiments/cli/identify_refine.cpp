@@ -39,12 +39,13 @@ Truth ReadTruth(const std::string& data_path, int n) {
   return {vec("x0"), vec("sigma")};
 }
 
-// The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid), else not ok.
+// The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid) over at least two
+// samples (a refinement that fitted fewer has no span to bound), else not ok.
 Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt) {
-  if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma.array() > 0.0).all()) {
+  if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma.array() > 0.0).all() || samples < 2) {
     Crlb none;
     none.status = CrlbStatus::kSimulationFailed;
-    none.message = "no truth";
+    none.message = samples < 2 ? "fewer than 2 samples fitted" : "no truth";
     return none;
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};

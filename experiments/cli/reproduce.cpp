@@ -258,22 +258,42 @@ void AddReproduceCommand(CLI::App& app, Environment& env) {
       app.add_subcommand("reproduce", "re-run a study of the paper (paper = Sec. 5, example6 = Fig. 2)");
   cmd->add_option("study", args->study, "paper or example6")->capture_default_str();
   cmd->add_option("--out", args->out, "output directory (default: results/<study>)");
-  cmd->add_option("--sigma", args->sigma, "noise of the noisy experiment")->capture_default_str();
-  cmd->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
-      ->capture_default_str()
-      ->check(NonNegativeInteger);
-  cmd->add_option("--estimator", args->estimator,
-                  PluginHelp("estimator of alpha and beta (rls as published)", AllPlugins<EstimatorKind>()))
-      ->capture_default_str();
-  cmd->add_option("--detector", args->detector,
-                  "paper (as published, r = 220) or residual (tuning-free; the tau columns then "
-                  "hold |z| and its quantile, and the tau error is not computed)")
-      ->capture_default_str();
-  cmd->add_option("--false-alarm", args->false_alarm, "residual detector: false-alarm probability")
-      ->capture_default_str();
-  cmd->add_flag("--localize", args->localize, "regress each jump at its located instant");
-  cmd->add_flag("--second-pass", args->second_pass, "re-classify with the final estimates and re-estimate");
-  cmd->callback([args, &env] { RunReproduce(*args, env); });
+  std::vector<CLI::Option*> paper_only;  // what example6 (a closed-form figure) does not read
+  paper_only.push_back(
+      cmd->add_option("--sigma", args->sigma, "noise of the noisy experiment")->capture_default_str());
+  paper_only.push_back(cmd->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
+                           ->capture_default_str()
+                           ->transform(NonNegativeInteger));
+  paper_only.push_back(cmd->add_option("--estimator", args->estimator,
+                                       PluginHelp("estimator of alpha and beta (rls as published)",
+                                                  AllPlugins<EstimatorKind>()))
+                           ->capture_default_str());
+  paper_only.push_back(
+      cmd->add_option("--detector", args->detector,
+                      "paper (as published, r = 220) or residual (tuning-free; the tau columns "
+                      "then hold |z| and its quantile, and the tau error is not computed)")
+          ->capture_default_str());
+  CLI::Option* false_alarm =
+      cmd->add_option("--false-alarm", args->false_alarm, "residual detector: false-alarm probability")
+          ->capture_default_str();
+  paper_only.push_back(false_alarm);
+  paper_only.push_back(
+      cmd->add_flag("--localize", args->localize, "regress each jump at its located instant"));
+  paper_only.push_back(cmd->add_flag("--second-pass", args->second_pass,
+                                     "re-classify with the final estimates and re-estimate"));
+  cmd->callback([args, &env, paper_only, false_alarm] {
+    for (const CLI::Option* o : paper_only) {
+      if (args->study == "example6" && o->count() > 0) {
+        BadFlag(fmt::format("{}: reproduce example6 does not read it (it reads --out only)", o->get_name()));
+      }
+    }
+    IdentifierSettings kinds;  // the names, refused as `identify` refuses them
+    SetPluginKinds(args->estimator, args->detector, &kinds);
+    if (false_alarm->count() > 0 && !DescriptorOf(kinds.detector.kind).Reads("false_alarm")) {
+      BadFlag(fmt::format("--false-alarm: the detector '{}' does not read it", args->detector));
+    }
+    RunReproduce(*args, env);
+  });
 }
 
 }  // namespace hysid::cli

@@ -195,10 +195,10 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       ->capture_default_str();
   sub->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
       ->capture_default_str()
-      ->check(NonNegativeInteger);
+      ->transform(NonNegativeInteger);
   sub->add_option("--trial", args->trial, "trial index (selects an independent noise stream)")
       ->capture_default_str()
-      ->check(NonNegativeInteger);
+      ->transform(NonNegativeInteger);
   AddToleranceOptions(*sub, args->sim, "");
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
   sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();

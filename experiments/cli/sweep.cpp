@@ -2,10 +2,14 @@
 #include <malloc.h>
 
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -20,10 +24,48 @@
 namespace hysid::cli {
 namespace {
 
-// Raised by SIGINT/SIGTERM; the runner stops between units and the journal keeps what finished.
+// Raised by SIGINT/SIGTERM; the runner stops between units and the journal keeps what finished
+// (StopWatchdog ends a unit that takes longer).
 std::atomic<bool> g_stop{false};
 static_assert(std::atomic<bool>::is_always_lock_free);
 extern "C" void OnSignal(int) { g_stop.store(true); }
+
+// The grace a running unit gets after SIGINT/SIGTERM before the process ends without it.
+constexpr auto kStopGrace = std::chrono::milliseconds(500);
+
+// Honours a signal within a second wherever the sweep is: the runner stops between units; a unit
+// still running kStopGrace after the signal (a long simulation, identification, refinement or hull)
+// is abandoned by ending the process with exit code 130. The journal stays valid: every row is one
+// write(2) under the journal's lock, and a torn last line is cut off on resume (as after SIGKILL),
+// so the same command resumes; the tables are written only after the last unit.
+class StopWatchdog {
+ public:
+  explicit StopWatchdog(std::string out) : out_(std::move(out)), thread_([this] { Watch(); }) {}
+  ~StopWatchdog() {
+    done_.store(true);
+    thread_.join();
+  }
+
+ private:
+  void Watch() {
+    while (!done_.load() && !g_stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    const auto deadline = std::chrono::steady_clock::now() + kStopGrace;
+    while (!done_.load() && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (done_.load()) return;
+    std::fprintf(stderr,
+                 "interrupted: the finished trials are in %s/trials.journal (the running ones are left out); "
+                 "run the same command again to finish the rest\nhysid: sweep interrupted\n",
+                 out_.c_str());
+    std::fflush(stdout);
+    std::_Exit(130);
+  }
+
+  std::string out_;
+  std::atomic<bool> done_{false};
+  std::thread thread_;  // last: started once the members above exist
+};
 
 struct SweepArgs {
   std::string file;
@@ -75,7 +117,10 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
   g_stop.store(false);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
-  const SweepOutcome o = RunSweep(config, env.models, options, &g_stop);
+  const SweepOutcome o = [&] {
+    const StopWatchdog watchdog(options.out.string());
+    return RunSweep(config, env.models, options, &g_stop);
+  }();
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   if (o.interrupted) {

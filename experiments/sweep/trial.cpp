@@ -302,7 +302,7 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     return;
   }
   o->err = CompareParameters(model, o->alpha_hat, o->beta_hat);
-  if (s.sets) {
+  if (s.sets && res.sets_skipped.empty()) {  // not beyond the hull dimension limit
     o->sets = CompareSets(model, res.flow_hull, res.jump_hull);
     o->flow_vertices = static_cast<long>(res.flow_hull.cols());
     o->jump_vertices = static_cast<long>(res.jump_hull.cols());

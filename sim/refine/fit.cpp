@@ -464,10 +464,19 @@ void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_si
 
 }  // namespace
 
+// The CVODE steps one simulation of a fit may take per sample (the budget is also capped by
+// RefineOptions::sensitivity.sim.max_steps).
+constexpr long kMaxStepsPerSample = 1000;
+
 void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
                   Vec* weight) {
   const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
   *sens = options.sensitivity;
+  // The work of one simulation grows with the data, not without bound: a trial point whose flow
+  // needs more than kMaxStepsPerSample CVODE steps per sample is far from data sampled that coarsely
+  // (δt longer than the time between jumps made a fit take a minute); its evaluation fails and
+  // Ceres steps back.
+  sens->sim.max_steps = std::min(sens->sim.max_steps, kMaxStepsPerSample * static_cast<long>(y.cols()));
   const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
   const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
                                       std::min(options.polish_tolerance, options.sensitivity.sim.rtol),

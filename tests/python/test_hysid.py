@@ -152,7 +152,7 @@ def test_crlb_equals_cli():
     assert doubled["mean_e_alpha"] == pytest.approx(2 * bound["mean_e_alpha"], rel=1e-9)
     known = hysid.crlb("impact-msd", sigma=0.5, x0_known=True)
     assert known["names"] == ["a", "b", "lambda", "mu"]
-    with pytest.raises(ValueError, match="sigma: must be finite and > 0"):
+    with pytest.raises(ValueError, match="sigma = 0: must be > 0"):
         hysid.crlb("impact-msd", sigma=0.0)
 
 
@@ -199,3 +199,204 @@ def test_identify_runs_with_missing_rows_equals_cli(tmp_path):
     assert sum(refined["chain_samples_used"]) == cli_fit["samples_used"]
     assert refined["chain_samples_used"] == cli_fit["chain_samples_used"]
     assert refined["chain_span_reason"] == cli_fit["chain_span_reason"]
+
+
+def keyword(message):
+    """A command-line message with each flag spelled as the Python keyword (--t-end as t_end)."""
+    return re.sub(r"--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_"), message)
+
+
+def cli_refusal(*args):
+    """The message `hysid ARGS` refuses with (exit 2), without its "hysid: error: " prefix."""
+    p = subprocess.run([BIN, *map(str, args)], capture_output=True, text=True)
+    assert p.returncode == 2, p.stderr
+    return p.stderr.strip().splitlines()[-1].removeprefix("hysid: error: ")
+
+
+NAN, INF = float("nan"), float("inf")
+# (command-line arguments, the same values as Python arguments) for each value the command line refuses.
+SIMULATE_REFUSED = [
+    (["--sigma", "nan"], {"sigma": NAN}), (["--sigma", "inf"], {"sigma": INF}), (["--sigma", "-1"], {"sigma": -1.0}),
+    (["--sigma", "0.1,nan"], {"sigma": [0.1, NAN]}), (["--sigma", "1,2,3"], {"sigma": [1.0, 2.0, 3.0]}),
+    (["--dt", "1e-320"], {"dt": 1e-320}), (["--dt", "0"], {"dt": 0.0}), (["--dt", "nan"], {"dt": NAN}),
+    (["--t-end", "-1"], {"t_end": -1.0}), (["--dt", "1e-7"], {"dt": 1e-7}),
+]
+CRLB_REFUSED = [(["--sigma", "0"], {"sigma": 0.0}), (["--sigma", "nan"], {"sigma": NAN}),
+                (["--dt", "1e-320"], {"dt": 1e-320})]
+IDENTIFY_REFUSED = [
+    (["--sigma", "nan"], {"sigma": NAN}), (["--sigma", "-1"], {"sigma": -1.0}),
+    (["--forgetting", "2"], {"forgetting": 2.0}), (["--jump-forgetting", "0"], {"jump_forgetting": 0.0}),
+    (["--detector", "paper", "--r", "1"], {"detector": "paper", "r": 1.0}),
+    (["--detector", "paper", "--false-alarm", "1e-3"], {"detector": "paper", "false_alarm": 1e-3}),
+    (["--tau0", "10"], {"tau0": 10.0}),
+    (["--estimator", "kalman"], {"estimator": "kalman"}), (["--detector", "oracle"], {"detector": "oracle"}),
+    (["--data-atol", "nan"], {"data_atol": NAN}), (["--data-rtol", "-1"], {"data_rtol": -1.0}),
+]
+
+
+@pytest.mark.parametrize("args,kwargs", SIMULATE_REFUSED)
+def test_simulate_refuses_what_the_cli_refuses(tmp_path, args, kwargs):
+    message = cli_refusal("simulate", *args, "--out", tmp_path / "t.csv")
+    with pytest.raises(ValueError) as e:
+        hysid.simulate("impact-msd", **kwargs)
+    assert str(e.value) == keyword(message)
+
+
+@pytest.mark.parametrize("args,kwargs", CRLB_REFUSED)
+def test_crlb_refuses_what_the_cli_refuses(args, kwargs):
+    message = cli_refusal("crlb", *args)
+    with pytest.raises(ValueError) as e:
+        hysid.crlb("impact-msd", **kwargs)
+    assert str(e.value) == keyword(message)
+
+
+@pytest.mark.parametrize("args,kwargs", IDENTIFY_REFUSED)
+def test_identify_refuses_what_the_cli_refuses(paper_data, args, kwargs):
+    message = cli_refusal("identify", *args, "--data", paper_data)
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:200, 4:6]
+    with pytest.raises(ValueError) as e:
+        hysid.identify("impact-msd", y, dt=5e-4, **kwargs)
+    assert str(e.value) == keyword(message)
+
+
+@pytest.mark.parametrize("rows", [0, 1, 2])
+def test_identify_refuses_too_few_samples_as_the_cli(tmp_path, rows):
+    """0, 1 or 2 samples: the CLI's message for a file of that many rows (never a crash)."""
+    data = tmp_path / "few.csv"
+    data.write_text("t,y1,y2\n" + "".join(f"{k * 1e-3},1,0\n" for k in range(rows)))
+    message = cli_refusal("identify", "--data", data)
+    assert message.startswith(f"{data}: {rows} samples")
+    for refine in ("ml", "none"):
+        with pytest.raises(ValueError) as e:
+            hysid.identify("impact-msd", np.zeros((rows, 2)), dt=1e-3, refine=refine)
+        assert str(e.value) == message.replace(str(data), "run 1")
+
+
+def test_identify_refuses_steps_below_the_smallest(tmp_path):
+    data = tmp_path / "tiny.csv"
+    data.write_text("t,y1,y2\n" + "".join(f"{k * 1e-320},1,0\n" for k in range(5)))
+    message = cli_refusal("identify", "--data", data)
+    with pytest.raises(ValueError) as e:
+        hysid.identify("impact-msd", np.ones((5, 2)), dt=1e-320)
+    tail = r"column 1 \('t'\): the step \S+ after line {} is below 1e-150 s \(rescale the time\)$"
+    assert re.search(tail.format(2), message) and re.search(tail.format(1), str(e.value))
+
+
+def test_seed_is_decimal(tmp_path):
+    """--seed 010 is ten (CLI11 alone reads it as octal 8)."""
+    for seed in ("010", "10", "8"):
+        cli("simulate", "--sigma", 0.1, "--t-end", 1, "--seed", seed, "--out", tmp_path / f"s{seed}.csv")
+    text = {s: (tmp_path / f"s{s}.csv").read_text() for s in ("010", "10", "8")}
+    assert text["010"] == text["10"] != text["8"]
+
+
+def test_jump_counters_of_several_files_join_without_a_step(paper_data, tmp_path):
+    """Two files cut from one run, the second starting at j > 0: the true jumps are the run's own
+    (no phantom jump at the boundary, whatever j the second file starts at)."""
+    lines = paper_data.read_text().splitlines(True)
+    j = [int(float(l.split(",")[1])) for l in lines[1:]]
+    cut = next(k for k in range(len(j) // 3, len(j)) if j[k] == j[k - 1] > 0) + 1  # line index of row k
+    (tmp_path / "a.csv").write_text("".join(lines[:cut]))
+    (tmp_path / "b.csv").write_text(lines[0] + "".join(lines[cut:]))
+    whole = re.search(r"truth \(column j\): (\d+) true jumps", cli("identify", "--data", paper_data, "--refine", "none"))
+    parts = re.search(r"truth \(column j\): (\d+) true jumps",
+                      cli("identify", "--data", tmp_path / "a.csv", "--data", tmp_path / "b.csv", "--refine", "none"))
+    assert int(parts.group(1)) == int(whole.group(1)) == j[-1] - j[0]
+
+
+def test_cr_line_endings_read_as_lf(paper_data, tmp_path):
+    cr = tmp_path / "cr.csv"
+    cr.write_bytes(paper_data.read_bytes().replace(b"\n", b"\r"))
+    lf = tmp_path / "lf.csv"
+    lf.write_bytes(paper_data.read_bytes())
+    a = cli("identify", "--data", cr, "--refine", "none", "--data-rtol", 0, "--data-atol", 0)
+    b = cli("identify", "--data", lf, "--refine", "none", "--data-rtol", 0, "--data-atol", 0)
+    assert a.replace("cr.csv", "lf.csv") == b
+
+
+def test_byte_order_mark_in_a_model_file(tmp_path):
+    text = (MODELS / "impact-msd.toml").read_text(encoding="utf-8")
+    bom = tmp_path / "bom.toml"
+    bom.write_text("\ufeff" + text, encoding="utf-8")
+    assert hysid.Model.from_file(bom).equations == hysid.Model.from_file(MODELS / "impact-msd.toml").equations
+
+
+def test_hulls_above_their_dimension_limit_are_left_out_with_a_reason(paper_data, monkeypatch):
+    y = np.loadtxt(paper_data, delimiter=",", skiprows=1)[:2000, 4:6]
+    assert hysid.identify("impact-msd", y, dt=5e-4, refine="none")["flow_hull"].shape[0] > 0
+    monkeypatch.setenv("HYSID_MAX_HULL_DIMENSION", "1")
+    fit = hysid.identify("impact-msd", y, dt=5e-4, refine="none")
+    assert fit["flow_hull"].shape[0] == fit["jump_hull"].shape[0] == 0
+    assert fit["sets_skipped"] == ("2 states exceed the limit of 1 states for the exact hulls of C and D "
+                                   "(raise it with HYSID_MAX_HULL_DIMENSION=N)")
+
+
+def test_python_sample_limit(monkeypatch):
+    monkeypatch.setenv("HYSID_MAX_SAMPLES", "100")
+    with pytest.raises(ValueError, match="exceeds the limit of 100 samples per trajectory"):
+        hysid.simulate("impact-msd", t_end=1.0, dt=1e-3)
+    with pytest.raises(ValueError, match="exceeds the limit of 100 samples per trajectory"):
+        hysid.identify("impact-msd", np.ones((101, 2)), dt=1e-3)
+
+
+def test_a_signal_ends_a_long_unit_of_a_sweep(tmp_path):
+    """SIGINT while one long unit runs: exit 130 long before the unit would end, the journal intact."""
+    import signal
+    import time
+    sweep = tmp_path / "long.toml"
+    sweep.write_text('[model]\nname = "impact-msd"\nt_end = 200.0\n[grid]\nsigma = 0.1\ndt = 5e-4\n'
+                     'refine = ["ml"]\n[run]\ntrials = 1\n')  # a refinement over 400 001 samples: minutes
+    out = tmp_path / "run"
+    p = subprocess.Popen([BIN, "sweep", str(sweep), "--out", str(out), "--progress", "none", "--threads", "1"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    journal = out / "trials.journal"
+    while not journal.exists() and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    assert p.poll() is None, "the unit ended before the signal: make it longer"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=5)
+    assert p.returncode == 130, err
+    assert "run the same command again" in err
+    assert journal.read_text().startswith("# hysid journal sweep=")
+
+
+def test_second_pass_at_r_near_one_is_a_refinement_status(paper_data):
+    """The paper detector at r ≈ 1 with --second-pass flags nearly every sample: the refinement has
+    too few samples to fit, a status (exit 1), not an internal error reported as bad input."""
+    p = subprocess.run([BIN, "identify", "--detector", "paper", "--r", "1.0001", "--second-pass", "--data",
+                        str(paper_data)], capture_output=True, text=True)
+    assert p.returncode == 1, p.stderr
+    assert "refinement (maximum likelihood on the detected hybrid time domain): too-few-samples" in p.stdout
+    assert "error" not in p.stderr
+
+
+def test_ctrl_c_stops_run_sweep_between_units(tmp_path):
+    """KeyboardInterrupt in run_sweep: the sweep stops after the running units, the journal keeps them."""
+    import signal
+    import sys
+    import time
+    sweep = tmp_path / "many.toml"
+    sweep.write_text('[model]\nname = "impact-msd"\n[grid]\nsigma = 0.1\ndt = 5e-4\n[run]\ntrials = 5000\n')
+    out = tmp_path / "run"
+    code = f"import hysid\nhysid.run_sweep({str(sweep)!r}, out={str(out)!r}, threads=1)\n"
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    journal = out / "trials.journal"
+    while p.poll() is None and (not journal.exists() or journal.read_text().count("\n") < 4):
+        time.sleep(0.05)
+    assert p.poll() is None, "the sweep ended before the signal: give it more trials"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=10)
+    assert p.returncode != 0 and "KeyboardInterrupt" in err
+    rows = journal.read_text().splitlines()[2:]
+    assert 2 <= len(rows) < 5000
+    assert not (out / "trials.csv").exists()
+
+
+def test_cli_reports_hulls_left_out_above_their_limit(paper_data):
+    """Data with the truth (column j) and hulls beyond their limit: the report says so, exit 0."""
+    p = subprocess.run([BIN, "identify", "--data", str(paper_data), "--refine", "none"], capture_output=True,
+                       text=True, env={**os.environ, "HYSID_MAX_HULL_DIMENSION": "1"})
+    assert p.returncode == 0, p.stderr
+    assert "sets C^ and D^: not computed: 2 states exceed the limit of 1 states" in p.stdout
+    assert "  sets: not computed\n" in p.stdout

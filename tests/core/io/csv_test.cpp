@@ -2,6 +2,8 @@
 #include <catch2/catch.hpp>
 
 #include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <csignal>
@@ -301,6 +303,52 @@ TEST_CASE("bytes echoed in a message are printable: control and invalid UTF-8 by
   CHECK(Printable("\xc3\xbb ok \xc3") == "\xc3\xbb ok \\xc3");  // û kept, a cut sequence escaped
   CHECK(Printable("\xe2\x88") == "\\xe2\\x88");
   CHECK(Abbreviated(std::string(100, '\n'), 2) == "\\x0a\\x0a… (100 bytes)");
+}
+
+}  // namespace
+}  // namespace hysid
+
+namespace hysid {
+namespace {
+
+TEST_CASE("records end at LF, CR LF or a lone CR; a byte order mark is skipped", "[csv]") {
+  for (const std::string& text :
+       {std::string("t,x\n0,1\n1,2\n"), std::string("t,x\r\n0,1\r\n1,2\r\n"), std::string("t,x\r0,1\r1,2\r"),
+        std::string("\xEF\xBB\xBFt,x\n0,1\n1,2\n")}) {
+    std::istringstream in(text);
+    const CsvTable t = ReadCsvStream(in, "e.csv");
+    CHECK(t.header == std::vector<std::string>{"t", "x"});
+    REQUIRE(t.rows() == 2);
+    CHECK(t.columns[1][1] == 2.0);
+    CHECK(t.line_of_row == std::vector<long>{2, 3});
+  }
+}
+
+TEST_CASE("a FIFO is refused before it is opened (reading it would block)", "[csv]") {
+  const std::string fifo = "csv_test_fifo.csv";
+  ::unlink(fifo.c_str());
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  CHECK_THROWS_WITH(ReadCsv(fifo),
+                    "csv_test_fifo.csv: is a FIFO, not a regular file; give the data file as a file");
+  CHECK_THROWS_WITH(ReadWholeFile(fifo, "sweep file"),
+                    "csv_test_fifo.csv: is a FIFO, not a regular file; give the sweep file as a file");
+  ::unlink(fifo.c_str());
+  CHECK_THROWS_WITH(ReadWholeFile("/dev/zero", "model file"), Catch::Contains("is a character device"));
+}
+
+TEST_CASE("model and sweep files are read up to their size limit", "[csv]") {
+  const std::string path = "csv_test_input.toml";
+  std::ofstream(path) << std::string(200, '#');
+  CHECK(ReadWholeFile(path, "model file").size() == 200);
+  ::setenv("HYSID_MAX_INPUT_FILE", "100", 1);
+  CHECK_THROWS_WITH(
+      ReadWholeFile(path, "model file"),
+      "csv_test_input.toml: the model file is longer than the limit of 100 bytes per model or sweep "
+      "file (raise it with HYSID_MAX_INPUT_FILE=N)");
+  ::setenv("HYSID_MAX_INPUT_FILE", "200", 1);
+  CHECK(ReadWholeFile(path, "model file").size() == 200);
+  ::unsetenv("HYSID_MAX_INPUT_FILE");
+  ::unlink(path.c_str());
 }
 
 }  // namespace

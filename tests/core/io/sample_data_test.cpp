@@ -2,6 +2,7 @@
 // name file, line and column.
 #include <catch2/catch.hpp>
 
+#include <cstdlib>
 #include <sstream>
 
 #include "core/io/sample_data.hpp"
@@ -98,6 +99,51 @@ TEST_CASE("too few samples after the missing rows are left out", "[sample_data]"
   CHECK_THROWS_WITH(
       SampleDataFromTable(Table("t,x,v\n0,1,2\n0.1,nan,2\n0.2,1,2\n", "s.csv"), 2),
       "s.csv: 2 samples (1 row with a missing value left out); the identifier needs at least 3");
+}
+
+}  // namespace
+}  // namespace hysid
+
+namespace hysid {
+namespace {
+
+TEST_CASE("the jump counters of several runs join without a step whatever each starts at; j never falls",
+          "[sample_data]") {
+  // The second file is a later part of the run (its counter starts at 5): no jump at the boundary.
+  const CsvTable a = Table("t,j,x,v\n0,0,1,2\n0.1,1,1,2\n0.2,1,1,2\n", "a.csv");
+  const CsvTable b = Table("t,j,x,v\n7,5,1,2\n7.1,5,1,2\n7.2,6,1,2\n", "b.csv");
+  const SampleData d = SampleDataFromTables({a, b}, 2);
+  REQUIRE(d.j);
+  CHECK(*d.j == std::vector<int>{0, 1, 1, 1, 1, 2});
+  // Counters near 2^31 − 1 in each file: joined in 64 bits, refused when the sum does not fit.
+  const CsvTable big = Table("t,j,x,v\n0,0,1,2\n0.1,2147483000,1,2\n0.2,2147483000,1,2\n", "big.csv");
+  const CsvTable more = Table("t,j,x,v\n0,0,1,2\n0.1,2147483000,1,2\n", "more.csv");
+  CHECK_THROWS_WITH(
+      SampleDataFromTables({big, more}, 2),
+      "more.csv:3: column 2 ('j'): the runs' jump counters add up to 4294966000, beyond 2147483647");
+  CHECK_THROWS_WITH(
+      SampleDataFromTable(Table("t,j,x,v\n0,2,1,2\n0.1,1,1,2\n0.2,1,1,2\n", "f.csv"), 2),
+      "f.csv:3: column 2 ('j'): 1 after 2 (line 2): a jump counter never decreases within a run");
+}
+
+TEST_CASE("two columns of one name, and steps below the smallest, are refused by line and column",
+          "[sample_data]") {
+  CHECK_THROWS_WITH(SampleDataFromTable(Table("t,y1,y1,y2\n0,1,1,2\n0.1,1,1,2\n0.2,1,1,2\n", "c.csv"), 2),
+                    "c.csv:1: column 3 ('y1'): the same name as column 2; column names must be unique");
+  CHECK_THROWS_WITH(
+      SampleDataFromTable(Table("t,x,v\n0,1,2\n1e-160,1,2\n1,1,2\n", "s.csv"), 2),
+      "s.csv:3: column 1 ('t'): the step 1e-160 after line 2 is below 1e-150 s (rescale the time)");
+}
+
+TEST_CASE("arrays (the Python module) pass the same count and limit checks as files", "[sample_data]") {
+  CHECK_THROWS_WITH(SampleDataFromArrays({{}}, {Mat(2, 0)}, 1e-3),
+                    "run 1: 0 samples; the identifier needs at least 3");
+  CHECK_THROWS_WITH(SampleDataFromArrays({{}}, {Mat::Ones(2, 1)}, 1e-3),
+                    "run 1: 1 samples; the identifier needs at least 3");
+  ::setenv("HYSID_MAX_SAMPLES", "4", 1);
+  CHECK_THROWS_WITH(SampleDataFromArrays({{}}, {Mat::Ones(2, 5)}, 1e-3),
+                    Catch::Contains("y: 5 exceeds the limit of 4 samples per trajectory"));
+  ::unsetenv("HYSID_MAX_SAMPLES");
 }
 
 }  // namespace

@@ -348,5 +348,18 @@ TEST_CASE("bad options and inputs name the field", "[refine]") {
                     Catch::Contains("gamma has 10 entries"));
 }
 
+TEST_CASE("0, 1 or a few samples: too-few-samples, the start kept, no sample read before the check",
+          "[refine]") {
+  const Model model{ImpactMsd{}};
+  for (const Eigen::Index k : {0, 1, 3}) {
+    const Mat y = Mat::Constant(2, k, 1.0);
+    const RefineResult r = RefineRun(model, y, 1e-3, model.alpha(), model.beta(),
+                                     std::vector<std::uint8_t>(static_cast<std::size_t>(k), 0));
+    CHECK(r.status == RefineStatus::kTooFewSamples);
+    RequireKept(r);
+    CHECK(r.start.x0.size() == 2);
+  }
+}
+
 }  // namespace
 }  // namespace hysid

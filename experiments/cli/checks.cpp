@@ -1,0 +1,162 @@
+#include "experiments/cli/checks.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <utility>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "core/io/limits.hpp"
+
+namespace hysid {
+
+std::string Spelled(std::string_view name, Spelling spelling, std::string_view prefix) {
+  if (spelling == Spelling::kFlag) return FlagName(name, prefix);
+  return prefix.empty() ? std::string(name) : fmt::format("{}_{}", prefix, name);
+}
+
+void CheckFinite(const std::string& name, const std::vector<double>& values) {
+  for (double v : values) {
+    if (!std::isfinite(v)) throw std::invalid_argument(fmt::format("{} = {}: must be finite", name, v));
+  }
+}
+
+SampleGrid CheckedGrid(double t_end, double dt, Spelling spelling) {
+  const std::string t_name = Spelled("t_end", spelling), dt_name = Spelled("dt", spelling);
+  const SampleGrid grid{.t_end = t_end, .dt = dt};
+  for (const auto& [name, v] : {std::pair{dt_name, dt}, std::pair{t_name, t_end}}) {
+    CheckFinite(name, {v});
+    if (v <= 0) throw std::invalid_argument(fmt::format("{} = {}: must be > 0", name, v));
+  }
+  CheckLimit(kMaxSamples, static_cast<std::int64_t>(std::min(t_end / dt, 9e18)) + 1,
+             fmt::format("{} {} / {} {}", t_name, t_end, dt_name, dt));
+  if (std::string e; !grid.IsValid(&e))
+    throw std::invalid_argument(fmt::format("{}/{}: {}", t_name, dt_name, e));
+  return grid;
+}
+
+Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling) {
+  const std::string name = Spelled("sigma", spelling);
+  CheckFinite(name, values);
+  Vec sigma(states);
+  if (values.size() == 1) {
+    sigma.setConstant(values[0]);
+  } else if (static_cast<int>(values.size()) == states) {
+    sigma = Eigen::Map<const Vec>(values.data(), states);
+  } else {
+    throw std::invalid_argument(
+        fmt::format("{} has {} values; give one, or one per state ({})", name, values.size(), states));
+  }
+  if (allow_zero ? (sigma.array() < 0.0).any() : (sigma.array() <= 0.0).any()) {
+    throw std::invalid_argument(
+        fmt::format("{} = {}: must be {} 0", name, fmt::join(values, ","), allow_zero ? ">=" : ">"));
+  }
+  return sigma;
+}
+
+void CheckDataAccuracy(double data_rtol, double data_atol, Spelling spelling) {
+  for (const auto& [name, value] : {std::pair{"data_rtol", data_rtol}, std::pair{"data_atol", data_atol}}) {
+    if (!(value >= 0.0) || !std::isfinite(value)) {
+      throw std::invalid_argument(
+          fmt::format("{} = {}: must be finite and >= 0", Spelled(name, spelling), value));
+    }
+  }
+}
+
+void SetPluginKinds(const std::string& estimator, const std::string& detector, Spelling spelling,
+                    IdentifierSettings* settings) {
+  try {
+    settings->UseEstimator(ParseKind<EstimatorKind>(estimator));
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(fmt::format("{}: {}", Spelled("estimator", spelling), e.what()));
+  }
+  try {
+    settings->detector.kind = ParseKind<DetectorKind>(detector);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(fmt::format("{}: {}", Spelled("detector", spelling), e.what()));
+  }
+}
+
+namespace {
+
+template <class S>
+std::string ReadBy(std::string_view option, const std::vector<S>& descriptors) {
+  std::vector<std::string_view> names;
+  for (const S& d : descriptors) {
+    if (d.Reads(option)) names.push_back(d.name);
+  }
+  return fmt::format("{}", fmt::join(names, ", "));
+}
+
+// The options of table that the plugin `d` reads, spelled.
+template <class S, class Descriptor>
+std::string OptionsRead(const std::vector<Option<S>>& table, const Descriptor& d, std::string_view prefix,
+                        Spelling spelling) {
+  std::vector<std::string> names;
+  for (const Option<S>& o : table) {
+    if (d.Reads(o.name)) names.push_back(Spelled(o.name, spelling, prefix));
+  }
+  return names.empty() ? "none" : fmt::format("{}", fmt::join(names, ", "));
+}
+
+template <class S, class Descriptor>
+void AddArguments(std::vector<PluginOptionArgument>* out, const std::vector<Option<S>>& table,
+                  const std::vector<Descriptor>& descriptors, S IdentifierSettings::*member,
+                  std::string_view prefix, std::string_view whose, std::string_view role) {
+  const IdentifierSettings defaults;
+  for (const Option<S>& o : table) {
+    PluginOptionArgument a;
+    a.name = o.name;
+    a.prefix = prefix;
+    a.help = fmt::format("{}: {}{}", ReadBy(o.name, descriptors), o.help, whose);
+    a.default_text = o.Format(o.get(defaults.*member));
+    a.set = [&o, member](IdentifierSettings& s, std::string_view text) { o.set(s.*member, o.Parse(text)); };
+    a.unread = [&table, &o, member, prefix, role](const IdentifierSettings& s, Spelling spelling) {
+      const auto& d = DescriptorOf((s.*member).kind);
+      if (d.Reads(o.name)) return std::string();
+      return fmt::format("the {} '{}' does not read it (its options: {})", role, d.name,
+                         OptionsRead(table, d, prefix, spelling));
+    };
+    out->push_back(std::move(a));
+  }
+}
+
+}  // namespace
+
+const std::vector<PluginOptionArgument>& PluginOptionArguments() {
+  static const std::vector<PluginOptionArgument> arguments = [] {
+    std::vector<PluginOptionArgument> a;
+    AddArguments(&a, DetectorOptions(), AllPlugins<DetectorKind>(), &IdentifierSettings::detector, "", "",
+                 "detector");
+    AddArguments(&a, EstimatorOptions(), AllPlugins<EstimatorKind>(), &IdentifierSettings::flow_estimator, "",
+                 " (alpha estimator)", "alpha estimator");
+    AddArguments(&a, EstimatorOptions(), AllPlugins<EstimatorKind>(), &IdentifierSettings::jump_estimator,
+                 "jump", " (beta estimator)", "beta estimator");
+    return a;
+  }();
+  return arguments;
+}
+
+void ApplyPluginOptions(const std::map<std::string, std::string>& given, Spelling spelling,
+                        IdentifierSettings* settings) {
+  std::map<std::string, const PluginOptionArgument*> by_name;
+  for (const PluginOptionArgument& a : PluginOptionArguments())
+    by_name[Spelled(a.name, spelling, a.prefix)] = &a;
+  for (const auto& [name, text] : given) {
+    const auto it = by_name.find(name);
+    if (it == by_name.end()) throw std::invalid_argument(fmt::format("{}: no such option", name));
+    if (const std::string why = it->second->unread(*settings, spelling); !why.empty()) {
+      throw std::invalid_argument(fmt::format("{}: {}", name, why));
+    }
+    try {
+      it->second->set(*settings, text);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(fmt::format("{}: {}", name, e.what()));
+    }
+  }
+}
+
+}  // namespace hysid

@@ -1,0 +1,60 @@
+// The checks of user-given values shared by the command line and the Python module, so that both
+// refuse the same values with the same messages. An argument is named as the caller spells it: a
+// flag ("--t-end", "--jump-forgetting") on the command line, a keyword ("t_end", "jump_forgetting")
+// in Python. Every check throws std::invalid_argument naming the argument and the violated constraint.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/identify/identifier.hpp"
+#include "sim/simulator.hpp"
+
+namespace hysid {
+
+enum class Spelling { kFlag, kKeyword };
+
+// "t_end" as "--t-end" (kFlag) or "t_end" (kKeyword); `prefix` ("jump") joins in front.
+std::string Spelled(std::string_view name, Spelling spelling, std::string_view prefix = {});
+
+// Every value finite: "NAME = V: must be finite".
+void CheckFinite(const std::string& name, const std::vector<double>& values);
+
+// The sample grid of t_end and dt: each finite and > 0, and within the samples limit (kMaxSamples).
+SampleGrid CheckedGrid(double t_end, double dt, Spelling spelling);
+
+// σ: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
+Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling);
+
+// data_rtol and data_atol: finite and >= 0.
+void CheckDataAccuracy(double data_rtol, double data_atol, Spelling spelling);
+
+// The estimator (of α and β) and the detector by name; errors name the argument.
+void SetPluginKinds(const std::string& estimator, const std::string& detector, Spelling spelling,
+                    IdentifierSettings* settings);
+
+// One plugin option as an argument: detector options, the α estimator's, the β estimator's
+// ("jump" prefix).
+struct PluginOptionArgument {
+  std::string name;    // the option's name ("forgetting")
+  std::string prefix;  // "" or "jump"
+  std::string help;    // "rls, gtls: forgetting factor (alpha estimator)"
+  std::string default_text;
+  // Parses the text into `settings` (throws std::invalid_argument naming the option).
+  std::function<void(IdentifierSettings&, std::string_view)> set;
+  // "" when the plugin chosen in `settings` reads the option, else why not: "the detector 'residual'
+  // does not read it (its options: --false-alarm, --bound)".
+  std::function<std::string(const IdentifierSettings&, Spelling)> unread;
+};
+const std::vector<PluginOptionArgument>& PluginOptionArguments();
+
+// The given options (by their spelled name, as text) into `settings`, whose kinds are already set:
+// an unknown name, a value the option refuses, or an option the chosen plugin does not read is an
+// error naming the argument (and the plugin).
+void ApplyPluginOptions(const std::map<std::string, std::string>& given, Spelling spelling,
+                        IdentifierSettings* settings);
+
+}  // namespace hysid
