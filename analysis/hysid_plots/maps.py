@@ -32,9 +32,10 @@ def heat(ax, m, xs, ys, norm):
     shown = np.where(m > 0, m, np.nan)
     im = ax.imshow(shown, origin="lower", aspect="auto", cmap=cmap, norm=norm, interpolation="nearest")
     ax.grid(False)
-    ax.hysid_xlabels = [f"{v:g}" for v in xs]
+    xl, yl = stats.grid_labels(xs), stats.grid_labels(ys)
+    ax.hysid_xlabels = [xl[float(v)] for v in xs]
     ax.set_xticks(range(len(xs)), ax.hysid_xlabels)
-    ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
+    ax.set_yticks(range(len(ys)), [yl[float(v)] for v in ys])
     ax.tick_params(length=0)
     return im
 
@@ -117,7 +118,7 @@ def misclassification_map(run, out_dir, formats, width, stat="mean"):
         for i, sg in enumerate(sigmas):
             ax = axes[i // cols][i % cols]
             im = heat(ax, mats[sg], rs, dts, norm)
-            ax.set_title(rf"$\sigma$ = {sg:g}")
+            ax.set_title(rf"$\sigma$ = {stats.grid_label(sigmas, sg)}")
             ax.set_ylabel(r"$\delta t$ [s]")
         for j in range(len(sigmas), nrows * cols):
             axes[j // cols][j % cols].axis("off")
