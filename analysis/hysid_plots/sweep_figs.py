@@ -16,6 +16,7 @@ BOUND_NOTE = ("The bound (summary.csv's crlb_e_alpha, crlb_e_beta) is that of th
               "the jump times held fixed: it leaves out the information the jump times carry, so an estimator "
               "that uses it can lie below the line (a ratio below 1 is not below the bound of the full problem). ")
 # The short form shown in the figure (the legend's title).
+CRLB_LABEL = "CRLB-implied (jump times fixed)"  # the legend says what the bound leaves out
 CRN_MARK = "cells share noise draws: intervals not independent"
 
 
@@ -100,7 +101,7 @@ def error_vs_sigma(run, out_dir, formats, width, stat="mean"):
             if col:
                 pts = sorted({(r["sigma"], r[col]) for r in rows if math.isfinite(r[col]) and r[col] > 0})
                 if pts:
-                    (c,) = ax.plot(*zip(*pts), color="black", lw=1.4, ls=(0, (6, 2)), label="CRLB-implied")
+                    (c,) = ax.plot(*zip(*pts), color="black", lw=1.4, ls=(0, (6, 2)), label=CRLB_LABEL)
                     extra = [c]
                     ys += [p[1] for p in pts]
             finish_panel(ax, axes, ylabel, xs, ys)
@@ -137,7 +138,7 @@ def efficiency(run, out_dir, formats, width, stat="mean"):
             h, ys, xs, ns = draw_series(ax, lines, ratio)
             handles = handles or h
             all_ns += ns
-            one = ax.axhline(1.0, color="black", lw=0.9, ls=(0, (6, 2)), label="at the bound (ratio 1)")
+            one = ax.axhline(1.0, color="black", lw=0.9, ls=(0, (6, 2)), label=f"{CRLB_LABEL}: ratio 1")
             finish_panel(ax, axes, rf"$e_{sym[metric]}$ / CRLB-implied $e_{sym[metric]}$", xs, ys + [1.0])
         legend(leg, handles, ncol, [one])
         stem = f"efficiency_{series.slug(fixed)}"

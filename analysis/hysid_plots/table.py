@@ -65,7 +65,8 @@ def render(run, fmt, metrics=None, stat="mean"):
         if not run.summary.has(f"{m}_mean"):
             raise data.DataError(f"{run.summary.path}: no column '{m}_mean' (--metrics {','.join(metrics)})")
     keys, rows, iv = cells(run, metrics, stat)
-    note = f"{stat[0].upper() + stat[1:]} [95 % interval] per cell: {iv.method()}. {stats.crn_note(run.summary)}Data: {run.source()}."
+    note = (f"{stat[0].upper() + stat[1:]} [95 % interval] per cell: {iv.method()}. "
+            f"{stats.crn_note(run.summary)}Data: {run.source()}.")
     if fmt == "csv":
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")

@@ -206,10 +206,10 @@ def test_crlb_line_and_efficiency(committed, captured, tmp_path):
     run_dir = with_crlb(committed["results/paper_noise"], str(tmp_path / "run"))
     render(["error-vs-sigma", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf"])
     fig, _, caption = captured.figs[0]
-    crlb = [ln for ln in data_axes(fig)[0].get_lines() if ln.get_label() == "CRLB-implied"]
+    crlb = [ln for ln in data_axes(fig)[0].get_lines() if ln.get_label() == sweep_figs.CRLB_LABEL]
     assert len(crlb) == 1 and "CRLB-implied" in caption
     np.testing.assert_allclose(crlb[0].get_ydata(), 9.12e-4 * np.asarray(crlb[0].get_xdata()))
-    assert "CRLB-implied" in legend_texts(fig)
+    assert sweep_figs.CRLB_LABEL in legend_texts(fig)
     # The bound's caption says what it leaves out; every sweep figure says its cells share noise draws.
     assert "leaves out the information the jump times carry" in caption
     assert "Common random numbers" in caption and "not independent" in caption
