@@ -207,7 +207,7 @@ def write_comparison_tables(run, cmps, iv):
                            [repr(c["best_r"]), repr(c["best"]), repr(c["p"]), repr(c["residual"]),
                             repr(c["lo"]), repr(c["hi"]), int(c["match_or_beat"]), int(c["tied"])])
     md = [f"Mean misclassification rate per cell; residual detector's interval: {iv.method()}. "
-          f"Data: {run.source()}.", ""]
+          f"{stats.crn_note(run.summary)}Data: {run.source()}.", ""]
     verdicts = []
     for cmp in cmps:
         lines, verdict = comparison_table(cmp, iv)
@@ -262,7 +262,8 @@ def detector_comparison(run, out_dir, formats, width, stat="mean", tables=True):
         cap = (f"{model}, {est} estimator: mean misclassification rate per (σ, δt) cell of the paper detector "
                f"with the r that is best in that cell (chosen in hindsight) and of the residual detector "
                f"(nothing tuned) at each false-alarm probability p; log colour scale, white = 0. "
-               f"n = {n[0] if len(n) == 1 else f'{n[0]}–{n[-1]}'} trials per cell. Data: {run.source()}.")
+               f"n = {n[0] if len(n) == 1 else f'{n[0]}–{n[-1]}'} trials per cell. Both detectors and every r see "
+               f"the same noisy samples (common random numbers). Data: {run.source()}.")
         stem = "detector_comparison" if len(pairs) == 1 else f"detector_comparison_{model}_{est}"
         written += style.save(fig, out_dir, stem, formats, cap)
     if tables:
