@@ -44,16 +44,17 @@ def series_style(i, group, sub):
             "marker": MARKERS[i % len(MARKERS)], "markerfacecolor": "none", "markeredgewidth": 0.8}
 
 
-def panels(width, n, legend_entries=0, panel_height=None, cols=None):
+def panels(width, n, legend_entries=0, panel_height=None, cols=None, title_lines=0):
     """A figure of n panels (one column for a single-width figure of up to 3, else up to 4 a row) and,
-    when legend_entries > 0, a row below them holding the legend (it never covers data).
+    when legend_entries > 0, a row below them holding the legend (it never covers data; title_lines more
+    lines of it for the legend's title).
     Returns (fig, list of panel axes, legend axes or None, legend columns)."""
     cols = cols or ((1 if n <= 3 else 2) if width == "single" else min(n, 4))
     rows = math.ceil(n / cols)
     w = WIDTHS[width]
     ph = panel_height or (1.45 if cols == 1 else 0.75 * w / cols)
     ncol = 2 if width == "single" else 4
-    leg_h = 0.0 if legend_entries == 0 else 0.16 * math.ceil(legend_entries / ncol) + 0.08
+    leg_h = 0.0 if legend_entries == 0 else 0.16 * (math.ceil(legend_entries / ncol) + title_lines) + 0.08
     fig = plt.figure(figsize=(w, rows * ph + leg_h), constrained_layout=True)
     gs = fig.add_gridspec(rows + (1 if leg_h else 0), cols,
                           height_ratios=[ph] * rows + ([leg_h] if leg_h else []))

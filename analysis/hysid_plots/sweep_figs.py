@@ -16,7 +16,8 @@ BOUND_NOTE = ("The bound (summary.csv's crlb_e_alpha, crlb_e_beta) is that of th
               "the jump times held fixed: it leaves out the information the jump times carry, so an estimator "
               "that uses it can lie below the line (a ratio below 1 is not below the bound of the full problem). ")
 # The short form shown in the figure (the legend's title).
-CRLB_LABEL = "CRLB-implied (jump times fixed)"  # the legend says what the bound leaves out
+# The legend title's second line in a figure with a CRLB line or ratio: what the bound leaves out.
+BOUND_MARK = "CRLB-implied: jump times held fixed"
 CRN_MARK = "cells share noise draws: intervals not independent"
 
 
@@ -60,12 +61,13 @@ def finish_panel(ax, axes, ylabel, xs, ys):
         ax.tick_params(labelbottom=False)
 
 
-def legend(leg, handles, ncol, extra=()):
-    """The legend below the panels, titled with the common-random-numbers mark (CRN_MARK)."""
+def legend(leg, handles, ncol, extra=(), bound=False):
+    """The legend below the panels, titled with the common-random-numbers mark (CRN_MARK) and, with
+    `bound`, what the CRLB leaves out (BOUND_MARK)."""
     if leg is not None:
         hs = list(handles) + list(extra)
         leg.legend(hs, [h.get_label() for h in hs], loc="center", ncol=min(ncol, len(hs)), borderaxespad=0,
-                   title=CRN_MARK, title_fontsize="small")
+                   title=CRN_MARK + ("\n" + BOUND_MARK if bound else ""), title_fontsize="small")
 
 
 def n_text(ns):
@@ -91,7 +93,8 @@ def error_vs_sigma(run, out_dir, formats, width, stat="mean"):
         lines = series.series(s, rows)
         if len({r["sigma"] for r in rows}) < 2:
             continue
-        fig, axes, leg, ncol = style.panels(width, len(panels), len(lines) + 1)
+        bound = any(crlb_column(s, m) for m, _ in panels)
+        fig, axes, leg, ncol = style.panels(width, len(panels), len(lines) + 1, title_lines=1 + bound)
         handles, extra, all_ns = [], [], []
         for ax, (metric, ylabel) in zip(axes, panels):
             h, ys, xs, ns = draw_series(ax, lines, lambda r, m=metric: iv.of(r, m))
@@ -101,11 +104,11 @@ def error_vs_sigma(run, out_dir, formats, width, stat="mean"):
             if col:
                 pts = sorted({(r["sigma"], r[col]) for r in rows if math.isfinite(r[col]) and r[col] > 0})
                 if pts:
-                    (c,) = ax.plot(*zip(*pts), color="black", lw=1.4, ls=(0, (6, 2)), label=CRLB_LABEL)
+                    (c,) = ax.plot(*zip(*pts), color="black", lw=1.4, ls=(0, (6, 2)), label="CRLB-implied")
                     extra = [c]
                     ys += [p[1] for p in pts]
             finish_panel(ax, axes, ylabel, xs, ys)
-        legend(leg, handles, ncol, extra)
+        legend(leg, handles, ncol, extra, bound=bool(extra))
         if width == "double":  # a single-column figure leaves its title to the caption
             fig.suptitle(series.title_of(fixed, s))
         stem = f"error_vs_sigma_{series.slug(fixed)}"
@@ -128,7 +131,7 @@ def efficiency(run, out_dir, formats, width, stat="mean"):
     sym = {"e_alpha": r"\alpha", "e_beta": r"\beta"}
     for fixed, rows in series.figure_groups(s):
         lines = series.series(s, rows)
-        fig, axes, leg, ncol = style.panels(width, len(cols), len(lines) + 1)
+        fig, axes, leg, ncol = style.panels(width, len(cols), len(lines) + 1, title_lines=2)
         handles, all_ns, one = [], [], None
         for ax, (metric, col) in zip(axes, cols):
             def ratio(r, m=metric, c=col):
@@ -138,9 +141,9 @@ def efficiency(run, out_dir, formats, width, stat="mean"):
             h, ys, xs, ns = draw_series(ax, lines, ratio)
             handles = handles or h
             all_ns += ns
-            one = ax.axhline(1.0, color="black", lw=0.9, ls=(0, (6, 2)), label=f"{CRLB_LABEL}: ratio 1")
+            one = ax.axhline(1.0, color="black", lw=0.9, ls=(0, (6, 2)), label="CRLB-implied (ratio 1)")
             finish_panel(ax, axes, rf"$e_{sym[metric]}$ / CRLB-implied $e_{sym[metric]}$", xs, ys + [1.0])
-        legend(leg, handles, ncol, [one])
+        legend(leg, handles, ncol, [one], bound=True)
         stem = f"efficiency_{series.slug(fixed)}"
         what = (f"{series.title_of(fixed, s)}: {stat} error over its CRLB-implied value against σ "
                 "(1 = at the CRLB-implied error; σ = 0 has no bound and is left out).")
@@ -181,7 +184,7 @@ def relative_error(run, out_dir, formats, width, stat="mean"):
         truth = run.true_params(model)
         mine = [p for p in params if p[2] in truth and run.trials.column(rows[0]["cell"], p[0]).size]
         lines = series.series(s, rows)
-        fig, axes, leg, ncol = style.panels(width, len(mine), len(lines))
+        fig, axes, leg, ncol = style.panels(width, len(mine), len(lines), title_lines=1)
         handles, all_ns, absolute = [], [], []
         for ax, (col, kind, name) in zip(axes, mine):
             true = truth[name]

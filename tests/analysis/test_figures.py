@@ -206,15 +206,15 @@ def test_crlb_line_and_efficiency(committed, captured, tmp_path):
     run_dir = with_crlb(committed["results/paper_noise"], str(tmp_path / "run"))
     render(["error-vs-sigma", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf"])
     fig, _, caption = captured.figs[0]
-    crlb = [ln for ln in data_axes(fig)[0].get_lines() if ln.get_label() == sweep_figs.CRLB_LABEL]
+    crlb = [ln for ln in data_axes(fig)[0].get_lines() if ln.get_label() == "CRLB-implied"]
     assert len(crlb) == 1 and "CRLB-implied" in caption
     np.testing.assert_allclose(crlb[0].get_ydata(), 9.12e-4 * np.asarray(crlb[0].get_xdata()))
-    assert sweep_figs.CRLB_LABEL in legend_texts(fig)
+    assert "CRLB-implied" in legend_texts(fig)
     # The bound's caption says what it leaves out; every sweep figure says its cells share noise draws.
     assert "leaves out the information the jump times carry" in caption
     assert "Common random numbers" in caption and "not independent" in caption
-    assert sweep_figs.CRN_MARK in [fig.legends[0].get_title().get_text()] + [
-        a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend() is not None]
+    titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend() is not None]
+    assert titles == [f"{sweep_figs.CRN_MARK}\n{sweep_figs.BOUND_MARK}"]
     render(["efficiency", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf,png"])
     fig, stem, caption = captured.figs[-1]
     assert "leaves out the information the jump times carry" in caption
