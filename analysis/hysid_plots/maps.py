@@ -176,13 +176,16 @@ def comparison_table(cmp, iv):
     worst_res = max(c["residual"] for c in cmp)
     # The model and estimator columns only when they vary.
     who = [k for k in ("model", "estimator") if len({c[k] for c in cmp}) > 1]
+    # Grid values as labelled on their axes (stats.grid_labels).
+    sl, dl = (stats.grid_labels([c[k] for c in cmp]) for k in ("sigma", "dt"))
+    rl = stats.grid_labels(rs)
     lines = [f"### residual detector at p = {cmp[0]['p']:g}", "",
-             "| " + "".join(f"{k} | " for k in who) + "σ | δt | " + " | ".join(f"r = {r:g}" for r in rs) +
+             "| " + "".join(f"{k} | " for k in who) + "σ | δt | " + " | ".join(f"r = {rl[r]}" for r in rs) +
              " | best r | residual [95 % interval] | ≤ best | tied |", "|" + "---|" * (len(who) + len(rs) + 6)]
     for c in cmp:
-        lines.append("| " + "".join(f"{c[k]} | " for k in who) + f"{c['sigma']:g} | {c['dt']:g} | " +
+        lines.append("| " + "".join(f"{c[k]} | " for k in who) + f"{sl[c['sigma']]} | {dl[c['dt']]} | " +
                      " | ".join(stats.sig(c["paper"][r]) for r in rs) +
-                     f" | {c['best_r']:g} | {stats.interval_text(c['residual'], c['lo'], c['hi'])}"
+                     f" | {rl[c['best_r']]} | {stats.interval_text(c['residual'], c['lo'], c['hi'])}"
                      f" | {'yes' if c['match_or_beat'] else 'no'} | {'yes' if c['tied'] else 'no'} |")
     lines.append("| worst cell | " + "| " * (len(who) + 1) + " | ".join(stats.sig(worst[r]) for r in rs) +
                  f" | | {stats.sig(worst_res)} | | |")
