@@ -32,9 +32,10 @@ def heat(ax, m, xs, ys, norm):
     shown = np.where(m > 0, m, np.nan)
     im = ax.imshow(shown, origin="lower", aspect="auto", cmap=cmap, norm=norm, interpolation="nearest")
     ax.grid(False)
-    ax.hysid_xlabels = [f"{v:g}" for v in xs]
+    xl, yl = stats.grid_labels(xs), stats.grid_labels(ys)
+    ax.hysid_xlabels = [xl[float(v)] for v in xs]
     ax.set_xticks(range(len(xs)), ax.hysid_xlabels)
-    ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
+    ax.set_yticks(range(len(ys)), [yl[float(v)] for v in ys])
     ax.tick_params(length=0)
     return im
 
@@ -117,7 +118,7 @@ def misclassification_map(run, out_dir, formats, width, stat="mean"):
         for i, sg in enumerate(sigmas):
             ax = axes[i // cols][i % cols]
             im = heat(ax, mats[sg], rs, dts, norm)
-            ax.set_title(rf"$\sigma$ = {sg:g}")
+            ax.set_title(rf"$\sigma$ = {stats.grid_label(sigmas, sg)}")
             ax.set_ylabel(r"$\delta t$ [s]")
         for j in range(len(sigmas), nrows * cols):
             axes[j // cols][j % cols].axis("off")
@@ -175,13 +176,16 @@ def comparison_table(cmp, iv):
     worst_res = max(c["residual"] for c in cmp)
     # The model and estimator columns only when they vary.
     who = [k for k in ("model", "estimator") if len({c[k] for c in cmp}) > 1]
+    # Grid values as labelled on their axes (stats.grid_labels).
+    sl, dl = (stats.grid_labels([c[k] for c in cmp]) for k in ("sigma", "dt"))
+    rl = stats.grid_labels(rs)
     lines = [f"### residual detector at p = {cmp[0]['p']:g}", "",
-             "| " + "".join(f"{k} | " for k in who) + "σ | δt | " + " | ".join(f"r = {r:g}" for r in rs) +
+             "| " + "".join(f"{k} | " for k in who) + "σ | δt | " + " | ".join(f"r = {rl[r]}" for r in rs) +
              " | best r | residual [95 % interval] | ≤ best | tied |", "|" + "---|" * (len(who) + len(rs) + 6)]
     for c in cmp:
-        lines.append("| " + "".join(f"{c[k]} | " for k in who) + f"{c['sigma']:g} | {c['dt']:g} | " +
+        lines.append("| " + "".join(f"{c[k]} | " for k in who) + f"{sl[c['sigma']]} | {dl[c['dt']]} | " +
                      " | ".join(stats.sig(c["paper"][r]) for r in rs) +
-                     f" | {c['best_r']:g} | {stats.interval_text(c['residual'], c['lo'], c['hi'])}"
+                     f" | {rl[c['best_r']]} | {stats.interval_text(c['residual'], c['lo'], c['hi'])}"
                      f" | {'yes' if c['match_or_beat'] else 'no'} | {'yes' if c['tied'] else 'no'} |")
     lines.append("| worst cell | " + "| " * (len(who) + 1) + " | ".join(stats.sig(worst[r]) for r in rs) +
                  f" | | {stats.sig(worst_res)} | | |")
@@ -206,7 +210,7 @@ def write_comparison_tables(run, cmps, iv):
                            [repr(c["best_r"]), repr(c["best"]), repr(c["p"]), repr(c["residual"]),
                             repr(c["lo"]), repr(c["hi"]), int(c["match_or_beat"]), int(c["tied"])])
     md = [f"Mean misclassification rate per cell; residual detector's interval: {iv.method()}. "
-          f"Data: {run.source()}.", ""]
+          f"{stats.crn_note(run.summary)}Data: {run.source()}.", ""]
     verdicts = []
     for cmp in cmps:
         lines, verdict = comparison_table(cmp, iv)
@@ -261,7 +265,8 @@ def detector_comparison(run, out_dir, formats, width, stat="mean", tables=True):
         cap = (f"{model}, {est} estimator: mean misclassification rate per (σ, δt) cell of the paper detector "
                f"with the r that is best in that cell (chosen in hindsight) and of the residual detector "
                f"(nothing tuned) at each false-alarm probability p; log colour scale, white = 0. "
-               f"n = {n[0] if len(n) == 1 else f'{n[0]}–{n[-1]}'} trials per cell. Data: {run.source()}.")
+               f"n = {n[0] if len(n) == 1 else f'{n[0]}–{n[-1]}'} trials per cell. Both detectors and every r see "
+               f"the same noisy samples (common random numbers). Data: {run.source()}.")
         stem = "detector_comparison" if len(pairs) == 1 else f"detector_comparison_{model}_{est}"
         written += style.save(fig, out_dir, stem, formats, cap)
     if tables:

@@ -1,14 +1,18 @@
 """Splitting a summary into figures and the series (lines) of a figure, in numeric order."""
 import math
 
-from . import data
+from . import data, stats
 
 FIGURE_KEYS = ("model", "dt")      # one figure per value of these (when they vary)
 NOT_SERIES = ("model", "dt", "sigma")
 
 
-def fmt_key(key, v):
-    return v if isinstance(v, str) else f"{v:g}"
+def fmt_key(key, v, grid=None):
+    """A key's value as text: a grid value as labelled on its axis (stats.grid_labels) when the axis's
+    values `grid` are given, else with up to 6 significant digits."""
+    if isinstance(v, str):
+        return v
+    return stats.grid_label(grid, v) if grid is not None else f"{v:g}"
 
 
 def figure_groups(summary, keys=FIGURE_KEYS):
@@ -34,13 +38,14 @@ class Series:
         self.label, self.rows, self.group, self.sub, self.index = label, rows, group, sub, index
 
 
-def detector_text(row):
-    """'paper r = 220', 'residual p = 1e-08' (the detector and its setting)."""
+def detector_text(row, summary=None):
+    """'paper r = 220', 'residual p = 1e-08' (the detector and its setting; r and p labelled as on their
+    grid when the summary is given)."""
     text = row.get("detector", "")
-    if math.isfinite(row.get("r", math.nan)):
-        text += f" r = {row['r']:g}"
-    if math.isfinite(row.get("false_alarm", math.nan)):
-        text += f" p = {row['false_alarm']:g}"
+    for key, sym in (("r", "r"), ("false_alarm", "p")):
+        if math.isfinite(row.get(key, math.nan)):
+            grid = summary.values(key) if summary is not None and key in summary.keys else None
+            text += f" {sym} = {fmt_key(key, row[key], grid)}"
     return text.strip()
 
 
@@ -67,10 +72,10 @@ def series(summary, rows, x="sigma"):
         if "estimator" in varying:
             parts.append(r0["estimator"])
         if any(k in varying for k in ("detector", "r", "false_alarm")):
-            parts.append(detector_text(r0))
-        parts += [f"{k} = {fmt_key(k, r0[k])}" for k in varying if k not in ("estimator", "detector", "r",
+            parts.append(detector_text(r0, summary))
+        parts += [f"{k} = {fmt_key(k, r0[k], order[k])}" for k in varying if k not in ("estimator", "detector", "r",
                                                                              "false_alarm")]
-        setting = detector_text(r0)
+        setting = detector_text(r0, summary)
         if setting not in det_settings:
             det_settings.append(setting)
         group = estimators.index(r0["estimator"]) if "estimator" in varying else n
@@ -78,11 +83,13 @@ def series(summary, rows, x="sigma"):
     return out
 
 
-def title_of(fixed):
-    """'impact-msd, δt = 0.0005 s' from a figure's key values."""
+def title_of(fixed, summary=None):
+    """'impact-msd, δt = 0.0005 s' from a figure's key values (labelled as on their grid when the summary
+    is given)."""
     parts = []
     for k, v in fixed.items():
-        parts.append(v if k == "model" else ("δt = " + f"{v:g} s" if k == "dt" else f"{k} = {fmt_key(k, v)}"))
+        text = fmt_key(k, v, summary.values(k) if summary is not None and k in summary.keys else None)
+        parts.append(v if k == "model" else (f"δt = {text} s" if k == "dt" else f"{k} = {text}"))
     return ", ".join(parts)
 
 

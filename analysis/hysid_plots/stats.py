@@ -3,8 +3,10 @@
 The interval of a cell's mean (or median) is the percentile bootstrap over its trials (trials.csv):
 B = 2000 resamples drawn with a generator seeded by (SEED, cell), so the same data give the same
 bounds on every run. A percentile interval lies inside the range of the data: it is never below 0 for
-a non-negative metric. Without trials.csv the summary's interval is used (mean ± 1.96·sd/√n),
-clipped at 0 for a non-negative metric; captions name which one a figure shows.
+a non-negative metric. Without trials.csv the summary's interval is used (docs/figures.md: a rate's Wilson
+score interval at the effective sample size, a non-negative metric's percentile bootstrap; both inside the
+metric's range), clipped at 0 for a non-negative metric in case the summary.csv is older; captions name
+which one a figure shows.
 """
 import math
 
@@ -86,8 +88,57 @@ class Intervals:
                     f"({RESAMPLES} resamples, seed {SEED}; from trials.csv)")
         if self.stat == "median":
             return "median over the trials of each cell (summary.csv; no interval without trials.csv)"
-        return ("mean over the trials of each cell with the normal-approximation 95 % interval of summary.csv "
-                "(mean ± 1.96·sd/√n, clipped at 0 for non-negative metrics; trials.csv absent)")
+        return ("mean over the trials of each cell with the 95 % interval of summary.csv (trials.csv absent): "
+                "for a rate the Wilson score interval at the effective sample size, for a non-negative error or "
+                f"count the percentile bootstrap ({RESAMPLES} resamples); clipped at 0")
+
+
+def crn_note(summary):
+    """The caption's sentence on common random numbers (docs/architecture.md): the cells of one model and
+    δt see the same noise draws in trial i, so their intervals are not independent."""
+    where = ("summary.csv's *_diff_mean, *_diff_ci95_lo, *_diff_ci95_hi columns (each cell minus its baseline "
+             "cell over the same trials)" if summary.has("e_alpha_diff_mean") else
+             "summary.csv's *_diff_* columns once the sweep file sets [summary] baseline")
+    return ("Common random numbers: every cell of one model and δt sees the same noise draws in trial i (σ "
+            "scales them), so the intervals of different points are not independent; overlapping intervals do "
+            "not show that two cells are alike, and the interval of a difference is not read off two of them: "
+            f"the paired differences are in {where}. ")
+
+
+WRITTEN_DIGITS = 4  # a grid value with at most this many significant digits is shown as written
+LABEL_DIGITS = 2  # the fewest significant digits of a generated grid value's label
+
+
+def significant_digits(x):
+    """The significant digits of x's shortest round-trip decimal (repr): 0.01 → 1, 0.0310723… → 17."""
+    mantissa = repr(abs(float(x))).split("e")[0].replace(".", "").lstrip("0").rstrip("0")
+    return max(1, len(mantissa))
+
+
+def grid_labels(values):
+    """{value: label} of a grid axis (σ, δt, r, ...). A value with at most WRITTEN_DIGITS significant
+    digits (one written in the sweep file or summary.csv, e.g. 0.05, 2.5e-4) is shown as written; a
+    generated one (a `{ from, to, count, log = true }` range: 0.0310723…) is rounded to the fewest
+    significant digits, at least LABEL_DIGITS, that tell it apart from both neighbours on the grid."""
+    grid = sorted({float(v) for v in values if isinstance(v, (int, float)) and math.isfinite(v)})
+    labels = {}
+    for i, v in enumerate(grid):
+        if significant_digits(v) <= WRITTEN_DIGITS:
+            labels[v] = f"{v:g}"
+            continue
+        neighbours = grid[max(i - 1, 0):i] + grid[i + 1:i + 2]
+        d = LABEL_DIGITS
+        while d < 17 and any(float(f"{v:.{d}g}") == float(f"{u:.{d}g}") for u in neighbours):
+            d += 1
+        labels[v] = f"{v:.{d}g}"
+    return labels
+
+
+def grid_label(grid, v):
+    """The label of value v of a grid axis whose values are `grid` (grid_labels); strings as they are."""
+    if isinstance(v, str):
+        return v
+    return grid_labels(list(grid) + [v]).get(float(v), f"{v:g}")
 
 
 def sig(x, digits=2):

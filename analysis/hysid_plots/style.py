@@ -10,6 +10,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.ticker as mticker  # noqa: E402
 import numpy as np  # noqa: E402
 
+from . import stats  # noqa: E402
+
 STYLE = os.path.join(os.path.dirname(__file__), "hysid.mplstyle")
 # Heat-map cell labels (pt): readable at one column's width; a map whose cells are too narrow for them
 # at this size shows the colour bar only.
@@ -42,16 +44,17 @@ def series_style(i, group, sub):
             "marker": MARKERS[i % len(MARKERS)], "markerfacecolor": "none", "markeredgewidth": 0.8}
 
 
-def panels(width, n, legend_entries=0, panel_height=None, cols=None):
+def panels(width, n, legend_entries=0, panel_height=None, cols=None, title_lines=0):
     """A figure of n panels (one column for a single-width figure of up to 3, else up to 4 a row) and,
-    when legend_entries > 0, a row below them holding the legend (it never covers data).
+    when legend_entries > 0, a row below them holding the legend (it never covers data; title_lines more
+    lines of it for the legend's title).
     Returns (fig, list of panel axes, legend axes or None, legend columns)."""
     cols = cols or ((1 if n <= 3 else 2) if width == "single" else min(n, 4))
     rows = math.ceil(n / cols)
     w = WIDTHS[width]
     ph = panel_height or (1.45 if cols == 1 else 0.75 * w / cols)
     ncol = 2 if width == "single" else 4
-    leg_h = 0.0 if legend_entries == 0 else 0.16 * math.ceil(legend_entries / ncol) + 0.08
+    leg_h = 0.0 if legend_entries == 0 else 0.16 * (math.ceil(legend_entries / ncol) + title_lines) + 0.08
     fig = plt.figure(figsize=(w, rows * ph + leg_h), constrained_layout=True)
     gs = fig.add_gridspec(rows + (1 if leg_h else 0), cols,
                           height_ratios=[ph] * rows + ([leg_h] if leg_h else []))
@@ -95,7 +98,8 @@ def set_grid_axis(ax, values, axis="x"):
     (ax.set_xlim if axis == "x" else ax.set_ylim)(-0.1 * minpos if scale == "symlog" else minpos / margin,
                                                   max(values) * margin)
     which.set_major_locator(mticker.FixedLocator(sorted(set(values))))  # thinned by space_ticks on saving
-    which.set_major_formatter(mticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    labels = stats.grid_labels(values)
+    which.set_major_formatter(mticker.FuncFormatter(lambda v, _: labels.get(float(v), f"{v:g}")))
     which.set_minor_locator(mticker.NullLocator())
     ax.hysid_grid_ticks = (sorted(set(values)), axis)
     return scale
@@ -125,7 +129,8 @@ def spaced_ticks(ax, grid, axis):
     lim = ax.get_xlim() if axis == "x" else ax.get_ylim()
     lo, hi = tr.transform(np.array(lim, dtype=float))
     at = (tr.transform(np.array(grid, dtype=float)) - lo) / (hi - lo) * length_pt
-    need = [(len(f"{v:g}") * 0.62 * 8 if axis == "x" else 8) + 5 for v in grid]
+    labels = stats.grid_labels(grid)
+    need = [(len(labels[float(v)]) * 0.62 * 8 if axis == "x" else 8) + 5 for v in grid]
     kept = [len(grid) - 1]
     for i in range(len(grid) - 2, -1, -1):
         if at[kept[-1]] - at[i] >= (need[i] + need[kept[-1]]) / 2:

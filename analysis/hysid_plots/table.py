@@ -34,10 +34,11 @@ def columns(summary):
     return shown
 
 
-def key_text(row, k):
+def key_text(row, k, summary):
+    """The text of key k in row: a grid value as labelled on its axis (stats.grid_labels)."""
     if k == "detector":
-        return series.detector_text(row)
-    return series.fmt_key(k, row[k])
+        return series.detector_text(row, summary)
+    return series.fmt_key(k, row[k], summary.values(k))
 
 
 def cells(run, metrics, stat):
@@ -48,7 +49,7 @@ def cells(run, metrics, stat):
     for r in cell_order(run.summary):
         vals = [iv.of(r, m)[:3] for m in metrics]
         n = min(iv.of(r, m)[3] for m in metrics)
-        out.append(([key_text(r, k) for k in keys], vals, n))
+        out.append(([key_text(r, k, run.summary) for k in keys], vals, n))
     return keys, out, iv
 
 
@@ -64,7 +65,8 @@ def render(run, fmt, metrics=None, stat="mean"):
         if not run.summary.has(f"{m}_mean"):
             raise data.DataError(f"{run.summary.path}: no column '{m}_mean' (--metrics {','.join(metrics)})")
     keys, rows, iv = cells(run, metrics, stat)
-    note = f"{stat[0].upper() + stat[1:]} [95 % interval] per cell: {iv.method()}. Data: {run.source()}."
+    note = (f"{stat[0].upper() + stat[1:]} [95 % interval] per cell: {iv.method()}. "
+            f"{stats.crn_note(run.summary)}Data: {run.source()}.")
     if fmt == "csv":
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")

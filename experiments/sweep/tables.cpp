@@ -15,6 +15,7 @@
 #include "core/io/csv.hpp"
 #include "core/io/limits.hpp"
 #include "core/stats/quantiles.hpp"
+#include "experiments/sweep/intervals.hpp"
 #include "experiments/sweep/journal.hpp"
 #include "experiments/sweep/trial.hpp"
 
@@ -48,9 +49,22 @@ std::vector<std::string> JournalHeader(const std::vector<std::string>& trial_hea
   return h;
 }
 
-MetricSummary Summarize(std::vector<double> v) {
+MetricRange MetricRangeOf(const std::string& metric) {
+  for (const char* rate : {"misclassification", "precision", "recall", "flow_outside_share"}) {
+    if (metric == rate) return MetricRange::kUnitInterval;
+  }
+  const auto& core = SummaryMetrics();
+  if (std::find(core.begin(), core.end(), metric) != core.end() || metric.rfind(kRelativeErrorPrefix, 0) == 0)
+    return MetricRange::kNonNegative;
+  throw std::logic_error(fmt::format("'{}' is not a summary metric", metric));
+}
+
+MetricSummary Summarize(std::vector<double> v, MetricRange range) {
   MetricSummary s{static_cast<long>(v.size()), kNaN, kNaN, kNaN, kNaN, kNaN};
   if (v.empty()) return s;
+  std::array<double, 2> ci{kNaN, kNaN};
+  if (range == MetricRange::kUnitInterval) ci = RateInterval(v);
+  if (range == MetricRange::kNonNegative) ci = BootstrapMeanInterval(v);
   double sum = 0;
   for (double x : v) sum += x;
   s.mean = sum / static_cast<double>(v.size());
@@ -63,9 +77,10 @@ MetricSummary Summarize(std::vector<double> v) {
     s.std = std::sqrt(ss / static_cast<double>(v.size() - 1));
     const double half = StudentUpperQuantile(0.025, static_cast<double>(v.size() - 1)) * s.std /
                         std::sqrt(static_cast<double>(v.size()));
-    s.ci_lo = s.mean - half;
-    s.ci_hi = s.mean + half;
+    if (range == MetricRange::kReal) ci = {s.mean - half, s.mean + half};
   }
+  s.ci_lo = ci[0];
+  s.ci_hi = ci[1];
   return s;
 }
 
@@ -239,13 +254,13 @@ std::vector<std::string> SummaryHeader(const std::vector<std::string>& keys,
   return header;
 }
 
-// The statistics of metric m over the cell's trials with a value.
-MetricSummary MetricOf(const CellRows& c, std::size_t m) {
+// The statistics of metric m (named `name`) over the cell's trials with a value.
+MetricSummary MetricOf(const CellRows& c, std::size_t m, const std::string& name) {
   std::vector<double> v;
   for (const auto& [trial, values] : c.values) {
     if (!std::isnan(values[m])) v.push_back(values[m]);
   }
-  return Summarize(std::move(v));
+  return Summarize(std::move(v), MetricRangeOf(name));
 }
 
 void AppendStats(const MetricSummary& s, std::vector<std::string>* out) {
@@ -306,7 +321,7 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
     out.push_back(fmt::format("{}", c.n));
     out.push_back(fmt::format("{}", c.failures));
     std::vector<MetricSummary> stats;
-    for (std::size_t m = 0; m < metrics.size(); ++m) stats.push_back(MetricOf(c, m));
+    for (std::size_t m = 0; m < metrics.size(); ++m) stats.push_back(MetricOf(c, m, metrics[m]));
     for (std::size_t m = 0; m < n_core; ++m) AppendStats(stats[m], &out);
     if (!baseline.empty()) {
       const CellRows* b = base[ci] >= 0 ? &cells[static_cast<std::size_t>(base[ci])] : nullptr;

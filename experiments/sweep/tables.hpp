@@ -4,10 +4,11 @@
 //   timings.csv  unit, cell, trial, wall_ms (varies from run to run, hence kept apart);
 //   summary.csv  one row per cell: its keys, n (trials), failures, and for each metric of
 //                SummaryMetrics() over the rows with status ok: mean, median, std (n − 1), and the 95 %
-//                confidence interval of the mean, mean ± t(0.975, n − 1)·std/√n (empty when n < 2).
+//                confidence interval of the mean inside the metric's range (MetricRangeOf, intervals.hpp;
+//                empty when n < 2): a rate's Wilson interval, a non-negative metric's percentile bootstrap.
 //                With a baseline ([summary] baseline): the baseline's cell, and for each metric the
 //                paired differences cell − baseline over the trials where both have a value: their
-//                count, mean and 95 % interval (same rule).
+//                count, mean and 95 % interval mean ± t(0.975, n − 1)·std/√n (a difference can be < 0).
 #pragma once
 
 #include <filesystem>
@@ -43,10 +44,19 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
 void ReadTrialsCsv(const std::filesystem::path& path, std::vector<std::string>* header,
                    std::map<long, std::vector<std::string>>* rows);
 
+// The values a metric takes, which its interval respects: any real (the t-interval), [0, ∞) (the
+// percentile bootstrap) or [0, 1] (the Wilson interval at the effective sample size).
+enum class MetricRange { kReal, kNonNegative, kUnitInterval };
+
+// The range of a summary metric (SummaryMetrics() and the rel_err_* columns): kUnitInterval for the rates
+// misclassification, precision, recall and flow_outside_share, kNonNegative for the other metrics
+// (counts, errors, distances); logic_error for a name that is not a summary metric.
+MetricRange MetricRangeOf(const std::string& metric);
+
 struct MetricSummary {
   long n = 0;
   double mean, median, std, ci_lo, ci_hi;  // NaN when undefined
 };
-MetricSummary Summarize(std::vector<double> values);
+MetricSummary Summarize(std::vector<double> values, MetricRange range = MetricRange::kReal);
 
 }  // namespace hysid

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from matplotlib.collections import PolyCollection
 
-from hysid_plots import cli, data, maps, series, stats, style
+from hysid_plots import cli, data, maps, series, stats, style, sweep_figs
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 
 NON_NEG_PANELS = ("e_", "misclassification", "/", "|")
 
@@ -94,16 +96,39 @@ def test_error_vs_sigma_axes_and_legend_order(committed_figs):
         assert [ax.get_xlabel() for ax in panels] == ["", "", r"noise $\sigma$"]  # one column, shared σ
 
 
-def test_summary_intervals_are_clipped_at_zero(committed):
+def test_committed_summary_intervals_stay_in_the_metrics_range():
+    # Every committed summary.csv: the interval of a non-negative metric (every metric of the summary:
+    # rates, counts, errors, distances) is never below 0, a rate's never above 1, and each contains its
+    # mean. The paired differences (*_diff_ci95_*) can be negative and are not checked.
+    rates = ("misclassification", "precision", "recall", "flow_outside_share")
+    checked = 0
+    for rel in ["results/paper_noise", "results/robustness_map", "results/eiv/oracle", "results/eiv/detector",
+                "results/eiv/bbrf_plain_oracle", "results/efficiency", "results/paper"]:
+        rows = list(csv.DictReader(open(os.path.join(ROOT, rel, "summary.csv"))))
+        for r in rows:
+            for col, lo in r.items():
+                if not col.endswith("_ci95_lo") or "_diff_" in col or lo == "":
+                    continue
+                metric = col[:-len("_ci95_lo")]
+                lo, hi, mean = float(lo), float(r[f"{metric}_ci95_hi"]), float(r[f"{metric}_mean"])
+                assert lo >= 0.0, (rel, r["cell"], col, lo)
+                assert lo <= mean * (1 + 1e-12) and mean <= hi * (1 + 1e-12), (rel, r["cell"], metric)
+                if metric in rates:
+                    assert hi <= 1.0, (rel, r["cell"], metric, hi)
+                checked += 1
+    assert checked > 1000
+
+
+def test_summary_intervals_are_drawn_as_written(committed):
     run = data.Run(committed["results/robustness_map"])
     iv = stats.Intervals(run)
     assert not iv.bootstrapped
-    raw = [run.summary.interval(r, "misclassification")[0] for r in run.summary.rows]
-    assert min(raw) < 0  # the summary's symmetric interval does go below 0 ...
+    assert "Wilson" in iv.method() and "bootstrap" in iv.method()
     for r in run.summary.rows:
         for m in ("misclassification", "e_alpha", "e_beta", "fp", "fn"):
             est, lo, hi, n = iv.of(r, m)
-            assert not lo < 0.0  # ... the drawn one does not
+            assert (lo, hi) == run.summary.interval(r, m)
+            assert not lo < 0.0
             assert n == 100
 
 
@@ -185,8 +210,15 @@ def test_crlb_line_and_efficiency(committed, captured, tmp_path):
     assert len(crlb) == 1 and "CRLB-implied" in caption
     np.testing.assert_allclose(crlb[0].get_ydata(), 9.12e-4 * np.asarray(crlb[0].get_xdata()))
     assert "CRLB-implied" in legend_texts(fig)
+    # The bound's caption says what it leaves out; every sweep figure says its cells share noise draws.
+    assert "leaves out the information the jump times carry" in caption
+    assert "Common random numbers" in caption and "not independent" in caption
+    titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend() is not None]
+    assert titles == [f"{sweep_figs.CRN_MARK}\n{sweep_figs.BOUND_MARK}"]
     render(["efficiency", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf,png"])
-    fig, stem, _ = captured.figs[-1]
+    fig, stem, caption = captured.figs[-1]
+    assert "leaves out the information the jump times carry" in caption
+    assert "*_diff_* columns once the sweep file sets [summary] baseline" not in caption  # paper_noise has one
     assert stem == "efficiency_impact-msd_dt0.0005"
     rows = data.Summary(os.path.join(run_dir, "summary.csv")).rows
     ax = data_axes(fig)[0]

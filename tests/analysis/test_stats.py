@@ -87,3 +87,31 @@ def test_value_axis(values, scale):
                                             (1.5e-6, 0.0, 4.5e-6, "1.5e-6 [0, 4.5e-6]")])
 def test_interval_text_rounds_the_bounds_at_the_estimates_last_digit(est, lo, hi, text):
     assert stats.interval_text(est, lo, hi) == text
+
+
+def test_grid_labels_of_a_log_range_round_to_what_tells_neighbours_apart():
+    # { from = 0.01, to = 1, count = 5, log = true }: the ends as written, the generated values to 2 digits.
+    grid = list(np.logspace(-2, 0, 5))
+    assert grid[1] == pytest.approx(0.0316227766)
+    labels = stats.grid_labels(grid)
+    assert [labels[v] for v in grid] == ["0.01", "0.032", "0.1", "0.32", "1"]
+    # A value as written (≤ 4 significant digits) keeps every digit, even when fewer would tell it apart.
+    assert stats.grid_labels([0.25, 0.5, 1.0, 1e-08, 0.0005]) == {0.25: "0.25", 0.5: "0.5", 1.0: "1",
+                                                                   1e-08: "1e-08", 0.0005: "0.0005"}
+    # Close generated neighbours get the digits that separate them; labels stay distinct.
+    tight = list(np.geomspace(1.0, 1.01, 4))
+    texts = [stats.grid_labels(tight)[v] for v in tight]
+    assert len(set(texts)) == 4 and texts[0] == "1" and texts[-1] == "1.01"
+    for v, t in zip(tight, texts):
+        assert abs(float(t) - v) <= 0.5 * 10 ** (math.floor(math.log10(v)) - len(t.replace(".", "")) + 2)
+    assert stats.grid_label(grid, grid[3]) == "0.32" and stats.grid_label(grid, "rls") == "rls"
+
+
+def test_grid_axis_ticks_use_the_grid_labels():
+    fig, axes = style.figure("single")
+    ax = axes[0][0]
+    grid = list(np.logspace(-2, 0, 5))
+    ax.plot(grid, grid)
+    style.set_grid_axis(ax, grid)
+    fmt = ax.xaxis.get_major_formatter()
+    assert [fmt(v, i) for i, v in enumerate(grid)] == ["0.01", "0.032", "0.1", "0.32", "1"]

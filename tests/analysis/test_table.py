@@ -32,7 +32,8 @@ def test_text_tables(committed, fmt):
     lines = text.strip().splitlines()
     body = [ln for ln in lines if "rls" in ln]
     assert len(body) == 14  # 7 σ x 2 detectors
-    assert "normal-approximation 95 % interval" in text and "clipped at 0" in text
+    assert "Wilson score interval" in text and "percentile bootstrap" in text
+    assert "Common random numbers" in text and "*_diff_mean" in text  # paper_noise has a baseline
     if fmt == "latex":
         assert lines[1].startswith(r"\begin{tabular}{") and lines[-1] == r"\end{tabular}"
         assert all(ln.endswith(r"\\") for ln in body)
@@ -44,3 +45,21 @@ def test_text_tables(committed, fmt):
 def test_unknown_metric(committed):
     with pytest.raises(data.DataError, match="no column 'speed_mean'"):
         table.render(data.Run(committed["results/paper_noise"]), "md", ["speed"])
+
+
+def test_generated_grid_values_are_labelled_to_the_digits_that_separate_them(committed, tmp_path):
+    # σ = 0.5 replaced by 10**-0.5 (a value of a { from, to, count, log = true } range): the table shows
+    # 0.32, not 0.316228; the values as written stay as they are.
+    src = committed["results/paper_noise"]
+    rows = list(csv.reader(open(os.path.join(src, "summary.csv"))))
+    si = rows[0].index("sigma")
+    for r in rows[1:]:
+        if r[si] == "0.5":
+            r[si] = repr(10 ** -0.5)
+    os.makedirs(tmp_path / "run")
+    with open(tmp_path / "run" / "summary.csv", "w", newline="") as f:
+        csv.writer(f).writerows(rows)
+    text = table.render(data.Run(str(tmp_path / "run")), "md")
+    sigmas = {ln.split(" | ")[2] for ln in text.splitlines() if ln.startswith("| paper") and " | rls | " in ln}
+    assert sigmas == {"0", "0.05", "0.1", "0.25", "0.32", "0.75", "1"}
+    assert "0.316" not in text
