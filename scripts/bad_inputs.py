@@ -148,6 +148,8 @@ def safety_cases():
         ("sweep: resumed after the model file's k changed", ["sweep", "study.toml", "--out", "study"]),
         ("merge: --out is another sweep's run directory", ["merge", "done", "--out", "theirs"]),
         ("sweep: --out holds a merge's tables", ["sweep", "ok.toml", "--out", "merged"]),
+        ("reproduce paper: --out is a sweep's run directory", ["reproduce", "paper", "--out", "done"]),
+        ("reproduce paper: --out holds a merge's tables", ["reproduce", "paper", "--out", "merged"]),
         ("model file: '=' for '==' in sets.D", ["simulate", "--model-file", "assignD.toml"] + SIM),
         ("model file: an assignment in flow.phi", ["simulate", "--model-file", "assignphi.toml"] + SIM),
     ]
@@ -160,6 +162,8 @@ SAFETY_SUBJECTS = {
     "sweep: resumed after the model file's k changed": "study: holds",
     "merge: --out is another sweep's run directory": "--out theirs",
     "sweep: --out holds a merge's tables": "merged: holds another study",
+    "reproduce paper: --out is a sweep's run directory": "--out done",
+    "reproduce paper: --out holds a merge's tables": "--out merged",
     "model file: '=' for '==' in sets.D": "assignD.toml:39: sets.D",
     "model file: an assignment in flow.phi": "assignphi.toml:21: flow.phi[0][0]",
 }
