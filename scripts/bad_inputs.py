@@ -33,6 +33,7 @@ def files():
         "jfrac.csv": "t,j,y1,y2\n0,0,1,2\n0.1,0.5,1,2\n0.2,0,1,2\n",
         "jneg.csv": "t,j,y1,y2\n0,0,1,2\n0.1,-1,1,2\n0.2,0,1,2\n",
         "big.csv": "t,y1,y2\n0,1,2\n0.1,1e308,2\n0.2,1,2\n",
+        "tiny.csv": "t,y1,y2\n0,2e-200,1\n0.1,1e-200,2\n0.2,-1e-200,3\n",
         "overflow.csv": "t,y1,y2\n0,1,2\n0.1,1e400,2\n0.2,1,2\n",
         "nan.csv": "t,y1,y2\n0,1,2\n0.1,nan,2\n0.2,1,2\n",
         "inf.csv": "t,y1,y2\n0,1,2\n0.1,1,-inf\n0.2,1,2\n",
@@ -147,6 +148,8 @@ def safety_cases():
         ("sweep: resumed after the model file's k changed", ["sweep", "study.toml", "--out", "study"]),
         ("merge: --out is another sweep's run directory", ["merge", "done", "--out", "theirs"]),
         ("sweep: --out holds a merge's tables", ["sweep", "ok.toml", "--out", "merged"]),
+        ("reproduce paper: --out is a sweep's run directory", ["reproduce", "paper", "--out", "done"]),
+        ("reproduce paper: --out holds a merge's tables", ["reproduce", "paper", "--out", "merged"]),
         ("model file: '=' for '==' in sets.D", ["simulate", "--model-file", "assignD.toml"] + SIM),
         ("model file: an assignment in flow.phi", ["simulate", "--model-file", "assignphi.toml"] + SIM),
     ]
@@ -159,6 +162,8 @@ SAFETY_SUBJECTS = {
     "sweep: resumed after the model file's k changed": "study: holds",
     "merge: --out is another sweep's run directory": "--out theirs",
     "sweep: --out holds a merge's tables": "merged: holds another study",
+    "reproduce paper: --out is a sweep's run directory": "--out done",
+    "reproduce paper: --out holds a merge's tables": "--out merged",
     "model file: '=' for '==' in sets.D": "assignD.toml:39: sets.D",
     "model file: an assignment in flow.phi": "assignphi.toml:21: flow.phi[0][0]",
 }
@@ -207,6 +212,7 @@ def cases():
             ("time missing", "notime.csv"), ("a run's rows not contiguous", "runsplit.csv"),
             ("a fractional run number", "runfrac.csv"), ("no header", "noheader.csv"), ("j = 1e10", "jhuge.csv"),
             ("j = 0.5", "jfrac.csv"), ("j = -1", "jneg.csv"), ("a cell of 1e308", "big.csv"),
+            ("a state column of values near 1e-200", "tiny.csv"),
             ("a cell of 1e400", "overflow.csv"), ("nan cell", "nan.csv"), ("-inf cell", "inf.csv"),
             ("a word", "word.csv"), ("an empty cell", "emptycell.csv"), ("too few cells", "ragged.csv"),
             ("too many cells", "extra.csv"), ("an empty header name", "emptyhead.csv"),

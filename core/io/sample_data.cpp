@@ -267,6 +267,18 @@ void CutGaps(const std::string& path, const SampleDataOptions& options, SampleDa
   d.dt = d.uniform ? mean : median;
 }
 
+// A state column whose largest |value| is below kMinMagnitude (but not 0): its products underflow.
+void CheckStateScale(const SampleData& d) {
+  for (Eigen::Index i = 0; i < d.y.rows(); ++i) {
+    const double largest = d.y.row(i).cwiseAbs().maxCoeff();
+    if (largest > 0.0 && largest < kMinMagnitude) {
+      throw std::invalid_argument(
+          fmt::format("{}: column '{}': the largest |value| is {:g}, below {:g} (rescale the data)", d.path,
+                      d.state_columns[static_cast<std::size_t>(i)], largest, kMinMagnitude));
+    }
+  }
+}
+
 }  // namespace
 
 SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_size,
@@ -301,6 +313,7 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
   }
   CutGaps(d.path, options, d);
   d.y = Eigen::Map<const Mat>(y.data(), state_size, k);
+  CheckStateScale(d);
   if (all_j) d.j = std::move(j);
   return d;
 }
@@ -335,8 +348,11 @@ SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, c
       t.columns.emplace_back(static_cast<std::size_t>(k_count));
       for (Eigen::Index k = 0; k < k_count; ++k) {
         const double v = y[r](i, k);
-        t.columns.back()[static_cast<std::size_t>(k)] =
-            std::isfinite(v) ? v : std::numeric_limits<double>::quiet_NaN();
+        if (std::isinf(v)) {  // as the CSV reader: infinite is refused, NaN is a missing cell
+          throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not finite", t.path,
+                                                  k + 1, i + 2, t.header.back(), v));
+        }
+        t.columns.back()[static_cast<std::size_t>(k)] = v;
       }
     }
     for (Eigen::Index k = 0; k < k_count; ++k) {

@@ -16,7 +16,8 @@
 // Checks, each an error naming file, line and column: the CSV's own (non-numeric, infinite, wrong
 // cell count, empty, quoting), too few columns for the model, an unknown column name, fewer than 3
 // samples or more than the samples limit (kMaxSamples), time missing, not strictly increasing or
-// a step below kMinStep, a time or state cell beyond ±kMaxMagnitude, a
+// a step below kMinStep, a time or state cell beyond ±kMaxMagnitude, a state column whose largest |value|
+// is below kMinMagnitude and not 0, a
 // `j` cell that is not an integer in [0, 2^31 − 1] or is below the one before it in its run, two
 // columns of the same name, a run cell that is missing or not an integer, the
 // rows of a run not contiguous.
@@ -34,6 +35,9 @@ namespace hysid {
 
 // The largest |value| accepted for time and state cells.
 inline constexpr double kMaxMagnitude = 1e150;
+// The smallest largest-|value| of a state column that is not all zero (1 / kMaxMagnitude: products of
+// states and their squares stay normal numbers).
+inline constexpr double kMinMagnitude = 1e-150;
 // The smallest time step accepted (1 / kMaxMagnitude: rates Δξ/Δt stay within range).
 inline constexpr double kMinStep = 1e-150;
 // The default maximum gap, in median steps.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -194,6 +195,30 @@ nlohmann::json RunPaperExperiment(const Experiment& ex, const ReproduceArgs& arg
   return entry;
 }
 
+// reproduce paper writes summary.csv and run.json: a directory of another study (a sweep's run directory,
+// a merge, another command's run.json, a summary.csv without run.json) is refused, not overwritten.
+void CheckPaperTarget(const std::filesystem::path& out) {
+  std::error_code ec;
+  const auto refuse = [&](const std::string& what) {
+    BadFlag(
+        fmt::format("--out {}: {}; reproduce paper writes only into a new directory or over an earlier "
+                    "reproduce paper: give another --out",
+                    out.string(), what));
+  };
+  for (const char* name : {"sweep.json", "trials.journal", "trials.csv"}) {
+    if (std::filesystem::exists(out / name, ec)) refuse(fmt::format("holds {} of a sweep", name));
+  }
+  if (!std::filesystem::exists(out / "run.json", ec)) {
+    if (std::filesystem::exists(out / "summary.csv", ec))
+      refuse("holds summary.csv of an unknown study (no run.json)");
+    return;
+  }
+  std::ifstream in(out / "run.json");
+  const nlohmann::json old = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  const bool ours = old.is_object() && old.contains("command") && old["command"] == "reproduce paper";
+  if (!ours) refuse("holds the run.json of another study");
+}
+
 void RunReproduce(ReproduceArgs args, const Environment& env) {
   if (args.out.empty()) args.out = "results/" + args.study;
   if (args.study == "example6") return RunExample6(args.out);
@@ -212,6 +237,7 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   x0 << 20.0, 0.0;
   const std::filesystem::path out(args.out);
   CheckOutputDirectory("--out", out);
+  CheckPaperTarget(out);
   const Trajectory traj = Simulate(model, x0, SampleGrid{t_end, dt});
   if (!traj.status.completed()) {
     throw std::runtime_error(fmt::format("simulation of the §5 system failed: {}", traj.status.message));

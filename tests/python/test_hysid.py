@@ -282,6 +282,37 @@ def test_identify_refuses_steps_below_the_smallest(tmp_path):
     assert re.search(tail.format(2), message) and re.search(tail.format(1), str(e.value))
 
 
+def test_identify_refuses_a_state_column_below_the_smallest_scale(tmp_path):
+    """Values below 1e-150 underflow in the regressions: refused by name, as the CLI does; 1e-100 is identified."""
+    t = np.arange(50) * 1e-3
+    y = np.column_stack([np.cos(t), -np.sin(t)])
+    for scale, refused in ((1e-200, True), (1e-100, False)):
+        data = tmp_path / f"scaled{scale:g}.csv"
+        data.write_text("t,y1,y2\n" + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t, *(y * scale).T)))
+        run = subprocess.run([BIN, "identify", "--refine", "none", "--data", data], capture_output=True, text=True)
+        if not refused:
+            assert run.returncode in (0, 1) and "below 1e-150" not in run.stderr
+            hysid.identify("impact-msd", y * scale, dt=1e-3, refine="none")
+            continue
+        message = cli_refusal("identify", "--data", data)
+        assert message == f"{data}: column 'y1': the largest |value| is 1e-200, below 1e-150 (rescale the data)"
+        with pytest.raises(ValueError) as e:
+            hysid.identify("impact-msd", y * scale, dt=1e-3)
+        assert str(e.value) == message.replace(str(data), "run 1")
+
+
+def test_identify_refuses_infinite_samples_as_the_cli(tmp_path):
+    """An infinite state cell is refused (a NaN is a missing cell, left out), in a file and in an array."""
+    data = tmp_path / "inf.csv"
+    data.write_text("t,y1,y2\n0,1,2\n0.001,1,-inf\n0.002,1,2\n0.003,1,2\n")
+    assert cli_refusal("identify", "--data", data) == f"{data}:3: column 3 ('y2'): '-inf' is not finite"
+    y = np.ones((4, 2))
+    y[1, 1] = -np.inf
+    with pytest.raises(ValueError) as e:
+        hysid.identify("impact-msd", y, dt=1e-3)
+    assert str(e.value) == "run 1:2: column 3 ('y2'): '-inf' is not finite"
+
+
 def test_seed_is_decimal(tmp_path):
     """--seed 010 is ten (CLI11 alone reads it as octal 8)."""
     for seed in ("010", "10", "8"):
