@@ -96,6 +96,11 @@ struct RefineOptions {
   bool mend_detections = true;
   // A failed fit is tried again from a repaired start (see above); false: never.
   bool repair_start = true;
+  // A fit still not ok (or ok only on cut spans) after the repaired start is grown from a short span:
+  // the samples before each chain's third detected jump, then half as many again at each step, from
+  // the previous fit with the labels of the grown part mended from its model; adopted when its fit on
+  // all samples passes every check (it fits more samples); false: never.
+  bool grow_span = true;
   StartRepairOptions start_repair;
   // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
   bool IsValid(std::string* error) const;
