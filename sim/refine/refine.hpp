@@ -30,7 +30,8 @@
 // (sim/refine/start.hpp, per chain: detections the local flows do not need dropped, the others
 // moved to where the flows meet, missed jumps added, ξ0_c re-estimated; β from all chains' jump
 // regressions pooled); that fit is adopted when it is ok (and fits more samples), else the first
-// fit's status stands.
+// fit's status stands. One still not ok (or ok on cut spans) is grown from a short span
+// (RefineOptions::grow_span) and adopted when its fit on all samples passes every check.
 #pragma once
 
 #include <cstdint>
