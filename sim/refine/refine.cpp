@@ -221,6 +221,131 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
   return r;
 }
 
+// The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
+// chain's first `used` samples (plain mode, states only); empty when it does not complete.
+std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p, const Vec& x0,
+                               long used, const RefineOptions& options) {
+  SensitivityOptions o = options.sensitivity;
+  o.sensitivities = false;
+  p.x0 = x0;
+  const double t_end = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
+  const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
+  const SensitivityTrajectory plain = SimulateSensitivities(model, p, Unknowns::Of(model), grid, o);
+  std::vector<double> jumps;
+  if (!plain.trajectory.status.completed()) return jumps;
+  for (const JumpRecord& jump : plain.trajectory.jumps) jumps.push_back(jump.t);
+  return jumps;
+}
+
+// The first span of a growing fit: the samples before the third detected jump (all when fewer), never
+// fewer than `shortest`.
+long FirstGrowingSpan(const std::vector<std::uint8_t>& gamma, long shortest, long margin) {
+  const auto k_count = static_cast<long>(gamma.size());
+  int seen = 0;
+  for (long k = 1; k < k_count; ++k) {
+    if (gamma[static_cast<std::size_t>(k)] != 0 && ++seen == 3) return std::max(shortest, k - margin);
+  }
+  return k_count;
+}
+
+// One step of a growing fit after the ok fit r from s: each chain's span grown by half (up to all its
+// samples), its labels over the grown span mended from r's model there. false when every span is whole.
+bool GrowStep(const Model& model, const std::vector<RefineChain>& chains, const RefineResult& r,
+              const RefineOptions& options, FitStart* s) {
+  const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
+  s->start.alpha = r.refined.alpha;
+  s->start.beta = r.refined.beta;
+  bool longer = false;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    const long k_count = chains[c].y.cols();
+    if (r.chain_x0[c].size() == 0 || s->limit[c] >= k_count) continue;
+    s->x0[c] = r.chain_x0[c];
+    s->limit[c] = std::min(k_count, s->limit[c] + s->limit[c] / 2);
+    s->reason[c] = s->limit[c] < k_count ? "the span grows" : "";
+    const std::vector<double> jumps = ModelJumps(model, chains[c], r.refined, s->x0[c], s->limit[c], options);
+    std::string what;
+    MendFromModel(chains[c], "", s->limit[c], jumps, reach, &s->gamma[c], &what);
+    longer = true;
+  }
+  return longer;
+}
+
+// Re-placements of the grown fit's labels by its local flows.
+constexpr int kMaxSettle = 4;
+
+// After the ok fit r from s: each chain's labels placed where the local flows of r's α meet best
+// (RepairStart from r: a label moves to the sample where the flows fit on either side meet, one the
+// flows do not need is dropped, a jump r's model makes and the data show is added). false when none
+// changes.
+bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, const RefineResult& r,
+                  const RefineOptions& options, FitStart* s) {
+  const Mat y = Concatenated(chains, model.state_size());
+  SensitivityOptions sens;
+  Vec weight;
+  FitWeighting(y, options, EstimateNoiseSigma(y), &sens, &weight);
+  bool moved = false;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    const RefineChain& in = chains[c];
+    if (r.chain_x0[c].size() == 0 || in.y.cols() < 2) continue;
+    const double dt = (in.t.back() - in.t.front()) / static_cast<double>(in.y.cols() - 1);
+    const HybridParameters from{r.refined.alpha, r.refined.beta, r.chain_x0[c]};
+    const StartRepair repair =
+        RepairStart(model, in.y, dt, s->gamma[c], from, r.unknowns, weight, sens, options.start_repair);
+    if (!repair.ok || repair.gamma == s->gamma[c]) continue;
+    s->gamma[c] = repair.gamma;
+    moved = true;
+  }
+  if (!moved) return false;
+  s->start.alpha = r.refined.alpha;
+  s->start.beta = r.refined.beta;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    if (r.chain_x0[c].size() != 0) s->x0[c] = r.chain_x0[c];
+  }
+  return true;
+}
+
+// The fit grown from a short span (RefineOptions::grow_span): the chains fit on the samples before
+// their third detected jump from s, then again and again on spans half as long again, from the
+// previous fit with the labels of each grown part mended from its model, until every chain is whole.
+// The last fit, on all samples, with every check; its status is the first failure otherwise.
+RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains, FitStart s,
+                      const RefineOptions& options) {
+  const long shortest = 2L * model.state_size() + 2, margin = SpanMargin(options);
+  for (std::size_t c = 0; c < chains.size(); ++c) s.limit[c] = FirstGrowingSpan(s.gamma[c], shortest, margin);
+  ChainFailure failure;
+  RefineResult r = FitChains(model, chains, s, options, &failure);
+  while (r.ok() && GrowStep(model, chains, r, options, &s)) {
+    r = FitChains(model, chains, s, options, &failure);
+    // A grown fit whose jumps moved off their labels: once more with the labels mended from its model.
+    if (!r.ok() && SpanRetryable(r.status) && failure.chain >= 0 && !failure.model_jumps.empty()) {
+      const auto c = static_cast<std::size_t>(failure.chain);
+      std::string what;
+      s.start.alpha = r.refined.alpha;
+      s.start.beta = r.refined.beta;
+      for (std::size_t i = 0; i < chains.size(); ++i) {
+        if (r.chain_x0[i].size() != 0) s.x0[i] = r.chain_x0[i];
+      }
+      // Reach 0: each label at its model jump's own sample (a detection a few samples off moves there).
+      if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what)) break;
+      r = FitChains(model, chains, s, options, &failure);
+    }
+  }
+  // Settled: the labels placed where the fit's local flows meet, fit again until none moves.
+  for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s); ++settle) {
+    r = FitChains(model, chains, s, options, &failure);
+  }
+  if (!r.ok()) return r;
+  int added = 0, dropped = 0;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    for (std::size_t k = 1; k < chains[c].gamma.size(); ++k) {
+      added += s.gamma[c][k] != 0 && chains[c].gamma[k] == 0 ? 1 : 0;
+      dropped += s.gamma[c][k] == 0 && chains[c].gamma[k] != 0 ? 1 : 0;
+    }
+  }
+  r.mended = fmt::format("grown from a short span: {} added, {} dropped", added, dropped);
+  return r;
+}
+
 // The recursive start: α0, β0, each chain's detected labels and its first sample, all samples allowed.
 FitStart RecursiveStart(const std::vector<RefineChain>& chains, const Vec& alpha0, const Vec& beta0, int n) {
   auto first = [n](const RefineChain& c) { return c.y.cols() > 0 ? Vec(c.y.col(0)) : Vec::Zero(n).eval(); };
@@ -358,6 +483,16 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
       r.status != RefineStatus::kTooFewSamples &&
       RepairChains(model, chains, recursive, options, &repaired, &summary)) {
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
+  }
+  // Still not ok, or ok only on cut spans: a fit grown from a short span may follow the whole data.
+  if ((!r.ok() || r.samples_used < first_used) && options.grow_span && r.status != RefineStatus::kTooFewSamples) {
+    RefineResult grown = GrowSpan(model, chains, recursive, options);
+    if (grown.ok() && grown.samples_used > (r.ok() ? r.samples_used : 0)) {
+      grown.start = r.start;
+      r = std::move(grown);
+    } else if (!r.ok()) {
+      r.reason += fmt::format("; grown from a short span: {}", grown.ok() ? "ok on fewer samples" : grown.reason);
+    }
   }
   if (r.ok()) {
     r.estimate = r.refined;

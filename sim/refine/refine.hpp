@@ -30,7 +30,8 @@
 // (sim/refine/start.hpp, per chain: detections the local flows do not need dropped, the others
 // moved to where the flows meet, missed jumps added, ξ0_c re-estimated; β from all chains' jump
 // regressions pooled); that fit is adopted when it is ok (and fits more samples), else the first
-// fit's status stands.
+// fit's status stands. One still not ok (or ok on cut spans) is grown from a short span
+// (RefineOptions::grow_span) and adopted when its fit on all samples passes every check.
 #pragma once
 
 #include <cstdint>
@@ -96,6 +97,11 @@ struct RefineOptions {
   bool mend_detections = true;
   // A failed fit is tried again from a repaired start (see above); false: never.
   bool repair_start = true;
+  // A fit still not ok (or ok only on cut spans) after the repaired start is grown from a short span:
+  // the samples before each chain's third detected jump, then half as many again at each step, from
+  // the previous fit with the labels of the grown part mended from its model; adopted when its fit on
+  // all samples passes every check (it fits more samples); false: never.
+  bool grow_span = true;
   StartRepairOptions start_repair;
   // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
   bool IsValid(std::string* error) const;

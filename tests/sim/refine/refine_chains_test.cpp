@@ -39,11 +39,12 @@ Vec Start(const Model& m) {  // a recursive-quality start: α, β off by about 1
   return (Vec(3) << m.alpha()[0], m.alpha()[1] * 1.001, m.alpha()[2] * 0.999).finished();
 }
 
-// Neither span retries nor the repaired start: the fit from the recursive estimate and its checks.
+// Neither span retries nor the repaired start nor the grown span: the fit from the recursive estimate and its checks.
 RefineOptions NoRecovery() {
   RefineOptions o;
   o.max_span_retries = 0;
   o.repair_start = false;
+  o.grow_span = false;
   return o;
 }
 
@@ -201,6 +202,7 @@ TEST_CASE("a chain whose detector missed its first jump: the span cannot help; t
   runs.second.gamma[k] = 0;
   RefineOptions retries_only;
   retries_only.repair_start = false;
+  retries_only.grow_span = false;
   for (const RefineOptions& o : {NoRecovery(), retries_only}) {
     const RefineResult kept = runs.Fit(o);
     INFO(ToString(kept.status) << ": " << kept.reason);
@@ -228,6 +230,7 @@ TEST_CASE("a spurious detection near a chain's end: the retries fit less, the re
   CHECK(runs.Fit(NoRecovery()).status == RefineStatus::kStartFailed);
   RefineOptions retries_only;
   retries_only.repair_start = false;
+  retries_only.grow_span = false;
   const RefineResult cut = runs.Fit(retries_only);
   INFO(ToString(cut.status) << ": " << cut.reason << " | " << cut.span_reason);
   REQUIRE(cut.ok());

@@ -106,6 +106,7 @@ TEST_CASE("a detector that missed a jump: not ok from the recursive start, ok on
   run.gamma[k] = 0;
   RefineOptions no_repair;
   no_repair.repair_start = false;
+  no_repair.grow_span = false;
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -142,6 +143,7 @@ TEST_CASE("a false detection and the β̂ it ruined: the repaired start converge
   alpha0[1] += 5e-4;  // the recursive α̂'s error at this σ
   RefineOptions no_repair;
   no_repair.repair_start = false;
+  no_repair.grow_span = false;
   const RefineResult kept = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma, no_repair);
   RequireKept(kept);
   const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
@@ -248,6 +250,7 @@ TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the 
   RefineOptions options;
   options.min_jump_interval = 0;
   options.repair_start = false;  // (the repaired start merges bounces closer than 10 samples)
+  options.grow_span = false;
   const RefineResult r = RefineRun(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
@@ -318,6 +321,7 @@ TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help
   const long missed = run.RemoveJump(static_cast<long>(run.gamma.size()), false);
   RefineOptions no_repair;
   no_repair.repair_start = false;
+  no_repair.grow_span = false;
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);
