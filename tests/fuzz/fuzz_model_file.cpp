@@ -53,7 +53,8 @@ void Evaluate(const hysid::Model& model) {
   }
   // The block evaluator must agree with one state at a time (NaN where either is NaN).
   hysid::Vec block(n * static_cast<Eigen::Index>(states.size()));
-  for (std::size_t k = 0; k < states.size(); ++k) block.segment(static_cast<Eigen::Index>(k) * n, n) = states[k];
+  for (std::size_t k = 0; k < states.size(); ++k)
+    block.segment(static_cast<Eigen::Index>(k) * n, n) = states[k];
   std::vector<double> columns(static_cast<std::size_t>(n) * a * states.size());
   model.PhiColumns(block.data(), static_cast<Eigen::Index>(states.size()), columns.data());
   for (std::size_t k = 0; k < states.size(); ++k) {
@@ -70,8 +71,8 @@ void Evaluate(const hysid::Model& model) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   try {
-    const hysid::ModelFile file = hysid::ParseModelFile(
-        std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.toml");
+    const hysid::ModelFile file =
+        hysid::ParseModelFile(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.toml");
     if (static_cast<int>(file.guard_where.size()) != file.model.guard_count()) __builtin_trap();
     Evaluate(file.model);
   } catch (const std::invalid_argument&) {
