@@ -44,8 +44,8 @@ for step in "${steps[@]}"; do
     fuzz)
       cmake -S . -B build-fuzz "${common[@]}" -DCMAKE_CXX_COMPILER=clang++-14 -DBUILD_TESTING=OFF -DHYSID_FUZZ=ON \
         -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined,float-cast-overflow -fno-sanitize-recover=all"
-      cmake --build build-fuzz -j "$jobs" --target fuzz_csv fuzz_sample_data fuzz_sweep
-      for h in csv sample_data sweep; do
+      cmake --build build-fuzz -j "$jobs" --target fuzz_csv fuzz_sample_data fuzz_sweep fuzz_model_file
+      for h in csv sample_data sweep model_file; do
         work="build-fuzz/corpus-$h"
         rm -rf "$work"; mkdir -p "$work"
         cp tests/fuzz/corpus/"$h"/* "$work"/
