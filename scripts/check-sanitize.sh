@@ -3,14 +3,14 @@
 # UBSan with float-cast-overflow (build-clang-ub/; GCC's UBSan does not check float-to-int casts),
 # then the libFuzzer harnesses of tests/fuzz (build-fuzz/), each for FUZZ_RUNS executions (default
 # 1 000 000) from a copy of its seed corpus in tests/fuzz/corpus/, stopped after FUZZ_SECONDS
-# (default 900) at the latest. Fails on any test failure, sanitizer report, or a harness that did not
+# (default 1800) at the latest. Fails on any test failure, sanitizer report, or a harness that did not
 # reach FUZZ_RUNS.
 # Usage: scripts/check-sanitize.sh [asan|ub|fuzz ...]   (default: all three)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs="${JOBS:-$(nproc 2>/dev/null || echo 2)}"
 fuzz_runs="${FUZZ_RUNS:-1000000}"
-fuzz_seconds="${FUZZ_SECONDS:-900}"
+fuzz_seconds="${FUZZ_SECONDS:-1800}"
 steps=("$@")
 [ ${#steps[@]} -eq 0 ] && steps=(asan ub fuzz)
 launcher=()
