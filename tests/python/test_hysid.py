@@ -269,7 +269,7 @@ def test_identify_refuses_too_few_samples_as_the_cli(tmp_path, rows):
     for refine in ("ml", "none"):
         with pytest.raises(ValueError) as e:
             hysid.identify("impact-msd", np.zeros((rows, 2)), dt=1e-3, refine=refine)
-        assert str(e.value) == message.replace(str(data), "run 1")
+        assert str(e.value) == message.replace(str(data), "y")  # the array, not a file
 
 
 def test_identify_refuses_steps_below_the_smallest(tmp_path):
@@ -278,8 +278,9 @@ def test_identify_refuses_steps_below_the_smallest(tmp_path):
     message = cli_refusal("identify", "--data", data)
     with pytest.raises(ValueError) as e:
         hysid.identify("impact-msd", np.ones((5, 2)), dt=1e-320)
-    tail = r"column 1 \('t'\): the step \S+ after line {} is below 1e-150 s \(rescale the time\)$"
-    assert re.search(tail.format(2), message) and re.search(tail.format(1), str(e.value))
+    tail = r"the step \S+ after {} is below 1e-150 s \(rescale the time\)$"
+    assert re.search(r"tiny.csv:3: column 1 \('t'\): " + tail.format("line 2"), message)
+    assert re.fullmatch(r"t\[1\]: " + tail.format(r"t\[0\]"), str(e.value))  # the array's elements
 
 
 def test_identify_refuses_a_state_column_below_the_smallest_scale(tmp_path):
@@ -298,7 +299,7 @@ def test_identify_refuses_a_state_column_below_the_smallest_scale(tmp_path):
         assert message == f"{data}: column 'y1': the largest |value| is 1e-200, below 1e-150 (rescale the data)"
         with pytest.raises(ValueError) as e:
             hysid.identify("impact-msd", y * scale, dt=1e-3)
-        assert str(e.value) == message.replace(str(data), "run 1")
+        assert str(e.value) == message.replace(f"{data}: column 'y1'", "y[:, 0]")
 
 
 def test_identify_refuses_infinite_samples_as_the_cli(tmp_path):
@@ -310,7 +311,7 @@ def test_identify_refuses_infinite_samples_as_the_cli(tmp_path):
     y[1, 1] = -np.inf
     with pytest.raises(ValueError) as e:
         hysid.identify("impact-msd", y, dt=1e-3)
-    assert str(e.value) == "run 1:2: column 3 ('y2'): '-inf' is not finite"
+    assert str(e.value) == "y[1, 1]: '-inf' is not finite"
 
 
 def test_seed_is_decimal(tmp_path):
