@@ -432,3 +432,168 @@ def test_cli_reports_hulls_left_out_above_their_limit(paper_data):
     assert p.returncode == 0, p.stderr
     assert "sets C^ and D^: not computed: 2 states exceed the limit of 1 states" in p.stdout
     assert "  sets: not computed\n" in p.stdout
+
+
+def test_version_is_the_projects():
+    """hysid.__version__ is the version `hysid --version` prints."""
+    assert cli("--version").split()[0] == hysid.__version__
+    assert re.fullmatch(r"\d+\.\d+\.\d+", hysid.__version__)
+
+
+def test_set_returns_a_new_model_and_leaves_this_one():
+    m = hysid.Model("impact-msd")
+    changed = m.set("a", 3.0)
+    assert m.parameters["a"] == 5.0 and changed.parameters["a"] == 3.0
+    assert changed != m and changed.set("a", 5.0) == m
+    traj = hysid.simulate(changed, t_end=2.0)
+    assert not np.array_equal(traj["x"], hysid.simulate(m, t_end=2.0)["x"])
+    with pytest.raises(ValueError, match="value: expected a number, got str 'x'"):
+        m.set("a", "x")
+
+
+def test_pickled_models_are_equal_and_rebuild_without_their_file(tmp_path):
+    import pickle
+    text = (MODELS / "wall-msd.toml").read_text()
+    (tmp_path / "wall.toml").write_text(text)
+    models = [hysid.Model("bouncing-ball"), hysid.Model("impact-msd").set("b", 0.2),
+              hysid.Model.from_file(tmp_path / "wall.toml").set("k", 3.0)]
+    blobs = [pickle.dumps(m) for m in models]
+    (tmp_path / "wall.toml").unlink()  # the model file travels as its text
+    for m, blob in zip(models, blobs):
+        copy = pickle.loads(blob)
+        assert copy == m and copy.parameters == m.parameters and copy.equations == m.equations
+        np.testing.assert_array_equal(hysid.simulate(copy, t_end=1.0)["x"], hysid.simulate(m, t_end=1.0)["x"])
+    assert models[0] != models[1]
+
+
+def _fitted_a(model):
+    """One identification in a worker process: the estimate of a on the model's own noise-free run."""
+    traj = hysid.simulate(model, t_end=4.0)
+    return hysid.identify(model, traj["y"], dt=traj["dt"], refine="none")["estimates"]["a"]
+
+
+def test_models_cross_process_boundaries():
+    """multiprocessing.Pool on 2 processes: each worker gets the pickled model (with its changed a)."""
+    import multiprocessing
+    models = [hysid.Model("impact-msd").set("a", a) for a in (3.0, 4.0, 6.0)]
+    with multiprocessing.get_context("fork").Pool(2) as pool:
+        remote = pool.map(_fitted_a, models)
+    assert remote == [_fitted_a(m) for m in models]
+    for a, estimate in zip((3.0, 4.0, 6.0), remote):
+        assert estimate == pytest.approx(a, rel=1e-3)
+
+
+def interrupted(setup, call, env=None):
+    """Runs `setup`, then the long `call` in a child Python; SIGINT 0.5 s into the call. Returns the seconds
+    from the signal to the KeyboardInterrupt reaching the script, the exit code and stderr."""
+    import signal
+    import sys
+    import time
+    script = (f"import time, numpy as np, hysid\n{setup}\nprint('started', flush=True)\ntry:\n    {call}\n"
+              "    print('finished', flush=True)\nexcept KeyboardInterrupt:\n"
+              "    print('interrupted', time.monotonic(), flush=True)\n")
+    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env={**os.environ, **(env or {})})
+    assert p.stdout.readline().strip() == "started", p.stderr.read()
+    time.sleep(0.5)
+    sent = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    words = out.split()
+    assert words and words[0] == "interrupted", (out, err)
+    return float(words[1]) - sent, p.returncode, err
+
+
+LONG_CALLS = {
+    # undamped, lossless impacts for 5e4 s: tens of thousands of jumps (tens of seconds)
+    "simulate": ("m = hysid.Model('impact-msd').set('b', 0.0).set('lambda', 1.0)",
+                 "hysid.simulate(m, t_end=5e4, dt=1.0)"),
+    # the refinement over 400 001 noisy samples (minutes)
+    "identify": ("tr = hysid.simulate('impact-msd', t_end=200.0, dt=5e-4, sigma=0.1)",
+                 "hysid.identify('impact-msd', tr['y'], dt=5e-4)"),
+    "run_sweep": ("import pathlib, tempfile\nd = pathlib.Path(tempfile.mkdtemp())\n"
+                  "(d / 's.toml').write_text('[model]\\nname = \"impact-msd\"\\nt_end = 200.0\\n[grid]\\nsigma = 0.1\\n"
+                  "dt = 5e-4\\nrefine = [\"ml\"]\\n[run]\\ntrials = 1\\n')",
+                  "hysid.run_sweep(str(d / 's.toml'), out=str(d / 'run'), threads=1)"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LONG_CALLS))
+def test_ctrl_c_interrupts_a_long_call(name):
+    """SIGINT in the middle of one long C++ computation: KeyboardInterrupt within 1 s (the module checks
+    every 50 ms); the computation left running is not waited for at exit (exit code 130, said on stderr)."""
+    delay, code, err = interrupted(*LONG_CALLS[name])
+    print(f"{name}: KeyboardInterrupt {delay:.3f} s after SIGINT")
+    assert 0.0 <= delay < 1.0
+    assert code == 130 and "an interrupted computation is still running" in err, err
+
+
+def test_identify_takes_every_option_of_the_tables():
+    """Every detector and estimator option of `hysid identify --help` is a keyword with its help and
+    default, and nothing else is: one table feeds both."""
+    flags = set(re.findall(r"^\s+(--[a-z0-9-]+)", cli("identify", "--help"), re.M))
+    options = hysid.identify_options()
+    assert {o["flag"] for o in options.values()} <= flags
+    assert {"window", "p0", "frisch_box", "frisch_point", "frisch_confidence", "false_alarm", "r", "tau0",
+            "jump_window", "refactor_every"} <= set(options)
+    for name, o in options.items():
+        assert o["flag"] == "--" + name.replace("_", "-") and o["read_by"]
+        assert f"  {name} = None (default {o['default']}): {o['help']}" in hysid.identify.__doc__
+    own = {"--" + k.replace("_", "-") for k in ("estimator", "detector", "sigma", "max_gap", "localize",
+                                                 "second_pass", "data_rtol", "data_atol", "flow_noise_shape",
+                                                 "jump_noise_shape", "refine")}
+    assert own <= flags
+    covered = own | {o["flag"] for o in options.values()}
+    # The flags that are not identify's options in Python: the files (data, columns, outputs, model).
+    assert flags - covered == {"--model", "--model-file", "--param", "--data", "--columns", "--trace",
+                               "--hulls", "--json"}
+
+
+def test_unknown_keywords_are_refused_by_name():
+    y = np.ones((10, 2))
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'windw'; its keywords are .*\bwindow\b"):
+        hysid.identify("impact-msd", y, dt=1e-3, windw=3)
+    with pytest.raises(ValueError, match=r"^window: the alpha estimator 'rls' does not read it \(its options: "
+                                         r"forgetting, p0\)$"):
+        hysid.identify("impact-msd", y, dt=1e-3, window=3)
+
+
+ARRAY_REFUSALS = [
+    # (arguments, the message): each names the argument and the constraint, in Python's terms
+    (dict(y=np.ones((10, 2)), dt=1e-3, t=np.arange(10) * 2e-3),
+     "dt = 0.001: t has the step 0.002; give dt or t, or both that agree"),
+    (dict(y=np.ones((10, 2)), t=np.ones((10, 2))), r"t must be a 1-D array of times, one per sample; got shape (10, 2)"),
+    (dict(y=np.ones((10, 2)), dt=1e-3, sigma="x"), "sigma: expected numbers, got str 'x'"),
+    (dict(y=np.ones((10, 2)) + 1j, dt=1e-3),
+     "y: complex values (dtype complex128); samples and options are real numbers"),
+    (dict(y=np.array([["a", "b"]] * 4), dt=1e-3), "y: expected real numbers, got an array of dtype <U1"),
+    (dict(y=np.ones((10, 2)), dt="0.001"), "dt: expected a number, got str '0.001'"),
+    (dict(y=np.ones((10, 2)), dt=1e-3, localize=1), "localize: expected True or False, got int 1"),
+    (dict(y=np.ones((10, 3)), dt=1e-3), "y must be a (samples, 2) array, one row per sample; got shape (10, 3)"),
+    (dict(y=[np.ones((10, 2)), np.ones((5, 3))], dt=1e-3),
+     "y[1] must be a (samples, 2) array, one row per sample; got shape (5, 3)"),
+    (dict(y=[np.ones((10, 2)), np.ones((5, 2))], t=np.arange(10.0)),
+     "t: y is a list of 2 runs; give t as a list of as many 1-D arrays"),
+    (dict(y=[np.ones((4, 2)), np.ones((4, 2))], t=[np.arange(4.0), np.array([0, 1, 1, 2.0])]),
+     "t[1][2]: time 1 is not after 1 (t[1][1]): time must increase"),
+    (dict(y=np.ones((4, 2)), dt=1e-3, flow_noise_shape=np.ones((2, 3))),
+     "flow_noise_shape: shape (2, 3): give a square matrix (parameters + 1)^2"),
+]
+
+
+@pytest.mark.parametrize("kwargs,message", ARRAY_REFUSALS)
+def test_identify_refuses_malformed_arguments_by_name(kwargs, message):
+    with pytest.raises(ValueError) as e:
+        hysid.identify("impact-msd", **kwargs)
+    assert str(e.value).startswith(message)
+    assert "::" not in str(e.value) and "line" not in str(e.value) and "run 1" not in str(e.value)
+
+
+def test_a_list_of_rows_is_one_run():
+    """A list of lists is one run's rows (as np.asarray reads it), not a list of runs."""
+    traj = hysid.simulate("impact-msd", t_end=2.0, sigma=0.01)
+    rows = traj["y"].tolist()
+    a = hysid.identify("impact-msd", rows, dt=traj["dt"], refine="none")
+    b = hysid.identify("impact-msd", traj["y"], dt=traj["dt"], refine="none")
+    np.testing.assert_array_equal(a["alpha"], b["alpha"])
+    assert "chains" not in a
