@@ -173,6 +173,20 @@ void BindModel(py::module_& m) {
       .def_property_readonly(
           "parameters", [](const PyModel& x) { return Parameters(x.model); },
           "every parameter of alpha and beta by name")
+      .def_property_readonly(
+          "unknowns",
+          [](const PyModel& x) {
+            py::dict d;
+            for (const auto& [key, params] : {std::pair{"alpha", &x.model.spec().alpha}, std::pair{"beta", &x.model.spec().beta}}) {
+              py::list names;
+              for (const Parameter& p : *params) {
+                if (!p.known) names.append(p.name);
+              }
+              d[key] = names;
+            }
+            return d;
+          },
+          "the unknown parameters by name: {'alpha': [...], 'beta': [...]}, in the order of the regressions")
       .def_property_readonly("equations", [](const PyModel& x) { return x.model.spec().equations; })
       .def_property_readonly("default_x0", [](const PyModel& x) { return x.model.spec().default_x0; })
       .def_property_readonly("default_t_end", [](const PyModel& x) { return x.model.spec().default_t_end; })

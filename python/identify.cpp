@@ -416,6 +416,7 @@ py::dict OptionTable() {
     d["choices"] = a.choices;
     d["read_by"] = a.read_by;
     d["flag"] = Spelled(a.name, Spelling::kFlag, a.prefix);
+    d["family"] = FindOption(DetectorOptions(), a.name) ? "detector" : "estimator";
     out[py::str(Spelled(a.name, Spelling::kKeyword, a.prefix))] = d;
   }
   return out;
@@ -429,7 +430,16 @@ void BindIdentify(py::module_& m) {
         doc->c_str());
   m.def("identify_options", &OptionTable,
         "The detector's and the estimators' options that identify takes as keywords (the tables the command "
-        "line's flags come from): {keyword: {default, help, type, choices, read_by, flag}}");
+        "line's flags come from): {keyword: {default, help, type, choices, read_by, flag, family}}");
+  m.def(
+      "plugins",
+      [] {
+        py::dict d;
+        d["estimator"] = PluginNames<EstimatorKind>();
+        d["detector"] = PluginNames<DetectorKind>();
+        return d;
+      },
+      "The estimators and detectors by name: {'estimator': [...], 'detector': [...]}");
 }
 
 }  // namespace hysid::python
