@@ -95,6 +95,25 @@ std::optional<double> OptionalNumber(const py::handle& value, const std::string&
   return Number(value, name);
 }
 
+PyModel ModelArgument(const py::handle& value) {
+  if (py::isinstance<PyModel>(value)) return value.cast<PyModel>();
+  if (py::isinstance<py::str>(value)) return MakePyModel(value.cast<std::string>());
+  if (py::hasattr(value, "__fspath__")) return ModelFromFile(py::str(value.attr("__fspath__")()));
+  throw std::invalid_argument(fmt::format(
+      "model: expected a hysid.Model, a built-in model's name or a model file's path, got {}", Described(value)));
+}
+
+std::uint64_t Count(const py::handle& value, const std::string& name) {
+  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value))
+    throw std::invalid_argument(fmt::format("{}: expected an integer >= 0, got {}", name, Described(value)));
+  try {
+    return value.cast<std::uint64_t>();
+  } catch (const py::cast_error&) {
+    throw std::invalid_argument(fmt::format("{} = {}: must be an integer in [0, 2^64 - 1]", name,
+                                            std::string(py::str(value))));
+  }
+}
+
 bool Flag(const py::handle& value, const std::string& name) {
   if (!py::isinstance<py::bool_>(value)) {
     throw std::invalid_argument(fmt::format("{}: expected True or False, got {}", name, Described(value)));

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <future>
 #include <memory>
@@ -36,6 +37,8 @@ struct PyModel {
 // A built-in name, or a model file (a path that exists); errors name the argument.
 PyModel MakePyModel(const std::string& name_or_file);
 PyModel ModelFromFile(const std::string& path);
+// The `model` argument: a hysid.Model, a built-in name or a model file's path (str or os.PathLike).
+PyModel ModelArgument(const py::handle& value);
 // The pickled state: (builtin, file, text, {unknown parameter: value}), and back.
 py::tuple ModelState(const PyModel& m);
 PyModel ModelFromState(const py::tuple& state);
@@ -46,6 +49,8 @@ bool SameModel(const PyModel& a, const PyModel& b);
 // A real number (int or float, not bool or str): "NAME: expected a number, got str 'x'".
 double Number(const py::handle& value, const std::string& name);
 std::optional<double> OptionalNumber(const py::handle& value, const std::string& name);
+// An integer >= 0 (seed, trial): "NAME = -1: must be an integer >= 0".
+std::uint64_t Count(const py::handle& value, const std::string& name);
 // A bool: "NAME: expected True or False, got ...".
 bool Flag(const py::handle& value, const std::string& name);
 // A str: "NAME: expected a name (str), got ...".

@@ -57,14 +57,18 @@ Run CheckedRun(const Model& model, const py::object& x0, const py::object& t_end
   }
   run.sim.rtol = Number(rtol, "rtol");
   run.sim.atol = Number(atol, "atol");
-  if (std::string e; !run.sim.IsValid(&e)) throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  if (std::string e; !run.sim.IsValid(&e)) {  // "SimOptions::rtol = -1. ...": the keyword alone
+    if (e.starts_with("SimOptions::")) e.erase(0, std::string_view("SimOptions::").size());
+    throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
+  }
   return run;
 }
 
-py::dict SimulateDict(const PyModel& pm, const py::object& x0, const py::object& t_end, const py::object& dt,
-                      const py::object& sigma, std::uint64_t seed, std::uint64_t trial, const py::object& rtol,
-                      const py::object& atol) {
-  const Model& model = pm.model;
+py::dict SimulateDict(const py::object& model_arg, const py::object& x0, const py::object& t_end,
+                      const py::object& dt, const py::object& sigma, const py::object& seed_arg,
+                      const py::object& trial_arg, const py::object& rtol, const py::object& atol) {
+  const Model model = ModelArgument(model_arg).model;
+  const std::uint64_t seed = Count(seed_arg, "seed"), trial = Count(trial_arg, "trial");
   const int n = model.state_size();
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
   const Vec s = CheckedSigma(Numbers(sigma, "sigma"), n, /*allow_zero=*/true, Spelling::kKeyword);
@@ -125,9 +129,11 @@ py::dict Parameters(const Model& m) {
 }
 
 // The bound as `hysid crlb`: at the model's true α, β and x0 over the model's (or the given) grid.
-py::dict CrlbDict(const PyModel& pm, const py::object& x0, const py::object& t_end, const py::object& dt,
-                  const py::object& sigma, bool x0_known, const py::object& rtol, const py::object& atol) {
-  const Model& model = pm.model;
+py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::object& t_end,
+                  const py::object& dt, const py::object& sigma, const py::object& x0_known_arg,
+                  const py::object& rtol, const py::object& atol) {
+  const Model model = ModelArgument(model_arg).model;
+  const bool x0_known = Flag(x0_known_arg, "x0_known");
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
   const Vec s = CheckedSigma(Numbers(sigma, "sigma"), model.state_size(), /*allow_zero=*/false, Spelling::kKeyword);
   const Crlb c = RunInterruptible<Crlb>([model, run, s, x0_known] {
@@ -198,7 +204,6 @@ void BindModel(py::module_& m) {
       .def("__repr__", [](const PyModel& x) {
         return fmt::format("hysid.Model('{}')", x.builtin.empty() ? x.file : x.builtin);
       });
-  py::implicitly_convertible<std::string, PyModel>();
 }
 
 }  // namespace

@@ -315,6 +315,7 @@ std::vector<double> Times(const py::handle& t, const std::string& what) {
 SampleData RunsOf(const Model& model, const py::object& y, const py::object& t, double dt, double max_gap) {
   const bool runs = IsRuns(y);
   const py::list ys = runs ? py::list(y) : py::list(py::make_tuple(y));
+  if (ys.empty()) throw std::invalid_argument("y: an empty list; give a (samples, n) array, or a list of runs");
   std::vector<Mat> samples;
   std::vector<std::vector<double>> times(ys.size());
   for (std::size_t r = 0; r < ys.size(); ++r)
@@ -335,9 +336,9 @@ SampleData RunsOf(const Model& model, const py::object& y, const py::object& t, 
   }
 }
 
-py::dict Identify(const PyModel& pm, const py::object& y, const py::object& dt_arg, const py::object& t,
+py::dict Identify(const py::object& model_arg, const py::object& y, const py::object& dt_arg, const py::object& t,
                   const py::kwargs& kwargs) {
-  const Model& model = pm.model;
+  const Model model = ModelArgument(model_arg).model;
   const IdentifyArgs args = ParseKeywords(kwargs);
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt))) throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));

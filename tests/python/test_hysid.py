@@ -220,6 +220,8 @@ SIMULATE_REFUSED = [
     (["--sigma", "0.1,nan"], {"sigma": [0.1, NAN]}), (["--sigma", "1,2,3"], {"sigma": [1.0, 2.0, 3.0]}),
     (["--dt", "1e-320"], {"dt": 1e-320}), (["--dt", "0"], {"dt": 0.0}), (["--dt", "nan"], {"dt": NAN}),
     (["--t-end", "-1"], {"t_end": -1.0}), (["--dt", "1e-7"], {"dt": 1e-7}),
+    (["--x0", "-1,0"], {"x0": [-1.0, 0.0]}), (["--x0", "1,2,3"], {"x0": [1.0, 2.0, 3.0]}),
+    (["--x0", "nan,0"], {"x0": [NAN, 0.0]}),
 ]
 CRLB_REFUSED = [(["--sigma", "0"], {"sigma": 0.0}), (["--sigma", "nan"], {"sigma": NAN}),
                 (["--dt", "1e-320"], {"dt": 1e-320})]
@@ -597,3 +599,35 @@ def test_a_list_of_rows_is_one_run():
     b = hysid.identify("impact-msd", traj["y"], dt=traj["dt"], refine="none")
     np.testing.assert_array_equal(a["alpha"], b["alpha"])
     assert "chains" not in a
+
+
+OTHER_REFUSALS = [
+    # (call, the message): arguments of the wrong kind, named, never a pybind11 cast error
+    (lambda: hysid.identify("no-model", np.ones((5, 2)), dt=1e-3), "'no-model' is neither a built-in model nor a model file"),
+    (lambda: hysid.identify(3, np.ones((5, 2)), dt=1e-3),
+     "model: expected a hysid.Model, a built-in model's name or a model file's path, got int 3"),
+    (lambda: hysid.identify("impact-msd", [], dt=1e-3), "y: an empty list; give a (samples, n) array, or a list of runs"),
+    (lambda: hysid.simulate("impact-msd", seed="x"), "seed: expected an integer >= 0, got str 'x'"),
+    (lambda: hysid.simulate("impact-msd", trial=-1), "trial = -1: must be an integer in [0, 2^64 - 1]"),
+    (lambda: hysid.simulate("impact-msd", rtol=-1.0), "rtol/atol: rtol = -1. Violated constraint: rtol > 0"),
+    (lambda: hysid.simulate("impact-msd", x0=[[20.0, 0.0]]),
+     "x0: expected a number or a 1-D sequence of numbers, got shape (1, 2)"),
+    (lambda: hysid.crlb("impact-msd", sigma="x"), "sigma: expected numbers, got str 'x'"),
+    (lambda: hysid.crlb("impact-msd", x0_known=1), "x0_known: expected True or False, got int 1"),
+]
+
+
+@pytest.mark.parametrize("call,message", OTHER_REFUSALS)
+def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
+    with pytest.raises(ValueError) as e:
+        call()
+    assert str(e.value) == message
+
+
+def test_a_model_is_a_model_a_name_or_a_path():
+    y = hysid.simulate("impact-msd", t_end=2.0, sigma=0.01)["y"]
+    fits = [hysid.identify(m, y, dt=5e-4, refine="none")["alpha"]
+            for m in ("impact-msd", hysid.Model("impact-msd"), MODELS / "impact-msd.toml",
+                      str(MODELS / "impact-msd.toml"))]
+    for alpha in fits[1:]:
+        np.testing.assert_array_equal(alpha, fits[0])
