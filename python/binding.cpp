@@ -43,7 +43,8 @@ PyModel MakePyModel(const std::string& name_or_file) {
 py::tuple ModelState(const PyModel& m) {
   py::dict values;
   const ModelSpec& spec = m.model.spec();
-  for (const auto& [params, v] : {std::pair{&spec.alpha, &m.model.alpha()}, std::pair{&spec.beta, &m.model.beta()}}) {
+  for (const auto& [params, v] :
+       {std::pair{&spec.alpha, &m.model.alpha()}, std::pair{&spec.beta, &m.model.beta()}}) {
     for (std::size_t i = 0; i < params->size(); ++i) {
       if (!(*params)[i].known) values[py::str((*params)[i].name)] = (*v)[Eigen::Index(i)];
     }
@@ -86,7 +87,8 @@ double Number(const py::handle& value, const std::string& name) {
     throw std::invalid_argument(fmt::format("{}: expected a number, got {}", name, Described(value)));
   }
   const py::array_t<double> a = RealArray(value, name);
-  if (a.ndim() != 0) throw std::invalid_argument(fmt::format("{}: expected a number, got {}", name, Described(value)));
+  if (a.ndim() != 0)
+    throw std::invalid_argument(fmt::format("{}: expected a number, got {}", name, Described(value)));
   return *a.data();
 }
 
@@ -99,8 +101,9 @@ PyModel ModelArgument(const py::handle& value) {
   if (py::isinstance<PyModel>(value)) return value.cast<PyModel>();
   if (py::isinstance<py::str>(value)) return MakePyModel(value.cast<std::string>());
   if (py::hasattr(value, "__fspath__")) return ModelFromFile(py::str(value.attr("__fspath__")()));
-  throw std::invalid_argument(fmt::format(
-      "model: expected a hysid.Model, a built-in model's name or a model file's path, got {}", Described(value)));
+  throw std::invalid_argument(
+      fmt::format("model: expected a hysid.Model, a built-in model's name or a model file's path, got {}",
+                  Described(value)));
 }
 
 std::uint64_t Count(const py::handle& value, const std::string& name) {
@@ -109,8 +112,8 @@ std::uint64_t Count(const py::handle& value, const std::string& name) {
   try {
     return value.cast<std::uint64_t>();
   } catch (const py::cast_error&) {
-    throw std::invalid_argument(fmt::format("{} = {}: must be an integer in [0, 2^64 - 1]", name,
-                                            std::string(py::str(value))));
+    throw std::invalid_argument(
+        fmt::format("{} = {}: must be an integer in [0, 2^64 - 1]", name, std::string(py::str(value))));
   }
 }
 
@@ -174,11 +177,14 @@ std::string ArrayMessage(const std::string& message, bool runs) {
   static const std::regex whole(R"(^run (\d+)(, run \d+)*: )");
   static const std::regex line(R"(line (\d+))");
   std::smatch m;
-  auto run = [&](const std::string& r) { return runs ? fmt::format("[{}]", std::stol(r) - 1) : std::string(); };
+  auto run = [&](const std::string& r) {
+    return runs ? fmt::format("[{}]", std::stol(r) - 1) : std::string();
+  };
   if (std::regex_search(message, m, cell)) {
     const std::string r = run(m[1]);
     const long k = std::stol(m[2]) - 1, c = std::stol(m[3]);
-    const std::string head = c == 1 ? fmt::format("t{}[{}]: ", r, k) : fmt::format("y{}[{}, {}]: ", r, k, c - 2);
+    const std::string head =
+        c == 1 ? fmt::format("t{}[{}]: ", r, k) : fmt::format("y{}[{}, {}]: ", r, k, c - 2);
     std::string rest = m.suffix();
     std::string out;  // "line N" in the rest: the sample N − 1 of the same run
     auto it = rest.cbegin();
@@ -220,7 +226,8 @@ void RegisterExitCheck() {
     for (const char* stream : {"stdout", "stderr"}) {
       if (!sys.attr(stream).is_none()) sys.attr(stream).attr("flush")();
     }
-    std::fprintf(stderr, "hysid: an interrupted computation is still running; exiting without it (exit code 130)\n");
+    std::fprintf(stderr,
+                 "hysid: an interrupted computation is still running; exiting without it (exit code 130)\n");
     std::fflush(nullptr);
     std::_Exit(130);
   }));

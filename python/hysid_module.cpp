@@ -135,7 +135,8 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
   const Model model = ModelArgument(model_arg).model;
   const bool x0_known = Flag(x0_known_arg, "x0_known");
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
-  const Vec s = CheckedSigma(Numbers(sigma, "sigma"), model.state_size(), /*allow_zero=*/false, Spelling::kKeyword);
+  const Vec s =
+      CheckedSigma(Numbers(sigma, "sigma"), model.state_size(), /*allow_zero=*/false, Spelling::kKeyword);
   const Crlb c = RunInterruptible<Crlb>([model, run, s, x0_known] {
     SensitivityOptions options;
     options.sim = run.sim;
@@ -165,14 +166,17 @@ PyModel WithParameter(const PyModel& m, const std::string& name, const py::objec
 }
 
 void BindModel(py::module_& m) {
-  py::class_<PyModel>(m, "Model",
-                      "A hybrid model: a built-in name (hysid.models()) or a model file (TOML). Immutable: set() "
-                      "returns a new model. Picklable (a model file travels as its text) and comparable "
-                      "(==: the same source and parameter values)")
+  py::class_<PyModel>(
+      m, "Model",
+      "A hybrid model: a built-in name (hysid.models()) or a model file (TOML). Immutable: set() "
+      "returns a new model. Picklable (a model file travels as its text) and comparable "
+      "(==: the same source and parameter values)")
       .def(py::init(&MakePyModel), py::arg("name_or_file"))
-      .def(py::init([](const std::filesystem::path& p) { return ModelFromFile(p.string()); }), py::arg("path"))
+      .def(py::init([](const std::filesystem::path& p) { return ModelFromFile(p.string()); }),
+           py::arg("path"))
       .def_static(
-          "from_file", [](const std::filesystem::path& p) { return ModelFromFile(p.string()); }, py::arg("path"))
+          "from_file", [](const std::filesystem::path& p) { return ModelFromFile(p.string()); },
+          py::arg("path"))
       .def_property_readonly("name", [](const PyModel& x) { return x.model.name(); })
       .def_property_readonly("description", [](const PyModel& x) { return x.model.spec().description; })
       .def_property_readonly("state_names", [](const PyModel& x) { return x.model.spec().state_names; })
@@ -183,7 +187,8 @@ void BindModel(py::module_& m) {
           "unknowns",
           [](const PyModel& x) {
             py::dict d;
-            for (const auto& [key, params] : {std::pair{"alpha", &x.model.spec().alpha}, std::pair{"beta", &x.model.spec().beta}}) {
+            for (const auto& [key, params] :
+                 {std::pair{"alpha", &x.model.spec().alpha}, std::pair{"beta", &x.model.spec().beta}}) {
               py::list names;
               for (const Parameter& p : *params) {
                 if (!p.known) names.append(p.name);
@@ -217,11 +222,12 @@ PYBIND11_MODULE(hysid, m) {
   BindModel(m);
   m.def(
       "models", [] { return Builtins().names(); }, "the built-in model names");
-  m.def("simulate", &SimulateDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
-        py::arg("dt") = py::none(), py::arg("sigma") = 0.0, py::arg("seed") = 1, py::arg("trial") = 0,
-        py::arg("rtol") = 1e-12, py::arg("atol") = 1e-12,
-        "One trajectory: dict with t, j, x and y (samples × states), dt, jumps, status, message. Ctrl-C raises "
-        "KeyboardInterrupt");
+  m.def(
+      "simulate", &SimulateDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
+      py::arg("dt") = py::none(), py::arg("sigma") = 0.0, py::arg("seed") = 1, py::arg("trial") = 0,
+      py::arg("rtol") = 1e-12, py::arg("atol") = 1e-12,
+      "One trajectory: dict with t, j, x and y (samples × states), dt, jumps, status, message. Ctrl-C raises "
+      "KeyboardInterrupt");
   BindIdentify(m);
   m.def("crlb", &CrlbDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
         py::arg("dt") = py::none(), py::arg("sigma") = 1.0, py::arg("x0_known") = false,

@@ -63,7 +63,8 @@ const std::vector<Keyword>& OwnKeywords() {
 const std::map<std::string, const PluginOptionArgument*>& PluginKeywords() {
   static const auto* by_name = [] {
     auto* m = new std::map<std::string, const PluginOptionArgument*>;
-    for (const PluginOptionArgument& a : PluginOptionArguments()) (*m)[Spelled(a.name, Spelling::kKeyword, a.prefix)] = &a;
+    for (const PluginOptionArgument& a : PluginOptionArguments())
+      (*m)[Spelled(a.name, Spelling::kKeyword, a.prefix)] = &a;
     return m;
   }();
   return *by_name;
@@ -100,7 +101,8 @@ Mat NoiseShape(const py::handle& value, const std::string& name) {
   if (value.is_none()) return Mat();
   const py::array_t<double> a = RealArray(value, name);
   if (a.ndim() > 2 || (a.ndim() == 2 && a.shape(0) != a.shape(1))) {
-    throw std::invalid_argument(fmt::format("{}: shape {}: give a square matrix (parameters + 1)^2", name, ShapeText(a)));
+    throw std::invalid_argument(
+        fmt::format("{}: shape {}: give a square matrix (parameters + 1)^2", name, ShapeText(a)));
   }
   const std::vector<double> v(a.data(), a.data() + a.size());
   CheckFinite(name, v);
@@ -109,7 +111,8 @@ Mat NoiseShape(const py::handle& value, const std::string& name) {
     throw std::invalid_argument(
         fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major", name, v.size()));
   }
-  return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(v.data(), m, m));
+  return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      v.data(), m, m));
 }
 
 IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
@@ -133,11 +136,15 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
       (name == "flow_noise_shape" ? a.flow_shape : a.jump_shape) = NoiseShape(value, name);
     } else if (name == "localize" || name == "second_pass" || name == "sets" || name == "trace") {
       const bool v = Flag(value, name);
-      (name == "localize" ? a.localize : name == "second_pass" ? a.second_pass : name == "sets" ? a.sets : a.trace) = v;
+      (name == "localize"      ? a.localize
+       : name == "second_pass" ? a.second_pass
+       : name == "sets"        ? a.sets
+                               : a.trace) = v;
     } else {
-      throw py::type_error(fmt::format("identify() got an unexpected keyword argument '{}'; its keywords are model, "
-                                       "y, dt, t, {}",
-                                       name, fmt::join(known, ", ")));
+      throw py::type_error(
+          fmt::format("identify() got an unexpected keyword argument '{}'; its keywords are model, "
+                      "y, dt, t, {}",
+                      name, fmt::join(known, ", ")));
     }
   }
   if (a.refine != "ml" && a.refine != "none")
@@ -209,9 +216,11 @@ FitOutcome RunFit(const Model& model, const FitInput& in, const IdentifierSettin
   RefineOptions refine_options;
   refine_options.sigma = settings.sigma;
   std::vector<double> t(static_cast<std::size_t>(in.y.cols()));
-  for (std::size_t k = 0; k < t.size(); ++k) t[k] = in.chains ? in.chains->t[k] : static_cast<double>(k) * in.dt;
-  out.refined = RefineIdentification(model, t, in.y, in.chains ? in.chains->chain_start : std::vector<std::uint8_t>{},
-                                     RefinementStart(out.recursive), refine_options);
+  for (std::size_t k = 0; k < t.size(); ++k)
+    t[k] = in.chains ? in.chains->t[k] : static_cast<double>(k) * in.dt;
+  out.refined =
+      RefineIdentification(model, t, in.y, in.chains ? in.chains->chain_start : std::vector<std::uint8_t>{},
+                           RefinementStart(out.recursive), refine_options);
   return out;
 }
 
@@ -296,8 +305,8 @@ bool IsRuns(const py::handle& y) {
 Mat Samples(const py::handle& y, int n, const std::string& what) {
   const py::array_t<double> a = RealArray(y, what);
   if (a.ndim() != 2 || a.shape(1) != n) {
-    throw std::invalid_argument(fmt::format("{} must be a (samples, {}) array, one row per sample; got shape {}",
-                                            what, n, ShapeText(a)));
+    throw std::invalid_argument(fmt::format(
+        "{} must be a (samples, {}) array, one row per sample; got shape {}", what, n, ShapeText(a)));
   }
   return Eigen::Map<const Mat>(a.data(), n, a.shape(0));  // row-major K × n = n × K
 }
@@ -315,15 +324,16 @@ std::vector<double> Times(const py::handle& t, const std::string& what) {
 SampleData RunsOf(const Model& model, const py::object& y, const py::object& t, double dt, double max_gap) {
   const bool runs = IsRuns(y);
   const py::list ys = runs ? py::list(y) : py::list(py::make_tuple(y));
-  if (ys.empty()) throw std::invalid_argument("y: an empty list; give a (samples, n) array, or a list of runs");
+  if (ys.empty())
+    throw std::invalid_argument("y: an empty list; give a (samples, n) array, or a list of runs");
   std::vector<Mat> samples;
   std::vector<std::vector<double>> times(ys.size());
   for (std::size_t r = 0; r < ys.size(); ++r)
     samples.push_back(Samples(ys[r], model.state_size(), runs ? fmt::format("y[{}]", r) : "y"));
   if (!t.is_none()) {
     if (runs && (!IsList(t) || py::len(t) != ys.size())) {
-      throw std::invalid_argument(fmt::format("t: y is a list of {} runs; give t as a list of as many 1-D arrays",
-                                              ys.size()));
+      throw std::invalid_argument(
+          fmt::format("t: y is a list of {} runs; give t as a list of as many 1-D arrays", ys.size()));
     }
     for (std::size_t r = 0; r < ys.size(); ++r)
       times[r] = Times(runs ? py::object(py::list(t)[r]) : t, runs ? fmt::format("t[{}]", r) : "t");
@@ -336,12 +346,13 @@ SampleData RunsOf(const Model& model, const py::object& y, const py::object& t, 
   }
 }
 
-py::dict Identify(const py::object& model_arg, const py::object& y, const py::object& dt_arg, const py::object& t,
-                  const py::kwargs& kwargs) {
+py::dict Identify(const py::object& model_arg, const py::object& y, const py::object& dt_arg,
+                  const py::object& t, const py::kwargs& kwargs) {
   const Model model = ModelArgument(model_arg).model;
   const IdentifyArgs args = ParseKeywords(kwargs);
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
-  if (dt && (!(*dt > 0.0) || !std::isfinite(*dt))) throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
+  if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
+    throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
   if (args.max_gap && (!(*args.max_gap > 0.0) || !std::isfinite(*args.max_gap))) {
     throw std::invalid_argument(fmt::format("max_gap = {}: must be a number > 0 (seconds)", *args.max_gap));
   }
@@ -350,11 +361,12 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
   SampleData data = RunsOf(model, y, t, dt.value_or(0.0), args.max_gap.value_or(0.0));
   if (dt && !t.is_none() && !(std::abs(data.dt - *dt) <= 1e-6 * *dt)) {
-    throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree", *dt,
-                                            data.uniform ? "the" : "the median", data.dt));
+    throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree",
+                                            *dt, data.uniform ? "the" : "the median", data.dt));
   }
   FitInput in;
-  const bool grid = t.is_none() && !args.max_gap && !IsRuns(y) && static_cast<std::size_t>(data.y.cols()) == py::len(y);
+  const bool grid =
+      t.is_none() && !args.max_gap && !IsRuns(y) && static_cast<std::size_t>(data.y.cols()) == py::len(y);
   if (grid) {  // one run on the grid k·dt, no sample missing: the grid's own dt
     in.y = std::move(data.y);
     in.dt = *dt;
@@ -384,7 +396,8 @@ std::string Docstring() {
       "same checks and messages). y: (samples, states) at spacing dt, or at times t (one per sample); a "
       "list of such arrays (and of times) is several runs of one system (alpha, beta shared). A row with "
       "a NaN is left out (an infinite value is refused) and restarts the chain, as does a step longer than "
-      "max_gap. An unknown keyword, and an option the chosen detector or estimator does not read, is refused.\n\n"
+      "max_gap. An unknown keyword, and an option the chosen detector or estimator does not read, is "
+      "refused.\n\n"
       "Returns a dict: alpha, beta (full vectors), estimates (the unknowns by name), gamma, statistic, "
       "threshold, alpha_trace, beta_trace, jumps_detected, flow_status, jump_status, flow_reason, "
       "jump_reason, flow_hull, jump_hull, sets_skipped; with refine='ml' also refined (the keys of "
@@ -394,7 +407,8 @@ std::string Docstring() {
       "chain_samples_used, chain_span_reason, chains_used, chains_skipped). With t, runs, NaN rows or "
       "max_gap the per-sample arrays are over the samples used, listed in t and run, with chains and "
       "missing_rows. Ctrl-C raises KeyboardInterrupt.\n\nKeywords:\n";
-  for (const Keyword& k : OwnKeywords()) doc += fmt::format("  {} = {}: {}\n", k.name, k.default_text, k.help);
+  for (const Keyword& k : OwnKeywords())
+    doc += fmt::format("  {} = {}: {}\n", k.name, k.default_text, k.help);
   for (const PluginOptionArgument& a : PluginOptionArguments()) {
     doc += fmt::format("  {} = None (default {}): {}\n", Spelled(a.name, Spelling::kKeyword, a.prefix),
                        a.default_text, a.help);
@@ -427,8 +441,8 @@ py::dict OptionTable() {
 
 void BindIdentify(py::module_& m) {
   static const std::string* doc = new std::string(Docstring());  // the docstring must outlive the module
-  m.def("identify", &Identify, py::arg("model"), py::arg("y"), py::arg("dt") = py::none(), py::arg("t") = py::none(),
-        doc->c_str());
+  m.def("identify", &Identify, py::arg("model"), py::arg("y"), py::arg("dt") = py::none(),
+        py::arg("t") = py::none(), doc->c_str());
   m.def("identify_options", &OptionTable,
         "The detector's and the estimators' options that identify takes as keywords (the tables the command "
         "line's flags come from): {keyword: {default, help, type, choices, read_by, flag, family}}");
