@@ -391,7 +391,6 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
 // Every keyword with its default and help, for the docstring and hysid.identify_options().
 std::string Docstring() {
   std::string doc =
-      "identify(model, y, dt=None, t=None, **options)\n\n"
       "The identifier on samples y, as `hysid identify` (every flag of the command line is a keyword; the "
       "same checks and messages). y: (samples, states) at spacing dt, or at times t (one per sample); a "
       "list of such arrays (and of times) is several runs of one system (alpha, beta shared). A row with "

@@ -654,7 +654,9 @@ def test_an_interrupted_sweep_resumes_to_the_same_trials(tmp_path):
             out = hysid.run_sweep(sweep, out=str(run), threads=1)
             break
         except ValueError as e:
-            assert "is locked" in str(e) and time.monotonic() < deadline, str(e)
+            assert str(e).endswith("is locked); wait for it or use another out (an interrupted run_sweep of "
+                                   "this process is finishing the units it was running)"), str(e)
+            assert time.monotonic() < deadline
             locked += 1
             time.sleep(0.05)
     assert 1 <= out["resumed"] < 24 and out["resumed"] + out["run"] == 24
