@@ -182,9 +182,8 @@ void BindModel(py::module_& m) {
       "A hybrid model: a built-in name (hysid.models()) or a model file (TOML). Immutable: set() "
       "returns a new model. Picklable (a model file travels as its text) and comparable "
       "(==: the same source and parameter values)")
-      .def(py::init(&MakePyModel), py::arg("name_or_file"))
-      .def(py::init([](const std::filesystem::path& p) { return ModelFromFile(p.string()); }),
-           py::arg("path"))
+      .def(py::init([](const py::object& name_or_file) { return ModelArgument(name_or_file); }),
+           py::arg("name_or_file"))
       .def_static(
           "from_file", [](const std::filesystem::path& p) { return ModelFromFile(p.string()); },
           py::arg("path"))

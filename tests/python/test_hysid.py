@@ -606,6 +606,7 @@ OTHER_REFUSALS = [
     (lambda: hysid.identify("no-model", np.ones((5, 2)), dt=1e-3), "'no-model' is neither a built-in model nor a model file"),
     (lambda: hysid.identify(3, np.ones((5, 2)), dt=1e-3),
      "model: expected a hysid.Model, a built-in model's name or a model file's path, got int 3"),
+    (lambda: hysid.Model(3), "model: expected a hysid.Model, a built-in model's name or a model file's path, got int 3"),
     (lambda: hysid.identify("impact-msd", [], dt=1e-3), "y: an empty list; give a (samples, n) array, or a list of runs"),
     (lambda: hysid.simulate("impact-msd", seed="x"), "seed: expected an integer >= 0, got str 'x'"),
     (lambda: hysid.simulate("impact-msd", trial=-1), "trial = -1: must be an integer in [0, 2^64 - 1]"),
