@@ -645,7 +645,14 @@ def test_an_interrupted_sweep_resumes_to_the_same_trials(tmp_path):
     sweep.write_text('[model]\nname = "impact-msd"\nt_end = 100.0\n[grid]\nsigma = 0.1\ndt = 5e-4\n'
                      'refine = ["none"]\n[run]\ntrials = 24\n')
     run = tmp_path / "run"
-    threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT)).start()
+
+    def interrupt_after_two_units():  # the journal: two header lines, then one row per finished unit
+        journal = run / "trials.journal"
+        while not journal.exists() or journal.read_text().count("\n") < 4:
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=interrupt_after_two_units, daemon=True).start()
     with pytest.raises(KeyboardInterrupt):
         hysid.run_sweep(sweep, out=str(run), threads=1)
     locked = 0
@@ -660,7 +667,7 @@ def test_an_interrupted_sweep_resumes_to_the_same_trials(tmp_path):
             assert time.monotonic() < deadline
             locked += 1
             time.sleep(0.05)
-    assert 1 <= out["resumed"] < 24 and out["resumed"] + out["run"] == 24
+    assert 2 <= out["resumed"] < 24 and out["resumed"] + out["run"] == 24
     whole = hysid.run_sweep(sweep, out=str(tmp_path / "whole"), threads=1)
     assert whole["run"] == 24
     assert (run / "trials.csv").read_bytes() == (tmp_path / "whole" / "trials.csv").read_bytes()
