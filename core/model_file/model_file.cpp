@@ -656,6 +656,20 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
   return def;
 }
 
+// The inputs at t = 0 from their defaults (0 where an input has none): where x0 is checked.
+std::vector<double> InputsAtStart(const ModelSpec& spec) {
+  std::vector<double> u(spec.inputs.size(), 0.0);
+  for (std::size_t i = 0; i < spec.input_defaults.size(); ++i) {
+    if (spec.input_defaults[i].empty()) continue;
+    double t = 0.0;
+    mu::Parser p;
+    p.DefineVar("t", &t);
+    p.SetExpr(spec.input_defaults[i]);
+    u[i] = p.Eval();
+  }
+  return u;
+}
+
 }  // namespace
 
 ModelFile ParseModelFile(std::string_view text, const std::string& name) {
@@ -672,7 +686,9 @@ ModelFile ParseModelFile(std::string_view text, const std::string& name) {
                 {}};
   const ModelSpec& s = def->spec;
   const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), out.model.state_size());
-  if (!out.model.InFlowSet(x0) && !out.model.InJumpSet(x0)) {
+  const std::vector<double> u0 = InputsAtStart(s);
+  const Context start{.t = 0.0, .u = u0.data()};
+  if (!out.model.InFlowSet(x0, start) && !out.model.InJumpSet(x0, start)) {
     rd.Fail(root.at_path("defaults.x0").node(), "defaults.x0",
             fmt::format("({}) is outside C and D", fmt::join(s.default_x0, ", ")));
   }
