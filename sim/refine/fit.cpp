@@ -186,26 +186,32 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
 }
 
 // The normal equations of the weighted residuals over the joint θ (shared, then x0 of each chain)
-// from each chain's trajectory with sensitivities: F += JᵀJ and g += Jᵀr per chain, one state
-// component at a time (its sensitivity rows are every n-th row of the (n·p) × K block).
+// from each chain's trajectory with sensitivities: F = JᵀJ and g = −Jᵀr, summed over the chains in
+// the shared block.
 void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, Mat& f, Vec& g) {
-  using Strided = Eigen::Map<const Mat, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>;
   const int s = problem.shared, n = problem.model->state_size();
   const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
   f = Mat::Zero(total, total);
   g = Vec::Zero(total);
+  const Vec w2 = problem.weight.cwiseAbs2();
   for (std::size_t c = 0; c < sims.size(); ++c) {
+    // The Gram matrix of all (n·p) sensitivity rows over the samples (one contiguous product), and
+    // the rows against each component's weighted residuals; row a·n + i is ∂ξ_i/∂θ_a.
+    const Mat& sens = sims[c].sensitivities;
     const int p = sims[c].parameters;
-    const Eigen::Index k_count = sims[c].sensitivities.cols();
+    Mat gram = Mat::Zero(sens.rows(), sens.rows());
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(sens);
+    gram = gram.selfadjointView<Eigen::Lower>();
+    const Mat wr = w2.asDiagonal() * (problem.fits[c].y - sims[c].trajectory.x);
+    const Mat h = sens * wr.transpose();  // (n·p) × n
     Mat fc = Mat::Zero(p, p);
     Vec gc = Vec::Zero(p);
-    for (int i = 0; i < n; ++i) {
-      const Strided a(sims[c].sensitivities.data() + i, p, k_count, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>(n * p, n));
-      const double w2 = problem.weight[i] * problem.weight[i];
-      fc.selfadjointView<Eigen::Lower>().rankUpdate(a, w2);
-      gc.noalias() += w2 * (a * (problem.fits[c].y.row(i) - sims[c].trajectory.x.row(i)).transpose());
+    for (int a = 0; a < p; ++a) {
+      for (int i = 0; i < n; ++i) {
+        gc[a] += h(a * n + i, i);
+        for (int b = 0; b < p; ++b) fc(a, b) += w2[i] * gram(a * n + i, b * n + i);
+      }
     }
-    fc = fc.selfadjointView<Eigen::Lower>();
     const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
     f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
     f.block(0, o, s, n) = fc.topRightCorner(s, n);
@@ -259,9 +265,9 @@ class WithinStandardErrors final : public ceres::IterationCallback {
 };
 
 // The Ceres solve: Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, ended
-// as well once the next Gauss–Newton step is below kStepStandardErrors (WithinStandardErrors), the
-// chains' ξ0 blocks eliminated (Schur complement), one thread, Ceres' own logging silenced (the
-// fit's status carries a failed evaluation).
+// as well once the next Gauss–Newton step is below kStepStandardErrors (WithinStandardErrors); the
+// normal equations for one chain, several chains' ξ0 blocks eliminated (Schur complement); one
+// thread, Ceres' own logging silenced (the fit's status carries a failed evaluation).
 ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& options, Vec& theta,
                              std::vector<Vec>& x0) {
   ceres::Problem::Options po;
@@ -273,7 +279,9 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::DENSE_SCHUR;
+  // One chain: 6 or so unknowns in all, where eliminating ξ0 saves nothing and the Schur
+  // eliminator's per-row block work costs more than forming JᵀJ; several: ξ0_c eliminated.
+  so.linear_solver_type = problem.fits.size() == 1 ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_SCHUR;
   so.max_num_iterations = options.max_iterations;
   so.function_tolerance = options.function_tolerance;
   so.parameter_tolerance = options.parameter_tolerance;
@@ -466,28 +474,25 @@ void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTraj
   JudgeResiduals(z, lag, sigma_hat, mad_sigma, floor, options, r);
 }
 
-// Each chain simulated at (theta, x0); false with `failure` naming the chain that does not.
-bool SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0,
-                 RefineStatus failure, const char* what, std::vector<SensitivityTrajectory>* sims,
-                 RefineResult& r) {
-  sims->clear();
+// Each chain simulated at (theta, x0), the runs left in problem.cached; -1, or the first chain that
+// does not simulate with `failure` naming it.
+long SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0, RefineStatus failure,
+                 const char* what, RefineResult& r) {
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
-    sims->push_back(problem.Simulate(c, theta.data(), x0[c].data()));
-    if (!sims->back().ok()) {
-      Fail(r, failure,
-           fmt::format("{}{}: {}", problem.Label(c), what, sims->back().trajectory.status.message));
-      return false;
+    const SensitivityTrajectory& s = problem.Simulate(c, theta.data(), x0[c].data());
+    if (!s.ok()) {
+      Fail(r, failure, fmt::format("{}{}: {}", problem.Label(c), what, s.trajectory.status.message));
+      return static_cast<long>(c);
     }
   }
-  return true;
+  return -1;
 }
 
 // A Ceres solve from (theta, x0), then each chain with sensitivities at the fit. Adds the iterations
 // to r, sets its final cost (and *initial_cost when given); false with kNotConverged ("LABEL:
-// Ceres' message") or the chain that does not simulate.
+// Ceres' message") or the chain that does not simulate. The runs at the fit are in problem.cached.
 bool SolveAndSimulate(const FitProblem& problem, const RefineOptions& options, const char* label, Vec& theta,
-                      std::vector<Vec>& x0, std::vector<SensitivityTrajectory>* sims, RefineResult& r,
-                      double* initial_cost = nullptr) {
+                      std::vector<Vec>& x0, RefineResult& r, double* initial_cost = nullptr) {
   const ceres::Solver::Summary summary = Solve(problem, options, theta, x0);
   r.iterations += static_cast<int>(summary.iterations.size());
   if (initial_cost) *initial_cost = summary.initial_cost;
@@ -498,8 +503,7 @@ bool SolveAndSimulate(const FitProblem& problem, const RefineOptions& options, c
     Fail(r, RefineStatus::kNotConverged, fmt::format("{}: {}", label, summary.message));
     return false;
   }
-  return SimulateAll(problem, theta, x0, RefineStatus::kNotConverged, "the fit does not simulate", sims,
-                     r);
+  return SimulateAll(problem, theta, x0, RefineStatus::kNotConverged, "the fit does not simulate", r) < 0;
 }
 
 // Residuals at the integration accuracy in every component (noise-free data): each component's
@@ -517,20 +521,21 @@ void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_si
   Vec theta = r.start.Theta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, false});
   std::vector<Vec> x0;
   for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
-  std::vector<SensitivityTrajectory> sims;
-  if (!SimulateAll(problem, theta, x0, RefineStatus::kStartFailed,
-                   "the start does not simulate on the detected segments", &sims, r)) {
+  const std::vector<SensitivityTrajectory>& sims = problem.cached;
+  if (const long bad = SimulateAll(problem, theta, x0, RefineStatus::kStartFailed,
+                                   "the start does not simulate on the detected segments", r);
+      bad >= 0) {
     // The start's jump times drift from the data (it is not fit yet): only its jump count is compared.
-    const std::size_t c = sims.size() - 1;
+    const auto c = static_cast<std::size_t>(bad);
     const HybridParameters at = problem.At(theta.data(), x0[c].data());
     return NoteFailure(problem, c, SimulateOnItsOwn(problem, problem.fits[c], at),
                        std::numeric_limits<double>::infinity());
   }
-  if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, &sims, r, &r.initial_cost)) return;
+  if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, r, &r.initial_cost)) return;
   if (options.polish_tolerance < problem.options.sim.rtol && AtIntegrationAccuracy(problem, sims)) {
     problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
     for (Vec& at : problem.cached_at) at.resize(0);  // integrated at the looser tolerances
-    if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, &sims, r)) return;
+    if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, r)) return;
   }
   r.refined = problem.At(theta.data(), x0.front().data());
   r.model_jumps = 0;
