@@ -44,7 +44,8 @@ py::tuple ModelState(const PyModel& m) {
   py::dict values;
   const ModelSpec& spec = m.model.spec();
   for (const auto& [params, v] :
-       {std::pair{&spec.alpha, &m.model.alpha()}, std::pair{&spec.beta, &m.model.beta()}}) {
+       {std::pair{&spec.alpha, &m.model.alpha()}, std::pair{&spec.beta, &m.model.beta()},
+        std::pair{&spec.guard_params, &m.model.gamma()}}) {
     for (std::size_t i = 0; i < params->size(); ++i) {
       if (!(*params)[i].known) values[py::str((*params)[i].name)] = (*v)[Eigen::Index(i)];
     }
@@ -65,7 +66,8 @@ PyModel ModelFromState(const py::tuple& state) {
 
 bool SameModel(const PyModel& a, const PyModel& b) {
   return a.builtin == b.builtin && a.text == b.text && a.model.name() == b.model.name() &&
-         a.model.alpha() == b.model.alpha() && a.model.beta() == b.model.beta();
+         a.model.alpha() == b.model.alpha() && a.model.beta() == b.model.beta() &&
+         a.model.gamma() == b.model.gamma();
 }
 
 namespace {

@@ -132,10 +132,11 @@ py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out,
 
 py::dict Parameters(const Model& m) {
   py::dict d;
-  for (std::size_t i = 0; i < m.spec().alpha.size(); ++i)
-    d[py::str(m.spec().alpha[i].name)] = m.alpha()[Eigen::Index(i)];
-  for (std::size_t i = 0; i < m.spec().beta.size(); ++i)
-    d[py::str(m.spec().beta[i].name)] = m.beta()[Eigen::Index(i)];
+  const ModelSpec& spec = m.spec();
+  for (const auto& [params, v] : {std::pair{&spec.alpha, &m.alpha()}, std::pair{&spec.beta, &m.beta()},
+                                  std::pair{&spec.guard_params, &m.gamma()}}) {
+    for (std::size_t i = 0; i < params->size(); ++i) d[py::str((*params)[i].name)] = (*v)[Eigen::Index(i)];
+  }
   return d;
 }
 
@@ -192,13 +193,14 @@ void BindModel(py::module_& m) {
       .def_property_readonly("state_names", [](const PyModel& x) { return x.model.spec().state_names; })
       .def_property_readonly(
           "parameters", [](const PyModel& x) { return Parameters(x.model); },
-          "every parameter of alpha and beta by name")
+          "every parameter of alpha, beta and the guard parameters gamma by name")
       .def_property_readonly(
           "unknowns",
           [](const PyModel& x) {
             py::dict d;
             for (const auto& [key, params] :
-                 {std::pair{"alpha", &x.model.spec().alpha}, std::pair{"beta", &x.model.spec().beta}}) {
+                 {std::pair{"alpha", &x.model.spec().alpha}, std::pair{"beta", &x.model.spec().beta},
+                  std::pair{"gamma", &x.model.spec().guard_params}}) {
               py::list names;
               for (const Parameter& p : *params) {
                 if (!p.known) names.append(p.name);
@@ -207,7 +209,8 @@ void BindModel(py::module_& m) {
             }
             return d;
           },
-          "the unknown parameters by name: {'alpha': [...], 'beta': [...]}, in the order of the regressions")
+          "the unknown parameters by name: {'alpha': [...], 'beta': [...], 'gamma': [...]} (gamma: the guard "
+          "parameters)")
       .def_property_readonly("equations", [](const PyModel& x) { return x.model.spec().equations; })
       .def_property_readonly("default_x0", [](const PyModel& x) { return x.model.spec().default_x0; })
       .def_property_readonly("default_t_end", [](const PyModel& x) { return x.model.spec().default_t_end; })

@@ -468,6 +468,26 @@ def test_pickled_models_are_equal_and_rebuild_without_their_file(tmp_path):
     assert models[0] != models[1]
 
 
+def test_a_guard_parameter_travels_with_the_pickled_model(tmp_path):
+    """wall-msd with its wall at a guard parameter w (bounds [0.5, 2]): set, pickled, rebuilt."""
+    text = (MODELS / "wall-msd.toml").read_text()
+    text = text.replace('h = "x - 1"', 'h = "x - w"').replace('project = { x = "1" }', 'project = { x = "w" }')
+    text = text.replace('C = "x < 1 || (x == 1 && v <= 0)"', 'C = "x < w || (x == w && v <= 0)"')
+    text = text.replace('D = "x == 1 && v >= 0"', 'D = "x == w && v >= 0"')
+    text = text.replace('distance_to_D = "sqrt((x - 1)^2 + min(v, 0)^2)"', 'distance_to_D = "sqrt((x - w)^2 + min(v, 0)^2)"')
+    text = text.replace("\n[flow]", '\nguard_params = [{ name = "w", value = 1.0, bounds = [0.5, 2.0] }]\n\n[flow]', 1)
+    (tmp_path / "wall-w.toml").write_text(text)
+    import pickle
+    m = hysid.Model(tmp_path / "wall-w.toml")
+    assert m.unknowns["gamma"] == ["w"] and m.parameters["w"] == 1.0
+    far = m.set("w", 1.5)
+    copy = pickle.loads(pickle.dumps(far))
+    assert copy == far != m and copy.parameters["w"] == 1.5
+    assert hysid.simulate(copy, t_end=3.0)["jumps"][0]["pre"][0] == pytest.approx(1.5, abs=1e-9)
+    with pytest.raises(ValueError, match="w"):
+        m.set("w", 3.0)  # outside its bounds
+
+
 def _fitted_a(model):
     """One identification in a worker process: the estimate of a on the model's own noise-free run."""
     traj = hysid.simulate(model, t_end=4.0)
