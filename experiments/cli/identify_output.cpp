@@ -1,0 +1,272 @@
+#include "experiments/cli/identify_output.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "core/identify/metrics.hpp"
+#include "core/io/csv.hpp"
+#include "core/sets/set_metrics.hpp"
+
+namespace hysid::cli {
+namespace {
+
+constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+
+std::vector<double> Values(const Vec& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+// Trace cells of sample k (missing = false) or of a row left out (missing = true: nan but for the
+// row's place and time).
+class TraceRows {
+ public:
+  TraceRows(const ModelSpec& spec, const SampleData& data, const IdentifyResult& result)
+      : spec_(spec), data_(data), result_(result), chain_(ChainNumbers(data)) {}
+
+  std::vector<double> Sample(std::size_t k) const {
+    std::vector<double> row{double(data_.run[k] + 1), double(chain_[k]), double(data_.line[k]), data_.t[k], 0.0,
+                            result_.statistic[k], result_.threshold[k], double(result_.gamma[k])};
+    for (const auto& [list, trace] : {std::pair{&spec_.alpha, &result_.alpha_trace},
+                                      std::pair{&spec_.beta, &result_.beta_trace}}) {
+      for (std::size_t i = 0; i < list->size(); ++i) {
+        if (!(*list)[i].known) row.push_back((*trace)(Eigen::Index(i), Eigen::Index(k)));
+      }
+    }
+    if (data_.j) {
+      row.push_back((*data_.j)[k]);
+      row.push_back(k > 0 && (*data_.j)[k] != (*data_.j)[k - 1] ? 1.0 : 0.0);
+    }
+    return row;
+  }
+
+  // `next`: the first sample after the row. Its chain is the one the row sits in: the sample before
+  // it in its run (the chain goes on across it), else the one after it in its run, else nan.
+  std::vector<double> Missing(const MissingRow& m, std::size_t next, std::size_t columns) const {
+    std::vector<double> row(columns, kNan);
+    double chain = kNan;
+    if (next > 0 && data_.run[next - 1] == m.run) {
+      chain = double(chain_[next - 1]);
+    } else if (next < data_.t.size() && data_.run[next] == m.run) {
+      chain = double(chain_[next]);
+    }
+    row[0] = m.run + 1;
+    row[1] = chain;
+    row[2] = double(m.line);
+    row[3] = m.t;
+    row[4] = 1.0;
+    return row;
+  }
+
+ private:
+  const ModelSpec& spec_;
+  const SampleData& data_;
+  const IdentifyResult& result_;
+  std::vector<long> chain_;
+};
+
+// The detector's options that it reads, by name: numbers, or the choice's name.
+nlohmann::json DetectorOptionsJson(const DetectorSettings& s) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& o : DetectorOptions()) {
+    if (!DescriptorOf(s.kind).Reads(o.name)) continue;
+    const std::string key(o.name);
+    if (o.type == OptionType::kChoice) {
+      out[key] = o.Format(o.get(s));
+    } else {
+      out[key] = o.get(s);
+    }
+  }
+  return out;
+}
+
+nlohmann::json DataJson(const SampleData& data) {
+  return {{"path", data.path},
+          {"state_columns", data.state_columns},
+          {"samples", data.t.size()},
+          {"dt", data.dt},
+          {"uniform", data.uniform},
+          {"runs", data.run_names},
+          {"chains", data.chains()},
+          {"max_gap", data.max_gap},
+          {"gaps", data.gaps},
+          {"missing_rows", data.missing_rows},
+          {"first_missing_line", data.first_missing_line}};
+}
+
+nlohmann::json SettingsJson(const IdentifierSettings& settings, const std::string& accuracy_source) {
+  return {{"estimator", ToString(settings.flow_estimator.kind)},
+          {"jump_estimator", ToString(settings.jump_estimator.kind)},
+          {"detector", ToString(settings.detector.kind)},
+          {"detector_options", DetectorOptionsJson(settings.detector)},
+          {"data_rtol", settings.data_rtol},
+          {"data_atol", settings.data_atol},
+          {"data_accuracy_source", accuracy_source},
+          {"localize", settings.localize},
+          {"second_pass", settings.second_pass}};
+}
+
+// The noise shapes C of gtls/frisch and the σ they come from (null entries when not used).
+nlohmann::json NoiseJson(const IdentifyResult& r) {
+  nlohmann::json out = {{"sigma", nullptr}, {"sigma_estimated", r.noise_sigma_estimated}};
+  if (r.noise_sigma.size()) out["sigma"] = Values(r.noise_sigma);
+  out["flow_shape_diagonal"] = r.flow_noise_shape.size() ? nlohmann::json(Values(r.flow_noise_shape.diagonal()))
+                                                         : nlohmann::json();
+  out["jump_shape_diagonal"] = r.jump_noise_shape.size() ? nlohmann::json(Values(r.jump_noise_shape.diagonal()))
+                                                         : nlohmann::json();
+  return out;
+}
+
+nlohmann::json BoxJson(const Mat& box) {
+  if (box.size() == 0) return nullptr;
+  nlohmann::json out = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < box.rows(); ++i) out.push_back({box(i, 0), box(i, 1)});
+  return out;
+}
+
+nlohmann::json RecursiveResultJson(const IdentifyResult& r) {
+  nlohmann::json out = {{"alpha", Values(r.alpha_hat)},
+                        {"beta", Values(r.beta_hat)},
+                        {"flow_box", BoxJson(r.flow_box)},
+                        {"jump_box", BoxJson(r.jump_box)},
+                        {"jumps_detected", r.jumps_detected},
+                        {"jumps_localized", r.jumps_localized},
+                        {"sets_skipped", r.sets_skipped},
+                        {"flow_hull_vertices", r.flow_hull.cols()},
+                        {"flow_hull_volume", r.flow_hull_volume},
+                        {"jump_hull_vertices", r.jump_hull.cols()},
+                        {"jump_hull_volume", r.jump_hull_volume},
+                        {"second_pass", nullptr}};
+  if (r.second_pass) {
+    out["second_pass"] = {
+        {"flow_to_jump", r.reclassified_to_jump},
+        {"jump_to_flow", r.reclassified_to_flow},
+        {"first_pass_jumps", std::count(r.first_pass_gamma.begin(), r.first_pass_gamma.end(), 1)},
+        {"first_pass_alpha", Values(r.first_pass_alpha_hat)},
+        {"first_pass_beta", Values(r.first_pass_beta_hat)}};
+  }
+  return out;
+}
+
+// Every sample the detector flagged (γ = 1): its index, run, chain, line and time.
+nlohmann::json DetectionsJson(const SampleData& data, const IdentifyResult& r, const std::vector<long>& chain) {
+  nlohmann::json out = nlohmann::json::array();
+  for (std::size_t k = 0; k < r.gamma.size(); ++k) {
+    if (!r.gamma[k]) continue;
+    out.push_back({{"sample", k}, {"run", data.run[k] + 1}, {"chain", chain[k]}, {"line", data.line[k]},
+                   {"t", data.t[k]}});
+  }
+  return out;
+}
+
+// Per chain: where it is, and what the recursive estimators did with it (each sample after the
+// chain's first is one flow or one jump update).
+nlohmann::json ChainsJson(const SampleData& data, const IdentifyResult& r, const std::vector<long>& chain) {
+  nlohmann::json out = nlohmann::json::array();
+  for (std::size_t k = 0; k < data.t.size(); ++k) {
+    if (data.chain_start[k]) {
+      out.push_back({{"chain", chain[k]}, {"run", data.run[k] + 1}, {"first_sample", k}, {"first_line", data.line[k]},
+                     {"t_first", data.t[k]}, {"samples", 0}, {"jumps", 0}});
+    }
+    nlohmann::json& c = out.back();
+    c["samples"] = c["samples"].get<long>() + 1;
+    c["jumps"] = c["jumps"].get<long>() + (r.gamma[k] ? 1 : 0);
+    c["t_last"] = data.t[k];
+  }
+  for (nlohmann::json& c : out) {
+    c["jump_updates"] = c["jumps"];
+    c["flow_updates"] = c["samples"].get<long>() - 1 - c["jumps"].get<long>();
+  }
+  return out;
+}
+
+// Against the data's column j and the model's true values and sets (as PrintTruth).
+nlohmann::json TruthJson(const Model& model, const std::vector<int>& j, const IdentifyResult& r) {
+  const Confusion c = CompareJumps(j, r.gamma);
+  const ParameterErrors e = CompareParameters(model, r.alpha_hat, r.beta_hat);
+  nlohmann::json out = {{"true_jumps", c.tp + c.fn}, {"tp", c.tp}, {"fp", c.fp}, {"fn", c.fn}, {"tn", c.tn},
+                        {"misclassification", c.misclassification()}, {"precision", c.precision()},
+                        {"recall", c.recall()}, {"e_alpha", e.e_alpha}, {"e_beta", e.e_beta},
+                        {"rel_alpha", e.rel_alpha}, {"rel_beta", e.rel_beta}, {"sets", nullptr}};
+  if (r.sets_skipped.empty()) {
+    const SetMetrics sm = CompareSets(model, r.flow_hull, r.jump_hull);
+    out["sets"] = {{"flow_outside_share", sm.flow_outside_share},
+                   {"jump_hausdorff", model.has_jump_set_distance() ? nlohmann::json(sm.jump_hausdorff)
+                                                                    : nlohmann::json()}};
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<long> ChainNumbers(const SampleData& data) {
+  std::vector<long> chain(data.t.size());
+  long c = 0;
+  for (std::size_t k = 0; k < data.t.size(); ++k) chain[k] = c += data.chain_start[k];
+  return chain;
+}
+
+void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
+                const SampleData& data, const IdentifyResult& result) {
+  std::vector<std::string> header{"run",   "chain", "line", "t", "missing", std::string(detector.traits.statistic),
+                                  std::string(detector.traits.threshold), "gamma"};
+  for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
+  for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
+  if (data.j) header.insert(header.end(), {"j", "true_jump"});
+  CsvWriter csv(path, header);
+  const TraceRows rows(spec, data, result);
+  std::size_t m = 0;  // the next row left out, in file order as the samples
+  for (std::size_t k = 0; k <= data.t.size(); ++k) {
+    for (; m < data.missing.size() && (k == data.t.size() || data.missing[m].run < data.run[k] ||
+                                       (data.missing[m].run == data.run[k] && data.missing[m].line < data.line[k]));
+         ++m) {
+      csv.Row(rows.Missing(data.missing[m], k, header.size()));
+    }
+    if (k < data.t.size()) csv.Row(rows.Sample(k));
+  }
+  csv.Commit();
+  std::printf("wrote %s (%zu rows: %zu samples, %zu rows with a missing value)\n", path.c_str(),
+              data.t.size() + data.missing.size(), data.t.size(), data.missing.size());
+}
+
+void WriteHulls(const std::string& path, const ModelSpec& spec, const IdentifyResult& result) {
+  std::vector<std::string> header{"set", "vertex"};
+  header.insert(header.end(), spec.state_names.begin(), spec.state_names.end());
+  if (std::find(spec.state_names.begin(), spec.state_names.end(), "set") != spec.state_names.end() ||
+      std::find(spec.state_names.begin(), spec.state_names.end(), "vertex") != spec.state_names.end()) {
+    for (std::size_t i = 0; i < spec.state_names.size(); ++i) header[2 + i] = fmt::format("x{}", i + 1);
+  }
+  CsvWriter csv(path, header);
+  std::vector<double> row(header.size());
+  int set = 0;
+  for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
+    for (Eigen::Index v = 0; v < hull->cols(); ++v) {
+      row[0] = set;
+      row[1] = static_cast<double>(v);
+      for (Eigen::Index i = 0; i < hull->rows(); ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
+      csv.Row(row);
+    }
+    ++set;
+  }
+  csv.Commit();
+  std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
+}
+
+nlohmann::json RecursiveJson(const Model& model, const SampleData& data, const IdentifierSettings& settings,
+                             const std::string& accuracy_source, const IdentifyResult& result) {
+  const std::vector<long> chain = ChainNumbers(data);
+  nlohmann::json out = {{"model", model.spec().name},
+                        {"data", DataJson(data)},
+                        {"settings", SettingsJson(settings, accuracy_source)},
+                        {"noise", NoiseJson(result)},
+                        {"recursive", RecursiveResultJson(result)},
+                        {"detections", DetectionsJson(data, result, chain)},
+                        {"chains", ChainsJson(data, result, chain)},
+                        {"truth", nullptr}};
+  if (data.j) out["truth"] = TruthJson(model, *data.j, result);
+  return out;
+}
+
+}  // namespace hysid::cli
