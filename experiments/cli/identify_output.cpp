@@ -85,6 +85,7 @@ nlohmann::json DetectorOptionsJson(const DetectorSettings& s) {
 nlohmann::json DataJson(const SampleData& data) {
   return {{"path", data.path},
           {"state_columns", data.state_columns},
+          {"rows", data.t.size() + data.missing.size()},
           {"samples", data.t.size()},
           {"dt", data.dt},
           {"uniform", data.uniform},
