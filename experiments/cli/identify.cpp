@@ -291,14 +291,15 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
   AddModelFlags(*cmd, args->model, "NAME=VALUE: the model's true value (for error metrics)");
   cmd->add_option("--data", args->data,
-                  "CSV (RFC 4180): time, then the measured state (y1..yn if present); a column j is taken "
-                  "as ground truth, a column run splits the file into runs; repeat --data for several "
-                  "runs of one system (alpha, beta shared). Empty, nan or NA state cells: the row is "
-                  "left out and the chain restarts")
+                  "CSV (RFC 4180): time, then the measured state (the columns named after the model's "
+                  "states, else y1..yn, else the first other columns); a column j is taken as ground "
+                  "truth, a column run splits the file into runs; repeat --data for several runs of one "
+                  "system (alpha, beta shared). Empty, nan or NA state cells: the row is left out (the "
+                  "chain goes on across it)")
       ->required();
   AddTextList(*cmd, "--columns", args->columns,
               "columns by header name: t=NAME (time), the state columns in model order, "
-              "optionally run=NAME (run column), e.g. t=time,x1,x2");
+              "optionally run=NAME (run column), e.g. t=time,pos,vel");
   cmd->add_option("--max-gap", args->max_gap,
                   "seconds: a step longer than this restarts the chain (no regression or detector "
                   "statistic across it); default 5 x the median step")

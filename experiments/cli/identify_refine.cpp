@@ -166,8 +166,9 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
       ->check(CLI::IsMember({"ml", "none"}))
       ->capture_default_str();
   cmd->add_option("--json", args.json,
-                  "write estimates, standard errors, covariance, detector counts "
-                  "and status as JSON");
+                  "write everything the report shows as JSON: settings, estimates, standard errors, "
+                  "covariance, detections, per-chain counts, truth comparison, the fit's checks "
+                  "(docs/outputs.md)");
 }
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
