@@ -62,7 +62,8 @@ Columns NamedColumns(const CsvTable& table, int state_size, const std::vector<st
 
 // The columns named `names` (in that order) when every one is present and none is the time, run or j
 // column; empty otherwise.
-std::vector<int> ColumnsNamed(const CsvTable& table, const std::vector<std::string>& names, const Columns& c) {
+std::vector<int> ColumnsNamed(const CsvTable& table, const std::vector<std::string>& names,
+                              const Columns& c) {
   std::vector<int> cols;
   for (const std::string& name : names) {
     const int col = table.Find(name);
@@ -81,10 +82,10 @@ std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, cons
   const std::vector<int> named = ColumnsNamed(table, state_names, c);
   const std::vector<int> numbered = ColumnsNamed(table, generic, c);
   if (!named.empty() && !numbered.empty() && named != numbered) {
-    throw std::invalid_argument(fmt::format(
-        "{}:1: SampleDataOptions::columns: both the columns named after the model's states ({}) and {}..{} are "
-        "present; name the measured state columns",
-        table.path, fmt::join(state_names, ","), generic.front(), generic.back()));
+    throw std::invalid_argument(
+        fmt::format("{}:1: SampleDataOptions::columns: both the columns named after the model's states ({}) "
+                    "and {}..{} are present; name the measured state columns",
+                    table.path, fmt::join(state_names, ","), generic.front(), generic.back()));
   }
   if (!named.empty()) return named;
   if (!numbered.empty()) return numbered;

@@ -58,9 +58,9 @@ struct SampleDataOptions {
 
 // A data row left out for a missing state cell.
 struct MissingRow {
-  int run = 0;      // its run (0-based, as SampleData::run)
-  long line = 0;    // its line in its file
-  double t = 0.0;   // its time
+  int run = 0;     // its run (0-based, as SampleData::run)
+  long line = 0;   // its line in its file
+  double t = 0.0;  // its time
 };
 
 struct SampleData {

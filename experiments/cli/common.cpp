@@ -115,7 +115,8 @@ CLI::Option* AddList(CLI::App& cmd, const std::string& flag, std::vector<T>& val
 
 std::string Trimmed(const std::string& text) {
   const std::size_t begin = text.find_first_not_of(" \t");
-  return begin == std::string::npos ? std::string() : text.substr(begin, text.find_last_not_of(" \t") - begin + 1);
+  return begin == std::string::npos ? std::string()
+                                    : text.substr(begin, text.find_last_not_of(" \t") - begin + 1);
 }
 
 CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,

@@ -224,8 +224,9 @@ SampleData ReadData(const IdentifyArgs& args, const Model& model) {
   std::vector<std::string> columns;
   for (const std::string& entry : args.columns) columns.push_back(ColumnEntry(entry));
   try {
-    return ReadSampleData(args.data, model.state_size(),
-                          {.columns = columns, .max_gap = args.max_gap, .state_names = model.spec().state_names});
+    return ReadSampleData(
+        args.data, model.state_size(),
+        {.columns = columns, .max_gap = args.max_gap, .state_names = model.spec().state_names});
   } catch (const std::invalid_argument& e) {
     std::string message = e.what();
     const std::string field = "SampleDataOptions::columns";

@@ -27,10 +27,11 @@ class TraceRows {
       : spec_(spec), data_(data), result_(result), chain_(ChainNumbers(data)) {}
 
   std::vector<double> Sample(std::size_t k) const {
-    std::vector<double> row{double(data_.run[k] + 1), double(chain_[k]), double(data_.line[k]), data_.t[k], 0.0,
-                            result_.statistic[k], result_.threshold[k], double(result_.gamma[k])};
-    for (const auto& [list, trace] : {std::pair{&spec_.alpha, &result_.alpha_trace},
-                                      std::pair{&spec_.beta, &result_.beta_trace}}) {
+    std::vector<double> row{
+        double(data_.run[k] + 1), double(chain_[k]),    double(data_.line[k]),   data_.t[k], 0.0,
+        result_.statistic[k],     result_.threshold[k], double(result_.gamma[k])};
+    for (const auto& [list, trace] :
+         {std::pair{&spec_.alpha, &result_.alpha_trace}, std::pair{&spec_.beta, &result_.beta_trace}}) {
       for (std::size_t i = 0; i < list->size(); ++i) {
         if (!(*list)[i].known) row.push_back((*trace)(Eigen::Index(i), Eigen::Index(k)));
       }
@@ -113,10 +114,10 @@ nlohmann::json SettingsJson(const IdentifierSettings& settings, const std::strin
 nlohmann::json NoiseJson(const IdentifyResult& r) {
   nlohmann::json out = {{"sigma", nullptr}, {"sigma_estimated", r.noise_sigma_estimated}};
   if (r.noise_sigma.size()) out["sigma"] = Values(r.noise_sigma);
-  out["flow_shape_diagonal"] = r.flow_noise_shape.size() ? nlohmann::json(Values(r.flow_noise_shape.diagonal()))
-                                                         : nlohmann::json();
-  out["jump_shape_diagonal"] = r.jump_noise_shape.size() ? nlohmann::json(Values(r.jump_noise_shape.diagonal()))
-                                                         : nlohmann::json();
+  out["flow_shape_diagonal"] =
+      r.flow_noise_shape.size() ? nlohmann::json(Values(r.flow_noise_shape.diagonal())) : nlohmann::json();
+  out["jump_shape_diagonal"] =
+      r.jump_noise_shape.size() ? nlohmann::json(Values(r.jump_noise_shape.diagonal())) : nlohmann::json();
   return out;
 }
 
@@ -128,18 +129,12 @@ nlohmann::json BoxJson(const Mat& box) {
 }
 
 nlohmann::json RecursiveResultJson(const IdentifyResult& r) {
-  nlohmann::json out = {{"alpha", Values(r.alpha_hat)},
-                        {"beta", Values(r.beta_hat)},
-                        {"flow_box", BoxJson(r.flow_box)},
-                        {"jump_box", BoxJson(r.jump_box)},
-                        {"jumps_detected", r.jumps_detected},
-                        {"jumps_localized", r.jumps_localized},
-                        {"sets_skipped", r.sets_skipped},
-                        {"flow_hull_vertices", r.flow_hull.cols()},
-                        {"flow_hull_volume", r.flow_hull_volume},
-                        {"jump_hull_vertices", r.jump_hull.cols()},
-                        {"jump_hull_volume", r.jump_hull_volume},
-                        {"second_pass", nullptr}};
+  nlohmann::json out = {{"alpha", Values(r.alpha_hat)},           {"beta", Values(r.beta_hat)},
+                        {"flow_box", BoxJson(r.flow_box)},        {"jump_box", BoxJson(r.jump_box)},
+                        {"jumps_detected", r.jumps_detected},     {"jumps_localized", r.jumps_localized},
+                        {"sets_skipped", r.sets_skipped},         {"flow_hull_vertices", r.flow_hull.cols()},
+                        {"flow_hull_volume", r.flow_hull_volume}, {"jump_hull_vertices", r.jump_hull.cols()},
+                        {"jump_hull_volume", r.jump_hull_volume}, {"second_pass", nullptr}};
   if (r.second_pass) {
     out["second_pass"] = {
         {"flow_to_jump", r.reclassified_to_jump},
@@ -152,11 +147,15 @@ nlohmann::json RecursiveResultJson(const IdentifyResult& r) {
 }
 
 // Every sample the detector flagged (γ = 1): its index, run, chain, line and time.
-nlohmann::json DetectionsJson(const SampleData& data, const IdentifyResult& r, const std::vector<long>& chain) {
+nlohmann::json DetectionsJson(const SampleData& data, const IdentifyResult& r,
+                              const std::vector<long>& chain) {
   nlohmann::json out = nlohmann::json::array();
   for (std::size_t k = 0; k < r.gamma.size(); ++k) {
     if (!r.gamma[k]) continue;
-    out.push_back({{"sample", k}, {"run", data.run[k] + 1}, {"chain", chain[k]}, {"line", data.line[k]},
+    out.push_back({{"sample", k},
+                   {"run", data.run[k] + 1},
+                   {"chain", chain[k]},
+                   {"line", data.line[k]},
                    {"t", data.t[k]}});
   }
   return out;
@@ -166,19 +165,21 @@ nlohmann::json DetectionsJson(const SampleData& data, const IdentifyResult& r, c
 // chain's first is one flow or one jump update).
 nlohmann::json ChainsJson(const SampleData& data, const IdentifyResult& r, const std::vector<long>& chain) {
   nlohmann::json out = nlohmann::json::array();
-  for (std::size_t k = 0; k < data.t.size(); ++k) {
-    if (data.chain_start[k]) {
-      out.push_back({{"chain", chain[k]}, {"run", data.run[k] + 1}, {"first_sample", k}, {"first_line", data.line[k]},
-                     {"t_first", data.t[k]}, {"samples", 0}, {"jumps", 0}});
-    }
-    nlohmann::json& c = out.back();
-    c["samples"] = c["samples"].get<long>() + 1;
-    c["jumps"] = c["jumps"].get<long>() + (r.gamma[k] ? 1 : 0);
-    c["t_last"] = data.t[k];
-  }
-  for (nlohmann::json& c : out) {
-    c["jump_updates"] = c["jumps"];
-    c["flow_updates"] = c["samples"].get<long>() - 1 - c["jumps"].get<long>();
+  for (std::size_t first = 0, end = 0; first < data.t.size(); first = end) {
+    for (end = first + 1; end < data.t.size() && !data.chain_start[end];) ++end;
+    const long samples = static_cast<long>(end - first);
+    const long jumps =
+        std::count(r.gamma.begin() + static_cast<long>(first), r.gamma.begin() + static_cast<long>(end), 1);
+    out.push_back({{"chain", chain[first]},
+                   {"run", data.run[first] + 1},
+                   {"first_sample", first},
+                   {"first_line", data.line[first]},
+                   {"t_first", data.t[first]},
+                   {"t_last", data.t[end - 1]},
+                   {"samples", samples},
+                   {"jumps", jumps},
+                   {"flow_updates", samples - 1 - jumps},
+                   {"jump_updates", jumps}});
   }
   return out;
 }
@@ -187,15 +188,24 @@ nlohmann::json ChainsJson(const SampleData& data, const IdentifyResult& r, const
 nlohmann::json TruthJson(const Model& model, const std::vector<int>& j, const IdentifyResult& r) {
   const Confusion c = CompareJumps(j, r.gamma);
   const ParameterErrors e = CompareParameters(model, r.alpha_hat, r.beta_hat);
-  nlohmann::json out = {{"true_jumps", c.tp + c.fn}, {"tp", c.tp}, {"fp", c.fp}, {"fn", c.fn}, {"tn", c.tn},
-                        {"misclassification", c.misclassification()}, {"precision", c.precision()},
-                        {"recall", c.recall()}, {"e_alpha", e.e_alpha}, {"e_beta", e.e_beta},
-                        {"rel_alpha", e.rel_alpha}, {"rel_beta", e.rel_beta}, {"sets", nullptr}};
+  nlohmann::json out = {{"true_jumps", c.tp + c.fn},
+                        {"tp", c.tp},
+                        {"fp", c.fp},
+                        {"fn", c.fn},
+                        {"tn", c.tn},
+                        {"misclassification", c.misclassification()},
+                        {"precision", c.precision()},
+                        {"recall", c.recall()},
+                        {"e_alpha", e.e_alpha},
+                        {"e_beta", e.e_beta},
+                        {"rel_alpha", e.rel_alpha},
+                        {"rel_beta", e.rel_beta},
+                        {"sets", nullptr}};
   if (r.sets_skipped.empty()) {
     const SetMetrics sm = CompareSets(model, r.flow_hull, r.jump_hull);
     out["sets"] = {{"flow_outside_share", sm.flow_outside_share},
-                   {"jump_hausdorff", model.has_jump_set_distance() ? nlohmann::json(sm.jump_hausdorff)
-                                                                    : nlohmann::json()}};
+                   {"jump_hausdorff",
+                    model.has_jump_set_distance() ? nlohmann::json(sm.jump_hausdorff) : nlohmann::json()}};
   }
   return out;
 }
@@ -211,18 +221,26 @@ std::vector<long> ChainNumbers(const SampleData& data) {
 
 void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
                 const SampleData& data, const IdentifyResult& result) {
-  std::vector<std::string> header{"run",   "chain", "line", "t", "missing", std::string(detector.traits.statistic),
-                                  std::string(detector.traits.threshold), "gamma"};
+  std::vector<std::string> header{"run",
+                                  "chain",
+                                  "line",
+                                  "t",
+                                  "missing",
+                                  std::string(detector.traits.statistic),
+                                  std::string(detector.traits.threshold),
+                                  "gamma"};
   for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
   for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
   if (data.j) header.insert(header.end(), {"j", "true_jump"});
   CsvWriter csv(path, header);
   const TraceRows rows(spec, data, result);
-  std::size_t m = 0;  // the next row left out, in file order as the samples
+  // The rows left out go before the first sample after them: a later run, or a later line in theirs.
+  auto before = [&data](const MissingRow& m, std::size_t k) {
+    return k == data.t.size() || m.run < data.run[k] || (m.run == data.run[k] && m.line < data.line[k]);
+  };
+  std::size_t m = 0;
   for (std::size_t k = 0; k <= data.t.size(); ++k) {
-    for (; m < data.missing.size() && (k == data.t.size() || data.missing[m].run < data.run[k] ||
-                                       (data.missing[m].run == data.run[k] && data.missing[m].line < data.line[k]));
-         ++m) {
+    for (; m < data.missing.size() && before(data.missing[m], k); ++m) {
       csv.Row(rows.Missing(data.missing[m], k, header.size()));
     }
     if (k < data.t.size()) csv.Row(rows.Sample(k));

@@ -90,13 +90,14 @@ nlohmann::json CrlbJson(const RefineResult& r, const HybridParameters& truth_par
   const Vec error = theta - truth;
   const bool se = r.standard_errors.size() == static_cast<Eigen::Index>(r.names.size());
   auto vec = [](const Vec& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
-  return {{"sd", vec(bound.sd)},
-          {"truth", vec(truth)},
-          {"error", vec(error)},
-          {"error_in_sd", vec(error.cwiseAbs().cwiseQuotient(bound.sd))},
-          {"se_over_sd", se ? nlohmann::json(vec(r.standard_errors.cwiseQuotient(bound.sd))) : nlohmann::json()},
-          {"mean_e_alpha", bound.mean_e_alpha},
-          {"mean_e_beta", bound.mean_e_beta}};
+  return {
+      {"sd", vec(bound.sd)},
+      {"truth", vec(truth)},
+      {"error", vec(error)},
+      {"error_in_sd", vec(error.cwiseAbs().cwiseQuotient(bound.sd))},
+      {"se_over_sd", se ? nlohmann::json(vec(r.standard_errors.cwiseQuotient(bound.sd))) : nlohmann::json()},
+      {"mean_e_alpha", bound.mean_e_alpha},
+      {"mean_e_beta", bound.mean_e_beta}};
 }
 
 // The refinement's part of --json, added to the recursive run's `report` (RecursiveJson).
@@ -224,7 +225,8 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
     nlohmann::json j = ToJson(report, r, recursive, args.refine, options);
     j["samples"] = data.y.cols();
     j["min_chain_samples"] = 2 * model.state_size() + 2;
-    j["fit_t_end"] = data.uniform ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt) : nlohmann::json();
+    j["fit_t_end"] =
+        data.uniform ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt) : nlohmann::json();
     if (bound.ok()) j["crlb_sd"] = std::vector<double>(bound.sd.data(), bound.sd.data() + bound.sd.size());
     j["crlb"] = CrlbJson(r, truth_params, bound);
     WriteFileAtomically(args.json, j.dump(2) + "\n");

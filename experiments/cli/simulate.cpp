@@ -87,7 +87,8 @@ std::vector<std::string> StateColumns(const ModelSpec& spec, bool named, const s
 std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
   std::vector<std::string> header{"t", "j"};
   for (const auto& [prefix, generic] : {std::pair{"true_", "x"}, std::pair{"", "y"}}) {
-    for (std::string& c : StateColumns(spec, named, named ? prefix : "", generic)) header.push_back(std::move(c));
+    for (std::string& c : StateColumns(spec, named, named ? prefix : "", generic))
+      header.push_back(std::move(c));
   }
   return header;
 }
@@ -200,14 +201,17 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
     WriteJumps(*jumps, traj);
   }
   const std::filesystem::path meta_path = SidecarPath(args.out);
-  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path, SidecarText(args, model, x0, grid, sigma, traj, header));
+  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path,
+             SidecarText(args, model, x0, grid, sigma, traj, header));
   std::printf("model %s, seed %llu, %ld samples, %zu jumps\n", spec.name.c_str(),
               static_cast<unsigned long long>(args.seed), traj.size(), traj.jumps.size());
   std::printf("status: %s (t = %.17g): %s\n", ToString(traj.status.stop), traj.status.t_reached,
               traj.status.message.c_str());
   if (!named) {
-    std::printf("columns: x1..x%d (true state), y1..y%d (measured): a state name clashes with t, j, run or "
-                "another column\n", model.state_size(), model.state_size());
+    std::printf(
+        "columns: x1..x%d (true state), y1..y%d (measured): a state name clashes with t, j, run or "
+        "another column\n",
+        model.state_size(), model.state_size());
   }
   std::printf("wrote %s, %s%s%s\n", args.out.c_str(), meta_path.c_str(), args.jumps_out.empty() ? "" : ", ",
               args.jumps_out.c_str());
@@ -235,8 +239,11 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       ->transform(NonNegativeInteger);
   AddToleranceOptions(*sub, args->sim, "");
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
-  sub->add_option("--out", args->out, "trajectory CSV: t,j,true_STATE..,STATE.. (noise-free and measured state, columns named after "
-                  "the model's states; + a .json sidecar)")->required();
+  sub->add_option(
+         "--out", args->out,
+         "trajectory CSV: t,j,true_STATE..,STATE.. (noise-free and measured state, columns named after "
+         "the model's states; + a .json sidecar)")
+      ->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_STATE..,post_STATE..");
   sub->footer(
       "Samples t_k = k*dt with jump counter, true and measured state. Defaults are the model's\n"

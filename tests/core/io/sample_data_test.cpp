@@ -160,8 +160,10 @@ TEST_CASE("columns named after the model's states are the measured state; true_*
 }
 
 TEST_CASE("the rows left out for a missing value are listed with their run, line and time", "[sample_data]") {
-  const CsvTable a = Table("run,t,x,v\n1,0,1,2\n1,0.1,,2\n1,0.2,1,2\n1,0.3,1,2\n2,0,NA,2\n2,0.1,1,2\n2,0.2,1,2\n"
-                           "2,0.3,1,2\n", "r.csv");
+  const CsvTable a = Table(
+      "run,t,x,v\n1,0,1,2\n1,0.1,,2\n1,0.2,1,2\n1,0.3,1,2\n2,0,NA,2\n2,0.1,1,2\n2,0.2,1,2\n"
+      "2,0.3,1,2\n",
+      "r.csv");
   const SampleData d = SampleDataFromTables({a}, 2);
   REQUIRE(d.missing.size() == 2);
   CHECK(d.missing_rows == 2);

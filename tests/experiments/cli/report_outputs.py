@@ -161,6 +161,19 @@ def simulate_columns():
     with open(os.path.join(WORK, "ball-named.csv")) as f:
         check(f.readline().strip() == "t,j,true_h,true_v,h,v", "simulate: the ball's header")
     check("wrote" in ball, "simulate: the ball's run")
+    # A state named j clashes with the jump counter: generic names, said so, and read as y1, y2.
+    with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "models",
+                           "impact-msd.toml")) as f:
+        clash = re.sub(r"\bv\b", "j", f.read())
+    with open(os.path.join(WORK, "msd-j.toml"), "w") as f:
+        f.write(clash)
+    said = hysid("simulate", "--model-file", "msd-j.toml", "--t-end", "4", "--out", "clash.csv",
+                 "--jumps-out", "clash-jumps.csv")
+    with open(os.path.join(WORK, "clash.csv")) as f, open(os.path.join(WORK, "clash-jumps.csv")) as g:
+        check(f.readline().strip() == "t,j,x1,x2,y1,y2" and g.readline().strip() == "j,t_jump,pre_x1,pre_x2,post_x1,post_x2"
+              and "columns: x1..x2 (true state), y1..y2 (measured)" in said, "simulate: a state named j")
+    check("(y1,y2)" in hysid("identify", "--model-file", "msd-j.toml", "--refine", "none", "--data", "clash.csv"),
+          "identify: the generic columns of a model with a state named j")
     # The older names: the same file with x1, x2, y1, y2 identifies alike, and --columns overrides.
     with open(os.path.join(WORK, "named.csv")) as f, open(os.path.join(WORK, "generic.csv"), "w") as g:
         g.write("t,j,x1,x2,y1,y2\n" + "".join(f.readlines()[1:]))
