@@ -157,6 +157,36 @@ RefineResult RunRefinement(const Model& model, const SampleData& data, const Ide
   return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
 }
 
+// The refinement's status, the chains and samples it fit, and how the fit was reached (--refine ml).
+void PrintRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                     const RefineResult& r) {
+  std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
+              ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
+  if (!data.uniform) {
+    std::printf(
+        "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "
+        "than %d samples or a first sample outside C and D); %ld of %ld samples\n",
+        r.chains_used, r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
+        static_cast<long>(data.y.cols()));
+    if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
+  } else if (r.samples_used < data.y.cols()) {
+    std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
+                static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
+                r.span_reason.c_str());
+  }
+  if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
+  if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
+  if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
+  if (r.ok()) {
+    std::printf(
+        "  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
+        r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
+        fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
+  } else {
+    std::printf("  the recursive estimate is kept\n");
+  }
+}
+
 }  // namespace
 
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
@@ -188,33 +218,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
   const Crlb bound = TruthBound(model, truth, used, data.dt);
   const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
-  if (args.refine == "ml") {
-    std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
-                ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
-    if (!data.uniform) {
-      std::printf(
-          "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "
-          "than %d samples or a first sample outside C and D); %ld of %ld samples\n",
-          r.chains_used, r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
-          static_cast<long>(data.y.cols()));
-      if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
-    } else if (r.samples_used < data.y.cols()) {
-      std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
-                  static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
-                  r.span_reason.c_str());
-    }
-    if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
-    if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
-    if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
-    if (r.ok()) {
-      std::printf(
-          "  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
-          r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
-          fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
-    } else {
-      std::printf("  the recursive estimate is kept\n");
-    }
-  }
+  if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, truth_params, bound);
   if (bound.ok()) {
     std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g\n",
@@ -225,8 +229,9 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
     nlohmann::json j = ToJson(report, r, recursive, args.refine, options);
     j["samples"] = data.y.cols();
     j["min_chain_samples"] = 2 * model.state_size() + 2;
-    j["fit_t_end"] =
-        data.uniform ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt) : nlohmann::json();
+    j["fit_t_end"] = data.uniform && r.samples_used > 0
+                         ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt)
+                         : nlohmann::json();
     if (bound.ok()) j["crlb_sd"] = std::vector<double>(bound.sd.data(), bound.sd.data() + bound.sd.size());
     j["crlb"] = CrlbJson(r, truth_params, bound);
     WriteFileAtomically(args.json, j.dump(2) + "\n");
