@@ -178,10 +178,9 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
   if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
   if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
   if (r.ok()) {
-    std::printf(
-        "  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
-        r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
-        fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
+    std::printf("  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
+                r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
+                fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
   } else {
     std::printf("  the recursive estimate is kept\n");
   }
