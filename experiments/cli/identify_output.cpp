@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 
 #include <fmt/format.h>
@@ -19,54 +20,55 @@ constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 
 std::vector<double> Values(const Vec& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
 
-// Trace cells of sample k (missing = false) or of a row left out (missing = true: nan but for the
-// row's place and time).
-class TraceRows {
- public:
-  TraceRows(const ModelSpec& spec, const SampleData& data, const IdentifyResult& result)
-      : spec_(spec), data_(data), result_(result), chain_(ChainNumbers(data)) {}
-
-  std::vector<double> Sample(std::size_t k) const {
-    std::vector<double> row{
-        double(data_.run[k] + 1), double(chain_[k]),    double(data_.line[k]),   data_.t[k], 0.0,
-        result_.statistic[k],     result_.threshold[k], double(result_.gamma[k])};
-    for (const auto& [list, trace] :
-         {std::pair{&spec_.alpha, &result_.alpha_trace}, std::pair{&spec_.beta, &result_.beta_trace}}) {
-      for (std::size_t i = 0; i < list->size(); ++i) {
-        if (!(*list)[i].known) row.push_back((*trace)(Eigen::Index(i), Eigen::Index(k)));
-      }
-    }
-    if (data_.j) {
-      row.push_back((*data_.j)[k]);
-      row.push_back(k > 0 && (*data_.j)[k] != (*data_.j)[k - 1] ? 1.0 : 0.0);
-    }
-    return row;
-  }
-
-  // `next`: the first sample after the row. Its chain is the one the row sits in: the sample before
-  // it in its run (the chain goes on across it), else the one after it in its run, else nan.
-  std::vector<double> Missing(const MissingRow& m, std::size_t next, std::size_t columns) const {
-    std::vector<double> row(columns, kNan);
-    double chain = kNan;
-    if (next > 0 && data_.run[next - 1] == m.run) {
-      chain = double(chain_[next - 1]);
-    } else if (next < data_.t.size() && data_.run[next] == m.run) {
-      chain = double(chain_[next]);
-    }
-    row[0] = m.run + 1;
-    row[1] = chain;
-    row[2] = double(m.line);
-    row[3] = m.t;
-    row[4] = 1.0;
-    return row;
-  }
-
- private:
-  const ModelSpec& spec_;
-  const SampleData& data_;
-  const IdentifyResult& result_;
-  std::vector<long> chain_;
+// One row of the trace: sample k, or (missing set) a row left out, with the chain it sits in.
+struct TraceRow {
+  std::size_t k = 0;
+  const MissingRow* missing = nullptr;
+  double chain = kNan;
 };
+
+// A trace column: its name and its cell of a row.
+struct TraceColumn {
+  std::string name;
+  std::function<double(const TraceRow&)> cell;
+};
+
+// The columns, each described once (docs/outputs.md lists them in this order).
+std::vector<TraceColumn> TraceColumns(const ModelSpec& spec, const DetectorDescriptor& detector,
+                                      const SampleData& data, const IdentifyResult& result) {
+  // A cell a row left out does not have: nan there.
+  auto of_sample = [](std::function<double(std::size_t)> f) {
+    return [f = std::move(f)](const TraceRow& row) { return row.missing ? kNan : f(row.k); };
+  };
+  const SampleData* d = &data;
+  const IdentifyResult* r = &result;
+  std::vector<TraceColumn> cols{
+      {"run",
+       [d](const TraceRow& row) { return double((row.missing ? row.missing->run : d->run[row.k]) + 1); }},
+      {"chain", [](const TraceRow& row) { return row.chain; }},
+      {"line", [d](const TraceRow& row) { return double(row.missing ? row.missing->line : d->line[row.k]); }},
+      {"t", [d](const TraceRow& row) { return row.missing ? row.missing->t : d->t[row.k]; }},
+      {"missing", [](const TraceRow& row) { return row.missing ? 1.0 : 0.0; }},
+      {std::string(detector.traits.statistic), of_sample([r](std::size_t k) { return r->statistic[k]; })},
+      {std::string(detector.traits.threshold), of_sample([r](std::size_t k) { return r->threshold[k]; })},
+      {"gamma", of_sample([r](std::size_t k) { return double(r->gamma[k]); })}};
+  for (const auto& [list, trace] :
+       {std::pair{&spec.alpha, &result.alpha_trace}, std::pair{&spec.beta, &result.beta_trace}}) {
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      if ((*list)[i].known) continue;
+      cols.push_back({(*list)[i].name + "_hat", of_sample([trace, i](std::size_t k) {
+                        return (*trace)(Eigen::Index(i), Eigen::Index(k));
+                      })});
+    }
+  }
+  if (data.j) {
+    const std::vector<int>* j = &*data.j;
+    cols.push_back({"j", of_sample([j](std::size_t k) { return double((*j)[k]); })});
+    cols.push_back(
+        {"true_jump", of_sample([j](std::size_t k) { return k > 0 && (*j)[k] != (*j)[k - 1] ? 1.0 : 0.0; })});
+  }
+  return cols;
+}
 
 // The detector's options that it reads, by name: numbers, or the choice's name.
 nlohmann::json DetectorOptionsJson(const DetectorSettings& s) {
@@ -221,33 +223,35 @@ std::vector<long> ChainNumbers(const SampleData& data) {
 
 void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
                 const SampleData& data, const IdentifyResult& result) {
-  std::vector<std::string> header{"run",
-                                  "chain",
-                                  "line",
-                                  "t",
-                                  "missing",
-                                  std::string(detector.traits.statistic),
-                                  std::string(detector.traits.threshold),
-                                  "gamma"};
-  for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
-  for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
-  if (data.j) header.insert(header.end(), {"j", "true_jump"});
+  const std::vector<TraceColumn> cols = TraceColumns(spec, detector, data, result);
+  std::vector<std::string> header;
+  for (const TraceColumn& c : cols) header.push_back(c.name);
   CsvWriter csv(path, header);
-  const TraceRows rows(spec, data, result);
-  // The rows left out go before the first sample after them: a later run, or a later line in theirs.
-  auto before = [&data](const MissingRow& m, std::size_t k) {
-    return k == data.t.size() || m.run < data.run[k] || (m.run == data.run[k] && m.line < data.line[k]);
+  std::vector<double> cells(cols.size());
+  auto write = [&](const TraceRow& row) {
+    for (std::size_t c = 0; c < cols.size(); ++c) cells[c] = cols[c].cell(row);
+    csv.Row(cells);
   };
+  const std::vector<long> chain = ChainNumbers(data);
+  const std::size_t samples = data.t.size();
+  // A row left out goes before the first sample after it (a later run, or a later line in its run),
+  // in the chain of the sample before it in its run (the chain goes on across it), else of the one after.
   std::size_t m = 0;
-  for (std::size_t k = 0; k <= data.t.size(); ++k) {
-    for (; m < data.missing.size() && before(data.missing[m], k); ++m) {
-      csv.Row(rows.Missing(data.missing[m], k, header.size()));
+  for (std::size_t k = 0; k <= samples; ++k) {
+    for (; m < data.missing.size(); ++m) {
+      const MissingRow& row = data.missing[m];
+      if (k < samples && (row.run > data.run[k] || (row.run == data.run[k] && row.line > data.line[k])))
+        break;
+      const double chain_of = k > 0 && data.run[k - 1] == row.run     ? double(chain[k - 1])
+                              : k < samples && data.run[k] == row.run ? double(chain[k])
+                                                                      : kNan;
+      write({.missing = &row, .chain = chain_of});
     }
-    if (k < data.t.size()) csv.Row(rows.Sample(k));
+    if (k < samples) write({.k = k, .chain = double(chain[k])});
   }
   csv.Commit();
   std::printf("wrote %s (%zu rows: %zu samples, %zu rows with a missing value)\n", path.c_str(),
-              data.t.size() + data.missing.size(), data.t.size(), data.missing.size());
+              samples + data.missing.size(), samples, data.missing.size());
 }
 
 void WriteHulls(const std::string& path, const ModelSpec& spec, const IdentifyResult& result) {
