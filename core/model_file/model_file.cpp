@@ -204,6 +204,10 @@ std::pair<double, bool> CheckExpression(const TomlReader& rd, const toml::node* 
               fmt::format("\"{}\": unknown symbol \"{}\" (the variables are the states: {})", expr,
                           e.GetToken(), fmt::join(states, ", ")));
     }
+    if (e.GetCode() == mu::ecINTERNAL_ERROR) {  // muParser's bare "Internal error": "v++", "-" alone, ...
+      rd.Fail(node, key,
+              fmt::format("\"{}\": not a valid expression (an operator without its operand?)", expr));
+    }
     rd.Fail(node, key, fmt::format("\"{}\": {}", expr, e.GetMsg()));
   }
 }
