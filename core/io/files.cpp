@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "core/io/limits.hpp"
+#include "core/io/signals.hpp"
 
 namespace hysid {
 
@@ -139,11 +140,13 @@ AtomicFile::AtomicFile(const fs::path& path) : path_(path) {
     if (fd_ < 0 && error != EEXIST) break;
   }
   if (fd_ < 0) throw std::runtime_error(IoError(path_, "cannot create a temporary file beside it", error));
+  signal_slot_ = RegisterTemporaryFile(tmp_.string());  // removed on SIGINT/SIGTERM/SIGHUP/SIGPIPE
 }
 
 AtomicFile::~AtomicFile() {
   if (fd_ >= 0) ::close(fd_);
   if (!published_) ::unlink(tmp_.c_str());
+  ReleaseTemporaryFile(signal_slot_);
 }
 
 void AtomicFile::Fail(const char* what, int error_number) {
@@ -183,6 +186,8 @@ void AtomicFile::Publish() {
     throw std::runtime_error(IoError(path_, "cannot rename the temporary file onto it", e));
   }
   published_ = true;
+  ReleaseTemporaryFile(signal_slot_);
+  signal_slot_ = -1;
 }
 
 void WriteFileAtomically(const fs::path& path, std::string_view text) {
