@@ -28,23 +28,46 @@ def expect(ok, what):
         FAILURES.append(what)
 
 
-def temporaries(d):
-    return [f for f in os.listdir(d) if f.endswith(".tmp")]
+def temporaries(d, pid=None):
+    """The temporary files in d (of process pid: NAME.<pid>-<n>.tmp)."""
+    return [f for f in os.listdir(d) if f.endswith(".tmp") and (pid is None or f".{pid}-" in f)]
+
+
+def default_signals():
+    """As an interactive shell starts a command: a shell without job control would start a background
+    command with SIGINT ignored, and hysid keeps a signal its parent ignores ignored."""
+    for sig in NAMES:
+        signal.signal(sig, signal.SIG_DFL)
 
 
 def start(args, cwd):
-    return subprocess.Popen([HYSID] + args, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return subprocess.Popen([HYSID] + args, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            preexec_fn=default_signals)
 
 
 def wait_for_temporary(p, d, timeout=300.0):
-    """Polls until a temporary file exists in d (True) or the process ends (False)."""
+    """Polls until a temporary file of p exists in d (True) or p ends (False)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        if temporaries(d):
+        if temporaries(d, p.pid):
             return True
         if p.poll() is not None:
             return False
         time.sleep(0.002)
+    return False
+
+
+def wait_for_open(p, name, timeout=300.0):
+    """Polls until p has the file `name` open (it reads its input: the handlers are installed)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and p.poll() is None:
+        try:
+            if any(os.readlink(f"/proc/{p.pid}/fd/{fd}").endswith("/" + name)
+                   for fd in os.listdir(f"/proc/{p.pid}/fd")):
+                return True
+        except OSError:  # an fd closed between listdir and readlink
+            pass
+        time.sleep(0.001)
     return False
 
 
@@ -94,8 +117,7 @@ def main():
                           f"identify, {NAMES[sig]} while writing --trace")
             # Case 2: during the computation (reading the data), before any output is opened.
             p = start(identify + ["--trace", "early.csv"], d)
-            time.sleep(0.2)
-            expect(p.poll() is None, "identify ended within 0.2 s: case 2 cannot be checked")
+            expect(wait_for_open(p, "data.csv"), "identify ended before it read data.csv: case 2 not checked")
             p.send_signal(sig)
             check_interrupted(p, sig, d, f"identify, {NAMES[sig]} before any output")
             expect(not os.path.exists(os.path.join(d, "early.csv")), f"identify, {NAMES[sig]}: early.csv written")
