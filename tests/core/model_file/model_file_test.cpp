@@ -227,9 +227,15 @@ std::string Replace(std::string text, const std::string& from, const std::string
   return text.replace(at, from.size(), to);
 }
 
-std::string ErrorOf(const std::string& text) {
+// The error of reading the text (with `simulate`, as the programs do: the default trajectory too;
+// without, ParseModelFile alone), or "(accepted)".
+std::string ErrorOf(const std::string& text, bool simulate = true) {
   try {
-    ParseModelText(text, "m.toml");
+    if (simulate) {
+      ParseModelText(text, "m.toml");
+    } else {
+      ParseModelFile(text, "m.toml");
+    }
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -334,16 +340,6 @@ TEST_CASE("entries of one matrix do not affect each other or later evaluations",
   CHECK(x(1) == 3.0);
 }
 
-// The error of ParseModelFile (the reader without the simulated default trajectory), or "(accepted)".
-std::string ParseErrorOf(const std::string& text) {
-  try {
-    ParseModelFile(text, "m.toml");
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "(accepted)";
-}
-
 // Malformed expressions, listed and drawn at random from operator and operand tokens: each is refused
 // naming the file, line, key and expression, with a reason (never muParser's bare "Internal error"),
 // or loads; none escapes as another exception.
@@ -352,7 +348,7 @@ TEST_CASE("malformed expressions are refused naming the key and the expression",
   const std::string where = "m.toml:6: flow.phi[1][1]: \"";
   auto check = [&](const std::string& expr, bool must_fail) {
     INFO(expr);
-    const std::string error = ParseErrorOf(Replace(kGood, "\"-x\"]]", "\"" + expr + "\"]]"));
+    const std::string error = ErrorOf(Replace(kGood, "\"-x\"]]", "\"" + expr + "\"]]"), false);
     if (must_fail) CHECK(error != "(accepted)");
     if (error == "(accepted)") return;
     CHECK_THAT(error, Contains(where + expr + "\": "));
