@@ -17,21 +17,17 @@ namespace hysid::cli {
 namespace {
 
 // The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json (the model's
-// α, β are the true values: identify sets them from the same sidecar). Empty when there is no such
-// sidecar or it is of another model.
+// α, β are the true values: identify sets them from the same sidecar when it is of this model).
+// Empty when there is no such sidecar.
 struct Truth {
   Vec x0, sigma;
 };
 
-Truth ReadTruth(const std::string& data_path, const Model& model) {
-  const int n = model.state_size();
+Truth ReadTruth(const std::string& data_path, int n) {
   std::ifstream in(std::filesystem::path(data_path).replace_extension(".json"));
   if (!in) return {};
   const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!meta.is_object() || !meta.contains("command") || meta["command"] != "simulate" ||
-      !meta.contains("model") || meta["model"] != model.name()) {
-    return {};
-  }
+  if (!meta.is_object() || !meta.contains("command") || meta["command"] != "simulate") return {};
   auto vec = [&](const char* key) {
     if (!meta.contains(key) || !meta[key].is_array() || static_cast<int>(meta[key].size()) != n) return Vec();
     Vec v(n);
@@ -157,7 +153,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
     r.names = r.unknowns.Names(model);
     r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0)};
   }
-  const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model) : Truth{};
+  const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
   const Crlb bound = TruthBound(model, truth, used, data.dt);
   const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
