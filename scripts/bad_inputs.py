@@ -97,6 +97,7 @@ def files():
     }
     f.update(safety_files())
     f.update(LIMITS_FILES)
+    f.update(TRUTH_FILES)
     return f
 
 
@@ -287,7 +288,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES
+    ] + safety_cases() + LIMITS_CASES + TRUTH_CASES
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -327,6 +328,27 @@ LIMITS_CASES = [
     ("sweep: a FIFO as the sweep file", ["sweep", "fifo.csv", "--out", "run", "--dry-run"]),
 ]
 
+# The truth of simulated data, files of several without samples, malformed expressions.
+TRUTH_FILES = {
+    "plusplus.toml": WALL.replace('phi = [["v", 0, 0],', 'phi = [["v++", 0, 0],'),
+}
+TRUTH_CASES = [
+    ("identify: --param disagrees with the data's sidecar", ["identify", "--param", "a=6", "--data", "sim.csv"]),
+    ("identify: the sidecars of two --data files disagree", ["identify", "--data", "sim.csv", "--data", "simb.csv"]),
+    ("identify: a second --data file with a header only",
+     ["identify", "--data", "sim.csv", "--data", "headeronly.csv"]),
+    ("model file: \"v++\" in flow.phi (muParser's internal error)", ["simulate", "--model-file", "plusplus.toml"] + SIM),
+]
+
+
+def truth_setup(d):
+    """simb.csv: sim.csv again, its sidecar saying a = 6."""
+    with open(os.path.join(d, "sim.csv")) as src, open(os.path.join(d, "simb.csv"), "w") as dst:
+        dst.write(src.read())
+    with open(os.path.join(d, "sim.json")) as src, open(os.path.join(d, "simb.json"), "w") as dst:
+        dst.write(src.read().replace('"a": 5.0', '"a": 6.0'))
+
+
 # Cases whose message names something the command line does not show as its last flag or file.
 SUBJECTS = {
     "no subcommand": "subcommand",
@@ -345,6 +367,9 @@ SUBJECTS = {
     "merge: not a run directory": "o:",
     **SAFETY_SUBJECTS,
     "model file: beyond the size limit": "rowsdup.toml",
+    "identify: the sidecars of two --data files disagree": "simb.json: parameters.a",
+    "identify: a second --data file with a header only": "headeronly.csv",
+    "model file: \"v++\" in flow.phi (muParser's internal error)": "plusplus.toml:21: flow.phi[0][0]",
 }
 
 
@@ -398,6 +423,7 @@ def setup(hysid, d):
             with open(os.path.join(d, "done", "sweep.json")) as src, open(os.path.join(d, name, "sweep.json"), "w") as dst:
                 dst.write(src.read())
     safety_setup(hysid, d)
+    truth_setup(d)
 
 
 def check_case(desc, args, code, err):

@@ -320,7 +320,16 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
     std::vector<std::string> names;
     for (int col : c.state) names.push_back(table.header[static_cast<std::size_t>(col)]);
     if (d.state_columns.empty()) d.state_columns = names;
+    const std::size_t before = d.t.size();
+    const long missing_before = d.missing_rows;
     AppendTable(table, c, d, y, j);
+    if (d.t.size() == before && tables.size() > 1) {  // one file of several is not left out silently
+      const long rows = d.missing_rows - missing_before;
+      throw std::invalid_argument(
+          rows == 0 ? fmt::format("{}: no samples (no data rows)", table.path)
+                    : fmt::format("{}: no samples (each of its {} rows has a missing state value)",
+                                  table.path, rows));
+    }
   }
   d.path = fmt::format("{}", fmt::join(paths, ", "));
   const auto k = static_cast<long>(d.t.size());

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
 #include <tuple>
 #include <string>
 #include <utility>
@@ -83,23 +84,102 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   return settings;
 }
 
+// The sidecar FILE.json that `hysid simulate` writes beside FILE.csv, or null when there is none (or
+// it is not a sidecar of `simulate`). A sidecar that exists must be a readable regular file.
+nlohmann::json ReadSidecar(const std::filesystem::path& data) {
+  const std::filesystem::path sidecar = std::filesystem::path(data).replace_extension(".json");
+  if (std::error_code ec; !std::filesystem::exists(sidecar, ec)) return nullptr;
+  nlohmann::json meta =
+      nlohmann::json::parse(ReadWholeFile(sidecar, "sidecar"), nullptr, /*allow_exceptions=*/false);
+  if (!meta.is_object() || !meta.contains("command") || meta["command"] != "simulate") return nullptr;
+  return meta;
+}
+
 // Data written by `hysid simulate` has a sidecar FILE.json with the solver's tolerances: without
 // --data-rtol/--data-atol they are the data's accuracy (noise-free data is then as exact as that).
 // Returns where the accuracy came from.
 std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* settings) {
   if (args.data_accuracy_given) return "as given";
-  const std::filesystem::path sidecar = std::filesystem::path(args.data.front()).replace_extension(".json");
-  std::ifstream in(sidecar);
-  if (!in) return "none given";
-  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!meta.is_object() || meta.value("command", "") != "simulate" || !meta.contains("solver") ||
-      !meta["solver"].is_object() || meta["solver"].value("rtol", -1.0) < 0.0 ||
-      meta["solver"].value("atol", -1.0) < 0.0) {
+  const nlohmann::json meta = ReadSidecar(args.data.front());
+  if (meta.is_null() || !meta.contains("solver") || !meta["solver"].is_object() ||
+      meta["solver"].value("rtol", -1.0) < 0.0 || meta["solver"].value("atol", -1.0) < 0.0) {
     return "none given";
   }
   settings->data_rtol = meta["solver"]["rtol"].get<double>();
   settings->data_atol = meta["solver"]["atol"].get<double>();
-  return fmt::format("the solver tolerances in {}", sidecar.string());
+  return fmt::format("the solver tolerances in {}",
+                     std::filesystem::path(args.data.front()).replace_extension(".json").string());
+}
+
+// One parameter of a sidecar's "parameters" set on `model` as the truth; `given` holds the names
+// --param set, `taken` the values earlier sidecars gave (name -> value, sidecar).
+void TakeTrueParameter(const std::string& sidecar, const std::string& name, const nlohmann::json& value,
+                       const std::map<std::string, std::string>& given,
+                       std::map<std::string, std::pair<double, std::string>>& taken, Model* model) {
+  const ModelSpec& spec = model->spec();
+  const std::string key = fmt::format("{}: parameters.{}", sidecar, Abbreviated(name, 40));
+  if (!value.is_number()) throw std::invalid_argument(fmt::format("{}: not a number", key));
+  const double v = value.get<double>();
+  std::optional<std::pair<const Parameter*, double>> found;
+  for (std::size_t i = 0; i < spec.alpha.size(); ++i)
+    if (spec.alpha[i].name == name) found.emplace(&spec.alpha[i], model->alpha()[Eigen::Index(i)]);
+  for (std::size_t i = 0; i < spec.beta.size(); ++i)
+    if (spec.beta[i].name == name) found.emplace(&spec.beta[i], model->beta()[Eigen::Index(i)]);
+  if (!found) {
+    throw std::invalid_argument(fmt::format(
+        "{}: model '{}' has no such parameter: the data were simulated with another model", key, spec.name));
+  }
+  const auto [parameter, current] = *found;
+  if (parameter->known && v != current) {
+    throw std::invalid_argument(
+        fmt::format("{} = {:.17g}: a known constant of model '{}', which is {:.17g} here: "
+                    "the data were simulated with another model",
+                    key, v, spec.name, current));
+  }
+  if (const auto at = given.find(name); at != given.end() && v != current) {
+    throw std::invalid_argument(fmt::format(
+        "--param {}: the sidecar {} gives {} = {:.17g}, the value the data were simulated with (the "
+        "truth); give that value or leave --param out",
+        Abbreviated(at->second), sidecar, Abbreviated(name, 40), v));
+  }
+  if (const auto [at, fresh] = taken.emplace(name, std::pair{v, sidecar}); !fresh && at->second.first != v) {
+    throw std::invalid_argument(
+        fmt::format("{} = {:.17g}, but {} gives {:.17g}: the --data files were simulated "
+                    "with different parameters",
+                    key, v, at->second.second, at->second.first));
+  }
+  if (!parameter->known) model->SetParameter(name, v);
+}
+
+// The truth the metrics and the CRLB compare with: for data written by `hysid simulate`, the α and β
+// in the sidecars of the --data files (of the same model name), set on `model`; else the model's
+// values (defaults and --param). A --param that disagrees with a sidecar, sidecars that disagree, and
+// a sidecar parameter the model lacks or holds as another constant are refused. Returns the source.
+std::string TakeSidecarTruth(const IdentifyArgs& args, Model* model) {
+  std::map<std::string, std::string> given;  // --param name -> its assignment
+  for (const std::string& p : args.model.params) given.emplace(p.substr(0, p.find('=')), p);
+  std::map<std::string, std::pair<double, std::string>> taken;
+  std::vector<std::string> used, other;
+  for (const std::string& d : args.data) {
+    const nlohmann::json meta = ReadSidecar(d);
+    const std::string sidecar = std::filesystem::path(d).replace_extension(".json").string();
+    if (meta.is_null() || !meta.contains("parameters")) continue;
+    if (!meta.contains("model") || meta["model"] != model->name()) {
+      other.push_back(
+          fmt::format("{} is of model {}", sidecar, meta.value("model", nlohmann::json()).dump()));
+      continue;
+    }
+    if (!meta["parameters"].is_object())
+      throw std::invalid_argument(fmt::format("{}: parameters: not an object", sidecar));
+    for (const auto& [name, value] : meta["parameters"].items())
+      TakeTrueParameter(sidecar, name, value, given, taken, model);
+    used.push_back(sidecar);
+  }
+  std::string source = !used.empty()    ? fmt::format("the parameters in {}", fmt::join(used, ", "))
+                       : !given.empty() ? "the model's values with --param"
+                                        : "the model's default values";
+  if (!other.empty()) source += fmt::format(" ({})", fmt::join(other, "; "));
+  return source;
 }
 
 // "r = 220, tau0 = 100000, bound = auto": the options the detector reads.
@@ -186,15 +266,16 @@ void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const Ident
 }
 
 // Against the data's column j and the model's true values and sets.
-void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyResult& result) {
+void PrintTruth(const Model& model, const std::vector<int>& j, const std::string& truth_source,
+                const IdentifyResult& result) {
   const Confusion c = CompareJumps(j, result.gamma);
   const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
   std::printf("truth (column j): %ld true jumps; TP %ld, FP %ld, FN %ld, TN %ld\n", c.tp + c.fn, c.tp, c.fp,
               c.fn, c.tn);
   std::printf("  misclassification %.6g, precision %.6g, recall %.6g\n", c.misclassification(), c.precision(),
               c.recall());
-  std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n", e.e_alpha,
-              e.e_beta, e.rel_alpha, e.rel_beta);
+  std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against %s\n", e.e_alpha, e.e_beta,
+              e.rel_alpha, e.rel_beta, truth_source.c_str());
   // Ĉ and D̂ against the model's C and D (when computed: not beyond the hull dimension limit).
   if (!result.sets_skipped.empty()) {
     std::printf("  sets: not computed\n");
@@ -254,7 +335,8 @@ void CheckOutputs(const IdentifyArgs& args) {
 }
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model);
+  Model model = MakeModel(env, args.model);
+  const std::string truth_source = TakeSidecarTruth(args, &model);
   IdentifierSettings settings = BuildSettings(args, model);
   const SampleData data = ReadData(args, model);
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
@@ -270,7 +352,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   PrintEstimates(model.spec(), args, result);
   if (!result.sets_skipped.empty())
     std::printf("sets C^ and D^: not computed: %s\n", result.sets_skipped.c_str());
-  if (data.j) PrintTruth(model, *data.j, result);
+  if (data.j) PrintTruth(model, *data.j, truth_source, result);
   if (!args.trace.empty()) {
     WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }

@@ -17,7 +17,8 @@ namespace hysid::cli {
 namespace {
 
 // The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json (the model's
-// α, β are the true values). Empty when there is no such sidecar.
+// α, β are the true values: identify sets them from the same sidecar when it is of this model).
+// Empty when there is no such sidecar.
 struct Truth {
   Vec x0, sigma;
 };
@@ -26,7 +27,7 @@ Truth ReadTruth(const std::string& data_path, int n) {
   std::ifstream in(std::filesystem::path(data_path).replace_extension(".json"));
   if (!in) return {};
   const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!meta.is_object() || meta.value("command", "") != "simulate") return {};
+  if (!meta.is_object() || !meta.contains("command") || meta["command"] != "simulate") return {};
   auto vec = [&](const char* key) {
     if (!meta.contains(key) || !meta[key].is_array() || static_cast<int>(meta[key].size()) != n) return Vec();
     Vec v(n);

@@ -101,6 +101,24 @@ TEST_CASE("too few samples after the missing rows are left out", "[sample_data]"
       "s.csv: 2 samples (1 row with a missing value left out); the identifier needs at least 3");
 }
 
+// A file of several that holds no sample (a header only, or only rows with a missing value) is
+// refused by name, wherever it stands, not left out while the others are read.
+TEST_CASE("a data file without samples is refused by name, also beside other files", "[sample_data]") {
+  const CsvTable good = Table("t,x,v\n0,1,2\n0.1,1,2\n0.2,1,2\n0.3,1,2\n", "good.csv");
+  const CsvTable header = Table("t,x,v\n", "header.csv");
+  const CsvTable blank = Table("t,x,v\n\n# a comment\n", "blank.csv");
+  const CsvTable missing = Table("t,x,v\n0,nan,2\n0.1,1,NA\n", "missing.csv");
+  const std::string no_rows = ": no samples (no data rows)";
+  CHECK_THROWS_WITH(SampleDataFromTables({good, header}, 2, {}), "header.csv" + no_rows);
+  CHECK_THROWS_WITH(SampleDataFromTables({header, good}, 2, {}), "header.csv" + no_rows);
+  CHECK_THROWS_WITH(SampleDataFromTables({good, blank, good}, 2, {}), "blank.csv" + no_rows);
+  CHECK_THROWS_WITH(SampleDataFromTables({good, missing}, 2, {}),
+                    "missing.csv: no samples (each of its 2 rows has a missing state value)");
+  CHECK(SampleDataFromTables({good, good}, 2, {}).t.size() == 8);
+  CHECK_THROWS_WITH(SampleDataFromArrays({{}, {}}, {Mat::Ones(2, 4), Mat(2, 0)}, 1e-3),
+                    "run 2: no samples (no data rows)");
+}
+
 }  // namespace
 }  // namespace hysid
 
