@@ -1,0 +1,318 @@
+// Reconstruction of unmeasured states: the plan from the flow's structure, kinks as jumps, and
+// Savitzky–Golay slopes per flow segment (core/identify/reconstruct.hpp).
+#include "core/identify/reconstruct.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "core/model/noise_shape.hpp"
+
+namespace hysid {
+
+bool ReconstructOptions::IsValid(std::string* error) const {
+  auto fail = [&](std::string what) {
+    if (error) *error = std::move(what);
+    return false;
+  };
+  if (!(kink_threshold > 0.0) || !std::isfinite(kink_threshold)) {
+    return fail(fmt::format("ReconstructOptions::kink_threshold = {}: must be finite and > 0", kink_threshold));
+  }
+  if (median_window < 3 || median_window % 2 == 0) {
+    return fail(fmt::format("ReconstructOptions::median_window = {}: must be odd and >= 3", median_window));
+  }
+  if (min_window < 3 || min_window % 2 == 0) {
+    return fail(fmt::format("ReconstructOptions::min_window = {}: must be odd and >= 3", min_window));
+  }
+  if (!(slope_precision > 0.0) || !std::isfinite(slope_precision)) {
+    return fail(fmt::format("ReconstructOptions::slope_precision = {}: must be finite and > 0", slope_precision));
+  }
+  if (!(max_window_share > 0.0) || !(max_window_share <= 1.0)) {
+    return fail(fmt::format("ReconstructOptions::max_window_share = {}: must be in (0, 1]", max_window_share));
+  }
+  return true;
+}
+
+namespace {
+
+// States at which the flow's structure is probed: the default initial state and deterministic
+// perturbations of it.
+std::vector<Vec> ProbeStates(const Model& model) {
+  const int n = model.state_size();
+  const std::vector<double>& d = model.spec().default_x0;
+  const Vec base = static_cast<int>(d.size()) == n ? Vec(Eigen::Map<const Vec>(d.data(), n)) : Vec(Vec::Zero(n));
+  std::vector<Vec> states{base};
+  for (const double s : {0.37, -0.61, 1.3}) {
+    Vec x = base;
+    for (int i = 0; i < n; ++i) x[i] += s * (1.0 + 0.5 * i) * (1.0 + std::abs(base[i]));
+    states.push_back(x);
+  }
+  return states;
+}
+
+// Row j of the flow at the probe states: (i, c, d) when f_j = c ξ_i + d for one unmeasured i.
+bool IntegratorRow(const Model& model, const std::vector<Vec>& probes, const std::vector<int>& measured, int j,
+                   int* i_out, double* c_out, double* d_out) {
+  const int n = model.state_size();
+  Mat jac(n, n);
+  Vec f(n);
+  int source = -1;
+  double c = 0.0, d = 0.0;
+  for (std::size_t p = 0; p < probes.size(); ++p) {
+    model.FlowJacobian(probes[p], model.alpha(), jac);
+    model.Flow(probes[p], model.alpha(), f);
+    int nonzero = -1;
+    for (int i = 0; i < n; ++i) {
+      if (jac(j, i) == 0.0) continue;
+      if (nonzero >= 0) return false;
+      nonzero = i;
+    }
+    if (nonzero < 0 || std::count(measured.begin(), measured.end(), nonzero) > 0) return false;
+    const double cp = jac(j, nonzero), dp = f[j] - cp * probes[p][nonzero];
+    const double tol = 1e-9 * (1.0 + std::abs(cp) + std::abs(dp));
+    if (p > 0 && (nonzero != source || std::abs(cp - c) > tol || std::abs(dp - d) > tol)) return false;
+    source = nonzero;
+    c = cp;
+    d = dp;
+  }
+  *i_out = source;
+  *c_out = c;
+  *d_out = d;
+  return true;
+}
+
+}  // namespace
+
+ReconstructionPlan PlanReconstruction(const Model& model, const std::vector<int>& measured) {
+  const int n = model.state_size();
+  ReconstructionPlan plan;
+  plan.measured = measured;
+  std::sort(plan.measured.begin(), plan.measured.end());
+  for (std::size_t a = 0; a < plan.measured.size(); ++a) {
+    if (plan.measured[a] < 0 || plan.measured[a] >= n || (a > 0 && plan.measured[a] == plan.measured[a - 1])) {
+      throw std::invalid_argument(fmt::format("measured state index {}: out of range [0, {}) or repeated",
+                                              plan.measured[a], n));
+    }
+  }
+  plan.source.assign(static_cast<std::size_t>(n), -1);
+  plan.scale = Vec::Ones(n);
+  plan.offset = Vec::Zero(n);
+  const std::vector<Vec> probes = ProbeStates(model);
+  const std::vector<int>& rows = model.spec().flow_rows;
+  for (const int j : plan.measured) {
+    int i = -1;
+    double c = 0.0, d = 0.0;
+    if (std::count(rows.begin(), rows.end(), j) > 0 || !IntegratorRow(model, probes, plan.measured, j, &i, &c, &d))
+      continue;
+    if (plan.source[static_cast<std::size_t>(i)] >= 0) continue;  // the first measured partner
+    plan.source[static_cast<std::size_t>(i)] = j;
+    plan.scale[i] = c;
+    plan.offset[i] = d;
+  }
+  for (int i = 0; i < n; ++i) {
+    if (std::count(plan.measured.begin(), plan.measured.end(), i) > 0) continue;
+    plan.reconstructed.push_back(i);
+    if (plan.source[static_cast<std::size_t>(i)] < 0 && plan.error.empty()) {
+      plan.error = fmt::format(
+          "state '{}' is not measured and cannot be reconstructed: no measured state's flow is a known "
+          "multiple of it (x' = c·{} + d)",
+          model.spec().state_names[static_cast<std::size_t>(i)], model.spec().state_names[static_cast<std::size_t>(i)]);
+    }
+  }
+  return plan;
+}
+
+double LocalSlope(const std::vector<double>& t, const double* y, long first, long size, long k) {
+  const auto tk = t[static_cast<std::size_t>(k)];
+  double h = 0.0;
+  for (long i = first; i < first + size; ++i) h = std::max(h, std::abs(t[static_cast<std::size_t>(i)] - tk));
+  const int degree = size >= 3 ? 2 : 1;
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (long i = first; i < first + size; ++i) {
+    const double u = (t[static_cast<std::size_t>(i)] - tk) / h;
+    const Eigen::Vector3d basis(1.0, u, u * u);
+    a += basis * basis.transpose();
+    b += basis * y[i];
+  }
+  const int m = degree + 1;
+  const Eigen::VectorXd c = a.topLeftCorner(m, m).ldlt().solve(b.head(m));
+  return c[1] / h;
+}
+
+void SavitzkyGolaySlope(const std::vector<double>& t, const double* y, long begin, long end, int window,
+                        double* slope) {
+  const long length = end - begin;
+  if (length == 1) {
+    slope[begin] = 0.0;
+    return;
+  }
+  const long w = std::min<long>(window, length);
+  for (long k = begin; k < end; ++k) {
+    const long first = std::clamp(k - w / 2, begin, end - w);
+    slope[k] = LocalSlope(t, y, first, w, k);
+  }
+}
+
+namespace {
+
+// The running median of v over windows of `window` entries (clipped at the ends).
+std::vector<double> RunningMedian(const std::vector<double>& v, int window) {
+  std::vector<double> out(v.size()), buffer;
+  const auto size = static_cast<long>(v.size());
+  for (long k = 0; k < size; ++k) {
+    const long lo = std::max(0L, k - window / 2), hi = std::min(size, k + window / 2 + 1);
+    buffer.assign(v.begin() + lo, v.begin() + hi);
+    const auto mid = buffer.begin() + static_cast<long>(buffer.size() / 2);
+    std::nth_element(buffer.begin(), mid, buffer.end());
+    out[static_cast<std::size_t>(k)] = *mid;
+  }
+  return out;
+}
+
+// 1.4826 · median |v| (0 for an empty v).
+double MadScale(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  for (double& x : v) x = std::abs(x);
+  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return 1.4826 * *mid;
+}
+
+// The statistic of the intervals of chain [a, b) for row r: z[k + 1] for the interval (t_k, t_{k+1}].
+void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, long b, double sigma,
+                        const ReconstructOptions& options, std::vector<double>& z) {
+  if (b - a < 4) return;
+  auto slope = [&](long k) {
+    return (y[k + 1] - y[k]) / (t[static_cast<std::size_t>(k + 1)] - t[static_cast<std::size_t>(k)]);
+  };
+  std::vector<double> ds, sd;
+  double scale = 0.0;
+  for (long k = a + 1; k + 2 < b; ++k) {
+    ds.push_back(slope(k + 1) - slope(k - 1));
+    const double h0 = t[static_cast<std::size_t>(k)] - t[static_cast<std::size_t>(k - 1)];
+    const double h2 = t[static_cast<std::size_t>(k + 2)] - t[static_cast<std::size_t>(k + 1)];
+    sd.push_back(sigma * std::sqrt(2.0 / (h0 * h0) + 2.0 / (h2 * h2)));
+    scale = std::max(scale, std::abs(slope(k)));
+  }
+  const std::vector<double> median = RunningMedian(ds, options.median_window);
+  std::vector<double> residual(ds.size());
+  for (std::size_t i = 0; i < ds.size(); ++i) residual[i] = ds[i] - median[i];
+  // Noise-free data: the spread of the flow's own curvature (and rounding) is the scale.
+  const double floor = std::max(MadScale(residual), 1e-12 * scale + 1e-300);
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    const auto at = static_cast<std::size_t>(a + 2) + i;
+    z[at] = std::max(z[at], std::abs(residual[i]) / std::max(sd[i], floor));
+  }
+}
+
+// [begin, end) of each chain of K samples cut at chain_start.
+std::vector<std::pair<long, long>> Chains(long size, const std::vector<std::uint8_t>& chain_start) {
+  std::vector<std::pair<long, long>> chains;
+  long begin = 0;
+  for (long k = 1; k <= size; ++k) {
+    if (k == size || (!chain_start.empty() && chain_start[static_cast<std::size_t>(k)] != 0)) {
+      chains.emplace_back(begin, k);
+      begin = k;
+    }
+  }
+  return chains;
+}
+
+}  // namespace
+
+KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std::vector<std::uint8_t>& chain_start,
+                          const Vec& sigma, const ReconstructOptions& options) {
+  const long size = y.cols();
+  KinkDetection d;
+  d.sigma = sigma.size() ? sigma : EstimateNoiseSigma(y);
+  d.statistic.assign(static_cast<std::size_t>(size), 0.0);
+  d.gamma.assign(static_cast<std::size_t>(size), 0);
+  const Mat rows = y.transpose();  // each measured component contiguous
+  for (const auto& [a, b] : Chains(size, chain_start)) {
+    for (Eigen::Index r = 0; r < y.rows(); ++r) {
+      ChainKinkStatistic(t, rows.col(r).data(), a, b, d.sigma[r], options, d.statistic);
+    }
+    for (long k = a + 2; k + 1 < b; ++k) {
+      const auto u = static_cast<std::size_t>(k);
+      const double z = d.statistic[u];
+      if (z > options.kink_threshold && z >= d.statistic[u - 1] && z > d.statistic[u + 1]) d.gamma[u] = 1;
+    }
+  }
+  return d;
+}
+
+namespace {
+
+// The window of a segment's slope (reconstruct.hpp): samples y[begin, end) of a component with σ.
+int SegmentWindow(const std::vector<double>& t, const double* y, long begin, long end, double sigma,
+                  const ReconstructOptions& options) {
+  const long length = end - begin;
+  const auto cap_long = std::max<long>(options.min_window, static_cast<long>(options.max_window_share * length));
+  const long cap = std::min(length, cap_long % 2 == 0 ? cap_long - 1 : cap_long);
+  if (length < 3) return static_cast<int>(length);
+  const double duration = t[static_cast<std::size_t>(end - 1)] - t[static_cast<std::size_t>(begin)];
+  const auto [lo, hi] = std::minmax_element(y + begin, y + end);
+  const double target = options.slope_precision * (*hi - *lo) / duration, dt = duration / double(length - 1);
+  if (!(target > 0.0)) return static_cast<int>(cap);
+  long m = static_cast<long>(std::ceil(std::cbrt(12.0 * sigma * sigma / (dt * dt * target * target))));
+  m = std::max<long>(m, options.min_window);
+  if (m % 2 == 0) ++m;
+  return static_cast<int>(std::min(m, cap));
+}
+
+}  // namespace
+
+Reconstruction ReconstructStates(const ReconstructionPlan& plan, const std::vector<double>& t, const Mat& y,
+                                 const std::vector<std::uint8_t>& chain_start, const Vec& sigma,
+                                 const ReconstructOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument(error);
+  if (!plan.ok()) throw std::invalid_argument(plan.error);
+  const auto m = static_cast<Eigen::Index>(plan.measured.size());
+  const long size = y.cols();
+  if (y.rows() != m || static_cast<long>(t.size()) != size ||
+      (!chain_start.empty() && static_cast<long>(chain_start.size()) != size) ||
+      (sigma.size() != 0 && sigma.size() != m)) {
+    throw std::invalid_argument(fmt::format(
+        "ReconstructStates: y is {} × {} for {} measured states, {} times, {} chain starts, {} sigmas", y.rows(),
+        size, m, t.size(), chain_start.size(), sigma.size()));
+  }
+  Reconstruction r;
+  KinkDetection kinks = DetectKinks(t, y, chain_start, sigma, options);
+  r.gamma = std::move(kinks.gamma);
+  r.statistic = std::move(kinks.statistic);
+  r.sigma = kinks.sigma;
+  const int n = static_cast<int>(plan.source.size());
+  r.x = Mat::Zero(n, size);
+  for (Eigen::Index a = 0; a < m; ++a) r.x.row(plan.measured[static_cast<std::size_t>(a)]) = y.row(a);
+  const Mat rows = y.transpose();
+  std::vector<double> slope(static_cast<std::size_t>(size));
+  r.min_window = 0;
+  for (const auto& [a, b] : Chains(size, chain_start)) {
+    long begin = a;
+    for (long k = a + 1; k <= b; ++k) {
+      if (k < b && r.gamma[static_cast<std::size_t>(k)] == 0) continue;
+      ++r.segments;
+      for (const int i : plan.reconstructed) {
+        const int j = plan.source[static_cast<std::size_t>(i)];
+        const auto row = std::find(plan.measured.begin(), plan.measured.end(), j) - plan.measured.begin();
+        const double* yj = rows.col(row).data();
+        const int w = SegmentWindow(t, yj, begin, k, r.sigma[row], options);
+        SavitzkyGolaySlope(t, yj, begin, k, w, slope.data());
+        for (long s = begin; s < k; ++s) r.x(i, s) = (slope[static_cast<std::size_t>(s)] - plan.offset[i]) / plan.scale[i];
+        if (k - begin >= 3) {
+          r.min_window = r.min_window == 0 ? w : std::min(r.min_window, w);
+          r.max_window = std::max(r.max_window, w);
+        }
+      }
+      begin = k;
+    }
+  }
+  return r;
+}
+
+}  // namespace hysid
