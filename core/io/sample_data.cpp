@@ -60,14 +60,30 @@ Columns NamedColumns(const CsvTable& table, int state_size, const std::vector<st
   return c;
 }
 
-// The default rule: y1..yn if present, else the first n columns after time other than j and run.
-std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, const Columns& c) {
-  std::vector<int> state;
-  for (int i = 1; i <= state_size; ++i) {
-    const int col = table.Find(fmt::format("y{}", i));
-    if (col < 0) break;
-    state.push_back(col);
+// The columns of `names` when the header has every one of them (else empty).
+std::vector<int> ColumnsNamed(const CsvTable& table, const std::vector<std::string>& names) {
+  std::vector<int> cols;
+  for (const std::string& name : names) {
+    const int col = table.Find(name);
+    if (col < 0) return {};
+    cols.push_back(col);
   }
+  return cols;
+}
+
+// The default rule: the states' names if the header has them all, else y1..yn (y{i+1} for the
+// measured state i) if present, else the first n columns after time other than j and run.
+std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, const Columns& c,
+                                     const SampleDataOptions& options) {
+  if (!options.state_names.empty()) {
+    if (std::vector<int> named = ColumnsNamed(table, options.state_names); !named.empty()) return named;
+  }
+  std::vector<std::string> y_names;
+  for (int i = 0; i < state_size; ++i) {
+    const bool indexed = static_cast<int>(options.state_indices.size()) == state_size;
+    y_names.push_back(fmt::format("y{}", (indexed ? options.state_indices[static_cast<std::size_t>(i)] : i) + 1));
+  }
+  std::vector<int> state = ColumnsNamed(table, y_names);
   if (static_cast<int>(state.size()) == state_size) return state;
   state.clear();
   const int cols = static_cast<int>(table.header.size());
@@ -102,7 +118,7 @@ Columns ResolveColumns(const CsvTable& table, int state_size, const SampleDataOp
     throw std::invalid_argument(
         fmt::format("{}:1: only a run column; need time + {} state columns", table.path, state_size));
   }
-  if (c.state.empty()) c.state = DefaultStateColumns(table, state_size, c);
+  if (c.state.empty()) c.state = DefaultStateColumns(table, state_size, c, options);
   if (static_cast<int>(c.state.size()) < state_size) {
     throw std::invalid_argument(
         fmt::format("{}:1: {} columns ({}); need time + {} state columns for the model", table.path,

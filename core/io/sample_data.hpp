@@ -3,8 +3,10 @@
 //
 // Columns: SampleDataOptions::columns when given (`t=NAME` the time column, `run=NAME` the run
 // column, the other entries the state columns in model order); otherwise time is the first column (the second
-// after a leading run column), the measured state is y1..yn when all are present (so `hysid simulate` output
-// is used as is), else the first n columns other than time, `j` and `run`. A column named `j` (jump
+// after a leading run column), the measured state is the columns named as the states
+// (SampleDataOptions::state_names) when the header has them all, else y1..yn when all are present (so
+// `hysid simulate` output is used as is; y{i+1} for state i when only some states are measured), else
+// the first n columns other than time, `j` and `run` (n: the states the data holds). A column named `j` (jump
 // counter) is ground truth when present; a column named `run` (or the one named by `run=`) splits a file into
 // runs, whose rows must be contiguous. Each file is one run otherwise. The `j` of several runs is joined
 // into one counter: each run continues from the previous run's last value, so a run boundary is never a
@@ -49,6 +51,11 @@ struct SampleDataOptions {
   std::vector<std::string> columns{};
   // A step longer than this (seconds) starts a new chain. 0: kDefaultGapFactor × the median step.
   double max_gap = 0.0;
+  // The default rule's names: the states the data holds (all of the model's, or the measured ones),
+  // matched by header name when the header has every one; their indices among the model's states
+  // (for y{i+1}; empty: 0..n−1).
+  std::vector<std::string> state_names{};
+  std::vector<int> state_indices{};
 };
 
 struct SampleData {

@@ -39,9 +39,17 @@ struct RefineArgs {
   std::string refine = "ml";
   std::string json;
 };
+// The states the data holds: the measured ones (indices; every state when all are measured), the
+// others reconstructed as a start (core/identify/reconstruct.hpp), and how.
+struct PartialOutputs {
+  std::vector<int> measured;
+  std::vector<int> reconstructed;
+  std::string reconstruction;  // how (windows, segments, jump detection); "" when all are measured
+};
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
+// data.y: n × K (the unmeasured rows reconstructed); sigma: per measured state, or empty.
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args);
+                    const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial = {});
 
 // A run that finished with a failed status (exit 1) or was interrupted (exit 130): thrown after
 // the outputs are written, so that `main` returns the code and destructors still run.

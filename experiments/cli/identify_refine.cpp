@@ -41,7 +41,7 @@ Truth ReadTruth(const std::string& data_path, int n) {
 
 // The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid) over at least two
 // samples (a refinement that fitted fewer has no span to bound), else not ok.
-Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt) {
+Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt, const std::vector<int>& measured) {
   if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma.array() > 0.0).all() || samples < 2) {
     Crlb none;
     none.status = CrlbStatus::kSimulationFailed;
@@ -49,7 +49,9 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt)
     return none;
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
-  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model));
+  const bool all = static_cast<int>(measured.size()) == model.state_size();
+  return ComputeCrlb(model, truth.x0, grid, all ? truth.sigma : Vec(truth.sigma(measured)), Unknowns::Of(model), {},
+                     all ? std::vector<int>{} : measured);
 }
 
 void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
@@ -70,8 +72,8 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
   }
 }
 
-nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, const std::string& refine,
-                      const Crlb& bound) {
+nlohmann::json ToJson(const Model& model, const RefineResult& r, const IdentifyResult& recursive,
+                      const std::string& refine, const Crlb& bound, const PartialOutputs& partial) {
   auto vec = [](const Vec& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
   nlohmann::json j;
   j["refine"] = refine;
@@ -91,6 +93,15 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   j["normalized_rms"] = r.normalized_rms;
   j["lag1"] = r.lag1;
   j["iterations"] = r.iterations;
+  // The states the data held, and those reconstructed as the recursive pass's start.
+  auto named = [&](const std::vector<int>& indices) {
+    std::vector<std::string> out;
+    for (const int i : indices) out.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
+    return out;
+  };
+  j["measured"] = named(partial.measured.empty() ? MeasuredIndices(model) : partial.measured);
+  j["reconstructed"] = named(partial.reconstructed);
+  if (!partial.reconstruction.empty()) j["reconstruction"] = partial.reconstruction;
   j["detector"] = {{"jumps_detected", recursive.jumps_detected},
                    {"flow_estimator", ToString(recursive.flow_status)},
                    {"flow_estimator_reason", recursive.flow_reason},
@@ -121,10 +132,11 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
 // From RefinementStart(recursive): the recursive result itself, or its rls re-run when the α
 // estimator was not ok.
 RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& given,
-                           const Vec& sigma) {
+                           const Vec& sigma, const PartialOutputs& partial) {
   const IdentifyResult& recursive = RefinementStart(given);
   RefineOptions options;
   options.sigma = sigma;
+  if (!partial.reconstructed.empty()) options.measured = partial.measured;
   return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
 }
 
@@ -143,10 +155,10 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
 }
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args) {
+                    const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial) {
   RefineResult r;
   if (args.refine == "ml") {
-    r = RunRefinement(model, data, recursive, sigma);
+    r = RunRefinement(model, data, recursive, sigma, partial);
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
@@ -154,7 +166,8 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   }
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
-  const Crlb bound = TruthBound(model, truth, used, data.dt);
+  const Crlb bound =
+      TruthBound(model, truth, used, data.dt, partial.measured.empty() ? MeasuredIndices(model) : partial.measured);
   const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
   if (args.refine == "ml") {
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
@@ -190,7 +203,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                 bound.mean_e_beta);
   }
   if (!args.json.empty()) {
-    WriteFileAtomically(args.json, ToJson(r, recursive, args.refine, bound).dump(2) + "\n");
+    WriteFileAtomically(args.json, ToJson(model, r, recursive, args.refine, bound, partial).dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
   std::printf("status: %s\n", args.refine == "none" ? "recursive (no refinement)" : ToString(r.status));
