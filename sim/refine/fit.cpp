@@ -166,6 +166,7 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
     f.index = static_cast<long>(c);
     f.y = in.y(rows, Eigen::seqN(0, used));
     f.x0 = s.x0[c];
+    for (const int i : options.x0_known) f.x0[i] = options.x0[i];  // (one chain only)
     int j = 0;
     for (long k = 0; k < used; ++k) {
       const auto u = static_cast<std::size_t>(k);
@@ -198,6 +199,12 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   ceres::Problem cp(po);
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
     cp.AddResidualBlock(new ChainCost(problem, c), nullptr, theta.data(), x0[c].data());
+  }
+  const std::vector<int>& known = options.x0_known;  // one chain only
+  if (!problem.fits.empty() && static_cast<int>(known.size()) == problem.model->state_size()) {
+    cp.SetParameterBlockConstant(x0.front().data());
+  } else if (!problem.fits.empty() && !known.empty()) {
+    cp.SetManifold(x0.front().data(), new ceres::SubsetManifold(problem.model->state_size(), known));
   }
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
@@ -381,7 +388,10 @@ void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTraj
   const Vec sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);
   r.sigma = Vec::Zero(n);
   r.sigma(problem.rows) = sigma;
-  const Crlb bound = CrlbFromFisher(JointFisher(problem, sims, sigma), problem.unknowns, JointNames(problem));
+  std::vector<int> held;  // the known components of the (one) chain's ξ0
+  for (const int i : options.x0_known) held.push_back(problem.shared + i);
+  const Crlb bound =
+      CrlbFromFisher(JointFisher(problem, sims, sigma), problem.unknowns, JointNames(problem), held);
   if (!bound.ok()) return Fail(r, RefineStatus::kSingularFisher, bound.message);
   r.covariance = bound.covariance.topLeftCorner(problem.shared + n, problem.shared + n);
   r.standard_errors = bound.sd.head(problem.shared + n);

@@ -93,6 +93,25 @@ void CheckChain(const Model& model, const RefineChain& c, std::size_t index) {
   }
 }
 
+void CheckKnownX0(const Model& model, std::size_t chains, const RefineOptions& options) {
+  const std::vector<int>& known = options.x0_known;
+  if (known.empty()) return;
+  for (std::size_t i = 0; i < known.size(); ++i) {
+    if (known[i] < 0 || known[i] >= model.state_size() || (i > 0 && known[i] <= known[i - 1])) {
+      throw std::invalid_argument(fmt::format("RefineOptions::x0_known: entry {} = {}: must increase within [0, {})",
+                                              i + 1, known[i], model.state_size()));
+    }
+  }
+  if (options.x0.size() != model.state_size() || !options.x0.allFinite()) {
+    throw std::invalid_argument(fmt::format("RefineOptions::x0 has {} entries (finite): the model has {} states",
+                                            options.x0.size(), model.state_size()));
+  }
+  if (chains != 1) {
+    throw std::invalid_argument(fmt::format(
+        "RefineOptions::x0_known: the data have {} chains; a known initial state is one chain's", chains));
+  }
+}
+
 void CheckInputs(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                  const Vec& beta0, const RefineOptions& options) {
   std::string error;
@@ -114,6 +133,7 @@ void CheckInputs(const Model& model, const std::vector<RefineChain>& chains, con
                                             options.sigma.size(), rows));
   }
   for (std::size_t c = 0; c < chains.size(); ++c) CheckChain(model, chains[c], c);
+  CheckKnownX0(model, chains.size(), options);
 }
 
 // The first non-finite sample ("chain c " when several, "sample k component i is v"), or "" when all

@@ -82,6 +82,10 @@ struct RefineOptions {
   // chains' other rows (a reconstruction, core/identify/reconstruct.hpp) are only a start (ξ0_c, the
   // repaired start). Empty: every state is measured.
   std::vector<int> measured;
+  // Components of ξ0 that are known (indices, increasing), held at their values in x0 (n entries; the
+  // others ignored) and left out of the covariance (standard error 0). One chain only.
+  std::vector<int> x0_known;
+  Vec x0;
   Vec sigma;  // per measured component (≥ 0; n entries when all are measured) when known; empty: estimated
   double rms_low = 0.8;               // σ given: normalised residual RMS in [rms_low, rms_high]
   double rms_high = 1.25;  // σ estimated: residual σ̂ ≤ rms_high × MAD σ̂ (core/model/noise_shape)

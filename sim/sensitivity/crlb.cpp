@@ -95,9 +95,40 @@ std::string WeakestDirection(const Mat& equilibrated, const std::vector<std::str
   return fmt::format("{}; smallest eigenvalue {:.3g} of the equilibrated F", text, eigen.eigenvalues()[0]);
 }
 
+// CrlbFromFisher with `held` entries known: the bound of the others, scattered back.
+Crlb CrlbHolding(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
+                 const std::vector<int>& held) {
+  std::vector<int> free;
+  std::vector<std::string> free_names;
+  for (int i = 0; i < static_cast<int>(fisher.rows()); ++i) {
+    if (std::find(held.begin(), held.end(), i) != held.end()) continue;
+    free.push_back(i);
+    if (static_cast<std::size_t>(i) < names.size()) free_names.push_back(names[static_cast<std::size_t>(i)]);
+  }
+  Unknowns shared = unknowns;  // the α and β blocks are never held
+  shared.x0 = false;
+  Crlb reduced = CrlbFromFisher(fisher(free, free), shared, std::move(free_names));
+  Crlb out = reduced;
+  out.names = std::move(names);
+  out.fisher = fisher;
+  if (!reduced.ok()) return out;
+  out.covariance = Mat::Zero(fisher.rows(), fisher.cols());
+  out.sd = Vec::Zero(fisher.rows());
+  for (std::size_t a = 0; a < free.size(); ++a) {
+    const auto ia = static_cast<Eigen::Index>(a);
+    out.sd[free[a]] = reduced.sd[ia];
+    for (std::size_t b = 0; b < free.size(); ++b) {
+      out.covariance(free[a], free[b]) = reduced.covariance(ia, static_cast<Eigen::Index>(b));
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
-Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names) {
+Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
+                    const std::vector<int>& held) {
+  if (!held.empty()) return CrlbHolding(fisher, unknowns, std::move(names), held);
   Crlb out;
   out.names = std::move(names);
   out.fisher = fisher;

@@ -42,8 +42,11 @@ Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const st
 // error below 1e-10). 0 for an empty matrix.
 double MeanGaussianNorm(const Mat& covariance);
 
-// The bound from F: covariance, sd, and the mean errors of the α and β blocks.
-Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names);
+// The bound from F: covariance, sd, and the mean errors of the α and β blocks. The entries `held`
+// (indices into θ, increasing) are known: F without their rows and columns is inverted, and their
+// rows and columns of the covariance (and their sd) are 0.
+Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
+                    const std::vector<int>& held = {});
 
 // The bound at the model's true α, β and the given ξ0 over `grid` with noise σ (one entry > 0 per
 // measured state) on the states `measured` (indices, increasing; empty: all).

@@ -100,6 +100,44 @@ TEST_CASE("height only: the refinement never uses the reconstructed row as data"
         1e-3 * a.standard_errors.minCoeff());
 }
 
+TEST_CASE("height only, x0 known (all, or v0 alone): held, and the bound without them", "[refine][measured]") {
+  const HeightOnly run;
+  const Mat h = run.Height(1);
+  Reconstruction rec = ReconstructStates(PlanReconstruction(run.model, {0}), run.truth.t, h, {}, Vec());
+  IdentifyOptions io;
+  io.labels = rec.gamma;
+  const IdentifyResult recursive = Identify(run.model, rec.x, run.grid.dt, IdentifierSettings{}, io);
+  for (const std::vector<int>& known : {std::vector<int>{0, 1}, std::vector<int>{1}}) {
+    RefineOptions options;
+    options.measured = {0};
+    options.x0_known = known;
+    options.x0 = run.x0;
+    const RefineResult r = RefineIdentification(run.model, run.truth.t, rec.x, {}, recursive, options);
+    INFO(known.size() << " known: " << r.reason);
+    REQUIRE(r.ok());
+    const SampleGrid fitted{static_cast<double>(r.samples_used - 1) * run.grid.dt, run.grid.dt};
+    const Crlb all = ComputeCrlb(run.model, run.x0, fitted, (Vec(1) << 1e-3).finished(), r.unknowns, {}, {0});
+    std::vector<int> held;
+    for (const int i : known) held.push_back(3 + i);  // θ = (g, k, e, h0, v0)
+    const Crlb bound = CrlbFromFisher(all.fisher, r.unknowns, all.names, held);
+    REQUIRE(bound.ok());
+    for (const int i : known) {
+      CHECK(r.estimate.x0[i] == run.x0[i]);
+      CHECK(r.standard_errors[3 + i] == 0.0);
+    }
+    for (int i = 0; i < 5; ++i) {
+      if (bound.sd[i] == 0.0) continue;
+      INFO(r.names[static_cast<std::size_t>(i)]);
+      CHECK(r.standard_errors[i] == Approx(bound.sd[i]).epsilon(0.2));
+    }
+    if (known.size() == 2) {  // equal to the bound computed without x0 at all
+      const Crlb without = ComputeCrlb(run.model, run.x0, fitted, (Vec(1) << 1e-3).finished(),
+                                       Unknowns::Of(run.model, false), {}, {0});
+      CHECK(bound.sd.head(3).isApprox(without.sd, 1e-6));
+    }
+  }
+}
+
 TEST_CASE("a state acting on nothing measured: singular Fisher information naming it", "[refine][measured]") {
   // The velocity alone, before the first bounce: v(t) does not depend on h0 in free flight, so x0[h]
   // is not identifiable, and the bound says so by name.
