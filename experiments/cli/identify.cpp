@@ -350,6 +350,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Vec sigma = args.sigma.empty() ? Vec() : SigmaFlag(args.sigma, static_cast<int>(measured.size()));
   if (!all) settings.sigma.resize(0);
   SampleData data = ReadData(args, model, measured);
+  CheckRefineArgs(args.refine, model, data);
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();

@@ -41,8 +41,10 @@ Truth ReadTruth(const std::string& data_path, int n) {
 
 // The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid) over at least two
 // samples (a refinement that fitted fewer has no span to bound), else not ok.
-Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt, const std::vector<int>& measured) {
-  if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma.array() > 0.0).all() || samples < 2) {
+Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt, const std::vector<int>& measured,
+                const std::vector<int>& known) {
+  if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma(measured).array() > 0.0).all() ||
+      samples < 2) {
     Crlb none;
     none.status = CrlbStatus::kSimulationFailed;
     none.message = samples < 2 ? "fewer than 2 samples fitted" : "no truth";
@@ -50,8 +52,13 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt,
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
   const bool all = static_cast<int>(measured.size()) == model.state_size();
-  return ComputeCrlb(model, truth.x0, grid, all ? truth.sigma : Vec(truth.sigma(measured)), Unknowns::Of(model), {},
-                     all ? std::vector<int>{} : measured);
+  const Unknowns unknowns = Unknowns::Of(model);
+  const Crlb c = ComputeCrlb(model, truth.x0, grid, all ? truth.sigma : Vec(truth.sigma(measured)), unknowns, {},
+                             all ? std::vector<int>{} : measured);
+  if (known.empty() || c.status == CrlbStatus::kSimulationFailed) return c;
+  std::vector<int> held;  // the known components of ξ0, as the refinement holds them
+  for (const int i : known) held.push_back(unknowns.size(model.state_size()) - model.state_size() + i);
+  return CrlbFromFisher(c.fisher, unknowns, c.names, held);
 }
 
 void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
@@ -62,6 +69,10 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
   for (std::size_t i = 0; i < r.names.size(); ++i) {
     const auto ii = static_cast<Eigen::Index>(i);
     std::string line = fmt::format("  {:<10} = {:<14.10g}", r.names[i], theta[ii]);
+    if (se && r.ok() && r.standard_errors[ii] == 0.0) {  // held (--x0-known)
+      std::printf("%s (known)\n", line.c_str());
+      continue;
+    }
     line += se ? fmt::format(" ± {:<10.4g}", r.standard_errors[ii]) : fmt::format(" {:<12}", "(no se)");
     if (truth) {
       line += fmt::format("  truth {:.10g}: error {:.3g} = {:.2f} CRLB sd", true_theta[ii],
@@ -132,17 +143,37 @@ nlohmann::json ToJson(const Model& model, const RefineResult& r, const IdentifyR
 // From RefinementStart(recursive): the recursive result itself, or its rls re-run when the α
 // estimator was not ok.
 RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& given,
-                           const Vec& sigma, const PartialOutputs& partial) {
+                           const Vec& sigma, const PartialOutputs& partial, const std::vector<int>& known,
+                           const Vec& x0) {
   const IdentifyResult& recursive = RefinementStart(given);
   RefineOptions options;
   options.sigma = sigma;
   if (!partial.reconstructed.empty()) options.measured = partial.measured;
+  options.x0_known = known;
+  if (!known.empty()) options.x0 = x0;
   return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
 }
 
 }  // namespace
 
+void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleData& data) {
+  const std::vector<int> known = X0KnownFlag(args.x0_known, model);
+  if (known.empty() && !args.x0.x0.empty()) BadFlag("--x0: the known initial state's values; give --x0-known too");
+  if (known.empty()) return;
+  if (args.refine != "ml") BadFlag("--x0-known: acts on the refinement; --refine none has none");
+  if (data.chains() != 1) {
+    BadFlag(fmt::format("--x0-known: the data have {} chains (runs, gaps or missing rows); a known initial state "
+                        "is one chain's",
+                        data.chains()));
+  }
+  InitialStateFlag(args.x0, model);  // its size and C ∪ D
+}
+
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
+  AddX0KnownOption(*cmd, args.x0_known);
+  AddNumberList(*cmd, "--x0", args.x0.x0,
+                "with --x0-known: the initial state, comma-separated, one value per state (the known "
+                "components are held at theirs; default: the model's)");
   cmd->add_option("--refine", args.refine,
                   "ml: maximum-likelihood output-error refinement of the recursive estimate (with "
                   "standard errors and a fit status; exit 1 when the fit is not ok), none: the "
@@ -156,9 +187,10 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial) {
+  const std::vector<int> known = X0KnownFlag(args.x0_known, model);
   RefineResult r;
   if (args.refine == "ml") {
-    r = RunRefinement(model, data, recursive, sigma, partial);
+    r = RunRefinement(model, data, recursive, sigma, partial, known, InitialStateFlag(args.x0, model));
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
@@ -166,8 +198,8 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   }
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
-  const Crlb bound =
-      TruthBound(model, truth, used, data.dt, partial.measured.empty() ? MeasuredIndices(model) : partial.measured);
+  const Crlb bound = TruthBound(model, truth, used, data.dt,
+                                partial.measured.empty() ? MeasuredIndices(model) : partial.measured, known);
   const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
   if (args.refine == "ml") {
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
