@@ -267,7 +267,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES
+    ] + safety_cases() + LIMITS_CASES + MEASURED_CASES
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -306,6 +306,16 @@ LIMITS_CASES = [
     ("sweep: a FIFO as the sweep file", ["sweep", "fifo.csv", "--out", "run", "--dry-run"]),
 ]
 
+# Partial outputs and known initial states (examples/drag-ball).
+MEASURED_CASES = [
+    ("identify: --x0-known names no state", ["identify", "--data", "sim.csv", "--x0-known", "q"]),
+    ("identify: --x0 without --x0-known", ["identify", "--data", "sim.csv", "--x0", "20,0"]),
+    ("identify: --x0-known on two runs", ["identify", "--data", "sim.csv", "--data", "sim.csv", "--x0-known"]),
+    ("identify: --x0-known with --refine none", ["identify", "--data", "sim.csv", "--x0-known", "--refine", "none"]),
+    ("crlb: --x0-known names a state twice", ["crlb", "--x0-known", "x,x"]),
+    ("crlb: --sigma of the wrong length", ["crlb", "--sigma", "1,2,3"]),
+]
+
 # Cases whose message names something the command line does not show as its last flag or file.
 SUBJECTS = {
     "no subcommand": "subcommand",
@@ -324,6 +334,8 @@ SUBJECTS = {
     "merge: not a run directory": "o:",
     **SAFETY_SUBJECTS,
     "model file: beyond the size limit": "rowsdup.toml",
+    "identify: --x0-known on two runs": "--x0-known",
+    "identify: --x0-known with --refine none": "--x0-known",
 }
 
 
