@@ -21,6 +21,7 @@ bool ReconstructOptions::IsValid(std::string* error) const {
   if (!(kink_threshold > 0.0) || !std::isfinite(kink_threshold)) {
     return fail(fmt::format("ReconstructOptions::kink_threshold = {}: must be finite and > 0", kink_threshold));
   }
+  if (chord < 1) return fail(fmt::format("ReconstructOptions::chord = {}: must be >= 1", chord));
   if (median_window < 3 || median_window % 2 == 0) {
     return fail(fmt::format("ReconstructOptions::median_window = {}: must be odd and >= 3", median_window));
   }
@@ -185,18 +186,17 @@ double MadScale(std::vector<double> v) {
 // The statistic of the intervals of chain [a, b) for row r: z[k + 1] for the interval (t_k, t_{k+1}].
 void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, long b, double sigma,
                         const ReconstructOptions& options, std::vector<double>& z) {
-  if (b - a < 4) return;
-  auto slope = [&](long k) {
-    return (y[k + 1] - y[k]) / (t[static_cast<std::size_t>(k + 1)] - t[static_cast<std::size_t>(k)]);
-  };
+  const long w = options.chord;
+  if (b - a < 2 * w + 2) return;
+  auto span = [&](long from, long to) { return t[static_cast<std::size_t>(to)] - t[static_cast<std::size_t>(from)]; };
+  auto chord = [&](long from, long to) { return (y[to] - y[from]) / span(from, to); };
   std::vector<double> ds, sd;
   double scale = 0.0;
-  for (long k = a + 1; k + 2 < b; ++k) {
-    ds.push_back(slope(k + 1) - slope(k - 1));
-    const double h0 = t[static_cast<std::size_t>(k)] - t[static_cast<std::size_t>(k - 1)];
-    const double h2 = t[static_cast<std::size_t>(k + 2)] - t[static_cast<std::size_t>(k + 1)];
-    sd.push_back(sigma * std::sqrt(2.0 / (h0 * h0) + 2.0 / (h2 * h2)));
-    scale = std::max(scale, std::abs(slope(k)));
+  for (long k = a + w; k + 1 + w < b; ++k) {  // the interval (t_k, t_{k+1}]
+    ds.push_back(chord(k + 1, k + 1 + w) - chord(k - w, k));
+    const double before = span(k - w, k), after = span(k + 1, k + 1 + w);
+    sd.push_back(sigma * std::sqrt(2.0 / (before * before) + 2.0 / (after * after)));
+    scale = std::max(scale, std::abs(chord(k - w, k)));
   }
   const std::vector<double> median = RunningMedian(ds, options.median_window);
   std::vector<double> residual(ds.size());
@@ -204,7 +204,7 @@ void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, l
   // Noise-free data: the spread of the flow's own curvature (and rounding) is the scale.
   const double floor = std::max(MadScale(residual), 1e-12 * scale + 1e-300);
   for (std::size_t i = 0; i < ds.size(); ++i) {
-    const auto at = static_cast<std::size_t>(a + 2) + i;
+    const auto at = static_cast<std::size_t>(a + w + 1) + i;
     z[at] = std::max(z[at], std::abs(residual[i]) / std::max(sd[i], floor));
   }
 }
@@ -236,10 +236,18 @@ KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std:
     for (Eigen::Index r = 0; r < y.rows(); ++r) {
       ChainKinkStatistic(t, rows.col(r).data(), a, b, d.sigma[r], options, d.statistic);
     }
-    for (long k = a + 2; k + 1 < b; ++k) {
+    // The largest within ±chord samples (the chords of the neighbouring intervals share the kink).
+    const long w = options.chord;
+    for (long k = a + 1; k < b; ++k) {
       const auto u = static_cast<std::size_t>(k);
       const double z = d.statistic[u];
-      if (z > options.kink_threshold && z >= d.statistic[u - 1] && z > d.statistic[u + 1]) d.gamma[u] = 1;
+      if (!(z > options.kink_threshold)) continue;
+      bool largest = true;
+      for (long l = std::max(a, k - w); l <= std::min(b - 1, k + w) && largest; ++l) {
+        const double other = d.statistic[static_cast<std::size_t>(l)];
+        largest = l < k ? z >= other : (l == k || z > other);
+      }
+      if (largest) d.gamma[u] = 1;
     }
   }
   return d;

@@ -8,13 +8,15 @@
 // measured partner cannot be reconstructed (ReconstructionPlan::error names it).
 //
 // Jumps: the jump of an unmeasured velocity is a kink in the measured position. Per interval
-// (t_k, t_{k+1}] the slope change Δs_k = s_{k+1} − s_{k−1} (s_k the chord slope over (t_k, t_{k+1}]),
-// less its running median (the flow's own curvature), over its noise sd √(2σ²/δt²_{k+1} + 2σ²/δt²_{k−1})
-// is the statistic; a jump is labelled at sample k+1 where the statistic exceeds the threshold and is
-// the largest of its neighbours (a kink inside (t_k, t_{k+1}] also raises Δs_{k±1}, by the shares
-// of the interval on either side). This works on the samples themselves: a first Savitzky–Golay pass
-// over windows that span a jump smears the velocity's step over a whole window, so a detector on it
-// sees a run of jumps instead of one.
+// (t_k, t_{k+1}] the slope change Δs_k = s⁺ − s⁻ between the chords of `chord` (w) samples on either
+// side, s⁻ over [t_{k−w}, t_k] and s⁺ over [t_{k+1}, t_{k+1+w}] (both clear of the interval), less
+// its running median (the flow's own curvature), over its noise sd σ√(2/T⁻² + 2/T⁺²) (T± the
+// chords' durations) is the statistic; a jump is labelled at sample k+1 where the statistic exceeds
+// the threshold and is the largest within ±w samples (the neighbouring intervals' chords share the
+// kink). Longer chords see smaller kinks (the sd falls as 1/w) but need w samples of flow on either
+// side. This works on the samples themselves: a first Savitzky–Golay pass over windows that span a
+// jump smears the velocity's step over a whole window, so a detector on it sees a run of jumps
+// instead of one.
 //
 // Derivatives: on each flow segment (between detected jumps, within a chain) a local polynomial of
 // degree 2 (Savitzky–Golay on the samples' own times) over a window of m samples, centred on the
@@ -35,6 +37,7 @@ namespace hysid {
 
 struct ReconstructOptions {
   double kink_threshold = 8.0;    // the statistic (in noise sd) above which a kink is a jump
+  int chord = 4;                  // samples of the chords whose slopes the kink statistic compares
   int median_window = 21;         // odd: the running median of Δs (the flow's curvature)
   int min_window = 5;             // odd, ≥ 3: the smallest Savitzky–Golay window
   double slope_precision = 0.01;  // > 0: the slope sd the window aims at, relative to the slope scale
