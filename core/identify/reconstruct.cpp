@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Dense>
@@ -22,6 +23,9 @@ bool ReconstructOptions::IsValid(std::string* error) const {
     return fail(fmt::format("ReconstructOptions::kink_threshold = {}: must be finite and > 0", kink_threshold));
   }
   if (chord < 1) return fail(fmt::format("ReconstructOptions::chord = {}: must be >= 1", chord));
+  if (!(kink_precision > 0.0) || !std::isfinite(kink_precision)) {
+    return fail(fmt::format("ReconstructOptions::kink_precision = {}: must be finite and > 0", kink_precision));
+  }
   if (median_window < 3 || median_window % 2 == 0) {
     return fail(fmt::format("ReconstructOptions::median_window = {}: must be odd and >= 3", median_window));
   }
@@ -152,24 +156,55 @@ void SavitzkyGolaySlope(const std::vector<double>& t, const double* y, long begi
     return;
   }
   const long w = std::min<long>(window, length);
+  // Uniform steps: the centred window's slope is Σ i y_{k+i} / (δt Σ i²) (the τ² column is
+  // orthogonal to τ on a symmetric grid), one dot product instead of a 3 × 3 solve.
+  const double step = (t[static_cast<std::size_t>(end - 1)] - t[static_cast<std::size_t>(begin)]) / double(length - 1);
+  bool uniform = w % 2 == 1;
+  for (long k = begin + 1; k < end && uniform; ++k) {
+    uniform = std::abs(t[static_cast<std::size_t>(k)] - t[static_cast<std::size_t>(k - 1)] - step) <= 1e-9 * step;
+  }
+  const long half = w / 2;
+  const double norm = step * static_cast<double>(half * (half + 1) * (2 * half + 1)) / 3.0;
   for (long k = begin; k < end; ++k) {
-    const long first = std::clamp(k - w / 2, begin, end - w);
-    slope[k] = LocalSlope(t, y, first, w, k);
+    const long first = std::clamp(k - half, begin, end - w);
+    if (uniform && first == k - half) {
+      double sum = 0.0;
+      for (long i = 1; i <= half; ++i) sum += static_cast<double>(i) * (y[k + i] - y[k - i]);
+      slope[k] = sum / norm;
+    } else {
+      slope[k] = LocalSlope(t, y, first, w, k);
+    }
   }
 }
 
 namespace {
 
-// The running median of v over windows of `window` entries (clipped at the ends).
+// The running median of v over windows of `window` entries (clipped at the ends), taken every
+// window/16 entries (and at the last) and interpolated linearly between (it follows the flow's
+// curvature, which is smooth on that scale).
 std::vector<double> RunningMedian(const std::vector<double>& v, int window) {
   std::vector<double> out(v.size()), buffer;
   const auto size = static_cast<long>(v.size());
-  for (long k = 0; k < size; ++k) {
+  const long stride = std::max(1, window / 16);
+  auto median = [&](long k) {
     const long lo = std::max(0L, k - window / 2), hi = std::min(size, k + window / 2 + 1);
     buffer.assign(v.begin() + lo, v.begin() + hi);
     const auto mid = buffer.begin() + static_cast<long>(buffer.size() / 2);
     std::nth_element(buffer.begin(), mid, buffer.end());
-    out[static_cast<std::size_t>(k)] = *mid;
+    return *mid;
+  };
+  long previous = 0;
+  double at_previous = size > 0 ? median(0) : 0.0;
+  for (long k = 0; k < size; k = previous) {
+    const long next = std::min(size - 1, previous + stride);
+    const double at_next = next == previous ? at_previous : median(next);
+    for (long i = previous; i <= next; ++i) {
+      const double f = next == previous ? 0.0 : static_cast<double>(i - previous) / static_cast<double>(next - previous);
+      out[static_cast<std::size_t>(i)] = (1.0 - f) * at_previous + f * at_next;
+    }
+    if (next == previous) break;
+    previous = next;
+    at_previous = at_next;
   }
   return out;
 }
@@ -184,9 +219,8 @@ double MadScale(std::vector<double> v) {
 }
 
 // The statistic of the intervals of chain [a, b) for row r: z[k + 1] for the interval (t_k, t_{k+1}].
-void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, long b, double sigma,
+void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, long b, double sigma, long w,
                         const ReconstructOptions& options, std::vector<double>& z) {
-  const long w = options.chord;
   if (b - a < 2 * w + 2) return;
   auto span = [&](long from, long to) { return t[static_cast<std::size_t>(to)] - t[static_cast<std::size_t>(from)]; };
   auto chord = [&](long from, long to) { return (y[to] - y[from]) / span(from, to); };
@@ -198,7 +232,8 @@ void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, l
     sd.push_back(sigma * std::sqrt(2.0 / (before * before) + 2.0 / (after * after)));
     scale = std::max(scale, std::abs(chord(k - w, k)));
   }
-  const std::vector<double> median = RunningMedian(ds, options.median_window);
+  // Wider than the 2w + 1 statistics a kink raises, so that the median stays the flow's.
+  const std::vector<double> median = RunningMedian(ds, std::max<int>(options.median_window, 4 * static_cast<int>(w) + 1));
   std::vector<double> residual(ds.size());
   for (std::size_t i = 0; i < ds.size(); ++i) residual[i] = ds[i] - median[i];
   // Noise-free data: the spread of the flow's own curvature (and rounding) is the scale.
@@ -207,6 +242,78 @@ void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, l
     const auto at = static_cast<std::size_t>(a + w + 1) + i;
     z[at] = std::max(z[at], std::abs(residual[i]) / std::max(sd[i], floor));
   }
+}
+
+// The chord (samples) of chain [a, b) for a row with noise σ: at least options.chord, and long enough
+// that the statistic's sd 2σ/(w δt) is at most kink_precision × the row's slope scale (its range over
+// the chain's duration); at most a tenth of the chain.
+long ChordLength(const std::vector<double>& t, const double* y, long a, long b, double sigma,
+                 const ReconstructOptions& options) {
+  const long cap = std::max<long>(options.chord, (b - a) / 10);
+  const double duration = t[static_cast<std::size_t>(b - 1)] - t[static_cast<std::size_t>(a)];
+  const auto [lo, hi] = std::minmax_element(y + a, y + b);
+  const double scale = (*hi - *lo) / duration, dt = duration / static_cast<double>(b - a - 1);
+  if (!(scale > 0.0) || !(sigma > 0.0) || b - a < 2) return options.chord;
+  const double w = std::ceil(2.0 * sigma / (options.kink_precision * scale * dt));
+  return std::clamp(static_cast<long>(std::min(w, 1e9)), static_cast<long>(options.chord), cap);
+}
+
+// The residual sum of squares of the continuous kink at time tj fitted to samples [from, to) of a
+// row: y ≈ c0 + c1 τ + c2 τ² + c3 max(τ, 0), τ = t − tj.
+double KinkFit(const std::vector<double>& t, const double* y, long from, long to, double tj) {
+  const double h = std::max(tj - t[static_cast<std::size_t>(from)], t[static_cast<std::size_t>(to - 1)] - tj);
+  Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d b = Eigen::Vector4d::Zero();
+  double yy = 0.0;
+  for (long i = from; i < to; ++i) {
+    const double u = (t[static_cast<std::size_t>(i)] - tj) / h;
+    const Eigen::Vector4d basis(1.0, u, u * u, std::max(u, 0.0));
+    a += basis * basis.transpose();
+    b += basis * y[i];
+    yy += y[i] * y[i];
+  }
+  const Eigen::Vector4d c = a.ldlt().solve(b);
+  return yy - c.dot(b);  // RSS at the least-squares solution
+}
+
+// The kink's fit over the rows at time tj.
+double KinkRss(const std::vector<double>& t, const Mat& rows, long from, long to, double tj) {
+  double rss = 0.0;
+  for (Eigen::Index r = 0; r < rows.cols(); ++r) rss += KinkFit(t, rows.col(r).data(), from, to, tj);
+  return rss;
+}
+
+// The jump sample near k (the interval (t_{j−1}, t_j] holding the kink): the kink time that fits the
+// rows best over the samples within ±2w of k (one window for every candidate; the chords locate a
+// kink only to within a few samples when w is long), first among the sample times within ±w of k
+// (every max(1, w/8)-th), then between the best one's neighbours there (golden section).
+long LocateKink(const std::vector<double>& t, const Mat& rows, long a, long b, long k, long w) {
+  const long from = std::max(a, k - 2 * w), to = std::min(b, k + 2 * w + 1);
+  const long lo = std::max(from + 2, k - w), hi = std::min(to - 3, k + w);
+  if (to - from < 6 || lo > hi) return k;
+  const long stride = std::max(1L, w / 8);
+  long s = lo;
+  double best = std::numeric_limits<double>::infinity();
+  for (long j = lo; j <= hi; j += stride) {
+    const double rss = KinkRss(t, rows, from, to, t[static_cast<std::size_t>(j)]);
+    if (rss < best) {
+      best = rss;
+      s = j;
+    }
+  }
+  double left = t[static_cast<std::size_t>(std::max(lo, s - stride))];
+  double right = t[static_cast<std::size_t>(std::min(hi, s + stride))];
+  const double ratio = 0.5 * (std::sqrt(5.0) - 1.0);
+  for (int it = 0; it < 40 && right - left > 1e-6 * (t[static_cast<std::size_t>(s + 1)] - t[static_cast<std::size_t>(s)]); ++it) {
+    const double m1 = right - ratio * (right - left), m2 = left + ratio * (right - left);
+    if (KinkRss(t, rows, from, to, m1) <= KinkRss(t, rows, from, to, m2)) {
+      right = m2;
+    } else {
+      left = m1;
+    }
+  }
+  const double tau = 0.5 * (left + right);
+  return std::lower_bound(t.begin() + lo, t.begin() + hi + 1, tau) - t.begin();
 }
 
 // [begin, end) of each chain of K samples cut at chain_start.
@@ -233,11 +340,13 @@ KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std:
   d.gamma.assign(static_cast<std::size_t>(size), 0);
   const Mat rows = y.transpose();  // each measured component contiguous
   for (const auto& [a, b] : Chains(size, chain_start)) {
+    long w = options.chord;
+    for (Eigen::Index r = 0; r < y.rows(); ++r) w = std::max(w, ChordLength(t, rows.col(r).data(), a, b, d.sigma[r], options));
+    d.chord = std::max(d.chord, w);
     for (Eigen::Index r = 0; r < y.rows(); ++r) {
-      ChainKinkStatistic(t, rows.col(r).data(), a, b, d.sigma[r], options, d.statistic);
+      ChainKinkStatistic(t, rows.col(r).data(), a, b, d.sigma[r], w, options, d.statistic);
     }
-    // The largest within ±chord samples (the chords of the neighbouring intervals share the kink).
-    const long w = options.chord;
+    // The largest within ±w samples (the chords of the neighbouring intervals share the kink).
     for (long k = a + 1; k < b; ++k) {
       const auto u = static_cast<std::size_t>(k);
       const double z = d.statistic[u];
@@ -247,7 +356,7 @@ KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std:
         const double other = d.statistic[static_cast<std::size_t>(l)];
         largest = l < k ? z >= other : (l == k || z > other);
       }
-      if (largest) d.gamma[u] = 1;
+      if (largest) d.gamma[static_cast<std::size_t>(LocateKink(t, rows, a, b, k, w))] = 1;
     }
   }
   return d;
@@ -294,6 +403,7 @@ Reconstruction ReconstructStates(const ReconstructionPlan& plan, const std::vect
   r.gamma = std::move(kinks.gamma);
   r.statistic = std::move(kinks.statistic);
   r.sigma = kinks.sigma;
+  r.chord = kinks.chord;
   const int n = static_cast<int>(plan.source.size());
   r.x = Mat::Zero(n, size);
   for (Eigen::Index a = 0; a < m; ++a) r.x.row(plan.measured[static_cast<std::size_t>(a)]) = y.row(a);

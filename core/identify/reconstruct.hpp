@@ -14,7 +14,10 @@
 // chords' durations) is the statistic; a jump is labelled at sample k+1 where the statistic exceeds
 // the threshold and is the largest within ±w samples (the neighbouring intervals' chords share the
 // kink). Longer chords see smaller kinks (the sd falls as 1/w) but need w samples of flow on either
-// side. This works on the samples themselves: a first Savitzky–Golay pass over windows that span a
+// side: w is the shortest chord (`chord`, 4) or, when longer, the one whose statistic's sd 2σ/(wδt) is
+// `kink_precision` (20 %) of the measured row's slope scale (its range over the chain's duration),
+// at most a tenth of the chain (fast sampling: 4 samples at 8 kHz would leave a 10 m/s bounce at
+// 1 mm noise below 3 sd). The running median spans at least 4w + 1 statistics. This works on the samples themselves: a first Savitzky–Golay pass over windows that span a
 // jump smears the velocity's step over a whole window, so a detector on it sees a run of jumps
 // instead of one.
 //
@@ -37,7 +40,8 @@ namespace hysid {
 
 struct ReconstructOptions {
   double kink_threshold = 8.0;    // the statistic (in noise sd) above which a kink is a jump
-  int chord = 4;                  // samples of the chords whose slopes the kink statistic compares
+  int chord = 4;                  // the shortest chord (samples) whose slopes the kink statistic compares
+  double kink_precision = 0.2;    // > 0: the chord makes the statistic's sd at most this × the slope scale
   int median_window = 21;         // odd: the running median of Δs (the flow's curvature)
   int min_window = 5;             // odd, ≥ 3: the smallest Savitzky–Golay window
   double slope_precision = 0.01;  // > 0: the slope sd the window aims at, relative to the slope scale
@@ -73,6 +77,7 @@ struct KinkDetection {
   std::vector<std::uint8_t> gamma;  // per sample: 1 = a jump in (t_{k−1}, t_k]
   std::vector<double> statistic;    // per sample (of the interval ending there)
   Vec sigma;                        // the noise σ per measured component used
+  long chord = 0;                   // the longest chord used (samples)
 };
 // Kinks in y (m × K measured rows) at times t, chains cut at chain_start (empty: one chain); σ per
 // row given (m entries) or, when empty, estimated (MAD of second differences).
@@ -84,6 +89,7 @@ struct Reconstruction {
   std::vector<std::uint8_t> gamma;  // the detected jumps (as KinkDetection)
   std::vector<double> statistic;
   Vec sigma;                        // per measured component (given or estimated)
+  long chord = 0;                   // the kink statistic's chord (samples; the longest over chains)
   long segments = 0;                // flow segments over all chains
   int min_window = 0, max_window = 0;  // over the segments of three samples or more
 };
