@@ -106,12 +106,6 @@ void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleDat
 // data.y: n × K (the unmeasured rows reconstructed); sigma: per measured state, or empty.
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial = {});
-// TEMPORARY until ModelSpec::measured is on main: every state.
-inline std::vector<int> MeasuredIndices(const Model& model) {
-  std::vector<int> all;
-  for (int i = 0; i < model.state_size(); ++i) all.push_back(i);
-  return all;
-}
 
 // The sample grid of --t-end and --dt (or the model's defaults); BadFlag when either is not a finite
 // positive number or the grid exceeds the samples limit (core/io/limits.hpp).

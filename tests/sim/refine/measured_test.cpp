@@ -20,9 +20,7 @@ Model DragBall() {
   std::ifstream in(std::string(HYSID_EXAMPLES_DIR) + "/drag-ball/drag-ball.toml");
   std::stringstream text;
   text << in.rdbuf();
-  std::string t = text.str();  // TEMPORARY until the model files read `measured`
-  t.erase(t.find("measured = [\"h\"]"), 16);
-  return ParseModelFile(t, "drag-ball.toml").model;
+  return ParseModelFile(text.str(), "drag-ball.toml").model;
 }
 
 struct HeightOnly {
