@@ -122,8 +122,8 @@ ReconstructionPlan PlanReconstruction(const Model& model, const std::vector<int>
     plan.reconstructed.push_back(i);
     if (plan.source[static_cast<std::size_t>(i)] < 0 && plan.error.empty()) {
       plan.error = fmt::format(
-          "state '{}' is not measured and cannot be reconstructed: no measured state's flow is a known "
-          "multiple of it (x' = c·{} + d)",
+          "state '{}' is not measured and cannot be reconstructed: no measured state y has y' = c·{} + d "
+          "with c, d known",
           model.spec().state_names[static_cast<std::size_t>(i)], model.spec().state_names[static_cast<std::size_t>(i)]);
     }
   }

@@ -312,14 +312,17 @@ void CheckOutputs(const IdentifyArgs& args) {
 // Only some states measured: the others reconstructed from the measured ones on the flow segments
 // between the kinks detected in them (core/identify/reconstruct.hpp), data.y replaced by the n × K
 // reconstruction and the detected jumps given to the identifier as labels. Returns what was done.
-PartialOutputs Reconstruct(const Model& model, const std::vector<int>& measured, const Vec& sigma, SampleData& data,
-                           IdentifyOptions& options, std::vector<double>* statistic) {
+PartialOutputs Reconstruct(const Model& model, const std::string& model_file, const std::vector<int>& measured,
+                           const Vec& sigma, SampleData& data, IdentifyOptions& options,
+                           std::vector<double>* statistic) {
   PartialOutputs partial;
   partial.measured = measured;
   if (static_cast<int>(measured.size()) == model.state_size()) return partial;
   const ReconstructionPlan plan = PlanReconstruction(model, measured);
   if (!plan.ok()) {
-    throw std::invalid_argument(fmt::format("model '{}': measured: {}", model.name(), plan.error));
+    throw std::invalid_argument(fmt::format(
+        "{}: measured: {}", model_file.empty() ? fmt::format("model '{}'", model.name()) : "--model-file " + model_file,
+        plan.error));
   }
   const ReconstructOptions ro;
   const Reconstruction r = ReconstructStates(plan, data.t, data.y, data.chain_start, sigma, ro);
@@ -360,7 +363,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
     options.chain_start = data.chain_start;
   }
   std::vector<double> kinks;
-  const PartialOutputs partial = Reconstruct(model, measured, sigma, data, options, &kinks);
+  const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
   IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
   if (!partial.reconstructed.empty()) {  // the detector's statistic is the kinks'
     result.statistic = kinks;
