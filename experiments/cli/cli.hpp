@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
@@ -104,8 +105,10 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
 // --x0-known and --x0 against the model and the data (one chain), before anything runs.
 void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleData& data);
 // data.y: n × K (the unmeasured rows reconstructed); sigma: per measured state, or empty.
+// `report`: the recursive run's part of --json (RecursiveJson, identify_output.hpp).
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial = {});
+                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
+                    const PartialOutputs& partial = {});
 
 // The sample grid of --t-end and --dt (or the model's defaults); BadFlag when either is not a finite
 // positive number or the grid exceeds the samples limit (core/io/limits.hpp).
@@ -131,7 +134,10 @@ inline const CLI::Validator NonNegativeInteger(
     "NONNEGATIVE", "non-negative integer");
 
 // Comma-separated lists: each value of the flag (it may be repeated) split at commas; an empty item
-// is refused, as is an item of AddNumberList that is not a number. Each parse replaces `values`.
+// is refused, as is an item of AddNumberList that is not a number; AddTextList's items lose their
+// leading and trailing spaces and tabs. Each parse replaces `values`.
+// `text` without its leading and trailing spaces and tabs.
+std::string Trimmed(const std::string& text);
 CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
                          const std::string& help);
 CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,

@@ -25,6 +25,7 @@
 #include "core/sets/set_metrics.hpp"
 #include "experiments/cli/checks.hpp"
 #include "experiments/cli/cli.hpp"
+#include "experiments/cli/identify_output.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -225,64 +226,23 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyRes
   }
 }
 
-// Per sample: t, the detector's statistic and threshold (paper: D_δt ξ and τ̂; residual: max |z| and
-// q), γ, the estimates, and the truth when the data has it.
-void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
-                const SampleData& data, const IdentifyResult& result) {
-  std::vector<std::string> header{"t", std::string(detector.traits.statistic),
-                                  std::string(detector.traits.threshold), "gamma"};
-  for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
-  for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
-  if (data.j) header.insert(header.end(), {"j", "true_jump"});
-  CsvWriter csv(path, header);
-  std::vector<double> row(header.size());
-  for (std::size_t k = 0; k < data.t.size(); ++k) {
-    std::size_t c = 0;
-    for (double v : {data.t[k], result.statistic[k], result.threshold[k], double(result.gamma[k])})
-      row[c++] = v;
-    for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
-      if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
-    }
-    for (std::size_t i = 0; i < spec.beta.size(); ++i) {
-      if (!spec.beta[i].known) row[c++] = result.beta_trace(Eigen::Index(i), Eigen::Index(k));
-    }
-    if (data.j) {
-      row[c++] = (*data.j)[k];
-      row[c++] = k > 0 && (*data.j)[k] != (*data.j)[k - 1] ? 1.0 : 0.0;
-    }
-    csv.Row(row);
-  }
-  csv.Commit();
-  std::printf("wrote %s\n", path.c_str());
-}
-
-void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
-  std::vector<std::string> header{"set", "vertex"};
-  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
-  CsvWriter csv(path, header);
-  std::vector<double> row(header.size());
-  int set = 0;
-  for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
-    for (Eigen::Index v = 0; v < hull->cols(); ++v) {
-      row[0] = set;
-      row[1] = static_cast<double>(v);
-      for (int i = 0; i < n; ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
-      csv.Row(row);
-    }
-    ++set;
-  }
-  csv.Commit();
-  std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
+// A --columns entry without the spaces around its '=' ("t = time" is "t=time"; the items themselves
+// are trimmed by AddTextList).
+std::string ColumnEntry(const std::string& entry) {
+  const std::size_t eq = entry.find('=');
+  if (eq == std::string::npos) return entry;
+  return Trimmed(entry.substr(0, eq)) + "=" + Trimmed(entry.substr(eq + 1));
 }
 
 // The data files (the columns of the measured states); a message about the column choice names the flag.
 SampleData ReadData(const IdentifyArgs& args, const Model& model, const std::vector<int>& measured) {
+  std::vector<std::string> columns;
+  for (const std::string& entry : args.columns) columns.push_back(ColumnEntry(entry));
   std::vector<std::string> names;
   for (const int i : measured) names.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
   try {
     return ReadSampleData(args.data, static_cast<int>(measured.size()),
-                          {.columns = args.columns, .max_gap = args.max_gap, .state_names = names,
-                           .state_indices = measured});
+                          {.columns = columns, .max_gap = args.max_gap, .state_names = names});
   } catch (const std::invalid_argument& e) {
     std::string message = e.what();
     const std::string field = "SampleDataOptions::columns";
@@ -378,8 +338,9 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   if (!args.trace.empty()) {
     WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }
-  if (!args.hulls.empty()) WriteHulls(args.hulls, model.state_size(), result);
-  const int code = RefineAndReport(model, data, result, sigma, args.refine, partial);
+  if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
+  const nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
+  const int code = RefineAndReport(model, data, result, sigma, args.refine, report, partial);
   if (code == 0 && args.refine.refine == "none" &&
       (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
     throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
@@ -395,14 +356,15 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
   AddModelFlags(*cmd, args->model, "NAME=VALUE: the model's true value (for error metrics)");
   cmd->add_option("--data", args->data,
-                  "CSV (RFC 4180): time, then the measured state (y1..yn if present); a column j is taken "
-                  "as ground truth, a column run splits the file into runs; repeat --data for several "
-                  "runs of one system (alpha, beta shared). Empty, nan or NA state cells: the row is "
-                  "left out and the chain restarts")
+                  "CSV (RFC 4180): time, then the measured state (the columns named after the model's "
+                  "states, else y1..yn, else the first other columns); a column j is taken as ground "
+                  "truth, a column run splits the file into runs; repeat --data for several runs of one "
+                  "system (alpha, beta shared). Empty, nan or NA state cells: the row is left out (the "
+                  "chain goes on across it)")
       ->required();
   AddTextList(*cmd, "--columns", args->columns,
               "columns by header name: t=NAME (time), the state columns in model order, "
-              "optionally run=NAME (run column), e.g. t=time,x1,x2");
+              "optionally run=NAME (run column), e.g. t=time,pos,vel");
   cmd->add_option("--max-gap", args->max_gap,
                   "seconds: a step longer than this restarts the chain (no regression or detector "
                   "statistic across it); default 5 x the median step")
@@ -447,7 +409,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                       "data: the integrator's atol)")
           ->capture_default_str();
   cmd->add_option("--trace", args->trace,
-                  "per-sample CSV: t, the detector's statistic and threshold, gamma, estimates");
+                  "CSV, one row per data row: run, chain, line, t, missing, the detector's statistic and "
+                  "threshold, gamma, estimates (docs/outputs.md)");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
   cmd->callback([args, &env, rtol_option, atol_option, option_flags] {
     args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;

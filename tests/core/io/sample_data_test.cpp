@@ -135,6 +135,43 @@ TEST_CASE("two columns of one name, and steps below the smallest, are refused by
       "s.csv:3: column 1 ('t'): the step 1e-160 after line 2 is below 1e-150 s (rescale the time)");
 }
 
+TEST_CASE("columns named after the model's states are the measured state; true_* never is", "[sample_data]") {
+  // `hysid simulate`'s file: t, j, the noise-free state true_x, true_v, the measured x, v.
+  const std::string sim = "t,j,true_x,true_v,x,v\n0,0,1,2,1.5,2.5\n0.1,0,1,2,1.5,2.5\n0.2,0,1,2,1.5,2.5\n";
+  const SampleDataOptions named{.state_names = {"x", "v"}};
+  const SampleData d = SampleDataFromTables({Table(sim)}, 2, named);
+  CHECK(d.state_columns == std::vector<std::string>{"x", "v"});
+  CHECK(d.y(0, 0) == 1.5);
+  // Other state names: not x, v by name, nor true_x, true_v by position, but the first two others.
+  const SampleData other = SampleDataFromTables({Table(sim)}, 2, {.state_names = {"p", "q"}});
+  CHECK(other.state_columns == std::vector<std::string>{"x", "v"});
+  // Older output (x1, x2 true, y1, y2 measured) and models whose states are in another order.
+  const std::string old = "t,j,x1,x2,y1,y2\n0,0,1,2,1.5,2.5\n0.1,0,1,2,1.5,2.5\n0.2,0,1,2,1.5,2.5\n";
+  CHECK(SampleDataFromTables({Table(old)}, 2, named).state_columns == std::vector<std::string>{"y1", "y2"});
+  CHECK(SampleDataFromTables({Table(sim)}, 2, {.state_names = {"v", "x"}}).y(0, 0) == 2.5);
+  // Both sets, different columns: which one is measured would be a guess.
+  CHECK_THROWS_WITH(
+      SampleDataFromTables({Table("t,x,v,y1,y2\n0,1,2,1,2\n0.1,1,2,1,2\n0.2,1,2,1,2\n", "b.csv")}, 2, named),
+      "b.csv:1: SampleDataOptions::columns: both the columns named after the model's states (x,v) and y1..y2 "
+      "are present; name the measured state columns");
+  // A state named like the time column is not matched by name.
+  CHECK(SampleDataFromTables({Table("t,a,b\n0,1,2\n0.1,1,2\n0.2,1,2\n")}, 2, {.state_names = {"t", "a"}})
+            .state_columns == std::vector<std::string>{"a", "b"});
+}
+
+TEST_CASE("the rows left out for a missing value are listed with their run, line and time", "[sample_data]") {
+  const CsvTable a = Table(
+      "run,t,x,v\n1,0,1,2\n1,0.1,,2\n1,0.2,1,2\n1,0.3,1,2\n2,0,NA,2\n2,0.1,1,2\n2,0.2,1,2\n"
+      "2,0.3,1,2\n",
+      "r.csv");
+  const SampleData d = SampleDataFromTables({a}, 2);
+  REQUIRE(d.missing.size() == 2);
+  CHECK(d.missing_rows == 2);
+  CHECK((d.missing[0].run == 0 && d.missing[0].line == 3 && d.missing[0].t == 0.1));
+  CHECK((d.missing[1].run == 1 && d.missing[1].line == 6 && d.missing[1].t == 0.0));
+  CHECK(d.t.size() + d.missing.size() == 8);  // every data row
+}
+
 TEST_CASE("arrays (the Python module) pass the same count and limit checks as files", "[sample_data]") {
   CHECK_THROWS_WITH(SampleDataFromArrays({{}}, {Mat(2, 0)}, 1e-3),
                     "run 1: 0 samples; the identifier needs at least 3");

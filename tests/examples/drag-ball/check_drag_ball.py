@@ -7,7 +7,7 @@ For each seed: `hysid simulate` (σ = 1 mm) writes every state; a copy with the 
 (the camera's data) is identified with the defaults (only the model file and the data). The fit must
 be ok, g, k and e within 3 standard errors of the truth, every standard error within 20 % of the
 CRLB sd of height-only samples (identify's own bound for data with a simulate sidecar), the velocity
-reported as reconstructed, and the same estimate from simulate's file (all columns: h picked as y1).
+reported as reconstructed, and the same estimate from simulate's file (all columns: h picked by name).
 """
 import csv
 import json
@@ -24,13 +24,13 @@ def run(argv, ok_codes=(0,)):
 
 
 def height_only(src, dst):
-    """t, the true jump counter j (for the bound only) and h (y1 of simulate's output, by its state name)."""
+    """t, the true jump counter j (for the bound only) and h (simulate's measured h column)."""
     with open(src, newline="") as f, open(dst, "w", newline="") as g:
         rows = csv.DictReader(f)
         w = csv.writer(g)
         w.writerow(["t", "j", "h"])
         for r in rows:
-            w.writerow([r["t"], r["j"], r["y1"]])
+            w.writerow([r["t"], r["j"], r["h"]])
 
 
 def main():
@@ -61,7 +61,7 @@ def main():
                 failures.append(f"seed {seed}: {name} = {est} is {abs(est - truth[name]) / se:.2f} se from {truth[name]}")
             if abs(se / sd - 1) > 0.2:
                 failures.append(f"seed {seed}: {name} se {se} against CRLB sd {sd}")
-        # simulate's own file (t, j, x1, x2, y1, y2): h is y1, the same fit.
+        # simulate's own file (t, j, true_h, true_v, h, v): h by name, the same fit.
         os.replace(camera.replace(".csv", ".json"), full.replace(".csv", ".json"))
         out_full = os.path.join(work, f"ball{seed}.fit.json")
         run([hysid, "identify", "--model-file", model, "--data", full, "--json", out_full])
