@@ -288,7 +288,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES + TRUTH_CASES
+    ] + safety_cases() + LIMITS_CASES + TRUTH_CASES + MEASURED_CASES
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -303,6 +303,7 @@ LIMITS_FILES = {
     "rowsdup.toml": MSD.replace('rows = ["v"]', 'rows = ["v", "v"]', 1),
     "x0name.toml": MSD.replace('name = "mu"', 'name = "x0[x]"', 1),
     "longdefault.toml": re.sub(r"\ndt = [^\n]*", "\ndt = 1e-9", MSD, count=1),
+    "vonly.toml": MSD.replace('states = ["x", "v"]', 'states = ["x", "v"]\nmeasured = ["v"]', 1),
 }
 LIMITS_CASES = [
     ("--seed 0x10 (only decimal; 010 is ten)", ["simulate", "--seed", "0x10"] + SIM),
@@ -349,6 +350,18 @@ def truth_setup(d):
         dst.write(src.read().replace('"a": 5.0', '"a": 6.0'))
 
 
+# Partial outputs and known initial states (examples/drag-ball).
+MEASURED_CASES = [
+    ("identify: --x0-known names no state", ["identify", "--data", "sim.csv", "--x0-known", "q"]),
+    ("identify: --x0 without --x0-known", ["identify", "--data", "sim.csv", "--x0", "20,0"]),
+    ("identify: --x0-known on two runs", ["identify", "--data", "sim.csv", "--data", "sim.csv", "--x0-known"]),
+    ("identify: --x0-known with --refine none", ["identify", "--data", "sim.csv", "--x0-known", "--refine", "none"]),
+    ("crlb: --x0-known names a state twice", ["crlb", "--x0-known", "x,x"]),
+    ("identify: an unmeasured state that cannot be reconstructed",
+     ["identify", "--model-file", "vonly.toml", "--data", "sim.csv"]),
+    ("crlb: --sigma of the wrong length", ["crlb", "--sigma", "1,2,3"]),
+]
+
 # Cases whose message names something the command line does not show as its last flag or file.
 SUBJECTS = {
     "no subcommand": "subcommand",
@@ -370,6 +383,8 @@ SUBJECTS = {
     "identify: the sidecars of two --data files disagree": "simb.json: parameters.a",
     "identify: a second --data file with a header only": "headeronly.csv",
     "model file: \"v++\" in flow.phi (muParser's internal error)": "plusplus.toml:21: flow.phi[0][0]",
+    "identify: --x0-known on two runs": "--x0-known",
+    "identify: --x0-known with --refine none": "--x0-known",
 }
 
 

@@ -145,6 +145,51 @@ void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags) {
   cmd.add_option("--dt", flags.dt, "sample time delta-t in seconds (default: the model's)");
 }
 
+CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag) {
+  CLI::Option* option = cmd.add_option("--x0-known", flag.text,
+                                       "x0 is known (not estimated): alone or 'all' every component, or the "
+                                       "known components by state name, comma-separated (e.g. --x0-known v)")
+                             ->expected(0, 1);
+  flag.option = option;
+  return option;
+}
+
+std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model) {
+  const std::vector<std::string>& names = model.spec().state_names;
+  std::vector<int> known;
+  if (!flag.given()) return known;
+  if (flag.text.empty() || flag.text == "all") {
+    for (int i = 0; i < model.state_size(); ++i) known.push_back(i);
+    return known;
+  }
+  std::size_t begin = 0;
+  while (begin <= flag.text.size()) {
+    const std::size_t end = std::min(flag.text.find(',', begin), flag.text.size());
+    const std::string name = flag.text.substr(begin, end - begin);
+    const auto at = std::find(names.begin(), names.end(), name);
+    if (at == names.end()) {
+      BadFlag(fmt::format("--x0-known = {}: '{}' is not a state of '{}' (states: {}; or 'all')",
+                          Abbreviated(flag.text, 60), Abbreviated(name, 40), model.name(), fmt::join(names, ", ")));
+    }
+    const int i = static_cast<int>(at - names.begin());
+    if (std::find(known.begin(), known.end(), i) != known.end()) {
+      BadFlag(fmt::format("--x0-known = {}: '{}' named twice", Abbreviated(flag.text, 60), name));
+    }
+    known.push_back(i);
+    begin = end + 1;
+  }
+  std::sort(known.begin(), known.end());
+  return known;
+}
+
+std::string X0KnownText(const std::vector<int>& known, const Model& model) {
+  if (known.empty()) return "x0 unknown";
+  if (static_cast<int>(known.size()) == model.state_size()) return "x0 known";
+  std::vector<std::string> names;
+  for (const int i : known) names.push_back(fmt::format("x0[{}]", model.spec().state_names[static_cast<std::size_t>(i)]));
+  return fmt::format("{} known", fmt::join(names, ", "));
+}
+
 SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model) {
   const ModelSpec& spec = model.spec();
   return CheckedGrid(flags.t_end.value_or(spec.default_t_end), flags.dt.value_or(spec.default_dt),

@@ -18,6 +18,7 @@
 
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
+#include "core/identify/reconstruct.hpp"
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
@@ -74,7 +75,9 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   CheckDataAccuracy(args.data_rtol, args.data_atol, Spelling::kFlag);
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
-  if (!args.sigma.empty()) settings.sigma = SigmaFlag(args.sigma, model.state_size());
+  if (!args.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size()) {
+    settings.sigma = SigmaFlag(args.sigma, model.state_size());
+  }
   // Settings errors (noise shape sizes, ...) before the data is read.
   try {
     Identifier check(model, 1.0, settings);
@@ -229,6 +232,18 @@ void PrintSettings(const IdentifyArgs& args, const ModelSpec& spec, const Sample
   }
 }
 
+// Which states are measured and which reconstructed (nothing when all are measured).
+void PrintPartial(const Model& model, const PartialOutputs& partial) {
+  if (partial.reconstructed.empty()) return;
+  auto named = [&](const std::vector<int>& indices) {
+    std::vector<std::string> out;
+    for (const int i : indices) out.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
+    return fmt::format("{}", fmt::join(out, ", "));
+  };
+  std::printf("measured states: %s; reconstructed: %s\n", named(partial.measured).c_str(),
+              partial.reconstruction.c_str());
+}
+
 void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const IdentifyResult& result) {
   for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
     if (!spec.alpha[i].known) {
@@ -300,14 +315,15 @@ std::string ColumnEntry(const std::string& entry) {
   return Trimmed(entry.substr(0, eq)) + "=" + Trimmed(entry.substr(eq + 1));
 }
 
-// The data files; a message about the column choice names the flag.
-SampleData ReadData(const IdentifyArgs& args, const Model& model) {
+// The data files (the columns of the measured states); a message about the column choice names the flag.
+SampleData ReadData(const IdentifyArgs& args, const Model& model, const std::vector<int>& measured) {
   std::vector<std::string> columns;
   for (const std::string& entry : args.columns) columns.push_back(ColumnEntry(entry));
+  std::vector<std::string> names;
+  for (const int i : measured) names.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
   try {
-    return ReadSampleData(
-        args.data, model.state_size(),
-        {.columns = columns, .max_gap = args.max_gap, .state_names = model.spec().state_names});
+    return ReadSampleData(args.data, static_cast<int>(measured.size()),
+                          {.columns = columns, .max_gap = args.max_gap, .state_names = names});
   } catch (const std::invalid_argument& e) {
     std::string message = e.what();
     const std::string field = "SampleDataOptions::columns";
@@ -334,11 +350,52 @@ void CheckOutputs(const IdentifyArgs& args) {
   CheckOutputPaths(outputs, inputs);
 }
 
+// Only some states measured: the others reconstructed from the measured ones on the flow segments
+// between the kinks detected in them (core/identify/reconstruct.hpp), data.y replaced by the n × K
+// reconstruction and the detected jumps given to the identifier as labels. Returns what was done.
+PartialOutputs Reconstruct(const Model& model, const std::string& model_file, const std::vector<int>& measured,
+                           const Vec& sigma, SampleData& data, IdentifyOptions& options,
+                           std::vector<double>* statistic) {
+  PartialOutputs partial;
+  partial.measured = measured;
+  if (static_cast<int>(measured.size()) == model.state_size()) return partial;
+  const ReconstructionPlan plan = PlanReconstruction(model, measured);
+  if (!plan.ok()) {
+    throw std::invalid_argument(fmt::format(
+        "{}: measured: {}", model_file.empty() ? fmt::format("model '{}'", model.name()) : "--model-file " + model_file,
+        plan.error));
+  }
+  const ReconstructOptions ro;
+  const Reconstruction r = ReconstructStates(plan, data.t, data.y, data.chain_start, sigma, ro);
+  partial.reconstructed = plan.reconstructed;
+  const auto& names = model.spec().state_names;
+  std::vector<std::string> from;
+  for (const int i : plan.reconstructed) {
+    from.push_back(fmt::format("{} from d{}/dt", names[static_cast<std::size_t>(i)],
+                               names[static_cast<std::size_t>(plan.source[static_cast<std::size_t>(i)])]));
+  }
+  partial.reconstruction = fmt::format(
+      "{} (a start only: Savitzky–Golay slopes of degree 2, windows of {}–{} samples, on {} flow segments "
+      "between {} jumps detected as kinks in the measured states above {:g} noise sd, sigma {})",
+      fmt::join(from, ", "), r.min_window, r.max_window, r.segments,
+      std::count(r.gamma.begin(), r.gamma.end(), 1), ro.kink_threshold, fmt::format("{:.4g}", fmt::join(r.sigma, ", ")));
+  data.y = r.x;
+  options.labels = r.gamma;
+  *statistic = r.statistic;
+  return partial;
+}
+
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   Model model = MakeModel(env, args.model);
   const std::string truth_source = TakeSidecarTruth(args, &model);
   IdentifierSettings settings = BuildSettings(args, model);
-  const SampleData data = ReadData(args, model);
+  const std::vector<int> measured = MeasuredIndices(model);
+  const bool all = static_cast<int>(measured.size()) == model.state_size();
+  // σ per measured state; the identifier's own σ only when every state is measured.
+  const Vec sigma = args.sigma.empty() ? Vec() : SigmaFlag(args.sigma, static_cast<int>(measured.size()));
+  if (!all) settings.sigma.resize(0);
+  SampleData data = ReadData(args, model, measured);
+  CheckRefineArgs(args.refine, model, data);
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();
@@ -347,8 +404,15 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
     options.times = data.t;
     options.chain_start = data.chain_start;
   }
-  const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+  std::vector<double> kinks;
+  const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
+  IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+  if (!partial.reconstructed.empty()) {  // the detector's statistic is the kinks'
+    result.statistic = kinks;
+    result.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
+  }
   PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
+  PrintPartial(model, partial);
   PrintEstimates(model.spec(), args, result);
   if (!result.sets_skipped.empty())
     std::printf("sets C^ and D^: not computed: %s\n", result.sets_skipped.c_str());
@@ -358,7 +422,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   }
   if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
   const nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
-  const int code = RefineAndReport(model, data, result, settings.sigma, args.refine, report);
+  const int code = RefineAndReport(model, data, result, sigma, args.refine, report, partial);
   if (code == 0 && args.refine.refine == "none" &&
       (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
     throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
@@ -414,8 +478,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_flag("--second-pass", args->second_pass,
                 "re-classify every sample with the final estimates, re-estimate, report the changes");
   AddSigmaOption(*cmd, args->sigma,
-                 "known measurement noise σ (one, or one per state); gtls/frisch estimate it from the data "
-                 "when not given");
+                 "known measurement noise σ (one, or one per measured state); gtls/frisch estimate it from "
+                 "the data when not given");
   CLI::Option* rtol_option =
       cmd->add_option("--data-rtol", args->data_rtol,
                       "residual detector: relative accuracy of the data apart from the noise (simulated "

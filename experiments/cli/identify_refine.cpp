@@ -42,15 +42,24 @@ Truth ReadTruth(const std::string& data_path, int n) {
 
 // The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid) over at least two
 // samples (a refinement that fitted fewer has no span to bound), else not ok.
-Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt) {
-  if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma.array() > 0.0).all() || samples < 2) {
+Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt, const std::vector<int>& measured,
+                const std::vector<int>& known) {
+  if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma(measured).array() > 0.0).all() ||
+      samples < 2) {
     Crlb none;
     none.status = CrlbStatus::kSimulationFailed;
     none.message = samples < 2 ? "fewer than 2 samples fitted" : "no truth";
     return none;
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
-  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model));
+  const bool all = static_cast<int>(measured.size()) == model.state_size();
+  const Unknowns unknowns = Unknowns::Of(model);
+  const Crlb c = ComputeCrlb(model, truth.x0, grid, all ? truth.sigma : Vec(truth.sigma(measured)), unknowns, {},
+                             all ? std::vector<int>{} : measured);
+  if (known.empty() || c.status == CrlbStatus::kSimulationFailed) return c;
+  std::vector<int> held;  // the known components of ξ0, as the refinement holds them
+  for (const int i : known) held.push_back(unknowns.size(model.state_size()) - model.state_size() + i);
+  return CrlbFromFisher(c.fisher, unknowns, c.names, held);
 }
 
 void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
@@ -61,6 +70,10 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
   for (std::size_t i = 0; i < r.names.size(); ++i) {
     const auto ii = static_cast<Eigen::Index>(i);
     std::string line = fmt::format("  {:<10} = {:<14.10g}", r.names[i], theta[ii]);
+    if (se && r.ok() && r.standard_errors[ii] == 0.0) {  // held (--x0-known)
+      std::printf("%s (known)\n", line.c_str());
+      continue;
+    }
     line += se ? fmt::format(" ± {:<10.4g}", r.standard_errors[ii]) : fmt::format(" {:<12}", "(no se)");
     if (truth) {
       line += fmt::format("  truth {:.10g}: error {:.3g} = {:.2f} CRLB sd", true_theta[ii],
@@ -189,7 +202,24 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
 
 }  // namespace
 
+void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleData& data) {
+  const std::vector<int> known = X0KnownFlag(args.x0_known, model);
+  if (known.empty() && !args.x0.x0.empty()) BadFlag("--x0: the known initial state's values; give --x0-known too");
+  if (known.empty()) return;
+  if (args.refine != "ml") BadFlag("--x0-known: acts on the refinement; --refine none has none");
+  if (data.chains() != 1) {
+    BadFlag(fmt::format("--x0-known: the data have {} chains (runs, gaps or missing rows); a known initial state "
+                        "is one chain's",
+                        data.chains()));
+  }
+  InitialStateFlag(args.x0, model);  // its size and C ∪ D
+}
+
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
+  AddX0KnownOption(*cmd, args.x0_known);
+  AddNumberList(*cmd, "--x0", args.x0.x0,
+                "with --x0-known: the initial state, comma-separated, one value per state (the known "
+                "components are held at theirs; default: the model's)");
   cmd->add_option("--refine", args.refine,
                   "ml: maximum-likelihood output-error refinement of the recursive estimate (with "
                   "standard errors and a fit status; exit 1 when the fit is not ok), none: the "
@@ -203,10 +233,15 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
 }
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report) {
+                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
+                    const PartialOutputs& partial) {
+  const std::vector<int> known = X0KnownFlag(args.x0_known, model);
   RefineResult r;
   RefineOptions options;
   options.sigma = sigma;
+  if (!partial.reconstructed.empty()) options.measured = partial.measured;
+  options.x0_known = known;
+  if (!known.empty()) options.x0 = InitialStateFlag(args.x0, model);
   if (args.refine == "ml") {
     r = RunRefinement(model, data, recursive, options);
   } else {
@@ -216,7 +251,8 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   }
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
-  const Crlb bound = TruthBound(model, truth, used, data.dt);
+  const Crlb bound = TruthBound(model, truth, used, data.dt,
+                                partial.measured.empty() ? MeasuredIndices(model) : partial.measured, known);
   const HybridParameters truth_params = HybridParameters::Of(model, truth.x0);
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, truth_params, bound);
@@ -234,6 +270,16 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                          : nlohmann::json();
     if (bound.ok()) j["crlb_sd"] = std::vector<double>(bound.sd.data(), bound.sd.data() + bound.sd.size());
     j["crlb"] = CrlbJson(r, truth_params, bound);
+    // The states the data held, those reconstructed as the recursive pass's start, and x0 held.
+    auto named = [&](const std::vector<int>& indices) {
+      std::vector<std::string> out;
+      for (const int i : indices) out.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
+      return out;
+    };
+    j["measured"] = named(partial.measured.empty() ? MeasuredIndices(model) : partial.measured);
+    j["reconstructed"] = named(partial.reconstructed);
+    if (!partial.reconstruction.empty()) j["reconstruction"] = partial.reconstruction;
+    j["x0_known"] = named(known);
     WriteFileAtomically(args.json, j.dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
