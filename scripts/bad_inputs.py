@@ -97,6 +97,7 @@ def files():
     }
     f.update(safety_files())
     f.update(LIMITS_FILES)
+    f.update(TRUTH_FILES)
     return f
 
 
@@ -242,7 +243,12 @@ def cases():
         ("identify: --r 1", ["identify", "--detector", "paper", "--r", "1", "--data", "sim.csv"]),
         ("identify: --columns names a column that is not there",
          ["identify", "--columns", "t=time,x,v", "--data", "sim.csv"]),
-        ("identify: --columns names one state of two", ["identify", "--columns", "y1", "--data", "sim.csv"]),
+        ("identify: --columns names one state of two", ["identify", "--columns", "x", "--data", "sim.csv"]),
+        ("identify: --columns names the time column with spaces, and one state of two",
+         ["identify", "--columns", " t = t , x ", "--data", "sim.csv"]),
+        ("identify: --model names a model file", ["identify", "--model", "wall.toml", "--data", "sim.csv"]),
+        ("identify: the model's state names and y1, y2 both present as different columns",
+         ["identify", "--data", "bothnames.csv"]),
         ("identify: --max-gap 0", ["identify", "--max-gap", "0", "--data", "sim.csv"]),
         ("identify: --forgetting 2", ["identify", "--forgetting", "2", "--data", "sim.csv"]),
         ("identify: --false-alarm 0", ["identify", "--detector", "residual", "--false-alarm", "0", "--data", "sim.csv"]),
@@ -282,7 +288,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES
+    ] + safety_cases() + LIMITS_CASES + TRUTH_CASES + MEASURED_CASES
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -291,11 +297,13 @@ MSD = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "model
 LIMITS_FILES = {
     "jdown.csv": "t,j,y1,y2\n0,0,1,2\n0.1,1,1,2\n0.2,0,1,2\n0.3,1,1,2\n",
     "dupcol.csv": "t,y1,y1,y2\n0,1,1,2\n0.1,1,1,2\n0.2,1,1,2\n",
+    "bothnames.csv": "t,x,v,y1,y2\n0,1,2,1,2\n0.1,1,2,1,2\n0.2,1,2,1,2\n",
     "cronly.csv": "t,y1,y2\r0,1,2\r0.1,1,2\r",
     "tinystep.csv": "t,y1,y2\n0,1,2\n1e-320,1,2\n2e-320,1,2\n",
     "rowsdup.toml": MSD.replace('rows = ["v"]', 'rows = ["v", "v"]', 1),
     "x0name.toml": MSD.replace('name = "mu"', 'name = "x0[x]"', 1),
     "longdefault.toml": re.sub(r"\ndt = [^\n]*", "\ndt = 1e-9", MSD, count=1),
+    "vonly.toml": MSD.replace('states = ["x", "v"]', 'states = ["x", "v"]\nmeasured = ["v"]', 1),
 }
 LIMITS_CASES = [
     ("--seed 0x10 (only decimal; 010 is ten)", ["simulate", "--seed", "0x10"] + SIM),
@@ -321,6 +329,39 @@ LIMITS_CASES = [
     ("sweep: a FIFO as the sweep file", ["sweep", "fifo.csv", "--out", "run", "--dry-run"]),
 ]
 
+# The truth of simulated data, files of several without samples, malformed expressions.
+TRUTH_FILES = {
+    "plusplus.toml": WALL.replace('phi = [["v", 0, 0],', 'phi = [["v++", 0, 0],'),
+}
+TRUTH_CASES = [
+    ("identify: --param disagrees with the data's sidecar", ["identify", "--param", "a=6", "--data", "sim.csv"]),
+    ("identify: the sidecars of two --data files disagree", ["identify", "--data", "sim.csv", "--data", "simb.csv"]),
+    ("identify: a second --data file with a header only",
+     ["identify", "--data", "sim.csv", "--data", "headeronly.csv"]),
+    ("model file: \"v++\" in flow.phi (muParser's internal error)", ["simulate", "--model-file", "plusplus.toml"] + SIM),
+]
+
+
+def truth_setup(d):
+    """simb.csv: sim.csv again, its sidecar saying a = 6."""
+    with open(os.path.join(d, "sim.csv")) as src, open(os.path.join(d, "simb.csv"), "w") as dst:
+        dst.write(src.read())
+    with open(os.path.join(d, "sim.json")) as src, open(os.path.join(d, "simb.json"), "w") as dst:
+        dst.write(src.read().replace('"a": 5.0', '"a": 6.0'))
+
+
+# Partial outputs and known initial states (examples/drag-ball).
+MEASURED_CASES = [
+    ("identify: --x0-known names no state", ["identify", "--data", "sim.csv", "--x0-known", "q"]),
+    ("identify: --x0 without --x0-known", ["identify", "--data", "sim.csv", "--x0", "20,0"]),
+    ("identify: --x0-known on two runs", ["identify", "--data", "sim.csv", "--data", "sim.csv", "--x0-known"]),
+    ("identify: --x0-known with --refine none", ["identify", "--data", "sim.csv", "--x0-known", "--refine", "none"]),
+    ("crlb: --x0-known names a state twice", ["crlb", "--x0-known", "x,x"]),
+    ("identify: an unmeasured state that cannot be reconstructed",
+     ["identify", "--model-file", "vonly.toml", "--data", "sim.csv"]),
+    ("crlb: --sigma of the wrong length", ["crlb", "--sigma", "1,2,3"]),
+]
+
 # Cases whose message names something the command line does not show as its last flag or file.
 SUBJECTS = {
     "no subcommand": "subcommand",
@@ -339,6 +380,11 @@ SUBJECTS = {
     "merge: not a run directory": "o:",
     **SAFETY_SUBJECTS,
     "model file: beyond the size limit": "rowsdup.toml",
+    "identify: the sidecars of two --data files disagree": "simb.json: parameters.a",
+    "identify: a second --data file with a header only": "headeronly.csv",
+    "model file: \"v++\" in flow.phi (muParser's internal error)": "plusplus.toml:21: flow.phi[0][0]",
+    "identify: --x0-known on two runs": "--x0-known",
+    "identify: --x0-known with --refine none": "--x0-known",
 }
 
 
@@ -392,6 +438,7 @@ def setup(hysid, d):
             with open(os.path.join(d, "done", "sweep.json")) as src, open(os.path.join(d, name, "sweep.json"), "w") as dst:
                 dst.write(src.read())
     safety_setup(hysid, d)
+    truth_setup(d)
 
 
 def check_case(desc, args, code, err):

@@ -36,10 +36,12 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
   return SupJacobianNorm(model, alpha, mode, points, scratch);
 }
 
-double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
-                       const Eigen::Ref<const Mat>& points, JacobianScratch& scratch) {
+namespace {
+
+// sup over `points` of ‖J̄_rows(ξ, α)‖₂ for the given rows of the flow (homogeneous: with f(0)).
+double SupRowsJacobianNorm(const Model& model, const std::vector<int>& rows, ConstVecRef alpha,
+                           BoundMode mode, const Eigen::Ref<const Mat>& points, JacobianScratch& scratch) {
   const int n = model.state_size();
-  const auto& rows = model.spec().flow_rows;
   const int nr = static_cast<int>(rows.size());
   Mat& jac = scratch.jac;
   Mat& reduced = scratch.reduced;
@@ -62,6 +64,30 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
     sup = std::max(sup, std::sqrt(SpectralNormSquared(reduced)));
   }
   return sup;
+}
+
+}  // namespace
+
+double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
+                       const Eigen::Ref<const Mat>& points, JacobianScratch& scratch) {
+  return SupRowsJacobianNorm(model, model.spec().flow_rows, alpha, mode, points, scratch);
+}
+
+std::string CheckPaperBound(const Model& model, ConstVecRef alpha, const DetectorSettings& settings,
+                            const Eigen::Ref<const Mat>& points) {
+  if (points.cols() == 0 || !alpha.allFinite()) return "";
+  const BoundMode mode = ResolveBoundMode(settings.bound, model);
+  std::vector<int> all(static_cast<std::size_t>(model.state_size()));
+  for (int i = 0; i < model.state_size(); ++i) all[static_cast<std::size_t>(i)] = i;
+  JacobianScratch scratch;
+  const double identified = SupRowsJacobianNorm(model, model.spec().flow_rows, alpha, mode, points, scratch);
+  const double whole = SupRowsJacobianNorm(model, all, alpha, mode, points, scratch);
+  if (!(whole > settings.r * identified)) return "";
+  return fmt::format(
+      "the paper detector's bound cannot hold: the whole flow's Jacobian norm {:.3g} exceeds r L^ = {:.3g} "
+      "(L^ = {:.3g} from the identified rows alone), so flow between samples can exceed tau^ and count as "
+      "jumps (states of very different scales? rescale them, or use the residual detector)",
+      whole, settings.r * identified, identified);
 }
 
 VertexJacobianSup::VertexJacobianSup(const Model& model, BoundMode mode) : model_(model), mode_(mode) {}

@@ -162,6 +162,11 @@ struct IdentifyOptions {
   // column with a non-finite entry is a missing sample: skipped (γ = 0, statistic 0), and the chain
   // goes on, the next pair's step spanning it (from times, else the steps of δt counted).
   std::vector<std::uint8_t> chain_start{};
+  // The paper detector: check at the end that its bound can hold for the whole flow (states of very
+  // different scales break it: CheckPaperBound, core/detectors/paper.hpp); when it cannot, the jump
+  // estimate is ill-conditioned with the reason. Sweeps, which count every detection against the
+  // true jumps, turn it off: their tables keep the detector's outcome as it is.
+  bool check_paper_bound = true;
 };
 
 struct IdentifyResult {

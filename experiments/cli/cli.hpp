@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
@@ -31,17 +32,6 @@ void AddIdentifyCommand(CLI::App& app, Environment& env);
 void AddReproduceCommand(CLI::App& app, Environment& env);
 void AddSweepCommand(CLI::App& app, Environment& env);  // sweep and merge
 void AddCrlbCommand(CLI::App& app, Environment& env);
-
-// hysid identify's refinement flags (--refine, --json) and what runs after the recursive estimate:
-// the refinement, the estimates with standard errors (and CRLB ratios when the data carry the
-// truth), --json. Returns the exit code: 1 when the refinement ran and its status is not ok.
-struct RefineArgs {
-  std::string refine = "ml";
-  std::string json;
-};
-void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
-int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args);
 
 // A run that finished with a failed status (exit 1) or was interrupted (exit 130): thrown after
 // the outputs are written, so that `main` returns the code and destructors still run.
@@ -82,6 +72,44 @@ struct TrajectoryFlags {
 void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags);
 // --x0 or the model's default; BadFlag when it has the wrong size or lies outside C and D.
 Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model);
+// --x0-known [all | NAME,...]: which components of x0 are known (not estimated). `text` is the
+// option's value ("" or "all": every component); not given: none.
+// BadFlag naming --x0-known for a name that is not a state, or one named twice.
+struct X0Known {
+  std::string text;
+  const CLI::Option* option = nullptr;  // set by AddX0KnownOption
+  bool given() const { return option != nullptr && option->count() > 0; }
+};
+CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag);
+std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model);
+// "x0 known", "x0 unknown", or "x0[v] known": for the run's header line.
+std::string X0KnownText(const std::vector<int>& known, const Model& model);
+
+// hysid identify's refinement flags (--refine, --json) and what runs after the recursive estimate:
+// the refinement, the estimates with standard errors (and CRLB ratios when the data carry the
+// truth), --json. Returns the exit code: 1 when the refinement ran and its status is not ok.
+struct RefineArgs {
+  std::string refine = "ml";
+  std::string json;
+  X0Known x0_known;          // --x0-known: components of x0 held at --x0 (one chain only)
+  TrajectoryFlags x0;        // --x0 (the known values; default: the model's)
+};
+// The states the data holds: the measured ones (indices; every state when all are measured), the
+// others reconstructed as a start (core/identify/reconstruct.hpp), and how.
+struct PartialOutputs {
+  std::vector<int> measured;
+  std::vector<int> reconstructed;
+  std::string reconstruction;  // how (windows, segments, jump detection); "" when all are measured
+};
+void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
+// --x0-known and --x0 against the model and the data (one chain), before anything runs.
+void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleData& data);
+// data.y: n × K (the unmeasured rows reconstructed); sigma: per measured state, or empty.
+// `report`: the recursive run's part of --json (RecursiveJson, identify_output.hpp).
+int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
+                    const PartialOutputs& partial = {});
+
 // The sample grid of --t-end and --dt (or the model's defaults); BadFlag when either is not a finite
 // positive number or the grid exceeds the samples limit (core/io/limits.hpp).
 SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model);
@@ -106,7 +134,10 @@ inline const CLI::Validator NonNegativeInteger(
     "NONNEGATIVE", "non-negative integer");
 
 // Comma-separated lists: each value of the flag (it may be repeated) split at commas; an empty item
-// is refused, as is an item of AddNumberList that is not a number. Each parse replaces `values`.
+// is refused, as is an item of AddNumberList that is not a number; AddTextList's items lose their
+// leading and trailing spaces and tabs. Each parse replaces `values`.
+// `text` without its leading and trailing spaces and tabs.
+std::string Trimmed(const std::string& text);
 CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
                          const std::string& help);
 CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,

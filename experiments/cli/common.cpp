@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <stdexcept>
 #include <string_view>
@@ -19,6 +20,19 @@ namespace hysid::cli {
 
 void BadFlag(const std::string& what) { throw std::invalid_argument(what); }
 
+namespace {
+
+// "; for a model file use --model-file NAME" when --model names no registered model but a file or a
+// name ending in .toml; "" otherwise.
+std::string ModelFileHint(const Environment& env, const std::string& name) {
+  std::error_code ec;
+  if (env.models.Contains(name) || !(name.ends_with(".toml") || std::filesystem::is_regular_file(name, ec)))
+    return "";
+  return fmt::format("; for a model file use --model-file {}", Abbreviated(name, 80));
+}
+
+}  // namespace
+
 Model MakeModel(const Environment& env, const std::string& name, const std::vector<std::string>& params) {
   return MakeModel(env, name, "", params);
 }
@@ -29,7 +43,8 @@ Model MakeModel(const Environment& env, const std::string& name, const std::stri
     try {
       return file.empty() ? env.models.Make(name) : LoadModelFile(file);
     } catch (const std::invalid_argument& e) {
-      BadFlag(fmt::format("{}: {}", file.empty() ? "--model" : "--model-file", e.what()));
+      BadFlag(fmt::format("{}: {}{}", file.empty() ? "--model" : "--model-file", e.what(),
+                          file.empty() ? ModelFileHint(env, name) : ""));
     }
   }();
   std::map<std::string, std::string> given;  // name -> the assignment that set it
@@ -98,10 +113,16 @@ CLI::Option* AddList(CLI::App& cmd, const std::string& flag, std::vector<T>& val
 
 }  // namespace
 
+std::string Trimmed(const std::string& text) {
+  const std::size_t begin = text.find_first_not_of(" \t");
+  return begin == std::string::npos ? std::string()
+                                    : text.substr(begin, text.find_last_not_of(" \t") - begin + 1);
+}
+
 CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
                          const std::string& help) {
   return AddList(cmd, flag, values, help,
-                 [](const std::string&, std::size_t, std::string item) { return item; });
+                 [](const std::string&, std::size_t, const std::string& item) { return Trimmed(item); });
 }
 
 CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,
@@ -122,6 +143,51 @@ void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags) {
   AddNumberList(cmd, "--x0", flags.x0, "initial state, comma-separated (default: the model's)");
   cmd.add_option("--t-end", flags.t_end, "horizon in seconds (default: the model's)");
   cmd.add_option("--dt", flags.dt, "sample time delta-t in seconds (default: the model's)");
+}
+
+CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag) {
+  CLI::Option* option = cmd.add_option("--x0-known", flag.text,
+                                       "x0 is known (not estimated): alone or 'all' every component, or the "
+                                       "known components by state name, comma-separated (e.g. --x0-known v)")
+                             ->expected(0, 1);
+  flag.option = option;
+  return option;
+}
+
+std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model) {
+  const std::vector<std::string>& names = model.spec().state_names;
+  std::vector<int> known;
+  if (!flag.given()) return known;
+  if (flag.text.empty() || flag.text == "all") {
+    for (int i = 0; i < model.state_size(); ++i) known.push_back(i);
+    return known;
+  }
+  std::size_t begin = 0;
+  while (begin <= flag.text.size()) {
+    const std::size_t end = std::min(flag.text.find(',', begin), flag.text.size());
+    const std::string name = flag.text.substr(begin, end - begin);
+    const auto at = std::find(names.begin(), names.end(), name);
+    if (at == names.end()) {
+      BadFlag(fmt::format("--x0-known = {}: '{}' is not a state of '{}' (states: {}; or 'all')",
+                          Abbreviated(flag.text, 60), Abbreviated(name, 40), model.name(), fmt::join(names, ", ")));
+    }
+    const int i = static_cast<int>(at - names.begin());
+    if (std::find(known.begin(), known.end(), i) != known.end()) {
+      BadFlag(fmt::format("--x0-known = {}: '{}' named twice", Abbreviated(flag.text, 60), name));
+    }
+    known.push_back(i);
+    begin = end + 1;
+  }
+  std::sort(known.begin(), known.end());
+  return known;
+}
+
+std::string X0KnownText(const std::vector<int>& known, const Model& model) {
+  if (known.empty()) return "x0 unknown";
+  if (static_cast<int>(known.size()) == model.state_size()) return "x0 known";
+  std::vector<std::string> names;
+  for (const int i : known) names.push_back(fmt::format("x0[{}]", model.spec().state_names[static_cast<std::size_t>(i)]));
+  return fmt::format("{} known", fmt::join(names, ", "));
 }
 
 SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model) {

@@ -17,7 +17,7 @@ struct CrlbArgs {
   ModelFlags model;
   TrajectoryFlags trajectory;
   std::vector<double> sigma{1.0};
-  bool x0_known = false;
+  X0Known x0_known;
   SensitivityOptions options;
 };
 
@@ -28,13 +28,28 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const SampleGrid grid = GridFlag(args.trajectory, model);
   if (std::string e; !args.options.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol: {}", e));
   const Vec x0 = InitialStateFlag(args.trajectory, model);
-  const Vec sigma = SigmaFlag(args.sigma, n, /*allow_zero=*/false);
-  const Unknowns unknowns = Unknowns::Of(model, !args.x0_known);
-  const Crlb c = ComputeCrlb(model, x0, grid, sigma, unknowns, args.options);
-  std::printf("model %s, x0 = (%s), t_end = %g, dt = %g (%ld samples), sigma = (%s), x0 %s\n",
-              spec.name.c_str(), fmt::format("{:g}", fmt::join(x0, ", ")).c_str(), grid.t_end, grid.dt,
-              grid.size(), fmt::format("{:g}", fmt::join(sigma, ", ")).c_str(),
-              args.x0_known ? "known" : "unknown");
+  const std::vector<int> measured = MeasuredIndices(model);
+  const bool all = static_cast<int>(measured.size()) == n;
+  const Vec sigma = SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
+  const std::vector<int> known = X0KnownFlag(args.x0_known, model);
+  // Every component known: ξ0 is not in θ; some: in θ, held (sd 0, left out of the inverse).
+  const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
+  Crlb c = ComputeCrlb(model, x0, grid, sigma, unknowns, args.options, all ? std::vector<int>{} : measured);
+  if (!known.empty() && unknowns.x0 && c.status != CrlbStatus::kSimulationFailed) {
+    std::vector<int> held;
+    const int shared = unknowns.size(n) - n;
+    for (const int i : known) held.push_back(shared + i);
+    Crlb h = CrlbFromFisher(c.fisher, unknowns, c.names, held);
+    h.samples = c.samples;
+    h.jumps = c.jumps;
+    c = std::move(h);
+  }
+  std::vector<std::string> measured_names;
+  for (const int i : measured) measured_names.push_back(spec.state_names[static_cast<std::size_t>(i)]);
+  std::printf("model %s, x0 = (%s), t_end = %g, dt = %g (%ld samples), sigma = (%s), %s%s\n", spec.name.c_str(),
+              fmt::format("{:g}", fmt::join(x0, ", ")).c_str(), grid.t_end, grid.dt, grid.size(),
+              fmt::format("{:g}", fmt::join(sigma, ", ")).c_str(), X0KnownText(known, model).c_str(),
+              all ? "" : fmt::format(", measured {} only", fmt::join(measured_names, ", ")).c_str());
   if (!c.ok()) {
     std::printf("status: %s: %s\n", ToString(c.status), c.message.c_str());
     if (c.message.find("Zeno") != std::string::npos) {
@@ -47,7 +62,11 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const Vec theta = truth.Theta(unknowns);
   for (std::size_t i = 0; i < c.names.size(); ++i) {
     const auto ii = static_cast<Eigen::Index>(i);
-    std::printf("  %-10s = %-12.6g sd %.6g\n", c.names[i].c_str(), theta[ii], c.sd[ii]);
+    if (c.sd[ii] == 0.0) {
+      std::printf("  %-10s = %-12.6g known\n", c.names[i].c_str(), theta[ii]);
+    } else {
+      std::printf("  %-10s = %-12.6g sd %.6g\n", c.names[i].c_str(), theta[ii], c.sd[ii]);
+    }
   }
   std::printf("CRLB-implied mean e_alpha %.6g, mean e_beta %.6g\n", c.mean_e_alpha, c.mean_e_beta);
   std::printf("status: ok\n");
@@ -62,14 +81,15 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
       app.add_subcommand("crlb", "Cramér–Rao lower bound of a model's unknown alpha, beta and x0");
   AddModelFlags(*sub, args->model, "set a true parameter, name=value (repeatable)");
   AddTrajectoryFlags(*sub, args->trajectory);
-  AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per state")
+  AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per measured state")
       ->capture_default_str();
-  sub->add_flag("--x0-known", args->x0_known, "x0 is known (not estimated)");
+  AddX0KnownOption(*sub, args->x0_known);
   AddToleranceOptions(*sub, args->options.sim, "states and sensitivities");
   sub->footer(
-      "The bound for samples with Gaussian noise sigma: per-parameter sd and the CRLB-implied mean\n"
-      "e_alpha, e_beta. Exit 1 when it cannot be computed (simulation stopped, singular Fisher "
-      "information).");
+      "The bound for samples of the measured states (the model's `measured`; all by default) with\n"
+      "Gaussian noise sigma: per-parameter sd and the CRLB-implied mean e_alpha, e_beta. Exit 1 when\n"
+      "it cannot be computed (simulation stopped, singular Fisher information: the message names\n"
+      "the unidentifiable direction).");
   sub->callback([args, &env] {
     const int code = RunCrlb(*args, env);
     if (code != 0) throw CLI::RuntimeError(code);

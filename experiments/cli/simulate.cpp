@@ -5,6 +5,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -60,10 +61,35 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
   }
 }
 
-std::vector<std::string> TrajectoryHeader(int n) {
+// Whether the trajectory file can name its columns after the model's states: t, j, run (identify's
+// run column), true_STATE and STATE all different names.
+bool NamedColumns(const ModelSpec& spec) {
+  std::set<std::string> names{"t", "j", "run"};
+  for (const char* prefix : {"true_", ""}) {
+    for (const std::string& s : spec.state_names) {
+      if (!names.insert(prefix + s).second) return false;
+    }
+  }
+  return true;
+}
+
+// `prefix` + each state name when `named`, else `prefix` + `generic` + i (i = 1..n).
+std::vector<std::string> StateColumns(const ModelSpec& spec, bool named, const std::string& prefix,
+                                      const std::string& generic) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < spec.state_names.size(); ++i)
+    out.push_back(named ? prefix + spec.state_names[i] : fmt::format("{}{}{}", prefix, generic, i + 1));
+  return out;
+}
+
+// t, j, the noise-free state true_STATE.. and the measured state STATE.. (x1..xn and y1..yn when
+// a state name would clash with another column).
+std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
   std::vector<std::string> header{"t", "j"};
-  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
-  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("y{}", i));
+  for (const auto& [prefix, generic] : {std::pair{"true_", "x"}, std::pair{"", "y"}}) {
+    for (std::string& c : StateColumns(spec, named, named ? prefix : "", generic))
+      header.push_back(std::move(c));
+  }
   return header;
 }
 
@@ -83,11 +109,14 @@ void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y) {
   csv.Close();
 }
 
-std::vector<std::string> JumpsHeader(int n) {
-  std::vector<std::string> jheader{"j", "t_jump"};
-  for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("pre_x{}", i));
-  for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("post_x{}", i));
-  return jheader;
+// j, t_jump, the state before the jump pre_STATE.. and after it post_STATE.. (pre_x1.. with generic
+// names).
+std::vector<std::string> JumpsHeader(const ModelSpec& spec, bool named) {
+  std::vector<std::string> header{"j", "t_jump"};
+  for (const char* prefix : {"pre_", "post_"}) {
+    for (std::string& c : StateColumns(spec, named, prefix, "x")) header.push_back(std::move(c));
+  }
+  return header;
 }
 
 // Writes and closes (not yet publishes) the jumps file.
@@ -108,7 +137,7 @@ void WriteJumps(CsvWriter& jumps, const Trajectory& traj) {
 
 // FILE.json beside the trajectory: the run's inputs, the solver's tolerances and outcome.
 std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec& x0, const SampleGrid& grid,
-                        const Vec& sigma, const Trajectory& traj) {
+                        const Vec& sigma, const Trajectory& traj, const std::vector<std::string>& columns) {
   const ModelSpec& spec = model.spec();
   nlohmann::json params;
   for (std::size_t i = 0; i < spec.alpha.size(); ++i)
@@ -137,6 +166,7 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
       {"samples", traj.size()},
       {"jumps", traj.jumps.size()},
       {"outputs", {{"trajectory", args.out}, {"jumps", args.jumps_out}}},
+      {"columns", columns},
       {"context", BuildContext()},
   };
   if (traj.status.stop == SimStop::kZeno) meta["zeno_time"] = traj.status.zeno_time;
@@ -161,20 +191,28 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
-  const int n = model.state_size();
-  CsvWriter csv(args.out, TrajectoryHeader(n));
+  const bool named = NamedColumns(spec);
+  const std::vector<std::string> header = TrajectoryHeader(spec, named);
+  CsvWriter csv(args.out, header);
   WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key));
   std::optional<CsvWriter> jumps;
   if (!args.jumps_out.empty()) {
-    jumps.emplace(args.jumps_out, JumpsHeader(n));
+    jumps.emplace(args.jumps_out, JumpsHeader(spec, named));
     WriteJumps(*jumps, traj);
   }
   const std::filesystem::path meta_path = SidecarPath(args.out);
-  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path, SidecarText(args, model, x0, grid, sigma, traj));
+  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path,
+             SidecarText(args, model, x0, grid, sigma, traj, header));
   std::printf("model %s, seed %llu, %ld samples, %zu jumps\n", spec.name.c_str(),
               static_cast<unsigned long long>(args.seed), traj.size(), traj.jumps.size());
   std::printf("status: %s (t = %.17g): %s\n", ToString(traj.status.stop), traj.status.t_reached,
               traj.status.message.c_str());
+  if (!named) {
+    std::printf(
+        "columns: x1..x%d (true state), y1..y%d (measured): a state name clashes with t, j, run or "
+        "another column\n",
+        model.state_size(), model.state_size());
+  }
   std::printf("wrote %s, %s%s%s\n", args.out.c_str(), meta_path.c_str(), args.jumps_out.empty() ? "" : ", ",
               args.jumps_out.c_str());
   // A zeno stop is a finding about the model (the trajectory is valid up to it); others are failures.
@@ -201,8 +239,12 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       ->transform(NonNegativeInteger);
   AddToleranceOptions(*sub, args->sim, "");
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
-  sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();
-  sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
+  sub->add_option(
+         "--out", args->out,
+         "trajectory CSV: t,j,true_STATE..,STATE.. (noise-free and measured state, columns named after "
+         "the model's states; + a .json sidecar)")
+      ->required();
+  sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_STATE..,post_STATE..");
   sub->footer(
       "Samples t_k = k*dt with jump counter, true and measured state. Defaults are the model's\n"
       "(impact-msd: the paper's Sec. 5 values).");

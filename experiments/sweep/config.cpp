@@ -16,6 +16,7 @@
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
+#include "core/identify/reconstruct.hpp"
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
 #include "core/io/toml_guard.hpp"
@@ -115,6 +116,10 @@ void ParseModelSource(const TomlReader& rd, const toml::table& t, const std::str
     }
     m->file = path.lexically_normal().string();
     m->name = m->from_file->name();
+    // Unmeasured states must be reconstructible for the identifier's start (core/identify/reconstruct.hpp).
+    if (const ReconstructionPlan plan = PlanReconstruction(*m->from_file, MeasuredIndices(*m->from_file)); !plan.ok()) {
+      rd.Fail(file, key + ".file", fmt::format("{}: measured: {}", m->file, plan.error));
+    }
     return;
   }
   const toml::node& name =

@@ -11,6 +11,7 @@
 
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
+#include "core/identify/reconstruct.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "sim/refine/refine.hpp"
 
@@ -48,8 +49,10 @@ std::string Clean(std::string s) {
 
 Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end) {
   try {
-    return ComputeCrlb(model, x0, SampleGrid{t_end, dt}, Vec::Constant(model.state_size(), 1.0),
-                       Unknowns::Of(model));
+    const std::vector<int> measured = MeasuredIndices(model);  // the bound of the measured states
+    const bool all = static_cast<int>(measured.size()) == model.state_size();
+    return ComputeCrlb(model, x0, SampleGrid{t_end, dt}, Vec::Constant(static_cast<Eigen::Index>(measured.size()), 1.0),
+                       Unknowns::Of(model), {}, all ? std::vector<int>{} : measured);
   } catch (const std::exception& e) {
     Crlb c;
     c.status = CrlbStatus::kSimulationFailed;
@@ -271,8 +274,19 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   }
   IdentifyOptions options;
   options.statistics = false;
+  options.check_paper_bound = false;  // every detection is counted against the true jumps
   if (config.oracle) options.labels = TrueLabels(truth);
-  const Mat& y = cell.sigma > 0 ? in.noisy->y : truth.x;
+  const std::vector<int> measured = MeasuredIndices(model);
+  const bool partial = static_cast<int>(measured.size()) < model.state_size();
+  const Mat& noisy = cell.sigma > 0 ? in.noisy->y : truth.x;
+  // Only some states measured: the others reconstructed from them as the identifier's start, the
+  // detected kinks as its labels (core/identify/reconstruct.hpp), as `hysid identify` does.
+  Reconstruction rec;
+  if (partial) {
+    rec = ReconstructStates(PlanReconstruction(model, measured), truth.t, noisy(measured, Eigen::all), {}, Vec());
+    if (!config.oracle) options.labels = rec.gamma;
+  }
+  const Mat& y = partial ? rec.x : noisy;
   const IdentifyResult res = hysid::Identify(model, y, truth.dt, s, options);
   o->alpha_hat = res.alpha_hat;
   o->beta_hat = res.beta_hat;
@@ -281,7 +295,10 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     // refine_failed, no metrics; α̂, β̂ are the recursive estimate it kept), so that no cell averages
     // recursive estimates into its refined ones.
     RefineOptions ro;
-    if (config.known_sigma && cell.sigma > 0) ro.sigma = Vec::Constant(model.state_size(), cell.sigma);
+    if (partial) ro.measured = measured;
+    if (config.known_sigma && cell.sigma > 0) {
+      ro.sigma = Vec::Constant(static_cast<Eigen::Index>(measured.size()), cell.sigma);
+    }
     const RefineResult rr = RefineIdentification(model, truth.t, y, {}, RefinementStart(res), ro);
     o->refine_status = ToString(rr.status);
     o->alpha_hat = rr.estimate.alpha;

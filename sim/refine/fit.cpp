@@ -45,7 +45,9 @@ struct FitProblem {
   Unknowns unknowns;  // α, β and x0: the sensitivity layout of one chain
   HybridParameters start;
   std::vector<ChainFit> fits;
-  Vec weight;  // 1/σ_i
+  std::vector<int> rows;  // the measured components (RefineOptions::measured; all when it is empty)
+  std::vector<int> held;  // the known components of the (one) chain's ξ0, as indices into the joint θ
+  Vec weight;             // 1/σ_i per measured component
   SensitivityOptions options;
   int shared = 0;        // |α_u| + |β_u|
   bool several = false;  // more than one chain given: messages name the chain
@@ -86,6 +88,7 @@ struct FitProblem {
 class ChainCost final : public ceres::CostFunction {
  public:
   ChainCost(const FitProblem& problem, std::size_t chain) : problem_(problem), chain_(chain) {
+    // One residual per measured component and sample.
     set_num_residuals(static_cast<int>(problem.fits[chain].y.size()));
     mutable_parameter_block_sizes()->push_back(problem.shared);
     mutable_parameter_block_sizes()->push_back(problem.model->state_size());
@@ -95,23 +98,23 @@ class ChainCost final : public ceres::CostFunction {
     const bool jac = jacobians != nullptr && (jacobians[0] != nullptr || jacobians[1] != nullptr);
     const SensitivityTrajectory& s = problem_.Simulate(chain_, parameters[0], parameters[1]);
     if (!s.ok()) return false;
-    const Mat& y = problem_.fits[chain_].y;
-    const Eigen::Index n = y.rows(), k_count = y.cols();
-    Eigen::Map<Mat> r(residuals, n, k_count);
-    r = problem_.weight.asDiagonal() * (y - s.trajectory.x);
+    const Mat& y = problem_.fits[chain_].y;  // the measured rows: y − Hξ
+    const Eigen::Index m = y.rows(), k_count = y.cols(), n = s.trajectory.x.rows();
+    Eigen::Map<Mat> r(residuals, m, k_count);
+    r = problem_.weight.asDiagonal() * (y - s.trajectory.x(problem_.rows, Eigen::all));
     if (!r.allFinite()) return false;
     if (!jac) return true;
     const int shared = problem_.shared, p = s.parameters;
     const double* w = problem_.weight.data();
     for (Eigen::Index k = 0; k < k_count; ++k) {
       const double* sk = s.sensitivities.col(k).data();  // n × p, column-major
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const Eigen::Index row = k * n + i;
+      for (Eigen::Index i = 0; i < m; ++i) {
+        const Eigen::Index row = k * m + i, at = problem_.rows[static_cast<std::size_t>(i)];
         if (jacobians[0] != nullptr) {
-          for (int c = 0; c < shared; ++c) jacobians[0][row * shared + c] = -w[i] * sk[c * n + i];
+          for (int c = 0; c < shared; ++c) jacobians[0][row * shared + c] = -w[i] * sk[c * n + at];
         }
         if (jacobians[1] != nullptr) {
-          for (int c = shared; c < p; ++c) jacobians[1][row * n + (c - shared)] = -w[i] * sk[c * n + i];
+          for (int c = shared; c < p; ++c) jacobians[1][row * n + (c - shared)] = -w[i] * sk[c * n + at];
         }
       }
     }
@@ -144,7 +147,8 @@ long FitLength(const std::vector<std::uint8_t>& gamma, long min_interval) {
 // The chains as fit from s: span rule and retry limits, too short or outside C ∪ D left out; each
 // chain's samples and span reason in r.
 std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<RefineChain>& chains,
-                                    const FitStart& s, const RefineOptions& options, RefineResult& r) {
+                                    const FitStart& s, const std::vector<int>& rows,
+                                    const RefineOptions& options, RefineResult& r) {
   std::vector<ChainFit> fits;
   r.chain_x0.assign(chains.size(), Vec());
   r.chain_samples_used.assign(chains.size(), 0);
@@ -161,8 +165,9 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
     }
     ChainFit f;
     f.index = static_cast<long>(c);
-    f.y = in.y.leftCols(used);
+    f.y = in.y(rows, Eigen::seqN(0, used));
     f.x0 = s.x0[c];
+    for (const int i : options.x0_known) f.x0[i] = options.x0[i];  // (one chain only)
     int j = 0;
     for (long k = 0; k < used; ++k) {
       const auto u = static_cast<std::size_t>(k);
@@ -202,14 +207,16 @@ void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTra
     Mat gram = Mat::Zero(sens.rows(), sens.rows());
     gram.selfadjointView<Eigen::Lower>().rankUpdate(sens);
     gram = gram.selfadjointView<Eigen::Lower>();
-    const Mat wr = w2.asDiagonal() * (problem.fits[c].y - sims[c].trajectory.x);
-    const Mat h = sens * wr.transpose();  // (n·p) × n
+    const Mat wr = w2.asDiagonal() * (problem.fits[c].y - sims[c].trajectory.x(problem.rows, Eigen::all));
+    const Mat h = sens * wr.transpose();  // (n·p) × m: the measured components
     Mat fc = Mat::Zero(p, p);
     Vec gc = Vec::Zero(p);
     for (int a = 0; a < p; ++a) {
-      for (int i = 0; i < n; ++i) {
-        gc[a] += h(a * n + i, i);
-        for (int b = 0; b < p; ++b) fc(a, b) += w2[i] * gram(a * n + i, b * n + i);
+      for (std::size_t r = 0; r < problem.rows.size(); ++r) {
+        const int i = problem.rows[r];
+        const auto ri = static_cast<Eigen::Index>(r);
+        gc[a] += h(a * n + i, ri);
+        for (int b = 0; b < p; ++b) fc(a, b) += w2[ri] * gram(a * n + i, b * n + i);
       }
     }
     const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
@@ -236,6 +243,14 @@ double NewtonDecrement(const FitProblem& problem, const Vec& theta, const std::v
   Mat f;
   Vec g;
   NormalEquations(problem, problem.cached, f, g);
+  if (!problem.held.empty()) {  // known components of ξ0: no step moves them
+    std::vector<int> free;
+    for (int i = 0; i < static_cast<int>(g.size()); ++i) {
+      if (std::find(problem.held.begin(), problem.held.end(), i) == problem.held.end()) free.push_back(i);
+    }
+    f = Mat(f(free, free));
+    g = Vec(g(free));
+  }
   const Eigen::LLT<Mat> fisher(f);
   if (fisher.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
   const double lambda2 = g.dot(fisher.solve(g));
@@ -275,6 +290,12 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   ceres::Problem cp(po);
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
     cp.AddResidualBlock(new ChainCost(problem, c), nullptr, theta.data(), x0[c].data());
+  }
+  const std::vector<int>& known = options.x0_known;  // one chain only
+  if (!problem.fits.empty() && static_cast<int>(known.size()) == problem.model->state_size()) {
+    cp.SetParameterBlockConstant(x0.front().data());
+  } else if (!problem.fits.empty() && !known.empty()) {
+    cp.SetManifold(x0.front().data(), new ceres::SubsetManifold(problem.model->state_size(), known));
   }
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
@@ -384,7 +405,7 @@ Mat JointFisher(const FitProblem& problem, const std::vector<SensitivityTrajecto
   const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
   Mat f = Mat::Zero(total, total);
   for (std::size_t c = 0; c < sims.size(); ++c) {
-    const Mat fc = FisherInformation(sims[c], sigma);
+    const Mat fc = FisherInformation(sims[c], sigma, problem.rows);
     const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
     f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
     f.block(0, o, s, n) = fc.topRightCorner(s, n);
@@ -439,10 +460,10 @@ void JudgeResiduals(const Mat& z, double lag, const Vec& sigma_hat, const Vec& m
 
 // The residuals of every fitted span at the fit, side by side.
 Mat Residuals(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims) {
-  Mat res = Concatenated(problem.fits, problem.model->state_size());
+  Mat res = Concatenated(problem.fits, static_cast<int>(problem.rows.size()));
   Eigen::Index k = 0;
   for (std::size_t c = 0; c < sims.size(); ++c) {
-    res.middleCols(k, problem.fits[c].y.cols()) -= sims[c].trajectory.x;
+    res.middleCols(k, problem.fits[c].y.cols()) -= sims[c].trajectory.x(problem.rows, Eigen::all);
     k += problem.fits[c].y.cols();
   }
   return res;
@@ -453,17 +474,22 @@ Mat Residuals(const FitProblem& problem, const std::vector<SensitivityTrajectory
 void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims,
                     const Vec& mad_sigma, const RefineOptions& options, RefineResult& r) {
   const int n = problem.model->state_size();
-  const Mat y = Concatenated(problem.fits, n), res = Residuals(problem, sims);
+  const auto m = static_cast<int>(problem.rows.size());
+  const Mat y = Concatenated(problem.fits, m), res = Residuals(problem, sims);
   const double p = problem.shared + n * static_cast<double>(sims.size());
-  const Vec sigma_hat = (res.rowwise().squaredNorm() / (static_cast<double>(y.cols()) - p / n)).cwiseSqrt();
+  const Vec sigma_hat = (res.rowwise().squaredNorm() / (static_cast<double>(y.cols()) - p / m)).cwiseSqrt();
   const Vec floor = NumericalFloor(y, problem.options.sim);
   r.sigma_estimated = options.sigma.size() == 0;
-  r.sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);  // noise-free: the accuracy
-  const Crlb bound = CrlbFromFisher(JointFisher(problem, sims, r.sigma), problem.unknowns, JointNames(problem));
+  // Noise-free: the accuracy.
+  const Vec sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);
+  r.sigma = Vec::Zero(n);
+  r.sigma(problem.rows) = sigma;
+  const Crlb bound =
+      CrlbFromFisher(JointFisher(problem, sims, sigma), problem.unknowns, JointNames(problem), problem.held);
   if (!bound.ok()) return Fail(r, RefineStatus::kSingularFisher, bound.message);
   r.covariance = bound.covariance.topLeftCorner(problem.shared + n, problem.shared + n);
   r.standard_errors = bound.sd.head(problem.shared + n);
-  const Mat z = r.sigma.cwiseInverse().asDiagonal() * res;
+  const Mat z = sigma.cwiseInverse().asDiagonal() * res;
   double lag = 0.0;
   Eigen::Index k = 0;
   for (const ChainFit& f : problem.fits) {
@@ -510,7 +536,7 @@ bool SolveAndSimulate(const FitProblem& problem, const RefineOptions& options, c
 // residual σ̂_i, pooled over the chains, below that component's own floor (components differ in
 // scale, and so do their integration errors).
 bool AtIntegrationAccuracy(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims) {
-  const Mat y = Concatenated(problem.fits, problem.model->state_size());
+  const Mat y = Concatenated(problem.fits, static_cast<int>(problem.rows.size()));
   const Vec sigma_hat =
       (Residuals(problem, sims).rowwise().squaredNorm() / static_cast<double>(y.cols())).cwiseSqrt();
   return (sigma_hat.array() < NumericalFloor(y, problem.options.sim).array()).all();
@@ -570,6 +596,13 @@ void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sig
   *weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, sens->sim)).cwiseInverse();
 }
 
+std::vector<int> MeasuredRows(const RefineOptions& options, int n) {
+  if (!options.measured.empty()) return options.measured;
+  std::vector<int> all(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
+  return all;
+}
+
 std::string LeftOut(const Model& model, const RefineChain& chain, long used) {
   const int n = model.state_size();
   if (used < 2 * n + 2) return fmt::format("left out: {} samples to fit, fewer than {}", used, 2 * n + 2);
@@ -596,17 +629,20 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
   problem.unknowns = r.unknowns;
   problem.shared = r.unknowns.size(n) - n;
   problem.several = chains.size() > 1;
-  problem.fits = PrepareChains(model, chains, s, options, r);
+  problem.rows = MeasuredRows(options, n);
+  for (const int i : options.x0_known) problem.held.push_back(problem.shared + i);
+  const auto m = static_cast<double>(problem.rows.size());
+  problem.fits = PrepareChains(model, chains, s, problem.rows, options, r);
   if (!problem.fits.empty()) r.start.x0 = r.refined.x0 = r.estimate.x0 = problem.fits.front().x0;
   const double p = problem.shared + static_cast<double>(n) * static_cast<double>(problem.fits.size());
-  if (problem.fits.empty() || problem.shared == 0 || static_cast<double>(r.samples_used) < p / n + 2) {
+  if (problem.fits.empty() || problem.shared == 0 || static_cast<double>(r.samples_used) < p / m + 2) {
     Fail(r, RefineStatus::kTooFewSamples,
          fmt::format("{} samples in {} chain(s) ({} left out: fewer than {} samples or a first sample outside "
                      "C and D) for {} unknowns",
                      r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
     return r;
   }
-  const Mat y = Concatenated(problem.fits, n);
+  const Mat y = Concatenated(problem.fits, static_cast<int>(m));
   const Vec mad_sigma = EstimateNoiseSigma(y);
   problem.start = r.start;
   problem.cached_at.resize(problem.fits.size());

@@ -40,6 +40,9 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
 void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
                   Vec* weight);
 
+// The measured components: RefineOptions::measured, or all n when it is empty.
+std::vector<int> MeasuredRows(const RefineOptions& options, int n);
+
 // Why a chain is left out of the fit with `used` of its samples ("" when it is fit).
 std::string LeftOut(const Model& model, const RefineChain& chain, long used);
 

@@ -93,6 +93,25 @@ void CheckChain(const Model& model, const RefineChain& c, std::size_t index) {
   }
 }
 
+void CheckKnownX0(const Model& model, std::size_t chains, const RefineOptions& options) {
+  const std::vector<int>& known = options.x0_known;
+  if (known.empty()) return;
+  for (std::size_t i = 0; i < known.size(); ++i) {
+    if (known[i] < 0 || known[i] >= model.state_size() || (i > 0 && known[i] <= known[i - 1])) {
+      throw std::invalid_argument(fmt::format("RefineOptions::x0_known: entry {} = {}: must increase within [0, {})",
+                                              i + 1, known[i], model.state_size()));
+    }
+  }
+  if (options.x0.size() != model.state_size() || !options.x0.allFinite()) {
+    throw std::invalid_argument(fmt::format("RefineOptions::x0 has {} entries (finite): the model has {} states",
+                                            options.x0.size(), model.state_size()));
+  }
+  if (chains != 1) {
+    throw std::invalid_argument(fmt::format(
+        "RefineOptions::x0_known: the data have {} chains; a known initial state is one chain's", chains));
+  }
+}
+
 void CheckInputs(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                  const Vec& beta0, const RefineOptions& options) {
   std::string error;
@@ -100,11 +119,21 @@ void CheckInputs(const Model& model, const std::vector<RefineChain>& chains, con
   if (alpha0.size() != model.alpha_size() || beta0.size() != model.beta_size()) {
     throw std::invalid_argument("Refine: alpha0/beta0 must be the model's full parameter vectors");
   }
-  if (options.sigma.size() != 0 && options.sigma.size() != model.state_size()) {
-    throw std::invalid_argument(fmt::format("RefineOptions::sigma has {} entries; the model has {} states",
-                                            options.sigma.size(), model.state_size()));
+  const auto& measured = options.measured;
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    if (measured[i] < 0 || measured[i] >= model.state_size() || (i > 0 && measured[i] <= measured[i - 1])) {
+      throw std::invalid_argument(fmt::format(
+          "RefineOptions::measured: entry {} = {}: must increase within [0, {})", i + 1, measured[i],
+          model.state_size()));
+    }
+  }
+  const auto rows = static_cast<Eigen::Index>(measured.empty() ? model.state_size() : measured.size());
+  if (options.sigma.size() != 0 && options.sigma.size() != rows) {
+    throw std::invalid_argument(fmt::format("RefineOptions::sigma has {} entries; {} states are measured",
+                                            options.sigma.size(), rows));
   }
   for (std::size_t c = 0; c < chains.size(); ++c) CheckChain(model, chains[c], c);
+  CheckKnownX0(model, chains.size(), options);
 }
 
 // The first non-finite sample ("chain c " when several, "sample k component i is v"), or "" when all
@@ -121,6 +150,14 @@ std::string FirstNonFinite(const std::vector<RefineChain>& chains) {
     }
   }
   return "";
+}
+
+// The options of the repaired start's weighting, over all n rows of the chains: σ estimated (the MAD
+// of every row) when only some states are measured (RefineOptions::sigma then has the measured ones).
+RefineOptions StartWeighting(const RefineOptions& options) {
+  RefineOptions o = options;
+  if (!options.measured.empty()) o.sigma.resize(0);
+  return o;
 }
 
 // Chain c's labels over its first `used` samples mended from its fitted model's own jump times
@@ -282,7 +319,7 @@ bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, co
   const Mat y = Concatenated(chains, model.state_size());
   SensitivityOptions sens;
   Vec weight;
-  FitWeighting(y, options, EstimateNoiseSigma(y), &sens, &weight);
+  FitWeighting(y, StartWeighting(options), EstimateNoiseSigma(y), &sens, &weight);
   bool moved = false;
   for (std::size_t c = 0; c < chains.size(); ++c) {
     const RefineChain& in = chains[c];
@@ -381,7 +418,7 @@ bool RepairChains(const Model& model, const std::vector<RefineChain>& chains, co
   const Mat y = Concatenated(chains, model.state_size());
   SensitivityOptions sens;
   Vec weight;
-  FitWeighting(y, options, EstimateNoiseSigma(y), &sens, &weight);
+  FitWeighting(y, StartWeighting(options), EstimateNoiseSigma(y), &sens, &weight);
   const Unknowns unknowns = Unknowns::Of(model);
   *out = recursive;
   StartRepair total;

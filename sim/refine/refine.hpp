@@ -1,7 +1,7 @@
 // Maximum-likelihood (output-error) refinement of a recursive estimate, on one or several chains of
 // samples of one system (a uniform run is one chain; several runs, or a run cut at gaps, are several).
 //
-// Minimises Σ_c Σ_k Σ_i ((y_cik − ξ_i(t_ck; θ, ξ0_c))/σ_i)² over θ = (unknown α, unknown β), shared by
+// Minimises Σ_c Σ_k Σ_{i measured} ((y_cik − ξ_i(t_ck; θ, ξ0_c))/σ_i)² over θ = (unknown α, unknown β), shared by
 // the chains, and one initial state ξ0_c per chain (its own Ceres parameter block, eliminated by the
 // Schur complement). Each chain is simulated from its own initial state on its own sample times,
 // read on the hybrid time domain of its detected jumps: sample k is compared with the model's
@@ -78,7 +78,15 @@ struct RefineOptions {
   int max_iterations = 50;
   double function_tolerance = 1e-9;   // Ceres: relative cost decrease
   double parameter_tolerance = 1e-9;  // Ceres: relative step
-  Vec sigma;                          // per component (n entries ≥ 0) when known; empty: estimated
+  // The measured states (indices, increasing): the residuals are y − Hξ over these rows only, and the
+  // chains' other rows (a reconstruction, core/identify/reconstruct.hpp) are only a start (ξ0_c, the
+  // repaired start). Empty: every state is measured.
+  std::vector<int> measured;
+  // Components of ξ0 that are known (indices, increasing), held at their values in x0 (n entries; the
+  // others ignored) and left out of the covariance (standard error 0). One chain only.
+  std::vector<int> x0_known;
+  Vec x0;
+  Vec sigma;  // per measured component (≥ 0; n entries when all are measured) when known; empty: estimated
   double rms_low = 0.8;               // σ given: normalised residual RMS in [rms_low, rms_high]
   double rms_high = 1.25;  // σ estimated: residual σ̂ ≤ rms_high × MAD σ̂ (core/model/noise_shape)
   double max_lag1 = 0.2;   // |lag-1 autocorrelation| of the normalised residuals, within chains
@@ -123,7 +131,7 @@ struct RefineResult {
   // its square-rooted diagonal.
   Mat covariance;
   Vec standard_errors;
-  Vec sigma;  // σ used for the covariance (n)
+  Vec sigma;  // σ used for the covariance (n; 0 for an unmeasured state)
   bool sigma_estimated = false;
   double normalized_rms = 0.0;  // σ given: RMS of r/σ; estimated: max_i σ̂_i / MAD σ̂_i
   double lag1 = 0.0;            // lag-1 autocorrelation of the normalised residuals within chains

@@ -1,5 +1,6 @@
 #include "sim/sensitivity/crlb.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -18,24 +19,33 @@ const char* ToString(CrlbStatus status) {
   return "unknown";
 }
 
-Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma) {
+Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const std::vector<int>& measured) {
   const Eigen::Index n = s.trajectory.x.rows();
-  if (sigma.size() != n || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
-    throw std::invalid_argument(fmt::format("FisherInformation: sigma must have {} finite entries > 0", n));
+  std::vector<int> rows = measured;
+  if (rows.empty()) {
+    for (int i = 0; i < n; ++i) rows.push_back(i);
+  }
+  const auto m = static_cast<Eigen::Index>(rows.size());
+  if (sigma.size() != m || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
+    throw std::invalid_argument(fmt::format("FisherInformation: sigma must have {} finite entries > 0", m));
+  }
+  for (const int i : rows) {
+    if (i < 0 || i >= n) throw std::invalid_argument(fmt::format("FisherInformation: measured state {} of {}", i, n));
   }
   const Eigen::Index p = s.parameters;
   const Eigen::Index k_count = s.sensitivities.cols();
-  // Rows of all S_k scaled by 1/σ_i, stacked: F = WᵀW, accumulated in blocks.
+  // Rows of all H S_k scaled by 1/σ_i, stacked: F = WᵀW, accumulated in blocks.
   Mat fisher = Mat::Zero(p, p);
   constexpr Eigen::Index kBlock = 1024;
-  Mat w(kBlock * n, p);
+  Mat w(kBlock * m, p);
+  const Vec inverse = sigma.cwiseInverse();
   for (Eigen::Index k0 = 0; k0 < k_count; k0 += kBlock) {
     const Eigen::Index count = std::min(kBlock, k_count - k0);
     for (Eigen::Index k = 0; k < count; ++k) {
       const Eigen::Map<const Mat> sk(s.sensitivities.col(k0 + k).data(), n, p);
-      w.middleRows(k * n, n) = sigma.cwiseInverse().asDiagonal() * sk;
+      w.middleRows(k * m, m) = inverse.asDiagonal() * sk(rows, Eigen::all);
     }
-    fisher.selfadjointView<Eigen::Lower>().rankUpdate(w.topRows(count * n).transpose());
+    fisher.selfadjointView<Eigen::Lower>().rankUpdate(w.topRows(count * m).transpose());
   }
   return fisher.selfadjointView<Eigen::Lower>();
 }
@@ -60,7 +70,65 @@ double MeanGaussianNorm(const Mat& covariance) {
   return std::sqrt(scale) * sum * kStep / (2.0 * std::sqrt(M_PI));
 }
 
-Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names) {
+namespace {
+
+// The eigenvector of the smallest eigenvalue of the equilibrated F, its largest entries named:
+// "direction 0.71 x0[v] - 0.70 g" (up to three entries above 0.1; "no finite direction" when F is
+// not finite).
+std::string WeakestDirection(const Mat& equilibrated, const std::vector<std::string>& names) {
+  if (!equilibrated.allFinite() || equilibrated.size() == 0) return "F is not finite";
+  const Eigen::SelfAdjointEigenSolver<Mat> eigen(equilibrated);
+  const Vec v = eigen.eigenvectors().col(0);
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(v.size()));
+  for (Eigen::Index i = 0; i < v.size(); ++i) order[static_cast<std::size_t>(i)] = i;
+  std::stable_sort(order.begin(), order.end(), [&](auto a, auto b) { return std::abs(v[a]) > std::abs(v[b]); });
+  const double sign = v[order.front()] < 0.0 ? -1.0 : 1.0;
+  std::string text = "direction";
+  for (std::size_t r = 0; r < std::min<std::size_t>(3, order.size()); ++r) {
+    const Eigen::Index i = order[r];
+    if (r > 0 && std::abs(v[i]) < 0.1) break;
+    const std::string name = static_cast<std::size_t>(i) < names.size() ? names[static_cast<std::size_t>(i)]
+                                                                          : fmt::format("theta[{}]", i);
+    text += fmt::format(" {}{:.2g} {}", r == 0 ? "" : (sign * v[i] < 0.0 ? "- " : "+ "),
+                        r == 0 ? std::abs(v[i]) : std::abs(v[i]), name);
+  }
+  return fmt::format("{}; smallest eigenvalue {:.3g} of the equilibrated F", text, eigen.eigenvalues()[0]);
+}
+
+// CrlbFromFisher with `held` entries known: the bound of the others, scattered back.
+Crlb CrlbHolding(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
+                 const std::vector<int>& held) {
+  std::vector<int> free;
+  std::vector<std::string> free_names;
+  for (int i = 0; i < static_cast<int>(fisher.rows()); ++i) {
+    if (std::find(held.begin(), held.end(), i) != held.end()) continue;
+    free.push_back(i);
+    if (static_cast<std::size_t>(i) < names.size()) free_names.push_back(names[static_cast<std::size_t>(i)]);
+  }
+  Unknowns shared = unknowns;  // the α and β blocks are never held
+  shared.x0 = false;
+  Crlb reduced = CrlbFromFisher(fisher(free, free), shared, std::move(free_names));
+  Crlb out = reduced;
+  out.names = std::move(names);
+  out.fisher = fisher;
+  if (!reduced.ok()) return out;
+  out.covariance = Mat::Zero(fisher.rows(), fisher.cols());
+  out.sd = Vec::Zero(fisher.rows());
+  for (std::size_t a = 0; a < free.size(); ++a) {
+    const auto ia = static_cast<Eigen::Index>(a);
+    out.sd[free[a]] = reduced.sd[ia];
+    for (std::size_t b = 0; b < free.size(); ++b) {
+      out.covariance(free[a], free[b]) = reduced.covariance(ia, static_cast<Eigen::Index>(b));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
+                    const std::vector<int>& held) {
+  if (!held.empty()) return CrlbHolding(fisher, unknowns, std::move(names), held);
   Crlb out;
   out.names = std::move(names);
   out.fisher = fisher;
@@ -75,9 +143,10 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
       equilibrated.info() != Eigen::Success || !equilibrated.isPositive() ||
       !(equilibrated.vectorD().minCoeff() > 1e-14)) {
     out.status = CrlbStatus::kSingular;
-    out.message =
-        "the Fisher information is singular: some direction of the parameters is not "
-        "identifiable from these samples";
+    out.message = fmt::format(
+        "the Fisher information is singular: some direction of the parameters is not identifiable from "
+        "these samples ({})",
+        WeakestDirection(d.asDiagonal() * fisher * d.asDiagonal(), out.names));
     return out;
   }
   out.covariance = ldlt.solve(Mat::Identity(fisher.rows(), fisher.cols()));
@@ -91,9 +160,16 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 }
 
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options) {
-  if (sigma.size() != model.state_size() || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
-    throw std::invalid_argument(fmt::format("sigma must have {} finite entries > 0", model.state_size()));
+                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured) {
+  const auto m = measured.empty() ? model.state_size() : static_cast<int>(measured.size());
+  if (sigma.size() != m || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
+    throw std::invalid_argument(fmt::format("sigma must have {} finite entries > 0", m));
+  }
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    if (measured[i] < 0 || measured[i] >= model.state_size() || (i > 0 && measured[i] <= measured[i - 1])) {
+      throw std::invalid_argument(fmt::format("measured: entry {} = {}: must increase within [0, {})", i + 1,
+                                              measured[i], model.state_size()));
+    }
   }
   const SensitivityTrajectory s =
       SimulateSensitivities(model, HybridParameters::Of(model, x0), unknowns, grid, options);
@@ -105,7 +181,7 @@ Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, cons
     out.names = unknowns.Names(model);
     return out;
   }
-  Crlb out = CrlbFromFisher(FisherInformation(s, sigma), unknowns, unknowns.Names(model));
+  Crlb out = CrlbFromFisher(FisherInformation(s, sigma, measured), unknowns, unknowns.Names(model));
   out.samples = s.trajectory.size();
   out.jumps = static_cast<int>(s.trajectory.jumps.size());
   return out;

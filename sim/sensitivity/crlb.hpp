@@ -1,5 +1,5 @@
-// The Cramér–Rao lower bound of θ = (unknown α, unknown β, ξ0) for samples y_k = ξ(t_k) + e_k,
-// e_k ~ N(0, R), R = diag σ²: Fisher information F = Σ_k S_kᵀ R⁻¹ S_k (S_k from the hybrid forward
+// The Cramér–Rao lower bound of θ = (unknown α, unknown β, ξ0) for samples y_k = Hξ(t_k) + e_k (H
+// selects the measured states), e_k ~ N(0, R), R = diag σ²: Fisher information F = Σ_k S_kᵀHᵀR⁻¹HS_k (S_k from the hybrid forward
 // sensitivities, sim/sensitivity/sensitivity.hpp), CRLB = F⁻¹. The information in the jump times
 // themselves is left out (S_k is the derivative at a fixed jump count).
 #pragma once
@@ -14,7 +14,8 @@ namespace hysid {
 enum class CrlbStatus {
   kOk,
   kSimulationFailed,  // the sensitivity simulation stopped early (message says why)
-  kSingular,          // F is not positive definite: some direction of θ is not identifiable
+  kSingular,          // F is not positive definite: some direction of θ is not identifiable (the
+                      // message names that direction's largest entries)
 };
 const char* ToString(CrlbStatus status);
 
@@ -32,20 +33,26 @@ struct Crlb {
   bool ok() const { return status == CrlbStatus::kOk; }
 };
 
-// Σ_k S_kᵀ diag(σ)⁻² S_k over the samples of `s` (σ: n entries, all > 0; else std::invalid_argument).
-Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma);
+// Σ_k S_kᵀ Hᵀ diag(σ)⁻² H S_k over the samples of `s`, H the rows `measured` of the identity (empty:
+// all n). σ: one entry per measured state, all > 0; else std::invalid_argument.
+Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const std::vector<int>& measured = {});
 
 // E‖z‖ for z ~ N(0, covariance) (symmetric PSD), deterministic: E√X = (2√π)⁻¹ ∫₀^∞ (1 − Π_i (1 +
 // 2λ_i s)^{−1/2}) s^{−3/2} ds over the eigenvalues λ_i, by the trapezoid rule in log s (relative
 // error below 1e-10). 0 for an empty matrix.
 double MeanGaussianNorm(const Mat& covariance);
 
-// The bound from F: covariance, sd, and the mean errors of the α and β blocks.
-Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names);
+// The bound from F: covariance, sd, and the mean errors of the α and β blocks. The entries `held`
+// (indices into θ, increasing) are known: F without their rows and columns is inverted, and their
+// rows and columns of the covariance (and their sd) are 0.
+Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
+                    const std::vector<int>& held = {});
 
-// The bound at the model's true α, β and the given ξ0 over `grid` with noise σ (n entries > 0).
-// Throws std::invalid_argument for bad inputs (as SimulateSensitivities, plus σ).
+// The bound at the model's true α, β and the given ξ0 over `grid` with noise σ (one entry > 0 per
+// measured state) on the states `measured` (indices, increasing; empty: all).
+// Throws std::invalid_argument for bad inputs (as SimulateSensitivities, plus σ and measured).
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options = {});
+                 const Unknowns& unknowns, const SensitivityOptions& options = {},
+                 const std::vector<int>& measured = {});
 
 }  // namespace hysid

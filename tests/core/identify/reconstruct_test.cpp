@@ -1,0 +1,148 @@
+// Reconstruction of unmeasured states: the Savitzky–Golay slope against closed forms (a polynomial,
+// its variance under noise), the plan from the flow's structure, and a bouncing ball's velocity and
+// bounces recovered from its height alone.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/identify/reconstruct.hpp"
+#include "sim/simulator.hpp"
+
+namespace hysid {
+namespace {
+
+TEST_CASE("the slope of a quadratic is exact at every sample, centred or shifted, on irregular times",
+          "[reconstruct]") {
+  std::vector<double> t;
+  std::vector<double> y;
+  for (int k = 0; k < 40; ++k) {
+    const double tk = 0.1 * k + 0.03 * std::sin(1.7 * k);  // irregular steps
+    t.push_back(tk);
+    y.push_back(2.0 - 3.0 * tk + 0.7 * tk * tk);
+  }
+  std::vector<double> slope(t.size());
+  SavitzkyGolaySlope(t, y.data(), 0, 40, 9, slope.data());
+  for (std::size_t k = 0; k < t.size(); ++k) CHECK(slope[k] == Approx(-3.0 + 1.4 * t[k]).margin(1e-11));
+  // Two samples: the chord; one: 0.
+  SavitzkyGolaySlope(t, y.data(), 5, 7, 9, slope.data());
+  CHECK(slope[5] == Approx((y[6] - y[5]) / (t[6] - t[5])).epsilon(1e-12));
+  SavitzkyGolaySlope(t, y.data(), 10, 11, 9, slope.data());
+  CHECK(slope[10] == 0.0);
+}
+
+TEST_CASE("a cubic's centred slope has the closed-form bias of the degree-2 fit", "[reconstruct]") {
+  // For y = τ³ on the symmetric grid τ_i = iδ (|i| ≤ M), the fitted slope at 0 is Σ i⁴ δ² / Σ i².
+  const int m = 11, half = m / 2;
+  const double delta = 0.05;
+  std::vector<double> t, y;
+  double s2 = 0.0, s4 = 0.0;
+  for (int i = -half; i <= half; ++i) {
+    t.push_back(i * delta);
+    y.push_back(std::pow(i * delta, 3));
+    s2 += i * i;
+    s4 += std::pow(i, 4);
+  }
+  CHECK(LocalSlope(t, y.data(), 0, m, half) == Approx(s4 / s2 * delta * delta).epsilon(1e-10));
+}
+
+TEST_CASE("the centred slope's noise sd is σ / (δt √(m(m²−1)/12))", "[reconstruct]") {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 1e-3);
+  const double dt = 1.0 / 150.0;
+  const int m = 15;
+  const long size = 30000;
+  std::vector<double> t(size), y(size), slope(size);
+  for (long k = 0; k < size; ++k) {
+    t[k] = k * dt;
+    y[k] = 0.5 * t[k] * (1.0 - 0.01 * t[k]) + noise(rng);
+  }
+  SavitzkyGolaySlope(t, y.data(), 0, size, m, slope.data());
+  double sum = 0.0;
+  for (long k = m; k < size - m; ++k) sum += std::pow(slope[k] - (0.5 - 0.01 * t[k]), 2);
+  const double rms = std::sqrt(sum / double(size - 2 * m));
+  const double predicted = 1e-3 / (dt * std::sqrt(m * (m * m - 1.0) / 12.0));
+  CHECK(rms == Approx(predicted).epsilon(0.03));
+}
+
+TEST_CASE("the plan reconstructs a velocity from its measured position, and refuses the reverse",
+          "[reconstruct]") {
+  const Model model{BouncingBall{}};
+  const ReconstructionPlan plan = PlanReconstruction(model, {0});
+  REQUIRE(plan.ok());
+  CHECK(plan.reconstructed == std::vector<int>{1});
+  CHECK(plan.source[1] == 0);
+  CHECK(plan.scale[1] == 1.0);
+  CHECK(plan.offset[1] == 0.0);
+  const ReconstructionPlan reverse = PlanReconstruction(model, {1});
+  CHECK_FALSE(reverse.ok());
+  CHECK(reverse.error.find("state 'h'") != std::string::npos);
+  CHECK_THROWS_AS(PlanReconstruction(model, {2}), std::invalid_argument);
+}
+
+// A bouncing ball's height at 150 Hz over four bounces.
+Trajectory Ball(const Model& model) {
+  Vec x0(2);
+  x0 << 1.0, 0.0;
+  return Simulate(model, x0, SampleGrid{2.5, 1.0 / 150.0});
+}
+
+TEST_CASE("a parabola's flight: the bounces and the velocity from the height alone (noise-free)",
+          "[reconstruct]") {
+  const Model model{BouncingBall{}};
+  const Trajectory traj = Ball(model);
+  REQUIRE(traj.status.completed());
+  REQUIRE(traj.jumps.size() == 4);
+  const ReconstructionPlan plan = PlanReconstruction(model, {0});
+  const Reconstruction r = ReconstructStates(plan, traj.t, traj.x.topRows(1), {}, Vec());
+  for (std::size_t k = 1; k < traj.t.size(); ++k) {
+    INFO("sample " << k);
+    CHECK(int(r.gamma[k]) == (traj.j[k] != traj.j[k - 1] ? 1 : 0));
+  }
+  CHECK(r.segments == 5);
+  // The flight is an exact parabola between bounces: the degree-2 slope is exact up to integration error.
+  CHECK((r.x.row(1) - traj.x.row(1)).cwiseAbs().maxCoeff() < 1e-6);
+  CHECK(r.x.row(0) == traj.x.row(0));
+}
+
+TEST_CASE("a parabola's flight with 1 mm noise: bounces found, velocity within its predicted sd",
+          "[reconstruct]") {
+  const Model model{BouncingBall{}};
+  const Trajectory traj = Ball(model);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 1e-3);
+  Mat h = traj.x.topRows(1);
+  for (Eigen::Index k = 0; k < h.cols(); ++k) h(0, k) += noise(rng);
+  const Reconstruction r = ReconstructStates(PlanReconstruction(model, {0}), traj.t, h, {}, Vec());
+  CHECK(r.sigma[0] == Approx(1e-3).epsilon(0.15));
+  // Each bounce within one sample of its interval (a bounce just after a sample is a kink at that
+  // sample within the noise), and no other detection.
+  std::vector<long> truth, found;
+  for (std::size_t k = 1; k < traj.t.size(); ++k) {
+    if (traj.j[k] != traj.j[k - 1]) truth.push_back(long(k));
+    if (r.gamma[k]) found.push_back(long(k));
+  }
+  REQUIRE(found.size() == truth.size());
+  for (std::size_t i = 0; i < truth.size(); ++i) CHECK(std::abs(found[i] - truth[i]) <= 1);
+  // Samples away from the bounces: the error within 6 sd of the shifted-window worst case (the end
+  // slope's variance of a degree-2 fit is 16× the centre's); the RMS of the order of the centred sd.
+  const double dt = 1.0 / 150.0, m = r.min_window;
+  const double centre = 1e-3 / (dt * std::sqrt(m * (m * m - 1.0) / 12.0));
+  double sum = 0.0, worst = 0.0;
+  long count = 0;
+  for (long k = 0; k < h.cols(); ++k) {
+    if (std::any_of(truth.begin(), truth.end(), [&](long j) { return std::abs(k - j) <= 1; })) continue;
+    const double e = std::abs(r.x(1, k) - traj.x(1, k));
+    worst = std::max(worst, e);
+    sum += e * e;
+    ++count;
+  }
+  CHECK(worst < 6.0 * 4.0 * centre);
+  CHECK(std::sqrt(sum / double(count)) < 2.0 * centre);
+}
+
+}  // namespace
+}  // namespace hysid
