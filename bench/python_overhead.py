@@ -25,8 +25,8 @@ def timed(f):
 
 
 cli = timed(lambda: subprocess.run([binary, "identify", "--data", data, "--detector", "paper", "--refine", "none"], check=True, capture_output=True))
-py = timed(lambda: hysid.identify(model, y, dt=5e-4, trace=False))
-py_trace = timed(lambda: hysid.identify(model, y, dt=5e-4, trace=True))
+py = timed(lambda: hysid.identify(model, y, dt=5e-4, detector="paper", refine="none", trace=False))
+py_trace = timed(lambda: hysid.identify(model, y, dt=5e-4, detector="paper", refine="none", trace=True))
 for name, (median, best) in [("cli (whole process: start, CSV, identify, print)", cli),
                              ("python hysid.identify, trace=False", py),
                              ("python hysid.identify, trace=True", py_trace)]:

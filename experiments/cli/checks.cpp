@@ -113,6 +113,11 @@ void AddArguments(std::vector<PluginOptionArgument>* out, const std::vector<Opti
     a.prefix = prefix;
     a.help = fmt::format("{}: {}{}", ReadBy(o.name, descriptors), o.help, whose);
     a.default_text = o.Format(o.get(defaults.*member));
+    a.type = o.type;
+    a.choices.assign(o.choices.begin(), o.choices.end());
+    for (const Descriptor& d : descriptors) {
+      if (d.Reads(o.name)) a.read_by.emplace_back(d.name);
+    }
     a.set = [&o, member](IdentifierSettings& s, std::string_view text) { o.set(s.*member, o.Parse(text)); };
     a.unread = [&table, &o, member, prefix, role](const IdentifierSettings& s, Spelling spelling) {
       const auto& d = DescriptorOf((s.*member).kind);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/identify/identifier.hpp"
+#include "core/model/option.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {
@@ -43,6 +44,9 @@ struct PluginOptionArgument {
   std::string prefix;  // "" or "jump"
   std::string help;    // "rls, gtls: forgetting factor (alpha estimator)"
   std::string default_text;
+  OptionType type = OptionType::kReal;
+  std::vector<std::string> choices;  // kChoice: the names allowed
+  std::vector<std::string> read_by;  // the plugins that read it ("rls", "gtls")
   // Parses the text into `settings` (throws std::invalid_argument naming the option).
   std::function<void(IdentifierSettings&, std::string_view)> set;
   // "" when the plugin chosen in `settings` reads the option, else why not: "the detector 'residual'

@@ -220,6 +220,8 @@ SIMULATE_REFUSED = [
     (["--sigma", "0.1,nan"], {"sigma": [0.1, NAN]}), (["--sigma", "1,2,3"], {"sigma": [1.0, 2.0, 3.0]}),
     (["--dt", "1e-320"], {"dt": 1e-320}), (["--dt", "0"], {"dt": 0.0}), (["--dt", "nan"], {"dt": NAN}),
     (["--t-end", "-1"], {"t_end": -1.0}), (["--dt", "1e-7"], {"dt": 1e-7}),
+    (["--x0", "-1,0"], {"x0": [-1.0, 0.0]}), (["--x0", "1,2,3"], {"x0": [1.0, 2.0, 3.0]}),
+    (["--x0", "nan,0"], {"x0": [NAN, 0.0]}),
 ]
 CRLB_REFUSED = [(["--sigma", "0"], {"sigma": 0.0}), (["--sigma", "nan"], {"sigma": NAN}),
                 (["--dt", "1e-320"], {"dt": 1e-320})]
@@ -269,7 +271,7 @@ def test_identify_refuses_too_few_samples_as_the_cli(tmp_path, rows):
     for refine in ("ml", "none"):
         with pytest.raises(ValueError) as e:
             hysid.identify("impact-msd", np.zeros((rows, 2)), dt=1e-3, refine=refine)
-        assert str(e.value) == message.replace(str(data), "run 1")
+        assert str(e.value) == message.replace(str(data), "y")  # the array, not a file
 
 
 def test_identify_refuses_steps_below_the_smallest(tmp_path):
@@ -278,8 +280,9 @@ def test_identify_refuses_steps_below_the_smallest(tmp_path):
     message = cli_refusal("identify", "--data", data)
     with pytest.raises(ValueError) as e:
         hysid.identify("impact-msd", np.ones((5, 2)), dt=1e-320)
-    tail = r"column 1 \('t'\): the step \S+ after line {} is below 1e-150 s \(rescale the time\)$"
-    assert re.search(tail.format(2), message) and re.search(tail.format(1), str(e.value))
+    tail = r"the step \S+ after {} is below 1e-150 s \(rescale the time\)$"
+    assert re.search(r"tiny.csv:3: column 1 \('t'\): " + tail.format("line 2"), message)
+    assert re.fullmatch(r"t\[1\]: " + tail.format(r"t\[0\]"), str(e.value))  # the array's elements
 
 
 def test_identify_refuses_a_state_column_below_the_smallest_scale(tmp_path):
@@ -298,7 +301,7 @@ def test_identify_refuses_a_state_column_below_the_smallest_scale(tmp_path):
         assert message == f"{data}: column 'y1': the largest |value| is 1e-200, below 1e-150 (rescale the data)"
         with pytest.raises(ValueError) as e:
             hysid.identify("impact-msd", y * scale, dt=1e-3)
-        assert str(e.value) == message.replace(str(data), "run 1")
+        assert str(e.value) == message.replace(f"{data}: column 'y1'", "y[:, 0]")
 
 
 def test_identify_refuses_infinite_samples_as_the_cli(tmp_path):
@@ -310,7 +313,7 @@ def test_identify_refuses_infinite_samples_as_the_cli(tmp_path):
     y[1, 1] = -np.inf
     with pytest.raises(ValueError) as e:
         hysid.identify("impact-msd", y, dt=1e-3)
-    assert str(e.value) == "run 1:2: column 3 ('y2'): '-inf' is not finite"
+    assert str(e.value) == "y[1, 1]: '-inf' is not finite"
 
 
 def test_seed_is_decimal(tmp_path):
@@ -431,3 +434,262 @@ def test_cli_reports_hulls_left_out_above_their_limit(paper_data):
     assert p.returncode == 0, p.stderr
     assert "sets C^ and D^: not computed: 2 states exceed the limit of 1 states" in p.stdout
     assert "  sets: not computed\n" in p.stdout
+
+
+def test_version_is_the_projects():
+    """hysid.__version__ is the version `hysid --version` prints."""
+    assert cli("--version").split()[0] == hysid.__version__
+    assert re.fullmatch(r"\d+\.\d+\.\d+", hysid.__version__)
+
+
+def test_set_returns_a_new_model_and_leaves_this_one():
+    m = hysid.Model("impact-msd")
+    changed = m.set("a", 3.0)
+    assert m.parameters["a"] == 5.0 and changed.parameters["a"] == 3.0
+    assert changed != m and changed.set("a", 5.0) == m
+    traj = hysid.simulate(changed, t_end=2.0)
+    assert not np.array_equal(traj["x"], hysid.simulate(m, t_end=2.0)["x"])
+    with pytest.raises(ValueError, match="value: expected a number, got str 'x'"):
+        m.set("a", "x")
+
+
+def test_pickled_models_are_equal_and_rebuild_without_their_file(tmp_path):
+    import pickle
+    text = (MODELS / "wall-msd.toml").read_text()
+    (tmp_path / "wall.toml").write_text(text)
+    models = [hysid.Model("bouncing-ball"), hysid.Model("impact-msd").set("b", 0.2),
+              hysid.Model.from_file(tmp_path / "wall.toml").set("k", 3.0)]
+    blobs = [pickle.dumps(m) for m in models]
+    (tmp_path / "wall.toml").unlink()  # the model file travels as its text
+    for m, blob in zip(models, blobs):
+        copy = pickle.loads(blob)
+        assert copy == m and copy.parameters == m.parameters and copy.equations == m.equations
+        np.testing.assert_array_equal(hysid.simulate(copy, t_end=1.0)["x"], hysid.simulate(m, t_end=1.0)["x"])
+    assert models[0] != models[1]
+
+
+def test_a_guard_parameter_travels_with_the_pickled_model(tmp_path):
+    """wall-msd with its wall at a guard parameter w (bounds [0.5, 2]): set, pickled, rebuilt."""
+    text = (MODELS / "wall-msd.toml").read_text()
+    text = text.replace('h = "x - 1"', 'h = "x - w"').replace('project = { x = "1" }', 'project = { x = "w" }')
+    text = text.replace('C = "x < 1 || (x == 1 && v <= 0)"', 'C = "x < w || (x == w && v <= 0)"')
+    text = text.replace('D = "x == 1 && v >= 0"', 'D = "x == w && v >= 0"')
+    text = text.replace('distance_to_D = "sqrt((x - 1)^2 + min(v, 0)^2)"', 'distance_to_D = "sqrt((x - w)^2 + min(v, 0)^2)"')
+    text = text.replace("\n[flow]", '\nguard_params = [{ name = "w", value = 1.0, bounds = [0.5, 2.0] }]\n\n[flow]', 1)
+    (tmp_path / "wall-w.toml").write_text(text)
+    import pickle
+    m = hysid.Model(tmp_path / "wall-w.toml")
+    assert m.unknowns["gamma"] == ["w"] and m.parameters["w"] == 1.0
+    far = m.set("w", 1.5)
+    copy = pickle.loads(pickle.dumps(far))
+    assert copy == far != m and copy.parameters["w"] == 1.5
+    assert hysid.simulate(copy, t_end=3.0)["jumps"][0]["pre"][0] == pytest.approx(1.5, abs=1e-9)
+    with pytest.raises(ValueError, match="w"):
+        m.set("w", 3.0)  # outside its bounds
+
+
+def _fitted_a(model):
+    """One identification in a worker process: the estimate of a on the model's own noise-free run."""
+    traj = hysid.simulate(model, t_end=4.0)
+    return hysid.identify(model, traj["y"], dt=traj["dt"], refine="none")["estimates"]["a"]
+
+
+def test_models_cross_process_boundaries():
+    """multiprocessing.Pool on 2 processes: each worker gets the pickled model (with its changed a)."""
+    import multiprocessing
+    models = [hysid.Model("impact-msd").set("a", a) for a in (3.0, 4.0, 6.0)]
+    with multiprocessing.get_context("fork").Pool(2) as pool:
+        remote = pool.map(_fitted_a, models)
+    assert remote == [_fitted_a(m) for m in models]
+    for a, estimate in zip((3.0, 4.0, 6.0), remote):
+        assert estimate == pytest.approx(a, rel=1e-3)
+
+
+def interrupted(setup, call, env=None):
+    """Runs `setup`, then the long `call` in a child Python; SIGINT 0.5 s into the call. Returns the seconds
+    from the signal to the KeyboardInterrupt reaching the script, the exit code and stderr."""
+    import signal
+    import sys
+    import time
+    script = (f"import time, numpy as np, hysid\n{setup}\nprint('started', flush=True)\ntry:\n    {call}\n"
+              "    print('finished', flush=True)\nexcept KeyboardInterrupt:\n"
+              "    print('interrupted', time.monotonic(), flush=True)\n")
+    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env={**os.environ, **(env or {})})
+    assert p.stdout.readline().strip() == "started", p.stderr.read()
+    time.sleep(0.5)
+    sent = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    words = out.split()
+    assert words and words[0] == "interrupted", (out, err)
+    return float(words[1]) - sent, p.returncode, err
+
+
+LONG_CALLS = {
+    # undamped, lossless impacts for 1e4 s: 7118 jumps (seconds)
+    "simulate": ("m = hysid.Model('impact-msd').set('b', 0.0).set('lambda', 1.0)",
+                 "hysid.simulate(m, t_end=1e4, dt=1.0)"),
+    # the refinement over 400 001 noisy samples (minutes)
+    "identify": ("tr = hysid.simulate('impact-msd', t_end=200.0, dt=5e-4, sigma=0.1)",
+                 "hysid.identify('impact-msd', tr['y'], dt=5e-4)"),
+    "run_sweep": ("import pathlib, tempfile\nd = pathlib.Path(tempfile.mkdtemp())\n"
+                  "(d / 's.toml').write_text('[model]\\nname = \"impact-msd\"\\nt_end = 200.0\\n[grid]\\nsigma = 0.1\\n"
+                  "dt = 5e-4\\nrefine = [\"ml\"]\\n[run]\\ntrials = 1\\n')",
+                  "hysid.run_sweep(str(d / 's.toml'), out=str(d / 'run'), threads=1)"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LONG_CALLS))
+def test_ctrl_c_interrupts_a_long_call(name):
+    """SIGINT in the middle of one long C++ computation: KeyboardInterrupt within 1 s (the module checks
+    every 50 ms); the computation left running is not waited for at exit (exit code 130, said on stderr)."""
+    delay, code, err = interrupted(*LONG_CALLS[name])
+    print(f"{name}: KeyboardInterrupt {delay:.3f} s after SIGINT")
+    assert 0.0 <= delay < 1.0
+    assert code == 130 and "an interrupted computation is still running" in err, err
+
+
+def test_identify_takes_every_option_of_the_tables():
+    """Every detector and estimator option of `hysid identify --help` is a keyword with its help and
+    default, and nothing else is: one table feeds both."""
+    flags = set(re.findall(r"^\s+(--[a-z0-9-]+)", cli("identify", "--help"), re.M))
+    options = hysid.identify_options()
+    assert {o["flag"] for o in options.values()} <= flags
+    assert {"window", "p0", "frisch_box", "frisch_point", "frisch_confidence", "false_alarm", "r", "tau0",
+            "jump_window", "refactor_every"} <= set(options)
+    for name, o in options.items():
+        assert o["flag"] == "--" + name.replace("_", "-") and o["read_by"]
+        assert f"  {name} = None (default {o['default']}): {o['help']}" in hysid.identify.__doc__
+    own = {"--" + k.replace("_", "-") for k in ("estimator", "detector", "sigma", "max_gap", "localize",
+                                                 "second_pass", "data_rtol", "data_atol", "flow_noise_shape",
+                                                 "jump_noise_shape", "refine")}
+    assert own <= flags
+    covered = own | {o["flag"] for o in options.values()}
+    # The flags that are not identify's options in Python: the files (data, columns, outputs, model).
+    # --x0 and --x0-known (a known initial state, for measured outputs) are not keywords yet.
+    assert flags - covered == {"--model", "--model-file", "--param", "--data", "--columns", "--trace",
+                               "--hulls", "--json", "--x0", "--x0-known"}
+
+
+def test_unknown_keywords_are_refused_by_name():
+    y = np.ones((10, 2))
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'windw'; its keywords are .*\bwindow\b"):
+        hysid.identify("impact-msd", y, dt=1e-3, windw=3)
+    with pytest.raises(ValueError, match=r"^window: the alpha estimator 'rls' does not read it \(its options: "
+                                         r"forgetting, p0\)$"):
+        hysid.identify("impact-msd", y, dt=1e-3, window=3)
+
+
+ARRAY_REFUSALS = [
+    # (arguments, the message): each names the argument and the constraint, in Python's terms
+    (dict(y=np.ones((10, 2)), dt=1e-3, t=np.arange(10) * 2e-3),
+     "dt = 0.001: t has the step 0.002; give dt or t, or both that agree"),
+    (dict(y=np.ones((10, 2)), t=np.ones((10, 2))), r"t must be a 1-D array of times, one per sample; got shape (10, 2)"),
+    (dict(y=np.ones((10, 2)), dt=1e-3, sigma="x"), "sigma: expected numbers, got str 'x'"),
+    (dict(y=np.ones((10, 2)) + 1j, dt=1e-3),
+     "y: complex values (dtype complex128); samples and options are real numbers"),
+    (dict(y=np.array([["a", "b"]] * 4), dt=1e-3), "y: expected real numbers, got an array of dtype <U1"),
+    (dict(y=np.ones((10, 2)), dt="0.001"), "dt: expected a number, got str '0.001'"),
+    (dict(y=np.ones((10, 2)), dt=1e-3, localize=1), "localize: expected True or False, got int 1"),
+    (dict(y=np.ones((10, 3)), dt=1e-3), "y must be a (samples, 2) array, one row per sample; got shape (10, 3)"),
+    (dict(y=[np.ones((10, 2)), np.ones((5, 3))], dt=1e-3),
+     "y[1] must be a (samples, 2) array, one row per sample; got shape (5, 3)"),
+    (dict(y=[np.ones((10, 2)), np.ones((5, 2))], t=np.arange(10.0)),
+     "t: y is a list of 2 runs; give t as a list of as many 1-D arrays"),
+    (dict(y=[np.ones((4, 2)), np.ones((4, 2))], t=[np.arange(4.0), np.array([0, 1, 1, 2.0])]),
+     "t[1][2]: time 1 is not after 1 (t[1][1]): time must increase"),
+    (dict(y=np.ones((4, 2)), dt=1e-3, flow_noise_shape=np.ones((2, 3))),
+     "flow_noise_shape: shape (2, 3): give a square matrix (parameters + 1)^2"),
+]
+
+
+@pytest.mark.parametrize("kwargs,message", ARRAY_REFUSALS)
+def test_identify_refuses_malformed_arguments_by_name(kwargs, message):
+    with pytest.raises(ValueError) as e:
+        hysid.identify("impact-msd", **kwargs)
+    assert str(e.value).startswith(message)
+    assert "::" not in str(e.value) and "line" not in str(e.value) and "run 1" not in str(e.value)
+
+
+def test_a_list_of_rows_is_one_run():
+    """A list of lists is one run's rows (as np.asarray reads it), not a list of runs."""
+    traj = hysid.simulate("impact-msd", t_end=2.0, sigma=0.01)
+    rows = traj["y"].tolist()
+    a = hysid.identify("impact-msd", rows, dt=traj["dt"], refine="none")
+    b = hysid.identify("impact-msd", traj["y"], dt=traj["dt"], refine="none")
+    np.testing.assert_array_equal(a["alpha"], b["alpha"])
+    assert "chains" not in a
+
+
+OTHER_REFUSALS = [
+    # (call, the message): arguments of the wrong kind, named, never a pybind11 cast error
+    (lambda: hysid.identify("no-model", np.ones((5, 2)), dt=1e-3), "'no-model' is neither a built-in model nor a model file"),
+    (lambda: hysid.identify(3, np.ones((5, 2)), dt=1e-3),
+     "model: expected a hysid.Model, a built-in model's name or a model file's path, got int 3"),
+    (lambda: hysid.Model(3), "model: expected a hysid.Model, a built-in model's name or a model file's path, got int 3"),
+    (lambda: hysid.identify("impact-msd", [], dt=1e-3), "y: an empty list; give a (samples, n) array, or a list of runs"),
+    (lambda: hysid.simulate("impact-msd", seed="x"), "seed: expected an integer >= 0, got str 'x'"),
+    (lambda: hysid.simulate("impact-msd", trial=-1), "trial = -1: must be an integer in [0, 2^64 - 1]"),
+    (lambda: hysid.simulate("impact-msd", rtol=-1.0), "rtol/atol: rtol = -1. Violated constraint: rtol > 0"),
+    (lambda: hysid.simulate("impact-msd", x0=[[20.0, 0.0]]),
+     "x0: expected a number or a 1-D sequence of numbers, got shape (1, 2)"),
+    (lambda: hysid.crlb("impact-msd", sigma="x"), "sigma: expected numbers, got str 'x'"),
+    (lambda: hysid.crlb("impact-msd", x0_known=1), "x0_known: expected True or False, got int 1"),
+]
+
+
+@pytest.mark.parametrize("call,message", OTHER_REFUSALS)
+def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
+    with pytest.raises(ValueError) as e:
+        call()
+    assert str(e.value) == message
+
+
+def test_a_model_is_a_model_a_name_or_a_path():
+    y = hysid.simulate("impact-msd", t_end=2.0, sigma=0.01)["y"]
+    fits = [hysid.identify(m, y, dt=5e-4, refine="none")["alpha"]
+            for m in ("impact-msd", hysid.Model("impact-msd"), MODELS / "impact-msd.toml",
+                      str(MODELS / "impact-msd.toml"))]
+    for alpha in fits[1:]:
+        np.testing.assert_array_equal(alpha, fits[0])
+
+
+def test_an_interrupted_sweep_resumes_to_the_same_trials(tmp_path):
+    """Ctrl-C in run_sweep (in this process): KeyboardInterrupt; while the abandoned runner finishes its
+    unit the run directory is locked (refused by name, never two runners at once); then the same call
+    resumes, and trials.csv is byte for byte that of an uninterrupted run."""
+    import signal
+    import threading
+    import time
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('[model]\nname = "impact-msd"\nt_end = 100.0\n[grid]\nsigma = 0.1\ndt = 5e-4\n'
+                     'refine = ["none"]\n[run]\ntrials = 24\n')
+    run = tmp_path / "run"
+
+    def interrupt_after_two_units():  # the journal: two header lines, then one row per finished unit
+        journal = run / "trials.journal"
+        while not journal.exists() or journal.read_text().count("\n") < 4:
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=interrupt_after_two_units, daemon=True).start()
+    with pytest.raises(KeyboardInterrupt):
+        hysid.run_sweep(sweep, out=str(run), threads=1)
+    locked = 0
+    deadline = time.monotonic() + 120
+    while True:
+        try:
+            out = hysid.run_sweep(sweep, out=str(run), threads=1)
+            break
+        except ValueError as e:
+            assert str(e).endswith("is locked); wait for it or use another out (an interrupted run_sweep of "
+                                   "this process is finishing the units it was running)"), str(e)
+            assert time.monotonic() < deadline
+            locked += 1
+            time.sleep(0.05)
+    assert 2 <= out["resumed"] < 24 and out["resumed"] + out["run"] == 24
+    whole = hysid.run_sweep(sweep, out=str(tmp_path / "whole"), threads=1)
+    assert whole["run"] == 24
+    assert (run / "trials.csv").read_bytes() == (tmp_path / "whole" / "trials.csv").read_bytes()
+    print(f"locked {locked} times while the abandoned unit finished")
