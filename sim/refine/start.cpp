@@ -361,4 +361,52 @@ Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, con
   return out;
 }
 
+void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat& y,
+                     const std::vector<std::uint8_t>& labels, const Vec& alpha, const Vec& gamma0,
+                     const Unknowns& unknowns, Mat* rows, Vec* rhs) {
+  const auto q = static_cast<Eigen::Index>(unknowns.gamma.size());
+  const int n = model.state_size(), guards = model.guard_count();
+  if (q == 0 || guards == 0) return;
+  Vec f(n), h(guards);
+  Mat dh(guards, model.gamma_size());
+  for (std::size_t k = 1; k < labels.size(); ++k) {
+    if (labels[k] == 0) continue;
+    const auto pre = static_cast<Eigen::Index>(k - 1);
+    if (!y.col(pre).allFinite()) continue;
+    const Context ctx{.t = t[k - 1], .u = nullptr, .gamma = gamma0.data()};
+    model.Flow(y.col(pre), alpha, f, ctx);
+    const Vec moved = y.col(pre) + 0.5 * (t[k] - t[k - 1]) * f;
+    model.Guards(moved, h, ctx);
+    model.GuardGammaJacobian(moved, ctx, dh);
+    Eigen::Index fired = 0;
+    h.cwiseAbs().minCoeff(&fired);
+    if (!h.allFinite() || !dh.row(fired).allFinite()) continue;
+    const Eigen::Index m = rows->rows();
+    rows->conservativeResize(m + 1, q);
+    rhs->conservativeResize(m + 1);
+    for (Eigen::Index c = 0; c < q; ++c) (*rows)(m, c) = dh(fired, unknowns.gamma[static_cast<std::size_t>(c)]);
+    (*rhs)[m] = -h[fired];
+  }
+}
+
+Vec SolveGuardRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, const Vec& gamma0) {
+  Vec out = gamma0;
+  std::vector<Eigen::Index> used;  // the columns some row involves
+  for (Eigen::Index c = 0; c < rows.cols(); ++c) {
+    if (rows.col(c).cwiseAbs().maxCoeff() > 0.0) used.push_back(c);
+  }
+  const auto q = static_cast<Eigen::Index>(used.size());
+  if (q == 0 || rows.rows() < q) return out;
+  Mat a(rows.rows(), q);
+  for (Eigen::Index c = 0; c < q; ++c) a.col(c) = rows.col(used[static_cast<std::size_t>(c)]);
+  const Eigen::ColPivHouseholderQR<Mat> qr(a);
+  if (qr.rank() < q) return out;
+  const Vec step = qr.solve(rhs);
+  if (!step.allFinite()) return out;
+  for (Eigen::Index c = 0; c < q; ++c) {
+    out[unknowns.gamma[static_cast<std::size_t>(used[static_cast<std::size_t>(c)])]] += step[c];
+  }
+  return out;
+}
+
 }  // namespace hysid
