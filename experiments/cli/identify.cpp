@@ -30,6 +30,7 @@ namespace {
 
 struct IdentifyArgs {
   ModelFlags model;
+  std::vector<std::string> bounds;   // --bound NAME=LO,HI, repeatable
   std::vector<std::string> data;     // --data, repeatable: one run per file (or a run column)
   std::vector<std::string> columns;  // --columns t=NAME,STATE,...[,run=NAME]
   double max_gap = 0.0;              // --max-gap (0: 5 × the median step)
@@ -291,7 +292,8 @@ void CheckOutputs(const IdentifyArgs& args) {
 }
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model);
+  Model model = MakeModel(env, args.model);
+  ApplyBoundFlags(args.bounds, &model);
   IdentifierSettings settings = BuildSettings(args, model);
   const SampleData data = ReadData(args, model.state_size());
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
@@ -327,6 +329,7 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<IdentifyArgs>();
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
   AddModelFlags(*cmd, args->model, "NAME=VALUE: the model's true value (for error metrics)");
+  AddBoundFlag(*cmd, args->bounds);
   cmd->add_option("--data", args->data,
                   "CSV (RFC 4180): time, then the measured state (y1..yn if present); a column j is taken "
                   "as ground truth, a column run splits the file into runs; repeat --data for several "
