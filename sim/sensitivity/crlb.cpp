@@ -87,6 +87,8 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
   const auto nb = static_cast<Eigen::Index>(unknowns.beta.size());
   out.mean_e_alpha = MeanGaussianNorm(out.covariance.topLeftCorner(na, na));
   out.mean_e_beta = MeanGaussianNorm(out.covariance.block(na, na, nb, nb));
+  const auto ng = static_cast<Eigen::Index>(unknowns.gamma.size());
+  out.mean_e_gamma = MeanGaussianNorm(out.covariance.block(na + nb, na + nb, ng, ng));
   return out;
 }
 

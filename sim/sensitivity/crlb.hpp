@@ -1,4 +1,4 @@
-// The Cramér–Rao lower bound of θ = (unknown α, unknown β, ξ0) for samples y_k = ξ(t_k) + e_k,
+// The Cramér–Rao lower bound of θ = (unknown α, unknown β, unknown γ, ξ0) for samples y_k = ξ(t_k) + e_k,
 // e_k ~ N(0, R), R = diag σ²: Fisher information F = Σ_k S_kᵀ R⁻¹ S_k (S_k from the hybrid forward
 // sensitivities, sim/sensitivity/sensitivity.hpp), CRLB = F⁻¹. The information in the jump times
 // themselves is left out (S_k is the derivative at a fixed jump count).
@@ -25,8 +25,9 @@ struct Crlb {
   Mat fisher;                      // p × p
   Mat covariance;                  // F⁻¹ (empty unless ok)
   Vec sd;                          // √diag F⁻¹ (empty unless ok)
-  // E‖z‖ for z ~ N(0, CRLB block of the unknown α entries), the same for β (0 when there are none).
-  double mean_e_alpha = 0.0, mean_e_beta = 0.0;
+  // E‖z‖ for z ~ N(0, CRLB block of the unknown α entries), the same for β and for the guard
+  // parameters γ (0 when there are none).
+  double mean_e_alpha = 0.0, mean_e_beta = 0.0, mean_e_gamma = 0.0;
   long samples = 0;
   int jumps = 0;
   bool ok() const { return status == CrlbStatus::kOk; }

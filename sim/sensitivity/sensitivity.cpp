@@ -22,6 +22,9 @@ Unknowns Unknowns::Of(const Model& model, bool with_x0) {
   for (std::size_t i = 0; i < spec.beta.size(); ++i) {
     if (!spec.beta[i].known) u.beta.push_back(static_cast<int>(i));
   }
+  for (std::size_t i = 0; i < spec.guard_params.size(); ++i) {
+    if (!spec.guard_params[i].known) u.gamma.push_back(static_cast<int>(i));
+  }
   u.x0 = with_x0;
   return u;
 }
@@ -31,10 +34,20 @@ std::vector<std::string> Unknowns::Names(const Model& model) const {
   std::vector<std::string> names;
   for (int i : alpha) names.push_back(spec.alpha[static_cast<std::size_t>(i)].name);
   for (int i : beta) names.push_back(spec.beta[static_cast<std::size_t>(i)].name);
+  for (int i : gamma) names.push_back(spec.guard_params[static_cast<std::size_t>(i)].name);
   if (x0) {
     for (const std::string& s : spec.state_names) names.push_back(fmt::format("x0[{}]", s));
   }
   return names;
+}
+
+std::vector<const Parameter*> Unknowns::Parameters(const Model& model) const {
+  const ModelSpec& spec = model.spec();
+  std::vector<const Parameter*> out;
+  for (int i : alpha) out.push_back(&spec.alpha[static_cast<std::size_t>(i)]);
+  for (int i : beta) out.push_back(&spec.beta[static_cast<std::size_t>(i)]);
+  for (int i : gamma) out.push_back(&spec.guard_params[static_cast<std::size_t>(i)]);
+  return out;
 }
 
 bool Unknowns::IsValid(const Model& model, std::string* error) const {
@@ -53,23 +66,41 @@ bool Unknowns::IsValid(const Model& model, std::string* error) const {
     }
     return true;
   };
-  return check(alpha, model.alpha_size(), "alpha") && check(beta, model.beta_size(), "beta");
+  return check(alpha, model.alpha_size(), "alpha") && check(beta, model.beta_size(), "beta") &&
+         check(gamma, model.gamma_size(), "gamma");
 }
 
+namespace {
+
+void RequireGamma(const Unknowns& u, const Vec& gamma) {
+  for (int i : u.gamma) {
+    if (i >= gamma.size()) {
+      throw std::logic_error(
+          fmt::format("HybridParameters::gamma has {} entries; Unknowns::gamma names entry {}", gamma.size(), i));
+    }
+  }
+}
+
+}  // namespace
+
 Vec HybridParameters::Theta(const Unknowns& u) const {
+  RequireGamma(u, gamma);
   Vec theta(u.size(static_cast<int>(x0.size())));
   Eigen::Index c = 0;
   for (int i : u.alpha) theta[c++] = alpha[i];
   for (int i : u.beta) theta[c++] = beta[i];
+  for (int i : u.gamma) theta[c++] = gamma[i];
   if (u.x0) theta.tail(x0.size()) = x0;
   return theta;
 }
 
 HybridParameters HybridParameters::WithTheta(const Unknowns& u, const ConstVecRef& theta) const {
+  RequireGamma(u, gamma);
   HybridParameters out = *this;
   Eigen::Index c = 0;
   for (int i : u.alpha) out.alpha[i] = theta[c++];
   for (int i : u.beta) out.beta[i] = theta[c++];
+  for (int i : u.gamma) out.gamma[i] = theta[c++];
   if (u.x0) out.x0 = theta.tail(x0.size());
   return out;
 }
@@ -108,8 +139,12 @@ class SensitivityPayload final : public hybrid::Payload {
         unknowns_(unknowns),
         n_(model.state_size()),
         p_(unknowns.size(model.state_size())),
+        gamma_offset_(static_cast<Eigen::Index>(unknowns.alpha.size() + unknowns.beta.size())),
+        gamma_(params.GammaOr(model)),
         jac_(n_, n_),
-        phi_(n_, model.alpha_size()) {
+        phi_(n_, model.alpha_size()),
+        f_plus_(n_),
+        f_minus_(n_) {
     s_ = Mat::Zero(n_, p_);
     if (unknowns_.x0) s_.rightCols(n_).setIdentity();
     sensitivities_.resize(static_cast<Eigen::Index>(n_) * p_, sample_count);
@@ -151,13 +186,32 @@ class SensitivityPayload final : public hybrid::Payload {
     Mat s, d;
   };
 
-  // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, zero for β's and ξ0's.
+  // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, ∂(φα)/∂γ_i by
+  // central differences for γ's (zero unless φ uses γ), zero for β's and ξ0's.
   void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, Eigen::Ref<Mat> out) {
     model_.FlowJacobian(x, params_.alpha, jac_);
     model_.Phi(x, phi_);
     out.noalias() = jac_ * s;
     const auto& au = unknowns_.alpha;
     for (std::size_t i = 0; i < au.size(); ++i) out.col(static_cast<Eigen::Index>(i)) += phi_.col(au[i]);
+    for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+      GammaDifference(unknowns_.gamma[c], [&](const Context& ctx, VecRef f) { model_.Flow(x, params_.alpha, f, ctx); },
+                      f_plus_, f_minus_);
+      out.col(gamma_offset_ + static_cast<Eigen::Index>(c)) += f_plus_;
+    }
+  }
+  // (map(γ + h e_i) − map(γ − h e_i)) / 2h into plus (minus: scratch), h = 1e-6·max(1, |γ_i|).
+  template <class Map>
+  void GammaDifference(int i, const Map& map, Vec& plus, Vec& minus) {
+    Vec& g = gamma_scratch_;
+    g = gamma_;
+    const double h = 1e-6 * std::max(1.0, std::abs(gamma_[i]));
+    const Context ctx{.t = 0.0, .u = nullptr, .gamma = g.data()};
+    g[i] = gamma_[i] + h;
+    map(ctx, plus);
+    g[i] = gamma_[i] - h;
+    map(ctx, minus);
+    plus = (plus - minus) / ((gamma_[i] + h) - (gamma_[i] - h));
   }
   void SetWindowEnd(WindowEnd& end, double t, const ConstVecRef& x, const Eigen::Ref<const Mat>& s) {
     end.t = t;
@@ -174,7 +228,11 @@ class SensitivityPayload final : public hybrid::Payload {
   const HybridParameters& params_;
   const Unknowns& unknowns_;
   int n_ = 0, p_ = 0;
+  Eigen::Index gamma_offset_ = 0;  // of γ_u's columns in θ
+  Vec gamma_, gamma_scratch_;      // the run's γ; γ ± a step
+  int guard_ = -1, chain_ = 0;     // the guard that fired, and the jumps applied, in the chain under way
   Mat jac_, phi_;                 // scratch, n × n and n × |α|
+  Vec f_plus_, f_minus_;          // scratch, n
   Mat s_;                         // S at the current state (the run loop's restart point)
   WindowEnd window_a_, window_b_;
   Eigen::RowVectorXd dt_dtheta_;  // ∂t_j/∂θ of the jumps under way
@@ -182,12 +240,15 @@ class SensitivityPayload final : public hybrid::Payload {
   Mat sensitivities_, jump_time_gradients_;
 };
 
-// ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻) at a guard crossing (zero for the initial state's jumps, at t = 0
-// whatever θ); total = S⁻ + f⁻ ∂t_j/∂θ.
+// ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻) at a guard crossing (∂h/∂θ: the γ_u columns of
+// Model::GuardGammaJacobian; zero for the initial state's jumps, at t = 0 whatever θ);
+// total = S⁻ + f⁻ ∂t_j/∂θ.
 bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::string* why) {
   Vec f_minus(n_);
   model_.Flow(x, params_.alpha, f_minus);
   dt_dtheta_ = Eigen::RowVectorXd::Zero(p_);
+  guard_ = guard;
+  chain_ = 0;
   if (guard >= 0) {
     const Eigen::RowVectorXd grad = GuardGradient(guard, x);
     const double rate = grad.dot(f_minus);
@@ -195,21 +256,44 @@ bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::stri
       *why = fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no sensitivity", t);
       return false;
     }
-    dt_dtheta_ = -(grad * s_) / rate;
+    Eigen::RowVectorXd dh = grad * s_;
+    if (!unknowns_.gamma.empty()) {
+      Mat dh_dgamma(model_.guard_count(), model_.gamma_size());
+      model_.GuardGammaJacobian(x, Context{.t = t, .u = nullptr, .gamma = gamma_.data()}, dh_dgamma);
+      for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+        dh[gamma_offset_ + static_cast<Eigen::Index>(c)] += dh_dgamma(guard, unknowns_.gamma[c]);
+      }
+    }
+    dt_dtheta_ = -dh / rate;
   }
   total_ = s_ + f_minus * dt_dtheta_;
   return true;
 }
 
-// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state.
+// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state. g = ψ(ξ)β; with unknown γ the chain's first
+// jump is g = ψ(P(ξ, γ))β, P the projection onto the guard that fired, so that ∂g/∂γ carries the
+// projection's dependence on γ (∂g/∂ξ and ∂g/∂γ by central differences of that composite).
 void SensitivityPayload::Jump(const Vec& pre) {
-  const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { model_.Jump(z, params_.beta, g); }, pre, n_);
+  const bool project = chain_++ == 0 && guard_ >= 0 && !unknowns_.gamma.empty();
+  const auto jump = [&](const Vec& z, const Context& ctx, VecRef g) {
+    if (!project) return model_.Jump(z, params_.beta, g, ctx);
+    Vec on = z;
+    model_.ProjectOntoGuard(guard_, on, ctx);
+    model_.Jump(on, params_.beta, g, ctx);
+  };
+  const Context own{.t = 0.0, .u = nullptr, .gamma = gamma_.data()};
+  const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { jump(z, own, g); }, pre, n_);
   Mat next = g_x * total_;
   Mat psi(n_, model_.beta_size());
   model_.Psi(pre, psi);
   const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
   for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
     next.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
+  }
+  for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+    GammaDifference(unknowns_.gamma[c], [&](const Context& ctx, VecRef g) { jump(pre, ctx, g); }, f_plus_,
+                    f_minus_);
+    next.col(gamma_offset_ + static_cast<Eigen::Index>(c)) += f_plus_;
   }
   total_ = std::move(next);
   jump_time_gradients_.conservativeResize(Eigen::NoChange, jump_time_gradients_.cols() + 1);
@@ -342,15 +426,30 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
   check(params.alpha, model.alpha_size(), "alpha");
   check(params.beta, model.beta_size(), "beta");
   check(params.x0, model.state_size(), "x0");
-  if (!model.InFlowSet(params.x0) && !model.InJumpSet(params.x0)) {
+  if (params.gamma.size() != 0) check(params.gamma, model.gamma_size(), "gamma");
+  const Context at{.t = 0.0, .u = nullptr, .gamma = params.GammaOr(model).data()};
+  if (!model.InFlowSet(params.x0, at) && !model.InJumpSet(params.x0, at)) {
     throw std::invalid_argument(fmt::format("x0 lies outside C and D of model '{}'", model.name()));
   }
 }
 
+// The model with its γ set to params' (the run loop evaluates the model's own γ).
+Model WithGamma(const Model& model, const HybridParameters& params) {
+  if (params.gamma.size() == 0 || params.gamma == model.gamma()) return model;
+  Model at = model;
+  for (Eigen::Index i = 0; i < params.gamma.size(); ++i) {
+    if (params.gamma[i] != model.gamma()[i]) {
+      at.SetParameter(model.spec().guard_params[static_cast<std::size_t>(i)].name, params.gamma[i]);
+    }
+  }
+  return at;
+}
+
 // Plain (segments null: Simulate's loop) or matched mode; the sensitivities as the loop's payload.
-SensitivityTrajectory Integrate(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
+SensitivityTrajectory Integrate(const Model& given, const HybridParameters& params, const Unknowns& unknowns,
                                 const hybrid::SampleTimes& samples, const SensitivityOptions& options,
                                 const std::vector<int>* segments) {
+  const Model model = WithGamma(given, params);
   SensitivityTrajectory out;
   out.parameters = unknowns.size(model.state_size());
   std::optional<SensitivityPayload> payload;

@@ -28,25 +28,37 @@
 
 namespace hysid {
 
-// Which entries of θ = (α_u, β_u, ξ0) are estimated.
+// Which entries of θ = (α_u, β_u, γ_u, ξ0) are estimated (γ: the guard parameters).
 struct Unknowns {
   std::vector<int> alpha;  // indices into α
   std::vector<int> beta;   // indices into β
+  std::vector<int> gamma;  // indices into γ
   bool x0 = true;          // all n entries of ξ0
   // The entries not marked `known` in the model's spec, and ξ0 when `with_x0`.
   static Unknowns Of(const Model& model, bool with_x0 = true);
-  int size(int n) const { return static_cast<int>(alpha.size() + beta.size()) + (x0 ? n : 0); }
+  // |α_u| + |β_u| + |γ_u|: the entries before ξ0.
+  int shared() const { return static_cast<int>(alpha.size() + beta.size() + gamma.size()); }
+  int size(int n) const { return shared() + (x0 ? n : 0); }
   // "a", "b", "lambda", "mu", "x0[x]", "x0[v]" for the §5 system.
   std::vector<std::string> Names(const Model& model) const;
+  // The spec's entries of the shared part of θ, in θ's order (their bounds, names, descriptions).
+  std::vector<const Parameter*> Parameters(const Model& model) const;
   // Field-naming message when an index is out of range or repeated.
   bool IsValid(const Model& model, std::string* error) const;
 };
 
-// Full parameter vectors (known entries included) and the initial state.
+// Full parameter vectors (known entries included), the initial state and the guard parameters γ
+// (empty: the model's own).
 struct HybridParameters {
   Vec alpha, beta, x0;
-  static HybridParameters Of(const Model& model, const Vec& x0) { return {model.alpha(), model.beta(), x0}; }
-  // θ (the unknown entries, in the order of Unknowns) and back.
+  Vec gamma = {};
+  static HybridParameters Of(const Model& model, const Vec& x0) {
+    return {model.alpha(), model.beta(), x0, model.gamma()};
+  }
+  // γ, or the model's own when empty.
+  const Vec& GammaOr(const Model& model) const { return gamma.size() ? gamma : model.gamma(); }
+  // θ (the unknown entries, in the order of Unknowns) and back; γ must be filled when u.gamma is not
+  // empty (std::logic_error otherwise).
   Vec Theta(const Unknowns& u) const;
   HybridParameters WithTheta(const Unknowns& u, const ConstVecRef& theta) const;
 };

@@ -147,7 +147,7 @@ TEST_CASE("guard parameter: the first impact's dt/dw and dv+/dw in closed form (
 TEST_CASE("guard parameter acting in φ and ψ too: S matches central differences", "[sensitivity]") {
   // The spring's rest position at 0.2 w and a restitution scaled by w: γ in the flow, the guard, the
   // projection and the jump map.
-  const std::string text = R"(
+  const std::string text = R"toml(
 name = "wall-everywhere"
 states = ["x", "v"]
 alpha = [
@@ -176,7 +176,9 @@ C = "x <= w"
 D = "x >= w && v >= 0"
 [defaults]
 x0 = [0.0, 10.0]
-)";
+t_end = 6.0
+dt = 5e-4
+)toml";
   const Model model = ParseModelFile(text, "wall-everywhere.toml").model;
   const Agreement a = CompareWithDifferences(model, SampleGrid{6.0, 5e-4}, {});
   CHECK(a.states < 1e-5);
