@@ -179,7 +179,7 @@ SAFETY_SUBJECTS = {
     "model file: a measured name that is not a state": "measured.toml:8: measured[0]",
     "model file: an input used in no expression": "inputunused.toml:8: inputs[0]",
     "model file: an input named like a state": "inputclash.toml:8: inputs[0]",
-    "model file: a guard parameter used in no expression": "gammaunused.toml:19: guard_params[0].name",
+    "model file: a guard parameter used in no expression": "gammaunused.toml:20: guard_params[0].name",
     "model file: bounds that exclude the value": "bounds.toml:11: alpha[1].bounds",
 }
 
