@@ -73,8 +73,9 @@ void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_he
 // The model the flags name; errors name --model, --model-file or --param.
 Model MakeModel(const Environment& env, const ModelFlags& flags);
 
-// --bound NAME=LO,HI (repeatable) of identify and crlb, and the bounds it sets on the model
-// (Model::SetBounds); errors name --bound: malformed text, a name given twice or unknown, a known
+// --param-bound NAME=LO,HI (repeatable) of identify and crlb (not --bound: the paper detector's
+// bound mode has that flag), and the bounds it sets on the model
+// (Model::SetBounds); errors name --param-bound: malformed text, a name given twice or unknown, a known
 // constant, LO >= HI, or the model's value outside [LO, HI].
 void AddBoundFlag(CLI::App& cmd, std::vector<std::string>& bounds);
 void ApplyBoundFlags(const std::vector<std::string>& bounds, Model* model);

@@ -61,7 +61,7 @@ void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_he
 }
 
 void AddBoundFlag(CLI::App& cmd, std::vector<std::string>& bounds) {
-  cmd.add_option("--bound", bounds,
+  cmd.add_option("--param-bound", bounds,
                  "NAME=LO,HI: bounds of an unknown parameter of alpha, beta or the guard parameters "
                  "(repeatable; replaces the model file's bounds; -inf and inf allowed; the value must lie "
                  "inside)");
@@ -72,18 +72,18 @@ void ApplyBoundFlags(const std::vector<std::string>& bounds, Model* model) {
   for (const std::string& b : bounds) {
     const std::size_t eq = b.find('='), comma = b.find(',', eq == std::string::npos ? 0 : eq);
     if (eq == std::string::npos || eq == 0 || comma == std::string::npos) {
-      BadFlag(fmt::format("--bound {}: must be NAME=LO,HI", Abbreviated(b)));
+      BadFlag(fmt::format("--param-bound {}: must be NAME=LO,HI", Abbreviated(b)));
     }
     const std::string name = b.substr(0, eq);
     if (const auto [at, fresh] = given.emplace(name, b); !fresh) {
-      BadFlag(fmt::format("--bound {}: parameter '{}' is already bounded by --bound {}", Abbreviated(b),
+      BadFlag(fmt::format("--param-bound {}: parameter '{}' is already bounded by --param-bound {}", Abbreviated(b),
                           Abbreviated(name, 40), Abbreviated(at->second)));
     }
     auto number = [&](const std::string& text, const char* which) {
       char* end = nullptr;
       const double v = std::strtod(text.c_str(), &end);
       if (text.empty() || end != text.c_str() + text.size() || std::isnan(v)) {
-        BadFlag(fmt::format("--bound {}: {} '{}' is not a number", Abbreviated(b), which, Abbreviated(text, 40)));
+        BadFlag(fmt::format("--param-bound {}: {} '{}' is not a number", Abbreviated(b), which, Abbreviated(text, 40)));
       }
       return v;
     };
@@ -92,7 +92,7 @@ void ApplyBoundFlags(const std::vector<std::string>& bounds, Model* model) {
     try {
       model->SetBounds(name, lo, hi);
     } catch (const std::invalid_argument& e) {
-      BadFlag(fmt::format("--bound {}: {}", Abbreviated(b), e.what()));
+      BadFlag(fmt::format("--param-bound {}: {}", Abbreviated(b), e.what()));
     }
   }
 }

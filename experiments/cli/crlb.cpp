@@ -17,7 +17,7 @@ namespace {
 
 struct CrlbArgs {
   ModelFlags model;
-  std::vector<std::string> bounds;  // --bound NAME=LO,HI, repeatable
+  std::vector<std::string> bounds;  // --param-bound NAME=LO,HI, repeatable
   TrajectoryFlags trajectory;
   std::vector<double> sigma{1.0};
   bool x0_known = false;
@@ -61,7 +61,8 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
     }
     std::printf("%s\n", line.c_str());
   }
-  std::printf("CRLB-implied mean e_alpha %.6g, mean e_beta %.6g\n", c.mean_e_alpha, c.mean_e_beta);
+  std::printf("CRLB-implied mean e_alpha %.6g, mean e_beta %.6g%s\n", c.mean_e_alpha, c.mean_e_beta,
+              unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.6g}", c.mean_e_gamma).c_str());
   std::printf("status: ok\n");
   return 0;
 }

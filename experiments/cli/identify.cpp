@@ -30,7 +30,7 @@ namespace {
 
 struct IdentifyArgs {
   ModelFlags model;
-  std::vector<std::string> bounds;   // --bound NAME=LO,HI, repeatable
+  std::vector<std::string> bounds;   // --param-bound NAME=LO,HI, repeatable
   std::vector<std::string> data;     // --data, repeatable: one run per file (or a run column)
   std::vector<std::string> columns;  // --columns t=NAME,STATE,...[,run=NAME]
   double max_gap = 0.0;              // --max-gap (0: 5 × the median step)

@@ -17,16 +17,32 @@ namespace hysid::cli {
 namespace {
 
 // The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json (the model's
-// α, β are the true values). Empty when there is no such sidecar.
+// α, β are the true values), and the guard parameters γ from its parameters (the model's where the
+// sidecar has none: a model file's γ is often a guess). Empty x0 and σ when there is no such sidecar.
 struct Truth {
-  Vec x0, sigma;
+  Vec x0, sigma, gamma;
 };
 
-Truth ReadTruth(const std::string& data_path, int n) {
+// The sidecar's value of each guard parameter by name, else the model's.
+Vec TruthGamma(const nlohmann::json& meta, const Model& model) {
+  Vec gamma = model.gamma();
+  if (!meta.is_object() || !meta.contains("parameters") || !meta["parameters"].is_object()) return gamma;
+  const nlohmann::json& given = meta["parameters"];
+  for (std::size_t i = 0; i < model.spec().guard_params.size(); ++i) {
+    const std::string& name = model.spec().guard_params[i].name;
+    if (given.contains(name) && given[name].is_number()) gamma[Eigen::Index(i)] = given[name].get<double>();
+  }
+  return gamma;
+}
+
+Truth ReadTruth(const std::string& data_path, const Model& model) {
+  const int n = model.state_size();
   std::ifstream in(std::filesystem::path(data_path).replace_extension(".json"));
-  if (!in) return {};
+  if (!in) return {.x0 = {}, .sigma = {}, .gamma = model.gamma()};
   const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!meta.is_object() || meta.value("command", "") != "simulate") return {};
+  if (!meta.is_object() || meta.value("command", "") != "simulate") {
+    return {.x0 = {}, .sigma = {}, .gamma = model.gamma()};
+  }
   auto vec = [&](const char* key) {
     if (!meta.contains(key) || !meta[key].is_array() || static_cast<int>(meta[key].size()) != n) return Vec();
     Vec v(n);
@@ -36,7 +52,7 @@ Truth ReadTruth(const std::string& data_path, int n) {
     }
     return v;
   };
-  return {vec("x0"), vec("sigma")};
+  return {vec("x0"), vec("sigma"), TruthGamma(meta, model)};
 }
 
 // The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid) over at least two
@@ -49,7 +65,8 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt)
     return none;
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
-  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model));
+  return ComputeCrlb(model, HybridParameters{model.alpha(), model.beta(), truth.x0, truth.gamma}, grid, truth.sigma,
+                     Unknowns::Of(model));
 }
 
 void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
@@ -82,6 +99,7 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   j["recursive_estimate"] = vec(r.start.Theta(r.unknowns));
   j["alpha"] = vec(r.estimate.alpha);
   j["beta"] = vec(r.estimate.beta);
+  j["gamma"] = vec(r.estimate.gamma);
   j["standard_errors"] = vec(r.standard_errors);
   nlohmann::json cov = nlohmann::json::array();
   for (Eigen::Index i = 0; i < r.covariance.rows(); ++i) cov.push_back(vec(r.covariance.row(i).transpose()));
@@ -150,12 +168,12 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
-    r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0)};
+    r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
   }
-  const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
+  const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model) : Truth{.x0 = {}, .sigma = {}, .gamma = model.gamma()};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
   const Crlb bound = TruthBound(model, truth, used, data.dt);
-  const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
+  const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0, truth.gamma};
   if (args.refine == "ml") {
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
                 ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
@@ -185,9 +203,10 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   }
   PrintEstimates(r, truth_params, bound);
   if (bound.ok()) {
-    std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g\n",
+    std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g%s\n",
                 std::filesystem::path(data.path).replace_extension(".json").c_str(), bound.mean_e_alpha,
-                bound.mean_e_beta);
+                bound.mean_e_beta,
+                r.unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.4g}", bound.mean_e_gamma).c_str());
   }
   if (!args.json.empty()) {
     WriteFileAtomically(args.json, ToJson(r, recursive, args.refine, bound).dump(2) + "\n");

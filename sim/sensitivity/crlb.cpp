@@ -94,11 +94,17 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options) {
+  return ComputeCrlb(model, HybridParameters::Of(model, x0), grid, sigma, unknowns, options);
+}
+
+Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
+                 const Unknowns& unknowns, const SensitivityOptions& options) {
   if (sigma.size() != model.state_size() || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
     throw std::invalid_argument(fmt::format("sigma must have {} finite entries > 0", model.state_size()));
   }
-  const SensitivityTrajectory s =
-      SimulateSensitivities(model, HybridParameters::Of(model, x0), unknowns, grid, options);
+  HybridParameters p = at;
+  if (p.gamma.size() == 0) p.gamma = model.gamma();
+  const SensitivityTrajectory s = SimulateSensitivities(model, p, unknowns, grid, options);
   if (!s.ok()) {
     Crlb out;
     out.status = CrlbStatus::kSimulationFailed;

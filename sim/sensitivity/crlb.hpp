@@ -48,5 +48,8 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 // Throws std::invalid_argument for bad inputs (as SimulateSensitivities, plus σ).
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options = {});
+// The same at the given α, β, γ and ξ0 (γ empty: the model's).
+Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
+                 const Unknowns& unknowns, const SensitivityOptions& options = {});
 
 }  // namespace hysid
