@@ -429,7 +429,8 @@ bool RepairChains(const Model& model, const std::vector<RefineChain>& chains, co
     const long k_count = in.y.cols();
     if (!LeftOut(model, in, k_count, recursive.start.gamma).empty()) continue;
     const double dt = (in.t.back() - in.t.front()) / static_cast<double>(k_count - 1);
-    const HybridParameters from{recursive.start.alpha, recursive.start.beta, in.y.col(0), recursive.start.gamma};
+    const HybridParameters from{recursive.start.alpha, recursive.start.beta, in.y.col(0),
+                                recursive.start.gamma};
     const StartRepair repair =
         RepairStart(model, in.y, dt, in.gamma, from, unknowns, weight, sens, options.start_repair);
     if (!repair.ok) continue;

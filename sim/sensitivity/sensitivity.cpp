@@ -133,10 +133,11 @@ Mat CentralDifference(const F& map, const Vec& x, Eigen::Index m) {
 class SensitivityPayload final : public hybrid::Payload {
  public:
   SensitivityPayload(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
-                     long sample_count)
+                     const Exogenous& exo, long sample_count)
       : model_(model),
         params_(params),
         unknowns_(unknowns),
+        context_(model, exo),
         n_(model.state_size()),
         p_(unknowns.size(model.state_size())),
         gamma_offset_(static_cast<Eigen::Index>(unknowns.alpha.size() + unknowns.beta.size())),
@@ -152,9 +153,9 @@ class SensitivityPayload final : public hybrid::Payload {
   }
 
   long size() const override { return static_cast<long>(n_) * p_; }
-  void Flow(const double* x, const double* s, double* sdot) override {
+  void Flow(const double* x, const double* s, const Context& ctx, double* sdot) override {
     Eigen::Map<Mat> d(sdot, n_, p_);
-    Derivative(Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_), d);
+    Derivative(Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_), ctx, d);
   }
   void Restart(double t, const Vec& x, double* extra) override {
     Eigen::Map<Mat>(extra, n_, p_) = s_;
@@ -188,25 +189,28 @@ class SensitivityPayload final : public hybrid::Payload {
 
   // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, ∂(φα)/∂γ_i by
   // central differences for γ's (zero unless φ uses γ), zero for β's and ξ0's.
-  void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, Eigen::Ref<Mat> out) {
-    model_.FlowJacobian(x, params_.alpha, jac_);
-    model_.Phi(x, phi_);
+  void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, const Context& ctx, Eigen::Ref<Mat> out) {
+    model_.FlowJacobian(x, params_.alpha, jac_, ctx);
+    model_.Phi(x, phi_, ctx);
     out.noalias() = jac_ * s;
     const auto& au = unknowns_.alpha;
     for (std::size_t i = 0; i < au.size(); ++i) out.col(static_cast<Eigen::Index>(i)) += phi_.col(au[i]);
     for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
-      GammaDifference(unknowns_.gamma[c], [&](const Context& ctx, VecRef f) { model_.Flow(x, params_.alpha, f, ctx); },
-                      f_plus_, f_minus_);
+      GammaDifference(
+          unknowns_.gamma[c], ctx, [&](const Context& at, VecRef f) { model_.Flow(x, params_.alpha, f, at); },
+          f_plus_, f_minus_);
       out.col(gamma_offset_ + static_cast<Eigen::Index>(c)) += f_plus_;
     }
   }
-  // (map(γ + h e_i) − map(γ − h e_i)) / 2h into plus (minus: scratch), h = 1e-6·max(1, |γ_i|).
+  // (map(γ + h e_i) − map(γ − h e_i)) / 2h into plus (minus: scratch), h = 1e-6·max(1, |γ_i|), at
+  // the context `base` (its time and inputs) with γ moved.
   template <class Map>
-  void GammaDifference(int i, const Map& map, Vec& plus, Vec& minus) {
+  void GammaDifference(int i, const Context& base, const Map& map, Vec& plus, Vec& minus) {
     Vec& g = gamma_scratch_;
     g = gamma_;
     const double h = 1e-6 * std::max(1.0, std::abs(gamma_[i]));
-    const Context ctx{.t = 0.0, .u = nullptr, .gamma = g.data()};
+    Context ctx = base;
+    ctx.gamma = g.data();
     g[i] = gamma_[i] + h;
     map(ctx, plus);
     g[i] = gamma_[i] - h;
@@ -217,16 +221,19 @@ class SensitivityPayload final : public hybrid::Payload {
     end.t = t;
     end.s = s;
     end.d.resize(n_, p_);
-    Derivative(x, s, end.d);
+    Derivative(x, s, context_.At(t), end.d);
   }
-  Eigen::RowVectorXd GuardGradient(int guard, const Vec& x) const {
-    const Mat jac = CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h); }, x, model_.guard_count());
+  Eigen::RowVectorXd GuardGradient(int guard, const Vec& x, const Context& ctx) const {
+    const Mat jac =
+        CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h, ctx); }, x, model_.guard_count());
     return jac.row(guard);
   }
 
   const Model& model_;
   const HybridParameters& params_;
   const Unknowns& unknowns_;
+  ContextSource context_;
+  double t_jump_ = 0.0;           // the time of the jumps under way
   int n_ = 0, p_ = 0;
   Eigen::Index gamma_offset_ = 0;  // of γ_u's columns in θ
   Vec gamma_, gamma_scratch_;      // the run's γ; γ ± a step
@@ -244,13 +251,15 @@ class SensitivityPayload final : public hybrid::Payload {
 // Model::GuardGammaJacobian; zero for the initial state's jumps, at t = 0 whatever θ);
 // total = S⁻ + f⁻ ∂t_j/∂θ.
 bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::string* why) {
+  t_jump_ = t;
+  const Context ctx = context_.At(t);
   Vec f_minus(n_);
-  model_.Flow(x, params_.alpha, f_minus);
+  model_.Flow(x, params_.alpha, f_minus, ctx);
   dt_dtheta_ = Eigen::RowVectorXd::Zero(p_);
   guard_ = guard;
   chain_ = 0;
   if (guard >= 0) {
-    const Eigen::RowVectorXd grad = GuardGradient(guard, x);
+    const Eigen::RowVectorXd grad = GuardGradient(guard, x, ctx);
     const double rate = grad.dot(f_minus);
     if (!(std::abs(rate) > 1e-14 * std::max(1.0, grad.norm() * f_minus.norm()))) {
       *why = fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no sensitivity", t);
@@ -259,7 +268,7 @@ bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::stri
     Eigen::RowVectorXd dh = grad * s_;
     if (!unknowns_.gamma.empty()) {
       Mat dh_dgamma(model_.guard_count(), model_.gamma_size());
-      model_.GuardGammaJacobian(x, Context{.t = t, .u = nullptr, .gamma = gamma_.data()}, dh_dgamma);
+      model_.GuardGammaJacobian(x, ctx, dh_dgamma);
       for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
         dh[gamma_offset_ + static_cast<Eigen::Index>(c)] += dh_dgamma(guard, unknowns_.gamma[c]);
       }
@@ -281,18 +290,18 @@ void SensitivityPayload::Jump(const Vec& pre) {
     model_.ProjectOntoGuard(guard_, on, ctx);
     model_.Jump(on, params_.beta, g, ctx);
   };
-  const Context own{.t = 0.0, .u = nullptr, .gamma = gamma_.data()};
-  const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { jump(z, own, g); }, pre, n_);
+  const Context ctx = context_.At(t_jump_);
+  const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { jump(z, ctx, g); }, pre, n_);
   Mat next = g_x * total_;
   Mat psi(n_, model_.beta_size());
-  model_.Psi(pre, psi);
+  model_.Psi(pre, psi, ctx);
   const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
   for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
     next.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
   }
   for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
-    GammaDifference(unknowns_.gamma[c], [&](const Context& ctx, VecRef g) { jump(pre, ctx, g); }, f_plus_,
-                    f_minus_);
+    GammaDifference(
+        unknowns_.gamma[c], ctx, [&](const Context& at, VecRef g) { jump(pre, at, g); }, f_plus_, f_minus_);
     next.col(gamma_offset_ + static_cast<Eigen::Index>(c)) += f_plus_;
   }
   total_ = std::move(next);
@@ -303,7 +312,7 @@ void SensitivityPayload::Jump(const Vec& pre) {
 // S⁺ = total − f⁺ ∂t_j/∂θ.
 void SensitivityPayload::EndJumps(const Vec& post) {
   Vec f_plus(n_);
-  model_.Flow(post, params_.alpha, f_plus);
+  model_.Flow(post, params_.alpha, f_plus, context_.At(t_jump_));
   s_ = total_ - f_plus * dt_dtheta_;
 }
 
@@ -410,8 +419,13 @@ class Matched {
   SensitivityTrajectory& out_;
 };
 
+// The run's γ and inputs.
+Exogenous ExogenousOf(const HybridParameters& params, const InputSignal* inputs) {
+  return Exogenous{.gamma = params.gamma, .inputs = inputs};
+}
+
 void CheckInputs(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
-                 const SampleGrid& grid, const SensitivityOptions& options) {
+                 const SampleGrid& grid, const SensitivityOptions& options, const InputSignal* inputs) {
   std::string error;
   if (!grid.IsValid(&error) || !options.IsValid(&error) || !unknowns.IsValid(model, &error)) {
     throw std::invalid_argument(error);
@@ -426,35 +440,28 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
   check(params.alpha, model.alpha_size(), "alpha");
   check(params.beta, model.beta_size(), "beta");
   check(params.x0, model.state_size(), "x0");
-  if (params.gamma.size() != 0) check(params.gamma, model.gamma_size(), "gamma");
-  const Context at{.t = 0.0, .u = nullptr, .gamma = params.GammaOr(model).data()};
-  if (!model.InFlowSet(params.x0, at) && !model.InJumpSet(params.x0, at)) {
+  if (params.gamma.size() != 0 || !unknowns.gamma.empty()) check(params.gamma, model.gamma_size(), "gamma");
+  const Exogenous exo = ExogenousOf(params, inputs);
+  if (std::string why = ExogenousError(model, exo, grid.size() > 0 ? static_cast<double>(grid.size() - 1) * grid.dt : 0.0);
+      !why.empty()) {
+    throw std::invalid_argument(why);
+  }
+  ContextSource context(model, exo);
+  if (!model.InFlowSet(params.x0, context.At(0.0)) && !model.InJumpSet(params.x0, context.At(0.0))) {
     throw std::invalid_argument(fmt::format("x0 lies outside C and D of model '{}'", model.name()));
   }
 }
 
-// The model with its γ set to params' (the run loop evaluates the model's own γ).
-Model WithGamma(const Model& model, const HybridParameters& params) {
-  if (params.gamma.size() == 0 || params.gamma == model.gamma()) return model;
-  Model at = model;
-  for (Eigen::Index i = 0; i < params.gamma.size(); ++i) {
-    if (params.gamma[i] != model.gamma()[i]) {
-      at.SetParameter(model.spec().guard_params[static_cast<std::size_t>(i)].name, params.gamma[i]);
-    }
-  }
-  return at;
-}
-
 // Plain (segments null: Simulate's loop) or matched mode; the sensitivities as the loop's payload.
-SensitivityTrajectory Integrate(const Model& given, const HybridParameters& params, const Unknowns& unknowns,
+SensitivityTrajectory Integrate(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
                                 const hybrid::SampleTimes& samples, const SensitivityOptions& options,
-                                const std::vector<int>* segments) {
-  const Model model = WithGamma(given, params);
+                                const std::vector<int>* segments, const InputSignal* inputs) {
   SensitivityTrajectory out;
   out.parameters = unknowns.size(model.state_size());
+  const Exogenous exo = ExogenousOf(params, inputs);
   std::optional<SensitivityPayload> payload;
-  if (options.sensitivities) payload.emplace(model, params, unknowns, samples.count);
-  hybrid::Engine engine(model, params.alpha, params.beta, samples, options.sim, payload ? &*payload : nullptr,
+  if (options.sensitivities) payload.emplace(model, params, unknowns, exo, samples.count);
+  hybrid::Engine engine(model, params.alpha, params.beta, exo, samples, options.sim, payload ? &*payload : nullptr,
                         segments ? hybrid::SampleOrder::kAny : hybrid::SampleOrder::kIncreasing);
   if (segments == nullptr) {
     out.trajectory = engine.Run(params.x0);
@@ -470,9 +477,9 @@ SensitivityTrajectory Integrate(const Model& given, const HybridParameters& para
 
 SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
                                             const Unknowns& unknowns, const SampleGrid& grid,
-                                            const SensitivityOptions& options) {
-  CheckInputs(model, params, unknowns, grid, options);
-  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, nullptr);
+                                            const SensitivityOptions& options, const InputSignal* inputs) {
+  CheckInputs(model, params, unknowns, grid, options, inputs);
+  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, nullptr, inputs);
 }
 
 namespace {
@@ -498,16 +505,17 @@ void CheckSegments(const std::vector<int>& segment_of_sample, std::size_t k_coun
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const SampleGrid& grid,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options) {
-  CheckInputs(model, params, unknowns, grid, options);
+                                                   const SensitivityOptions& options, const InputSignal* inputs) {
+  CheckInputs(model, params, unknowns, grid, options, inputs);
   CheckSegments(segment_of_sample, static_cast<std::size_t>(grid.size()));
-  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, &segment_of_sample);
+  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, &segment_of_sample,
+                   inputs);
 }
 
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const std::vector<double>& times,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options) {
+                                                   const SensitivityOptions& options, const InputSignal* inputs) {
   if (times.size() < 2 || times[0] != 0.0) {
     throw std::invalid_argument(fmt::format("times: {} samples, first {}: need at least 2, the first at 0",
                                             times.size(), times.empty() ? 0.0 : times[0]));
@@ -519,11 +527,11 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
     }
   }
   const SampleGrid grid{.t_end = times.back(), .dt = times.back() / static_cast<double>(times.size() - 1)};
-  CheckInputs(model, params, unknowns, grid, options);
+  CheckInputs(model, params, unknowns, grid, options, inputs);
   CheckSegments(segment_of_sample, times.size());
   return Integrate(model, params, unknowns,
                    {.count = static_cast<long>(times.size()), .dt = grid.dt, .times = &times}, options,
-                   &segment_of_sample);
+                   &segment_of_sample, inputs);
 }
 
 }  // namespace hysid

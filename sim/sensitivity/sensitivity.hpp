@@ -1,4 +1,5 @@
-// Forward sensitivities of a hybrid trajectory, S_k = ∂ξ(t_k)/∂θ, θ = (unknown α, unknown β, ξ0).
+// Forward sensitivities of a hybrid trajectory, S_k = ∂ξ(t_k)/∂θ, θ = (unknown α, unknown β, unknown γ,
+// ξ0), γ the guard parameters; a model with inputs runs on a measured InputSignal u(t).
 //
 // Run:   the hybrid run loop of Simulate (sim/hybrid_run.hpp) with S as its payload: the same jump
 //        chain, Zeno rule, budgets and status, so both stop alike.
@@ -88,23 +89,28 @@ struct SensitivityTrajectory {
   }
 };
 
-// Throws std::invalid_argument for a bad grid, options, unknowns, or parameter vectors of the wrong
-// size or not finite (x0 as Simulate). Numerical outcomes are in trajectory.status.
+// Throws std::invalid_argument for a bad grid, options, unknowns, parameter vectors of the wrong
+// size or not finite (x0 as Simulate), or inputs that do not fit the model or the samples' time range
+// (`inputs`: the measured u(t) of a model with inputs, else nullptr; ExogenousError). Numerical
+// outcomes are in trajectory.status.
 SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
                                             const Unknowns& unknowns, const SampleGrid& grid,
-                                            const SensitivityOptions& options = {});
+                                            const SensitivityOptions& options = {},
+                                            const InputSignal* inputs = nullptr);
 
 // `segment_of_sample` has one entry per sample of the grid, starting at 0 and increasing by 0 or 1
 // from one sample to the next (else std::invalid_argument naming the sample).
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const SampleGrid& grid,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options = {});
+                                                   const SensitivityOptions& options = {},
+                                                   const InputSignal* inputs = nullptr);
 // The same on samples at their own times (irregular sampling; times[0] = 0, increasing): sample k at
 // times[k] instead of k·δt.
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const std::vector<double>& times,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options = {});
+                                                   const SensitivityOptions& options = {},
+                                                   const InputSignal* inputs = nullptr);
 
 }  // namespace hysid
