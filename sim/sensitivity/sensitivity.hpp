@@ -3,15 +3,18 @@
 //
 // Run:   the hybrid run loop of Simulate (sim/hybrid_run.hpp) with S as its payload: the same jump
 //        chain, Zeno rule, budgets and status, so both stop alike.
-// Flow:  S' = (∂f/∂ξ) S + ∂f/∂θ with f = φ(ξ)α (∂f/∂α_i = column i of φ), integrated with the state
+// Flow:  S' = (∂f/∂ξ) S + ∂f/∂θ with f = φ(ξ)α (∂f/∂α_i = column i of φ; ∂f/∂γ_i by central
+//        differences, zero unless φ uses γ), integrated with the state
 //        as one vector (ξ, then S column-major) by CVODE (Adams, fixed-point corrector; S is in the
 //        error test).
-// Jump:  at a guard crossing h(ξ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β, flow f⁺ after:
-//          ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻)
+// Jump:  at a guard crossing h(ξ, γ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β, flow f⁺ after:
+//          ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻)      (∂h/∂γ: Model::GuardGammaJacobian)
 //          S⁺ = (∂g/∂ξ)(S⁻ + f⁻ ∂t_j/∂θ) + ∂g/∂θ − f⁺ ∂t_j/∂θ      (saltation; Hiskens & Pai 2000)
 //        ∇h and ∂g/∂ξ by central differences of Model::Guards and Model::Jump (exact up to rounding
-//        for guards and jump maps affine in ξ); ∂g/∂β_i = column i of ψ(ξ⁻). A chain of jumps at one
-//        instant applies (∂g/∂ξ)(·) + ∂g/∂θ once per jump.
+//        for guards and jump maps affine in ξ); ∂g/∂β_i = column i of ψ(ξ⁻). With unknown γ the
+//        chain's first jump is g = ψ(P(ξ, γ))β, P the projection onto the guard that fired, and
+//        ∂g/∂ξ, ∂g/∂γ are central differences of that (a wall x⁺ = w: ∂x⁺/∂w = 1). A chain of jumps
+//        at one instant applies (∂g/∂ξ)(·) + ∂g/∂θ once per jump.
 // Modes: plain (SimulateSensitivities): the loop's own run, sample k on the segment the model is in
 //        at t_k, as Simulate (bit for bit in the states when sensitivities = false).
 //        matched (SimulateSensitivitiesMatched): sample k on the segment given by the caller (the
