@@ -17,6 +17,7 @@
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "experiments/sweep/tables.hpp"
+#include "experiments/sweep/trial.hpp"
 #include "sim/sensitivity/crlb.hpp"
 #include "tests/testing/temp_dir.hpp"
 
