@@ -47,7 +47,8 @@ std::size_t IndexOf(const std::vector<std::string>& names, const std::string& na
   return static_cast<std::size_t>(it - names.begin());
 }
 
-TEST_CASE("wall: w estimated from the file's 0.9 with the defaults, within 3 SE, SE at the CRLB", "[refine]") {
+TEST_CASE("wall: w estimated from the file's 0.9 with the defaults, within 3 SE, SE at the CRLB",
+          "[refine]") {
   const Truth truth;
   REQUIRE(truth.run.status.completed());
   REQUIRE(truth.run.jumps.size() == 18);
@@ -72,7 +73,8 @@ TEST_CASE("wall: w estimated from the file's 0.9 with the defaults, within 3 SE,
     CHECK(std::abs(w_hat - 1.0) < 3.0 * se);
     CHECK(se == Approx(sd).epsilon(0.2));
     CHECK(std::abs(r.start.gamma[0] - 1.0) < 0.01);  // the start from the detected jumps
-    const Vec theta = r.estimate.Theta(r.unknowns), true_theta = HybridParameters::Of(truth.model, truth.x0).Theta(r.unknowns);
+    const Vec theta = r.estimate.Theta(r.unknowns),
+              true_theta = HybridParameters::Of(truth.model, truth.x0).Theta(r.unknowns);
     for (Eigen::Index i = 0; i < theta.size(); ++i) {
       INFO(r.names[static_cast<std::size_t>(i)] << " = " << theta[i] << " ± " << r.standard_errors[i]);
       CHECK(std::abs(theta[i] - true_theta[i]) < 4.0 * r.standard_errors[i]);

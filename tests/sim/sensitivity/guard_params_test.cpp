@@ -37,7 +37,8 @@ SensitivityOptions StatesOnly() {
 struct Agreement {
   double states = 0.0, jump_times = 0.0;
 };
-Agreement CompareWithDifferences(const Model& model, const SampleGrid& grid, const std::vector<int>& segments) {
+Agreement CompareWithDifferences(const Model& model, const SampleGrid& grid,
+                                 const std::vector<int>& segments) {
   const Unknowns u = Unknowns::Of(model);
   const HybridParameters nominal = HybridParameters::Of(model, DefaultX0(model));
   auto run = [&](const HybridParameters& p, const SensitivityOptions& o) {
@@ -63,13 +64,15 @@ Agreement CompareWithDifferences(const Model& model, const SampleGrid& grid, con
     for (long k = 0; k < s.trajectory.size(); ++k) {
       const auto ku = static_cast<std::size_t>(k);
       scale = std::max(scale, s.S(k).col(i).cwiseAbs().maxCoeff());
-      if (plus.trajectory.j[ku] != s.trajectory.j[ku] || minus.trajectory.j[ku] != s.trajectory.j[ku]) continue;
+      if (plus.trajectory.j[ku] != s.trajectory.j[ku] || minus.trajectory.j[ku] != s.trajectory.j[ku])
+        continue;
       const Vec fd = (plus.trajectory.x.col(k) - minus.trajectory.x.col(k)) / (2 * h);
       err = std::max(err, (fd - s.S(k).col(i)).cwiseAbs().maxCoeff());
       ++compared;
     }
     CHECK(compared > s.trajectory.size() - 4 * static_cast<long>(s.trajectory.jumps.size()) - 4);
-    UNSCOPED_INFO("column " << i << " (" << u.Names(model)[static_cast<std::size_t>(i)] << "): " << err / scale);
+    UNSCOPED_INFO("column " << i << " (" << u.Names(model)[static_cast<std::size_t>(i)]
+                            << "): " << err / scale);
     worst.states = std::max(worst.states, err / scale);
     if (!segments.empty()) continue;
     REQUIRE(plus.trajectory.jumps.size() == s.trajectory.jumps.size());
@@ -112,7 +115,8 @@ TEST_CASE("guard parameter: S matches central differences in matched mode, jumps
   CHECK(CompareWithDifferences(model, grid, seg).states < 1e-5);
 }
 
-TEST_CASE("guard parameter: the first impact's dt/dw and dv+/dw in closed form (no damping)", "[sensitivity]") {
+TEST_CASE("guard parameter: the first impact's dt/dw and dv+/dw in closed form (no damping)",
+          "[sensitivity]") {
   Model model = Wall();
   model.SetParameter("b", 0.0);
   // x = (v0/ω) sin ωt until x = w: t1 = asin(ω w / v0)/ω, ∂t1/∂w = 1/v(t1), v(t1) = v0 cos ω t1. After
