@@ -327,6 +327,13 @@ LIMITS_CASES = [
     ("model file: beyond the size limit", ["env:HYSID_MAX_INPUT_FILE=100", "simulate", "--model-file", "rowsdup.toml"]
      + SIM),
     ("sweep: a FIFO as the sweep file", ["sweep", "fifo.csv", "--out", "run", "--dry-run"]),
+    ("identify: --param-bound of an unknown parameter", ["identify", "--param-bound", "k=0,1", "--data", "sim.csv"]),
+    ("identify: --param-bound with LO >= HI", ["identify", "--param-bound", "a=6,4", "--data", "sim.csv"]),
+    ("identify: --param-bound that excludes the start", ["identify", "--param-bound", "a=6,7", "--data", "sim.csv"]),
+    ("identify: --param-bound without HI", ["identify", "--param-bound", "a=1", "--data", "sim.csv"]),
+    ("identify: --param-bound LO not a number", ["identify", "--param-bound", "a=low,7", "--data", "sim.csv"]),
+    ("crlb: --param-bound of a known constant", ["crlb", "--param-bound", "alpha_x=0,2"]),
+    ("crlb: --param-bound twice", ["crlb", "--param-bound", "a=0,10", "--param-bound", "a=1,9"]),
 ]
 
 # The truth of simulated data, files of several without samples, malformed expressions.

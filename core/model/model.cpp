@@ -121,6 +121,25 @@ void Model::SetParameter(std::string_view pname, double value) {
       fmt::format("model '{}' has no parameter '{}' (parameters: {})", spec_.name, pname, known));
 }
 
+void Model::SetBounds(std::string_view pname, double lower, double upper) {
+  for (auto* list : {&spec_.alpha, &spec_.beta, &spec_.guard_params}) {
+    for (Parameter& p : *list) {
+      if (p.name != pname) continue;
+      if (p.known) {
+        throw std::invalid_argument(fmt::format(
+            "parameter '{}' of model '{}' is a known constant of the model structure", pname, spec_.name));
+      }
+      Parameter bounded = p;
+      bounded.lower = lower;
+      bounded.upper = upper;
+      CheckBounds(bounded, spec_.name);
+      p = bounded;
+      return;
+    }
+  }
+  SetParameter(pname, 0.0);  // throws: no such parameter, naming the unknown ones
+}
+
 void Model::SetParameter(std::string_view assignment) {
   const auto eq = assignment.find('=');
   if (eq == std::string_view::npos || eq == 0) {

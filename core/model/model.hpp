@@ -177,6 +177,10 @@ class Model {
   void SetParameter(std::string_view name, double value);
   // Parses "name=value". Same errors as SetParameter, plus malformed text.
   void SetParameter(std::string_view assignment);
+  // Replaces the bounds [lower, upper] of an unknown parameter of α, β or γ (infinite ends allowed).
+  // Throws std::invalid_argument naming the parameter when it does not exist, is a known constant,
+  // lower < upper does not hold, or its value lies outside [lower, upper].
+  void SetBounds(std::string_view name, double lower, double upper);
 
   // Every evaluation has an x-only form (t = 0, no inputs, the model's own γ) and a form with a
   // Context. A model with inputs evaluated without ctx.u throws std::logic_error (a programming error).

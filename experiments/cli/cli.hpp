@@ -63,6 +63,13 @@ void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_he
 // The model the flags name; errors name --model, --model-file or --param.
 Model MakeModel(const Environment& env, const ModelFlags& flags);
 
+// --param-bound NAME=LO,HI (repeatable) of identify and crlb (not --bound: the paper detector's
+// bound mode has that flag), and the bounds it sets on the model
+// (Model::SetBounds); errors name --param-bound: malformed text, a name given twice or unknown, a known
+// constant, LO >= HI, or the model's value outside [LO, HI].
+void AddBoundFlag(CLI::App& cmd, std::vector<std::string>& bounds);
+void ApplyBoundFlags(const std::vector<std::string>& bounds, Model* model);
+
 // --x0, --t-end and --dt of a subcommand that simulates one trajectory; each not given means the
 // model's default (ModelSpec::default_x0, default_t_end, default_dt).
 struct TrajectoryFlags {

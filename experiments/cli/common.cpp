@@ -75,6 +75,43 @@ void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_he
   cmd.add_option("--param", flags.params, param_help);
 }
 
+void AddBoundFlag(CLI::App& cmd, std::vector<std::string>& bounds) {
+  cmd.add_option("--param-bound", bounds,
+                 "NAME=LO,HI: bounds of an unknown parameter of alpha, beta or the guard parameters "
+                 "(repeatable; replaces the model file's bounds; -inf and inf allowed; the value must lie "
+                 "inside)");
+}
+
+void ApplyBoundFlags(const std::vector<std::string>& bounds, Model* model) {
+  std::map<std::string, std::string> given;  // name -> the flag value that set it
+  for (const std::string& b : bounds) {
+    const std::size_t eq = b.find('='), comma = b.find(',', eq == std::string::npos ? 0 : eq);
+    if (eq == std::string::npos || eq == 0 || comma == std::string::npos) {
+      BadFlag(fmt::format("--param-bound {}: must be NAME=LO,HI", Abbreviated(b)));
+    }
+    const std::string name = b.substr(0, eq);
+    if (const auto [at, fresh] = given.emplace(name, b); !fresh) {
+      BadFlag(fmt::format("--param-bound {}: parameter '{}' is already bounded by --param-bound {}", Abbreviated(b),
+                          Abbreviated(name, 40), Abbreviated(at->second)));
+    }
+    auto number = [&](const std::string& text, const char* which) {
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (text.empty() || end != text.c_str() + text.size() || std::isnan(v)) {
+        BadFlag(fmt::format("--param-bound {}: {} '{}' is not a number", Abbreviated(b), which, Abbreviated(text, 40)));
+      }
+      return v;
+    };
+    const double lo = number(b.substr(eq + 1, comma - eq - 1), "LO");
+    const double hi = number(b.substr(comma + 1), "HI");
+    try {
+      model->SetBounds(name, lo, hi);
+    } catch (const std::invalid_argument& e) {
+      BadFlag(fmt::format("--param-bound {}: {}", Abbreviated(b), e.what()));
+    }
+  }
+}
+
 namespace {
 
 // The comma-separated items of one value of `flag`; an empty item is refused (CLI11's own split

@@ -1,8 +1,10 @@
 // hysid crlb: the Cramér–Rao lower bound of a model's unknown α, β (and ξ0) for sampled states with
 // Gaussian noise σ, from the hybrid forward sensitivities (sim/sensitivity/crlb.hpp).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -15,6 +17,7 @@ namespace {
 
 struct CrlbArgs {
   ModelFlags model;
+  std::vector<std::string> bounds;  // --param-bound NAME=LO,HI, repeatable
   TrajectoryFlags trajectory;
   std::vector<double> sigma{1.0};
   X0Known x0_known;
@@ -22,7 +25,8 @@ struct CrlbArgs {
 };
 
 int RunCrlb(const CrlbArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model);
+  Model model = MakeModel(env, args.model);
+  ApplyBoundFlags(args.bounds, &model);
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   const SampleGrid grid = GridFlag(args.trajectory, model);
@@ -60,15 +64,24 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   std::printf("%d jumps; sqrt(CRLB) (jump-time information left out):\n", c.jumps);
   const HybridParameters truth = HybridParameters::Of(model, x0);
   const Vec theta = truth.Theta(unknowns);
+  const std::vector<const Parameter*> params = unknowns.Parameters(model);
   for (std::size_t i = 0; i < c.names.size(); ++i) {
     const auto ii = static_cast<Eigen::Index>(i);
     if (c.sd[ii] == 0.0) {
       std::printf("  %-10s = %-12.6g known\n", c.names[i].c_str(), theta[ii]);
-    } else {
-      std::printf("  %-10s = %-12.6g sd %.6g\n", c.names[i].c_str(), theta[ii], c.sd[ii]);
+      continue;
     }
+    std::string line = fmt::format("  {:<10} = {:<12.6g} sd {:.6g}", c.names[i], theta[ii], c.sd[ii]);
+    if (i < params.size() && (std::isfinite(params[i]->lower) || std::isfinite(params[i]->upper))) {
+      const double room = std::min(theta[ii] - params[i]->lower, params[i]->upper - theta[ii]);
+      line += fmt::format("  bounds [{:g}, {:g}]{}", params[i]->lower, params[i]->upper,
+                          room < 3.0 * c.sd[ii] ? ": within 3 sd of a bound (the Gaussian bound overstates its error)"
+                                                : "");
+    }
+    std::printf("%s\n", line.c_str());
   }
-  std::printf("CRLB-implied mean e_alpha %.6g, mean e_beta %.6g\n", c.mean_e_alpha, c.mean_e_beta);
+  std::printf("CRLB-implied mean e_alpha %.6g, mean e_beta %.6g%s\n", c.mean_e_alpha, c.mean_e_beta,
+              unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.6g}", c.mean_e_gamma).c_str());
   std::printf("status: ok\n");
   return 0;
 }
@@ -78,8 +91,9 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
 void AddCrlbCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<CrlbArgs>();
   CLI::App* sub =
-      app.add_subcommand("crlb", "Cramér–Rao lower bound of a model's unknown alpha, beta and x0");
+      app.add_subcommand("crlb", "Cramér–Rao lower bound of a model's unknown alpha, beta, guard parameters and x0");
   AddModelFlags(*sub, args->model, "set a true parameter, name=value (repeatable)");
+  AddBoundFlag(*sub, args->bounds);
   AddTrajectoryFlags(*sub, args->trajectory);
   AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per measured state")
       ->capture_default_str();

@@ -33,6 +33,7 @@ namespace {
 
 struct IdentifyArgs {
   ModelFlags model;
+  std::vector<std::string> bounds;   // --param-bound NAME=LO,HI, repeatable
   std::vector<std::string> data;     // --data, repeatable: one run per file (or a run column)
   std::vector<std::string> columns;  // --columns t=NAME,STATE,...[,run=NAME]
   double max_gap = 0.0;              // --max-gap (0: 5 × the median step)
@@ -387,6 +388,7 @@ PartialOutputs Reconstruct(const Model& model, const std::string& model_file, co
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   Model model = MakeModel(env, args.model);
+  ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
   const std::string truth_source = TakeSidecarTruth(args, &model);
   IdentifierSettings settings = BuildSettings(args, model);
   const std::vector<int> measured = MeasuredIndices(model);
@@ -437,6 +439,7 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<IdentifyArgs>();
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
   AddModelFlags(*cmd, args->model, "NAME=VALUE: the model's true value (for error metrics)");
+  AddBoundFlag(*cmd, args->bounds);
   cmd->add_option("--data", args->data,
                   "CSV (RFC 4180): time, then the measured state (the columns named after the model's "
                   "states, else y1..yn, else the first other columns); a column j is taken as ground "

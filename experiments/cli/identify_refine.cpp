@@ -126,6 +126,7 @@ nlohmann::json ToJson(nlohmann::json j, const RefineResult& r, const IdentifyRes
   j["recursive_estimate"] = vec(r.start.Theta(r.unknowns));
   j["alpha"] = vec(r.estimate.alpha);
   j["beta"] = vec(r.estimate.beta);
+  j["gamma"] = vec(r.estimate.gamma);
   j["standard_errors"] = vec(r.standard_errors);
   nlohmann::json cov = nlohmann::json::array();
   for (Eigen::Index i = 0; i < r.covariance.rows(); ++i) cov.push_back(vec(r.covariance.row(i).transpose()));
@@ -257,9 +258,10 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, truth_params, bound);
   if (bound.ok()) {
-    std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g\n",
+    std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g%s\n",
                 std::filesystem::path(data.path).replace_extension(".json").c_str(), bound.mean_e_alpha,
-                bound.mean_e_beta);
+                bound.mean_e_beta,
+                r.unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.4g}", bound.mean_e_gamma).c_str());
   }
   if (!args.json.empty()) {
     nlohmann::json j = ToJson(report, r, recursive, args.refine, options);

@@ -144,6 +144,8 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
     params[spec.alpha[i].name] = model.alpha()[Eigen::Index(i)];
   for (std::size_t i = 0; i < spec.beta.size(); ++i)
     params[spec.beta[i].name] = model.beta()[Eigen::Index(i)];
+  for (std::size_t i = 0; i < spec.guard_params.size(); ++i)
+    params[spec.guard_params[i].name] = model.gamma()[Eigen::Index(i)];
   nlohmann::json meta = {
       {"command", "simulate"},
       {"model", spec.name},

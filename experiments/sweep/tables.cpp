@@ -54,7 +54,8 @@ MetricRange MetricRangeOf(const std::string& metric) {
     if (metric == rate) return MetricRange::kUnitInterval;
   }
   const auto& core = SummaryMetrics();
-  if (std::find(core.begin(), core.end(), metric) != core.end() || metric.rfind(kRelativeErrorPrefix, 0) == 0)
+  if (std::find(core.begin(), core.end(), metric) != core.end() || metric == "e_gamma" ||
+      metric.rfind(kRelativeErrorPrefix, 0) == 0)
     return MetricRange::kNonNegative;
   throw std::logic_error(fmt::format("'{}' is not a summary metric", metric));
 }
@@ -137,7 +138,7 @@ struct CellRows {
   std::vector<std::string> match;  // BaselineKeyNames() columns
   long n = 0, failures = 0;
   std::map<long, std::vector<double>> values;  // trial → one value per metric
-  std::array<double, 2> crlb{0.0, 0.0};        // Σ crlb_e_alpha, crlb_e_beta over the rows with one
+  std::array<double, 3> crlb{0.0, 0.0, 0.0};   // Σ crlb_e_alpha, crlb_e_beta (crlb_e_gamma) over the rows with one
   long crlb_n = 0;
 };
 
@@ -145,26 +146,35 @@ bool Has(const std::vector<std::string>& header, const std::string& name) {
   return std::find(header.begin(), header.end(), name) != header.end();
 }
 
-// Adds the row's crlb_e_alpha, crlb_e_beta (when the table has them and they are not empty).
+// Adds the row's crlb_e_alpha, crlb_e_beta and, with unknown guard parameters, crlb_e_gamma (when the
+// table has them and they are not empty).
 void AddCrlb(const std::vector<std::string>& header, const std::vector<std::string>& cells, CellRows* c) {
   if (!Has(header, "crlb_e_alpha")) return;
+  const bool gamma = Has(header, "crlb_e_gamma");
   const std::string& a = cells[static_cast<std::size_t>(Column(header, "crlb_e_alpha"))];
   const std::string& b = cells[static_cast<std::size_t>(Column(header, "crlb_e_beta"))];
-  if (a.empty() || b.empty()) return;
+  const std::string g = gamma ? cells[static_cast<std::size_t>(Column(header, "crlb_e_gamma"))] : "0";
+  if (a.empty() || b.empty() || g.empty()) return;
   c->crlb[0] += std::stod(a);
   c->crlb[1] += std::stod(b);
+  c->crlb[2] += std::stod(g);
   ++c->crlb_n;
 }
 
 // crlb_e_alpha, crlb_e_beta (the mean over the cell's rows; equal unless x0 is drawn per trial) and
-// efficiency_alpha, efficiency_beta = e_alpha_mean / crlb_e_alpha, … (empty without a bound).
-std::array<std::string, 4> EfficiencyCells(const CellRows& c, double e_alpha_mean, double e_beta_mean) {
-  if (c.crlb_n == 0) return {};
-  const double a = c.crlb[0] / static_cast<double>(c.crlb_n), b = c.crlb[1] / static_cast<double>(c.crlb_n);
+// efficiency_alpha, efficiency_beta = e_alpha_mean / crlb_e_alpha, … (empty without a bound); with
+// unknown guard parameters (`gamma`) then crlb_e_gamma and efficiency_gamma.
+std::vector<std::string> EfficiencyCells(const CellRows& c, double e_alpha_mean, double e_beta_mean,
+                                         bool gamma, double e_gamma_mean) {
+  if (c.crlb_n == 0) return std::vector<std::string>(gamma ? 6 : 4);
+  const auto mean = [&](int i) { return c.crlb[static_cast<std::size_t>(i)] / static_cast<double>(c.crlb_n); };
   const auto ratio = [](double e, double bound) {
     return bound > 0 && !std::isnan(e) ? FormatNumber(e / bound) : std::string();
   };
-  return {FormatNumber(a), FormatNumber(b), ratio(e_alpha_mean, a), ratio(e_beta_mean, b)};
+  std::vector<std::string> out{FormatNumber(mean(0)), FormatNumber(mean(1)), ratio(e_alpha_mean, mean(0)),
+                               ratio(e_beta_mean, mean(1))};
+  if (gamma) out.insert(out.end(), {FormatNumber(mean(2)), ratio(e_gamma_mean, mean(2))});
+  return out;
 }
 
 std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
@@ -218,10 +228,12 @@ std::vector<std::string> SummaryKeys(const std::vector<std::string>& trial_heade
   return keys;
 }
 
-// The metrics summary.csv aggregates: SummaryMetrics(), then the per-parameter rel_err_* columns of
-// the trials table (their statistics come last, after the baseline and efficiency columns).
+// The metrics summary.csv aggregates: SummaryMetrics(), then e_gamma when the trials table has it and
+// the per-parameter rel_err_* columns (their statistics come last, after the baseline and efficiency
+// columns).
 std::vector<std::string> CellMetrics(const std::vector<std::string>& trial_header) {
   std::vector<std::string> metrics = SummaryMetrics();
+  if (Has(trial_header, "e_gamma")) metrics.push_back("e_gamma");
   for (const std::string& h : trial_header) {
     if (h.rfind(kRelativeErrorPrefix, 0) == 0) metrics.push_back(h);
   }
@@ -232,7 +244,7 @@ constexpr std::array<const char*, 5> kStats{"mean", "median", "std", "ci95_lo", 
 
 std::vector<std::string> SummaryHeader(const std::vector<std::string>& keys,
                                        const std::vector<std::string>& metrics, bool baseline,
-                                       bool efficiency) {
+                                       bool efficiency, bool gamma) {
   const std::size_t n_core = SummaryMetrics().size();
   std::vector<std::string> header = keys;
   header.insert(header.end(), {"trials", "failures"});
@@ -248,6 +260,7 @@ std::vector<std::string> SummaryHeader(const std::vector<std::string>& keys,
   }
   if (efficiency)
     header.insert(header.end(), {"crlb_e_alpha", "crlb_e_beta", "efficiency_alpha", "efficiency_beta"});
+  if (efficiency && gamma) header.insert(header.end(), {"crlb_e_gamma", "efficiency_gamma"});
   for (std::size_t m = n_core; m < metrics.size(); ++m) {
     for (const char* stat : kStats) header.push_back(metrics[m] + "_" + stat);
   }
@@ -304,7 +317,7 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
                       const std::map<long, std::vector<std::string>>& rows, const Baseline& baseline) {
   WriteTrialAndTimingTables(dir, trial_header, rows);
   const std::vector<std::string> keys = SummaryKeys(trial_header);
-  const bool efficiency = Has(trial_header, "crlb_e_alpha");
+  const bool efficiency = Has(trial_header, "crlb_e_alpha"), gamma = Has(trial_header, "crlb_e_gamma");
   const std::vector<std::string> metrics = CellMetrics(trial_header);
   const std::size_t n_core = SummaryMetrics().size();
   const std::vector<CellRows> cells = CollectCells(trial_header, rows, keys, metrics);
@@ -314,7 +327,7 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
     for (const CellRows& c : cells) match.push_back(c.match);
     base = MatchBaselines(BaselineKeyNames(), match, baseline);
   }
-  CsvWriter summary(dir / "summary.csv", SummaryHeader(keys, metrics, !baseline.empty(), efficiency));
+  CsvWriter summary(dir / "summary.csv", SummaryHeader(keys, metrics, !baseline.empty(), efficiency, gamma));
   for (std::size_t ci = 0; ci < cells.size(); ++ci) {
     const CellRows& c = cells[ci];
     std::vector<std::string> out = c.keys;
@@ -331,7 +344,8 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
       const auto mean_of = [&](const char* name) {
         return stats[static_cast<std::size_t>(Column(metrics, name))].mean;
       };
-      const std::array<std::string, 4> e = EfficiencyCells(c, mean_of("e_alpha"), mean_of("e_beta"));
+      const std::vector<std::string> e = EfficiencyCells(c, mean_of("e_alpha"), mean_of("e_beta"), gamma,
+                                                         gamma ? mean_of("e_gamma") : kNaN);
       out.insert(out.end(), e.begin(), e.end());
     }
     for (std::size_t m = n_core; m < metrics.size(); ++m) AppendStats(stats[m], &out);

@@ -20,16 +20,25 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Names of the unknown entries of α (or β) over all models, in first-seen order.
-std::vector<std::string> UnknownNames(const std::vector<Model>& models, bool alpha) {
+// The parameter lists of θ's blocks: α, β and the guard parameters γ.
+enum class Block { kAlpha, kBeta, kGamma };
+const std::vector<Parameter>& Params(const Model& m, Block b) {
+  return b == Block::kAlpha ? m.spec().alpha : b == Block::kBeta ? m.spec().beta : m.spec().guard_params;
+}
+
+// Names of the unknown entries of α (or β, or γ) over all models, in first-seen order.
+std::vector<std::string> UnknownNames(const std::vector<Model>& models, Block block) {
   std::vector<std::string> names;
   for (const Model& m : models) {
-    for (const std::string& name : hysid::UnknownNames(alpha ? m.spec().alpha : m.spec().beta)) {
+    for (const std::string& name : hysid::UnknownNames(Params(m, block))) {
       if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
     }
   }
   return names;
 }
+
+// Whether some model has an unknown guard parameter (then the γ columns are added).
+bool AnyUnknownGamma(const std::vector<Model>& models) { return !UnknownNames(models, Block::kGamma).empty(); }
 
 int MaxStates(const std::vector<Model>& models) {
   int n = 0;
@@ -89,6 +98,8 @@ struct TrialOutcome {
   SetMetrics sets;
   long flow_vertices = -1, jump_vertices = -1;
   Vec alpha_hat, beta_hat;
+  Vec gamma_hat;         // refine = ml: the refined γ (empty otherwise: the recursive pass has none)
+  double e_gamma = kNaN;  // ‖γ̂ − γ‖ over the unknown entries (refine = ml)
   bool have_estimates = false;
   bool ok() const { return status == kTrialOk; }
 };
@@ -170,17 +181,24 @@ void OutcomeColumns(std::vector<TrialColumn>* cols) {
                    }});
 }
 
-// α̂ and β̂ of each unknown parameter name over the models (empty where the row's model has none).
+const Vec& Estimate(const TrialOutcome& o, Block b) {
+  return b == Block::kAlpha ? o.alpha_hat : b == Block::kBeta ? o.beta_hat : o.gamma_hat;
+}
+
+// α̂, β̂ (and γ̂ when a model has unknown guard parameters) of each unknown parameter name over the
+// models (empty where the row's model has none).
 void EstimateColumns(const std::vector<Model>& models, std::vector<TrialColumn>* cols) {
-  for (bool alpha : {true, false}) {
-    for (const std::string& name : UnknownNames(models, alpha)) {
-      cols->push_back({(alpha ? "alpha_hat_" : "beta_hat_") + name, [alpha, name](const TrialOutcome& o) {
-                         const auto& params = alpha ? o.model->spec().alpha : o.model->spec().beta;
+  for (Block block : {Block::kAlpha, Block::kBeta, Block::kGamma}) {
+    const char* prefix = block == Block::kAlpha ? "alpha_hat_" : block == Block::kBeta ? "beta_hat_" : "gamma_hat_";
+    for (const std::string& name : UnknownNames(models, block)) {
+      cols->push_back({prefix + name, [block, name](const TrialOutcome& o) {
+                         const auto& params = Params(*o.model, block);
+                         const Vec& hat = Estimate(o, block);
                          std::string text;
                          for (std::size_t i = 0; i < params.size(); ++i) {
-                           if (params[i].name == name && !params[i].known && o.have_estimates) {
-                             text = FormatNumber(
-                                 (alpha ? o.alpha_hat : o.beta_hat)[static_cast<Eigen::Index>(i)]);
+                           const auto ii = static_cast<Eigen::Index>(i);
+                           if (params[i].name == name && !params[i].known && o.have_estimates && ii < hat.size()) {
+                             text = FormatNumber(hat[ii]);
                            }
                          }
                          return text;
@@ -191,19 +209,21 @@ void EstimateColumns(const std::vector<Model>& models, std::vector<TrialColumn>*
 
 // rel_err_NAME of each unknown parameter name over the models: |θ̂ − θ| / |θ| against the row's model's
 // true value θ, or |θ̂ − θ| where θ = 0.
+// (Guard parameter names never clash: a model's parameter names are distinct.)
 void RelativeErrorColumns(const std::vector<Model>& models, std::vector<TrialColumn>* cols) {
-  const std::vector<std::string> alpha_names = UnknownNames(models, true);
-  for (bool alpha : {true, false}) {
-    for (const std::string& name : UnknownNames(models, alpha)) {
-      const bool clash =
-          !alpha && std::find(alpha_names.begin(), alpha_names.end(), name) != alpha_names.end();
+  const std::vector<std::string> alpha_names = UnknownNames(models, Block::kAlpha);
+  for (Block block : {Block::kAlpha, Block::kBeta, Block::kGamma}) {
+    for (const std::string& name : UnknownNames(models, block)) {
+      const bool clash = block == Block::kBeta &&
+                         std::find(alpha_names.begin(), alpha_names.end(), name) != alpha_names.end();
       cols->push_back({kRelativeErrorPrefix + std::string(clash ? "beta_" : "") + name,
-                       [alpha, name](const TrialOutcome& o) {
-                         const auto& params = alpha ? o.model->spec().alpha : o.model->spec().beta;
-                         const Vec& hat = alpha ? o.alpha_hat : o.beta_hat;
+                       [block, name](const TrialOutcome& o) {
+                         const auto& params = Params(*o.model, block);
+                         const Vec& hat = Estimate(o, block);
                          std::string text;
                          for (std::size_t i = 0; i < params.size(); ++i) {
                            if (params[i].name != name || params[i].known || !o.ok()) continue;
+                           if (static_cast<Eigen::Index>(i) >= hat.size()) continue;
                            const double truth = params[i].value;
                            const double err = std::abs(hat[static_cast<Eigen::Index>(i)] - truth);
                            text = FormatNumber(truth != 0 ? err / std::abs(truth) : err);
@@ -216,7 +236,8 @@ void RelativeErrorColumns(const std::vector<Model>& models, std::vector<TrialCol
 
 // grid.refine: the refinement's status and the cell's CRLB-implied mean errors (the σ = 1 bound scaled
 // by σ; empty for σ = 0 or without a bound).
-void RefineColumns(std::vector<TrialColumn>* cols) {
+// With unknown guard parameters also e_gamma (‖γ̂ − γ‖ of the refined estimate) and crlb_e_gamma.
+void RefineColumns(bool gamma, std::vector<TrialColumn>* cols) {
   using O = TrialOutcome;
   const auto bound = [](const O& o, double Crlb::*mean) {
     const bool have = o.crlb != nullptr && o.crlb->ok() && o.cell->sigma > 0;
@@ -225,13 +246,16 @@ void RefineColumns(std::vector<TrialColumn>* cols) {
   cols->push_back({"refine_status", [](const O& o) { return o.refine_status; }});
   cols->push_back({"crlb_e_alpha", [bound](const O& o) { return bound(o, &Crlb::mean_e_alpha); }});
   cols->push_back({"crlb_e_beta", [bound](const O& o) { return bound(o, &Crlb::mean_e_beta); }});
+  if (!gamma) return;
+  cols->push_back(Metric("e_gamma", [](const O& o) { return o.e_gamma; }));
+  cols->push_back({"crlb_e_gamma", [bound](const O& o) { return bound(o, &Crlb::mean_e_gamma); }});
 }
 
 std::vector<TrialColumn> TrialColumns(const SweepConfig& config, const std::vector<Model>& models) {
   std::vector<TrialColumn> cols;
   KeyColumns(config, MaxStates(models), &cols);
   OutcomeColumns(&cols);
-  if (config.grid.refine_axis) RefineColumns(&cols);
+  if (config.grid.refine_axis) RefineColumns(AnyUnknownGamma(models), &cols);
   EstimateColumns(models, &cols);
   RelativeErrorColumns(models, &cols);
   return cols;
@@ -303,6 +327,12 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     o->refine_status = ToString(rr.status);
     o->alpha_hat = rr.estimate.alpha;
     o->beta_hat = rr.estimate.beta;
+    o->gamma_hat = rr.estimate.gamma;
+    if (!rr.unknowns.gamma.empty()) {
+      double sum = 0.0;
+      for (int i : rr.unknowns.gamma) sum += std::pow(rr.estimate.gamma[i] - model.gamma()[i], 2);
+      o->e_gamma = std::sqrt(sum);
+    }
     if (!rr.ok()) {
       o->status = kTrialRefineFailed;
       o->message = fmt::format("refinement {}: {}", ToString(rr.status), rr.reason);

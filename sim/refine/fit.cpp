@@ -26,10 +26,11 @@ struct ChainFit {
   Vec x0;
 };
 
-// Whether the model can be simulated at p: α, β and x0 finite, x0 in C or D.
+// Whether the model can be simulated at p: α, β, γ and x0 finite, x0 in C or D (with p's γ).
 bool Admissible(const Model& model, const HybridParameters& p) {
-  return p.alpha.allFinite() && p.beta.allFinite() && p.x0.allFinite() &&
-         (model.InFlowSet(p.x0) || model.InJumpSet(p.x0));
+  if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() || !p.gamma.allFinite()) return false;
+  const Context at{.t = 0.0, .u = nullptr, .gamma = p.GammaOr(model).data()};
+  return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
 }
 
 // The trajectory that stands for one that cannot be simulated (status left-domain, with the reason).
@@ -158,7 +159,7 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
     const long whole = FitLength(s.gamma[c], options.min_jump_interval), used = std::min(whole, s.limit[c]);
     r.chain_span_reason[c] =
         used < whole ? s.reason[c] : (whole < in.y.cols() ? CloseJumpsReason(options) : "");
-    if (const std::string out = LeftOut(model, in, used); !out.empty()) {
+    if (const std::string out = LeftOut(model, in, used, s.start.GammaOr(model)); !out.empty()) {
       r.chain_span_reason[c] = out;
       ++r.chains_skipped;
       continue;
@@ -188,6 +189,27 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
                                                       c + 1, r.chain_span_reason[c]);
   }
   return fits;
+}
+
+// The bounds of θ's shared entries (α_u, β_u, γ_u) from the spec's Parameter lower/upper.
+void ThetaBounds(const FitProblem& problem, Vec* lower, Vec* upper) {
+  const std::vector<const Parameter*> params = problem.unknowns.Parameters(*problem.model);
+  lower->resize(problem.shared);
+  upper->resize(problem.shared);
+  for (int i = 0; i < problem.shared; ++i) {
+    (*lower)[i] = params[static_cast<std::size_t>(i)]->lower;
+    (*upper)[i] = params[static_cast<std::size_t>(i)]->upper;
+  }
+}
+
+// The finite bounds as Ceres parameter bounds on θ's block.
+void SetBounds(const FitProblem& problem, Vec& theta, ceres::Problem& cp) {
+  Vec lower, upper;
+  ThetaBounds(problem, &lower, &upper);
+  for (int i = 0; i < problem.shared; ++i) {
+    if (std::isfinite(lower[i])) cp.SetParameterLowerBound(theta.data(), i, lower[i]);
+    if (std::isfinite(upper[i])) cp.SetParameterUpperBound(theta.data(), i, upper[i]);
+  }
 }
 
 // The normal equations of the weighted residuals over the joint θ (shared, then x0 of each chain)
@@ -297,6 +319,7 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   } else if (!problem.fits.empty() && !known.empty()) {
     cp.SetManifold(x0.front().data(), new ceres::SubsetManifold(problem.model->state_size(), known));
   }
+  SetBounds(problem, theta, cp);
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
@@ -544,8 +567,10 @@ bool AtIntegrationAccuracy(const FitProblem& problem, const std::vector<Sensitiv
 
 // Solve, polish for noise-free data, then the checks at the fit.
 void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_sigma, RefineResult& r) {
-  Vec theta = r.start.Theta(Unknowns{.alpha = problem.unknowns.alpha, .beta = problem.unknowns.beta,
-                                            .gamma = problem.unknowns.gamma, .x0 = false});
+  Vec theta = r.start.Theta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, problem.unknowns.gamma, false});
+  Vec lower, upper;  // a start the data give outside the bounds starts on the nearest one
+  ThetaBounds(problem, &lower, &upper);
+  theta = theta.cwiseMax(lower).cwiseMin(upper);
   std::vector<Vec> x0;
   for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
   const std::vector<SensitivityTrajectory>& sims = problem.cached;
@@ -603,10 +628,11 @@ std::vector<int> MeasuredRows(const RefineOptions& options, int n) {
   return all;
 }
 
-std::string LeftOut(const Model& model, const RefineChain& chain, long used) {
+std::string LeftOut(const Model& model, const RefineChain& chain, long used, const Vec& gamma) {
   const int n = model.state_size();
   if (used < 2 * n + 2) return fmt::format("left out: {} samples to fit, fewer than {}", used, 2 * n + 2);
-  if (!model.InFlowSet(chain.y.col(0)) && !model.InJumpSet(chain.y.col(0))) {
+  const Context at{.t = chain.t.empty() ? 0.0 : chain.t.front(), .u = nullptr, .gamma = gamma.data()};
+  if (!model.InFlowSet(chain.y.col(0), at) && !model.InJumpSet(chain.y.col(0), at)) {
     return "left out: the first sample lies outside C and D";
   }
   return "";

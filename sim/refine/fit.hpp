@@ -43,8 +43,9 @@ void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sig
 // The measured components: RefineOptions::measured, or all n when it is empty.
 std::vector<int> MeasuredRows(const RefineOptions& options, int n);
 
-// Why a chain is left out of the fit with `used` of its samples ("" when it is fit).
-std::string LeftOut(const Model& model, const RefineChain& chain, long used);
+// Why a chain is left out of the fit with `used` of its samples ("" when it is fit); C and D with the
+// guard parameters γ (the model's size).
+std::string LeftOut(const Model& model, const RefineChain& chain, long used, const Vec& gamma);
 
 // The samples of the chains side by side (Part: anything with an n × K member y).
 template <class Part>

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -205,6 +206,7 @@ bool FitMended(const Model& model, const std::vector<RefineChain>& chains, const
   FitStart m = s;
   m.start.alpha = r.refined.alpha;
   m.start.beta = r.refined.beta;
+  m.start.gamma = r.refined.gamma;
   for (std::size_t i = 0; i < chains.size(); ++i) {
     if (r.chain_x0[i].size() != 0) m.x0[i] = r.chain_x0[i];
   }
@@ -292,6 +294,7 @@ bool GrowStep(const Model& model, const std::vector<RefineChain>& chains, const 
   const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
   s->start.alpha = r.refined.alpha;
   s->start.beta = r.refined.beta;
+  s->start.gamma = r.refined.gamma;
   bool longer = false;
   for (std::size_t c = 0; c < chains.size(); ++c) {
     const long k_count = chains[c].y.cols();
@@ -335,6 +338,7 @@ bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, co
   if (!moved) return false;
   s->start.alpha = r.refined.alpha;
   s->start.beta = r.refined.beta;
+  s->start.gamma = r.refined.gamma;
   for (std::size_t c = 0; c < chains.size(); ++c) {
     if (r.chain_x0[c].size() != 0) s->x0[c] = r.chain_x0[c];
   }
@@ -359,6 +363,7 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
       std::string what;
       s.start.alpha = r.refined.alpha;
       s.start.beta = r.refined.beta;
+      s.start.gamma = r.refined.gamma;
       for (std::size_t i = 0; i < chains.size(); ++i) {
         if (r.chain_x0[i].size() != 0) s.x0[i] = r.chain_x0[i];
       }
@@ -383,13 +388,44 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
   return r;
 }
 
-// The recursive start: α0, β0, each chain's detected labels and its first sample, all samples allowed.
-FitStart RecursiveStart(const std::vector<RefineChain>& chains, const Vec& alpha0, const Vec& beta0,
-                        const Vec& gamma0, int n) {
+// γ's start: one Newton step from the model's γ over the detected jumps of every chain
+// (AppendGuardRows, SolveGuardRows in sim/refine/start.hpp).
+Vec GuardStart(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0) {
+  const Unknowns unknowns = Unknowns::Of(model);
+  Mat rows(0, static_cast<Eigen::Index>(unknowns.gamma.size()));
+  Vec rhs(0);
+  for (const RefineChain& c : chains) {
+    AppendGuardRows(model, c.t, c.y, c.gamma, alpha0, model.gamma(), unknowns, &rows, &rhs);
+  }
+  return SolveGuardRows(unknowns, rows, rhs, model.gamma());
+}
+
+// p with its unknown α, β and γ entries moved onto the nearest bound where they lie outside theirs (a
+// start the data give; a value the user gives outside its bounds is refused where it is given).
+HybridParameters WithinBounds(const Model& model, HybridParameters p) {
+  const Unknowns u = Unknowns::Of(model);
+  const std::vector<const Parameter*> params = u.Parameters(model);
+  std::size_t k = 0;
+  for (auto [indices, values] : {std::pair{&u.alpha, &p.alpha}, std::pair{&u.beta, &p.beta},
+                                 std::pair{&u.gamma, &p.gamma}}) {
+    for (int i : *indices) {
+      const Parameter& bound = *params[k++];
+      (*values)[i] = std::clamp((*values)[i], bound.lower, bound.upper);
+    }
+  }
+  return p;
+}
+
+// The recursive start: α0, β0, γ from the detected jumps, each chain's detected labels and its first
+// sample, all samples allowed.
+FitStart RecursiveStart(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                        const Vec& beta0) {
+  const int n = model.state_size();
   auto first = [n](const RefineChain& c) { return c.y.cols() > 0 ? Vec(c.y.col(0)) : Vec::Zero(n).eval(); };
   FitStart s;
-  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : first(chains[0]),
-                             gamma0};
+  s.start = WithinBounds(model, HybridParameters{alpha0, beta0,
+                                                 chains.empty() ? Vec::Zero(n).eval() : first(chains[0]),
+                                                 GuardStart(model, chains, alpha0)});
   for (const RefineChain& c : chains) {
     s.gamma.push_back(c.gamma);
     s.x0.push_back(first(c));
@@ -428,7 +464,7 @@ bool RepairChains(const Model& model, const std::vector<RefineChain>& chains, co
   for (std::size_t c = 0; c < chains.size(); ++c) {
     const RefineChain& in = chains[c];
     const long k_count = in.y.cols();
-    if (!LeftOut(model, in, k_count).empty()) continue;
+    if (!LeftOut(model, in, k_count, recursive.start.gamma).empty()) continue;
     const double dt = (in.t.back() - in.t.front()) / static_cast<double>(k_count - 1);
     const HybridParameters from{recursive.start.alpha, recursive.start.beta, in.y.col(0),
                                 recursive.start.gamma};
@@ -446,6 +482,7 @@ bool RepairChains(const Model& model, const std::vector<RefineChain>& chains, co
   }
   if (!total.ok) return false;
   out->start.beta = SolveJumpRows(unknowns, rows, rhs, recursive.start.beta);
+  out->start = WithinBounds(model, out->start);
   *summary = total.Summary();
   if (chains.size() > 1 && !changed.empty()) {
     *summary += fmt::format("; detections changed in chain{} {}", changed.size() > 1 ? "s" : "",
@@ -500,7 +537,7 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
 RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                     const Vec& beta0, const RefineOptions& options) {
   CheckInputs(model, chains, alpha0, beta0, options);
-  const FitStart recursive = RecursiveStart(chains, alpha0, beta0, model.gamma(), model.state_size());
+  const FitStart recursive = RecursiveStart(model, chains, alpha0, beta0);
   RefineResult r;
   r.unknowns = Unknowns::Of(model);
   r.names = r.unknowns.Names(model);

@@ -1,15 +1,18 @@
 // Maximum-likelihood (output-error) refinement of a recursive estimate, on one or several chains of
 // samples of one system (a uniform run is one chain; several runs, or a run cut at gaps, are several).
 //
-// Minimises Σ_c Σ_k Σ_{i measured} ((y_cik − ξ_i(t_ck; θ, ξ0_c))/σ_i)² over θ = (unknown α, unknown β), shared by
-// the chains, and one initial state ξ0_c per chain (its own Ceres parameter block, eliminated by the
+// Minimises Σ_c Σ_k Σ_{i measured} ((y_cik − ξ_i(t_ck; θ, ξ0_c))/σ_i)² over θ = (unknown α, β and guard
+// parameters γ), shared by the chains, and one initial state ξ0_c per chain (its own Ceres parameter
+// block, eliminated by the
 // Schur complement). Each chain is simulated from its own initial state on its own sample times,
 // read on the hybrid time domain of its detected jumps: sample k is compared with the model's
 // segment j_k = Σ_{l≤k} γ_l, each segment's flow continued past the model's next jump and before its
 // own start (SimulateSensitivitiesMatched), so no residual jumps as θ moves. (Plain residuals stall
 // far from the optimum: samples that change side of a moving jump time dominate the cost.) Start:
-// the recursive α̂, β̂ and each chain's first sample. Solver: Ceres, Levenberg–Marquardt, Jacobian
-// −S_k/σ_i from the hybrid forward sensitivities.
+// the recursive α̂, β̂, γ from the detected jumps (one Newton step of the guard at the pre-jump
+// samples moved half a step along the flow, sim/refine/start.hpp) and each chain's first sample;
+// a start outside a parameter's bounds starts on the bound. Solver: Ceres, Levenberg–Marquardt
+// with the parameters' finite bounds, Jacobian −S_k/σ_i from the hybrid forward sensitivities.
 //
 // The result is checked, and its status is not ok (the recursive estimate is then kept) when:
 // the data are not finite, there are too few samples, the start does not simulate, Ceres does not
@@ -119,7 +122,7 @@ struct RefineResult {
   RefineStatus status = RefineStatus::kOk;
   std::string reason;  // why the status is not ok ("" when ok)
   bool ok() const { return status == RefineStatus::kOk; }
-  // θ's entries reported: the unknown α and β entries and the first fitted chain's initial state
+  // θ's entries reported: the unknown α, β and γ entries and the first fitted chain's initial state
   // (all chains' initial states are in chain_x0).
   std::vector<std::string> names;
   Unknowns unknowns;

@@ -41,11 +41,13 @@ class LocalFlows {
   }
   const Mat& y() const { return y_; }
   const Vec& weight() const { return weight_; }
+  // Where C and D are evaluated: the start's guard parameters γ.
+  Context At() const { return {.t = 0.0, .u = nullptr, .gamma = p_.GammaOr(model_).data()}; }
 
   // The flow through z at sample `ref`, read at samples [lo, hi) (ref inside): forward with α̂,
   // backward as the forward flow of −α̂ (ξ' = φ(ξ)α reversed in time). s: ∂ξ_k/∂z (n·n per column).
   bool Through(const Vec& z, long ref, long lo, long hi, Mat* x, Mat* s) const {
-    if (!z.allFinite() || (!model_.InFlowSet(z) && !model_.InJumpSet(z))) return false;
+    if (!z.allFinite() || (!model_.InFlowSet(z, At()) && !model_.InJumpSet(z, At()))) return false;
     const Eigen::Index n = z.size();
     x->resize(n, hi - lo);
     if (s) s->resize(n * n, hi - lo);
@@ -135,7 +137,7 @@ LocalFit LocalFlows::Fit(long lo, long hi) const {
   const long mid = (lo + hi) / 2;
   for (long d = 0; d <= (hi - lo) / 2 && !f.ok; ++d) {
     for (const long k : {mid - d, mid + d}) {
-      if (k >= lo && k < hi && !f.ok && model_.InFlowSet(y_.col(k))) {
+      if (k >= lo && k < hi && !f.ok && model_.InFlowSet(y_.col(k), At())) {
         f.ref = k;
         f.ok = true;
       }
@@ -284,7 +286,8 @@ std::vector<long> MissedJumps(const Model& model, const HybridParameters& p, con
     const LocalFit& from = s == 0 ? first : c.right[s - 1];
     const long begin = s == 0 ? 0 : c.jumps[s - 1];
     const long end = s < c.jumps.size() ? c.jumps[s] : k_count;
-    if (!from.ok || end - from.ref < 2 || (!model.InFlowSet(from.z) && !model.InJumpSet(from.z))) continue;
+    const Context at{.t = 0.0, .u = nullptr, .gamma = p.GammaOr(model).data()};
+    if (!from.ok || end - from.ref < 2 || (!model.InFlowSet(from.z, at) && !model.InJumpSet(from.z, at))) continue;
     const SampleGrid grid{(static_cast<double>(end - from.ref) - 0.5) * dt, dt};
     const SensitivityTrajectory t =
         SimulateSensitivities(model, HybridParameters{p.alpha, p.beta, from.z, p.gamma}, Unknowns{}, grid, plain);
@@ -331,7 +334,8 @@ StartRepair RepairStart(const Model& model, const Mat& y, double dt, const std::
     out.start.beta = SolveJumpRows(unknowns, out.jump_rows, out.jump_rhs, recursive.beta);
     const LocalFit first = flows.Fit(0, std::min(c.jumps.empty() ? k_count : c.jumps.front(), repair.window));
     const Vec x0 = flows.StateAt(first, 0);
-    out.start.x0 = x0.size() > 0 && (model.InFlowSet(x0) || model.InJumpSet(x0)) ? x0 : recursive.x0;
+    const Context at{.t = 0.0, .u = nullptr, .gamma = recursive.GammaOr(model).data()};
+    out.start.x0 = x0.size() > 0 && (model.InFlowSet(x0, at) || model.InJumpSet(x0, at)) ? x0 : recursive.x0;
     if (round == repair.max_rounds) break;
     std::vector<long> missed = MissedJumps(model, out.start, c, first, dt, options, repair, k_count);
     std::erase_if(missed, [&](long k) { return std::binary_search(predicted.begin(), predicted.end(), k); });
@@ -358,6 +362,55 @@ Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, con
   if (!solved.allFinite()) return beta;
   Vec out = beta;
   for (Eigen::Index col = 0; col < q; ++col) out[unknowns.beta[static_cast<std::size_t>(col)]] = solved[col];
+  return out;
+}
+
+void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat& y,
+                     const std::vector<std::uint8_t>& labels, const Vec& alpha, const Vec& gamma0,
+                     const Unknowns& unknowns, Mat* rows, Vec* rhs) {
+  const auto q = static_cast<Eigen::Index>(unknowns.gamma.size());
+  const int n = model.state_size(), guards = model.guard_count();
+  if (q == 0 || guards == 0) return;
+  Vec f(n), h(guards);
+  Mat dh(guards, model.gamma_size());
+  for (std::size_t k = 1; k < labels.size(); ++k) {
+    if (labels[k] == 0) continue;
+    const auto pre = static_cast<Eigen::Index>(k - 1);
+    if (!y.col(pre).allFinite()) continue;
+    const Context ctx{.t = t[k - 1], .u = nullptr, .gamma = gamma0.data()};
+    model.Flow(y.col(pre), alpha, f, ctx);
+    const Vec moved = y.col(pre) + 0.5 * (t[k] - t[k - 1]) * f;
+    model.Guards(moved, h, ctx);
+    model.GuardGammaJacobian(moved, ctx, dh);
+    Eigen::Index fired = 0;
+    h.cwiseAbs().minCoeff(&fired);
+    if (!h.allFinite() || !dh.row(fired).allFinite()) continue;
+    const Eigen::Index m = rows->rows();
+    rows->conservativeResize(m + 1, q);
+    rhs->conservativeResize(m + 1);
+    for (Eigen::Index c = 0; c < q; ++c) (*rows)(m, c) = dh(fired, unknowns.gamma[static_cast<std::size_t>(c)]);
+    (*rhs)[m] = -h[fired];
+  }
+}
+
+Vec SolveGuardRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, const Vec& gamma0) {
+  Vec out = gamma0;
+  if (rows.rows() == 0) return out;
+  std::vector<Eigen::Index> used;  // the columns some row involves
+  for (Eigen::Index c = 0; c < rows.cols(); ++c) {
+    if (rows.col(c).cwiseAbs().maxCoeff() > 0.0) used.push_back(c);
+  }
+  const auto q = static_cast<Eigen::Index>(used.size());
+  if (q == 0 || rows.rows() < q) return out;
+  Mat a(rows.rows(), q);
+  for (Eigen::Index c = 0; c < q; ++c) a.col(c) = rows.col(used[static_cast<std::size_t>(c)]);
+  const Eigen::ColPivHouseholderQR<Mat> qr(a);
+  if (qr.rank() < q) return out;
+  const Vec step = qr.solve(rhs);
+  if (!step.allFinite()) return out;
+  for (Eigen::Index c = 0; c < q; ++c) {
+    out[unknowns.gamma[static_cast<std::size_t>(used[static_cast<std::size_t>(c)])]] += step[c];
+  }
   return out;
 }
 

@@ -56,6 +56,21 @@ StartRepair RepairStart(const Model& model, const Mat& y, double dt, const std::
                         const HybridParameters& recursive, const Unknowns& unknowns, const Vec& weight,
                         const SensitivityOptions& options, const StartRepairOptions& repair = {});
 
+// The start of the guard parameters γ from the detected jumps (docs/architecture.md, "Refinement"):
+// for each detected jump at sample k (labels[k] = 1, k ≥ 1), the pre-jump sample moved half a step
+// along the flow, x̃ = y_{k−1} + ½ (t_k − t_{k−1}) φ(y_{k−1}) α, lies on the guard that fired, on
+// average over where in (t_{k−1}, t_k] the jump fell. Its row of h(x̃, γ) = 0 linearised at γ0 (the
+// guard whose |h(x̃, γ0)| is least; ∂h/∂γ by Model::GuardGammaJacobian) is appended to rows/rhs, so
+// that one Newton step from γ0 over the jumps of every chain is their least-squares solution
+// (SolveGuardRows). Columns: γ's unknown entries. Samples with a non-finite entry give no row.
+void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat& y,
+                     const std::vector<std::uint8_t>& labels, const Vec& alpha, const Vec& gamma0,
+                     const Unknowns& unknowns, Mat* rows, Vec* rhs);
+
+// γ0 with its unknown entries moved by the least-squares Newton step of the rows; an unknown entry no
+// row involves (its column zero), or all of them when the rows are rank-deficient, stays at γ0.
+Vec SolveGuardRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, const Vec& gamma0);
+
 // β with its unknown entries the least-squares solution of the regression rows (StartRepair's, or
 // several stacked); `beta` unchanged when the rows are fewer than the unknowns or rank-deficient.
 Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, const Vec& beta);

@@ -156,10 +156,17 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
   const auto nb = static_cast<Eigen::Index>(unknowns.beta.size());
   out.mean_e_alpha = MeanGaussianNorm(out.covariance.topLeftCorner(na, na));
   out.mean_e_beta = MeanGaussianNorm(out.covariance.block(na, na, nb, nb));
+  const auto ng = static_cast<Eigen::Index>(unknowns.gamma.size());
+  out.mean_e_gamma = MeanGaussianNorm(out.covariance.block(na + nb, na + nb, ng, ng));
   return out;
 }
 
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
+                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured) {
+  return ComputeCrlb(model, HybridParameters::Of(model, x0), grid, sigma, unknowns, options, measured);
+}
+
+Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured) {
   const auto m = measured.empty() ? model.state_size() : static_cast<int>(measured.size());
   if (sigma.size() != m || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
@@ -171,8 +178,9 @@ Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, cons
                                               measured[i], model.state_size()));
     }
   }
-  const SensitivityTrajectory s =
-      SimulateSensitivities(model, HybridParameters::Of(model, x0), unknowns, grid, options);
+  HybridParameters p = at;
+  if (p.gamma.size() == 0) p.gamma = model.gamma();
+  const SensitivityTrajectory s = SimulateSensitivities(model, p, unknowns, grid, options);
   if (!s.ok()) {
     Crlb out;
     out.status = CrlbStatus::kSimulationFailed;

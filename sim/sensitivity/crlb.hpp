@@ -1,5 +1,6 @@
-// The Cramér–Rao lower bound of θ = (unknown α, unknown β, ξ0) for samples y_k = Hξ(t_k) + e_k (H
-// selects the measured states), e_k ~ N(0, R), R = diag σ²: Fisher information F = Σ_k S_kᵀHᵀR⁻¹HS_k (S_k from the hybrid forward
+// The Cramér–Rao lower bound of θ = (unknown α, unknown β, unknown γ, ξ0) for samples y_k = Hξ(t_k) + e_k
+// (H selects the measured states), e_k ~ N(0, R), R = diag σ²: Fisher information
+// F = Σ_k S_kᵀHᵀR⁻¹HS_k (S_k from the hybrid forward
 // sensitivities, sim/sensitivity/sensitivity.hpp), CRLB = F⁻¹. The information in the jump times
 // themselves is left out (S_k is the derivative at a fixed jump count).
 #pragma once
@@ -26,8 +27,9 @@ struct Crlb {
   Mat fisher;                      // p × p
   Mat covariance;                  // F⁻¹ (empty unless ok)
   Vec sd;                          // √diag F⁻¹ (empty unless ok)
-  // E‖z‖ for z ~ N(0, CRLB block of the unknown α entries), the same for β (0 when there are none).
-  double mean_e_alpha = 0.0, mean_e_beta = 0.0;
+  // E‖z‖ for z ~ N(0, CRLB block of the unknown α entries), the same for β and for the guard
+  // parameters γ (0 when there are none).
+  double mean_e_alpha = 0.0, mean_e_beta = 0.0, mean_e_gamma = 0.0;
   long samples = 0;
   int jumps = 0;
   bool ok() const { return status == CrlbStatus::kOk; }
@@ -52,6 +54,10 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 // measured state) on the states `measured` (indices, increasing; empty: all).
 // Throws std::invalid_argument for bad inputs (as SimulateSensitivities, plus σ and measured).
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
+                 const Unknowns& unknowns, const SensitivityOptions& options = {},
+                 const std::vector<int>& measured = {});
+// The same at the given α, β, γ and ξ0 (γ empty: the model's).
+Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options = {},
                  const std::vector<int>& measured = {});
 

@@ -41,6 +41,15 @@ std::vector<std::string> Unknowns::Names(const Model& model) const {
   return names;
 }
 
+std::vector<const Parameter*> Unknowns::Parameters(const Model& model) const {
+  const ModelSpec& spec = model.spec();
+  std::vector<const Parameter*> out;
+  for (int i : alpha) out.push_back(&spec.alpha[static_cast<std::size_t>(i)]);
+  for (int i : beta) out.push_back(&spec.beta[static_cast<std::size_t>(i)]);
+  for (int i : gamma) out.push_back(&spec.guard_params[static_cast<std::size_t>(i)]);
+  return out;
+}
+
 bool Unknowns::IsValid(const Model& model, std::string* error) const {
   auto check = [&](const std::vector<int>& idx, int size, const char* field) {
     std::set<int> seen;
@@ -61,7 +70,21 @@ bool Unknowns::IsValid(const Model& model, std::string* error) const {
          check(gamma, model.gamma_size(), "gamma");
 }
 
+namespace {
+
+void RequireGamma(const Unknowns& u, const Vec& gamma) {
+  for (int i : u.gamma) {
+    if (i >= gamma.size()) {
+      throw std::logic_error(
+          fmt::format("HybridParameters::gamma has {} entries; Unknowns::gamma names entry {}", gamma.size(), i));
+    }
+  }
+}
+
+}  // namespace
+
 Vec HybridParameters::Theta(const Unknowns& u) const {
+  RequireGamma(u, gamma);
   Vec theta(u.size(static_cast<int>(x0.size())));
   Eigen::Index c = 0;
   for (int i : u.alpha) theta[c++] = alpha[i];
@@ -72,6 +95,7 @@ Vec HybridParameters::Theta(const Unknowns& u) const {
 }
 
 HybridParameters HybridParameters::WithTheta(const Unknowns& u, const ConstVecRef& theta) const {
+  RequireGamma(u, gamma);
   HybridParameters out = *this;
   Eigen::Index c = 0;
   for (int i : u.alpha) out.alpha[i] = theta[c++];
@@ -116,8 +140,12 @@ class SensitivityPayload final : public hybrid::Payload {
         context_(model, exo),
         n_(model.state_size()),
         p_(unknowns.size(model.state_size())),
+        gamma_offset_(static_cast<Eigen::Index>(unknowns.alpha.size() + unknowns.beta.size())),
+        gamma_(params.GammaOr(model)),
         jac_(n_, n_),
-        phi_(n_, model.alpha_size()) {
+        phi_(n_, model.alpha_size()),
+        f_plus_(n_),
+        f_minus_(n_) {
     s_ = Mat::Zero(n_, p_);
     if (unknowns_.x0) s_.rightCols(n_).setIdentity();
     sensitivities_.resize(static_cast<Eigen::Index>(n_) * p_, sample_count);
@@ -159,14 +187,35 @@ class SensitivityPayload final : public hybrid::Payload {
     Mat s, d;
   };
 
-  // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, zero for β's, γ's
-  // and ξ0's.
+  // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, ∂(φα)/∂γ_i by
+  // central differences for γ's (zero unless φ uses γ), zero for β's and ξ0's.
   void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, const Context& ctx, Eigen::Ref<Mat> out) {
     model_.FlowJacobian(x, params_.alpha, jac_, ctx);
     model_.Phi(x, phi_, ctx);
     out.noalias() = jac_ * s;
     const auto& au = unknowns_.alpha;
     for (std::size_t i = 0; i < au.size(); ++i) out.col(static_cast<Eigen::Index>(i)) += phi_.col(au[i]);
+    for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+      GammaDifference(
+          unknowns_.gamma[c], ctx, [&](const Context& at, VecRef f) { model_.Flow(x, params_.alpha, f, at); },
+          f_plus_, f_minus_);
+      out.col(gamma_offset_ + static_cast<Eigen::Index>(c)) += f_plus_;
+    }
+  }
+  // (map(γ + h e_i) − map(γ − h e_i)) / 2h into plus (minus: scratch), h = 1e-6·max(1, |γ_i|), at
+  // the context `base` (its time and inputs) with γ moved.
+  template <class Map>
+  void GammaDifference(int i, const Context& base, const Map& map, Vec& plus, Vec& minus) {
+    Vec& g = gamma_scratch_;
+    g = gamma_;
+    const double h = 1e-6 * std::max(1.0, std::abs(gamma_[i]));
+    Context ctx = base;
+    ctx.gamma = g.data();
+    g[i] = gamma_[i] + h;
+    map(ctx, plus);
+    g[i] = gamma_[i] - h;
+    map(ctx, minus);
+    plus = (plus - minus) / ((gamma_[i] + h) - (gamma_[i] - h));
   }
   void SetWindowEnd(WindowEnd& end, double t, const ConstVecRef& x, const Eigen::Ref<const Mat>& s) {
     end.t = t;
@@ -186,7 +235,11 @@ class SensitivityPayload final : public hybrid::Payload {
   ContextSource context_;
   double t_jump_ = 0.0;           // the time of the jumps under way
   int n_ = 0, p_ = 0;
+  Eigen::Index gamma_offset_ = 0;  // of γ_u's columns in θ
+  Vec gamma_, gamma_scratch_;      // the run's γ; γ ± a step
+  int guard_ = -1, chain_ = 0;     // the guard that fired, and the jumps applied, in the chain under way
   Mat jac_, phi_;                 // scratch, n × n and n × |α|
+  Vec f_plus_, f_minus_;          // scratch, n
   Mat s_;                         // S at the current state (the run loop's restart point)
   WindowEnd window_a_, window_b_;
   Eigen::RowVectorXd dt_dtheta_;  // ∂t_j/∂θ of the jumps under way
@@ -194,14 +247,17 @@ class SensitivityPayload final : public hybrid::Payload {
   Mat sensitivities_, jump_time_gradients_;
 };
 
-// ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻) at a guard crossing (zero for the initial state's jumps, at t = 0
-// whatever θ); total = S⁻ + f⁻ ∂t_j/∂θ.
+// ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻) at a guard crossing (∂h/∂θ: the γ_u columns of
+// Model::GuardGammaJacobian; zero for the initial state's jumps, at t = 0 whatever θ);
+// total = S⁻ + f⁻ ∂t_j/∂θ.
 bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::string* why) {
   t_jump_ = t;
   const Context ctx = context_.At(t);
   Vec f_minus(n_);
   model_.Flow(x, params_.alpha, f_minus, ctx);
   dt_dtheta_ = Eigen::RowVectorXd::Zero(p_);
+  guard_ = guard;
+  chain_ = 0;
   if (guard >= 0) {
     const Eigen::RowVectorXd grad = GuardGradient(guard, x, ctx);
     const double rate = grad.dot(f_minus);
@@ -209,23 +265,44 @@ bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::stri
       *why = fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no sensitivity", t);
       return false;
     }
-    dt_dtheta_ = -(grad * s_) / rate;
+    Eigen::RowVectorXd dh = grad * s_;
+    if (!unknowns_.gamma.empty()) {
+      Mat dh_dgamma(model_.guard_count(), model_.gamma_size());
+      model_.GuardGammaJacobian(x, ctx, dh_dgamma);
+      for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+        dh[gamma_offset_ + static_cast<Eigen::Index>(c)] += dh_dgamma(guard, unknowns_.gamma[c]);
+      }
+    }
+    dt_dtheta_ = -dh / rate;
   }
   total_ = s_ + f_minus * dt_dtheta_;
   return true;
 }
 
-// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state.
+// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state. g = ψ(ξ)β; with unknown γ the chain's first
+// jump is g = ψ(P(ξ, γ))β, P the projection onto the guard that fired, so that ∂g/∂γ carries the
+// projection's dependence on γ (∂g/∂ξ and ∂g/∂γ by central differences of that composite).
 void SensitivityPayload::Jump(const Vec& pre) {
+  const bool project = chain_++ == 0 && guard_ >= 0 && !unknowns_.gamma.empty();
+  const auto jump = [&](const Vec& z, const Context& ctx, VecRef g) {
+    if (!project) return model_.Jump(z, params_.beta, g, ctx);
+    Vec on = z;
+    model_.ProjectOntoGuard(guard_, on, ctx);
+    model_.Jump(on, params_.beta, g, ctx);
+  };
   const Context ctx = context_.At(t_jump_);
-  const Mat g_x =
-      CentralDifference([&](const Vec& z, Vec& g) { model_.Jump(z, params_.beta, g, ctx); }, pre, n_);
+  const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { jump(z, ctx, g); }, pre, n_);
   Mat next = g_x * total_;
   Mat psi(n_, model_.beta_size());
   model_.Psi(pre, psi, ctx);
   const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
   for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
     next.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
+  }
+  for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+    GammaDifference(
+        unknowns_.gamma[c], ctx, [&](const Context& at, VecRef g) { jump(pre, at, g); }, f_plus_, f_minus_);
+    next.col(gamma_offset_ + static_cast<Eigen::Index>(c)) += f_plus_;
   }
   total_ = std::move(next);
   jump_time_gradients_.conservativeResize(Eigen::NoChange, jump_time_gradients_.cols() + 1);

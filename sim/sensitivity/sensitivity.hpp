@@ -3,15 +3,18 @@
 //
 // Run:   the hybrid run loop of Simulate (sim/hybrid_run.hpp) with S as its payload: the same jump
 //        chain, Zeno rule, budgets and status, so both stop alike.
-// Flow:  S' = (∂f/∂ξ) S + ∂f/∂θ with f = φ(ξ)α (∂f/∂α_i = column i of φ), integrated with the state
+// Flow:  S' = (∂f/∂ξ) S + ∂f/∂θ with f = φ(ξ)α (∂f/∂α_i = column i of φ; ∂f/∂γ_i by central
+//        differences, zero unless φ uses γ), integrated with the state
 //        as one vector (ξ, then S column-major) by CVODE (Adams, fixed-point corrector; S is in the
 //        error test).
-// Jump:  at a guard crossing h(ξ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β, flow f⁺ after:
-//          ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻)
+// Jump:  at a guard crossing h(ξ, γ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β, flow f⁺ after:
+//          ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻)      (∂h/∂γ: Model::GuardGammaJacobian)
 //          S⁺ = (∂g/∂ξ)(S⁻ + f⁻ ∂t_j/∂θ) + ∂g/∂θ − f⁺ ∂t_j/∂θ      (saltation; Hiskens & Pai 2000)
 //        ∇h and ∂g/∂ξ by central differences of Model::Guards and Model::Jump (exact up to rounding
-//        for guards and jump maps affine in ξ); ∂g/∂β_i = column i of ψ(ξ⁻). A chain of jumps at one
-//        instant applies (∂g/∂ξ)(·) + ∂g/∂θ once per jump.
+//        for guards and jump maps affine in ξ); ∂g/∂β_i = column i of ψ(ξ⁻). With unknown γ the
+//        chain's first jump is g = ψ(P(ξ, γ))β, P the projection onto the guard that fired, and
+//        ∂g/∂ξ, ∂g/∂γ are central differences of that (a wall x⁺ = w: ∂x⁺/∂w = 1). A chain of jumps
+//        at one instant applies (∂g/∂ξ)(·) + ∂g/∂θ once per jump.
 // Modes: plain (SimulateSensitivities): the loop's own run, sample k on the segment the model is in
 //        at t_k, as Simulate (bit for bit in the states when sensitivities = false).
 //        matched (SimulateSensitivitiesMatched): sample k on the segment given by the caller (the
@@ -29,29 +32,37 @@
 
 namespace hysid {
 
-// Which entries of θ = (α_u, β_u, γ_u, ξ0) are estimated.
+// Which entries of θ = (α_u, β_u, γ_u, ξ0) are estimated (γ: the guard parameters).
 struct Unknowns {
   std::vector<int> alpha;  // indices into α
   std::vector<int> beta;   // indices into β
-  std::vector<int> gamma;  // indices into γ (ModelSpec::guard_params)
+  std::vector<int> gamma;  // indices into γ
   bool x0 = true;          // all n entries of ξ0
   // The entries not marked `known` in the model's spec, and ξ0 when `with_x0`.
   static Unknowns Of(const Model& model, bool with_x0 = true);
-  int size(int n) const { return static_cast<int>(alpha.size() + beta.size() + gamma.size()) + (x0 ? n : 0); }
+  // |α_u| + |β_u| + |γ_u|: the entries before ξ0.
+  int shared() const { return static_cast<int>(alpha.size() + beta.size() + gamma.size()); }
+  int size(int n) const { return shared() + (x0 ? n : 0); }
   // "a", "b", "lambda", "mu", "x0[x]", "x0[v]" for the §5 system.
   std::vector<std::string> Names(const Model& model) const;
+  // The spec's entries of the shared part of θ, in θ's order (their bounds, names, descriptions).
+  std::vector<const Parameter*> Parameters(const Model& model) const;
   // Field-naming message when an index is out of range or repeated.
   bool IsValid(const Model& model, std::string* error) const;
 };
 
-// Full parameter vectors (known entries included) and the initial state.
+// Full parameter vectors (known entries included), the initial state and the guard parameters γ
+// (empty: the model's own).
 struct HybridParameters {
   Vec alpha, beta, x0;
-  Vec gamma;  // guard parameters (|γ| entries); empty: the model's own (then no γ may be unknown)
+  Vec gamma = {};
   static HybridParameters Of(const Model& model, const Vec& x0) {
     return {model.alpha(), model.beta(), x0, model.gamma()};
   }
-  // θ (the unknown entries, in the order of Unknowns) and back.
+  // γ, or the model's own when empty.
+  const Vec& GammaOr(const Model& model) const { return gamma.size() ? gamma : model.gamma(); }
+  // θ (the unknown entries, in the order of Unknowns) and back; γ must be filled when u.gamma is not
+  // empty (std::logic_error otherwise).
   Vec Theta(const Unknowns& u) const;
   HybridParameters WithTheta(const Unknowns& u, const ConstVecRef& theta) const;
 };

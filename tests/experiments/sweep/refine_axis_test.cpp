@@ -17,6 +17,7 @@
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "experiments/sweep/tables.hpp"
+#include "experiments/sweep/trial.hpp"
 #include "sim/sensitivity/crlb.hpp"
 #include "tests/testing/temp_dir.hpp"
 
@@ -172,4 +173,54 @@ TEST_CASE("sweep: without a refine axis the tables keep their columns", "[sweep]
       ParseSweepText(std::string(kSweep).replace(std::string(kSweep).find("\"ml\""), 4, "\"map\""),
                      "bad.toml", Registry()),
       Catch::Contains("grid.refine") && Catch::Contains("unknown refinement 'map' (known: none, ml)"));
+}
+
+TEST_CASE("sweep: unknown guard parameters add γ columns, other sweeps' tables are unchanged", "[sweep][refine]") {
+  const SweepConfig plain = ParseSweepText(kSweep, "refine.toml", Registry());
+  std::vector<Model> plain_models;
+  for (const auto& m : plain.models) plain_models.push_back(m.Build(Registry()));
+  const std::vector<std::string> plain_header = TrialHeader(plain, plain_models);
+  for (const char* name : {"e_gamma", "crlb_e_gamma"}) {
+    CHECK(std::find(plain_header.begin(), plain_header.end(), name) == plain_header.end());
+  }
+  // The wall example, truth w = 1 (the file's w = 0.9), 6 s.
+  const std::string text = std::string(R"(
+[model]
+file = ")") + HYSID_EXAMPLES_DIR + R"(/wall/wall.toml"
+params = { w = 1.0 }
+t_end = 6.0
+[grid]
+sigma = 1e-3
+dt = 5e-4
+estimator = "rls"
+detector = "residual"
+refine = "ml"
+[identifier]
+sets = false
+[run]
+trials = 2
+seed = 3
+)";
+  const SweepConfig c = ParseSweepText(text, "wall.toml", Registry());
+  const fs::path dir = RunInTemp(c, "sweep-wall");
+  Table t;
+  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
+  const Model model = c.models[0].Build(Registry());
+  REQUIRE(model.gamma()[0] == 1.0);
+  const Crlb direct = ComputeCrlb(model, DefaultState(model), SampleGrid{6.0, 5e-4}, Vec::Constant(2, 1e-3),
+                                  Unknowns::Of(model));
+  REQUIRE(direct.ok());
+  for (long trial = 0; trial < 2; ++trial) {
+    INFO(t.At(trial, "message"));
+    REQUIRE(t.At(trial, "status") == "ok");
+    const double w_hat = std::stod(t.At(trial, "gamma_hat_w"));
+    CHECK(std::stod(t.At(trial, "rel_err_w")) == Approx(std::abs(w_hat - 1.0)).margin(1e-15));
+    CHECK(std::stod(t.At(trial, "e_gamma")) == Approx(std::abs(w_hat - 1.0)).margin(1e-15));
+    CHECK(std::abs(w_hat - 1.0) < 4 * std::stod(t.At(trial, "crlb_e_gamma")));
+    CHECK(std::stod(t.At(trial, "crlb_e_gamma")) == Approx(direct.mean_e_gamma).epsilon(1e-9));  // direct: at σ
+  }
+  Table s;
+  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);
+  CHECK(std::stod(s.At(0, "efficiency_gamma")) ==
+        Approx(std::stod(s.At(0, "e_gamma_mean")) / std::stod(s.At(0, "crlb_e_gamma"))));
 }
