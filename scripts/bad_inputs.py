@@ -114,6 +114,11 @@ def safety_files():
         "in/summary.csv": BASE + "dt = 2e-3\n[run]\ntrials = 1\n",
         "assignD.toml": WALL.replace('D = "x == 1 && v >= 0"', 'D = "x = 1 && v >= 0"'),
         "assignphi.toml": WALL.replace('phi = [["v", 0, 0],', 'phi = [["v = v*2", 0, 0],'),
+        "measured.toml": WALL.replace('states = ["x", "v"]', 'states = ["x", "v"]\nmeasured = ["y"]'),
+        "inputunused.toml": WALL.replace('states = ["x", "v"]', 'states = ["x", "v"]\ninputs = ["u"]'),
+        "inputclash.toml": WALL.replace('states = ["x", "v"]', 'states = ["x", "v"]\ninputs = ["v"]'),
+        "gammaunused.toml": WALL.replace('[flow]', 'guard_params = [{ name = "w", value = 1.0 }]\n[flow]'),
+        "bounds.toml": WALL.replace('value = 4.0,', 'value = 4.0, bounds = [5.0, 9.0],'),
     }
 
 
@@ -152,6 +157,11 @@ def safety_cases():
         ("reproduce paper: --out holds a merge's tables", ["reproduce", "paper", "--out", "merged"]),
         ("model file: '=' for '==' in sets.D", ["simulate", "--model-file", "assignD.toml"] + SIM),
         ("model file: an assignment in flow.phi", ["simulate", "--model-file", "assignphi.toml"] + SIM),
+        ("model file: a measured name that is not a state", ["models", "--show", "measured.toml"]),
+        ("model file: an input used in no expression", ["models", "--show", "inputunused.toml"]),
+        ("model file: an input named like a state", ["models", "--show", "inputclash.toml"]),
+        ("model file: a guard parameter used in no expression", ["models", "--show", "gammaunused.toml"]),
+        ("model file: bounds that exclude the value", ["models", "--show", "bounds.toml"]),
     ]
 
 
@@ -166,6 +176,11 @@ SAFETY_SUBJECTS = {
     "reproduce paper: --out holds a merge's tables": "--out merged",
     "model file: '=' for '==' in sets.D": "assignD.toml:39: sets.D",
     "model file: an assignment in flow.phi": "assignphi.toml:21: flow.phi[0][0]",
+    "model file: a measured name that is not a state": "measured.toml:8: measured[0]",
+    "model file: an input used in no expression": "inputunused.toml:8: inputs[0]",
+    "model file: an input named like a state": "inputclash.toml:8: inputs[0]",
+    "model file: a guard parameter used in no expression": "gammaunused.toml:20: guard_params[0].name",
+    "model file: bounds that exclude the value": "bounds.toml:11: alpha[1].bounds",
 }
 
 

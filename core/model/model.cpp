@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace hysid {
 namespace {
@@ -14,10 +15,31 @@ void Require(bool ok, const std::string& model, const std::string& what) {
   if (!ok) throw std::invalid_argument(fmt::format("model '{}': {}", model, what));
 }
 
+void CheckBounds(const Parameter& p, const std::string& model) {
+  Require(!std::isnan(p.lower) && !std::isnan(p.upper) && p.lower < p.upper, model,
+          fmt::format("parameter '{}': bounds [{}, {}] need lower < upper", p.name, p.lower, p.upper));
+  Require(p.value >= p.lower && p.value <= p.upper, model,
+          fmt::format("parameter '{}' = {} is outside its bounds [{}, {}]", p.name, p.value, p.lower, p.upper));
+}
+
+Vec Values(const std::vector<Parameter>& params) {
+  Vec v(static_cast<Eigen::Index>(params.size()));
+  for (std::size_t i = 0; i < params.size(); ++i) v[Eigen::Index(i)] = params[i].value;
+  return v;
+}
+
 }  // namespace
 
 void Model::Init() {
   spec_ = impl_->Spec();
+  CheckSpec();
+  alpha_ = Values(spec_.alpha);
+  beta_ = Values(spec_.beta);
+  gamma_ = Values(spec_.guard_params);
+  contextual_ = !spec_.inputs.empty() || !spec_.guard_params.empty();
+}
+
+void Model::CheckSpec() const {
   const std::string& name = spec_.name;
   const int n = state_size();
   Require(!name.empty(), "?", "ModelSpec::name is empty");
@@ -26,13 +48,33 @@ void Model::Init() {
           "alpha must have between 1 and 32 entries");
   Require(!spec_.beta.empty() && static_cast<int>(spec_.beta.size()) <= kMaxParameters, name,
           "beta must have between 1 and 32 entries");
+  Require(static_cast<int>(spec_.guard_params.size()) <= kMaxParameters, name,
+          "guard_params must have at most 32 entries");
+  // α and β names may repeat a state's (they are never variables of an expression); γ and inputs may not.
+  const std::set<std::string> states(spec_.state_names.begin(), spec_.state_names.end());
   std::set<std::string> names;
-  for (const auto* list : {&spec_.alpha, &spec_.beta}) {
+  for (const auto* list : {&spec_.alpha, &spec_.beta, &spec_.guard_params}) {
     for (const Parameter& p : *list) {
       Require(!p.name.empty(), name, "a parameter has an empty name");
       Require(names.insert(p.name).second, name, fmt::format("parameter '{}' twice", p.name));
+      Require(list != &spec_.guard_params || !states.contains(p.name), name,
+              fmt::format("guard parameter '{}' has a state's name", p.name));
       Require(std::isfinite(p.value), name, fmt::format("parameter '{}' is not finite", p.name));
+      CheckBounds(p, name);
     }
+  }
+  Require(static_cast<int>(spec_.inputs.size()) <= kMaxParameters, name, "inputs must have at most 32 entries");
+  for (const std::string& u : spec_.inputs) {
+    Require(!u.empty(), name, "an input has an empty name");
+    Require(!states.contains(u) && names.insert(u).second, name,
+            fmt::format("input '{}' twice, or the name of a state or parameter", u));
+  }
+  Require(spec_.input_defaults.empty() || spec_.input_defaults.size() == spec_.inputs.size(), name,
+          "input_defaults must be empty or have one entry per input");
+  std::set<int> measured;
+  for (int r : spec_.measured) {
+    Require(r >= 0 && r < n, name, fmt::format("measured state {} outside [0, {})", r, n));
+    Require(measured.insert(r).second, name, fmt::format("measured state {} twice", r));
   }
   for (const auto* rows : {&spec_.flow_rows, &spec_.jump_rows}) {
     Require(!rows->empty(), name, "flow_rows and jump_rows must not be empty");
@@ -40,14 +82,16 @@ void Model::Init() {
   }
   Require(!spec_.guards.empty(), name, "a hybrid model needs at least one guard");
   Require(static_cast<int>(spec_.default_x0.size()) == n, name, "default_x0 must have one entry per state");
-  alpha_.resize(static_cast<Eigen::Index>(spec_.alpha.size()));
-  for (std::size_t i = 0; i < spec_.alpha.size(); ++i) alpha_[Eigen::Index(i)] = spec_.alpha[i].value;
-  beta_.resize(static_cast<Eigen::Index>(spec_.beta.size()));
-  for (std::size_t i = 0; i < spec_.beta.size(); ++i) beta_[Eigen::Index(i)] = spec_.beta[i].value;
+}
+
+void Model::ThrowMissingInputs() const {
+  throw std::logic_error(fmt::format("model '{}' has inputs ({}): it must be evaluated with Context::u set",
+                                     spec_.name, fmt::join(spec_.inputs, ", ")));
 }
 
 void Model::SetParameter(std::string_view pname, double value) {
-  for (auto [list, vec] : {std::pair{&spec_.alpha, &alpha_}, std::pair{&spec_.beta, &beta_}}) {
+  for (auto [list, vec] : {std::pair{&spec_.alpha, &alpha_}, std::pair{&spec_.beta, &beta_},
+                           std::pair{&spec_.guard_params, &gamma_}}) {
     for (std::size_t i = 0; i < list->size(); ++i) {
       Parameter& p = (*list)[i];
       if (p.name != pname) continue;
@@ -58,13 +102,17 @@ void Model::SetParameter(std::string_view pname, double value) {
       if (!std::isfinite(value)) {
         throw std::invalid_argument(fmt::format("parameter '{}' = {}: must be finite", pname, value));
       }
+      if (value < p.lower || value > p.upper) {
+        throw std::invalid_argument(
+            fmt::format("parameter '{}' = {}: outside its bounds [{}, {}]", pname, value, p.lower, p.upper));
+      }
       p.value = value;
       (*vec)[Eigen::Index(i)] = value;
       return;
     }
   }
   std::string known;
-  for (const auto* list : {&spec_.alpha, &spec_.beta}) {
+  for (const auto* list : {&spec_.alpha, &spec_.beta, &spec_.guard_params}) {
     for (const Parameter& p : *list) {
       if (!p.known) known += (known.empty() ? "" : ", ") + p.name;
     }
@@ -90,18 +138,40 @@ void Model::SetParameter(std::string_view assignment) {
 }
 
 void Model::CentralDifferenceJacobian(const Concept& c, const ConstVecRef& x, const ConstVecRef& alpha,
-                                      MatRef jac) {
+                                      const Context& ctx, MatRef jac) {
   const Eigen::Index n = x.size();
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxStates, 1> xp = x, xm = x, fp(n), fm(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const double h = 1e-6 * std::max(1.0, std::abs(x[i]));
     xp[i] = x[i] + h;
     xm[i] = x[i] - h;
-    c.Flow(xp, alpha, fp);
-    c.Flow(xm, alpha, fm);
+    c.Flow(xp, alpha, ctx, fp);
+    c.Flow(xm, alpha, ctx, fm);
     jac.col(i) = (fp - fm) / (2.0 * h);
     xp[i] = x[i];
     xm[i] = x[i];
+  }
+}
+
+void Model::GuardGammaJacobian(const ConstVecRef& x, const Context& ctx, MatRef dh_dgamma) const {
+  const Context base = Resolve(ctx);
+  const Eigen::Index m = gamma_.size(), g = guard_count();
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> gp =
+      Eigen::Map<const Vec>(base.gamma, m);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> gm = gp;
+  Vec hp(g), hm(g);
+  Context cp = base, cm = base;
+  cp.gamma = gp.data();
+  cm.gamma = gm.data();
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const double step = 1e-6 * std::max(1.0, std::abs(base.gamma[i]));
+    gp[i] = base.gamma[i] + step;
+    gm[i] = base.gamma[i] - step;
+    impl_->Guards(x, cp, hp);
+    impl_->Guards(x, cm, hm);
+    dh_dgamma.col(i) = (hp - hm) / (2.0 * step);
+    gp[i] = base.gamma[i];
+    gm[i] = base.gamma[i];
   }
 }
 
@@ -116,6 +186,13 @@ std::vector<std::string> UnknownNames(const std::vector<Parameter>& params) {
     if (!p.known) names.push_back(p.name);
   }
   return names;
+}
+
+std::vector<int> MeasuredIndices(const Model& model) {
+  if (!model.spec().measured.empty()) return model.spec().measured;
+  std::vector<int> all(static_cast<std::size_t>(model.state_size()));
+  for (int i = 0; i < model.state_size(); ++i) all[std::size_t(i)] = i;
+  return all;
 }
 
 }  // namespace hysid

@@ -16,6 +16,8 @@
 
 #include <Eigen/Core>
 
+#include "core/model/context.hpp"
+
 namespace hysid {
 
 using Vec = Eigen::VectorXd;
@@ -42,13 +44,16 @@ struct Guard {
   Crossing direction = Crossing::kFalling;
 };
 
-// One entry of α or β. `known` marks a constant of the model structure (the 1 in ξ1' = 1·ξ2); it is
-// not identified and cannot be set from the command line.
+// One entry of α, β or γ. `known` marks a constant of the model structure (the 1 in ξ1' = 1·ξ2); it is
+// not identified and cannot be set from the command line. [lower, upper] bounds the value (checked
+// when the model is built and by SetParameter; lower < upper, the value inside).
 struct Parameter {
   std::string name;
   double value = 0.0;
   bool known = false;
   std::string description;
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
 };
 
 struct ModelSpec {
@@ -68,18 +73,42 @@ struct ModelSpec {
   double default_dt = 1e-3;
   // Human-readable equations, one per line (flow, jump, guards, sets), for `hysid models --show`.
   std::string equations = {};
+  // State indices the data holds, ascending or in the file's order, no duplicates; empty: every state.
+  std::vector<int> measured = {};
+  // Names of the measured inputs u (Context::u holds their values), default none.
+  std::vector<std::string> inputs = {};
+  // Per input an expression of t that simulate uses when no input data is given (model files; may be
+  // empty, or hold empty strings).
+  std::vector<std::string> input_defaults = {};
+  // γ: parameters of the guards, projections and sets (usable in φ and ψ too); Context::gamma.
+  std::vector<Parameter> guard_params = {};
 };
 
 // Which member functions a model struct must provide. ξ has size n = spec.state_names.size().
+// Either the x-only forms (the paper's class: no inputs, no guard parameters) ...
 template <class M>
-concept HybridModel = std::copy_constructible<M> &&
-    requires(const M& m, ConstVecRef x, MatRef out_mat, VecRef out_vec) {
-  { m.Spec() } -> std::convertible_to<ModelSpec>;
+concept XOnlyModel = requires(const M& m, ConstVecRef x, MatRef out_mat, VecRef out_vec) {
   m.Phi(x, out_mat);     // φ(ξ), n × |α|
   m.Psi(x, out_mat);     // ψ(ξ), n × |β|
   m.Guards(x, out_vec);  // h_i(ξ), one per spec.guards entry
   { m.InFlowSet(x) } -> std::convertible_to<bool>;
   { m.InJumpSet(x) } -> std::convertible_to<bool>;
+};
+
+// ... or the context forms, evaluated at (ξ, t, u, γ). Optional members take the context in the same
+// place: PhiColumns(x, count, ctx, phi), ProjectOntoGuard(i, ctx, x), DistanceToJumpSet(x, ctx).
+template <class M>
+concept ContextModel = requires(const M& m, ConstVecRef x, const Context& ctx, MatRef out_mat, VecRef out_vec) {
+  m.Phi(x, ctx, out_mat);
+  m.Psi(x, ctx, out_mat);
+  m.Guards(x, ctx, out_vec);
+  { m.InFlowSet(x, ctx) } -> std::convertible_to<bool>;
+  { m.InJumpSet(x, ctx) } -> std::convertible_to<bool>;
+};
+
+template <class M>
+concept HybridModel = std::copy_constructible<M> && (XOnlyModel<M> || ContextModel<M>) && requires(const M& m) {
+  { m.Spec() } -> std::convertible_to<ModelSpec>;
 };
 
 template <class M>
@@ -106,6 +135,20 @@ concept HasGuardProjection = requires(const M& m, int i, VecRef x) {
   m.ProjectOntoGuard(i, x);
 };
 
+template <class M>
+concept HasContextPhiColumns = requires(const M& m, const double* x, Eigen::Index count, const Context& ctx,
+                                        double* phi) {
+  m.PhiColumns(x, count, ctx, phi);
+};
+template <class M>
+concept HasContextGuardProjection = requires(const M& m, int i, const Context& ctx, VecRef x) {
+  m.ProjectOntoGuard(i, ctx, x);
+};
+template <class M>
+concept HasContextJumpSetDistance = requires(const M& m, ConstVecRef x, const Context& ctx) {
+  { m.DistanceToJumpSet(x, ctx) } -> std::convertible_to<double>;
+};
+
 class Model {
  public:
   // Not for Model itself: checking HybridModel<Model> would recurse into this constructor (clang 14
@@ -121,48 +164,100 @@ class Model {
   int state_size() const { return static_cast<int>(spec_.state_names.size()); }
   int alpha_size() const { return static_cast<int>(alpha_.size()); }
   int beta_size() const { return static_cast<int>(beta_.size()); }
+  int gamma_size() const { return static_cast<int>(gamma_.size()); }
+  int input_size() const { return static_cast<int>(spec_.inputs.size()); }
   int guard_count() const { return static_cast<int>(spec_.guards.size()); }
 
   // True parameter values (defaults from the spec unless set).
   const Vec& alpha() const { return alpha_; }
   const Vec& beta() const { return beta_; }
-  // Sets an unknown parameter of α or β by name. Throws std::invalid_argument naming the parameter
-  // when it does not exist, is a known constant, or `value` is not finite.
+  const Vec& gamma() const { return gamma_; }
+  // Sets an unknown parameter of α, β or γ by name. Throws std::invalid_argument naming the parameter
+  // when it does not exist, is a known constant, or `value` is not finite or outside its bounds.
   void SetParameter(std::string_view name, double value);
   // Parses "name=value". Same errors as SetParameter, plus malformed text.
   void SetParameter(std::string_view assignment);
 
-  void Phi(const ConstVecRef& x, MatRef phi) const { impl_->Phi(x, phi); }
+  // Every evaluation has an x-only form (t = 0, no inputs, the model's own γ) and a form with a
+  // Context. A model with inputs evaluated without ctx.u throws std::logic_error (a programming error).
+  void Phi(const ConstVecRef& x, MatRef phi) const {
+    if (contextual_) return impl_->Phi(x, Resolve({}), phi);
+    impl_->Phi(x, phi);
+  }
+  void Phi(const ConstVecRef& x, MatRef phi, const Context& ctx) const { impl_->Phi(x, Resolve(ctx), phi); }
   // φ at `count` states with one call (the struct's Phi inlined in the loop): state k is
   // x[k·n .. k·n + n) and its n × |α| φ goes, column-major, to phi + k·n·|α|. For paths that know
-  // their samples ahead (RegressionBuilder::FlowRows).
+  // their samples ahead (RegressionBuilder::FlowRows). One context for all `count` states.
   void PhiColumns(const double* x, Eigen::Index count, double* phi) const {
+    if (contextual_) return PhiColumns(x, count, phi, {});
     impl_->PhiColumns(x, count, state_size(), alpha_size(), phi);
   }
-  void Psi(const ConstVecRef& x, MatRef psi) const { impl_->Psi(x, psi); }
-  void Guards(const ConstVecRef& x, VecRef h) const { impl_->Guards(x, h); }
-  bool InFlowSet(const ConstVecRef& x) const { return impl_->InFlowSet(x); }
-  bool InJumpSet(const ConstVecRef& x) const { return impl_->InJumpSet(x); }
+  void PhiColumns(const double* x, Eigen::Index count, double* phi, const Context& ctx) const {
+    impl_->PhiColumns(x, count, state_size(), alpha_size(), Resolve(ctx), phi);
+  }
+  void Psi(const ConstVecRef& x, MatRef psi) const {
+    if (contextual_) return impl_->Psi(x, Resolve({}), psi);
+    impl_->Psi(x, psi);
+  }
+  void Psi(const ConstVecRef& x, MatRef psi, const Context& ctx) const { impl_->Psi(x, Resolve(ctx), psi); }
+  void Guards(const ConstVecRef& x, VecRef h) const {
+    if (contextual_) return impl_->Guards(x, Resolve({}), h);
+    impl_->Guards(x, h);
+  }
+  void Guards(const ConstVecRef& x, VecRef h, const Context& ctx) const { impl_->Guards(x, Resolve(ctx), h); }
+  bool InFlowSet(const ConstVecRef& x) const {
+    return contextual_ ? impl_->InFlowSet(x, Resolve({})) : impl_->InFlowSet(x);
+  }
+  bool InFlowSet(const ConstVecRef& x, const Context& ctx) const { return impl_->InFlowSet(x, Resolve(ctx)); }
+  bool InJumpSet(const ConstVecRef& x) const {
+    return contextual_ ? impl_->InJumpSet(x, Resolve({})) : impl_->InJumpSet(x);
+  }
+  bool InJumpSet(const ConstVecRef& x, const Context& ctx) const { return impl_->InJumpSet(x, Resolve(ctx)); }
   // Puts x exactly on guard i when the struct knows how; otherwise leaves x unchanged (the
   // simulator's direction filter then keeps the guard from firing again).
-  void ProjectOntoGuard(int i, VecRef x) const { impl_->ProjectOntoGuard(i, x); }
+  void ProjectOntoGuard(int i, VecRef x) const {
+    if (contextual_) return impl_->ProjectOntoGuard(i, Resolve({}), x);
+    impl_->ProjectOntoGuard(i, x);
+  }
+  void ProjectOntoGuard(int i, VecRef x, const Context& ctx) const {
+    impl_->ProjectOntoGuard(i, Resolve(ctx), x);
+  }
   // Euclidean distance from x to D when the struct provides DistanceToJumpSet, else NaN.
   bool has_jump_set_distance() const { return impl_->ProvidesJumpSetDistance(); }
-  double DistanceToJumpSet(const ConstVecRef& x) const { return impl_->DistanceToJumpSet(x); }
+  double DistanceToJumpSet(const ConstVecRef& x) const {
+    return contextual_ ? impl_->DistanceToJumpSet(x, Resolve({})) : impl_->DistanceToJumpSet(x);
+  }
+  double DistanceToJumpSet(const ConstVecRef& x, const Context& ctx) const {
+    return impl_->DistanceToJumpSet(x, Resolve(ctx));
+  }
 
   // f(ξ) = φ(ξ)α and g(ξ) = ψ(ξ)β with the given parameter vectors.
   void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const {
+    if (contextual_) return impl_->Flow(x, alpha, Resolve({}), dxdt);
     impl_->Flow(x, alpha, dxdt);
   }
+  void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt, const Context& ctx) const {
+    impl_->Flow(x, alpha, Resolve(ctx), dxdt);
+  }
   void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const {
+    if (contextual_) return impl_->Jump(x, beta, Resolve({}), xplus);
     impl_->Jump(x, beta, xplus);
   }
-  // ∂(φ(ξ)α)/∂ξ, n × n: analytic when the struct provides it, else central differences.
+  void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus, const Context& ctx) const {
+    impl_->Jump(x, beta, Resolve(ctx), xplus);
+  }
+  // ∂(φ(ξ)α)/∂ξ, n × n: analytic when an x-only struct provides it, else central differences.
   void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const {
+    if (contextual_) return impl_->FlowJacobian(x, alpha, Resolve({}), jac);
     impl_->FlowJacobian(x, alpha, jac);
   }
+  void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac, const Context& ctx) const {
+    impl_->FlowJacobian(x, alpha, Resolve(ctx), jac);
+  }
+  // ∂h/∂γ at (x, ctx), |guards| × |γ|, by central differences around ctx.gamma (or the model's γ).
+  void GuardGammaJacobian(const ConstVecRef& x, const Context& ctx, MatRef dh_dgamma) const;
 
-  // Largest number of states and parameters the fixed-capacity scratch buffers allow.
+  // Largest number of states and parameters (and inputs) the fixed-capacity scratch buffers allow.
   static constexpr int kMaxStates = 16;
   static constexpr int kMaxParameters = 32;
 
@@ -173,6 +268,7 @@ class Model {
   struct Concept {
     virtual ~Concept() = default;
     virtual ModelSpec Spec() const = 0;
+    // The x-only forms (the models without inputs and γ) ...
     virtual void Phi(const ConstVecRef& x, MatRef phi) const = 0;
     virtual void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
                             double* phi) const = 0;
@@ -186,30 +282,95 @@ class Model {
     virtual void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const = 0;
     virtual void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const = 0;
     virtual void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const = 0;
+    // ... and the context forms (ctx resolved: gamma set, u set when the model has inputs).
+    virtual void Phi(const ConstVecRef& x, const Context& ctx, MatRef phi) const = 0;
+    virtual void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
+                            const Context& ctx, double* phi) const = 0;
+    virtual void Psi(const ConstVecRef& x, const Context& ctx, MatRef psi) const = 0;
+    virtual void Guards(const ConstVecRef& x, const Context& ctx, VecRef h) const = 0;
+    virtual bool InFlowSet(const ConstVecRef& x, const Context& ctx) const = 0;
+    virtual bool InJumpSet(const ConstVecRef& x, const Context& ctx) const = 0;
+    virtual void ProjectOntoGuard(int i, const Context& ctx, VecRef x) const = 0;
+    virtual double DistanceToJumpSet(const ConstVecRef& x, const Context& ctx) const = 0;
+    virtual void Flow(const ConstVecRef& x, const ConstVecRef& alpha, const Context& ctx, VecRef dxdt) const = 0;
+    virtual void Jump(const ConstVecRef& x, const ConstVecRef& beta, const Context& ctx, VecRef xplus) const = 0;
+    virtual void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, const Context& ctx,
+                              MatRef jac) const = 0;
   };
 
   template <class M>
   struct Impl final : Concept {
+    // A struct with the context forms is called with them; an x-only struct ignores the context.
+    static constexpr bool kContext = ContextModel<M>;
+    static inline const Context kNoContext{};
     explicit Impl(M m) : m_(std::move(m)) {}
     ModelSpec Spec() const override { return m_.Spec(); }
-    void Phi(const ConstVecRef& x, MatRef phi) const override { m_.Phi(x, phi); }
+
+    void Phi(const ConstVecRef& x, MatRef phi) const override { Phi(x, kNoContext, phi); }
+    void Phi(const ConstVecRef& x, const Context& ctx, MatRef phi) const override {
+      if constexpr (kContext) {
+        m_.Phi(x, ctx, phi);
+      } else {
+        m_.Phi(x, phi);
+      }
+    }
     void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
                     double* phi) const override {
-      if constexpr (HasPhiColumns<M>) {
+      PhiColumns(x, count, n, m, kNoContext, phi);
+    }
+    void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m, const Context& ctx,
+                    double* phi) const override {
+      if constexpr (kContext && HasContextPhiColumns<M>) {
+        m_.PhiColumns(x, count, ctx, phi);
+        return;
+      } else if constexpr (!kContext && HasPhiColumns<M>) {
         m_.PhiColumns(x, count, phi);
         return;
       }
       for (Eigen::Index k = 0; k < count; ++k) {
         Eigen::Map<Mat> out(phi + k * n * m, n, m);
-        m_.Phi(Eigen::Map<const Vec>(x + k * n, n), out);
+        Phi(Eigen::Map<const Vec>(x + k * n, n), ctx, out);
       }
     }
-    void Psi(const ConstVecRef& x, MatRef psi) const override { m_.Psi(x, psi); }
-    void Guards(const ConstVecRef& x, VecRef h) const override { m_.Guards(x, h); }
-    bool InFlowSet(const ConstVecRef& x) const override { return m_.InFlowSet(x); }
-    bool InJumpSet(const ConstVecRef& x) const override { return m_.InJumpSet(x); }
-    void ProjectOntoGuard(int i, VecRef x) const override {
-      if constexpr (HasGuardProjection<M>) m_.ProjectOntoGuard(i, x);
+    void Psi(const ConstVecRef& x, MatRef psi) const override { Psi(x, kNoContext, psi); }
+    void Psi(const ConstVecRef& x, const Context& ctx, MatRef psi) const override {
+      if constexpr (kContext) {
+        m_.Psi(x, ctx, psi);
+      } else {
+        m_.Psi(x, psi);
+      }
+    }
+    void Guards(const ConstVecRef& x, VecRef h) const override { Guards(x, kNoContext, h); }
+    void Guards(const ConstVecRef& x, const Context& ctx, VecRef h) const override {
+      if constexpr (kContext) {
+        m_.Guards(x, ctx, h);
+      } else {
+        m_.Guards(x, h);
+      }
+    }
+    bool InFlowSet(const ConstVecRef& x) const override { return InFlowSet(x, kNoContext); }
+    bool InFlowSet(const ConstVecRef& x, const Context& ctx) const override {
+      if constexpr (kContext) {
+        return m_.InFlowSet(x, ctx);
+      } else {
+        return m_.InFlowSet(x);
+      }
+    }
+    bool InJumpSet(const ConstVecRef& x) const override { return InJumpSet(x, kNoContext); }
+    bool InJumpSet(const ConstVecRef& x, const Context& ctx) const override {
+      if constexpr (kContext) {
+        return m_.InJumpSet(x, ctx);
+      } else {
+        return m_.InJumpSet(x);
+      }
+    }
+    void ProjectOntoGuard(int i, VecRef x) const override { ProjectOntoGuard(i, kNoContext, x); }
+    void ProjectOntoGuard(int i, const Context& ctx, VecRef x) const override {
+      if constexpr (kContext && HasContextGuardProjection<M>) {
+        m_.ProjectOntoGuard(i, ctx, x);
+      } else if constexpr (!kContext && HasGuardProjection<M>) {
+        m_.ProjectOntoGuard(i, x);
+      }
     }
     bool ProvidesJumpSetDistance() const override {
       if constexpr (requires {
@@ -217,49 +378,76 @@ class Model {
                     }) {
         return m_.ProvidesJumpSetDistance();  // a struct whose distance is optional at run time
       } else {
-        return HasJumpSetDistance<M>;
+        return kContext ? HasContextJumpSetDistance<M> : HasJumpSetDistance<M>;
       }
     }
-    double DistanceToJumpSet(const ConstVecRef& x) const override {
-      if constexpr (HasJumpSetDistance<M>) {
+    double DistanceToJumpSet(const ConstVecRef& x) const override { return DistanceToJumpSet(x, kNoContext); }
+    double DistanceToJumpSet(const ConstVecRef& x, const Context& ctx) const override {
+      if constexpr (kContext && HasContextJumpSetDistance<M>) {
+        return m_.DistanceToJumpSet(x, ctx);
+      } else if constexpr (!kContext && HasJumpSetDistance<M>) {
         return m_.DistanceToJumpSet(x);
       } else {
         return std::numeric_limits<double>::quiet_NaN();
       }
     }
     void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const override {
+      Flow(x, alpha, kNoContext, dxdt);
+    }
+    void Flow(const ConstVecRef& x, const ConstVecRef& alpha, const Context& ctx, VecRef dxdt) const override {
       ScratchMat phi(x.size(), alpha.size());
-      m_.Phi(x, phi);
+      Phi(x, ctx, phi);
       dxdt.noalias() = phi * alpha;
     }
     void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const override {
+      Jump(x, beta, kNoContext, xplus);
+    }
+    void Jump(const ConstVecRef& x, const ConstVecRef& beta, const Context& ctx, VecRef xplus) const override {
       ScratchMat psi(x.size(), beta.size());
-      m_.Psi(x, psi);
+      Psi(x, ctx, psi);
       xplus.noalias() = psi * beta;
     }
     void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const override {
-      if constexpr (HasFlowJacobian<M>) {
+      FlowJacobian(x, alpha, kNoContext, jac);
+    }
+    void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, const Context& ctx,
+                      MatRef jac) const override {
+      if constexpr (!kContext && HasFlowJacobian<M>) {
         m_.FlowJacobian(x, alpha, jac);
       } else {
-        CentralDifferenceJacobian(*this, x, alpha, jac);
+        CentralDifferenceJacobian(*this, x, alpha, ctx, jac);
       }
     }
     M m_;
   };
 
   static void CentralDifferenceJacobian(const Concept& c, const ConstVecRef& x, const ConstVecRef& alpha,
-                                        MatRef jac);
+                                        const Context& ctx, MatRef jac);
   void Init();
+  void CheckSpec() const;
+  // ctx with γ filled in (the model's own when ctx.gamma is nullptr); throws std::logic_error when the
+  // model has inputs and ctx.u is nullptr.
+  Context Resolve(const Context& ctx) const {
+    Context out = ctx;
+    if (out.gamma == nullptr) out.gamma = gamma_.data();
+    if (out.u == nullptr && !spec_.inputs.empty()) ThrowMissingInputs();
+    return out;
+  }
+  [[noreturn]] void ThrowMissingInputs() const;
 
   std::shared_ptr<const Concept> impl_;
   ModelSpec spec_;
   Vec alpha_;
   Vec beta_;
+  Vec gamma_;
+  bool contextual_ = false;  // inputs or γ: the x-only forms go through Resolve
 };
 
 // ModelSpec::default_x0 as a vector (Model checks that it has one entry per state).
 Vec DefaultState(const Model& model);
-// The names of the unknown entries of `params` (ModelSpec::alpha or ::beta), in order.
+// The names of the unknown entries of `params` (ModelSpec::alpha, ::beta or ::guard_params), in order.
 std::vector<std::string> UnknownNames(const std::vector<Parameter>& params);
+// ModelSpec::measured, or 0 … n−1 when it is empty (every state measured).
+std::vector<int> MeasuredIndices(const Model& model);
 
 }  // namespace hysid

@@ -36,9 +36,16 @@ struct ExprMatrix {
   std::string joined;               // the expressions, comma-separated
 };
 
+// Slots of Compiled::var: the states, then the inputs u, the guard parameters γ and the time t.
+constexpr std::size_t kInputSlot = Model::kMaxStates;
+constexpr std::size_t kGammaSlot = kInputSlot + Model::kMaxParameters;
+constexpr std::size_t kTimeSlot = kGammaSlot + Model::kMaxParameters;
+
 // The parsed file, shared (immutable) by every copy of the model.
 struct Definition {
   std::uint64_t id = 0;
+  bool contextual = false;  // inputs or γ: every evaluation loads them (and t) from the context
+  bool binds_time = false;  // `t` is a variable (a model with inputs and no state named t)
   ModelSpec spec;
   ExprMatrix phi, psi, guards;  // guards: |guards| × 1
   std::string in_c, in_d, distance;
@@ -48,16 +55,20 @@ struct Definition {
 
 std::atomic<std::uint64_t> next_definition_id{1};
 
-// One thread's compiled parsers; `var` holds ξ, bound to the state names.
+// One thread's compiled parsers; `var` holds ξ, u, γ and t, bound to their names.
 struct Compiled {
-  std::array<double, Model::kMaxStates> var{};
+  std::array<double, kTimeSlot + 1> var{};
   mu::Parser phi, psi, guards, in_c, in_d, distance;
   std::vector<mu::Parser> project;
 };
 
 void Bind(mu::Parser& p, const Definition& def, Compiled& c, const std::string& expr) {
-  for (std::size_t i = 0; i < def.spec.state_names.size(); ++i)
-    p.DefineVar(def.spec.state_names[i], &c.var[i]);
+  const ModelSpec& s = def.spec;
+  for (std::size_t i = 0; i < s.state_names.size(); ++i) p.DefineVar(s.state_names[i], &c.var[i]);
+  for (std::size_t i = 0; i < s.inputs.size(); ++i) p.DefineVar(s.inputs[i], &c.var[kInputSlot + i]);
+  for (std::size_t i = 0; i < s.guard_params.size(); ++i)
+    p.DefineVar(s.guard_params[i].name, &c.var[kGammaSlot + i]);
+  if (def.binds_time) p.DefineVar("t", &c.var[kTimeSlot]);
   p.SetExpr(expr.empty() ? "0" : expr);
 }
 
@@ -90,7 +101,17 @@ Compiled& Local(const std::shared_ptr<const Definition>& def) {
   return *last;
 }
 
-void Load(Compiled& c, const double* x, std::size_t n) { std::copy(x, x + n, c.var.begin()); }
+// Loads ξ, and for a model with inputs or γ also u, γ and t from the (resolved) context.
+void Load(const Definition& def, Compiled& c, const double* x, std::size_t n, const Context& ctx) {
+  std::copy(x, x + n, c.var.begin());
+  if (!def.contextual) return;
+  const std::size_t m = def.spec.inputs.size(), g = def.spec.guard_params.size();
+  // Loops, not std::copy: the x-only path's context (never reaching here) has null pointers that
+  // g++ would flag in memmove.
+  for (std::size_t i = 0; i < m; ++i) c.var[kInputSlot + i] = ctx.u[i];
+  for (std::size_t i = 0; i < g; ++i) c.var[kGammaSlot + i] = ctx.gamma[i];
+  c.var[kTimeSlot] = ctx.t;
+}
 
 // Fills out (column-major, rows·cols) with the matrix at the loaded state.
 void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
@@ -101,60 +122,53 @@ void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
   for (std::size_t k = 0; k < m.index.size(); ++k) out[m.index[k]] = v[k];
 }
 
-// The HybridModel struct over a Definition.
+// The HybridModel struct over a Definition (the context forms; Model resolves the context).
 struct FileModel {
   std::shared_ptr<const Definition> def;
 
   ModelSpec Spec() const { return def->spec; }
-  void Phi(ConstVecRef x, MatRef phi) const {
-    Compiled& c = Local(def);
-    Load(c, x.data(), static_cast<std::size_t>(x.size()));
-    Evaluate(def->phi, c.phi, phi.data());
+  void Phi(ConstVecRef x, const Context& ctx, MatRef phi) const {
+    Evaluate(def->phi, Loaded(x, ctx).phi, phi.data());
   }
-  void PhiColumns(const double* x, Eigen::Index count, double* phi) const {
+  void PhiColumns(const double* x, Eigen::Index count, const Context& ctx, double* phi) const {
     Compiled& c = Local(def);
     const Eigen::Index n = def->phi.rows, size = def->phi.rows * def->phi.cols;
     for (Eigen::Index k = 0; k < count; ++k) {
-      Load(c, x + k * n, static_cast<std::size_t>(n));
+      Load(*def, c, x + k * n, static_cast<std::size_t>(n), ctx);
       Evaluate(def->phi, c.phi, phi + k * size);
     }
   }
-  void Psi(ConstVecRef x, MatRef psi) const {
-    Compiled& c = Local(def);
-    Load(c, x.data(), static_cast<std::size_t>(x.size()));
-    Evaluate(def->psi, c.psi, psi.data());
+  void Psi(ConstVecRef x, const Context& ctx, MatRef psi) const {
+    Evaluate(def->psi, Loaded(x, ctx).psi, psi.data());
   }
-  void Guards(ConstVecRef x, VecRef h) const {
-    Compiled& c = Local(def);
-    Load(c, x.data(), static_cast<std::size_t>(x.size()));
-    Evaluate(def->guards, c.guards, h.data());
+  void Guards(ConstVecRef x, const Context& ctx, VecRef h) const {
+    Evaluate(def->guards, Loaded(x, ctx).guards, h.data());
   }
-  bool InFlowSet(ConstVecRef x) const { return Test(x, &Compiled::in_c); }
-  bool InJumpSet(ConstVecRef x) const { return Test(x, &Compiled::in_d); }
+  bool InFlowSet(ConstVecRef x, const Context& ctx) const { return Loaded(x, ctx).in_c.Eval() != 0.0; }
+  bool InJumpSet(ConstVecRef x, const Context& ctx) const { return Loaded(x, ctx).in_d.Eval() != 0.0; }
   bool ProvidesJumpSetDistance() const { return !def->distance.empty(); }
-  double DistanceToJumpSet(ConstVecRef x) const {
+  double DistanceToJumpSet(ConstVecRef x, const Context& ctx) const {
     if (def->distance.empty()) return std::numeric_limits<double>::quiet_NaN();
-    Compiled& c = Local(def);
-    Load(c, x.data(), static_cast<std::size_t>(x.size()));
-    return c.distance.Eval();
+    return Loaded(x, ctx).distance.Eval();
   }
-  void ProjectOntoGuard(int guard, VecRef x) const {
+  void ProjectOntoGuard(int guard, const Context& ctx, VecRef x) const {
     const auto g = static_cast<std::size_t>(guard);
     if (g >= def->project.size() || def->project[g].rows == 0) return;
-    Compiled& c = Local(def);
-    Load(c, x.data(), static_cast<std::size_t>(x.size()));
+    Compiled& c = Loaded(x, ctx);
     std::array<double, Model::kMaxStates> value{};
     Evaluate(def->project[g], c.project[g], value.data());
     for (std::size_t k = 0; k < def->project_states[g].size(); ++k) x[def->project_states[g][k]] = value[k];
   }
 
  private:
-  bool Test(ConstVecRef x, mu::Parser Compiled::*which) const {
+  // This thread's parsers with (x, ctx) loaded.
+  Compiled& Loaded(ConstVecRef x, const Context& ctx) const {
     Compiled& c = Local(def);
-    Load(c, x.data(), static_cast<std::size_t>(x.size()));
-    return (c.*which).Eval() != 0.0;
+    Load(*def, c, x.data(), static_cast<std::size_t>(x.size()), ctx);
+    return c;
   }
 };
+static_assert(ContextModel<FileModel>);
 
 // ---------------------------------------------------------------------------------------------
 // Reading the TOML file (core/io/toml_reader.hpp): every error names the file, the line and the key.
@@ -179,11 +193,25 @@ bool HasAssignment(const mu::Parser& p, std::string_view expr) {
   return false;
 }
 
-// Compiles one expression alone at the given state names; throws naming the key and the text.
-// Returns the value at ξ = 0 and whether the expression uses a state.
-std::pair<double, bool> CheckExpression(const TomlReader& rd, const toml::node* node, const std::string& key,
-                                        const std::string& expr, const std::vector<std::string>& states) {
-  std::array<double, Model::kMaxStates> var{};
+// The variables of the file's expressions (states, inputs, guard parameters, t when bound) and which
+// of them the expressions use.
+struct Symbols {
+  std::vector<std::string> names;
+  std::size_t states = 0;  // names[0, states) are the states
+  std::set<std::string> used;
+  std::string list;  // for messages: "states x, v; inputs u; ..."
+};
+
+struct Checked {
+  double value = 0.0;      // at every variable 0
+  bool variable = false;   // uses a variable (else a constant)
+  bool state = false;      // uses a state
+};
+
+// Compiles one expression alone with the file's variables; throws naming the key and the text.
+Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std::string& key,
+                        const std::string& expr, Symbols& sym) {
+  std::array<double, kTimeSlot + 1> var{};
   mu::Parser p;
   if (HasAssignment(p, expr)) {
     rd.Fail(node, key,
@@ -192,20 +220,48 @@ std::pair<double, bool> CheckExpression(const TomlReader& rd, const toml::node* 
                         expr));
   }
   try {
-    for (std::size_t i = 0; i < states.size(); ++i) p.DefineVar(states[i], &var[i]);
+    for (std::size_t i = 0; i < sym.names.size(); ++i) p.DefineVar(sym.names[i], &var[i]);
     p.SetExpr(expr);
     int count = 0;
     const double* v = p.Eval(count);
     if (count != 1) rd.Fail(node, key, fmt::format("\"{}\": one expression expected, found {}", expr, count));
-    return {v[0], !p.GetUsedVar().empty()};
+    Checked out{v[0], !p.GetUsedVar().empty(), false};
+    for (const auto& [name, ptr] : p.GetUsedVar()) {
+      sym.used.insert(name);
+      const auto at = std::find(sym.names.begin(), sym.names.end(), name);
+      out.state = out.state || std::size_t(at - sym.names.begin()) < sym.states;
+    }
+    return out;
   } catch (const mu::Parser::exception_type& e) {
     if (e.GetCode() == mu::ecUNASSIGNABLE_TOKEN) {
       rd.Fail(node, key,
-              fmt::format("\"{}\": unknown symbol \"{}\" (the variables are the states: {})", expr,
-                          e.GetToken(), fmt::join(states, ", ")));
+              fmt::format("\"{}\": unknown symbol \"{}\" (the variables: {})", expr, e.GetToken(), sym.list));
     }
     rd.Fail(node, key, fmt::format("\"{}\": {}", expr, e.GetMsg()));
   }
+}
+
+Symbols MakeSymbols(const Definition& def) {
+  const ModelSpec& s = def.spec;
+  Symbols sym;
+  sym.names = s.state_names;
+  sym.states = s.state_names.size();
+  sym.list = fmt::format("states {}", fmt::join(s.state_names, ", "));
+  if (!s.inputs.empty()) {
+    sym.names.insert(sym.names.end(), s.inputs.begin(), s.inputs.end());
+    sym.list += fmt::format("; inputs {}", fmt::join(s.inputs, ", "));
+  }
+  if (!s.guard_params.empty()) {
+    std::vector<std::string> g;
+    for (const Parameter& p : s.guard_params) g.push_back(p.name);
+    sym.names.insert(sym.names.end(), g.begin(), g.end());
+    sym.list += fmt::format("; guard parameters {}", fmt::join(g, ", "));
+  }
+  if (def.binds_time) {
+    sym.names.push_back("t");
+    sym.list += "; time t";
+  }
+  return sym;
 }
 
 // An entry of a matrix: a number or a string expression.
@@ -218,7 +274,7 @@ std::string EntryText(const TomlReader& rd, const toml::node& n, const std::stri
 
 // A rows × cols matrix (a list of rows) of expressions.
 ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::string& key,
-                       Eigen::Index rows, Eigen::Index cols, const std::vector<std::string>& states) {
+                       Eigen::Index rows, Eigen::Index cols, Symbols& sym) {
   const toml::array& arr = rd.Array(node, key);
   rd.Size(&node, key, arr.size(), std::size_t(rows), "one row per state");
   ExprMatrix m{rows, cols, std::vector<double>(std::size_t(rows * cols), 0.0), {}, {}, {}};
@@ -231,10 +287,10 @@ ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::
     for (Eigen::Index j = 0; j < cols; ++j) {
       const std::string ekey = TomlReader::Index(rkey, std::size_t(j));
       const std::string text = EntryText(rd, row[std::size_t(j)], ekey);
-      const auto [value, uses_state] = CheckExpression(rd, &row[std::size_t(j)], ekey, text, states);
+      const auto [value, uses_variable, uses_state] = CheckExpression(rd, &row[std::size_t(j)], ekey, text, sym);
       const Eigen::Index at = j * rows + i;
       m.text[std::size_t(at)] = text;
-      if (uses_state) {
+      if (uses_variable) {
         m.index.push_back(at);
         exprs.push_back("(" + text + ")");
       } else {
@@ -246,14 +302,29 @@ ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::
   return m;
 }
 
+// PARAM.bounds = [lo, hi]: lo < hi, the value inside.
+void ParseBounds(const TomlReader& rd, const toml::node& node, const std::string& key, Parameter& p) {
+  const std::vector<double> b = rd.Numbers(node, key);
+  rd.Size(&node, key, b.size(), 2, "[lower, upper]");
+  if (!(b[0] < b[1])) rd.Fail(&node, key, fmt::format("[{}, {}]: lower must be below upper", b[0], b[1]));
+  if (p.value < b[0] || p.value > b[1]) {
+    rd.Fail(&node, key, fmt::format("[{}, {}] excludes the value {} of '{}'", b[0], b[1], p.value, p.name));
+  }
+  p.lower = b[0];
+  p.upper = b[1];
+}
+
+// alpha, beta (required, not empty) or guard_params (optional).
 std::vector<Parameter> ParseParameters(const TomlReader& rd, const toml::table& root, const char* which) {
+  const bool optional = std::string_view(which) == "guard_params";
+  if (optional && !root.contains(which)) return {};
   const toml::array& arr = rd.Array(rd.Require(root, "", which), which);
-  rd.NotEmpty(&arr, which, arr.size(), "parameter");
+  if (!optional) rd.NotEmpty(&arr, which, arr.size(), "parameter");
   std::vector<Parameter> out;
   for (std::size_t i = 0; i < arr.size(); ++i) {
     const std::string key = TomlReader::Index(which, i);
     const toml::table& t = rd.Table(arr[i], key);
-    rd.OnlyKeys(t, key, {"name", "value", "known", "description"});
+    rd.OnlyKeys(t, key, {"name", "value", "known", "description", "bounds"});
     Parameter p;
     p.name = rd.String(rd.Require(t, key, "name"), key + ".name");
     if (p.name.starts_with("x0[")) {  // the refinement's and the bound's names of the initial state
@@ -263,6 +334,7 @@ std::vector<Parameter> ParseParameters(const TomlReader& rd, const toml::table& 
     p.value = rd.Number(rd.Require(t, key, "value"), key + ".value");
     if (const toml::node* k = t.get("known")) p.known = rd.Boolean(*k, key + ".known");
     if (const toml::node* d = t.get("description")) p.description = rd.String(*d, key + ".description");
+    if (const toml::node* b = t.get("bounds")) ParseBounds(rd, *b, key + ".bounds", p);
     out.push_back(std::move(p));
   }
   return out;
@@ -316,7 +388,8 @@ Crossing ParseDirection(const TomlReader& rd, const toml::node& n, const std::st
 }
 
 // guard[g].project: { state = expression, ... }, assigned when a jump starts on the guard.
-void ParseProjection(const TomlReader& rd, const toml::node& node, const std::string& key, Definition& def) {
+void ParseProjection(const TomlReader& rd, const toml::node& node, const std::string& key, Definition& def,
+                     Symbols& sym) {
   const std::vector<std::string>& states = def.spec.state_names;
   ExprMatrix& proj = def.project.back();
   std::vector<std::string> exprs;
@@ -324,7 +397,7 @@ void ParseProjection(const TomlReader& rd, const toml::node& node, const std::st
     const std::string skey = TomlReader::Join(key, k.str());
     const std::size_t state = rd.Choice(&v, skey, "state", std::string(k.str()), states);
     const std::string text = EntryText(rd, v, skey);
-    CheckExpression(rd, &v, skey, text, states);
+    CheckExpression(rd, &v, skey, text, sym);
     def.project_states.back().push_back(static_cast<int>(state));
     proj.text.push_back(fmt::format("{}+ = {}", k.str(), text));
     proj.index.push_back(static_cast<Eigen::Index>(exprs.size()));
@@ -336,7 +409,7 @@ void ParseProjection(const TomlReader& rd, const toml::node& node, const std::st
   proj.joined = fmt::format("{}", fmt::join(exprs, ","));
 }
 
-void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def) {
+void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
   const toml::array& arr = rd.Array(rd.Require(root, "", "guard"), "guard");
   rd.NotEmpty(&arr, "guard", arr.size(), "[[guard]]");
   for (std::size_t g = 0; g < arr.size(); ++g) {
@@ -349,7 +422,7 @@ void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def)
     def.spec.guards.push_back(guard);
     const toml::node& h = rd.Require(t, key, "h");
     const std::string text = EntryText(rd, h, key + ".h");
-    if (!CheckExpression(rd, &h, key + ".h", text, def.spec.state_names).second) {
+    if (!CheckExpression(rd, &h, key + ".h", text, sym).state) {
       rd.Fail(&h, key + ".h", fmt::format("\"{}\" does not depend on the state", text));
     }
     def.guards.text.push_back(text);
@@ -357,21 +430,21 @@ void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def)
     def.guards.joined += (g ? ",(" : "(") + text + ")";
     def.project.emplace_back();
     def.project_states.emplace_back();
-    if (const toml::node* p = t.get("project")) ParseProjection(rd, *p, key + ".project", def);
+    if (const toml::node* p = t.get("project")) ParseProjection(rd, *p, key + ".project", def, sym);
   }
   def.guards.rows = static_cast<Eigen::Index>(arr.size());
   def.guards.cols = 1;
   def.guards.constant.assign(arr.size(), 0.0);
 }
 
-void ParseSets(const TomlReader& rd, const toml::table& root, Definition& def) {
+void ParseSets(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
   const toml::table& t = rd.Table(rd.Require(root, "", "sets"), "sets");
   rd.OnlyKeys(t, "sets", {"C", "D", "distance_to_D"});
   auto one = [&](const char* k) -> std::string {
     const std::string key = TomlReader::Join("sets", k);
     const toml::node& n = rd.Require(t, "sets", k);
     const std::string text = EntryText(rd, n, key);
-    CheckExpression(rd, &n, key, text, def.spec.state_names);
+    CheckExpression(rd, &n, key, text, sym);
     return text;
   };
   def.in_c = one("C");
@@ -435,10 +508,108 @@ std::string Equations(const Definition& def) {
   return out;
 }
 
+// A name that becomes a muParser variable (an input or a guard parameter): valid, not a built-in
+// function or constant, not t, and not a name already taken.
+void CheckVariableName(const TomlReader& rd, const toml::node* node, const std::string& key, const std::string& name,
+                       const std::vector<std::string>& taken) {
+  mu::Parser probe;
+  try {
+    double dummy = 0;
+    probe.DefineVar(name, &dummy);
+  } catch (const mu::Parser::exception_type& e) {
+    rd.Fail(node, key, fmt::format("'{}' is not a valid variable name: {}", name, e.GetMsg()));
+  }
+  if (probe.GetFunDef().contains(name) || probe.GetConst().contains(name) || name == "t") {
+    rd.Fail(node, key, fmt::format("'{}' is a built-in name of the expressions (a function, a constant or t)", name));
+  }
+  if (std::find(taken.begin(), taken.end(), name) != taken.end()) {
+    rd.Fail(node, key, fmt::format("'{}' is already the name of a state, a parameter or an input", name));
+  }
+}
+
+// The names taken before inputs and guard parameters: states, α and β.
+std::vector<std::string> TakenNames(const ModelSpec& spec) {
+  std::vector<std::string> taken = spec.state_names;
+  for (const auto* list : {&spec.alpha, &spec.beta}) {
+    for (const Parameter& p : *list) taken.push_back(p.name);
+  }
+  return taken;
+}
+
+// measured = ["x", ...]: state names, at least one, no duplicates (absent: every state).
+std::vector<int> ParseMeasured(const TomlReader& rd, const toml::table& root, const std::vector<std::string>& states) {
+  const toml::node* node = root.get("measured");
+  if (node == nullptr) return {};
+  const toml::array& arr = rd.Array(*node, "measured");
+  rd.NotEmpty(&arr, "measured", arr.size(), "measured state");
+  std::vector<int> out;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string key = TomlReader::Index("measured", i);
+    const std::string name = rd.String(arr[i], key);
+    const int at = static_cast<int>(rd.Choice(&arr[i], key, "state", name, states));
+    if (std::find(out.begin(), out.end(), at) != out.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", name));
+    out.push_back(at);
+  }
+  return out;
+}
+
+// inputs = ["u", ...]: new variable names, no duplicates.
+std::vector<std::string> ParseInputs(const TomlReader& rd, const toml::table& root, std::vector<std::string> taken) {
+  const toml::node* node = root.get("inputs");
+  if (node == nullptr) return {};
+  const toml::array& arr = rd.Array(*node, "inputs");
+  if (arr.size() > std::size_t(Model::kMaxParameters)) {
+    rd.Fail(&arr, "inputs", fmt::format("has {} entries, at most {}", arr.size(), Model::kMaxParameters));
+  }
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string key = TomlReader::Index("inputs", i);
+    std::string name = rd.String(arr[i], key);
+    if (std::find(out.begin(), out.end(), name) != out.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", name));
+    CheckVariableName(rd, &arr[i], key, name, taken);
+    taken.push_back(name);
+    out.push_back(std::move(name));
+  }
+  return out;
+}
+
+// input_defaults = { u = "expression of t", ... }: one entry per named input at most.
+std::vector<std::string> ParseInputDefaults(const TomlReader& rd, const toml::table& root, const ModelSpec& spec) {
+  const toml::node* node = root.get("input_defaults");
+  if (node == nullptr) return {};
+  std::vector<std::string> out(spec.inputs.size());
+  Symbols time{{"t"}, 0, {}, "time t"};
+  for (auto&& [k, v] : rd.Table(*node, "input_defaults")) {
+    const std::string key = TomlReader::Join("input_defaults", k.str());
+    const std::size_t at = rd.Choice(&v, key, "input", std::string(k.str()), spec.inputs);
+    out[at] = rd.String(v, key);
+    CheckExpression(rd, &v, key, out[at], time);
+  }
+  return out;
+}
+
+// Every input and guard parameter must appear in some expression.
+void CheckUsed(const TomlReader& rd, const toml::table& root, const ModelSpec& spec, const Symbols& sym) {
+  for (std::size_t i = 0; i < spec.inputs.size(); ++i) {
+    if (sym.used.contains(spec.inputs[i])) continue;
+    const std::string key = TomlReader::Index("inputs", i);
+    rd.Fail(root.at_path(key).node(), key,
+            fmt::format("input '{}' is used in no expression (phi, psi, guards, projections, sets)", spec.inputs[i]));
+  }
+  for (std::size_t i = 0; i < spec.guard_params.size(); ++i) {
+    if (sym.used.contains(spec.guard_params[i].name)) continue;
+    const std::string key = TomlReader::Join(TomlReader::Index("guard_params", i), "name");
+    rd.Fail(root.at_path(key).node(), key,
+            fmt::format("guard parameter '{}' is used in no expression (phi, psi, guards, projections, sets)",
+                        spec.guard_params[i].name));
+  }
+}
+
 std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::table& root) {
   rd.OnlyKeys(
       root, "",
-      {"name", "description", "states", "alpha", "beta", "flow", "jump", "guard", "sets", "defaults"});
+      {"name", "description", "states", "measured", "inputs", "input_defaults", "alpha", "beta", "guard_params",
+       "flow", "jump", "guard", "sets", "defaults"});
   auto def = std::make_shared<Definition>();
   ModelSpec& spec = def->spec;
   spec.name = rd.String(rd.Require(root, "", "name"), "name");
@@ -446,6 +617,21 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
   spec.state_names = ParseStates(rd, root);
   spec.alpha = ParseParameters(rd, root, "alpha");
   spec.beta = ParseParameters(rd, root, "beta");
+  spec.measured = ParseMeasured(rd, root, spec.state_names);
+  spec.inputs = ParseInputs(rd, root, TakenNames(spec));
+  spec.input_defaults = ParseInputDefaults(rd, root, spec);
+  spec.guard_params = ParseParameters(rd, root, "guard_params");
+  std::vector<std::string> taken = TakenNames(spec);
+  taken.insert(taken.end(), spec.inputs.begin(), spec.inputs.end());
+  for (std::size_t i = 0; i < spec.guard_params.size(); ++i) {
+    const std::string key = TomlReader::Join(TomlReader::Index("guard_params", i), "name");
+    CheckVariableName(rd, root.at_path(key).node(), key, spec.guard_params[i].name, taken);
+    taken.push_back(spec.guard_params[i].name);
+  }
+  def->contextual = !spec.inputs.empty() || !spec.guard_params.empty();
+  def->binds_time = !spec.inputs.empty() &&
+                    std::find(spec.state_names.begin(), spec.state_names.end(), "t") == spec.state_names.end();
+  Symbols sym = MakeSymbols(*def);
   const auto n = static_cast<Eigen::Index>(spec.state_names.size());
   for (auto [key, matrix, params, rows] : {std::tuple{"flow", &def->phi, &spec.alpha, &spec.flow_rows},
                                            std::tuple{"jump", &def->psi, &spec.beta, &spec.jump_rows}}) {
@@ -456,17 +642,32 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
                 flow ? std::vector<std::string>{mkey, "rows", "jacobian_constant"}
                      : std::vector<std::string>{mkey, "rows"});
     *matrix = ParseMatrix(rd, rd.Require(t, key, mkey), TomlReader::Join(key, mkey), n,
-                          static_cast<Eigen::Index>(params->size()), spec.state_names);
+                          static_cast<Eigen::Index>(params->size()), sym);
     *rows = ParseRows(rd, t, key, spec.state_names);
     if (const toml::node* jc = t.get("jacobian_constant"))
       spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
   }
-  ParseGuards(rd, root, *def);
-  ParseSets(rd, root, *def);
+  ParseGuards(rd, root, *def, sym);
+  ParseSets(rd, root, *def, sym);
+  CheckUsed(rd, root, spec, sym);
   ParseDefaults(rd, root, spec);
   spec.equations = Equations(*def);
   def->id = next_definition_id.fetch_add(1);
   return def;
+}
+
+// The inputs at t = 0 from their defaults (0 where an input has none): where x0 is checked.
+std::vector<double> InputsAtStart(const ModelSpec& spec) {
+  std::vector<double> u(spec.inputs.size(), 0.0);
+  for (std::size_t i = 0; i < spec.input_defaults.size(); ++i) {
+    if (spec.input_defaults[i].empty()) continue;
+    double t = 0.0;
+    mu::Parser p;
+    p.DefineVar("t", &t);
+    p.SetExpr(spec.input_defaults[i]);
+    u[i] = p.Eval();
+  }
+  return u;
 }
 
 }  // namespace
@@ -485,7 +686,9 @@ ModelFile ParseModelFile(std::string_view text, const std::string& name) {
                 {}};
   const ModelSpec& s = def->spec;
   const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), out.model.state_size());
-  if (!out.model.InFlowSet(x0) && !out.model.InJumpSet(x0)) {
+  const std::vector<double> u0 = InputsAtStart(s);
+  const Context start{.t = 0.0, .u = u0.data()};
+  if (!out.model.InFlowSet(x0, start) && !out.model.InJumpSet(x0, start)) {
     rd.Fail(root.at_path("defaults.x0").node(), "defaults.x0",
             fmt::format("({}) is outside C and D", fmt::join(s.default_x0, ", ")));
   }

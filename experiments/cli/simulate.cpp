@@ -213,11 +213,24 @@ void PrintModel(const Model& m, bool full) {
   const ModelSpec& s = m.spec();
   std::printf("%s: %s\n  states: %s\n", s.name.c_str(), s.description.c_str(),
               fmt::format("{}", fmt::join(s.state_names, ", ")).c_str());
-  for (const auto* list : {&s.alpha, &s.beta}) {
+  for (const auto* list : {&s.alpha, &s.beta, &s.guard_params}) {
+    const char* kind = list == &s.alpha ? "flow" : list == &s.beta ? "jump" : "guard";
     for (const Parameter& p : *list) {
-      std::printf("  %-12s %-6s = %-8g %s\n", p.name.c_str(), list == &s.alpha ? "flow" : "jump", p.value,
-                  p.known ? "(known constant)" : p.description.c_str());
+      const bool bounded = std::isfinite(p.lower) || std::isfinite(p.upper);
+      std::printf("  %-12s %-6s = %-8g %s%s\n", p.name.c_str(), kind, p.value,
+                  p.known ? "(known constant)" : p.description.c_str(),
+                  bounded ? fmt::format(" (bounds [{}, {}])", p.lower, p.upper).c_str() : "");
     }
+  }
+  if (!s.measured.empty()) {
+    std::vector<std::string> measured;
+    for (int i : s.measured) measured.push_back(s.state_names[std::size_t(i)]);
+    std::printf("  measured: %s\n", fmt::format("{}", fmt::join(measured, ", ")).c_str());
+  }
+  for (std::size_t i = 0; i < s.inputs.size(); ++i) {
+    const bool given = i < s.input_defaults.size() && !s.input_defaults[i].empty();
+    std::printf("  input %s%s\n", s.inputs[i].c_str(),
+                given ? fmt::format(" (default {})", s.input_defaults[i]).c_str() : "");
   }
   std::printf("  defaults: x0 = (%s), t_end = %g, dt = %g\n",
               fmt::format("{}", fmt::join(s.default_x0, ", ")).c_str(), s.default_t_end, s.default_dt);

@@ -86,5 +86,93 @@ TEST_CASE("a model without DistanceToJumpSet has NaN distances", "[model]") {
   CHECK(std::isnan(vdp.DistanceToJumpSet(Vec::Zero(2))));
 }
 
+
+// A struct with the context forms: ξ' = (v, −x + G·u), a wall at x = w (γ), only x measured.
+struct DrivenWall {
+  ModelSpec Spec() const {
+    return {.name = "driven-wall",
+            .description = "a driven mass against a wall at an unknown position",
+            .state_names = {"x", "v"},
+            .alpha = {{"one", 1.0, true, ""}, {"G", 2.0, false, "input gain"}},
+            .beta = {{"one_b", 1.0, true, ""}, {"e", 0.5, false, "restitution", 0.0, 1.0}},
+            .flow_rows = {1},
+            .jump_rows = {1},
+            .guards = {{"wall", Crossing::kRising}},
+            .default_x0 = {0.0, 1.0},
+            .measured = {0},
+            .inputs = {"u"},
+            .guard_params = {{"w", 1.0, false, "wall", 0.0, 5.0}}};
+  }
+  void Phi(ConstVecRef x, const Context& ctx, MatRef phi) const {
+    SetRowMajor<2, 2>(phi, {x[1], 0.0, -x[0], ctx.u[0]});
+  }
+  void Psi(ConstVecRef x, const Context&, MatRef psi) const { SetRowMajor<2, 2>(psi, {x[0], 0.0, 0.0, -x[1]}); }
+  void Guards(ConstVecRef x, const Context& ctx, VecRef h) const { h[0] = x[0] - ctx.gamma[0]; }
+  bool InFlowSet(ConstVecRef x, const Context& ctx) const { return x[0] <= ctx.gamma[0]; }
+  bool InJumpSet(ConstVecRef x, const Context& ctx) const { return x[0] >= ctx.gamma[0] && x[1] >= 0.0; }
+  void ProjectOntoGuard(int, const Context& ctx, VecRef x) const { x[0] = ctx.gamma[0]; }
+};
+static_assert(HybridModel<DrivenWall> && ContextModel<DrivenWall> && !XOnlyModel<DrivenWall>);
+static_assert(HybridModel<VanDerPolWall> && !ContextModel<VanDerPolWall>);
+
+TEST_CASE("a struct with the context forms sees the context's input and γ, or the model's own γ", "[model]") {
+  Model m{DrivenWall{}};
+  REQUIRE(m.gamma_size() == 1);
+  REQUIRE(m.input_size() == 1);
+  REQUIRE(MeasuredIndices(m) == std::vector<int>{0});
+  REQUIRE(UnknownNames(m.spec().guard_params) == std::vector<std::string>{"w"});
+  Vec x(2);
+  x << 0.4, 0.3;
+  const double u = -1.5, gamma = 0.25;
+  Vec f(2);
+  m.Flow(x, m.alpha(), f, Context{.t = 0.0, .u = &u});
+  CHECK(f[0] == 0.3);
+  CHECK(f[1] == -0.4 + 2.0 * -1.5);
+  Mat jac(2, 2);
+  m.FlowJacobian(x, m.alpha(), jac, Context{.t = 0.0, .u = &u});
+  CHECK(std::abs(jac(1, 0) + 1.0) <= 1e-8);
+  CHECK(std::abs(jac(0, 1) - 1.0) <= 1e-8);
+  Vec h(1);
+  m.Guards(x, h, Context{.t = 0.0, .u = &u});
+  CHECK(h[0] == 0.4 - 1.0);
+  m.Guards(x, h, Context{.t = 0.0, .u = &u, .gamma = &gamma});
+  CHECK(h[0] == 0.4 - 0.25);
+  CHECK(m.InJumpSet(x, Context{.t = 0.0, .u = &u, .gamma = &gamma}));
+  Mat dh(1, 1);
+  m.GuardGammaJacobian(x, Context{.t = 0.0, .u = &u}, dh);
+  CHECK(std::abs(dh(0, 0) + 1.0) <= 1e-9);
+  m.SetParameter("w", 0.5);
+  m.Guards(x, h, Context{.t = 0.0, .u = &u});
+  CHECK(h[0] == 0.4 - 0.5);
+  CHECK_THROWS_WITH(m.SetParameter("w", 6.0), "parameter 'w' = 6: outside its bounds [0, 5]");
+  CHECK_THROWS_WITH(m.SetParameter("e", -0.1), "parameter 'e' = -0.1: outside its bounds [0, 1]");
+  CHECK_THROWS_AS(m.Flow(x, m.alpha(), f), std::logic_error);
+}
+
+TEST_CASE("an x-only struct evaluated with a context ignores it", "[model]") {
+  const Model m{VanDerPolWall{}};
+  Vec x(2);
+  x << 0.5, 2.0;
+  const double u = 7.0;
+  Mat a(2, 2), b(2, 2);
+  m.Phi(x, a);
+  m.Phi(x, b, Context{.t = 3.0, .u = &u});
+  CHECK(a == b);
+  CHECK(MeasuredIndices(m) == std::vector<int>{0, 1});
+  CHECK(m.gamma_size() == 0);
+}
+
+struct BadBounds : DrivenWall {
+  ModelSpec Spec() const {
+    ModelSpec s = DrivenWall::Spec();
+    s.guard_params[0].value = 7.0;
+    return s;
+  }
+};
+
+TEST_CASE("a spec whose value lies outside its bounds is refused naming the parameter", "[model]") {
+  CHECK_THROWS_WITH(Model{BadBounds{}},
+                    "model 'driven-wall': parameter 'w' = 7 is outside its bounds [0, 5]");
+}
 }  // namespace
 }  // namespace hysid

@@ -335,4 +335,162 @@ TEST_CASE("entries of one matrix do not affect each other or later evaluations",
 }
 
 }  // namespace
+
+// The driven cart of docs/model-files.md: a measured input u in φ, a guard parameter w in the guard,
+// the projection and the sets, only x measured.
+const char* kCart = R"toml(name = "driven-cart"
+states = ["x", "v"]
+measured = ["x"]
+inputs = ["u"]
+input_defaults = { u = "0.1*sin(3*t)" }
+alpha = [
+  { name = "alpha_x", value = 1.0, known = true },
+  { name = "k", value = 2.0, description = "stiffness", bounds = [0.0, 10.0] },
+  { name = "G", value = 1.0, description = "input gain" },
+]
+beta = [
+  { name = "beta_x", value = 1.0, known = true },
+  { name = "e", value = 0.5, description = "restitution", bounds = [0.0, 1.0] },
+]
+guard_params = [
+  { name = "w", value = 1.0, description = "wall position", bounds = [0.5, 2.0] },
+]
+[flow]
+phi = [["v", 0, 0], [0, "-x", "u"]]
+rows = ["v"]
+[jump]
+psi = [["x", 0], [0, "-v"]]
+rows = ["v"]
+[[guard]]
+name = "wall"
+h = "x - w"
+direction = "rising"
+project = { x = "w" }
+[sets]
+C = "x <= w"
+D = "x >= w && v >= 0"
+[defaults]
+x0 = [0.0, 1.5]
+t_end = 10.0
+dt = 1e-3
+)toml";
+
+TEST_CASE("a model file with measured states, an input and a guard parameter loads", "[model_file]") {
+  const Model m = ParseModelText(kCart, "cart.toml");
+  const ModelSpec& s = m.spec();
+  REQUIRE(s.measured == std::vector<int>{0});
+  REQUIRE(MeasuredIndices(m) == std::vector<int>{0});
+  REQUIRE(s.inputs == std::vector<std::string>{"u"});
+  REQUIRE(s.input_defaults == std::vector<std::string>{"0.1*sin(3*t)"});
+  REQUIRE(m.gamma_size() == 1);
+  REQUIRE(m.gamma()[0] == 1.0);
+  REQUIRE(UnknownNames(s.guard_params) == std::vector<std::string>{"w"});
+  REQUIRE(s.alpha[1].lower == 0.0);
+  REQUIRE(s.alpha[1].upper == 10.0);
+  REQUIRE(std::isinf(s.alpha[2].lower));
+  REQUIRE(s.guard_params[0].upper == 2.0);
+}
+
+TEST_CASE("a model file evaluates at the context's input and guard parameters", "[model_file]") {
+  Model m = ParseModelText(kCart, "cart.toml");
+  const double u = 0.3, gamma = 2.0;
+  const Context ctx{.t = 0.7, .u = &u, .gamma = &gamma};
+  Vec x(2);
+  x << 0.5, -0.2;
+  Mat phi(2, 3);
+  m.Phi(x, phi, ctx);
+  Mat exact(2, 3);
+  exact << -0.2, 0, 0,  //
+      0, -0.5, 0.3;
+  CHECK(phi == exact);
+  Vec f(2);
+  m.Flow(x, m.alpha(), f, ctx);
+  CHECK(f[0] == -0.2);
+  CHECK(f[1] == -2.0 * 0.5 + 1.0 * 0.3);
+  Vec h(1);
+  m.Guards(x, h, ctx);
+  CHECK(h[0] == 0.5 - 2.0);
+  const Context own{.t = 0.0, .u = &u};  // γ nullptr: the model's own w = 1
+  m.Guards(x, h, own);
+  CHECK(h[0] == 0.5 - 1.0);
+  CHECK(m.InFlowSet(x, ctx));
+  CHECK_FALSE(m.InJumpSet(x, ctx));
+  Vec beyond(2);
+  beyond << 1.5, 0.1;  // beyond the own wall at 1, inside C for the wall at 2
+  CHECK(m.InJumpSet(beyond, own));
+  CHECK_FALSE(m.InJumpSet(beyond, ctx));
+  CHECK(m.InFlowSet(beyond, ctx));
+  Vec onto = beyond;
+  m.ProjectOntoGuard(0, onto, ctx);
+  CHECK(onto[0] == 2.0);
+  CHECK(onto[1] == 0.1);
+  Mat dh(1, 1);
+  m.GuardGammaJacobian(x, ctx, dh);
+  CHECK(std::abs(dh(0, 0) + 1.0) <= 1e-9);
+  // SetParameter moves the model's own wall.
+  m.SetParameter("w", 1.25);
+  CHECK(m.gamma()[0] == 1.25);
+  m.Guards(x, h, own);
+  CHECK(h[0] == 0.5 - 1.25);
+  // Without u: a programming error, named.
+  CHECK_THROWS_AS(m.Guards(x, h), std::logic_error);
+  CHECK_THROWS_WITH(m.Phi(x, phi, Context{}), Catch::Matchers::Contains("must be evaluated with Context::u"));
+}
+
+TEST_CASE("a guard parameter alone: the x-only forms use the model's own, and the default trajectory hits it",
+          "[model_file]") {
+  std::string text = Replace(kCart, "measured = [\"x\"]\ninputs = [\"u\"]\ninput_defaults = { u = \"0.1*sin(3*t)\" }\n", "");
+  text = Replace(text, "[0, \"-x\", \"u\"]", "[0, \"-x\", 1]");
+  Model m = ParseModelText(text, "wall.toml");  // simulates the default trajectory: the guard at w fires
+  Vec x(2);
+  x << 0.5, -0.2;
+  Vec h(1);
+  m.Guards(x, h);
+  CHECK(h[0] == 0.5 - 1.0);
+  m.SetParameter("w=0.75");
+  m.Guards(x, h);
+  CHECK(h[0] == 0.5 - 0.75);
+  CHECK_THROWS_WITH(m.SetParameter("w=3"), Catch::Matchers::Contains("outside its bounds [0.5, 2]"));
+  CHECK(MeasuredIndices(m) == std::vector<int>{0, 1});
+}
+
+TEST_CASE("bad measured, inputs, guard parameters and bounds are refused by name", "[model_file]") {
+  using Catch::Matchers::Contains;
+  auto error = [](const std::string& from, const std::string& to) {
+    try {
+      ParseModelText(Replace(kCart, from, to), "cart.toml");
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(loaded)");
+  };
+  CHECK_THAT(error("measured = [\"x\"]", "measured = [\"y\"]"),
+             Contains("cart.toml:3: measured[0]: unknown state 'y' (known: x, v)"));
+  CHECK_THAT(error("measured = [\"x\"]", "measured = [\"x\", \"x\"]"), Contains("cart.toml:3: measured[1]"));
+  CHECK_THAT(error("measured = [\"x\"]", "measured = []"), Contains("cart.toml:3: measured"));
+  CHECK_THAT(error("inputs = [\"u\"]", "inputs = [\"u\", \"q\"]"),
+             Contains("cart.toml:4: inputs[1]: input 'q' is used in no expression"));
+  CHECK_THAT(error("inputs = [\"u\"]", "inputs = [\"u\", \"v\"]"),
+             Contains("cart.toml:4: inputs[1]: 'v' is already the name of a state"));
+  CHECK_THAT(error("inputs = [\"u\"]", "inputs = [\"u\", \"sin\"]"),
+             Contains("cart.toml:4: inputs[1]: 'sin' is a built-in name"));
+  CHECK_THAT(error("inputs = [\"u\"]", "inputs = [\"u\", \"t\"]"),
+             Contains("cart.toml:4: inputs[1]: 't' is a built-in name"));
+  CHECK_THAT(error("{ u = \"0.1*sin(3*t)\" }", "{ u = \"0.1*sin(3*x)\" }"),
+             Contains("cart.toml:5: input_defaults.u: \"0.1*sin(3*x)\": unknown symbol \"x\" (the variables: time t)"));
+  CHECK_THAT(error("{ u = \"0.1*sin(3*t)\" }", "{ z = \"1\" }"),
+             Contains("cart.toml:5: input_defaults.z: unknown input 'z'"));
+  CHECK_THAT(error("bounds = [0.5, 2.0] },", "bounds = [0.5, 2.0] },\n  { name = \"c\", value = 0.0 },"),
+             Contains("cart.toml:17: guard_params[1].name: guard parameter 'c' is used in no expression"));
+  CHECK_THAT(error("name = \"w\", value = 1.0,", "name = \"k\", value = 1.0,"),
+             Contains("guard_params[0].name: 'k' is already the name of a state, a parameter or an input"));
+  CHECK_THAT(error("bounds = [0.5, 2.0]", "bounds = [1.5, 2.0]"),
+             Contains("cart.toml:16: guard_params[0].bounds: [1.5, 2] excludes the value 1 of 'w'"));
+  CHECK_THAT(error("bounds = [0.0, 10.0]", "bounds = [10.0, 0.0]"),
+             Contains("cart.toml:8: alpha[1].bounds: [10, 0]: lower must be below upper"));
+  CHECK_THAT(error("bounds = [0.0, 1.0]", "bounds = [0.0]"),
+             Contains("cart.toml:13: beta[1].bounds: has 1 entries, expected 2"));
+  CHECK_THAT(error("[0, \"-x\", \"u\"]", "[0, \"-x\", \"u*q\"]"),
+             Contains("unknown symbol \"q\" (the variables: states x, v; inputs u; guard parameters w; time t)"));
+}
 }  // namespace hysid
