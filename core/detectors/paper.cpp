@@ -19,6 +19,7 @@ namespace hysid {
 }
 
 BoundMode ResolveBoundMode(BoundRule bound, const Model& model) {
+  if (model.input_size() > 0) return BoundMode::kHomogeneous;  // f(0, u) ≠ 0 in general
   if (bound == BoundRule::kPaper) return BoundMode::kPaper;
   if (bound == BoundRule::kHomogeneous) return BoundMode::kHomogeneous;
   const int n = model.state_size();
@@ -38,6 +39,11 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
 
 double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
                        const Eigen::Ref<const Mat>& points, JacobianScratch& scratch) {
+  return SupJacobianNorm(model, alpha, mode, points, scratch, Context{});
+}
+
+double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
+                       const Eigen::Ref<const Mat>& points, JacobianScratch& scratch, const Context& at) {
   const int n = model.state_size();
   const auto& rows = model.spec().flow_rows;
   const int nr = static_cast<int>(rows.size());
@@ -49,12 +55,12 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
   f0.resize(n);
   if (mode == BoundMode::kHomogeneous) {
     scratch.zero.setZero(n);
-    model.Flow(scratch.zero, alpha, f0);
+    model.Flow(scratch.zero, alpha, f0, at);
   }
   const Eigen::Index count = model.spec().flow_jacobian_constant ? 1 : points.cols();
   double sup = 0.0;
   for (Eigen::Index k = 0; k < count; ++k) {
-    model.FlowJacobian(points.col(k), alpha, jac);
+    model.FlowJacobian(points.col(k), alpha, jac, at);
     for (int i = 0; i < nr; ++i) {
       reduced.row(i).head(n) = jac.row(rows[static_cast<std::size_t>(i)]);
       if (mode == BoundMode::kHomogeneous) reduced(i, n) = f0[rows[static_cast<std::size_t>(i)]];
@@ -117,7 +123,8 @@ double VertexJacobianSup::Sup(ConstVecRef alpha) {
 PaperDetector::PaperDetector(const DetectorSettings& settings, const Model& model)
     : settings_(settings),
       mode_(ResolveBoundMode(settings.bound, model)),
-      constant_jacobian_(model.spec().flow_jacobian_constant),
+      constant_jacobian_(model.spec().flow_jacobian_constant && model.input_size() == 0),
+      inputs_(model.input_size() > 0),
       vertex_sup_(model, mode_) {
   int unknowns = 0;
   for (const Parameter& p : model.spec().alpha) unknowns += p.known ? 0 : 1;
@@ -167,6 +174,7 @@ Decision PaperDetector::Classify(const SampleContext& c) {
     return ClassifyConstant(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat.data(), c.version,
                             c.flow_updates);
   }
+  if (inputs_) return ClassifyWithInputs(c);
   Decision d;
   double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
   Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
@@ -192,6 +200,21 @@ Decision PaperDetector::Classify(const SampleContext& c) {
   const double half_r = 0.5 * settings_.r;
   d.gamma = d2 > half_r * half_r * l2 * s * s;
   d.threshold = half_r * std::sqrt(l2) * s;
+  return d;
+}
+
+// L̂ from the pair alone, each sample at its own time and inputs (the header's rule for inputs).
+Decision PaperDetector::ClassifyWithInputs(const SampleContext& c) {
+  Decision d;
+  double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
+  Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
+  if (WarmUp(c.flow_updates, &d)) return d;
+  const double l = std::max(SupJacobianNorm(*c.model, c.alpha_hat, mode_, c.prev, scratch_, c.at_prev),
+                            SupJacobianNorm(*c.model, c.alpha_hat, mode_, c.cur, scratch_, c.at_cur));
+  const double s = cur_norm + prev_norm;
+  const double half_r = 0.5 * settings_.r;
+  d.gamma = d2 > half_r * half_r * l * l * s * s;
+  d.threshold = half_r * l * s;
   return d;
 }
 

@@ -134,7 +134,8 @@ class ResidualDetector final : public JumpDetector {
   double QuantileAt(long nu);
   void NoiseVariance(const SampleContext& c);
   void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
-                     long version, const Vec* sigma, double data_rtol, double data_atol);
+                     long version, const Vec* sigma, double data_rtol, double data_atol, const Context& at_prev = {},
+                     const Context& at_cur = {});
   // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); stores what
   // UpdateScale needs.
   [[gnu::always_inline]] double RowStatistic(std::size_t i, double rho, double lev, double magnitude,

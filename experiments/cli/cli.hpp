@@ -80,8 +80,9 @@ struct TrajectoryFlags {
   std::optional<double> t_end, dt;
 };
 void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags);
-// --x0 or the model's default; BadFlag when it has the wrong size or lies outside C and D.
-Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model);
+// --x0 or the model's default; BadFlag when it has the wrong size or lies outside C and D (at the
+// context `at`: t = 0 and u(0) for a model with inputs).
+Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model, const Context& at = {});
 // The sample grid of --t-end and --dt (or the model's defaults); BadFlag when either is not a finite
 // positive number or the grid exceeds the samples limit (core/io/limits.hpp).
 SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model);

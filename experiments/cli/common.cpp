@@ -130,7 +130,7 @@ SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model) {
                      Spelling::kFlag);
 }
 
-Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
+Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model, const Context& at) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   Vec x0 = DefaultState(model);
@@ -142,7 +142,7 @@ Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
     }
     x0 = Eigen::Map<const Vec>(flags.x0.data(), n);
   }
-  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
+  if (!model.InFlowSet(x0, at) && !model.InJumpSet(x0, at)) {
     BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'", fmt::join(x0, ","),
                         spec.name));
   }

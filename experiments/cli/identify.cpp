@@ -199,6 +199,11 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyRes
     std::printf("  sets: not computed\n");
     return;
   }
+  if (model.input_size() > 0) {  // C and D may move with u, which a hull vertex does not keep
+    std::printf("  sets: C^ has %ld vertices, D^ %ld (not compared: C and D of a model with inputs)\n",
+                static_cast<long>(result.flow_hull.cols()), static_cast<long>(result.jump_hull.cols()));
+    return;
+  }
   const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
   std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
               static_cast<long>(result.flow_hull.cols()), model.state_size() >= 3 ? "volume" : "area",
@@ -261,9 +266,10 @@ void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
 }
 
 // The data files; a message about the column choice names the flag.
-SampleData ReadData(const IdentifyArgs& args, int state_size) {
+SampleData ReadData(const IdentifyArgs& args, const Model& model) {
   try {
-    return ReadSampleData(args.data, state_size, {.columns = args.columns, .max_gap = args.max_gap});
+    return ReadSampleData(args.data, model.state_size(),
+                          {.columns = args.columns, .inputs = model.spec().inputs, .max_gap = args.max_gap});
   } catch (const std::invalid_argument& e) {
     std::string message = e.what();
     const std::string field = "SampleDataOptions::columns";
@@ -293,7 +299,7 @@ void CheckOutputs(const IdentifyArgs& args) {
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model);
   IdentifierSettings settings = BuildSettings(args, model);
-  const SampleData data = ReadData(args, model.state_size());
+  const SampleData data = ReadData(args, model);
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();
@@ -302,6 +308,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
     options.times = data.t;
     options.chain_start = data.chain_start;
   }
+  options.inputs = data.u;  // m × K: the model's inputs, read by name
   const IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
   PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
   PrintEstimates(model.spec(), args, result);

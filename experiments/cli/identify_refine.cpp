@@ -11,6 +11,8 @@
 
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
+#include "sim/exogenous.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid::cli {
@@ -40,8 +42,10 @@ Truth ReadTruth(const std::string& data_path, int n) {
 }
 
 // The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid) over at least two
-// samples (a refinement that fitted fewer has no span to bound), else not ok.
-Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt) {
+// samples (a refinement that fitted fewer has no span to bound), else not ok; with the data's inputs
+// (their times from the first sample's) for a model with inputs.
+Crlb TruthBound(const Model& model, const Truth& truth, long samples, const SampleData& data) {
+  const double dt = data.dt;
   if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma.array() > 0.0).all() || samples < 2) {
     Crlb none;
     none.status = CrlbStatus::kSimulationFailed;
@@ -49,7 +53,14 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt)
     return none;
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
-  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model));
+  InputSignal inputs;
+  Exogenous exo;
+  if (data.u.rows() > 0) {
+    for (double t : data.t) inputs.times.push_back(t - data.t.front());
+    inputs.values = data.u;
+    exo.inputs = &inputs;
+  }
+  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model), {}, exo);
 }
 
 void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
@@ -125,7 +136,7 @@ RefineResult RunRefinement(const Model& model, const SampleData& data, const Ide
   const IdentifyResult& recursive = RefinementStart(given);
   RefineOptions options;
   options.sigma = sigma;
-  return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
+  return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options, data.u);
 }
 
 }  // namespace
@@ -154,7 +165,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   }
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
-  const Crlb bound = TruthBound(model, truth, used, data.dt);
+  const Crlb bound = TruthBound(model, truth, used, data);
   const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
   if (args.refine == "ml") {
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",

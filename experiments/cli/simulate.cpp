@@ -1,4 +1,5 @@
 // hysid simulate: one trajectory of a model, its samples (true and measured) and its jumps.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,8 +17,11 @@
 
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
+#include "core/model_file/input_defaults.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
+#include "sim/exogenous.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 
@@ -33,6 +37,7 @@ struct SimulateArgs {
   SimOptions sim;
   std::string out;
   std::string jumps_out;
+  std::string inputs;  // --inputs FILE (empty: the model's default expressions)
 };
 
 std::filesystem::path SidecarPath(const std::filesystem::path& csv) {
@@ -60,17 +65,27 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
   }
 }
 
-std::vector<std::string> TrajectoryHeader(int n) {
+// t, j, x1..xn, y1..yn and the inputs by their names (so that identify reads them as they are).
+std::vector<std::string> TrajectoryHeader(const ModelSpec& spec) {
+  const auto n = static_cast<int>(spec.state_names.size());
   std::vector<std::string> header{"t", "j"};
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
   for (int i = 1; i <= n; ++i) header.push_back(fmt::format("y{}", i));
+  for (const std::string& name : spec.inputs) {
+    if (std::find(header.begin(), header.end(), name) != header.end()) {
+      BadFlag(fmt::format("--model-file: the input '{}' has the name of a column simulate writes ({})", name,
+                          fmt::join(header, ",")));
+    }
+    header.push_back(name);
+  }
   return header;
 }
 
-// Writes and closes (not yet publishes) the trajectory file.
-void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y) {
+// Writes and closes (not yet publishes) the trajectory file; u(t_k) in the input columns.
+void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const InputSignal& inputs) {
   const auto n = static_cast<int>(traj.x.rows());
-  std::vector<double> row(static_cast<std::size_t>(2 + 2 * n));
+  const int m = inputs.size();
+  std::vector<double> row(static_cast<std::size_t>(2 + 2 * n + m));
   for (long k = 0; k < traj.size(); ++k) {
     row[0] = traj.t[static_cast<std::size_t>(k)];
     row[1] = traj.j[static_cast<std::size_t>(k)];
@@ -78,9 +93,39 @@ void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y) {
       row[static_cast<std::size_t>(2 + i)] = traj.x(i, k);
       row[static_cast<std::size_t>(2 + n + i)] = y(i, k);
     }
+    if (m > 0) inputs.At(row[0], &row[static_cast<std::size_t>(2 + 2 * n)]);
     csv.Row(row);
   }
   csv.Close();
+}
+
+// The run's inputs: --inputs FILE (its time range must cover the run), else the model's default
+// expressions at the sample times; none for a model without inputs. Errors name the flag.
+InputSignal RunInputs(const SimulateArgs& args, const ModelSpec& spec, const SampleGrid& grid) {
+  InputSignal s;
+  if (spec.inputs.empty()) {
+    if (!args.inputs.empty()) BadFlag(fmt::format("--inputs {}: model '{}' has no inputs", args.inputs, spec.name));
+    return s;
+  }
+  const double t_last = static_cast<double>(grid.size() - 1) * grid.dt;
+  try {
+    if (args.inputs.empty()) {
+      if (const std::string missing = InputsWithoutDefault(spec); !missing.empty()) {
+        BadFlag(fmt::format("--inputs: model '{}' gives no default for its inputs {}; give --inputs FILE",
+                            spec.name, missing));
+      }
+      for (long k = 0; k < grid.size(); ++k) s.times.push_back(static_cast<double>(k) * grid.dt);
+      s.values = EvaluateInputDefaults(spec, s.times);
+      return s;
+    }
+    s = ReadInputSignal(args.inputs, spec.inputs);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--inputs{}: {}", args.inputs.empty() ? "" : " " + args.inputs, e.what()));
+  }
+  if (const std::string e = InputRangeError(s, spec.inputs, 0.0, t_last); !e.empty()) {
+    BadFlag(fmt::format("--inputs {}: {}", args.inputs, e));
+  }
+  return s;
 }
 
 std::vector<std::string> JumpsHeader(int n) {
@@ -109,6 +154,13 @@ void WriteJumps(CsvWriter& jumps, const Trajectory& traj) {
 // FILE.json beside the trajectory: the run's inputs, the solver's tolerances and outcome.
 std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec& x0, const SampleGrid& grid,
                         const Vec& sigma, const Trajectory& traj) {
+  nlohmann::json inputs = nlohmann::json::object();
+  for (std::size_t i = 0; i < model.spec().inputs.size(); ++i) {
+    const std::vector<std::string>& defaults = model.spec().input_defaults;
+    inputs[model.spec().inputs[i]] = !args.inputs.empty()     ? "file " + args.inputs
+                                     : i < defaults.size() ? defaults[i]
+                                                           : std::string();
+  }
   const ModelSpec& spec = model.spec();
   nlohmann::json params;
   for (std::size_t i = 0; i < spec.alpha.size(); ++i)
@@ -137,6 +189,7 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
       {"samples", traj.size()},
       {"jumps", traj.jumps.size()},
       {"outputs", {{"trajectory", args.out}, {"jumps", args.jumps_out}}},
+      {"inputs", inputs},
       {"context", BuildContext()},
   };
   if (traj.status.stop == SimStop::kZeno) meta["zeno_time"] = traj.status.zeno_time;
@@ -147,7 +200,6 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model);
   const ModelSpec& spec = model.spec();
   const SampleGrid grid = GridFlag(args.trajectory, model);
-  const Vec x0 = InitialStateFlag(args.trajectory, model);
   const Vec sigma = SigmaFlag(args.sigma, model.state_size());
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
   // Outputs checked before the run; written as one set below.
@@ -155,15 +207,23 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   std::vector<std::pair<std::string, std::filesystem::path>> outputs{{"--out", args.out},
                                                                      {"--out (sidecar)", SidecarPath(args.out)}};
   if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
-  InputFiles inputs;
-  inputs.Add("--model-file", args.model.file);
-  CheckOutputPaths(outputs, inputs);
+  InputFiles files;
+  files.Add("--model-file", args.model.file);
+  files.Add("--inputs", args.inputs);
+  CheckOutputPaths(outputs, files);
+  const std::vector<std::string> header = TrajectoryHeader(spec);
+  const InputSignal inputs = RunInputs(args, spec, grid);
+  Exogenous exo;
+  if (!inputs.empty()) exo.inputs = &inputs;
+  std::vector<double> u0(static_cast<std::size_t>(inputs.size()));
+  if (!inputs.empty()) inputs.At(0.0, u0.data());
+  const Vec x0 = InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
 
-  const Trajectory traj = Simulate(model, x0, grid, args.sim);
+  const Trajectory traj = Simulate(model, x0, grid, args.sim, exo);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
   const int n = model.state_size();
-  CsvWriter csv(args.out, TrajectoryHeader(n));
-  WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key));
+  CsvWriter csv(args.out, header);
+  WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key), inputs);
   std::optional<CsvWriter> jumps;
   if (!args.jumps_out.empty()) {
     jumps.emplace(args.jumps_out, JumpsHeader(n));
@@ -203,9 +263,13 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
   sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
+  sub->add_option("--inputs", args->inputs,
+                  "a model with inputs: CSV with a column t and one per input name (linear between rows; "
+                  "default: the model file's input_defaults at the sample times)");
   sub->footer(
-      "Samples t_k = k*dt with jump counter, true and measured state. Defaults are the model's\n"
-      "(impact-msd: the paper's Sec. 5 values).");
+      "Samples t_k = k*dt with jump counter, true and measured state, and the inputs u(t_k) of a model\n"
+      "with inputs (columns named as the inputs). Defaults are the model's (impact-msd: the paper's\n"
+      "Sec. 5 values).");
   sub->callback([args, &env] { RunSimulate(*args, env); });
 }
 

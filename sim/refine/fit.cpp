@@ -23,12 +23,15 @@ struct ChainFit {
   Mat y;
   std::vector<int> segments;
   Vec x0;
+  InputSignal inputs;  // a model with inputs: u on the span, on the same clock as times
 };
 
-// Whether the model can be simulated at p: α, β and x0 finite, x0 in C or D.
-bool Admissible(const Model& model, const HybridParameters& p) {
-  return p.alpha.allFinite() && p.beta.allFinite() && p.x0.allFinite() &&
-         (model.InFlowSet(p.x0) || model.InJumpSet(p.x0));
+// Whether the model can be simulated at p: α, β and x0 finite, x0 in C or D (at t = 0 and u(0)).
+bool Admissible(const Model& model, const HybridParameters& p, const InputSignal& inputs) {
+  if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite()) return false;
+  if (inputs.empty()) return model.InFlowSet(p.x0) || model.InJumpSet(p.x0);
+  const Context at{.t = 0.0, .u = inputs.values.col(0).data()};
+  return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
 }
 
 // The trajectory that stands for one that cannot be simulated (status left-domain, with the reason).
@@ -66,10 +69,11 @@ struct FitProblem {
     const HybridParameters p = At(theta, x0);
     const Vec point = p.Theta(unknowns);
     if (sens && cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
-    if (!Admissible(*model, p)) return LeftDomain();
+    if (!Admissible(*model, p, fits[c].inputs)) return LeftDomain();
     SensitivityOptions o = options;
     o.sensitivities = sens;
-    SensitivityTrajectory s = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, o);
+    SensitivityTrajectory s = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, o,
+                                                           ExogenousOf(fits[c].inputs));
     if (sens && s.ok()) {
       cached_at[c] = point;
       cached[c] = s;
@@ -170,6 +174,7 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
       j += (k > 0 && s.gamma[c][u] != 0) ? 1 : 0;
       f.segments.push_back(j);
     }
+    f.inputs = ChainInputs(in, used);
     r.detected_jumps += j;
     r.samples_used += used;
     r.chain_samples_used[c] = used;
@@ -231,12 +236,12 @@ bool AccumulatesWithinASample(const std::vector<JumpRecord>& jumps, double step)
 // checks compare with the detected ones. The grid's step is the chain's mean step (only the jumps,
 // located by root finding, are read).
 SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit& f, const HybridParameters& p) {
-  if (!Admissible(*problem.model, p)) return LeftDomain();
+  if (!Admissible(*problem.model, p, f.inputs)) return LeftDomain();
   SensitivityOptions o = problem.options;
   o.sensitivities = false;
   const double t_end = f.times.back();
   const SampleGrid grid{t_end, t_end / static_cast<double>(f.times.size() - 1)};
-  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o);
+  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o, ExogenousOf(f.inputs));
 }
 
 // The first disagreement of fit c's model on its own at p with its detected jumps (more than
@@ -488,10 +493,25 @@ void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sig
 std::string LeftOut(const Model& model, const RefineChain& chain, long used) {
   const int n = model.state_size();
   if (used < 2 * n + 2) return fmt::format("left out: {} samples to fit, fewer than {}", used, 2 * n + 2);
-  if (!model.InFlowSet(chain.y.col(0)) && !model.InJumpSet(chain.y.col(0))) {
+  const Context at{.t = chain.t.front(), .u = chain.u.rows() > 0 ? chain.u.col(0).data() : nullptr};
+  if (!model.InFlowSet(chain.y.col(0), at) && !model.InJumpSet(chain.y.col(0), at)) {
     return "left out: the first sample lies outside C and D";
   }
   return "";
+}
+
+InputSignal ChainInputs(const RefineChain& chain, long used) {
+  InputSignal s;
+  if (chain.u.rows() == 0) return s;
+  for (long k = 0; k < used; ++k) s.times.push_back(chain.t[static_cast<std::size_t>(k)] - chain.t.front());
+  s.values = chain.u.leftCols(used);
+  return s;
+}
+
+Exogenous ExogenousOf(const InputSignal& inputs) {
+  Exogenous exo;
+  if (!inputs.empty()) exo.inputs = &inputs;
+  return exo;
 }
 
 void Fail(RefineResult& r, RefineStatus status, std::string reason) {

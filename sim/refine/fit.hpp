@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/exogenous.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid {
@@ -42,6 +44,12 @@ void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sig
 
 // Why a chain is left out of the fit with `used` of its samples ("" when it is fit).
 std::string LeftOut(const Model& model, const RefineChain& chain, long used);
+
+// A chain's inputs over its first `used` samples, their times from its first sample (the clock its
+// fits run on); empty without inputs.
+InputSignal ChainInputs(const RefineChain& chain, long used);
+// What a run of a chain needs besides the model: its inputs (none when empty); γ the model's own.
+Exogenous ExogenousOf(const InputSignal& inputs);
 
 // The samples of the chains side by side (Part: anything with an n × K member y).
 template <class Part>

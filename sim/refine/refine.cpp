@@ -85,6 +85,12 @@ void CheckChain(const Model& model, const RefineChain& c, std::size_t index) {
         "Refine: chain {}: y is {} × {}, {} times, gamma has {} entries; model '{}' has {} states", index + 1,
         c.y.rows(), c.y.cols(), c.t.size(), c.gamma.size(), model.name(), model.state_size()));
   }
+  if (c.u.rows() != model.input_size() || (c.u.rows() > 0 && (c.u.cols() != c.y.cols() || !c.u.allFinite()))) {
+    throw std::invalid_argument(fmt::format(
+        "Refine: chain {}: u is {} × {}{}; model '{}' has {} inputs and the chain {} samples", index + 1,
+        c.u.rows(), c.u.cols(), c.u.allFinite() ? "" : " (not finite)", model.name(), model.input_size(),
+        c.y.cols()));
+  }
   for (std::size_t k = 1; k < c.t.size(); ++k) {
     if (!(c.t[k] > c.t[k - 1]) || !std::isfinite(c.t[k])) {
       throw std::invalid_argument(
@@ -230,7 +236,9 @@ std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, Hyb
   p.x0 = x0;
   const double t_end = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
   const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
-  const SensitivityTrajectory plain = SimulateSensitivities(model, p, Unknowns::Of(model), grid, o);
+  const InputSignal inputs = ChainInputs(chain, used);
+  const SensitivityTrajectory plain =
+      SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, ExogenousOf(inputs));
   std::vector<double> jumps;
   if (!plain.trajectory.status.completed()) return jumps;
   for (const JumpRecord& jump : plain.trajectory.jumps) jumps.push_back(jump.t);
@@ -279,6 +287,7 @@ constexpr int kMaxSettle = 4;
 // changes.
 bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, const RefineResult& r,
                   const RefineOptions& options, FitStart* s) {
+  if (model.input_size() > 0) return false;  // the local flows of RepairStart run without inputs
   const Mat y = Concatenated(chains, model.state_size());
   SensitivityOptions sens;
   Vec weight;
@@ -427,13 +436,13 @@ RefineChain RefineChain::Uniform(const Mat& y, double dt, const std::vector<std:
 
 std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
                                      const std::vector<std::uint8_t>& chain_start,
-                                     const std::vector<std::uint8_t>& gamma) {
+                                     const std::vector<std::uint8_t>& gamma, const Mat& u) {
   const auto k_count = static_cast<std::size_t>(y.cols());
   if (t.size() != k_count || (!chain_start.empty() && chain_start.size() != k_count) ||
-      gamma.size() != k_count) {
+      gamma.size() != k_count || (u.rows() > 0 && static_cast<std::size_t>(u.cols()) != k_count)) {
     throw std::invalid_argument(
-        fmt::format("SplitChains: {} samples, {} times, {} chain_start, {} gamma entries", k_count, t.size(),
-                    chain_start.size(), gamma.size()));
+        fmt::format("SplitChains: {} samples, {} times, {} chain_start, {} gamma entries, {} input samples",
+                    k_count, t.size(), chain_start.size(), gamma.size(), u.cols()));
   }
   std::vector<std::vector<std::size_t>> members;  // per chain: its samples present
   for (std::size_t k = 0; k < k_count; ++k) {
@@ -447,9 +456,11 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
     if (m.empty()) continue;
     RefineChain c;
     c.y.resize(y.rows(), static_cast<Eigen::Index>(m.size()));
+    c.u.resize(u.rows(), static_cast<Eigen::Index>(m.size()));
     for (std::size_t i = 0; i < m.size(); ++i) {
       c.t.push_back(t[m[i]]);
       c.y.col(static_cast<Eigen::Index>(i)) = y.col(static_cast<Eigen::Index>(m[i]));
+      if (u.rows() > 0) c.u.col(static_cast<Eigen::Index>(i)) = u.col(static_cast<Eigen::Index>(m[i]));
       c.gamma.push_back(gamma[m[i]]);
     }
     chains.push_back(std::move(c));
@@ -479,7 +490,7 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   // repaired start may fit more.
   FitStart repaired;
   std::string summary;
-  if ((!r.ok() || r.samples_used < first_used) && options.repair_start &&
+  if ((!r.ok() || r.samples_used < first_used) && options.repair_start && model.input_size() == 0 &&
       r.status != RefineStatus::kTooFewSamples &&
       RepairChains(model, chains, recursive, options, &repaired, &summary)) {
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
@@ -505,8 +516,9 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
 
 RefineResult RefineIdentification(const Model& model, const std::vector<double>& t, const Mat& y,
                                   const std::vector<std::uint8_t>& chain_start,
-                                  const IdentifyResult& recursive, const RefineOptions& options) {
-  return Refine(model, SplitChains(t, y, chain_start, recursive.gamma), recursive.alpha_hat,
+                                  const IdentifyResult& recursive, const RefineOptions& options,
+                                  const Mat& u) {
+  return Refine(model, SplitChains(t, y, chain_start, recursive.gamma, u), recursive.alpha_hat,
                 recursive.beta_hat, options);
 }
 
