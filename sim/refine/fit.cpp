@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Cholesky>
 #include <ceres/ceres.h>
 #include <fmt/format.h>
 #include <glog/logging.h>
@@ -52,8 +53,10 @@ struct FitProblem {
   int shared = 0;        // |α_u| + |β_u|
   bool several = false;  // more than one chain given: messages name the chain
   ChainFailure failure;
-  // Per fit: the last evaluation with sensitivities and its point (θ, ξ0_c): Ceres' last accepted
-  // point is usually one, reused for the checks at the fit instead of integrating again.
+  // Per fit: the last evaluation and its point (θ, ξ0_c). Every evaluation integrates the
+  // sensitivities: Ceres asks for the Jacobian at the trial points it accepts, which are then the
+  // last ones evaluated, and residuals and Jacobian come from one integration (the cost compared
+  // across trial points is that of one integrator).
   mutable std::vector<Vec> cached_at;
   mutable std::vector<SensitivityTrajectory> cached;
 
@@ -64,21 +67,18 @@ struct FitProblem {
     return start.WithTheta(unknowns, full);
   }
 
-  // Fit c's matched trajectory at (θ, ξ0_c) (states only unless `sens`); ok() false when it fails.
-  SensitivityTrajectory Simulate(std::size_t c, const double* theta, const double* x0, bool sens) const {
+  // Fit c's matched trajectory with sensitivities at (θ, ξ0_c), valid until the next call for c;
+  // ok() false when it fails.
+  const SensitivityTrajectory& Simulate(std::size_t c, const double* theta, const double* x0) const {
     const HybridParameters p = At(theta, x0);
     const Vec point = p.Theta(unknowns);
-    if (sens && cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
-    if (!Admissible(*model, p, fits[c].inputs)) return LeftDomain();
-    SensitivityOptions o = options;
-    o.sensitivities = sens;
-    SensitivityTrajectory s = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, o,
-                                                           ExogenousOf(fits[c].inputs));
-    if (sens && s.ok()) {
-      cached_at[c] = point;
-      cached[c] = s;
-    }
-    return s;
+    if (cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
+    cached_at[c].resize(0);
+    if (!Admissible(*model, p, fits[c].inputs)) return cached[c] = LeftDomain();
+    cached[c] = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options,
+                                             ExogenousOf(fits[c].inputs));
+    if (cached[c].ok()) cached_at[c] = point;
+    return cached[c];
   }
 
   // "chain c: " when several chains are given, else "".
@@ -97,7 +97,7 @@ class ChainCost final : public ceres::CostFunction {
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const bool jac = jacobians != nullptr && (jacobians[0] != nullptr || jacobians[1] != nullptr);
-    const SensitivityTrajectory s = problem_.Simulate(chain_, parameters[0], parameters[1], jac);
+    const SensitivityTrajectory& s = problem_.Simulate(chain_, parameters[0], parameters[1]);
     if (!s.ok()) return false;
     const Mat& y = problem_.fits[chain_].y;
     const Eigen::Index n = y.rows(), k_count = y.cols();
@@ -190,9 +190,89 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
   return fits;
 }
 
-// The Ceres solve: Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, the
-// chains' ξ0 blocks eliminated (Schur complement), one thread, Ceres' own logging silenced (the
-// fit's status carries a failed evaluation).
+// The normal equations of the weighted residuals over the joint θ (shared, then x0 of each chain)
+// from each chain's trajectory with sensitivities: F = JᵀJ and g = −Jᵀr, summed over the chains in
+// the shared block.
+void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, Mat& f, Vec& g) {
+  const int s = problem.shared, n = problem.model->state_size();
+  const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
+  f = Mat::Zero(total, total);
+  g = Vec::Zero(total);
+  const Vec w2 = problem.weight.cwiseAbs2();
+  for (std::size_t c = 0; c < sims.size(); ++c) {
+    // The Gram matrix of all (n·p) sensitivity rows over the samples (one contiguous product), and
+    // the rows against each component's weighted residuals; row a·n + i is ∂ξ_i/∂θ_a.
+    const Mat& sens = sims[c].sensitivities;
+    const int p = sims[c].parameters;
+    Mat gram = Mat::Zero(sens.rows(), sens.rows());
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(sens);
+    gram = gram.selfadjointView<Eigen::Lower>();
+    const Mat wr = w2.asDiagonal() * (problem.fits[c].y - sims[c].trajectory.x);
+    const Mat h = sens * wr.transpose();  // (n·p) × n
+    Mat fc = Mat::Zero(p, p);
+    Vec gc = Vec::Zero(p);
+    for (int a = 0; a < p; ++a) {
+      for (int i = 0; i < n; ++i) {
+        gc[a] += h(a * n + i, i);
+        for (int b = 0; b < p; ++b) fc(a, b) += w2[i] * gram(a * n + i, b * n + i);
+      }
+    }
+    const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
+    f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
+    f.block(0, o, s, n) = fc.topRightCorner(s, n);
+    f.block(o, 0, n, s) = fc.bottomLeftCorner(n, s);
+    f.block(o, o, n, n) = fc.bottomRightCorner(n, n);
+    g.head(s) += gc.head(s);
+    g.segment(o, n) = gc.tail(n);
+  }
+}
+
+// The Newton decrement λ = √(gᵀF⁻¹g) at the point (theta, x0) of the cached evaluations (g the
+// gradient of the weighted cost, F = JᵀJ): the Gauss–Newton step from there moves each unknown by
+// at most λ standard errors (|δ_i| ≤ λ √(F⁻¹)_ii). Infinity when a chain's cached evaluation is at
+// another point or F is not positive definite.
+double NewtonDecrement(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0) {
+  for (std::size_t c = 0; c < problem.fits.size(); ++c) {
+    const Vec point = problem.At(theta.data(), x0[c].data()).Theta(problem.unknowns);
+    if (problem.cached_at[c].size() != point.size() || problem.cached_at[c] != point) {
+      return std::numeric_limits<double>::infinity();
+    }
+  }
+  Mat f;
+  Vec g;
+  NormalEquations(problem, problem.cached, f, g);
+  const Eigen::LLT<Mat> fisher(f);
+  if (fisher.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+  const double lambda2 = g.dot(fisher.solve(g));
+  return std::isfinite(lambda2) ? std::sqrt(std::max(lambda2, 0.0)) : std::numeric_limits<double>::infinity();
+}
+
+// A statistical fit is done when the next Gauss–Newton step is far below the standard errors:
+// the estimates then stand within this fraction of a standard error of the least-squares point.
+constexpr double kStepStandardErrors = 1e-3;
+
+// Ends the solve successfully after an accepted step (or at the start) whose Newton decrement is
+// below kStepStandardErrors. Reads the parameter blocks, which Ceres updates every iteration.
+class WithinStandardErrors final : public ceres::IterationCallback {
+ public:
+  WithinStandardErrors(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0)
+      : problem_(problem), theta_(theta), x0_(x0) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (!summary.step_is_successful) return ceres::SOLVER_CONTINUE;
+    return NewtonDecrement(problem_, theta_, x0_) < kStepStandardErrors ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                                        : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const FitProblem& problem_;
+  const Vec& theta_;
+  const std::vector<Vec>& x0_;
+};
+
+// The Ceres solve: Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, ended
+// as well once the next Gauss–Newton step is below kStepStandardErrors (WithinStandardErrors); the
+// normal equations for one chain, several chains' ξ0 blocks eliminated (Schur complement); one
+// thread, Ceres' own logging silenced (the fit's status carries a failed evaluation).
 ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& options, Vec& theta,
                              std::vector<Vec>& x0) {
   ceres::Problem::Options po;
@@ -204,7 +284,9 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::DENSE_SCHUR;
+  // One chain: 6 or so unknowns in all, where eliminating ξ0 saves nothing and the Schur
+  // eliminator's per-row block work costs more than forming JᵀJ; several: ξ0_c eliminated.
+  so.linear_solver_type = problem.fits.size() == 1 ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_SCHUR;
   so.max_num_iterations = options.max_iterations;
   so.function_tolerance = options.function_tolerance;
   so.parameter_tolerance = options.parameter_tolerance;
@@ -212,6 +294,9 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   so.num_threads = 1;
+  WithinStandardErrors within(problem, theta, x0);
+  so.callbacks.push_back(&within);
+  so.update_state_every_iteration = true;
   static const bool quiet = [] {  // Ceres reports a failed evaluation through glog as well
     FLAGS_minloglevel = google::GLOG_FATAL;
     return true;
@@ -394,38 +479,36 @@ void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTraj
   JudgeResiduals(z, lag, sigma_hat, mad_sigma, floor, options, r);
 }
 
-// Each chain simulated at (theta, x0); false with `failure` naming the chain that does not.
-bool SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0, bool sens,
-                 RefineStatus failure, const char* what, std::vector<SensitivityTrajectory>* sims,
-                 RefineResult& r) {
-  sims->clear();
+// Each chain simulated at (theta, x0), the runs left in problem.cached; -1, or the first chain that
+// does not simulate with `failure` naming it.
+long SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0, RefineStatus failure,
+                 const char* what, RefineResult& r) {
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
-    sims->push_back(problem.Simulate(c, theta.data(), x0[c].data(), sens));
-    if (!sims->back().ok()) {
-      Fail(r, failure,
-           fmt::format("{}{}: {}", problem.Label(c), what, sims->back().trajectory.status.message));
-      return false;
+    const SensitivityTrajectory& s = problem.Simulate(c, theta.data(), x0[c].data());
+    if (!s.ok()) {
+      Fail(r, failure, fmt::format("{}{}: {}", problem.Label(c), what, s.trajectory.status.message));
+      return static_cast<long>(c);
     }
   }
-  return true;
+  return -1;
 }
 
 // A Ceres solve from (theta, x0), then each chain with sensitivities at the fit. Adds the iterations
 // to r, sets its final cost (and *initial_cost when given); false with kNotConverged ("LABEL:
-// Ceres' message") or the chain that does not simulate.
+// Ceres' message") or the chain that does not simulate. The runs at the fit are in problem.cached.
 bool SolveAndSimulate(const FitProblem& problem, const RefineOptions& options, const char* label, Vec& theta,
-                      std::vector<Vec>& x0, std::vector<SensitivityTrajectory>* sims, RefineResult& r,
-                      double* initial_cost = nullptr) {
+                      std::vector<Vec>& x0, RefineResult& r, double* initial_cost = nullptr) {
   const ceres::Solver::Summary summary = Solve(problem, options, theta, x0);
   r.iterations += static_cast<int>(summary.iterations.size());
   if (initial_cost) *initial_cost = summary.initial_cost;
   r.final_cost = summary.final_cost;
-  if (summary.termination_type != ceres::CONVERGENCE || !theta.allFinite()) {
+  const bool converged =
+      summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS;
+  if (!converged || !theta.allFinite()) {
     Fail(r, RefineStatus::kNotConverged, fmt::format("{}: {}", label, summary.message));
     return false;
   }
-  return SimulateAll(problem, theta, x0, true, RefineStatus::kNotConverged, "the fit does not simulate", sims,
-                     r);
+  return SimulateAll(problem, theta, x0, RefineStatus::kNotConverged, "the fit does not simulate", r) < 0;
 }
 
 // Residuals at the integration accuracy in every component (noise-free data): each component's
@@ -443,20 +526,21 @@ void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_si
   Vec theta = r.start.Theta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, false});
   std::vector<Vec> x0;
   for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
-  std::vector<SensitivityTrajectory> sims;
-  if (!SimulateAll(problem, theta, x0, false, RefineStatus::kStartFailed,
-                   "the start does not simulate on the detected segments", &sims, r)) {
+  const std::vector<SensitivityTrajectory>& sims = problem.cached;
+  if (const long bad = SimulateAll(problem, theta, x0, RefineStatus::kStartFailed,
+                                   "the start does not simulate on the detected segments", r);
+      bad >= 0) {
     // The start's jump times drift from the data (it is not fit yet): only its jump count is compared.
-    const std::size_t c = sims.size() - 1;
+    const auto c = static_cast<std::size_t>(bad);
     const HybridParameters at = problem.At(theta.data(), x0[c].data());
     return NoteFailure(problem, c, SimulateOnItsOwn(problem, problem.fits[c], at),
                        std::numeric_limits<double>::infinity());
   }
-  if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, &sims, r, &r.initial_cost)) return;
+  if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, r, &r.initial_cost)) return;
   if (options.polish_tolerance < problem.options.sim.rtol && AtIntegrationAccuracy(problem, sims)) {
     problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
     for (Vec& at : problem.cached_at) at.resize(0);  // integrated at the looser tolerances
-    if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, &sims, r)) return;
+    if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, r)) return;
   }
   r.refined = problem.At(theta.data(), x0.front().data());
   r.model_jumps = 0;
@@ -547,6 +631,7 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
   problem.cached_at.resize(problem.fits.size());
   problem.cached.resize(problem.fits.size());
   FitWeighting(y, options, mad_sigma, &problem.options, &problem.weight);
+  problem.options.sensitivities = true;  // every evaluation (FitProblem::Simulate)
   RunFit(problem, options, mad_sigma, r);
   *failure = problem.failure;
   return r;

@@ -5,11 +5,16 @@
 
 #include <cmath>
 
+#include <Eigen/LU>
+
 #include "core/builtin/bouncing_ball.hpp"
 #include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
 #include "sim/measurement.hpp"
+#include "core/model/noise_shape.hpp"
+#include "sim/refine/fit.hpp"
 #include "sim/refine/refine.hpp"
+#include "sim/sensitivity/sensitivity.hpp"
 
 namespace hysid {
 namespace {
@@ -61,6 +66,50 @@ TEST_CASE("refinement of the §5 system from the recursive estimate reaches the 
   for (Eigen::Index i = 0; i < error.size(); ++i) {
     CHECK(std::abs(error[i]) < 4 * bound.sd[i]);
     CHECK(r.standard_errors[i] == Approx(bound.sd[i]).epsilon(0.05));
+  }
+}
+
+TEST_CASE("the fit ends where the next Gauss–Newton step is below 1e-3 standard errors", "[refine]") {
+  const Run run(0.25);
+  IdentifierSettings settings;
+  settings.detector.kind = DetectorKind::kResidual;
+  settings.data_rtol = settings.data_atol = 1e-12;
+  const IdentifyResult recursive = Identify(run.model, run.y, run.grid.dt, settings);
+  const RefineOptions options;
+  const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, recursive.alpha_hat, recursive.beta_hat,
+                                   recursive.gamma, options);
+  INFO(r.reason);
+  REQUIRE(r.ok());
+  REQUIRE(r.samples_used == run.y.cols());
+  // The weighted residuals and sensitivities at the fit, integrated as the fit integrates them, and
+  // the Gauss–Newton step from there, δ = F⁻¹Sᵀ W²(y − ξ) with F = Σ S_kᵀW²S_k.
+  SensitivityOptions sens;
+  Vec weight;
+  FitWeighting(run.y, options, EstimateNoiseSigma(run.y), &sens, &weight);
+  sens.sensitivities = true;
+  std::vector<double> times;
+  std::vector<int> segments;
+  int j = 0;
+  for (std::size_t k = 0; k < recursive.gamma.size(); ++k) {
+    times.push_back(static_cast<double>(k) * run.grid.dt);
+    j += (k > 0 && recursive.gamma[k] != 0) ? 1 : 0;
+    segments.push_back(j);
+  }
+  const SensitivityTrajectory s =
+      SimulateSensitivitiesMatched(run.model, r.refined, r.unknowns, times, segments, sens);
+  REQUIRE(s.ok());
+  const Vec w2 = weight.cwiseAbs2();
+  Mat f = Mat::Zero(s.parameters, s.parameters);
+  Vec g = Vec::Zero(s.parameters);
+  for (Eigen::Index k = 0; k < run.y.cols(); ++k) {
+    f += s.S(k).transpose() * w2.asDiagonal() * s.S(k);
+    g += s.S(k).transpose() * w2.asDiagonal() * (run.y.col(k) - s.trajectory.x.col(k));
+  }
+  const Mat covariance = f.inverse();
+  const Vec step = covariance * g;
+  for (Eigen::Index i = 0; i < step.size(); ++i) {
+    INFO("unknown " << i << ": step " << step[i] << ", standard error " << std::sqrt(covariance(i, i)));
+    CHECK(std::abs(step[i]) < 1e-3 * std::sqrt(covariance(i, i)));
   }
 }
 
