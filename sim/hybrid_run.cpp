@@ -11,27 +11,28 @@ namespace hysid::hybrid {
 namespace {
 
 // ξ' = φ(ξ)α into ydot[0..n), then the payload's components.
-int FlowRhs(sunrealtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
+int FlowRhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user_data) {
   auto* data = static_cast<CallbackData*>(user_data);
   const Eigen::Index n = data->n;
   const double* yp = N_VGetArrayPointer_Serial(y);
   double* ydotp = N_VGetArrayPointer_Serial(ydot);
   const Eigen::Map<const Vec> x(yp, n);
   Eigen::Map<Vec> f(ydotp, n);
-  data->model->Flow(x, *data->alpha, f);
+  const Context ctx = data->context->At(t);
+  data->model->Flow(x, *data->alpha, f, ctx);
   if (!f.allFinite() || !x.allFinite()) {
     data->nonfinite_rhs = true;
     return -1;  // unrecoverable: CVODE stops with CV_RHSFUNC_FAIL
   }
-  if (data->payload) data->payload->Flow(yp, yp + n, ydotp + n);
+  if (data->payload) data->payload->Flow(yp, yp + n, ctx, ydotp + n);
   return 0;
 }
 
-int GuardFunctions(sunrealtype /*t*/, N_Vector y, sunrealtype* gout, void* user_data) {
+int GuardFunctions(sunrealtype t, N_Vector y, sunrealtype* gout, void* user_data) {
   auto* data = static_cast<CallbackData*>(user_data);
   const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), data->n);
   Eigen::Map<Vec> h(gout, data->guard_count);
-  data->model->Guards(x, h);
+  data->model->Guards(x, h, data->context->At(t));
   return 0;
 }
 
@@ -45,8 +46,8 @@ constexpr double kZenoMaxRatio = 1.0 - 1e-3;
 
 }  // namespace
 
-Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const SampleTimes& samples,
-               const SimOptions& options, Payload* payload, SampleOrder order)
+Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Exogenous& exo,
+               const SampleTimes& samples, const SimOptions& options, Payload* payload, SampleOrder order)
     : model_(model),
       alpha_(alpha),
       beta_(beta),
@@ -54,6 +55,7 @@ Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Samp
       options_(options),
       payload_(payload),
       order_(order),
+      context_(model, exo),
       n_(model.state_size()) {
   t_last_ = samples_.at(samples_.count - 1);
   out_.dt = samples_.dt;
@@ -70,6 +72,7 @@ Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Samp
   data_.model = &model_;
   data_.alpha = &alpha_;
   data_.payload = payload_;
+  data_.context = &context_;
   data_.n = n_;
   data_.guard_count = model_.guard_count();
 }
@@ -103,7 +106,8 @@ Trajectory Engine::Run(const Vec& x0) {
         break;
       }
       t_ = tret;
-      if (!model_.InFlowSet(returned()) && !model_.InJumpSet(returned())) {
+      const Context ctx = ContextAt(tret);
+      if (!model_.InFlowSet(returned(), ctx) && !model_.InJumpSet(returned(), ctx)) {
         Fail(SimStop::kLeftDomain,
              fmt::format("state left C and D at t = {:.17g} without a located crossing", tret));
         return Finish();
@@ -151,7 +155,7 @@ bool Engine::Setup(const Vec& x0) {
     return false;
   }
   // HyEQ rule 1: an initial state in D jumps before it flows.
-  return !model_.InJumpSet(x_) || JumpChain(-1);
+  return !model_.InJumpSet(x_, ContextAt(t_)) || JumpChain(-1);
 }
 
 bool Engine::Start(double tstop, bool roots) {
@@ -164,7 +168,9 @@ bool Engine::Start(double tstop, bool roots) {
     if (!Check(CVodeReInit(mem, t_, y_.get()), "CVodeReInit")) return false;
   }
   at_init_ = false;
-  if (!Check(CVodeSetStopTime(mem, tstop), "CVodeSetStopTime")) return false;
+  last_tret_ = t_;
+  stop_set_ = context_.NextInputTime(t_, tstop);
+  if (!Check(CVodeSetStopTime(mem, stop_set_), "CVodeSetStopTime")) return false;
   if (roots == roots_) return true;
   if (!roots) return DisableRoots();
   roots_ = true;
@@ -187,7 +193,15 @@ int Engine::Step(double tstop, double* tret) {
     return -1;
   }
   ++steps_;
-  const int flag = CVode(cvode_.get(), tstop, y_.get(), tret, CV_ONE_STEP);
+  double stop = tstop;
+  if (context_.has_inputs()) {
+    stop = context_.NextInputTime(last_tret_, tstop);
+    if (stop != stop_set_ && !Check(CVodeSetStopTime(cvode_.get(), stop), "CVodeSetStopTime")) return -1;
+    stop_set_ = stop;
+  }
+  int flag = CVode(cvode_.get(), stop, y_.get(), tret, CV_ONE_STEP);
+  if (flag == CV_TSTOP_RETURN && stop != tstop) flag = CV_SUCCESS;  // an input sample: go on
+  last_tret_ = *tret;
   if (flag < 0) {
     if (data_.nonfinite_rhs) {
       Fail(SimStop::kNonFinite, fmt::format("flow map is not finite near t = {:.17g}", *tret));
@@ -219,7 +233,8 @@ bool Engine::Jumps(int guard) { return JumpChain(guard) && CheckZenoAndBudget();
 
 // Applies the jump map at t_ to x_, then again while ξ+ ∈ D (rule 1).
 bool Engine::JumpChain(int guard) {
-  if (guard >= 0) model_.ProjectOntoGuard(guard, x_);
+  const Context ctx = ContextAt(t_);
+  if (guard >= 0) model_.ProjectOntoGuard(guard, x_, ctx);
   at_init_ = false;
   std::string why;
   if (payload_ && !payload_->BeginJumps(t_, guard, x_, &why)) return Fail(SimStop::kSolverFailure, why);
@@ -231,14 +246,14 @@ bool Engine::JumpChain(int guard) {
                                               "in D); estimated accumulation time {:.17g}",
                                               chain, t_, t_));
     }
-    model_.Jump(x_, beta_, post);
+    model_.Jump(x_, beta_, post, ContextAt(t_));
     if (payload_) payload_->Jump(x_);
     out_.jumps.push_back(JumpRecord{jumps() + 1, t_, chain == 0 ? guard : -1, x_, post});
     x_ = post;
     if (!x_.allFinite()) {
       return Fail(SimStop::kNonFinite, fmt::format("jump map gave a non-finite state at t = {:.17g}", t_));
     }
-    if (!model_.InJumpSet(x_)) break;
+    if (!model_.InJumpSet(x_, ContextAt(t_))) break;
   }
   if (payload_) payload_->EndJumps(x_);
   return true;

@@ -22,6 +22,7 @@
 #include <nvector/nvector_serial.h>
 
 #include "core/model/model.hpp"
+#include "sim/exogenous.hpp"
 #include "sim/nordsieck.hpp"
 #include "sim/simulator.hpp"
 #include "sim/sundials_ptr.hpp"
@@ -34,8 +35,9 @@ class Payload {
   virtual ~Payload() = default;
   // Number of extra components (stored after ξ in the integrated vector).
   virtual long size() const = 0;
-  // Their time derivative at (ξ, extra); called inside CVODE's right-hand side.
-  virtual void Flow(const double* x, const double* extra, double* extra_dot) = 0;
+  // Their time derivative at (ξ, extra) in the evaluation context of the time (u(t), γ); called inside
+  // CVODE's right-hand side.
+  virtual void Flow(const double* x, const double* extra, const Context& ctx, double* extra_dot) = 0;
   // At each (re)start of the integration from the current (t, x): the current values into
   // extra[0..size).
   virtual void Restart(double t, const Vec& x, double* extra) = 0;
@@ -71,6 +73,7 @@ struct CallbackData {
   const Model* model = nullptr;
   const Vec* alpha = nullptr;
   Payload* payload = nullptr;
+  ContextSource* context = nullptr;
   long n = 0;
   int guard_count = 0;
   bool nonfinite_rhs = false;
@@ -84,7 +87,8 @@ enum class SampleOrder { kIncreasing, kAny };
 // below it let a caller drive other sample orders (the matched sensitivities) under the same rules.
 class Engine {
  public:
-  Engine(const Model& model, const Vec& alpha, const Vec& beta, const SampleTimes& samples,
+  // `exo` (γ, inputs) must outlive the engine and fit the model (ExogenousError).
+  Engine(const Model& model, const Vec& alpha, const Vec& beta, const Exogenous& exo, const SampleTimes& samples,
          const SimOptions& options, Payload* payload, SampleOrder order = SampleOrder::kIncreasing);
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;
@@ -98,8 +102,12 @@ class Engine {
   // (Re)starts the integration at (t(), x()) towards tstop (either direction), guards on or off.
   bool Start(double tstop, bool roots);
   bool DisableRoots();
-  // One internal step: the flag (CV_SUCCESS, CV_ROOT_RETURN, CV_TSTOP_RETURN) or −1 when stopped.
+  // One internal step towards tstop: the flag (CV_SUCCESS, CV_ROOT_RETURN, CV_TSTOP_RETURN at tstop) or −1
+  // when stopped. With inputs, no step crosses an input sample time (CVODE stops there and goes on:
+  // CV_SUCCESS), so no step integrates across a kink of the interpolated u.
   int Step(double tstop, double* tret);
+  // The evaluation context at time t (u(t), γ); valid until the next call.
+  Context ContextAt(double t) { return context_.At(t); }
   // Samples begin..end−1, all within the last step, on segment `segment` (kIncreasing: begin is
   // the number emitted so far; kAny: each sample once, ranges in any order, forward or backward).
   void EmitStep(long begin, long end, int segment);
@@ -140,6 +148,9 @@ class Engine {
   SimOptions options_;
   Payload* payload_;
   SampleOrder order_;
+  ContextSource context_;
+  double stop_set_ = 0.0;  // the stop time CVODE holds (with inputs)
+  double last_tret_ = 0.0;  // the time the last step returned (with inputs)
   long n_ = 0;
   double t_last_ = 0.0;
   double t_ = 0.0;

@@ -75,7 +75,8 @@ const char* ToString(SimStop stop) {
   return "unknown";
 }
 
-Trajectory Simulate(const Model& model, const Vec& x0, const SampleGrid& grid, const SimOptions& options) {
+Trajectory Simulate(const Model& model, const Vec& x0, const SampleGrid& grid, const SimOptions& options,
+                    const Exogenous& exo) {
   std::string error;
   if (!grid.IsValid(&error) || !options.IsValid(&error)) throw std::invalid_argument(error);
   if (x0.size() != model.state_size()) {
@@ -83,11 +84,15 @@ Trajectory Simulate(const Model& model, const Vec& x0, const SampleGrid& grid, c
                                             model.name(), model.state_size()));
   }
   if (!x0.allFinite()) throw std::invalid_argument("x0 is not finite");
-  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
+  const hybrid::SampleTimes samples{.count = grid.size(), .dt = grid.dt};
+  if (std::string why = ExogenousError(model, exo, samples.at(samples.count - 1)); !why.empty()) {
+    throw std::invalid_argument(why);
+  }
+  ContextSource context(model, exo);
+  if (!model.InFlowSet(x0, context.At(0.0)) && !model.InJumpSet(x0, context.At(0.0))) {
     throw std::invalid_argument(fmt::format("x0 lies outside C and D of model '{}'", model.name()));
   }
-  hybrid::Engine engine(model, model.alpha(), model.beta(), hybrid::SampleTimes{.count = grid.size(), .dt = grid.dt},
-                        options, /*payload=*/nullptr);
+  hybrid::Engine engine(model, model.alpha(), model.beta(), exo, samples, options, /*payload=*/nullptr);
   return engine.Run(x0);
 }
 

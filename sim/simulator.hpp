@@ -1,6 +1,7 @@
 // Hybrid simulator on SUNDIALS CVODE with exact jump location.
 //
-// System:   ξ' = φ(ξ)α on C, ξ+ = ψ(ξ)β on D (a hysid::Model with its true α, β).
+// System:   ξ' = φ(ξ)α on C, ξ+ = ψ(ξ)β on D (a hysid::Model with its true α, β; γ and the inputs
+//           u(t) from an Exogenous, sim/exogenous.hpp).
 // Method:   the hybrid run loop (sim/hybrid_run.hpp, shared with the sensitivities) with no payload:
 //           CVODE Adams–Moulton with fixed-point iteration; CVODE's root finding, filtered by each
 //           guard's crossing direction, locates the crossings to solver precision; the state is put
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "core/model/model.hpp"
+#include "sim/exogenous.hpp"
 
 namespace hysid {
 
@@ -88,9 +90,10 @@ struct Trajectory {
   long size() const { return static_cast<long>(t.size()); }
 };
 
-// Throws std::invalid_argument for a bad grid, bad options, or x0 of the wrong size or not
-// finite; every numerical outcome is reported in Trajectory::status.
-Trajectory Simulate(const Model& model, const Vec& x0, const SampleGrid& grid,
-                    const SimOptions& options = {});
+// Throws std::invalid_argument for a bad grid, bad options, x0 of the wrong size or not finite, or
+// guard parameters or inputs that do not fit the model or the grid (ExogenousError); every numerical
+// outcome is reported in Trajectory::status.
+Trajectory Simulate(const Model& model, const Vec& x0, const SampleGrid& grid, const SimOptions& options = {},
+                    const Exogenous& exo = {});
 
 }  // namespace hysid

@@ -161,12 +161,12 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
-    r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0)};
+    r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
   }
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
   const Crlb bound = TruthBound(model, truth, used, data);
-  const HybridParameters truth_params{model.alpha(), model.beta(), truth.x0};
+  const HybridParameters truth_params = HybridParameters::Of(model, truth.x0);
   if (args.refine == "ml") {
     std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
                 ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());

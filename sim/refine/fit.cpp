@@ -523,7 +523,8 @@ bool AtIntegrationAccuracy(const FitProblem& problem, const std::vector<Sensitiv
 
 // Solve, polish for noise-free data, then the checks at the fit.
 void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_sigma, RefineResult& r) {
-  Vec theta = r.start.Theta(Unknowns{problem.unknowns.alpha, problem.unknowns.beta, false});
+  Vec theta = r.start.Theta(Unknowns{.alpha = problem.unknowns.alpha, .beta = problem.unknowns.beta,
+                                            .gamma = problem.unknowns.gamma, .x0 = false});
   std::vector<Vec> x0;
   for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
   const std::vector<SensitivityTrajectory>& sims = problem.cached;

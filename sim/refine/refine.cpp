@@ -297,7 +297,7 @@ bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, co
     const RefineChain& in = chains[c];
     if (r.chain_x0[c].size() == 0 || in.y.cols() < 2) continue;
     const double dt = (in.t.back() - in.t.front()) / static_cast<double>(in.y.cols() - 1);
-    const HybridParameters from{r.refined.alpha, r.refined.beta, r.chain_x0[c]};
+    const HybridParameters from{r.refined.alpha, r.refined.beta, r.chain_x0[c], r.refined.gamma};
     const StartRepair repair =
         RepairStart(model, in.y, dt, s->gamma[c], from, r.unknowns, weight, sens, options.start_repair);
     if (!repair.ok || repair.gamma == s->gamma[c]) continue;
@@ -356,10 +356,12 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
 }
 
 // The recursive start: α0, β0, each chain's detected labels and its first sample, all samples allowed.
-FitStart RecursiveStart(const std::vector<RefineChain>& chains, const Vec& alpha0, const Vec& beta0, int n) {
+FitStart RecursiveStart(const std::vector<RefineChain>& chains, const Vec& alpha0, const Vec& beta0,
+                        const Vec& gamma0, int n) {
   auto first = [n](const RefineChain& c) { return c.y.cols() > 0 ? Vec(c.y.col(0)) : Vec::Zero(n).eval(); };
   FitStart s;
-  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : first(chains[0])};
+  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : first(chains[0]),
+                             gamma0};
   for (const RefineChain& c : chains) {
     s.gamma.push_back(c.gamma);
     s.x0.push_back(first(c));
@@ -400,7 +402,8 @@ bool RepairChains(const Model& model, const std::vector<RefineChain>& chains, co
     const long k_count = in.y.cols();
     if (!LeftOut(model, in, k_count).empty()) continue;
     const double dt = (in.t.back() - in.t.front()) / static_cast<double>(k_count - 1);
-    const HybridParameters from{recursive.start.alpha, recursive.start.beta, in.y.col(0)};
+    const HybridParameters from{recursive.start.alpha, recursive.start.beta, in.y.col(0),
+                                recursive.start.gamma};
     const StartRepair repair =
         RepairStart(model, in.y, dt, in.gamma, from, unknowns, weight, sens, options.start_repair);
     if (!repair.ok) continue;
@@ -471,7 +474,7 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
 RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                     const Vec& beta0, const RefineOptions& options) {
   CheckInputs(model, chains, alpha0, beta0, options);
-  const FitStart recursive = RecursiveStart(chains, alpha0, beta0, model.state_size());
+  const FitStart recursive = RecursiveStart(chains, alpha0, beta0, model.gamma(), model.state_size());
   RefineResult r;
   r.unknowns = Unknowns::Of(model);
   r.names = r.unknowns.Names(model);

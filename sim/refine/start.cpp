@@ -78,7 +78,7 @@ class LocalFlows {
     SensitivityOptions o = options_;
     o.sensitivities = s != nullptr;
     const std::vector<int> one_segment(static_cast<std::size_t>(count), 0);
-    const SensitivityTrajectory t = SimulateSensitivitiesMatched(model_, HybridParameters{alpha, p_.beta, z},
+    const SensitivityTrajectory t = SimulateSensitivitiesMatched(model_, HybridParameters{alpha, p_.beta, z, p_.gamma},
                                                                  unknowns_, grid, one_segment, o);
     if (!t.ok() || t.trajectory.x.cols() != count || !t.trajectory.x.allFinite()) return false;
     for (long i = 1; i < count; ++i) {
@@ -287,7 +287,7 @@ std::vector<long> MissedJumps(const Model& model, const HybridParameters& p, con
     if (!from.ok || end - from.ref < 2 || (!model.InFlowSet(from.z) && !model.InJumpSet(from.z))) continue;
     const SampleGrid grid{(static_cast<double>(end - from.ref) - 0.5) * dt, dt};
     const SensitivityTrajectory t =
-        SimulateSensitivities(model, HybridParameters{p.alpha, p.beta, from.z}, Unknowns{}, grid, plain);
+        SimulateSensitivities(model, HybridParameters{p.alpha, p.beta, from.z, p.gamma}, Unknowns{}, grid, plain);
     if (t.trajectory.jumps.empty()) continue;
     const long k = from.ref + static_cast<long>(std::ceil(t.trajectory.jumps.front().t / dt));
     const long margin = std::max(o.min_window, o.predicted_search);  // away from the detected jumps

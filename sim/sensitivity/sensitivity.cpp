@@ -22,6 +22,9 @@ Unknowns Unknowns::Of(const Model& model, bool with_x0) {
   for (std::size_t i = 0; i < spec.beta.size(); ++i) {
     if (!spec.beta[i].known) u.beta.push_back(static_cast<int>(i));
   }
+  for (std::size_t i = 0; i < spec.guard_params.size(); ++i) {
+    if (!spec.guard_params[i].known) u.gamma.push_back(static_cast<int>(i));
+  }
   u.x0 = with_x0;
   return u;
 }
@@ -31,6 +34,7 @@ std::vector<std::string> Unknowns::Names(const Model& model) const {
   std::vector<std::string> names;
   for (int i : alpha) names.push_back(spec.alpha[static_cast<std::size_t>(i)].name);
   for (int i : beta) names.push_back(spec.beta[static_cast<std::size_t>(i)].name);
+  for (int i : gamma) names.push_back(spec.guard_params[static_cast<std::size_t>(i)].name);
   if (x0) {
     for (const std::string& s : spec.state_names) names.push_back(fmt::format("x0[{}]", s));
   }
@@ -53,7 +57,8 @@ bool Unknowns::IsValid(const Model& model, std::string* error) const {
     }
     return true;
   };
-  return check(alpha, model.alpha_size(), "alpha") && check(beta, model.beta_size(), "beta");
+  return check(alpha, model.alpha_size(), "alpha") && check(beta, model.beta_size(), "beta") &&
+         check(gamma, model.gamma_size(), "gamma");
 }
 
 Vec HybridParameters::Theta(const Unknowns& u) const {
@@ -61,6 +66,7 @@ Vec HybridParameters::Theta(const Unknowns& u) const {
   Eigen::Index c = 0;
   for (int i : u.alpha) theta[c++] = alpha[i];
   for (int i : u.beta) theta[c++] = beta[i];
+  for (int i : u.gamma) theta[c++] = gamma[i];
   if (u.x0) theta.tail(x0.size()) = x0;
   return theta;
 }
@@ -70,6 +76,7 @@ HybridParameters HybridParameters::WithTheta(const Unknowns& u, const ConstVecRe
   Eigen::Index c = 0;
   for (int i : u.alpha) out.alpha[i] = theta[c++];
   for (int i : u.beta) out.beta[i] = theta[c++];
+  for (int i : u.gamma) out.gamma[i] = theta[c++];
   if (u.x0) out.x0 = theta.tail(x0.size());
   return out;
 }
@@ -102,10 +109,11 @@ Mat CentralDifference(const F& map, const Vec& x, Eigen::Index m) {
 class SensitivityPayload final : public hybrid::Payload {
  public:
   SensitivityPayload(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
-                     long sample_count)
+                     const Exogenous& exo, long sample_count)
       : model_(model),
         params_(params),
         unknowns_(unknowns),
+        context_(model, exo),
         n_(model.state_size()),
         p_(unknowns.size(model.state_size())),
         jac_(n_, n_),
@@ -117,9 +125,9 @@ class SensitivityPayload final : public hybrid::Payload {
   }
 
   long size() const override { return static_cast<long>(n_) * p_; }
-  void Flow(const double* x, const double* s, double* sdot) override {
+  void Flow(const double* x, const double* s, const Context& ctx, double* sdot) override {
     Eigen::Map<Mat> d(sdot, n_, p_);
-    Derivative(Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_), d);
+    Derivative(Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_), ctx, d);
   }
   void Restart(double t, const Vec& x, double* extra) override {
     Eigen::Map<Mat>(extra, n_, p_) = s_;
@@ -151,10 +159,11 @@ class SensitivityPayload final : public hybrid::Payload {
     Mat s, d;
   };
 
-  // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, zero for β's and ξ0's.
-  void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, Eigen::Ref<Mat> out) {
-    model_.FlowJacobian(x, params_.alpha, jac_);
-    model_.Phi(x, phi_);
+  // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, zero for β's, γ's
+  // and ξ0's.
+  void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, const Context& ctx, Eigen::Ref<Mat> out) {
+    model_.FlowJacobian(x, params_.alpha, jac_, ctx);
+    model_.Phi(x, phi_, ctx);
     out.noalias() = jac_ * s;
     const auto& au = unknowns_.alpha;
     for (std::size_t i = 0; i < au.size(); ++i) out.col(static_cast<Eigen::Index>(i)) += phi_.col(au[i]);
@@ -163,16 +172,19 @@ class SensitivityPayload final : public hybrid::Payload {
     end.t = t;
     end.s = s;
     end.d.resize(n_, p_);
-    Derivative(x, s, end.d);
+    Derivative(x, s, context_.At(t), end.d);
   }
-  Eigen::RowVectorXd GuardGradient(int guard, const Vec& x) const {
-    const Mat jac = CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h); }, x, model_.guard_count());
+  Eigen::RowVectorXd GuardGradient(int guard, const Vec& x, const Context& ctx) const {
+    const Mat jac =
+        CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h, ctx); }, x, model_.guard_count());
     return jac.row(guard);
   }
 
   const Model& model_;
   const HybridParameters& params_;
   const Unknowns& unknowns_;
+  ContextSource context_;
+  double t_jump_ = 0.0;           // the time of the jumps under way
   int n_ = 0, p_ = 0;
   Mat jac_, phi_;                 // scratch, n × n and n × |α|
   Mat s_;                         // S at the current state (the run loop's restart point)
@@ -185,11 +197,13 @@ class SensitivityPayload final : public hybrid::Payload {
 // ∂t_j/∂θ = −(∇h·S⁻)/(∇h·f⁻) at a guard crossing (zero for the initial state's jumps, at t = 0
 // whatever θ); total = S⁻ + f⁻ ∂t_j/∂θ.
 bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::string* why) {
+  t_jump_ = t;
+  const Context ctx = context_.At(t);
   Vec f_minus(n_);
-  model_.Flow(x, params_.alpha, f_minus);
+  model_.Flow(x, params_.alpha, f_minus, ctx);
   dt_dtheta_ = Eigen::RowVectorXd::Zero(p_);
   if (guard >= 0) {
-    const Eigen::RowVectorXd grad = GuardGradient(guard, x);
+    const Eigen::RowVectorXd grad = GuardGradient(guard, x, ctx);
     const double rate = grad.dot(f_minus);
     if (!(std::abs(rate) > 1e-14 * std::max(1.0, grad.norm() * f_minus.norm()))) {
       *why = fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no sensitivity", t);
@@ -203,10 +217,12 @@ bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::stri
 
 // total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state.
 void SensitivityPayload::Jump(const Vec& pre) {
-  const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { model_.Jump(z, params_.beta, g); }, pre, n_);
+  const Context ctx = context_.At(t_jump_);
+  const Mat g_x =
+      CentralDifference([&](const Vec& z, Vec& g) { model_.Jump(z, params_.beta, g, ctx); }, pre, n_);
   Mat next = g_x * total_;
   Mat psi(n_, model_.beta_size());
-  model_.Psi(pre, psi);
+  model_.Psi(pre, psi, ctx);
   const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
   for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
     next.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
@@ -219,7 +235,7 @@ void SensitivityPayload::Jump(const Vec& pre) {
 // S⁺ = total − f⁺ ∂t_j/∂θ.
 void SensitivityPayload::EndJumps(const Vec& post) {
   Vec f_plus(n_);
-  model_.Flow(post, params_.alpha, f_plus);
+  model_.Flow(post, params_.alpha, f_plus, context_.At(t_jump_));
   s_ = total_ - f_plus * dt_dtheta_;
 }
 
@@ -326,8 +342,13 @@ class Matched {
   SensitivityTrajectory& out_;
 };
 
+// The run's γ and inputs.
+Exogenous ExogenousOf(const HybridParameters& params, const InputSignal* inputs) {
+  return Exogenous{.gamma = params.gamma, .inputs = inputs};
+}
+
 void CheckInputs(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
-                 const SampleGrid& grid, const SensitivityOptions& options) {
+                 const SampleGrid& grid, const SensitivityOptions& options, const InputSignal* inputs) {
   std::string error;
   if (!grid.IsValid(&error) || !options.IsValid(&error) || !unknowns.IsValid(model, &error)) {
     throw std::invalid_argument(error);
@@ -342,7 +363,14 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
   check(params.alpha, model.alpha_size(), "alpha");
   check(params.beta, model.beta_size(), "beta");
   check(params.x0, model.state_size(), "x0");
-  if (!model.InFlowSet(params.x0) && !model.InJumpSet(params.x0)) {
+  if (params.gamma.size() != 0 || !unknowns.gamma.empty()) check(params.gamma, model.gamma_size(), "gamma");
+  const Exogenous exo = ExogenousOf(params, inputs);
+  if (std::string why = ExogenousError(model, exo, grid.size() > 0 ? static_cast<double>(grid.size() - 1) * grid.dt : 0.0);
+      !why.empty()) {
+    throw std::invalid_argument(why);
+  }
+  ContextSource context(model, exo);
+  if (!model.InFlowSet(params.x0, context.At(0.0)) && !model.InJumpSet(params.x0, context.At(0.0))) {
     throw std::invalid_argument(fmt::format("x0 lies outside C and D of model '{}'", model.name()));
   }
 }
@@ -350,12 +378,13 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
 // Plain (segments null: Simulate's loop) or matched mode; the sensitivities as the loop's payload.
 SensitivityTrajectory Integrate(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
                                 const hybrid::SampleTimes& samples, const SensitivityOptions& options,
-                                const std::vector<int>* segments) {
+                                const std::vector<int>* segments, const InputSignal* inputs) {
   SensitivityTrajectory out;
   out.parameters = unknowns.size(model.state_size());
+  const Exogenous exo = ExogenousOf(params, inputs);
   std::optional<SensitivityPayload> payload;
-  if (options.sensitivities) payload.emplace(model, params, unknowns, samples.count);
-  hybrid::Engine engine(model, params.alpha, params.beta, samples, options.sim, payload ? &*payload : nullptr,
+  if (options.sensitivities) payload.emplace(model, params, unknowns, exo, samples.count);
+  hybrid::Engine engine(model, params.alpha, params.beta, exo, samples, options.sim, payload ? &*payload : nullptr,
                         segments ? hybrid::SampleOrder::kAny : hybrid::SampleOrder::kIncreasing);
   if (segments == nullptr) {
     out.trajectory = engine.Run(params.x0);
@@ -371,9 +400,9 @@ SensitivityTrajectory Integrate(const Model& model, const HybridParameters& para
 
 SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
                                             const Unknowns& unknowns, const SampleGrid& grid,
-                                            const SensitivityOptions& options) {
-  CheckInputs(model, params, unknowns, grid, options);
-  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, nullptr);
+                                            const SensitivityOptions& options, const InputSignal* inputs) {
+  CheckInputs(model, params, unknowns, grid, options, inputs);
+  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, nullptr, inputs);
 }
 
 namespace {
@@ -399,16 +428,17 @@ void CheckSegments(const std::vector<int>& segment_of_sample, std::size_t k_coun
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const SampleGrid& grid,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options) {
-  CheckInputs(model, params, unknowns, grid, options);
+                                                   const SensitivityOptions& options, const InputSignal* inputs) {
+  CheckInputs(model, params, unknowns, grid, options, inputs);
   CheckSegments(segment_of_sample, static_cast<std::size_t>(grid.size()));
-  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, &segment_of_sample);
+  return Integrate(model, params, unknowns, {.count = grid.size(), .dt = grid.dt}, options, &segment_of_sample,
+                   inputs);
 }
 
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const std::vector<double>& times,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options) {
+                                                   const SensitivityOptions& options, const InputSignal* inputs) {
   if (times.size() < 2 || times[0] != 0.0) {
     throw std::invalid_argument(fmt::format("times: {} samples, first {}: need at least 2, the first at 0",
                                             times.size(), times.empty() ? 0.0 : times[0]));
@@ -420,11 +450,11 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
     }
   }
   const SampleGrid grid{.t_end = times.back(), .dt = times.back() / static_cast<double>(times.size() - 1)};
-  CheckInputs(model, params, unknowns, grid, options);
+  CheckInputs(model, params, unknowns, grid, options, inputs);
   CheckSegments(segment_of_sample, times.size());
   return Integrate(model, params, unknowns,
                    {.count = static_cast<long>(times.size()), .dt = grid.dt, .times = &times}, options,
-                   &segment_of_sample);
+                   &segment_of_sample, inputs);
 }
 
 }  // namespace hysid

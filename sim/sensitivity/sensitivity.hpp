@@ -1,4 +1,5 @@
-// Forward sensitivities of a hybrid trajectory, S_k = ∂ξ(t_k)/∂θ, θ = (unknown α, unknown β, ξ0).
+// Forward sensitivities of a hybrid trajectory, S_k = ∂ξ(t_k)/∂θ, θ = (unknown α, unknown β, unknown γ,
+// ξ0), γ the guard parameters; a model with inputs runs on a measured InputSignal u(t).
 //
 // Run:   the hybrid run loop of Simulate (sim/hybrid_run.hpp) with S as its payload: the same jump
 //        chain, Zeno rule, budgets and status, so both stop alike.
@@ -28,14 +29,15 @@
 
 namespace hysid {
 
-// Which entries of θ = (α_u, β_u, ξ0) are estimated.
+// Which entries of θ = (α_u, β_u, γ_u, ξ0) are estimated.
 struct Unknowns {
   std::vector<int> alpha;  // indices into α
   std::vector<int> beta;   // indices into β
+  std::vector<int> gamma;  // indices into γ (ModelSpec::guard_params)
   bool x0 = true;          // all n entries of ξ0
   // The entries not marked `known` in the model's spec, and ξ0 when `with_x0`.
   static Unknowns Of(const Model& model, bool with_x0 = true);
-  int size(int n) const { return static_cast<int>(alpha.size() + beta.size()) + (x0 ? n : 0); }
+  int size(int n) const { return static_cast<int>(alpha.size() + beta.size() + gamma.size()) + (x0 ? n : 0); }
   // "a", "b", "lambda", "mu", "x0[x]", "x0[v]" for the §5 system.
   std::vector<std::string> Names(const Model& model) const;
   // Field-naming message when an index is out of range or repeated.
@@ -45,7 +47,10 @@ struct Unknowns {
 // Full parameter vectors (known entries included) and the initial state.
 struct HybridParameters {
   Vec alpha, beta, x0;
-  static HybridParameters Of(const Model& model, const Vec& x0) { return {model.alpha(), model.beta(), x0}; }
+  Vec gamma;  // guard parameters (|γ| entries); empty: the model's own (then no γ may be unknown)
+  static HybridParameters Of(const Model& model, const Vec& x0) {
+    return {model.alpha(), model.beta(), x0, model.gamma()};
+  }
   // θ (the unknown entries, in the order of Unknowns) and back.
   Vec Theta(const Unknowns& u) const;
   HybridParameters WithTheta(const Unknowns& u, const ConstVecRef& theta) const;
@@ -76,23 +81,28 @@ struct SensitivityTrajectory {
   }
 };
 
-// Throws std::invalid_argument for a bad grid, options, unknowns, or parameter vectors of the wrong
-// size or not finite (x0 as Simulate). Numerical outcomes are in trajectory.status.
+// Throws std::invalid_argument for a bad grid, options, unknowns, parameter vectors of the wrong
+// size or not finite (x0 as Simulate), or inputs that do not fit the model or the samples' time range
+// (`inputs`: the measured u(t) of a model with inputs, else nullptr; ExogenousError). Numerical
+// outcomes are in trajectory.status.
 SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
                                             const Unknowns& unknowns, const SampleGrid& grid,
-                                            const SensitivityOptions& options = {});
+                                            const SensitivityOptions& options = {},
+                                            const InputSignal* inputs = nullptr);
 
 // `segment_of_sample` has one entry per sample of the grid, starting at 0 and increasing by 0 or 1
 // from one sample to the next (else std::invalid_argument naming the sample).
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const SampleGrid& grid,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options = {});
+                                                   const SensitivityOptions& options = {},
+                                                   const InputSignal* inputs = nullptr);
 // The same on samples at their own times (irregular sampling; times[0] = 0, increasing): sample k at
 // times[k] instead of k·δt.
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const std::vector<double>& times,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options = {});
+                                                   const SensitivityOptions& options = {},
+                                                   const InputSignal* inputs = nullptr);
 
 }  // namespace hysid

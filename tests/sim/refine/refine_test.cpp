@@ -357,7 +357,7 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
   CHECK(r.model_jumps == r.detected_jumps);
   const Vec theta = r.estimate.Theta(r.unknowns),
             truth =
-                HybridParameters{run.model.alpha(), run.model.beta(), run.truth.x.col(0)}.Theta(r.unknowns);
+                HybridParameters::Of(run.model, run.truth.x.col(0)).Theta(r.unknowns);
   for (Eigen::Index i = 0; i < theta.size(); ++i) {
     INFO(r.names[static_cast<std::size_t>(i)] << " = " << theta[i] << ", se " << r.standard_errors[i]);
     CHECK(std::abs(theta[i] - truth[i]) < 4.0 * r.standard_errors[i]);
@@ -383,7 +383,7 @@ TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help
   CHECK(r.samples_used > missed);
   const Vec theta = r.estimate.Theta(r.unknowns),
             truth =
-                HybridParameters{run.model.alpha(), run.model.beta(), run.truth.x.col(0)}.Theta(r.unknowns);
+                HybridParameters::Of(run.model, run.truth.x.col(0)).Theta(r.unknowns);
   for (Eigen::Index i = 0; i < theta.size(); ++i) {
     INFO(r.names[static_cast<std::size_t>(i)] << " = " << theta[i] << ", se " << r.standard_errors[i]);
     CHECK(std::abs(theta[i] - truth[i]) < 4.0 * r.standard_errors[i]);

@@ -1,0 +1,60 @@
+#include "sim/exogenous.hpp"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+namespace hysid {
+
+std::string ExogenousError(const Model& model, const Exogenous& exo, double t_end) {
+  const ModelSpec& spec = model.spec();
+  if (exo.gamma.size() != 0) {
+    if (exo.gamma.size() != model.gamma_size()) {
+      return fmt::format("guard parameters have {} entries; model '{}' has {}", exo.gamma.size(), model.name(),
+                         model.gamma_size());
+    }
+    if (!exo.gamma.allFinite()) return "guard parameters are not finite";
+  }
+  if (spec.inputs.empty()) {
+    if (exo.inputs) return fmt::format("inputs given, but model '{}' has none", model.name());
+    return "";
+  }
+  if (!exo.inputs) {
+    return fmt::format("model '{}' has inputs ({}) and none were given", model.name(), fmt::join(spec.inputs, ", "));
+  }
+  if (exo.inputs->size() != static_cast<int>(spec.inputs.size())) {
+    return fmt::format("the input signal has {} rows; model '{}' has {} inputs", exo.inputs->size(), model.name(),
+                       spec.inputs.size());
+  }
+  if (std::string why = InputSignalError(*exo.inputs, "the input signal"); !why.empty()) return why;
+  return InputRangeError(*exo.inputs, spec.inputs, 0.0, t_end);
+}
+
+ContextSource::ContextSource(const Model& model, const Exogenous& exo)
+    : exo_(exo), u_(model.spec().inputs.size(), 0.0) {}
+
+Context ContextSource::At(double t) {
+  Context ctx;
+  ctx.t = t;
+  if (exo_.inputs) {
+    exo_.inputs->At(t, u_.data());
+    ctx.u = u_.data();
+  }
+  if (exo_.gamma.size() != 0) ctx.gamma = exo_.gamma.data();
+  return ctx;
+}
+
+double ContextSource::NextInputTime(double t, double limit) const {
+  if (!exo_.inputs) return limit;
+  const std::vector<double>& times = exo_.inputs->times;
+  if (limit >= t) {
+    const auto it = std::upper_bound(times.begin(), times.end(), t);
+    return it == times.end() ? limit : std::min(*it, limit);
+  }
+  auto it = std::lower_bound(times.begin(), times.end(), t);  // first ≥ t; the one before is < t
+  if (it == times.begin()) return limit;
+  return std::max(*std::prev(it), limit);
+}
+
+}  // namespace hysid

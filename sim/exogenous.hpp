@@ -1,0 +1,42 @@
+// What a run needs besides the model, its initial state and its parameters α, β: the guard
+// parameters γ and the measured inputs u(t). Simulate, the run loop and the sensitivities take one;
+// the default (no γ given, no inputs) is the paper's class.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/model/context.hpp"
+#include "core/model/model.hpp"
+#include "sim/input_signal.hpp"
+
+namespace hysid {
+
+struct Exogenous {
+  Vec gamma;                            // guard parameters γ (|γ| entries); empty: the model's own
+  const InputSignal* inputs = nullptr;  // measured inputs u(t); nullptr: the model has none
+};
+
+// "" when `exo` fits `model` on the run time range [0, t_end]: γ empty or one finite entry per guard
+// parameter; inputs given exactly when the model has inputs, with one row per input, sound
+// (InputSignalError) and covering [0, t_end] (InputRangeError). Else why, naming what disagrees.
+std::string ExogenousError(const Model& model, const Exogenous& exo, double t_end);
+
+// The Context of a time: u(t) interpolated into a buffer of its own, γ from the Exogenous (or the
+// model's own). One per run (not shared between threads); a Context it returns points into its
+// buffer and is valid until its next At().
+class ContextSource {
+ public:
+  ContextSource(const Model& model, const Exogenous& exo);
+  Context At(double t);
+  // The first input sample time strictly after t (forward) or strictly before t (backward), or
+  // `limit` when there is none before it. Without inputs: `limit`.
+  double NextInputTime(double t, double limit) const;
+  bool has_inputs() const { return exo_.inputs != nullptr; }
+
+ private:
+  const Exogenous& exo_;
+  std::vector<double> u_;
+};
+
+}  // namespace hysid
