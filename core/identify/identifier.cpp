@@ -33,7 +33,8 @@ Vec Prior(const Vec& given, const RegressionLayout& layout, const char* field) {
 // What a model with inputs cannot be identified with: the noise shapes of gtls and frisch and the
 // jump localiser integrate or differentiate the flow without the inputs between samples.
 void CheckInputSettings(const Model& m, const IdentifierSettings& s) {
-  for (const auto& [field, e] : {std::pair{"flow_estimator", &s.flow_estimator}, std::pair{"jump_estimator", &s.jump_estimator}}) {
+  for (const auto& [field, e] :
+       {std::pair{"flow_estimator", &s.flow_estimator}, std::pair{"jump_estimator", &s.jump_estimator}}) {
     if (e->NeedsNoiseShape() && e->noise_shape.size() == 0) {
       throw std::invalid_argument(fmt::format(
           "IdentifierSettings::{}: '{}' needs a noise shape, which is not derived for model '{}' with inputs "
@@ -273,8 +274,9 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given, const Context* at
   }
   if (s.inputs) {
     if (at == nullptr || at->u == nullptr) {
-      throw std::invalid_argument(fmt::format(
-          "Identifier::Step: model '{}' has inputs; each sample needs its context (t and u)", s.model.name()));
+      throw std::invalid_argument(
+          fmt::format("Identifier::Step: model '{}' has inputs; each sample needs its context (t and u)",
+                      s.model.name()));
     }
     s.cur_t = at->t;
     s.cur_u = Eigen::Map<const Vec>(at->u, s.cur_u.size());
@@ -325,7 +327,7 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given, const Context* at
 // What the detector sees of sample x after s.prev, with the flow regression (phi: rows × |u|
 // column-major, y: rows) already built.
 SampleContext Identifier::SampleContextOf(State& s, const double* x, const double* phi, const double* y,
-                                  const Vec& alpha_class) {
+                                          const Vec& alpha_class) {
   const Eigen::Index n = s.prev.size(), rows = s.phi.rows(), u = s.phi.cols();
   return SampleContext{.model = &s.model,
                        .dt = s.dt,
@@ -438,8 +440,9 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
                     s.model.name(), n));
   }
   if (s.inputs) {
-    throw std::invalid_argument(fmt::format(
-        "Identifier::Feed: model '{}' has inputs; feed its samples with Step and their contexts", s.model.name()));
+    throw std::invalid_argument(
+        fmt::format("Identifier::Feed: model '{}' has inputs; feed its samples with Step and their contexts",
+                    s.model.name()));
   }
   Eigen::Index k = 0;
   auto step = [&](Eigen::Index col) {
@@ -546,8 +549,9 @@ IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double d
 
 // Sample k's context for a model with inputs: t_k (times, else kδt) and column k of the inputs.
 Context SampleAt(const IdentifyOptions& options, double dt, Eigen::Index k) {
-  return {.t = options.times.empty() ? static_cast<double>(k) * dt : options.times[static_cast<std::size_t>(k)],
-          .u = options.inputs.col(k).data()};
+  return {
+      .t = options.times.empty() ? static_cast<double>(k) * dt : options.times[static_cast<std::size_t>(k)],
+      .u = options.inputs.col(k).data()};
 }
 
 // The RMS of each unknown's flow (jump) regression column over up to 256 evenly spaced pairs of
@@ -593,8 +597,8 @@ void RegressorScales(const Model& model, const Mat& y, double dt, const Identify
 }
 
 // Empty prior scales of the estimators filled from the data (RegressorScales).
-IdentifierSettings WithPriorScales(const Model& model, const Mat& y, double dt, const IdentifyOptions& options,
-                                   IdentifierSettings s) {
+IdentifierSettings WithPriorScales(const Model& model, const Mat& y, double dt,
+                                   const IdentifyOptions& options, IdentifierSettings s) {
   if (y.cols() < 2 || (s.flow_estimator.prior_scale.size() && s.jump_estimator.prior_scale.size())) return s;
   Vec flow, jump;
   RegressorScales(model, y, dt, options, &flow, &jump);
@@ -757,7 +761,8 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
                                  model.state_size(), max, kMaxHullDimension.what, kMaxHullDimension.variable);
   }
   if (model.input_size() > 0) CheckInputSettings(model, bounded);  // before the noise shapes
-  Identifier id(model, dt, WithPriorScales(model, y, dt, options, ResolveNoiseShapes(model, y, dt, bounded, &r)));
+  Identifier id(model, dt,
+                WithPriorScales(model, y, dt, options, ResolveNoiseShapes(model, y, dt, bounded, &r)));
   const auto count = static_cast<std::size_t>(y.cols());
   r.gamma.resize(count);
   if (options.statistics) {

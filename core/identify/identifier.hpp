@@ -144,7 +144,7 @@ class Identifier {
   template <class E>
   static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
   static SampleContext SampleContextOf(State& s, const double* x, const double* phi, const double* y,
-                               const Vec& alpha_class);
+                                       const Vec& alpha_class);
   template <int P>
   [[gnu::always_inline]] static inline void AfterFlowUpdate(State& s, const double* theta);
   static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);

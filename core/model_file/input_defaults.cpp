@@ -25,7 +25,8 @@ Mat EvaluateInputDefaults(const ModelSpec& spec, const std::vector<double>& time
     const std::string key = fmt::format("input_defaults.{}", name);
     const auto at = static_cast<std::size_t>(i);
     if (at >= spec.input_defaults.size() || spec.input_defaults[at].empty()) {
-      throw std::invalid_argument(fmt::format("{}: the model gives no default for the input '{}'", key, name));
+      throw std::invalid_argument(
+          fmt::format("{}: the model gives no default for the input '{}'", key, name));
     }
     double t = 0.0;
     mu::Parser p;
@@ -37,7 +38,8 @@ Mat EvaluateInputDefaults(const ModelSpec& spec, const std::vector<double>& time
         u(i, static_cast<Eigen::Index>(k)) = p.Eval();
         if (!std::isfinite(u(i, static_cast<Eigen::Index>(k)))) {
           throw std::invalid_argument(fmt::format("{} = \"{}\" is {} at t = {}: an input must be finite", key,
-                                                  spec.input_defaults[at], u(i, static_cast<Eigen::Index>(k)), t));
+                                                  spec.input_defaults[at], u(i, static_cast<Eigen::Index>(k)),
+                                                  t));
         }
       }
     } catch (const mu::Parser::exception_type& e) {

@@ -7,8 +7,8 @@
 #include <fstream>
 #include <functional>
 #include <map>
-#include <tuple>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include <fmt/format.h>
@@ -163,7 +163,8 @@ void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const Ident
               ToString(result.flow_status), ToString(result.jump_status));
   for (const auto& [status, reason, what] : {std::tuple{result.flow_status, &result.flow_reason, "flow"},
                                              std::tuple{result.jump_status, &result.jump_reason, "jump"}}) {
-    if (status != EstimatorStatus::kOk && !reason->empty()) std::printf("  %s estimator: %s\n", what, reason->c_str());
+    if (status != EstimatorStatus::kOk && !reason->empty())
+      std::printf("  %s estimator: %s\n", what, reason->c_str());
   }
   // Estimators that report one (frisch): the solution boxes of the unknowns, in the order printed above.
   for (const auto& [box, what] :

@@ -11,7 +11,6 @@
 
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
-#include "sim/exogenous.hpp"
 #include "sim/input_signal.hpp"
 #include "sim/refine/refine.hpp"
 
@@ -54,13 +53,12 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, const Samp
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
   InputSignal inputs;
-  Exogenous exo;
   if (data.u.rows() > 0) {
     for (double t : data.t) inputs.times.push_back(t - data.t.front());
     inputs.values = data.u;
-    exo.inputs = &inputs;
   }
-  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model), {}, exo);
+  return ComputeCrlb(model, truth.x0, grid, truth.sigma, Unknowns::Of(model), {},
+                     inputs.empty() ? nullptr : &inputs);
 }
 
 void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
@@ -161,7 +159,8 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
-    r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
+    r.start = r.estimate =
+        HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
   }
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();

@@ -104,7 +104,8 @@ void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const
 InputSignal RunInputs(const SimulateArgs& args, const ModelSpec& spec, const SampleGrid& grid) {
   InputSignal s;
   if (spec.inputs.empty()) {
-    if (!args.inputs.empty()) BadFlag(fmt::format("--inputs {}: model '{}' has no inputs", args.inputs, spec.name));
+    if (!args.inputs.empty())
+      BadFlag(fmt::format("--inputs {}: model '{}' has no inputs", args.inputs, spec.name));
     return s;
   }
   const double t_last = static_cast<double>(grid.size() - 1) * grid.dt;
@@ -157,7 +158,7 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
   nlohmann::json inputs = nlohmann::json::object();
   for (std::size_t i = 0; i < model.spec().inputs.size(); ++i) {
     const std::vector<std::string>& defaults = model.spec().input_defaults;
-    inputs[model.spec().inputs[i]] = !args.inputs.empty()     ? "file " + args.inputs
+    inputs[model.spec().inputs[i]] = !args.inputs.empty()  ? "file " + args.inputs
                                      : i < defaults.size() ? defaults[i]
                                                            : std::string();
   }
@@ -204,8 +205,8 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
   // Outputs checked before the run; written as one set below.
   // The trajectory, its sidecar and the jumps file are three files, none of them the model file.
-  std::vector<std::pair<std::string, std::filesystem::path>> outputs{{"--out", args.out},
-                                                                     {"--out (sidecar)", SidecarPath(args.out)}};
+  std::vector<std::pair<std::string, std::filesystem::path>> outputs{
+      {"--out", args.out}, {"--out (sidecar)", SidecarPath(args.out)}};
   if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
   InputFiles files;
   files.Add("--model-file", args.model.file);
@@ -217,7 +218,8 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   if (!inputs.empty()) exo.inputs = &inputs;
   std::vector<double> u0(static_cast<std::size_t>(inputs.size()));
   if (!inputs.empty()) inputs.At(0.0, u0.data());
-  const Vec x0 = InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
+  const Vec x0 =
+      InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim, exo);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};

@@ -111,7 +111,7 @@ Baseline BaselineFromJson(const nlohmann::json& config) {
 }
 
 // The files a run directory holds (written by `sweep`; `merge` writes the tables and run.json).
-constexpr const char* kRunFiles[] = {"sweep.json", "trials.journal", "trials.csv",
+constexpr const char* kRunFiles[] = {"sweep.json",  "trials.journal", "trials.csv",
                                      "summary.csv", "timings.csv",    "run.json"};
 
 // No file the sweep writes may be the sweep file or a model file it reads.

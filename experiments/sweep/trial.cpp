@@ -50,10 +50,8 @@ std::string Clean(std::string s) {
 
 Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end, const InputSignal* inputs) {
   try {
-    Exogenous exo;
-    exo.inputs = inputs != nullptr && !inputs->empty() ? inputs : nullptr;
     return ComputeCrlb(model, x0, SampleGrid{t_end, dt}, Vec::Constant(model.state_size(), 1.0),
-                       Unknowns::Of(model), {}, exo);
+                       Unknowns::Of(model), {}, inputs != nullptr && !inputs->empty() ? inputs : nullptr);
   } catch (const std::exception& e) {
     Crlb c;
     c.status = CrlbStatus::kSimulationFailed;
@@ -296,7 +294,8 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     // recursive estimates into its refined ones.
     RefineOptions ro;
     if (config.known_sigma && cell.sigma > 0) ro.sigma = Vec::Constant(model.state_size(), cell.sigma);
-    const RefineResult rr = RefineIdentification(model, truth.t, y, {}, RefinementStart(res), ro, options.inputs);
+    const RefineResult rr =
+        RefineIdentification(model, truth.t, y, {}, RefinementStart(res), ro, options.inputs);
     o->refine_status = ToString(rr.status);
     o->alpha_hat = rr.estimate.alpha;
     o->beta_hat = rr.estimate.beta;

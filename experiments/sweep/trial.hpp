@@ -63,7 +63,8 @@ struct TrialInputs {
 
 // The group's CRLB at σ = 1 for the model's unknowns (α, β, ξ0) over (x0, δt, t_end) with the
 // inputs (may be null); never throws (a bad input becomes a not-ok status).
-Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end, const InputSignal* inputs = nullptr);
+Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end,
+              const InputSignal* inputs = nullptr);
 
 // A model with inputs: its default inputs at the samples of (δt, t_end) (InputsWithoutDefault's
 // inputs refused by the model file's key); an empty signal for a model without inputs.

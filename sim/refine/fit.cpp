@@ -76,7 +76,7 @@ struct FitProblem {
     cached_at[c].resize(0);
     if (!Admissible(*model, p, fits[c].inputs)) return cached[c] = LeftDomain();
     cached[c] = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options,
-                                             ExogenousOf(fits[c].inputs));
+                                             InputsOf(fits[c].inputs));
     if (cached[c].ok()) cached_at[c] = point;
     return cached[c];
   }
@@ -193,7 +193,8 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
 // The normal equations of the weighted residuals over the joint θ (shared, then x0 of each chain)
 // from each chain's trajectory with sensitivities: F = JᵀJ and g = −Jᵀr, summed over the chains in
 // the shared block.
-void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, Mat& f, Vec& g) {
+void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, Mat& f,
+                     Vec& g) {
   const int s = problem.shared, n = problem.model->state_size();
   const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
   f = Mat::Zero(total, total);
@@ -320,13 +321,14 @@ bool AccumulatesWithinASample(const std::vector<JumpRecord>& jumps, double step)
 // The model at p on its own over fit f's span (plain mode, states only): its jumps are what the
 // checks compare with the detected ones. The grid's step is the chain's mean step (only the jumps,
 // located by root finding, are read).
-SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit& f, const HybridParameters& p) {
+SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit& f,
+                                       const HybridParameters& p) {
   if (!Admissible(*problem.model, p, f.inputs)) return LeftDomain();
   SensitivityOptions o = problem.options;
   o.sensitivities = false;
   const double t_end = f.times.back();
   const SampleGrid grid{t_end, t_end / static_cast<double>(f.times.size() - 1)};
-  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o, ExogenousOf(f.inputs));
+  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o, InputsOf(f.inputs));
 }
 
 // The first disagreement of fit c's model on its own at p with its detected jumps (more than
@@ -463,8 +465,10 @@ void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTraj
   const Vec sigma_hat = (res.rowwise().squaredNorm() / (static_cast<double>(y.cols()) - p / n)).cwiseSqrt();
   const Vec floor = NumericalFloor(y, problem.options.sim);
   r.sigma_estimated = options.sigma.size() == 0;
-  r.sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);  // noise-free: the accuracy
-  const Crlb bound = CrlbFromFisher(JointFisher(problem, sims, r.sigma), problem.unknowns, JointNames(problem));
+  r.sigma =
+      (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);  // noise-free: the accuracy
+  const Crlb bound =
+      CrlbFromFisher(JointFisher(problem, sims, r.sigma), problem.unknowns, JointNames(problem));
   if (!bound.ok()) return Fail(r, RefineStatus::kSingularFisher, bound.message);
   r.covariance = bound.covariance.topLeftCorner(problem.shared + n, problem.shared + n);
   r.standard_errors = bound.sd.head(problem.shared + n);
@@ -481,8 +485,8 @@ void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTraj
 
 // Each chain simulated at (theta, x0), the runs left in problem.cached; -1, or the first chain that
 // does not simulate with `failure` naming it.
-long SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0, RefineStatus failure,
-                 const char* what, RefineResult& r) {
+long SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0,
+                 RefineStatus failure, const char* what, RefineResult& r) {
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
     const SensitivityTrajectory& s = problem.Simulate(c, theta.data(), x0[c].data());
     if (!s.ok()) {
@@ -523,8 +527,10 @@ bool AtIntegrationAccuracy(const FitProblem& problem, const std::vector<Sensitiv
 
 // Solve, polish for noise-free data, then the checks at the fit.
 void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_sigma, RefineResult& r) {
-  Vec theta = r.start.Theta(Unknowns{.alpha = problem.unknowns.alpha, .beta = problem.unknowns.beta,
-                                            .gamma = problem.unknowns.gamma, .x0 = false});
+  Vec theta = r.start.Theta(Unknowns{.alpha = problem.unknowns.alpha,
+                                     .beta = problem.unknowns.beta,
+                                     .gamma = problem.unknowns.gamma,
+                                     .x0 = false});
   std::vector<Vec> x0;
   for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
   const std::vector<SensitivityTrajectory>& sims = problem.cached;
@@ -593,12 +599,6 @@ InputSignal ChainInputs(const RefineChain& chain, long used) {
   return s;
 }
 
-Exogenous ExogenousOf(const InputSignal& inputs) {
-  Exogenous exo;
-  if (!inputs.empty()) exo.inputs = &inputs;
-  return exo;
-}
-
 void Fail(RefineResult& r, RefineStatus status, std::string reason) {
   r.status = status;
   r.reason = std::move(reason);
@@ -620,10 +620,11 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
   if (!problem.fits.empty()) r.start.x0 = r.refined.x0 = r.estimate.x0 = problem.fits.front().x0;
   const double p = problem.shared + static_cast<double>(n) * static_cast<double>(problem.fits.size());
   if (problem.fits.empty() || problem.shared == 0 || static_cast<double>(r.samples_used) < p / n + 2) {
-    Fail(r, RefineStatus::kTooFewSamples,
-         fmt::format("{} samples in {} chain(s) ({} left out: fewer than {} samples or a first sample outside "
-                     "C and D) for {} unknowns",
-                     r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
+    Fail(
+        r, RefineStatus::kTooFewSamples,
+        fmt::format("{} samples in {} chain(s) ({} left out: fewer than {} samples or a first sample outside "
+                    "C and D) for {} unknowns",
+                    r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
     return r;
   }
   const Mat y = Concatenated(problem.fits, n);

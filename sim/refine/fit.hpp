@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-#include "sim/exogenous.hpp"
 #include "sim/input_signal.hpp"
 #include "sim/refine/refine.hpp"
 
@@ -48,8 +47,8 @@ std::string LeftOut(const Model& model, const RefineChain& chain, long used);
 // A chain's inputs over its first `used` samples, their times from its first sample (the clock its
 // fits run on); empty without inputs.
 InputSignal ChainInputs(const RefineChain& chain, long used);
-// What a run of a chain needs besides the model: its inputs (none when empty); γ the model's own.
-Exogenous ExogenousOf(const InputSignal& inputs);
+// The inputs a run of a chain takes: nullptr when the signal is empty (a model without inputs).
+inline const InputSignal* InputsOf(const InputSignal& inputs) { return inputs.empty() ? nullptr : &inputs; }
 
 // The samples of the chains side by side (Part: anything with an n × K member y).
 template <class Part>

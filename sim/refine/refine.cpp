@@ -85,11 +85,12 @@ void CheckChain(const Model& model, const RefineChain& c, std::size_t index) {
         "Refine: chain {}: y is {} × {}, {} times, gamma has {} entries; model '{}' has {} states", index + 1,
         c.y.rows(), c.y.cols(), c.t.size(), c.gamma.size(), model.name(), model.state_size()));
   }
-  if (c.u.rows() != model.input_size() || (c.u.rows() > 0 && (c.u.cols() != c.y.cols() || !c.u.allFinite()))) {
-    throw std::invalid_argument(fmt::format(
-        "Refine: chain {}: u is {} × {}{}; model '{}' has {} inputs and the chain {} samples", index + 1,
-        c.u.rows(), c.u.cols(), c.u.allFinite() ? "" : " (not finite)", model.name(), model.input_size(),
-        c.y.cols()));
+  if (c.u.rows() != model.input_size() ||
+      (c.u.rows() > 0 && (c.u.cols() != c.y.cols() || !c.u.allFinite()))) {
+    throw std::invalid_argument(
+        fmt::format("Refine: chain {}: u is {} × {}{}; model '{}' has {} inputs and the chain {} samples",
+                    index + 1, c.u.rows(), c.u.cols(), c.u.allFinite() ? "" : " (not finite)", model.name(),
+                    model.input_size(), c.y.cols()));
   }
   for (std::size_t k = 1; k < c.t.size(); ++k) {
     if (!(c.t[k] > c.t[k - 1]) || !std::isfinite(c.t[k])) {
@@ -229,8 +230,8 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
 
 // The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
 // chain's first `used` samples (plain mode, states only); empty when it does not complete.
-std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p, const Vec& x0,
-                               long used, const RefineOptions& options) {
+std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
+                               const Vec& x0, long used, const RefineOptions& options) {
   SensitivityOptions o = options.sensitivity;
   o.sensitivities = false;
   p.x0 = x0;
@@ -238,7 +239,7 @@ std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, Hyb
   const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
   const InputSignal inputs = ChainInputs(chain, used);
   const SensitivityTrajectory plain =
-      SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, ExogenousOf(inputs));
+      SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, InputsOf(inputs));
   std::vector<double> jumps;
   if (!plain.trajectory.status.completed()) return jumps;
   for (const JumpRecord& jump : plain.trajectory.jumps) jumps.push_back(jump.t);
@@ -335,12 +336,14 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
         if (r.chain_x0[i].size() != 0) s.x0[i] = r.chain_x0[i];
       }
       // Reach 0: each label at its model jump's own sample (a detection a few samples off moves there).
-      if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what)) break;
+      if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what))
+        break;
       r = FitChains(model, chains, s, options, &failure);
     }
   }
   // Settled: the labels placed where the fit's local flows meet, fit again until none moves.
-  for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s); ++settle) {
+  for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s);
+       ++settle) {
     r = FitChains(model, chains, s, options, &failure);
   }
   if (!r.ok()) return r;
@@ -360,8 +363,7 @@ FitStart RecursiveStart(const std::vector<RefineChain>& chains, const Vec& alpha
                         const Vec& gamma0, int n) {
   auto first = [n](const RefineChain& c) { return c.y.cols() > 0 ? Vec(c.y.col(0)) : Vec::Zero(n).eval(); };
   FitStart s;
-  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : first(chains[0]),
-                             gamma0};
+  s.start = HybridParameters{alpha0, beta0, chains.empty() ? Vec::Zero(n).eval() : first(chains[0]), gamma0};
   for (const RefineChain& c : chains) {
     s.gamma.push_back(c.gamma);
     s.x0.push_back(first(c));
@@ -499,13 +501,15 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
   }
   // Still not ok, or ok only on cut spans: a fit grown from a short span may follow the whole data.
-  if ((!r.ok() || r.samples_used < first_used) && options.grow_span && r.status != RefineStatus::kTooFewSamples) {
+  if ((!r.ok() || r.samples_used < first_used) && options.grow_span &&
+      r.status != RefineStatus::kTooFewSamples) {
     RefineResult grown = GrowSpan(model, chains, recursive, options);
     if (grown.ok() && grown.samples_used > (r.ok() ? r.samples_used : 0)) {
       grown.start = r.start;
       r = std::move(grown);
     } else if (!r.ok()) {
-      r.reason += fmt::format("; grown from a short span: {}", grown.ok() ? "ok on fewer samples" : grown.reason);
+      r.reason +=
+          fmt::format("; grown from a short span: {}", grown.ok() ? "ok on fewer samples" : grown.reason);
     }
   }
   if (r.ok()) {

@@ -23,8 +23,8 @@
 // detection within jump_time_tolerance + 1 samples is added at its sample, a detection the model has
 // no jump for is dropped, the others kept; the fit from the fitted point on the mended detections
 // is adopted when it passes every check (the data decide) and fits as many samples, once per chain
-// (`mended` says what changed). A jump-count mismatch or a failed start of one chain is then retried with that chain's span
-// ending before the first disagreement between its model's jumps and its detected ones
+// (`mended` says what changed). A jump-count mismatch or a failed start of one chain is then retried with
+// that chain's span ending before the first disagreement between its model's jumps and its detected ones
 // (RefineOptions::max_span_retries). A fit that still fails (other than for the data or their
 // length), or is ok only on spans the retries cut, is tried once more from a repaired start
 // (sim/refine/start.hpp, per chain: detections the local flows do not need dropped, the others

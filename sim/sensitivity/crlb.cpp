@@ -91,12 +91,12 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 }
 
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options) {
+                 const Unknowns& unknowns, const SensitivityOptions& options, const InputSignal* inputs) {
   if (sigma.size() != model.state_size() || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
     throw std::invalid_argument(fmt::format("sigma must have {} finite entries > 0", model.state_size()));
   }
   const SensitivityTrajectory s =
-      SimulateSensitivities(model, HybridParameters::Of(model, x0), unknowns, grid, options);
+      SimulateSensitivities(model, HybridParameters::Of(model, x0), unknowns, grid, options, inputs);
   if (!s.ok()) {
     Crlb out;
     out.status = CrlbStatus::kSimulationFailed;

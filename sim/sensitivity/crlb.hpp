@@ -46,6 +46,7 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 // The bound at the model's true α, β and the given ξ0 over `grid` with noise σ (n entries > 0).
 // Throws std::invalid_argument for bad inputs (as SimulateSensitivities, plus σ).
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options = {});
+                 const Unknowns& unknowns, const SensitivityOptions& options = {},
+                 const InputSignal* inputs = nullptr);
 
 }  // namespace hysid

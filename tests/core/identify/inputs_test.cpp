@@ -13,6 +13,7 @@
 #include "core/model_file/model_file.hpp"
 #include "sim/exogenous.hpp"
 #include "sim/input_signal.hpp"
+#include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {
@@ -24,11 +25,18 @@ struct Pumped {
     ModelSpec s;
     s.name = "pumped";
     s.state_names = {"x", "v"};
-    s.alpha = {{.name = "a", .value = 1.0, .known = true}, {.name = "k", .value = 2.0}, {.name = "G", .value = 0.5}};
-    s.beta = {{.name = "e", .value = 0.5}};
+    auto param = [](const char* name, double value, bool known) {
+      Parameter p;
+      p.name = name;
+      p.value = value;
+      p.known = known;
+      return p;
+    };
+    s.alpha = {param("a", 1.0, true), param("k", 2.0, false), param("G", 0.5, false)};
+    s.beta = {param("e", 0.5, false)};
     s.flow_rows = {1};
     s.jump_rows = {1};
-    s.guards = {{.name = "wall", .direction = Crossing::kRising}};
+    s.guards = {Guard{"wall", Crossing::kRising}};
     s.default_x0 = {0.0, 1.0};
     s.inputs = {"u"};
     return s;
@@ -100,18 +108,27 @@ TEST_CASE("noise-free driven oscillator: the recursive estimate of k, b, G is th
   CHECK(r.beta_hat[1] == Approx(d.model.beta()[1]).epsilon(0.02));
 }
 
+// The paper detector at r = 100: at its default r = 220 its bound (with f̂(0, u) up to G·1.5 = 4.5)
+// passes over the grazing impact at t = 36.6 s (pre-impact speed 0.78).
 TEST_CASE("both detectors find the driven oscillator's impacts and nothing else", "[inputs]") {
   const Driven d;
   const std::vector<std::uint8_t> truth = d.TrueLabels();
+  const Mat y = AddMeasurementNoise(d.truth.x, Vec::Constant(2, 1e-4), NoiseKey{.seed = 3, .stream = 0});
   IdentifyOptions options;
   options.inputs = d.u.values;
   for (DetectorKind kind : {DetectorKind::kPaper, DetectorKind::kResidual}) {
     IdentifierSettings settings;
     settings.detector.kind = kind;
+    settings.detector.r = 100.0;
     settings.data_rtol = settings.data_atol = 1e-12;
-    const IdentifyResult r = Identify(d.model, d.truth.x, d.grid.dt, settings, options);
-    INFO(ToString(kind));
-    CHECK(r.gamma == truth);
+    const IdentifyResult r = Identify(d.model, y, d.grid.dt, settings, options);
+    std::vector<std::size_t> wrong;  // samples classified otherwise than the truth
+    for (std::size_t k = 0; k < truth.size(); ++k) {
+      if (r.gamma[k] != truth[k]) wrong.push_back(k);
+    }
+    INFO(ToString(kind) << ": " << wrong.size() << " samples misclassified, the first at "
+                        << (wrong.empty() ? 0 : wrong.front()));
+    CHECK(wrong.empty());
     CHECK(r.flow_status == EstimatorStatus::kOk);
   }
 }
@@ -119,8 +136,9 @@ TEST_CASE("both detectors find the driven oscillator's impacts and nothing else"
 TEST_CASE("a model with inputs refuses what would run without them, by name", "[inputs]") {
   const Driven d;
   const Mat y = d.truth.x.leftCols(100);
-  CHECK_THROWS_WITH(Identify(d.model, y, d.grid.dt, IdentifierSettings{}),
-                    Catch::Contains("IdentifyOptions::inputs is 0 × 0; model 'driven-oscillator' has 1 inputs"));
+  CHECK_THROWS_WITH(
+      Identify(d.model, y, d.grid.dt, IdentifierSettings{}),
+      Catch::Contains("IdentifyOptions::inputs is 0 × 0; model 'driven-oscillator' has 1 inputs"));
   IdentifyOptions wrong;
   wrong.inputs = d.u.values.leftCols(99);
   CHECK_THROWS_WITH(Identify(d.model, y, d.grid.dt, IdentifierSettings{}, wrong),
@@ -134,7 +152,8 @@ TEST_CASE("a model with inputs refuses what would run without them, by name", "[
                     Catch::Contains("IdentifierSettings::flow_estimator: 'gtls' needs a noise shape"));
   IdentifierSettings localize;
   localize.localize = true;
-  CHECK_THROWS_WITH(Identifier(d.model, d.grid.dt, localize), Catch::Contains("IdentifierSettings::localize"));
+  CHECK_THROWS_WITH(Identifier(d.model, d.grid.dt, localize),
+                    Catch::Contains("IdentifierSettings::localize"));
 }
 
 }  // namespace

@@ -31,7 +31,7 @@ TEST_CASE("driven oscillator: the defaults recover G and the others within 3 SE 
   REQUIRE(truth.status.completed());
   const double sigma = 1e-3;
   const Unknowns unknowns = Unknowns::Of(model);
-  const Crlb bound = ComputeCrlb(model, x0, grid, Vec::Constant(2, sigma), unknowns, {}, exo);
+  const Crlb bound = ComputeCrlb(model, x0, grid, Vec::Constant(2, sigma), unknowns, {}, &u);
   REQUIRE(bound.ok());
   const Vec true_theta = HybridParameters::Of(model, x0).Theta(unknowns);
   for (std::uint64_t seed : {1, 2, 3, 4}) {
@@ -43,7 +43,8 @@ TEST_CASE("driven oscillator: the defaults recover G and the others within 3 SE 
     settings.data_rtol = settings.data_atol = 1e-12;
     const IdentifyResult recursive = Identify(model, y, grid.dt, settings, options);
     CHECK(recursive.jumps_detected == static_cast<long>(truth.jumps.size()));
-    const RefineResult r = RefineIdentification(model, truth.t, y, {}, RefinementStart(recursive), {}, u.values);
+    const RefineResult r =
+        RefineIdentification(model, truth.t, y, {}, RefinementStart(recursive), {}, u.values);
     INFO("seed " << seed << ": " << r.reason);
     REQUIRE(r.ok());
     CHECK(r.samples_used == grid.size());
