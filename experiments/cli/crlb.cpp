@@ -19,6 +19,7 @@ struct CrlbArgs {
   std::vector<double> sigma{1.0};
   bool x0_known = false;
   SensitivityOptions options;
+  std::string inputs;  // --inputs FILE (empty: the model file's defaults)
 };
 
 int RunCrlb(const CrlbArgs& args, const Environment& env) {
@@ -27,10 +28,15 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const int n = model.state_size();
   const SampleGrid grid = GridFlag(args.trajectory, model);
   if (std::string e; !args.options.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol: {}", e));
-  const Vec x0 = InitialStateFlag(args.trajectory, model);
+  const InputSignal inputs = InputsFlag(args.inputs, spec, grid);
+  std::vector<double> u0(static_cast<std::size_t>(inputs.size()));
+  if (!inputs.empty()) inputs.At(0.0, u0.data());
+  const Vec x0 =
+      InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
   const Vec sigma = SigmaFlag(args.sigma, n, /*allow_zero=*/false);
   const Unknowns unknowns = Unknowns::Of(model, !args.x0_known);
-  const Crlb c = ComputeCrlb(model, x0, grid, sigma, unknowns, args.options);
+  const Crlb c =
+      ComputeCrlb(model, x0, grid, sigma, unknowns, args.options, inputs.empty() ? nullptr : &inputs);
   std::printf("model %s, x0 = (%s), t_end = %g, dt = %g (%ld samples), sigma = (%s), x0 %s\n",
               spec.name.c_str(), fmt::format("{:g}", fmt::join(x0, ", ")).c_str(), grid.t_end, grid.dt,
               grid.size(), fmt::format("{:g}", fmt::join(sigma, ", ")).c_str(),
@@ -65,6 +71,9 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
   AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per state")
       ->capture_default_str();
   sub->add_flag("--x0-known", args->x0_known, "x0 is known (not estimated)");
+  sub->add_option("--inputs", args->inputs,
+                  "a model with inputs: CSV with a column t and one per input name (default: the model "
+                  "file's input_defaults at the sample times)");
   AddToleranceOptions(*sub, args->options.sim, "states and sensitivities");
   sub->footer(
       "The bound for samples with Gaussian noise sigma: per-parameter sd and the CRLB-implied mean\n"

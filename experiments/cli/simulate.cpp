@@ -17,7 +17,6 @@
 
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
-#include "core/model_file/input_defaults.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/exogenous.hpp"
@@ -97,36 +96,6 @@ void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const
     csv.Row(row);
   }
   csv.Close();
-}
-
-// The run's inputs: --inputs FILE (its time range must cover the run), else the model's default
-// expressions at the sample times; none for a model without inputs. Errors name the flag.
-InputSignal RunInputs(const SimulateArgs& args, const ModelSpec& spec, const SampleGrid& grid) {
-  InputSignal s;
-  if (spec.inputs.empty()) {
-    if (!args.inputs.empty())
-      BadFlag(fmt::format("--inputs {}: model '{}' has no inputs", args.inputs, spec.name));
-    return s;
-  }
-  const double t_last = static_cast<double>(grid.size() - 1) * grid.dt;
-  try {
-    if (args.inputs.empty()) {
-      if (const std::string missing = InputsWithoutDefault(spec); !missing.empty()) {
-        BadFlag(fmt::format("--inputs: model '{}' gives no default for its inputs {}; give --inputs FILE",
-                            spec.name, missing));
-      }
-      for (long k = 0; k < grid.size(); ++k) s.times.push_back(static_cast<double>(k) * grid.dt);
-      s.values = EvaluateInputDefaults(spec, s.times);
-      return s;
-    }
-    s = ReadInputSignal(args.inputs, spec.inputs);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--inputs{}: {}", args.inputs.empty() ? "" : " " + args.inputs, e.what()));
-  }
-  if (const std::string e = InputRangeError(s, spec.inputs, 0.0, t_last); !e.empty()) {
-    BadFlag(fmt::format("--inputs {}: {}", args.inputs, e));
-  }
-  return s;
 }
 
 std::vector<std::string> JumpsHeader(int n) {
@@ -213,7 +182,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   files.Add("--inputs", args.inputs);
   CheckOutputPaths(outputs, files);
   const std::vector<std::string> header = TrajectoryHeader(spec);
-  const InputSignal inputs = RunInputs(args, spec, grid);
+  const InputSignal inputs = InputsFlag(args.inputs, spec, grid);
   Exogenous exo;
   if (!inputs.empty()) exo.inputs = &inputs;
   std::vector<double> u0(static_cast<std::size_t>(inputs.size()));
