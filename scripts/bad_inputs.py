@@ -365,6 +365,8 @@ SUBJECTS = {
     "merge: not a run directory": "o:",
     **SAFETY_SUBJECTS,
     "model file: beyond the size limit": "rowsdup.toml",
+    "simulate: an input without a default and no --inputs": "--inputs",
+    "identify: a model input missing from the data": "nou.csv",
 }
 
 
