@@ -98,6 +98,7 @@ def files():
     f.update(safety_files())
     f.update(LIMITS_FILES)
     f.update(INPUTS_FILES)
+    f.update(TRUTH_FILES)
     return f
 
 
@@ -243,7 +244,12 @@ def cases():
         ("identify: --r 1", ["identify", "--detector", "paper", "--r", "1", "--data", "sim.csv"]),
         ("identify: --columns names a column that is not there",
          ["identify", "--columns", "t=time,x,v", "--data", "sim.csv"]),
-        ("identify: --columns names one state of two", ["identify", "--columns", "y1", "--data", "sim.csv"]),
+        ("identify: --columns names one state of two", ["identify", "--columns", "x", "--data", "sim.csv"]),
+        ("identify: --columns names the time column with spaces, and one state of two",
+         ["identify", "--columns", " t = t , x ", "--data", "sim.csv"]),
+        ("identify: --model names a model file", ["identify", "--model", "wall.toml", "--data", "sim.csv"]),
+        ("identify: the model's state names and y1, y2 both present as different columns",
+         ["identify", "--data", "bothnames.csv"]),
         ("identify: --max-gap 0", ["identify", "--max-gap", "0", "--data", "sim.csv"]),
         ("identify: --forgetting 2", ["identify", "--forgetting", "2", "--data", "sim.csv"]),
         ("identify: --false-alarm 0", ["identify", "--detector", "residual", "--false-alarm", "0", "--data", "sim.csv"]),
@@ -283,7 +289,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES
+    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -292,6 +298,7 @@ MSD = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "model
 LIMITS_FILES = {
     "jdown.csv": "t,j,y1,y2\n0,0,1,2\n0.1,1,1,2\n0.2,0,1,2\n0.3,1,1,2\n",
     "dupcol.csv": "t,y1,y1,y2\n0,1,1,2\n0.1,1,1,2\n0.2,1,1,2\n",
+    "bothnames.csv": "t,x,v,y1,y2\n0,1,2,1,2\n0.1,1,2,1,2\n0.2,1,2,1,2\n",
     "cronly.csv": "t,y1,y2\r0,1,2\r0.1,1,2\r",
     "tinystep.csv": "t,y1,y2\n0,1,2\n1e-320,1,2\n2e-320,1,2\n",
     "rowsdup.toml": MSD.replace('rows = ["v"]', 'rows = ["v", "v"]', 1),
@@ -347,6 +354,27 @@ INPUTS_CASES = [
                                                        "nou.csv"]),
 ]
 
+# The truth of simulated data, files of several without samples, malformed expressions.
+TRUTH_FILES = {
+    "plusplus.toml": WALL.replace('phi = [["v", 0, 0],', 'phi = [["v++", 0, 0],'),
+}
+TRUTH_CASES = [
+    ("identify: --param disagrees with the data's sidecar", ["identify", "--param", "a=6", "--data", "sim.csv"]),
+    ("identify: the sidecars of two --data files disagree", ["identify", "--data", "sim.csv", "--data", "simb.csv"]),
+    ("identify: a second --data file with a header only",
+     ["identify", "--data", "sim.csv", "--data", "headeronly.csv"]),
+    ("model file: \"v++\" in flow.phi (muParser's internal error)", ["simulate", "--model-file", "plusplus.toml"] + SIM),
+]
+
+
+def truth_setup(d):
+    """simb.csv: sim.csv again, its sidecar saying a = 6."""
+    with open(os.path.join(d, "sim.csv")) as src, open(os.path.join(d, "simb.csv"), "w") as dst:
+        dst.write(src.read())
+    with open(os.path.join(d, "sim.json")) as src, open(os.path.join(d, "simb.json"), "w") as dst:
+        dst.write(src.read().replace('"a": 5.0', '"a": 6.0'))
+
+
 # Cases whose message names something the command line does not show as its last flag or file.
 SUBJECTS = {
     "no subcommand": "subcommand",
@@ -367,6 +395,9 @@ SUBJECTS = {
     "model file: beyond the size limit": "rowsdup.toml",
     "simulate: an input without a default and no --inputs": "--inputs",
     "identify: a model input missing from the data": "nou.csv",
+    "identify: the sidecars of two --data files disagree": "simb.json: parameters.a",
+    "identify: a second --data file with a header only": "headeronly.csv",
+    "model file: \"v++\" in flow.phi (muParser's internal error)": "plusplus.toml:21: flow.phi[0][0]",
 }
 
 
@@ -420,6 +451,7 @@ def setup(hysid, d):
             with open(os.path.join(d, "done", "sweep.json")) as src, open(os.path.join(d, name, "sweep.json"), "w") as dst:
                 dst.write(src.read())
     safety_setup(hysid, d)
+    truth_setup(d)
 
 
 def check_case(desc, args, code, err):

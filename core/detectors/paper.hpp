@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "core/detectors/detector.hpp"
@@ -44,6 +45,15 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
 // The same with every point evaluated at the context `at` (a model with inputs).
 double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
                        const Eigen::Ref<const Mat>& points, JacobianScratch& scratch, const Context& at);
+
+// Whether the paper's bound can hold for the whole flow: τ̂ ≈ r·L̂·‖ξ‖ covers ‖f̂(ξ)‖ ≤ ‖∂f̂/∂ξ‖·‖ξ‖
+// only while the Jacobian of every row (known rows included) is within r·L̂, L̂ taken from the
+// identified rows. States of very different scales break it (the known row ξ1' = ξ2 with ξ2 in
+// units 1e-6 of ξ1: L̂ shrinks by 1e-6, the known row's norm does not) and every flow sample where
+// the known rows move fast becomes a false jump. Returns why it fails (sup over `points`, e.g. the
+// samples), or "" when it holds. Not a property of the paper's own examples (there the ratio is ≈ 1).
+std::string CheckPaperBound(const Model& model, ConstVecRef alpha, const DetectorSettings& settings,
+                            const Eigen::Ref<const Mat>& points);
 
 // λmax(AAᵀ) = ‖A‖₂².
 double SpectralNormSquared(const Eigen::Ref<const Mat>& a);

@@ -727,6 +727,33 @@ void Collect(Identifier& id, bool sets, IdentifyResult* r) {
   r->jump_hull_volume = id.jump_set().Volume();
 }
 
+// The paper detector's bound checked for the whole flow at the final α̂ (CheckPaperBound), over at
+// most 1024 samples spread over the run: when it cannot hold, the detected jumps include flow
+// samples and the jump estimate is not ok.
+void CheckDetectorBound(const Model& model, const Mat& y, const IdentifierSettings& settings,
+                        IdentifyResult* r) {
+  if (r->flow_status != EstimatorStatus::kOk) {  // α̂ is the prior: say why when the warm-up never ended
+    if (r->flow_reason.empty() && r->jumps_detected + 1 >= y.cols()) {
+      r->flow_reason = fmt::format(
+          "the paper detector took every sample for a jump: its bound stays tau0 = {:g} until alpha has "
+          "flow samples, and D_dt xi of these data is above it (their scale? set tau0 above D)",
+          settings.detector.tau0);
+    }
+    return;
+  }
+  const Eigen::Index stride = std::max<Eigen::Index>(1, y.cols() / 1024);
+  std::vector<Eigen::Index> columns;
+  for (Eigen::Index k = 0; k < y.cols(); k += stride) {
+    if (y.col(k).allFinite()) columns.push_back(k);
+  }
+  Mat points(y.rows(), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t i = 0; i < columns.size(); ++i) points.col(static_cast<Eigen::Index>(i)) = y.col(columns[i]);
+  const std::string why = CheckPaperBound(model, r->alpha_hat, settings.detector, points);
+  if (why.empty() || r->jump_status != EstimatorStatus::kOk) return;
+  r->jump_status = EstimatorStatus::kIllConditioned;
+  r->jump_reason = why;
+}
+
 }  // namespace
 
 IdentifyResult Identify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
@@ -776,6 +803,8 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
   Pass(id, y, dt, options, &r);
   if (settings.second_pass) SecondPass(id, y, dt, options, &r);
   Collect(id, bounded.sets, &r);
+  if (options.check_paper_bound && options.labels.empty() && settings.detector.kind == DetectorKind::kPaper)
+    CheckDetectorBound(model, y, settings, &r);
   if (r.flow_status != EstimatorStatus::kOk && settings.flow_estimator.kind != EstimatorKind::kRls) {
     IdentifierSettings safe = settings;
     safe.flow_estimator.kind = EstimatorKind::kRls;

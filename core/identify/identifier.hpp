@@ -172,6 +172,11 @@ struct IdentifyOptions {
   // The measured inputs u of a model with inputs (m × K, column k at sample k, finite), required for
   // such a model; each sample is then fed with its context (t_k from times, else kδt; u column k).
   Mat inputs{};
+  // The paper detector: check at the end that its bound can hold for the whole flow (states of very
+  // different scales break it: CheckPaperBound, core/detectors/paper.hpp); when it cannot, the jump
+  // estimate is ill-conditioned with the reason. Sweeps, which count every detection against the
+  // true jumps, turn it off: their tables keep the detector's outcome as it is.
+  bool check_paper_bound = true;
 };
 
 struct IdentifyResult {

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "core/io/limits.hpp"
+#include "core/io/signals.hpp"
 
 namespace hysid {
 
@@ -134,8 +135,14 @@ AtomicFile::AtomicFile(const fs::path& path) : path_(path) {
   for (int attempt = 0; attempt < 100 && fd_ < 0; ++attempt) {
     tmp_ = path_;
     tmp_ += fmt::format(".{}-{}.tmp", ::getpid(), counter.fetch_add(1));
+    // Registered before it exists, so a signal never finds it created but unregistered.
+    signal_slot_ = RegisterTemporaryFile(tmp_.string());  // removed on SIGINT/SIGTERM/SIGHUP/SIGPIPE
     fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     error = fd_ < 0 ? errno : 0;
+    if (fd_ < 0) {
+      ReleaseTemporaryFile(signal_slot_);
+      signal_slot_ = -1;
+    }
     if (fd_ < 0 && error != EEXIST) break;
   }
   if (fd_ < 0) throw std::runtime_error(IoError(path_, "cannot create a temporary file beside it", error));
@@ -144,6 +151,7 @@ AtomicFile::AtomicFile(const fs::path& path) : path_(path) {
 AtomicFile::~AtomicFile() {
   if (fd_ >= 0) ::close(fd_);
   if (!published_) ::unlink(tmp_.c_str());
+  ReleaseTemporaryFile(signal_slot_);
 }
 
 void AtomicFile::Fail(const char* what, int error_number) {
@@ -183,6 +191,8 @@ void AtomicFile::Publish() {
     throw std::runtime_error(IoError(path_, "cannot rename the temporary file onto it", e));
   }
   published_ = true;
+  ReleaseTemporaryFile(signal_slot_);
+  signal_slot_ = -1;
 }
 
 void WriteFileAtomically(const fs::path& path, std::string_view text) {

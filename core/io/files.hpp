@@ -47,7 +47,8 @@ void CheckOutputDirectory(const std::string& label, const std::filesystem::path&
 // One output file written under a temporary name beside it (PATH.<pid>-<n>.tmp, created exclusively)
 // and renamed onto PATH by Publish(), so PATH holds either its old content or the whole new one.
 // Every failure throws std::runtime_error "PATH: <what>: <strerror>" and removes the temporary file;
-// so does the destructor of a file not published.
+// so does the destructor of a file not published, and a signal that ends the process
+// (core/io/signals.hpp: the temporary file is registered there until it is renamed or removed).
 class AtomicFile {
  public:
   explicit AtomicFile(const std::filesystem::path& path);
@@ -68,6 +69,7 @@ class AtomicFile {
   std::filesystem::path path_, tmp_;
   int fd_ = -1;
   bool published_ = false;
+  int signal_slot_ = -1;  // RegisterTemporaryFile's slot
 };
 
 // Writes `text` to PATH through an AtomicFile.

@@ -61,16 +61,36 @@ Columns NamedColumns(const CsvTable& table, int state_size, const std::vector<st
   return c;
 }
 
-// The default rule: y1..yn if present, else the first n columns after time other than j and run.
-std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, const Columns& c) {
-  std::vector<int> state;
-  for (int i = 1; i <= state_size; ++i) {
-    const int col = table.Find(fmt::format("y{}", i));
-    if (col < 0) break;
-    state.push_back(col);
+// The columns named `names` (in that order) when every one is present and none is the time, run or j
+// column; empty otherwise.
+std::vector<int> ColumnsNamed(const CsvTable& table, const std::vector<std::string>& names,
+                              const Columns& c) {
+  std::vector<int> cols;
+  for (const std::string& name : names) {
+    const int col = table.Find(name);
+    if (col < 0 || col == c.time || col == c.run || col == c.j) return {};
+    cols.push_back(col);
   }
-  if (static_cast<int>(state.size()) == state_size) return state;
-  state.clear();
+  return cols;
+}
+
+// The default rule: the columns named after the model's states, or y1..yn (both present: they must
+// be the same columns), else the first n columns after time other than j, run and true_*.
+std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, const Columns& c,
+                                     const std::vector<std::string>& state_names) {
+  std::vector<std::string> generic;
+  for (int i = 1; i <= state_size; ++i) generic.push_back(fmt::format("y{}", i));
+  const std::vector<int> named = ColumnsNamed(table, state_names, c);
+  const std::vector<int> numbered = ColumnsNamed(table, generic, c);
+  if (!named.empty() && !numbered.empty() && named != numbered) {
+    throw std::invalid_argument(
+        fmt::format("{}:1: SampleDataOptions::columns: both the columns named after the model's states ({}) "
+                    "and {}..{} are present; name the measured state columns",
+                    table.path, fmt::join(state_names, ","), generic.front(), generic.back()));
+  }
+  if (!named.empty()) return named;
+  if (!numbered.empty()) return numbered;
+  std::vector<int> state;
   const int cols = static_cast<int>(table.header.size());
   for (int col = 0; col < cols && static_cast<int>(state.size()) < state_size; ++col) {
     if (col == c.time || col == c.run || col == c.j ||
@@ -78,7 +98,7 @@ std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, cons
       continue;
     }
     const std::string& h = table.header[static_cast<std::size_t>(col)];
-    if (h != "j" && h != "run") state.push_back(col);
+    if (h != "j" && h != "run" && !h.starts_with("true_")) state.push_back(col);
   }
   return state;
 }
@@ -121,7 +141,7 @@ Columns ResolveColumns(const CsvTable& table, int state_size, const SampleDataOp
                       table.path, Abbreviated(name, 40), Abbreviated(name, 40)));
     }
   }
-  if (c.state.empty()) c.state = DefaultStateColumns(table, state_size, c);
+  if (c.state.empty()) c.state = DefaultStateColumns(table, state_size, c, options.state_names);
   if (static_cast<int>(c.state.size()) < state_size) {
     throw std::invalid_argument(
         fmt::format("{}:1: {} columns ({}); need time + {} state columns for the model", table.path,
@@ -250,6 +270,7 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
     for (int col : c.input) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
     if (missing) {  // left out; the chain goes on (the gap rule below judges the step across it)
       if (out.missing_rows++ == 0) out.first_missing_line = table.line_of_row[r];
+      out.missing.push_back({.run = run_index, .line = table.line_of_row[r], .t = table.columns[t_col][r]});
       continue;
     }
     out.t.push_back(table.columns[t_col][r]);
@@ -324,7 +345,16 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
     if (d.input_columns.empty()) {
       for (int col : c.input) d.input_columns.push_back(table.header[static_cast<std::size_t>(col)]);
     }
+    const std::size_t before = d.t.size();
+    const long missing_before = d.missing_rows;
     AppendTable(table, c, d, y, u, j);
+    if (d.t.size() == before && tables.size() > 1) {  // one file of several is not left out silently
+      const long rows = d.missing_rows - missing_before;
+      throw std::invalid_argument(
+          rows == 0 ? fmt::format("{}: no samples (no data rows)", table.path)
+                    : fmt::format("{}: no samples (each of its {} rows has a missing state value)",
+                                  table.path, rows));
+    }
   }
   d.path = fmt::format("{}", fmt::join(paths, ", "));
   const auto k = static_cast<long>(d.t.size());

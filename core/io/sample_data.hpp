@@ -5,8 +5,11 @@
 // header; a missing input cell drops its row as a missing state cell does.
 // Columns: SampleDataOptions::columns when given (`t=NAME` the time column, `run=NAME` the run
 // column, the other entries the state columns in model order); otherwise time is the first column (the second
-// after a leading run column), the measured state is y1..yn when all are present (so `hysid simulate` output
-// is used as is), else the first n columns other than time, `j` and `run`. A column named `j` (jump
+// after a leading run column), the measured state is the columns named after the model's states
+// (SampleDataOptions::state_names) when all are present (so `hysid simulate` output is used as is), else
+// y1..yn when all are present (older `hysid simulate` output; both sets present as different columns
+// is an error), else the first n columns other than time, `j`, `run` and `true_*` (the noise-free
+// state `hysid simulate` writes beside the measured one). A column named `j` (jump
 // counter) is ground truth when present; a column named `run` (or the one named by `run=`) splits a file into
 // runs, whose rows must be contiguous. Each file is one run otherwise. The `j` of several runs is joined
 // into one counter: each run continues from the previous run's last value, so a run boundary is never a
@@ -55,6 +58,15 @@ struct SampleDataOptions {
   std::vector<std::string> inputs{};
   // A step longer than this (seconds) starts a new chain. 0: kDefaultGapFactor × the median step.
   double max_gap = 0.0;
+  // The model's state names, for the default rule (empty: only y1..yn and the columns' order).
+  std::vector<std::string> state_names{};
+};
+
+// A data row left out for a missing state cell.
+struct MissingRow {
+  int run = 0;     // its run (0-based, as SampleData::run)
+  long line = 0;   // its line in its file
+  double t = 0.0;  // its time
 };
 
 struct SampleData {
@@ -73,6 +85,7 @@ struct SampleData {
   std::vector<long> line;                  // per sample: its line in its file
   std::vector<std::string> run_names;      // per run: "FILE" or "FILE run R"
   long missing_rows = 0;                   // rows dropped for a missing state cell
+  std::vector<MissingRow> missing;         // those rows, in file order
   long first_missing_line = 0;             // the first such row's line (0: none)
   long gaps = 0;                           // chain breaks at a step longer than max_gap
   long chains() const;

@@ -237,6 +237,10 @@ Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std:
       rd.Fail(node, key,
               fmt::format("\"{}\": unknown symbol \"{}\" (the variables: {})", expr, e.GetToken(), sym.list));
     }
+    if (e.GetCode() == mu::ecINTERNAL_ERROR) {  // muParser's bare "Internal error": "v++", "-" alone, ...
+      rd.Fail(node, key,
+              fmt::format("\"{}\": not a valid expression (an operator without its operand?)", expr));
+    }
     rd.Fail(node, key, fmt::format("\"{}\": {}", expr, e.GetMsg()));
   }
 }

@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/identify/identifier.hpp"
 #include "core/io/sample_data.hpp"
@@ -40,8 +41,9 @@ struct RefineArgs {
   std::string json;
 };
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
+// `report`: the recursive run's part of --json (RecursiveJson, identify_output.hpp).
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args);
+                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report);
 
 // A run that finished with a failed status (exit 1) or was interrupted (exit 130): thrown after
 // the outputs are written, so that `main` returns the code and destructors still run.
@@ -111,7 +113,10 @@ inline const CLI::Validator NonNegativeInteger(
     "NONNEGATIVE", "non-negative integer");
 
 // Comma-separated lists: each value of the flag (it may be repeated) split at commas; an empty item
-// is refused, as is an item of AddNumberList that is not a number. Each parse replaces `values`.
+// is refused, as is an item of AddNumberList that is not a number; AddTextList's items lose their
+// leading and trailing spaces and tabs. Each parse replaces `values`.
+// `text` without its leading and trailing spaces and tabs.
+std::string Trimmed(const std::string& text);
 CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
                          const std::string& help);
 CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <stdexcept>
 #include <string_view>
@@ -21,6 +22,19 @@ namespace hysid::cli {
 
 void BadFlag(const std::string& what) { throw std::invalid_argument(what); }
 
+namespace {
+
+// "; for a model file use --model-file NAME" when --model names no registered model but a file or a
+// name ending in .toml; "" otherwise.
+std::string ModelFileHint(const Environment& env, const std::string& name) {
+  std::error_code ec;
+  if (env.models.Contains(name) || !(name.ends_with(".toml") || std::filesystem::is_regular_file(name, ec)))
+    return "";
+  return fmt::format("; for a model file use --model-file {}", Abbreviated(name, 80));
+}
+
+}  // namespace
+
 Model MakeModel(const Environment& env, const std::string& name, const std::vector<std::string>& params) {
   return MakeModel(env, name, "", params);
 }
@@ -31,7 +45,8 @@ Model MakeModel(const Environment& env, const std::string& name, const std::stri
     try {
       return file.empty() ? env.models.Make(name) : LoadModelFile(file);
     } catch (const std::invalid_argument& e) {
-      BadFlag(fmt::format("{}: {}", file.empty() ? "--model" : "--model-file", e.what()));
+      BadFlag(fmt::format("{}: {}{}", file.empty() ? "--model" : "--model-file", e.what(),
+                          file.empty() ? ModelFileHint(env, name) : ""));
     }
   }();
   std::map<std::string, std::string> given;  // name -> the assignment that set it
@@ -100,10 +115,16 @@ CLI::Option* AddList(CLI::App& cmd, const std::string& flag, std::vector<T>& val
 
 }  // namespace
 
+std::string Trimmed(const std::string& text) {
+  const std::size_t begin = text.find_first_not_of(" \t");
+  return begin == std::string::npos ? std::string()
+                                    : text.substr(begin, text.find_last_not_of(" \t") - begin + 1);
+}
+
 CLI::Option* AddTextList(CLI::App& cmd, const std::string& flag, std::vector<std::string>& values,
                          const std::string& help) {
   return AddList(cmd, flag, values, help,
-                 [](const std::string&, std::size_t, std::string item) { return item; });
+                 [](const std::string&, std::size_t, const std::string& item) { return Trimmed(item); });
 }
 
 CLI::Option* AddNumberList(CLI::App& cmd, const std::string& flag, std::vector<double>& values,

@@ -1,7 +1,7 @@
 #include "experiments/cli/entry.hpp"
 
 // Exit codes (docs/architecture.md "Robustness"): 0 success, 1 a run that finished with a failed
-// status, 2 bad input or usage, 130 interrupted.
+// status, 2 bad input or usage, 130 interrupted (143 by SIGTERM, 129 by SIGHUP; core/io/signals.hpp).
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -13,6 +13,7 @@
 
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
+#include "core/io/signals.hpp"
 #include "experiments/cli/cli.hpp"
 #include "hysid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
 
@@ -21,7 +22,8 @@ namespace {
 
 constexpr const char* kExitCodes =
     "Exit codes: 0 success; 1 a run that finished with a failed status (solver failure, Zeno where\n"
-    "not expected, fit not ok); 2 bad input or usage; 130 interrupted.";
+    "not expected, fit not ok); 2 bad input or usage; 130 interrupted (SIGINT; 143 SIGTERM, 129 SIGHUP).\n"
+    "A closed output pipe (hysid ... | head) ends hysid quietly by SIGPIPE.";
 
 // "hysid frobnicate": CLI11 would say "A subcommand is required"; name the word and the subcommands.
 bool UnknownSubcommand(const CLI::App& app, int argc, char** argv) {
@@ -78,6 +80,8 @@ int Main(int argc, char** argv, ModelRegistry registry) {
   AddSweepCommand(app, env);
   AddCrlbCommand(app, env);
   if (UnknownSubcommand(app, argc, argv)) return 2;
+  // A signal that ends the process removes the temporary files of the outputs being written.
+  InstallSignalCleanup();
 
   int code = RunParsed(app, argc, argv);
   // Everything printed must have arrived (a full disk, a closed pipe with SIGPIPE ignored).

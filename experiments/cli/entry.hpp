@@ -9,7 +9,8 @@
 namespace hysid::cli {
 
 // Parses argv, runs the subcommand and returns the exit code: 0 success, 1 a run that finished with
-// a failed status, 2 bad input or usage (the reason on stderr, one line), 130 interrupted.
+// a failed status, 2 bad input or usage (the reason on stderr, one line), 130 interrupted (128 + the
+// signal: core/io/signals.hpp; a closed output pipe ends the process by SIGPIPE).
 int Main(int argc, char** argv, ModelRegistry registry);
 
 }  // namespace hysid::cli

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -24,6 +25,7 @@
 #include "core/sets/set_metrics.hpp"
 #include "experiments/cli/checks.hpp"
 #include "experiments/cli/cli.hpp"
+#include "experiments/cli/identify_output.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -82,23 +84,102 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   return settings;
 }
 
+// The sidecar FILE.json that `hysid simulate` writes beside FILE.csv, or null when there is none (or
+// it is not a sidecar of `simulate`). A sidecar that exists must be a readable regular file.
+nlohmann::json ReadSidecar(const std::filesystem::path& data) {
+  const std::filesystem::path sidecar = std::filesystem::path(data).replace_extension(".json");
+  if (std::error_code ec; !std::filesystem::exists(sidecar, ec)) return nullptr;
+  nlohmann::json meta =
+      nlohmann::json::parse(ReadWholeFile(sidecar, "sidecar"), nullptr, /*allow_exceptions=*/false);
+  if (!meta.is_object() || !meta.contains("command") || meta["command"] != "simulate") return nullptr;
+  return meta;
+}
+
 // Data written by `hysid simulate` has a sidecar FILE.json with the solver's tolerances: without
 // --data-rtol/--data-atol they are the data's accuracy (noise-free data is then as exact as that).
 // Returns where the accuracy came from.
 std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* settings) {
   if (args.data_accuracy_given) return "as given";
-  const std::filesystem::path sidecar = std::filesystem::path(args.data.front()).replace_extension(".json");
-  std::ifstream in(sidecar);
-  if (!in) return "none given";
-  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!meta.is_object() || meta.value("command", "") != "simulate" || !meta.contains("solver") ||
-      !meta["solver"].is_object() || meta["solver"].value("rtol", -1.0) < 0.0 ||
-      meta["solver"].value("atol", -1.0) < 0.0) {
+  const nlohmann::json meta = ReadSidecar(args.data.front());
+  if (meta.is_null() || !meta.contains("solver") || !meta["solver"].is_object() ||
+      meta["solver"].value("rtol", -1.0) < 0.0 || meta["solver"].value("atol", -1.0) < 0.0) {
     return "none given";
   }
   settings->data_rtol = meta["solver"]["rtol"].get<double>();
   settings->data_atol = meta["solver"]["atol"].get<double>();
-  return fmt::format("the solver tolerances in {}", sidecar.string());
+  return fmt::format("the solver tolerances in {}",
+                     std::filesystem::path(args.data.front()).replace_extension(".json").string());
+}
+
+// One parameter of a sidecar's "parameters" set on `model` as the truth; `given` holds the names
+// --param set, `taken` the values earlier sidecars gave (name -> value, sidecar).
+void TakeTrueParameter(const std::string& sidecar, const std::string& name, const nlohmann::json& value,
+                       const std::map<std::string, std::string>& given,
+                       std::map<std::string, std::pair<double, std::string>>& taken, Model* model) {
+  const ModelSpec& spec = model->spec();
+  const std::string key = fmt::format("{}: parameters.{}", sidecar, Abbreviated(name, 40));
+  if (!value.is_number()) throw std::invalid_argument(fmt::format("{}: not a number", key));
+  const double v = value.get<double>();
+  std::optional<std::pair<const Parameter*, double>> found;
+  for (std::size_t i = 0; i < spec.alpha.size(); ++i)
+    if (spec.alpha[i].name == name) found.emplace(&spec.alpha[i], model->alpha()[Eigen::Index(i)]);
+  for (std::size_t i = 0; i < spec.beta.size(); ++i)
+    if (spec.beta[i].name == name) found.emplace(&spec.beta[i], model->beta()[Eigen::Index(i)]);
+  if (!found) {
+    throw std::invalid_argument(fmt::format(
+        "{}: model '{}' has no such parameter: the data were simulated with another model", key, spec.name));
+  }
+  const auto [parameter, current] = *found;
+  if (parameter->known && v != current) {
+    throw std::invalid_argument(
+        fmt::format("{} = {:.17g}: a known constant of model '{}', which is {:.17g} here: "
+                    "the data were simulated with another model",
+                    key, v, spec.name, current));
+  }
+  if (const auto at = given.find(name); at != given.end() && v != current) {
+    throw std::invalid_argument(fmt::format(
+        "--param {}: the sidecar {} gives {} = {:.17g}, the value the data were simulated with (the "
+        "truth); give that value or leave --param out",
+        Abbreviated(at->second), sidecar, Abbreviated(name, 40), v));
+  }
+  if (const auto [at, fresh] = taken.emplace(name, std::pair{v, sidecar}); !fresh && at->second.first != v) {
+    throw std::invalid_argument(
+        fmt::format("{} = {:.17g}, but {} gives {:.17g}: the --data files were simulated "
+                    "with different parameters",
+                    key, v, at->second.second, at->second.first));
+  }
+  if (!parameter->known) model->SetParameter(name, v);
+}
+
+// The truth the metrics and the CRLB compare with: for data written by `hysid simulate`, the α and β
+// in the sidecars of the --data files (of the same model name), set on `model`; else the model's
+// values (defaults and --param). A --param that disagrees with a sidecar, sidecars that disagree, and
+// a sidecar parameter the model lacks or holds as another constant are refused. Returns the source.
+std::string TakeSidecarTruth(const IdentifyArgs& args, Model* model) {
+  std::map<std::string, std::string> given;  // --param name -> its assignment
+  for (const std::string& p : args.model.params) given.emplace(p.substr(0, p.find('=')), p);
+  std::map<std::string, std::pair<double, std::string>> taken;
+  std::vector<std::string> used, other;
+  for (const std::string& d : args.data) {
+    const nlohmann::json meta = ReadSidecar(d);
+    const std::string sidecar = std::filesystem::path(d).replace_extension(".json").string();
+    if (meta.is_null() || !meta.contains("parameters")) continue;
+    if (!meta.contains("model") || meta["model"] != model->name()) {
+      other.push_back(
+          fmt::format("{} is of model {}", sidecar, meta.value("model", nlohmann::json()).dump()));
+      continue;
+    }
+    if (!meta["parameters"].is_object())
+      throw std::invalid_argument(fmt::format("{}: parameters: not an object", sidecar));
+    for (const auto& [name, value] : meta["parameters"].items())
+      TakeTrueParameter(sidecar, name, value, given, taken, model);
+    used.push_back(sidecar);
+  }
+  std::string source = !used.empty()    ? fmt::format("the parameters in {}", fmt::join(used, ", "))
+                       : !given.empty() ? "the model's values with --param"
+                                        : "the model's default values";
+  if (!other.empty()) source += fmt::format(" ({})", fmt::join(other, "; "));
+  return source;
 }
 
 // "r = 220, tau0 = 100000, bound = auto": the options the detector reads.
@@ -186,15 +267,16 @@ void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const Ident
 }
 
 // Against the data's column j and the model's true values and sets.
-void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyResult& result) {
+void PrintTruth(const Model& model, const std::vector<int>& j, const std::string& truth_source,
+                const IdentifyResult& result) {
   const Confusion c = CompareJumps(j, result.gamma);
   const ParameterErrors e = CompareParameters(model, result.alpha_hat, result.beta_hat);
   std::printf("truth (column j): %ld true jumps; TP %ld, FP %ld, FN %ld, TN %ld\n", c.tp + c.fn, c.tp, c.fp,
               c.fn, c.tn);
   std::printf("  misclassification %.6g, precision %.6g, recall %.6g\n", c.misclassification(), c.precision(),
               c.recall());
-  std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against the model's values\n", e.e_alpha,
-              e.e_beta, e.rel_alpha, e.rel_beta);
+  std::printf("  e_alpha %.6g, e_beta %.6g (relative %.6g, %.6g) against %s\n", e.e_alpha, e.e_beta,
+              e.rel_alpha, e.rel_beta, truth_source.c_str());
   // Ĉ and D̂ against the model's C and D (when computed: not beyond the hull dimension limit).
   if (!result.sets_skipped.empty()) {
     std::printf("  sets: not computed\n");
@@ -216,61 +298,24 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const IdentifyRes
   }
 }
 
-// Per sample: t, the detector's statistic and threshold (paper: D_δt ξ and τ̂; residual: max |z| and
-// q), γ, the estimates, and the truth when the data has it.
-void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDescriptor& detector,
-                const SampleData& data, const IdentifyResult& result) {
-  std::vector<std::string> header{"t", std::string(detector.traits.statistic),
-                                  std::string(detector.traits.threshold), "gamma"};
-  for (const auto& s : UnknownNames(spec.alpha)) header.push_back(s + "_hat");
-  for (const auto& s : UnknownNames(spec.beta)) header.push_back(s + "_hat");
-  if (data.j) header.insert(header.end(), {"j", "true_jump"});
-  CsvWriter csv(path, header);
-  std::vector<double> row(header.size());
-  for (std::size_t k = 0; k < data.t.size(); ++k) {
-    std::size_t c = 0;
-    for (double v : {data.t[k], result.statistic[k], result.threshold[k], double(result.gamma[k])})
-      row[c++] = v;
-    for (std::size_t i = 0; i < spec.alpha.size(); ++i) {
-      if (!spec.alpha[i].known) row[c++] = result.alpha_trace(Eigen::Index(i), Eigen::Index(k));
-    }
-    for (std::size_t i = 0; i < spec.beta.size(); ++i) {
-      if (!spec.beta[i].known) row[c++] = result.beta_trace(Eigen::Index(i), Eigen::Index(k));
-    }
-    if (data.j) {
-      row[c++] = (*data.j)[k];
-      row[c++] = k > 0 && (*data.j)[k] != (*data.j)[k - 1] ? 1.0 : 0.0;
-    }
-    csv.Row(row);
-  }
-  csv.Commit();
-  std::printf("wrote %s\n", path.c_str());
-}
-
-void WriteHulls(const std::string& path, int n, const IdentifyResult& result) {
-  std::vector<std::string> header{"set", "vertex"};
-  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
-  CsvWriter csv(path, header);
-  std::vector<double> row(header.size());
-  int set = 0;
-  for (const Mat* hull : {&result.flow_hull, &result.jump_hull}) {
-    for (Eigen::Index v = 0; v < hull->cols(); ++v) {
-      row[0] = set;
-      row[1] = static_cast<double>(v);
-      for (int i = 0; i < n; ++i) row[static_cast<std::size_t>(2 + i)] = (*hull)(i, v);
-      csv.Row(row);
-    }
-    ++set;
-  }
-  csv.Commit();
-  std::printf("wrote %s (set 0 = flow hull C^, set 1 = jump hull D^, vertices in order)\n", path.c_str());
+// A --columns entry without the spaces around its '=' ("t = time" is "t=time"; the items themselves
+// are trimmed by AddTextList).
+std::string ColumnEntry(const std::string& entry) {
+  const std::size_t eq = entry.find('=');
+  if (eq == std::string::npos) return entry;
+  return Trimmed(entry.substr(0, eq)) + "=" + Trimmed(entry.substr(eq + 1));
 }
 
 // The data files; a message about the column choice names the flag.
 SampleData ReadData(const IdentifyArgs& args, const Model& model) {
+  std::vector<std::string> columns;
+  for (const std::string& entry : args.columns) columns.push_back(ColumnEntry(entry));
   try {
     return ReadSampleData(args.data, model.state_size(),
-                          {.columns = args.columns, .inputs = model.spec().inputs, .max_gap = args.max_gap});
+                          {.columns = columns,
+                           .inputs = model.spec().inputs,
+                           .max_gap = args.max_gap,
+                           .state_names = model.spec().state_names});
   } catch (const std::invalid_argument& e) {
     std::string message = e.what();
     const std::string field = "SampleDataOptions::columns";
@@ -298,7 +343,8 @@ void CheckOutputs(const IdentifyArgs& args) {
 }
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  const Model model = MakeModel(env, args.model);
+  Model model = MakeModel(env, args.model);
+  const std::string truth_source = TakeSidecarTruth(args, &model);
   IdentifierSettings settings = BuildSettings(args, model);
   const SampleData data = ReadData(args, model);
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
@@ -315,12 +361,13 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   PrintEstimates(model.spec(), args, result);
   if (!result.sets_skipped.empty())
     std::printf("sets C^ and D^: not computed: %s\n", result.sets_skipped.c_str());
-  if (data.j) PrintTruth(model, *data.j, result);
+  if (data.j) PrintTruth(model, *data.j, truth_source, result);
   if (!args.trace.empty()) {
     WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }
-  if (!args.hulls.empty()) WriteHulls(args.hulls, model.state_size(), result);
-  const int code = RefineAndReport(model, data, result, settings.sigma, args.refine);
+  if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
+  const nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
+  const int code = RefineAndReport(model, data, result, settings.sigma, args.refine, report);
   if (code == 0 && args.refine.refine == "none" &&
       (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
     throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
@@ -336,14 +383,15 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
   AddModelFlags(*cmd, args->model, "NAME=VALUE: the model's true value (for error metrics)");
   cmd->add_option("--data", args->data,
-                  "CSV (RFC 4180): time, then the measured state (y1..yn if present); a column j is taken "
-                  "as ground truth, a column run splits the file into runs; repeat --data for several "
-                  "runs of one system (alpha, beta shared). Empty, nan or NA state cells: the row is "
-                  "left out and the chain restarts")
+                  "CSV (RFC 4180): time, then the measured state (the columns named after the model's "
+                  "states, else y1..yn, else the first other columns); a column j is taken as ground "
+                  "truth, a column run splits the file into runs; repeat --data for several runs of one "
+                  "system (alpha, beta shared). Empty, nan or NA state cells: the row is left out (the "
+                  "chain goes on across it)")
       ->required();
   AddTextList(*cmd, "--columns", args->columns,
               "columns by header name: t=NAME (time), the state columns in model order, "
-              "optionally run=NAME (run column), e.g. t=time,x1,x2");
+              "optionally run=NAME (run column), e.g. t=time,pos,vel");
   cmd->add_option("--max-gap", args->max_gap,
                   "seconds: a step longer than this restarts the chain (no regression or detector "
                   "statistic across it); default 5 x the median step")
@@ -388,7 +436,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                       "data: the integrator's atol)")
           ->capture_default_str();
   cmd->add_option("--trace", args->trace,
-                  "per-sample CSV: t, the detector's statistic and threshold, gamma, estimates");
+                  "CSV, one row per data row: run, chain, line, t, missing, the detector's statistic and "
+                  "threshold, gamma, estimates (docs/outputs.md)");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
   cmd->callback([args, &env, rtol_option, atol_option, option_flags] {
     args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;

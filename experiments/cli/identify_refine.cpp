@@ -18,7 +18,8 @@ namespace hysid::cli {
 namespace {
 
 // The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json (the model's
-// α, β are the true values). Empty when there is no such sidecar.
+// α, β are the true values: identify sets them from the same sidecar when it is of this model).
+// Empty when there is no such sidecar.
 struct Truth {
   Vec x0, sigma;
 };
@@ -27,7 +28,7 @@ Truth ReadTruth(const std::string& data_path, int n) {
   std::ifstream in(std::filesystem::path(data_path).replace_extension(".json"));
   if (!in) return {};
   const nlohmann::json meta = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!meta.is_object() || meta.value("command", "") != "simulate") return {};
+  if (!meta.is_object() || !meta.contains("command") || meta["command"] != "simulate") return {};
   auto vec = [&](const char* key) {
     if (!meta.contains(key) || !meta[key].is_array() || static_cast<int>(meta[key].size()) != n) return Vec();
     Vec v(n);
@@ -79,10 +80,40 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
   }
 }
 
-nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, const std::string& refine,
-                      const Crlb& bound) {
+// The checks a fit passes to be ok: each check's value and its limits (RefineOptions).
+nlohmann::json ChecksJson(const RefineResult& r, const RefineOptions& options) {
+  return {{"residual_rms",
+           {{"value", r.normalized_rms},
+            {"low", r.sigma_estimated ? nlohmann::json() : nlohmann::json(options.rms_low)},
+            {"high", options.rms_high}}},
+          {"lag1", {{"value", r.lag1}, {"limit", options.max_lag1}}},
+          {"jump_count", {{"model", r.model_jumps}, {"detected", r.detected_jumps}}},
+          {"iterations", {{"value", r.iterations}, {"limit", options.max_iterations}}},
+          {"initial_cost", r.initial_cost},
+          {"final_cost", r.final_cost}};
+}
+
+// The estimates against the truth in units of the CRLB (when the bound is known), as printed.
+nlohmann::json CrlbJson(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {
+  if (!bound.ok()) return nullptr;
+  const Vec theta = r.estimate.Theta(r.unknowns), truth = truth_params.Theta(r.unknowns);
+  const Vec error = theta - truth;
+  const bool se = r.standard_errors.size() == static_cast<Eigen::Index>(r.names.size());
   auto vec = [](const Vec& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
-  nlohmann::json j;
+  return {
+      {"sd", vec(bound.sd)},
+      {"truth", vec(truth)},
+      {"error", vec(error)},
+      {"error_in_sd", vec(error.cwiseAbs().cwiseQuotient(bound.sd))},
+      {"se_over_sd", se ? nlohmann::json(vec(r.standard_errors.cwiseQuotient(bound.sd))) : nlohmann::json()},
+      {"mean_e_alpha", bound.mean_e_alpha},
+      {"mean_e_beta", bound.mean_e_beta}};
+}
+
+// The refinement's part of --json, added to the recursive run's `report` (RecursiveJson).
+nlohmann::json ToJson(nlohmann::json j, const RefineResult& r, const IdentifyResult& recursive,
+                      const std::string& refine, const RefineOptions& options) {
+  auto vec = [](const Vec& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
   j["refine"] = refine;
   j["status"] = refine == "none" ? "recursive" : ToString(r.status);
   j["reason"] = r.reason;
@@ -100,6 +131,7 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   j["normalized_rms"] = r.normalized_rms;
   j["lag1"] = r.lag1;
   j["iterations"] = r.iterations;
+  if (refine != "none") j["checks"] = ChecksJson(r, options);
   j["detector"] = {{"jumps_detected", recursive.jumps_detected},
                    {"flow_estimator", ToString(recursive.flow_status)},
                    {"flow_estimator_reason", recursive.flow_reason},
@@ -112,6 +144,7 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
   }
   j["model_jumps"] = r.model_jumps;
   j["samples_used"] = r.samples_used;
+  j["span_reason"] = r.span_reason;
   j["start_repair"] = r.start_repair;
   j["mended"] = r.mended;
   if (!r.chain_x0.empty()) {
@@ -123,18 +156,44 @@ nlohmann::json ToJson(const RefineResult& r, const IdentifyResult& recursive, co
     j["chains_used"] = r.chains_used;
     j["chains_skipped"] = r.chains_skipped;
   }
-  if (bound.ok()) j["crlb_sd"] = vec(bound.sd);
   return j;
 }
 
 // From RefinementStart(recursive): the recursive result itself, or its rls re-run when the α
 // estimator was not ok.
 RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& given,
-                           const Vec& sigma) {
+                           const RefineOptions& options) {
   const IdentifyResult& recursive = RefinementStart(given);
-  RefineOptions options;
-  options.sigma = sigma;
   return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options, data.u);
+}
+
+// The refinement's status, the chains and samples it fit, and how the fit was reached (--refine ml).
+void PrintRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                     const RefineResult& r) {
+  std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
+              ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
+  if (!data.uniform) {
+    std::printf(
+        "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "
+        "than %d samples or a first sample outside C and D); %ld of %ld samples\n",
+        r.chains_used, r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
+        static_cast<long>(data.y.cols()));
+    if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
+  } else if (r.samples_used < data.y.cols()) {
+    std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
+                static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
+                r.span_reason.c_str());
+  }
+  if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
+  if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
+  if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
+  if (r.ok()) {
+    std::printf("  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
+                r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
+                fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
+  } else {
+    std::printf("  the recursive estimate is kept\n");
+  }
 }
 
 }  // namespace
@@ -147,15 +206,18 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
       ->check(CLI::IsMember({"ml", "none"}))
       ->capture_default_str();
   cmd->add_option("--json", args.json,
-                  "write estimates, standard errors, covariance, detector counts "
-                  "and status as JSON");
+                  "write everything the report shows as JSON: settings, estimates, standard errors, "
+                  "covariance, detections, per-chain counts, truth comparison, the fit's checks "
+                  "(docs/outputs.md)");
 }
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args) {
+                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report) {
   RefineResult r;
+  RefineOptions options;
+  options.sigma = sigma;
   if (args.refine == "ml") {
-    r = RunRefinement(model, data, recursive, sigma);
+    r = RunRefinement(model, data, recursive, options);
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
@@ -166,33 +228,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
   const Crlb bound = TruthBound(model, truth, used, data);
   const HybridParameters truth_params = HybridParameters::Of(model, truth.x0);
-  if (args.refine == "ml") {
-    std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
-                ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
-    if (!data.uniform) {
-      std::printf(
-          "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "
-          "than %d samples or a first sample outside C and D); %ld of %ld samples\n",
-          r.chains_used, r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
-          static_cast<long>(data.y.cols()));
-      if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
-    } else if (r.samples_used < data.y.cols()) {
-      std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
-                  static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
-                  r.span_reason.c_str());
-    }
-    if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
-    if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
-    if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
-    if (r.ok()) {
-      std::printf(
-          "  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
-          r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
-          fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
-    } else {
-      std::printf("  the recursive estimate is kept\n");
-    }
-  }
+  if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, truth_params, bound);
   if (bound.ok()) {
     std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g\n",
@@ -200,7 +236,15 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                 bound.mean_e_beta);
   }
   if (!args.json.empty()) {
-    WriteFileAtomically(args.json, ToJson(r, recursive, args.refine, bound).dump(2) + "\n");
+    nlohmann::json j = ToJson(report, r, recursive, args.refine, options);
+    j["samples"] = data.y.cols();
+    j["min_chain_samples"] = 2 * model.state_size() + 2;
+    j["fit_t_end"] = data.uniform && r.samples_used > 0
+                         ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt)
+                         : nlohmann::json();
+    if (bound.ok()) j["crlb_sd"] = std::vector<double>(bound.sd.data(), bound.sd.data() + bound.sd.size());
+    j["crlb"] = CrlbJson(r, truth_params, bound);
+    WriteFileAtomically(args.json, j.dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
   std::printf("status: %s\n", args.refine == "none" ? "recursive (no refinement)" : ToString(r.status));

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -19,7 +20,6 @@
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
-#include "sim/exogenous.hpp"
 #include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
@@ -36,7 +36,7 @@ struct SimulateArgs {
   SimOptions sim;
   std::string out;
   std::string jumps_out;
-  std::string inputs;  // --inputs FILE (empty: the model's default expressions)
+  std::string inputs;  // --inputs FILE (empty: the model file's input defaults)
 };
 
 std::filesystem::path SidecarPath(const std::filesystem::path& csv) {
@@ -64,12 +64,36 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
   }
 }
 
-// t, j, x1..xn, y1..yn and the inputs by their names (so that identify reads them as they are).
-std::vector<std::string> TrajectoryHeader(const ModelSpec& spec) {
-  const auto n = static_cast<int>(spec.state_names.size());
+// Whether the trajectory file can name its columns after the model's states: t, j, run (identify's
+// run column), true_STATE and STATE all different names.
+bool NamedColumns(const ModelSpec& spec) {
+  std::set<std::string> names{"t", "j", "run"};
+  for (const char* prefix : {"true_", ""}) {
+    for (const std::string& s : spec.state_names) {
+      if (!names.insert(prefix + s).second) return false;
+    }
+  }
+  return true;
+}
+
+// `prefix` + each state name when `named`, else `prefix` + `generic` + i (i = 1..n).
+std::vector<std::string> StateColumns(const ModelSpec& spec, bool named, const std::string& prefix,
+                                      const std::string& generic) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < spec.state_names.size(); ++i)
+    out.push_back(named ? prefix + spec.state_names[i] : fmt::format("{}{}{}", prefix, generic, i + 1));
+  return out;
+}
+
+// t, j, the noise-free state true_STATE.. and the measured state STATE.. (x1..xn and y1..yn when
+// a state name would clash with another column), then the inputs by their names (so that identify
+// reads them as they are).
+std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
   std::vector<std::string> header{"t", "j"};
-  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("x{}", i));
-  for (int i = 1; i <= n; ++i) header.push_back(fmt::format("y{}", i));
+  for (const auto& [prefix, generic] : {std::pair{"true_", "x"}, std::pair{"", "y"}}) {
+    for (std::string& c : StateColumns(spec, named, named ? prefix : "", generic))
+      header.push_back(std::move(c));
+  }
   for (const std::string& name : spec.inputs) {
     if (std::find(header.begin(), header.end(), name) != header.end()) {
       BadFlag(fmt::format("--model-file: the input '{}' has the name of a column simulate writes ({})", name,
@@ -98,11 +122,14 @@ void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const
   csv.Close();
 }
 
-std::vector<std::string> JumpsHeader(int n) {
-  std::vector<std::string> jheader{"j", "t_jump"};
-  for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("pre_x{}", i));
-  for (int i = 1; i <= n; ++i) jheader.push_back(fmt::format("post_x{}", i));
-  return jheader;
+// j, t_jump, the state before the jump pre_STATE.. and after it post_STATE.. (pre_x1.. with generic
+// names).
+std::vector<std::string> JumpsHeader(const ModelSpec& spec, bool named) {
+  std::vector<std::string> header{"j", "t_jump"};
+  for (const char* prefix : {"pre_", "post_"}) {
+    for (std::string& c : StateColumns(spec, named, prefix, "x")) header.push_back(std::move(c));
+  }
+  return header;
 }
 
 // Writes and closes (not yet publishes) the jumps file.
@@ -123,15 +150,15 @@ void WriteJumps(CsvWriter& jumps, const Trajectory& traj) {
 
 // FILE.json beside the trajectory: the run's inputs, the solver's tolerances and outcome.
 std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec& x0, const SampleGrid& grid,
-                        const Vec& sigma, const Trajectory& traj) {
-  nlohmann::json inputs = nlohmann::json::object();
-  for (std::size_t i = 0; i < model.spec().inputs.size(); ++i) {
-    const std::vector<std::string>& defaults = model.spec().input_defaults;
-    inputs[model.spec().inputs[i]] = !args.inputs.empty()  ? "file " + args.inputs
-                                     : i < defaults.size() ? defaults[i]
-                                                           : std::string();
-  }
+                        const Vec& sigma, const Trajectory& traj, const std::vector<std::string>& columns) {
   const ModelSpec& spec = model.spec();
+  nlohmann::json inputs = nlohmann::json::object();
+  for (std::size_t i = 0; i < spec.inputs.size(); ++i) {
+    const std::vector<std::string>& defaults = spec.input_defaults;
+    inputs[spec.inputs[i]] = !args.inputs.empty()  ? "file " + args.inputs
+                             : i < defaults.size() ? defaults[i]
+                                                   : std::string();
+  }
   nlohmann::json params;
   for (std::size_t i = 0; i < spec.alpha.size(); ++i)
     params[spec.alpha[i].name] = model.alpha()[Eigen::Index(i)];
@@ -159,6 +186,7 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
       {"samples", traj.size()},
       {"jumps", traj.jumps.size()},
       {"outputs", {{"trajectory", args.out}, {"jumps", args.jumps_out}}},
+      {"columns", columns},
       {"inputs", inputs},
       {"context", BuildContext()},
   };
@@ -181,7 +209,8 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   files.Add("--model-file", args.model.file);
   files.Add("--inputs", args.inputs);
   CheckOutputPaths(outputs, files);
-  const std::vector<std::string> header = TrajectoryHeader(spec);
+  const bool named = NamedColumns(spec);
+  const std::vector<std::string> header = TrajectoryHeader(spec, named);
   const InputSignal inputs = InputsFlag(args.inputs, spec, grid);
   Exogenous exo;
   if (!inputs.empty()) exo.inputs = &inputs;
@@ -192,20 +221,26 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim, exo);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
-  const int n = model.state_size();
   CsvWriter csv(args.out, header);
   WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key), inputs);
   std::optional<CsvWriter> jumps;
   if (!args.jumps_out.empty()) {
-    jumps.emplace(args.jumps_out, JumpsHeader(n));
+    jumps.emplace(args.jumps_out, JumpsHeader(spec, named));
     WriteJumps(*jumps, traj);
   }
   const std::filesystem::path meta_path = SidecarPath(args.out);
-  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path, SidecarText(args, model, x0, grid, sigma, traj));
+  PublishSet(csv, jumps ? &*jumps : nullptr, meta_path,
+             SidecarText(args, model, x0, grid, sigma, traj, header));
   std::printf("model %s, seed %llu, %ld samples, %zu jumps\n", spec.name.c_str(),
               static_cast<unsigned long long>(args.seed), traj.size(), traj.jumps.size());
   std::printf("status: %s (t = %.17g): %s\n", ToString(traj.status.stop), traj.status.t_reached,
               traj.status.message.c_str());
+  if (!named) {
+    std::printf(
+        "columns: x1..x%d (true state), y1..y%d (measured): a state name clashes with t, j, run or "
+        "another column\n",
+        model.state_size(), model.state_size());
+  }
   std::printf("wrote %s, %s%s%s\n", args.out.c_str(), meta_path.c_str(), args.jumps_out.empty() ? "" : ", ",
               args.jumps_out.c_str());
   // A zeno stop is a finding about the model (the trajectory is valid up to it); others are failures.
@@ -232,8 +267,12 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       ->transform(NonNegativeInteger);
   AddToleranceOptions(*sub, args->sim, "");
   sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
-  sub->add_option("--out", args->out, "trajectory CSV: t,j,x1..xn,y1..yn (+ a .json sidecar)")->required();
-  sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_x1..,post_x1..");
+  sub->add_option(
+         "--out", args->out,
+         "trajectory CSV: t,j,true_STATE..,STATE.. (noise-free and measured state, columns named after "
+         "the model's states; + a .json sidecar)")
+      ->required();
+  sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_STATE..,post_STATE..");
   sub->add_option("--inputs", args->inputs,
                   "a model with inputs: CSV with a column t and one per input name (linear between rows; "
                   "default: the model file's input_defaults at the sample times)");

@@ -16,6 +16,7 @@
 
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
+#include "core/io/signals.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"
@@ -25,19 +26,23 @@ namespace hysid::cli {
 namespace {
 
 // Raised by SIGINT/SIGTERM; the runner stops between units and the journal keeps what finished
-// (StopWatchdog ends a unit that takes longer).
+// (StopWatchdog ends a unit that takes longer). The exit code is 128 + the signal (130, 143).
 std::atomic<bool> g_stop{false};
-static_assert(std::atomic<bool>::is_always_lock_free);
-extern "C" void OnSignal(int) { g_stop.store(true); }
+std::atomic<int> g_stop_signal{SIGINT};
+static_assert(std::atomic<bool>::is_always_lock_free && std::atomic<int>::is_always_lock_free);
+extern "C" void OnSignal(int sig) {
+  g_stop_signal.store(sig);
+  g_stop.store(true);
+}
 
 // The grace a running unit gets after SIGINT/SIGTERM before the process ends without it.
 constexpr auto kStopGrace = std::chrono::milliseconds(500);
 
 // Honours a signal within a second wherever the sweep is: the runner stops between units; a unit
 // still running kStopGrace after the signal (a long simulation, identification, refinement or hull)
-// is abandoned by ending the process with exit code 130. The journal stays valid: every row is one
-// write(2) under the journal's lock, and a torn last line is cut off on resume (as after SIGKILL),
-// so the same command resumes; the tables are written only after the last unit.
+// is abandoned by ending the process with exit code 128 + the signal. The journal stays valid: every
+// row is one write(2) under the journal's lock, and a torn last line is cut off on resume (as after
+// SIGKILL), so the same command resumes; the tables are written only after the last unit.
 class StopWatchdog {
  public:
   explicit StopWatchdog(std::string out) : out_(std::move(out)), thread_([this] { Watch(); }) {}
@@ -59,7 +64,8 @@ class StopWatchdog {
                  "run the same command again to finish the rest\nhysid: sweep interrupted\n",
                  out_.c_str());
     std::fflush(stdout);
-    std::_Exit(130);
+    RemoveTemporaryFiles();  // of the tables, when the signal came while they were written
+    std::_Exit(128 + g_stop_signal.load());
   }
 
   std::string out_;
@@ -115,20 +121,22 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   g_stop.store(false);
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  // During the run a signal is a stop flag; before and after, the handlers it replaces (main's: remove
+  // the temporary files and exit) are in place.
+  const auto previous_int = std::signal(SIGINT, OnSignal);
+  const auto previous_term = std::signal(SIGTERM, OnSignal);
   const SweepOutcome o = [&] {
     const StopWatchdog watchdog(options.out.string());
     return RunSweep(config, env.models, options, &g_stop);
   }();
-  std::signal(SIGINT, SIG_DFL);
-  std::signal(SIGTERM, SIG_DFL);
+  std::signal(SIGINT, previous_int);
+  std::signal(SIGTERM, previous_term);
   if (o.interrupted) {
     std::fprintf(stderr,
                  "interrupted: %ld of %ld trials are in %s/trials.journal; run the same command again to "
                  "finish the rest\n",
                  o.units_resumed + o.units_run, o.units_shard, options.out.c_str());
-    throw RunFailed("sweep interrupted", 130);
+    throw RunFailed("sweep interrupted", 128 + g_stop_signal.load());
   }
   std::printf("%ld trials (%ld resumed, %ld run, %ld failed), %ld trajectories simulated, %.1f s\n",
               o.units_shard, o.units_resumed, o.units_run, o.failures, o.trajectories, o.wall_seconds);

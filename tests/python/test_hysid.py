@@ -70,10 +70,10 @@ def test_identify_equals_cli(paper_data, tmp_path):
     for name, value in expected.items():  # printed with 10 significant digits
         assert fit["estimates"][name] == pytest.approx(value, rel=1e-9, abs=1e-12)
     assert f"jumps detected: {fit['jumps_detected']} " in printed
-    cols = np.loadtxt(trace, delimiter=",", skiprows=1)
-    np.testing.assert_array_equal(fit["gamma"], cols[:, 3])
-    np.testing.assert_array_equal(fit["alpha_trace"][:, 1:], cols[:, 4:6])
-    np.testing.assert_array_equal(fit["beta_trace"][:, 1:], cols[:, 6:8])
+    cols = np.genfromtxt(trace, delimiter=",", names=True)
+    np.testing.assert_array_equal(fit["gamma"], cols["gamma"])
+    np.testing.assert_array_equal(fit["alpha_trace"][:, 1:], np.column_stack([cols["a_hat"], cols["b_hat"]]))
+    np.testing.assert_array_equal(fit["beta_trace"][:, 1:], np.column_stack([cols["lambda_hat"], cols["mu_hat"]]))
 
 
 def test_identify_defaults_are_the_cli_defaults(paper_data, tmp_path):

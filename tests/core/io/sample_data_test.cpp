@@ -101,6 +101,24 @@ TEST_CASE("too few samples after the missing rows are left out", "[sample_data]"
       "s.csv: 2 samples (1 row with a missing value left out); the identifier needs at least 3");
 }
 
+// A file of several that holds no sample (a header only, or only rows with a missing value) is
+// refused by name, wherever it stands, not left out while the others are read.
+TEST_CASE("a data file without samples is refused by name, also beside other files", "[sample_data]") {
+  const CsvTable good = Table("t,x,v\n0,1,2\n0.1,1,2\n0.2,1,2\n0.3,1,2\n", "good.csv");
+  const CsvTable header = Table("t,x,v\n", "header.csv");
+  const CsvTable blank = Table("t,x,v\n\n# a comment\n", "blank.csv");
+  const CsvTable missing = Table("t,x,v\n0,nan,2\n0.1,1,NA\n", "missing.csv");
+  const std::string no_rows = ": no samples (no data rows)";
+  CHECK_THROWS_WITH(SampleDataFromTables({good, header}, 2, {}), "header.csv" + no_rows);
+  CHECK_THROWS_WITH(SampleDataFromTables({header, good}, 2, {}), "header.csv" + no_rows);
+  CHECK_THROWS_WITH(SampleDataFromTables({good, blank, good}, 2, {}), "blank.csv" + no_rows);
+  CHECK_THROWS_WITH(SampleDataFromTables({good, missing}, 2, {}),
+                    "missing.csv: no samples (each of its 2 rows has a missing state value)");
+  CHECK(SampleDataFromTables({good, good}, 2, {}).t.size() == 8);
+  CHECK_THROWS_WITH(SampleDataFromArrays({{}, {}}, {Mat::Ones(2, 4), Mat(2, 0)}, 1e-3),
+                    "run 2: no samples (no data rows)");
+}
+
 }  // namespace
 }  // namespace hysid
 
@@ -133,6 +151,43 @@ TEST_CASE("two columns of one name, and steps below the smallest, are refused by
   CHECK_THROWS_WITH(
       SampleDataFromTable(Table("t,x,v\n0,1,2\n1e-160,1,2\n1,1,2\n", "s.csv"), 2),
       "s.csv:3: column 1 ('t'): the step 1e-160 after line 2 is below 1e-150 s (rescale the time)");
+}
+
+TEST_CASE("columns named after the model's states are the measured state; true_* never is", "[sample_data]") {
+  // `hysid simulate`'s file: t, j, the noise-free state true_x, true_v, the measured x, v.
+  const std::string sim = "t,j,true_x,true_v,x,v\n0,0,1,2,1.5,2.5\n0.1,0,1,2,1.5,2.5\n0.2,0,1,2,1.5,2.5\n";
+  const SampleDataOptions named{.state_names = {"x", "v"}};
+  const SampleData d = SampleDataFromTables({Table(sim)}, 2, named);
+  CHECK(d.state_columns == std::vector<std::string>{"x", "v"});
+  CHECK(d.y(0, 0) == 1.5);
+  // Other state names: not x, v by name, nor true_x, true_v by position, but the first two others.
+  const SampleData other = SampleDataFromTables({Table(sim)}, 2, {.state_names = {"p", "q"}});
+  CHECK(other.state_columns == std::vector<std::string>{"x", "v"});
+  // Older output (x1, x2 true, y1, y2 measured) and models whose states are in another order.
+  const std::string old = "t,j,x1,x2,y1,y2\n0,0,1,2,1.5,2.5\n0.1,0,1,2,1.5,2.5\n0.2,0,1,2,1.5,2.5\n";
+  CHECK(SampleDataFromTables({Table(old)}, 2, named).state_columns == std::vector<std::string>{"y1", "y2"});
+  CHECK(SampleDataFromTables({Table(sim)}, 2, {.state_names = {"v", "x"}}).y(0, 0) == 2.5);
+  // Both sets, different columns: which one is measured would be a guess.
+  CHECK_THROWS_WITH(
+      SampleDataFromTables({Table("t,x,v,y1,y2\n0,1,2,1,2\n0.1,1,2,1,2\n0.2,1,2,1,2\n", "b.csv")}, 2, named),
+      "b.csv:1: SampleDataOptions::columns: both the columns named after the model's states (x,v) and y1..y2 "
+      "are present; name the measured state columns");
+  // A state named like the time column is not matched by name.
+  CHECK(SampleDataFromTables({Table("t,a,b\n0,1,2\n0.1,1,2\n0.2,1,2\n")}, 2, {.state_names = {"t", "a"}})
+            .state_columns == std::vector<std::string>{"a", "b"});
+}
+
+TEST_CASE("the rows left out for a missing value are listed with their run, line and time", "[sample_data]") {
+  const CsvTable a = Table(
+      "run,t,x,v\n1,0,1,2\n1,0.1,,2\n1,0.2,1,2\n1,0.3,1,2\n2,0,NA,2\n2,0.1,1,2\n2,0.2,1,2\n"
+      "2,0.3,1,2\n",
+      "r.csv");
+  const SampleData d = SampleDataFromTables({a}, 2);
+  REQUIRE(d.missing.size() == 2);
+  CHECK(d.missing_rows == 2);
+  CHECK((d.missing[0].run == 0 && d.missing[0].line == 3 && d.missing[0].t == 0.1));
+  CHECK((d.missing[1].run == 1 && d.missing[1].line == 6 && d.missing[1].t == 0.0));
+  CHECK(d.t.size() + d.missing.size() == 8);  // every data row
 }
 
 TEST_CASE("arrays (the Python module) pass the same count and limit checks as files", "[sample_data]") {

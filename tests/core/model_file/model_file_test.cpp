@@ -227,9 +227,15 @@ std::string Replace(std::string text, const std::string& from, const std::string
   return text.replace(at, from.size(), to);
 }
 
-std::string ErrorOf(const std::string& text) {
+// The error of reading the text (with `simulate`, as the programs do: the default trajectory too;
+// without, ParseModelFile alone), or "(accepted)".
+std::string ErrorOf(const std::string& text, bool simulate = true) {
   try {
-    ParseModelText(text, "m.toml");
+    if (simulate) {
+      ParseModelText(text, "m.toml");
+    } else {
+      ParseModelFile(text, "m.toml");
+    }
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -332,6 +338,42 @@ TEST_CASE("entries of one matrix do not affect each other or later evaluations",
   CHECK(first(1, 1) == -0.5);
   CHECK(first == again);
   CHECK(x(1) == 3.0);
+}
+
+// Malformed expressions, listed and drawn at random from operator and operand tokens: each is refused
+// naming the file, line, key and expression, with a reason (never muParser's bare "Internal error"),
+// or loads; none escapes as another exception.
+TEST_CASE("malformed expressions are refused naming the key and the expression", "[model_file]") {
+  using Catch::Matchers::Contains;
+  const std::string where = "m.toml:6: flow.phi[1][1]: \"";
+  auto check = [&](const std::string& expr, bool must_fail) {
+    INFO(expr);
+    const std::string error = ErrorOf(Replace(kGood, "\"-x\"]]", "\"" + expr + "\"]]"), false);
+    if (must_fail) CHECK(error != "(accepted)");
+    if (error == "(accepted)") return;
+    CHECK_THAT(error, Contains(where + expr + "\": "));
+    CHECK_THAT(error, !Contains("Internal error"));
+    CHECK(error.size() > where.size() + expr.size() + 12);  // a reason follows the expression
+  };
+  for (const std::string bad :
+       {"v++", "v--", "-", "+", "v+++x", "v---x", "++v", "--v", "v+", "v*", "*v", "v^", "(v", "v)", "((v)",
+        "v)(", "()", "x ? v", "x ? v :", "? v : x", "x : v", "v,", ",v", "v,,x", "sin()", "sin(v,x)",
+        "min()", "v x", "1 2", "sin", "sin v", "1e", "!", "!v", "v!", "$", "_", "v;x", "v # x", "x ?? v",
+        "&&v", "v&&", "v||", "v <", "< v", "v ==", "v !=", "v >= ", "x ? : v", "v ^^ 2", "v**2", "1..2",
+        "v(1)", "2(v)"}) {
+    check(bad, true);
+  }
+  const std::vector<std::string> tokens{"v",  "x", "1",  "2.5", "+",  "-",  "*",    "/",    "^",  "(",  ")",
+                                        "?",  ":", ",",  "&&",  "||", "<",  "<=",   "==",   "!=", "++", "--",
+                                        " ",  "e", "1e", "!",   "sin(", "min(", "_pi", "abs("};
+  std::mt19937 engine(20261125);  // its output sequence is fixed by the standard
+  for (int i = 0; i < 400; ++i) {
+    std::string expr;
+    const int length = 1 + static_cast<int>(engine() % 6);
+    for (int t = 0; t < length; ++t) expr += tokens[engine() % tokens.size()];
+    if (expr.find_first_not_of(' ') == std::string::npos) continue;
+    check(expr, false);
+  }
 }
 
 }  // namespace

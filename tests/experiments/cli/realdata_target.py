@@ -40,10 +40,10 @@ def simulate(hysid, d, r, x0):
     subprocess.run([hysid, "simulate", "--x0", f"{x0[0]},{x0[1]}", "--out", traj, "--jumps-out", jumps],
                    check=True, capture_output=True)
     with open(traj) as f:
-        rows = [(float(r["t"]), int(r["j"]), float(r["x1"]), float(r["x2"])) for r in csv.DictReader(f)]
+        rows = [(float(r["t"]), int(r["j"]), float(r["true_x"]), float(r["true_v"])) for r in csv.DictReader(f)]
     with open(jumps) as f:
-        events = [(float(r["t_jump"]), (float(r["pre_x1"]), float(r["pre_x2"])),
-                   (float(r["post_x1"]), float(r["post_x2"]))) for r in csv.DictReader(f)]
+        events = [(float(r["t_jump"]), (float(r["pre_x"]), float(r["pre_v"])),
+                   (float(r["post_x"]), float(r["post_v"]))) for r in csv.DictReader(f)]
     return rows, events
 
 

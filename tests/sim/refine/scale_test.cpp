@@ -78,6 +78,45 @@ TEST_CASE("the recursive estimate does not depend on the units of state and time
   }
 }
 
+// The paper detector's τ̂0 is absolute and its bound L̂ comes from the identified rows alone, so it is
+// not unit-free. Whatever the units, it never says ok about a wrong result: in each of the four units
+// either every status is ok with the same detections and the estimates scaled, or a status is not ok
+// and says why. A uniform state scaling by 1e-6 keeps it exact; time × 1e6 with v × 1e-6 (the known
+// row x' = v then dominates the bound) and the states 1e6 times larger (every sample above τ̂0) do not.
+TEST_CASE("the paper detector in other units: the same result, or a status that is not ok with a reason",
+          "[identify][scale]") {
+  const Run run;
+  IdentifierSettings settings = Settings("rls");
+  settings.detector.kind = DetectorKind::kPaper;
+  const IdentifyResult base = Identify(run.model, run.y, run.grid.dt, settings);
+  REQUIRE(base.flow_status == EstimatorStatus::kOk);
+  REQUIRE(base.jump_status == EstimatorStatus::kOk);
+  REQUIRE(base.jumps_detected == 14);
+  int same = 0, refused = 0;
+  for (const double f : {1e-6, 1e6}) {
+    for (const bool time : {false, true}) {
+      INFO((time ? "time x " : "state x ") << f);
+      const Scaled sc = time ? TimeScaled(run.y, run.grid.dt, f) : StateScaled(run.y, run.grid.dt, f);
+      const IdentifyResult r = Identify(run.model, sc.y, sc.dt, settings);
+      if (r.flow_status == EstimatorStatus::kOk && r.jump_status == EstimatorStatus::kOk) {
+        ++same;
+        CHECK(r.gamma == base.gamma);
+        CheckScaled(r.alpha_hat, base.alpha_hat, sc.alpha_factor, 1e-6, 0.0);
+        CheckScaled(r.beta_hat, base.beta_hat, sc.beta_factor, 1e-6, 1e-9);
+        continue;
+      }
+      ++refused;
+      CHECK(r.gamma != base.gamma);  // a status that is not ok only where the detections differ
+      const std::string why = r.flow_status != EstimatorStatus::kOk ? r.flow_reason : r.jump_reason;
+      CHECK_THAT(why, Catch::Matchers::Contains("the paper detector"));
+      if (time && f == 1e6) CHECK_THAT(r.jump_reason, Catch::Matchers::Contains("bound cannot hold"));
+      if (!time && f == 1e6) CHECK_THAT(r.flow_reason, Catch::Matchers::Contains("took every sample"));
+    }
+  }
+  CHECK(same == 1);  // state × 1e-6
+  CHECK(refused == 3);
+}
+
 namespace {
 
 // The refinement of one uniform run at k·dt.
