@@ -97,6 +97,7 @@ def files():
     }
     f.update(safety_files())
     f.update(LIMITS_FILES)
+    f.update(INPUTS_FILES)
     f.update(TRUTH_FILES)
     return f
 
@@ -288,7 +289,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES + TRUTH_CASES + MEASURED_CASES
+    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -334,6 +335,31 @@ LIMITS_CASES = [
     ("identify: --param-bound LO not a number", ["identify", "--param-bound", "a=low,7", "--data", "sim.csv"]),
     ("crlb: --param-bound of a known constant", ["crlb", "--param-bound", "alpha_x=0,2"]),
     ("crlb: --param-bound twice", ["crlb", "--param-bound", "a=0,10", "--param-bound", "a=1,9"]),
+]
+
+# Measured inputs: the driven oscillator's model file, input files and data without the input column.
+DRIVEN = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples", "driven-oscillator",
+                           "driven-oscillator.toml"), encoding="utf-8").read()
+INPUTS_FILES = {
+    "driven.toml": DRIVEN,
+    "driven-nodefault.toml": re.sub(r"\ninput_defaults = [^\n]*", "", DRIVEN, count=1),
+    "u-short.csv": "t,u\n0,0\n1,1\n2,0\n",
+    "u-nocol.csv": "t,w\n0,0\n50,1\n",
+    "u-missing.csv": "t,u\n0,0\n1,\n50,1\n",
+    "nou.csv": "t,y1,y2\n0,0,0\n0.001,0,0\n0.002,0,0\n",
+}
+INPUTS_CASES = [
+    ("simulate --inputs: a model without inputs", ["simulate", "--inputs", "u-short.csv"] + SIM),
+    ("simulate --inputs: no column for the input", ["simulate", "--model-file", "driven.toml", "--inputs",
+                                                    "u-nocol.csv"] + SIM),
+    ("simulate --inputs: a missing input cell", ["simulate", "--model-file", "driven.toml", "--inputs",
+                                                 "u-missing.csv"] + SIM),
+    ("simulate --inputs: shorter than the run", ["simulate", "--model-file", "driven.toml", "--inputs",
+                                                 "u-short.csv"] + SIM),
+    ("simulate: an input without a default and no --inputs", ["simulate", "--model-file",
+                                                              "driven-nodefault.toml"] + SIM),
+    ("identify: a model input missing from the data", ["identify", "--model-file", "driven.toml", "--data",
+                                                       "nou.csv"]),
 ]
 
 # The truth of simulated data, files of several without samples, malformed expressions.
@@ -387,6 +413,8 @@ SUBJECTS = {
     "merge: not a run directory": "o:",
     **SAFETY_SUBJECTS,
     "model file: beyond the size limit": "rowsdup.toml",
+    "simulate: an input without a default and no --inputs": "--inputs",
+    "identify: a model input missing from the data": "nou.csv",
     "identify: the sidecars of two --data files disagree": "simb.json: parameters.a",
     "identify: a second --data file with a header only": "headeronly.csv",
     "model file: \"v++\" in flow.phi (muParser's internal error)": "plusplus.toml:21: flow.phi[0][0]",

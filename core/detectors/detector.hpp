@@ -41,6 +41,8 @@ struct SampleContext {
   const Vec* sigma = nullptr;           // measurement noise σ per component, when known
   // Accuracy of the data apart from σ: component j off by up to data_rtol·|ξ_j| + data_atol.
   double data_rtol = 0.0, data_atol = 0.0;
+  // A model with inputs: the time and inputs u of ξ(t−δt) and of ξ(t) (u null without inputs).
+  Context at_prev{}, at_cur{};
 };
 
 struct Decision {

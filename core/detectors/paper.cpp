@@ -19,6 +19,7 @@ namespace hysid {
 }
 
 BoundMode ResolveBoundMode(BoundRule bound, const Model& model) {
+  if (model.input_size() > 0) return BoundMode::kHomogeneous;  // f(0, u) ≠ 0 in general
   if (bound == BoundRule::kPaper) return BoundMode::kPaper;
   if (bound == BoundRule::kHomogeneous) return BoundMode::kHomogeneous;
   const int n = model.state_size();
@@ -38,9 +39,11 @@ double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
 
 namespace {
 
-// sup over `points` of ‖J̄_rows(ξ, α)‖₂ for the given rows of the flow (homogeneous: with f(0)).
+// sup over `points` of ‖J̄_rows(ξ, α)‖₂ for the given rows of the flow (homogeneous: with f(0)), every
+// point at the context `at`.
 double SupRowsJacobianNorm(const Model& model, const std::vector<int>& rows, ConstVecRef alpha,
-                           BoundMode mode, const Eigen::Ref<const Mat>& points, JacobianScratch& scratch) {
+                           BoundMode mode, const Eigen::Ref<const Mat>& points, JacobianScratch& scratch,
+                           const Context& at) {
   const int n = model.state_size();
   const int nr = static_cast<int>(rows.size());
   Mat& jac = scratch.jac;
@@ -51,12 +54,12 @@ double SupRowsJacobianNorm(const Model& model, const std::vector<int>& rows, Con
   f0.resize(n);
   if (mode == BoundMode::kHomogeneous) {
     scratch.zero.setZero(n);
-    model.Flow(scratch.zero, alpha, f0);
+    model.Flow(scratch.zero, alpha, f0, at);
   }
   const Eigen::Index count = model.spec().flow_jacobian_constant ? 1 : points.cols();
   double sup = 0.0;
   for (Eigen::Index k = 0; k < count; ++k) {
-    model.FlowJacobian(points.col(k), alpha, jac);
+    model.FlowJacobian(points.col(k), alpha, jac, at);
     for (int i = 0; i < nr; ++i) {
       reduced.row(i).head(n) = jac.row(rows[static_cast<std::size_t>(i)]);
       if (mode == BoundMode::kHomogeneous) reduced(i, n) = f0[rows[static_cast<std::size_t>(i)]];
@@ -70,18 +73,25 @@ double SupRowsJacobianNorm(const Model& model, const std::vector<int>& rows, Con
 
 double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
                        const Eigen::Ref<const Mat>& points, JacobianScratch& scratch) {
-  return SupRowsJacobianNorm(model, model.spec().flow_rows, alpha, mode, points, scratch);
+  return SupRowsJacobianNorm(model, model.spec().flow_rows, alpha, mode, points, scratch, Context{});
+}
+
+double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
+                       const Eigen::Ref<const Mat>& points, JacobianScratch& scratch, const Context& at) {
+  return SupRowsJacobianNorm(model, model.spec().flow_rows, alpha, mode, points, scratch, at);
 }
 
 std::string CheckPaperBound(const Model& model, ConstVecRef alpha, const DetectorSettings& settings,
                             const Eigen::Ref<const Mat>& points) {
-  if (points.cols() == 0 || !alpha.allFinite()) return "";
+  // A model with inputs: the bound is taken per pair with its inputs (Classify); the hull's points keep no u.
+  if (points.cols() == 0 || !alpha.allFinite() || model.input_size() > 0) return "";
   const BoundMode mode = ResolveBoundMode(settings.bound, model);
   std::vector<int> all(static_cast<std::size_t>(model.state_size()));
   for (int i = 0; i < model.state_size(); ++i) all[static_cast<std::size_t>(i)] = i;
   JacobianScratch scratch;
-  const double identified = SupRowsJacobianNorm(model, model.spec().flow_rows, alpha, mode, points, scratch);
-  const double whole = SupRowsJacobianNorm(model, all, alpha, mode, points, scratch);
+  const double identified =
+      SupRowsJacobianNorm(model, model.spec().flow_rows, alpha, mode, points, scratch, Context{});
+  const double whole = SupRowsJacobianNorm(model, all, alpha, mode, points, scratch, Context{});
   if (!(whole > settings.r * identified)) return "";
   return fmt::format(
       "the paper detector's bound cannot hold: the whole flow's Jacobian norm {:.3g} exceeds r L^ = {:.3g} "
@@ -143,7 +153,8 @@ double VertexJacobianSup::Sup(ConstVecRef alpha) {
 PaperDetector::PaperDetector(const DetectorSettings& settings, const Model& model)
     : settings_(settings),
       mode_(ResolveBoundMode(settings.bound, model)),
-      constant_jacobian_(model.spec().flow_jacobian_constant),
+      constant_jacobian_(model.spec().flow_jacobian_constant && model.input_size() == 0),
+      inputs_(model.input_size() > 0),
       vertex_sup_(model, mode_) {
   int unknowns = 0;
   for (const Parameter& p : model.spec().alpha) unknowns += p.known ? 0 : 1;
@@ -193,6 +204,7 @@ Decision PaperDetector::Classify(const SampleContext& c) {
     return ClassifyConstant(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat.data(), c.version,
                             c.flow_updates);
   }
+  if (inputs_) return ClassifyWithInputs(c);
   Decision d;
   double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
   Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
@@ -218,6 +230,21 @@ Decision PaperDetector::Classify(const SampleContext& c) {
   const double half_r = 0.5 * settings_.r;
   d.gamma = d2 > half_r * half_r * l2 * s * s;
   d.threshold = half_r * std::sqrt(l2) * s;
+  return d;
+}
+
+// L̂ from the pair alone, each sample at its own time and inputs (the header's rule for inputs).
+Decision PaperDetector::ClassifyWithInputs(const SampleContext& c) {
+  Decision d;
+  double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
+  Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
+  if (WarmUp(c.flow_updates, &d)) return d;
+  const double l = std::max(SupJacobianNorm(*c.model, c.alpha_hat, mode_, c.prev, scratch_, c.at_prev),
+                            SupJacobianNorm(*c.model, c.alpha_hat, mode_, c.cur, scratch_, c.at_cur));
+  const double s = cur_norm + prev_norm;
+  const double half_r = 0.5 * settings_.r;
+  d.gamma = d2 > half_r * half_r * l * l * s * s;
+  d.threshold = half_r * l * s;
   return d;
 }
 

@@ -13,6 +13,9 @@
 // The sup over Ĉ: constant Jacobians (ModelSpec::flow_jacobian_constant) need one evaluation; others
 // are evaluated at the vertices of Ĉ (the hull of Λ) and at ξ(t−δt), ξ(t) — the exact sup for a
 // norm convex in ξ over a polytope, an approximation otherwise.
+// A model with inputs u: always homogeneous, f̂_r(0) = f̂_r(0, u) moves with u, so L̂ is the larger of
+// its values at ξ(t−δt) and ξ(t), each with its own u (‖f(ξ, u)‖ ≤ L̂‖ξ̄‖ along the pair for a flow
+// affine in ξ); the vertices of Ĉ, whose u is not kept, are not used.
 #pragma once
 
 #include <cmath>
@@ -39,6 +42,9 @@ struct JacobianScratch {
 };
 double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
                        const Eigen::Ref<const Mat>& points, JacobianScratch& scratch);
+// The same with every point evaluated at the context `at` (a model with inputs).
+double SupJacobianNorm(const Model& model, ConstVecRef alpha, BoundMode mode,
+                       const Eigen::Ref<const Mat>& points, JacobianScratch& scratch, const Context& at);
 
 // Whether the paper's bound can hold for the whole flow: τ̂ ≈ r·L̂·‖ξ‖ covers ‖f̂(ξ)‖ ≤ ‖∂f̂/∂ξ‖·‖ξ‖
 // only while the Jacobian of every row (known rows included) is within r·L̂, L̂ taken from the
@@ -203,10 +209,12 @@ class PaperDetector final : public JumpDetector {
     }
   }
   double SpectralLinearNormSquared(const double* alpha);
+  Decision ClassifyWithInputs(const SampleContext& c);
 
   const DetectorSettings settings_;  // reads r, tau0 and bound
   BoundMode mode_;
   bool constant_jacobian_;
+  bool inputs_;  // the model has inputs (ClassifyWithInputs)
   int unknowns_;
   // Constant Jacobians are linear in α: vec(J̄_r(α)) = G α, G precomputed (rows × |α|) from unit α.
   Mat g_;

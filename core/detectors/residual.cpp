@@ -93,14 +93,15 @@ double ResidualDetector::QuantileAt(long nu) {
 
 void ResidualDetector::NoiseVariance(const SampleContext& c) {
   NoiseVariance(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat, c.version, c.sigma, c.data_rtol,
-                c.data_atol);
+                c.data_atol, c.at_prev, c.at_cur);
 }
 
 // V_i = Σ_j (σ_j² + d_j(t)²) a_ij² + (σ_j² + d_j(t−δt)²) b_ij², a = e_i − (δt/2)J_i(ξ(t)),
 // b = e_i + (δt/2)J_i(ξ(t−δt)), d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0 when σ is not given).
 void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_data, Eigen::Index n,
                                      double dt, ConstVecRef alpha_hat, long version, const Vec* sigma,
-                                     double data_rtol, double data_atol) {
+                                     double data_rtol, double data_atol, const Context& at_prev,
+                                     const Context& at_cur) {
   const ConstVecMap prev(prev_data, n), cur(cur_data, n);
   const bool have_sigma = sigma != nullptr && sigma->size() == n;
   auto var = [&](Eigen::Index j, double x) {
@@ -113,7 +114,7 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
     // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version); the same at both
     // samples.
     if (!have_jac_ || version != jac_version_) {
-      model_.FlowJacobian(cur, alpha_hat, jac_cur_);
+      model_.FlowJacobian(cur, alpha_hat, jac_cur_, at_cur);
       jac_version_ = version;
       have_jac_ = true;
     }
@@ -121,12 +122,14 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
   } else {
     // φ(ξ(t−δt)) was ξ(t) of the previous call: reuse its Jacobian (α̂ moved by one update since,
     // a negligible change in an O(δt) correction of the variance).
+    // With inputs the previous Jacobian was at another u only if the samples are not consecutive,
+    // which the state comparison detects as well.
     if (have_jac_ && jac_at_ == prev) {
       jac_prev_.swap(jac_cur_);
     } else {
-      model_.FlowJacobian(prev, alpha_hat, jac_prev_);
+      model_.FlowJacobian(prev, alpha_hat, jac_prev_, at_prev);
     }
-    model_.FlowJacobian(cur, alpha_hat, jac_cur_);
+    model_.FlowJacobian(cur, alpha_hat, jac_cur_, at_cur);
     jac_at_ = cur;
     have_jac_ = true;
   }

@@ -134,7 +134,8 @@ class ResidualDetector final : public JumpDetector {
   double QuantileAt(long nu);
   void NoiseVariance(const SampleContext& c);
   void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
-                     long version, const Vec* sigma, double data_rtol, double data_atol);
+                     long version, const Vec* sigma, double data_rtol, double data_atol,
+                     const Context& at_prev = {}, const Context& at_cur = {});
   // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); stores what
   // UpdateScale needs.
   [[gnu::always_inline]] double RowStatistic(std::size_t i, double rho, double lev, double magnitude,
@@ -178,8 +179,8 @@ class ResidualDetector final : public JumpDetector {
 
   Model model_;
   const DetectorSettings settings_;  // reads false_alarm
-  std::vector<int> rows_;     // identified state rows
-  std::vector<int> unknown_;  // unknown α columns (columns of flow_phi)
+  std::vector<int> rows_;            // identified state rows
+  std::vector<int> unknown_;         // unknown α columns (columns of flow_phi)
   int unknowns_ = 0;
   double kappa_;  // E[min(Z², kClip²)], Z ~ N(0, 1)
   // Quantile cache on the ν grid.

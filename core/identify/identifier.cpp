@@ -30,6 +30,24 @@ Vec Prior(const Vec& given, const RegressionLayout& layout, const char* field) {
   return given;
 }
 
+// What a model with inputs cannot be identified with: the noise shapes of gtls and frisch and the
+// jump localiser integrate or differentiate the flow without the inputs between samples.
+void CheckInputSettings(const Model& m, const IdentifierSettings& s) {
+  for (const auto& [field, e] :
+       {std::pair{"flow_estimator", &s.flow_estimator}, std::pair{"jump_estimator", &s.jump_estimator}}) {
+    if (e->NeedsNoiseShape() && e->noise_shape.size() == 0) {
+      throw std::invalid_argument(fmt::format(
+          "IdentifierSettings::{}: '{}' needs a noise shape, which is not derived for model '{}' with inputs "
+          "(give noise_shape, or use rls)",
+          field, ToString(e->kind), m.name()));
+    }
+  }
+  if (s.localize) {
+    throw std::invalid_argument(
+        fmt::format("IdentifierSettings::localize: not available for model '{}' with inputs", m.name()));
+  }
+}
+
 // Settings with the noise shapes filled at the model's default state (Identifier's constructor).
 IdentifierSettings ResolvedAtDefault(const Model& m, double dt, const IdentifierSettings& s) {
   if (!s.flow_estimator.NeedsNoiseShape() && !s.jump_estimator.NeedsNoiseShape()) return s;
@@ -106,7 +124,10 @@ struct Identifier::State {
         y(builder.flow_layout().rows.size()),
         psi(builder.jump_layout().rows.size(), builder.jump_layout().unknown.size()),
         yj(builder.jump_layout().rows.size()),
-        localizer(m) {
+        localizer(m),
+        inputs(m.input_size() > 0),
+        prev_u(m.input_size()),
+        cur_u(m.input_size()) {
     alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
     block_phi.resize(std::size_t(kFeedBlock) * builder.flow_layout().unknown.size());
     block_y.resize(std::size_t(kFeedBlock));
@@ -114,7 +135,7 @@ struct Identifier::State {
     // for α on one identified row, and with it the paper detector on a model with a constant flow
     // Jacobian. Same arithmetic in the same order (tests/core/identify/identifier_test.cpp checks
     // bit-equality).
-    if (s.direct_calls && builder.flow_layout().rows.size() == 1) {
+    if (s.direct_calls && builder.flow_layout().rows.size() == 1 && !inputs) {
       rls = dynamic_cast<Rls*>(flow.get());
       integral = dynamic_cast<IntegralLs*>(flow.get());
       if (rls != nullptr || integral != nullptr) {
@@ -180,6 +201,12 @@ struct Identifier::State {
   long samples = 0;
   long jumps = 0;
   long localized = 0;
+  // A model with inputs: the time and u of the previous and the current sample.
+  bool inputs = false;
+  Vec prev_u, cur_u;
+  double prev_t = 0.0, cur_t = 0.0;
+  Context PrevAt() const { return {.t = prev_t, .u = prev_u.data()}; }
+  Context CurAt() const { return {.t = cur_t, .u = cur_u.data()}; }
 };
 
 Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& settings) {
@@ -191,6 +218,7 @@ Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& 
     throw std::invalid_argument(fmt::format("data_rtol = {}, data_atol = {}: must be finite and >= 0",
                                             settings.data_rtol, settings.data_atol));
   }
+  if (model.input_size() > 0) CheckInputSettings(model, settings);
   s_ = std::make_unique<State>(model, dt, ResolvedAtDefault(model, dt, settings));
 }
 Identifier::~Identifier() = default;
@@ -209,7 +237,9 @@ void Identifier::AfterFlowUpdate(State& s, const double* theta) {
 
 // γ = 1: the jump regression (at the located instant when asked and found), β̂, Γ.
 void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
-  if (s.settings.localize && s.localizer.Locate(s.prev, x, s.dt, alpha_class, &s.location)) {
+  if (s.inputs) {
+    s.builder.Jump(s.prev, x, s.psi, s.yj, s.PrevAt());
+  } else if (s.settings.localize && s.localizer.Locate(s.prev, x, s.dt, alpha_class, &s.location)) {
     s.builder.Jump(s.location.pre, s.location.post, s.psi, s.yj);
     ++s.localized;
   } else {
@@ -225,22 +255,38 @@ void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
   if (s.settings.sets) s.jump_set.Add(s.prev);
 }
 
-Decision Identifier::Step(ConstVecRef x) { return Advance(x, nullptr); }
+Decision Identifier::Step(ConstVecRef x) { return Advance(x, nullptr, nullptr); }
 
-Decision Identifier::Step(ConstVecRef x, bool gamma) { return Advance(x, &gamma); }
+Decision Identifier::Step(ConstVecRef x, bool gamma) { return Advance(x, &gamma, nullptr); }
 
-// One sample; `given` (may be null) replaces the detector's decision.
-Decision Identifier::Advance(ConstVecRef x, const bool* given) {
+Decision Identifier::Step(ConstVecRef x, const Context& at) { return Advance(x, nullptr, &at); }
+
+Decision Identifier::Step(ConstVecRef x, bool gamma, const Context& at) { return Advance(x, &gamma, &at); }
+
+// One sample; `given` (may be null) replaces the detector's decision; `at` (may be null without inputs)
+// is its context.
+Decision Identifier::Advance(ConstVecRef x, const bool* given, const Context* at) {
   State& s = *s_;
   if (x.size() != s.prev.size()) {
     throw std::invalid_argument(
         fmt::format("Identifier::Step: sample has {} entries; model '{}' has {} states", x.size(),
                     s.model.name(), s.prev.size()));
   }
+  if (s.inputs) {
+    if (at == nullptr || at->u == nullptr) {
+      throw std::invalid_argument(
+          fmt::format("Identifier::Step: model '{}' has inputs; each sample needs its context (t and u)",
+                      s.model.name()));
+    }
+    s.cur_t = at->t;
+    s.cur_u = Eigen::Map<const Vec>(at->u, s.cur_u.size());
+  }
   if (!s.has_prev) {
     ++s.samples;
     s.prev = x;
     s.has_prev = true;
+    s.prev_t = s.cur_t;
+    s.prev_u.swap(s.cur_u);
     return {};
   }
   if (s.row_block != nullptr && given == nullptr) {  // the row block counts the sample
@@ -251,9 +297,13 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given) {
   }
   // Several identified rows, another estimator, or given labels: the interfaces throughout.
   ++s.samples;
-  s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
+  if (s.inputs) {
+    s.builder.Flow(s.prev, x, s.dt, s.phi, s.y, s.PrevAt(), s.CurAt());
+  } else {
+    s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
+  }
   const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
-  const SampleContext c = Context(s, x.data(), s.phi.data(), s.y.data(), alpha_class);
+  const SampleContext c = SampleContextOf(s, x.data(), s.phi.data(), s.y.data(), alpha_class);
   Decision d;
   if (given != nullptr) {
     d.gamma = *given;
@@ -269,13 +319,15 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given) {
   }
   if (given == nullptr) s.detector->Observe(c, d);
   s.prev = x;
+  s.prev_t = s.cur_t;
+  s.prev_u.swap(s.cur_u);
   return d;
 }
 
 // What the detector sees of sample x after s.prev, with the flow regression (phi: rows × |u|
 // column-major, y: rows) already built.
-SampleContext Identifier::Context(State& s, const double* x, const double* phi, const double* y,
-                                  const Vec& alpha_class) {
+SampleContext Identifier::SampleContextOf(State& s, const double* x, const double* phi, const double* y,
+                                          const Vec& alpha_class) {
   const Eigen::Index n = s.prev.size(), rows = s.phi.rows(), u = s.phi.cols();
   return SampleContext{.model = &s.model,
                        .dt = s.dt,
@@ -291,7 +343,9 @@ SampleContext Identifier::Context(State& s, const double* x, const double* phi, 
                        .flow_set = s.settings.sets ? &s.flow_set : nullptr,
                        .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
                        .data_rtol = s.settings.data_rtol,
-                       .data_atol = s.settings.data_atol};
+                       .data_atol = s.settings.data_atol,
+                       .at_prev = s.inputs ? s.PrevAt() : Context{},
+                       .at_cur = s.inputs ? s.CurAt() : Context{}};
 }
 
 // One identified row estimated by RLS or integral (E, s.rls or s.integral set), for `count` consecutive
@@ -351,7 +405,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
           s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
       update(d);
     } else {
-      const SampleContext c = Context(s, x, phi + k * u, y + k, alpha_class);
+      const SampleContext c = SampleContextOf(s, x, phi + k * u, y + k, alpha_class);
       d = s.detector->Classify(c);
       update(d);
       s.detector->Observe(c, d);
@@ -384,6 +438,11 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
     throw std::invalid_argument(
         fmt::format("Identifier::Feed: samples have {} rows; model '{}' has {} states", samples.rows(),
                     s.model.name(), n));
+  }
+  if (s.inputs) {
+    throw std::invalid_argument(
+        fmt::format("Identifier::Feed: model '{}' has inputs; feed its samples with Step and their contexts",
+                    s.model.name()));
   }
   Eigen::Index k = 0;
   auto step = [&](Eigen::Index col) {
@@ -488,10 +547,18 @@ IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double d
   return resolved;
 }
 
+// Sample k's context for a model with inputs: t_k (times, else kδt) and column k of the inputs.
+Context SampleAt(const IdentifyOptions& options, double dt, Eigen::Index k) {
+  return {
+      .t = options.times.empty() ? static_cast<double>(k) * dt : options.times[static_cast<std::size_t>(k)],
+      .u = options.inputs.col(k).data()};
+}
+
 // The RMS of each unknown's flow (jump) regression column over up to 256 evenly spaced pairs of
 // consecutive finite samples of y (flow rows at step dt); 1 for a column that is zero there. Scales
 // with the data: a column in units of ξ·δt gets its RMS in those units.
-void RegressorScales(const Model& model, const Mat& y, double dt, Vec* flow, Vec* jump) {
+void RegressorScales(const Model& model, const Mat& y, double dt, const IdentifyOptions& options, Vec* flow,
+                     Vec* jump) {
   RegressionBuilder builder(model);
   const RegressionLayout& fl = builder.flow_layout();
   const RegressionLayout& jl = builder.jump_layout();
@@ -503,8 +570,14 @@ void RegressorScales(const Model& model, const Mat& y, double dt, Vec* flow, Vec
   for (Eigen::Index i = 0; i < count; ++i) {
     const Eigen::Index k = 1 + (count > 1 ? i * (pairs - 1) / (count - 1) : 0);
     if (!y.col(k - 1).allFinite() || !y.col(k).allFinite()) continue;
-    builder.Flow(y.col(k - 1), y.col(k), dt, phi, fy);
-    builder.Jump(y.col(k - 1), y.col(k), psi, jy);
+    if (model.input_size() > 0) {
+      const Context before = SampleAt(options, dt, k - 1), after = SampleAt(options, dt, k);
+      builder.Flow(y.col(k - 1), y.col(k), dt, phi, fy, before, after);
+      builder.Jump(y.col(k - 1), y.col(k), psi, jy, before);
+    } else {
+      builder.Flow(y.col(k - 1), y.col(k), dt, phi, fy);
+      builder.Jump(y.col(k - 1), y.col(k), psi, jy);
+    }
     if (phi.allFinite()) {
       f2 += phi.colwise().squaredNorm().transpose();
       f_rows += static_cast<double>(phi.rows());
@@ -524,10 +597,11 @@ void RegressorScales(const Model& model, const Mat& y, double dt, Vec* flow, Vec
 }
 
 // Empty prior scales of the estimators filled from the data (RegressorScales).
-IdentifierSettings WithPriorScales(const Model& model, const Mat& y, double dt, IdentifierSettings s) {
+IdentifierSettings WithPriorScales(const Model& model, const Mat& y, double dt,
+                                   const IdentifyOptions& options, IdentifierSettings s) {
   if (y.cols() < 2 || (s.flow_estimator.prior_scale.size() && s.jump_estimator.prior_scale.size())) return s;
   Vec flow, jump;
-  RegressorScales(model, y, dt, &flow, &jump);
+  RegressorScales(model, y, dt, options, &flow, &jump);
   if (s.flow_estimator.prior_scale.size() == 0) s.flow_estimator.prior_scale = flow;
   if (s.jump_estimator.prior_scale.size() == 0) s.jump_estimator.prior_scale = jump;
   return s;
@@ -547,7 +621,18 @@ bool AllFinite(const Mat& y) { return (y.array() * 0.0).sum() == 0.0; }
 // Irregular sampling, chains or non-finite columns: one Step per sample, with its own δt and a
 // Restart at each chain start.
 bool NeedsChains(const Mat& y, const IdentifyOptions& options) {
-  return !options.times.empty() || !options.chain_start.empty() || !AllFinite(y);
+  return !options.times.empty() || !options.chain_start.empty() || options.inputs.rows() > 0 || !AllFinite(y);
+}
+
+// Sample k fed with its label when given, and its context when there are inputs.
+Decision StepAt(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index k) {
+  const bool labelled = !options.labels.empty();
+  const bool gamma = labelled && options.labels[static_cast<std::size_t>(k)] != 0;
+  if (options.inputs.rows() > 0) {
+    const Context at = SampleAt(options, dt, k);
+    return labelled ? id.Step(y.col(k), gamma, at) : id.Step(y.col(k), at);
+  }
+  return labelled ? id.Step(y.col(k), gamma) : id.Step(y.col(k));
 }
 
 // A column with a non-finite entry is a missing sample: skipped, and the chain goes on (the next pair
@@ -574,7 +659,7 @@ void ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& o
       r->chains += open ? 0 : 1;
       open = true;
       last = k;
-      Record(k, options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[u] != 0), r);
+      Record(k, StepAt(id, y, dt, options, k), r);
     }
     if (!options.trace) continue;
     r->alpha_trace.col(k) = id.alpha_hat();
@@ -681,6 +766,13 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     throw std::invalid_argument(fmt::format("IdentifyOptions::labels has {} entries; the data has {} samples",
                                             options.labels.size(), y.cols()));
   }
+  if (options.inputs.rows() != model.input_size() ||
+      (model.input_size() > 0 && (options.inputs.cols() != y.cols() || !options.inputs.allFinite()))) {
+    throw std::invalid_argument(fmt::format(
+        "IdentifyOptions::inputs is {} × {}{}; model '{}' has {} inputs and the data {} samples",
+        options.inputs.rows(), options.inputs.cols(), options.inputs.allFinite() ? "" : " (not finite)",
+        model.name(), model.input_size(), y.cols()));
+  }
   for (const auto& [what, size] :
        {std::pair{"times", options.times.size()}, std::pair{"chain_start", options.chain_start.size()}}) {
     if (size != 0 && static_cast<Eigen::Index>(size) != y.cols()) {
@@ -695,7 +787,9 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     r.sets_skipped = fmt::format("{} states exceed the limit of {} {} (raise it with {}=N)",
                                  model.state_size(), max, kMaxHullDimension.what, kMaxHullDimension.variable);
   }
-  Identifier id(model, dt, WithPriorScales(model, y, dt, ResolveNoiseShapes(model, y, dt, bounded, &r)));
+  if (model.input_size() > 0) CheckInputSettings(model, bounded);  // before the noise shapes
+  Identifier id(model, dt,
+                WithPriorScales(model, y, dt, options, ResolveNoiseShapes(model, y, dt, bounded, &r)));
   const auto count = static_cast<std::size_t>(y.cols());
   r.gamma.resize(count);
   if (options.statistics) {

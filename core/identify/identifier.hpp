@@ -95,10 +95,17 @@ class Identifier {
   Decision Step(ConstVecRef x);
   // The same with γ(t) given (e.g. the true jump labels): the detector is not consulted.
   Decision Step(ConstVecRef x, bool gamma);
+  // A model with inputs: each sample with its context (its time and the measured inputs u(t); the
+  // values at ctx.u are copied, γ is the model's own). The flow regression takes φ at both samples
+  // of a pair with their own u, the jump regression ψ at the pre-jump sample's u, and the detector
+  // sees both contexts. Step without a context throws std::invalid_argument for such a model.
+  Decision Step(ConstVecRef x, const Context& at);
+  Decision Step(ConstVecRef x, bool gamma, const Context& at);
   // Feeds the columns of `samples` (n × K) in order: the same as Step on each, bit for bit, and
   // faster on the direct path (IdentifierSettings::direct_calls), which builds the flow regressions
   // of a block of samples at once (RegressionBuilder::FlowRows). `decisions`, unless null, receives
-  // the K decisions. Throws std::invalid_argument when samples.rows() is not the state size.
+  // the K decisions. Throws std::invalid_argument when samples.rows() is not the state size, and for
+  // a model with inputs (Step with a Context feeds those).
   void Feed(const ConstMatRef& samples, Decision* decisions);
   // Ends the stream: the newest sample joins Λ (the paper puts every ξ(t) in Λ until a jump moves it).
   void Finish();
@@ -136,12 +143,12 @@ class Identifier {
   static RowBlockFn ChooseRowBlock(int n, int u);
   template <class E>
   static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
-  static SampleContext Context(State& s, const double* x, const double* phi, const double* y,
-                               const Vec& alpha_class);
+  static SampleContext SampleContextOf(State& s, const double* x, const double* phi, const double* y,
+                                       const Vec& alpha_class);
   template <int P>
   [[gnu::always_inline]] static inline void AfterFlowUpdate(State& s, const double* theta);
   static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);
-  Decision Advance(ConstVecRef x, const bool* given);
+  Decision Advance(ConstVecRef x, const bool* given, const Context* at);
   std::unique_ptr<State> s_;
 };
 
@@ -162,6 +169,9 @@ struct IdentifyOptions {
   // column with a non-finite entry is a missing sample: skipped (γ = 0, statistic 0), and the chain
   // goes on, the next pair's step spanning it (from times, else the steps of δt counted).
   std::vector<std::uint8_t> chain_start{};
+  // The measured inputs u of a model with inputs (m × K, column k at sample k, finite), required for
+  // such a model; each sample is then fed with its context (t_k from times, else kδt; u column k).
+  Mat inputs{};
   // The paper detector: check at the end that its bound can hold for the whole flow (states of very
   // different scales break it: CheckPaperBound, core/detectors/paper.hpp); when it cannot, the jump
   // estimate is ill-conditioned with the reason. Sweeps, which count every detection against the

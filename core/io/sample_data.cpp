@@ -24,6 +24,7 @@ struct Columns {
   std::vector<int> state;
   int run = -1;
   int j = -1;
+  std::vector<int> input;  // SampleDataOptions::inputs, in that order
 };
 
 int FindColumn(const CsvTable& table, const std::string& name) {
@@ -92,7 +93,10 @@ std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, cons
   std::vector<int> state;
   const int cols = static_cast<int>(table.header.size());
   for (int col = 0; col < cols && static_cast<int>(state.size()) < state_size; ++col) {
-    if (col == c.time || col == c.run || col == c.j) continue;
+    if (col == c.time || col == c.run || col == c.j ||
+        std::find(c.input.begin(), c.input.end(), col) != c.input.end()) {
+      continue;
+    }
     const std::string& h = table.header[static_cast<std::size_t>(col)];
     if (h != "j" && h != "run" && !h.starts_with("true_")) state.push_back(col);
   }
@@ -122,6 +126,21 @@ Columns ResolveColumns(const CsvTable& table, int state_size, const SampleDataOp
     throw std::invalid_argument(
         fmt::format("{}:1: only a run column; need time + {} state columns", table.path, state_size));
   }
+  for (const std::string& name : options.inputs) {
+    c.input.push_back(table.Find(name));
+    if (c.input.back() < 0) {
+      throw std::invalid_argument(
+          fmt::format("{}:1: no column '{}' for the model's input of that name (the columns are {})",
+                      table.path, Abbreviated(name, 40), fmt::join(table.header, ",")));
+    }
+    if (c.input.back() == c.time ||
+        std::find(c.state.begin(), c.state.end(), c.input.back()) != c.state.end()) {
+      throw std::invalid_argument(
+          fmt::format("{}:1: SampleDataOptions::columns: column '{}' is the model's input '{}'; it cannot be "
+                      "the time or a state as well",
+                      table.path, Abbreviated(name, 40), Abbreviated(name, 40)));
+    }
+  }
   if (c.state.empty()) c.state = DefaultStateColumns(table, state_size, c, options.state_names);
   if (static_cast<int>(c.state.size()) < state_size) {
     throw std::invalid_argument(
@@ -144,6 +163,7 @@ void CheckRow(const CsvTable& table, const Columns& c, std::size_t r) {
         fmt::format("{}:{}: {}: the time is missing", table.path, line, ColumnName(table, c.time)));
   }
   std::vector<int> checked = c.state;
+  checked.insert(checked.end(), c.input.begin(), c.input.end());
   checked.push_back(c.time);
   for (int col : checked) {
     if (std::abs(cell(col)) > kMaxMagnitude) {  // false for NaN (a missing state cell)
@@ -211,7 +231,7 @@ class JumpCounter {
 
 // Appends the rows of one table to `out`: runs, missing rows left out, time order.
 void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::vector<double>& y,
-                 std::vector<int>& j) {
+                 std::vector<double>& u, std::vector<int>& j) {
   std::map<long, int> seen;  // run number -> its index in out.run_names
   long current = 0;
   int run_index = -1;
@@ -247,6 +267,7 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
     counter.Check(r);
     bool missing = false;
     for (int col : c.state) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
+    for (int col : c.input) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
     if (missing) {  // left out; the chain goes on (the gap rule below judges the step across it)
       if (out.missing_rows++ == 0) out.first_missing_line = table.line_of_row[r];
       out.missing.push_back({.run = run_index, .line = table.line_of_row[r], .t = table.columns[t_col][r]});
@@ -254,6 +275,7 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
     }
     out.t.push_back(table.columns[t_col][r]);
     for (int col : c.state) y.push_back(table.columns[static_cast<std::size_t>(col)][r]);
+    for (int col : c.input) u.push_back(table.columns[static_cast<std::size_t>(col)][r]);
     if (c.j >= 0) j.push_back(counter.Joined(r));
     out.run.push_back(run_index);
     out.chain_start.push_back(break_next ? 1 : 0);
@@ -310,7 +332,7 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
   }
   SampleData d;
   std::vector<std::string> paths;
-  std::vector<double> y;
+  std::vector<double> y, u;
   std::vector<int> j;
   bool all_j = true;
   for (const CsvTable& table : tables) {
@@ -320,9 +342,12 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
     std::vector<std::string> names;
     for (int col : c.state) names.push_back(table.header[static_cast<std::size_t>(col)]);
     if (d.state_columns.empty()) d.state_columns = names;
+    if (d.input_columns.empty()) {
+      for (int col : c.input) d.input_columns.push_back(table.header[static_cast<std::size_t>(col)]);
+    }
     const std::size_t before = d.t.size();
     const long missing_before = d.missing_rows;
-    AppendTable(table, c, d, y, j);
+    AppendTable(table, c, d, y, u, j);
     if (d.t.size() == before && tables.size() > 1) {  // one file of several is not left out silently
       const long rows = d.missing_rows - missing_before;
       throw std::invalid_argument(
@@ -343,6 +368,7 @@ SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_s
   }
   CutGaps(d.path, options, d);
   d.y = Eigen::Map<const Mat>(y.data(), state_size, k);
+  d.u = Eigen::Map<const Mat>(u.data(), static_cast<Eigen::Index>(options.inputs.size()), k);
   CheckStateScale(d);
   if (all_j) d.j = std::move(j);
   return d;

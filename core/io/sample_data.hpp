@@ -1,6 +1,8 @@
 // Measured samples read from CSV files for `hysid identify`: one or more runs of one system, each
 // cut into chains of consecutive samples.
 //
+// Inputs: the column of each name in SampleDataOptions::inputs (a model's measured inputs u), by
+// header; a missing input cell drops its row as a missing state cell does.
 // Columns: SampleDataOptions::columns when given (`t=NAME` the time column, `run=NAME` the run
 // column, the other entries the state columns in model order); otherwise time is the first column (the second
 // after a leading run column), the measured state is the columns named after the model's states
@@ -50,6 +52,10 @@ struct SampleDataOptions {
   // Column choice by header name: "t=NAME" (time), "run=NAME" (run column), the rest the states in
   // model order (exactly n of them when any is given). Empty: the default rule above.
   std::vector<std::string> columns{};
+  // The model's inputs (ModelSpec::inputs), each read from the column of its name (refused by name
+  // when the header has none); a row with a missing input cell is left out as one with a missing
+  // state cell. The default state rule skips these columns.
+  std::vector<std::string> inputs{};
   // A step longer than this (seconds) starts a new chain. 0: kDefaultGapFactor × the median step.
   double max_gap = 0.0;
   // The model's state names, for the default rule (empty: only y1..yn and the columns' order).
@@ -70,8 +76,10 @@ struct SampleData {
   double max_gap = 0.0;               // the maximum gap in use
   bool uniform = true;                // one run, one chain, every step within 1e-6 relative of the mean step
   Mat y;                              // n × K measured states (finite; rows with missing cells are dropped)
+  Mat u;                              // m × K measured inputs (SampleDataOptions::inputs), finite
   std::optional<std::vector<int>> j;  // ground-truth jump counter, when every file has one
   std::vector<std::string> state_columns;  // the header names used for the state
+  std::vector<std::string> input_columns;  // the header names used for the inputs
   std::vector<int> run;                    // per sample: its run (0-based)
   std::vector<std::uint8_t> chain_start;   // per sample: 1 where a chain starts (sample 0 included)
   std::vector<long> line;                  // per sample: its line in its file

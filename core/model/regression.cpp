@@ -68,6 +68,19 @@ void RegressionBuilder::Flow(const ConstVecRef& prev, const ConstVecRef& cur, do
     return;
   }
   EvaluatePhi(prev.data(), cur.data(), last_cur_.size());
+  FlowFromPhi(prev, cur, dt, phi, y);
+}
+
+void RegressionBuilder::Flow(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi, VecRef y,
+                             const Context& at_prev, const Context& at_cur) {
+  model_.Phi(prev, phi_prev_, at_prev);
+  model_.Phi(cur, phi_cur_, at_cur);
+  have_last_ = false;  // the x-only paths' φ at their last state no longer holds
+  FlowFromPhi(prev, cur, dt, phi, y);
+}
+
+void RegressionBuilder::FlowFromPhi(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi,
+                                    VecRef y) {
   const double h = 0.5 * dt;
   for (std::size_t i = 0; i < flow_.rows.size(); ++i) {
     const int r = flow_.rows[i];
@@ -163,6 +176,16 @@ void RegressionBuilder::EvaluatePhi(const double* prev, const double* cur, Eigen
 
 void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y) {
   model_.Psi(prev, psi_);
+  JumpFromPsi(cur, psi, y);
+}
+
+void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y,
+                             const Context& at_prev) {
+  model_.Psi(prev, psi_, at_prev);
+  JumpFromPsi(cur, psi, y);
+}
+
+void RegressionBuilder::JumpFromPsi(const ConstVecRef& cur, MatRef psi, VecRef y) {
   for (std::size_t i = 0; i < jump_.rows.size(); ++i) {
     const int r = jump_.rows[i];
     double yi = cur[r];

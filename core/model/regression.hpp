@@ -38,6 +38,11 @@ class RegressionBuilder {
 
   // Flow regression of the pair (ξ(t−δt), ξ(t)): writes Φ_{r,u} (rows × |u|) and y (rows).
   void Flow(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi, VecRef y);
+  // The same with each sample's context (its time and measured inputs u): the trapezoid takes φ at
+  // both ends with their own u, Φ(t) = (δt/2)(φ(ξ(t−δt), u(t−δt)) + φ(ξ(t), u(t))). For models with
+  // inputs (the x-only forms are for models without).
+  void Flow(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi, VecRef y,
+            const Context& at_prev, const Context& at_cur);
   // The same for a layout with one identified row (flow_layout().rows.size() == 1 is required, the
   // common case): prev and cur hold n states, phi receives the |u| entries of Φ_{r,u}, y one value.
   // No Eigen::Ref, index lists resolved in advance. Flow() calls it for such layouts, so the two
@@ -48,11 +53,15 @@ class RegressionBuilder {
   // of samples with one call (Model::PhiColumns) and each state's φ once. Same values as FlowRow on
   // each pair.
   void FlowRows(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi, double* y);
-  // Jump regression: ξ_r(t) on ψ_{r,u}(ξ(t−δt)).
+  // Jump regression: ξ_r(t) on ψ_{r,u}(ξ(t−δt)), ψ at the pre-jump sample's context when given.
   void Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y);
+  void Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y, const Context& at_prev);
 
  private:
   void EvaluatePhi(const double* prev, const double* cur, Eigen::Index n);
+  // Rows from phi_prev_ and phi_cur_ (the several-row form of Flow).
+  void FlowFromPhi(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi, VecRef y);
+  void JumpFromPsi(const ConstVecRef& cur, MatRef psi, VecRef y);
   template <int U, int K>
   void FlowRowsFor(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi,
                    double* y);

@@ -77,8 +77,13 @@ struct TrajectoryFlags {
   std::optional<double> t_end, dt;
 };
 void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags);
-// --x0 or the model's default; BadFlag when it has the wrong size or lies outside C and D.
-Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model);
+// The inputs of a run over `grid`: --inputs FILE (`path`, its time range must cover the run), else the
+// model's default expressions at the sample times; empty for a model without inputs. BadFlag names
+// --inputs.
+InputSignal InputsFlag(const std::string& path, const ModelSpec& spec, const SampleGrid& grid);
+// --x0 or the model's default; BadFlag when it has the wrong size or lies outside C and D (at the
+// context `at`: t = 0 and u(0) for a model with inputs).
+Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model, const Context& at = {});
 // --x0-known [all | NAME,...]: which components of x0 are known (not estimated). `text` is the
 // option's value ("" or "all": every component); not given: none.
 // BadFlag naming --x0-known for a name that is not a state, or one named twice.

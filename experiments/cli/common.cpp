@@ -12,8 +12,10 @@
 #include <fmt/ranges.h>
 
 #include "core/io/limits.hpp"
+#include "core/model_file/input_defaults.hpp"
 #include "experiments/cli/checks.hpp"
 #include "experiments/cli/cli.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/model_check/model_check.hpp"
 
 namespace hysid::cli {
@@ -233,7 +235,7 @@ SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model) {
                      Spelling::kFlag);
 }
 
-Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
+Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model, const Context& at) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   Vec x0 = DefaultState(model);
@@ -245,11 +247,38 @@ Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model) {
     }
     x0 = Eigen::Map<const Vec>(flags.x0.data(), n);
   }
-  if (!model.InFlowSet(x0) && !model.InJumpSet(x0)) {
+  if (!model.InFlowSet(x0, at) && !model.InJumpSet(x0, at)) {
     BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'", fmt::join(x0, ","),
                         spec.name));
   }
   return x0;
+}
+
+InputSignal InputsFlag(const std::string& path, const ModelSpec& spec, const SampleGrid& grid) {
+  InputSignal s;
+  if (spec.inputs.empty()) {
+    if (!path.empty()) BadFlag(fmt::format("--inputs {}: model '{}' has no inputs", path, spec.name));
+    return s;
+  }
+  const double t_last = static_cast<double>(grid.size() - 1) * grid.dt;
+  if (const std::string missing = InputsWithoutDefault(spec); path.empty() && !missing.empty()) {
+    BadFlag(fmt::format("--inputs: model '{}' gives no default for its inputs {}; give --inputs FILE",
+                        spec.name, missing));
+  }
+  try {
+    if (path.empty()) {
+      for (long k = 0; k < grid.size(); ++k) s.times.push_back(static_cast<double>(k) * grid.dt);
+      s.values = EvaluateInputDefaults(spec, s.times);
+      return s;
+    }
+    s = ReadInputSignal(path, spec.inputs);
+  } catch (const std::invalid_argument& e) {
+    BadFlag(fmt::format("--inputs{}: {}", path.empty() ? "" : " " + path, e.what()));
+  }
+  if (const std::string e = InputRangeError(s, spec.inputs, 0.0, t_last); !e.empty()) {
+    BadFlag(fmt::format("--inputs {}: {}", path, e));
+  }
+  return s;
 }
 
 void RequireFinite(const std::string& flag, const std::vector<double>& values) { CheckFinite(flag, values); }

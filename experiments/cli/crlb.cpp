@@ -22,6 +22,7 @@ struct CrlbArgs {
   std::vector<double> sigma{1.0};
   X0Known x0_known;
   SensitivityOptions options;
+  std::string inputs;  // --inputs FILE (empty: the model file's defaults)
 };
 
 int RunCrlb(const CrlbArgs& args, const Environment& env) {
@@ -31,14 +32,19 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const int n = model.state_size();
   const SampleGrid grid = GridFlag(args.trajectory, model);
   if (std::string e; !args.options.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol: {}", e));
-  const Vec x0 = InitialStateFlag(args.trajectory, model);
+  const InputSignal inputs = InputsFlag(args.inputs, spec, grid);
+  std::vector<double> u0(static_cast<std::size_t>(inputs.size()));
+  if (!inputs.empty()) inputs.At(0.0, u0.data());
+  const Vec x0 =
+      InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
   const std::vector<int> measured = MeasuredIndices(model);
   const bool all = static_cast<int>(measured.size()) == n;
   const Vec sigma = SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
   const std::vector<int> known = X0KnownFlag(args.x0_known, model);
   // Every component known: ξ0 is not in θ; some: in θ, held (sd 0, left out of the inverse).
   const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
-  Crlb c = ComputeCrlb(model, x0, grid, sigma, unknowns, args.options, all ? std::vector<int>{} : measured);
+  Crlb c = ComputeCrlb(model, x0, grid, sigma, unknowns, args.options, all ? std::vector<int>{} : measured,
+                       inputs.empty() ? nullptr : &inputs);
   if (!known.empty() && unknowns.x0 && c.status != CrlbStatus::kSimulationFailed) {
     std::vector<int> held;
     const int shared = unknowns.size(n) - n;
@@ -98,6 +104,9 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
   AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per measured state")
       ->capture_default_str();
   AddX0KnownOption(*sub, args->x0_known);
+  sub->add_option("--inputs", args->inputs,
+                  "a model with inputs: CSV with a column t and one per input name (default: the model "
+                  "file's input_defaults at the sample times)");
   AddToleranceOptions(*sub, args->options.sim, "states and sensitivities");
   sub->footer(
       "The bound for samples of the measured states (the model's `measured`; all by default) with\n"

@@ -8,8 +8,8 @@
 #include <functional>
 #include <map>
 #include <optional>
-#include <tuple>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include <fmt/format.h>
@@ -260,7 +260,8 @@ void PrintEstimates(const ModelSpec& spec, const IdentifyArgs& args, const Ident
               ToString(result.flow_status), ToString(result.jump_status));
   for (const auto& [status, reason, what] : {std::tuple{result.flow_status, &result.flow_reason, "flow"},
                                              std::tuple{result.jump_status, &result.jump_reason, "jump"}}) {
-    if (status != EstimatorStatus::kOk && !reason->empty()) std::printf("  %s estimator: %s\n", what, reason->c_str());
+    if (status != EstimatorStatus::kOk && !reason->empty())
+      std::printf("  %s estimator: %s\n", what, reason->c_str());
   }
   // Estimators that report one (frisch): the solution boxes of the unknowns, in the order printed above.
   for (const auto& [box, what] :
@@ -297,6 +298,11 @@ void PrintTruth(const Model& model, const std::vector<int>& j, const std::string
     std::printf("  sets: not computed\n");
     return;
   }
+  if (model.input_size() > 0) {  // C and D may move with u, which a hull vertex does not keep
+    std::printf("  sets: C^ has %ld vertices, D^ %ld (not compared: C and D of a model with inputs)\n",
+                static_cast<long>(result.flow_hull.cols()), static_cast<long>(result.jump_hull.cols()));
+    return;
+  }
   const SetMetrics sm = CompareSets(model, result.flow_hull, result.jump_hull);
   std::printf("  sets: C^ has %ld vertices (%s %.6g), %.6g of it outside C; D^ has %ld vertices, ",
               static_cast<long>(result.flow_hull.cols()), model.state_size() >= 3 ? "volume" : "area",
@@ -324,7 +330,8 @@ SampleData ReadData(const IdentifyArgs& args, const Model& model, const std::vec
   for (const int i : measured) names.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
   try {
     return ReadSampleData(args.data, static_cast<int>(measured.size()),
-                          {.columns = columns, .max_gap = args.max_gap, .state_names = names});
+                          {.columns = columns, .inputs = model.spec().inputs, .max_gap = args.max_gap,
+                           .state_names = names});
   } catch (const std::invalid_argument& e) {
     std::string message = e.what();
     const std::string field = "SampleDataOptions::columns";
@@ -406,6 +413,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
     options.times = data.t;
     options.chain_start = data.chain_start;
   }
+  options.inputs = data.u;  // m × K: the model's inputs, read by name
   std::vector<double> kinks;
   const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
   IdentifyResult result = Identify(model, data.y, data.dt, settings, options);

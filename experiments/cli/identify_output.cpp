@@ -203,7 +203,7 @@ nlohmann::json TruthJson(const Model& model, const std::vector<int>& j, const Id
                         {"rel_alpha", e.rel_alpha},
                         {"rel_beta", e.rel_beta},
                         {"sets", nullptr}};
-  if (r.sets_skipped.empty()) {
+  if (r.sets_skipped.empty() && model.input_size() == 0) {  // C, D of a model with inputs move with u
     const SetMetrics sm = CompareSets(model, r.flow_hull, r.jump_hull);
     out["sets"] = {{"flow_outside_share", sm.flow_outside_share},
                    {"jump_hausdorff",

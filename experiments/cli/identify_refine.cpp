@@ -11,6 +11,7 @@
 
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid::cli {
@@ -41,9 +42,11 @@ Truth ReadTruth(const std::string& data_path, int n) {
 }
 
 // The CRLB at the truth when the data carry it (sidecar x0 and σ > 0, same grid) over at least two
-// samples (a refinement that fitted fewer has no span to bound), else not ok.
-Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt, const std::vector<int>& measured,
-                const std::vector<int>& known) {
+// samples (a refinement that fitted fewer has no span to bound), else not ok; with the data's inputs
+// (their times from the first sample's) for a model with inputs.
+Crlb TruthBound(const Model& model, const Truth& truth, long samples, const SampleData& data,
+                const std::vector<int>& measured, const std::vector<int>& known) {
+  const double dt = data.dt;
   if (truth.x0.size() == 0 || truth.sigma.size() == 0 || !(truth.sigma(measured).array() > 0.0).all() ||
       samples < 2) {
     Crlb none;
@@ -52,10 +55,15 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, double dt,
     return none;
   }
   const SampleGrid grid{.t_end = static_cast<double>(samples - 1) * dt, .dt = dt};
+  InputSignal inputs;
+  if (data.u.rows() > 0) {
+    for (double t : data.t) inputs.times.push_back(t - data.t.front());
+    inputs.values = data.u;
+  }
   const bool all = static_cast<int>(measured.size()) == model.state_size();
   const Unknowns unknowns = Unknowns::Of(model);
   const Crlb c = ComputeCrlb(model, truth.x0, grid, all ? truth.sigma : Vec(truth.sigma(measured)), unknowns, {},
-                             all ? std::vector<int>{} : measured);
+                             all ? std::vector<int>{} : measured, inputs.empty() ? nullptr : &inputs);
   if (known.empty() || c.status == CrlbStatus::kSimulationFailed) return c;
   std::vector<int> held;  // the known components of ξ0, as the refinement holds them
   for (const int i : known) held.push_back(unknowns.size(model.state_size()) - model.state_size() + i);
@@ -169,7 +177,7 @@ nlohmann::json ToJson(nlohmann::json j, const RefineResult& r, const IdentifyRes
 RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& given,
                            const RefineOptions& options) {
   const IdentifyResult& recursive = RefinementStart(given);
-  return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options);
+  return RefineIdentification(model, data.t, data.y, data.chain_start, recursive, options, data.u);
 }
 
 // The refinement's status, the chains and samples it fit, and how the fit was reached (--refine ml).
@@ -248,11 +256,12 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
-    r.start = r.estimate = HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
+    r.start = r.estimate =
+        HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
   }
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
-  const Crlb bound = TruthBound(model, truth, used, data.dt,
+  const Crlb bound = TruthBound(model, truth, used, data,
                                 partial.measured.empty() ? MeasuredIndices(model) : partial.measured, known);
   const HybridParameters truth_params = HybridParameters::Of(model, truth.x0);
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);

@@ -1,4 +1,5 @@
 // hysid simulate: one trajectory of a model, its samples (true and measured) and its jumps.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 
@@ -34,6 +36,7 @@ struct SimulateArgs {
   SimOptions sim;
   std::string out;
   std::string jumps_out;
+  std::string inputs;  // --inputs FILE (empty: the model file's input defaults)
 };
 
 std::filesystem::path SidecarPath(const std::filesystem::path& csv) {
@@ -83,20 +86,29 @@ std::vector<std::string> StateColumns(const ModelSpec& spec, bool named, const s
 }
 
 // t, j, the noise-free state true_STATE.. and the measured state STATE.. (x1..xn and y1..yn when
-// a state name would clash with another column).
+// a state name would clash with another column), then the inputs by their names (so that identify
+// reads them as they are).
 std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
   std::vector<std::string> header{"t", "j"};
   for (const auto& [prefix, generic] : {std::pair{"true_", "x"}, std::pair{"", "y"}}) {
     for (std::string& c : StateColumns(spec, named, named ? prefix : "", generic))
       header.push_back(std::move(c));
   }
+  for (const std::string& name : spec.inputs) {
+    if (std::find(header.begin(), header.end(), name) != header.end()) {
+      BadFlag(fmt::format("--model-file: the input '{}' has the name of a column simulate writes ({})", name,
+                          fmt::join(header, ",")));
+    }
+    header.push_back(name);
+  }
   return header;
 }
 
-// Writes and closes (not yet publishes) the trajectory file.
-void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y) {
+// Writes and closes (not yet publishes) the trajectory file; u(t_k) in the input columns.
+void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const InputSignal& inputs) {
   const auto n = static_cast<int>(traj.x.rows());
-  std::vector<double> row(static_cast<std::size_t>(2 + 2 * n));
+  const int m = inputs.size();
+  std::vector<double> row(static_cast<std::size_t>(2 + 2 * n + m));
   for (long k = 0; k < traj.size(); ++k) {
     row[0] = traj.t[static_cast<std::size_t>(k)];
     row[1] = traj.j[static_cast<std::size_t>(k)];
@@ -104,6 +116,7 @@ void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y) {
       row[static_cast<std::size_t>(2 + i)] = traj.x(i, k);
       row[static_cast<std::size_t>(2 + n + i)] = y(i, k);
     }
+    if (m > 0) inputs.At(row[0], &row[static_cast<std::size_t>(2 + 2 * n)]);
     csv.Row(row);
   }
   csv.Close();
@@ -139,6 +152,13 @@ void WriteJumps(CsvWriter& jumps, const Trajectory& traj) {
 std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec& x0, const SampleGrid& grid,
                         const Vec& sigma, const Trajectory& traj, const std::vector<std::string>& columns) {
   const ModelSpec& spec = model.spec();
+  nlohmann::json inputs = nlohmann::json::object();
+  for (std::size_t i = 0; i < spec.inputs.size(); ++i) {
+    const std::vector<std::string>& defaults = spec.input_defaults;
+    inputs[spec.inputs[i]] = !args.inputs.empty()  ? "file " + args.inputs
+                             : i < defaults.size() ? defaults[i]
+                                                   : std::string();
+  }
   nlohmann::json params;
   for (std::size_t i = 0; i < spec.alpha.size(); ++i)
     params[spec.alpha[i].name] = model.alpha()[Eigen::Index(i)];
@@ -169,6 +189,7 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
       {"jumps", traj.jumps.size()},
       {"outputs", {{"trajectory", args.out}, {"jumps", args.jumps_out}}},
       {"columns", columns},
+      {"inputs", inputs},
       {"context", BuildContext()},
   };
   if (traj.status.stop == SimStop::kZeno) meta["zeno_time"] = traj.status.zeno_time;
@@ -179,24 +200,31 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model);
   const ModelSpec& spec = model.spec();
   const SampleGrid grid = GridFlag(args.trajectory, model);
-  const Vec x0 = InitialStateFlag(args.trajectory, model);
   const Vec sigma = SigmaFlag(args.sigma, model.state_size());
   if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
   // Outputs checked before the run; written as one set below.
   // The trajectory, its sidecar and the jumps file are three files, none of them the model file.
-  std::vector<std::pair<std::string, std::filesystem::path>> outputs{{"--out", args.out},
-                                                                     {"--out (sidecar)", SidecarPath(args.out)}};
+  std::vector<std::pair<std::string, std::filesystem::path>> outputs{
+      {"--out", args.out}, {"--out (sidecar)", SidecarPath(args.out)}};
   if (!args.jumps_out.empty()) outputs.emplace_back("--jumps-out", args.jumps_out);
-  InputFiles inputs;
-  inputs.Add("--model-file", args.model.file);
-  CheckOutputPaths(outputs, inputs);
-
-  const Trajectory traj = Simulate(model, x0, grid, args.sim);
-  const NoiseKey key{.seed = args.seed, .stream = args.trial};
+  InputFiles files;
+  files.Add("--model-file", args.model.file);
+  files.Add("--inputs", args.inputs);
+  CheckOutputPaths(outputs, files);
   const bool named = NamedColumns(spec);
   const std::vector<std::string> header = TrajectoryHeader(spec, named);
+  const InputSignal inputs = InputsFlag(args.inputs, spec, grid);
+  Exogenous exo;
+  if (!inputs.empty()) exo.inputs = &inputs;
+  std::vector<double> u0(static_cast<std::size_t>(inputs.size()));
+  if (!inputs.empty()) inputs.At(0.0, u0.data());
+  const Vec x0 =
+      InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
+
+  const Trajectory traj = Simulate(model, x0, grid, args.sim, exo);
+  const NoiseKey key{.seed = args.seed, .stream = args.trial};
   CsvWriter csv(args.out, header);
-  WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key));
+  WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key), inputs);
   std::optional<CsvWriter> jumps;
   if (!args.jumps_out.empty()) {
     jumps.emplace(args.jumps_out, JumpsHeader(spec, named));
@@ -247,9 +275,13 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
          "the model's states; + a .json sidecar)")
       ->required();
   sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_STATE..,post_STATE..");
+  sub->add_option("--inputs", args->inputs,
+                  "a model with inputs: CSV with a column t and one per input name (linear between rows; "
+                  "default: the model file's input_defaults at the sample times)");
   sub->footer(
-      "Samples t_k = k*dt with jump counter, true and measured state. Defaults are the model's\n"
-      "(impact-msd: the paper's Sec. 5 values).");
+      "Samples t_k = k*dt with jump counter, true and measured state, and the inputs u(t_k) of a model\n"
+      "with inputs (columns named as the inputs). Defaults are the model's (impact-msd: the paper's\n"
+      "Sec. 5 values).");
   sub->callback([args, &env] { RunSimulate(*args, env); });
 }
 

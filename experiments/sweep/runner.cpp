@@ -21,6 +21,7 @@
 #include "experiments/sweep/run_context.hpp"
 #include "experiments/sweep/tables.hpp"
 #include "experiments/sweep/trial.hpp"
+#include "sim/exogenous.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {
@@ -110,7 +111,7 @@ Baseline BaselineFromJson(const nlohmann::json& config) {
 }
 
 // The files a run directory holds (written by `sweep`; `merge` writes the tables and run.json).
-constexpr const char* kRunFiles[] = {"sweep.json", "trials.journal", "trials.csv",
+constexpr const char* kRunFiles[] = {"sweep.json",  "trials.journal", "trials.csv",
                                      "summary.csv", "timings.csv",    "run.json"};
 
 // No file the sweep writes may be the sweep file or a model file it reads.
@@ -175,6 +176,7 @@ std::vector<long> PendingUnits(const Journal& journal, const Shard& shard, Sweep
 // refusal) and, with grid.refine, the CRLB at σ = 1.
 struct GroupTruth {
   Vec x0;
+  InputSignal inputs;  // a model with inputs: its defaults at the samples
   Trajectory truth;
   std::string sim_error;
   Crlb crlb;
@@ -225,14 +227,17 @@ class UnitRunner {
     GroupTruth out;
     out.x0 = InitialState(config_, g.model, g.x0_trial < 0 ? 0 : g.x0_trial);
     try {
-      out.truth = Simulate(model, out.x0, SampleGrid{sm.t_end, g.dt}, config_.simulator);
+      out.inputs = DefaultInputs(model, g.dt, sm.t_end);
+      Exogenous exo;
+      if (!out.inputs.empty()) exo.inputs = &out.inputs;
+      out.truth = Simulate(model, out.x0, SampleGrid{sm.t_end, g.dt}, config_.simulator, exo);
     } catch (const std::invalid_argument& e) {
       out.sim_error = e.what();
     }
     trajectories_.fetch_add(1, std::memory_order_relaxed);
     out.crlb.status = CrlbStatus::kSimulationFailed;
     if (config_.grid.refine_axis && out.sim_error.empty() && out.truth.status.completed()) {
-      out.crlb = UnitCrlb(model, out.x0, g.dt, sm.t_end);
+      out.crlb = UnitCrlb(model, out.x0, g.dt, sm.t_end, &out.inputs);
     }
     return out;
   }
@@ -250,8 +255,13 @@ class UnitRunner {
       FillStandardNormals(TrialNoiseKey(config_, g.model, g.dt, trial), 0, normals.data(),
                           static_cast<std::size_t>(normals.size()));
     }
-    const TrialInputs in{&truth.x0, &truth.truth,    &normals,
-                         &noisy,    truth.sim_error, config_.grid.refine_axis ? &truth.crlb : nullptr};
+    const TrialInputs in{&truth.x0,
+                         &truth.truth,
+                         &normals,
+                         &noisy,
+                         truth.sim_error,
+                         config_.grid.refine_axis ? &truth.crlb : nullptr,
+                         truth.inputs.empty() ? nullptr : &truth.inputs};
     for (const long id : ids) {
       if (Stopped()) return;
       const auto start = Clock::now();

@@ -12,7 +12,9 @@
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/identify/reconstruct.hpp"
+#include "core/model_file/input_defaults.hpp"
 #include "core/sets/set_metrics.hpp"
+#include "sim/exogenous.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid {
@@ -56,18 +58,28 @@ std::string Clean(std::string s) {
 
 }  // namespace
 
-Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end) {
+Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end, const InputSignal* inputs) {
   try {
     const std::vector<int> measured = MeasuredIndices(model);  // the bound of the measured states
     const bool all = static_cast<int>(measured.size()) == model.state_size();
     return ComputeCrlb(model, x0, SampleGrid{t_end, dt}, Vec::Constant(static_cast<Eigen::Index>(measured.size()), 1.0),
-                       Unknowns::Of(model), {}, all ? std::vector<int>{} : measured);
+                       Unknowns::Of(model), {}, all ? std::vector<int>{} : measured,
+                       inputs != nullptr && !inputs->empty() ? inputs : nullptr);
   } catch (const std::exception& e) {
     Crlb c;
     c.status = CrlbStatus::kSimulationFailed;
     c.message = e.what();
     return c;
   }
+}
+
+InputSignal DefaultInputs(const Model& model, double dt, double t_end) {
+  InputSignal s;
+  if (model.input_size() == 0) return s;
+  const SampleGrid grid{t_end, dt};
+  for (long k = 0; k < grid.size(); ++k) s.times.push_back(static_cast<double>(k) * dt);
+  s.values = EvaluateInputDefaults(model.spec(), s.times);
+  return s;
 }
 
 std::string FormatNumber(double v) { return std::isnan(v) ? std::string() : fmt::format("{}", v); }
@@ -300,6 +312,7 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   options.statistics = false;
   options.check_paper_bound = false;  // every detection is counted against the true jumps
   if (config.oracle) options.labels = TrueLabels(truth);
+  if (in.inputs != nullptr) options.inputs = in.inputs->values.leftCols(truth.x.cols());
   const std::vector<int> measured = MeasuredIndices(model);
   const bool partial = static_cast<int>(measured.size()) < model.state_size();
   const Mat& noisy = cell.sigma > 0 ? in.noisy->y : truth.x;
@@ -323,7 +336,8 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     if (config.known_sigma && cell.sigma > 0) {
       ro.sigma = Vec::Constant(static_cast<Eigen::Index>(measured.size()), cell.sigma);
     }
-    const RefineResult rr = RefineIdentification(model, truth.t, y, {}, RefinementStart(res), ro);
+    const RefineResult rr =
+        RefineIdentification(model, truth.t, y, {}, RefinementStart(res), ro, options.inputs);
     o->refine_status = ToString(rr.status);
     o->alpha_hat = rr.estimate.alpha;
     o->beta_hat = rr.estimate.beta;
@@ -349,7 +363,9 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     return;
   }
   o->err = CompareParameters(model, o->alpha_hat, o->beta_hat);
-  if (s.sets && res.sets_skipped.empty()) {  // not beyond the hull dimension limit
+  // Not beyond the hull dimension limit; the true sets of a model with inputs depend on u, which a
+  // hull vertex does not keep (no set metrics then).
+  if (s.sets && res.sets_skipped.empty() && model.input_size() == 0) {
     o->sets = CompareSets(model, res.flow_hull, res.jump_hull);
     o->flow_vertices = static_cast<long>(res.flow_hull.cols());
     o->jump_vertices = static_cast<long>(res.jump_hull.cols());

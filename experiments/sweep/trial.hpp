@@ -13,6 +13,7 @@
 #include "core/model/model.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
 
@@ -55,11 +56,19 @@ struct TrialInputs {
   std::string sim_error;  // non-empty: the simulator rejected the run (the row's status is "error")
   // With grid.refine: the group's CRLB at σ = 1 (its mean errors scale linearly with σ), or null.
   const Crlb* crlb = nullptr;
+  // A model with inputs: the inputs the truth was simulated with (the model file's defaults at the
+  // sample times), which the identifier and the refinement read at the samples; else null.
+  const InputSignal* inputs = nullptr;
 };
 
-// The group's CRLB at σ = 1 for the model's unknowns (α, β, ξ0) over (x0, δt, t_end); never throws
-// (a bad input becomes a not-ok status).
-Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end);
+// The group's CRLB at σ = 1 for the model's unknowns (α, β, ξ0) over (x0, δt, t_end) with the
+// inputs (may be null); never throws (a bad input becomes a not-ok status).
+Crlb UnitCrlb(const Model& model, const Vec& x0, double dt, double t_end,
+              const InputSignal* inputs = nullptr);
+
+// A model with inputs: its default inputs at the samples of (δt, t_end) (InputsWithoutDefault's
+// inputs refused by the model file's key); an empty signal for a model without inputs.
+InputSignal DefaultInputs(const Model& model, double dt, double t_end);
 
 // Runs unit `unit` = (cell, trial).
 std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,

@@ -24,12 +24,15 @@ struct ChainFit {
   Mat y;
   std::vector<int> segments;
   Vec x0;
+  InputSignal inputs;  // a model with inputs: u on the span, on the same clock as times
 };
 
-// Whether the model can be simulated at p: α, β, γ and x0 finite, x0 in C or D (with p's γ).
-bool Admissible(const Model& model, const HybridParameters& p) {
+// Whether the model can be simulated at p: α, β, γ and x0 finite, x0 in C or D (at t = 0, u(0) and
+// p's γ).
+bool Admissible(const Model& model, const HybridParameters& p, const InputSignal& inputs) {
   if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() || !p.gamma.allFinite()) return false;
-  const Context at{.t = 0.0, .u = nullptr, .gamma = p.GammaOr(model).data()};
+  const Vec gamma = p.GammaOr(model);
+  const Context at{.t = 0.0, .u = inputs.empty() ? nullptr : inputs.values.col(0).data(), .gamma = gamma.data()};
   return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
 }
 
@@ -74,8 +77,9 @@ struct FitProblem {
     const Vec point = p.Theta(unknowns);
     if (cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
     cached_at[c].resize(0);
-    if (!Admissible(*model, p)) return cached[c] = LeftDomain();
-    cached[c] = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options);
+    if (!Admissible(*model, p, fits[c].inputs)) return cached[c] = LeftDomain();
+    cached[c] = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options,
+                                             InputsOf(fits[c].inputs));
     if (cached[c].ok()) cached_at[c] = point;
     return cached[c];
   }
@@ -176,6 +180,7 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
       j += (k > 0 && s.gamma[c][u] != 0) ? 1 : 0;
       f.segments.push_back(j);
     }
+    f.inputs = ChainInputs(in, used);
     r.detected_jumps += j;
     r.samples_used += used;
     r.chain_samples_used[c] = used;
@@ -215,7 +220,8 @@ void SetBounds(const FitProblem& problem, Vec& theta, ceres::Problem& cp) {
 // The normal equations of the weighted residuals over the joint θ (shared, then x0 of each chain)
 // from each chain's trajectory with sensitivities: F = JᵀJ and g = −Jᵀr, summed over the chains in
 // the shared block.
-void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, Mat& f, Vec& g) {
+void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, Mat& f,
+                     Vec& g) {
   const int s = problem.shared, n = problem.model->state_size();
   const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
   f = Mat::Zero(total, total);
@@ -359,13 +365,14 @@ bool AccumulatesWithinASample(const std::vector<JumpRecord>& jumps, double step)
 // The model at p on its own over fit f's span (plain mode, states only): its jumps are what the
 // checks compare with the detected ones. The grid's step is the chain's mean step (only the jumps,
 // located by root finding, are read).
-SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit& f, const HybridParameters& p) {
-  if (!Admissible(*problem.model, p)) return LeftDomain();
+SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit& f,
+                                       const HybridParameters& p) {
+  if (!Admissible(*problem.model, p, f.inputs)) return LeftDomain();
   SensitivityOptions o = problem.options;
   o.sensitivities = false;
   const double t_end = f.times.back();
   const SampleGrid grid{t_end, t_end / static_cast<double>(f.times.size() - 1)};
-  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o);
+  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o, InputsOf(f.inputs));
 }
 
 // The first disagreement of fit c's model on its own at p with its detected jumps (more than
@@ -525,8 +532,8 @@ void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTraj
 
 // Each chain simulated at (theta, x0), the runs left in problem.cached; -1, or the first chain that
 // does not simulate with `failure` naming it.
-long SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0, RefineStatus failure,
-                 const char* what, RefineResult& r) {
+long SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0,
+                 RefineStatus failure, const char* what, RefineResult& r) {
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
     const SensitivityTrajectory& s = problem.Simulate(c, theta.data(), x0[c].data());
     if (!s.ok()) {
@@ -631,11 +638,21 @@ std::vector<int> MeasuredRows(const RefineOptions& options, int n) {
 std::string LeftOut(const Model& model, const RefineChain& chain, long used, const Vec& gamma) {
   const int n = model.state_size();
   if (used < 2 * n + 2) return fmt::format("left out: {} samples to fit, fewer than {}", used, 2 * n + 2);
-  const Context at{.t = chain.t.empty() ? 0.0 : chain.t.front(), .u = nullptr, .gamma = gamma.data()};
+  const Context at{.t = chain.t.empty() ? 0.0 : chain.t.front(),
+                   .u = chain.u.rows() > 0 ? chain.u.col(0).data() : nullptr,
+                   .gamma = gamma.data()};
   if (!model.InFlowSet(chain.y.col(0), at) && !model.InJumpSet(chain.y.col(0), at)) {
     return "left out: the first sample lies outside C and D";
   }
   return "";
+}
+
+InputSignal ChainInputs(const RefineChain& chain, long used) {
+  InputSignal s;
+  if (chain.u.rows() == 0) return s;
+  for (long k = 0; k < used; ++k) s.times.push_back(chain.t[static_cast<std::size_t>(k)] - chain.t.front());
+  s.values = chain.u.leftCols(used);
+  return s;
 }
 
 void Fail(RefineResult& r, RefineStatus status, std::string reason) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/input_signal.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid {
@@ -46,6 +47,12 @@ std::vector<int> MeasuredRows(const RefineOptions& options, int n);
 // Why a chain is left out of the fit with `used` of its samples ("" when it is fit); C and D with the
 // guard parameters γ (the model's size).
 std::string LeftOut(const Model& model, const RefineChain& chain, long used, const Vec& gamma);
+
+// A chain's inputs over its first `used` samples, their times from its first sample (the clock its
+// fits run on); empty without inputs.
+InputSignal ChainInputs(const RefineChain& chain, long used);
+// The inputs a run of a chain takes: nullptr when the signal is empty (a model without inputs).
+inline const InputSignal* InputsOf(const InputSignal& inputs) { return inputs.empty() ? nullptr : &inputs; }
 
 // The samples of the chains side by side (Part: anything with an n × K member y).
 template <class Part>

@@ -86,6 +86,13 @@ void CheckChain(const Model& model, const RefineChain& c, std::size_t index) {
         "Refine: chain {}: y is {} × {}, {} times, gamma has {} entries; model '{}' has {} states", index + 1,
         c.y.rows(), c.y.cols(), c.t.size(), c.gamma.size(), model.name(), model.state_size()));
   }
+  if (c.u.rows() != model.input_size() ||
+      (c.u.rows() > 0 && (c.u.cols() != c.y.cols() || !c.u.allFinite()))) {
+    throw std::invalid_argument(
+        fmt::format("Refine: chain {}: u is {} × {}{}; model '{}' has {} inputs and the chain {} samples",
+                    index + 1, c.u.rows(), c.u.cols(), c.u.allFinite() ? "" : " (not finite)", model.name(),
+                    model.input_size(), c.y.cols()));
+  }
   for (std::size_t k = 1; k < c.t.size(); ++k) {
     if (!(c.t[k] > c.t[k - 1]) || !std::isfinite(c.t[k])) {
       throw std::invalid_argument(
@@ -262,14 +269,16 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
 
 // The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
 // chain's first `used` samples (plain mode, states only); empty when it does not complete.
-std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p, const Vec& x0,
-                               long used, const RefineOptions& options) {
+std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
+                               const Vec& x0, long used, const RefineOptions& options) {
   SensitivityOptions o = options.sensitivity;
   o.sensitivities = false;
   p.x0 = x0;
   const double t_end = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
   const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
-  const SensitivityTrajectory plain = SimulateSensitivities(model, p, Unknowns::Of(model), grid, o);
+  const InputSignal inputs = ChainInputs(chain, used);
+  const SensitivityTrajectory plain =
+      SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, InputsOf(inputs));
   std::vector<double> jumps;
   if (!plain.trajectory.status.completed()) return jumps;
   for (const JumpRecord& jump : plain.trajectory.jumps) jumps.push_back(jump.t);
@@ -319,6 +328,7 @@ constexpr int kMaxSettle = 4;
 // changes.
 bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, const RefineResult& r,
                   const RefineOptions& options, FitStart* s) {
+  if (model.input_size() > 0) return false;  // the local flows of RepairStart run without inputs
   const Mat y = Concatenated(chains, model.state_size());
   SensitivityOptions sens;
   Vec weight;
@@ -368,12 +378,14 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
         if (r.chain_x0[i].size() != 0) s.x0[i] = r.chain_x0[i];
       }
       // Reach 0: each label at its model jump's own sample (a detection a few samples off moves there).
-      if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what)) break;
+      if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what))
+        break;
       r = FitChains(model, chains, s, options, &failure);
     }
   }
   // Settled: the labels placed where the fit's local flows meet, fit again until none moves.
-  for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s); ++settle) {
+  for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s);
+       ++settle) {
     r = FitChains(model, chains, s, options, &failure);
   }
   if (!r.ok()) return r;
@@ -504,13 +516,13 @@ RefineChain RefineChain::Uniform(const Mat& y, double dt, const std::vector<std:
 
 std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
                                      const std::vector<std::uint8_t>& chain_start,
-                                     const std::vector<std::uint8_t>& gamma) {
+                                     const std::vector<std::uint8_t>& gamma, const Mat& u) {
   const auto k_count = static_cast<std::size_t>(y.cols());
   if (t.size() != k_count || (!chain_start.empty() && chain_start.size() != k_count) ||
-      gamma.size() != k_count) {
+      gamma.size() != k_count || (u.rows() > 0 && static_cast<std::size_t>(u.cols()) != k_count)) {
     throw std::invalid_argument(
-        fmt::format("SplitChains: {} samples, {} times, {} chain_start, {} gamma entries", k_count, t.size(),
-                    chain_start.size(), gamma.size()));
+        fmt::format("SplitChains: {} samples, {} times, {} chain_start, {} gamma entries, {} input samples",
+                    k_count, t.size(), chain_start.size(), gamma.size(), u.cols()));
   }
   std::vector<std::vector<std::size_t>> members;  // per chain: its samples present
   for (std::size_t k = 0; k < k_count; ++k) {
@@ -524,9 +536,11 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
     if (m.empty()) continue;
     RefineChain c;
     c.y.resize(y.rows(), static_cast<Eigen::Index>(m.size()));
+    c.u.resize(u.rows(), static_cast<Eigen::Index>(m.size()));
     for (std::size_t i = 0; i < m.size(); ++i) {
       c.t.push_back(t[m[i]]);
       c.y.col(static_cast<Eigen::Index>(i)) = y.col(static_cast<Eigen::Index>(m[i]));
+      if (u.rows() > 0) c.u.col(static_cast<Eigen::Index>(i)) = u.col(static_cast<Eigen::Index>(m[i]));
       c.gamma.push_back(gamma[m[i]]);
     }
     chains.push_back(std::move(c));
@@ -556,19 +570,21 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   // repaired start may fit more.
   FitStart repaired;
   std::string summary;
-  if ((!r.ok() || r.samples_used < first_used) && options.repair_start &&
+  if ((!r.ok() || r.samples_used < first_used) && options.repair_start && model.input_size() == 0 &&
       r.status != RefineStatus::kTooFewSamples &&
       RepairChains(model, chains, recursive, options, &repaired, &summary)) {
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
   }
   // Still not ok, or ok only on cut spans: a fit grown from a short span may follow the whole data.
-  if ((!r.ok() || r.samples_used < first_used) && options.grow_span && r.status != RefineStatus::kTooFewSamples) {
+  if ((!r.ok() || r.samples_used < first_used) && options.grow_span &&
+      r.status != RefineStatus::kTooFewSamples) {
     RefineResult grown = GrowSpan(model, chains, recursive, options);
     if (grown.ok() && grown.samples_used > (r.ok() ? r.samples_used : 0)) {
       grown.start = r.start;
       r = std::move(grown);
     } else if (!r.ok()) {
-      r.reason += fmt::format("; grown from a short span: {}", grown.ok() ? "ok on fewer samples" : grown.reason);
+      r.reason +=
+          fmt::format("; grown from a short span: {}", grown.ok() ? "ok on fewer samples" : grown.reason);
     }
   }
   if (r.ok()) {
@@ -582,8 +598,9 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
 
 RefineResult RefineIdentification(const Model& model, const std::vector<double>& t, const Mat& y,
                                   const std::vector<std::uint8_t>& chain_start,
-                                  const IdentifyResult& recursive, const RefineOptions& options) {
-  return Refine(model, SplitChains(t, y, chain_start, recursive.gamma), recursive.alpha_hat,
+                                  const IdentifyResult& recursive, const RefineOptions& options,
+                                  const Mat& u) {
+  return Refine(model, SplitChains(t, y, chain_start, recursive.gamma, u), recursive.alpha_hat,
                 recursive.beta_hat, options);
 }
 

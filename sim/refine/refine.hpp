@@ -26,8 +26,8 @@
 // detection within jump_time_tolerance + 1 samples is added at its sample, a detection the model has
 // no jump for is dropped, the others kept; the fit from the fitted point on the mended detections
 // is adopted when it passes every check (the data decide) and fits as many samples, once per chain
-// (`mended` says what changed). A jump-count mismatch or a failed start of one chain is then retried with that chain's span
-// ending before the first disagreement between its model's jumps and its detected ones
+// (`mended` says what changed). A jump-count mismatch or a failed start of one chain is then retried with
+// that chain's span ending before the first disagreement between its model's jumps and its detected ones
 // (RefineOptions::max_span_retries). A fit that still fails (other than for the data or their
 // length), or is ok only on spans the retries cut, is tried once more from a repaired start
 // (sim/refine/start.hpp, per chain: detections the local flows do not need dropped, the others
@@ -162,21 +162,27 @@ struct RefineChain {
   std::vector<double> t;            // sample times, increasing (any origin)
   Mat y;                            // n × K
   std::vector<std::uint8_t> gamma;  // 1 = a jump detected in (t_{k−1}, t_k]; gamma[0] is ignored
+  // A model with inputs: u at each sample (m × K, finite); the fits run the model with u
+  // interpolated linearly between the samples (sim/input_signal.hpp). Empty without inputs.
+  Mat u;
   // K samples at t_k = k·dt.
   static RefineChain Uniform(const Mat& y, double dt, const std::vector<std::uint8_t>& gamma);
 };
 
-// The chains of samples (t, y: n × K, gamma as RefineChain's) cut where chain_start is 1 (sample 0
-// always starts one; empty chain_start: one chain). A sample with a non-finite entry is missing: it
-// is left out of its chain, which goes on. Throws std::invalid_argument for sizes that disagree.
+// The chains of samples (t, y: n × K, gamma as RefineChain's, u: m × K inputs or empty) cut where
+// chain_start is 1 (sample 0 always starts one; empty chain_start: one chain). A sample with a
+// non-finite entry is missing: it is left out of its chain, which goes on. Throws
+// std::invalid_argument for sizes that disagree.
 std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
                                      const std::vector<std::uint8_t>& chain_start,
-                                     const std::vector<std::uint8_t>& gamma);
+                                     const std::vector<std::uint8_t>& gamma, const Mat& u = Mat());
 
 // The refinement of the chains from the recursive α0, β0 (full vectors). Per chain the span rule
 // (min_jump_interval) applies; chains with fewer than 2n + 2 samples, or whose first sample lies
 // outside C ∪ D, are left out. Throws std::invalid_argument for inputs of the wrong size (naming the
-// chain), times that do not increase, or invalid options; numerical outcomes are statuses.
+// chain; a model with inputs needs every chain's u), times that do not increase, or invalid options;
+// numerical outcomes are statuses. A model with inputs is refined without the repaired start (its
+// local flows start between samples, where the chains' inputs are not re-timed).
 RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                     const Vec& beta0, const RefineOptions& options = {});
 
@@ -184,6 +190,7 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
 // SplitChains): its α̂, β̂ and γ.
 RefineResult RefineIdentification(const Model& model, const std::vector<double>& t, const Mat& y,
                                   const std::vector<std::uint8_t>& chain_start,
-                                  const IdentifyResult& recursive, const RefineOptions& options = {});
+                                  const IdentifyResult& recursive, const RefineOptions& options = {},
+                                  const Mat& u = Mat());
 
 }  // namespace hysid

@@ -162,12 +162,14 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 }
 
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured) {
-  return ComputeCrlb(model, HybridParameters::Of(model, x0), grid, sigma, unknowns, options, measured);
+                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured,
+                 const InputSignal* inputs) {
+  return ComputeCrlb(model, HybridParameters::Of(model, x0), grid, sigma, unknowns, options, measured, inputs);
 }
 
 Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured) {
+                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured,
+                 const InputSignal* inputs) {
   const auto m = measured.empty() ? model.state_size() : static_cast<int>(measured.size());
   if (sigma.size() != m || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
     throw std::invalid_argument(fmt::format("sigma must have {} finite entries > 0", m));
@@ -180,7 +182,7 @@ Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGri
   }
   HybridParameters p = at;
   if (p.gamma.size() == 0) p.gamma = model.gamma();
-  const SensitivityTrajectory s = SimulateSensitivities(model, p, unknowns, grid, options);
+  const SensitivityTrajectory s = SimulateSensitivities(model, p, unknowns, grid, options, inputs);
   if (!s.ok()) {
     Crlb out;
     out.status = CrlbStatus::kSimulationFailed;

@@ -51,14 +51,15 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
                     const std::vector<int>& held = {});
 
 // The bound at the model's true α, β and the given ξ0 over `grid` with noise σ (one entry > 0 per
-// measured state) on the states `measured` (indices, increasing; empty: all).
+// measured state) on the states `measured` (indices, increasing; empty: all), with the measured
+// inputs `inputs` for a model with inputs (else nullptr).
 // Throws std::invalid_argument for bad inputs (as SimulateSensitivities, plus σ and measured).
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options = {},
-                 const std::vector<int>& measured = {});
+                 const std::vector<int>& measured = {}, const InputSignal* inputs = nullptr);
 // The same at the given α, β, γ and ξ0 (γ empty: the model's).
 Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options = {},
-                 const std::vector<int>& measured = {});
+                 const std::vector<int>& measured = {}, const InputSignal* inputs = nullptr);
 
 }  // namespace hysid

@@ -203,3 +203,37 @@ TEST_CASE("arrays (the Python module) pass the same count and limit checks as fi
 
 }  // namespace
 }  // namespace hysid
+
+namespace hysid {
+namespace {
+
+TEST_CASE("input columns are read by name beside the states, in the model's order", "[sample_data]") {
+  // The default state rule skips the input columns (here before the states).
+  const std::string text = "t,w,u,x,v\n0,5,1,10,20\n0.1,6,2,11,21\n0.2,,3,12,22\n0.3,8,4,13,23\n";
+  const SampleData d = SampleDataFromTables({Table(text)}, 2, {.inputs = {"u", "w"}});
+  CHECK(d.state_columns == std::vector<std::string>{"x", "v"});
+  CHECK(d.input_columns == std::vector<std::string>{"u", "w"});
+  REQUIRE(d.u.rows() == 2);
+  REQUIRE(d.u.cols() == 3);  // the row with a missing input cell is left out, as a missing state
+  CHECK(d.missing_rows == 1);
+  CHECK(d.u(0, 2) == 4.0);
+  CHECK(d.u(1, 1) == 6.0);
+  CHECK(d.y(0, 2) == 13.0);
+  // Without inputs the matrix is empty (0 × K).
+  CHECK(SampleDataFromTable(Table(text), 2).u.rows() == 0);
+}
+
+TEST_CASE("an input missing from the data, or also named a state, is refused by name", "[sample_data]") {
+  const std::string text = "t,x,v\n0,1,2\n0.1,1,2\n0.2,1,2\n";
+  CHECK_THROWS_WITH(SampleDataFromTables({Table(text, "in.csv")}, 2, {.inputs = {"u"}}),
+                    "in.csv:1: no column 'u' for the model's input of that name (the columns are t,x,v)");
+  CHECK_THROWS_WITH(
+      SampleDataFromTables({Table(text, "in.csv")}, 2, {.columns = {"x", "v"}, .inputs = {"v"}}),
+      Catch::Contains("column 'v' is the model's input 'v'; it cannot be the time or a state as well"));
+  CHECK_THROWS_WITH(SampleDataFromTables({Table("t,x,v,u\n0,1,2,3\n0.1,1,2,1e200\n0.2,1,2,3\n", "in.csv")}, 2,
+                                         {.inputs = {"u"}}),
+                    Catch::Contains("in.csv:3: column 4 ('u'): 1e+200 is out of range"));
+}
+
+}  // namespace
+}  // namespace hysid
