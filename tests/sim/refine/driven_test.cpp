@@ -31,7 +31,7 @@ TEST_CASE("driven oscillator: the defaults recover G and the others within 3 SE 
   REQUIRE(truth.status.completed());
   const double sigma = 1e-3;
   const Unknowns unknowns = Unknowns::Of(model);
-  const Crlb bound = ComputeCrlb(model, x0, grid, Vec::Constant(2, sigma), unknowns, {}, &u);
+  const Crlb bound = ComputeCrlb(model, x0, grid, Vec::Constant(2, sigma), unknowns, {}, {}, &u);
   REQUIRE(bound.ok());
   const Vec true_theta = HybridParameters::Of(model, x0).Theta(unknowns);
   for (std::uint64_t seed : {1, 2, 3, 4}) {
