@@ -129,6 +129,8 @@ void TakeTrueParameter(const std::string& sidecar, const std::string& name, cons
     if (spec.alpha[i].name == name) found.emplace(&spec.alpha[i], model->alpha()[Eigen::Index(i)]);
   for (std::size_t i = 0; i < spec.beta.size(); ++i)
     if (spec.beta[i].name == name) found.emplace(&spec.beta[i], model->beta()[Eigen::Index(i)]);
+  for (std::size_t i = 0; i < spec.guard_params.size(); ++i)
+    if (spec.guard_params[i].name == name) found.emplace(&spec.guard_params[i], model->gamma()[Eigen::Index(i)]);
   if (!found) {
     throw std::invalid_argument(fmt::format(
         "{}: model '{}' has no such parameter: the data were simulated with another model", key, spec.name));
@@ -155,7 +157,7 @@ void TakeTrueParameter(const std::string& sidecar, const std::string& name, cons
   if (!parameter->known) model->SetParameter(name, v);
 }
 
-// The truth the metrics and the CRLB compare with: for data written by `hysid simulate`, the α and β
+// The truth the metrics and the CRLB compare with: for data written by `hysid simulate`, the α, β and γ
 // in the sidecars of the --data files (of the same model name), set on `model`; else the model's
 // values (defaults and --param). A --param that disagrees with a sidecar, sidecars that disagree, and
 // a sidecar parameter the model lacks or holds as another constant are refused. Returns the source.
