@@ -66,9 +66,11 @@ bool IntegratorRow(const Model& model, const std::vector<Vec>& probes, const std
   Vec f(n);
   int source = -1;
   double c = 0.0, d = 0.0;
+  const std::vector<double> u(model.spec().inputs.size(), 0.0);  // inputs at 0: d must not depend on u
+  const Context at{.t = 0.0, .u = u.empty() ? nullptr : u.data(), .gamma = nullptr};
   for (std::size_t p = 0; p < probes.size(); ++p) {
-    model.FlowJacobian(probes[p], model.alpha(), jac);
-    model.Flow(probes[p], model.alpha(), f);
+    model.FlowJacobian(probes[p], model.alpha(), jac, at);
+    model.Flow(probes[p], model.alpha(), f, at);
     int nonzero = -1;
     for (int i = 0; i < n; ++i) {
       if (jac(j, i) == 0.0) continue;
@@ -105,6 +107,7 @@ ReconstructionPlan PlanReconstruction(const Model& model, const std::vector<int>
   plan.source.assign(static_cast<std::size_t>(n), -1);
   plan.scale = Vec::Ones(n);
   plan.offset = Vec::Zero(n);
+  if (static_cast<int>(plan.measured.size()) == n) return plan;  // nothing to reconstruct
   const std::vector<Vec> probes = ProbeStates(model);
   const std::vector<int>& rows = model.spec().flow_rows;
   for (const int j : plan.measured) {
