@@ -13,7 +13,7 @@ namespace hysid {
 namespace {
 
 // Every guard of the file's model reaches D at least once on the default trajectory. A model with
-// inputs is not simulated here (the simulator does not take inputs yet).
+// inputs is not simulated here (its u(t) comes with each run).
 Model CheckGuardsFire(ModelFile file) {
   const Model& model = file.model;
   const ModelSpec& s = model.spec();
