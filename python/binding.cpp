@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/builtin/builtin.hpp"
 #include "sim/model_check/model_check.hpp"
@@ -97,6 +98,25 @@ double Number(const py::handle& value, const std::string& name) {
 std::optional<double> OptionalNumber(const py::handle& value, const std::string& name) {
   if (value.is_none()) return std::nullopt;
   return Number(value, name);
+}
+
+void RefuseBeyondModule(const Model& model, const std::string& call, bool partial_ok) {
+  const ModelSpec& spec = model.spec();
+  if (!spec.inputs.empty()) {
+    throw std::invalid_argument(fmt::format(
+        "model '{}' has measured inputs ({}): hysid.{} does not take inputs; the command line does (hysid "
+        "{} with --inputs or input columns in the data)",
+        spec.name, fmt::join(spec.inputs, ", "), call, call));
+  }
+  const std::vector<int> measured = MeasuredIndices(model);
+  if (!partial_ok && static_cast<int>(measured.size()) < model.state_size()) {
+    std::vector<std::string> names;
+    for (const int i : measured) names.push_back(spec.state_names[static_cast<std::size_t>(i)]);
+    throw std::invalid_argument(fmt::format(
+        "model '{}' measures {} only: hysid.{} needs every state; the command line takes the measured "
+        "states alone (hysid {})",
+        spec.name, fmt::join(names, ", "), call, call));
+  }
 }
 
 PyModel ModelArgument(const py::handle& value) {

@@ -43,6 +43,10 @@ PyModel ModelArgument(const py::handle& value);
 py::tuple ModelState(const PyModel& m);
 PyModel ModelFromState(const py::tuple& state);
 bool SameModel(const PyModel& a, const PyModel& b);
+// Refuses (std::invalid_argument, naming the model and `call`) what the module does not run yet: a
+// model with measured inputs, and, unless `partial_ok`, one whose data hold only some of its states
+// (`measured`); the command line runs both.
+void RefuseBeyondModule(const Model& model, const std::string& call, bool partial_ok);
 
 // ---- arguments: each error is a ValueError naming the argument and the constraint ----
 

@@ -68,6 +68,7 @@ py::dict SimulateDict(const py::object& model_arg, const py::object& x0, const p
                       const py::object& dt, const py::object& sigma, const py::object& seed_arg,
                       const py::object& trial_arg, const py::object& rtol, const py::object& atol) {
   const Model model = ModelArgument(model_arg).model;
+  RefuseBeyondModule(model, "simulate", /*partial_ok=*/true);
   const std::uint64_t seed = Count(seed_arg, "seed"), trial = Count(trial_arg, "trial");
   const int n = model.state_size();
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
@@ -145,6 +146,7 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
                   const py::object& dt, const py::object& sigma, const py::object& x0_known_arg,
                   const py::object& rtol, const py::object& atol) {
   const Model model = ModelArgument(model_arg).model;
+  RefuseBeyondModule(model, "crlb", /*partial_ok=*/false);
   const bool x0_known = Flag(x0_known_arg, "x0_known");
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
   const Vec s =

@@ -349,6 +349,7 @@ SampleData RunsOf(const Model& model, const py::object& y, const py::object& t, 
 py::dict Identify(const py::object& model_arg, const py::object& y, const py::object& dt_arg,
                   const py::object& t, const py::kwargs& kwargs) {
   const Model model = ModelArgument(model_arg).model;
+  RefuseBeyondModule(model, "identify", /*partial_ok=*/false);
   const IdentifyArgs args = ParseKeywords(kwargs);
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))

@@ -694,3 +694,21 @@ def test_an_interrupted_sweep_resumes_to_the_same_trials(tmp_path):
     assert whole["run"] == 24
     assert (run / "trials.csv").read_bytes() == (tmp_path / "whole" / "trials.csv").read_bytes()
     print(f"locked {locked} times while the abandoned unit finished")
+
+
+def test_models_beyond_the_module_are_refused_by_name():
+    """A model with measured inputs, or one that measures some states only, is refused where the
+    module would otherwise run it as if all states were measured and no input drove it."""
+    driven = hysid.Model.from_file(str(SOURCE / "examples/driven-oscillator/driven-oscillator.toml"))
+    for call in (lambda: hysid.simulate(driven, sigma=1e-3),
+                 lambda: hysid.identify(driven, np.zeros((100, 2)), dt=1e-3),
+                 lambda: hysid.crlb(driven, sigma=1e-3)):
+        with pytest.raises(ValueError, match=r"^model 'driven-oscillator' has measured inputs \(u\): hysid\.\w+ "
+                                             r"does not take inputs"):
+            call()
+    ball = hysid.Model.from_file(str(SOURCE / "examples/drag-ball/drag-ball.toml"))
+    traj = hysid.simulate(ball, sigma=1e-3, seed=1)  # simulate writes every state
+    assert traj["y"].shape[1] == 2
+    for call in (lambda: hysid.identify(ball, traj["y"], dt=traj["dt"]), lambda: hysid.crlb(ball, sigma=1e-3)):
+        with pytest.raises(ValueError, match=r"^model 'drag-ball' measures h only: hysid\.\w+ needs every state"):
+            call()
