@@ -15,6 +15,7 @@ namespace hysid {
 struct Exogenous {
   Vec gamma;                            // guard parameters γ (|γ| entries); empty: the model's own
   const InputSignal* inputs = nullptr;  // measured inputs u(t); nullptr: the model has none
+  int initial_mode = -1;                // q0 of a hybrid automaton; −1: ModelSpec::default_mode
 };
 
 // "" when `exo` fits `model` on the run time range [0, t_end]: γ empty or one finite entry per guard

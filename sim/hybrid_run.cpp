@@ -248,7 +248,7 @@ bool Engine::JumpChain(int guard) {
     }
     model_.Jump(x_, beta_, post, ContextAt(t_));
     if (payload_) payload_->Jump(x_);
-    out_.jumps.push_back(JumpRecord{jumps() + 1, t_, chain == 0 ? guard : -1, x_, post});
+    out_.jumps.push_back(JumpRecord{jumps() + 1, t_, chain == 0 ? guard : -1, x_, post, 0, 0});
     x_ = post;
     if (!x_.allFinite()) {
       return Fail(SimStop::kNonFinite, fmt::format("jump map gave a non-finite state at t = {:.17g}", t_));

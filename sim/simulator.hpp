@@ -71,6 +71,8 @@ struct JumpRecord {
   int guard = -1;  // guard that fired (-1: initial state or chained jump inside D)
   Vec pre;         // ξ(t, j − 1), on the guard
   Vec post;        // ξ(t, j) = ψ(pre)β
+  int map = 0;     // the jump map applied (core/model/automaton.hpp; 0 for the paper's class)
+  int mode = 0;    // the mode q after the jump
 };
 
 struct SolverStats {
@@ -83,6 +85,7 @@ struct Trajectory {
   double dt = 0.0;
   std::vector<double> t;  // sample times kδt (only those reached)
   std::vector<int> j;     // jump counter at each sample
+  std::vector<int> q;     // mode at each sample (empty for a one-mode model)
   Mat x;                  // n × samples, true state
   std::vector<JumpRecord> jumps;
   SimStatus status;

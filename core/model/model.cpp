@@ -1,5 +1,8 @@
 #include "core/model/model.hpp"
 
+#include "core/model/automaton.hpp"
+
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <set>
@@ -36,7 +39,7 @@ void Model::Init() {
   alpha_ = Values(spec_.alpha);
   beta_ = Values(spec_.beta);
   gamma_ = Values(spec_.guard_params);
-  contextual_ = !spec_.inputs.empty() || !spec_.guard_params.empty();
+  contextual_ = !spec_.inputs.empty() || !spec_.guard_params.empty() || IsAutomaton(spec_);
 }
 
 void Model::CheckSpec() const {
@@ -46,8 +49,10 @@ void Model::CheckSpec() const {
   Require(n >= 1 && n <= kMaxStates, name, fmt::format("state size {} outside [1, {}]", n, kMaxStates));
   Require(!spec_.alpha.empty() && static_cast<int>(spec_.alpha.size()) <= kMaxParameters, name,
           "alpha must have between 1 and 32 entries");
-  Require(!spec_.beta.empty() && static_cast<int>(spec_.beta.size()) <= kMaxParameters, name,
-          "beta must have between 1 and 32 entries");
+  const bool all_identity = !spec_.jumps.empty() && std::all_of(spec_.jumps.begin(), spec_.jumps.end(),
+                                                                  [](const JumpMap& m) { return m.identity; });
+  Require((all_identity || !spec_.beta.empty()) && static_cast<int>(spec_.beta.size()) <= kMaxParameters, name,
+          "beta must have between 1 and 32 entries (none only when every jump map is an identity)");
   Require(static_cast<int>(spec_.guard_params.size()) <= kMaxParameters, name,
           "guard_params must have at most 32 entries");
   // α and β names may repeat a state's (they are never variables of an expression); γ and inputs may not.
@@ -77,11 +82,74 @@ void Model::CheckSpec() const {
     Require(measured.insert(r).second, name, fmt::format("measured state {} twice", r));
   }
   for (const auto* rows : {&spec_.flow_rows, &spec_.jump_rows}) {
-    Require(!rows->empty(), name, "flow_rows and jump_rows must not be empty");
+    Require(!rows->empty() || (rows == &spec_.jump_rows && all_identity), name,
+            "flow_rows and jump_rows must not be empty");
     for (int r : *rows) Require(r >= 0 && r < n, name, fmt::format("row {} outside [0, {})", r, n));
   }
   Require(!spec_.guards.empty(), name, "a hybrid model needs at least one guard");
+  CheckAutomaton();
   Require(static_cast<int>(spec_.default_x0.size()) == n, name, "default_x0 must have one entry per state");
+}
+
+// Modes and jump maps (core/model/automaton.hpp): indices in range, β slices inside β and apart, every
+// guard triggering a map, no (mode, guard) pair with two maps.
+void Model::CheckAutomaton() const {
+  const std::string& name = spec_.name;
+  const int modes = static_cast<int>(spec_.modes.size());
+  const int guards = guard_count();
+  const int nbeta = beta_size_spec();
+  Require(modes <= kMaxParameters, name, "modes must have at most 32 entries");
+  Require(std::set<std::string>(spec_.modes.begin(), spec_.modes.end()).size() == spec_.modes.size(), name,
+          "a mode name appears twice");
+  Require(modes <= 1 || !spec_.jumps.empty(), name, "several modes need jump maps to switch between them");
+  Require(spec_.default_mode >= 0 && spec_.default_mode < std::max(1, modes), name,
+          fmt::format("default_mode {} outside [0, {})", spec_.default_mode, std::max(1, modes)));
+  if (spec_.jumps.empty()) return;
+  std::vector<int> owner(static_cast<std::size_t>(nbeta), -1);
+  std::set<std::pair<int, int>> armed;
+  std::set<std::string> names;
+  std::vector<char> triggers(static_cast<std::size_t>(guards), 0);
+  for (std::size_t m = 0; m < spec_.jumps.size(); ++m) {
+    const JumpMap& map = spec_.jumps[m];
+    const std::string what = fmt::format("jump map '{}'", map.name);
+    Require(!map.name.empty() && names.insert(map.name).second, name, "jump map names must be non-empty and distinct");
+    Require(map.guard >= 0 && map.guard < guards, name, fmt::format("{}: guard {} outside [0, {})", what, map.guard, guards));
+    for (int q : {map.from, map.to}) {
+      Require(q >= -1 && q < std::max(1, modes), name, fmt::format("{}: mode {} outside [0, {})", what, q, std::max(1, modes)));
+    }
+    for (int q = 0; q < std::max(1, modes); ++q) {
+      if (map.from >= 0 && map.from != q) continue;
+      Require(armed.insert({q, map.guard}).second, name,
+              fmt::format("{}: guard '{}' already triggers another map in mode {}", what,
+                          spec_.guards[std::size_t(map.guard)].name, q));
+    }
+    triggers[std::size_t(map.guard)] = 1;
+    Require(!map.identity || (map.beta_count == 0 && map.rows.empty()), name,
+            fmt::format("{}: an identity map has no β and no rows", what));
+    Require(map.beta_first >= 0 && map.beta_count >= 0 && map.beta_first + map.beta_count <= nbeta, name,
+            fmt::format("{}: β slice [{}, {}) outside β's {} entries", what, map.beta_first,
+                        map.beta_first + map.beta_count, nbeta));
+    for (int b = map.beta_first; b < map.beta_first + map.beta_count; ++b) {
+      Require(owner[std::size_t(b)] < 0, name, fmt::format("{}: β entry {} belongs to two maps", what, b));
+      owner[std::size_t(b)] = static_cast<int>(m);
+    }
+    for (int r : map.rows) Require(r >= 0 && r < state_size(), name, fmt::format("{}: row {} outside [0, {})", what, r, state_size()));
+  }
+  for (int g = 0; g < guards; ++g) {
+    Require(triggers[std::size_t(g)] != 0, name,
+            fmt::format("guard '{}' triggers no jump map", spec_.guards[std::size_t(g)].name));
+  }
+  for (int b = 0; b < nbeta; ++b) {
+    Require(owner[std::size_t(b)] >= 0, name, fmt::format("β entry '{}' belongs to no jump map", spec_.beta[std::size_t(b)].name));
+  }
+}
+
+void Model::Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus, const Context& ctx) const {
+  if (IsIdentityMap(ctx.map)) {
+    for (Eigen::Index i = 0; i < x.size(); ++i) xplus(i) = x(i);
+    return;
+  }
+  impl_->Jump(x, beta, Resolve(ctx), xplus);
 }
 
 void Model::ThrowMissingInputs() const {

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 
 #include "core/model/context.hpp"
+#include "core/model/jump_map.hpp"
 
 namespace hysid {
 
@@ -82,6 +83,13 @@ struct ModelSpec {
   std::vector<std::string> input_defaults = {};
   // γ: parameters of the guards, projections and sets (usable in φ and ψ too); Context::gamma.
   std::vector<Parameter> guard_params = {};
+  // A hybrid automaton (core/model/automaton.hpp): the discrete modes q (empty: one unnamed mode; φ of
+  // mode q is Phi with Context::mode = q, every mode over the one α) and the jump maps (empty: one map
+  // that every guard triggers, ψ over all of β). With maps, every guard triggers at least one map and a
+  // (mode, guard) pair at most one; only the guards of maps leaving the current mode are armed.
+  std::vector<std::string> modes = {};
+  std::vector<JumpMap> jumps = {};
+  int default_mode = 0;  // q0 when none is given
 };
 
 // Which member functions a model struct must provide. ξ has size n = spec.state_names.size().
@@ -244,12 +252,11 @@ class Model {
     impl_->Flow(x, alpha, Resolve(ctx), dxdt);
   }
   void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const {
-    if (contextual_) return impl_->Jump(x, beta, Resolve({}), xplus);
+    if (contextual_) return Jump(x, beta, xplus, Context{});
     impl_->Jump(x, beta, xplus);
   }
-  void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus, const Context& ctx) const {
-    impl_->Jump(x, beta, Resolve(ctx), xplus);
-  }
+  // With Context::map naming an identity map (a mode switch): ξ+ = ξ.
+  void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus, const Context& ctx) const;
   // ∂(φ(ξ)α)/∂ξ, n × n: analytic when an x-only struct provides it, else central differences.
   void FlowJacobian(const ConstVecRef& x, const ConstVecRef& alpha, MatRef jac) const {
     if (contextual_) return impl_->FlowJacobian(x, alpha, Resolve({}), jac);
@@ -429,6 +436,8 @@ class Model {
                                         const Context& ctx, MatRef jac);
   void Init();
   void CheckSpec() const;
+  void CheckAutomaton() const;
+  int beta_size_spec() const { return static_cast<int>(spec_.beta.size()); }
   // ctx with γ filled in (the model's own when ctx.gamma is nullptr); throws std::logic_error when the
   // model has inputs and ctx.u is nullptr.
   Context Resolve(const Context& ctx) const {
@@ -438,13 +447,16 @@ class Model {
     return out;
   }
   [[noreturn]] void ThrowMissingInputs() const;
+  bool IsIdentityMap(int map) const {
+    return map >= 0 && map < static_cast<int>(spec_.jumps.size()) && spec_.jumps[std::size_t(map)].identity;
+  }
 
   std::shared_ptr<const Concept> impl_;
   ModelSpec spec_;
   Vec alpha_;
   Vec beta_;
   Vec gamma_;
-  bool contextual_ = false;  // inputs or γ: the x-only forms go through Resolve
+  bool contextual_ = false;  // inputs, γ, modes or maps: the x-only forms go through Resolve
 };
 
 // ModelSpec::default_x0 as a vector (Model checks that it has one entry per state).

@@ -165,6 +165,11 @@ struct RefineChain {
   // A model with inputs: u at each sample (m × K, finite); the fits run the model with u
   // interpolated linearly between the samples (sim/input_signal.hpp). Empty without inputs.
   Mat u;
+  // A hybrid automaton (core/model/automaton.hpp): the jump map assigned to each detected event of
+  // the chain, in order (one per gamma = 1; empty: not assigned, the jump check counts events only),
+  // and the mode at its first sample (−1: unknown, each mode is tried).
+  std::vector<int> maps = {};
+  int initial_mode = -1;
   // K samples at t_k = k·dt.
   static RefineChain Uniform(const Mat& y, double dt, const std::vector<std::uint8_t>& gamma);
 };

@@ -421,7 +421,7 @@ class Matched {
 
 // The run's γ and inputs.
 Exogenous ExogenousOf(const HybridParameters& params, const InputSignal* inputs) {
-  return Exogenous{.gamma = params.gamma, .inputs = inputs};
+  return Exogenous{.gamma = params.gamma, .inputs = inputs, .initial_mode = -1};
 }
 
 void CheckInputs(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
