@@ -8,11 +8,10 @@
 #include <utility>
 #include <vector>
 
+#include "bench/default_inputs.hpp"
 #include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/reconstruct.hpp"
-#include "core/model_file/input_defaults.hpp"
-#include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
 #include "sim/model_check/model_check.hpp"
 #include "sim/refine/refine.hpp"
@@ -123,12 +122,8 @@ ExampleFit MakeExampleFit(const std::string& file, double sigma, long samples,
   const ModelSpec& spec = f.model.spec();
   const SampleGrid grid{spec.default_t_end,
                         samples > 0 ? spec.default_t_end / static_cast<double>(samples - 1) : spec.default_dt};
-  InputSignal inputs;
-  if (f.model.input_size() > 0) {
-    for (long k = 0; k < grid.size(); ++k) inputs.times.push_back(static_cast<double>(k) * grid.dt);
-    inputs.values = EvaluateInputDefaults(spec, inputs.times);
-    f.u = inputs.values;
-  }
+  const InputSignal inputs = DefaultInputs(f.model, grid);
+  f.u = inputs.values;
   Exogenous exo;
   exo.inputs = inputs.empty() ? nullptr : &inputs;
   const Trajectory truth_run = Simulate(f.model, DefaultState(f.model), grid, SimOptions{}, exo);

@@ -4,8 +4,7 @@
 #include "core/builtin/bouncing_ball.hpp"
 #include "core/builtin/impact_msd.hpp"
 #include "core/builtin/impact_pendulum.hpp"
-#include "core/model_file/input_defaults.hpp"
-#include "sim/input_signal.hpp"
+#include "bench/default_inputs.hpp"
 #include "sim/measurement.hpp"
 #include "sim/model_check/model_check.hpp"
 #include "sim/simulator.hpp"
@@ -52,9 +51,7 @@ BENCHMARK(BM_SimulateImpactPendulum)->Unit(benchmark::kMillisecond);
 void BM_SimulateInputs40001(benchmark::State& state) {
   const Model model = LoadModelFile(HYSID_EXAMPLES_DIR "/driven-oscillator/driven-oscillator.toml");
   const SampleGrid grid{model.spec().default_t_end, model.spec().default_dt};
-  InputSignal inputs;
-  for (long k = 0; k < grid.size(); ++k) inputs.times.push_back(static_cast<double>(k) * grid.dt);
-  inputs.values = EvaluateInputDefaults(model.spec(), inputs.times);
+  const InputSignal inputs = DefaultInputs(model, grid);
   Exogenous exo;
   exo.inputs = &inputs;
   long jumps = 0;
