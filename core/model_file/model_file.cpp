@@ -651,9 +651,8 @@ void ParseJumpMap(const TomlReader& rd, const toml::table& t, const std::string&
   spec.jumps.push_back(std::move(map));
 }
 
-// Every guard triggers a map, and no guard triggers two maps in one mode (a map without `from`
-// leaves every mode); guard names are distinct, since maps name their guard.
-void CheckArming(const TomlReader& rd, const toml::table& root, const toml::array& jumps, const ModelSpec& spec) {
+// The guards' names, distinct: the maps name their guard.
+std::vector<std::string> GuardNames(const TomlReader& rd, const toml::table& root, const ModelSpec& spec) {
   std::vector<std::string> names;
   for (std::size_t g = 0; g < spec.guards.size(); ++g) {
     const std::string key = TomlReader::Join(TomlReader::Index("guard", g), "name");
@@ -661,6 +660,13 @@ void CheckArming(const TomlReader& rd, const toml::table& root, const toml::arra
       rd.Twice(root.at_path(key).node(), key, fmt::format("guard name '{}' (jump maps name their guard)", spec.guards[g].name));
     names.push_back(spec.guards[g].name);
   }
+  return names;
+}
+
+// Every guard triggers a map, and no guard triggers two maps in one mode (a map without `from`
+// leaves every mode).
+void CheckArming(const TomlReader& rd, const toml::table& root, const toml::array& jumps, const ModelSpec& spec,
+                 const std::vector<std::string>& names) {
   std::map<std::pair<int, int>, std::size_t> armed;
   for (std::size_t m = 0; m < spec.jumps.size(); ++m) {
     const JumpMap& map = spec.jumps[m];
@@ -704,13 +710,12 @@ void ParseJumps(const TomlReader& rd, const toml::table& root, Definition& def, 
   const toml::array& arr = *node.as_array();
   rd.NotEmpty(&arr, "jump", arr.size(), "[[jump]]");
   def.sliced = true;
-  std::vector<std::string> guards;
-  for (const Guard& g : spec.guards) guards.push_back(g.name);
+  const std::vector<std::string> guards = GuardNames(rd, root, spec);
   for (std::size_t m = 0; m < arr.size(); ++m) {
     const std::string key = TomlReader::Index("jump", m);
     ParseJumpMap(rd, rd.Table(arr[m], key), key, def, sym, guards);
   }
-  CheckArming(rd, root, arr, spec);
+  CheckArming(rd, root, arr, spec, guards);
   std::set<int> rows;
   for (const JumpMap& map : spec.jumps) rows.insert(map.rows.begin(), map.rows.end());
   spec.jump_rows.assign(rows.begin(), rows.end());
@@ -746,15 +751,17 @@ void ParseDefaults(const TomlReader& rd, const toml::table& root, ModelSpec& spe
   const toml::node& x0 = rd.Require(t, "defaults", "x0");
   spec.default_x0 = rd.Numbers(x0, "defaults.x0");
   rd.Size(&x0, "defaults.x0", spec.default_x0.size(), spec.state_names.size(), "one per state");
+  // t_end and dt may be left out: ModelSpec's defaults (10 and 1e-3).
   for (auto [k, field] : {std::pair{"t_end", &spec.default_t_end}, std::pair{"dt", &spec.default_dt}}) {
-    const toml::node& n = rd.Require(t, "defaults", k);
-    *field = rd.Number(n, TomlReader::Join("defaults", k));
-    rd.Above(&n, TomlReader::Join("defaults", k), *field, 0.0);
+    const toml::node* n = t.get(k);
+    if (n == nullptr) continue;
+    *field = rd.Number(*n, TomlReader::Join("defaults", k));
+    rd.Above(n, TomlReader::Join("defaults", k), *field, 0.0);
   }
   // The default trajectory is simulated when the file is loaded: within the samples limit.
   const double samples = std::min(spec.default_t_end / spec.default_dt, 9e18) + 1.0;
   if (samples > static_cast<double>(LimitValue(kMaxSamples))) {
-    rd.Fail(&rd.Require(t, "defaults", "dt"), "defaults.dt",
+    rd.Fail(t.contains("dt") ? t.get("dt") : &t, "defaults.dt",
             fmt::format("t_end {} / dt {}: {:.0f} exceeds the limit of {} {} (raise it with {}=N)",
                         spec.default_t_end, spec.default_dt, samples, LimitValue(kMaxSamples),
                         kMaxSamples.what, kMaxSamples.variable));
