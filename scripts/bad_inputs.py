@@ -452,6 +452,17 @@ SUBJECTS = {
     "identify: a second --data file with a header only": "headeronly.csv",
     "model file: \"v++\" in flow.phi (muParser's internal error)": "plusplus.toml:21: flow.phi[0][0]",
     "identify: --x0-known on two runs": "--x0-known",
+    "model file: a map from a mode that does not exist": "pumpfrom.toml:27: jump[0].from",
+    "model file: defaults.mode not among the modes": "pumpmode.toml:49: defaults.mode",
+    "model file: a map on a guard that does not exist": "pumpguard.toml:29: jump[0].guard",
+    "model file: a guard that triggers no map": "pumpunused.toml:42: guard[1]",
+    "model file: two maps on one guard in one mode": "fctwo.toml:26: jump[1].guard",
+    "model file: psi without beta": "fcnobeta.toml:27: jump[1].psi",
+    "model file: an identity map with rows": "pumprows.toml:30: jump[0].rows",
+    "model file: a jump map name twice": "pumpdupname.toml:32: jump[1].name",
+    "model file: a mode without a [[flow]]": "pumpnoflow.toml:7: modes",
+    "model file: [flow] with modes": "pumpflowtable.toml:17: flow",
+    "model file: [flow] and [[flow]] together": "fcboth.toml:15: TOML syntax",
     "identify: --x0-known with --refine none": "--x0-known",
 }
 

@@ -307,11 +307,13 @@ void PrintModel(const Model& m, bool full) {
     std::printf("  modes: %s (default %s)\n", fmt::format("{}", fmt::join(s.modes, ", ")).c_str(),
                 s.modes[std::size_t(s.default_mode)].c_str());
   }
+  int width = 6;  // the kind column: flow, jump, guard, or "jump NAME"
+  for (const JumpMap& map : s.jumps) width = std::max(width, 5 + static_cast<int>(map.name.size()));
   for (const auto* list : {&s.alpha, &s.beta, &s.guard_params}) {
     for (std::size_t i = 0; i < list->size(); ++i) {
       const Parameter& p = (*list)[i];
       const bool bounded = std::isfinite(p.lower) || std::isfinite(p.upper);
-      std::printf("  %-12s %-6s = %-8g %s%s\n", p.name.c_str(), ParameterKind(s, list, i).c_str(), p.value,
+      std::printf("  %-12s %-*s = %-8g %s%s\n", p.name.c_str(), width, ParameterKind(s, list, i).c_str(), p.value,
                   p.known ? "(known constant)" : p.description.c_str(),
                   bounded ? fmt::format(" (bounds [{}, {}])", p.lower, p.upper).c_str() : "");
     }
