@@ -477,26 +477,37 @@ void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def,
   def.guards.constant.assign(arr.size(), 0.0);
 }
 
+// An optional top-level list of distinct names (inputs, modes), at most kMaxParameters; `check(node,
+// key, name)` vets each new name.
+template <class Check>
+std::vector<std::string> ParseNames(const TomlReader& rd, const toml::table& root, const char* which, Check check) {
+  const toml::node* node = root.get(which);
+  if (node == nullptr) return {};
+  const toml::array& arr = rd.Array(*node, which);
+  if (arr.size() > std::size_t(Model::kMaxParameters)) {
+    rd.Fail(&arr, which, fmt::format("has {} entries, at most {}", arr.size(), Model::kMaxParameters));
+  }
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string key = TomlReader::Index(which, i);
+    std::string name = rd.String(arr[i], key);
+    if (std::find(out.begin(), out.end(), name) != out.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", name));
+    check(arr[i], key, name);
+    out.push_back(std::move(name));
+  }
+  return out;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Hybrid automata: modes = [...], one [[flow]] per mode, [[jump]] maps with their own β slices.
 
 // modes = ["NAME", ...]: at least one, distinct (absent: one unnamed mode).
 std::vector<std::string> ParseModes(const TomlReader& rd, const toml::table& root) {
-  const toml::node* node = root.get("modes");
-  if (node == nullptr) return {};
-  const toml::array& arr = rd.Array(*node, "modes");
-  rd.NotEmpty(&arr, "modes", arr.size(), "mode");
-  if (arr.size() > std::size_t(Model::kMaxParameters)) {
-    rd.Fail(&arr, "modes", fmt::format("has {} entries, at most {}", arr.size(), Model::kMaxParameters));
-  }
-  std::vector<std::string> out;
-  for (std::size_t i = 0; i < arr.size(); ++i) {
-    const std::string key = TomlReader::Index("modes", i);
-    std::string name = rd.String(arr[i], key);
-    if (name.empty()) rd.Fail(&arr[i], key, "empty: give the mode a name");
-    if (std::find(out.begin(), out.end(), name) != out.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", name));
-    out.push_back(std::move(name));
-  }
+  std::vector<std::string> out =
+      ParseNames(rd, root, "modes", [&](const toml::node& node, const std::string& key, const std::string& name) {
+        if (name.empty()) rd.Fail(&node, key, "empty: give the mode a name");
+      });
+  if (const toml::node* node = root.get("modes")) rd.NotEmpty(node, "modes", out.size(), "mode");
   return out;
 }
 
@@ -888,22 +899,10 @@ std::vector<int> ParseMeasured(const TomlReader& rd, const toml::table& root, co
 
 // inputs = ["u", ...]: new variable names, no duplicates.
 std::vector<std::string> ParseInputs(const TomlReader& rd, const toml::table& root, std::vector<std::string> taken) {
-  const toml::node* node = root.get("inputs");
-  if (node == nullptr) return {};
-  const toml::array& arr = rd.Array(*node, "inputs");
-  if (arr.size() > std::size_t(Model::kMaxParameters)) {
-    rd.Fail(&arr, "inputs", fmt::format("has {} entries, at most {}", arr.size(), Model::kMaxParameters));
-  }
-  std::vector<std::string> out;
-  for (std::size_t i = 0; i < arr.size(); ++i) {
-    const std::string key = TomlReader::Index("inputs", i);
-    std::string name = rd.String(arr[i], key);
-    if (std::find(out.begin(), out.end(), name) != out.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", name));
-    CheckVariableName(rd, &arr[i], key, name, taken);
+  return ParseNames(rd, root, "inputs", [&](const toml::node& node, const std::string& key, const std::string& name) {
+    CheckVariableName(rd, &node, key, name, taken);
     taken.push_back(name);
-    out.push_back(std::move(name));
-  }
-  return out;
+  });
 }
 
 // input_defaults = { u = "expression of t", ... }: one entry per named input at most.
