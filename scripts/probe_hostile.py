@@ -693,7 +693,7 @@ def expr_case(key, form, loader):
 
 
 def cases_expr():
-    c = []
+    c = [cases_expr_python]  # first: also in the quick subset
     loaders = list(EXPR_LOADERS)
     i = 0
     for key in EXPR_KEYS:
@@ -702,7 +702,6 @@ def cases_expr():
             i += 1
             for ld in chosen:
                 c.append(lambda k=key, f=form, ld=ld: expr_case(k, f, ld))
-    c.append(cases_expr_python)
     return c
 
 
@@ -931,13 +930,13 @@ def units_case(refines, scales):
 def cases_units():
     scales = [("time", 1e-6), ("time", 1e6), ("state", 1e-6), ("state", 1e6)]
     return [lambda: units_case(["none", "ml"] if ARGS.full else ["none"], scales)] + \
-           ([] if ARGS.full else [lambda: units_case(["ml"], [("time", 1e-6), ("state", 1e6)])])
+           ([] if ARGS.full else [lambda: units_case(["ml"], [("time", 1e-6)])])
 
 
 # ---------------------------------------------------------------- limits: (6) bounded inputs, signals
 
 def cases_limits():
-    c = []
+    c = [lambda s=sig: signal_case(s) for sig in (signal.SIGINT, signal.SIGTERM)]  # first: SIGINT in the quick subset
     def fifo(name):
         return lambda d: os.mkfifo(os.path.join(d, name))
     for args, subj, setup in (
@@ -989,8 +988,6 @@ def cases_limits():
                  ["models"], ["models", "--show", "wall.toml"], ["crlb", "--t-end", "2"], ["sweep", "ok.toml", "--out", "r"],
                  ["merge", "done", "--out", "m"], ["hysid-version"]):
         c.append(lambda a=args: full_stdout(a))
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        c.append(lambda s=sig: signal_case(s))
     c.append(lambda: accept("limits", "dt longer than the time between jumps ends within 30 s",
                             ["identify", "--data", "coarse.csv"], expect=(0, 1),
                             setup=lambda d: run(["simulate", "--dt", "0.25", "--t-end", "40", "--sigma", "1e-3",
@@ -1060,7 +1057,7 @@ SIGNAL_FIGURES = []
 
 CLASSES = {"refuse": cases_refuse, "ok": cases_ok, "overwrite": cases_overwrite, "study": cases_study,
            "expr": cases_expr, "units": cases_units, "python": cases_python, "limits": cases_limits}
-QUICK_EVERY = {"refuse": 3, "ok": 2, "overwrite": 5, "study": 3, "expr": 2, "limits": 2}  # without --full: every k-th case
+QUICK_EVERY = {"refuse": 5, "ok": 3, "overwrite": 9, "study": 4, "expr": 5, "limits": 3}  # without --full: every k-th case
 
 
 def main():
