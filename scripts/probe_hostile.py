@@ -48,6 +48,16 @@ COUNTS = {}
 SECONDS = {}
 FAILURES = []
 TEMPLATE = None
+WORK = None  # every scratch directory is under TMPDIR/probe_hostile-PID-*, removed at the end
+
+
+def remove_stale_work():
+    """Removes the scratch directories of earlier probes that were killed (their process is gone)."""
+    base = tempfile.gettempdir()
+    for name in os.listdir(base):
+        m = re.fullmatch(r"probe_hostile-(\d+)-\w+", name)
+        if m and not os.path.exists(f"/proc/{m.group(1)}"):
+            shutil.rmtree(os.path.join(base, name), ignore_errors=True)
 
 
 # Open findings that the probe reports but does not count as failures, each with why it is open; a
@@ -106,7 +116,7 @@ def temporaries(d):
 def build_template():
     """The inputs every case may read: a simulation of impact-msd and of wall-msd, model files, sweep
     files, a finished sweep."""
-    d = tempfile.mkdtemp(prefix="probe-template-")
+    d = tempfile.mkdtemp(prefix="template-", dir=WORK)
     def w(name, text):
         os.makedirs(os.path.dirname(os.path.join(d, name)) or d, exist_ok=True)
         with open(os.path.join(d, name), "w") as f:
@@ -134,7 +144,7 @@ def build_template():
 class Scratch:
     """A copy of the template, removed on exit."""
     def __enter__(self):
-        self.d = tempfile.mkdtemp(prefix="probe-")
+        self.d = tempfile.mkdtemp(prefix="case-", dir=WORK)
         shutil.rmtree(self.d)
         shutil.copytree(TEMPLATE, self.d, symlinks=True)
         return self.d
@@ -1061,7 +1071,7 @@ QUICK_EVERY = {"refuse": 5, "ok": 3, "overwrite": 9, "study": 4, "expr": 5, "lim
 
 
 def main():
-    global ARGS, HYSID, PYDIR, TEMPLATE, JUMPS5
+    global ARGS, HYSID, PYDIR, TEMPLATE, JUMPS5, WORK
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--full", action="store_true", help="every case (without: a fixed subset of each class)")
     ap.add_argument("--only", default="", help="comma-separated classes to run")
@@ -1071,8 +1081,12 @@ def main():
     HYSID, PYDIR = os.path.abspath(ARGS.hysid), os.path.abspath(ARGS.python_dir)
     only = [c for c in ARGS.only.split(",") if c] or list(CLASSES)
     t0 = time.monotonic()
-    TEMPLATE = build_template()
+    remove_stale_work()
+    WORK = tempfile.mkdtemp(prefix=f"probe_hostile-{os.getpid()}-")
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):  # end through finally: remove WORK
+        signal.signal(sig, lambda s, f: sys.exit(128 + s))
     try:
+        TEMPLATE = build_template()
         JUMPS5 = json.load(open(os.path.join(TEMPLATE, "sim.json")))["jumps"]
         for cls in only:
             t_cls = time.monotonic()
@@ -1083,7 +1097,7 @@ def main():
                     case()
             SECONDS[cls] = time.monotonic() - t_cls
     finally:
-        shutil.rmtree(TEMPLATE, ignore_errors=True)
+        shutil.rmtree(WORK, ignore_errors=True)
     failed = {}
     for cls, _, _ in FAILURES:
         failed[cls] = failed.get(cls, 0) + 1
