@@ -221,7 +221,7 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
     for (const JumpMap& m : spec.jumps) maps.push_back(m.name);
     std::vector<std::string> applied;
     for (const JumpRecord& jr : traj.jumps) applied.push_back(maps[std::size_t(jr.map)]);
-    if (!spec.modes.empty()) meta["modes"] = spec.modes;
+    if (ModeCount(spec) > 1) meta["modes"] = spec.modes;
     meta["maps"] = maps;
     meta["jump_maps"] = applied;
   }

@@ -17,12 +17,7 @@ namespace {
 
 constexpr double kSigma = 1e-3;
 
-Vec Of(std::initializer_list<double> v) {
-  Vec x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
+using testing::Of;
 
 // The truth's run, its jump labels and the maps of its jumps.
 struct Truth {
