@@ -152,6 +152,10 @@ std::shared_ptr<X0KnownKeyword> MakeX0Known(const std::optional<std::string>& te
   return k;
 }
 
+bool IsValueError(const py::error_already_set& e) {
+  return e.matches(PyExc_ValueError) || e.matches(PyExc_TypeError);
+}
+
 PyModel ModelArgument(const py::handle& value) {
   if (py::isinstance<PyModel>(value)) return value.cast<PyModel>();
   if (py::isinstance<py::str>(value)) return MakePyModel(value.cast<std::string>());
@@ -195,6 +199,7 @@ py::array_t<double> RealArray(const py::handle& value, const std::string& name) 
   try {
     a = np.attr("asarray")(value);
   } catch (const py::error_already_set& e) {  // ragged nesting and the like
+    if (!IsValueError(e)) throw;  // KeyboardInterrupt (Ctrl-C during the conversion) and the like
     throw std::invalid_argument(fmt::format("{}: not an array of numbers ({})", name, e.what()));
   }
   const char kind = a.dtype().kind();

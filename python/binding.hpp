@@ -58,6 +58,8 @@ bool Flag(const py::handle& value, const std::string& name);
 std::string Text(const py::handle& value, const std::string& name);
 // Real numbers as a float64 C-contiguous array (no complex, strings, objects or bools), any shape.
 py::array_t<double> RealArray(const py::handle& value, const std::string& name);
+// A ValueError or TypeError (what a bad value raises), not a KeyboardInterrupt raised meanwhile.
+bool IsValueError(const py::error_already_set& e);
 // A number or a 1-D sequence of numbers (empty when `value` is None).
 std::vector<double> Numbers(const py::handle& value, const std::string& name);
 // "(2, 3)": the shape of `a`.

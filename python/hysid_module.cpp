@@ -121,13 +121,16 @@ py::dict SimulateDict(const py::object& model_arg, const py::object& x0, const p
   const int n = model.state_size();
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol, inputs);
   const Vec s = CheckedSigma(Numbers(sigma, "sigma"), n, /*allow_zero=*/true, Spelling::kKeyword);
-  const auto [traj, y] = RunInterruptible<std::pair<Trajectory, Mat>>([model, run, s, seed, trial] {
+  auto stop = std::make_shared<std::atomic<bool>>(false);
+  const auto [traj, y] = RunInterruptible<std::pair<Trajectory, Mat>>([model, run, s, seed, trial, stop] {
     Exogenous exo;
     if (!run.inputs.empty()) exo.inputs = &run.inputs;
-    Trajectory traj = hysid::Simulate(model, run.x0, run.grid, run.sim, exo);
+    SimOptions sim = run.sim;
+    sim.stop = stop.get();
+    Trajectory traj = hysid::Simulate(model, run.x0, run.grid, sim, exo);
     Mat y = AddMeasurementNoise(traj.x, s, NoiseKey{.seed = seed, .stream = trial});
     return std::pair{std::move(traj), std::move(y)};
-  });
+  }, stop);
   py::list jumps;
   for (const JumpRecord& j : traj.jumps) {
     jumps.append(py::dict(py::arg("j") = j.j, py::arg("t") = j.t, py::arg("guard") = j.guard,
@@ -211,9 +214,11 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
                              Spelling::kKeyword);
   const auto keyword = MakeX0Known(X0KnownText(x0_known_arg));
   const std::vector<int> known = Keyworded([&] { return cli::X0KnownFlag(keyword->flag, model); });
-  const Crlb c = RunInterruptible<Crlb>([model, run, s, known, measured, all, n] {
+  auto stop = std::make_shared<std::atomic<bool>>(false);
+  const Crlb c = RunInterruptible<Crlb>([model, run, s, known, measured, all, n, stop] {
     SensitivityOptions options;
     options.sim = run.sim;
+    options.sim.stop = stop.get();
     // As `hysid crlb`: every component known, ξ0 is not in θ; some: in θ, held (sd 0).
     const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
     Crlb c = ComputeCrlb(model, run.x0, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
@@ -225,7 +230,7 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
     h.samples = c.samples;
     h.jumps = c.jumps;
     return h;
-  });
+  }, stop);
   py::dict sd;
   for (std::size_t i = 0; i < c.names.size() && c.ok(); ++i) sd[py::str(c.names[i])] = c.sd[Eigen::Index(i)];
   py::dict out;

@@ -355,8 +355,9 @@ bool IsRuns(const py::handle& y) {
   if (!IsList(y)) return false;
   try {
     return py::module_::import("numpy").attr("asarray")(y).cast<py::array>().ndim() != 2;
-  } catch (const py::error_already_set&) {
-    return true;  // ragged: arrays of different lengths, one per run
+  } catch (const py::error_already_set& e) {
+    if (!IsValueError(e)) throw;  // KeyboardInterrupt (Ctrl-C during the conversion) and the like
+    return true;                  // ragged: arrays of different lengths, one per run
   }
 }
 
@@ -433,6 +434,26 @@ Eigen::RowVectorXd JumpCounter(const py::object& j, Eigen::Index k, const std::s
   return Eigen::Map<const Eigen::RowVectorXd>(v.data(), k);
 }
 
+// The true jump counter as a data file's column j is read: never decreasing within a run, and the runs
+// joined without a step (run r's counter continues from the last value of the runs before it).
+std::vector<int> JoinedCounter(const SampleData& data, const Eigen::RowVectorXd& raw, bool runs) {
+  std::vector<int> out;
+  long offset = 0;
+  for (Eigen::Index k = 0; k < raw.size(); ++k) {
+    const auto ks = static_cast<std::size_t>(k);
+    const long v = std::lround(raw[k]);
+    if (k > 0 && data.run[ks] != data.run[ks - 1]) {
+      offset = out.back() - v;
+    } else if (k > 0 && v < std::lround(raw[k - 1])) {
+      const std::string r = runs ? fmt::format("[{}]", data.run[ks]) : "";
+      throw std::invalid_argument(fmt::format("truth['j']{}[{}]: {} after {}: a jump counter never decreases within a run",
+                                              r, data.line[ks] - 1, v, std::lround(raw[k - 1])));
+    }
+    out.push_back(static_cast<int>(offset + v));
+  }
+  return out;
+}
+
 // y, u and truth['j'] as runs, checked as `hysid identify --data` checks its files (one table of
 // columns y, u, j per run); messages name y, u, t and truth.
 SampleData RunsOf(const Model& model, const IdentifyArgs& args, const py::object& y, const py::object& t, double dt) {
@@ -476,10 +497,7 @@ SampleData RunsOf(const Model& model, const IdentifyArgs& args, const py::object
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(ArrayMessage(e.what(), runs, ny, m));
   }
-  if (!j.is_none()) {
-    data.j.emplace();
-    for (Eigen::Index k = 0; k < data.y.cols(); ++k) data.j->push_back(static_cast<int>(std::lround(data.y(ny + m, k))));
-  }
+  if (!j.is_none()) data.j = JoinedCounter(data, data.y.row(ny + m), runs);
   data.u = data.y.middleRows(ny, m);
   const Mat states = data.y.topRows(ny);
   data.y = states;

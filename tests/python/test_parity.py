@@ -413,3 +413,32 @@ def test_crlb_of_the_examples_equals_the_cli(example_name, name, kwargs, flags):
     assert set(printed) == set(bound["names"])
     for name_, sd in bound["sd"].items():
         assert (printed[name_] == "" and sd == 0.0) or float(printed[name_]) == float(f"{sd:.6g}"), name_
+
+
+def test_runs_with_inputs_give_the_cli_report(tmp_path):
+    """Two runs of the driven oscillator, each with its own input column: a list of y, u (dicts), t and the
+    true jump counters, as two --data files; the same report, chains, truth and per-chain initial states."""
+    model = EXAMPLES["driven-oscillator"]
+    files, ys, us, ts, js = [], [], [], [], []
+    for seed, x0 in ((5, "0,0"), (6, "0.5,0")):
+        csv = tmp_path / f"run{seed}.csv"
+        subprocess.run([BIN, "simulate", "--model-file", model, "--sigma", "0.001", "--seed", str(seed), "--t-end", "6",
+                        "--x0", x0, "--out", str(csv)], check=True, capture_output=True)
+        csv.with_suffix(".json").unlink()  # no sidecar: no truth, the same accuracy for both
+        table = np.loadtxt(csv, delimiter=",", skiprows=1)
+        files += ["--data", str(csv)]
+        ys.append(table[:, 4:6])
+        us.append({"u": table[:, 6]})
+        ts.append(table[:, 0])
+        js.append(table[:, 1])
+    fit = hysid.identify(model, ys, t=ts, u=us, truth={"j": js})
+    out = tmp_path / "fit.json"
+    p = subprocess.run([BIN, "identify", "--model-file", model, *files, "--json", str(out)], capture_output=True, text=True)
+    assert p.returncode in (0, 1), p.stderr
+    cli = json.loads(out.read_text())
+    assert key_differences(fit["report"], cli) == []
+    assert [d for d in value_differences(fit["report"], cli) if not named_by_the_source(d.split(":")[0])
+            and not d.startswith("report.data.runs")] == []
+    assert len(cli["chains"]) == 2 and fit["refined"]["chains_used"] == 2
+    with pytest.raises(ValueError, match=r"^u: y is a list of 2 runs; give u as a list of as many arrays or dicts"):
+        hysid.identify(model, ys, t=ts, u=us[0])
