@@ -248,6 +248,22 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
   return out;
 }
 
+// Model.jumps: each jump map with its guard, modes and slice of β by name.
+py::list JumpMaps(const PyModel& x) {
+  const ModelSpec& spec = x.model.spec();
+  auto mode = [&](int q) { return q < 0 ? py::object(py::none()) : py::object(py::str(spec.modes[std::size_t(q)])); };
+  py::list out;
+  for (const JumpMap& map : spec.jumps) {
+    py::list beta, rows;
+    for (int i = map.beta_first; i < map.beta_first + map.beta_count; ++i) beta.append(spec.beta[std::size_t(i)].name);
+    for (const int i : map.rows) rows.append(spec.state_names[std::size_t(i)]);
+    out.append(py::dict(py::arg("name") = map.name, py::arg("guard") = spec.guards[std::size_t(map.guard)].name,
+                        py::arg("from") = mode(map.from), py::arg("to") = mode(map.to), py::arg("beta") = beta,
+                        py::arg("rows") = rows, py::arg("identity") = map.identity));
+  }
+  return out;
+}
+
 // Model.set: a new model with one unknown parameter's true value changed (the model is not changed).
 PyModel WithParameter(const PyModel& m, const std::string& name, const py::object& value) {
   PyModel out = m;
@@ -277,6 +293,13 @@ void BindModel(py::module_& m) {
             return names;
           },
           "the states the data hold (identify's y has these columns, in this order)")
+      .def_property_readonly(
+          "modes", [](const PyModel& x) { return x.model.spec().modes; },
+          "the discrete modes by name ([]: one unnamed mode, the paper's class)")
+      .def_property_readonly("jumps", &JumpMaps,
+                             "the jump maps: name, guard, from and to (mode names; None: any mode, the mode it "
+                             "left), beta (the names of its slice of beta), rows, identity ([]: one map that "
+                             "every guard triggers)")
       .def_property_readonly(
           "inputs", [](const PyModel& x) { return x.model.spec().inputs; },
           "the measured inputs by name (identify's u, simulate's and crlb's inputs)")

@@ -720,3 +720,19 @@ def test_an_interrupted_sweep_resumes_to_the_same_trials(tmp_path):
     assert whole["run"] == 24
     assert (run / "trials.csv").read_bytes() == (tmp_path / "whole" / "trials.csv").read_bytes()
     print(f"locked {locked} times while the abandoned unit finished")
+
+
+@pytest.mark.parametrize("path", sorted(str(p) for p in (SOURCE / "examples").glob("*/*.toml")
+                                        if "[[jump]]" in p.read_text()))
+def test_modes_and_jump_maps_are_those_of_the_model_file(path):
+    """Model.modes and Model.jumps against the file read by tomllib: names, guard, from, to (None when the
+    file leaves them out), the names of the map's beta, its rows and whether it is an identity (no psi)."""
+    import tomllib
+    spec = tomllib.loads(Path(path).read_text())
+    m = hysid.Model(path)
+    assert m.modes == spec.get("modes", [])
+    assert [j["name"] for j in m.jumps] == [j["name"] for j in spec["jump"]]
+    for got, given in zip(m.jumps, spec["jump"]):
+        assert (got["guard"], got["from"], got["to"]) == (given["guard"], given.get("from"), given.get("to"))
+        assert got["beta"] == [b["name"] for b in given.get("beta", [])]
+        assert got["rows"] == given.get("rows", []) and got["identity"] == ("psi" not in given)
