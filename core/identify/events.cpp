@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <utility>
 
@@ -404,6 +405,17 @@ IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, co
       r.jump_status = detection.jump_status;
       r.jump_reason = detection.jump_reason;
     }
+  }
+  // γ marks every event: a switch is an event of the hybrid time domain (an identity map) although
+  // the recursive pass regressed its pair as flow.
+  for (const AutomatonEvent& e : events) r.gamma[std::size_t(e.sample)] = 1;
+  if (r.safe_start) {
+    IdentifyResult safe = *r.safe_start;
+    safe.gamma = r.gamma;
+    safe.events = events;
+    safe.mode = pass.modes;
+    safe.initial_mode = chosen;
+    r.safe_start = std::make_shared<const IdentifyResult>(std::move(safe));
   }
   r.events = std::move(events);
   r.mode = pass.modes;

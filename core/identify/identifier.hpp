@@ -190,7 +190,9 @@ struct IdentifyOptions {
 
 struct IdentifyResult {
   Vec alpha_hat, beta_hat;          // final, full vectors
-  std::vector<std::uint8_t> gamma;  // per sample (gamma[0] = 0)
+  // Per sample (gamma[0] = 0): 1 where the jump regression took the pair; a hybrid automaton's
+  // switches (events without a jump) are 1 too (IdentifyResult::events says which is which).
+  std::vector<std::uint8_t> gamma;
   std::vector<double> statistic;    // detector statistic per sample (paper: D_δt ξ)
   std::vector<double> threshold;    // its threshold (paper: τ̂)
   Mat alpha_trace, beta_trace;      // |α| × K and |β| × K when options.trace
