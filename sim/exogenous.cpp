@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/model/automaton.hpp"
+
 namespace hysid {
 
 std::string ExogenousError(const Model& model, const Exogenous& exo, double t_end) {
@@ -15,6 +17,10 @@ std::string ExogenousError(const Model& model, const Exogenous& exo, double t_en
                          model.gamma_size());
     }
     if (!exo.gamma.allFinite()) return "guard parameters are not finite";
+  }
+  if (exo.initial_mode < -1 || exo.initial_mode >= ModeCount(spec)) {
+    return fmt::format("initial mode {} outside [0, {}) of model '{}'", exo.initial_mode, ModeCount(spec),
+                       model.name());
   }
   if (spec.inputs.empty()) {
     if (exo.inputs) return fmt::format("inputs given, but model '{}' has none", model.name());
@@ -31,8 +37,12 @@ std::string ExogenousError(const Model& model, const Exogenous& exo, double t_en
   return InputRangeError(*exo.inputs, spec.inputs, 0.0, t_end);
 }
 
+int InitialMode(const Model& model, const Exogenous& exo) {
+  return exo.initial_mode >= 0 ? exo.initial_mode : model.spec().default_mode;
+}
+
 ContextSource::ContextSource(const Model& model, const Exogenous& exo)
-    : exo_(exo), u_(model.spec().inputs.size(), 0.0) {}
+    : exo_(exo), u_(model.spec().inputs.size(), 0.0), mode_(InitialMode(model, exo)) {}
 
 Context ContextSource::At(double t) {
   Context ctx;
@@ -42,6 +52,7 @@ Context ContextSource::At(double t) {
     ctx.u = u_.data();
   }
   if (exo_.gamma.size() != 0) ctx.gamma = exo_.gamma.data();
+  ctx.mode = mode_;
   return ctx;
 }
 

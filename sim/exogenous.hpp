@@ -18,13 +18,16 @@ struct Exogenous {
   int initial_mode = -1;                // q0 of a hybrid automaton; −1: ModelSpec::default_mode
 };
 
+// q0 of a run: exo.initial_mode, or the model's default_mode when it is −1.
+int InitialMode(const Model& model, const Exogenous& exo);
+
 // "" when `exo` fits `model` on the run time range [0, t_end]: γ empty or one finite entry per guard
-// parameter; inputs given exactly when the model has inputs, with one row per input, sound
+// parameter; initial_mode −1 or a mode of the model ([0, ModeCount)); inputs given exactly when the model has inputs, with one row per input, sound
 // (InputSignalError) and covering [0, t_end] (InputRangeError). Else why, naming what disagrees.
 std::string ExogenousError(const Model& model, const Exogenous& exo, double t_end);
 
 // The Context of a time: u(t) interpolated into a buffer of its own, γ from the Exogenous (or the
-// model's own). One per run (not shared between threads); a Context it returns points into its
+// model's own), the mode set last (set_mode; the run loop's current mode). One per run (not shared between threads); a Context it returns points into its
 // buffer and is valid until its next At().
 class ContextSource {
  public:
@@ -34,10 +37,14 @@ class ContextSource {
   // `limit` when there is none before it. Without inputs: `limit`.
   double NextInputTime(double t, double limit) const;
   bool has_inputs() const { return exo_.inputs != nullptr; }
+  // The mode every later At() carries in Context::mode.
+  void set_mode(int mode) { mode_ = mode; }
+  int mode() const { return mode_; }
 
  private:
   const Exogenous& exo_;
   std::vector<double> u_;
+  int mode_ = 0;
 };
 
 }  // namespace hysid

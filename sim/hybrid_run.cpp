@@ -1,11 +1,14 @@
 #include "sim/hybrid_run.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include <cvodes/cvodes.h>
 #include <fmt/format.h>
 #include <sundials/sundials_context.h>
 #include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
+
+#include "core/model/automaton.hpp"
 
 namespace hysid::hybrid {
 namespace {
@@ -33,6 +36,11 @@ int GuardFunctions(sunrealtype t, N_Vector y, sunrealtype* gout, void* user_data
   const Eigen::Map<const Vec> x(N_VGetArrayPointer_Serial(y), data->n);
   Eigen::Map<Vec> h(gout, data->guard_count);
   data->model->Guards(x, h, data->context->At(t));
+  if (data->armed) {  // a guard not armed in the current mode never changes sign
+    for (int i = 0; i < data->guard_count; ++i) {
+      if (!(*data->armed)[static_cast<std::size_t>(i)]) h(i) = 1.0;
+    }
+  }
   return 0;
 }
 
@@ -43,6 +51,13 @@ void CaptureError(int /*error_code*/, const char* module, const char* function, 
 // Intervals count as shrinking only when each is below this fraction of the one before: constant
 // intervals (a stiff spring's half-periods) equal up to rounding are not an accumulation.
 constexpr double kZenoMaxRatio = 1.0 - 1e-3;
+
+// A guard within this of zero (times max(1, ‖ξ‖∞)) after a jump is at zero: whether it fires again at
+// the same instant is decided by its rate under the new flow.
+constexpr double kAtZero = 1e-10;
+
+// The sign of a crossing in a guard's direction: +1 rising, −1 falling, 0 both.
+double DirectionSign(Crossing c) { return c == Crossing::kRising ? 1.0 : c == Crossing::kFalling ? -1.0 : 0.0; }
 
 }  // namespace
 
@@ -56,6 +71,8 @@ Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Exog
       payload_(payload),
       order_(order),
       context_(model, exo),
+      explicit_maps_(!model.spec().jumps.empty()),
+      several_modes_(ModeCount(model.spec()) > 1),
       n_(model.state_size()) {
   t_last_ = samples_.at(samples_.count - 1);
   out_.dt = samples_.dt;
@@ -63,9 +80,11 @@ Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Exog
   if (order_ == SampleOrder::kIncreasing) {
     out_.t.reserve(count);
     out_.j.reserve(count);
+    if (several_modes_) out_.q.reserve(count);
   } else {
     out_.t.assign(count, 0.0);
     out_.j.assign(count, 0);
+    if (several_modes_) out_.q.assign(count, 0);
     filled_.assign(count, 0);
   }
   out_.x.resize(n_, samples_.count);
@@ -75,6 +94,17 @@ Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Exog
   data_.context = &context_;
   data_.n = n_;
   data_.guard_count = model_.guard_count();
+  SetMode(InitialMode(model, exo));
+}
+
+// The current mode q: the context's Context::mode and, with explicit maps, the guards armed in it.
+void Engine::SetMode(int mode) {
+  mode_ = mode;
+  context_.set_mode(mode);
+  if (!explicit_maps_) return;
+  armed_.assign(static_cast<std::size_t>(model_.guard_count()), 0);
+  for (int g = 0; g < model_.guard_count(); ++g) armed_[static_cast<std::size_t>(g)] = ArmedMap(model_.spec(), mode, g) >= 0;
+  data_.armed = &armed_;
 }
 
 Trajectory Engine::Run(const Vec& x0) {
@@ -137,7 +167,7 @@ bool Engine::Setup(const Vec& x0) {
   x_ = x0;
   double* y = N_VGetArrayPointer_Serial(y_.get());
   Eigen::Map<Vec>(y, n_) = x0;
-  if (payload_) payload_->Restart(t_, x_, y + n_);
+  if (payload_) payload_->Restart(ContextAt(t_), x_, y + n_);
   cvode_.reset(CVodeCreate(CV_ADAMS, ctx_.get()));
   if (!cvode_) return Fail(SimStop::kSolverFailure, "CVodeCreate failed");
   void* mem = cvode_.get();
@@ -154,8 +184,21 @@ bool Engine::Setup(const Vec& x0) {
       !Check(CVodeSetUserData(mem, &data_), "CVodeSetUserData")) {
     return false;
   }
+  // Explicit maps: a guard may be crossed and crossed back within one long step (a ball through a
+  // ceiling on an exact parabola, which Adams integrates with huge steps); CVODE sees sign changes at
+  // step ends only, so no step is longer than the mean sample interval.
+  if (explicit_maps_ && !Check(CVodeSetMaxStep(mem, MeanSampleInterval()), "CVodeSetMaxStep")) return false;
+  if (explicit_maps_) {  // an armed guard already past (or at and moving past) zero fires at t = 0
+    bool at_zero = false;
+    const int guard = ChainedCrossing(&at_zero);
+    return guard < 0 || MapChain(guard, /*located=*/false);
+  }
   // HyEQ rule 1: an initial state in D jumps before it flows.
   return !model_.InJumpSet(x_, ContextAt(t_)) || JumpChain(-1);
+}
+
+double Engine::MeanSampleInterval() const {
+  return samples_.count > 1 ? t_last_ / static_cast<double>(samples_.count - 1) : t_last_;
 }
 
 bool Engine::Start(double tstop, bool roots) {
@@ -164,7 +207,7 @@ bool Engine::Start(double tstop, bool roots) {
     AccumulateCounters();
     double* y = N_VGetArrayPointer_Serial(y_.get());
     Eigen::Map<Vec>(y, n_) = x_;
-    if (payload_) payload_->Restart(t_, x_, y + n_);
+    if (payload_) payload_->Restart(ContextAt(t_), x_, y + n_);
     if (!Check(CVodeReInit(mem, t_, y_.get()), "CVodeReInit")) return false;
   }
   at_init_ = false;
@@ -226,10 +269,23 @@ int Engine::AdoptRoot(double tret) {
   t_ = tret;
   x_ = returned();
   if (payload_) payload_->AdoptReturned();
-  return sundials_ptr::FiredGuard(cvode_.get(), model_.guard_count());
+  if (!explicit_maps_) return sundials_ptr::FiredGuard(cvode_.get(), model_.guard_count());
+  std::vector<int> found(static_cast<std::size_t>(model_.guard_count()), 0);
+  CVodeGetRootInfo(cvode_.get(), found.data());
+  int fired = -1, first_map = 0;
+  for (int g = 0; g < model_.guard_count(); ++g) {
+    const int map = ArmedMap(model_.spec(), mode_, g);
+    if (found[static_cast<std::size_t>(g)] != 0 && map >= 0 && (fired < 0 || map < first_map)) {
+      fired = g;
+      first_map = map;
+    }
+  }
+  return std::max(fired, 0);
 }
 
-bool Engine::Jumps(int guard) { return JumpChain(guard) && CheckZenoAndBudget(); }
+bool Engine::Jumps(int guard) {
+  return (explicit_maps_ ? MapChain(guard, /*located=*/true) : JumpChain(guard)) && CheckZenoAndBudget();
+}
 
 // Applies the jump map at t_ to x_, then again while ξ+ ∈ D (rule 1).
 bool Engine::JumpChain(int guard) {
@@ -237,7 +293,7 @@ bool Engine::JumpChain(int guard) {
   if (guard >= 0) model_.ProjectOntoGuard(guard, x_, ctx);
   at_init_ = false;
   std::string why;
-  if (payload_ && !payload_->BeginJumps(t_, guard, x_, &why)) return Fail(SimStop::kSolverFailure, why);
+  if (payload_ && !payload_->BeginJumps(ctx, guard, x_, &why)) return Fail(SimStop::kSolverFailure, why);
   Vec post(n_);
   for (int chain = 0;; ++chain) {
     if (chain >= options_.max_jumps_at_one_time) {
@@ -247,45 +303,136 @@ bool Engine::JumpChain(int guard) {
                                               chain, t_, t_));
     }
     model_.Jump(x_, beta_, post, ContextAt(t_));
-    if (payload_) payload_->Jump(x_);
-    out_.jumps.push_back(JumpRecord{jumps() + 1, t_, chain == 0 ? guard : -1, x_, post, 0, 0});
+    if (payload_) payload_->Jump(x_, ContextAt(t_));
+    out_.jumps.push_back(JumpRecord{jumps() + 1, t_, chain == 0 ? guard : -1, x_, post, 0, mode_});
     x_ = post;
     if (!x_.allFinite()) {
       return Fail(SimStop::kNonFinite, fmt::format("jump map gave a non-finite state at t = {:.17g}", t_));
     }
     if (!model_.InJumpSet(x_, ContextAt(t_))) break;
   }
-  if (payload_) payload_->EndJumps(x_);
+  if (payload_) payload_->EndJumps(x_, ContextAt(t_));
   return true;
 }
 
-bool Engine::CheckZenoAndBudget() {
-  const auto& jumps = out_.jumps;
-  const int window = options_.zeno_window;
-  const std::size_t m = jumps.size();
-  if (m >= static_cast<std::size_t>(window) + 2) {
-    const double last = jumps[m - 1].t - jumps[m - 2].t;
-    bool shrinking = last < options_.zeno_interval;
-    for (int i = 0; shrinking && i < window; ++i) {
-      const double newer = jumps[m - 1 - i].t - jumps[m - 2 - i].t;
-      const double older = jumps[m - 2 - i].t - jumps[m - 3 - i].t;
-      shrinking = newer < kZenoMaxRatio * older;
+// Explicit maps: the map armed for `guard` in the current mode (ξ put on the guard first when the
+// crossing was located or is at zero), the mode after it, then the next chained crossing at ξ+.
+// Each crossing is its own BeginJumps … EndJumps for the payload; a crossing not located (past zero,
+// or the initial state's) has a jump time that does not move with θ (guard −1 to the payload).
+bool Engine::MapChain(int guard, bool located) {
+  at_init_ = false;
+  std::string why;
+  Vec post(n_);
+  for (int chain = 0; guard >= 0; ++chain) {
+    if (chain >= options_.max_jumps_at_one_time) {
+      out_.status.zeno_time = t_;
+      return Fail(SimStop::kZeno, fmt::format("Zeno: {} jumps at t = {:.17g} (crossings chain at one instant; "
+                                              "last guard '{}'); estimated accumulation time {:.17g}",
+                                              chain, t_, model_.spec().guards[std::size_t(guard)].name, t_));
     }
-    if (shrinking) {
-      const double prev = jumps[m - 2].t - jumps[m - 3].t;
-      const double rho = last / prev;  // geometric ratio of the intervals
-      const double tz = jumps[m - 1].t + last * rho / (1.0 - rho);
-      out_.status.zeno_time = tz;
-      return Fail(SimStop::kZeno, fmt::format("Zeno: jump interval {:.3g} s and shrinking (ratio {:.6g}) "
-                                              "after {} jumps; estimated accumulation time {:.17g}",
-                                              last, rho, m, tz));
+    const int map = ArmedMap(model_.spec(), mode_, guard);
+    if (map < 0) {  // not reached: a guard not armed is the constant 1 to CVODE and never chained
+      return Fail(SimStop::kSolverFailure, fmt::format("guard {} fired at t = {:.17g} but is not armed in mode {}",
+                                                       guard, t_, mode_));
+    }
+    Context ctx = ContextAt(t_);
+    ctx.map = map;
+    if (located) model_.ProjectOntoGuard(guard, x_, ctx);
+    if (payload_ && !payload_->BeginJumps(ctx, located ? guard : -1, x_, &why)) {
+      return Fail(SimStop::kSolverFailure, why);
+    }
+    model_.Jump(x_, beta_, post, ctx);
+    if (payload_) payload_->Jump(x_, ctx);
+    SetMode(ModeAfter(model_.spec(), mode_, map));
+    out_.jumps.push_back(JumpRecord{jumps() + 1, t_, guard, x_, post, map, mode_});
+    x_ = post;
+    if (!x_.allFinite()) {
+      return Fail(SimStop::kNonFinite, fmt::format("jump map '{}' gave a non-finite state at t = {:.17g}",
+                                                   model_.spec().jumps[std::size_t(map)].name, t_));
+    }
+    if (payload_) payload_->EndJumps(x_, ContextAt(t_));
+    guard = ChainedCrossing(&located);
+  }
+  return true;
+}
+
+// The guard armed in the current mode that fires at (t_, x_) without flowing: past zero in its
+// direction, or at zero (kAtZero) with its rate ∇h·f (central difference along the current mode's
+// flow) in its direction; of several, the one whose map comes first in spec.jumps. −1 when none.
+int Engine::ChainedCrossing(bool* at_zero) {
+  const int count = model_.guard_count();
+  const Context ctx = ContextAt(t_);
+  Vec h(count), f(n_), hp(count), hm(count);
+  model_.Guards(x_, h, ctx);
+  model_.Flow(x_, alpha_, f, ctx);
+  const double scale = std::max(1.0, x_.cwiseAbs().maxCoeff());
+  const double fnorm = f.cwiseAbs().maxCoeff();
+  if (fnorm > 0.0 && std::isfinite(fnorm)) {
+    const double eps = 1e-6 * scale / fnorm;
+    model_.Guards(x_ + eps * f, hp, ctx);
+    model_.Guards(x_ - eps * f, hm, ctx);
+  } else {
+    hp = h;
+    hm = h;
+  }
+  int fired = -1, first_map = 0;
+  for (int g = 0; g < count; ++g) {
+    const int map = ArmedMap(model_.spec(), mode_, g);
+    const double s = DirectionSign(model_.spec().guards[std::size_t(g)].direction);
+    if (map < 0 || s == 0.0) continue;
+    const bool zero = std::abs(h[g]) <= kAtZero * scale;
+    const bool fires = zero ? s * (hp[g] - hm[g]) > 0.0 : s * h[g] > 0.0;
+    if (fires && (fired < 0 || map < first_map)) {
+      fired = g;
+      first_map = map;
+      *at_zero = zero;
     }
   }
-  if (static_cast<int>(m) >= options_.max_jumps) {
+  return fired;
+}
+
+bool Engine::CheckZenoAndBudget() {
+  if (!explicit_maps_) {
+    if (!CheckZeno(-1)) return false;
+  } else {
+    // Every guard that fired at this instant, on its own jumps.
+    for (auto it = out_.jumps.rbegin(); it != out_.jumps.rend() && it->t == t_; ++it) {
+      if (!CheckZeno(it->guard)) return false;
+    }
+  }
+  if (jumps() >= options_.max_jumps) {
     return Fail(SimStop::kJumpBudget,
                 fmt::format("jump budget of {} jumps exhausted at t = {:.17g}", options_.max_jumps, t_));
   }
   return true;
+}
+
+// The Zeno-interval rule on the jumps of `guard` (−1: all jumps, the paper's class).
+bool Engine::CheckZeno(int guard) {
+  const int window = options_.zeno_window;
+  const std::size_t need = static_cast<std::size_t>(window) + 2;
+  std::vector<double> times;  // the last `need` jump times of the guard, newest first
+  for (auto it = out_.jumps.rbegin(); it != out_.jumps.rend() && times.size() < need; ++it) {
+    if (guard < 0 || it->guard == guard) times.push_back(it->t);
+  }
+  if (times.size() < need) return true;
+  const double last = times[0] - times[1];
+  bool shrinking = last < options_.zeno_interval;
+  for (int i = 0; shrinking && i < window; ++i) {
+    const double newer = times[std::size_t(i)] - times[std::size_t(i) + 1];
+    const double older = times[std::size_t(i) + 1] - times[std::size_t(i) + 2];
+    shrinking = newer < kZenoMaxRatio * older;
+  }
+  if (!shrinking) return true;
+  const double prev = times[1] - times[2];
+  const double rho = last / prev;  // geometric ratio of the intervals
+  const double tz = times[0] + last * rho / (1.0 - rho);
+  out_.status.zeno_time = tz;
+  const std::string which =
+      guard < 0 ? std::string() : fmt::format(" of guard '{}'", model_.spec().guards[std::size_t(guard)].name);
+  return Fail(SimStop::kZeno, fmt::format("Zeno: jump interval{} {:.3g} s and shrinking (ratio {:.6g}) "
+                                          "after {} jumps; estimated accumulation time {:.17g}",
+                                          which, last, rho, jumps(), tz));
 }
 
 // Times and segments of samples begin..end−1 (appended in increasing order, else at their places).
@@ -298,10 +445,12 @@ void Engine::Mark(long begin, long end, int segment) {
       for (long k = begin; k < end; ++k) out_.t.push_back(static_cast<double>(k) * samples_.dt);
     }
     out_.j.resize(e, segment);
+    if (several_modes_) out_.q.resize(e, mode_);
     return;
   }
   for (long k = begin; k < end; ++k) out_.t[static_cast<std::size_t>(k)] = samples_.at(k);
   std::fill(out_.j.begin() + b, out_.j.begin() + e, segment);
+  if (several_modes_) std::fill(out_.q.begin() + b, out_.q.begin() + e, mode_);
   std::fill(filled_.begin() + b, filled_.begin() + e, 1);
 }
 
@@ -424,6 +573,7 @@ Trajectory Engine::Finish() {
                           : std::find(filled_.begin(), filled_.end(), 0) - filled_.begin();
   out_.t.resize(static_cast<std::size_t>(prefix));
   out_.j.resize(static_cast<std::size_t>(prefix));
+  if (several_modes_) out_.q.resize(static_cast<std::size_t>(prefix));
   out_.x.conservativeResize(n_, prefix);
   return std::move(out_);
 }

@@ -3,17 +3,35 @@
 // output at the sample times, and the status. Internal to sim/: Simulate runs it alone;
 // the sensitivities (sim/sensitivity/) run it with a Payload, integrated with the state.
 //
-// Flow:     ξ' = φ(ξ)α (and the payload's own components) with CVODE Adams–Moulton and fixed-point
-//           iteration, one vector (ξ, then the payload's components), all in the error test.
-// Jumps:    at a located crossing ξ is put on the guard and ξ+ = ψ(ξ)β applied, again while ξ+ ∈ D
-//           (HyEQ rule 1: jumps have priority on C ∩ D); then CVODE is re-initialised.
+// Flow:     ξ' = φ_q(ξ)α in the current mode q (Context::mode; q0 from Exogenous::initial_mode, else
+//           ModelSpec::default_mode), with the payload's own components, CVODE Adams–Moulton and
+//           fixed-point iteration, one vector (ξ, then the payload's components), all in the error test.
+// Guards:   only the guards armed in q (ArmedMap ≥ 0) are root functions; a guard not armed in q is
+//           the constant 1 (it never changes sign, so CVODE never locates it; CVODE is re-initialised at
+//           every jump anyway, so the set armed changes with no CVodeRootInit). CVODE sees a root
+//           as a sign change between step ends, so with explicit maps no step is longer than the mean
+//           sample interval: a guard crossed and crossed back within it (a ball grazing a ceiling
+//           on a parabola that Adams integrates exactly, with huge steps) is otherwise missed.
+// Jumps:    paper's class (no explicit maps): at a located crossing ξ is put on the guard and
+//           ξ+ = ψ(ξ)β applied, again while ξ+ ∈ D (HyEQ rule 1: jumps have priority on C ∩ D).
+//           Explicit maps (ModelSpec::jumps): the crossing applies the armed map m (Context::map = m,
+//           its β slice; an identity map keeps ξ) and q ← ModeAfter(q, m). Several guards crossing at
+//           one instant: the one whose map comes first in spec.jumps fires; the others, and every
+//           guard armed in the new mode, are re-checked at ξ+ (ChainedCrossing): a guard past zero in
+//           its direction, or at zero (within 1e-10·max(1, ‖ξ‖∞)) and moving in its direction under
+//           the new mode's flow, fires next at the same instant (each counts toward
+//           max_jumps_at_one_time). A guard of direction "both" fires only where CVODE locates it.
+//           Then CVODE is re-initialised.
 // Zeno:     a chain of more than max_jumps_at_one_time jumps at one instant; or, after each crossing,
 //           jump intervals below zeno_interval that shrank for zeno_window jumps in a row, each below
 //           (1 − 1e-3) times the one before (constant intervals equal up to rounding, a stiff
 //           spring's half-periods, are not an accumulation); the accumulation time is extrapolated
-//           from the last two intervals as a geometric series.
+//           from the last two intervals as a geometric series. With explicit maps the intervals are
+//           those of one guard's own jumps (per guard: a floor's bounces accumulate while a ceiling's
+//           or a switch's jumps interleave with constant spacing).
 // Samples:  state from CVODE's last step's polynomial (read from its Nordsieck array, the same bits as
-//           CVodeGetDky, sim/nordsieck.hpp); the payload reads its own at the same times.
+//           CVodeGetDky, sim/nordsieck.hpp); the payload reads its own at the same times; the mode q
+//           per sample in Trajectory::q when the model has several modes.
 #pragma once
 
 #include <string>
@@ -38,20 +56,23 @@ class Payload {
   // Their time derivative at (ξ, extra) in the evaluation context of the time (u(t), γ); called inside
   // CVODE's right-hand side.
   virtual void Flow(const double* x, const double* extra, const Context& ctx, double* extra_dot) = 0;
-  // At each (re)start of the integration from the current (t, x): the current values into
-  // extra[0..size).
-  virtual void Restart(double t, const Vec& x, double* extra) = 0;
+  // At each (re)start of the integration from the current (t, x) in the current mode (ctx.t, ctx.mode):
+  // the current values into extra[0..size).
+  virtual void Restart(const Context& ctx, const Vec& x, double* extra) = 0;
   // After every solver step, at the time the step returned (a root's time at a root return).
   virtual void Returned(double t, const double* x, const double* extra) = 0;
   // At a root return: the values returned become the current ones (just before the jump).
   virtual void AdoptReturned() = 0;
-  // Before the jumps at one instant t, ξ on guard `guard` (−1: the initial state lies in D); false with
-  // *why when the jump rule cannot be applied (the run stops as a solver failure).
-  virtual bool BeginJumps(double t, int guard, const Vec& x, std::string* why) = 0;
-  // Each jump of the chain, from the pre-jump state.
-  virtual void Jump(const Vec& pre) = 0;
-  // After the chain, at the post-jump state; the current values hold from there.
-  virtual void EndJumps(const Vec& post) = 0;
+  // Before the jumps at one instant ctx.t in mode ctx.mode, ξ on guard `guard` (−1: a jump whose time
+  // does not move with θ: the initial state in D or past a guard, or a chained crossing past zero);
+  // false with *why when the jump rule cannot be applied (the run stops as a solver failure). With
+  // explicit maps each crossing of a chain is its own BeginJumps … EndJumps.
+  virtual bool BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) = 0;
+  // Each jump of the chain, from the pre-jump state; ctx.mode the mode before it, ctx.map its map.
+  virtual void Jump(const Vec& pre, const Context& ctx) = 0;
+  // After the chain, at the post-jump state in the mode after it (ctx.mode); the current values hold
+  // from there.
+  virtual void EndJumps(const Vec& post, const Context& ctx) = 0;
   // Sample k at time t within the last step.
   virtual void Sample(long k, double t) = 0;
   // Sample k at the current values (no step taken since them).
@@ -76,6 +97,7 @@ struct CallbackData {
   ContextSource* context = nullptr;
   long n = 0;
   int guard_count = 0;
+  const std::vector<char>* armed = nullptr;  // per guard, armed in the current mode; nullptr: all
   bool nonfinite_rhs = false;
   std::string last_error;  // CVODE's last error message, for the status
 };
@@ -106,14 +128,15 @@ class Engine {
   // when stopped. With inputs, no step crosses an input sample time (CVODE stops there and goes on:
   // CV_SUCCESS), so no step integrates across a kink of the interpolated u.
   int Step(double tstop, double* tret);
-  // The evaluation context at time t (u(t), γ); valid until the next call.
+  // The evaluation context at time t (u(t), γ, the current mode); valid until the next call.
   Context ContextAt(double t) { return context_.At(t); }
   // Samples begin..end−1, all within the last step, on segment `segment` (kIncreasing: begin is
   // the number emitted so far; kAny: each sample once, ranges in any order, forward or backward).
   void EmitStep(long begin, long end, int segment);
   // Samples begin..end−1 at the current state (no step taken since it), as EmitStep.
   void EmitCurrent(long begin, long end, int segment);
-  // At a root return at tret: the returned state and payload become current; the guard that fired.
+  // At a root return at tret: the returned state and payload become current; the guard that fired
+  // (with explicit maps, of several at once the one whose map comes first in spec.jumps).
   int AdoptRoot(double tret);
   // The jumps at t() from x() (put on `guard` first), then the Zeno rule and the jump budget.
   bool Jumps(int guard);
@@ -127,6 +150,7 @@ class Engine {
   double t() const { return t_; }
   const Vec& x() const { return x_; }
   int jumps() const { return static_cast<int>(out_.jumps.size()); }
+  int mode() const { return mode_; }
   double t_last() const { return t_last_; }
   const SampleTimes& samples() const { return samples_; }
   // The state returned by the last step.
@@ -134,7 +158,12 @@ class Engine {
 
  private:
   bool JumpChain(int guard);
+  bool MapChain(int guard, bool located);
+  double MeanSampleInterval() const;
+  int ChainedCrossing(bool* at_zero);
+  void SetMode(int mode);
   bool CheckZenoAndBudget();
+  bool CheckZeno(int guard);
   void Mark(long begin, long end, int segment);
   void TaylorCoefficients(int q, double tn, double h, bool direct);
   void EmitHorner(int q, double tn, double h, long begin, long end);
@@ -149,6 +178,10 @@ class Engine {
   Payload* payload_;
   SampleOrder order_;
   ContextSource context_;
+  bool explicit_maps_ = false;  // spec.jumps given: maps, modes and the armed-guard chain rule
+  bool several_modes_ = false;  // Trajectory::q is filled
+  int mode_ = 0;                // the current mode q
+  std::vector<char> armed_;     // per guard, armed in mode_ (explicit maps)
   double stop_set_ = 0.0;  // the stop time CVODE holds (with inputs)
   double last_tret_ = 0.0;  // the time the last step returned (with inputs)
   long n_ = 0;

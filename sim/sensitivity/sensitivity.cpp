@@ -157,9 +157,10 @@ class SensitivityPayload final : public hybrid::Payload {
     Eigen::Map<Mat> d(sdot, n_, p_);
     Derivative(Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_), ctx, d);
   }
-  void Restart(double t, const Vec& x, double* extra) override {
+  void Restart(const Context& ctx, const Vec& x, double* extra) override {
+    context_.set_mode(ctx.mode);  // the flow's mode until the next restart
     Eigen::Map<Mat>(extra, n_, p_) = s_;
-    SetWindowEnd(window_b_, t, x, s_);
+    SetWindowEnd(window_b_, ctx.t, x, s_);
     window_a_ = window_b_;
   }
   void Returned(double t, const double* x, const double* s) override {  // the window: (previous, t)
@@ -167,9 +168,9 @@ class SensitivityPayload final : public hybrid::Payload {
     SetWindowEnd(window_b_, t, Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_));
   }
   void AdoptReturned() override { s_ = window_b_.s; }
-  bool BeginJumps(double t, int guard, const Vec& x, std::string* why) override;
-  void Jump(const Vec& pre) override;
-  void EndJumps(const Vec& post) override;
+  bool BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) override;
+  void Jump(const Vec& pre, const Context& ctx) override;
+  void EndJumps(const Vec& post, const Context& ctx) override;
   void Sample(long k, double t) override;
   void SampleCurrent(long k) override { sensitivities_.col(k) = Eigen::Map<const Vec>(s_.data(), s_.size()); }
 
@@ -233,7 +234,6 @@ class SensitivityPayload final : public hybrid::Payload {
   const HybridParameters& params_;
   const Unknowns& unknowns_;
   ContextSource context_;
-  double t_jump_ = 0.0;           // the time of the jumps under way
   int n_ = 0, p_ = 0;
   Eigen::Index gamma_offset_ = 0;  // of γ_u's columns in θ
   Vec gamma_, gamma_scratch_;      // the run's γ; γ ± a step
@@ -250,9 +250,8 @@ class SensitivityPayload final : public hybrid::Payload {
 // ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻) at a guard crossing (∂h/∂θ: the γ_u columns of
 // Model::GuardGammaJacobian; zero for the initial state's jumps, at t = 0 whatever θ);
 // total = S⁻ + f⁻ ∂t_j/∂θ.
-bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::string* why) {
-  t_jump_ = t;
-  const Context ctx = context_.At(t);
+bool SensitivityPayload::BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) {
+  const double t = ctx.t;
   Vec f_minus(n_);
   model_.Flow(x, params_.alpha, f_minus, ctx);
   dt_dtheta_ = Eigen::RowVectorXd::Zero(p_);
@@ -279,10 +278,12 @@ bool SensitivityPayload::BeginJumps(double t, int guard, const Vec& x, std::stri
   return true;
 }
 
-// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state. g = ψ(ξ)β; with unknown γ the chain's first
-// jump is g = ψ(P(ξ, γ))β, P the projection onto the guard that fired, so that ∂g/∂γ carries the
-// projection's dependence on γ (∂g/∂ξ and ∂g/∂γ by central differences of that composite).
-void SensitivityPayload::Jump(const Vec& pre) {
+// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state, g the map ctx.map (Context::map: ψ with
+// that map's β slice only, so ∂g/∂β is zero off the slice; an identity map: ∂g/∂ξ = I, ∂g/∂β = 0).
+// g = ψ(ξ)β; with unknown γ the chain's first jump is g = ψ(P(ξ, γ))β, P the projection onto the
+// guard that fired, so that ∂g/∂γ carries the projection's dependence on γ (∂g/∂ξ and ∂g/∂γ by
+// central differences of that composite).
+void SensitivityPayload::Jump(const Vec& pre, const Context& ctx) {
   const bool project = chain_++ == 0 && guard_ >= 0 && !unknowns_.gamma.empty();
   const auto jump = [&](const Vec& z, const Context& ctx, VecRef g) {
     if (!project) return model_.Jump(z, params_.beta, g, ctx);
@@ -290,14 +291,16 @@ void SensitivityPayload::Jump(const Vec& pre) {
     model_.ProjectOntoGuard(guard_, on, ctx);
     model_.Jump(on, params_.beta, g, ctx);
   };
-  const Context ctx = context_.At(t_jump_);
   const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { jump(z, ctx, g); }, pre, n_);
   Mat next = g_x * total_;
-  Mat psi(n_, model_.beta_size());
-  model_.Psi(pre, psi, ctx);
-  const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
-  for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
-    next.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
+  const std::vector<JumpMap>& maps = model_.spec().jumps;
+  if (maps.empty() || !maps[static_cast<std::size_t>(ctx.map)].identity) {  // ∂g/∂β = 0 for an identity
+    Mat psi(n_, model_.beta_size());
+    model_.Psi(pre, psi, ctx);
+    const auto offset = static_cast<Eigen::Index>(unknowns_.alpha.size());
+    for (std::size_t i = 0; i < unknowns_.beta.size(); ++i) {
+      next.col(offset + static_cast<Eigen::Index>(i)) += psi.col(unknowns_.beta[i]);
+    }
   }
   for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
     GammaDifference(
@@ -309,10 +312,11 @@ void SensitivityPayload::Jump(const Vec& pre) {
   jump_time_gradients_.rightCols(1) = dt_dtheta_.transpose();
 }
 
-// S⁺ = total − f⁺ ∂t_j/∂θ.
-void SensitivityPayload::EndJumps(const Vec& post) {
+// S⁺ = total − f⁺ ∂t_j/∂θ, f⁺ the flow of the mode after the jumps (ctx.mode).
+void SensitivityPayload::EndJumps(const Vec& post, const Context& ctx) {
+  context_.set_mode(ctx.mode);
   Vec f_plus(n_);
-  model_.Flow(post, params_.alpha, f_plus, context_.At(t_jump_));
+  model_.Flow(post, params_.alpha, f_plus, ctx);
   s_ = total_ - f_plus * dt_dtheta_;
 }
 
@@ -421,7 +425,7 @@ class Matched {
 
 // The run's γ and inputs.
 Exogenous ExogenousOf(const HybridParameters& params, const InputSignal* inputs) {
-  return Exogenous{.gamma = params.gamma, .inputs = inputs, .initial_mode = -1};
+  return Exogenous{.gamma = params.gamma, .inputs = inputs, .initial_mode = params.initial_mode};
 }
 
 void CheckInputs(const Model& model, const HybridParameters& params, const Unknowns& unknowns,

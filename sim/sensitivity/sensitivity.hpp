@@ -51,11 +51,12 @@ struct Unknowns {
   bool IsValid(const Model& model, std::string* error) const;
 };
 
-// Full parameter vectors (known entries included), the initial state and the guard parameters γ
-// (empty: the model's own).
+// Full parameter vectors (known entries included), the initial state, the guard parameters γ
+// (empty: the model's own) and the initial mode q0 (−1: the model's default_mode; discrete, not in θ).
 struct HybridParameters {
   Vec alpha, beta, x0;
   Vec gamma = {};
+  int initial_mode = -1;
   static HybridParameters Of(const Model& model, const Vec& x0) {
     return {model.alpha(), model.beta(), x0, model.gamma()};
   }

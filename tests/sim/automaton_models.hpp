@@ -1,0 +1,104 @@
+// Hybrid automata as C++ structs for the run-loop, sensitivity and refinement tests: a ball between a
+// floor and a ceiling with one restitution each (two jump maps), and a pump tank with two flow modes
+// that switch at thresholds h_lo, h_hi (identity maps, β empty).
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/model/model.hpp"
+
+namespace hysid::testing {
+
+inline Parameter Param(const char* name, double value, bool known = false) {
+  Parameter p;
+  p.name = name;
+  p.value = value;
+  p.known = known;
+  return p;
+}
+
+inline JumpMap Map(const char* name, int guard, int from, int to, int beta_first, int beta_count) {
+  JumpMap m;
+  m.name = name;
+  m.guard = guard;
+  m.from = from;
+  m.to = to;
+  m.beta_first = beta_first;
+  m.beta_count = beta_count;
+  m.identity = beta_count == 0;
+  if (!m.identity) m.rows = {1};
+  return m;
+}
+
+// h' = v, v' = −g; floor h = 0 (falling): v⁺ = −e_floor·v; ceiling h = H (rising): v⁺ = −e_ceiling·v.
+// β = (one_f, e_floor, one_c, e_ceiling), ψ_m = [[h, 0], [0, −v]] on map m's slice.
+struct FloorCeiling {
+  double ceiling = 1.0;
+  double e_floor = 0.8, e_ceiling = 0.5;
+  ModelSpec Spec() const {
+    ModelSpec s;
+    s.name = "floor-ceiling";
+    s.state_names = {"h", "v"};
+    s.alpha = {Param("one", 1.0, true), Param("g", 9.81)};
+    s.beta = {Param("one_f", 1.0, true), Param("e_floor", e_floor), Param("one_c", 1.0, true),
+              Param("e_ceiling", e_ceiling)};
+    s.flow_rows = {1};
+    s.jump_rows = {1};
+    s.guards = {Guard{"floor", Crossing::kFalling}, Guard{"ceiling", Crossing::kRising}};
+    s.default_x0 = {0.5, 4.0};
+    s.jumps = {Map("floor", 0, -1, -1, 0, 2), Map("ceiling", 1, -1, -1, 2, 2)};
+    return s;
+  }
+  void Phi(ConstVecRef x, const Context&, MatRef phi) const {
+    phi.setZero();
+    phi(0, 0) = x(1);
+    phi(1, 1) = -1.0;
+  }
+  void Psi(ConstVecRef x, const Context& ctx, MatRef psi) const {
+    psi.setZero();
+    psi(0, 2 * ctx.map) = x(0);
+    psi(1, 2 * ctx.map + 1) = -x(1);
+  }
+  void Guards(ConstVecRef x, const Context&, VecRef h) const {
+    h(0) = x(0);
+    h(1) = x(0) - ceiling;
+  }
+  void ProjectOntoGuard(int i, const Context&, VecRef x) const { x(0) = i == 0 ? 0.0 : ceiling; }
+  bool InFlowSet(ConstVecRef, const Context&) const { return true; }
+  bool InJumpSet(ConstVecRef, const Context&) const { return false; }
+};
+
+// h' = −a√h + P·[q = on]; modes (off, on); pump-on: off → on at h = h_lo falling; pump-off: on → off
+// at h = h_hi rising; both identity maps; γ = (h_lo, h_hi).
+struct PumpTank {
+  ModelSpec Spec() const {
+    ModelSpec s;
+    s.name = "pump-tank";
+    s.state_names = {"h"};
+    s.alpha = {Param("a", 0.5), Param("P", 1.0)};
+    s.guard_params = {Param("h_lo", 1.0), Param("h_hi", 2.0)};
+    s.flow_rows = {0};
+    s.guards = {Guard{"low", Crossing::kFalling}, Guard{"high", Crossing::kRising}};
+    s.default_x0 = {1.5};
+    s.modes = {"off", "on"};
+    s.default_mode = 1;
+    s.jumps = {Map("pump-on", 0, 0, 1, 0, 0), Map("pump-off", 1, 1, 0, 0, 0)};
+    return s;
+  }
+  void Phi(ConstVecRef x, const Context& ctx, MatRef phi) const {
+    phi(0, 0) = -std::sqrt(x(0));
+    phi(0, 1) = ctx.mode == 1 ? 1.0 : 0.0;
+  }
+  void Psi(ConstVecRef, const Context&, MatRef psi) const { psi.setZero(); }
+  void Guards(ConstVecRef x, const Context& ctx, VecRef h) const {
+    h(0) = x(0) - ctx.gamma[0];
+    h(1) = x(0) - ctx.gamma[1];
+  }
+  void ProjectOntoGuard(int i, const Context& ctx, VecRef x) const { x(0) = ctx.gamma[i]; }
+  bool InFlowSet(ConstVecRef x, const Context&) const { return x(0) > 0.0; }
+  bool InJumpSet(ConstVecRef, const Context&) const { return false; }
+};
+
+}  // namespace hysid::testing
