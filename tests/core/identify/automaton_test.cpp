@@ -10,6 +10,7 @@
 
 #include "core/identify/events.hpp"
 #include "core/model/automaton.hpp"
+#include "sim/refine/start.hpp"
 
 namespace hysid {
 namespace {
@@ -301,6 +302,48 @@ TEST_CASE("a given initial mode is used as given") {
   CHECK(r.mode[0] == 0);
   options.initial_mode = 2;
   CHECK_THROWS_AS(Identify(Model{PumpTank{}}, truth.y, 0.01, settings, options), std::invalid_argument);
+}
+
+// The pump tank with its levels as guard parameters γ = (h_lo, h_hi), both unknown.
+struct PumpTankLevels : PumpTank {
+  ModelSpec Spec() const {
+    ModelSpec s = PumpTank::Spec();
+    s.guard_params = {Param("h_lo", kLow), Param("h_hi", kHigh)};
+    return s;
+  }
+  void Guards(ConstVecRef x, const Context& ctx, VecRef h) const {
+    h(0) = x(0) - ctx.gamma[0];
+    h(1) = x(0) - ctx.gamma[1];
+  }
+};
+
+TEST_CASE("pump tank: the levels' start from each switch's own guard") {
+  const double dt = 0.01;
+  std::vector<int> true_modes;
+  const Truth truth = TankData(1, dt, 20.0, 1e-3, 3u, &true_modes);
+  Model model{PumpTankLevels{}};
+  IdentifierSettings settings;
+  settings.sets = false;
+  const IdentifyResult r = Identify(model, truth.y, dt, settings);
+  REQUIRE(r.events.size() == truth.samples.size());
+  Vec gamma0(2);
+  gamma0 << 1.3, 1.7;  // a poor start: both levels nearer the middle
+  model.SetParameter("h_lo", gamma0[0]);
+  model.SetParameter("h_hi", gamma0[1]);
+  std::vector<int> maps;
+  for (const AutomatonEvent& e : r.events) maps.push_back(e.map);
+  std::vector<double> t;
+  for (Eigen::Index k = 0; k < truth.y.cols(); ++k) t.push_back(static_cast<double>(k) * dt);
+  const Unknowns unknowns = Unknowns::Of(model);
+  REQUIRE(unknowns.gamma.size() == 2);
+  Mat rows(0, 2);
+  Vec rhs(0);
+  AppendGuardRows(model, t, truth.y, r.gamma, r.alpha_hat, gamma0, unknowns, &rows, &rhs, maps, r.initial_mode);
+  REQUIRE(rows.rows() == static_cast<Eigen::Index>(r.events.size()));
+  const Vec start = SolveGuardRows(unknowns, rows, rhs, gamma0);
+  // The pre-switch sample moved half a step lies within half a step's rise (about 0.003) of its level.
+  CHECK(start[0] == Approx(kLow).margin(5e-3));
+  CHECK(start[1] == Approx(kHigh).margin(5e-3));
 }
 
 }  // namespace
