@@ -11,6 +11,8 @@
 #include "core/identify/events.hpp"
 #include "core/model/automaton.hpp"
 #include "sim/refine/start.hpp"
+#include "sim/simulator.hpp"
+#include "tests/sim/automaton_models.hpp"
 
 namespace hysid {
 namespace {
@@ -344,6 +346,50 @@ TEST_CASE("pump tank: the levels' start from each switch's own guard") {
   // The pre-switch sample moved half a step lies within half a step's rise (about 0.003) of its level.
   CHECK(start[0] == Approx(kLow).margin(5e-3));
   CHECK(start[1] == Approx(kHigh).margin(5e-3));
+}
+
+// The run loop's own data (sim/: exact event location) with noise σ on every state: each detected
+// event is one of the trajectory's jump records, at its sample (within one) and with its map.
+void CheckAgainstRun(const Model& model, const Trajectory& run, double sigma, unsigned seed) {
+  Mat y = run.x;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  for (Eigen::Index k = 0; k < y.cols(); ++k) {
+    for (Eigen::Index i = 0; i < y.rows(); ++i) y(i, k) += noise(rng);
+  }
+  IdentifierSettings settings;
+  settings.sets = false;
+  // The residual detector: the paper's misses the impacts of its warm-up (the first within 0.1 s).
+  settings.detector.kind = DetectorKind::kResidual;
+  const IdentifyResult r = Identify(model, y, run.dt, settings);
+  REQUIRE(r.events.size() == run.jumps.size());
+  CHECK(r.events_reason.empty());
+  for (std::size_t i = 0; i < r.events.size(); ++i) {
+    const long truth = static_cast<long>(std::ceil(run.jumps[i].t / run.dt - 1e-9));
+    INFO("record " << i << " at t = " << run.jumps[i].t);
+    CHECK(std::abs(r.events[i].sample - truth) <= 1);
+    CHECK(r.events[i].map == run.jumps[i].map);
+    CHECK(r.events[i].mode_after == run.jumps[i].mode);
+  }
+  if (!run.q.empty()) CHECK(r.initial_mode == run.q.front());
+}
+
+TEST_CASE("the run loop's floor-ceiling ball and pump tank: every event found and assigned to its map") {
+  const Model ball{testing::FloorCeiling{}};
+  Vec x0(2);
+  x0 << 0.5, 8.0;  // two ceiling impacts, then the floor's
+  const Trajectory bounces = Simulate(ball, x0, SampleGrid{.t_end = 2.5, .dt = 1e-3});
+  REQUIRE(bounces.status.stop == SimStop::kCompleted);
+  REQUIRE(std::count_if(bounces.jumps.begin(), bounces.jumps.end(), [](const JumpRecord& j) { return j.map == 1; }) >= 2);
+  CheckAgainstRun(ball, bounces, 1e-3, 21u);
+  const Model tank{testing::PumpTank{}};
+  for (int q0 : {0, 1}) {
+    Exogenous exo;
+    exo.initial_mode = q0;
+    const Trajectory run = Simulate(tank, Vec::Constant(1, 1.5), SampleGrid{.t_end = 20.0, .dt = 1e-2}, {}, exo);
+    REQUIRE(run.status.stop == SimStop::kCompleted);
+    CheckAgainstRun(tank, run, 1e-3, 31u + unsigned(q0));
+  }
 }
 
 }  // namespace
