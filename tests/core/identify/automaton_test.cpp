@@ -17,26 +17,8 @@
 namespace hysid {
 namespace {
 
-Parameter Param(const char* name, double value, bool known = false) {
-  Parameter p;
-  p.name = name;
-  p.value = value;
-  p.known = known;
-  return p;
-}
-
-JumpMap Map(const char* name, int guard, int from, int to, int beta_first, int beta_count, bool identity) {
-  JumpMap m;
-  m.name = name;
-  m.guard = guard;
-  m.from = from;
-  m.to = to;
-  m.beta_first = beta_first;
-  m.beta_count = beta_count;
-  if (!identity) m.rows = {1};
-  m.identity = identity;
-  return m;
-}
+using testing::Map;
+using testing::Param;
 
 constexpr double kG = 2.0, kFloor = 0.9, kCeiling = 0.7;
 
@@ -55,7 +37,7 @@ struct TwoWalls {
     s.default_x0 = {0.5, 5.0};
     if (two_maps) {
       s.beta = {Param("e_floor", kFloor), Param("e_ceiling", kCeiling)};
-      s.jumps = {Map("floor", 0, -1, -1, 0, 1, false), Map("ceiling", 1, -1, -1, 1, 1, false)};
+      s.jumps = {Map("floor", 0, -1, -1, 0, 1), Map("ceiling", 1, -1, -1, 1, 1)};
     } else {
       s.beta = {Param("e", kFloor)};
     }
@@ -195,7 +177,7 @@ struct PumpTank {
     s.guards = {Guard{"low", Crossing::kFalling}, Guard{"high", Crossing::kRising}};
     s.default_x0 = {1.5};
     s.modes = {"off", "on"};
-    s.jumps = {Map("pump-on", 0, 0, 1, 0, 0, true), Map("pump-off", 1, 1, 0, 0, 0, true)};
+    s.jumps = {Map("pump-on", 0, 0, 1, 0, 0), Map("pump-off", 1, 1, 0, 0, 0)};
     return s;
   }
   void Phi(ConstVecRef x, const Context& ctx, MatRef phi) const {
