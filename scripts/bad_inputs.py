@@ -100,6 +100,7 @@ def files():
     f.update(LIMITS_FILES)
     f.update(INPUTS_FILES)
     f.update(TRUTH_FILES)
+    f.update(AUTOMATON_FILES)
     return f
 
 
@@ -291,7 +292,7 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES
+    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -377,6 +378,38 @@ TRUTH_CASES = [
 ]
 
 
+# Hybrid automata in model files: the examples with one thing wrong each.
+EXAMPLES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples")
+PUMP = open(os.path.join(EXAMPLES, "pump-tank", "model.toml"), encoding="utf-8").read()
+FC = open(os.path.join(EXAMPLES, "floor-ceiling", "model.toml"), encoding="utf-8").read()
+AUTOMATON_FILES = {
+    "pumpfrom.toml": PUMP.replace('from = "off"', 'from = "idle"', 1),
+    "pumpmode.toml": PUMP.replace('mode = "on"\nt_end', 'mode = "idle"\nt_end', 1),
+    "pumpguard.toml": PUMP.replace('guard = "low"', 'guard = "lowest"', 1),
+    "pumpunused.toml": PUMP.replace('guard = "high"', 'guard = "low"', 1),
+    "pumprows.toml": PUMP.replace('guard = "low"', 'guard = "low"\nrows = ["h"]', 1),
+    "pumpnoflow.toml": PUMP.replace('modes = ["off", "on"]', 'modes = ["off", "on", "boost"]', 1),
+    "pumpflowtable.toml": PUMP.replace('[[flow]]\nmode = "off"\nphi = [["-sqrt(h)", 0]]\n\n[[flow]]\nmode = "on"\n',
+                                       '[flow]\n', 1),
+    "pumpdupname.toml": PUMP.replace('name = "pump-off"', 'name = "pump-on"', 1),
+    "fctwo.toml": FC.replace('guard = "ceiling"', 'guard = "floor"', 1),
+    "fcnobeta.toml": re.sub(r'beta = \[ \{ name = "one_c".*?\]\n', "", FC, count=1, flags=re.S),
+    "fcboth.toml": FC.replace("[flow]", '[[flow]]\nmode = "x"\nphi = [["v", 0], [0, -1]]\n\n[flow]', 1),
+}
+AUTOMATON_CASES = [
+    ("model file: a map from a mode that does not exist", ["simulate", "--model-file", "pumpfrom.toml"] + SIM),
+    ("model file: defaults.mode not among the modes", ["simulate", "--model-file", "pumpmode.toml"] + SIM),
+    ("model file: a map on a guard that does not exist", ["simulate", "--model-file", "pumpguard.toml"] + SIM),
+    ("model file: a guard that triggers no map", ["simulate", "--model-file", "pumpunused.toml"] + SIM),
+    ("model file: two maps on one guard in one mode", ["simulate", "--model-file", "fctwo.toml"] + SIM),
+    ("model file: psi without beta", ["simulate", "--model-file", "fcnobeta.toml"] + SIM),
+    ("model file: an identity map with rows", ["simulate", "--model-file", "pumprows.toml"] + SIM),
+    ("model file: a jump map name twice", ["simulate", "--model-file", "pumpdupname.toml"] + SIM),
+    ("model file: a mode without a [[flow]]", ["simulate", "--model-file", "pumpnoflow.toml"] + SIM),
+    ("model file: [flow] with modes", ["simulate", "--model-file", "pumpflowtable.toml"] + SIM),
+    ("model file: [flow] and [[flow]] together", ["simulate", "--model-file", "fcboth.toml"] + SIM),
+]
+
 def truth_setup(d):
     """simb.csv: sim.csv again, its sidecar saying a = 6."""
     with open(os.path.join(d, "sim.csv")) as src, open(os.path.join(d, "simb.csv"), "w") as dst:
@@ -421,6 +454,17 @@ SUBJECTS = {
     "identify: a second --data file with a header only": "headeronly.csv",
     "model file: \"v++\" in flow.phi (muParser's internal error)": "plusplus.toml:21: flow.phi[0][0]",
     "identify: --x0-known on two runs": "--x0-known",
+    "model file: a map from a mode that does not exist": "pumpfrom.toml:27: jump[0].from",
+    "model file: defaults.mode not among the modes": "pumpmode.toml:49: defaults.mode",
+    "model file: a map on a guard that does not exist": "pumpguard.toml:29: jump[0].guard",
+    "model file: a guard that triggers no map": "pumpunused.toml:42: guard[1]",
+    "model file: two maps on one guard in one mode": "fctwo.toml:26: jump[1].guard",
+    "model file: psi without beta": "fcnobeta.toml:27: jump[1].psi",
+    "model file: an identity map with rows": "pumprows.toml:30: jump[0].rows",
+    "model file: a jump map name twice": "pumpdupname.toml:32: jump[1].name",
+    "model file: a mode without a [[flow]]": "pumpnoflow.toml:7: modes",
+    "model file: [flow] with modes": "pumpflowtable.toml:17: flow",
+    "model file: [flow] and [[flow]] together": "fcboth.toml:15: TOML syntax",
     "identify: --x0-known with --refine none": "--x0-known",
 }
 

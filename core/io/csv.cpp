@@ -108,11 +108,19 @@ int CsvTable::Find(const std::string& name) const {
   return -1;
 }
 
-bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& name, long line_no,
-                     bool* lone_cr) {
+namespace {
+
+// The limits of one read, each read from the environment once (limits.hpp), not per line or cell.
+struct CsvLimits {
+  std::size_t line = static_cast<std::size_t>(LimitValue(kMaxCsvLine));
+  std::size_t cell = static_cast<std::size_t>(LimitValue(kMaxCsvCell));
+};
+
+// ReadBoundedLine with the line limit given.
+bool ReadLine(std::istream& in, std::string& line, const std::string& name, long line_no, bool* lone_cr,
+              std::size_t max) {
   line.clear();
   if (lone_cr != nullptr) *lone_cr = false;
-  const auto max = static_cast<std::size_t>(LimitValue(kMaxCsvLine));
   std::streambuf* buf = in.rdbuf();
   bool any = false;
   while (true) {
@@ -140,6 +148,13 @@ bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& nam
   }
 }
 
+}  // namespace
+
+bool ReadBoundedLine(std::istream& in, std::string& line, const std::string& name, long line_no,
+                     bool* lone_cr) {
+  return ReadLine(in, line, name, line_no, lone_cr, CsvLimits{}.line);
+}
+
 namespace {
 
 std::string_view Trim(std::string_view s) {
@@ -149,8 +164,8 @@ std::string_view Trim(std::string_view s) {
   return s.substr(b, e - b);
 }
 
-void CheckCellSize(std::string_view cell, const std::string& name, long line_no, std::size_t column) {
-  const auto max = static_cast<std::size_t>(LimitValue(kMaxCsvCell));
+void CheckCellSize(std::string_view cell, const std::string& name, long line_no, std::size_t column,
+                   std::size_t max) {
   if (cell.size() > max) {
     throw std::invalid_argument(fmt::format(
         "{}:{}: column {}: the cell '{}' is longer than the limit of {} {} (raise it with {}=N)", name,
@@ -179,38 +194,60 @@ bool QuotedField(std::string_view rec, std::size_t open, std::string* cell, std:
 
 }  // namespace
 
-bool SplitCsvRecord(std::string_view rec, const std::string& name, long line_no,
-                    std::vector<std::string>* cells) {
-  cells->clear();
+namespace {
+
+// SplitCsvRecord with the cell limit given. The strings already in *cells are reused (assigned, not
+// allocated anew per cell); on return *cells holds exactly the record's cells (false: those complete).
+bool SplitRecord(std::string_view rec, const std::string& name, long line_no, std::size_t max_cell,
+                 std::vector<std::string>* cells) {
+  std::size_t used = 0;
+  auto next = [&]() -> std::string& {
+    if (used == cells->size()) cells->emplace_back();
+    std::string& cell = (*cells)[used++];
+    cell.clear();
+    return cell;
+  };
   std::size_t i = 0;
   const std::size_t n = rec.size();
   while (true) {
     std::size_t b = i;
     while (b < n && (rec[b] == ' ' || rec[b] == '\t')) ++b;
-    std::string cell;
+    std::string& cell = next();
     if (b < n && rec[b] == '"') {
       std::size_t j = 0;
-      if (!QuotedField(rec, b, &cell, &j)) return false;
+      if (!QuotedField(rec, b, &cell, &j)) {
+        cells->resize(used - 1);
+        return false;
+      }
       while (j < n && (rec[j] == ' ' || rec[j] == '\t' || rec[j] == '\r')) ++j;
       if (j < n && rec[j] != ',') {
         throw std::invalid_argument(fmt::format(
             "{}:{}: column {}: text '{}' after the closing quote of a quoted cell (write a quote "
             "inside quotes as \"\")",
-            name, line_no, cells->size() + 1, Abbreviated(rec.substr(j, rec.find(',', j) - j), 40)));
+            name, line_no, used, Abbreviated(rec.substr(j, rec.find(',', j) - j), 40)));
       }
-      CheckCellSize(cell, name, line_no, cells->size() + 1);
+      CheckCellSize(cell, name, line_no, used, max_cell);
       i = j;
     } else {
       const std::size_t comma = rec.find(',', i);
       const std::string_view raw = Trim(rec.substr(i, comma == std::string_view::npos ? comma : comma - i));
-      CheckCellSize(raw, name, line_no, cells->size() + 1);
+      CheckCellSize(raw, name, line_no, used, max_cell);
       cell.assign(raw);
       i = comma == std::string_view::npos ? n : comma;
     }
-    cells->push_back(std::move(cell));
-    if (i >= n) return true;
+    if (i >= n) {
+      cells->resize(used);
+      return true;
+    }
     ++i;  // past the comma
   }
+}
+
+}  // namespace
+
+bool SplitCsvRecord(std::string_view rec, const std::string& name, long line_no,
+                    std::vector<std::string>* cells) {
+  return SplitRecord(rec, name, line_no, CsvLimits{}.cell, cells);
 }
 
 std::vector<std::string> SplitCsvLine(std::string_view line, const std::string& name, long line_no) {
@@ -261,30 +298,30 @@ void CheckHeader(const CsvTable& table, long line_no) {
 // The record that starts with `line` (line *line_no, ended by a lone CR when `lone_cr`): further
 // lines are appended while a quoted field is open, each joined by the break that ended the line
 // before it (LF for LF and CR LF, CR for a lone CR). Its cells into *cells; *line_no ends at the
-// record's last line.
-void ReadRecord(std::istream& in, const std::string& name, std::string line, bool lone_cr, long* line_no,
-                std::vector<std::string>* cells) {
+// record's last line. `line` is the caller's buffer (split in place when the record is one line).
+void ReadRecord(std::istream& in, const std::string& name, std::string& line, bool lone_cr, long* line_no,
+                std::vector<std::string>* cells, const CsvLimits& limits) {
   const long first = *line_no;
-  const auto max = static_cast<std::size_t>(LimitValue(kMaxCsvLine));
-  std::string record = std::move(line);
-  while (!SplitCsvRecord(record, name, first, cells)) {
+  if (SplitRecord(line, name, first, limits.cell, cells)) return;
+  std::string record = line;
+  do {
     const bool break_is_cr = lone_cr;
-    if (!ReadBoundedLine(in, line, name, *line_no + 1, &lone_cr)) {
+    if (!ReadLine(in, line, name, *line_no + 1, &lone_cr, limits.line)) {
       throw std::invalid_argument(
           fmt::format("{}:{}: column {}: the quoted cell is not closed before the end "
                       "of the file",
                       name, first, cells->size() + 1));
     }
     ++*line_no;
-    if (record.size() + line.size() + 1 > max) {
+    if (record.size() + line.size() + 1 > limits.line) {
       throw std::invalid_argument(fmt::format(
           "{}:{}: the record (a quoted cell over several lines) is longer than the limit of {} {} (raise it "
           "with {}=N)",
-          name, first, max, kMaxCsvLine.what, kMaxCsvLine.variable));
+          name, first, limits.line, kMaxCsvLine.what, kMaxCsvLine.variable));
     }
     record.push_back(break_is_cr ? '\r' : '\n');
     record += line;
-  }
+  } while (!SplitRecord(record, name, first, limits.cell, cells));
 }
 
 // One data row into the table's columns: numbers, missing cells as NaN.
@@ -334,14 +371,15 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
   long line_no = 0;
   bool have_header = false;
   const std::int64_t max_rows = LimitValue(kMaxCsvRows);
+  const CsvLimits limits;
   bool lone_cr = false;
-  while (ReadBoundedLine(in, line, name, line_no + 1, &lone_cr)) {
+  while (ReadLine(in, line, name, line_no + 1, &lone_cr, limits.line)) {
     ++line_no;
     if (line_no == 1 && line.starts_with(kUtf8Bom)) line.erase(0, kUtf8Bom.size());
     const std::string_view trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
     const long first = line_no;
-    ReadRecord(in, name, line, lone_cr, &line_no, &cells);
+    ReadRecord(in, name, line, lone_cr, &line_no, &cells, limits);
     if (!have_header) {
       table.header = std::move(cells);
       CheckHeader(table, first);
@@ -361,9 +399,10 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
 bool ReadCsvRecord(std::istream& in, const std::string& name, long* line_no, std::vector<std::string>* cells) {
   std::string line;
   bool lone_cr = false;
-  if (!ReadBoundedLine(in, line, name, *line_no + 1, &lone_cr)) return false;
+  const CsvLimits limits;
+  if (!ReadLine(in, line, name, *line_no + 1, &lone_cr, limits.line)) return false;
   ++*line_no;
-  ReadRecord(in, name, line, lone_cr, line_no, cells);
+  ReadRecord(in, name, line, lone_cr, line_no, cells, limits);
   return true;
 }
 

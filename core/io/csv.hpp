@@ -8,7 +8,8 @@
 // inside an unquoted field is text. Unquoted fields are
 // trimmed of spaces and tabs. Errors name the file, the line and the column. Records and cells are
 // bounded (limits.hpp: HYSID_MAX_CSV_LINE, HYSID_MAX_CSV_CELL) before they are held whole, and so is
-// the number of rows (HYSID_MAX_CSV_ROWS); a header is required (a first line of numbers is refused).
+// the number of rows (HYSID_MAX_CSV_ROWS; each limit read from the environment once per call, not
+// per line); a header is required (a first line of numbers is refused).
 #pragma once
 
 #include <cstdio>

@@ -244,6 +244,19 @@ class JumpCounter {
   std::size_t run_start_ = 0;
 };
 
+// Capacity for `rows` samples in every per-sample array (the first table's rows: a single file then
+// needs no growth, hence no slack; later tables grow them geometrically, trimmed at the end).
+void Reserve(std::size_t rows, const Columns& c, SampleData& out, std::vector<double>& y, std::vector<double>& u,
+             std::vector<int>& j) {
+  out.t.reserve(rows);
+  out.run.reserve(rows);
+  out.chain_start.reserve(rows);
+  out.line.reserve(rows);
+  y.reserve(rows * c.state.size());
+  u.reserve(rows * c.input.size());
+  if (c.j >= 0) j.reserve(rows);
+}
+
 // Appends the rows of one table to `out`: runs, missing rows left out, time order.
 void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::vector<double>& y,
                  std::vector<double>& u, std::vector<int>& j, std::vector<int>& map, std::vector<int>& q) {
@@ -253,6 +266,7 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
   bool break_next = true;
   JumpCounter counter(table, c, j);
   const auto t_col = static_cast<std::size_t>(c.time);
+  if (out.t.empty()) Reserve(table.columns[0].size(), c, out, y, u, j);
   for (std::size_t r = 0; r < table.columns[0].size(); ++r) {
     CheckRow(table, c, r);
     const long run = c.run >= 0 ? static_cast<long>(table.columns[static_cast<std::size_t>(c.run)][r]) : 0;
@@ -304,15 +318,19 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
 // Steps within chains: their median, the gap rule, and whether the data are one uniform chain.
 void CutGaps(const std::string& path, const SampleDataOptions& options, SampleData& d) {
   std::vector<double> steps;
+  steps.reserve(d.t.size());
   for (std::size_t k = 1; k < d.t.size(); ++k) {
     if (!d.chain_start[k]) steps.push_back(d.t[k] - d.t[k - 1]);
   }
   if (steps.empty()) {
     throw std::invalid_argument(fmt::format("{}: no run has two samples", path));
   }
-  std::vector<double> sorted = steps;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-  const double median = sorted[sorted.size() / 2];
+  const double mean = (d.t.back() - d.t.front()) / static_cast<double>(d.t.size() - 1);
+  double worst = 0.0;
+  for (double s : steps) worst = std::max(worst, std::abs(s - mean) / mean);
+  std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
+  const double median = steps[steps.size() / 2];
+  steps = {};
   d.max_gap = options.max_gap > 0.0 ? options.max_gap : kDefaultGapFactor * median;
   for (std::size_t k = 1; k < d.t.size(); ++k) {
     if (!d.chain_start[k] && d.t[k] - d.t[k - 1] > d.max_gap) {
@@ -320,9 +338,6 @@ void CutGaps(const std::string& path, const SampleDataOptions& options, SampleDa
       ++d.gaps;
     }
   }
-  const double mean = (d.t.back() - d.t.front()) / static_cast<double>(d.t.size() - 1);
-  double worst = 0.0;
-  for (double s : steps) worst = std::max(worst, std::abs(s - mean) / mean);
   d.uniform = d.run_names.size() == 1 && d.chains() == 1 && worst <= 1e-6;
   d.dt = d.uniform ? mean : median;
 }
@@ -339,60 +354,93 @@ void CheckStateScale(const SampleData& d) {
   }
 }
 
-}  // namespace
-
-SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_size,
-                                const SampleDataOptions& options) {
-  if (!(options.max_gap >= 0.0) || !std::isfinite(options.max_gap)) {
-    throw std::invalid_argument(fmt::format(
-        "SampleDataOptions::max_gap = {}: must be finite and >= 0 (0: the default)", options.max_gap));
+// SampleData built table by table (a table may be freed once added): the per-sample arrays grow as
+// tables come, and are trimmed to their size at the end.
+class SampleBuilder {
+ public:
+  SampleBuilder(int state_size, const SampleDataOptions& options) : n_(state_size), options_(options) {
+    if (!(options.max_gap >= 0.0) || !std::isfinite(options.max_gap)) {
+      throw std::invalid_argument(fmt::format(
+          "SampleDataOptions::max_gap = {}: must be finite and >= 0 (0: the default)", options.max_gap));
+    }
   }
-  SampleData d;
-  std::vector<std::string> paths;
-  std::vector<double> y, u;
-  std::vector<int> j, map, q;
-  bool all_j = true, all_map = true, all_q = true;
-  for (const CsvTable& table : tables) {
-    paths.push_back(table.path);
-    const Columns c = ResolveColumns(table, state_size, options);
-    all_j = all_j && c.j >= 0;
-    all_map = all_map && c.map >= 0;
-    all_q = all_q && c.q >= 0;
+  // `several`: more than one table is (or will be) added.
+  void Add(const CsvTable& table, bool several) {
+    paths_.push_back(table.path);
+    const Columns c = ResolveColumns(table, n_, options_);
+    all_j_ = all_j_ && c.j >= 0;
+    all_map_ = all_map_ && c.map >= 0;
+    all_q_ = all_q_ && c.q >= 0;
     std::vector<std::string> names;
     for (int col : c.state) names.push_back(table.header[static_cast<std::size_t>(col)]);
-    if (d.state_columns.empty()) d.state_columns = names;
-    if (d.input_columns.empty()) {
-      for (int col : c.input) d.input_columns.push_back(table.header[static_cast<std::size_t>(col)]);
+    if (d_.state_columns.empty()) d_.state_columns = names;
+    if (d_.input_columns.empty()) {
+      for (int col : c.input) d_.input_columns.push_back(table.header[static_cast<std::size_t>(col)]);
     }
-    const std::size_t before = d.t.size();
-    const long missing_before = d.missing_rows;
-    AppendTable(table, c, d, y, u, j, map, q);
-    if (d.t.size() == before && tables.size() > 1) {  // one file of several is not left out silently
-      const long rows = d.missing_rows - missing_before;
+    const std::size_t before = d_.t.size();
+    const long missing_before = d_.missing_rows;
+    AppendTable(table, c, d_, y_, u_, j_, map_, q_);
+    if (d_.t.size() == before && several) {  // one file of several is not left out silently
+      const long rows = d_.missing_rows - missing_before;
       throw std::invalid_argument(
           rows == 0 ? fmt::format("{}: no samples (no data rows)", table.path)
                     : fmt::format("{}: no samples (each of its {} rows has a missing state value)",
                                   table.path, rows));
     }
   }
-  d.path = fmt::format("{}", fmt::join(paths, ", "));
-  const auto k = static_cast<long>(d.t.size());
-  CheckLimit(kMaxSamples, k, d.path);
-  if (k < 3) {
-    throw std::invalid_argument(
-        fmt::format("{}: {} samples{}; the identifier needs at least 3", d.path, k,
-                    d.missing_rows ? fmt::format(" ({} {} with a missing value left out)", d.missing_rows,
-                                                 d.missing_rows == 1 ? "row" : "rows")
-                                   : ""));
+  SampleData Finish() && {
+    d_.path = fmt::format("{}", fmt::join(paths_, ", "));
+    const auto k = static_cast<long>(d_.t.size());
+    CheckLimit(kMaxSamples, k, d_.path);
+    if (k < 3) {
+      throw std::invalid_argument(
+          fmt::format("{}: {} samples{}; the identifier needs at least 3", d_.path, k,
+                      d_.missing_rows ? fmt::format(" ({} {} with a missing value left out)", d_.missing_rows,
+                                                    d_.missing_rows == 1 ? "row" : "rows")
+                                      : ""));
+    }
+    CutGaps(d_.path, options_, d_);
+    d_.y = Eigen::Map<const Mat>(y_.data(), n_, k);
+    y_ = {};
+    d_.u = Eigen::Map<const Mat>(u_.data(), static_cast<Eigen::Index>(options_.inputs.size()), k);
+    u_ = {};
+    CheckStateScale(d_);
+    d_.t.shrink_to_fit();
+    d_.run.shrink_to_fit();
+    d_.chain_start.shrink_to_fit();
+    d_.line.shrink_to_fit();
+    if (all_j_) {
+      j_.shrink_to_fit();
+      d_.j = std::move(j_);
+    }
+    if (all_map_) d_.map = std::move(map_);
+    if (all_q_) d_.q = std::move(q_);
+    return std::move(d_);
   }
-  CutGaps(d.path, options, d);
-  d.y = Eigen::Map<const Mat>(y.data(), state_size, k);
-  d.u = Eigen::Map<const Mat>(u.data(), static_cast<Eigen::Index>(options.inputs.size()), k);
-  CheckStateScale(d);
-  if (all_j) d.j = std::move(j);
-  if (all_map) d.map = std::move(map);
-  if (all_q) d.q = std::move(q);
-  return d;
+
+ private:
+  int n_;
+  const SampleDataOptions& options_;
+  SampleData d_;
+  std::vector<std::string> paths_;
+  std::vector<double> y_, u_;
+  std::vector<int> j_, map_, q_;
+  bool all_j_ = true, all_map_ = true, all_q_ = true;
+};
+
+}  // namespace
+
+std::size_t SampleData::HeldBytes() const {
+  return t.capacity() * sizeof(double) + static_cast<std::size_t>(y.size() + u.size()) * sizeof(double) +
+         (j ? j->capacity() * sizeof(int) : 0) + run.capacity() * sizeof(int) + chain_start.capacity() +
+         line.capacity() * sizeof(long);
+}
+
+SampleData SampleDataFromTables(const std::vector<CsvTable>& tables, int state_size,
+                                const SampleDataOptions& options) {
+  SampleBuilder builder(state_size, options);
+  for (const CsvTable& table : tables) builder.Add(table, tables.size() > 1);
+  return std::move(builder).Finish();
 }
 
 SampleData SampleDataFromTable(const CsvTable& table, int state_size) {
@@ -444,9 +492,9 @@ SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, c
 
 SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
                           const SampleDataOptions& options) {
-  std::vector<CsvTable> tables;
-  for (const std::string& p : paths) tables.push_back(ReadCsv(p));
-  return SampleDataFromTables(tables, state_size, options);
+  SampleBuilder builder(state_size, options);
+  for (const std::string& p : paths) builder.Add(ReadCsv(p), paths.size() > 1);  // one file held at a time
+  return std::move(builder).Finish();
 }
 
 SampleData ReadSampleData(const std::string& path, int state_size) {

@@ -29,6 +29,7 @@
 // rows of a run not contiguous.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -93,9 +94,14 @@ struct SampleData {
   long first_missing_line = 0;             // the first such row's line (0: none)
   long gaps = 0;                           // chain breaks at a step longer than max_gap
   long chains() const;
+  // Bytes held by the per-sample arrays (t, y, u, j, run, chain_start, line; by capacity): with n
+  // states, m inputs and a j column, (8 + 8n + 8m + 4 + 4 + 1 + 8) per sample once read.
+  std::size_t HeldBytes() const;
 };
 
 // Throws std::invalid_argument with "FILE:LINE: column C ('name'): ..." or "FILE: ..." messages.
+// The files are read one at a time, each table freed once its samples are taken (memory: one file's
+// table beside the samples).
 SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
                           const SampleDataOptions& options = {});
 SampleData ReadSampleData(const std::string& path, int state_size);

@@ -22,6 +22,7 @@
 #include "core/io/limits.hpp"
 #include "core/io/toml_guard.hpp"
 #include "core/io/toml_reader.hpp"
+#include "core/model/automaton.hpp"
 
 namespace hysid {
 namespace {
@@ -47,7 +48,13 @@ struct Definition {
   bool contextual = false;  // inputs or γ: every evaluation loads them (and t) from the context
   bool binds_time = false;  // `t` is a variable (a model with inputs and no state named t)
   ModelSpec spec;
-  ExprMatrix phi, psi, guards;  // guards: |guards| × 1
+  std::vector<ExprMatrix> phi;  // per mode q: φ_q, n × |α|
+  // The single [jump]: one n × |β| matrix. [[jump]] maps (`sliced`): per map its n × |β_m| slice
+  // (0 columns for an identity map), written into columns [beta_first, beta_first + beta_count).
+  std::vector<ExprMatrix> psi;
+  bool sliced = false;
+  bool has_sets = true;  // false: an automaton without [sets] (C every state, D empty)
+  ExprMatrix guards;     // |guards| × 1
   std::string in_c, in_d, distance;
   std::vector<ExprMatrix> project;               // per guard: assigned states × 1 (may be empty)
   std::vector<std::vector<int>> project_states;  // per guard: which state each entry assigns
@@ -58,7 +65,8 @@ std::atomic<std::uint64_t> next_definition_id{1};
 // One thread's compiled parsers; `var` holds ξ, u, γ and t, bound to their names.
 struct Compiled {
   std::array<double, kTimeSlot + 1> var{};
-  mu::Parser phi, psi, guards, in_c, in_d, distance;
+  std::vector<mu::Parser> phi, psi;  // as Definition::phi, ::psi
+  mu::Parser guards, in_c, in_d, distance;
   std::vector<mu::Parser> project;
 };
 
@@ -74,8 +82,10 @@ void Bind(mu::Parser& p, const Definition& def, Compiled& c, const std::string& 
 
 std::unique_ptr<Compiled> Compile(const Definition& def) {
   auto c = std::make_unique<Compiled>();
-  Bind(c->phi, def, *c, def.phi.joined);
-  Bind(c->psi, def, *c, def.psi.joined);
+  c->phi.resize(def.phi.size());
+  for (std::size_t q = 0; q < def.phi.size(); ++q) Bind(c->phi[q], def, *c, def.phi[q].joined);
+  c->psi.resize(def.psi.size());
+  for (std::size_t m = 0; m < def.psi.size(); ++m) Bind(c->psi[m], def, *c, def.psi[m].joined);
   Bind(c->guards, def, *c, def.guards.joined);
   Bind(c->in_c, def, *c, def.in_c);
   Bind(c->in_d, def, *c, def.in_d);
@@ -128,24 +138,36 @@ struct FileModel {
 
   ModelSpec Spec() const { return def->spec; }
   void Phi(ConstVecRef x, const Context& ctx, MatRef phi) const {
-    Evaluate(def->phi, Loaded(x, ctx).phi, phi.data());
+    const std::size_t q = Index(ctx.mode, def->phi.size(), "mode");
+    Evaluate(def->phi[q], Loaded(x, ctx).phi[q], phi.data());
   }
   void PhiColumns(const double* x, Eigen::Index count, const Context& ctx, double* phi) const {
     Compiled& c = Local(def);
-    const Eigen::Index n = def->phi.rows, size = def->phi.rows * def->phi.cols;
+    const std::size_t q = Index(ctx.mode, def->phi.size(), "mode");
+    const Eigen::Index n = def->phi[q].rows, size = def->phi[q].rows * def->phi[q].cols;
     for (Eigen::Index k = 0; k < count; ++k) {
       Load(*def, c, x + k * n, static_cast<std::size_t>(n), ctx);
-      Evaluate(def->phi, c.phi, phi + k * size);
+      Evaluate(def->phi[q], c.phi[q], phi + k * size);
     }
   }
+  // ψ_m in its β slice, zeros elsewhere (an identity map: all zeros; Model::Jump applies ξ+ = ξ).
   void Psi(ConstVecRef x, const Context& ctx, MatRef psi) const {
-    Evaluate(def->psi, Loaded(x, ctx).psi, psi.data());
+    if (!def->sliced) return Evaluate(def->psi[0], Loaded(x, ctx).psi[0], psi.data());
+    const std::size_t m = Index(ctx.map, def->psi.size(), "jump map");
+    psi.setZero();
+    const JumpMap& map = def->spec.jumps[m];
+    if (map.identity) return;
+    Evaluate(def->psi[m], Loaded(x, ctx).psi[m], psi.data() + Eigen::Index(map.beta_first) * psi.rows());
   }
   void Guards(ConstVecRef x, const Context& ctx, VecRef h) const {
     Evaluate(def->guards, Loaded(x, ctx).guards, h.data());
   }
-  bool InFlowSet(ConstVecRef x, const Context& ctx) const { return Loaded(x, ctx).in_c.Eval() != 0.0; }
-  bool InJumpSet(ConstVecRef x, const Context& ctx) const { return Loaded(x, ctx).in_d.Eval() != 0.0; }
+  bool InFlowSet(ConstVecRef x, const Context& ctx) const {
+    return !def->has_sets || Loaded(x, ctx).in_c.Eval() != 0.0;
+  }
+  bool InJumpSet(ConstVecRef x, const Context& ctx) const {
+    return def->has_sets && Loaded(x, ctx).in_d.Eval() != 0.0;
+  }
   bool ProvidesJumpSetDistance() const { return !def->distance.empty(); }
   double DistanceToJumpSet(ConstVecRef x, const Context& ctx) const {
     if (def->distance.empty()) return std::numeric_limits<double>::quiet_NaN();
@@ -161,6 +183,13 @@ struct FileModel {
   }
 
  private:
+  // A context's mode or map as an index into `size` entries (an index outside is a caller's bug).
+  static std::size_t Index(int value, std::size_t size, const char* what) {
+    if (value < 0 || std::size_t(value) >= size) {
+      throw std::logic_error(fmt::format("model file: Context {} {} outside [0, {})", what, value, size));
+    }
+    return std::size_t(value);
+  }
   // This thread's parsers with (x, ctx) loaded.
   Compiled& Loaded(ConstVecRef x, const Context& ctx) const {
     Compiled& c = Local(def);
@@ -318,11 +347,11 @@ void ParseBounds(const TomlReader& rd, const toml::node& node, const std::string
   p.upper = b[1];
 }
 
-// alpha, beta (required, not empty) or guard_params (optional).
-std::vector<Parameter> ParseParameters(const TomlReader& rd, const toml::table& root, const char* which) {
-  const bool optional = std::string_view(which) == "guard_params";
-  if (optional && !root.contains(which)) return {};
-  const toml::array& arr = rd.Array(rd.Require(root, "", which), which);
+// A list of parameter tables at `key` (alpha, beta, guard_params, jump[m].beta), not empty unless
+// `optional`.
+std::vector<Parameter> ParseParameterList(const TomlReader& rd, const toml::node& node, const std::string& which,
+                                         bool optional) {
+  const toml::array& arr = rd.Array(node, which);
   if (!optional) rd.NotEmpty(&arr, which, arr.size(), "parameter");
   std::vector<Parameter> out;
   for (std::size_t i = 0; i < arr.size(); ++i) {
@@ -342,6 +371,13 @@ std::vector<Parameter> ParseParameters(const TomlReader& rd, const toml::table& 
     out.push_back(std::move(p));
   }
   return out;
+}
+
+// alpha, beta (required, not empty) or guard_params (optional).
+std::vector<Parameter> ParseParameters(const TomlReader& rd, const toml::table& root, const char* which) {
+  const bool optional = std::string_view(which) == "guard_params";
+  if (optional && !root.contains(which)) return {};
+  return ParseParameterList(rd, rd.Require(root, "", which), which, optional);
 }
 
 std::vector<int> ParseRows(const TomlReader& rd, const toml::table& t, const std::string& prefix,
@@ -441,7 +477,266 @@ void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def,
   def.guards.constant.assign(arr.size(), 0.0);
 }
 
+// An optional top-level list of distinct names (inputs, modes), at most kMaxParameters; `check(node,
+// key, name)` vets each new name.
+template <class Check>
+std::vector<std::string> ParseNames(const TomlReader& rd, const toml::table& root, const char* which, Check check) {
+  const toml::node* node = root.get(which);
+  if (node == nullptr) return {};
+  const toml::array& arr = rd.Array(*node, which);
+  if (arr.size() > std::size_t(Model::kMaxParameters)) {
+    rd.Fail(&arr, which, fmt::format("has {} entries, at most {}", arr.size(), Model::kMaxParameters));
+  }
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string key = TomlReader::Index(which, i);
+    std::string name = rd.String(arr[i], key);
+    if (std::find(out.begin(), out.end(), name) != out.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", name));
+    check(arr[i], key, name);
+    out.push_back(std::move(name));
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hybrid automata: modes = [...], one [[flow]] per mode, [[jump]] maps with their own β slices.
+
+// modes = ["NAME", ...]: at least one, distinct (absent: one unnamed mode).
+std::vector<std::string> ParseModes(const TomlReader& rd, const toml::table& root) {
+  std::vector<std::string> out =
+      ParseNames(rd, root, "modes", [&](const toml::node& node, const std::string& key, const std::string& name) {
+        if (name.empty()) rd.Fail(&node, key, "empty: give the mode a name");
+      });
+  if (const toml::node* node = root.get("modes")) rd.NotEmpty(node, "modes", out.size(), "mode");
+  return out;
+}
+
+// The rows of φ_q with an entry that is not the constant 0 in an unknown α's column: a [[flow]]'s
+// rows when it gives none.
+std::vector<int> RowsWithUnknowns(const ExprMatrix& m, const std::vector<Parameter>& alpha) {
+  std::vector<int> rows;
+  for (Eigen::Index i = 0; i < m.rows; ++i) {
+    for (Eigen::Index j = 0; j < m.cols; ++j) {
+      const Eigen::Index at = j * m.rows + i;
+      const bool expr = std::find(m.index.begin(), m.index.end(), at) != m.index.end();
+      if (!alpha[std::size_t(j)].known && (expr || m.constant[std::size_t(at)] != 0.0)) {
+        rows.push_back(static_cast<int>(i));
+        break;
+      }
+    }
+  }
+  return rows;
+}
+
+// One [[flow]] table (`key` = "flow[i]") of a file with modes: its mode, φ_q and rows (given, or
+// the rows with unknown α); returns the mode's index and whether it declares jacobian_constant.
+std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::table& t, const std::string& key,
+                                           Definition& def, Symbols& sym, std::set<int>& rows) {
+  ModelSpec& spec = def.spec;
+  rd.OnlyKeys(t, key, {"mode", "phi", "rows", "jacobian_constant"});
+  const toml::node& mode = rd.Require(t, key, "mode");
+  const std::string mkey = TomlReader::Join(key, "mode");
+  const std::string name = rd.String(mode, mkey);
+  const std::size_t q = rd.Choice(&mode, mkey, "mode", name, spec.modes);
+  if (def.phi[q].rows != 0) rd.Twice(&mode, mkey, fmt::format("a [[flow]] for mode '{}'", name));
+  def.phi[q] = ParseMatrix(rd, rd.Require(t, key, "phi"), TomlReader::Join(key, "phi"),
+                           static_cast<Eigen::Index>(spec.state_names.size()),
+                           static_cast<Eigen::Index>(spec.alpha.size()), sym);
+  for (int r : t.contains("rows") ? ParseRows(rd, t, key, spec.state_names) : RowsWithUnknowns(def.phi[q], spec.alpha))
+    rows.insert(r);
+  const toml::node* jc = t.get("jacobian_constant");
+  return {q, jc != nullptr && rd.Boolean(*jc, TomlReader::Join(key, "jacobian_constant"))};
+}
+
+// [flow] (one mode) or, with modes, one [[flow]] per mode: φ_q over the one α. flow_rows is the union
+// of the modes' rows; jacobian_constant holds when every mode declares it.
+void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
+  ModelSpec& spec = def.spec;
+  const toml::node& node = rd.Require(root, "", "flow");
+  if (!node.is_array()) {
+    if (!spec.modes.empty()) {
+      rd.Fail(&node, "flow", "with modes = [...], give one [[flow]] table per mode (mode = \"NAME\")");
+    }
+    const toml::table& t = rd.Table(node, "flow");
+    rd.OnlyKeys(t, "flow", {"phi", "rows", "jacobian_constant"});
+    def.phi = {ParseMatrix(rd, rd.Require(t, "flow", "phi"), "flow.phi",
+                           static_cast<Eigen::Index>(spec.state_names.size()),
+                           static_cast<Eigen::Index>(spec.alpha.size()), sym)};
+    spec.flow_rows = ParseRows(rd, t, "flow", spec.state_names);
+    if (const toml::node* jc = t.get("jacobian_constant"))
+      spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
+    return;
+  }
+  const toml::array& arr = *node.as_array();
+  if (spec.modes.empty()) {
+    rd.Fail(&arr, "flow", "[[flow]] tables need modes = [\"NAME\", ...] (one [flow] table has no mode)");
+  }
+  def.phi.assign(spec.modes.size(), ExprMatrix{});
+  std::set<int> rows;
+  bool constant = true;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const std::string key = TomlReader::Index("flow", i);
+    constant = ParseModeFlow(rd, rd.Table(arr[i], key), key, def, sym, rows).second && constant;
+  }
+  for (std::size_t q = 0; q < spec.modes.size(); ++q) {
+    if (def.phi[q].rows == 0)
+      rd.Fail(root.get("modes"), "modes", fmt::format("mode '{}' has no [[flow]] table", spec.modes[q]));
+  }
+  if (rows.empty()) rd.Fail(&arr, "flow", "no mode's phi has an unknown alpha: give rows");
+  spec.flow_rows.assign(rows.begin(), rows.end());
+  spec.flow_jacobian_constant = constant;
+}
+
+// The names a map's β may not take: α, β so far, γ, inputs.
+bool NameTaken(const ModelSpec& spec, const std::string& name) {
+  for (const auto* list : {&spec.alpha, &spec.beta, &spec.guard_params}) {
+    for (const Parameter& p : *list) {
+      if (p.name == name) return true;
+    }
+  }
+  return std::find(spec.inputs.begin(), spec.inputs.end(), name) != spec.inputs.end();
+}
+
+// jump[m].beta and .psi: the map's parameters, appended to β as its slice, and ψ_m (n × |β_m|).
+void ParseMapPsi(const TomlReader& rd, const toml::table& t, const std::string& key, Definition& def, Symbols& sym,
+                 JumpMap& map) {
+  ModelSpec& spec = def.spec;
+  const toml::node* beta = t.get("beta");
+  if (beta == nullptr) {
+    rd.Fail(t.get("psi"), TomlReader::Join(key, "psi"), "psi needs the map's own parameters: give beta = [...]");
+  }
+  const std::string bkey = TomlReader::Join(key, "beta");
+  std::vector<Parameter> params = ParseParameterList(rd, *beta, bkey, false);
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    if (!NameTaken(spec, params[i].name)) continue;
+    const std::string nkey = TomlReader::Join(TomlReader::Index(bkey, i), "name");
+    rd.Fail(t.at_path(nkey.substr(key.size() + 1)).node(), nkey,
+            fmt::format("'{}' is already the name of a parameter or an input", params[i].name));
+  }
+  if (spec.beta.size() + params.size() > std::size_t(Model::kMaxParameters)) {
+    rd.Fail(beta, bkey, fmt::format("the maps' β would have {} entries, at most {}", spec.beta.size() + params.size(),
+                                    Model::kMaxParameters));
+  }
+  map.beta_first = static_cast<int>(spec.beta.size());
+  map.beta_count = static_cast<int>(params.size());
+  spec.beta.insert(spec.beta.end(), params.begin(), params.end());
+  def.psi.push_back(ParseMatrix(rd, *t.get("psi"), TomlReader::Join(key, "psi"),
+                                static_cast<Eigen::Index>(spec.state_names.size()), map.beta_count, sym));
+  map.rows = ParseRows(rd, t, key, spec.state_names);
+}
+
+// One [[jump]] table: name, guard, from/to modes, and β, ψ, rows (none of the three: the identity).
+void ParseJumpMap(const TomlReader& rd, const toml::table& t, const std::string& key, Definition& def, Symbols& sym,
+                  const std::vector<std::string>& guards) {
+  ModelSpec& spec = def.spec;
+  rd.OnlyKeys(t, key, {"name", "guard", "from", "to", "beta", "psi", "rows"});
+  JumpMap map;
+  const std::string nkey = TomlReader::Join(key, "name");
+  map.name = rd.String(rd.Require(t, key, "name"), nkey);
+  for (const JumpMap& other : spec.jumps) {
+    if (other.name == map.name) rd.Twice(t.get("name"), nkey, fmt::format("jump map name '{}'", map.name));
+  }
+  const std::string gkey = TomlReader::Join(key, "guard");
+  const toml::node& guard = rd.Require(t, key, "guard");
+  map.guard = static_cast<int>(rd.Choice(&guard, gkey, "guard", rd.String(guard, gkey), guards));
+  for (auto [k, field] : {std::pair{"from", &map.from}, std::pair{"to", &map.to}}) {
+    const toml::node* mode = t.get(k);
+    if (mode == nullptr) continue;
+    const std::string mkey = TomlReader::Join(key, k);
+    if (spec.modes.empty()) rd.Fail(mode, mkey, "names a mode, but the file has no modes = [...]");
+    *field = static_cast<int>(rd.Choice(mode, mkey, "mode", rd.String(*mode, mkey), spec.modes));
+  }
+  if (t.contains("psi")) {
+    ParseMapPsi(rd, t, key, def, sym, map);
+  } else {
+    for (const char* k : {"beta", "rows"}) {
+      if (t.contains(k)) {
+        rd.Fail(t.get(k), TomlReader::Join(key, k),
+                fmt::format("an identity map (no psi: a mode switch, ξ+ = ξ) has no {}: give psi or drop {}",
+                            std::string_view(k) == "beta" ? "parameters" : "rows", k));
+      }
+    }
+    map.identity = true;
+    def.psi.push_back(ExprMatrix{static_cast<Eigen::Index>(spec.state_names.size()), 0, {}, {}, {}, {}});
+  }
+  spec.jumps.push_back(std::move(map));
+}
+
+// The guards' names, distinct: the maps name their guard.
+std::vector<std::string> GuardNames(const TomlReader& rd, const toml::table& root, const ModelSpec& spec) {
+  std::vector<std::string> names;
+  for (std::size_t g = 0; g < spec.guards.size(); ++g) {
+    const std::string key = TomlReader::Join(TomlReader::Index("guard", g), "name");
+    if (std::find(names.begin(), names.end(), spec.guards[g].name) != names.end())
+      rd.Twice(root.at_path(key).node(), key, fmt::format("guard name '{}' (jump maps name their guard)", spec.guards[g].name));
+    names.push_back(spec.guards[g].name);
+  }
+  return names;
+}
+
+// Every guard triggers a map, and no guard triggers two maps in one mode (a map without `from`
+// leaves every mode).
+void CheckArming(const TomlReader& rd, const toml::table& root, const toml::array& jumps, const ModelSpec& spec,
+                 const std::vector<std::string>& names) {
+  std::map<std::pair<int, int>, std::size_t> armed;
+  for (std::size_t m = 0; m < spec.jumps.size(); ++m) {
+    const JumpMap& map = spec.jumps[m];
+    for (int q = 0; q < ModeCount(spec); ++q) {
+      if (map.from >= 0 && map.from != q) continue;
+      const auto [it, fresh] = armed.emplace(std::pair{q, map.guard}, m);
+      if (fresh) continue;
+      const std::string key = TomlReader::Join(TomlReader::Index("jump", m), "guard");
+      rd.Fail(jumps[m].as_table()->get("guard"), key,
+              fmt::format("guard '{}' already triggers map '{}'{} (one map per guard and mode)",
+                          names[std::size_t(map.guard)], spec.jumps[it->second].name,
+                          spec.modes.empty() ? "" : fmt::format(" in mode '{}'", spec.modes[std::size_t(q)])));
+    }
+  }
+  for (std::size_t g = 0; g < spec.guards.size(); ++g) {
+    const bool used = std::any_of(spec.jumps.begin(), spec.jumps.end(),
+                                  [&](const JumpMap& map) { return map.guard == static_cast<int>(g); });
+    if (used) continue;
+    const std::string key = TomlReader::Index("guard", g);
+    rd.Fail(root.at_path(key).node(), key,
+            fmt::format("guard '{}' triggers no [[jump]] map (give one with guard = \"{}\")", names[g], names[g]));
+  }
+}
+
+// [jump] (one map over all of β, every guard) or [[jump]] maps. jump_rows is the union of the maps' rows.
+void ParseJumps(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
+  ModelSpec& spec = def.spec;
+  const toml::node& node = rd.Require(root, "", "jump");
+  if (!node.is_array()) {
+    if (spec.modes.size() > 1) {
+      rd.Fail(&node, "jump", "several modes switch by [[jump]] maps with from/to: one [jump] table has no modes");
+    }
+    const toml::table& t = rd.Table(node, "jump");
+    rd.OnlyKeys(t, "jump", {"psi", "rows"});
+    def.psi = {ParseMatrix(rd, rd.Require(t, "jump", "psi"), "jump.psi",
+                           static_cast<Eigen::Index>(spec.state_names.size()),
+                           static_cast<Eigen::Index>(spec.beta.size()), sym)};
+    spec.jump_rows = ParseRows(rd, t, "jump", spec.state_names);
+    return;
+  }
+  const toml::array& arr = *node.as_array();
+  rd.NotEmpty(&arr, "jump", arr.size(), "[[jump]]");
+  def.sliced = true;
+  const std::vector<std::string> guards = GuardNames(rd, root, spec);
+  for (std::size_t m = 0; m < arr.size(); ++m) {
+    const std::string key = TomlReader::Index("jump", m);
+    ParseJumpMap(rd, rd.Table(arr[m], key), key, def, sym, guards);
+  }
+  CheckArming(rd, root, arr, spec, guards);
+  std::set<int> rows;
+  for (const JumpMap& map : spec.jumps) rows.insert(map.rows.begin(), map.rows.end());
+  spec.jump_rows.assign(rows.begin(), rows.end());
+}
+
 void ParseSets(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
+  if (!root.contains("sets") && (def.sliced || !def.spec.modes.empty())) {
+    def.has_sets = false;  // C every state, D empty: an automaton jumps at its armed guards' crossings
+    return;
+  }
   const toml::table& t = rd.Table(rd.Require(root, "", "sets"), "sets");
   rd.OnlyKeys(t, "sets", {"C", "D", "distance_to_D"});
   auto one = [&](const char* k) -> std::string {
@@ -458,19 +753,26 @@ void ParseSets(const TomlReader& rd, const toml::table& root, Definition& def, S
 
 void ParseDefaults(const TomlReader& rd, const toml::table& root, ModelSpec& spec) {
   const toml::table& t = rd.Table(rd.Require(root, "", "defaults"), "defaults");
-  rd.OnlyKeys(t, "defaults", {"x0", "t_end", "dt"});
+  rd.OnlyKeys(t, "defaults", {"x0", "t_end", "dt", "mode"});
+  if (const toml::node* mode = t.get("mode")) {
+    if (spec.modes.empty()) rd.Fail(mode, "defaults.mode", "names a mode, but the file has no modes = [...]");
+    spec.default_mode =
+        static_cast<int>(rd.Choice(mode, "defaults.mode", "mode", rd.String(*mode, "defaults.mode"), spec.modes));
+  }
   const toml::node& x0 = rd.Require(t, "defaults", "x0");
   spec.default_x0 = rd.Numbers(x0, "defaults.x0");
   rd.Size(&x0, "defaults.x0", spec.default_x0.size(), spec.state_names.size(), "one per state");
+  // t_end and dt may be left out: ModelSpec's defaults (10 and 1e-3).
   for (auto [k, field] : {std::pair{"t_end", &spec.default_t_end}, std::pair{"dt", &spec.default_dt}}) {
-    const toml::node& n = rd.Require(t, "defaults", k);
-    *field = rd.Number(n, TomlReader::Join("defaults", k));
-    rd.Above(&n, TomlReader::Join("defaults", k), *field, 0.0);
+    const toml::node* n = t.get(k);
+    if (n == nullptr) continue;
+    *field = rd.Number(*n, TomlReader::Join("defaults", k));
+    rd.Above(n, TomlReader::Join("defaults", k), *field, 0.0);
   }
   // The default trajectory is simulated when the file is loaded: within the samples limit.
   const double samples = std::min(spec.default_t_end / spec.default_dt, 9e18) + 1.0;
   if (samples > static_cast<double>(LimitValue(kMaxSamples))) {
-    rd.Fail(&rd.Require(t, "defaults", "dt"), "defaults.dt",
+    rd.Fail(t.contains("dt") ? t.get("dt") : &t, "defaults.dt",
             fmt::format("t_end {} / dt {}: {:.0f} exceeds the limit of {} {} (raise it with {}=N)",
                         spec.default_t_end, spec.default_dt, samples, LimitValue(kMaxSamples),
                         kMaxSamples.what, kMaxSamples.variable));
@@ -492,20 +794,58 @@ std::string RowText(const ExprMatrix& m, Eigen::Index row, const std::vector<Par
   return terms.empty() ? "0" : fmt::format("{}", fmt::join(terms, " + "));
 }
 
+// The [[jump]] maps' lines: "jump NAME (guard G, A -> B): v+ = ..." per state, or "identity".
+std::string MapEquations(const Definition& def) {
+  const ModelSpec& s = def.spec;
+  std::string out;
+  for (std::size_t m = 0; m < s.jumps.size(); ++m) {
+    const JumpMap& map = s.jumps[m];
+    std::string head = fmt::format("jump {} (guard {}", map.name, s.guards[std::size_t(map.guard)].name);
+    if (map.from >= 0 || map.to >= 0) {
+      head += fmt::format(", {} -> {}", map.from >= 0 ? s.modes[std::size_t(map.from)] : "any",
+                          map.to >= 0 ? s.modes[std::size_t(map.to)] : "same");
+    }
+    if (map.identity) {
+      out += head + "): identity (xi+ = xi)\n";
+      continue;
+    }
+    const std::vector<Parameter> slice(s.beta.begin() + map.beta_first,
+                                       s.beta.begin() + map.beta_first + map.beta_count);
+    for (std::size_t i = 0; i < s.state_names.size(); ++i) {
+      out += fmt::format("{}): {}+ = {}\n", head, s.state_names[i], RowText(def.psi[m], Eigen::Index(i), slice));
+    }
+  }
+  return out;
+}
+
 std::string Equations(const Definition& def) {
   const ModelSpec& s = def.spec;
   std::string out;
-  for (std::size_t i = 0; i < s.state_names.size(); ++i) {
-    out += fmt::format("flow: {}' = {}\n", s.state_names[i], RowText(def.phi, Eigen::Index(i), s.alpha));
+  for (std::size_t q = 0; q < def.phi.size(); ++q) {
+    const std::string flow = s.modes.empty() ? "flow" : fmt::format("flow [{}]", s.modes[q]);
+    for (std::size_t i = 0; i < s.state_names.size(); ++i) {
+      out += fmt::format("{}: {}' = {}\n", flow, s.state_names[i], RowText(def.phi[q], Eigen::Index(i), s.alpha));
+    }
   }
-  for (std::size_t i = 0; i < s.state_names.size(); ++i) {
-    out += fmt::format("jump: {}+ = {}\n", s.state_names[i], RowText(def.psi, Eigen::Index(i), s.beta));
+  if (def.sliced) {
+    out += MapEquations(def);
+  } else {
+    for (std::size_t i = 0; i < s.state_names.size(); ++i) {
+      out += fmt::format("jump: {}+ = {}\n", s.state_names[i], RowText(def.psi[0], Eigen::Index(i), s.beta));
+    }
   }
   constexpr const char* kDirection[] = {"falling", "rising", "both"};
   for (std::size_t g = 0; g < s.guards.size(); ++g) {
     out += fmt::format("guard {}: h(xi) = {} ({}){}{}\n", s.guards[g].name, def.guards.text[g],
                        kDirection[static_cast<int>(s.guards[g].direction)],
                        def.project[g].text.empty() ? "" : ", projected: ", fmt::join(def.project[g].text, ", "));
+  }
+  if (!s.modes.empty()) {
+    out += fmt::format("modes: {} (default {})\n", fmt::join(s.modes, ", "), s.modes[std::size_t(s.default_mode)]);
+  }
+  if (!def.has_sets) {
+    out += "C: every state (no [sets])\nD: empty (jumps only at crossings of the guards armed in the mode)\n";
+    return out;
   }
   out += fmt::format("C: {}\nD: {}\n", def.in_c, def.in_d);
   if (!def.distance.empty()) out += fmt::format("dist(xi, D) = {}\n", def.distance);
@@ -559,22 +899,10 @@ std::vector<int> ParseMeasured(const TomlReader& rd, const toml::table& root, co
 
 // inputs = ["u", ...]: new variable names, no duplicates.
 std::vector<std::string> ParseInputs(const TomlReader& rd, const toml::table& root, std::vector<std::string> taken) {
-  const toml::node* node = root.get("inputs");
-  if (node == nullptr) return {};
-  const toml::array& arr = rd.Array(*node, "inputs");
-  if (arr.size() > std::size_t(Model::kMaxParameters)) {
-    rd.Fail(&arr, "inputs", fmt::format("has {} entries, at most {}", arr.size(), Model::kMaxParameters));
-  }
-  std::vector<std::string> out;
-  for (std::size_t i = 0; i < arr.size(); ++i) {
-    const std::string key = TomlReader::Index("inputs", i);
-    std::string name = rd.String(arr[i], key);
-    if (std::find(out.begin(), out.end(), name) != out.end()) rd.Twice(&arr[i], key, fmt::format("'{}'", name));
-    CheckVariableName(rd, &arr[i], key, name, taken);
+  return ParseNames(rd, root, "inputs", [&](const toml::node& node, const std::string& key, const std::string& name) {
+    CheckVariableName(rd, &node, key, name, taken);
     taken.push_back(name);
-    out.push_back(std::move(name));
-  }
-  return out;
+  });
 }
 
 // input_defaults = { u = "expression of t", ... }: one entry per named input at most.
@@ -613,14 +941,20 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
   rd.OnlyKeys(
       root, "",
       {"name", "description", "states", "measured", "inputs", "input_defaults", "alpha", "beta", "guard_params",
-       "flow", "jump", "guard", "sets", "defaults"});
+       "modes", "flow", "jump", "guard", "sets", "defaults"});
   auto def = std::make_shared<Definition>();
   ModelSpec& spec = def->spec;
   spec.name = rd.String(rd.Require(root, "", "name"), "name");
   if (const toml::node* d = root.get("description")) spec.description = rd.String(*d, "description");
   spec.state_names = ParseStates(rd, root);
   spec.alpha = ParseParameters(rd, root, "alpha");
-  spec.beta = ParseParameters(rd, root, "beta");
+  if (const toml::node* jump = root.get("jump"); jump != nullptr && jump->is_array()) {
+    if (const toml::node* beta = root.get("beta"))
+      rd.Fail(beta, "beta", "with [[jump]] maps each map has its own beta (jump[m].beta)");
+  } else {
+    spec.beta = ParseParameters(rd, root, "beta");
+  }
+  spec.modes = ParseModes(rd, root);
   spec.measured = ParseMeasured(rd, root, spec.state_names);
   spec.inputs = ParseInputs(rd, root, TakenNames(spec));
   spec.input_defaults = ParseInputDefaults(rd, root, spec);
@@ -636,22 +970,9 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
   def->binds_time = !spec.inputs.empty() &&
                     std::find(spec.state_names.begin(), spec.state_names.end(), "t") == spec.state_names.end();
   Symbols sym = MakeSymbols(*def);
-  const auto n = static_cast<Eigen::Index>(spec.state_names.size());
-  for (auto [key, matrix, params, rows] : {std::tuple{"flow", &def->phi, &spec.alpha, &spec.flow_rows},
-                                           std::tuple{"jump", &def->psi, &spec.beta, &spec.jump_rows}}) {
-    const toml::table& t = rd.Table(rd.Require(root, "", key), key);
-    const bool flow = std::string_view(key) == "flow";
-    const char* mkey = flow ? "phi" : "psi";
-    rd.OnlyKeys(t, key,
-                flow ? std::vector<std::string>{mkey, "rows", "jacobian_constant"}
-                     : std::vector<std::string>{mkey, "rows"});
-    *matrix = ParseMatrix(rd, rd.Require(t, key, mkey), TomlReader::Join(key, mkey), n,
-                          static_cast<Eigen::Index>(params->size()), sym);
-    *rows = ParseRows(rd, t, key, spec.state_names);
-    if (const toml::node* jc = t.get("jacobian_constant"))
-      spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
-  }
+  ParseFlows(rd, root, *def, sym);
   ParseGuards(rd, root, *def, sym);
+  ParseJumps(rd, root, *def, sym);
   ParseSets(rd, root, *def, sym);
   CheckUsed(rd, root, spec, sym);
   ParseDefaults(rd, root, spec);
@@ -691,7 +1012,7 @@ ModelFile ParseModelFile(std::string_view text, const std::string& name) {
   const ModelSpec& s = def->spec;
   const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), out.model.state_size());
   const std::vector<double> u0 = InputsAtStart(s);
-  const Context start{.t = 0.0, .u = u0.data()};
+  const Context start{.t = 0.0, .u = u0.data(), .mode = s.default_mode};
   if (!out.model.InFlowSet(x0, start) && !out.model.InJumpSet(x0, start)) {
     rd.Fail(root.at_path("defaults.x0").node(), "defaults.x0",
             fmt::format("({}) is outside C and D", fmt::join(s.default_x0, ", ")));

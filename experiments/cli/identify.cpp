@@ -396,6 +396,25 @@ PartialOutputs Reconstruct(const Model& model, const std::string& model_file, co
   return partial;
 }
 
+// Identify on the data: the times and chain starts when the data are not uniform (each pair with its
+// own step, chains restarted at runs, gaps and missing rows) and the model's inputs (m × K, read by
+// name) lent to it, moved into `options` and back (no second copy of a per-sample array).
+IdentifyResult IdentifyData(const Model& model, const IdentifierSettings& settings, SampleData& data,
+                            IdentifyOptions& options) {
+  if (!data.uniform) {
+    options.times = std::move(data.t);
+    options.chain_start = std::move(data.chain_start);
+  }
+  options.inputs = std::move(data.u);
+  IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+  if (!data.uniform) {
+    data.t = std::move(options.times);
+    data.chain_start = std::move(options.chain_start);
+  }
+  data.u = std::move(options.inputs);
+  return result;
+}
+
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   Model model = MakeModel(env, args.model);
   ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
@@ -412,14 +431,9 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   IdentifyOptions options;
   options.trace = !args.trace.empty();
   CheckOutputs(args);
-  if (!data.uniform) {  // each pair with its own step, chains restarted at runs, gaps and missing rows
-    options.times = data.t;
-    options.chain_start = data.chain_start;
-  }
-  options.inputs = data.u;  // m × K: the model's inputs, read by name
   std::vector<double> kinks;
   const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
-  IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
+  IdentifyResult result = IdentifyData(model, settings, data, options);
   if (!partial.reconstructed.empty()) {  // the detector's statistic is the kinks'
     result.statistic = kinks;
     result.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);

@@ -285,15 +285,35 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->callback([args, &env] { RunSimulate(*args, env); });
 }
 
+namespace {
+
+// What a parameter belongs to: flow, jump (the jump map's name with several maps) or guard.
+std::string ParameterKind(const ModelSpec& s, const std::vector<Parameter>* list, std::size_t i) {
+  if (list == &s.alpha) return "flow";
+  if (list != &s.beta) return "guard";
+  for (const JumpMap& map : s.jumps) {
+    if (int(i) >= map.beta_first && int(i) < map.beta_first + map.beta_count) return "jump " + map.name;
+  }
+  return "jump";
+}
+
+}  // namespace
+
 void PrintModel(const Model& m, bool full) {
   const ModelSpec& s = m.spec();
   std::printf("%s: %s\n  states: %s\n", s.name.c_str(), s.description.c_str(),
               fmt::format("{}", fmt::join(s.state_names, ", ")).c_str());
+  if (!s.modes.empty()) {
+    std::printf("  modes: %s (default %s)\n", fmt::format("{}", fmt::join(s.modes, ", ")).c_str(),
+                s.modes[std::size_t(s.default_mode)].c_str());
+  }
+  int width = 6;  // the kind column: flow, jump, guard, or "jump NAME"
+  for (const JumpMap& map : s.jumps) width = std::max(width, 5 + static_cast<int>(map.name.size()));
   for (const auto* list : {&s.alpha, &s.beta, &s.guard_params}) {
-    const char* kind = list == &s.alpha ? "flow" : list == &s.beta ? "jump" : "guard";
-    for (const Parameter& p : *list) {
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const Parameter& p = (*list)[i];
       const bool bounded = std::isfinite(p.lower) || std::isfinite(p.upper);
-      std::printf("  %-12s %-6s = %-8g %s%s\n", p.name.c_str(), kind, p.value,
+      std::printf("  %-12s %-*s = %-8g %s%s\n", p.name.c_str(), width, ParameterKind(s, list, i).c_str(), p.value,
                   p.known ? "(known constant)" : p.description.c_str(),
                   bounded ? fmt::format(" (bounds [{}, {}])", p.lower, p.upper).c_str() : "");
     }

@@ -3,9 +3,13 @@
 #include <catch2/catch.hpp>
 
 #include <cstdlib>
+#include <fstream>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include "core/io/sample_data.hpp"
+#include "tests/testing/temp_dir.hpp"
 
 namespace hysid {
 namespace {
@@ -103,6 +107,35 @@ TEST_CASE("too few samples after the missing rows are left out", "[sample_data]"
 
 // A file of several that holds no sample (a header only, or only rows with a missing value) is
 // refused by name, wherever it stands, not left out while the others are read.
+// A CSV of `runs` runs of `rows` rows each: run, t, j, x, v and an unused column.
+std::string WriteRuns(const std::filesystem::path& path, int runs, int rows) {
+  std::ofstream out(path);
+  out << "run,t,j,x,v,true_x\n";
+  for (int r = 0; r < runs; ++r) {
+    for (int k = 0; k < rows; ++k) out << fmt::format("{},{},{},{},{},0\n", r, 1e-3 * k, k / 700, 1.0 + k, -2.0 * k);
+  }
+  return path.string();
+}
+
+TEST_CASE("read samples hold their arrays without slack: 41 bytes per sample for two states, j and runs",
+          "[sample_data]") {
+  const std::filesystem::path dir = testing::FreshTempDir("sample_data_bytes");
+  // t 8 + y 2 × 8 + j 4 + run 4 + chain_start 1 + line 8 bytes per sample; a vector grown by doubling
+  // would hold up to twice that (3000 samples: capacity 4096).
+  constexpr std::size_t kPerSample = 8 + 16 + 4 + 4 + 1 + 8;
+  const SampleData one = ReadSampleData({WriteRuns(dir / "a.csv", 2, 1500)}, 2, {});
+  REQUIRE(one.t.size() == 3000);
+  CHECK(one.run_names.size() == 2);
+  CHECK(one.HeldBytes() == kPerSample * 3000);
+  const SampleData two = ReadSampleData({WriteRuns(dir / "a.csv", 2, 1500), WriteRuns(dir / "b.csv", 1, 1333)}, 2, {});
+  REQUIRE(two.t.size() == 4333);
+  CHECK(two.HeldBytes() == kPerSample * 4333);
+  CHECK(two.y(1, 3000) == 0.0);
+  CHECK(two.y(0, 4332) == 1333.0);
+  CHECK((*two.j)[3000] == (*two.j)[2999]);  // the second file's first run continues the counter
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("a data file without samples is refused by name, also beside other files", "[sample_data]") {
   const CsvTable good = Table("t,x,v\n0,1,2\n0.1,1,2\n0.2,1,2\n0.3,1,2\n", "good.csv");
   const CsvTable header = Table("t,x,v\n", "header.csv");
