@@ -417,6 +417,10 @@ IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, co
     safe.initial_mode = chosen;
     r.safe_start = std::make_shared<const IdentifyResult>(std::move(safe));
   }
+  if (!has_jump && r.jump_status == EstimatorStatus::kNotExcited && model.beta_size() == 0) {
+    r.jump_status = EstimatorStatus::kOk;  // only identity maps: no β to estimate
+    r.jump_reason.clear();
+  }
   r.events = std::move(events);
   r.mode = pass.modes;
   r.initial_mode = chosen;

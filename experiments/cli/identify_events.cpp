@@ -96,7 +96,9 @@ void PrintEvents(const Model& model, const SampleData& data, const IdentifyResul
   const long jumps = std::count_if(r.events.begin(), r.events.end(), [](const AutomatonEvent& e) { return e.jump; });
   std::printf("events: %zu (%ld jumps, %ld switches); initial mode %s (%s", r.events.size(), jumps,
               static_cast<long>(r.events.size()) - jumps, ModeName(spec, r.initial_mode).c_str(),
-              r.initial_mode_inferred ? "inferred: flow residual sum of squares" : "given");
+              r.initial_mode_inferred ? "inferred: flow residual sum of squares"
+              : ModeCount(spec) == 1  ? "the only mode"
+                                      : "given");
   for (std::size_t q = 0; r.initial_mode_inferred && q < r.initial_mode_rss.size(); ++q) {
     std::printf("%s %s %.6g", q ? "," : "", ModeName(spec, int(q)).c_str(), r.initial_mode_rss[q]);
   }
