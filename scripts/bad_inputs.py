@@ -95,6 +95,7 @@ def files():
         "bracket.toml": "[&\n",
         "nanvalue.toml": BASE + "dt = nan\n",
         "ok.toml": BASE + "dt = 2e-3\n[run]\ntrials = 1\n",
+        "fapaper.toml": BASE + "dt = 1e-3\nfalse_alarm = 1e-3\n",
     }
     f.update(safety_files())
     f.update(LIMITS_FILES)
@@ -170,6 +171,10 @@ def safety_cases():
 
 
 SAFETY_SUBJECTS = {
+    "crlb: --t-end= with nothing after": "--t-end",
+    "HYSID_MAX_SAMPLES=1000: the built-in models load, the run is refused": "HYSID_MAX_SAMPLES",
+    "HYSID_MAX_SAMPLES=abc": "HYSID_MAX_SAMPLES",
+    "reproduce paper: beyond HYSID_MAX_SAMPLES": "HYSID_MAX_SAMPLES",
     "simulate: --out is the --model-file": "--out wall.toml",
     "simulate: the sidecar of --out is the --model-file": "--out (sidecar)",
     "simulate: --jumps-out is the --model-file through a symbolic link": "--jumps-out",
@@ -292,7 +297,22 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES
+    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES + PROBE_CASES
+
+
+# Found by scripts/probe_hostile.py: empty flag values, a column named twice, a grid axis no detector
+# reads, a small sample limit with the built-in models.
+PROBE_CASES = [
+    ("an empty flag value (an unset shell variable)", ["simulate", "--dt", ""] + SIM),
+    ("crlb: --t-end= with nothing after", ["crlb", "--t-end="]),
+    ("identify: --columns names one column twice", ["identify", "--columns", "x,x", "--data", "sim.csv"]),
+    ("identify: --columns names the time as a state", ["identify", "--columns", "t,x", "--data", "sim.csv"]),
+    ("sweep: false_alarm with the paper detector only", ["sweep", "fapaper.toml", "--out", "run", "--dry-run"]),
+    ("HYSID_MAX_SAMPLES=1000: the built-in models load, the run is refused",
+     ["env:HYSID_MAX_SAMPLES=1000", "simulate"] + SIM),
+    ("HYSID_MAX_SAMPLES=abc", ["env:HYSID_MAX_SAMPLES=abc", "simulate"] + SIM),
+    ("reproduce paper: beyond HYSID_MAX_SAMPLES", ["env:HYSID_MAX_SAMPLES=1000", "reproduce", "paper", "--out", "rp"]),
+]
 
 
 # Bounded inputs and the smaller flag, data and model-file refusals: their inputs and cases.
@@ -576,7 +596,7 @@ def main():
                 bad.append(f"{desc}: {problem}; exit {code}, stderr {err!r:.300}")
             lines = [l for l in err.strip().splitlines() if l.strip()]
             msg = lines[-1] if lines else ""
-            shown = " ".join(a for a in args if not a.startswith("env:"))
+            shown = " ".join(a or "''" for a in args if not a.startswith("env:"))
             env = " ".join(a[4:] for a in args if a.startswith("env:"))
             cmd = (env + " " if env else "") + "hysid " + shown
             rows.append((desc, cmd.replace(d, "."), code, msg.replace(d, ".")))

@@ -20,7 +20,7 @@ const ModelSpec& BuiltinSpec(std::string_view name) {
     std::vector<ModelSpec> out;
     for (const internal::ModelText& m : internal::BuiltinModelTexts()) {
       const std::string file = fmt::format("models/{}.toml", m.name);
-      out.push_back(ParseModelFile(m.text, file).model.spec());
+      out.push_back(ParseModelFile(m.text, file, /*shipped=*/true).model.spec());
     }
     return out;
   }();

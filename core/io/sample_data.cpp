@@ -62,6 +62,21 @@ Columns NamedColumns(const CsvTable& table, int state_size, const std::vector<st
   return c;
 }
 
+// Refuses --columns that name one column twice, or the time (given or the first column) as a state.
+void CheckDistinctColumns(const CsvTable& table, const Columns& c, const std::vector<std::string>& spec) {
+  std::vector<int> used = c.state;
+  used.push_back(c.time);
+  if (c.run >= 0) used.push_back(c.run);
+  std::sort(used.begin(), used.end());
+  if (const auto twice = std::adjacent_find(used.begin(), used.end()); twice != used.end()) {
+    throw std::invalid_argument(fmt::format(
+        "{}:1: SampleDataOptions::columns: column '{}' is named twice ({}; the time is column {}); each "
+        "column is one state, the time or the run",
+        table.path, Abbreviated(table.header[static_cast<std::size_t>(*twice)], 40), fmt::join(spec, ","),
+        c.time + 1));
+  }
+}
+
 // The columns named `names` (in that order) when every one is present and none is the time, run or j
 // column; empty otherwise.
 std::vector<int> ColumnsNamed(const CsvTable& table, const std::vector<std::string>& names,
@@ -129,6 +144,7 @@ Columns ResolveColumns(const CsvTable& table, int state_size, const SampleDataOp
     if (std::find(c.state.begin(), c.state.end(), *truth) != c.state.end()) *truth = -1;
   }
   if (c.time < 0) c.time = c.run == 0 ? 1 : 0;  // the first column, after a leading run column
+  if (!c.state.empty()) CheckDistinctColumns(table, c, options.columns);
   if (c.time >= static_cast<int>(table.header.size())) {
     throw std::invalid_argument(
         fmt::format("{}:1: only a run column; need time + {} state columns", table.path, state_size));

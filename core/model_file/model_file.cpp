@@ -769,7 +769,13 @@ void ParseDefaults(const TomlReader& rd, const toml::table& root, ModelSpec& spe
     *field = rd.Number(*n, TomlReader::Join("defaults", k));
     rd.Above(n, TomlReader::Join("defaults", k), *field, 0.0);
   }
-  // The default trajectory is simulated when the file is loaded: within the samples limit.
+}
+
+// The default trajectory of a user's file is simulated when the file is loaded: within the samples
+// limit. A shipped text (the built-in models) is exempt: a small HYSID_MAX_SAMPLES bounds what a run
+// asks for, and must not make the built-in models unloadable.
+void CheckDefaultSamples(const TomlReader& rd, const toml::table& root, const ModelSpec& spec) {
+  const toml::table& t = *root.get("defaults")->as_table();
   const double samples = std::min(spec.default_t_end / spec.default_dt, 9e18) + 1.0;
   if (samples > static_cast<double>(LimitValue(kMaxSamples))) {
     rd.Fail(t.contains("dt") ? t.get("dt") : &t, "defaults.dt",
@@ -997,10 +1003,11 @@ std::vector<double> InputsAtStart(const ModelSpec& spec) {
 
 }  // namespace
 
-ModelFile ParseModelFile(std::string_view text, const std::string& name) {
+ModelFile ParseModelFile(std::string_view text, const std::string& name, bool shipped) {
   const TomlReader rd(name);
   const toml::table root = ParseToml(text, name);
   std::shared_ptr<const Definition> def = ParseDefinition(rd, root);
+  if (!shipped) CheckDefaultSamples(rd, root, def->spec);
   ModelFile out{[&] {
                   try {
                     return Model(FileModel{def});

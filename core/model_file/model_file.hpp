@@ -24,7 +24,8 @@ struct ModelFile {
 // Reads, compiles and checks a model file (its default x0 must lie in C ∪ D). Throws
 // std::invalid_argument "FILE:LINE: KEY: problem" (or "FILE: ..." when the file cannot be read).
 ModelFile ReadModelFile(const std::filesystem::path& path);
-// The same from text; `name` stands for the file in errors.
-ModelFile ParseModelFile(std::string_view text, const std::string& name);
+// The same from text; `name` stands for the file in errors. `shipped`: a text built into hysid (the
+// built-in models), whose default trajectory is not held to the samples limit (HYSID_MAX_SAMPLES).
+ModelFile ParseModelFile(std::string_view text, const std::string& name, bool shipped = false);
 
 }  // namespace hysid

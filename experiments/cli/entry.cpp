@@ -38,6 +38,24 @@ bool UnknownSubcommand(const CLI::App& app, int argc, char** argv) {
   return true;
 }
 
+// An empty argument ("--dt ''", "--dt=", an unset shell variable): CLI11 would read it as the default.
+bool EmptyArgument(int argc, char** argv) {
+  for (int i = 2; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const bool flag_equals_nothing = arg.starts_with("--") && arg.find('=') == arg.size() - 1;
+    if (!arg.empty() && !flag_equals_nothing) continue;
+    const bool after_flag = arg.empty() && argv[i - 1][0] == '-' && argv[i - 1][1] != '\0';
+    const std::string what = flag_equals_nothing ? arg.substr(0, arg.size() - 1)
+                             : after_flag        ? Abbreviated(argv[i - 1])
+                                                 : fmt::format("argument {}", i - 1);
+    std::fprintf(stderr,
+                 "hysid: error: %s: empty; give a value or leave the flag out (see hysid %s --help)\n",
+                 what.c_str(), argv[1]);
+    return true;
+  }
+  return false;
+}
+
 // Parses and runs; the exit code.
 int RunParsed(CLI::App& app, int argc, char** argv) {
   try {
@@ -79,7 +97,7 @@ int Main(int argc, char** argv, ModelRegistry registry) {
   AddReproduceCommand(app, env);
   AddSweepCommand(app, env);
   AddCrlbCommand(app, env);
-  if (UnknownSubcommand(app, argc, argv)) return 2;
+  if (UnknownSubcommand(app, argc, argv) || EmptyArgument(argc, argv)) return 2;
   // A signal that ends the process removes the temporary files of the outputs being written.
   InstallSignalCleanup();
 

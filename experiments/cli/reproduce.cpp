@@ -2,6 +2,7 @@
 // behind its Figs. 4–8 as CSV. hysid reproduce example6: the data behind its Fig. 2 (Example 6,
 // ξ' = sin ξ: the Euler derivative, the smoothness bound τ and its estimate τ̂ for a few r).
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include "core/identify/metrics.hpp"
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
+#include "core/io/limits.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/measurement.hpp"
@@ -232,6 +234,8 @@ void RunReproduce(ReproduceArgs args, const Environment& env) {
   Model model = env.models.Make("impact-msd");
   for (const char* p : {"a=5", "b=0.1", "lambda=0.99", "mu=0"}) model.SetParameter(std::string_view(p));
   const double dt = 5e-4, t_end = 20.0;
+  CheckLimit(kMaxSamples, static_cast<std::int64_t>(t_end / dt) + 1,
+             fmt::format("reproduce paper: t_end {} / dt {} of Sec. 5.2", t_end, dt));
   const IdentifierSettings settings = PaperSettings(args, model, dt);
   Vec x0(2);
   x0 << 20.0, 0.0;

@@ -19,6 +19,7 @@
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
+#include "core/model/automaton.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
@@ -65,9 +66,9 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
 }
 
 // Whether the trajectory file can name its columns after the model's states: t, j, run (identify's
-// run column), true_STATE and STATE all different names.
+// run column), q (a model with modes), true_STATE and STATE all different names.
 bool NamedColumns(const ModelSpec& spec) {
-  std::set<std::string> names{"t", "j", "run"};
+  std::set<std::string> names{"t", "j", "run", "q"};
   for (const char* prefix : {"true_", ""}) {
     for (const std::string& s : spec.state_names) {
       if (!names.insert(prefix + s).second) return false;
@@ -85,11 +86,12 @@ std::vector<std::string> StateColumns(const ModelSpec& spec, bool named, const s
   return out;
 }
 
-// t, j, the noise-free state true_STATE.. and the measured state STATE.. (x1..xn and y1..yn when
-// a state name would clash with another column), then the inputs by their names (so that identify
-// reads them as they are).
+// t, j, q (the mode's index into the model's modes; only for a model with several), the noise-free
+// state true_STATE.. and the measured state STATE.. (x1..xn and y1..yn when a state name would clash
+// with another column), then the inputs by their names (so that identify reads them as they are).
 std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
   std::vector<std::string> header{"t", "j"};
+  if (ModeCount(spec) > 1) header.emplace_back("q");
   for (const auto& [prefix, generic] : {std::pair{"true_", "x"}, std::pair{"", "y"}}) {
     for (std::string& c : StateColumns(spec, named, named ? prefix : "", generic))
       header.push_back(std::move(c));
@@ -108,24 +110,32 @@ std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
 void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const InputSignal& inputs) {
   const auto n = static_cast<int>(traj.x.rows());
   const int m = inputs.size();
-  std::vector<double> row(static_cast<std::size_t>(2 + 2 * n + m));
+  const bool modes = !traj.q.empty();
+  const std::size_t at = modes ? 3 : 2;  // the first state column
+  std::vector<double> row(at + static_cast<std::size_t>(2 * n + m));
   for (long k = 0; k < traj.size(); ++k) {
-    row[0] = traj.t[static_cast<std::size_t>(k)];
-    row[1] = traj.j[static_cast<std::size_t>(k)];
+    const auto sample = static_cast<std::size_t>(k);
+    row[0] = traj.t[sample];
+    row[1] = traj.j[sample];
+    if (modes) row[2] = traj.q[sample];
     for (int i = 0; i < n; ++i) {
-      row[static_cast<std::size_t>(2 + i)] = traj.x(i, k);
-      row[static_cast<std::size_t>(2 + n + i)] = y(i, k);
+      row[at + static_cast<std::size_t>(i)] = traj.x(i, k);
+      row[at + static_cast<std::size_t>(n + i)] = y(i, k);
     }
-    if (m > 0) inputs.At(row[0], &row[static_cast<std::size_t>(2 + 2 * n)]);
+    if (m > 0) inputs.At(row[0], &row[at + static_cast<std::size_t>(2 * n)]);
     csv.Row(row);
   }
   csv.Close();
 }
 
-// j, t_jump, the state before the jump pre_STATE.. and after it post_STATE.. (pre_x1.. with generic
-// names).
+// j, t_jump, (a model with explicit jump maps: map, the map's name, and q, the mode after the jump),
+// the state before the jump pre_STATE.. and after it post_STATE.. (pre_x1.. with generic names).
 std::vector<std::string> JumpsHeader(const ModelSpec& spec, bool named) {
   std::vector<std::string> header{"j", "t_jump"};
+  if (IsAutomaton(spec)) {
+    header.emplace_back("map");
+    header.emplace_back("q");
+  }
   for (const char* prefix : {"pre_", "post_"}) {
     for (std::string& c : StateColumns(spec, named, prefix, "x")) header.push_back(std::move(c));
   }
@@ -133,8 +143,21 @@ std::vector<std::string> JumpsHeader(const ModelSpec& spec, bool named) {
 }
 
 // Writes and closes (not yet publishes) the jumps file.
-void WriteJumps(CsvWriter& jumps, const Trajectory& traj) {
+void WriteJumps(CsvWriter& jumps, const Trajectory& traj, const ModelSpec& spec) {
   const auto n = static_cast<int>(traj.x.rows());
+  if (IsAutomaton(spec)) {  // a text column: every cell as text, numbers in full precision
+    std::vector<std::string> cells;
+    for (const JumpRecord& jr : traj.jumps) {
+      cells = {fmt::format("{}", jr.j), fmt::format("{:.17g}", jr.t), spec.jumps[std::size_t(jr.map)].name,
+               fmt::format("{}", jr.mode)};
+      for (const Vec* v : {&jr.pre, &jr.post}) {
+        for (int i = 0; i < n; ++i) cells.push_back(fmt::format("{:.17g}", (*v)[i]));
+      }
+      jumps.TextRow(cells);
+    }
+    jumps.Close();
+    return;
+  }
   std::vector<double> jrow(static_cast<std::size_t>(2 + 2 * n));
   for (const JumpRecord& jr : traj.jumps) {
     jrow[0] = jr.j;
@@ -193,6 +216,15 @@ std::string SidecarText(const SimulateArgs& args, const Model& model, const Vec&
       {"context", BuildContext()},
   };
   if (traj.status.stop == SimStop::kZeno) meta["zeno_time"] = traj.status.zeno_time;
+  if (IsAutomaton(spec)) {  // the column q indexes modes; jump_maps names each jump's map, in order
+    std::vector<std::string> maps;
+    for (const JumpMap& m : spec.jumps) maps.push_back(m.name);
+    std::vector<std::string> applied;
+    for (const JumpRecord& jr : traj.jumps) applied.push_back(maps[std::size_t(jr.map)]);
+    if (ModeCount(spec) > 1) meta["modes"] = spec.modes;
+    meta["maps"] = maps;
+    meta["jump_maps"] = applied;
+  }
   return meta.dump(2) + "\n";
 }
 
@@ -228,7 +260,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   std::optional<CsvWriter> jumps;
   if (!args.jumps_out.empty()) {
     jumps.emplace(args.jumps_out, JumpsHeader(spec, named));
-    WriteJumps(*jumps, traj);
+    WriteJumps(*jumps, traj, spec);
   }
   const std::filesystem::path meta_path = SidecarPath(args.out);
   PublishSet(csv, jumps ? &*jumps : nullptr, meta_path,
@@ -272,9 +304,11 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   sub->add_option(
          "--out", args->out,
          "trajectory CSV: t,j,true_STATE..,STATE.. (noise-free and measured state, columns named after "
-         "the model's states; + a .json sidecar)")
+         "the model's states; a model with modes adds q, the mode's index, after j; + a .json sidecar)")
       ->required();
-  sub->add_option("--jumps-out", args->jumps_out, "jumps CSV: j,t_jump,pre_STATE..,post_STATE..");
+  sub->add_option("--jumps-out", args->jumps_out,
+                  "jumps CSV: j,t_jump,pre_STATE..,post_STATE.. (a model with jump maps: j,t_jump,map,q,.. with "
+                  "the map's name and the mode after the jump)");
   sub->add_option("--inputs", args->inputs,
                   "a model with inputs: CSV with a column t and one per input name (linear between rows; "
                   "default: the model file's input_defaults at the sample times)");

@@ -321,6 +321,34 @@ void CheckGridSteps(const TomlReader& rd, const toml::table& grid, const SweepCo
   NoDuplicates(rd, *grid.get("dt"), "grid.dt", c.grid.dt);
 }
 
+// The names of the plugins of `kinds` and whether one of them reads `option`.
+template <class Kind>
+bool AnyReads(const std::vector<Kind>& kinds, const std::string& option, std::vector<std::string>* names) {
+  bool read = false;
+  for (Kind k : kinds) {
+    read = read || DescriptorOf(k).Reads(option);
+    names->emplace_back(DescriptorOf(k).name);
+  }
+  return read;
+}
+
+// Refuses an option axis that no detector (estimator) of the grid reads: its values would change nothing.
+void CheckAxesRead(const TomlReader& rd, const toml::table& grid, const SweepConfig& c) {
+  for (const OptionAxis& a : c.grid.options) {
+    const toml::node* node = grid.get(a.name);
+    if (!node) continue;
+    const bool detector = a.family == OptionAxis::Family::kDetector;
+    std::vector<std::string> names;
+    const bool read =
+        detector ? AnyReads(c.grid.detector, a.name, &names) : AnyReads(c.grid.estimator, a.name, &names);
+    if (!read) {
+      rd.Fail(node, "grid." + a.name,
+              fmt::format("no {} of the grid ({}) reads it", detector ? "detector" : "estimator",
+                          fmt::join(names, ", ")));
+    }
+  }
+}
+
 // [grid]: after [identifier], whose values are the defaults of the option axes.
 void ParseGrid(const TomlReader& rd, const toml::table& root, SweepConfig* c) {
   const toml::table& grid =
@@ -362,6 +390,7 @@ void ParseGrid(const TomlReader& rd, const toml::table& root, SweepConfig* c) {
   }
   c->grid.estimator = KindAxis(rd, grid, "estimator", "rls", &ParseKind<EstimatorKind>);
   c->grid.detector = KindAxis(rd, grid, "detector", "paper", &ParseKind<DetectorKind>);
+  if (!c->oracle) CheckAxesRead(rd, grid, *c);
 }
 
 void SetIdentifierKey(const TomlReader& rd, const toml::node& v, const std::string& key,

@@ -497,8 +497,6 @@ void CheckSameSweep(const fs::path& dir, const ShardTables& s, const ShardTables
 
 void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
   CheckMergeOutput(dirs, out);
-  CheckOutputDirectory("--out", out);
-  const DirectoryLock lock(out);
   ShardTables first;
   std::set<long> seen_k;
   std::map<long, std::vector<std::string>> rows;
@@ -520,6 +518,9 @@ void MergeShards(const std::vector<fs::path>& dirs, const fs::path& out) {
     throw std::invalid_argument(
         fmt::format("hysid merge: {} units in the shards, the sweep has {}", rows.size(), total));
   }
+  // The inputs are read and checked before the output directory is made or locked.
+  CheckOutputDirectory("--out", out);
+  const DirectoryLock lock(out);
   CheckMergeTarget(out, first.identity.value("hash", ""));
   const nlohmann::json config = first.identity.value("config", nlohmann::json{});
   WriteSweepTables(out, first.header, rows, BaselineFromJson(config));

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <glog/logging.h>
 
+#include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/span.hpp"
 
@@ -24,8 +25,16 @@ struct ChainFit {
   Mat y;
   std::vector<int> segments;
   Vec x0;
-  InputSignal inputs;  // a model with inputs: u on the span, on the same clock as times
+  InputSignal inputs;     // a model with inputs: u on the span, on the same clock as times
+  std::vector<int> maps;  // a hybrid automaton: the map assigned to each detected event in the span
+  int initial_mode = -1;  // its mode at the first sample (−1: the model's default_mode)
 };
+
+// p run on fit f: its initial mode.
+HybridParameters OnChain(const ChainFit& f, HybridParameters p) {
+  p.initial_mode = f.initial_mode;
+  return p;
+}
 
 // Whether the model can be simulated at p: α, β, γ and x0 finite, x0 in C or D (at t = 0, u(0) and
 // p's γ).
@@ -73,7 +82,7 @@ struct FitProblem {
   // Fit c's matched trajectory with sensitivities at (θ, ξ0_c), valid until the next call for c;
   // ok() false when it fails.
   const SensitivityTrajectory& Simulate(std::size_t c, const double* theta, const double* x0) const {
-    const HybridParameters p = At(theta, x0);
+    const HybridParameters p = OnChain(fits[c], At(theta, x0));
     const Vec point = p.Theta(unknowns);
     if (cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
     cached_at[c].resize(0);
@@ -181,6 +190,8 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
       f.segments.push_back(j);
     }
     f.inputs = ChainInputs(in, used);
+    f.initial_mode = in.initial_mode;
+    if (!in.maps.empty()) f.maps.assign(in.maps.begin(), in.maps.begin() + std::min<long>(j, std::ssize(in.maps)));
     r.detected_jumps += j;
     r.samples_used += used;
     r.chain_samples_used[c] = used;
@@ -372,7 +383,7 @@ SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit
   o.sensitivities = false;
   const double t_end = f.times.back();
   const SampleGrid grid{t_end, t_end / static_cast<double>(f.times.size() - 1)};
-  return SimulateSensitivities(*problem.model, p, problem.unknowns, grid, o, InputsOf(f.inputs));
+  return SimulateSensitivities(*problem.model, OnChain(f, p), problem.unknowns, grid, o, InputsOf(f.inputs));
 }
 
 // The first disagreement of fit c's model on its own at p with its detected jumps (more than
@@ -385,8 +396,22 @@ void NoteFailure(FitProblem& problem, std::size_t c, const SensitivityTrajectory
       FirstDisagreement(plain.trajectory.jumps, f.segments, SampleClock{.times = &f.times}, tolerance);
 }
 
-// Fit c's model on its own at the fit against its detected jumps: Zeno, count, times; a failure is
-// noted for the span retries. Adds its jumps to r.model_jumps.
+// A hybrid automaton with maps assigned to the detected events: the fitted model's jumps apply the
+// same sequence of maps (its jump count already agrees).
+void CheckMaps(const Model& model, const ChainFit& f, const std::vector<JumpRecord>& jumps, const std::string& label,
+               RefineResult& r) {
+  for (std::size_t j = 0; j < f.maps.size() && j < jumps.size() && r.ok(); ++j) {
+    if (jumps[j].map == f.maps[j]) continue;
+    const std::vector<JumpMap> maps = JumpMaps(model.spec());
+    auto name = [&](int m) { return m >= 0 && m < std::ssize(maps) ? maps[std::size_t(m)].name : "?"; };
+    Fail(r, RefineStatus::kJumpCountMismatch,
+         fmt::format("{}fitted jump {} at t = {:.6g} applies map '{}'; the event was assigned to '{}'", label, j + 1,
+                     jumps[j].t, name(jumps[j].map), name(f.maps[j])));
+  }
+}
+
+// Fit c's model on its own at the fit against its detected jumps: Zeno, count, times, and the maps
+// assigned (a hybrid automaton); a failure is noted for the span retries. Adds its jumps to r.model_jumps.
 void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit, const RefineOptions& options,
                 RefineResult& r) {
   const ChainFit& f = problem.fits[c];
@@ -423,6 +448,7 @@ void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit,
                        "({:.6g}, {:.6g}]",
                        label, j, t, off, f.times[k - 1], f.times[k]));
     }
+    CheckMaps(*problem.model, f, jumps, label, r);
   }
   if (r.ok()) return;
   NoteFailure(problem, c, plain, options.jump_time_tolerance);

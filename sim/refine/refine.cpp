@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/fit.hpp"
 #include "sim/refine/span.hpp"
@@ -97,6 +98,16 @@ void CheckChain(const Model& model, const RefineChain& c, std::size_t index) {
     if (!(c.t[k] > c.t[k - 1]) || !std::isfinite(c.t[k])) {
       throw std::invalid_argument(
           fmt::format("Refine: chain {}: time {} after {}: must increase", index + 1, c.t[k], c.t[k - 1]));
+    }
+  }
+  const int modes = ModeCount(model.spec()), maps = static_cast<int>(JumpMaps(model.spec()).size());
+  if (c.initial_mode < -1 || c.initial_mode >= modes) {
+    throw std::invalid_argument(fmt::format("Refine: chain {}: initial_mode {} outside [-1, {})", index + 1,
+                                            c.initial_mode, modes));
+  }
+  for (const int m : c.maps) {
+    if (m < 0 || m >= maps) {
+      throw std::invalid_argument(fmt::format("Refine: chain {}: map {} outside [0, {})", index + 1, m, maps));
     }
   }
 }
@@ -549,9 +560,16 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
   return chains;
 }
 
-RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
-                    const Vec& beta0, const RefineOptions& options) {
-  CheckInputs(model, chains, alpha0, beta0, options);
+namespace {
+
+// The refinement from one initial mode per chain (Refine's body).
+RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                             const Vec& beta0, const RefineOptions& given) {
+  RefineOptions options = given;
+  if (IsAutomaton(model.spec())) {  // the repairs regress one jump map and cut labels without maps
+    options.repair_start = options.grow_span = false;
+    for (const RefineChain& c : chains) options.mend_detections = options.mend_detections && c.maps.empty();
+  }
   const FitStart recursive = RecursiveStart(model, chains, alpha0, beta0);
   RefineResult r;
   r.unknowns = Unknowns::Of(model);
@@ -595,6 +613,41 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
     r.standard_errors.resize(0);
   }
   return r;
+}
+
+// Whether fit a is better than fit b: ok before not ok, then the lower final cost (the same data
+// and weights, so the higher likelihood).
+bool Better(const RefineResult& a, const RefineResult& b) {
+  if (a.ok() != b.ok()) return a.ok();
+  return a.ok() && a.final_cost < b.final_cost;
+}
+
+}  // namespace
+
+RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                    const Vec& beta0, const RefineOptions& options) {
+  CheckInputs(model, chains, alpha0, beta0, options);
+  const ModelSpec& spec = model.spec();
+  const bool unknown = std::any_of(chains.begin(), chains.end(), [](const RefineChain& c) { return c.initial_mode < 0; });
+  if (ModeCount(spec) == 1 || !unknown) {
+    RefineResult r = RefineFromModes(model, chains, alpha0, beta0, options);
+    r.initial_mode = chains.empty() || chains.front().initial_mode < 0 ? spec.default_mode : chains.front().initial_mode;
+    return r;
+  }
+  RefineResult best;
+  std::vector<std::string> tried;
+  for (int q = 0; q < ModeCount(spec); ++q) {
+    std::vector<RefineChain> candidate = chains;
+    for (RefineChain& c : candidate) c.initial_mode = c.initial_mode < 0 ? q : c.initial_mode;
+    RefineResult r = RefineFromModes(model, candidate, alpha0, beta0, options);
+    tried.push_back(fmt::format("{}: {}", spec.modes[std::size_t(q)],
+                                r.ok() ? fmt::format("cost {:.6g}", r.final_cost) : ToString(r.status)));
+    r.initial_mode = q;
+    for (HybridParameters* p : {&r.start, &r.refined, &r.estimate}) p->initial_mode = q;
+    if (q == 0 || Better(r, best)) best = std::move(r);
+  }
+  best.mode_search = fmt::format("{}", fmt::join(tried, "; "));
+  return best;
 }
 
 RefineResult RefineIdentification(const Model& model, const std::vector<double>& t, const Mat& y,

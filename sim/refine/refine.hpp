@@ -152,6 +152,12 @@ struct RefineResult {
   // outside C ∪ D).
   std::vector<Vec> chain_x0;
   std::vector<long> chain_samples_used;
+  // A hybrid automaton: the mode the chains with an unknown initial mode were fit from (the candidate
+  // of lowest final cost among the ok fits, else of the first; the given one, or the model's
+  // default_mode, when none is unknown) and, when candidates were tried, each one's outcome
+  // ("off: cost 1234.5; on: jump-count-mismatch").
+  int initial_mode = -1;
+  std::string mode_search;
   std::vector<std::string> chain_span_reason;
   long chains_used = 0, chains_skipped = 0;
 };
@@ -182,7 +188,12 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
                                      const std::vector<std::uint8_t>& chain_start,
                                      const std::vector<std::uint8_t>& gamma, const Mat& u = Mat());
 
-// The refinement of the chains from the recursive α0, β0 (full vectors). Per chain the span rule
+// The refinement of the chains from the recursive α0, β0 (full vectors). A hybrid automaton: the
+// fitted model's jumps must apply the maps a chain assigns to its events (RefineChain::maps; else the
+// count and times alone are checked); with several modes, every chain whose initial mode is unknown
+// is fit from each candidate mode in turn (the same one for all such chains) and the best fit kept;
+// the repaired start and the growing span are not tried for an automaton, nor the mended
+// detections for a chain with maps assigned. Per chain the span rule
 // (min_jump_interval) applies; chains with fewer than 2n + 2 samples, or whose first sample lies
 // outside C ∪ D, are left out. Throws std::invalid_argument for inputs of the wrong size (naming the
 // chain; a model with inputs needs every chain's u), times that do not increase, or invalid options;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cmath>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,14 @@ inline Parameter Param(const char* name, double value, bool known = false) {
   p.value = value;
   p.known = known;
   return p;
+}
+
+// A vector from a list: Of({0.5, 4.0}).
+inline Vec Of(std::initializer_list<double> v) {
+  Vec x(static_cast<Eigen::Index>(v.size()));
+  Eigen::Index i = 0;
+  for (double d : v) x[i++] = d;
+  return x;
 }
 
 inline JumpMap Map(const char* name, int guard, int from, int to, int beta_first, int beta_count) {

@@ -16,14 +16,8 @@ namespace {
 
 using testing::FloorCeiling;
 using testing::Map;
+using testing::Of;
 using testing::PumpTank;
-
-Vec Of(std::initializer_list<double> v) {
-  Vec x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
 
 struct Event {
   double t, v_post;

@@ -61,12 +61,7 @@ Agreement CompareWithDifferences(const Model& model, const Vec& x0, const Sample
   return worst;
 }
 
-Vec Of(std::initializer_list<double> v) {
-  Vec x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
+using testing::Of;
 
 TEST_CASE("floor/ceiling ball: S and dt_j/dθ match central differences, each map on its own β",
           "[sensitivity]") {
