@@ -66,9 +66,10 @@ void PublishSet(CsvWriter& traj, CsvWriter* jumps, const std::filesystem::path& 
 }
 
 // Whether the trajectory file can name its columns after the model's states: t, j, run (identify's
-// run column), q (a model with modes), true_STATE and STATE all different names.
+// run column), q (a model with modes), map (a model with jump maps), true_STATE and STATE all
+// different names.
 bool NamedColumns(const ModelSpec& spec) {
-  std::set<std::string> names{"t", "j", "run", "q"};
+  std::set<std::string> names{"t", "j", "run", "q", "map"};
   for (const char* prefix : {"true_", ""}) {
     for (const std::string& s : spec.state_names) {
       if (!names.insert(prefix + s).second) return false;
@@ -86,12 +87,15 @@ std::vector<std::string> StateColumns(const ModelSpec& spec, bool named, const s
   return out;
 }
 
-// t, j, q (the mode's index into the model's modes; only for a model with several), the noise-free
+// t, j, q (the mode's index into the model's modes; only for a model with several), map (a model
+// with jump maps: the index of the latest jump's map at or before the sample, −1 before the first;
+// identify reads it as the ground truth of its event assignment), the noise-free
 // state true_STATE.. and the measured state STATE.. (x1..xn and y1..yn when a state name would clash
 // with another column), then the inputs by their names (so that identify reads them as they are).
 std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
   std::vector<std::string> header{"t", "j"};
   if (ModeCount(spec) > 1) header.emplace_back("q");
+  if (!spec.jumps.empty()) header.emplace_back("map");
   for (const auto& [prefix, generic] : {std::pair{"true_", "x"}, std::pair{"", "y"}}) {
     for (std::string& c : StateColumns(spec, named, named ? prefix : "", generic))
       header.push_back(std::move(c));
@@ -107,17 +111,22 @@ std::vector<std::string> TrajectoryHeader(const ModelSpec& spec, bool named) {
 }
 
 // Writes and closes (not yet publishes) the trajectory file; u(t_k) in the input columns.
-void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const InputSignal& inputs) {
+void WriteTrajectory(CsvWriter& csv, const Trajectory& traj, const Mat& y, const InputSignal& inputs,
+                     bool maps) {
   const auto n = static_cast<int>(traj.x.rows());
   const int m = inputs.size();
   const bool modes = !traj.q.empty();
-  const std::size_t at = modes ? 3 : 2;  // the first state column
+  const std::size_t at = 2 + (modes ? 1 : 0) + (maps ? 1 : 0);  // the first state column
   std::vector<double> row(at + static_cast<std::size_t>(2 * n + m));
   for (long k = 0; k < traj.size(); ++k) {
     const auto sample = static_cast<std::size_t>(k);
     row[0] = traj.t[sample];
     row[1] = traj.j[sample];
     if (modes) row[2] = traj.q[sample];
+    if (maps) {
+      const int j = traj.j[sample];
+      row[at - 1] = j > 0 ? traj.jumps[static_cast<std::size_t>(j - 1)].map : -1;
+    }
     for (int i = 0; i < n; ++i) {
       row[at + static_cast<std::size_t>(i)] = traj.x(i, k);
       row[at + static_cast<std::size_t>(n + i)] = y(i, k);
@@ -256,7 +265,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Trajectory traj = Simulate(model, x0, grid, args.sim, exo);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
   CsvWriter csv(args.out, header);
-  WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key), inputs);
+  WriteTrajectory(csv, traj, AddMeasurementNoise(traj.x, sigma, key), inputs, !spec.jumps.empty());
   std::optional<CsvWriter> jumps;
   if (!args.jumps_out.empty()) {
     jumps.emplace(args.jumps_out, JumpsHeader(spec, named));
