@@ -13,8 +13,10 @@
 #include "core/detectors/residual.hpp"
 #include "core/estimators/integral.hpp"
 #include "core/estimators/rls.hpp"
+#include "core/identify/events.hpp"
 #include "core/identify/localize.hpp"
 #include "core/io/limits.hpp"
+#include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 
 namespace hysid {
@@ -126,6 +128,7 @@ struct Identifier::State {
         yj(builder.jump_layout().rows.size()),
         localizer(m),
         inputs(m.input_size() > 0),
+        contextual(inputs || IsAutomaton(m.spec())),
         prev_u(m.input_size()),
         cur_u(m.input_size()) {
     alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
@@ -201,12 +204,17 @@ struct Identifier::State {
   long samples = 0;
   long jumps = 0;
   long localized = 0;
-  // A model with inputs: the time and u of the previous and the current sample.
+  // A model with inputs: the time and u of the previous and the current sample. A hybrid automaton
+  // (contextual without inputs too): their modes, and the map of the jump into the current sample.
   bool inputs = false;
+  bool contextual = false;
   Vec prev_u, cur_u;
   double prev_t = 0.0, cur_t = 0.0;
-  Context PrevAt() const { return {.t = prev_t, .u = prev_u.data()}; }
-  Context CurAt() const { return {.t = cur_t, .u = cur_u.data()}; }
+  int prev_mode = 0, cur_mode = 0, cur_map = 0;
+  Context PrevAt() const {
+    return {.t = prev_t, .u = inputs ? prev_u.data() : nullptr, .mode = prev_mode, .map = cur_map};
+  }
+  Context CurAt() const { return {.t = cur_t, .u = inputs ? cur_u.data() : nullptr, .mode = cur_mode, .map = cur_map}; }
 };
 
 Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& settings) {
@@ -237,7 +245,7 @@ void Identifier::AfterFlowUpdate(State& s, const double* theta) {
 
 // γ = 1: the jump regression (at the located instant when asked and found), β̂, Γ.
 void Identifier::AfterJump(State& s, ConstVecRef x, const Vec& alpha_class) {
-  if (s.inputs) {
+  if (s.contextual) {
     s.builder.Jump(s.prev, x, s.psi, s.yj, s.PrevAt());
   } else if (s.settings.localize && s.localizer.Locate(s.prev, x, s.dt, alpha_class, &s.location)) {
     s.builder.Jump(s.location.pre, s.location.post, s.psi, s.yj);
@@ -281,15 +289,20 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given, const Context* at
     s.cur_t = at->t;
     s.cur_u = Eigen::Map<const Vec>(at->u, s.cur_u.size());
   }
+  if (at != nullptr && s.contextual) {
+    s.cur_mode = at->mode;
+    s.cur_map = at->map;
+  }
   if (!s.has_prev) {
     ++s.samples;
     s.prev = x;
     s.has_prev = true;
     s.prev_t = s.cur_t;
     s.prev_u.swap(s.cur_u);
+    s.prev_mode = s.cur_mode;
     return {};
   }
-  if (s.row_block != nullptr && given == nullptr) {  // the row block counts the sample
+  if (s.row_block != nullptr && given == nullptr && (at == nullptr || !s.contextual)) {  // counts the sample
     s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
     Decision d;
     s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
@@ -297,7 +310,7 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given, const Context* at
   }
   // Several identified rows, another estimator, or given labels: the interfaces throughout.
   ++s.samples;
-  if (s.inputs) {
+  if (s.contextual) {
     s.builder.Flow(s.prev, x, s.dt, s.phi, s.y, s.PrevAt(), s.CurAt());
   } else {
     s.builder.Flow(s.prev, x, s.dt, s.phi, s.y);
@@ -321,6 +334,7 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given, const Context* at
   s.prev = x;
   s.prev_t = s.cur_t;
   s.prev_u.swap(s.cur_u);
+  s.prev_mode = s.cur_mode;
   return d;
 }
 
@@ -344,8 +358,8 @@ SampleContext Identifier::SampleContextOf(State& s, const double* x, const doubl
                        .sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr,
                        .data_rtol = s.settings.data_rtol,
                        .data_atol = s.settings.data_atol,
-                       .at_prev = s.inputs ? s.PrevAt() : Context{},
-                       .at_cur = s.inputs ? s.CurAt() : Context{}};
+                       .at_prev = s.contextual ? s.PrevAt() : Context{},
+                       .at_cur = s.contextual ? s.CurAt() : Context{}};
 }
 
 // One identified row estimated by RLS or integral (E, s.rls or s.integral set), for `count` consecutive
@@ -547,11 +561,14 @@ IdentifierSettings ResolveNoiseShapes(const Model& model, const Mat& y, double d
   return resolved;
 }
 
-// Sample k's context for a model with inputs: t_k (times, else kδt) and column k of the inputs.
+// Sample k's context: t_k (times, else kδt), column k of the inputs (a model with inputs), and its
+// mode and the map of a jump into it (IdentifyOptions::modes, maps; else 0).
 Context SampleAt(const IdentifyOptions& options, double dt, Eigen::Index k) {
-  return {
-      .t = options.times.empty() ? static_cast<double>(k) * dt : options.times[static_cast<std::size_t>(k)],
-      .u = options.inputs.col(k).data()};
+  const auto u = static_cast<std::size_t>(k);
+  return {.t = options.times.empty() ? static_cast<double>(k) * dt : options.times[u],
+          .u = options.inputs.rows() > 0 ? options.inputs.col(k).data() : nullptr,
+          .mode = options.modes.empty() ? 0 : options.modes[u],
+          .map = options.maps.empty() ? 0 : options.maps[u]};
 }
 
 // The RMS of each unknown's flow (jump) regression column over up to 256 evenly spaced pairs of
@@ -621,14 +638,15 @@ bool AllFinite(const Mat& y) { return (y.array() * 0.0).sum() == 0.0; }
 // Irregular sampling, chains or non-finite columns: one Step per sample, with its own δt and a
 // Restart at each chain start.
 bool NeedsChains(const Mat& y, const IdentifyOptions& options) {
-  return !options.times.empty() || !options.chain_start.empty() || options.inputs.rows() > 0 || !AllFinite(y);
+  return !options.times.empty() || !options.chain_start.empty() || options.inputs.rows() > 0 ||
+         !options.modes.empty() || !AllFinite(y);
 }
 
 // Sample k fed with its label when given, and its context when there are inputs.
 Decision StepAt(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index k) {
   const bool labelled = !options.labels.empty();
   const bool gamma = labelled && options.labels[static_cast<std::size_t>(k)] != 0;
-  if (options.inputs.rows() > 0) {
+  if (options.inputs.rows() > 0 || !options.modes.empty()) {
     const Context at = SampleAt(options, dt, k);
     return labelled ? id.Step(y.col(k), gamma, at) : id.Step(y.col(k), at);
   }
@@ -774,12 +792,14 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
         model.name(), model.input_size(), y.cols()));
   }
   for (const auto& [what, size] :
-       {std::pair{"times", options.times.size()}, std::pair{"chain_start", options.chain_start.size()}}) {
+       {std::pair{"times", options.times.size()}, std::pair{"chain_start", options.chain_start.size()},
+        std::pair{"modes", options.modes.size()}, std::pair{"maps", options.maps.size()}}) {
     if (size != 0 && static_cast<Eigen::Index>(size) != y.cols()) {
       throw std::invalid_argument(
           fmt::format("IdentifyOptions::{} has {} entries; the data has {} samples", what, size, y.cols()));
     }
   }
+  if (options.assign_events && IsAutomaton(model.spec())) return IdentifyAutomaton(model, y, dt, settings, options);
   IdentifyResult r;
   IdentifierSettings bounded = settings;  // the exact hulls within their dimension limit
   if (const std::int64_t max = LimitValue(kMaxHullDimension); settings.sets && model.state_size() > max) {

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "core/detectors/detector.hpp"
+#include "core/identify/automaton_event.hpp"
 #include "core/estimators/estimator.hpp"
 #include "core/model/regression.hpp"
 #include "core/sets/sample_set.hpp"
@@ -177,11 +178,21 @@ struct IdentifyOptions {
   // estimate is ill-conditioned with the reason. Sweeps, which count every detection against the
   // true jumps, turn it off: their tables keep the detector's outcome as it is.
   bool check_paper_bound = true;
+  // A hybrid automaton (IsAutomaton: several modes or explicit jump maps). assign_events: Identify
+  // detects the events, assigns each to a map, infers the initial mode and runs the pass with the
+  // modes and maps found (core/identify/events.hpp, IdentifyAutomaton). Off: one pass with `modes`
+  // (each sample's mode) and `maps` (the map of a jump into each sample) as given, 0 when empty.
+  bool assign_events = true;
+  std::vector<int> modes{}, maps{};
+  int initial_mode = -1;  // the mode at the first sample when known (−1: inferred)
+  KinkSettings kinks{};
 };
 
 struct IdentifyResult {
   Vec alpha_hat, beta_hat;          // final, full vectors
-  std::vector<std::uint8_t> gamma;  // per sample (gamma[0] = 0)
+  // Per sample (gamma[0] = 0): 1 where the jump regression took the pair; a hybrid automaton's
+  // switches (events without a jump) are 1 too (IdentifyResult::events says which is which).
+  std::vector<std::uint8_t> gamma;
   std::vector<double> statistic;    // detector statistic per sample (paper: D_δt ξ)
   std::vector<double> threshold;    // its threshold (paper: τ̂)
   Mat alpha_trace, beta_trace;      // |α| × K and |β| × K when options.trace
@@ -217,6 +228,17 @@ struct IdentifyResult {
   // IdentifyOptions::chain_start or non-finite columns: samples skipped (non-finite), chains fed.
   long skipped_samples = 0;
   long chains = 1;
+  // A hybrid automaton (IdentifyOptions::assign_events): the events in time order with their maps,
+  // the mode of each sample, the initial mode (given, or inferred: the candidate whose flow
+  // regression over the whole run has the least residual sum of squares, one per mode in
+  // initial_mode_rss), and why an assignment is not to be trusted ("" when every event found an
+  // armed map). Empty for the paper's class.
+  std::vector<AutomatonEvent> events;
+  std::vector<int> mode;
+  int initial_mode = 0;
+  bool initial_mode_inferred = false;
+  std::vector<double> initial_mode_rss;
+  std::string events_reason;
 };
 
 // gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD

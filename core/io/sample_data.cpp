@@ -24,6 +24,7 @@ struct Columns {
   std::vector<int> state;
   int run = -1;
   int j = -1;
+  int map = -1, q = -1;    // ground-truth map of the latest jump and mode (a hybrid automaton)
   std::vector<int> input;  // SampleDataOptions::inputs, in that order
 };
 
@@ -83,7 +84,7 @@ std::vector<int> ColumnsNamed(const CsvTable& table, const std::vector<std::stri
   std::vector<int> cols;
   for (const std::string& name : names) {
     const int col = table.Find(name);
-    if (col < 0 || col == c.time || col == c.run || col == c.j) return {};
+    if (col < 0 || col == c.time || col == c.run || col == c.j || col == c.map || col == c.q) return {};
     cols.push_back(col);
   }
   return cols;
@@ -108,12 +109,12 @@ std::vector<int> DefaultStateColumns(const CsvTable& table, int state_size, cons
   std::vector<int> state;
   const int cols = static_cast<int>(table.header.size());
   for (int col = 0; col < cols && static_cast<int>(state.size()) < state_size; ++col) {
-    if (col == c.time || col == c.run || col == c.j ||
+    if (col == c.time || col == c.run || col == c.j || col == c.map || col == c.q ||
         std::find(c.input.begin(), c.input.end(), col) != c.input.end()) {
       continue;
     }
     const std::string& h = table.header[static_cast<std::size_t>(col)];
-    if (h != "j" && h != "run" && !h.starts_with("true_")) state.push_back(col);
+    if (h != "j" && h != "run" && h != "map" && h != "q" && !h.starts_with("true_")) state.push_back(col);
   }
   return state;
 }
@@ -136,6 +137,12 @@ Columns ResolveColumns(const CsvTable& table, int state_size, const SampleDataOp
   Columns c = NamedColumns(table, state_size, options.columns);
   if (c.run < 0) c.run = table.Find("run");
   c.j = table.Find("j");
+  for (int* truth : {&c.map, &c.q}) {  // a state column or model state named so stays a state
+    const std::string name = truth == &c.map ? "map" : "q";
+    const auto& names = options.state_names;
+    *truth = std::find(names.begin(), names.end(), name) != names.end() ? -1 : table.Find(name);
+    if (std::find(c.state.begin(), c.state.end(), *truth) != c.state.end()) *truth = -1;
+  }
   if (c.time < 0) c.time = c.run == 0 ? 1 : 0;  // the first column, after a leading run column
   if (!c.state.empty()) CheckDistinctColumns(table, c, options.columns);
   if (c.time >= static_cast<int>(table.header.size())) {
@@ -203,6 +210,14 @@ void CheckRow(const CsvTable& table, const Columns& c, std::size_t r) {
                       table.path, line, c.j + 1, v));
     }
   }
+  for (const int col : {c.map, c.q}) {
+    if (col < 0) continue;
+    const double v = cell(col);
+    if (v != std::floor(v) || v < -1 || v > 1e6) {
+      throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): {} is not an index (an integer in [-1, 1e6])",
+                                              table.path, line, col + 1, table.header[std::size_t(col)], v));
+    }
+  }
 }
 
 // The ground-truth jump counter of one table: it never decreases within a run, and the runs are joined
@@ -260,7 +275,7 @@ void Reserve(std::size_t rows, const Columns& c, SampleData& out, std::vector<do
 
 // Appends the rows of one table to `out`: runs, missing rows left out, time order.
 void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::vector<double>& y,
-                 std::vector<double>& u, std::vector<int>& j) {
+                 std::vector<double>& u, std::vector<int>& j, std::vector<int>& map, std::vector<int>& q) {
   std::map<long, int> seen;  // run number -> its index in out.run_names
   long current = 0;
   int run_index = -1;
@@ -307,6 +322,8 @@ void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::
     for (int col : c.state) y.push_back(table.columns[static_cast<std::size_t>(col)][r]);
     for (int col : c.input) u.push_back(table.columns[static_cast<std::size_t>(col)][r]);
     if (c.j >= 0) j.push_back(counter.Joined(r));
+    if (c.map >= 0) map.push_back(static_cast<int>(table.columns[static_cast<std::size_t>(c.map)][r]));
+    if (c.q >= 0) q.push_back(static_cast<int>(table.columns[static_cast<std::size_t>(c.q)][r]));
     out.run.push_back(run_index);
     out.chain_start.push_back(break_next ? 1 : 0);
     out.line.push_back(table.line_of_row[r]);
@@ -368,6 +385,8 @@ class SampleBuilder {
     paths_.push_back(table.path);
     const Columns c = ResolveColumns(table, n_, options_);
     all_j_ = all_j_ && c.j >= 0;
+    all_map_ = all_map_ && c.map >= 0;
+    all_q_ = all_q_ && c.q >= 0;
     std::vector<std::string> names;
     for (int col : c.state) names.push_back(table.header[static_cast<std::size_t>(col)]);
     if (d_.state_columns.empty()) d_.state_columns = names;
@@ -376,7 +395,7 @@ class SampleBuilder {
     }
     const std::size_t before = d_.t.size();
     const long missing_before = d_.missing_rows;
-    AppendTable(table, c, d_, y_, u_, j_);
+    AppendTable(table, c, d_, y_, u_, j_, map_, q_);
     if (d_.t.size() == before && several) {  // one file of several is not left out silently
       const long rows = d_.missing_rows - missing_before;
       throw std::invalid_argument(
@@ -410,6 +429,8 @@ class SampleBuilder {
       j_.shrink_to_fit();
       d_.j = std::move(j_);
     }
+    if (all_map_) d_.map = std::move(map_);
+    if (all_q_) d_.q = std::move(q_);
     return std::move(d_);
   }
 
@@ -419,8 +440,8 @@ class SampleBuilder {
   SampleData d_;
   std::vector<std::string> paths_;
   std::vector<double> y_, u_;
-  std::vector<int> j_;
-  bool all_j_ = true;
+  std::vector<int> j_, map_, q_;
+  bool all_j_ = true, all_map_ = true, all_q_ = true;
 };
 
 }  // namespace

@@ -8,7 +8,7 @@
 // after a leading run column), the measured state is the columns named after the model's states
 // (SampleDataOptions::state_names) when all are present (so `hysid simulate` output is used as is), else
 // y1..yn when all are present (older `hysid simulate` output; both sets present as different columns
-// is an error), else the first n columns other than time, `j`, `run` and `true_*` (the noise-free
+// is an error), else the first n columns other than time, `j`, `run`, `map`, `q` and `true_*` (the noise-free
 // state `hysid simulate` writes beside the measured one). A column named `j` (jump
 // counter) is ground truth when present; a column named `run` (or the one named by `run=`) splits a file into
 // runs, whose rows must be contiguous. Each file is one run otherwise. The `j` of several runs is joined
@@ -23,7 +23,8 @@
 // samples or more than the samples limit (kMaxSamples), time missing, not strictly increasing or
 // a step below kMinStep, a time or state cell beyond ±kMaxMagnitude, a state column whose largest |value|
 // is below kMinMagnitude and not 0, a
-// `j` cell that is not an integer in [0, 2^31 − 1] or is below the one before it in its run, two
+// `j` cell that is not an integer in [0, 2^31 − 1] or is below the one before it in its run, a `map`
+// or `q` cell that is not an integer in [−1, 10^6], two
 // columns of the same name, a run cell that is missing or not an integer, the
 // rows of a run not contiguous.
 #pragma once
@@ -79,6 +80,9 @@ struct SampleData {
   Mat y;                              // n × K measured states (finite; rows with missing cells are dropped)
   Mat u;                              // m × K measured inputs (SampleDataOptions::inputs), finite
   std::optional<std::vector<int>> j;  // ground-truth jump counter, when every file has one
+  // A hybrid automaton's ground truth, when every file has the column: `map`, the map (0-based, model
+  // order) of the latest jump at or before the sample (−1 before the first), and `q`, the mode.
+  std::optional<std::vector<int>> map, q;
   std::vector<std::string> state_columns;  // the header names used for the state
   std::vector<std::string> input_columns;  // the header names used for the inputs
   std::vector<int> run;                    // per sample: its run (0-based)

@@ -26,6 +26,7 @@
 #include "core/sets/set_metrics.hpp"
 #include "experiments/cli/checks.hpp"
 #include "experiments/cli/cli.hpp"
+#include "experiments/cli/identify_events.hpp"
 #include "experiments/cli/identify_output.hpp"
 
 namespace hysid::cli {
@@ -440,6 +441,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
   PrintPartial(model, partial);
   PrintEstimates(model.spec(), args, result);
+  PrintEvents(model, data, result);
   if (!result.sets_skipped.empty())
     std::printf("sets C^ and D^: not computed: %s\n", result.sets_skipped.c_str());
   if (data.j) PrintTruth(model, *data.j, truth_source, result);

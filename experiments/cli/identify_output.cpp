@@ -12,6 +12,7 @@
 #include "core/identify/metrics.hpp"
 #include "core/io/csv.hpp"
 #include "core/sets/set_metrics.hpp"
+#include "experiments/cli/identify_events.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -287,6 +288,7 @@ nlohmann::json RecursiveJson(const Model& model, const SampleData& data, const I
                         {"recursive", RecursiveResultJson(result)},
                         {"detections", DetectionsJson(data, result, chain)},
                         {"chains", ChainsJson(data, result, chain)},
+                        {"automaton", EventsJson(model, data, result)},
                         {"truth", nullptr}};
   if (data.j) out["truth"] = TruthJson(model, *data.j, result);
   return out;

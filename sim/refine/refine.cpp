@@ -418,7 +418,8 @@ Vec GuardStart(const Model& model, const std::vector<RefineChain>& chains, const
   Mat rows(0, static_cast<Eigen::Index>(unknowns.gamma.size()));
   Vec rhs(0);
   for (const RefineChain& c : chains) {
-    AppendGuardRows(model, c.t, c.y, c.gamma, alpha0, model.gamma(), unknowns, &rows, &rhs);
+    AppendGuardRows(model, c.t, c.y, c.gamma, alpha0, model.gamma(), unknowns, &rows, &rhs, c.maps,
+                    c.initial_mode);
   }
   return SolveGuardRows(unknowns, rows, rhs, model.gamma());
 }

@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/model/automaton.hpp"
+
 namespace hysid {
 
 std::string StartRepair::Summary() const {
@@ -367,23 +369,31 @@ Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, con
 
 void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat& y,
                      const std::vector<std::uint8_t>& labels, const Vec& alpha, const Vec& gamma0,
-                     const Unknowns& unknowns, Mat* rows, Vec* rhs) {
+                     const Unknowns& unknowns, Mat* rows, Vec* rhs, const std::vector<int>& maps,
+                     int initial_mode) {
   const auto q = static_cast<Eigen::Index>(unknowns.gamma.size());
   const int n = model.state_size(), guards = model.guard_count();
   if (q == 0 || guards == 0) return;
+  const std::vector<JumpMap> all_maps = JumpMaps(model.spec());
   Vec f(n), h(guards);
   Mat dh(guards, model.gamma_size());
+  int mode = std::max(initial_mode, 0);
+  std::size_t event = 0;  // index into maps
   for (std::size_t k = 1; k < labels.size(); ++k) {
     if (labels[k] == 0) continue;
+    const int map = event < maps.size() ? maps[event++] : -1;
+    const int leaves = mode;
+    if (map >= 0) mode = ModeAfter(model.spec(), mode, map);
     const auto pre = static_cast<Eigen::Index>(k - 1);
     if (!y.col(pre).allFinite()) continue;
-    const Context ctx{.t = t[k - 1], .u = nullptr, .gamma = gamma0.data()};
+    const Context ctx{.t = t[k - 1], .u = nullptr, .gamma = gamma0.data(), .mode = leaves};
     model.Flow(y.col(pre), alpha, f, ctx);
     const Vec moved = y.col(pre) + 0.5 * (t[k] - t[k - 1]) * f;
     model.Guards(moved, h, ctx);
     model.GuardGammaJacobian(moved, ctx, dh);
     Eigen::Index fired = 0;
     h.cwiseAbs().minCoeff(&fired);
+    if (map >= 0 && all_maps[std::size_t(map)].guard >= 0) fired = all_maps[std::size_t(map)].guard;
     if (!h.allFinite() || !dh.row(fired).allFinite()) continue;
     const Eigen::Index m = rows->rows();
     rows->conservativeResize(m + 1, q);

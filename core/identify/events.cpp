@@ -1,0 +1,433 @@
+#include "core/identify/events.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <utility>
+
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <fmt/format.h>
+
+#include "core/model/automaton.hpp"
+#include "core/model/noise_shape.hpp"
+#include "core/model/regression.hpp"
+
+namespace hysid {
+namespace {
+
+constexpr long kMinFit = 4;  // samples of a degree-2 fit (one more than its coefficients)
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A degree-2 least-squares fit of y(j, lo..hi) in τ = t − t_ref: y ≈ c0 + c1 τ + c2 τ²; v1 is c1's
+// variance per unit noise variance, sse the squared residual.
+struct Quadratic {
+  double c0 = 0.0, c1 = 0.0, c2 = 0.0, v1 = kNaN, sse = kNaN;
+};
+
+Quadratic FitQuadratic(const Mat& y, const std::vector<double>& t, long lo, long hi, Eigen::Index j, double t_ref) {
+  // τ scaled to [−1, 1] for a well-conditioned 3 × 3 system.
+  const double scale = std::max({std::abs(t[std::size_t(lo)] - t_ref), std::abs(t[std::size_t(hi)] - t_ref),
+                                 std::numeric_limits<double>::min()});
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (long i = lo; i <= hi; ++i) {
+    const double u = (t[std::size_t(i)] - t_ref) / scale;
+    const Eigen::Vector3d x(1.0, u, u * u);
+    a += x * x.transpose();
+    b += x * y(j, i);
+  }
+  const Eigen::Matrix3d inv = a.inverse();
+  const Eigen::Vector3d c = inv * b;
+  Quadratic q;
+  q.sse = 0.0;
+  for (long i = lo; i <= hi; ++i) {
+    const double u = (t[std::size_t(i)] - t_ref) / scale;
+    const double r = y(j, i) - (c[0] + u * (c[1] + u * c[2]));
+    q.sse += r * r;
+  }
+  q.c0 = c[0];
+  q.c1 = c[1] / scale;
+  q.c2 = c[2] / (scale * scale);
+  q.v1 = inv(1, 1) / (scale * scale);
+  return q;
+}
+
+// The maximal runs [a, b] of finite samples with no break between consecutive ones.
+std::vector<std::pair<long, long>> Segments(const Mat& y, const std::vector<std::uint8_t>& breaks) {
+  std::vector<std::pair<long, long>> out;
+  long a = -1;
+  for (long k = 0; k < y.cols(); ++k) {
+    if (!y.col(k).allFinite()) {
+      if (a >= 0) out.emplace_back(a, k - 1);
+      a = -1;
+    } else if (a < 0) {
+      a = k;
+    } else if (breaks[std::size_t(k)] != 0) {
+      out.emplace_back(a, k - 1);
+      a = k;
+    }
+  }
+  if (a >= 0) out.emplace_back(a, y.cols() - 1);
+  return out;
+}
+
+// The slope-change statistic at split c (first sample after) with windows [lo, c−1], [c, hi]; `which`
+// receives the component that attains it.
+double SlopeChange(const Mat& y, const std::vector<double>& t, const Vec& sigma, long lo, long c, long hi,
+                   Eigen::Index* which) {
+  const double t_ref = 0.5 * (t[std::size_t(c - 1)] + t[std::size_t(c)]);
+  double best = 0.0;
+  for (Eigen::Index j = 0; j < y.rows(); ++j) {
+    const Quadratic l = FitQuadratic(y, t, lo, c - 1, j, t_ref), r = FitQuadratic(y, t, c, hi, j, t_ref);
+    const double z = std::abs(r.c1 - l.c1) / (sigma[j] * std::sqrt(l.v1 + r.v1));
+    if (std::isfinite(z) && z > best) {
+      best = z;
+      if (which != nullptr) *which = j;
+    }
+  }
+  return best;
+}
+
+// A peak at c in segment [a, b]: the split within ±2 whose two fits over the window leave the least
+// σ-weighted residual, and the instant in (t_{k−1}, t_k] where the fits of component `j` meet.
+Kink LocateKink(const Mat& y, const std::vector<double>& t, const Vec& sigma, long a, long b, long c, long window,
+                Eigen::Index j) {
+  const long lo = std::max(a, c - window), hi = std::min(b, c + window - 1);
+  long best = c;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (long s = c - 2; s <= c + 2; ++s) {
+    if (s - lo < kMinFit || hi - s + 1 < kMinFit) continue;
+    const double t_ref = 0.5 * (t[std::size_t(s - 1)] + t[std::size_t(s)]);
+    double cost = 0.0;
+    for (Eigen::Index i = 0; i < y.rows(); ++i) {
+      cost += (FitQuadratic(y, t, lo, s - 1, i, t_ref).sse + FitQuadratic(y, t, s, hi, i, t_ref).sse) /
+              (sigma[i] * sigma[i]);
+    }
+    if (cost < best_cost) {
+      best_cost = cost;
+      best = s;
+    }
+  }
+  const double t0 = t[std::size_t(best - 1)], t1 = t[std::size_t(best)], t_ref = 0.5 * (t0 + t1);
+  const Quadratic l = FitQuadratic(y, t, lo, best - 1, j, t_ref), r = FitQuadratic(y, t, best, hi, j, t_ref);
+  // Roots of (l − r)(τ) = d0 + d1 τ + d2 τ² in (t0, t1] − t_ref, the one nearest the middle.
+  const double d0 = l.c0 - r.c0, d1 = l.c1 - r.c1, d2 = l.c2 - r.c2;
+  double time = kNaN, nearest = std::numeric_limits<double>::infinity();
+  auto consider = [&](double tau) {
+    if (!std::isfinite(tau) || t_ref + tau <= t0 || t_ref + tau > t1 || !(std::abs(tau) < nearest)) return;
+    nearest = std::abs(tau);
+    time = t_ref + tau;
+  };
+  if (std::abs(d2) * (t1 - t0) < 1e-12 * std::abs(d1)) {
+    consider(-d0 / d1);
+  } else if (const double disc = d1 * d1 - 4.0 * d2 * d0; disc >= 0.0) {
+    consider((-d1 + std::sqrt(disc)) / (2.0 * d2));
+    consider((-d1 - std::sqrt(disc)) / (2.0 * d2));
+  }
+  if (!std::isfinite(time)) time = t_ref;
+  return Kink{.sample = best, .time = time, .statistic = 0.0};
+}
+
+}  // namespace
+
+std::vector<Kink> DetectKinks(const Mat& y, const std::vector<double>& t, const std::vector<std::uint8_t>& breaks,
+                              const Vec& sigma_in, const KinkSettings& settings) {
+  if (settings.window < kMinFit || !(settings.threshold > 0.0)) {
+    throw std::invalid_argument(fmt::format("KinkSettings: window = {} must be >= {} and threshold = {} > 0",
+                                            settings.window, kMinFit, settings.threshold));
+  }
+  Vec sigma = sigma_in;
+  for (Eigen::Index j = 0; j < sigma.size(); ++j) {  // noise-free data: a floor at rounding's scale
+    const double scale = y.row(j).array().isFinite().any()
+                             ? y.row(j).unaryExpr([](double v) { return std::isfinite(v) ? std::abs(v) : 0.0; }).maxCoeff()
+                             : 1.0;
+    sigma[j] = std::max(sigma[j], 1e-12 * (1.0 + scale));
+  }
+  const long m = settings.window;
+  std::vector<Kink> out;
+  for (const auto& [a, b] : Segments(y, breaks)) {
+    if (b - a + 1 < 2 * kMinFit) continue;
+    const long first = a + kMinFit, last = b - kMinFit + 1;  // splits with enough samples on each side
+    // The statistic of each split and the component attaining it.
+    std::vector<std::pair<double, Eigen::Index>> split(std::size_t(last - first + 1));
+    for (long c = first; c <= last; ++c) {
+      auto& [zc, j] = split[std::size_t(c - first)];
+      j = 0;
+      zc = SlopeChange(y, t, sigma, std::max(a, c - m), c, std::min(b, c + m - 1), &j);
+    }
+    for (long c = first; c <= last; ++c) {
+      const double zc = split[std::size_t(c - first)].first;
+      if (!(zc > settings.threshold)) continue;
+      bool peak = true;
+      for (long d = std::max(first, c - m); peak && d <= std::min(last, c + m); ++d) {
+        const double zd = split[std::size_t(d - first)].first;
+        peak = d < c ? zd < zc : zd <= zc;
+      }
+      if (!peak) continue;
+      Kink k = LocateKink(y, t, sigma, a, b, c, m, split[std::size_t(c - first)].second);
+      k.statistic = zc;
+      out.push_back(k);
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// The least |h_g|/‖∇ₓh_g‖ over the flow step of length `step` from x (0 when h_g changes sign in it).
+double GuardDistance(const Model& model, ConstVecRef x, double step, const Context& ctx, const Vec& alpha, int g) {
+  const Eigen::Index n = x.size();
+  Vec f(n), h(model.guard_count()), hp(model.guard_count()), hm(model.guard_count());
+  model.Flow(x, alpha, f, ctx);
+  double best = std::numeric_limits<double>::infinity(), last = kNaN;
+  constexpr int kPoints = 4;
+  for (int s = 0; s <= kPoints; ++s) {
+    Vec xs = x + (static_cast<double>(s) / kPoints) * step * f;
+    model.Guards(xs, h, ctx);
+    if (s > 0 && last * h[g] <= 0.0) return 0.0;
+    last = h[g];
+    double grad2 = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double e = 1e-6 * (1.0 + std::abs(xs[i])), keep = xs[i];
+      xs[i] = keep + e;
+      model.Guards(xs, hp, ctx);
+      xs[i] = keep - e;
+      model.Guards(xs, hm, ctx);
+      xs[i] = keep;
+      grad2 += std::pow((hp[g] - hm[g]) / (2.0 * e), 2);
+    }
+    const double d = grad2 > 0.0 ? std::abs(h[g]) / std::sqrt(grad2) : std::abs(h[g]);
+    if (std::isfinite(d)) best = std::min(best, d);
+  }
+  return std::isfinite(best) ? best : kNaN;
+}
+
+struct Pending {
+  long sample;
+  bool jump;
+  double time, statistic;
+};
+
+// The map of event `e` from mode q: the armed maps of its kind, else (armed = false) all of its kind.
+void Assign(const Model& model, const std::vector<JumpMap>& maps, const Mat& y, const std::vector<double>& t,
+            const Mat& inputs, const Vec& alpha, AutomatonEvent* e) {
+  const ModelSpec& spec = model.spec();
+  std::vector<int> candidates;
+  for (int g = 0; g < model.guard_count(); ++g) {
+    const int m = ArmedMap(spec, e->mode_before, g);
+    if (m >= 0 && maps[std::size_t(m)].identity != e->jump) candidates.push_back(m);
+  }
+  e->armed = !candidates.empty();
+  for (int m = 0; !e->armed && m < static_cast<int>(maps.size()); ++m) {
+    if (maps[std::size_t(m)].identity != e->jump) candidates.push_back(m);
+  }
+  long pre = e->sample - 1;
+  if (pre < 0 || !y.col(pre).allFinite()) pre = e->sample;
+  const Context ctx{.t = t[std::size_t(pre)],
+                    .u = inputs.rows() > 0 ? inputs.col(pre).data() : nullptr,
+                    .mode = e->mode_before};
+  const double step = t[std::size_t(e->sample)] - t[std::size_t(pre)];
+  e->map = -1;
+  e->guard_distance = kNaN;
+  for (int m : candidates) {
+    const int g = maps[std::size_t(m)].guard;
+    const double d = g >= 0 ? GuardDistance(model, y.col(pre), step, ctx, alpha, g) : kNaN;
+    const bool better = e->map < 0 || (std::isfinite(d) && !(d >= e->guard_distance));
+    if (better) {
+      e->map = m;
+      e->guard = g;
+      e->guard_distance = d;
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<AutomatonEvent> AssignEvents(const Model& model, const Mat& y, const std::vector<double>& t,
+                                         const Mat& inputs, const Vec& alpha, int initial_mode,
+                                         const std::vector<std::uint8_t>& jumps, const std::vector<Kink>& kinks,
+                                         std::vector<int>* modes, std::vector<int>* maps_out) {
+  const std::vector<JumpMap> maps = JumpMaps(model.spec());
+  std::vector<Pending> pending;
+  for (std::size_t k = 1; k < jumps.size(); ++k) {
+    if (jumps[k] != 0) pending.push_back({long(k), true, t[k], 0.0});
+  }
+  for (const Kink& k : kinks) pending.push_back({k.sample, false, k.time, k.statistic});
+  std::stable_sort(pending.begin(), pending.end(),
+                   [](const Pending& a, const Pending& b) { return a.sample < b.sample || (a.sample == b.sample && a.jump && !b.jump); });
+  const auto count = static_cast<std::size_t>(y.cols());
+  modes->assign(count, initial_mode);
+  maps_out->assign(count, 0);
+  std::vector<AutomatonEvent> events;
+  int q = initial_mode;
+  for (const Pending& p : pending) {
+    AutomatonEvent e{.sample = p.sample, .time = p.time, .jump = p.jump, .mode_before = q, .statistic = p.statistic};
+    Assign(model, maps, y, t, inputs, alpha, &e);
+    q = e.map >= 0 ? ModeAfter(model.spec(), q, e.map) : q;
+    e.mode_after = q;
+    std::fill(modes->begin() + p.sample, modes->end(), q);
+    if (e.jump && e.map >= 0) (*maps_out)[std::size_t(p.sample)] = e.map;
+    events.push_back(e);
+  }
+  return events;
+}
+
+double ModeResidual(const Model& model, const Mat& y, const std::vector<double>& t, const Mat& inputs,
+                    const std::vector<std::uint8_t>& breaks, const std::vector<int>& modes) {
+  RegressionBuilder builder(model);
+  const auto rows = static_cast<Eigen::Index>(builder.flow_layout().rows.size());
+  const auto u = static_cast<Eigen::Index>(builder.flow_layout().unknown.size());
+  Mat a(rows * y.cols(), u), phi(rows, u);
+  Vec b(rows * y.cols()), fy(rows);
+  Eigen::Index used = 0;
+  for (Eigen::Index k = 1; k < y.cols(); ++k) {
+    if (breaks[std::size_t(k)] != 0 || !y.col(k).allFinite() || !y.col(k - 1).allFinite()) continue;
+    const bool in = inputs.rows() > 0;
+    const Context prev{.t = t[std::size_t(k - 1)], .u = in ? inputs.col(k - 1).data() : nullptr, .mode = modes[std::size_t(k - 1)]};
+    const Context cur{.t = t[std::size_t(k)], .u = in ? inputs.col(k).data() : nullptr, .mode = modes[std::size_t(k)]};
+    builder.Flow(y.col(k - 1), y.col(k), t[std::size_t(k)] - t[std::size_t(k - 1)], phi, fy, prev, cur);
+    if (!phi.allFinite() || !fy.allFinite()) continue;
+    a.middleRows(used, rows) = phi;
+    b.segment(used, rows) = fy;
+    used += rows;
+  }
+  if (used == 0) return kNaN;
+  const Mat used_a = a.topRows(used);
+  const Vec used_b = b.head(used);
+  if (u == 0) return used_b.squaredNorm();
+  const Vec theta = used_a.colPivHouseholderQr().solve(used_b);
+  return (used_a * theta - used_b).squaredNorm();
+}
+
+namespace {
+
+// σ per component for the kink statistic: given, else EstimateNoiseSigma over the finite columns
+// (ones when fewer than 4).
+Vec KinkSigma(const Mat& y, const IdentifierSettings& settings) {
+  if (settings.sigma.size() == y.rows()) return settings.sigma;
+  std::vector<Eigen::Index> finite;
+  for (Eigen::Index k = 0; k < y.cols(); ++k) {
+    if (y.col(k).allFinite()) finite.push_back(k);
+  }
+  if (finite.size() < 4) return Vec::Ones(y.rows());
+  return EstimateNoiseSigma(y(Eigen::all, finite));
+}
+
+// Why the assignment is not to be trusted: events of a kind no map has, or none armed in the mode.
+std::string EventsReason(const std::vector<AutomatonEvent>& events) {
+  long none = 0, unarmed = 0;
+  long first = -1;
+  for (const AutomatonEvent& e : events) {
+    if (e.map >= 0 && e.armed) continue;
+    (e.map < 0 ? none : unarmed) += 1;
+    if (first < 0) first = e.sample;
+  }
+  if (none + unarmed == 0) return "";
+  return fmt::format("{} event(s) with no map of their kind and {} with none armed in their mode (first at sample {})",
+                     none, unarmed, first);
+}
+
+}  // namespace
+
+IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                                 const IdentifyOptions& options) {
+  const ModelSpec& spec = model.spec();
+  const std::vector<JumpMap> maps = JumpMaps(spec);
+  const bool has_jump = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return !m.identity; });
+  const bool has_switch = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return m.identity; });
+  const int modes_count = ModeCount(spec);
+  if (options.initial_mode >= modes_count) {
+    throw std::invalid_argument(fmt::format("IdentifyOptions::initial_mode = {}: model '{}' has {} mode(s)",
+                                            options.initial_mode, model.name(), modes_count));
+  }
+  const auto count = static_cast<std::size_t>(y.cols());
+  std::vector<double> t = options.times;
+  if (t.empty()) {
+    for (std::size_t k = 0; k < count; ++k) t.push_back(static_cast<double>(k) * dt);
+  }
+  // Jumps: given labels, or the detector of one pass in mode 0 (maps 0).
+  IdentifyOptions plain = options;
+  plain.assign_events = false;
+  plain.modes.clear();
+  plain.maps.clear();
+  IdentifyResult detection;
+  std::vector<std::uint8_t> jumps(count, 0);
+  const bool detect = options.labels.empty() && has_jump;
+  if (!options.labels.empty()) jumps = options.labels;
+  if (detect) {
+    detection = Identify(model, y, dt, settings, plain);
+    jumps = detection.gamma;
+  }
+  std::vector<std::uint8_t> breaks = jumps;
+  if (!breaks.empty()) breaks[0] = 1;
+  for (std::size_t k = 0; k < options.chain_start.size(); ++k) breaks[k] |= options.chain_start[k];
+  const Vec alpha = detect && detection.alpha_hat.allFinite() ? detection.alpha_hat : model.alpha();
+  const std::vector<Kink> kinks =
+      has_switch ? DetectKinks(y, t, breaks, KinkSigma(y, settings), options.kinks) : std::vector<Kink>{};
+  // Each candidate initial mode (the model's default first, so that it wins a tie).
+  std::vector<int> candidates;
+  if (options.initial_mode >= 0) {
+    candidates.push_back(options.initial_mode);
+  } else {
+    candidates.push_back(spec.default_mode);
+    for (int q = 0; q < modes_count; ++q) {
+      if (q != spec.default_mode) candidates.push_back(q);
+    }
+  }
+  IdentifyOptions pass = options;
+  pass.assign_events = false;
+  pass.labels = jumps;
+  std::vector<AutomatonEvent> events;
+  std::vector<double> rss(std::size_t(modes_count), kNaN);
+  int chosen = candidates.front();
+  for (int q0 : candidates) {
+    std::vector<int> modes, per_map;
+    std::vector<AutomatonEvent> e = AssignEvents(model, y, t, options.inputs, alpha, q0, jumps, kinks, &modes, &per_map);
+    rss[std::size_t(q0)] = candidates.size() > 1 ? ModeResidual(model, y, t, options.inputs, breaks, modes) : kNaN;
+    const double best = rss[std::size_t(chosen)];
+    if (q0 == candidates.front() || rss[std::size_t(q0)] < best) {
+      chosen = q0;
+      events = std::move(e);
+      pass.modes = std::move(modes);
+      pass.maps = std::move(per_map);
+    }
+  }
+  IdentifyResult r = Identify(model, y, dt, settings, pass);
+  if (detect) {
+    if (options.statistics) {
+      r.statistic = detection.statistic;
+      r.threshold = detection.threshold;
+    }
+    if (detection.jump_status == EstimatorStatus::kIllConditioned && r.jump_status == EstimatorStatus::kOk) {
+      r.jump_status = detection.jump_status;
+      r.jump_reason = detection.jump_reason;
+    }
+  }
+  // γ marks every event: a switch is an event of the hybrid time domain (an identity map) although
+  // the recursive pass regressed its pair as flow.
+  for (const AutomatonEvent& e : events) r.gamma[std::size_t(e.sample)] = 1;
+  if (r.safe_start) {
+    IdentifyResult safe = *r.safe_start;
+    safe.gamma = r.gamma;
+    safe.events = events;
+    safe.mode = pass.modes;
+    safe.initial_mode = chosen;
+    r.safe_start = std::make_shared<const IdentifyResult>(std::move(safe));
+  }
+  if (!has_jump && r.jump_status == EstimatorStatus::kNotExcited && model.beta_size() == 0) {
+    r.jump_status = EstimatorStatus::kOk;  // only identity maps: no β to estimate
+    r.jump_reason.clear();
+  }
+  r.events = std::move(events);
+  r.mode = pass.modes;
+  r.initial_mode = chosen;
+  r.initial_mode_inferred = candidates.size() > 1;
+  r.initial_mode_rss = std::move(rss);
+  r.events_reason = EventsReason(r.events);
+  return r;
+}
+
+}  // namespace hysid
