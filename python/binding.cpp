@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -100,23 +101,59 @@ std::optional<double> OptionalNumber(const py::handle& value, const std::string&
   return Number(value, name);
 }
 
-void RefuseBeyondModule(const Model& model, const std::string& call, bool partial_ok) {
-  const ModelSpec& spec = model.spec();
-  if (!spec.inputs.empty()) {
-    throw std::invalid_argument(fmt::format(
-        "model '{}' has measured inputs ({}): hysid.{} does not take inputs; the command line does (hysid "
-        "{} with --inputs or input columns in the data)",
-        spec.name, fmt::join(spec.inputs, ", "), call, call));
-  }
-  const std::vector<int> measured = MeasuredIndices(model);
-  if (!partial_ok && static_cast<int>(measured.size()) < model.state_size()) {
+std::optional<std::string> X0KnownText(const py::handle& value) {
+  if (value.is_none()) return std::nullopt;
+  if (py::isinstance<py::bool_>(value)) return value.cast<bool>() ? std::optional<std::string>("all") : std::nullopt;
+  if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+  if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {
     std::vector<std::string> names;
-    for (const int i : measured) names.push_back(spec.state_names[static_cast<std::size_t>(i)]);
-    throw std::invalid_argument(fmt::format(
-        "model '{}' measures {} only: hysid.{} needs every state; the command line takes the measured "
-        "states alone (hysid {})",
-        spec.name, fmt::join(names, ", "), call, call));
+    for (const py::handle& n : value) names.push_back(Text(n, "x0_known"));
+    return fmt::format("{}", fmt::join(names, ","));
   }
+  throw std::invalid_argument(fmt::format(
+      "x0_known: expected True, 'all' or state names (a list or comma-separated), got {}", Described(value)));
+}
+
+std::vector<std::string> BoundTexts(const py::handle& value) {
+  std::vector<std::string> out;
+  if (value.is_none()) return out;
+  if (!py::isinstance<py::dict>(value))
+    throw std::invalid_argument("param_bound: expected a dict {name: (lo, hi)}");
+  for (const auto& [key, bounds] : value.cast<py::dict>()) {
+    const std::string name = Text(key, "param_bound");
+    const std::vector<double> b = Numbers(bounds, fmt::format("param_bound['{}']", name));
+    if (b.size() != 2)
+      throw std::invalid_argument(fmt::format("param_bound['{}']: expected (lo, hi), got {} values", name, b.size()));
+    out.push_back(fmt::format("{}={},{}", name, b[0], b[1]));
+  }
+  return out;
+}
+
+
+std::string KeywordMessage(const std::string& message) {
+  static const std::regex flag(R"(--([a-z][a-z0-9-]*))");
+  std::string out;
+  auto it = message.cbegin();
+  for (std::smatch m; std::regex_search(it, message.cend(), m, flag); it = m.suffix().first) {
+    std::string name = m[1];
+    std::replace(name.begin(), name.end(), '-', '_');
+    out += std::string(it, m[0].first) + name;
+  }
+  return out + std::string(it, message.cend());
+}
+
+std::shared_ptr<X0KnownKeyword> MakeX0Known(const std::optional<std::string>& text) {
+  auto k = std::make_shared<X0KnownKeyword>();
+  CLI::Option* option = cli::AddX0KnownOption(k->app, k->flag);
+  if (text) {
+    option->add_result(*text);
+    k->flag.text = *text;
+  }
+  return k;
+}
+
+bool IsValueError(const py::error_already_set& e) {
+  return e.matches(PyExc_ValueError) || e.matches(PyExc_TypeError);
 }
 
 PyModel ModelArgument(const py::handle& value) {
@@ -162,6 +199,7 @@ py::array_t<double> RealArray(const py::handle& value, const std::string& name) 
   try {
     a = np.attr("asarray")(value);
   } catch (const py::error_already_set& e) {  // ragged nesting and the like
+    if (!IsValueError(e)) throw;  // KeyboardInterrupt (Ctrl-C during the conversion) and the like
     throw std::invalid_argument(fmt::format("{}: not an array of numbers ({})", name, e.what()));
   }
   const char kind = a.dtype().kind();
@@ -193,7 +231,7 @@ std::string ShapeText(const py::array& a) {
   return out + (a.ndim() == 1 ? ",)" : ")");
 }
 
-std::string ArrayMessage(const std::string& message, bool runs) {
+std::string ArrayMessage(const std::string& message, bool runs, int ny, int nu) {
   static const std::regex cell(R"(^run (\d+):(\d+): column (\d+) \('[^']*'\): )");
   static const std::regex column(R"(^run (\d+): column 'y(\d+)': )");
   static const std::regex whole(R"(^run (\d+)(, run \d+)*: )");
@@ -205,8 +243,11 @@ std::string ArrayMessage(const std::string& message, bool runs) {
   if (std::regex_search(message, m, cell)) {
     const std::string r = run(m[1]);
     const long k = std::stol(m[2]) - 1, c = std::stol(m[3]);
-    const std::string head =
-        c == 1 ? fmt::format("t{}[{}]: ", r, k) : fmt::format("y{}[{}, {}]: ", r, k, c - 2);
+    const long i = c - 2;  // the column after t
+    const std::string head = c == 1        ? fmt::format("t{}[{}]: ", r, k)
+                             : i < ny      ? fmt::format("y{}[{}, {}]: ", r, k, i)
+                             : i < ny + nu ? fmt::format("u{}[{}, {}]: ", r, k, i - ny)
+                                           : fmt::format("truth['j']{}[{}]: ", r, k);
     std::string rest = m.suffix();
     std::string out;  // "line N" in the rest: the sample N − 1 of the same run
     auto it = rest.cbegin();

@@ -19,6 +19,7 @@
 
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
+#include "experiments/cli/cli.hpp"
 
 namespace hysid::python {
 
@@ -43,10 +44,6 @@ PyModel ModelArgument(const py::handle& value);
 py::tuple ModelState(const PyModel& m);
 PyModel ModelFromState(const py::tuple& state);
 bool SameModel(const PyModel& a, const PyModel& b);
-// Refuses (std::invalid_argument, naming the model and `call`) what the module does not run yet: a
-// model with measured inputs, and, unless `partial_ok`, one whose data hold only some of its states
-// (`measured`); the command line runs both.
-void RefuseBeyondModule(const Model& model, const std::string& call, bool partial_ok);
 
 // ---- arguments: each error is a ValueError naming the argument and the constraint ----
 
@@ -61,6 +58,8 @@ bool Flag(const py::handle& value, const std::string& name);
 std::string Text(const py::handle& value, const std::string& name);
 // Real numbers as a float64 C-contiguous array (no complex, strings, objects or bools), any shape.
 py::array_t<double> RealArray(const py::handle& value, const std::string& name);
+// A ValueError or TypeError (what a bad value raises), not a KeyboardInterrupt raised meanwhile.
+bool IsValueError(const py::error_already_set& e);
 // A number or a 1-D sequence of numbers (empty when `value` is None).
 std::vector<double> Numbers(const py::handle& value, const std::string& name);
 // "(2, 3)": the shape of `a`.
@@ -68,8 +67,32 @@ std::string ShapeText(const py::array& a);
 
 // A message of SampleDataFromArrays ("run R:K: column C ('y2'): ...", "run R: ...") with the
 // array element named as Python indexes it: "y[K-1, C-2]", "t[K-1]" (with the run first,
-// "y[R-1][...]", when `runs`: y was a list of runs).
-std::string ArrayMessage(const std::string& message, bool runs);
+// "y[R-1][...]", when `runs`: y was a list of runs). The table's columns after t: `ny` of y, `nu`
+// of u ("u[K-1, i]"), then truth['j'].
+std::string ArrayMessage(const std::string& message, bool runs, int ny = 1 << 30, int nu = 0);
+
+// x0_known as --x0-known's text: True or 'all' for every component, state names as a list or
+// comma-separated; None or False: not given.
+std::optional<std::string> X0KnownText(const py::handle& value);
+// param_bound {name: (lo, hi)} as --param-bound's values NAME=LO,HI (numbers as the shortest text).
+std::vector<std::string> BoundTexts(const py::handle& value);
+// --x0-known as the command line holds it (X0Known reads whether its option was given: an App owns it).
+struct X0KnownKeyword {
+  CLI::App app;
+  cli::X0Known flag;
+};
+std::shared_ptr<X0KnownKeyword> MakeX0Known(const std::optional<std::string>& text);
+// A message of the command line's checks with each flag spelled as the keyword (--x0-known as x0_known).
+std::string KeywordMessage(const std::string& message);
+// Runs f, its std::invalid_argument rethrown with KeywordMessage.
+template <class F>
+auto Keyworded(F&& f) {
+  try {
+    return f();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(KeywordMessage(e.what()));
+  }
+}
 
 // ---- NumPy results ----
 py::array_t<double> ToArray(const Vec& v);

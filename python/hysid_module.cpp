@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <filesystem>
@@ -22,6 +23,8 @@
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "python/binding.hpp"
+#include "experiments/cli/cli.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
 #include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
@@ -35,10 +38,51 @@ struct Run {
   Vec x0;
   SampleGrid grid;
   SimOptions sim;
+  InputSignal inputs;  // empty for a model without inputs
 };
 
+// The inputs of a run over `grid` (keyword `inputs`): None, the model file's default expressions of t
+// (as the command line without --inputs); or {'t': times, name: values, ...} (t left out: the sample
+// times), linear between the given times. Empty for a model without inputs.
+InputSignal InputsArgument(const py::object& value, const ModelSpec& spec, const SampleGrid& grid) {
+  if (value.is_none()) return Keyworded([&] { return cli::InputsFlag("", spec, grid); });
+  if (spec.inputs.empty()) throw std::invalid_argument(fmt::format("inputs: model '{}' has no inputs", spec.name));
+  if (!py::isinstance<py::dict>(value))
+    throw std::invalid_argument("inputs: expected a dict {'t': times, input name: values}");
+  const py::dict d = py::reinterpret_borrow<py::dict>(value);
+  for (const auto& [key, column] : d) {
+    const std::string name = Text(key, "inputs");
+    if (name != "t" && std::find(spec.inputs.begin(), spec.inputs.end(), name) == spec.inputs.end()) {
+      throw std::invalid_argument(fmt::format("inputs: '{}' is not an input of model '{}' (inputs: {})", name,
+                                              spec.name, fmt::join(spec.inputs, ", ")));
+    }
+  }
+  InputSignal s;
+  if (d.contains("t")) {
+    s.times = Numbers(d["t"], "inputs['t']");
+  } else {
+    for (long k = 0; k < grid.size(); ++k) s.times.push_back(static_cast<double>(k) * grid.dt);
+  }
+  s.values.resize(static_cast<Eigen::Index>(spec.inputs.size()), static_cast<Eigen::Index>(s.times.size()));
+  for (std::size_t i = 0; i < spec.inputs.size(); ++i) {
+    const std::string& name = spec.inputs[i];
+    if (!d.contains(name)) throw std::invalid_argument(fmt::format("inputs: no values for input '{}'", name));
+    const std::vector<double> v = Numbers(d[py::str(name)], fmt::format("inputs['{}']", name));
+    if (v.size() != s.times.size()) {
+      throw std::invalid_argument(fmt::format("inputs['{}'] has {} values for {} times{}", name, v.size(),
+                                              s.times.size(), d.contains("t") ? "" : " (the sample times)"));
+    }
+    s.values.row(static_cast<Eigen::Index>(i)) = Eigen::Map<const Eigen::RowVectorXd>(v.data(), Eigen::Index(v.size()));
+  }
+  if (const std::string e = InputSignalError(s, "inputs"); !e.empty()) throw std::invalid_argument(e);
+  const double t_last = static_cast<double>(grid.size() - 1) * grid.dt;
+  if (const std::string e = InputRangeError(s, spec.inputs, 0.0, t_last); !e.empty())
+    throw std::invalid_argument("inputs: " + e);
+  return s;
+}
+
 Run CheckedRun(const Model& model, const py::object& x0, const py::object& t_end, const py::object& dt,
-               const py::object& rtol, const py::object& atol) {
+               const py::object& rtol, const py::object& atol, const py::object& inputs = py::none()) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   const std::vector<double> start = x0.is_none() ? spec.default_x0 : Numbers(x0, "x0");
@@ -50,8 +94,12 @@ Run CheckedRun(const Model& model, const py::object& x0, const py::object& t_end
   Run run{Eigen::Map<const Vec>(start.data(), n),
           CheckedGrid(OptionalNumber(t_end, "t_end").value_or(spec.default_t_end),
                       OptionalNumber(dt, "dt").value_or(spec.default_dt), Spelling::kKeyword),
-          SimOptions{}};
-  if (!model.InFlowSet(run.x0) && !model.InJumpSet(run.x0)) {
+          SimOptions{}, {}};
+  run.inputs = InputsArgument(inputs, spec, run.grid);
+  std::vector<double> u0(static_cast<std::size_t>(run.inputs.size()));
+  if (!run.inputs.empty()) run.inputs.At(0.0, u0.data());
+  const Context at{.t = 0.0, .u = run.inputs.empty() ? nullptr : u0.data()};
+  if (!model.InFlowSet(run.x0, at) && !model.InJumpSet(run.x0, at)) {
     throw std::invalid_argument(fmt::format("x0 = {}: outside the flow set C and the jump set D of '{}'",
                                             fmt::join(start, ","), spec.name));
   }
@@ -66,18 +114,23 @@ Run CheckedRun(const Model& model, const py::object& x0, const py::object& t_end
 
 py::dict SimulateDict(const py::object& model_arg, const py::object& x0, const py::object& t_end,
                       const py::object& dt, const py::object& sigma, const py::object& seed_arg,
-                      const py::object& trial_arg, const py::object& rtol, const py::object& atol) {
+                      const py::object& trial_arg, const py::object& rtol, const py::object& atol,
+                      const py::object& inputs) {
   const Model model = ModelArgument(model_arg).model;
-  RefuseBeyondModule(model, "simulate", /*partial_ok=*/true);
   const std::uint64_t seed = Count(seed_arg, "seed"), trial = Count(trial_arg, "trial");
   const int n = model.state_size();
-  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
+  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol, inputs);
   const Vec s = CheckedSigma(Numbers(sigma, "sigma"), n, /*allow_zero=*/true, Spelling::kKeyword);
-  const auto [traj, y] = RunInterruptible<std::pair<Trajectory, Mat>>([model, run, s, seed, trial] {
-    Trajectory traj = hysid::Simulate(model, run.x0, run.grid, run.sim);
+  auto stop = std::make_shared<std::atomic<bool>>(false);
+  const auto [traj, y] = RunInterruptible<std::pair<Trajectory, Mat>>([model, run, s, seed, trial, stop] {
+    Exogenous exo;
+    if (!run.inputs.empty()) exo.inputs = &run.inputs;
+    SimOptions sim = run.sim;
+    sim.stop = stop.get();
+    Trajectory traj = hysid::Simulate(model, run.x0, run.grid, sim, exo);
     Mat y = AddMeasurementNoise(traj.x, s, NoiseKey{.seed = seed, .stream = trial});
     return std::pair{std::move(traj), std::move(y)};
-  });
+  }, stop);
   py::list jumps;
   for (const JumpRecord& j : traj.jumps) {
     jumps.append(py::dict(py::arg("j") = j.j, py::arg("t") = j.t, py::arg("guard") = j.guard,
@@ -88,6 +141,11 @@ py::dict SimulateDict(const py::object& model_arg, const py::object& x0, const p
   out["j"] = py::array_t<int>(py::ssize_t(traj.j.size()), traj.j.data());
   out["x"] = Transposed(traj.x);
   out["y"] = Transposed(y);
+  if (!run.inputs.empty()) {  // u at the sample times, as simulate's input columns (identify's u)
+    Mat u(run.inputs.size(), Eigen::Index(traj.t.size()));
+    for (std::size_t k = 0; k < traj.t.size(); ++k) run.inputs.At(traj.t[k], u.col(Eigen::Index(k)).data());
+    out["u"] = Transposed(u);
+  }
   out["dt"] = run.grid.dt;
   out["jumps"] = jumps;
   out["status"] = ToString(traj.status.stop);
@@ -144,18 +202,35 @@ py::dict Parameters(const Model& m) {
 // The bound as `hysid crlb`: at the model's true α, β and x0 over the model's (or the given) grid.
 py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::object& t_end,
                   const py::object& dt, const py::object& sigma, const py::object& x0_known_arg,
-                  const py::object& rtol, const py::object& atol) {
-  const Model model = ModelArgument(model_arg).model;
-  RefuseBeyondModule(model, "crlb", /*partial_ok=*/false);
-  const bool x0_known = Flag(x0_known_arg, "x0_known");
-  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol);
-  const Vec s =
-      CheckedSigma(Numbers(sigma, "sigma"), model.state_size(), /*allow_zero=*/false, Spelling::kKeyword);
-  const Crlb c = RunInterruptible<Crlb>([model, run, s, x0_known] {
+                  const py::object& rtol, const py::object& atol, const py::object& inputs,
+                  const py::object& param_bound) {
+  Model model = ModelArgument(model_arg).model;
+  Keyworded([&] { cli::ApplyBoundFlags(BoundTexts(param_bound), &model); });
+  const int n = model.state_size();
+  const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol, inputs);
+  const std::vector<int> measured = MeasuredIndices(model);
+  const bool all = static_cast<int>(measured.size()) == n;
+  const Vec s = CheckedSigma(Numbers(sigma, "sigma"), static_cast<int>(measured.size()), /*allow_zero=*/false,
+                             Spelling::kKeyword);
+  const auto keyword = MakeX0Known(X0KnownText(x0_known_arg));
+  const std::vector<int> known = Keyworded([&] { return cli::X0KnownFlag(keyword->flag, model); });
+  auto stop = std::make_shared<std::atomic<bool>>(false);
+  const Crlb c = RunInterruptible<Crlb>([model, run, s, known, measured, all, n, stop] {
     SensitivityOptions options;
     options.sim = run.sim;
-    return ComputeCrlb(model, run.x0, run.grid, s, Unknowns::Of(model, !x0_known), options);
-  });
+    options.sim.stop = stop.get();
+    // As `hysid crlb`: every component known, ξ0 is not in θ; some: in θ, held (sd 0).
+    const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
+    Crlb c = ComputeCrlb(model, run.x0, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
+                         run.inputs.empty() ? nullptr : &run.inputs);
+    if (known.empty() || !unknowns.x0 || c.status == CrlbStatus::kSimulationFailed) return c;
+    std::vector<int> held;
+    for (const int i : known) held.push_back(unknowns.size(n) - n + i);
+    Crlb h = CrlbFromFisher(c.fisher, unknowns, c.names, held);
+    h.samples = c.samples;
+    h.jumps = c.jumps;
+    return h;
+  }, stop);
   py::dict sd;
   for (std::size_t i = 0; i < c.names.size() && c.ok(); ++i) sd[py::str(c.names[i])] = c.sd[Eigen::Index(i)];
   py::dict out;
@@ -167,8 +242,25 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
   out["fisher"] = Transposed(c.fisher);
   out["mean_e_alpha"] = c.mean_e_alpha;
   out["mean_e_beta"] = c.mean_e_beta;
+  out["mean_e_gamma"] = c.mean_e_gamma;
   out["jumps"] = c.jumps;
   out["samples"] = c.samples;
+  return out;
+}
+
+// Model.jumps: each jump map with its guard, modes and slice of β by name.
+py::list JumpMaps(const PyModel& x) {
+  const ModelSpec& spec = x.model.spec();
+  auto mode = [&](int q) { return q < 0 ? py::object(py::none()) : py::object(py::str(spec.modes[std::size_t(q)])); };
+  py::list out;
+  for (const JumpMap& map : spec.jumps) {
+    py::list beta, rows;
+    for (int i = map.beta_first; i < map.beta_first + map.beta_count; ++i) beta.append(spec.beta[std::size_t(i)].name);
+    for (const int i : map.rows) rows.append(spec.state_names[std::size_t(i)]);
+    out.append(py::dict(py::arg("name") = map.name, py::arg("guard") = spec.guards[std::size_t(map.guard)].name,
+                        py::arg("from") = mode(map.from), py::arg("to") = mode(map.to), py::arg("beta") = beta,
+                        py::arg("rows") = rows, py::arg("identity") = map.identity));
+  }
   return out;
 }
 
@@ -193,6 +285,24 @@ void BindModel(py::module_& m) {
       .def_property_readonly("name", [](const PyModel& x) { return x.model.name(); })
       .def_property_readonly("description", [](const PyModel& x) { return x.model.spec().description; })
       .def_property_readonly("state_names", [](const PyModel& x) { return x.model.spec().state_names; })
+      .def_property_readonly(
+          "measured",
+          [](const PyModel& x) {
+            std::vector<std::string> names;
+            for (const int i : MeasuredIndices(x.model)) names.push_back(x.model.spec().state_names[std::size_t(i)]);
+            return names;
+          },
+          "the states the data hold (identify's y has these columns, in this order)")
+      .def_property_readonly(
+          "modes", [](const PyModel& x) { return x.model.spec().modes; },
+          "the discrete modes by name ([]: one unnamed mode, the paper's class)")
+      .def_property_readonly("jumps", &JumpMaps,
+                             "the jump maps: name, guard, from and to (mode names; None: any mode, the mode it "
+                             "left), beta (the names of its slice of beta), rows, identity ([]: one map that "
+                             "every guard triggers)")
+      .def_property_readonly(
+          "inputs", [](const PyModel& x) { return x.model.spec().inputs; },
+          "the measured inputs by name (identify's u, simulate's and crlb's inputs)")
       .def_property_readonly(
           "parameters", [](const PyModel& x) { return Parameters(x.model); },
           "every parameter of alpha, beta and the guard parameters gamma by name")
@@ -240,15 +350,20 @@ PYBIND11_MODULE(hysid, m) {
   m.def(
       "simulate", &SimulateDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
       py::arg("dt") = py::none(), py::arg("sigma") = 0.0, py::arg("seed") = 1, py::arg("trial") = 0,
-      py::arg("rtol") = 1e-12, py::arg("atol") = 1e-12,
-      "One trajectory: dict with t, j, x and y (samples × states), dt, jumps, status, message. Ctrl-C raises "
+      py::arg("rtol") = 1e-12, py::arg("atol") = 1e-12, py::arg("inputs") = py::none(),
+      "One trajectory: dict with t, j, x and y (samples × states), u (samples × inputs, a model with inputs), "
+      "dt, jumps, status, message. inputs: a model with inputs: None (the model file's default expressions) "
+      "or {'t': times, name: values} (t left out: the sample times), linear between samples. Ctrl-C raises "
       "KeyboardInterrupt");
   BindIdentify(m);
   m.def("crlb", &CrlbDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
         py::arg("dt") = py::none(), py::arg("sigma") = 1.0, py::arg("x0_known") = false,
         py::arg("rtol") = hysid::SimOptions{}.rtol, py::arg("atol") = hysid::SimOptions{}.atol,
+        py::arg("inputs") = py::none(), py::arg("param_bound") = py::none(),
         "The Cramér–Rao lower bound as `hysid crlb`: dict with status, message, names, sd (by name), "
-        "covariance, fisher, mean_e_alpha, mean_e_beta, jumps, samples");
+        "covariance, fisher, mean_e_alpha, mean_e_beta, mean_e_gamma, jumps, samples. sigma: per measured "
+        "state; x0_known: True/'all' or state names (held: sd 0); inputs as simulate's; param_bound "
+        "{name: (lo, hi)}");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
         "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts. "
         "Ctrl-C stops it between units (the journal keeps the finished ones) and raises KeyboardInterrupt");

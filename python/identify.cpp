@@ -3,8 +3,14 @@
 // the command line builds its flags from), with their help texts and defaults in the docstring.
 #include <pybind11/stl.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
+#include <algorithm>
+#include <atomic>
 #include <map>
+#include <memory>
+#include <regex>
 #include <optional>
 #include <set>
 #include <string>
@@ -15,8 +21,11 @@
 #include <fmt/ranges.h>
 
 #include "core/identify/identifier.hpp"
+#include "core/identify/reconstruct.hpp"
 #include "core/io/sample_data.hpp"
 #include "experiments/cli/checks.hpp"
+#include "experiments/cli/cli.hpp"
+#include "experiments/cli/identify_output.hpp"
 #include "python/binding.hpp"
 #include "sim/refine/refine.hpp"
 
@@ -55,6 +64,17 @@ const std::vector<Keyword>& OwnKeywords() {
       {"refine", "'ml'",
        "'ml': maximum-likelihood output-error refinement of the recursive estimate (the dict's `refined`); "
        "'none': the recursive estimate alone"},
+      {"u", "None",
+       "a model with inputs: the measured inputs, aligned with y: a (samples, inputs) array, or a dict input "
+       "name -> one value per sample (a list of those for runs)"},
+      {"x0_known", "None",
+       "the components of x0 that are known (held at x0 in the refinement): True or 'all' for every one, "
+       "or state names (a list, or comma-separated); one chain only"},
+      {"x0", "None", "with x0_known: the initial state (one value per state; default: the model's)"},
+      {"param_bound", "None", "bounds of unknown parameters in the refinement: {name: (lo, hi)}"},
+      {"truth", "None",
+       "the truth the report compares with: {'j': the true jump counter per sample (as simulate's j), "
+       "optionally 'x0' and 'sigma' (the simulation's: the CRLB at the truth)}"},
   };
   return keywords;
 }
@@ -86,6 +106,10 @@ struct IdentifyArgs {
   bool localize = false, second_pass = false, sets = true, trace = true;
   Mat flow_shape, jump_shape;
   std::string refine = "ml";
+  py::object u = py::none(), truth = py::none();
+  std::optional<std::string> x0_known;  // as --x0-known's text
+  std::vector<double> x0;
+  std::vector<std::string> bounds;  // as --param-bound's values, NAME=LO,HI
 };
 
 // A plugin option's value as the command line's text: a number as the shortest text that reads
@@ -126,6 +150,14 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
       (name == "estimator" ? a.estimator : a.detector) = Text(value, name);
     } else if (name == "refine") {
       a.refine = Text(value, name);
+    } else if (name == "u" || name == "truth") {
+      (name == "u" ? a.u : a.truth) = py::reinterpret_borrow<py::object>(value);
+    } else if (name == "x0_known") {
+      a.x0_known = X0KnownText(value);
+    } else if (name == "x0") {
+      a.x0 = Numbers(value, name);
+    } else if (name == "param_bound") {
+      a.bounds = BoundTexts(value);
     } else if (name == "sigma") {
       a.sigma = Numbers(value, name);
     } else if (name == "max_gap") {
@@ -163,7 +195,8 @@ IdentifierSettings Settings(const IdentifyArgs& a, const Model& model) {
   s.localize = a.localize;
   s.second_pass = a.second_pass;
   s.sets = a.sets;
-  if (!a.sigma.empty()) s.sigma = CheckedSigma(a.sigma, model.state_size(), true, Spelling::kKeyword);
+  if (!a.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size())
+    s.sigma = CheckedSigma(a.sigma, model.state_size(), true, Spelling::kKeyword);
   s.data_rtol = a.data_rtol;
   s.data_atol = a.data_atol;
   try {
@@ -190,37 +223,63 @@ py::dict ByName(const std::vector<std::string>& names, const Vec& values) {
   return out;
 }
 
-// The samples of a fit: y (n × K) at k·dt, or at the times and in the chains of `chains`.
-struct FitInput {
-  Mat y;
-  double dt = 0.0;
-  std::optional<SampleData> chains;
-};
-
+// What `hysid identify` computes (RunIdentify, experiments/cli/identify.cpp): the reconstruction of
+// unmeasured states, the recursive pass, the refinement and the --json report.
 struct FitOutcome {
   IdentifyResult recursive;
-  std::optional<RefineResult> refined;
+  cli::PartialOutputs partial;
+  cli::RefineStep step;
+  nlohmann::json report;
 };
 
-// The identifier and (refine 'ml') the refinement from RefinementStart, as `hysid identify`.
-FitOutcome RunFit(const Model& model, const FitInput& in, const IdentifierSettings& settings, bool trace,
-                  bool refine) {
-  IdentifyOptions options{.trace = trace};
-  if (in.chains) {
-    options.times = in.chains->t;
-    options.chain_start = in.chains->chain_start;
+// --refine, --x0-known and --x0 as RefineArgs (the App that holds --x0-known's option with them).
+struct RefineFlags {
+  std::shared_ptr<X0KnownKeyword> known;
+  cli::RefineArgs args;
+};
+
+RefineFlags MakeRefineFlags(const IdentifyArgs& a) {
+  RefineFlags f{MakeX0Known(a.x0_known), {}};
+  f.args.refine = a.refine;
+  f.args.x0.x0 = a.x0;
+  f.args.x0_known = f.known->flag;
+  return f;
+}
+
+// Everything a fit reads, owned (it runs on its own thread: RunInterruptible).
+struct FitJob {
+  explicit FitJob(Model m) : model(std::move(m)) {}
+  Model model;
+  SampleData data;
+  IdentifierSettings settings;
+  Vec sigma;  // per measured state, or empty
+  std::vector<int> measured;
+  RefineFlags flags;
+  cli::Truth truth;
+  std::string accuracy_source;
+  bool trace = true;
+};
+
+FitOutcome RunFit(FitJob job, const std::atomic<bool>* stop) {
+  IdentifyOptions options{.trace = job.trace};
+  if (!job.data.uniform) {
+    options.times = job.data.t;
+    options.chain_start = job.data.chain_start;
   }
+  options.inputs = job.data.u;
+  std::vector<double> kinks;
   FitOutcome out;
-  out.recursive = hysid::Identify(model, in.y, in.dt, settings, options);
-  if (!refine) return out;
-  RefineOptions refine_options;
-  refine_options.sigma = settings.sigma;
-  std::vector<double> t(static_cast<std::size_t>(in.y.cols()));
-  for (std::size_t k = 0; k < t.size(); ++k)
-    t[k] = in.chains ? in.chains->t[k] : static_cast<double>(k) * in.dt;
-  out.refined =
-      RefineIdentification(model, t, in.y, in.chains ? in.chains->chain_start : std::vector<std::uint8_t>{},
-                           RefinementStart(out.recursive), refine_options);
+  out.partial = cli::Reconstruct(job.model, "", job.measured, job.sigma, job.data, options, &kinks);
+  out.recursive = hysid::Identify(job.model, job.data.y, job.data.dt, job.settings, options);
+  if (!out.partial.reconstructed.empty()) {  // the detector's statistic is the kinks'
+    out.recursive.statistic = kinks;
+    out.recursive.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
+  }
+  const nlohmann::json report =
+      cli::RecursiveJson(job.model, job.data, job.settings, job.accuracy_source, out.recursive);
+  out.step = cli::RunRefineStep(job.model, job.data, out.recursive, job.sigma, job.flags.args, out.partial,
+                                job.truth, stop);
+  out.report = cli::RefineJson(job.model, job.data, out.recursive, job.flags.args, report, out.partial, out.step);
   return out;
 }
 
@@ -261,7 +320,7 @@ py::dict RefinedDict(const RefineResult& r, const IdentifyResult& given, bool ch
   return out;
 }
 
-py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool chains) {
+py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool refine, bool chains) {
   const IdentifyResult& r = f.recursive;
   const ModelSpec& spec = model.spec();
   py::dict out;
@@ -285,7 +344,7 @@ py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool chain
   out["flow_hull"] = Transposed(r.flow_hull);
   out["jump_hull"] = Transposed(r.jump_hull);
   out["sets_skipped"] = r.sets_skipped;
-  if (f.refined) out["refined"] = RefinedDict(*f.refined, r, chains);
+  if (refine) out["refined"] = RefinedDict(f.step.result, r, chains);
   return out;
 }
 
@@ -296,8 +355,9 @@ bool IsRuns(const py::handle& y) {
   if (!IsList(y)) return false;
   try {
     return py::module_::import("numpy").attr("asarray")(y).cast<py::array>().ndim() != 2;
-  } catch (const py::error_already_set&) {
-    return true;  // ragged: arrays of different lengths, one per run
+  } catch (const py::error_already_set& e) {
+    if (!IsValueError(e)) throw;  // KeyboardInterrupt (Ctrl-C during the conversion) and the like
+    return true;                  // ragged: arrays of different lengths, one per run
   }
 }
 
@@ -320,36 +380,150 @@ std::vector<double> Times(const py::handle& t, const std::string& what) {
   return std::vector<double>(a.data(), a.data() + a.size());
 }
 
-// y and t as runs, checked as `hysid identify --data` checks its files; messages name y and t.
-SampleData RunsOf(const Model& model, const py::object& y, const py::object& t, double dt, double max_gap) {
+// One run's inputs, aligned with its K samples, as m × K: a (K, m) array (or (K,) for one input), or
+// a dict input name -> K values.
+Mat InputSamples(const py::handle& u, const ModelSpec& spec, Eigen::Index k, const std::string& what) {
+  const int m = static_cast<int>(spec.inputs.size());
+  Mat out(m, k);
+  if (py::isinstance<py::dict>(u)) {
+    const py::dict d = py::reinterpret_borrow<py::dict>(u);
+    for (const auto& [key, column] : d) {
+      const std::string name = Text(key, what);
+      if (std::find(spec.inputs.begin(), spec.inputs.end(), name) == spec.inputs.end()) {
+        throw std::invalid_argument(fmt::format("{}: '{}' is not an input of model '{}' (inputs: {})", what, name,
+                                                spec.name, fmt::join(spec.inputs, ", ")));
+      }
+    }
+    for (int i = 0; i < m; ++i) {
+      const std::string& name = spec.inputs[static_cast<std::size_t>(i)];
+      if (!d.contains(name)) throw std::invalid_argument(fmt::format("{}: no values for input '{}'", what, name));
+      const std::vector<double> v = Times(d[py::str(name)], fmt::format("{}['{}']", what, name));
+      if (static_cast<Eigen::Index>(v.size()) != k) {
+        throw std::invalid_argument(
+            fmt::format("{}['{}'] has {} values; y has {} samples", what, name, v.size(), k));
+      }
+      out.row(i) = Eigen::Map<const Eigen::RowVectorXd>(v.data(), k);
+    }
+    return out;
+  }
+  const py::array_t<double> a = RealArray(u, what);
+  if (m == 1 && a.ndim() == 1 && a.shape(0) == k) return Eigen::Map<const Mat>(a.data(), 1, k);
+  if (a.ndim() != 2 || a.shape(0) != k || a.shape(1) != m) {
+    throw std::invalid_argument(fmt::format("{} must be a ({}, {}) array aligned with y (inputs {}); got shape {}",
+                                            what, k, m, fmt::join(spec.inputs, ", "), ShapeText(a)));
+  }
+  return Eigen::Map<const Mat>(a.data(), m, k);
+}
+
+// The per-run list of `value` (a list of as many as there are runs), or the one run's value.
+py::object RunItem(const py::object& value, bool runs, std::size_t r, std::size_t count, const std::string& name,
+                   const std::string& kind = "1-D arrays") {
+  if (!runs) return value;
+  if (!IsList(value) || py::len(value) != count) {
+    throw std::invalid_argument(
+        fmt::format("{}: y is a list of {} runs; give {} as a list of as many {}", name, count, name, kind));
+  }
+  return py::list(value)[r];
+}
+
+// truth['j'] of one run: the true jump counter per sample.
+Eigen::RowVectorXd JumpCounter(const py::object& j, Eigen::Index k, const std::string& what) {
+  const std::vector<double> v = Times(j, what);
+  if (static_cast<Eigen::Index>(v.size()) != k)
+    throw std::invalid_argument(fmt::format("{} has {} values; y has {} samples", what, v.size(), k));
+  return Eigen::Map<const Eigen::RowVectorXd>(v.data(), k);
+}
+
+// The true jump counter as a data file's column j is read: never decreasing within a run, and the runs
+// joined without a step (run r's counter continues from the last value of the runs before it).
+std::vector<int> JoinedCounter(const SampleData& data, const Eigen::RowVectorXd& raw, bool runs) {
+  std::vector<int> out;
+  long offset = 0;
+  for (Eigen::Index k = 0; k < raw.size(); ++k) {
+    const auto ks = static_cast<std::size_t>(k);
+    const long v = std::lround(raw[k]);
+    if (k > 0 && data.run[ks] != data.run[ks - 1]) {
+      offset = out.back() - v;
+    } else if (k > 0 && v < std::lround(raw[k - 1])) {
+      const std::string r = runs ? fmt::format("[{}]", data.run[ks]) : "";
+      throw std::invalid_argument(fmt::format("truth['j']{}[{}]: {} after {}: a jump counter never decreases within a run",
+                                              r, data.line[ks] - 1, v, std::lround(raw[k - 1])));
+    }
+    out.push_back(static_cast<int>(offset + v));
+  }
+  return out;
+}
+
+// y, u and truth['j'] as runs, checked as `hysid identify --data` checks its files (one table of
+// columns y, u, j per run); messages name y, u, t and truth.
+SampleData RunsOf(const Model& model, const IdentifyArgs& args, const py::object& y, const py::object& t, double dt) {
+  const ModelSpec& spec = model.spec();
+  const std::vector<int> measured = MeasuredIndices(model);
+  const int ny = static_cast<int>(measured.size()), m = model.input_size();
+  if (m == 0 && !args.u.is_none())
+    throw std::invalid_argument(fmt::format("u: model '{}' has no inputs", spec.name));
+  if (m > 0 && args.u.is_none()) {
+    throw std::invalid_argument(fmt::format("u: model '{}' has measured inputs ({}): give u, aligned with y",
+                                            spec.name, fmt::join(spec.inputs, ", ")));
+  }
+  py::object j = py::none();
+  if (!args.truth.is_none()) {
+    if (!py::isinstance<py::dict>(args.truth) || !args.truth.contains("j"))
+      throw std::invalid_argument("truth: expected a dict with 'j' (and optionally 'x0', 'sigma')");
+    j = args.truth["j"];
+  }
   const bool runs = IsRuns(y);
   const py::list ys = runs ? py::list(y) : py::list(py::make_tuple(y));
-  if (ys.empty())
-    throw std::invalid_argument("y: an empty list; give a (samples, n) array, or a list of runs");
-  std::vector<Mat> samples;
+  if (ys.empty()) throw std::invalid_argument("y: an empty list; give a (samples, n) array, or a list of runs");
+  std::vector<Mat> columns;
   std::vector<std::vector<double>> times(ys.size());
-  for (std::size_t r = 0; r < ys.size(); ++r)
-    samples.push_back(Samples(ys[r], model.state_size(), runs ? fmt::format("y[{}]", r) : "y"));
-  if (!t.is_none()) {
-    if (runs && (!IsList(t) || py::len(t) != ys.size())) {
-      throw std::invalid_argument(
-          fmt::format("t: y is a list of {} runs; give t as a list of as many 1-D arrays", ys.size()));
-    }
-    for (std::size_t r = 0; r < ys.size(); ++r)
-      times[r] = Times(runs ? py::object(py::list(t)[r]) : t, runs ? fmt::format("t[{}]", r) : "t");
+  for (std::size_t r = 0; r < ys.size(); ++r) {
+    const std::string at = runs ? fmt::format("[{}]", r) : "";
+    const Mat yr = Samples(ys[r], ny, "y" + at);
+    Mat table(ny + m + (j.is_none() ? 0 : 1), yr.cols());
+    table.topRows(ny) = yr;
+    if (m > 0) table.middleRows(ny, m) = InputSamples(RunItem(args.u, runs, r, ys.size(), "u", "arrays or dicts"), spec, yr.cols(), "u" + at);
+    if (!j.is_none()) table.bottomRows(1) = JumpCounter(RunItem(j, runs, r, ys.size(), "truth['j']"), yr.cols(), "truth['j']" + at);
+    columns.push_back(std::move(table));
   }
+  if (!t.is_none()) {
+    for (std::size_t r = 0; r < ys.size(); ++r)
+      times[r] = Times(RunItem(t, runs, r, ys.size(), "t"), runs ? fmt::format("t[{}]", r) : "t");
+  }
+  SampleData data;
   try {
     py::gil_scoped_release release;
-    return SampleDataFromArrays(times, samples, dt, {.max_gap = max_gap});
+    data = SampleDataFromArrays(times, columns, dt, {.max_gap = args.max_gap.value_or(0.0)});
   } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(ArrayMessage(e.what(), runs));
+    throw std::invalid_argument(ArrayMessage(e.what(), runs, ny, m));
   }
+  if (!j.is_none()) data.j = JoinedCounter(data, data.y.row(ny + m), runs);
+  data.u = data.y.middleRows(ny, m);
+  const Mat states = data.y.topRows(ny);
+  data.y = states;
+  data.state_columns.clear();
+  for (const int i : measured) data.state_columns.push_back(spec.state_names[static_cast<std::size_t>(i)]);
+  data.input_columns = spec.inputs;
+  return data;
 }
+
+// The truth's x0 and sigma (one value, or one per state) for the CRLB at the truth; none unless both
+// are given and the data are one uniform run (as the command line's sidecar).
+cli::Truth TruthOf(const IdentifyArgs& args, const Model& model, const SampleData& data) {
+  if (args.truth.is_none() || !data.uniform || !args.truth.contains("x0") || !args.truth.contains("sigma")) return {};
+  const int n = model.state_size();
+  const std::vector<double> x0 = Numbers(args.truth["x0"], "truth['x0']");
+  if (static_cast<int>(x0.size()) != n)
+    throw std::invalid_argument(fmt::format("truth['x0'] has {} values; model '{}' has {} states", x0.size(), model.name(), n));
+  return {Eigen::Map<const Vec>(x0.data(), n),
+          CheckedSigma(Numbers(args.truth["sigma"], "truth['sigma']"), n, /*allow_zero=*/true, Spelling::kKeyword)};
+}
+
+py::object FromJson(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
 
 py::dict Identify(const py::object& model_arg, const py::object& y, const py::object& dt_arg,
                   const py::object& t, const py::kwargs& kwargs) {
-  const Model model = ModelArgument(model_arg).model;
-  RefuseBeyondModule(model, "identify", /*partial_ok=*/false);
+  Model model = ModelArgument(model_arg).model;
   const IdentifyArgs args = ParseKeywords(kwargs);
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
@@ -358,33 +532,37 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
     throw std::invalid_argument(fmt::format("max_gap = {}: must be a number > 0 (seconds)", *args.max_gap));
   }
   if (t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
-  const IdentifierSettings settings = Settings(args, model);
+  Keyworded([&] { cli::ApplyBoundFlags(args.bounds, &model); });
+  FitJob job(model);
+  job.settings = Settings(args, model);
+  job.measured = MeasuredIndices(model);
+  if (!args.sigma.empty())
+    job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), true, Spelling::kKeyword);
   // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
-  SampleData data = RunsOf(model, y, t, dt.value_or(0.0), args.max_gap.value_or(0.0));
-  if (dt && !t.is_none() && !(std::abs(data.dt - *dt) <= 1e-6 * *dt)) {
+  job.data = RunsOf(model, args, y, t, dt.value_or(0.0));
+  if (dt && !t.is_none() && !(std::abs(job.data.dt - *dt) <= 1e-6 * *dt)) {
     throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree",
-                                            *dt, data.uniform ? "the" : "the median", data.dt));
+                                            *dt, job.data.uniform ? "the" : "the median", job.data.dt));
   }
-  FitInput in;
-  const bool grid =
-      t.is_none() && !args.max_gap && !IsRuns(y) && static_cast<std::size_t>(data.y.cols()) == py::len(y);
-  if (grid) {  // one run on the grid k·dt, no sample missing: the grid's own dt
-    in.y = std::move(data.y);
-    in.dt = *dt;
-  } else {
-    in.y = data.y;
-    in.dt = data.dt;
-    if (!data.uniform) in.chains = data;
-  }
-  const bool refine = args.refine == "ml", trace = args.trace;
-  const FitOutcome f = RunInterruptible<FitOutcome>(
-      [model, in, settings, trace, refine] { return RunFit(model, in, settings, trace, refine); });
-  py::dict out = FitDict(model, f, trace, in.chains.has_value());
+  const bool grid = t.is_none() && !args.max_gap && !IsRuns(y) &&
+                    static_cast<std::size_t>(job.data.y.cols()) == py::len(y);
+  if (grid) job.data.dt = *dt;  // one run on the grid k·dt, no sample missing: the grid's own dt
+  job.flags = MakeRefineFlags(args);
+  Keyworded([&] { cli::CheckRefineArgs(job.flags.args, model, job.data); });
+  job.truth = TruthOf(args, model, job.data);
+  job.accuracy_source = kwargs.contains("data_rtol") || kwargs.contains("data_atol") ? "as given" : "none given";
+  job.trace = args.trace;
+  const bool refine = args.refine == "ml", chains = !job.data.uniform;
+  auto stop = std::make_shared<std::atomic<bool>>(false);
+  const FitOutcome f =
+      RunInterruptible<FitOutcome>([job, stop] { return RunFit(job, stop.get()); }, stop);
+  py::dict out = FitDict(model, f, args.trace, refine, chains);
+  out["report"] = FromJson(f.report);
   if (!grid) {
-    out["t"] = py::array_t<double>(py::ssize_t(data.t.size()), data.t.data());
-    out["run"] = py::array_t<int>(py::ssize_t(data.run.size()), data.run.data());
-    out["chains"] = data.chains();
-    out["missing_rows"] = data.missing_rows;
+    out["t"] = py::array_t<double>(py::ssize_t(job.data.t.size()), job.data.t.data());
+    out["run"] = py::array_t<int>(py::ssize_t(job.data.run.size()), job.data.run.data());
+    out["chains"] = job.data.chains();
+    out["missing_rows"] = job.data.missing_rows;
   }
   return out;
 }
@@ -393,11 +571,13 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
 std::string Docstring() {
   std::string doc =
       "The identifier on samples y, as `hysid identify` (every flag of the command line is a keyword; the "
-      "same checks and messages). y: (samples, states) at spacing dt, or at times t (one per sample); a "
-      "list of such arrays (and of times) is several runs of one system (alpha, beta shared). A row with "
-      "a NaN is left out (an infinite value is refused) and restarts the chain, as does a step longer than "
-      "max_gap. An unknown keyword, and an option the chosen detector or estimator does not read, is "
-      "refused.\n\n"
+      "same checks and messages). y: (samples, measured states) at spacing dt, or at times t (one per "
+      "sample): the columns of Model.measured (every state unless the model says otherwise; the others "
+      "are reconstructed as a start and the refinement fits the measured ones); u: the measured inputs "
+      "aligned with y (a model with inputs); a list of such arrays (and of times and inputs) is several runs "
+      "of one system (alpha, beta shared). A row with a NaN is left out (an infinite value is refused) and "
+      "restarts the chain, as does a step longer than max_gap. An unknown keyword, and an option the chosen "
+      "detector or estimator does not read, is refused.\n\n"
       "Returns a dict: alpha, beta (full vectors), estimates (the unknowns by name), gamma, statistic, "
       "threshold, alpha_trace, beta_trace, jumps_detected, flow_status, jump_status, flow_reason, "
       "jump_reason, flow_hull, jump_hull, sets_skipped; with refine='ml' also refined (the keys of "
@@ -406,7 +586,9 @@ std::string Docstring() {
       "span_reason, model_jumps, start_repair, mended, start; with runs or times also chain_x0, "
       "chain_samples_used, chain_span_reason, chains_used, chains_skipped). With t, runs, NaN rows or "
       "max_gap the per-sample arrays are over the samples used, listed in t and run, with chains and "
-      "missing_rows. Ctrl-C raises KeyboardInterrupt.\n\nKeywords:\n";
+      "missing_rows. report: what `hysid identify --json` writes, key for key (docs/outputs.md: settings, "
+      "data, detections with their times, chains, truth with truth=, crlb, checks, measured, "
+      "reconstructed, ...). Ctrl-C raises KeyboardInterrupt and stops the refinement.\n\nKeywords:\n";
   for (const Keyword& k : OwnKeywords())
     doc += fmt::format("  {} = {}: {}\n", k.name, k.default_text, k.help);
   for (const PluginOptionArgument& a : PluginOptionArguments()) {

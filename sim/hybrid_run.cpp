@@ -230,6 +230,10 @@ bool Engine::DisableRoots() {
 }
 
 int Engine::Step(double tstop, double* tret) {
+  if (options_.stop != nullptr && options_.stop->load()) {
+    Fail(SimStop::kSolverFailure, fmt::format("stopped at t = {:.17g} (SimOptions::stop)", t_));
+    return -1;
+  }
   if (steps_ >= options_.max_steps) {
     Fail(SimStop::kSolverFailure,
          fmt::format("step budget of {} CVODE steps exhausted at t = {:.17g}", options_.max_steps, t_));

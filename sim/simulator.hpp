@@ -13,6 +13,7 @@
 // Outcome:  a SimStatus value; the simulator never throws for a numerical outcome.
 #pragma once
 
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,9 @@ struct SimOptions {
   int zeno_window = 3;
   // A chain of jumps at one instant (ξ+ ∈ D again) longer than this is Zeno at that instant.
   int max_jumps_at_one_time = 100;
+  // Raised (by another thread: Ctrl-C in the Python module): the run stops before its next CVODE step
+  // (status kSolverFailure, "stopped"). Null: never.
+  const std::atomic<bool>* stop = nullptr;
   // Field-naming message "SimOptions::rtol = -1. Violated constraint: rtol > 0".
   bool IsValid(std::string* error) const;
 };

@@ -1,6 +1,7 @@
 // The hysid command line: one subcommand per file, each registered by an Add*Command function.
 #pragma once
 
+#include <atomic>
 #include <charconv>
 #include <cstdint>
 #include <optional>
@@ -17,6 +18,8 @@
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
+#include "sim/refine/refine.hpp"
+#include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid::cli {
@@ -121,6 +124,33 @@ void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleDat
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
                     const PartialOutputs& partial = {});
+
+// What RefineAndReport computes and reports, for a caller with its own output (the Python module).
+// The truth the estimates are compared with: the simulation's x0 and σ (the command line: from the
+// sidecar of data written by `hysid simulate`); empty: none.
+struct Truth {
+  Vec x0, sigma;
+};
+struct RefineStep {
+  RefineResult result;
+  RefineOptions options;
+  std::vector<int> known;  // --x0-known
+  Crlb bound;              // at the truth (not ok without one)
+  HybridParameters truth;
+};
+// The refinement (--refine ml) or the recursive estimate (none), and the bound at the truth.
+// `stop` (may be null) ends the refinement early (RefineOptions::stop).
+RefineStep RunRefineStep(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                         const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial,
+                         const Truth& truth, const std::atomic<bool>* stop = nullptr);
+// --json: `report` (RecursiveJson) with the refinement's part.
+nlohmann::json RefineJson(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                          const RefineArgs& args, const nlohmann::json& report, const PartialOutputs& partial,
+                          const RefineStep& step);
+// Only some states measured: the others reconstructed from the measured ones (identify.cpp).
+PartialOutputs Reconstruct(const Model& model, const std::string& model_file, const std::vector<int>& measured,
+                           const Vec& sigma, SampleData& data, IdentifyOptions& options,
+                           std::vector<double>* statistic);
 
 // The sample grid of --t-end and --dt (or the model's defaults); BadFlag when either is not a finite
 // positive number or the grid exceeds the samples limit (core/io/limits.hpp).

@@ -361,6 +361,8 @@ void CheckOutputs(const IdentifyArgs& args) {
   CheckOutputPaths(outputs, inputs);
 }
 
+}  // namespace
+
 // Only some states measured: the others reconstructed from the measured ones on the flow segments
 // between the kinks detected in them (core/identify/reconstruct.hpp), data.y replaced by the n × K
 // reconstruction and the detected jumps given to the identifier as labels. Returns what was done.
@@ -395,6 +397,8 @@ PartialOutputs Reconstruct(const Model& model, const std::string& model_file, co
   *statistic = r.statistic;
   return partial;
 }
+
+namespace {
 
 // Identify on the data: the times and chain starts when the data are not uniform (each pair with its
 // own step, chains restarted at runs, gaps and missing rows) and the model's inputs (m × K, read by

@@ -20,10 +20,6 @@ namespace {
 // The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json (the model's
 // α, β are the true values: identify sets them from the same sidecar when it is of this model).
 // Empty when there is no such sidecar.
-struct Truth {
-  Vec x0, sigma;
-};
-
 Truth ReadTruth(const std::string& data_path, int n) {
   std::ifstream in(std::filesystem::path(data_path).replace_extension(".json"));
   if (!in) return {};
@@ -211,6 +207,11 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
   }
 }
 
+// The context of the data's first sample: its time and inputs (C and D of a model with inputs read u).
+Context FirstSample(const SampleData& data) {
+  return {.t = data.t.front(), .u = data.u.rows() > 0 ? data.u.col(0).data() : nullptr};
+}
+
 }  // namespace
 
 void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleData& data) {
@@ -223,7 +224,7 @@ void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleDat
                         "is one chain's",
                         data.chains()));
   }
-  InitialStateFlag(args.x0, model);  // its size and C ∪ D
+  InitialStateFlag(args.x0, model, FirstSample(data));  // its size and C ∪ D
 }
 
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
@@ -243,57 +244,74 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
                   "(docs/outputs.md)");
 }
 
-int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
-                    const PartialOutputs& partial) {
-  const std::vector<int> known = X0KnownFlag(args.x0_known, model);
-  RefineResult r;
-  RefineOptions options;
-  options.sigma = sigma;
-  if (!partial.reconstructed.empty()) options.measured = partial.measured;
-  options.x0_known = known;
-  if (!known.empty()) options.x0 = InitialStateFlag(args.x0, model);
+RefineStep RunRefineStep(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                         const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial,
+                         const Truth& truth, const std::atomic<bool>* stop) {
+  RefineStep s;
+  s.options.stop = stop;
+  s.known = X0KnownFlag(args.x0_known, model);
+  RefineResult& r = s.result;
+  s.options.sigma = sigma;
+  if (!partial.reconstructed.empty()) s.options.measured = partial.measured;
+  s.options.x0_known = s.known;
+  if (!s.known.empty()) s.options.x0 = InitialStateFlag(args.x0, model, FirstSample(data));
   if (args.refine == "ml") {
-    r = RunRefinement(model, data, recursive, options);
+    r = RunRefinement(model, data, recursive, s.options);
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
     r.start = r.estimate =
         HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
   }
-  const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const long used = args.refine == "ml" ? r.samples_used : data.y.cols();
-  const Crlb bound = TruthBound(model, truth, used, data,
-                                partial.measured.empty() ? MeasuredIndices(model) : partial.measured, known);
-  const HybridParameters truth_params = HybridParameters::Of(model, truth.x0);
+  s.bound = TruthBound(model, truth, used, data, partial.measured.empty() ? MeasuredIndices(model) : partial.measured,
+                       s.known);
+  s.truth = HybridParameters::Of(model, truth.x0);
+  return s;
+}
+
+nlohmann::json RefineJson(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                          const RefineArgs& args, const nlohmann::json& report, const PartialOutputs& partial,
+                          const RefineStep& step) {
+  const RefineResult& r = step.result;
+  nlohmann::json j = ToJson(report, r, recursive, args.refine, step.options);
+  j["samples"] = data.y.cols();
+  j["min_chain_samples"] = 2 * model.state_size() + 2;
+  j["fit_t_end"] = data.uniform && r.samples_used > 0
+                       ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt)
+                       : nlohmann::json();
+  if (step.bound.ok())
+    j["crlb_sd"] = std::vector<double>(step.bound.sd.data(), step.bound.sd.data() + step.bound.sd.size());
+  j["crlb"] = CrlbJson(r, step.truth, step.bound);
+  // The states the data held, those reconstructed as the recursive pass's start, and x0 held.
+  auto named = [&](const std::vector<int>& indices) {
+    std::vector<std::string> out;
+    for (const int i : indices) out.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
+    return out;
+  };
+  j["measured"] = named(partial.measured.empty() ? MeasuredIndices(model) : partial.measured);
+  j["reconstructed"] = named(partial.reconstructed);
+  if (!partial.reconstruction.empty()) j["reconstruction"] = partial.reconstruction;
+  j["x0_known"] = named(step.known);
+  return j;
+}
+
+int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
+                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
+                    const PartialOutputs& partial) {
+  const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
+  const RefineStep step = RunRefineStep(model, data, recursive, sigma, args, partial, truth);
+  const RefineResult& r = step.result;
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
-  PrintEstimates(r, truth_params, bound);
-  if (bound.ok()) {
+  PrintEstimates(r, step.truth, step.bound);
+  if (step.bound.ok()) {
     std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g%s\n",
-                std::filesystem::path(data.path).replace_extension(".json").c_str(), bound.mean_e_alpha,
-                bound.mean_e_beta,
-                r.unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.4g}", bound.mean_e_gamma).c_str());
+                std::filesystem::path(data.path).replace_extension(".json").c_str(), step.bound.mean_e_alpha,
+                step.bound.mean_e_beta,
+                r.unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.4g}", step.bound.mean_e_gamma).c_str());
   }
   if (!args.json.empty()) {
-    nlohmann::json j = ToJson(report, r, recursive, args.refine, options);
-    j["samples"] = data.y.cols();
-    j["min_chain_samples"] = 2 * model.state_size() + 2;
-    j["fit_t_end"] = data.uniform && r.samples_used > 0
-                         ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt)
-                         : nlohmann::json();
-    if (bound.ok()) j["crlb_sd"] = std::vector<double>(bound.sd.data(), bound.sd.data() + bound.sd.size());
-    j["crlb"] = CrlbJson(r, truth_params, bound);
-    // The states the data held, those reconstructed as the recursive pass's start, and x0 held.
-    auto named = [&](const std::vector<int>& indices) {
-      std::vector<std::string> out;
-      for (const int i : indices) out.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
-      return out;
-    };
-    j["measured"] = named(partial.measured.empty() ? MeasuredIndices(model) : partial.measured);
-    j["reconstructed"] = named(partial.reconstructed);
-    if (!partial.reconstruction.empty()) j["reconstruction"] = partial.reconstruction;
-    j["x0_known"] = named(known);
-    WriteFileAtomically(args.json, j.dump(2) + "\n");
+    WriteFileAtomically(args.json, RefineJson(model, data, recursive, args, report, partial, step).dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
   std::printf("status: %s\n", args.refine == "none" ? "recursive (no refinement)" : ToString(r.status));

@@ -261,11 +261,13 @@ class UnitRunner {
                          &noisy,
                          truth.sim_error,
                          config_.grid.refine_axis ? &truth.crlb : nullptr,
-                         truth.inputs.empty() ? nullptr : &truth.inputs};
+                         truth.inputs.empty() ? nullptr : &truth.inputs,
+                         stop_};
     for (const long id : ids) {
       if (Stopped()) return;
       const auto start = Clock::now();
       std::vector<std::string> row = RunTrial(config_, models_, CellOf(id), id, trial, in);
+      if (Stopped()) return;  // its refinement may have ended early: not journaled, run again on resume
       row.push_back(
           fmt::format("{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
       journal_->Append(row);

@@ -428,6 +428,7 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     // refine_failed, no metrics; α̂, β̂ are the recursive estimate it kept), so that no cell averages
     // recursive estimates into its refined ones.
     RefineOptions ro;
+    ro.stop = in.stop;
     if (partial) ro.measured = measured;
     if (config.known_sigma && cell.sigma > 0) {
       ro.sigma = Vec::Constant(static_cast<Eigen::Index>(measured.size()), cell.sigma);

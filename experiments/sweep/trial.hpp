@@ -7,6 +7,7 @@
 // inside the identifier becomes the row's `status` (and `message`) with empty metrics.
 #pragma once
 
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,8 @@ struct TrialInputs {
   // A model with inputs: the inputs the truth was simulated with (the model file's defaults at the
   // sample times), which the identifier and the refinement read at the samples; else null.
   const InputSignal* inputs = nullptr;
+  // Raised: the refinement ends early (RefineOptions::stop); the caller drops the row. May be null.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 // The group's CRLB at σ = 1 for the model's unknowns (α, β, ξ0) over (x0, δt, t_end) with the

@@ -304,9 +304,11 @@ constexpr double kStepStandardErrors = 1e-3;
 // below kStepStandardErrors. Reads the parameter blocks, which Ceres updates every iteration.
 class WithinStandardErrors final : public ceres::IterationCallback {
  public:
-  WithinStandardErrors(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0)
-      : problem_(problem), theta_(theta), x0_(x0) {}
+  WithinStandardErrors(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0,
+                       const std::atomic<bool>* stop)
+      : problem_(problem), theta_(theta), x0_(x0), stop_(stop) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (stop_ != nullptr && stop_->load()) return ceres::SOLVER_ABORT;  // RefineOptions::stop
     if (!summary.step_is_successful) return ceres::SOLVER_CONTINUE;
     return NewtonDecrement(problem_, theta_, x0_) < kStepStandardErrors ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
                                                                         : ceres::SOLVER_CONTINUE;
@@ -316,6 +318,7 @@ class WithinStandardErrors final : public ceres::IterationCallback {
   const FitProblem& problem_;
   const Vec& theta_;
   const std::vector<Vec>& x0_;
+  const std::atomic<bool>* stop_;
 };
 
 // The Ceres solve: Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, ended
@@ -350,7 +353,7 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   so.num_threads = 1;
-  WithinStandardErrors within(problem, theta, x0);
+  WithinStandardErrors within(problem, theta, x0, options.stop);
   so.callbacks.push_back(&within);
   so.update_state_every_iteration = true;
   static const bool quiet = [] {  // Ceres reports a failed evaluation through glog as well

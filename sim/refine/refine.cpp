@@ -257,7 +257,7 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
   std::vector<int> retries(chains.size(), 0);
   std::vector<std::uint8_t> mended(chains.size(), 0);
   const long margin = SpanMargin(options), shortest = 2L * model.state_size() + 2;
-  while (SpanRetryable(r.status) && failure.chain >= 0) {
+  while (SpanRetryable(r.status) && failure.chain >= 0 && !options.stopped()) {
     const auto c = static_cast<std::size_t>(failure.chain);
     if (options.mend_detections && !mended[c] && !failure.model_jumps.empty()) {
       mended[c] = 1;
@@ -589,13 +589,13 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
   // repaired start may fit more.
   FitStart repaired;
   std::string summary;
-  if ((!r.ok() || r.samples_used < first_used) && options.repair_start && model.input_size() == 0 &&
+  if ((!r.ok() || r.samples_used < first_used) && options.repair_start && model.input_size() == 0 && !options.stopped() &&
       r.status != RefineStatus::kTooFewSamples &&
       RepairChains(model, chains, recursive, options, &repaired, &summary)) {
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
   }
   // Still not ok, or ok only on cut spans: a fit grown from a short span may follow the whole data.
-  if ((!r.ok() || r.samples_used < first_used) && options.grow_span &&
+  if ((!r.ok() || r.samples_used < first_used) && options.grow_span && !options.stopped() &&
       r.status != RefineStatus::kTooFewSamples) {
     RefineResult grown = GrowSpan(model, chains, recursive, options);
     if (grown.ok() && grown.samples_used > (r.ok() ? r.samples_used : 0)) {

@@ -37,6 +37,7 @@
 // (RefineOptions::grow_span) and adopted when its fit on all samples passes every check.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -114,6 +115,10 @@ struct RefineOptions {
   // all samples passes every check (it fits more samples); false: never.
   bool grow_span = true;
   StartRepairOptions start_repair;
+  // Raised (by another thread: Ctrl-C in the Python module): the solve ends at its next iteration and
+  // nothing more is tried (the result is then not ok). Null: never.
+  const std::atomic<bool>* stop = nullptr;
+  bool stopped() const { return stop != nullptr && stop->load(); }
   // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
   bool IsValid(std::string* error) const;
 };

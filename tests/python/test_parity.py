@@ -198,3 +198,247 @@ def test_noise_shapes_give_the_cli_numbers(data, tmp_path):
     with pytest.raises(ValueError) as e:
         hysid.identify(model, y, t=t, flow_noise_shape=[1.0, 2.0, 3.0])
     assert str(e.value) == keyword(message)
+
+
+# ---- the examples beyond the paper's class: measured inputs, height only, a guard parameter ----
+
+EXAMPLES = {name: str(SOURCE / "examples" / name / f"{name}.toml") for name in ("wall", "driven-oscillator", "drag-ball")}
+
+
+@pytest.fixture(scope="module", params=sorted(EXAMPLES))
+def example(request, tmp_path_factory):
+    """(model file, csv, arguments of hysid.identify): `hysid simulate` of the example with its default inputs,
+    read as the command line reads it: the measured states' columns, the inputs' columns, j and the sidecar's
+    truth (x0, sigma)."""
+    model = EXAMPLES[request.param]
+    csv = tmp_path_factory.mktemp(request.param) / "data.csv"
+    subprocess.run([BIN, "simulate", "--model-file", model, "--sigma", "0.001", "--seed", "3", "--t-end", "8",
+                    "--out", str(csv)], check=True, capture_output=True)
+    with open(csv) as f:
+        header = f.readline().strip().split(",")
+    table = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
+    column = {name: table[:, i] for i, name in enumerate(header)}
+    m = hysid.Model(model)
+    sidecar = json.loads(csv.with_suffix(".json").read_text())
+    args = {"y": np.column_stack([column[s] for s in m.measured]), "t": column["t"],
+            "truth": {"j": column["j"], "x0": sidecar["x0"], "sigma": sidecar["sigma"]}}
+    if m.inputs:
+        args["u"] = {name: column[name] for name in m.inputs}
+    return model, csv, args
+
+
+def key_differences(py, cli, path="report"):
+    """Where the dict's key tree differs from that of the command line's --json (derived from the JSON
+    itself: a key the command line gains is missing here until Python carries it)."""
+    if isinstance(cli, dict):
+        if not isinstance(py, dict):
+            return [f"{path}: {type(py).__name__} where --json has an object"]
+        out = [f"{path}.{k}: missing from the dict" for k in cli.keys() - py.keys()]
+        out += [f"{path}.{k}: not in --json" for k in py.keys() - cli.keys()]
+        for k in cli.keys() & py.keys():
+            out += key_differences(py[k], cli[k], f"{path}.{k}")
+        return out
+    if isinstance(cli, list):
+        if not isinstance(py, list) or len(py) != len(cli):
+            return [f"{path}: {py!r:.60} where --json has a list of {len(cli)}"]
+        return [d for i, (a, b) in enumerate(zip(py, cli)) for d in key_differences(a, b, f"{path}[{i}]")]
+    if (cli is None) != (py is None):
+        return [f"{path}: {py!r:.60} where --json has {cli!r:.60}"]
+    return []
+
+
+def value_differences(py, cli, path="report"):
+    """Where the values differ (numbers exactly: JSON carries every digit)."""
+    if isinstance(cli, dict):
+        return [d for k in cli for d in value_differences(py.get(k), cli[k], f"{path}.{k}")]
+    if isinstance(cli, list):
+        return [d for i, (a, b) in enumerate(zip(py, cli)) for d in value_differences(a, b, f"{path}[{i}]")]
+    return [] if py == cli else [f"{path}: {py!r} != {cli!r}"]
+
+
+# The data's own names: the file (or "run 1" for arrays), where its accuracy came from, and line numbers
+# (a file's lines count its header; an array's rows are its samples from 1).
+def named_by_the_source(path):
+    return path in {"report.data.path", "report.data.runs[0]", "report.settings.data_accuracy_source"} or \
+        re.search(r"\.(line|first_line|first_missing_line)$", path) is not None
+
+
+def cli_report(model, csv, tmp_path, flags):
+    out = tmp_path / "fit.json"
+    p = subprocess.run([BIN, "identify", "--model-file", model, "--data", str(csv), *flags, "--json", str(out)],
+                       capture_output=True, text=True)
+    assert p.returncode in (0, 1), p.stderr
+    return json.loads(out.read_text())
+
+
+EXAMPLE_CASES = [("defaults", {}, []),
+                 ("refine none", {"refine": "none"}, ["--refine", "none"]),
+                 ("sigma", {"sigma": 0.001}, ["--sigma", "0.001"]),
+                 ("x0 known", {"x0_known": True}, ["--x0-known", "all"]),
+                 ("bounded", {"param_bound": {"k": (0.001, 100.0)}}, ["--param-bound", "k=0.001,100.0"])]
+
+
+@pytest.mark.parametrize("name,kwargs,flags", EXAMPLE_CASES, ids=[c[0] for c in EXAMPLE_CASES])
+def test_examples_give_the_cli_report(example, tmp_path, name, kwargs, flags):
+    """identify on the examples (measured inputs, height only, an unknown wall position): the dict's `report`
+    is `hysid identify --json` on the same data, key for key and number for number, truth and CRLB included."""
+    model, csv, args = example
+    m = hysid.Model(model)
+    if "param_bound" in kwargs and "k" not in m.parameters:
+        pytest.skip("no parameter k")
+    if "x0_known" in kwargs:
+        kwargs = {**kwargs, "x0": list(args["truth"]["x0"])}
+        flags = [*flags, "--x0", ",".join(map(repr, args["truth"]["x0"]))]
+    accuracy = {"data_rtol": 1e-12, "data_atol": 1e-12}  # the sidecar's, which the command line reads
+    fit = hysid.identify(model, **args, **accuracy, **kwargs)
+    cli = cli_report(model, csv, tmp_path, [*flags, "--data-rtol", "1e-12", "--data-atol", "1e-12"])
+    assert key_differences(fit["report"], cli) == []
+    assert [d for d in value_differences(fit["report"], cli) if not named_by_the_source(d.split(":")[0])] == []
+    assert cli["truth"] is not None and fit["report"]["truth"]["tp"] == cli["truth"]["tp"]
+    if fit.get("refined"):
+        assert list(fit["refined"]["estimates"].values()) == cli["estimate"]
+
+
+def test_the_report_carries_every_key_of_the_cli_json(paper_data_csv, tmp_path):
+    """A built-in model, several runs with a gap and a second pass: every key of --json (nested) is in the
+    dict's report, and no other."""
+    model, csv, t, y = paper_data_csv
+    fit = hysid.identify(model, [y[:1500], y[1500:]], t=[t[:1500], t[1500:]], second_pass=True, max_gap=0.25)
+    out = tmp_path / "fit.json"
+    head = csv.read_text().splitlines()
+    (tmp_path / "a.csv").write_text("\n".join(head[:1501]) + "\n")
+    (tmp_path / "b.csv").write_text("\n".join([head[0], *head[1501:]]) + "\n")
+    p = subprocess.run([BIN, "identify", *model_flags(model), "--data", str(tmp_path / "a.csv"), "--data",
+                        str(tmp_path / "b.csv"), "--second-pass", "--max-gap", "0.25", "--json", str(out)],
+                       capture_output=True, text=True)
+    assert p.returncode in (0, 1), p.stderr
+    cli = json.loads(out.read_text())
+    assert key_differences(fit["report"], cli) == []
+    assert fit["report"]["detections"] and fit["report"]["detections"][0]["t"] == cli["detections"][0]["t"]
+    assert len(fit["report"]["chains"]) == len(cli["chains"]) == 2
+
+
+@pytest.fixture(scope="module")
+def paper_data_csv(tmp_path_factory):
+    model = "impact-msd"
+    traj = hysid.simulate(model, t_end=3.0, sigma=0.01, seed=4)
+    path = tmp_path_factory.mktemp("keys") / "data.csv"
+    path.write_text("t,y1,y2\n" + "".join(",".join(repr(float(v)) for v in (t, *row)) + "\n"
+                                          for t, row in zip(traj["t"], traj["y"])))
+    table = np.loadtxt(path, delimiter=",", skiprows=1)
+    return model, path, table[:, 0], table[:, 1:]
+
+
+EXAMPLE_REFUSALS = [
+    ("x0_known name", {"x0_known": "q"}, ["--x0-known", "q"]),
+    ("x0 alone", {"x0": [0.0, 1.0]}, ["--x0", "0.0,1.0"]),
+    ("x0_known refine none", {"x0_known": True, "refine": "none"}, ["--x0-known", "all", "--refine", "none"]),
+    ("bound unknown name", {"param_bound": {"zz": (0.5, 1.5)}}, ["--param-bound", "zz=0.5,1.5"]),
+    ("bound excludes the value", {"param_bound": {"k": (100.5, 200.5)}}, ["--param-bound", "k=100.5,200.5"]),
+    ("bound lo >= hi", {"param_bound": {"k": (2.5, 1.5)}}, ["--param-bound", "k=2.5,1.5"]),
+    ("sigma count", {"sigma": [0.1, 0.1, 0.1]}, ["--sigma", "0.1,0.1,0.1"]),
+]
+
+
+@pytest.mark.parametrize("name,kwargs,flags", EXAMPLE_REFUSALS, ids=[c[0] for c in EXAMPLE_REFUSALS])
+def test_examples_refuse_as_the_cli(example, name, kwargs, flags):
+    """The same refusals with the same messages (the flag spelled as the keyword)."""
+    model, csv, args = example
+    p = subprocess.run([BIN, "identify", "--model-file", model, "--data", str(csv), *flags],
+                       capture_output=True, text=True)
+    assert p.returncode == 2, (p.stdout, p.stderr)
+    message = p.stderr.strip().splitlines()[-1].removeprefix("hysid: error: ")
+    with pytest.raises(ValueError) as e:
+        hysid.identify(model, **args, **kwargs)
+    assert str(e.value) == keyword(message)
+
+
+def test_inputs_are_required_and_named(example):
+    """A model with inputs without u (or u naming no input), and u for a model without inputs: refused by
+    name, as the command line refuses data without the input's column."""
+    model, csv, args = example
+    m = hysid.Model(model)
+    no_u = {k: v for k, v in args.items() if k != "u"}
+    if m.inputs:
+        with pytest.raises(ValueError, match=r"^u: model 'driven-oscillator' has measured inputs \(u\): give u"):
+            hysid.identify(model, **no_u)
+        with pytest.raises(ValueError, match=r"^u: 'w' is not an input of model 'driven-oscillator'"):
+            hysid.identify(model, **no_u, u={"u": args["u"]["u"], "w": args["u"]["u"]})
+        with pytest.raises(ValueError, match=r"^u must be a \(\d+, 1\) array aligned with y"):
+            hysid.identify(model, **no_u, u=np.zeros((3, 1)))
+    else:
+        with pytest.raises(ValueError, match=rf"^u: model '{m.name}' has no inputs"):
+            hysid.identify(model, **args, u=np.zeros((len(args["t"]), 1)))
+
+
+def test_simulate_with_inputs_equals_the_cli(tmp_path):
+    """simulate of a model with inputs: the default expressions, or given samples; the states and u as
+    `hysid simulate` writes them (the same given inputs from a file)."""
+    model = EXAMPLES["driven-oscillator"]
+    t = np.linspace(0.0, 5.0, 11)
+    given = {"t": t, "u": np.cos(t)}
+    (tmp_path / "u.csv").write_text("t,u\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t, np.cos(t))))
+    for kwargs, flags in (({}, []), ({"inputs": given}, ["--inputs", str(tmp_path / "u.csv")])):
+        out = tmp_path / "sim.csv"
+        subprocess.run([BIN, "simulate", "--model-file", model, "--t-end", "5", "--sigma", "0.01", "--out", str(out),
+                        *flags], check=True, capture_output=True)
+        table = np.loadtxt(out, delimiter=",", skiprows=1)
+        traj = hysid.simulate(model, t_end=5.0, sigma=0.01, **kwargs)
+        assert np.array_equal(traj["x"], table[:, 2:4]) and np.array_equal(traj["y"], table[:, 4:6])
+        assert np.array_equal(traj["u"][:, 0], table[:, 6])
+    with pytest.raises(ValueError, match=r"^inputs: .*u"):  # a range that does not cover the run
+        hysid.simulate(model, t_end=5.0, inputs={"t": t[:3], "u": np.cos(t[:3])})
+
+
+CRLB_CASES = [("defaults", {}, []), ("x0 known v", {"x0_known": ["v"]}, ["--x0-known", "v"]),
+              ("x0 known", {"x0_known": True}, ["--x0-known", "all"])]
+
+
+@pytest.mark.parametrize("example_name", sorted(EXAMPLES))
+@pytest.mark.parametrize("name,kwargs,flags", CRLB_CASES, ids=[c[0] for c in CRLB_CASES])
+def test_crlb_of_the_examples_equals_the_cli(example_name, name, kwargs, flags):
+    """The bound for measured subsets, inputs (the model's defaults) and guard parameters, as `hysid crlb`
+    prints it (sd to its 6 digits)."""
+    model = EXAMPLES[example_name]
+    m = hysid.Model(model)
+    if "v" in str(kwargs.get("x0_known")) and "v" not in m.state_names:
+        pytest.skip("no state v")
+    sigma = [0.001] * len(m.measured)
+    p = subprocess.run([BIN, "crlb", "--model-file", model, "--t-end", "4", "--sigma", ",".join(map(str, sigma)),
+                        *flags], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    bound = hysid.crlb(model, t_end=4.0, sigma=sigma, **kwargs)
+    assert bound["status"] == "ok"
+    printed = dict(re.findall(r"^  (\S+)\s+= \S+\s+(?:sd (\S+)|known)", p.stdout, re.M))
+    assert set(printed) == set(bound["names"])
+    for name_, sd in bound["sd"].items():
+        assert (printed[name_] == "" and sd == 0.0) or float(printed[name_]) == float(f"{sd:.6g}"), name_
+
+
+def test_runs_with_inputs_give_the_cli_report(tmp_path):
+    """Two runs of the driven oscillator, each with its own input column: a list of y, u (dicts), t and the
+    true jump counters, as two --data files; the same report, chains, truth and per-chain initial states."""
+    model = EXAMPLES["driven-oscillator"]
+    files, ys, us, ts, js = [], [], [], [], []
+    for seed, x0 in ((5, "0,0"), (6, "0.5,0")):
+        csv = tmp_path / f"run{seed}.csv"
+        subprocess.run([BIN, "simulate", "--model-file", model, "--sigma", "0.001", "--seed", str(seed), "--t-end", "6",
+                        "--x0", x0, "--out", str(csv)], check=True, capture_output=True)
+        csv.with_suffix(".json").unlink()  # no sidecar: no truth, the same accuracy for both
+        table = np.loadtxt(csv, delimiter=",", skiprows=1)
+        files += ["--data", str(csv)]
+        ys.append(table[:, 4:6])
+        us.append({"u": table[:, 6]})
+        ts.append(table[:, 0])
+        js.append(table[:, 1])
+    fit = hysid.identify(model, ys, t=ts, u=us, truth={"j": js})
+    out = tmp_path / "fit.json"
+    p = subprocess.run([BIN, "identify", "--model-file", model, *files, "--json", str(out)], capture_output=True, text=True)
+    assert p.returncode in (0, 1), p.stderr
+    cli = json.loads(out.read_text())
+    assert key_differences(fit["report"], cli) == []
+    assert [d for d in value_differences(fit["report"], cli) if not named_by_the_source(d.split(":")[0])
+            and not d.startswith("report.data.runs")] == []
+    assert len(cli["chains"]) == 2 and fit["refined"]["chains_used"] == 2
+    with pytest.raises(ValueError, match=r"^u: y is a list of 2 runs; give u as a list of as many arrays or dicts"):
+        hysid.identify(model, ys, t=ts, u=us[0])
