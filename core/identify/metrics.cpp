@@ -1,5 +1,8 @@
 #include "core/identify/metrics.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -70,6 +73,51 @@ std::vector<double> TrueSmoothnessBound(const Model& model, const Mat& x_true,
         0.5 * l * (BoundNorm(x_true.col(k), mode) + BoundNorm(x_true.col(k - 1), mode));
   }
   return tau;
+}
+
+namespace {
+
+// The unused detected event nearest to sample k within one sample, or −1.
+long NearestEvent(long k, const std::vector<AutomatonEvent>& events, const std::vector<bool>& used) {
+  long best = -1;
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    const long d = std::labs(events[i].sample - k);
+    if (used[i] || d > 1) continue;
+    if (best < 0 || d < std::labs(events[static_cast<std::size_t>(best)].sample - k)) best = static_cast<long>(i);
+  }
+  return best;
+}
+
+}  // namespace
+
+EventComparison CompareEvents(int maps, const std::vector<TrueEvent>& truth,
+                              const std::vector<AutomatonEvent>& events) {
+  const auto m = static_cast<std::size_t>(maps);
+  EventComparison c;
+  c.counts.assign(m + 1, std::vector<long>(m + 1, 0));
+  auto bin = [m](int map) { return map >= 0 && static_cast<std::size_t>(map) < m ? static_cast<std::size_t>(map) : m; };
+  std::vector<bool> used(events.size(), false);
+  for (const TrueEvent& e : truth) {
+    const long best = NearestEvent(e.sample, events, used);
+    if (best < 0) {
+      ++c.counts[bin(e.map)][m];
+      ++c.missed;
+      continue;
+    }
+    const AutomatonEvent& hit = events[static_cast<std::size_t>(best)];
+    used[static_cast<std::size_t>(best)] = true;
+    ++c.counts[bin(e.map)][bin(hit.map)];
+    c.right += hit.map == e.map ? 1 : 0;
+    c.max_time_error = std::max(c.max_time_error, std::abs(hit.time - e.time));
+  }
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    if (used[i]) continue;
+    ++c.counts[m][bin(events[i].map)];
+    ++c.spurious;
+  }
+  c.true_events = static_cast<long>(truth.size());
+  c.detected = static_cast<long>(events.size());
+  return c;
 }
 
 }  // namespace hysid

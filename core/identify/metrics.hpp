@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/detectors/detector.hpp"
+#include "core/identify/automaton_event.hpp"
 #include "core/model/model.hpp"
 
 namespace hysid {
@@ -26,6 +27,27 @@ struct ParameterErrors {
   double rel_alpha = 0.0, rel_beta = 0.0;  // over the unknown entries: ‖α_u − α̂_u‖/‖α_u‖
 };
 ParameterErrors CompareParameters(const Model& truth, const Vec& alpha_hat, const Vec& beta_hat);
+
+// A true event of a hybrid automaton: the first sample after it, its instant and its jump map.
+struct TrueEvent {
+  long sample = 0;
+  double time = 0.0;
+  int map = 0;
+};
+
+// The true events matched to the detected ones one to one, nearest sample first, within one sample.
+// counts[t][a]: t the true map (the last row, `maps`: no true event, a spurious one), a the assigned
+// map (the last column: no detected event, a missed one; a map outside [0, maps) counts there too).
+// max_time_error: the largest |t̂ − t| over the matched events (AutomatonEvent::time against
+// TrueEvent::time; 0 when none matched).
+struct EventComparison {
+  std::vector<std::vector<long>> counts;
+  long true_events = 0, detected = 0, right = 0, missed = 0, spurious = 0;
+  double max_time_error = 0.0;
+  long wrong_map() const { return true_events - missed - right; }  // matched to another map's event
+};
+EventComparison CompareEvents(int maps, const std::vector<TrueEvent>& truth,
+                              const std::vector<AutomatonEvent>& events);
 
 // The smoothness bound τ(t) of eq. (2)–(3) with the true flow: (1/2)·L·(‖ξ(t)‖ + ‖ξ(t−δt)‖) with the
 // bound mode of `settings` (paper / homogeneous) and L from the true α over the true states.

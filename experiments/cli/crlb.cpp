@@ -28,16 +28,10 @@ struct CrlbArgs {
 // A hybrid automaton: the CRLB-implied mean error of each jump map's own unknown β entries (its block
 // of the covariance; identity maps and maps with every β known have none).
 void PrintPerMap(const ModelSpec& spec, const Unknowns& unknowns, const Crlb& c) {
-  const auto offset = static_cast<Eigen::Index>(unknowns.alpha.size());
-  for (const JumpMap& map : spec.jumps) {
-    std::vector<Eigen::Index> block;
-    for (std::size_t i = 0; i < unknowns.beta.size(); ++i) {
-      const int b = unknowns.beta[i];
-      if (b >= map.beta_first && b < map.beta_first + map.beta_count) block.push_back(offset + Eigen::Index(i));
-    }
-    if (block.empty()) continue;
-    std::printf("  map %s: CRLB-implied mean e_beta %.6g\n", map.name.c_str(),
-                MeanGaussianNorm(c.covariance(block, block)));
+  const std::vector<double> per_map = MeanEBetaPerMap(spec, unknowns, c);
+  for (std::size_t m = 0; m < per_map.size(); ++m) {
+    if (std::isnan(per_map[m])) continue;
+    std::printf("  map %s: CRLB-implied mean e_beta %.6g\n", spec.jumps[m].name.c_str(), per_map[m]);
   }
 }
 

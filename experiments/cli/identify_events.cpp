@@ -52,41 +52,14 @@ double ModeAgreement(const std::vector<int>& q, const std::vector<int>& mode) {
 
 }  // namespace
 
-EventConfusion CompareEvents(const ModelSpec& spec, const SampleData& data, const IdentifyResult& r) {
-  const std::size_t maps = JumpMaps(spec).size();
-  EventConfusion c;
-  c.counts.assign(maps + 1, std::vector<long>(maps + 1, 0));
+EventComparison CompareEvents(const ModelSpec& spec, const SampleData& data, const IdentifyResult& r) {
   const std::vector<int>& truth = *data.map;
-  std::vector<std::size_t> true_samples;
+  std::vector<TrueEvent> events;
   for (std::size_t k = 1; k < truth.size(); ++k) {
     const bool event = data.j ? (*data.j)[k] != (*data.j)[k - 1] : truth[k] != truth[k - 1];
-    if (event && data.chain_start[k] == 0) true_samples.push_back(k);
+    if (event && data.chain_start[k] == 0) events.push_back({static_cast<long>(k), data.t[k], truth[k]});
   }
-  std::vector<bool> used(r.events.size(), false);
-  auto bin = [maps](int m) { return m >= 0 && std::size_t(m) < maps ? std::size_t(m) : maps; };
-  for (std::size_t k : true_samples) {
-    long best = -1;
-    for (std::size_t i = 0; i < r.events.size(); ++i) {
-      const long d = std::labs(r.events[i].sample - static_cast<long>(k));
-      if (used[i] || d > 1) continue;
-      if (best < 0 || d < std::labs(r.events[std::size_t(best)].sample - static_cast<long>(k))) best = long(i);
-    }
-    const int true_map = truth[k];
-    if (best < 0) {
-      ++c.counts[bin(true_map)][maps];
-      continue;
-    }
-    used[std::size_t(best)] = true;
-    const int assigned = r.events[std::size_t(best)].map;
-    ++c.counts[bin(true_map)][bin(assigned)];
-    c.right += assigned == true_map ? 1 : 0;
-  }
-  for (std::size_t i = 0; i < r.events.size(); ++i) {
-    if (!used[i]) ++c.counts[maps][bin(r.events[i].map)];
-  }
-  c.true_events = static_cast<long>(true_samples.size());
-  c.assigned = static_cast<long>(r.events.size());
-  return c;
+  return hysid::CompareEvents(static_cast<int>(JumpMaps(spec).size()), events, r.events);
 }
 
 void PrintEvents(const Model& model, const SampleData& data, const IdentifyResult& r) {
@@ -125,7 +98,7 @@ void PrintEvents(const Model& model, const SampleData& data, const IdentifyResul
   }
   std::printf("%s\n", runs.size() > kListed ? " …" : "");
   if (data.map) {
-    const EventConfusion c = CompareEvents(spec, data, r);
+    const EventComparison c = CompareEvents(spec, data, r);
     std::printf("truth (columns %s): %ld true events, %ld assigned to their map; rows true, columns assigned\n",
                 data.j ? "j, map" : "map", c.true_events, c.right);
     std::printf("  %-12s", "");
@@ -181,11 +154,11 @@ nlohmann::json EventsJson(const Model& model, const SampleData& data, const Iden
   if (data.map || data.q) {
     nlohmann::json truth = {{"confusion", nullptr}, {"mode_agreement", nullptr}};
     if (data.map) {
-      const EventConfusion c = CompareEvents(spec, data, r);
+      const EventComparison c = CompareEvents(spec, data, r);
       std::vector<std::string> names;
       for (const JumpMap& m : maps) names.push_back(m.name);
       truth["confusion"] = {{"true", names},     {"assigned", names},           {"counts", c.counts},
-                            {"true_events", c.true_events}, {"assigned_events", c.assigned}, {"right", c.right}};
+                            {"true_events", c.true_events}, {"assigned_events", c.detected}, {"right", c.right}};
     }
     if (data.q) truth["mode_agreement"] = ModeAgreement(*data.q, r.mode);
     out["truth"] = truth;

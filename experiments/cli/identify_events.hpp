@@ -9,20 +9,15 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "core/identify/identifier.hpp"
+#include "core/identify/metrics.hpp"
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
 
 namespace hysid::cli {
 
-// True events (where `j` changes, else where `map` does) matched to the assigned events one to one,
-// nearest first within one sample. counts[t][a]: t the true map (the last row: no true event, a
-// spurious one), a the assigned map (the last column: no assigned event, a missed one; −1 maps count
-// there too).
-struct EventConfusion {
-  std::vector<std::vector<long>> counts;
-  long true_events = 0, assigned = 0, right = 0;
-};
-EventConfusion CompareEvents(const ModelSpec& spec, const SampleData& data, const IdentifyResult& result);
+// The data's true events (where `j` changes, else where `map` does; at a sample's time) matched to the
+// assigned events (core/identify/metrics.hpp CompareEvents).
+EventComparison CompareEvents(const ModelSpec& spec, const SampleData& data, const IdentifyResult& result);
 
 // The text report (nothing for a model that is not an automaton).
 void PrintEvents(const Model& model, const SampleData& data, const IdentifyResult& result);

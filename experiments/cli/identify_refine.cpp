@@ -170,35 +170,11 @@ nlohmann::json ToJson(nlohmann::json j, const RefineResult& r, const IdentifyRes
 
 // From RefinementStart(recursive): the recursive result itself, or its rls re-run when the α
 // estimator was not ok.
-// A hybrid automaton: each chain's assigned maps (one per event, in order) and the mode at its first
-// sample; left unassigned (the refinement then checks the event count only) when an event has no map.
-void AssignChainMaps(const SampleData& data, const IdentifyResult& result, std::vector<RefineChain>* chains) {
-  if (result.mode.empty()) return;
-  std::vector<std::size_t> first;
-  for (std::size_t k = 0; k < data.chain_start.size(); ++k) {
-    if (data.chain_start[k]) first.push_back(k);
-  }
-  if (first.size() != chains->size()) return;
-  for (std::size_t c = 0; c < chains->size(); ++c) {
-    const long begin = static_cast<long>(first[c]);
-    const long end = c + 1 < first.size() ? static_cast<long>(first[c + 1]) : static_cast<long>(data.t.size());
-    RefineChain& chain = (*chains)[c];
-    chain.initial_mode = result.mode[first[c]];
-    bool all = true;
-    for (const AutomatonEvent& e : result.events) {
-      if (e.sample <= begin || e.sample >= end) continue;
-      all = all && e.map >= 0;
-      chain.maps.push_back(e.map);
-    }
-    if (!all) chain.maps.clear();
-  }
-}
-
 RefineResult RunRefinement(const Model& model, const SampleData& data, const IdentifyResult& given,
                            const RefineOptions& options) {
   const IdentifyResult& recursive = RefinementStart(given);
   std::vector<RefineChain> chains = SplitChains(data.t, data.y, data.chain_start, recursive.gamma, data.u);
-  AssignChainMaps(data, given, &chains);
+  AssignChainMaps(data.chain_start, given, &chains);
   return Refine(model, chains, recursive.alpha_hat, recursive.beta_hat, options);
 }
 

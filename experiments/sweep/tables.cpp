@@ -49,13 +49,26 @@ std::vector<std::string> JournalHeader(const std::vector<std::string>& trial_hea
   return h;
 }
 
+namespace {
+
+// The metrics of a sweep of hybrid automata (trial.hpp): event counts, the event-time error in
+// samples, e_beta_MAP and crlb_e_beta_MAP.
+bool IsAutomatonMetric(const std::string& h) {
+  for (const char* name : {"events_wrong_map", "events_missed", "events_spurious", "event_time_error"}) {
+    if (h == name) return true;
+  }
+  return h.rfind("e_beta_", 0) == 0 || h.rfind("crlb_e_beta_", 0) == 0;
+}
+
+}  // namespace
+
 MetricRange MetricRangeOf(const std::string& metric) {
   for (const char* rate : {"misclassification", "precision", "recall", "flow_outside_share"}) {
     if (metric == rate) return MetricRange::kUnitInterval;
   }
   const auto& core = SummaryMetrics();
   if (std::find(core.begin(), core.end(), metric) != core.end() || metric == "e_gamma" ||
-      metric.rfind(kRelativeErrorPrefix, 0) == 0)
+      metric.rfind(kRelativeErrorPrefix, 0) == 0 || IsAutomatonMetric(metric))
     return MetricRange::kNonNegative;
   throw std::logic_error(fmt::format("'{}' is not a summary metric", metric));
 }
@@ -229,13 +242,16 @@ std::vector<std::string> SummaryKeys(const std::vector<std::string>& trial_heade
 }
 
 // The metrics summary.csv aggregates: SummaryMetrics(), then e_gamma when the trials table has it and
-// the per-parameter rel_err_* columns (their statistics come last, after the baseline and efficiency
-// columns).
+// the per-parameter rel_err_* columns, then a hybrid automaton's event and per-map metrics (the
+// statistics of all these come last, after the baseline and efficiency columns).
 std::vector<std::string> CellMetrics(const std::vector<std::string>& trial_header) {
   std::vector<std::string> metrics = SummaryMetrics();
   if (Has(trial_header, "e_gamma")) metrics.push_back("e_gamma");
   for (const std::string& h : trial_header) {
     if (h.rfind(kRelativeErrorPrefix, 0) == 0) metrics.push_back(h);
+  }
+  for (const std::string& h : trial_header) {
+    if (IsAutomatonMetric(h)) metrics.push_back(h);
   }
   return metrics;
 }

@@ -12,6 +12,7 @@
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/identify/reconstruct.hpp"
+#include "core/model/automaton.hpp"
 #include "core/model_file/input_defaults.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "sim/exogenous.hpp"
@@ -110,6 +111,12 @@ struct TrialOutcome {
   SetMetrics sets;
   long flow_vertices = -1, jump_vertices = -1;
   Vec alpha_hat, beta_hat;
+  // A hybrid automaton: the true events against the detected ones, the largest event-time error in
+  // samples, per map of spec.jumps ‖β̂ − β‖ over its unknown entries and its CRLB-implied mean error
+  // at σ = 1 (NaN where the map has no unknown β).
+  EventComparison events;
+  double event_time_error = kNaN;
+  std::vector<double> e_beta_map, crlb_e_beta_map;
   Vec gamma_hat;         // refine = ml: the refined γ (empty otherwise: the recursive pass has none)
   double e_gamma = kNaN;  // ‖γ̂ − γ‖ over the unknown entries (refine = ml)
   bool have_estimates = false;
@@ -263,11 +270,70 @@ void RefineColumns(bool gamma, std::vector<TrialColumn>* cols) {
   cols->push_back({"crlb_e_gamma", [bound](const O& o) { return bound(o, &Crlb::mean_e_gamma); }});
 }
 
+// The names of the jump maps with unknown β over the automaton models, in first-seen order.
+std::vector<std::string> MapsWithUnknownBeta(const std::vector<Model>& models) {
+  std::vector<std::string> names;
+  for (const Model& m : models) {
+    for (const JumpMap& map : m.spec().jumps) {
+      bool unknown = false;
+      for (int b = map.beta_first; b < map.beta_first + map.beta_count; ++b) {
+        unknown = unknown || !m.spec().beta[static_cast<std::size_t>(b)].known;
+      }
+      if (unknown && std::find(names.begin(), names.end(), map.name) == names.end()) names.push_back(map.name);
+    }
+  }
+  return names;
+}
+
+bool AnyAutomaton(const std::vector<Model>& models) {
+  return std::any_of(models.begin(), models.end(), [](const Model& m) { return IsAutomaton(m.spec()); });
+}
+
+// The value of map `name` of the row's model in `per_map` (one per spec.jumps entry), or NaN.
+double OfMap(const TrialOutcome& o, const std::string& name, const std::vector<double>& per_map) {
+  const auto& jumps = o.model->spec().jumps;
+  for (std::size_t m = 0; m < jumps.size() && m < per_map.size(); ++m) {
+    if (jumps[m].name == name) return per_map[m];
+  }
+  return kNaN;
+}
+
+// Sweeps of hybrid automata: the events (true; assigned to the right map; matched to another map's
+// event; missed; spurious), the largest event-time error in samples, e_beta_MAP per map with unknown
+// β and, with grid.refine, crlb_e_beta_MAP (σ times the σ = 1 bound; empty for σ = 0).
+void AutomatonColumns(const SweepConfig& config, const std::vector<Model>& models, std::vector<TrialColumn>* cols) {
+  using O = TrialOutcome;
+  // The recursive pass' events: also in a row whose refinement failed (not in summary.csv).
+  const auto events = [](std::string name, long (*get)(const O&)) {
+    return TrialColumn{std::move(name),
+                       [get](const O& o) { return o.events.counts.empty() ? std::string() : Integer(get(o)); }};
+  };
+  cols->push_back(events("events_true", [](const O& o) { return o.events.true_events; }));
+  cols->push_back(events("events_right", [](const O& o) { return o.events.right; }));
+  cols->push_back(events("events_wrong_map", [](const O& o) { return o.events.wrong_map(); }));
+  cols->push_back(events("events_missed", [](const O& o) { return o.events.missed; }));
+  cols->push_back(events("events_spurious", [](const O& o) { return o.events.spurious; }));
+  cols->push_back({"event_time_error", [](const O& o) {
+                     return o.events.counts.empty() ? std::string() : FormatNumber(o.event_time_error);
+                   }});
+  for (const std::string& map : MapsWithUnknownBeta(models)) {
+    cols->push_back({"e_beta_" + map, [map](const O& o) {
+                       return o.ok() ? FormatNumber(OfMap(o, map, o.e_beta_map)) : std::string();
+                     }});
+    if (!config.grid.refine_axis) continue;
+    cols->push_back({"crlb_e_beta_" + map, [map](const O& o) {
+                       return o.cell->sigma > 0 ? FormatNumber(o.cell->sigma * OfMap(o, map, o.crlb_e_beta_map))
+                                                : std::string();
+                     }});
+  }
+}
+
 std::vector<TrialColumn> TrialColumns(const SweepConfig& config, const std::vector<Model>& models) {
   std::vector<TrialColumn> cols;
   KeyColumns(config, MaxStates(models), &cols);
   OutcomeColumns(&cols);
   if (config.grid.refine_axis) RefineColumns(AnyUnknownGamma(models), &cols);
+  if (AnyAutomaton(models)) AutomatonColumns(config, models, &cols);
   EstimateColumns(models, &cols);
   RelativeErrorColumns(models, &cols);
   return cols;
@@ -289,6 +355,36 @@ std::vector<std::uint8_t> TrueLabels(const Trajectory& truth) {
   std::vector<std::uint8_t> labels(truth.j.size(), 0);
   for (std::size_t k = 1; k < truth.j.size(); ++k) labels[k] = truth.j[k] != truth.j[k - 1] ? 1 : 0;
   return labels;
+}
+
+// The true events of a run: each jump record at the first sample whose jump count includes it.
+std::vector<TrueEvent> TrueEvents(const Trajectory& truth) {
+  std::vector<TrueEvent> out;
+  std::size_t k = 0;
+  for (const JumpRecord& r : truth.jumps) {
+    while (k < truth.j.size() && truth.j[k] < r.j) ++k;
+    if (k == 0 || k >= truth.j.size()) continue;  // before the first sample or after the last
+    out.push_back({static_cast<long>(k), r.t, r.map});
+  }
+  return out;
+}
+
+// A hybrid automaton's metrics: the events against the truth and ‖β̂ − β‖ per jump map.
+void CompareAutomaton(const Trajectory& truth, const IdentifyResult& res, TrialOutcome* o) {
+  const ModelSpec& spec = o->model->spec();
+  o->events = CompareEvents(static_cast<int>(JumpMaps(spec).size()), TrueEvents(truth), res.events);
+  const bool matched = o->events.true_events > o->events.missed;
+  o->event_time_error = matched ? o->events.max_time_error / truth.dt : kNaN;
+  for (const JumpMap& map : spec.jumps) {
+    double sum = 0.0;
+    bool unknown = false;
+    for (int b = map.beta_first; b < map.beta_first + map.beta_count; ++b) {
+      if (spec.beta[static_cast<std::size_t>(b)].known) continue;
+      unknown = true;
+      sum += std::pow(o->beta_hat[b] - spec.beta[static_cast<std::size_t>(b)].value, 2);
+    }
+    o->e_beta_map.push_back(unknown ? std::sqrt(sum) : kNaN);
+  }
 }
 
 // The identifier on the unit's noisy samples and the metrics against the truth.
@@ -364,6 +460,7 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     return;
   }
   o->err = CompareParameters(model, o->alpha_hat, o->beta_hat);
+  if (IsAutomaton(model.spec())) CompareAutomaton(truth, res, o);
   // Not beyond the hull dimension limit; the true sets of a model with inputs depend on u, which a
   // hull vertex does not keep (no set metrics then).
   if (s.sets && res.sets_skipped.empty() && model.input_size() == 0) {
@@ -393,6 +490,9 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   o.trial = trial;
   o.x0 = *in.x0;
   o.crlb = in.crlb;
+  if (in.crlb != nullptr && in.crlb->ok() && IsAutomaton(o.model->spec())) {
+    o.crlb_e_beta_map = MeanEBetaPerMap(o.model->spec(), Unknowns::Of(*o.model), *in.crlb);
+  }
   o.samples = truth.size();
   o.jumps_true = static_cast<long>(truth.jumps.size());
   if (!sim_error.empty()) {

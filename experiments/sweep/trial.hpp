@@ -36,6 +36,11 @@ inline constexpr const char* kRelativeErrorPrefix = "rel_err_";
 // such unknown or the status is not ok).
 // With grid.refine: `refine` after `detector`, and refine_status, crlb_e_alpha, crlb_e_beta (the
 // cell's CRLB-implied mean errors at its σ; empty for σ = 0) after flow_hull/jump_hull columns.
+// When a model is a hybrid automaton (core/model/automaton.hpp), then: events_true, events_right (true
+// events matched within one sample to a detected event assigned to their map), events_wrong_map
+// (matched, another map), events_missed, events_spurious, event_time_error (the largest |t̂ − t| of
+// the matched events over δt), and per jump map with unknown β e_beta_MAP (‖β̂ − β‖ over its unknown
+// entries) and, with grid.refine, crlb_e_beta_MAP (its CRLB-implied mean error at the cell's σ).
 std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models);
 
 // The metric columns summary.csv aggregates (each must be in TrialHeader).

@@ -650,12 +650,37 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   return best;
 }
 
+void AssignChainMaps(const std::vector<std::uint8_t>& chain_start, const IdentifyResult& result,
+                     std::vector<RefineChain>* chains) {
+  if (result.mode.empty()) return;
+  std::vector<std::size_t> first;
+  for (std::size_t k = 0; k < chain_start.size(); ++k) {
+    if (chain_start[k] || k == 0) first.push_back(k);
+  }
+  if (chain_start.empty()) first.push_back(0);
+  if (first.size() != chains->size()) return;
+  for (std::size_t c = 0; c < chains->size(); ++c) {
+    const auto begin = static_cast<long>(first[c]);
+    const long end = c + 1 < first.size() ? static_cast<long>(first[c + 1]) : static_cast<long>(result.mode.size());
+    RefineChain& chain = (*chains)[c];
+    chain.initial_mode = result.mode[first[c]];
+    bool all = true;
+    for (const AutomatonEvent& e : result.events) {
+      if (e.sample <= begin || e.sample >= end) continue;
+      all = all && e.map >= 0;
+      chain.maps.push_back(e.map);
+    }
+    if (!all) chain.maps.clear();
+  }
+}
+
 RefineResult RefineIdentification(const Model& model, const std::vector<double>& t, const Mat& y,
                                   const std::vector<std::uint8_t>& chain_start,
                                   const IdentifyResult& recursive, const RefineOptions& options,
                                   const Mat& u) {
-  return Refine(model, SplitChains(t, y, chain_start, recursive.gamma, u), recursive.alpha_hat,
-                recursive.beta_hat, options);
+  std::vector<RefineChain> chains = SplitChains(t, y, chain_start, recursive.gamma, u);
+  AssignChainMaps(chain_start, recursive, &chains);
+  return Refine(model, chains, recursive.alpha_hat, recursive.beta_hat, options);
 }
 
 }  // namespace hysid

@@ -193,6 +193,14 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
                                      const std::vector<std::uint8_t>& chain_start,
                                      const std::vector<std::uint8_t>& gamma, const Mat& u = Mat());
 
+// A hybrid automaton (`result.mode` not empty): each chain's jump maps (those of the events of
+// `result` inside it, one per event, in order; left empty, so that the refinement checks the event
+// count only, when an event has no map) and its initial mode (`result.mode` at its first sample).
+// The chains are those of SplitChains at `chain_start` (empty: one chain); nothing is assigned when
+// their number differs. Without modes nothing changes.
+void AssignChainMaps(const std::vector<std::uint8_t>& chain_start, const IdentifyResult& result,
+                     std::vector<RefineChain>* chains);
+
 // The refinement of the chains from the recursive α0, β0 (full vectors). A hybrid automaton: the
 // fitted model's jumps must apply the maps a chain assigns to its events (RefineChain::maps; else the
 // count and times alone are checked); with several modes, every chain whose initial mode is unknown
@@ -208,7 +216,8 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
                     const Vec& beta0, const RefineOptions& options = {});
 
 // The same from an identification run on samples (t, y) cut into chains at chain_start (as
-// SplitChains): its α̂, β̂ and γ.
+// SplitChains): its α̂, β̂ and γ, and for a hybrid automaton its events' maps and modes
+// (AssignChainMaps).
 RefineResult RefineIdentification(const Model& model, const std::vector<double>& t, const Mat& y,
                                   const std::vector<std::uint8_t>& chain_start,
                                   const IdentifyResult& recursive, const RefineOptions& options = {},

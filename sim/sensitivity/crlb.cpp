@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
@@ -68,6 +69,21 @@ double MeanGaussianNorm(const Mat& covariance) {
   double sum = 0.0;
   for (double u = kLo; u <= kHi + 1e-12; u += kStep) sum += integrand(u);
   return std::sqrt(scale) * sum * kStep / (2.0 * std::sqrt(M_PI));
+}
+
+std::vector<double> MeanEBetaPerMap(const ModelSpec& spec, const Unknowns& unknowns, const Crlb& c) {
+  const auto offset = static_cast<Eigen::Index>(unknowns.alpha.size());
+  std::vector<double> out;
+  for (const JumpMap& map : spec.jumps) {
+    std::vector<Eigen::Index> block;
+    for (std::size_t i = 0; i < unknowns.beta.size(); ++i) {
+      const int b = unknowns.beta[i];
+      if (b >= map.beta_first && b < map.beta_first + map.beta_count) block.push_back(offset + Eigen::Index(i));
+    }
+    out.push_back(block.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                : MeanGaussianNorm(c.covariance(block, block)));
+  }
+  return out;
 }
 
 namespace {

@@ -44,6 +44,11 @@ Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const st
 // error below 1e-10). 0 for an empty matrix.
 double MeanGaussianNorm(const Mat& covariance);
 
+// A hybrid automaton: E‖z‖ for z ~ N(0, the block of `c`'s covariance of each jump map's own unknown
+// β entries), one entry per map of spec.jumps, in order; NaN for a map without unknown β (an identity
+// map, or every β of the map known). `unknowns` are those `c` was computed for.
+std::vector<double> MeanEBetaPerMap(const ModelSpec& spec, const Unknowns& unknowns, const Crlb& c);
+
 // The bound from F: covariance, sd, and the mean errors of the α and β blocks. The entries `held`
 // (indices into θ, increasing) are known: F without their rows and columns is inverted, and their
 // rows and columns of the covariance (and their sd) are 0.

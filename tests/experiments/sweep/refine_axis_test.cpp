@@ -1,7 +1,8 @@
 // The sweep's refine axis and efficiency columns: refine = ["none", "ml"] adds refine, refine_status and
 // the CRLB columns; the maximum-likelihood cells beat the recursive ones on the same noise (common
 // random numbers pair them); crlb_e_alpha is the bound computed directly at the cell's σ (so linear in
-// σ); summary.csv's efficiency is the mean error over it.
+// σ); summary.csv's efficiency is the mean error over it. A hybrid automaton's sweep adds the events
+// against the truth and each jump map's β error and bound.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -70,6 +71,15 @@ fs::path RunInTemp(const SweepConfig& c, const std::string& name) {
   o.progress = Progress::Mode::kNone;
   RunSweep(c, Registry(), o, nullptr);
   return dir;
+}
+
+// A sweep of the example model file `file` (under examples/) with the extra [model] `lines`: σ = 1e-3,
+// δt = dt, rls, residual detector, refine = ml, no sets, 2 trials from `seed`.
+std::string ExampleSweep(const std::string& file, const std::string& lines, double dt, int seed) {
+  return "[model]\nfile = \"" + std::string(HYSID_EXAMPLES_DIR) + "/" + file + "\"\n" + lines +
+         "\n[grid]\nsigma = 1e-3\ndt = " + std::to_string(dt) +
+         "\nestimator = \"rls\"\ndetector = \"residual\"\nrefine = \"ml\"\n[identifier]\nsets = false\n"
+         "[run]\ntrials = 2\nseed = " + std::to_string(seed) + "\n";
 }
 
 }  // namespace
@@ -180,27 +190,12 @@ TEST_CASE("sweep: unknown guard parameters add γ columns, other sweeps' tables 
   std::vector<Model> plain_models;
   for (const auto& m : plain.models) plain_models.push_back(m.Build(Registry()));
   const std::vector<std::string> plain_header = TrialHeader(plain, plain_models);
-  for (const char* name : {"e_gamma", "crlb_e_gamma"}) {
+  // (nor a model that is not an automaton the event columns)
+  for (const char* name : {"e_gamma", "crlb_e_gamma", "events_true", "event_time_error"}) {
     CHECK(std::find(plain_header.begin(), plain_header.end(), name) == plain_header.end());
   }
   // The wall example, truth w = 1 (the file's w = 0.9), 6 s.
-  const std::string text = std::string(R"(
-[model]
-file = ")") + HYSID_EXAMPLES_DIR + R"(/wall/wall.toml"
-params = { w = 1.0 }
-t_end = 6.0
-[grid]
-sigma = 1e-3
-dt = 5e-4
-estimator = "rls"
-detector = "residual"
-refine = "ml"
-[identifier]
-sets = false
-[run]
-trials = 2
-seed = 3
-)";
+  const std::string text = ExampleSweep("wall/wall.toml", "params = { w = 1.0 }\nt_end = 6.0", 5e-4, 3);
   const SweepConfig c = ParseSweepText(text, "wall.toml", Registry());
   const fs::path dir = RunInTemp(c, "sweep-wall");
   Table t;
@@ -223,4 +218,40 @@ seed = 3
   ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);
   CHECK(std::stod(s.At(0, "efficiency_gamma")) ==
         Approx(std::stod(s.At(0, "e_gamma_mean")) / std::stod(s.At(0, "crlb_e_gamma"))));
+}
+
+TEST_CASE("sweep of a hybrid automaton: events against the truth, each map's β error and bound",
+          "[sweep][refine][automaton]") {
+  // The floor-ceiling ball (two maps; 5 s, 10 impacts): every impact assigned to its wall.
+  const std::string text = ExampleSweep("floor-ceiling/model.toml", "", 1e-3, 5);
+  const SweepConfig c = ParseSweepText(text, "floor-ceiling.toml", Registry());
+  const fs::path dir = RunInTemp(c, "sweep-floor-ceiling");
+  Table t;
+  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
+  const Model model = c.models[0].Build(Registry());
+  const Unknowns unknowns = Unknowns::Of(model);
+  const Crlb direct = ComputeCrlb(model, DefaultState(model), SampleGrid{5.0, 1e-3}, Vec::Constant(2, 1e-3), unknowns);
+  REQUIRE(direct.ok());
+  const std::vector<double> per_map = MeanEBetaPerMap(model.spec(), unknowns, direct);
+  REQUIRE(per_map.size() == 2);
+  for (long trial = 0; trial < 2; ++trial) {
+    INFO(t.At(trial, "message"));
+    REQUIRE(t.At(trial, "status") == "ok");
+    CHECK(t.At(trial, "events_true") == "10");
+    CHECK(t.At(trial, "events_right") == "10");
+    for (const char* name : {"events_wrong_map", "events_missed", "events_spurious"}) CHECK(t.At(trial, name) == "0");
+    CHECK(std::stod(t.At(trial, "event_time_error")) < 1.0);  // a jump's detected time is the sample after it
+    const double floor = std::stod(t.At(trial, "beta_hat_e_floor"));
+    const double ceiling = std::stod(t.At(trial, "beta_hat_e_ceiling"));
+    CHECK(std::stod(t.At(trial, "e_beta_floor")) == Approx(std::abs(floor - 0.9)).margin(1e-15));
+    CHECK(std::stod(t.At(trial, "e_beta_ceiling")) == Approx(std::abs(ceiling - 0.7)).margin(1e-15));
+    CHECK(std::stod(t.At(trial, "crlb_e_beta_floor")) == Approx(per_map[0]).epsilon(1e-9));  // direct: at σ
+    CHECK(std::stod(t.At(trial, "crlb_e_beta_ceiling")) == Approx(per_map[1]).epsilon(1e-9));
+    CHECK(std::abs(ceiling - 0.7) < 4 * per_map[1]);
+  }
+  Table s;
+  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);
+  CHECK(s.At(0, "events_missed_mean") == "0");
+  CHECK(std::stod(s.At(0, "e_beta_floor_mean")) ==
+        Approx((std::stod(t.At(0, "e_beta_floor")) + std::stod(t.At(1, "e_beta_floor"))) / 2));
 }
