@@ -23,6 +23,8 @@ struct AutomatonEvent {
 // Mode switches without a jump are kinks of ξ: the slope of a degree-2 fit to the `window` samples
 // before a candidate instant against that of the `window` after, over its standard deviation (from
 // the noise σ the data give, EstimateNoiseSigma), above `threshold` and the largest within ±window.
+// `window` is the least: DetectKinks widens it (up to a quarter of the longest segment, 256 at most)
+// until a slope change the size of the data's median |slope| would stand at 1.5 × threshold.
 struct KinkSettings {
   double threshold = 8.0;
   int window = 16;  // ≥ 4; fits near a segment's end use what the segment has (≥ 4 samples)

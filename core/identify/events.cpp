@@ -131,6 +131,58 @@ Kink LocateKink(const Mat& y, const std::vector<double>& t, const Vec& sigma, lo
   return Kink{.sample = best, .time = time, .statistic = 0.0};
 }
 
+// c1's variance per unit noise variance for a degree-2 fit to m samples δt apart that end half a step
+// before the reference instant (one side of a split).
+double SideSlopeVariance(long m, double dt) {
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  for (long i = 0; i < m; ++i) {
+    const double u = -(static_cast<double>(m - i) - 0.5) / static_cast<double>(m);  // τ / (m δt)
+    const Eigen::Vector3d x(1.0, u, u * u);
+    a += x * x.transpose();
+  }
+  const double scale = static_cast<double>(m) * dt;
+  return a.inverse()(1, 1) / (scale * scale);
+}
+
+// The window of the slope-change statistic: settings.window, widened (up to a quarter of the longest
+// segment, at most 256 samples) until a slope change the size of the data's typical slope — the
+// median |chord slope| over settings.window samples, per component — stands at 1.5 × the threshold
+// above the noise in some component. A switch changes the flow by a sizeable part of itself; with
+// noise, 16 samples cannot see that (a pump tank at 1 % of its level range: about 3 sd).
+long KinkWindow(const Mat& y, const std::vector<double>& t, const std::vector<std::pair<long, long>>& segments,
+                const Vec& sigma, const KinkSettings& settings) {
+  const long w = settings.window;
+  long longest = 0;
+  std::vector<double> steps;
+  std::vector<std::vector<double>> slopes(static_cast<std::size_t>(y.rows()));
+  for (const auto& [a, b] : segments) {
+    longest = std::max(longest, b - a + 1);
+    for (long k = a; k + w <= b; k += w) {
+      const double dt = t[std::size_t(k + w)] - t[std::size_t(k)];
+      steps.push_back(dt / static_cast<double>(w));
+      for (Eigen::Index j = 0; j < y.rows(); ++j) {
+        slopes[std::size_t(j)].push_back(std::abs(y(j, k + w) - y(j, k)) / dt);
+      }
+    }
+  }
+  if (steps.empty()) return w;
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double dt = median(steps);
+  Vec scale(y.rows());
+  for (Eigen::Index j = 0; j < y.rows(); ++j) scale[j] = median(slopes[std::size_t(j)]);
+  const long cap = std::max(w, std::min<long>(256, longest / 4));
+  for (long m = w;; m = std::min(cap, m + std::max<long>(1, m / 4))) {
+    const double sd = std::sqrt(2.0 * SideSlopeVariance(m, dt));
+    for (Eigen::Index j = 0; j < y.rows(); ++j) {
+      if (scale[j] >= 1.5 * settings.threshold * sigma[j] * sd) return m;
+    }
+    if (m == cap) return m;
+  }
+}
+
 }  // namespace
 
 std::vector<Kink> DetectKinks(const Mat& y, const std::vector<double>& t, const std::vector<std::uint8_t>& breaks,
@@ -146,9 +198,10 @@ std::vector<Kink> DetectKinks(const Mat& y, const std::vector<double>& t, const 
                              : 1.0;
     sigma[j] = std::max(sigma[j], 1e-12 * (1.0 + scale));
   }
-  const long m = settings.window;
+  const std::vector<std::pair<long, long>> segments = Segments(y, breaks);
+  const long m = KinkWindow(y, t, segments, sigma, settings);
   std::vector<Kink> out;
-  for (const auto& [a, b] : Segments(y, breaks)) {
+  for (const auto& [a, b] : segments) {
     if (b - a + 1 < 2 * kMinFit) continue;
     const long first = a + kMinFit, last = b - kMinFit + 1;  // splits with enough samples on each side
     // The statistic of each split and the component attaining it.

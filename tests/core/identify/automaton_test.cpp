@@ -273,6 +273,28 @@ TEST_CASE("pump tank: switches found within one sample, the initial mode inferre
   }
 }
 
+// At σ = 1 % of the level range the 16-sample windows see a switch at about 3 standard deviations:
+// the window is widened with the noise, and every switch is found, on its map, near its instant.
+TEST_CASE("pump tank at 1 % noise: the kink window widens and every switch is found") {
+  const double dt = 0.01, sigma = 1e-2;
+  const Model model{PumpTank{}};
+  for (unsigned seed : {21u, 22u, 23u}) {
+    std::vector<int> true_modes;
+    const Truth truth = TankData(1, dt, 20.0, sigma, seed, &true_modes);
+    IdentifierSettings settings;
+    settings.sets = false;
+    const IdentifyResult r = Identify(model, truth.y, dt, settings);
+    INFO("seed " << seed);
+    CHECK(r.initial_mode == 1);
+    REQUIRE(r.events.size() == truth.samples.size());
+    for (std::size_t i = 0; i < r.events.size(); ++i) {
+      INFO("switch " << i << " at t = " << truth.times[i] << ", found at t = " << r.events[i].time);
+      CHECK(std::abs(r.events[i].time - truth.times[i]) <= 4 * dt);
+      CHECK(r.events[i].map == truth.maps[i]);
+    }
+  }
+}
+
 TEST_CASE("a given initial mode is used as given") {
   std::vector<int> true_modes;
   const Truth truth = TankData(1, 0.01, 6.0, 1e-3, 5u, &true_modes);
