@@ -60,7 +60,7 @@ TEST_CASE("oscillating table: the defaults fit all samples within 4 CRLB sd", "[
   }
 }
 
-TEST_CASE("oscillating table: one shooting alone fits a cut span; multiple shooting fits all samples at the bound",
+TEST_CASE("oscillating table: one shooting alone fits a cut span, multiple shooting all samples at the bound",
           "[refine]") {
   const OscillatingTable run;
   const Crlb bound = ComputeCrlb(run.model, run.x0, run.grid, run.sigma, Unknowns::Of(run.model));
