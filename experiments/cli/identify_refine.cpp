@@ -195,7 +195,7 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
                 static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
                 r.span_reason.c_str());
   }
-  if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
+  if (!r.mended.empty()) std::printf("  mended or reached by: %s\n", r.mended.c_str());
   if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
   if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
   if (r.ok()) {
