@@ -145,6 +145,9 @@ struct Identifier::State {
         if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
         if (paper != nullptr && !paper->one_row()) paper = nullptr;
         residual = dynamic_cast<ResidualDetector*>(detector.get());
+        const std::vector<int>& unknown = builder.flow_layout().unknown;
+        flow_run = paper != nullptr && rls != nullptr && m.state_size() == 2 && unknown.size() == 2 &&
+                   paper->constant2(static_cast<int>(alpha_full.size()));
         const int u = static_cast<int>(builder.flow_layout().unknown.size());
         row_block = rls != nullptr ? ChooseRowBlock<Rls>(*this, m.state_size(), u)
                                    : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
@@ -183,6 +186,7 @@ struct Identifier::State {
   PaperDetector* paper = nullptr;
   ResidualDetector* residual = nullptr;
   RowBlockFn row_block = nullptr;
+  bool flow_run = false;  // RowBlock<2, 2, kPaperDirect, Rls> may take runs of flow samples (FlowRun)
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -384,6 +388,15 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   [[maybe_unused]] detail::Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
   for (Eigen::Index k = 0; k < count; ++k) {
+    Decision d;
+    bool decided = false;  // d is sample k's decision already (a flow run stopped there)
+    if constexpr (kLocal && N == 2) {
+      if (s.flow_run && !s.frozen && !s.settings.sets && est->updates() >= s.paper->unknowns()) {
+        k = s.alpha_full.size() == 3 ? FlowRun<3>(s, xs, k, count, phi, y, decisions, local, &d, &decided)
+                                     : FlowRun<2>(s, xs, k, count, phi, y, decisions, local, &d, &decided);
+        if (k == count) break;
+      }
+    }
     const double* x = xs + k * n;
     ++s.samples;
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
@@ -402,11 +415,12 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
         AfterJump(s, ConstVecMap(x, n), alpha_class);
       }
     };
-    Decision d;
     if constexpr (kCall == kPaperDirect) {
-      d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, dt, alpha_class.data(),
-                                             s.frozen ? -2 : s.version,
-                                             s.frozen ? s.frozen_updates : est->updates());
+      if (!decided) {
+        d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, dt, alpha_class.data(),
+                                               s.frozen ? -2 : s.version,
+                                               s.frozen ? s.frozen_updates : est->updates());
+      }
       update(d);
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
@@ -428,6 +442,55 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     if (decisions != nullptr) decisions[k] = d;
   }
   if constexpr (kLocal) est->Store2(local);
+}
+
+// Consecutive flow samples k, k + 1, … of a row block (n = 2, |α| = 2 unknowns, RLS, the paper
+// detector; warm-up over, no sets, first pass): the detector's and RLS's state in local variables
+// (detail::PaperConstant2, r) and no call in the loop, the same arithmetic as the per-sample path.
+// Stops before a sample whose row is not finite, and at a jump or a failed RLS update: that sample's
+// decision goes to *pending (*decided = true) for the caller to apply. Returns the sample it stopped
+// at (count: the block is done).
+template <int A>
+Eigen::Index Identifier::FlowRun(State& s, const double* xs, Eigen::Index k, Eigen::Index count,
+                                 const double* phi, const double* y, Decision* decisions,
+                                 detail::Rls2State& rls, Decision* pending, bool* decided) {
+  detail::Rls2State r = rls;
+  const int* unknown = s.builder.flow_layout().unknown.data();
+  detail::PaperConstant2<A> c = s.paper->LoadConstant2<A>(s.alpha_full.data(), unknown[0], unknown[1]);
+  const double lambda = s.rls->forgetting(), max_trace = s.rls->max_trace(), inv_dt = 1.0 / s.dt;
+  double p0 = s.prev[0], p1 = s.prev[1];
+  double prev_norm = c.PrevNorm(p0, p1);
+  long version = s.version, admitted = 0, informative = 0;
+  for (; k < count; ++k) {
+    const double f0 = phi[2 * k], f1 = phi[2 * k + 1], yk = y[k];
+    if (!(std::isfinite(f0) && std::isfinite(f1) && std::isfinite(yk))) break;
+    const double c0 = xs[2 * k], c1 = xs[2 * k + 1];
+    const Decision d = c.Classify(p0, p1, c0, c1, prev_norm, inv_dt, r.t0, r.t1, version);
+    if (d.gamma || !r.Update(f0, f1, yk, lambda, max_trace)) {
+      *pending = d;
+      *decided = true;
+      break;
+    }
+    if (decisions != nullptr) decisions[k] = d;
+    prev_norm = c.last_norm;
+    ++admitted;
+    informative += f0 != 0.0 || f1 != 0.0 ? 1 : 0;
+    ++version;
+    p0 = c0;
+    p1 = c1;
+  }
+  rls = r;
+  s.paper->StoreConstant2(c);
+  if (admitted > 0) {
+    s.rls->CountRowsIn(admitted, informative);
+    s.samples += admitted;
+    s.version = version;
+    s.alpha_full[unknown[0]] = r.t0;
+    s.alpha_full[unknown[1]] = r.t1;
+    s.prev[0] = p0;
+    s.prev[1] = p1;
+  }
+  return k;
 }
 
 template <Identifier::DetectorCall kCall, class E>

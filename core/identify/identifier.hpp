@@ -33,6 +33,10 @@
 
 namespace hysid {
 
+namespace detail {
+struct Rls2State;
+}  // namespace detail
+
 struct IdentifierSettings {
   // For α and β. gtls and frisch with an empty noise_shape get theirs from WithNoiseShapes (below).
   // The jump regression sees one row per jump (14 in §5), so its frisch window defaults to 0 (the
@@ -144,6 +148,10 @@ class Identifier {
   static RowBlockFn ChooseRowBlock(int n, int u);
   template <class E>
   static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
+  template <int A>
+  static Eigen::Index FlowRun(State& s, const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
+                              const double* y, Decision* decisions, detail::Rls2State& r, Decision* pending,
+                              bool* decided);
   static SampleContext SampleContextOf(State& s, const double* x, const double* phi, const double* y,
                                        const Vec& alpha_class);
   template <int P>
