@@ -716,15 +716,27 @@ Decision StepAt(Identifier& id, const Mat& y, double dt, const IdentifyOptions& 
   return labelled ? id.Step(y.col(k), gamma) : id.Step(y.col(k));
 }
 
+bool StopRaised(const IdentifyOptions& options) {
+  return options.stop != nullptr && options.stop->load(std::memory_order_relaxed);
+}
+
+// Samples between two looks at IdentifyOptions::stop: fewer when hulls of n ≥ 3 states are built.
+Eigen::Index StopPoll(const IdentifierSettings& settings, Eigen::Index n) {
+  return settings.sets && n >= 3 ? IdentifyOptions::kStopPollSamples / 16 : IdentifyOptions::kStopPollSamples;
+}
+
 // A column with a non-finite entry is a missing sample: skipped, and the chain goes on (the next pair
-// spans it, its step from the last sample fed: times, else the count of steps of δt).
-void ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
+// spans it, its step from the last sample fed: times, else the count of steps of δt). False when
+// stopped (IdentifyOptions::stop).
+bool ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index poll,
+               IdentifyResult* r) {
   r->skipped_samples = 0;
   r->chains = 0;
   bool open = false;
   Eigen::Index last = -1;  // the last sample fed in the open chain
   for (Eigen::Index k = 0; k < y.cols(); ++k) {
     const auto u = static_cast<std::size_t>(k);
+    if (k % poll == 0 && StopRaised(options)) return false;
     if (!options.chain_start.empty() && options.chain_start[u] && open) {
       id.Restart();
       open = false;
@@ -746,24 +758,28 @@ void ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& o
     r->alpha_trace.col(k) = id.alpha_hat();
     r->beta_trace.col(k) = id.beta_hat();
   }
+  return true;
 }
 
 // One pass over the samples. Without a trace or labels, samples go to Feed in chunks (its block
-// path); a trace needs α̂, β̂ after each sample, labels a Step with each.
-void Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
-  if (NeedsChains(y, options)) return ChainPass(id, y, dt, options, r);
+// path); a trace needs α̂, β̂ after each sample, labels a Step with each. Looks at
+// IdentifyOptions::stop every `poll` samples; false when stopped.
+bool Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index poll,
+          IdentifyResult* r) {
+  if (NeedsChains(y, options)) return ChainPass(id, y, dt, options, poll, r);
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
-    constexpr Eigen::Index kChunk = 4096;
-    std::vector<Decision> decisions(static_cast<std::size_t>(std::min(kChunk, count)));
-    for (Eigen::Index k = 0; k < count; k += kChunk) {
-      const Eigen::Index len = std::min(kChunk, count - k);
+    std::vector<Decision> decisions(static_cast<std::size_t>(std::min(poll, count)));
+    for (Eigen::Index k = 0; k < count; k += poll) {
+      if (StopRaised(options)) return false;
+      const Eigen::Index len = std::min(poll, count - k);
       id.Feed(y.middleCols(k, len), decisions.data());
       for (Eigen::Index j = 0; j < len; ++j) Record(k + j, decisions[static_cast<std::size_t>(j)], r);
     }
-    return;
+    return true;
   }
   for (Eigen::Index k = 0; k < count; ++k) {
+    if (k % poll == 0 && StopRaised(options)) return false;
     Record(
         k,
         options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[std::size_t(k)] != 0),
@@ -772,20 +788,31 @@ void Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& option
     r->alpha_trace.col(k) = id.alpha_hat();
     r->beta_trace.col(k) = id.beta_hat();
   }
+  return true;
 }
 
-// The second pass: records the first pass's outcome, re-runs, counts the changed classes.
-void SecondPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
+// The second pass: records the first pass's outcome, re-runs, counts the changed classes. False when
+// stopped.
+bool SecondPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index poll,
+                IdentifyResult* r) {
   r->second_pass = true;
   r->first_pass_gamma = r->gamma;
   r->first_pass_alpha_hat = id.alpha_hat();
   r->first_pass_beta_hat = id.beta_hat();
   id.BeginSecondPass();
-  Pass(id, y, dt, options, r);
+  if (!Pass(id, y, dt, options, poll, r)) return false;
   for (std::size_t k = 0; k < r->gamma.size(); ++k) {
     r->reclassified_to_jump += (!r->first_pass_gamma[k] && r->gamma[k]) ? 1 : 0;
     r->reclassified_to_flow += (r->first_pass_gamma[k] && !r->gamma[k]) ? 1 : 0;
   }
+  return true;
+}
+
+// IdentifyOptions::stop was raised: not ok, whatever the estimates.
+void MarkStopped(IdentifyResult* r) {
+  r->stopped = true;
+  r->flow_status = r->jump_status = EstimatorStatus::kNotExcited;
+  r->flow_reason = r->jump_reason = "stopped";
 }
 
 // The final estimates, statuses, boxes and hulls.
@@ -883,8 +910,15 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     r.alpha_trace.resize(model.alpha_size(), y.cols());
     r.beta_trace.resize(model.beta_size(), y.cols());
   }
-  Pass(id, y, dt, options, &r);
-  if (settings.second_pass) SecondPass(id, y, dt, options, &r);
+  const Eigen::Index poll = StopPoll(bounded, model.state_size());
+  if (!Pass(id, y, dt, options, poll, &r) ||
+      (settings.second_pass && !SecondPass(id, y, dt, options, poll, &r))) {
+    r.alpha_hat = id.alpha_hat();  // of the samples seen
+    r.beta_hat = id.beta_hat();
+    r.jumps_detected = id.jumps_detected();
+    MarkStopped(&r);
+    return r;
+  }
   Collect(id, bounded.sets, &r);
   if (options.check_paper_bound && options.labels.empty() && settings.detector.kind == DetectorKind::kPaper)
     CheckDetectorBound(model, y, settings, &r);
@@ -892,6 +926,7 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     IdentifierSettings safe = settings;
     safe.flow_estimator.kind = EstimatorKind::kRls;
     r.safe_start = std::make_shared<const IdentifyResult>(Identify(model, y, dt, safe, options));
+    if (r.safe_start->stopped) MarkStopped(&r);
     r.safe_start_reason =
         fmt::format("the {} estimate of alpha is {}{}{}; the refinement starts from rls (alpha {})",
                     ToString(settings.flow_estimator.kind), ToString(r.flow_status),

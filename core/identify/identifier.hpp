@@ -20,6 +20,7 @@
 //                forgetting) is the other way to let early mistakes fade.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -194,6 +195,12 @@ struct IdentifyOptions {
   std::vector<int> modes{}, maps{};
   int initial_mode = -1;  // the mode at the first sample when known (−1: inferred)
   KinkSettings kinks{};
+  // Raised (a signal handler, Python's Ctrl-C): the pass ends within kStopPollSamples samples (a
+  // sixteenth of that with hulls of n ≥ 3 states, whose insertions cost more) and the result says
+  // IdentifyResult::stopped: both statuses kNotExcited with reason "stopped", no hulls, no second
+  // pass, no safe start. Null: never.
+  const std::atomic<bool>* stop = nullptr;
+  static constexpr long kStopPollSamples = 4096;
 };
 
 struct IdentifyResult {
@@ -247,6 +254,9 @@ struct IdentifyResult {
   bool initial_mode_inferred = false;
   std::vector<double> initial_mode_rss;
   std::string events_reason;
+  // IdentifyOptions::stop was raised: the pass ended early; the estimates are those of the samples
+  // seen (partial) and not ok.
+  bool stopped = false;
 };
 
 // gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD
