@@ -387,14 +387,18 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   constexpr bool kLocal = kCall == kPaperDirect && std::is_same_v<E, Rls> && P == 2;
   [[maybe_unused]] detail::Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
+  // A flow run is tried again only after a flow sample of the per-sample path: where most samples are
+  // jumps (a small r), runs would end at once.
+  [[maybe_unused]] bool try_run = true;
   for (Eigen::Index k = 0; k < count; ++k) {
     Decision d;
     bool decided = false;  // d is sample k's decision already (a flow run stopped there)
     if constexpr (kLocal && N == 2) {
-      if (s.flow_run && !s.frozen && !s.settings.sets && est->updates() >= s.paper->unknowns()) {
+      if (try_run && s.flow_run && !s.frozen && !s.settings.sets && est->updates() >= s.paper->unknowns()) {
         k = s.alpha_full.size() == 3 ? FlowRun<3>(s, xs, k, count, phi, y, decisions, local, &d, &decided)
                                      : FlowRun<2>(s, xs, k, count, phi, y, decisions, local, &d, &decided);
         if (k == count) break;
+        try_run = !decided;
       }
     }
     const double* x = xs + k * n;
@@ -438,6 +442,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
       update(d);
       s.detector->Observe(c, d);
     }
+    if constexpr (kLocal && N == 2) try_run = try_run || !d.gamma;
     for (Eigen::Index i = 0; i < n; ++i) s.prev[i] = x[i];
     if (decisions != nullptr) decisions[k] = d;
   }
