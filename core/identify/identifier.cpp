@@ -388,13 +388,16 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   [[maybe_unused]] detail::Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
   // A flow run is tried again only after a flow sample of the per-sample path: where most samples are
-  // jumps (a small r), runs would end at once.
+  // jumps (a small r), runs would end at once. Fewer than kMinFlowRun samples left (Step feeds one):
+  // loading and storing the state would cost more than the run saves.
+  constexpr Eigen::Index kMinFlowRun = 16;
   [[maybe_unused]] bool try_run = true;
   for (Eigen::Index k = 0; k < count; ++k) {
     Decision d;
     bool decided = false;  // d is sample k's decision already (a flow run stopped there)
     if constexpr (kLocal && N == 2) {
-      if (try_run && s.flow_run && !s.frozen && !s.settings.sets && est->updates() >= s.paper->unknowns()) {
+      if (try_run && count - k >= kMinFlowRun && s.flow_run && !s.frozen && !s.settings.sets &&
+          est->updates() >= s.paper->unknowns()) {
         k = s.alpha_full.size() == 3 ? FlowRun<3>(s, xs, k, count, phi, y, decisions, local, &d, &decided)
                                      : FlowRun<2>(s, xs, k, count, phi, y, decisions, local, &d, &decided);
         if (k == count) break;
