@@ -261,7 +261,7 @@ struct FitJob {
 };
 
 FitOutcome RunFit(FitJob job, const std::atomic<bool>* stop) {
-  IdentifyOptions options{.trace = job.trace};
+  IdentifyOptions options{.trace = job.trace, .stop = stop};
   if (!job.data.uniform) {
     options.times = job.data.t;
     options.chain_start = job.data.chain_start;

@@ -378,7 +378,8 @@ PartialOutputs Reconstruct(const Model& model, const std::string& model_file, co
         "{}: measured: {}", model_file.empty() ? fmt::format("model '{}'", model.name()) : "--model-file " + model_file,
         plan.error));
   }
-  const ReconstructOptions ro;
+  ReconstructOptions ro;
+  ro.stop = options.stop;
   const Reconstruction r = ReconstructStates(plan, data.t, data.y, data.chain_start, sigma, ro);
   partial.reconstructed = plan.reconstructed;
   const auto& names = model.spec().state_names;

@@ -407,6 +407,7 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   IdentifyOptions options;
   options.statistics = false;
   options.check_paper_bound = false;  // every detection is counted against the true jumps
+  options.stop = in.stop;             // a stopped trial's row is dropped by the runner
   if (config.oracle) options.labels = TrueLabels(truth);
   if (in.inputs != nullptr) options.inputs = in.inputs->values.leftCols(truth.x.cols());
   const std::vector<int> measured = MeasuredIndices(model);
@@ -416,7 +417,9 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   // detected kinks as its labels (core/identify/reconstruct.hpp), as `hysid identify` does.
   Reconstruction rec;
   if (partial) {
-    rec = ReconstructStates(PlanReconstruction(model, measured), truth.t, noisy(measured, Eigen::all), {}, Vec());
+    ReconstructOptions ro;
+    ro.stop = in.stop;
+    rec = ReconstructStates(PlanReconstruction(model, measured), truth.t, noisy(measured, Eigen::all), {}, Vec(), ro);
     if (!config.oracle) options.labels = rec.gamma;
   }
   const Mat& y = partial ? rec.x : noisy;
