@@ -392,6 +392,12 @@ IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, co
   const bool has_jump = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return !m.identity; });
   const bool has_switch = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return m.identity; });
   const int modes_count = ModeCount(spec);
+  if (settings.localize) {
+    throw std::invalid_argument(fmt::format(
+        "IdentifierSettings::localize: not available for hybrid automaton '{}' (the localiser fits one flow and one "
+        "jump map)",
+        model.name()));
+  }
   if (options.initial_mode >= modes_count) {
     throw std::invalid_argument(fmt::format("IdentifyOptions::initial_mode = {}: model '{}' has {} mode(s)",
                                             options.initial_mode, model.name(), modes_count));

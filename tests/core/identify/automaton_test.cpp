@@ -310,6 +310,16 @@ TEST_CASE("a given initial mode is used as given") {
   CHECK_THROWS_AS(Identify(Model{PumpTank{}}, truth.y, 0.01, settings, options), std::invalid_argument);
 }
 
+TEST_CASE("the jump localiser is refused for an automaton, by its field") {
+  std::vector<int> true_modes;
+  const Truth truth = TankData(1, 0.01, 2.0, 1e-3, 5u, &true_modes);
+  IdentifierSettings settings;
+  settings.localize = true;
+  CHECK_THROWS_WITH(Identify(Model{PumpTank{}}, truth.y, 0.01, settings, IdentifyOptions{}),
+                    Catch::Matchers::StartsWith("IdentifierSettings::localize: not available for hybrid automaton "
+                                                "'pump-tank'"));
+}
+
 // The pump tank with its levels as guard parameters γ = (h_lo, h_hi), both unknown.
 struct PumpTankLevels : PumpTank {
   ModelSpec Spec() const {
