@@ -23,44 +23,16 @@ using testing::Param;
 constexpr double kG = 2.0, kFloor = 0.9, kCeiling = 0.7;
 
 // A ball between a floor (h = 0) and a ceiling (h = 1): ξ = (h, v), h' = v, v' = −g; each wall has
-// its own restitution (map "floor": β0, map "ceiling": β1).
-struct TwoWalls {
-  bool two_maps = true;
-  ModelSpec Spec() const {
-    ModelSpec s;
-    s.name = "two-walls";
-    s.state_names = {"h", "v"};
-    s.alpha = {Param("one", 1.0, true), Param("g", kG)};
-    s.flow_rows = {1};
-    s.jump_rows = {1};
-    s.guards = {Guard{"floor", Crossing::kFalling}, Guard{"ceiling", Crossing::kRising}};
-    s.default_x0 = {0.5, 5.0};
-    if (two_maps) {
-      s.beta = {Param("e_floor", kFloor), Param("e_ceiling", kCeiling)};
-      s.jumps = {Map("floor", 0, -1, -1, 0, 1), Map("ceiling", 1, -1, -1, 1, 1)};
-    } else {
-      s.beta = {Param("e", kFloor)};
-    }
-    return s;
-  }
-  void Phi(ConstVecRef x, const Context&, MatRef phi) const {
-    phi.setZero();
-    phi(0, 0) = x(1);
-    phi(1, 1) = -1.0;
-  }
-  void Psi(ConstVecRef x, const Context& ctx, MatRef psi) const {
-    psi.setZero();
-    const int c = two_maps ? ctx.map : 0;
-    psi(0, c) = x(0);  // not a regressed row
-    psi(1, c) = -x(1);
-  }
-  void Guards(ConstVecRef x, const Context&, VecRef h) const {
-    h(0) = x(0);
-    h(1) = x(0) - 1.0;
-  }
-  bool InFlowSet(ConstVecRef, const Context&) const { return true; }
-  bool InJumpSet(ConstVecRef, const Context&) const { return false; }
-};
+// its own restitution (map "floor": e_floor = β1, map "ceiling": e_ceiling = β3), or with `one_map`
+// the paper's class with one e = β1 for both.
+testing::FloorCeiling TwoWalls() {
+  testing::FloorCeiling m;
+  m.g = kG;
+  m.e_floor = kFloor;
+  m.e_ceiling = kCeiling;
+  m.x0 = {0.5, 5.0};
+  return m;
+}
 
 struct Truth {
   Mat y;                      // noisy samples
@@ -124,7 +96,7 @@ TEST_CASE("two walls: every impact is assigned to its wall's map and each restit
   const Truth truth = WallsData(dt, 6.0, sigma, 7);
   REQUIRE(truth.samples.size() >= 8);
   REQUIRE(std::count(truth.maps.begin(), truth.maps.end(), 1) >= 3);
-  const Model model{TwoWalls{}};
+  const Model model{TwoWalls()};
   IdentifierSettings settings;
   settings.sets = false;
   const IdentifyResult r = Identify(model, truth.y, dt, settings);
@@ -150,17 +122,18 @@ TEST_CASE("two walls: every impact is assigned to its wall's map and each restit
     }
     const double e_true = m == 0 ? kFloor : kCeiling;
     const double se = sigma * std::sqrt(1.0 + e_true * e_true) / std::sqrt(sxx);
-    INFO("map " << m << ": estimate " << r.beta_hat[m] << ", SE " << se);
-    CHECK(r.beta_hat[m] == Approx(sxy / sxx).epsilon(1e-6));
-    CHECK(std::abs(r.beta_hat[m] - e_true) < 3.0 * se);
+    INFO("map " << m << ": estimate " << r.beta_hat[2 * m + 1] << ", SE " << se);
+    const Eigen::Index e_index = 2 * m + 1;  // β = (one_f, e_floor, one_c, e_ceiling)
+    CHECK(r.beta_hat[e_index] == Approx(sxy / sxx).epsilon(1e-6));
+    CHECK(std::abs(r.beta_hat[e_index] - e_true) < 3.0 * se);
   }
   // The one-map model on the same data averages the two walls: its e is between them and far from both.
-  TwoWalls one;
-  one.two_maps = false;
+  testing::FloorCeiling one = TwoWalls();
+  one.one_map = true;
   const IdentifyResult averaged = Identify(Model{one}, truth.y, dt, settings);
   CHECK(averaged.events.empty());
-  CHECK(averaged.beta_hat[0] > kCeiling + 0.02);
-  CHECK(averaged.beta_hat[0] < kFloor - 0.02);
+  CHECK(averaged.beta_hat[1] > kCeiling + 0.02);
+  CHECK(averaged.beta_hat[1] < kFloor - 0.02);
 }
 
 // The pump tank: h' = −a√h + P·q, q = 1 ("on") until h reaches h_hi, then 0 ("off") until h falls to
