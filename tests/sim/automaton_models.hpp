@@ -125,4 +125,42 @@ struct PumpTank {
   bool InJumpSet(ConstVecRef, const Context&) const { return false; }
 };
 
+// Both flow modes and a state jump, the jump in mode 1: x' = −a·x + P·[q = fill]; fill → drain at
+// x = 3 rising (an identity map, "drain"); in drain, at x = 1 falling, the map "refill" jumps
+// x⁺ = c·x and goes back to fill. α = (a, P) = (0.5, 2), β = (c) = (2): from x0 = 2 in fill a cycle
+// of 1.39 s filling and 2.20 s draining. In drain, mode fill's flow is off by P per unit time.
+struct RefillTank {
+  ModelSpec Spec() const {
+    ModelSpec s;
+    s.name = "refill-tank";
+    s.state_names = {"x"};
+    s.alpha = {Param("a", 0.5), Param("P", 2.0)};
+    s.beta = {Param("c", 2.0)};
+    s.flow_rows = {0};
+    s.jump_rows = {0};
+    s.guards = {Guard{"low", Crossing::kFalling}, Guard{"high", Crossing::kRising}};
+    s.default_x0 = {2.0};
+    s.modes = {"fill", "drain"};
+    JumpMap refill = Map("refill", 0, 1, 0, 0, 1);
+    refill.rows = {0};
+    s.jumps = {refill, Map("drain", 1, 0, 1, 0, 0)};
+    return s;
+  }
+  void Phi(ConstVecRef x, const Context& ctx, MatRef phi) const {
+    phi(0, 0) = -x(0);
+    phi(0, 1) = ctx.mode == 0 ? 1.0 : 0.0;
+  }
+  void Psi(ConstVecRef x, const Context& ctx, MatRef psi) const {
+    psi.setZero();
+    if (ctx.map == 0) psi(0, 0) = x(0);
+  }
+  void Guards(ConstVecRef x, const Context&, VecRef h) const {
+    h(0) = x(0) - 1.0;
+    h(1) = x(0) - 3.0;
+  }
+  void ProjectOntoGuard(int i, const Context&, VecRef x) const { x(0) = i == 0 ? 1.0 : 3.0; }
+  bool InFlowSet(ConstVecRef, const Context&) const { return true; }
+  bool InJumpSet(ConstVecRef, const Context&) const { return false; }
+};
+
 }  // namespace hysid::testing

@@ -1,6 +1,7 @@
 // The recursive pass of a hybrid automaton (core/identify/events.hpp) on closed-form data: a ball
-// between a floor and a ceiling with two restitutions (piecewise parabolas), and a pump tank whose
-// two flow modes switch at two levels without a jump (a fine RK4 of h' = −a√h + P·q).
+// between a floor and a ceiling with two restitutions (piecewise parabolas), a pump tank whose
+// two flow modes switch at two levels without a jump (a fine RK4 of h' = −a√h + P·q), and a tank
+// with both modes and a jump in the second mode (the run loop's, tests/sim/automaton_models.hpp).
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -10,6 +11,7 @@
 
 #include "core/identify/events.hpp"
 #include "core/model/automaton.hpp"
+#include "sim/measurement.hpp"
 #include "sim/refine/start.hpp"
 #include "sim/simulator.hpp"
 #include "tests/sim/automaton_models.hpp"
@@ -281,6 +283,44 @@ TEST_CASE("a given initial mode is used as given") {
   CHECK(r.mode[0] == 0);
   options.initial_mode = 2;
   CHECK_THROWS_AS(Identify(Model{PumpTank{}}, truth.y, 0.01, settings, options), std::invalid_argument);
+}
+
+TEST_CASE("both modes and a jump in mode 1: the jumps are found against each sample's own mode's flow") {
+  const Model model{testing::RefillTank{}};
+  const double dt = 0.01, sigma = 1e-3;
+  const Trajectory run = Simulate(model, testing::Of({2.0}), SampleGrid{.t_end = 15.0, .dt = dt});
+  REQUIRE(run.status.completed());
+  REQUIRE(run.jumps.size() == 8);  // 4 switches to drain, 4 refills
+  const long refills = std::count_if(run.jumps.begin(), run.jumps.end(), [](const JumpRecord& j) { return j.map == 0; });
+  IdentifierSettings settings;
+  settings.sets = false;
+  settings.detector.kind = DetectorKind::kResidual;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    INFO("seed " << seed);
+    const Mat y = AddMeasurementNoise(run.x, Vec::Constant(1, sigma), NoiseKey{.seed = seed});
+    // Mode fill's flow alone misses P·δt = 20 σ per step while the tank drains: that pass flags runs
+    // of pairs after the switches, many more than there are jumps.
+    IdentifyOptions one_mode;
+    one_mode.assign_events = false;
+    CHECK(Identify(model, y, dt, settings, one_mode).jumps_detected > 5 * refills);
+    const IdentifyResult r = Identify(model, y, dt, settings);
+    REQUIRE(r.events.size() == run.jumps.size());
+    CHECK(r.events_reason.empty());
+    CHECK(r.initial_mode == 0);
+    for (std::size_t i = 0; i < run.jumps.size(); ++i) {
+      const JumpRecord& truth = run.jumps[i];
+      const long sample = static_cast<long>(std::ceil(truth.t / dt));
+      INFO("event " << i << " at t = " << truth.t << " (map " << truth.map << ")");
+      CHECK(r.events[i].map == truth.map);
+      CHECK(r.events[i].jump == (truth.map == 0));
+      CHECK(std::abs(r.events[i].sample - sample) <= 1);
+    }
+    // c from the refills' pairs (x⁺ = c·x⁻, both at σ = 1e-3 around x⁻ = 1): within 0.05 of 2.
+    CHECK(r.beta_hat[0] == Approx(2.0).margin(0.05));
+    long same = 0;
+    for (std::size_t k = 0; k < run.q.size(); ++k) same += run.q[k] == r.mode[k] ? 1 : 0;
+    CHECK(static_cast<double>(same) / static_cast<double>(run.q.size()) > 0.99);
+  }
 }
 
 TEST_CASE("the jump localiser is refused for an automaton, by its field") {
