@@ -43,16 +43,6 @@ int ModeFlag(const std::string& name, const Model& model) {
   return static_cast<int>(it - spec.modes.begin());
 }
 
-// The CRLB-implied mean errors of the blocks θ has: e_alpha when some α is unknown, e_beta when some
-// β is, e_gamma when some γ is ("" when none).
-std::string MeanErrors(const Unknowns& unknowns, const Crlb& c) {
-  std::vector<std::string> parts;
-  if (!unknowns.alpha.empty()) parts.push_back(fmt::format("mean e_alpha {:.6g}", c.mean_e_alpha));
-  if (!unknowns.beta.empty()) parts.push_back(fmt::format("mean e_beta {:.6g}", c.mean_e_beta));
-  if (!unknowns.gamma.empty()) parts.push_back(fmt::format("mean e_gamma {:.6g}", c.mean_e_gamma));
-  return fmt::format("{}", fmt::join(parts, ", "));
-}
-
 // A hybrid automaton: the CRLB-implied mean error of each jump map's own unknown β entries (its block
 // of the covariance; identity maps and maps with every β known have none).
 void PrintPerMap(const ModelSpec& spec, const Unknowns& unknowns, const Crlb& c) {
@@ -129,7 +119,7 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
     }
     std::printf("%s\n", line.c_str());
   }
-  if (const std::string means = MeanErrors(unknowns, c); !means.empty()) {
+  if (const std::string means = CrlbMeanErrors(unknowns, c, 6); !means.empty()) {
     std::printf("CRLB-implied %s\n", means.c_str());
   }
   if (!spec.jumps.empty()) PrintPerMap(spec, unknowns, c);
