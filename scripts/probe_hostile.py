@@ -1019,6 +1019,20 @@ def full_stdout(args):
             fail("limits", f"{' '.join(args)} > /dev/full", "left temporary files")
 
 
+def signal_and_wait(p, sig, name):
+    """Sends sig to p and waits for it (killed after 10 s): the seconds it took, recorded as a figure."""
+    t0 = time.monotonic()
+    p.send_signal(sig)
+    try:
+        p.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.wait()
+    took = time.monotonic() - t0
+    SIGNAL_FIGURES.append((name, took))
+    return took
+
+
 def signal_case(sig):
     """SIGINT or SIGTERM in the middle of one long sweep unit: the sweep ends within 1 s, with 128 +
     the signal, no temporary file, and the same command resumes to the end."""
@@ -1038,16 +1052,8 @@ def signal_case(sig):
         if p.poll() is not None:
             fail("limits", name, "the unit ended before the signal: make it longer")
             return
-        t0 = time.monotonic()
-        p.send_signal(sig)
-        try:
-            p.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
-        took = time.monotonic() - t0
+        took = signal_and_wait(p, sig, name)
         err = p.stderr.read().decode(errors="replace")
-        SIGNAL_FIGURES.append((name, took))
         if p.returncode != 128 + sig:
             fail("limits", name, f"exit {p.returncode}, expected {128 + sig}: {err.strip()[-200:]!r}")
         if took > 1.0:
@@ -1065,9 +1071,9 @@ SIGNAL_FIGURES = []
 
 # ---------------------------------------------------------------- limits: a 16-state model
 
-def many_states_model(n):
-    """wall-msd with n − 2 more states z_i' = −c z_i that the jump keeps (rows v, c and the z_i in the
-    refinement): exact hulls of C and D in n dimensions would not finish."""
+def many_states_model(n, rows=None):
+    """wall-msd with n − 2 more states z_i' = −c z_i that the jump keeps: exact hulls of C and D in n
+    dimensions would not finish."""
     zs = [f"z{i}" for i in range(1, n - 1)]
     phi = ['["v", 0, 0, 0]', '[0, "-x", "-v", 0]'] + [f'[0, 0, 0, "-{z}"]' for z in zs]
     psi = ['["x", 0, 0]', '[0, "-v", 1]'] + [f'["{z}", 0, 0]' for z in zs]
@@ -1077,7 +1083,7 @@ def many_states_model(n):
             '         { name = "b", value = 0.2 }, { name = "c", value = 0.1 }]\n'
             'beta = [{ name = "beta_x", value = 1.0, known = true }, { name = "lambda", value = 0.8 },\n'
             '        { name = "mu", value = 0.0 }]\n'
-            f'[flow]\nphi = [{", ".join(phi)}]\nrows = ["v"]\njacobian_constant = true\n'
+            f'[flow]\nphi = [{", ".join(phi)}]\nrows = {json.dumps(rows or ["v"] + zs)}\njacobian_constant = true\n'
             f'[jump]\npsi = [{", ".join(psi)}]\nrows = ["v"]\n'
             '[[guard]]\nname = "wall"\nh = "x - 1"\ndirection = "rising"\nproject = { x = "1" }\n'
             '[sets]\nC = "x < 1 || (x == 1 && v <= 0)"\nD = "x == 1 && v >= 0"\n'
@@ -1127,15 +1133,7 @@ def many_states_signal():
         if p.poll() is not None:
             fail("limits", name, f"ended before the signal (exit {p.returncode}): make the model larger")
             return
-        t0 = time.monotonic()
-        p.send_signal(signal.SIGINT)
-        try:
-            p.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
-        took = time.monotonic() - t0
-        SIGNAL_FIGURES.append((name, took))
+        took = signal_and_wait(p, signal.SIGINT, name)
         if p.returncode != 130 or took > 1.0:
             fail("limits", name, f"exit {p.returncode} {took:.2f} s after SIGINT, expected 130 within 1 s")
         if temporaries(d) or os.path.exists(os.path.join(d, "r.json")):
@@ -1144,6 +1142,9 @@ def many_states_signal():
 
 def many_states_cases():
     c = [many_states_bounded, many_states_signal]
+    # c enters the rows z_i alone: with rows = ["v"] the recursive pass would report c = 0 as an estimate
+    c.append(lambda: refuse("limits", "16 states: an unknown parameter outside the flow's rows", ["models", "--show", "m.toml"],
+                            "flow.rows", lambda d: write(d, "m.toml", many_states_model(16, rows=["v"]))))
     for v in ("abc", "-1", "0", "1e3", "12x"):
         c.append(lambda v=v: refuse("limits", f"HYSID_MAX_HULL_DIMENSION={v!r}", M16, "HYSID_MAX_HULL_DIMENSION",
                                     many_states_setup, env={"HYSID_MAX_HULL_DIMENSION": v}))
