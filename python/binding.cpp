@@ -14,6 +14,7 @@
 #include <fmt/ranges.h>
 
 #include "core/builtin/builtin.hpp"
+#include "experiments/cli/checks.hpp"
 #include "sim/model_check/model_check.hpp"
 
 namespace hysid::python {
@@ -39,7 +40,7 @@ PyModel ModelFromFile(const std::string& path) {
 PyModel MakePyModel(const std::string& name_or_file) {
   if (Builtins().Contains(name_or_file)) return {Builtins().Make(name_or_file), name_or_file, "", ""};
   if (std::filesystem::exists(name_or_file)) return ModelFromFile(name_or_file);
-  throw std::invalid_argument(fmt::format("'{}' is neither a built-in model nor a model file", name_or_file));
+  throw std::invalid_argument(NeitherModelNorFile(name_or_file, Builtins().names()));
 }
 
 py::tuple ModelState(const PyModel& m) {
@@ -168,12 +169,11 @@ PyModel ModelArgument(const py::handle& value) {
 std::uint64_t Count(const py::handle& value, const std::string& name) {
   if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value))
     throw std::invalid_argument(fmt::format("{}: expected an integer >= 0, got {}", name, Described(value)));
-  try {
-    return value.cast<std::uint64_t>();
-  } catch (const py::cast_error&) {
-    throw std::invalid_argument(
-        fmt::format("{} = {}: must be an integer in [0, 2^64 - 1]", name, std::string(py::str(value))));
+  std::string text = py::str(value);  // refused as the command line refuses the flag's text
+  if (const std::string problem = NonNegativeIntegerProblem(text); !problem.empty()) {
+    throw std::invalid_argument(fmt::format("{}: {}", name, problem));
   }
+  return value.cast<std::uint64_t>();
 }
 
 bool Flag(const py::handle& value, const std::string& name) {

@@ -105,10 +105,7 @@ Run CheckedRun(const Model& model, const py::object& x0, const py::object& t_end
   }
   run.sim.rtol = Number(rtol, "rtol");
   run.sim.atol = Number(atol, "atol");
-  if (std::string e; !run.sim.IsValid(&e)) {  // "SimOptions::rtol = -1. ...": the keyword alone
-    if (e.starts_with("SimOptions::")) e.erase(0, std::string_view("SimOptions::").size());
-    throw std::invalid_argument(fmt::format("rtol/atol: {}", e));
-  }
+  CheckSimOptions(run.sim, Spelling::kKeyword);
   return run;
 }
 

@@ -179,8 +179,8 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
                       name, fmt::join(known, ", ")));
     }
   }
-  if (a.refine != "ml" && a.refine != "none")
-    throw std::invalid_argument(fmt::format("refine = '{}': expected 'none' or 'ml'", a.refine));
+  if (const std::string problem = RefineChoiceProblem(a.refine); !problem.empty())
+    throw std::invalid_argument("refine: " + problem);
   return a;
 }
 

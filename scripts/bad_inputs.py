@@ -124,6 +124,8 @@ def safety_files():
         "inputclash.toml": WALL.replace('states = ["x", "v"]', 'states = ["x", "v"]\ninputs = ["v"]'),
         "gammaunused.toml": WALL.replace('[flow]', 'guard_params = [{ name = "w", value = 1.0 }]\n[flow]'),
         "bounds.toml": WALL.replace('value = 4.0,', 'value = 4.0, bounds = [5.0, 9.0],'),
+        "flowrows.toml": WALL.replace('name = "alpha_x", value = 1.0, known = true,', 'name = "alpha_x", value = 1.0,'),
+        "jumprows.toml": WALL.replace('name = "beta_x", value = 1.0, known = true,', 'name = "beta_x", value = 1.0,'),
     }
 
 
@@ -190,6 +192,8 @@ SAFETY_SUBJECTS = {
     "model file: an input named like a state": "inputclash.toml:8: inputs[0]",
     "model file: a guard parameter used in no expression": "gammaunused.toml:20: guard_params[0].name",
     "model file: bounds that exclude the value": "bounds.toml:11: alpha[1].bounds",
+    "model file: an unknown α outside the flow's rows": "flowrows.toml:23: flow.rows",
+    "model file: an unknown β outside the jump's rows": "jumprows.toml:29: jump.rows",
 }
 
 
@@ -312,6 +316,8 @@ PROBE_CASES = [
      ["env:HYSID_MAX_SAMPLES=1000", "simulate"] + SIM),
     ("HYSID_MAX_SAMPLES=abc", ["env:HYSID_MAX_SAMPLES=abc", "simulate"] + SIM),
     ("reproduce paper: beyond HYSID_MAX_SAMPLES", ["env:HYSID_MAX_SAMPLES=1000", "reproduce", "paper", "--out", "rp"]),
+    ("model file: an unknown α outside the flow's rows", ["models", "--show", "flowrows.toml"]),
+    ("model file: an unknown β outside the jump's rows", ["models", "--show", "jumprows.toml"]),
 ]
 
 

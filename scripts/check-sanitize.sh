@@ -3,14 +3,15 @@
 # UBSan with float-cast-overflow (build-clang-ub/; GCC's UBSan does not check float-to-int casts),
 # then the libFuzzer harnesses of tests/fuzz (build-fuzz/), each for FUZZ_RUNS executions (default
 # 1 000 000) from a copy of its seed corpus in tests/fuzz/corpus/, stopped after FUZZ_SECONDS
-# (default 1800) at the latest. Fails on any test failure, sanitizer report, or a harness that did not
-# reach FUZZ_RUNS.
+# (default 1800) at the latest; FUZZ_HARNESSES (default "csv sample_data sweep model_file") picks
+# the harnesses. Fails on any test failure, sanitizer report, or a harness that did not reach FUZZ_RUNS.
 # Usage: scripts/check-sanitize.sh [asan|ub|fuzz ...]   (default: all three)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs="${JOBS:-$(nproc 2>/dev/null || echo 2)}"
 fuzz_runs="${FUZZ_RUNS:-1000000}"
 fuzz_seconds="${FUZZ_SECONDS:-1800}"
+read -r -a fuzz_harnesses <<< "${FUZZ_HARNESSES:-csv sample_data sweep model_file}"
 steps=("$@")
 [ ${#steps[@]} -eq 0 ] && steps=(asan ub fuzz)
 launcher=()
@@ -44,8 +45,8 @@ for step in "${steps[@]}"; do
     fuzz)
       cmake -S . -B build-fuzz "${common[@]}" -DCMAKE_CXX_COMPILER=clang++-14 -DBUILD_TESTING=OFF -DHYSID_FUZZ=ON \
         -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined,float-cast-overflow -fno-sanitize-recover=all"
-      cmake --build build-fuzz -j "$jobs" --target fuzz_csv fuzz_sample_data fuzz_sweep fuzz_model_file
-      for h in csv sample_data sweep model_file; do
+      cmake --build build-fuzz -j "$jobs" --target "${fuzz_harnesses[@]/#/fuzz_}"
+      for h in "${fuzz_harnesses[@]}"; do
         work="build-fuzz/corpus-$h"
         rm -rf "$work"; mkdir -p "$work"
         cp tests/fuzz/corpus/"$h"/* "$work"/

@@ -16,7 +16,12 @@ subcommands than the bad-inputs table of tests/), and the six guarantees as prop
             --refine none): the estimates, mapped back, agree in relative terms
   python    (5) the module refuses what the CLI refuses, with the CLI's message, and never crashes
   limits    (6) FIFOs, devices, directories, huge and sparse files, the named limits and their
-            variables, a full stdout, SIGINT/SIGTERM inside a long sweep unit honoured within 1 s
+            variables, a full stdout, SIGINT/SIGTERM inside a long sweep unit honoured within 1 s,
+            a 16-state model (the exact hulls' limit named, the run bounded, a signal honoured)
+  readonly  every output flag onto a read-only directory (a read-only bind mount in a private mount
+            namespace as root, a mode-0555 directory otherwise): refused by name with the errno
+            text, exit 2, nothing written anywhere (no partial set of outputs), an existing file
+            there unchanged
 
 Usage: probe_hostile.py [--full] [--only CLASS,...] HYSID PYTHON_DIR
 Prints one line per failure and a summary by class; exits 1 on any failure. Without --full a fixed
@@ -62,18 +67,7 @@ def remove_stale_work():
 
 # Open findings that the probe reports but does not count as failures, each with why it is open; a
 # known finding that no longer occurs is printed so that it can be removed from here.
-KNOWN = {
-    ("python", "simulate seed=-1"): "the module says 'seed = -1: must be an integer in [0, 2^64 - 1]', the CLI "
-                                     "'--seed: must be ≥ 0, got -1' (python/ owns the text)",
-    ("python", "simulate trial=-1"): "as seed=-1",
-    ("python", "simulate rtol=-1"): "the CLI says 'SimOptions::rtol = -1' and names --max-jumps, the module 'rtol = -1'",
-    ("python", "Model unknown"): "the module's Model(name_or_file) says 'neither a built-in model nor a model file', "
-                                 "the CLI's --model lists the known models",
-    ("python", "Model nosuch.toml"): "as Model unknown",
-    ("python", "Model o"): "a directory: the module says 'neither a built-in model nor a model file', the CLI "
-                           "'cannot read the model file: Is a directory'",
-    ("python", "identify refine='maybe'"): "the CLI's message is CLI11's ('maybe not in {ml,none}')",
-}
+KNOWN = {}
 KNOWN_SEEN = set()
 
 
@@ -93,9 +87,12 @@ def count(cls):
 # ---------------------------------------------------------------- scratch directories and hashes
 
 def snapshot(d):
-    """path -> sha256 of every regular file under d (symbolic links: their target text)."""
+    """path -> sha256 of every regular file under d (symbolic links: their target text; directories:
+    "dir", so that a refusal that leaves a new directory is seen)."""
     out = {}
     for base, dirs, files in os.walk(d):
+        for sub in dirs:
+            out[os.path.relpath(os.path.join(base, sub), d) + "/"] = "dir"
         for f in files:
             p = os.path.join(base, f)
             rel = os.path.relpath(p, d)
@@ -160,10 +157,10 @@ def env_with(extra):
     return e
 
 
-def run(args, cwd, env=None, timeout=120, stdout=None):
+def run(args, cwd, env=None, timeout=120, stdout=None, prefix=()):
     t0 = time.monotonic()
     try:
-        r = subprocess.run([HYSID] + args, cwd=cwd, env=env_with(env), timeout=timeout,
+        r = subprocess.run(list(prefix) + [HYSID] + args, cwd=cwd, env=env_with(env), timeout=timeout,
                            stdout=stdout if stdout is not None else subprocess.PIPE,
                            stderr=subprocess.PIPE, stdin=subprocess.DEVNULL)
     except subprocess.TimeoutExpired:
@@ -176,12 +173,12 @@ def show(args):
     return "hysid " + " ".join(a if a and " " not in a and "\n" not in a else repr(a) for a in args)
 
 
-def check_refusal(cls, name, args, subject, d, env=None, before=None, allow_new=()):
+def check_refusal(cls, name, args, subject, d, env=None, before=None, allow_new=(), prefix=()):
     """Runs args in d and checks a refusal: exit 2, one hysid: line naming subject, inputs unchanged,
     no new file, no temporary file."""
     count(cls)
     before = before if before is not None else snapshot(d)
-    rc, _, err, _ = run(args, d, env)
+    rc, _, err, _ = run(args, d, env, prefix=prefix)
     where = f"{show(args)}"
     lines = [l for l in err.splitlines() if l.startswith("hysid:")]
     if rc is None or rc < 0:
@@ -831,8 +828,9 @@ def cases_python():
     calls.append(("set k", "m.set('k', 1.0)", S + ["--param", "k=1"] + o))
     calls.append(("set a inf", "m.set('a', inf)", S + ["--param", "a=inf"] + o))
     calls.append(("set a nan", "m.set('a', nan)", S + ["--param", "a=nan"] + o))
-    calls.append(("Model unknown", "hysid.Model('pendulum')", S + ["--model", "pendulum"] + o))
-    for f in ("nosuch.toml", "o", "/dev/zero", "empty.toml", "syntax.toml", "fifo.toml", "sim.csv"):
+    # Model() takes a registered name or a model file, as `models --show` does.
+    calls.append(("Model unknown", "hysid.Model('pendulum')", ["models", "--show", "pendulum"]))
+    for f in ("nosuch.toml", "adir", "/dev/zero", "empty.toml", "syntax.toml", "fifo.toml", "sim.csv"):
         calls.append((f"Model {f}", f"hysid.Model({f!r})", ["models", "--show", f]))
     for kw, flags in (("forgetting=2", ["--forgetting", "2"]), ("false_alarm=0", ["--false-alarm", "0"]),
                       ("detector='paper', r=1", ["--detector", "paper", "--r", "1"]),
@@ -864,6 +862,7 @@ def cases_python():
     def f():
         with Scratch() as d:
             os.mkfifo(os.path.join(d, "fifo.toml"))
+            os.mkdir(os.path.join(d, "adir"))
             compare_python("python", d, calls)
     def limits():
         with Scratch() as d:
@@ -998,6 +997,7 @@ def cases_limits():
                  ["models"], ["models", "--show", "wall.toml"], ["crlb", "--t-end", "2"], ["sweep", "ok.toml", "--out", "r"],
                  ["merge", "done", "--out", "m"], ["hysid-version"]):
         c.append(lambda a=args: full_stdout(a))
+    c += many_states_cases()
     c.append(lambda: accept("limits", "dt longer than the time between jumps ends within 30 s",
                             ["identify", "--data", "coarse.csv"], expect=(0, 1),
                             setup=lambda d: run(["simulate", "--dt", "0.25", "--t-end", "40", "--sigma", "1e-3",
@@ -1019,6 +1019,20 @@ def full_stdout(args):
             fail("limits", f"{' '.join(args)} > /dev/full", "left temporary files")
 
 
+def signal_and_wait(p, sig, name):
+    """Sends sig to p and waits for it (killed after 10 s): the seconds it took, recorded as a figure."""
+    t0 = time.monotonic()
+    p.send_signal(sig)
+    try:
+        p.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.wait()
+    took = time.monotonic() - t0
+    SIGNAL_FIGURES.append((name, took))
+    return took
+
+
 def signal_case(sig):
     """SIGINT or SIGTERM in the middle of one long sweep unit: the sweep ends within 1 s, with 128 +
     the signal, no temporary file, and the same command resumes to the end."""
@@ -1038,16 +1052,8 @@ def signal_case(sig):
         if p.poll() is not None:
             fail("limits", name, "the unit ended before the signal: make it longer")
             return
-        t0 = time.monotonic()
-        p.send_signal(sig)
-        try:
-            p.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
-        took = time.monotonic() - t0
+        took = signal_and_wait(p, sig, name)
         err = p.stderr.read().decode(errors="replace")
-        SIGNAL_FIGURES.append((name, took))
         if p.returncode != 128 + sig:
             fail("limits", name, f"exit {p.returncode}, expected {128 + sig}: {err.strip()[-200:]!r}")
         if took > 1.0:
@@ -1063,10 +1069,169 @@ def signal_case(sig):
 SIGNAL_FIGURES = []
 
 
+# ---------------------------------------------------------------- limits: a 16-state model
+
+def many_states_model(n, rows=None):
+    """wall-msd with n − 2 more states z_i' = −c z_i that the jump keeps: exact hulls of C and D in n
+    dimensions would not finish."""
+    zs = [f"z{i}" for i in range(1, n - 1)]
+    phi = ['["v", 0, 0, 0]', '[0, "-x", "-v", 0]'] + [f'[0, 0, 0, "-{z}"]' for z in zs]
+    psi = ['["x", 0, 0]', '[0, "-v", 1]'] + [f'["{z}", 0, 0]' for z in zs]
+    x0 = [0.0, 5.0] + [1.0 + 0.1 * i for i in range(len(zs))]
+    return (f'name = "wall-msd-{n}"\nstates = {json.dumps(["x", "v"] + zs)}\n'
+            'alpha = [{ name = "alpha_x", value = 1.0, known = true }, { name = "k", value = 4.0 },\n'
+            '         { name = "b", value = 0.2 }, { name = "c", value = 0.1 }]\n'
+            'beta = [{ name = "beta_x", value = 1.0, known = true }, { name = "lambda", value = 0.8 },\n'
+            '        { name = "mu", value = 0.0 }]\n'
+            f'[flow]\nphi = [{", ".join(phi)}]\nrows = {json.dumps(rows or ["v"] + zs)}\njacobian_constant = true\n'
+            f'[jump]\npsi = [{", ".join(psi)}]\nrows = ["v"]\n'
+            '[[guard]]\nname = "wall"\nh = "x - 1"\ndirection = "rising"\nproject = { x = "1" }\n'
+            '[sets]\nC = "x < 1 || (x == 1 && v <= 0)"\nD = "x == 1 && v >= 0"\n'
+            f'[defaults]\nx0 = {json.dumps(x0)}\nt_end = 5.0\ndt = 5e-4\n')
+
+
+def many_states_setup(d):
+    write(d, "m16.toml", many_states_model(16))
+    rc, _, err, _ = run(["simulate", "--model-file", "m16.toml", "--sigma", "1e-4", "--out", "s16.csv"], d)
+    if rc != 0:
+        raise RuntimeError(f"simulate m16.toml: exit {rc}: {err.strip()[-200:]}")
+
+
+M16 = ["identify", "--model-file", "m16.toml", "--data", "s16.csv", "--refine", "none"]
+
+
+def many_states_bounded():
+    """16 states: identify ends within 60 s (under the default limit of the exact hulls' dimension) and
+    says that C and D were not computed, naming the limit and its variable, in the report and the JSON."""
+    count("limits")
+    name = "16 states: the exact hulls' limit named, the run bounded"
+    with Scratch() as d:
+        many_states_setup(d)
+        rc, out, err, took = run(M16 + ["--json", "r.json"], d, timeout=60)
+        if rc != 0:
+            fail("limits", name, f"exit {rc} after {took:.0f} s: {err.strip()[-200:]!r}")
+            return
+        why = "16 states exceed the limit of 6 states for the exact hulls of C and D (raise it with HYSID_MAX_HULL_DIMENSION=N)"
+        if why not in out:
+            fail("limits", name, f"the report does not say why the sets are missing: {out[-300:]!r}")
+        if json.load(open(os.path.join(d, "r.json"))).get("sets", {}).get("sets_skipped") != why and \
+                why not in open(os.path.join(d, "r.json")).read():
+            fail("limits", name, "r.json does not say why the sets are missing")
+
+
+def many_states_signal():
+    """The limit raised to 16: the hull computation runs long; SIGINT inside it ends the run within 1 s
+    (exit 130, no temporary file)."""
+    count("limits")
+    name = "16 states, HYSID_MAX_HULL_DIMENSION=16: SIGINT inside the hulls"
+    with Scratch() as d:
+        many_states_setup(d)
+        p = subprocess.Popen([HYSID] + M16 + ["--json", "r.json"], cwd=d, env=env_with({"HYSID_MAX_HULL_DIMENSION": "16"}),
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        time.sleep(4.0)  # the recursive pass takes well under a second; then the hulls
+        if p.poll() is not None:
+            fail("limits", name, f"ended before the signal (exit {p.returncode}): make the model larger")
+            return
+        took = signal_and_wait(p, signal.SIGINT, name)
+        if p.returncode != 130 or took > 1.0:
+            fail("limits", name, f"exit {p.returncode} {took:.2f} s after SIGINT, expected 130 within 1 s")
+        if temporaries(d) or os.path.exists(os.path.join(d, "r.json")):
+            fail("limits", name, "left r.json or a temporary file")
+
+
+def many_states_cases():
+    c = [many_states_bounded, many_states_signal]
+    # c enters the rows z_i alone: with rows = ["v"] the recursive pass would report c = 0 as an estimate
+    c.append(lambda: refuse("limits", "16 states: an unknown parameter outside the flow's rows", ["models", "--show", "m.toml"],
+                            "flow.rows", lambda d: write(d, "m.toml", many_states_model(16, rows=["v"]))))
+    for v in ("abc", "-1", "0", "1e3", "12x"):
+        c.append(lambda v=v: refuse("limits", f"HYSID_MAX_HULL_DIMENSION={v!r}", M16, "HYSID_MAX_HULL_DIMENSION",
+                                    many_states_setup, env={"HYSID_MAX_HULL_DIMENSION": v}))
+    return c
+
+
+# ---------------------------------------------------------------- readonly: outputs onto a read-only directory
+
+READONLY_MODE = None  # "mount", "chmod" or "" (neither possible: the class is skipped)
+
+
+def readonly_mode():
+    """How a read-only directory is made here: as root a bind mount remounted read-only in a private
+    mount namespace (root writes through a mode-0555 directory), else a mode-0555 directory."""
+    global READONLY_MODE
+    if READONLY_MODE is None:
+        READONLY_MODE = "chmod" if os.geteuid() != 0 else ""
+        if os.geteuid() == 0 and shutil.which("unshare"):
+            d = tempfile.mkdtemp(dir=WORK)
+            os.mkdir(os.path.join(d, "ro"))
+            r = subprocess.run(["unshare", "-m", "--propagation", "private", "sh", "-c",
+                                "mount --bind ro ro && mount -o remount,bind,ro ro && ! touch ro/x 2>/dev/null"],
+                               cwd=d, capture_output=True)
+            READONLY_MODE = "mount" if r.returncode == 0 else ""
+            shutil.rmtree(d, ignore_errors=True)
+    return READONLY_MODE
+
+
+def readonly_case(name, args, subject):
+    """args run with ro/ read-only (ro/t.csv, ro/done: existing files there): refused, exit 2, the
+    message names subject and gives the errno text; nothing new anywhere, nothing changed."""
+    mode = readonly_mode()
+    if not mode:
+        print(f"skipped [readonly] {name}: no read-only directory can be made here (root without mount namespaces)")
+        return
+    with Scratch() as d:
+        os.makedirs(os.path.join(d, "ro"))
+        write(d, "ro/t.csv", "t,x,v\n0,1,2\n")
+        shutil.copytree(os.path.join(d, "done"), os.path.join(d, "ro", "done"))
+        before = snapshot(d)
+        prefix = ()
+        if mode == "mount":
+            prefix = ("unshare", "-m", "--propagation", "private", "sh", "-c",
+                      'mount --bind ro ro && mount -o remount,bind,ro ro && exec "$@"', "sh")
+        else:
+            for base, dirs, _ in os.walk(os.path.join(d, "ro")):
+                for sub in [base] + [os.path.join(base, x) for x in dirs]:
+                    os.chmod(sub, 0o555)
+        try:
+            n = len(FAILURES)
+            check_refusal("readonly", name, args, subject, d, before=before, prefix=prefix)
+            errno_text = os.strerror(30 if mode == "mount" else 13)  # EROFS, EACCES
+            rc, _, err, _ = run(args, d, prefix=prefix) if len(FAILURES) == n else (None, "", "", 0)
+            if rc == 2 and errno_text not in err:
+                fail("readonly", name, f"{show(args)}: the message lacks the errno text {errno_text!r}: {err.strip()!r}")
+        finally:
+            for base, dirs, _ in os.walk(os.path.join(d, "ro")):
+                for sub in [base] + [os.path.join(base, x) for x in dirs]:
+                    os.chmod(sub, 0o755)
+
+
+def cases_readonly():
+    c = []
+    for name, args, subject in (
+            ("simulate --out onto a read-only file", ["simulate", "--t-end", "2", "--out", "ro/t.csv"], "ro"),
+            ("simulate --out into a new directory below", ["simulate", "--t-end", "2", "--out", "ro/sub/t.csv"], "ro/sub"),
+            ("simulate --jumps-out read-only, --out writable", ["simulate", "--t-end", "2", "--out", "o/t.csv",
+                                                               "--jumps-out", "ro/j.csv"], "--jumps-out"),
+            ("identify --json", ["identify", "--data", "sim.csv", "--refine", "none", "--json", "ro/r.json"], "--json"),
+            ("identify --trace, --json writable", ["identify", "--data", "sim.csv", "--refine", "none",
+                                                   "--json", "r.json", "--trace", "ro/t.csv"], "--trace"),
+            ("identify --hulls", ["identify", "--data", "sim.csv", "--refine", "none", "--hulls", "ro/h.csv"], "--hulls"),
+            ("sweep --out below", ["sweep", "ok.toml", "--out", "ro/run", "--progress", "none"], "ro/run"),
+            ("sweep --out the directory", ["sweep", "ok.toml", "--out", "ro", "--progress", "none"], "--out ro"),
+            ("sweep resumed in a read-only run directory", ["sweep", "ok.toml", "--out", "ro/done", "--progress", "none"],
+             "ro/done"),
+            ("merge --out", ["merge", "done", "--out", "ro/m"], "ro/m"),
+            ("reproduce --out", ["reproduce", "paper", "--out", "ro/rp"], "ro/rp")):
+        c.append(lambda n=name, a=args, s=subject: readonly_case(n, a, s))
+    return c
+
+
 # ---------------------------------------------------------------- main
 
 CLASSES = {"refuse": cases_refuse, "ok": cases_ok, "overwrite": cases_overwrite, "study": cases_study,
-           "expr": cases_expr, "units": cases_units, "python": cases_python, "limits": cases_limits}
+           "expr": cases_expr, "units": cases_units, "python": cases_python, "limits": cases_limits,
+           "readonly": cases_readonly}
 QUICK_EVERY = {"refuse": 5, "ok": 3, "overwrite": 9, "study": 4, "expr": 5, "limits": 3}  # without --full: every k-th case
 
 

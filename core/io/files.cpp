@@ -84,25 +84,50 @@ void InputFiles::CheckNotInput(const std::string& label, const fs::path& path) c
   }
 }
 
-void CheckOutputDirectory(const std::string& label, const fs::path& dir) {
+namespace {
+
+// The nearest of dir and its ancestors that exists ("." for a relative path none of whose parts
+// exists).
+fs::path NearestExisting(const fs::path& dir) {
   std::error_code ec;
-  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
-    throw std::invalid_argument(fmt::format("{} {}: exists and is not a directory", label, dir.string()));
+  fs::path p = dir;
+  while (!p.empty() && !fs::exists(p, ec)) {
+    if (!p.has_parent_path() || p.parent_path() == p) return ".";
+    p = p.parent_path();
   }
-  if (!fs::exists(dir, ec)) {
-    fs::create_directories(dir, ec);
-    if (ec) {
-      throw std::invalid_argument(
-          fmt::format("{} {}: cannot create the directory: {}", label, dir.string(), ec.message()));
-    }
+  return p.empty() ? fs::path(".") : p;
+}
+
+// dir is a writable directory, or the directories missing on its way can be created: its nearest
+// existing ancestor is a writable directory. Creates nothing.
+void CheckDirectoryWritable(const std::string& label, const fs::path& dir) {
+  std::error_code ec;
+  const fs::path at = NearestExisting(dir);
+  if (!fs::is_directory(at, ec)) {
+    throw std::invalid_argument(fmt::format("{} {}: exists and is not a directory", label, at.string()));
   }
-  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
-    throw std::invalid_argument(
-        fmt::format("{} {}: not writable: {}", label, dir.string(), std::strerror(errno)));
+  if (::access(at.c_str(), W_OK | X_OK) != 0) {
+    const int e = errno;
+    throw std::invalid_argument(at == dir ? fmt::format("{} {}: not writable: {}", label, dir.string(), std::strerror(e))
+                                          : fmt::format("{} {}: cannot create the directory: {}", label,
+                                                        dir.string(), std::strerror(e)));
   }
 }
 
-void CheckOutputPath(const std::string& label, const fs::path& path, const InputFiles& inputs) {
+void CreateDirectory(const std::string& label, const fs::path& dir) {
+  std::error_code ec;
+  if (fs::exists(dir, ec)) return;
+  fs::create_directories(dir, ec);
+  if (ec) {
+    throw std::invalid_argument(
+        fmt::format("{} {}: cannot create the directory: {}", label, dir.string(), ec.message()));
+  }
+}
+
+fs::path DirectoryOf(const fs::path& path) { return path.has_parent_path() ? path.parent_path() : fs::path("."); }
+
+// CheckOutputPath without creating the directory.
+void CheckOutputFile(const std::string& label, const fs::path& path, const InputFiles& inputs) {
   if (path.empty()) throw std::invalid_argument(fmt::format("{}: empty path", label));
   std::error_code ec;
   if (fs::is_directory(path, ec)) {
@@ -110,16 +135,28 @@ void CheckOutputPath(const std::string& label, const fs::path& path, const Input
         fmt::format("{} {}: is a directory, expected a file name", label, path.string()));
   }
   inputs.CheckNotInput(label, path);
-  const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
-  CheckOutputDirectory(label, dir);
+  CheckDirectoryWritable(label, DirectoryOf(path));
   if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) {
     throw std::invalid_argument(fmt::format("{} {}: exists and is not a regular file", label, path.string()));
   }
 }
 
+}  // namespace
+
+void CheckOutputDirectory(const std::string& label, const fs::path& dir) {
+  CheckDirectoryWritable(label, dir);
+  CreateDirectory(label, dir);
+}
+
+void CheckOutputPath(const std::string& label, const fs::path& path, const InputFiles& inputs) {
+  CheckOutputFile(label, path, inputs);
+  CreateDirectory(label, DirectoryOf(path));
+}
+
+// Every output checked before any directory is created, so that a refused set leaves nothing behind.
 void CheckOutputPaths(const std::vector<std::pair<std::string, fs::path>>& outputs, const InputFiles& inputs) {
   for (std::size_t a = 0; a < outputs.size(); ++a) {
-    CheckOutputPath(outputs[a].first, outputs[a].second, inputs);
+    CheckOutputFile(outputs[a].first, outputs[a].second, inputs);
     for (std::size_t b = 0; b < a; ++b) {
       if (Resolved(outputs[a].second) != Resolved(outputs[b].second)) continue;
       throw std::invalid_argument(fmt::format("{} {}: the same file as {} {}; give each output its own name",
@@ -127,6 +164,7 @@ void CheckOutputPaths(const std::vector<std::pair<std::string, fs::path>>& outpu
                                               outputs[b].second.string()));
     }
   }
+  for (const auto& [label, path] : outputs) CreateDirectory(label, DirectoryOf(path));
 }
 
 AtomicFile::AtomicFile(const fs::path& path) : path_(path) {

@@ -528,6 +528,36 @@ std::vector<int> RowsWithUnknowns(const ExprMatrix& m, const std::vector<Paramet
   return rows;
 }
 
+// Every unknown parameter that enters the matrix enters one of `rows`: the recursive pass regresses
+// the identified rows alone, so a parameter outside them would be reported at its initial value as
+// an estimate. `key` is "flow" or "jump"; the error names KEY.rows.
+void CheckRowsCarryUnknowns(const TomlReader& rd, const toml::table& t, const std::string& key, const ExprMatrix& m,
+                            const std::vector<Parameter>& params, const std::vector<int>& rows,
+                            const std::vector<std::string>& states) {
+  auto enters = [&](Eigen::Index i, Eigen::Index j) {
+    const Eigen::Index at = j * m.rows + i;
+    return std::find(m.index.begin(), m.index.end(), at) != m.index.end() || m.constant[std::size_t(at)] != 0.0;
+  };
+  for (Eigen::Index j = 0; j < m.cols; ++j) {
+    if (params[std::size_t(j)].known) continue;
+    std::vector<std::string> outside;
+    bool inside = false;
+    for (Eigen::Index i = 0; i < m.rows; ++i) {
+      if (!enters(i, j)) continue;
+      const bool identified = std::find(rows.begin(), rows.end(), static_cast<int>(i)) != rows.end();
+      inside = inside || identified;
+      if (!identified) outside.push_back(states[std::size_t(i)]);
+    }
+    if (inside || outside.empty()) continue;
+    std::vector<std::string> given;
+    for (int r : rows) given.push_back(states[std::size_t(r)]);
+    rd.Fail(t.get("rows"), TomlReader::Join(key, "rows"),
+            fmt::format("the unknown parameter '{}' enters none of the rows ({}), only {}: add a row it enters, or "
+                        "mark it known",
+                        params[std::size_t(j)].name, fmt::join(given, ", "), fmt::join(outside, ", ")));
+  }
+}
+
 // One [[flow]] table (`key` = "flow[i]") of a file with modes: its mode, φ_q and rows (given, or
 // the rows with unknown α); returns the mode's index and whether it declares jacobian_constant.
 std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::table& t, const std::string& key,
@@ -563,6 +593,7 @@ void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, 
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.alpha.size()), sym)};
     spec.flow_rows = ParseRows(rd, t, "flow", spec.state_names);
+    CheckRowsCarryUnknowns(rd, t, "flow", def.phi[0], spec.alpha, spec.flow_rows, spec.state_names);
     if (const toml::node* jc = t.get("jacobian_constant"))
       spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
     return;
@@ -716,6 +747,7 @@ void ParseJumps(const TomlReader& rd, const toml::table& root, Definition& def, 
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.beta.size()), sym)};
     spec.jump_rows = ParseRows(rd, t, "jump", spec.state_names);
+    CheckRowsCarryUnknowns(rd, t, "jump", def.psi[0], spec.beta, spec.jump_rows, spec.state_names);
     return;
   }
   const toml::array& arr = *node.as_array();

@@ -1,9 +1,11 @@
 #include "experiments/cli/checks.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <system_error>
 #include <utility>
 
 #include <fmt/format.h>
@@ -55,6 +57,38 @@ Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero,
         fmt::format("{} = {}: must be {} 0", name, fmt::join(values, ","), allow_zero ? ">=" : ">"));
   }
   return sigma;
+}
+
+void CheckSimOptions(const SimOptions& options, Spelling spelling) {
+  for (const auto& [name, v] : {std::pair{"rtol", options.rtol}, std::pair{"atol", options.atol}}) {
+    CheckFinite(Spelled(name, spelling), {v});
+    if (!(v > 0)) throw std::invalid_argument(fmt::format("{} = {}: must be > 0", Spelled(name, spelling), v));
+  }
+  if (options.max_jumps < 1) {
+    throw std::invalid_argument(
+        fmt::format("{} = {}: must be >= 1", Spelled("max_jumps", spelling), options.max_jumps));
+  }
+  if (std::string e; !options.IsValid(&e)) throw std::invalid_argument(e);  // fields no argument sets
+}
+
+std::string NonNegativeIntegerProblem(std::string& text) {
+  if (text.find('-') != std::string::npos) return "must be ≥ 0, got " + text;
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) {
+    return "must be a decimal integer ≥ 0, got " + text;
+  }
+  std::uint64_t value = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec == std::errc::result_out_of_range) return "must be ≤ 18446744073709551615 (2^64 − 1), got " + text;
+  text = std::to_string(value);
+  return "";
+}
+
+std::string NeitherModelNorFile(const std::string& name, const std::vector<std::string>& registered) {
+  return fmt::format("'{}' is neither a registered model ({}) nor a model file", name, fmt::join(registered, ", "));
+}
+
+std::string RefineChoiceProblem(const std::string& value) {
+  return value == "ml" || value == "none" ? "" : value + " not in {ml,none}";
 }
 
 void CheckDataAccuracy(double data_rtol, double data_atol, Spelling spelling) {

@@ -30,6 +30,21 @@ SampleGrid CheckedGrid(double t_end, double dt, Spelling spelling);
 // σ: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
 Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling);
 
+// The solver's rtol and atol (each finite and > 0) and max_jumps (>= 1): "--rtol = -1: must be > 0".
+void CheckSimOptions(const SimOptions& options, Spelling spelling);
+
+// A count (seed, trial) given as decimal text: "" when it is an integer in [0, 2^64 − 1] (`text` then
+// loses its leading zeros), else the violated constraint: "must be ≥ 0, got -1".
+std::string NonNegativeIntegerProblem(std::string& text);
+
+// The refusal of a model named neither by a registered name nor by an existing file's path:
+// "'NAME' is neither a registered model (a, b) nor a model file".
+std::string NeitherModelNorFile(const std::string& name, const std::vector<std::string>& registered);
+
+// The refinement's choices ("ml", "none"): "" or "maybe not in {ml,none}" (CLI11's wording, as the
+// command line's --refine checks it).
+std::string RefineChoiceProblem(const std::string& value);
+
 // data_rtol and data_atol: finite and >= 0.
 void CheckDataAccuracy(double data_rtol, double data_atol, Spelling spelling);
 

@@ -18,6 +18,7 @@
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
+#include "experiments/cli/checks.hpp"
 #include "sim/refine/refine.hpp"
 #include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
@@ -163,19 +164,7 @@ SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model);
 // would wrap -1 to 2^64 − 1, read 010 as octal 8 and 0x10 as hex), at most 2^64 − 1 (CLI11 would
 // saturate), leading zeros dropped so that CLI11 reads the rest as decimal.
 inline const CLI::Validator NonNegativeInteger(
-    [](std::string& text) {
-      if (text.find('-') != std::string::npos) return std::string("must be ≥ 0, got ") + text;
-      if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) {
-        return std::string("must be a decimal integer ≥ 0, got ") + text;
-      }
-      std::uint64_t value = 0;
-      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-      if (ec == std::errc::result_out_of_range) {
-        return std::string("must be ≤ 18446744073709551615 (2^64 − 1), got ") + text;
-      }
-      text = std::to_string(value);
-      return std::string();
-    },
+    [](std::string& text) { return NonNegativeIntegerProblem(text); },
     "NONNEGATIVE", "non-negative integer");
 
 // Comma-separated lists: each value of the flag (it may be repeated) split at commas; an empty item

@@ -59,7 +59,7 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const ModelSpec& spec = model.spec();
   const int n = model.state_size();
   const SampleGrid grid = GridFlag(args.trajectory, model);
-  if (std::string e; !args.options.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol: {}", e));
+  CheckSimOptions(args.options.sim, Spelling::kFlag);
   const InputSignal inputs = InputsFlag(args.inputs, spec, grid);
   std::vector<double> u0(static_cast<std::size_t>(inputs.size()));
   if (!inputs.empty()) inputs.At(0.0, u0.data());

@@ -238,7 +238,7 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
                   "ml: maximum-likelihood output-error refinement of the recursive estimate (with "
                   "standard errors and a fit status; exit 1 when the fit is not ok), none: the "
                   "recursive estimate alone")
-      ->check(CLI::IsMember({"ml", "none"}))
+      ->check(CLI::Validator([](std::string& text) { return RefineChoiceProblem(text); }, "{ml,none}"))
       ->capture_default_str();
   cmd->add_option("--json", args.json,
                   "write everything the report shows as JSON: settings, estimates, standard errors, "

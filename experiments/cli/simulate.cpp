@@ -242,7 +242,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const ModelSpec& spec = model.spec();
   const SampleGrid grid = GridFlag(args.trajectory, model);
   const Vec sigma = SigmaFlag(args.sigma, model.state_size());
-  if (std::string e; !args.sim.IsValid(&e)) BadFlag(fmt::format("--rtol/--atol/--max-jumps: {}", e));
+  CheckSimOptions(args.sim, Spelling::kFlag);
   // Outputs checked before the run; written as one set below.
   // The trajectory, its sidecar and the jumps file are three files, none of them the model file.
   std::vector<std::pair<std::string, std::filesystem::path>> outputs{
@@ -251,7 +251,6 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   InputFiles files;
   files.Add("--model-file", args.model.file);
   files.Add("--inputs", args.inputs);
-  CheckOutputPaths(outputs, files);
   const bool named = NamedColumns(spec);
   const std::vector<std::string> header = TrajectoryHeader(spec, named);
   const InputSignal inputs = InputsFlag(args.inputs, spec, grid);
@@ -261,6 +260,7 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   if (!inputs.empty()) inputs.At(0.0, u0.data());
   const Vec x0 =
       InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
+  CheckOutputPaths(outputs, files);  // last: it creates a missing output directory
 
   const Trajectory traj = Simulate(model, x0, grid, args.sim, exo);
   const NoiseKey key{.seed = args.seed, .stream = args.trial};
@@ -400,8 +400,7 @@ void AddModelsCommand(CLI::App& app, Environment& env) {
     }
     if (env.models.Contains(*show)) return PrintModel(env.models.Make(*show), true);
     if (!std::filesystem::exists(*show)) {
-      BadFlag(fmt::format("--show {}: neither a registered model ({}) nor a file", *show,
-                          fmt::join(env.models.names(), ", ")));
+      BadFlag("--show: " + NeitherModelNorFile(*show, env.models.names()));
     }
     PrintModel(MakeModel(env, "", *show, {}), true);
   });

@@ -442,3 +442,40 @@ def test_runs_with_inputs_give_the_cli_report(tmp_path):
     assert len(cli["chains"]) == 2 and fit["refined"]["chains_used"] == 2
     with pytest.raises(ValueError, match=r"^u: y is a list of 2 runs; give u as a list of as many arrays or dicts"):
         hysid.identify(model, ys, t=ts, u=us[0])
+
+
+# Refusals outside identify's option tables, each with the command line that refuses the same value: the
+# CLI's message with its flag spelled as the keyword and CLI11's "(see hysid CMD --help)" hint left off.
+# Model(name_or_file) takes what `models --show` takes: a registered name or a model file.
+OTHER_REFUSALS = [
+    ("seed -1", "hysid.simulate('impact-msd', seed=-1)", ["simulate", "--seed", "-1", "--out", "o/t.csv"]),
+    ("trial -1", "hysid.simulate('impact-msd', trial=-1)", ["simulate", "--trial", "-1", "--out", "o/t.csv"]),
+    ("seed 2^64", "hysid.simulate('impact-msd', seed=2**64)",
+     ["simulate", "--seed", str(2**64), "--out", "o/t.csv"]),
+    ("rtol -1", "hysid.simulate('impact-msd', rtol=-1.0)", ["simulate", "--rtol", "-1", "--out", "o/t.csv"]),
+    ("atol nan", "hysid.simulate('impact-msd', atol=float('nan'))", ["simulate", "--atol", "nan", "--out", "o/t.csv"]),
+    ("crlb rtol 0", "hysid.crlb('impact-msd', rtol=0.0)", ["crlb", "--rtol", "0"]),
+    ("Model unknown", "hysid.Model('pendulum')", ["models", "--show", "pendulum"]),
+    ("Model missing file", "hysid.Model('nosuch.toml')", ["models", "--show", "nosuch.toml"]),
+    ("Model directory", "hysid.Model('adir')", ["models", "--show", "adir"]),
+    ("refine maybe", "hysid.identify('impact-msd', y, dt=5e-4, refine='maybe')",
+     ["identify", "--data", "data.csv", "--refine", "maybe"]),
+]
+
+
+@pytest.mark.parametrize("name,call,args", OTHER_REFUSALS, ids=[c[0] for c in OTHER_REFUSALS])
+def test_simulate_crlb_model_and_refine_refuse_as_the_cli(tmp_path, monkeypatch, name, call, args):
+    (tmp_path / "adir").mkdir()
+    y = np.zeros((50, 2))
+    np.savetxt(tmp_path / "data.csv", np.hstack([np.arange(50)[:, None] * 5e-4, y]), delimiter=",",
+               header="t,y1,y2", comments="")
+    monkeypatch.chdir(tmp_path)
+    p = subprocess.run([BIN, *args], capture_output=True, text=True)
+    assert p.returncode == 2, (p.stdout, p.stderr)
+    message = re.sub(r" \(see hysid [a-z]+ --help\)$", "",
+                     p.stderr.strip().splitlines()[-1].removeprefix("hysid: error: "))
+    message = re.sub(r"^--(show|model-file): ", "", message)  # Model() has no flag to name
+    with pytest.raises(ValueError) as e:
+        eval(call)
+    assert str(e.value) == keyword(message)
+    assert sorted(os.listdir(tmp_path)) == ["adir", "data.csv"]  # the refusals created nothing
