@@ -1039,7 +1039,7 @@ def signal_case(sig):
     count("limits")
     name = f"{signal.Signals(sig).name} during a long sweep unit"
     with Scratch() as d:
-        write(d, "long.toml", '[model]\nname = "impact-msd"\nt_end = 20.0\n[grid]\nsigma = 0.01\ndt = 2e-5\n'
+        write(d, "long.toml", '[model]\nname = "impact-msd"\nt_end = 20.0\n[grid]\nsigma = 0.001\ndt = 1e-5\n'
                                'refine = "ml"\n[run]\ntrials = 1\n')
         cmd = ["sweep", "long.toml", "--out", "long", "--threads", "1", "--progress", "none"]
         p = subprocess.Popen([HYSID] + cmd, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
@@ -1048,7 +1048,7 @@ def signal_case(sig):
         end = time.monotonic() + 60
         while p.poll() is None and not os.path.exists(journal) and time.monotonic() < end:
             time.sleep(0.005)
-        time.sleep(1.0)  # inside the unit (simulation and refinement of 1e6 samples take seconds)
+        time.sleep(1.0)  # inside the unit (simulation and refinement of 2e6 samples take seconds)
         if p.poll() is not None:
             fail("limits", name, "the unit ended before the signal: make it longer")
             return

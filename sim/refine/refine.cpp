@@ -602,8 +602,12 @@ bool Better(const RefineResult& a, const RefineResult& b) {
 }  // namespace
 
 RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
-                    const Vec& beta0, const RefineOptions& options) {
-  CheckInputs(model, chains, alpha0, beta0, options);
+                    const Vec& beta0, const RefineOptions& given) {
+  CheckInputs(model, chains, alpha0, beta0, given);
+  // Every run of every route (fits, repaired start, local flows) ends at its next CVODE step once
+  // the stop flag is raised.
+  RefineOptions options = given;
+  if (options.sensitivity.sim.stop == nullptr) options.sensitivity.sim.stop = options.stop;
   const ModelSpec& spec = model.spec();
   const bool unknown = std::any_of(chains.begin(), chains.end(), [](const RefineChain& c) { return c.initial_mode < 0; });
   if (ModeCount(spec) == 1 || !unknown) {
