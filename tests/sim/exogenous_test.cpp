@@ -79,35 +79,8 @@ TEST_CASE("a measured input drives the flow: x is the integral of the interpolat
   CHECK(worst < 1e-8);
 }
 
-// examples/driven-oscillator: x' = v, v' = −k x − b v + G u, a wall at x = 1 with v⁺ = −λ v.
-constexpr const char* kDriven = R"toml(
-name = "driven"
-states = ["x", "v"]
-inputs = ["u"]
-alpha = [ { name = "one", value = 1.0, known = true }, { name = "k", value = 4.0 },
-          { name = "b", value = 0.2 }, { name = "G", value = 3.0 } ]
-beta = [ { name = "beta_x", value = 1.0, known = true }, { name = "lambda", value = 0.8 } ]
-[flow]
-phi = [["v", 0, 0, 0], [0, "-x", "-v", "u"]]
-rows = ["v"]
-[jump]
-psi = [["x", 0], [0, "-v"]]
-rows = ["v"]
-[[guard]]
-name = "wall"
-h = "x - 1"
-direction = "rising"
-project = { x = "1" }
-[sets]
-C = "x < 1 || (x == 1 && v <= 0)"
-D = "x == 1 && v >= 0"
-[defaults]
-x0 = [0, 0]
-t_end = 10
-dt = 0.001
-)toml";
-
-// The closed form of kDriven on a piecewise-linear u: on each input interval the flow is linear with
+// The closed form of examples/driven-oscillator (x' = v, v' = −k x − b v + G u, a wall at x = 1 with
+// v⁺ = −λ v) on a piecewise-linear u: on each input interval the flow is linear with
 // the affine forcing G(u_k + s_k τ), so z = (x, v, 1, τ) obeys z' = A z and z(τ) = exp(Aτ) z(0); a
 // crossing of x = 1 is found by bisection on that. The samples at the input times, and the jump times.
 struct DrivenClosedForm {
@@ -150,7 +123,7 @@ DrivenClosedForm SolveDriven(const InputSignal& u, double k, double b, double g,
 }
 
 TEST_CASE("a finely sampled input is stepped across, as accurately as stopping at every sample", "[exogenous]") {
-  const Model model = ParseModelFile(kDriven, "driven.toml").model;
+  const Model model = ReadModelFile(HYSID_EXAMPLES_DIR "/driven-oscillator/driven-oscillator.toml").model;
   const SampleGrid grid{.t_end = 10.0, .dt = 1e-3};  // two impacts
   InputSignal u;
   for (long k = 0; k < grid.size(); ++k) u.times.push_back(static_cast<double>(k) * grid.dt);
