@@ -13,6 +13,7 @@
 
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
+#include "sim/refine/chain_sums.hpp"
 #include "sim/refine/span.hpp"
 
 namespace hysid {
@@ -22,7 +23,14 @@ namespace {
 struct ChainFit {
   long index = 0;  // in the caller's list
   std::vector<double> times;
-  Mat y;
+  // The measured samples of the span (m × K): the chain's own first K columns when every state is
+  // measured, else a copy of the measured rows.
+  const Mat* chain_y = nullptr;
+  Mat measured_y;
+  Eigen::Ref<const Mat> y() const {
+    if (chain_y == nullptr) return measured_y;
+    return chain_y->leftCols(static_cast<Eigen::Index>(times.size()));
+  }
   std::vector<int> segments;
   Vec x0;
   InputSignal inputs;     // a model with inputs: u on the span, on the same clock as times
@@ -53,6 +61,14 @@ SensitivityTrajectory LeftDomain() {
   return bad;
 }
 
+// One chain's run with sensitivities at a point, as the fit keeps it: whether it simulated (else
+// why not) and its sums (sim/refine/chain_sums.hpp).
+struct ChainEval {
+  bool ok = false;
+  std::string message;
+  ChainSums sums;
+};
+
 struct FitProblem {
   const Model* model = nullptr;
   Unknowns unknowns;  // α, β and x0: the sensitivity layout of one chain
@@ -68,9 +84,9 @@ struct FitProblem {
   // Per fit: the last evaluation and its point (θ, ξ0_c). Every evaluation integrates the
   // sensitivities: Ceres asks for the Jacobian at the trial points it accepts, which are then the
   // last ones evaluated, and residuals and Jacobian come from one integration (the cost compared
-  // across trial points is that of one integrator).
+  // across trial points is that of one integrator). Only the run's sums are kept.
   mutable std::vector<Vec> cached_at;
-  mutable std::vector<SensitivityTrajectory> cached;
+  mutable std::vector<ChainEval> cached;
 
   HybridParameters At(const double* theta, const double* x0) const {
     Vec full(shared + model->state_size());
@@ -79,18 +95,28 @@ struct FitProblem {
     return start.WithTheta(unknowns, full);
   }
 
-  // Fit c's matched trajectory with sensitivities at (θ, ξ0_c), valid until the next call for c;
-  // ok() false when it fails.
-  const SensitivityTrajectory& Simulate(std::size_t c, const double* theta, const double* x0) const {
+  // Fit c's matched trajectory with sensitivities at (θ, ξ0_c), as its sums, valid until the next
+  // call for c; ok false when it fails.
+  const ChainEval& Evaluate(std::size_t c, const double* theta, const double* x0) const {
     const HybridParameters p = OnChain(fits[c], At(theta, x0));
     const Vec point = p.Theta(unknowns);
     if (cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
     cached_at[c].resize(0);
-    if (!Admissible(*model, p, fits[c].inputs)) return cached[c] = LeftDomain();
-    cached[c] = SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options,
-                                             InputsOf(fits[c].inputs));
-    if (cached[c].ok()) cached_at[c] = point;
-    return cached[c];
+    const SensitivityTrajectory s =
+        Admissible(*model, p, fits[c].inputs)
+            ? SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options,
+                                           InputsOf(fits[c].inputs))
+            : LeftDomain();
+    ChainEval& e = cached[c];
+    e.ok = s.ok();
+    e.message = s.trajectory.status.message;
+    if (e.ok) e.sums = SumChain(s, fits[c].y(), rows);
+    if (e.ok && !e.sums.squares.allFinite()) {
+      e.ok = false;
+      e.message = "residuals not finite";
+    }
+    if (e.ok) cached_at[c] = point;
+    return e;
   }
 
   // "chain c: " when several chains are given, else "".
@@ -99,38 +125,28 @@ struct FitProblem {
   }
 };
 
+// One chain's weighted residuals to Ceres, compressed to p + 1 entries (sim/refine/chain_sums.hpp).
 class ChainCost final : public ceres::CostFunction {
  public:
   ChainCost(const FitProblem& problem, std::size_t chain) : problem_(problem), chain_(chain) {
-    // One residual per measured component and sample.
-    set_num_residuals(static_cast<int>(problem.fits[chain].y.size()));
+    set_num_residuals(problem.shared + problem.model->state_size() + 1);
     mutable_parameter_block_sizes()->push_back(problem.shared);
     mutable_parameter_block_sizes()->push_back(problem.model->state_size());
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    const bool jac = jacobians != nullptr && (jacobians[0] != nullptr || jacobians[1] != nullptr);
-    const SensitivityTrajectory& s = problem_.Simulate(chain_, parameters[0], parameters[1]);
-    if (!s.ok()) return false;
-    const Mat& y = problem_.fits[chain_].y;  // the measured rows: y − Hξ
-    const Eigen::Index m = y.rows(), k_count = y.cols(), n = s.trajectory.x.rows();
-    Eigen::Map<Mat> r(residuals, m, k_count);
-    r = problem_.weight.asDiagonal() * (y - s.trajectory.x(problem_.rows, Eigen::all));
-    if (!r.allFinite()) return false;
-    if (!jac) return true;
-    const int shared = problem_.shared, p = s.parameters;
-    const double* w = problem_.weight.data();
-    for (Eigen::Index k = 0; k < k_count; ++k) {
-      const double* sk = s.sensitivities.col(k).data();  // n × p, column-major
-      for (Eigen::Index i = 0; i < m; ++i) {
-        const Eigen::Index row = k * m + i, at = problem_.rows[static_cast<std::size_t>(i)];
-        if (jacobians[0] != nullptr) {
-          for (int c = 0; c < shared; ++c) jacobians[0][row * shared + c] = -w[i] * sk[c * n + at];
-        }
-        if (jacobians[1] != nullptr) {
-          for (int c = shared; c < p; ++c) jacobians[1][row * n + (c - shared)] = -w[i] * sk[c * n + at];
-        }
-      }
+    const ChainEval& e = problem_.Evaluate(chain_, parameters[0], parameters[1]);
+    if (!e.ok) return false;
+    Mat j;
+    CompressedResidual(e.sums, problem_.weight, residuals, &j);
+    if (!Eigen::Map<const Vec>(residuals, j.rows()).allFinite()) return false;
+    const int shared = problem_.shared, n = problem_.model->state_size();
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<RowMajor>(jacobians[0], j.rows(), shared) = j.leftCols(shared);
+    }
+    if (jacobians != nullptr && jacobians[1] != nullptr) {
+      Eigen::Map<RowMajor>(jacobians[1], j.rows(), n) = j.rightCols(n);
     }
     return true;
   }
@@ -179,7 +195,11 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
     }
     ChainFit f;
     f.index = static_cast<long>(c);
-    f.y = in.y(rows, Eigen::seqN(0, used));
+    if (std::ssize(rows) == in.y.rows()) {
+      f.chain_y = &in.y;  // (rows are increasing: all of them, in order)
+    } else {
+      f.measured_y = in.y(rows, Eigen::seqN(0, used));
+    }
     f.x0 = s.x0[c];
     for (const int i : options.x0_known) f.x0[i] = options.x0[i];  // (one chain only)
     int j = 0;
@@ -228,44 +248,37 @@ void SetBounds(const FitProblem& problem, Vec& theta, ceres::Problem& cp) {
   }
 }
 
-// The normal equations of the weighted residuals over the joint θ (shared, then x0 of each chain)
-// from each chain's trajectory with sensitivities: F = JᵀJ and g = −Jᵀr, summed over the chains in
-// the shared block.
-void NormalEquations(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, Mat& f,
-                     Vec& g) {
+// A matrix over the joint θ (shared, then x0 of each chain) from one p × p block per chain: the
+// shared blocks summed, each chain's x0 blocks in its place.
+Mat Joint(const FitProblem& problem, const std::vector<Mat>& blocks) {
   const int s = problem.shared, n = problem.model->state_size();
-  const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
-  f = Mat::Zero(total, total);
-  g = Vec::Zero(total);
-  const Vec w2 = problem.weight.cwiseAbs2();
-  for (std::size_t c = 0; c < sims.size(); ++c) {
-    // The Gram matrix of all (n·p) sensitivity rows over the samples (one contiguous product), and
-    // the rows against each component's weighted residuals; row a·n + i is ∂ξ_i/∂θ_a.
-    const Mat& sens = sims[c].sensitivities;
-    const int p = sims[c].parameters;
-    Mat gram = Mat::Zero(sens.rows(), sens.rows());
-    gram.selfadjointView<Eigen::Lower>().rankUpdate(sens);
-    gram = gram.selfadjointView<Eigen::Lower>();
-    const Mat wr = w2.asDiagonal() * (problem.fits[c].y - sims[c].trajectory.x(problem.rows, Eigen::all));
-    const Mat h = sens * wr.transpose();  // (n·p) × m: the measured components
-    Mat fc = Mat::Zero(p, p);
-    Vec gc = Vec::Zero(p);
-    for (int a = 0; a < p; ++a) {
-      for (std::size_t r = 0; r < problem.rows.size(); ++r) {
-        const int i = problem.rows[r];
-        const auto ri = static_cast<Eigen::Index>(r);
-        gc[a] += h(a * n + i, ri);
-        for (int b = 0; b < p; ++b) fc(a, b) += w2[ri] * gram(a * n + i, b * n + i);
-      }
-    }
+  const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(blocks.size()));
+  Mat f = Mat::Zero(total, total);
+  for (std::size_t c = 0; c < blocks.size(); ++c) {
+    const Mat& fc = blocks[c];
     const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
     f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
     f.block(0, o, s, n) = fc.topRightCorner(s, n);
     f.block(o, 0, n, s) = fc.bottomLeftCorner(n, s);
     f.block(o, o, n, n) = fc.bottomRightCorner(n, n);
-    g.head(s) += gc.head(s);
-    g.segment(o, n) = gc.tail(n);
   }
+  return f;
+}
+
+// The normal equations of the weighted residuals over the joint θ from the chains' cached sums:
+// F = JᵀJ and g = −Jᵀr.
+void NormalEquations(const FitProblem& problem, Mat& f, Vec& g) {
+  const int s = problem.shared, n = problem.model->state_size();
+  std::vector<Mat> blocks;
+  g = Vec::Zero(s + n * static_cast<Eigen::Index>(problem.cached.size()));
+  for (std::size_t c = 0; c < problem.cached.size(); ++c) {
+    const ChainSums& sums = problem.cached[c].sums;
+    blocks.push_back(sums.Information(problem.weight));
+    const Vec gc = -sums.Gradient(problem.weight);
+    g.head(s) += gc.head(s);
+    g.segment(s + n * static_cast<Eigen::Index>(c), n) = gc.tail(n);
+  }
+  f = Joint(problem, blocks);
 }
 
 // The Newton decrement λ = √(gᵀF⁻¹g) at the point (theta, x0) of the cached evaluations (g the
@@ -281,7 +294,7 @@ double NewtonDecrement(const FitProblem& problem, const Vec& theta, const std::v
   }
   Mat f;
   Vec g;
-  NormalEquations(problem, problem.cached, f, g);
+  NormalEquations(problem, f, g);
   if (!problem.held.empty()) {  // known components of ξ0: no step moves them
     std::vector<int> free;
     for (int i = 0; i < static_cast<int>(g.size()); ++i) {
@@ -481,20 +494,11 @@ void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit,
   for (const JumpRecord& jump : jumps) problem.failure.model_jumps.push_back(jump.t);
 }
 
-// The joint Fisher information: shared block plus one x0 block per chain.
-Mat JointFisher(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims, const Vec& sigma) {
-  const int s = problem.shared, n = problem.model->state_size();
-  const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(sims.size()));
-  Mat f = Mat::Zero(total, total);
-  for (std::size_t c = 0; c < sims.size(); ++c) {
-    const Mat fc = FisherInformation(sims[c], sigma, problem.rows);
-    const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
-    f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
-    f.block(0, o, s, n) = fc.topRightCorner(s, n);
-    f.block(o, 0, n, s) = fc.bottomLeftCorner(n, s);
-    f.block(o, o, n, n) = fc.bottomRightCorner(n, n);
-  }
-  return f;
+// The joint Fisher information at σ (per measured component): shared block plus one x0 block per chain.
+Mat JointFisher(const FitProblem& problem, const Vec& sigma) {
+  std::vector<Mat> blocks;
+  for (const ChainEval& e : problem.cached) blocks.push_back(e.sums.Information(sigma.cwiseInverse()));
+  return Joint(problem, blocks);
 }
 
 // The names of the joint θ: the shared unknowns, then x0 of each fitted chain (" chain c" when several).
@@ -509,21 +513,24 @@ std::vector<std::string> JointNames(const FitProblem& problem) {
   return names;
 }
 
-// The residual checks from the normalised residuals z (n × K), their lag-1 sum `lag`, the residual σ,
-// its MAD estimate from the data and the floor: sets normalized_rms and lag1, and fails with
-// kResidualRms (RMS outside [rms_low, rms_high]; with σ estimated, σ over the MAD estimate above
-// rms_high) or kResidualCorrelation (|lag1| > max_lag1 while the residuals are above the floor).
-void JudgeResiduals(const Mat& z, double lag, const Vec& sigma_hat, const Vec& mad_sigma, const Vec& floor,
-                    const RefineOptions& options, RefineResult& r) {
+// The residual checks from the residuals' sums of squares and lag-1 sums per component (pooled over
+// the chains), with the σ they are normalised by, the residual σ̂, its MAD estimate from the data
+// and the floor: sets normalized_rms and lag1, and fails with kResidualRms (RMS outside [rms_low,
+// rms_high]; with σ estimated, σ̂ over the MAD estimate above rms_high) or kResidualCorrelation
+// (|lag1| > max_lag1 while the residuals are above the floor).
+void JudgeResiduals(const Vec& squares, const Vec& lags, long samples, const Vec& sigma, const Vec& sigma_hat,
+                    const Vec& mad_sigma, const Vec& floor, const RefineOptions& options, RefineResult& r) {
+  const Vec w2 = sigma.cwiseInverse().cwiseAbs2();
+  const double z2 = w2.dot(squares), lag = w2.dot(lags);
   r.normalized_rms = 0.0;
   if (r.sigma_estimated) {
     for (Eigen::Index i = 0; i < sigma_hat.size(); ++i) {
       if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
     }
   } else {
-    r.normalized_rms = std::sqrt(z.squaredNorm() / static_cast<double>(z.size()));
+    r.normalized_rms = std::sqrt(z2 / static_cast<double>(samples * squares.size()));
   }
-  r.lag1 = z.squaredNorm() > 0.0 ? lag / z.squaredNorm() : 0.0;
+  r.lag1 = z2 > 0.0 ? lag / z2 : 0.0;
   const bool above_floor = (sigma_hat.array() > floor.array()).all();
   if (r.normalized_rms > options.rms_high ||
       (!r.sigma_estimated && above_floor && r.normalized_rms < options.rms_low)) {
@@ -540,56 +547,58 @@ void JudgeResiduals(const Mat& z, double lag, const Vec& sigma_hat, const Vec& m
   }
 }
 
-// The residuals of every fitted span at the fit, side by side.
-Mat Residuals(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims) {
-  Mat res = Concatenated(problem.fits, static_cast<int>(problem.rows.size()));
-  Eigen::Index k = 0;
-  for (std::size_t c = 0; c < sims.size(); ++c) {
-    res.middleCols(k, problem.fits[c].y.cols()) -= sims[c].trajectory.x(problem.rows, Eigen::all);
-    k += problem.fits[c].y.cols();
+// The residuals' sums of squares per measured component over every fitted span at the fit (and of
+// their lag-1 products within chains when lags is given); the samples counted.
+long PooledSquares(const FitProblem& problem, Vec* squares, Vec* lags = nullptr) {
+  const auto m = static_cast<Eigen::Index>(problem.rows.size());
+  *squares = Vec::Zero(m);
+  if (lags) *lags = Vec::Zero(m);
+  long samples = 0;
+  for (const ChainEval& e : problem.cached) {
+    *squares += e.sums.squares;
+    if (lags) *lags += e.sums.lag;
+    samples += e.sums.samples;
   }
-  return res;
+  return samples;
+}
+
+// The floor of every measured component over the fitted spans (NumericalFloor of their samples).
+Vec PooledFloor(const FitProblem& problem) {
+  Vec largest = Vec::Zero(static_cast<Eigen::Index>(problem.rows.size()));
+  for (const ChainFit& f : problem.fits) largest = largest.cwiseMax(f.y().cwiseAbs().rowwise().maxCoeff());
+  return NumericalFloor(largest, problem.options.sim);
 }
 
 // σ, the covariance of the reported unknowns (α, β, the first fitted chain's ξ0), normalised RMS and
 // lag-1 (within chains), pooled over the chains.
-void CheckResiduals(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims,
-                    const Vec& mad_sigma, const RefineOptions& options, RefineResult& r) {
+void CheckResiduals(const FitProblem& problem, const Vec& mad_sigma, const RefineOptions& options, RefineResult& r) {
   const int n = problem.model->state_size();
   const auto m = static_cast<int>(problem.rows.size());
-  const Mat y = Concatenated(problem.fits, m), res = Residuals(problem, sims);
-  const double p = problem.shared + n * static_cast<double>(sims.size());
-  const Vec sigma_hat = (res.rowwise().squaredNorm() / (static_cast<double>(y.cols()) - p / m)).cwiseSqrt();
-  const Vec floor = NumericalFloor(y, problem.options.sim);
+  Vec squares, lags;
+  const long samples = PooledSquares(problem, &squares, &lags);
+  const double p = problem.shared + n * static_cast<double>(problem.cached.size());
+  const Vec sigma_hat = (squares / (static_cast<double>(samples) - p / m)).cwiseSqrt();
+  const Vec floor = PooledFloor(problem);
   r.sigma_estimated = options.sigma.size() == 0;
   // Noise-free: the accuracy.
   const Vec sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);
   r.sigma = Vec::Zero(n);
   r.sigma(problem.rows) = sigma;
-  const Crlb bound =
-      CrlbFromFisher(JointFisher(problem, sims, sigma), problem.unknowns, JointNames(problem), problem.held);
+  const Crlb bound = CrlbFromFisher(JointFisher(problem, sigma), problem.unknowns, JointNames(problem), problem.held);
   if (!bound.ok()) return Fail(r, RefineStatus::kSingularFisher, bound.message);
   r.covariance = bound.covariance.topLeftCorner(problem.shared + n, problem.shared + n);
   r.standard_errors = bound.sd.head(problem.shared + n);
-  const Mat z = sigma.cwiseInverse().asDiagonal() * res;
-  double lag = 0.0;
-  Eigen::Index k = 0;
-  for (const ChainFit& f : problem.fits) {
-    const Eigen::Index m = f.y.cols();
-    lag += (z.middleCols(k, m - 1).array() * z.middleCols(k + 1, m - 1).array()).sum();
-    k += m;
-  }
-  JudgeResiduals(z, lag, sigma_hat, mad_sigma, floor, options, r);
+  JudgeResiduals(squares, lags, samples, sigma, sigma_hat, mad_sigma, floor, options, r);
 }
 
-// Each chain simulated at (theta, x0), the runs left in problem.cached; -1, or the first chain that
-// does not simulate with `failure` naming it.
+// Each chain simulated at (theta, x0), the runs' sums left in problem.cached; -1, or the first chain
+// that does not simulate with `failure` naming it.
 long SimulateAll(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0,
                  RefineStatus failure, const char* what, RefineResult& r) {
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
-    const SensitivityTrajectory& s = problem.Simulate(c, theta.data(), x0[c].data());
-    if (!s.ok()) {
-      Fail(r, failure, fmt::format("{}{}: {}", problem.Label(c), what, s.trajectory.status.message));
+    const ChainEval& e = problem.Evaluate(c, theta.data(), x0[c].data());
+    if (!e.ok) {
+      Fail(r, failure, fmt::format("{}{}: {}", problem.Label(c), what, e.message));
       return static_cast<long>(c);
     }
   }
@@ -617,11 +626,11 @@ bool SolveAndSimulate(const FitProblem& problem, const RefineOptions& options, c
 // Residuals at the integration accuracy in every component (noise-free data): each component's
 // residual σ̂_i, pooled over the chains, below that component's own floor (components differ in
 // scale, and so do their integration errors).
-bool AtIntegrationAccuracy(const FitProblem& problem, const std::vector<SensitivityTrajectory>& sims) {
-  const Mat y = Concatenated(problem.fits, static_cast<int>(problem.rows.size()));
-  const Vec sigma_hat =
-      (Residuals(problem, sims).rowwise().squaredNorm() / static_cast<double>(y.cols())).cwiseSqrt();
-  return (sigma_hat.array() < NumericalFloor(y, problem.options.sim).array()).all();
+bool AtIntegrationAccuracy(const FitProblem& problem) {
+  Vec squares;
+  const long samples = PooledSquares(problem, &squares);
+  const Vec sigma_hat = (squares / static_cast<double>(samples)).cwiseSqrt();
+  return (sigma_hat.array() < PooledFloor(problem).array()).all();
 }
 
 // Solve, polish for noise-free data, then the checks at the fit.
@@ -632,7 +641,6 @@ void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_si
   theta = theta.cwiseMax(lower).cwiseMin(upper);
   std::vector<Vec> x0;
   for (const ChainFit& f : problem.fits) x0.push_back(f.x0);
-  const std::vector<SensitivityTrajectory>& sims = problem.cached;
   if (const long bad = SimulateAll(problem, theta, x0, RefineStatus::kStartFailed,
                                    "the start does not simulate on the detected segments", r);
       bad >= 0) {
@@ -643,18 +651,18 @@ void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_si
                        std::numeric_limits<double>::infinity());
   }
   if (!SolveAndSimulate(problem, options, "Ceres", theta, x0, r, &r.initial_cost)) return;
-  if (options.polish_tolerance < problem.options.sim.rtol && AtIntegrationAccuracy(problem, sims)) {
+  if (options.polish_tolerance < problem.options.sim.rtol && AtIntegrationAccuracy(problem)) {
     problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
     for (Vec& at : problem.cached_at) at.resize(0);  // integrated at the looser tolerances
     if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, r)) return;
   }
   r.refined = problem.At(theta.data(), x0.front().data());
   r.model_jumps = 0;
-  for (std::size_t c = 0; c < sims.size(); ++c) {
+  for (std::size_t c = 0; c < problem.fits.size(); ++c) {
     r.chain_x0[static_cast<std::size_t>(problem.fits[c].index)] = x0[c];
     CheckJumps(problem, c, problem.At(theta.data(), x0[c].data()), options, r);
   }
-  if (r.ok()) CheckResiduals(problem, sims, mad_sigma, options, r);
+  if (r.ok()) CheckResiduals(problem, mad_sigma, options, r);
 }
 
 }  // namespace
@@ -737,12 +745,20 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
                      r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
     return r;
   }
-  const Mat y = Concatenated(problem.fits, static_cast<int>(m));
-  const Vec mad_sigma = EstimateNoiseSigma(y);
+  Vec mad_sigma;
+  {  // all chains' samples side by side, only while the weighting is chosen
+    Mat y(static_cast<Eigen::Index>(m), r.samples_used);
+    Eigen::Index k = 0;
+    for (const ChainFit& f : problem.fits) {
+      y.middleCols(k, f.y().cols()) = f.y();
+      k += f.y().cols();
+    }
+    mad_sigma = EstimateNoiseSigma(y);
+    FitWeighting(y, options, mad_sigma, &problem.options, &problem.weight);
+  }
   problem.start = r.start;
   problem.cached_at.resize(problem.fits.size());
   problem.cached.resize(problem.fits.size());
-  FitWeighting(y, options, mad_sigma, &problem.options, &problem.weight);
   problem.options.sensitivities = true;  // every evaluation (FitProblem::Simulate)
   RunFit(problem, options, mad_sigma, r);
   *failure = problem.failure;

@@ -1,24 +1,24 @@
 #!/usr/bin/python3
 """The ContactNets cube example end to end, as examples/cube/README.md documents it. Four steps,
-one ctest each:
+one ctest each. The last three identify from the converted files shipped in EXAMPLE_DIR/data and
+first check that they have the documented SHA-256 (the data of the README's figures):
 
   convert OUT_DIR
       runs examples/cube/convert.py on the recording (--pt-dir's default: $HYSID_DAIR_PLL_DIR, else
       ../shared/data/dair_pll/assets/contactnets_cube beside the source tree) into OUT_DIR and
-      checks that the two CSV files have the documented SHA-256 (the data of the README's figures);
-  fit HYSID EXAMPLE_DIR DATA_DIR JSON_OUT
-      runs the README's command (with --sigma) on DATA_DIR/free_flight.csv: status ok with all 533
+      checks that the two CSV files have the documented SHA-256, i.e. are the shipped ones; without
+      the recording it exits 77 (ctest: skipped) and names the directory it expected;
+  fit HYSID EXAMPLE_DIR JSON_OUT
+      runs the README's command (with --sigma) on free_flight.csv: status ok with all 533
       tosses fitted, ĝ within 3 standard errors of the documented 9.6429 m/s² and equal to it at
       four decimals, its standard error within 10 % of the documented 0.00105 m/s², and the local
       9.80 m/s² more than 100 standard errors above it;
-  refuse HYSID EXAMPLE_DIR DATA_DIR
+  refuse HYSID EXAMPLE_DIR
       with the defaults (σ estimated) the refinement refuses the fit: exit 1, `residual-rms` with
       the normalised residual RMS 2.1…, and the recursive estimate 9.6484… kept;
-  whole HYSID EXAMPLE_DIR DATA_DIR
+  whole HYSID EXAMPLE_DIR
       the whole tosses (bounces, rocking, rest) with the bouncing-ball model: hysid does not stand
       behind a fit (exit 1, status singular-fisher), 119 jumps detected, the recursive ĝ 2.2634…
-
-Without the recording every step exits 77 (ctest: skipped) and names the directory it expected.
 """
 import hashlib
 import json
@@ -51,18 +51,27 @@ def recording_absent():
 
 
 def convert_recording(out):
+    skip = recording_absent()
+    if skip:
+        print(skip)
+        return SKIP
     run = subprocess.run([sys.executable, convert.__file__, "--out", out], capture_output=True, text=True)
     print(run.stdout + run.stderr)
     if run.returncode != 0:
         print(f"convert.py: exit {run.returncode}")
         return 1
+    return report(digest_checks(out))
+
+
+def digest_checks(directory):
+    """{check: passed} for the SHA-256 of both CSV files in directory."""
     checks = {}
     for name, documented in SHA256.items():
-        with open(os.path.join(out, name), "rb") as f:
+        with open(os.path.join(directory, name), "rb") as f:
             digest = hashlib.sha256(f.read()).hexdigest()
-        print(f"{name}: sha256 {digest}")
+        print(f"{directory}/{name}: sha256 {digest}")
         checks[f"{name} sha256 = {documented}"] = digest == documented
-    return report(checks)
+    return checks
 
 
 def identify(hysid, example, data, extra, model="free-flight", csv="free_flight"):
@@ -74,6 +83,8 @@ def identify(hysid, example, data, extra, model="free-flight", csv="free_flight"
 
 
 def fit(hysid, example, data, out):
+    if report(digest_checks(data)):
+        return 1
     run = identify(hysid, example, data, ["--sigma", "3.75e-5", "0.00614", "--json", out])
     if run.returncode != 0:
         print(f"exit {run.returncode}")
@@ -94,10 +105,14 @@ def fit(hysid, example, data, out):
 
 
 def refuse(hysid, example, data):
+    if report(digest_checks(data)):
+        return 1
     return not_ok(identify(hysid, example, data, []), REFUSAL)
 
 
 def whole(hysid, example, data):
+    if report(digest_checks(data)):
+        return 1
     return not_ok(identify(hysid, example, data, [], "whole-tosses", "whole_tosses"), NO_FIT)
 
 
@@ -116,16 +131,15 @@ def report(checks):
 
 
 def main(argv):
-    steps = {"convert": (convert_recording, 1), "fit": (fit, 4), "refuse": (refuse, 3), "whole": (whole, 3)}
+    steps = {"convert": (convert_recording, 1), "fit": (fit, 3), "refuse": (refuse, 2), "whole": (whole, 2)}
     if not argv or argv[0] not in steps or len(argv) != 1 + steps[argv[0]][1]:
         print(__doc__, file=sys.stderr)
         return 2
-    skip = recording_absent()
-    if skip:
-        print(skip)
-        return SKIP
     step, _ = steps[argv[0]]
-    return step(*argv[1:])
+    if step is convert_recording:
+        return step(*argv[1:])
+    hysid, example, *rest = argv[1:]
+    return step(hysid, example, os.path.join(example, "data"), *rest)
 
 
 if __name__ == "__main__":

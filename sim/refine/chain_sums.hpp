@@ -1,0 +1,45 @@
+// What the output-error fit keeps of one chain's run with sensitivities: sums over its samples, not
+// the run. Internal to sim/refine.
+//
+// With r_ik = y_ik − ξ_i(t_k) the residual of measured component i at sample k and S_ik the row of
+// ∂ξ_i(t_k)/∂θ (θ: the chain's p unknowns, shared ones then its ξ0), the sums per component are
+//   G_i = Σ_k S_ikᵀ S_ik (p × p),  h_i = Σ_k S_ikᵀ r_ik,  c_i = Σ_k r_ik²,  l_i = Σ_k r_ik r_i,k+1.
+// For any weights w_i = 1/σ_i they give the weighted cost Σ_i w_i² c_i, the Gauss–Newton matrix and
+// Fisher information Σ_i w_i² G_i, the gradient −Σ_i w_i² h_i, and the residual checks (σ̂_i, RMS,
+// lag-1): the fit holds O(p²) numbers per chain instead of its n·p per sample.
+//
+// Ceres is handed a compressed residual of p + 1 entries with the same cost, gradient and
+// Gauss–Newton matrix as the chain's m·K weighted residuals: with A = JᵀJ, D = diag(A)^{−1/2},
+// D A D = V Λ Vᵀ and g = Jᵀr, the residual (Λ^{−1/2} Vᵀ D g, e) and Jacobian (Λ^{1/2} Vᵀ D⁻¹; 0),
+// e² = ‖r‖² − ‖Λ^{−1/2} Vᵀ D g‖² (the equilibration keeps unknowns in any units resolved).
+// (The Gauss–Newton model ½‖r + JΔ‖² is the same quadratic in Δ, and the cost at every point is
+// exact, so Levenberg–Marquardt takes the same steps; Ceres' Jacobian scaling uses the column norms
+// of J, which the compressed Jacobian keeps.)
+#pragma once
+
+#include <vector>
+
+#include "core/model/model.hpp"
+#include "sim/sensitivity/sensitivity.hpp"
+
+namespace hysid {
+
+struct ChainSums {
+  std::vector<Mat> gram;  // G_i, one per measured component
+  Mat h;                  // p × m: column i is h_i
+  Vec squares;            // c_i
+  Vec lag;                // l_i
+  long samples = 0;
+
+  Mat Information(const Vec& weight) const;  // Σ_i w_i² G_i
+  Vec Gradient(const Vec& weight) const;     // Jᵀr = −Σ_i w_i² h_i (J = −W S, r = W(y − Hξ))
+  double Cost(const Vec& weight) const;      // ‖r‖² = Σ_i w_i² c_i
+};
+
+// The sums of run s against the chain's measured samples y (m × K, the rows `rows` of ξ).
+ChainSums SumChain(const SensitivityTrajectory& s, const Mat& y, const std::vector<int>& rows);
+
+// The compressed residual (p + 1 entries) and its Jacobian ((p + 1) × p, row-major) for the weights.
+void CompressedResidual(const ChainSums& sums, const Vec& weight, double* residuals, Mat* jacobian);
+
+}  // namespace hysid

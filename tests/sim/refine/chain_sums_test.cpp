@@ -1,0 +1,86 @@
+// The per-chain sums of the output-error fit and its compressed residual against the full weighted
+// residuals and their Jacobian formed directly.
+#include <catch2/catch.hpp>
+
+#include <random>
+
+#include <Eigen/QR>
+
+#include "sim/refine/chain_sums.hpp"
+
+namespace hysid {
+namespace {
+
+// A run of n states and p unknowns over K samples with random states and sensitivities, and data.
+struct RandomRun {
+  SensitivityTrajectory s;
+  Mat y;  // the measured rows
+  std::vector<int> rows;
+  RandomRun(int n, int p, long k_count, std::vector<int> measured, std::uint32_t seed) : rows(std::move(measured)) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> normal;
+    auto random = [&](Eigen::Index r, Eigen::Index c) { return Mat(Mat::NullaryExpr(r, c, [&] { return normal(rng); })); };
+    s.parameters = p;
+    s.trajectory.x = random(n, k_count);
+    s.sensitivities = random(static_cast<Eigen::Index>(n) * p, k_count);
+    y = s.trajectory.x(rows, Eigen::all) + random(static_cast<Eigen::Index>(rows.size()), k_count);
+  }
+  // The weighted residuals r = W(y − Hξ) stacked sample by sample, and their Jacobian −W H S.
+  void Full(const Vec& w, Vec* r, Mat* j) const {
+    const auto m = static_cast<Eigen::Index>(rows.size()), n = s.trajectory.x.rows();
+    r->resize(m * y.cols());
+    j->resize(m * y.cols(), s.parameters);
+    for (Eigen::Index k = 0; k < y.cols(); ++k) {
+      const Eigen::Map<const Mat> sk(s.sensitivities.col(k).data(), n, s.parameters);
+      for (Eigen::Index i = 0; i < m; ++i) {
+        (*r)[k * m + i] = w[i] * (y(i, k) - s.trajectory.x(rows[static_cast<std::size_t>(i)], k));
+        j->row(k * m + i) = -w[i] * sk.row(rows[static_cast<std::size_t>(i)]);
+      }
+    }
+  }
+};
+
+TEST_CASE("chain sums give the full residuals' cost, gradient, Gauss-Newton matrix and lag-1 sums", "[refine]") {
+  const RandomRun run(3, 5, 200, {0, 2}, 7);
+  const ChainSums sums = SumChain(run.s, run.y, run.rows);
+  const Vec w = (Vec(2) << 2.0, 0.5).finished();
+  Vec r;
+  Mat j;
+  run.Full(w, &r, &j);
+  CHECK(sums.Cost(w) == Approx(r.squaredNorm()).epsilon(1e-12));
+  CHECK((sums.Gradient(w) - j.transpose() * r).norm() < 1e-10 * (j.transpose() * r).norm());
+  CHECK((sums.Information(w) - j.transpose() * j).norm() < 1e-10 * (j.transpose() * j).norm());
+  for (int i = 0; i < 2; ++i) {
+    const Vec ri = (run.y.row(i) - run.s.trajectory.x.row(run.rows[static_cast<std::size_t>(i)])).transpose();
+    CHECK(sums.lag[i] == Approx(ri.head(199).dot(ri.tail(199))).epsilon(1e-12));
+  }
+}
+
+TEST_CASE("the compressed residual has the full residuals' cost, gradient and Gauss-Newton matrix", "[refine]") {
+  RandomRun run(2, 4, 300, {0, 1}, 11);
+  SECTION("full rank") {}
+  SECTION("rank deficient: two unknowns with the same sensitivities") {
+    for (Eigen::Index k = 0; k < run.s.sensitivities.cols(); ++k) {
+      run.s.sensitivities.block(6, k, 2, 1) = run.s.sensitivities.block(4, k, 2, 1);  // θ_3 ≡ θ_2
+    }
+  }
+  const ChainSums sums = SumChain(run.s, run.y, run.rows);
+  const Vec w = (Vec(2) << 1.0, 3.0).finished();
+  Vec r, compressed(5);
+  Mat j, jc;
+  run.Full(w, &r, &j);
+  CompressedResidual(sums, w, compressed.data(), &jc);
+  REQUIRE(jc.rows() == 5);
+  REQUIRE(jc.cols() == 4);
+  CHECK(compressed.squaredNorm() == Approx(r.squaredNorm()).epsilon(1e-12));
+  const Vec g = j.transpose() * r;
+  CHECK((jc.transpose() * compressed - g).norm() < 1e-9 * g.norm());
+  CHECK((jc.transpose() * jc - j.transpose() * j).norm() < 1e-10 * (j.transpose() * j).norm());
+  // The Gauss–Newton step of the compressed problem is the full one's (least-norm where singular).
+  const Vec full_step = j.completeOrthogonalDecomposition().solve(-r);
+  const Vec step = jc.completeOrthogonalDecomposition().solve(-compressed);
+  CHECK((step - full_step).norm() < 1e-8 * full_step.norm());
+}
+
+}  // namespace
+}  // namespace hysid
