@@ -6,7 +6,7 @@
 set(layers
   core/stats core/model core/io core/estimators core/sets core/detectors core/identify core/model_file
   core/builtin
-  sim sim/sensitivity sim/refine sim/model_check
+  sim sim/sensitivity sim/refine sim/events sim/model_check
   experiments/sweep experiments/cli)
 
 function(layer_of path out)

@@ -261,7 +261,7 @@ struct FitJob {
 };
 
 FitOutcome RunFit(FitJob job, const std::atomic<bool>* stop) {
-  IdentifyOptions options{.trace = job.trace};
+  IdentifyOptions options{.trace = job.trace, .stop = stop};
   if (!job.data.uniform) {
     options.times = job.data.t;
     options.chain_start = job.data.chain_start;
@@ -306,7 +306,7 @@ py::dict RefinedDict(const RefineResult& r, const IdentifyResult& given, bool ch
   out["span_reason"] = r.span_reason;
   out["model_jumps"] = r.model_jumps;
   out["start_repair"] = r.start_repair;
-  out["mended"] = r.mended;  // detections mended from the fitted model ("" when none)
+  out["mended"] = r.mended;  // detections mended, or the route that reached the fit ("" when none)
   out["start"] = given.safe_start ? given.safe_start_reason : std::string("the recursive estimate");
   if (chains) {
     py::list x0;

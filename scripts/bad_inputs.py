@@ -412,6 +412,7 @@ AUTOMATON_FILES = {
     "pumpflowtable.toml": PUMP.replace('[[flow]]\nmode = "off"\nphi = [["-sqrt(h)", 0]]\n\n[[flow]]\nmode = "on"\n',
                                        '[flow]\n', 1),
     "pumpdupname.toml": PUMP.replace('name = "pump-off"', 'name = "pump-on"', 1),
+    "pump.toml": PUMP,
     "fctwo.toml": FC.replace('guard = "ceiling"', 'guard = "floor"', 1),
     "fcnobeta.toml": re.sub(r'beta = \[ \{ name = "one_c".*?\]\n', "", FC, count=1, flags=re.S),
     "fcboth.toml": FC.replace("[flow]", '[[flow]]\nmode = "x"\nphi = [["v", 0], [0, -1]]\n\n[flow]', 1),
@@ -428,6 +429,10 @@ AUTOMATON_CASES = [
     ("model file: a mode without a [[flow]]", ["simulate", "--model-file", "pumpnoflow.toml"] + SIM),
     ("model file: [flow] with modes", ["simulate", "--model-file", "pumpflowtable.toml"] + SIM),
     ("model file: [flow] and [[flow]] together", ["simulate", "--model-file", "fcboth.toml"] + SIM),
+    ("identify: --localize with a hybrid automaton",
+     ["identify", "--model-file", "pump.toml", "--data", "sim.csv", "--localize"]),
+    ("crlb: --mode for a model without modes", ["crlb", "--mode", "on"]),
+    ("crlb: --mode that is not one of the model's", ["crlb", "--model-file", "pump.toml", "--mode", "idle"]),
 ]
 
 def truth_setup(d):

@@ -82,6 +82,60 @@ template <int P>
   return s;
 }
 
+// ClassifyConstant<2, true>'s state and arithmetic for two states, one identified row and A = |α|
+// (2 or 3) with two unknowns, in scalars: for a loop that keeps them in local variables over a run
+// of consecutive samples (the identifier's flow runs; PaperDetector::LoadConstant2,
+// StoreConstant2). Same operations in the same order as ClassifyConstant, so the same bits.
+template <int A>
+struct PaperConstant2 {
+  double half_r;
+  double q[A * A];  // GᵀG, column-major
+  double alpha[A];  // α̂ with its known entries; the unknowns at u0, u1
+  int u0, u1;
+  bool homogeneous;
+  double last_x0, last_x1, last_norm;  // the previous call's ξ(t) and its norm
+  bool has_last;
+  long cached_version;
+  double cached_l2, cached_l;
+
+  // ‖ξ(t−δt)‖ of a pair: the previous call's ‖ξ(t)‖ when ξ(t−δt) is that ξ(t).
+  double PrevNorm(double p0, double p1) const {
+    if (has_last && last_x0 == p0 && last_x1 == p1) return last_norm;
+    const double x[2] = {p0, p1};
+    return BoundNorm(x, 2, homogeneous ? BoundMode::kHomogeneous : BoundMode::kPaper);
+  }
+  // The decision for ξ(t) = (c0, c1) after ξ(t−δt) = (p0, p1), whose norm is prev_norm; the
+  // unknowns of α̂ = (t0, t1) at `version`; warm-up over.
+  [[gnu::always_inline]] Decision Classify(double p0, double p1, double c0, double c1, double prev_norm,
+                                           double inv_dt, double t0, double t1, long version) {
+    Decision d;
+    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
+    double d2 = 0.0, cur2 = 0.0;
+    d2 += v0 * v0;
+    cur2 += c0 * c0;
+    d2 += v1 * v1;
+    cur2 += c1 * c1;
+    if (homogeneous) cur2 += 1.0;
+    const double cur_norm = std::sqrt(cur2);
+    d.statistic = std::sqrt(d2);
+    has_last = true;
+    last_x0 = c0;
+    last_x1 = c1;
+    last_norm = cur_norm;
+    if (version != cached_version) {
+      alpha[u0] = t0;
+      alpha[u1] = t1;
+      cached_l2 = QuadraticForm<A>(A, q, alpha);
+      cached_l = std::sqrt(cached_l2);
+      cached_version = version;
+    }
+    const double s = cur_norm + prev_norm;
+    d.gamma = d2 > half_r * half_r * cached_l2 * s * s;
+    d.threshold = half_r * cached_l * s;
+    return d;
+  }
+};
+
 }  // namespace detail
 
 // L̂ = max over the vertices ξ_v of Ĉ of n_v(α) = ‖J̄_r(ξ_v, α)‖₂ for a Jacobian that depends on ξ,
@@ -127,6 +181,41 @@ class PaperDetector final : public JumpDetector {
   std::string name() const override { return "paper"; }
   // One identified flow row: ‖J̄_r(α)‖² is a quadratic form in α (ClassifyConstant<N, true>).
   bool one_row() const { return reduced_rows_ == 1; }
+  // ClassifyConstant<2, true> in local variables (detail::PaperConstant2<A>, α̂ = `alpha` with its
+  // unknowns at u0, u1): for a model with a constant flow Jacobian, two states, one identified row
+  // and A = |α|.
+  bool constant2(int a) const {
+    return constant_jacobian_ && reduced_rows_ == 1 && gram_.rows() == a && (a == 2 || a == 3);
+  }
+  long unknowns() const { return unknowns_; }
+  template <int A>
+  detail::PaperConstant2<A> LoadConstant2(const double* alpha, int u0, int u1) const {
+    detail::PaperConstant2<A> c{};
+    c.half_r = 0.5 * settings_.r;
+    for (int i = 0; i < A * A; ++i) c.q[i] = gram_.data()[i];
+    for (int i = 0; i < A; ++i) c.alpha[i] = alpha[i];
+    c.u0 = u0;
+    c.u1 = u1;
+    c.homogeneous = mode_ == BoundMode::kHomogeneous;
+    c.last_x0 = last_x_[0];
+    c.last_x1 = last_x_[1];
+    c.last_norm = last_norm_;
+    c.has_last = last_n_ == 2;
+    c.cached_version = cached_version_;
+    c.cached_l2 = cached_l2_;
+    c.cached_l = cached_l_;
+    return c;
+  }
+  template <int A>
+  void StoreConstant2(const detail::PaperConstant2<A>& c) {
+    last_x_[0] = c.last_x0;
+    last_x_[1] = c.last_x1;
+    last_norm_ = c.last_norm;
+    if (c.has_last) last_n_ = 2;
+    cached_version_ = c.cached_version;
+    cached_l2_ = c.cached_l2;
+    cached_l_ = c.cached_l;
+  }
   void Reset() override;
 
   // The decision for a model with a constant flow Jacobian, from the pair ξ(t−δt), ξ(t) (n entries

@@ -141,6 +141,8 @@ class Estimator {
     ++updates_;
     return true;
   }
+  // `rows` finite regressions admitted by a caller that applied them itself (Admit on each).
+  void AddUpdates(long rows) { updates_ += rows; }
   virtual void DoUpdate(const ConstMatRef& phi, const ConstVecRef& y) = 0;
   // A status other than ok, with its reason (not inline: called from the per-row paths on failure).
   void SetNotOk(EstimatorStatus status, std::string reason);

@@ -145,6 +145,15 @@ class Rls final : public Estimator {
       if (!r.Update(phi[0], phi[1], y, lambda_, max_trace_)) MarkIllConditioned();
     });
   }
+  // A loop that applies r.Update itself (to finite rows whose updates succeeded) reads λ and the
+  // wind-up bound here, and counts its rows afterwards: `admitted` rows, `informative` of them with
+  // φ ≠ 0 (the same counters and status as UpdateRowIn on each).
+  double forgetting() const { return lambda_; }
+  double max_trace() const { return max_trace_; }
+  void CountRowsIn(long admitted, long informative) {
+    AddUpdates(admitted);
+    CountExcitation(informative);
+  }
 
  private:
   // A row that is not finite is skipped (counted); otherwise `update` runs and the row counts

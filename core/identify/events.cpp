@@ -20,6 +20,7 @@ namespace {
 
 constexpr long kMinFit = 4;  // samples of a degree-2 fit (one more than its coefficients)
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr int kDetectionRounds = 3;  // detection passes with the modes found (several modes and jumps)
 
 // A degree-2 least-squares fit of y(j, lo..hi) in τ = t − t_ref: y ≈ c0 + c1 τ + c2 τ²; v1 is c1's
 // variance per unit noise variance, sse the squared residual.
@@ -369,6 +370,19 @@ Vec KinkSigma(const Mat& y, const IdentifierSettings& settings) {
   return EstimateNoiseSigma(y(Eigen::all, finite));
 }
 
+void CheckAutomatonSettings(const Model& model, const IdentifierSettings& settings, const IdentifyOptions& options) {
+  if (settings.localize) {
+    throw std::invalid_argument(fmt::format(
+        "IdentifierSettings::localize: not available for hybrid automaton '{}' (the localiser fits one flow and one "
+        "jump map)",
+        model.name()));
+  }
+  if (options.initial_mode >= ModeCount(model.spec())) {
+    throw std::invalid_argument(fmt::format("IdentifyOptions::initial_mode = {}: model '{}' has {} mode(s)",
+                                            options.initial_mode, model.name(), ModeCount(model.spec())));
+  }
+}
+
 // Why the assignment is not to be trusted: events of a kind no map has, or none armed in the mode.
 std::string EventsReason(const std::vector<AutomatonEvent>& events) {
   long none = 0, unarmed = 0;
@@ -383,41 +397,29 @@ std::string EventsReason(const std::vector<AutomatonEvent>& events) {
                      none, unarmed, first);
 }
 
-}  // namespace
+// The events of one set of jump labels, assigned from the best initial mode (the rule in events.hpp).
+struct Assignment {
+  std::vector<AutomatonEvent> events;
+  std::vector<int> modes, maps;  // per sample
+  std::vector<double> rss;       // per candidate initial mode (NaN: not tried)
+  int initial_mode = 0;
+  bool inferred = false;
+};
 
-IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
-                                 const IdentifyOptions& options) {
-  const ModelSpec& spec = model.spec();
-  const std::vector<JumpMap> maps = JumpMaps(spec);
-  const bool has_jump = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return !m.identity; });
-  const bool has_switch = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return m.identity; });
-  const int modes_count = ModeCount(spec);
-  if (options.initial_mode >= modes_count) {
-    throw std::invalid_argument(fmt::format("IdentifyOptions::initial_mode = {}: model '{}' has {} mode(s)",
-                                            options.initial_mode, model.name(), modes_count));
-  }
-  const auto count = static_cast<std::size_t>(y.cols());
-  std::vector<double> t = options.times;
-  if (t.empty()) {
-    for (std::size_t k = 0; k < count; ++k) t.push_back(static_cast<double>(k) * dt);
-  }
-  // Jumps: given labels, or the detector of one pass in mode 0 (maps 0).
-  IdentifyOptions plain = options;
-  plain.assign_events = false;
-  plain.modes.clear();
-  plain.maps.clear();
-  IdentifyResult detection;
-  std::vector<std::uint8_t> jumps(count, 0);
-  const bool detect = options.labels.empty() && has_jump;
-  if (!options.labels.empty()) jumps = options.labels;
-  if (detect) {
-    detection = Identify(model, y, dt, settings, plain);
-    jumps = detection.gamma;
-  }
+// breaks[k] = 1: no flow between samples k − 1 and k (a jump, a chain start; sample 0).
+std::vector<std::uint8_t> Breaks(const std::vector<std::uint8_t>& jumps, const IdentifyOptions& options) {
   std::vector<std::uint8_t> breaks = jumps;
   if (!breaks.empty()) breaks[0] = 1;
   for (std::size_t k = 0; k < options.chain_start.size(); ++k) breaks[k] |= options.chain_start[k];
-  const Vec alpha = detect && detection.alpha_hat.allFinite() ? detection.alpha_hat : model.alpha();
+  return breaks;
+}
+
+Assignment AssignAll(const Model& model, const Mat& y, const std::vector<double>& t, const IdentifierSettings& settings,
+                     const IdentifyOptions& options, const Vec& alpha, const std::vector<std::uint8_t>& jumps) {
+  const ModelSpec& spec = model.spec();
+  const std::vector<JumpMap> maps = JumpMaps(spec);
+  const bool has_switch = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return m.identity; });
+  const std::vector<std::uint8_t> breaks = Breaks(jumps, options);
   const std::vector<Kink> kinks =
       has_switch ? DetectKinks(y, t, breaks, KinkSigma(y, settings), options.kinks) : std::vector<Kink>{};
   // Each candidate initial mode (the model's default first, so that it wins a tie).
@@ -426,28 +428,137 @@ IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, co
     candidates.push_back(options.initial_mode);
   } else {
     candidates.push_back(spec.default_mode);
-    for (int q = 0; q < modes_count; ++q) {
+    for (int q = 0; q < ModeCount(spec); ++q) {
       if (q != spec.default_mode) candidates.push_back(q);
     }
+  }
+  Assignment out;
+  out.rss.assign(std::size_t(ModeCount(spec)), kNaN);
+  out.initial_mode = candidates.front();
+  out.inferred = candidates.size() > 1;
+  for (int q0 : candidates) {
+    std::vector<int> modes, per_map;
+    std::vector<AutomatonEvent> e = AssignEvents(model, y, t, options.inputs, alpha, q0, jumps, kinks, &modes, &per_map);
+    out.rss[std::size_t(q0)] = out.inferred ? ModeResidual(model, y, t, options.inputs, breaks, modes) : kNaN;
+    if (q0 == candidates.front() || out.rss[std::size_t(q0)] < out.rss[std::size_t(out.initial_mode)]) {
+      out.initial_mode = q0;
+      out.events = std::move(e);
+      out.modes = std::move(modes);
+      out.maps = std::move(per_map);
+    }
+  }
+  return out;
+}
+
+// The detection pass (jump detector, no events assigned) with every sample in mode `modes` (empty:
+// mode 0) and each jump's map `maps` (empty: map 0).
+IdentifyResult DetectionPass(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                             const IdentifyOptions& options, std::vector<int> modes, std::vector<int> maps) {
+  IdentifyOptions plain = options;
+  plain.assign_events = false;
+  plain.modes = std::move(modes);
+  plain.maps = std::move(maps);
+  return Identify(model, y, dt, settings, plain);
+}
+
+// A run of flagged pairs is a pass's recursive α̂ catching up with a flow it did not have (a switch
+// into a mode it was not given, or a first segment too short to tell α's columns apart): a jump is
+// one pair between flows. Only the isolated flags are kept.
+std::vector<std::uint8_t> Isolated(const std::vector<std::uint8_t>& jumps) {
+  std::vector<std::uint8_t> out = jumps;
+  for (std::size_t k = 0; k < jumps.size(); ++k) {
+    const bool before = k > 0 && jumps[k - 1] != 0, after = k + 1 < jumps.size() && jumps[k + 1] != 0;
+    if (before || after) out[k] = 0;
+  }
+  return out;
+}
+
+// Jumps before the modes are known: a pair is a jump when the pass of every mode q (all samples in
+// q) flags it, so that a mode's flow cannot explain it; a pair flagged only because the pass took
+// another mode's flow (a run of detections where the model is in mode q) is not a jump. `first`
+// receives the pass of the default mode (its α̂ is the assignment's flow step).
+std::vector<std::uint8_t> JumpsOfEveryMode(const Model& model, const Mat& y, double dt,
+                                           const IdentifierSettings& settings, const IdentifyOptions& options,
+                                           IdentifyResult* first) {
+  const ModelSpec& spec = model.spec();
+  auto all_in = [&](int q) { return q == 0 ? std::vector<int>{} : std::vector<int>(std::size_t(y.cols()), q); };
+  *first = DetectionPass(model, y, dt, settings, options, all_in(spec.default_mode), {});
+  std::vector<std::uint8_t> jumps = first->gamma;
+  for (int q = 0; q < ModeCount(spec); ++q) {
+    if (q == spec.default_mode) continue;
+    const IdentifyResult pass = DetectionPass(model, y, dt, settings, options, all_in(q), {});
+    for (std::size_t k = 0; k < jumps.size(); ++k) jumps[k] &= pass.gamma[k];
+  }
+  return ModeCount(spec) == 1 ? jumps : Isolated(jumps);
+}
+
+// The final pass's result completed with the assignment: γ = 1 at every event (a switch is an event
+// of the hybrid time domain, an identity map, although the pass regressed its pair as flow), the
+// events, modes and initial mode (in the safe start too).
+void FinishAutomaton(const Model& model, bool has_jump, const Assignment& a, IdentifyResult* r) {
+  for (const AutomatonEvent& e : a.events) r->gamma[std::size_t(e.sample)] = 1;
+  if (r->safe_start) {
+    IdentifyResult safe = *r->safe_start;
+    safe.gamma = r->gamma;
+    safe.events = a.events;
+    safe.mode = a.modes;
+    safe.initial_mode = a.initial_mode;
+    r->safe_start = std::make_shared<const IdentifyResult>(std::move(safe));
+  }
+  if (!has_jump && r->jump_status == EstimatorStatus::kNotExcited && model.beta_size() == 0) {
+    r->jump_status = EstimatorStatus::kOk;  // only identity maps: no β to estimate
+    r->jump_reason.clear();
+  }
+  r->events = a.events;
+  r->mode = a.modes;
+  r->initial_mode = a.initial_mode;
+  r->initial_mode_inferred = a.inferred;
+  r->initial_mode_rss = a.rss;
+  r->events_reason = EventsReason(r->events);
+}
+
+}  // namespace
+
+IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                                 const IdentifyOptions& options) {
+  const ModelSpec& spec = model.spec();
+  const std::vector<JumpMap> maps = JumpMaps(spec);
+  const bool has_jump = std::any_of(maps.begin(), maps.end(), [](const JumpMap& m) { return !m.identity; });
+  CheckAutomatonSettings(model, settings, options);
+  const auto count = static_cast<std::size_t>(y.cols());
+  std::vector<double> t = options.times;
+  if (t.empty()) {
+    for (std::size_t k = 0; k < count; ++k) t.push_back(static_cast<double>(k) * dt);
+  }
+  // Jumps: given labels, or detected (every mode's pass, then the pass with the modes found).
+  IdentifyResult detection;
+  std::vector<std::uint8_t> jumps = options.labels.empty() ? std::vector<std::uint8_t>(count, 0) : options.labels;
+  const bool detect = options.labels.empty() && has_jump;
+  if (detect) jumps = JumpsOfEveryMode(model, y, dt, settings, options, &detection);
+  auto alpha_of = [&](const IdentifyResult& r) {
+    return detect && r.alpha_hat.allFinite() ? r.alpha_hat : model.alpha();
+  };
+  Assignment a = AssignAll(model, y, t, settings, options, alpha_of(detection), jumps);
+  // Jumps against the flow of each sample's mode, until they agree with the modes they give.
+  for (int round = 0; detect && ModeCount(spec) > 1 && round < kDetectionRounds; ++round) {
+    IdentifyResult again = DetectionPass(model, y, dt, settings, options, a.modes, a.maps);
+    std::vector<std::uint8_t> found = Isolated(again.gamma);
+    // The pair across a switch mixes two modes' flows in its trapezoid: the switch explains it.
+    for (const AutomatonEvent& e : a.events) {
+      for (long k = e.sample - 1; !e.jump && k <= e.sample + 1; ++k) {
+        if (k >= 0 && k < static_cast<long>(found.size())) found[std::size_t(k)] = 0;
+      }
+    }
+    detection = std::move(again);
+    if (found == jumps) break;
+    jumps = std::move(found);
+    a = AssignAll(model, y, t, settings, options, alpha_of(detection), jumps);
   }
   IdentifyOptions pass = options;
   pass.assign_events = false;
   pass.labels = jumps;
-  std::vector<AutomatonEvent> events;
-  std::vector<double> rss(std::size_t(modes_count), kNaN);
-  int chosen = candidates.front();
-  for (int q0 : candidates) {
-    std::vector<int> modes, per_map;
-    std::vector<AutomatonEvent> e = AssignEvents(model, y, t, options.inputs, alpha, q0, jumps, kinks, &modes, &per_map);
-    rss[std::size_t(q0)] = candidates.size() > 1 ? ModeResidual(model, y, t, options.inputs, breaks, modes) : kNaN;
-    const double best = rss[std::size_t(chosen)];
-    if (q0 == candidates.front() || rss[std::size_t(q0)] < best) {
-      chosen = q0;
-      events = std::move(e);
-      pass.modes = std::move(modes);
-      pass.maps = std::move(per_map);
-    }
-  }
+  pass.modes = a.modes;
+  pass.maps = a.maps;
   IdentifyResult r = Identify(model, y, dt, settings, pass);
   if (detect) {
     if (options.statistics) {
@@ -459,27 +570,7 @@ IdentifyResult IdentifyAutomaton(const Model& model, const Mat& y, double dt, co
       r.jump_reason = detection.jump_reason;
     }
   }
-  // γ marks every event: a switch is an event of the hybrid time domain (an identity map) although
-  // the recursive pass regressed its pair as flow.
-  for (const AutomatonEvent& e : events) r.gamma[std::size_t(e.sample)] = 1;
-  if (r.safe_start) {
-    IdentifyResult safe = *r.safe_start;
-    safe.gamma = r.gamma;
-    safe.events = events;
-    safe.mode = pass.modes;
-    safe.initial_mode = chosen;
-    r.safe_start = std::make_shared<const IdentifyResult>(std::move(safe));
-  }
-  if (!has_jump && r.jump_status == EstimatorStatus::kNotExcited && model.beta_size() == 0) {
-    r.jump_status = EstimatorStatus::kOk;  // only identity maps: no β to estimate
-    r.jump_reason.clear();
-  }
-  r.events = std::move(events);
-  r.mode = pass.modes;
-  r.initial_mode = chosen;
-  r.initial_mode_inferred = candidates.size() > 1;
-  r.initial_mode_rss = std::move(rss);
-  r.events_reason = EventsReason(r.events);
+  FinishAutomaton(model, has_jump, a, &r);
   return r;
 }
 

@@ -4,7 +4,11 @@
 // map (ψ_m).
 //
 //   Jumps      the jump detector of the one-mode pass (as for the paper's class; models with a map
-//              that is not an identity), or IdentifyOptions::labels when given.
+//              that is not an identity), or IdentifyOptions::labels when given. With several modes:
+//              first the pairs flagged by the pass of every mode (all samples in that mode) and
+//              isolated (a run of flags is a pass's α̂ catching up with a flow it was not given);
+//              then, up to 3 rounds until they agree, the pass with the modes and maps the events
+//              give (its isolated flags, none at a switch's pair), and the events again.
 //   Switches   kinks (DetectKinks; models with an identity map): mode switches leave ξ continuous
 //              and change its slope.
 //   Assignment walking the events in time order from the initial mode q: the maps of the event's

@@ -145,6 +145,9 @@ struct Identifier::State {
         if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
         if (paper != nullptr && !paper->one_row()) paper = nullptr;
         residual = dynamic_cast<ResidualDetector*>(detector.get());
+        const std::vector<int>& unknown = builder.flow_layout().unknown;
+        flow_run = paper != nullptr && rls != nullptr && m.state_size() == 2 && unknown.size() == 2 &&
+                   paper->constant2(static_cast<int>(alpha_full.size()));
         const int u = static_cast<int>(builder.flow_layout().unknown.size());
         row_block = rls != nullptr ? ChooseRowBlock<Rls>(*this, m.state_size(), u)
                                    : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
@@ -183,6 +186,7 @@ struct Identifier::State {
   PaperDetector* paper = nullptr;
   ResidualDetector* residual = nullptr;
   RowBlockFn row_block = nullptr;
+  bool flow_run = false;  // RowBlock<2, 2, kPaperDirect, Rls> may take runs of flow samples (FlowRun)
   SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
@@ -383,7 +387,23 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   constexpr bool kLocal = kCall == kPaperDirect && std::is_same_v<E, Rls> && P == 2;
   [[maybe_unused]] detail::Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
+  // A flow run is tried again only after a flow sample of the per-sample path: where most samples are
+  // jumps (a small r), runs would end at once. Fewer than kMinFlowRun samples left (Step feeds one):
+  // loading and storing the state would cost more than the run saves.
+  constexpr Eigen::Index kMinFlowRun = 16;
+  [[maybe_unused]] bool try_run = true;
   for (Eigen::Index k = 0; k < count; ++k) {
+    Decision d;
+    bool decided = false;  // d is sample k's decision already (a flow run stopped there)
+    if constexpr (kLocal && N == 2) {
+      if (try_run && count - k >= kMinFlowRun && s.flow_run && !s.frozen && !s.settings.sets &&
+          est->updates() >= s.paper->unknowns()) {
+        k = s.alpha_full.size() == 3 ? FlowRun<3>(s, xs, k, count, phi, y, decisions, local, &d, &decided)
+                                     : FlowRun<2>(s, xs, k, count, phi, y, decisions, local, &d, &decided);
+        if (k == count) break;
+        try_run = !decided;
+      }
+    }
     const double* x = xs + k * n;
     ++s.samples;
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
@@ -402,11 +422,12 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
         AfterJump(s, ConstVecMap(x, n), alpha_class);
       }
     };
-    Decision d;
     if constexpr (kCall == kPaperDirect) {
-      d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, dt, alpha_class.data(),
-                                             s.frozen ? -2 : s.version,
-                                             s.frozen ? s.frozen_updates : est->updates());
+      if (!decided) {
+        d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, dt, alpha_class.data(),
+                                               s.frozen ? -2 : s.version,
+                                               s.frozen ? s.frozen_updates : est->updates());
+      }
       update(d);
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
@@ -424,10 +445,60 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
       update(d);
       s.detector->Observe(c, d);
     }
+    if constexpr (kLocal && N == 2) try_run = try_run || !d.gamma;
     for (Eigen::Index i = 0; i < n; ++i) s.prev[i] = x[i];
     if (decisions != nullptr) decisions[k] = d;
   }
   if constexpr (kLocal) est->Store2(local);
+}
+
+// Consecutive flow samples k, k + 1, … of a row block (n = 2, |α| = 2 unknowns, RLS, the paper
+// detector; warm-up over, no sets, first pass): the detector's and RLS's state in local variables
+// (detail::PaperConstant2, r) and no call in the loop, the same arithmetic as the per-sample path.
+// Stops before a sample whose row is not finite, and at a jump or a failed RLS update: that sample's
+// decision goes to *pending (*decided = true) for the caller to apply. Returns the sample it stopped
+// at (count: the block is done).
+template <int A>
+Eigen::Index Identifier::FlowRun(State& s, const double* xs, Eigen::Index k, Eigen::Index count,
+                                 const double* phi, const double* y, Decision* decisions,
+                                 detail::Rls2State& rls, Decision* pending, bool* decided) {
+  detail::Rls2State r = rls;
+  const int* unknown = s.builder.flow_layout().unknown.data();
+  detail::PaperConstant2<A> c = s.paper->LoadConstant2<A>(s.alpha_full.data(), unknown[0], unknown[1]);
+  const double lambda = s.rls->forgetting(), max_trace = s.rls->max_trace(), inv_dt = 1.0 / s.dt;
+  double p0 = s.prev[0], p1 = s.prev[1];
+  double prev_norm = c.PrevNorm(p0, p1);
+  long version = s.version, admitted = 0, informative = 0;
+  for (; k < count; ++k) {
+    const double f0 = phi[2 * k], f1 = phi[2 * k + 1], yk = y[k];
+    if (!(std::isfinite(f0) && std::isfinite(f1) && std::isfinite(yk))) break;
+    const double c0 = xs[2 * k], c1 = xs[2 * k + 1];
+    const Decision d = c.Classify(p0, p1, c0, c1, prev_norm, inv_dt, r.t0, r.t1, version);
+    if (d.gamma || !r.Update(f0, f1, yk, lambda, max_trace)) {
+      *pending = d;
+      *decided = true;
+      break;
+    }
+    if (decisions != nullptr) decisions[k] = d;
+    prev_norm = c.last_norm;
+    ++admitted;
+    informative += f0 != 0.0 || f1 != 0.0 ? 1 : 0;
+    ++version;
+    p0 = c0;
+    p1 = c1;
+  }
+  rls = r;
+  s.paper->StoreConstant2(c);
+  if (admitted > 0) {
+    s.rls->CountRowsIn(admitted, informative);
+    s.samples += admitted;
+    s.version = version;
+    s.alpha_full[unknown[0]] = r.t0;
+    s.alpha_full[unknown[1]] = r.t1;
+    s.prev[0] = p0;
+    s.prev[1] = p1;
+  }
+  return k;
 }
 
 template <Identifier::DetectorCall kCall, class E>
@@ -653,15 +724,27 @@ Decision StepAt(Identifier& id, const Mat& y, double dt, const IdentifyOptions& 
   return labelled ? id.Step(y.col(k), gamma) : id.Step(y.col(k));
 }
 
+bool StopRaised(const IdentifyOptions& options) {
+  return options.stop != nullptr && options.stop->load(std::memory_order_relaxed);
+}
+
+// Samples between two looks at IdentifyOptions::stop: fewer when hulls of n ≥ 3 states are built.
+Eigen::Index StopPoll(const IdentifierSettings& settings, Eigen::Index n) {
+  return settings.sets && n >= 3 ? IdentifyOptions::kStopPollSamples / 16 : IdentifyOptions::kStopPollSamples;
+}
+
 // A column with a non-finite entry is a missing sample: skipped, and the chain goes on (the next pair
-// spans it, its step from the last sample fed: times, else the count of steps of δt).
-void ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
+// spans it, its step from the last sample fed: times, else the count of steps of δt). False when
+// stopped (IdentifyOptions::stop).
+bool ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index poll,
+               IdentifyResult* r) {
   r->skipped_samples = 0;
   r->chains = 0;
   bool open = false;
   Eigen::Index last = -1;  // the last sample fed in the open chain
   for (Eigen::Index k = 0; k < y.cols(); ++k) {
     const auto u = static_cast<std::size_t>(k);
+    if (k % poll == 0 && StopRaised(options)) return false;
     if (!options.chain_start.empty() && options.chain_start[u] && open) {
       id.Restart();
       open = false;
@@ -683,24 +766,28 @@ void ChainPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& o
     r->alpha_trace.col(k) = id.alpha_hat();
     r->beta_trace.col(k) = id.beta_hat();
   }
+  return true;
 }
 
 // One pass over the samples. Without a trace or labels, samples go to Feed in chunks (its block
-// path); a trace needs α̂, β̂ after each sample, labels a Step with each.
-void Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
-  if (NeedsChains(y, options)) return ChainPass(id, y, dt, options, r);
+// path); a trace needs α̂, β̂ after each sample, labels a Step with each. Looks at
+// IdentifyOptions::stop every `poll` samples; false when stopped.
+bool Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index poll,
+          IdentifyResult* r) {
+  if (NeedsChains(y, options)) return ChainPass(id, y, dt, options, poll, r);
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
-    constexpr Eigen::Index kChunk = 4096;
-    std::vector<Decision> decisions(static_cast<std::size_t>(std::min(kChunk, count)));
-    for (Eigen::Index k = 0; k < count; k += kChunk) {
-      const Eigen::Index len = std::min(kChunk, count - k);
+    std::vector<Decision> decisions(static_cast<std::size_t>(std::min(poll, count)));
+    for (Eigen::Index k = 0; k < count; k += poll) {
+      if (StopRaised(options)) return false;
+      const Eigen::Index len = std::min(poll, count - k);
       id.Feed(y.middleCols(k, len), decisions.data());
       for (Eigen::Index j = 0; j < len; ++j) Record(k + j, decisions[static_cast<std::size_t>(j)], r);
     }
-    return;
+    return true;
   }
   for (Eigen::Index k = 0; k < count; ++k) {
+    if (k % poll == 0 && StopRaised(options)) return false;
     Record(
         k,
         options.labels.empty() ? id.Step(y.col(k)) : id.Step(y.col(k), options.labels[std::size_t(k)] != 0),
@@ -709,20 +796,31 @@ void Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& option
     r->alpha_trace.col(k) = id.alpha_hat();
     r->beta_trace.col(k) = id.beta_hat();
   }
+  return true;
 }
 
-// The second pass: records the first pass's outcome, re-runs, counts the changed classes.
-void SecondPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, IdentifyResult* r) {
+// The second pass: records the first pass's outcome, re-runs, counts the changed classes. False when
+// stopped.
+bool SecondPass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& options, Eigen::Index poll,
+                IdentifyResult* r) {
   r->second_pass = true;
   r->first_pass_gamma = r->gamma;
   r->first_pass_alpha_hat = id.alpha_hat();
   r->first_pass_beta_hat = id.beta_hat();
   id.BeginSecondPass();
-  Pass(id, y, dt, options, r);
+  if (!Pass(id, y, dt, options, poll, r)) return false;
   for (std::size_t k = 0; k < r->gamma.size(); ++k) {
     r->reclassified_to_jump += (!r->first_pass_gamma[k] && r->gamma[k]) ? 1 : 0;
     r->reclassified_to_flow += (r->first_pass_gamma[k] && !r->gamma[k]) ? 1 : 0;
   }
+  return true;
+}
+
+// IdentifyOptions::stop was raised: not ok, whatever the estimates.
+void MarkStopped(IdentifyResult* r) {
+  r->stopped = true;
+  r->flow_status = r->jump_status = EstimatorStatus::kNotExcited;
+  r->flow_reason = r->jump_reason = "stopped";
 }
 
 // The final estimates, statuses, boxes and hulls.
@@ -820,8 +918,15 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     r.alpha_trace.resize(model.alpha_size(), y.cols());
     r.beta_trace.resize(model.beta_size(), y.cols());
   }
-  Pass(id, y, dt, options, &r);
-  if (settings.second_pass) SecondPass(id, y, dt, options, &r);
+  const Eigen::Index poll = StopPoll(bounded, model.state_size());
+  if (!Pass(id, y, dt, options, poll, &r) ||
+      (settings.second_pass && !SecondPass(id, y, dt, options, poll, &r))) {
+    r.alpha_hat = id.alpha_hat();  // of the samples seen
+    r.beta_hat = id.beta_hat();
+    r.jumps_detected = id.jumps_detected();
+    MarkStopped(&r);
+    return r;
+  }
   Collect(id, bounded.sets, &r);
   if (options.check_paper_bound && options.labels.empty() && settings.detector.kind == DetectorKind::kPaper)
     CheckDetectorBound(model, y, settings, &r);
@@ -829,6 +934,7 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     IdentifierSettings safe = settings;
     safe.flow_estimator.kind = EstimatorKind::kRls;
     r.safe_start = std::make_shared<const IdentifyResult>(Identify(model, y, dt, safe, options));
+    if (r.safe_start->stopped) MarkStopped(&r);
     r.safe_start_reason =
         fmt::format("the {} estimate of alpha is {}{}{}; the refinement starts from rls (alpha {})",
                     ToString(settings.flow_estimator.kind), ToString(r.flow_status),

@@ -20,6 +20,7 @@
 //                forgetting) is the other way to let early mistakes fade.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -32,6 +33,10 @@
 #include "core/sets/sample_set.hpp"
 
 namespace hysid {
+
+namespace detail {
+struct Rls2State;
+}  // namespace detail
 
 struct IdentifierSettings {
   // For α and β. gtls and frisch with an empty noise_shape get theirs from WithNoiseShapes (below).
@@ -144,6 +149,10 @@ class Identifier {
   static RowBlockFn ChooseRowBlock(int n, int u);
   template <class E>
   static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
+  template <int A>
+  static Eigen::Index FlowRun(State& s, const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
+                              const double* y, Decision* decisions, detail::Rls2State& r, Decision* pending,
+                              bool* decided);
   static SampleContext SampleContextOf(State& s, const double* x, const double* phi, const double* y,
                                        const Vec& alpha_class);
   template <int P>
@@ -186,6 +195,12 @@ struct IdentifyOptions {
   std::vector<int> modes{}, maps{};
   int initial_mode = -1;  // the mode at the first sample when known (−1: inferred)
   KinkSettings kinks{};
+  // Raised (a signal handler, Python's Ctrl-C): the pass ends within kStopPollSamples samples (a
+  // sixteenth of that with hulls of n ≥ 3 states, whose insertions cost more) and the result says
+  // IdentifyResult::stopped: both statuses kNotExcited with reason "stopped", no hulls, no second
+  // pass, no safe start. Null: never.
+  const std::atomic<bool>* stop = nullptr;
+  static constexpr long kStopPollSamples = 4096;
 };
 
 struct IdentifyResult {
@@ -239,6 +254,9 @@ struct IdentifyResult {
   bool initial_mode_inferred = false;
   std::vector<double> initial_mode_rss;
   std::string events_reason;
+  // IdentifyOptions::stop was raised: the pass ended early; the estimates are those of the samples
+  // seen (partial) and not ok.
+  bool stopped = false;
 };
 
 // gtls / frisch without a noise shape: σ = settings.sigma when given, else EstimateNoiseSigma(y) (MAD

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -118,6 +119,21 @@ EventComparison CompareEvents(int maps, const std::vector<TrueEvent>& truth,
   c.true_events = static_cast<long>(truth.size());
   c.detected = static_cast<long>(events.size());
   return c;
+}
+
+double LargestNearestTimeError(const std::vector<TrueEvent>& truth, const std::vector<TrueEvent>& fitted) {
+  double largest = 0.0;
+  for (const TrueEvent& e : truth) {
+    if (fitted.empty()) return std::numeric_limits<double>::quiet_NaN();
+    double same = std::numeric_limits<double>::infinity(), any = same;
+    for (const TrueEvent& f : fitted) {
+      const double d = std::abs(f.time - e.time);
+      any = std::min(any, d);
+      if (f.map == e.map) same = std::min(same, d);
+    }
+    largest = std::max(largest, std::isfinite(same) ? same : any);
+  }
+  return largest;
 }
 
 }  // namespace hysid

@@ -49,6 +49,11 @@ struct EventComparison {
 EventComparison CompareEvents(int maps, const std::vector<TrueEvent>& truth,
                               const std::vector<AutomatonEvent>& events);
 
+// The largest |t̂ − t| over the true events, t̂ the time of the nearest event of `fitted` (a fitted
+// model's guard crossings; their `sample` is not read) that applies the same map, or of any map when
+// none does; NaN when `fitted` is empty and `truth` is not, 0 when `truth` is empty.
+double LargestNearestTimeError(const std::vector<TrueEvent>& truth, const std::vector<TrueEvent>& fitted);
+
 // The smoothness bound τ(t) of eq. (2)–(3) with the true flow: (1/2)·L·(‖ξ(t)‖ + ‖ξ(t−δt)‖) with the
 // bound mode of `settings` (paper / homogeneous) and L from the true α over the true states.
 // One value per sample (τ[0] = 0). e_τ(t) = |τ̂(t) − r·τ(t)|.

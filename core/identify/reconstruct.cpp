@@ -332,6 +332,11 @@ std::vector<std::pair<long, long>> Chains(long size, const std::vector<std::uint
   return chains;
 }
 
+bool StopRaised(const ReconstructOptions& options) {
+  return options.stop != nullptr && options.stop->load(std::memory_order_relaxed);
+}
+constexpr long kStopPoll = 4096;  // samples between two looks at ReconstructOptions::stop
+
 }  // namespace
 
 KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std::vector<std::uint8_t>& chain_start,
@@ -347,10 +352,12 @@ KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std:
     for (Eigen::Index r = 0; r < y.rows(); ++r) w = std::max(w, ChordLength(t, rows.col(r).data(), a, b, d.sigma[r], options));
     d.chord = std::max(d.chord, w);
     for (Eigen::Index r = 0; r < y.rows(); ++r) {
+      if ((d.stopped = StopRaised(options))) return d;
       ChainKinkStatistic(t, rows.col(r).data(), a, b, d.sigma[r], w, options, d.statistic);
     }
     // The largest within ±w samples (the chords of the neighbouring intervals share the kink).
     for (long k = a + 1; k < b; ++k) {
+      if ((k - a) % kStopPoll == 0 && (d.stopped = StopRaised(options))) return d;
       const auto u = static_cast<std::size_t>(k);
       const double z = d.statistic[u];
       if (!(z > options.kink_threshold)) continue;
@@ -403,6 +410,7 @@ Reconstruction ReconstructStates(const ReconstructionPlan& plan, const std::vect
   }
   Reconstruction r;
   KinkDetection kinks = DetectKinks(t, y, chain_start, sigma, options);
+  if ((r.stopped = kinks.stopped)) return r;
   r.gamma = std::move(kinks.gamma);
   r.statistic = std::move(kinks.statistic);
   r.sigma = kinks.sigma;
@@ -416,6 +424,7 @@ Reconstruction ReconstructStates(const ReconstructionPlan& plan, const std::vect
   for (const auto& [a, b] : Chains(size, chain_start)) {
     long begin = a;
     for (long k = a + 1; k <= b; ++k) {
+      if ((k - a) % kStopPoll == 0 && (r.stopped = StopRaised(options))) return r;
       if (k < b && r.gamma[static_cast<std::size_t>(k)] == 0) continue;
       ++r.segments;
       for (const int i : plan.reconstructed) {

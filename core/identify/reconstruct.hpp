@@ -30,6 +30,7 @@
 // grows with m).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -46,6 +47,9 @@ struct ReconstructOptions {
   int min_window = 5;             // odd, ≥ 3: the smallest Savitzky–Golay window
   double slope_precision = 0.01;  // > 0: the slope sd the window aims at, relative to the slope scale
   double max_window_share = 0.5;  // (0, 1]: the window's cap as a share of the segment's length
+  // Raised (a signal handler, Python's Ctrl-C): DetectKinks and ReconstructStates return within
+  // a few thousand samples' work, their result marked stopped (partial, not to be used). Null: never.
+  const std::atomic<bool>* stop = nullptr;
   // Field-naming message, e.g. "ReconstructOptions::min_window = 2: must be odd and >= 3".
   bool IsValid(std::string* error) const;
 };
@@ -78,6 +82,7 @@ struct KinkDetection {
   std::vector<double> statistic;    // per sample (of the interval ending there)
   Vec sigma;                        // the noise σ per measured component used
   long chord = 0;                   // the longest chord used (samples)
+  bool stopped = false;             // ReconstructOptions::stop was raised: partial
 };
 // Kinks in y (m × K measured rows) at times t, chains cut at chain_start (empty: one chain); σ per
 // row given (m entries) or, when empty, estimated (MAD of second differences).
@@ -92,6 +97,7 @@ struct Reconstruction {
   long chord = 0;                   // the kink statistic's chord (samples; the longest over chains)
   long segments = 0;                // flow segments over all chains
   int min_window = 0, max_window = 0;  // over the segments of three samples or more
+  bool stopped = false;                // ReconstructOptions::stop was raised: partial
 };
 
 // The whole reconstruction of y (m × K, the measured rows in plan.measured's order). Throws

@@ -99,6 +99,9 @@ CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag);
 std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model);
 // "x0 known", "x0 unknown", or "x0[v] known": for the run's header line.
 std::string X0KnownText(const std::vector<int>& known, const Model& model);
+// "mean e_alpha A, mean e_beta B, mean e_gamma G": the bound's CRLB-implied mean errors of the blocks
+// of θ with unknown entries only ("" when none), each to `digits` significant digits.
+std::string CrlbMeanErrors(const Unknowns& unknowns, const Crlb& bound, int digits);
 
 // hysid identify's refinement flags (--refine, --json) and what runs after the recursive estimate:
 // the refinement, the estimates with standard errors (and CRLB ratios when the data carry the

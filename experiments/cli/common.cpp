@@ -221,6 +221,14 @@ std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model) {
   return known;
 }
 
+std::string CrlbMeanErrors(const Unknowns& unknowns, const Crlb& bound, int digits) {
+  std::vector<std::string> parts;
+  if (!unknowns.alpha.empty()) parts.push_back(fmt::format("mean e_alpha {:.{}g}", bound.mean_e_alpha, digits));
+  if (!unknowns.beta.empty()) parts.push_back(fmt::format("mean e_beta {:.{}g}", bound.mean_e_beta, digits));
+  if (!unknowns.gamma.empty()) parts.push_back(fmt::format("mean e_gamma {:.{}g}", bound.mean_e_gamma, digits));
+  return fmt::format("{}", fmt::join(parts, ", "));
+}
+
 std::string X0KnownText(const std::vector<int>& known, const Model& model) {
   if (known.empty()) return "x0 unknown";
   if (static_cast<int>(known.size()) == model.state_size()) return "x0 known";

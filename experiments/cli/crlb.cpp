@@ -23,7 +23,25 @@ struct CrlbArgs {
   X0Known x0_known;
   SensitivityOptions options;
   std::string inputs;  // --inputs FILE (empty: the model file's defaults)
+  std::string mode;    // --mode NAME: the initial mode of a model with modes (empty: its default)
 };
+
+// --mode NAME: the index of the initial mode (the model's default when not given); refused for a
+// model without modes and for a name that is not one of them.
+int ModeFlag(const std::string& name, const Model& model) {
+  const ModelSpec& spec = model.spec();
+  if (name.empty()) return spec.default_mode;
+  if (spec.modes.empty()) {
+    BadFlag(fmt::format("--mode {}: model '{}' has no modes (only a hybrid automaton with modes has an initial mode)",
+                        name, model.name()));
+  }
+  const auto it = std::find(spec.modes.begin(), spec.modes.end(), name);
+  if (it == spec.modes.end()) {
+    BadFlag(fmt::format("--mode {}: model '{}' has no mode '{}' (modes: {})", name, model.name(), name,
+                        fmt::join(spec.modes, ", ")));
+  }
+  return static_cast<int>(it - spec.modes.begin());
+}
 
 // A hybrid automaton: the CRLB-implied mean error of each jump map's own unknown β entries (its block
 // of the covariance; identity maps and maps with every β known have none).
@@ -53,7 +71,10 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const std::vector<int> known = X0KnownFlag(args.x0_known, model);
   // Every component known: ξ0 is not in θ; some: in θ, held (sd 0, left out of the inverse).
   const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
-  Crlb c = ComputeCrlb(model, x0, grid, sigma, unknowns, args.options, all ? std::vector<int>{} : measured,
+  const int mode = ModeFlag(args.mode, model);
+  HybridParameters at = HybridParameters::Of(model, x0);
+  at.initial_mode = mode;
+  Crlb c = ComputeCrlb(model, at, grid, sigma, unknowns, args.options, all ? std::vector<int>{} : measured,
                        inputs.empty() ? nullptr : &inputs);
   if (!known.empty() && unknowns.x0 && c.status != CrlbStatus::kSimulationFailed) {
     std::vector<int> held;
@@ -66,9 +87,11 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   }
   std::vector<std::string> measured_names;
   for (const int i : measured) measured_names.push_back(spec.state_names[static_cast<std::size_t>(i)]);
-  std::printf("model %s, x0 = (%s), t_end = %g, dt = %g (%ld samples), sigma = (%s), %s%s\n", spec.name.c_str(),
-              fmt::format("{:g}", fmt::join(x0, ", ")).c_str(), grid.t_end, grid.dt, grid.size(),
-              fmt::format("{:g}", fmt::join(sigma, ", ")).c_str(), X0KnownText(known, model).c_str(),
+  std::printf("model %s, x0 = (%s)%s, t_end = %g, dt = %g (%ld samples), sigma = (%s), %s%s\n", spec.name.c_str(),
+              fmt::format("{:g}", fmt::join(x0, ", ")).c_str(),
+              spec.modes.empty() ? "" : fmt::format(" in mode {}", spec.modes[std::size_t(mode)]).c_str(), grid.t_end,
+              grid.dt, grid.size(), fmt::format("{:g}", fmt::join(sigma, ", ")).c_str(),
+              X0KnownText(known, model).c_str(),
               all ? "" : fmt::format(", measured {} only", fmt::join(measured_names, ", ")).c_str());
   if (!c.ok()) {
     std::printf("status: %s: %s\n", ToString(c.status), c.message.c_str());
@@ -96,8 +119,9 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
     }
     std::printf("%s\n", line.c_str());
   }
-  std::printf("CRLB-implied mean e_alpha %.6g, mean e_beta %.6g%s\n", c.mean_e_alpha, c.mean_e_beta,
-              unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.6g}", c.mean_e_gamma).c_str());
+  if (const std::string means = CrlbMeanErrors(unknowns, c, 6); !means.empty()) {
+    std::printf("CRLB-implied %s\n", means.c_str());
+  }
   if (!spec.jumps.empty()) PrintPerMap(spec, unknowns, c);
   std::printf("status: ok\n");
   return 0;
@@ -118,10 +142,14 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
   sub->add_option("--inputs", args->inputs,
                   "a model with inputs: CSV with a column t and one per input name (default: the model "
                   "file's input_defaults at the sample times)");
+  sub->add_option("--mode", args->mode,
+                  "a hybrid automaton with modes: the initial mode, by name (default: the model's default "
+                  "mode)");
   AddToleranceOptions(*sub, args->options.sim, "states and sensitivities");
   sub->footer(
       "The bound for samples of the measured states (the model's `measured`; all by default) with\n"
-      "Gaussian noise sigma: per-parameter sd and the CRLB-implied mean e_alpha, e_beta. Exit 1 when\n"
+      "Gaussian noise sigma: per-parameter sd and the CRLB-implied mean e_alpha, e_beta, e_gamma (of\n"
+      "the blocks with unknown entries). Exit 1 when\n"
       "it cannot be computed (simulation stopped, singular Fisher information: the message names\n"
       "the unidentifiable direction).");
   sub->callback([args, &env] {

@@ -23,6 +23,7 @@
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
 #include "core/io/sample_data.hpp"
+#include "core/model/automaton.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "experiments/cli/checks.hpp"
 #include "experiments/cli/cli.hpp"
@@ -72,6 +73,11 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   ApplyPluginOptions(args.options, Spelling::kFlag, &settings);
   settings.flow_estimator.noise_shape = NoiseShapeFlag(args.flow_shape, "--flow-noise-shape");
   settings.jump_estimator.noise_shape = NoiseShapeFlag(args.jump_shape, "--jump-noise-shape");
+  if (args.localize && IsAutomaton(model.spec())) {
+    BadFlag(fmt::format("--localize: model '{}' is a hybrid automaton (modes or jump maps); the jump localiser "
+                        "fits one flow and one jump map, so it is not available for it",
+                        model.name()));
+  }
   settings.localize = args.localize;
   settings.second_pass = args.second_pass;
   CheckDataAccuracy(args.data_rtol, args.data_atol, Spelling::kFlag);
@@ -378,7 +384,8 @@ PartialOutputs Reconstruct(const Model& model, const std::string& model_file, co
         "{}: measured: {}", model_file.empty() ? fmt::format("model '{}'", model.name()) : "--model-file " + model_file,
         plan.error));
   }
-  const ReconstructOptions ro;
+  ReconstructOptions ro;
+  ro.stop = options.stop;
   const Reconstruction r = ReconstructStates(plan, data.t, data.y, data.chain_start, sigma, ro);
   partial.reconstructed = plan.reconstructed;
   const auto& names = model.spec().state_names;

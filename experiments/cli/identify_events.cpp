@@ -166,4 +166,37 @@ nlohmann::json EventsJson(const Model& model, const SampleData& data, const Iden
   return out;
 }
 
+FittedEvents FittedEventsOf(const Model& model, const SampleData& data, const IdentifyResult& r,
+                            const RefineResult& refined) {
+  if (!IsAutomaton(model.spec())) return {};
+  return FitEventTimes(model, data.t, data.y, data.chain_start, data.u, r, refined);
+}
+
+void PrintFittedEvents(const Model& model, const IdentifyResult& r, const FittedEvents& fitted) {
+  if (!IsAutomaton(model.spec()) || r.events.empty()) return;
+  const std::vector<JumpMap> maps = JumpMaps(model.spec());
+  std::printf("event times from the fitted model (its guard crossings; se from the covariance, first chain):\n");
+  if (!fitted.reason.empty()) std::printf("  not every event has one: %s\n", fitted.reason.c_str());
+  if (!fitted.beyond.empty()) std::printf("  %s\n", fitted.beyond.c_str());
+  std::printf("  %8s %-12s %14s %14s %12s\n", "sample", "map", "t detected", "t fitted", "se");
+  for (std::size_t i = 0; i < std::min(kListed, r.events.size()); ++i) {
+    const AutomatonEvent& e = r.events[i];
+    std::printf("  %8ld %-12s %14.8g %14.8g %12.3g\n", e.sample, MapName(maps, e.map).c_str(), e.time,
+                fitted.time[i], fitted.se[i]);
+  }
+  if (r.events.size() > kListed) std::printf("  … %zu more in --json\n", r.events.size() - kListed);
+}
+
+void AddFittedEventsJson(const FittedEvents& fitted, nlohmann::json* automaton) {
+  if (automaton->is_null() || !automaton->contains("events")) return;
+  nlohmann::json& events = (*automaton)["events"];
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+  for (std::size_t i = 0; i < events.size() && i < fitted.time.size(); ++i) {
+    events[i]["time_fitted"] = number(fitted.time[i]);
+    events[i]["time_fitted_se"] = number(fitted.se[i]);
+  }
+  (*automaton)["fitted_reason"] = fitted.reason;
+  (*automaton)["fitted_beyond"] = fitted.beyond;
+}
+
 }  // namespace hysid::cli

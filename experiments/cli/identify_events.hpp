@@ -12,6 +12,7 @@
 #include "core/identify/metrics.hpp"
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
+#include "sim/events/fitted_events.hpp"
 
 namespace hysid::cli {
 
@@ -23,5 +24,14 @@ EventComparison CompareEvents(const ModelSpec& spec, const SampleData& data, con
 void PrintEvents(const Model& model, const SampleData& data, const IdentifyResult& result);
 // The same as JSON (null for a model that is not an automaton).
 nlohmann::json EventsJson(const Model& model, const SampleData& data, const IdentifyResult& result);
+
+// After --refine ml: each event's time from the fitted model (its guard crossing, sim/events) beside
+// the detected one, with its standard error. Nothing for a model that is not an automaton.
+FittedEvents FittedEventsOf(const Model& model, const SampleData& data, const IdentifyResult& result,
+                            const RefineResult& refined);
+void PrintFittedEvents(const Model& model, const IdentifyResult& result, const FittedEvents& fitted);
+// The same into --json's `automaton` (EventsJson's): `time_fitted`, `time_fitted_se` per event and
+// `fitted_reason`.
+void AddFittedEventsJson(const FittedEvents& fitted, nlohmann::json* automaton);
 
 }  // namespace hysid::cli

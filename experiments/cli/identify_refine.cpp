@@ -11,7 +11,9 @@
 
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
+#include "experiments/cli/identify_events.hpp"
 #include "sim/input_signal.hpp"
+#include "core/model/automaton.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid::cli {
@@ -195,7 +197,7 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
                 static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
                 r.span_reason.c_str());
   }
-  if (!r.mended.empty()) std::printf("  detections mended from the fitted model (%s)\n", r.mended.c_str());
+  if (!r.mended.empty()) std::printf("  mended or reached by: %s\n", r.mended.c_str());
   if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
   if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
   if (r.ok()) {
@@ -305,13 +307,17 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, step.truth, step.bound);
   if (step.bound.ok()) {
-    std::printf("  CRLB at the truth (sigma from %s): mean e_alpha %.4g, mean e_beta %.4g%s\n",
-                std::filesystem::path(data.path).replace_extension(".json").c_str(), step.bound.mean_e_alpha,
-                step.bound.mean_e_beta,
-                r.unknowns.gamma.empty() ? "" : fmt::format(", mean e_gamma {:.4g}", step.bound.mean_e_gamma).c_str());
+    std::printf("  CRLB at the truth (sigma from %s): %s\n",
+                std::filesystem::path(data.path).replace_extension(".json").c_str(),
+                CrlbMeanErrors(r.unknowns, step.bound, 4).c_str());
   }
+  const bool fitted_events = args.refine == "ml" && IsAutomaton(model.spec());
+  const FittedEvents fitted = fitted_events ? FittedEventsOf(model, data, recursive, r) : FittedEvents{};
+  if (fitted_events) PrintFittedEvents(model, recursive, fitted);
   if (!args.json.empty()) {
-    WriteFileAtomically(args.json, RefineJson(model, data, recursive, args, report, partial, step).dump(2) + "\n");
+    nlohmann::json j = RefineJson(model, data, recursive, args, report, partial, step);
+    if (fitted_events && j.contains("automaton")) AddFittedEventsJson(fitted, &j["automaton"]);
+    WriteFileAtomically(args.json, j.dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
   std::printf("status: %s\n", args.refine == "none" ? "recursive (no refinement)" : ToString(r.status));

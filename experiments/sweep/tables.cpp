@@ -51,10 +51,11 @@ std::vector<std::string> JournalHeader(const std::vector<std::string>& trial_hea
 
 namespace {
 
-// The metrics of a sweep of hybrid automata (trial.hpp): event counts, the event-time error in
-// samples, e_beta_MAP and crlb_e_beta_MAP.
+// The metrics of a sweep of hybrid automata (trial.hpp): event counts, the event-time errors in
+// samples (detected, fitted), e_beta_MAP and crlb_e_beta_MAP.
 bool IsAutomatonMetric(const std::string& h) {
-  for (const char* name : {"events_wrong_map", "events_missed", "events_spurious", "event_time_error"}) {
+  for (const char* name : {"events_wrong_map", "events_missed", "events_spurious", "event_time_error",
+                           "event_time_error_fitted"}) {
     if (h == name) return true;
   }
   return h.rfind("e_beta_", 0) == 0 || h.rfind("crlb_e_beta_", 0) == 0;

@@ -16,6 +16,7 @@
 #include "core/model_file/input_defaults.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "sim/exogenous.hpp"
+#include "sim/events/fitted_events.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid {
@@ -116,6 +117,10 @@ struct TrialOutcome {
   // at σ = 1 (NaN where the map has no unknown β).
   EventComparison events;
   double event_time_error = kNaN;
+  // refine = ml: the fitted model's guard crossings (sim/events) and the largest |t̂ − t| of the true
+  // events against the nearest of them (same map) in samples; NaN when the refinement is not ok.
+  std::vector<TrueEvent> fitted_events;
+  double event_time_error_fitted = kNaN;
   std::vector<double> e_beta_map, crlb_e_beta_map;
   Vec gamma_hat;         // refine = ml: the refined γ (empty otherwise: the recursive pass has none)
   double e_gamma = kNaN;  // ‖γ̂ − γ‖ over the unknown entries (refine = ml)
@@ -299,7 +304,8 @@ double OfMap(const TrialOutcome& o, const std::string& name, const std::vector<d
 }
 
 // Sweeps of hybrid automata: the events (true; assigned to the right map; matched to another map's
-// event; missed; spurious), the largest event-time error in samples, e_beta_MAP per map with unknown
+// event; missed; spurious), the largest event-time error in samples (of the detected events and, with
+// grid.refine, of the fitted model's guard crossings), e_beta_MAP per map with unknown
 // β and, with grid.refine, crlb_e_beta_MAP (σ times the σ = 1 bound; empty for σ = 0).
 void AutomatonColumns(const SweepConfig& config, const std::vector<Model>& models, std::vector<TrialColumn>* cols) {
   using O = TrialOutcome;
@@ -316,6 +322,12 @@ void AutomatonColumns(const SweepConfig& config, const std::vector<Model>& model
   cols->push_back({"event_time_error", [](const O& o) {
                      return o.events.counts.empty() ? std::string() : FormatNumber(o.event_time_error);
                    }});
+  if (config.grid.refine_axis) {
+    cols->push_back({"event_time_error_fitted", [](const O& o) {
+                       return o.ok() && o.cell->refine == "ml" ? FormatNumber(o.event_time_error_fitted)
+                                                               : std::string();
+                     }});
+  }
   for (const std::string& map : MapsWithUnknownBeta(models)) {
     cols->push_back({"e_beta_" + map, [map](const O& o) {
                        return o.ok() ? FormatNumber(OfMap(o, map, o.e_beta_map)) : std::string();
@@ -375,6 +387,9 @@ void CompareAutomaton(const Trajectory& truth, const IdentifyResult& res, TrialO
   o->events = CompareEvents(static_cast<int>(JumpMaps(spec).size()), TrueEvents(truth), res.events);
   const bool matched = o->events.true_events > o->events.missed;
   o->event_time_error = matched ? o->events.max_time_error / truth.dt : kNaN;
+  if (o->refine_status == ToString(RefineStatus::kOk)) {
+    o->event_time_error_fitted = LargestNearestTimeError(TrueEvents(truth), o->fitted_events) / truth.dt;
+  }
   for (const JumpMap& map : spec.jumps) {
     double sum = 0.0;
     bool unknown = false;
@@ -407,6 +422,7 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   IdentifyOptions options;
   options.statistics = false;
   options.check_paper_bound = false;  // every detection is counted against the true jumps
+  options.stop = in.stop;             // a stopped trial's row is dropped by the runner
   if (config.oracle) options.labels = TrueLabels(truth);
   if (in.inputs != nullptr) options.inputs = in.inputs->values.leftCols(truth.x.cols());
   const std::vector<int> measured = MeasuredIndices(model);
@@ -416,7 +432,9 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   // detected kinks as its labels (core/identify/reconstruct.hpp), as `hysid identify` does.
   Reconstruction rec;
   if (partial) {
-    rec = ReconstructStates(PlanReconstruction(model, measured), truth.t, noisy(measured, Eigen::all), {}, Vec());
+    ReconstructOptions ro;
+    ro.stop = in.stop;
+    rec = ReconstructStates(PlanReconstruction(model, measured), truth.t, noisy(measured, Eigen::all), {}, Vec(), ro);
     if (!config.oracle) options.labels = rec.gamma;
   }
   const Mat& y = partial ? rec.x : noisy;
@@ -435,6 +453,10 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     }
     const RefineResult rr =
         RefineIdentification(model, truth.t, y, {}, RefinementStart(res), ro, options.inputs);
+    if (IsAutomaton(model.spec()) && rr.ok()) {
+      const FittedEvents fitted = FitEventTimes(model, truth.t, y, {}, options.inputs, RefinementStart(res), rr);
+      for (const FittedCrossing& c : fitted.crossings) o->fitted_events.push_back({0, c.time, c.map});
+    }
     o->refine_status = ToString(rr.status);
     o->alpha_hat = rr.estimate.alpha;
     o->beta_hat = rr.estimate.beta;

@@ -62,11 +62,14 @@ SensitivityTrajectory LeftDomain() {
 }
 
 // One chain's run with sensitivities at a point, as the fit keeps it: whether it simulated (else
-// why not) and its sums (sim/refine/chain_sums.hpp).
+// why not), its sums (sim/refine/chain_sums.hpp), and its state and sensitivities (n × p) at its
+// last sample (multiple shooting's continuity).
 struct ChainEval {
   bool ok = false;
   std::string message;
   ChainSums sums;
+  Vec end;
+  Mat end_sensitivities;
 };
 
 struct FitProblem {
@@ -79,6 +82,10 @@ struct FitProblem {
   Vec weight;             // 1/σ_i per measured component
   SensitivityOptions options;
   int shared = 0;        // |α_u| + |β_u|
+  // Multiple shooting: the fits c whose state at their last sample continues into fit c + 1's ξ0,
+  // and the continuity residuals' weights 1/(w·σ_i) per state (FitStart::continues).
+  std::vector<std::size_t> links;
+  Vec link_weight;
   bool several = false;  // more than one chain given: messages name the chain
   ChainFailure failure;
   // Per fit: the last evaluation and its point (θ, ξ0_c). Every evaluation integrates the
@@ -110,7 +117,12 @@ struct FitProblem {
     ChainEval& e = cached[c];
     e.ok = s.ok();
     e.message = s.trajectory.status.message;
-    if (e.ok) e.sums = SumChain(s, fits[c].y(), rows);
+    if (e.ok) {
+      e.sums = SumChain(s, fits[c].y(), rows);
+      const Eigen::Index last = s.trajectory.x.cols() - 1;
+      e.end = s.trajectory.x.col(last);
+      e.end_sensitivities = s.S(last);
+    }
     if (e.ok && !e.sums.squares.allFinite()) {
       e.ok = false;
       e.message = "residuals not finite";
@@ -147,6 +159,44 @@ class ChainCost final : public ceres::CostFunction {
     }
     if (jacobians != nullptr && jacobians[1] != nullptr) {
       Eigen::Map<RowMajor>(jacobians[1], j.rows(), n) = j.rightCols(n);
+    }
+    return true;
+  }
+
+ private:
+  const FitProblem& problem_;
+  std::size_t chain_;
+};
+
+// The continuity residuals of multiple shooting: (x_c(t_last; θ, ξ0_c) − ξ0_{c+1})/(w·σ_i), from fit
+// c's cached run (no integration of its own), over θ's shared block, ξ0_c and ξ0_{c+1}.
+class ContinuityCost final : public ceres::CostFunction {
+ public:
+  ContinuityCost(const FitProblem& problem, std::size_t chain) : problem_(problem), chain_(chain) {
+    const int n = problem.model->state_size();
+    set_num_residuals(n);
+    mutable_parameter_block_sizes()->push_back(problem.shared);
+    mutable_parameter_block_sizes()->push_back(n);
+    mutable_parameter_block_sizes()->push_back(n);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const ChainEval& e = problem_.Evaluate(chain_, parameters[0], parameters[1]);
+    if (!e.ok) return false;
+    const Eigen::Index n = e.end.size();
+    const Vec& w = problem_.link_weight;
+    Eigen::Map<Vec> r(residuals, n);
+    r = w.asDiagonal() * (e.end - Eigen::Map<const Vec>(parameters[2], n));
+    if (!r.allFinite()) return false;
+    if (jacobians == nullptr) return true;
+    const int shared = problem_.shared;
+    const Mat& sk = e.end_sensitivities;  // n × p
+    for (Eigen::Index i = 0; i < n; ++i) {
+      for (int c = 0; c < shared && jacobians[0] != nullptr; ++c) jacobians[0][i * shared + c] = w[i] * sk(i, c);
+      for (Eigen::Index b = 0; b < n; ++b) {
+        if (jacobians[1] != nullptr) jacobians[1][i * n + b] = w[i] * sk(i, shared + b);
+        if (jacobians[2] != nullptr) jacobians[2][i * n + b] = i == b ? -w[i] : 0.0;
+      }
     }
     return true;
   }
@@ -334,6 +384,8 @@ class WithinStandardErrors final : public ceres::IterationCallback {
       : problem_(problem), theta_(theta), x0_(x0), stop_(stop) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
     if (stop_ != nullptr && stop_->load()) return ceres::SOLVER_ABORT;  // RefineOptions::stop
+    // (Multiple shooting: the decrement leaves the continuity residuals out; Ceres' tolerances end it.)
+    if (!problem_.links.empty()) return ceres::SOLVER_CONTINUE;
     if (summary.iteration > 0 && summary.step_is_valid && lambda_ < kQuadraticRegion &&
         summary.relative_decrease != 0.0 && std::isfinite(summary.relative_decrease)) {
       const double predicted = summary.cost_change / summary.relative_decrease;
@@ -368,6 +420,9 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
   ceres::Problem cp(po);
   for (std::size_t c = 0; c < problem.fits.size(); ++c) {
     cp.AddResidualBlock(new ChainCost(problem, c), nullptr, theta.data(), x0[c].data());
+  }
+  for (const std::size_t c : problem.links) {
+    cp.AddResidualBlock(new ContinuityCost(problem, c), nullptr, theta.data(), x0[c].data(), x0[c + 1].data());
   }
   const std::vector<int>& known = options.x0_known;  // one chain only
   if (!problem.fits.empty() && static_cast<int>(known.size()) == problem.model->state_size()) {
@@ -665,6 +720,28 @@ void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_si
   if (r.ok()) CheckResiduals(problem, mad_sigma, options, r);
 }
 
+// The continuity width w of multiple shooting: a defect of w·σ_i costs as much as one sample's
+// residual of one σ.
+constexpr double kContinuityWidth = 1e-2;
+
+// The continuity links of s (FitStart::continues) between fits that stand side by side, chain c fit
+// whole; their weights 1/(w·σ_i) (an unmeasured state: the largest measured weight).
+void LinkShootingSegments(const std::vector<RefineChain>& chains, const FitStart& s, const RefineResult& r,
+                          FitProblem& problem) {
+  const int n = problem.model->state_size();
+  for (std::size_t i = 0; i + 1 < problem.fits.size(); ++i) {
+    const auto c = static_cast<std::size_t>(problem.fits[i].index);
+    if (c < s.continues.size() && s.continues[c] != 0 && problem.fits[i + 1].index == problem.fits[i].index + 1 &&
+        r.chain_samples_used[c] == chains[c].y.cols()) {
+      problem.links.push_back(i);
+    }
+  }
+  problem.link_weight = Vec::Constant(n, problem.weight.maxCoeff() / kContinuityWidth);
+  for (std::size_t r_i = 0; r_i < problem.rows.size(); ++r_i) {
+    problem.link_weight[problem.rows[r_i]] = problem.weight[static_cast<Eigen::Index>(r_i)] / kContinuityWidth;
+  }
+}
+
 }  // namespace
 
 // The CVODE steps one simulation of a fit may take per sample (the budget is also capped by
@@ -715,6 +792,15 @@ InputSignal ChainInputs(const RefineChain& chain, long used) {
   return s;
 }
 
+void MoveTo(const RefineResult& r, FitStart& s) {
+  s.start.alpha = r.refined.alpha;
+  s.start.beta = r.refined.beta;
+  s.start.gamma = r.refined.gamma;
+  for (std::size_t i = 0; i < s.x0.size() && i < r.chain_x0.size(); ++i) {
+    if (r.chain_x0[i].size() != 0) s.x0[i] = r.chain_x0[i];
+  }
+}
+
 void Fail(RefineResult& r, RefineStatus status, std::string reason) {
   r.status = status;
   r.reason = std::move(reason);
@@ -759,7 +845,8 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
   problem.start = r.start;
   problem.cached_at.resize(problem.fits.size());
   problem.cached.resize(problem.fits.size());
-  problem.options.sensitivities = true;  // every evaluation (FitProblem::Simulate)
+  LinkShootingSegments(chains, s, r, problem);
+  problem.options.sensitivities = true;  // every evaluation (FitProblem::Evaluate)
   RunFit(problem, options, mad_sigma, r);
   *failure = problem.failure;
   return r;

@@ -18,6 +18,10 @@ struct FitStart {
   std::vector<Vec> x0;                           // per chain: its initial state's start
   std::vector<long> limit;                       // per chain: the samples the span retries leave
   std::vector<std::string> reason;               // per chain: why the retries cut it ("" when not)
+  // Multiple shooting (sim/refine/shooting.hpp): per chain, 1 when its last sample is the next
+  // chain's first and the two are linked by continuity residuals (x_c(t_last) − ξ0_{c+1})/(w·σ) while
+  // both are fit and chain c is fit whole. Empty: no links.
+  std::vector<std::uint8_t> continues;
 };
 
 // The chain whose failure the span retries may mend, and its first sample at which the model's jumps
@@ -67,6 +71,9 @@ Mat Concatenated(const std::vector<Part>& parts, int n) {
   }
   return all;
 }
+
+// s moved to the fit r's point: its α, β, γ and each fitted chain's ξ0 (labels and spans kept).
+void MoveTo(const RefineResult& r, FitStart& s);
 
 // A failed fit: its status and the reason printed with it.
 void Fail(RefineResult& r, RefineStatus status, std::string reason);

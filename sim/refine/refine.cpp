@@ -13,6 +13,7 @@
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/fit.hpp"
+#include "sim/refine/shooting.hpp"
 #include "sim/refine/span.hpp"
 
 namespace hysid {
@@ -68,6 +69,9 @@ bool RefineOptions::IsValid(std::string* error) const {
   }
   if (max_span_retries < 0) {
     return fail(fmt::format("RefineOptions::max_span_retries = {}: must be >= 0", max_span_retries));
+  }
+  if (shooting_jumps < 1) {
+    return fail(fmt::format("RefineOptions::shooting_jumps = {}: must be >= 1", shooting_jumps));
   }
   if (min_jump_interval < 0) {
     return fail(fmt::format("RefineOptions::min_jump_interval = {}: must be >= 0", min_jump_interval));
@@ -179,42 +183,6 @@ RefineOptions StartWeighting(const RefineOptions& options) {
   return o;
 }
 
-// Chain c's labels over its first `used` samples mended from its fitted model's own jump times
-// (from the chain's first sample): a model jump with a detection within `reach` samples keeps that
-// detection (the nearest not yet taken), one without is added at the sample whose interval
-// (t_{k−1}, t_k] holds it, and a detection no model jump takes is dropped. false when a model jump
-// lies outside the span or two fall in one interval. *what: "LABEL A added, D dropped".
-bool MendFromModel(const RefineChain& chain, const std::string& label, long used,
-                   const std::vector<double>& jumps, long reach, std::vector<std::uint8_t>* gamma,
-                   std::string* what) {
-  std::vector<std::uint8_t> mended(gamma->size(), 0), taken(gamma->size(), 0);
-  std::copy(gamma->begin() + used, gamma->end(), mended.begin() + used);
-  const auto end = chain.t.begin() + used;
-  int added = 0;
-  for (double tau : jumps) {
-    const long k = std::lower_bound(chain.t.begin(), end, chain.t.front() + tau) - chain.t.begin();
-    if (k < 1 || k >= used) return false;
-    long best = -1;
-    for (long d = std::max(1L, k - reach); d <= std::min(used - 1, k + reach); ++d) {
-      const auto u = static_cast<std::size_t>(d);
-      if ((*gamma)[u] != 0 && !taken[u] && (best < 0 || std::abs(d - k) < std::abs(best - k))) best = d;
-    }
-    const auto at = static_cast<std::size_t>(best >= 0 ? best : k);
-    if (mended[at] != 0) return false;
-    mended[at] = taken[at] = 1;
-    added += best < 0 ? 1 : 0;
-  }
-  int dropped = 0;
-  for (long k = 1; k < used; ++k) {
-    const auto u = static_cast<std::size_t>(k);
-    dropped += (*gamma)[u] != 0 && !taken[u] ? 1 : 0;
-  }
-  if (added + dropped == 0) return false;
-  *gamma = std::move(mended);
-  *what = fmt::format("{}{} added, {} dropped", label, added, dropped);
-  return true;
-}
-
 // After a fit r from s whose jumps disagree with chain `failure.chain`'s detected ones: the fit from
 // r's point with that chain's detections mended from its fitted model. true (r and s replaced) when
 // that fit is ok and fits as many samples as r.
@@ -222,12 +190,7 @@ bool FitMended(const Model& model, const std::vector<RefineChain>& chains, const
                const ChainFailure& failure, FitStart& s, RefineResult& r) {
   const auto c = static_cast<std::size_t>(failure.chain);
   FitStart m = s;
-  m.start.alpha = r.refined.alpha;
-  m.start.beta = r.refined.beta;
-  m.start.gamma = r.refined.gamma;
-  for (std::size_t i = 0; i < chains.size(); ++i) {
-    if (r.chain_x0[i].size() != 0) m.x0[i] = r.chain_x0[i];
-  }
+  MoveTo(r, m);
   std::string what;
   const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
   const std::string label = chains.size() > 1 ? fmt::format("chain {}: ", c + 1) : "";
@@ -276,24 +239,6 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
     r = std::move(next);
   }
   return r;
-}
-
-// The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
-// chain's first `used` samples (plain mode, states only); empty when it does not complete.
-std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
-                               const Vec& x0, long used, const RefineOptions& options) {
-  SensitivityOptions o = options.sensitivity;
-  o.sensitivities = false;
-  p.x0 = x0;
-  const double t_end = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
-  const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
-  const InputSignal inputs = ChainInputs(chain, used);
-  const SensitivityTrajectory plain =
-      SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, InputsOf(inputs));
-  std::vector<double> jumps;
-  if (!plain.trajectory.status.completed()) return jumps;
-  for (const JumpRecord& jump : plain.trajectory.jumps) jumps.push_back(jump.t);
-  return jumps;
 }
 
 // The first span of a growing fit: the samples before the third detected jump (all when fewer), never
@@ -357,12 +302,7 @@ bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, co
     moved = true;
   }
   if (!moved) return false;
-  s->start.alpha = r.refined.alpha;
-  s->start.beta = r.refined.beta;
-  s->start.gamma = r.refined.gamma;
-  for (std::size_t c = 0; c < chains.size(); ++c) {
-    if (r.chain_x0[c].size() != 0) s->x0[c] = r.chain_x0[c];
-  }
+  MoveTo(r, *s);
   return true;
 }
 
@@ -382,12 +322,7 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
     if (!r.ok() && SpanRetryable(r.status) && failure.chain >= 0 && !failure.model_jumps.empty()) {
       const auto c = static_cast<std::size_t>(failure.chain);
       std::string what;
-      s.start.alpha = r.refined.alpha;
-      s.start.beta = r.refined.beta;
-      s.start.gamma = r.refined.gamma;
-      for (std::size_t i = 0; i < chains.size(); ++i) {
-        if (r.chain_x0[i].size() != 0) s.x0[i] = r.chain_x0[i];
-      }
+      MoveTo(r, s);
       // Reach 0: each label at its model jump's own sample (a detection a few samples off moves there).
       if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what))
         break;
@@ -409,6 +344,50 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
   }
   r.mended = fmt::format("grown from a short span: {} added, {} dropped", added, dropped);
   return r;
+}
+
+// The fit by multiple shooting (RefineOptions::multiple_shooting, sim/refine/shooting.hpp): the
+// chains by single shooting (with the retries) from the segments' fit. Its status is the segments'
+// failure when they are not fit, else the single-shooting fit's.
+RefineResult FitShooting(const Model& model, const std::vector<RefineChain>& chains, const FitStart& s,
+                         const RefineOptions& options) {
+  RefineResult shot;
+  FitStart joined;
+  if (!ShootSegments(model, chains, s, options, &shot, &joined)) return shot;
+  // The labels placed at the single-shooting fit's own jumps while they disagree with its model's.
+  ChainFailure failure;
+  RefineResult r = FitChains(model, chains, joined, options, &failure);
+  for (int round = 0; round < kShootingRounds && SpanRetryable(r.status) && failure.chain >= 0 &&
+                      !failure.model_jumps.empty() && !options.stopped();
+       ++round) {
+    const auto c = static_cast<std::size_t>(failure.chain);
+    MoveTo(r, joined);
+    std::string what;
+    if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &joined.gamma[c], &what)) break;
+    r = FitChains(model, chains, joined, options, &failure);
+  }
+  long used = 0;
+  if (!r.ok()) r = FitWithRetries(model, chains, joined, options, &used);
+  r.mended = r.mended.empty() ? shot.mended : shot.mended + "; " + r.mended;
+  return r;
+}
+
+// The fit `other` by another route replaces r when it is ok and fits more samples (its start then
+// r's); else, when r is not ok, r's reason says how `route` ended.
+void AdoptRoute(RefineResult& r, RefineResult other, const char* route) {
+  if (other.ok() && other.samples_used > (r.ok() ? r.samples_used : 0)) {
+    other.start = r.start;
+    r = std::move(other);
+  } else if (!r.ok()) {
+    r.reason += fmt::format("; {}: {}", route, other.ok() ? "ok on fewer samples" : other.reason);
+  }
+}
+
+// Whether the fit r, not ok or ok only on cut spans (`first_used` samples before the cuts), may be
+// bettered by a fit from another start.
+bool MayBetter(const RefineResult& r, long first_used, const RefineOptions& options) {
+  return (!r.ok() || r.samples_used < first_used) && !options.stopped() &&
+         r.status != RefineStatus::kTooFewSamples;
 }
 
 // γ's start: one Newton step from the model's γ over the detected jumps of every chain
@@ -567,7 +546,7 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
                              const Vec& beta0, const RefineOptions& given) {
   RefineOptions options = given;
   if (IsAutomaton(model.spec())) {  // the repairs regress one jump map and cut labels without maps
-    options.repair_start = options.grow_span = false;
+    options.repair_start = options.grow_span = options.multiple_shooting = false;
     for (const RefineChain& c : chains) options.mend_detections = options.mend_detections && c.maps.empty();
   }
   const FitStart recursive = RecursiveStart(model, chains, alpha0, beta0);
@@ -594,17 +573,15 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
       RepairChains(model, chains, recursive, options, &repaired, &summary)) {
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
   }
-  // Still not ok, or ok only on cut spans: a fit grown from a short span may follow the whole data.
-  if ((!r.ok() || r.samples_used < first_used) && options.grow_span && !options.stopped() &&
-      r.status != RefineStatus::kTooFewSamples) {
-    RefineResult grown = GrowSpan(model, chains, recursive, options);
-    if (grown.ok() && grown.samples_used > (r.ok() ? r.samples_used : 0)) {
-      grown.start = r.start;
-      r = std::move(grown);
-    } else if (!r.ok()) {
-      r.reason +=
-          fmt::format("; grown from a short span: {}", grown.ok() ? "ok on fewer samples" : grown.reason);
-    }
+  // Still not ok, or ok only on cut spans: a fit grown from a short span, then multiple shooting, may
+  // follow the whole data.
+  if (options.grow_span && MayBetter(r, first_used, options)) {
+    AdoptRoute(r, GrowSpan(model, chains, recursive, options), "grown from a short span");
+  }
+  // (Not for a fit ok on cut spans: from the small late impacts' true jumps, two such fits became ok
+  // on all samples and 7 and 16 CRLB sd off.)
+  if (options.multiple_shooting && options.x0_known.empty() && !r.ok() && MayBetter(r, first_used, options)) {
+    AdoptRoute(r, FitShooting(model, chains, recursive, options), "multiple shooting");
   }
   if (r.ok()) {
     r.estimate = r.refined;

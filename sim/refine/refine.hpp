@@ -34,7 +34,9 @@
 // moved to where the flows meet, missed jumps added, ξ0_c re-estimated; β from all chains' jump
 // regressions pooled); that fit is adopted when it is ok (and fits more samples), else the first
 // fit's status stands. One still not ok (or ok on cut spans) is grown from a short span
-// (RefineOptions::grow_span) and adopted when its fit on all samples passes every check.
+// (RefineOptions::grow_span) and adopted when its fit on all samples passes every check; one still
+// not ok (not one ok on cut spans) is tried by multiple shooting (RefineOptions::multiple_shooting),
+// a route to the same single-shooting fit (same cost, checks and covariance), adopted likewise.
 #pragma once
 
 #include <atomic>
@@ -114,6 +116,14 @@ struct RefineOptions {
   // the previous fit with the labels of the grown part mended from its model; adopted when its fit on
   // all samples passes every check (it fits more samples); false: never.
   bool grow_span = true;
+  // A fit still not ok after the growing span (one ok on spans the retries cut stands) is tried by
+  // multiple shooting (sim/refine/shooting.hpp): each chain cut into segments of shooting_jumps detected jumps (and no
+  // longer than shooting_jumps + 1 median intervals between detected jumps), each with its own free
+  // initial state, consecutive segments linked by continuity residuals; the segments' labels mended
+  // from their own models; then the chains by single shooting from that fit's point, adopted when ok
+  // on all samples (`mended` then begins "multiple shooting over S segments"); false: never.
+  bool multiple_shooting = true;
+  int shooting_jumps = 2;
   StartRepairOptions start_repair;
   // Raised (by another thread: Ctrl-C in the Python module): the solve ends at its next iteration and
   // nothing more is tried (the result is then not ok). Null: never.

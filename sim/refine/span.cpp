@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "sim/refine/fit.hpp"
+
 namespace hysid {
 
 double SampleClock::Off(double t, long k) const {
@@ -68,6 +70,60 @@ void AdoptRepaired(RefineResult& r, RefineResult repaired, const std::string& su
   if (r.ok()) return;
   r.reason += fmt::format("; from a repaired start ({}): {}: {}", summary, ToString(repaired.status),
                           repaired.reason);
+}
+
+// Chain c's labels over its first `used` samples mended from its fitted model's own jump times
+// (from the chain's first sample): a model jump with a detection within `reach` samples keeps that
+// detection (the nearest not yet taken), one without is added at the sample whose interval
+// (t_{k−1}, t_k] holds it, and a detection no model jump takes is dropped. false when a model jump
+// lies outside the span or two fall in one interval. *what: "LABEL A added, D dropped".
+bool MendFromModel(const RefineChain& chain, const std::string& label, long used,
+                   const std::vector<double>& jumps, long reach, std::vector<std::uint8_t>* gamma,
+                   std::string* what) {
+  std::vector<std::uint8_t> mended(gamma->size(), 0), taken(gamma->size(), 0);
+  std::copy(gamma->begin() + used, gamma->end(), mended.begin() + used);
+  const auto end = chain.t.begin() + used;
+  int added = 0;
+  for (double tau : jumps) {
+    const long k = std::lower_bound(chain.t.begin(), end, chain.t.front() + tau) - chain.t.begin();
+    if (k < 1 || k >= used) return false;
+    long best = -1;
+    for (long d = std::max(1L, k - reach); d <= std::min(used - 1, k + reach); ++d) {
+      const auto u = static_cast<std::size_t>(d);
+      if ((*gamma)[u] != 0 && !taken[u] && (best < 0 || std::abs(d - k) < std::abs(best - k))) best = d;
+    }
+    const auto at = static_cast<std::size_t>(best >= 0 ? best : k);
+    if (mended[at] != 0) return false;
+    mended[at] = taken[at] = 1;
+    added += best < 0 ? 1 : 0;
+  }
+  int dropped = 0;
+  for (long k = 1; k < used; ++k) {
+    const auto u = static_cast<std::size_t>(k);
+    dropped += (*gamma)[u] != 0 && !taken[u] ? 1 : 0;
+  }
+  if (added + dropped == 0) return false;
+  *gamma = std::move(mended);
+  *what = fmt::format("{}{} added, {} dropped", label, added, dropped);
+  return true;
+}
+
+// The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
+// chain's first `used` samples (plain mode, states only); empty when it does not complete.
+std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
+                               const Vec& x0, long used, const RefineOptions& options) {
+  SensitivityOptions o = options.sensitivity;
+  o.sensitivities = false;
+  p.x0 = x0;
+  const double t_end = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
+  const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
+  const InputSignal inputs = ChainInputs(chain, used);
+  const SensitivityTrajectory plain =
+      SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, InputsOf(inputs));
+  std::vector<double> jumps;
+  if (!plain.trajectory.status.completed()) return jumps;
+  for (const JumpRecord& jump : plain.trajectory.jumps) jumps.push_back(jump.t);
+  return jumps;
 }
 
 }  // namespace hysid

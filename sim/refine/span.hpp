@@ -3,6 +3,7 @@
 // Internal to sim/refine.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,21 @@ long SpanMargin(const RefineOptions& options);
 std::string SpanRetryReason(long used, RefineStatus failed, long disagreement);
 // Why the span rule (RefineOptions::min_jump_interval) left samples out.
 std::string CloseJumpsReason(const RefineOptions& options);
+
+// Chain `chain`'s labels over its first `used` samples mended from its model's own jump times
+// `jumps` (from the chain's first sample): a model jump with a detection within `reach` samples keeps
+// that detection (the nearest not yet taken), one without is added at the sample whose interval
+// (t_{k−1}, t_k] holds it, and a detection no model jump takes is dropped. false (nothing changed)
+// when a model jump lies outside the span, two fall in one interval, or none is added or dropped.
+// *what: "LABEL A added, D dropped".
+bool MendFromModel(const RefineChain& chain, const std::string& label, long used,
+                   const std::vector<double>& jumps, long reach, std::vector<std::uint8_t>* gamma,
+                   std::string* what);
+
+// The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
+// chain's first `used` samples (plain mode, states only); empty when it does not complete.
+std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
+                               const Vec& x0, long used, const RefineOptions& options);
 
 // The fit from a repaired start (`repaired`, the repair described by `summary`) against the fit from
 // the recursive estimate (r): it replaces r when it is ok and r is not, or fits more samples (its

@@ -576,6 +576,36 @@ def test_ctrl_c_interrupts_a_long_call(name):
     assert code == 130 and "an interrupted computation is still running" in err, err
 
 
+def test_ctrl_c_stops_the_recursive_pass():
+    """SIGINT 0.3 s into an identify without refinement whose recursive pass alone lasts seconds: the
+    KeyboardInterrupt arrives and the abandoned pass stops (it looks at the stop flag every 4096
+    samples), well before the uninterrupted call, timed first in the same process, ends."""
+    import sys
+    script = (
+        "import os, signal, threading, time, numpy as np, hysid\n"
+        "tr = hysid.simulate('impact-msd', t_end=20.0, dt=5e-4, sigma=0.01)\n"
+        "y = np.tile(tr['y'], (25, 1))\n"  # 1 000 025 samples, 25 copies of the run
+        "kw = dict(dt=5e-4, refine='none', trace=False, estimator='frisch', window=0, second_pass=True)\n"
+        "threads = lambda: len(os.listdir('/proc/self/task'))\nbefore = threads()\n"
+        "start = time.monotonic()\nr = hysid.identify('impact-msd', y, **kw)\n"
+        "print('full', time.monotonic() - start, r['flow_status'], flush=True)\n"
+        "threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
+        "start = time.monotonic()\n"
+        "try:\n    hysid.identify('impact-msd', y, **kw)\n    print('finished', flush=True)\n"
+        "except KeyboardInterrupt:\n    at = time.monotonic()\n"
+        "    while threads() > before and time.monotonic() - at < 30.0:\n        time.sleep(0.01)\n"
+        "    print('interrupted', at - start, time.monotonic() - start, flush=True)\n")
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    words = p.stdout.split()
+    assert words[0] == "full" and words[2] == "ok" and words[3] == "interrupted", (p.stdout, p.stderr)
+    full, raised, stopped = float(words[1]), float(words[4]), float(words[5])
+    print(f"recursive pass: {full:.2f} s uninterrupted; SIGINT at 0.3 s, KeyboardInterrupt at {raised:.3f} s, "
+          f"computation stopped at {stopped:.3f} s")
+    assert 0.3 <= raised < 0.3 + 0.5
+    assert stopped < full
+    assert p.returncode == 0 and "still running" not in p.stderr, p.stderr
+
+
 def test_identify_takes_every_option_of_the_tables():
     """Every detector and estimator option of `hysid identify --help` is a keyword with its help and
     default, and nothing else is: one table feeds both."""

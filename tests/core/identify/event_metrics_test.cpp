@@ -1,5 +1,7 @@
 // CompareEvents: true events of a hybrid automaton matched to the detected ones one to one within one
 // sample, nearest first; the confusion of true × assigned map, missed, spurious and the time error.
+#include <cmath>
+
 #include <catch2/catch.hpp>
 
 #include "core/identify/metrics.hpp"
@@ -47,6 +49,19 @@ TEST_CASE("CompareEvents with nothing true and nothing detected", "[metrics]") {
   CHECK(c.true_events == 0);
   CHECK(c.spurious == 0);
   CHECK(c.counts == std::vector<std::vector<long>>{{0, 0}, {0, 0}});
+}
+
+TEST_CASE("LargestNearestTimeError pairs each true event with the nearest fitted one of its map", "[metrics]") {
+  const std::vector<TrueEvent> truth = {{10, 0.100, 0}, {20, 0.200, 1}, {30, 0.300, 0}};
+  // Map 0 at 0.102 and 0.297, map 1 at 0.2005; a map-1 crossing at 0.1001 is nearer the first true
+  // event than 0.102 but applies the other map.
+  const std::vector<TrueEvent> fitted = {{0, 0.1001, 1}, {0, 0.102, 0}, {0, 0.2005, 1}, {0, 0.297, 0}};
+  CHECK(LargestNearestTimeError(truth, fitted) == Approx(0.003).margin(1e-12));
+  // No crossing of map 1: the nearest of any map (0.297 for the event at 0.2: 0.097).
+  const std::vector<TrueEvent> only_zero = {{0, 0.102, 0}, {0, 0.297, 0}};
+  CHECK(LargestNearestTimeError(truth, only_zero) == Approx(0.097).margin(1e-12));
+  CHECK(std::isnan(LargestNearestTimeError(truth, {})));
+  CHECK(LargestNearestTimeError({}, fitted) == 0.0);
 }
 
 }  // namespace

@@ -2,9 +2,11 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <thread>
 #include <vector>
 
 #include "core/builtin/bouncing_ball.hpp"
@@ -34,6 +36,61 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
   INFO("e_alpha " << e.e_alpha << "  e_beta " << e.e_beta);
   CHECK(e.e_alpha < 1e-4);
   CHECK(e.e_beta < 1e-3);
+}
+
+TEST_CASE("a stop flag: raised before the call, nothing is ok; raised during it, a finished result is the "
+          "unstopped one and a stopped one is not ok", "[identify][stop]") {
+  const Model model{ImpactMsd{}};
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{200.0, 5e-4});  // 400 001 samples
+  REQUIRE(traj.status.completed());
+  const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(2, 0.01), NoiseKey{5, 0});
+  for (const bool sets : {false, true}) {
+    for (const bool chains : {false, true}) {  // Feed in blocks, or one Step per sample
+      INFO("sets " << sets << ", chains " << chains);
+      IdentifierSettings settings;
+      settings.sets = sets;
+      IdentifyOptions options;
+      if (chains) options.chain_start.assign(static_cast<std::size_t>(y.cols()), 0);
+      const IdentifyResult full = Identify(model, y, traj.dt, settings, options);
+      REQUIRE(full.flow_status == EstimatorStatus::kOk);
+      REQUIRE(full.jump_status == EstimatorStatus::kOk);
+      std::atomic<bool> stop{false};
+      options.stop = &stop;
+      const IdentifyResult lowered = Identify(model, y, traj.dt, settings, options);
+      CHECK_FALSE(lowered.stopped);
+      CHECK(lowered.alpha_hat == full.alpha_hat);
+      CHECK(lowered.gamma == full.gamma);
+      stop = true;
+      const IdentifyResult before = Identify(model, y, traj.dt, settings, options);
+      CHECK(before.stopped);
+      CHECK(before.flow_status != EstimatorStatus::kOk);
+      CHECK(before.jump_status != EstimatorStatus::kOk);
+      CHECK(before.flow_reason == "stopped");
+      CHECK(before.jump_reason == "stopped");
+      CHECK(before.jumps_detected == 0);  // the first look is before the first sample
+      CHECK(before.flow_hull.size() == 0);
+      // Raised by another thread while the pass runs.
+      stop = false;
+      std::atomic<bool> started{false};
+      std::thread raiser([&] {
+        while (!started.load()) std::this_thread::yield();
+        stop = true;
+      });
+      started = true;
+      const IdentifyResult during = Identify(model, y, traj.dt, settings, options);
+      raiser.join();
+      if (during.stopped) {
+        CHECK(during.flow_status != EstimatorStatus::kOk);
+        CHECK(during.jump_status != EstimatorStatus::kOk);
+        CHECK(during.flow_hull.size() == 0);
+        CHECK(during.jump_hull.size() == 0);
+        CHECK(during.jumps_detected <= full.jumps_detected);
+      } else {
+        CHECK(during.alpha_hat == full.alpha_hat);
+        CHECK(during.gamma == full.gamma);
+      }
+    }
+  }
 }
 
 TEST_CASE("given labels replace the detector: the true labels reproduce a perfect detector bit for bit",

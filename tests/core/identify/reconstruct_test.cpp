@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -106,6 +107,29 @@ TEST_CASE("a parabola's flight: the bounces and the velocity from the height alo
   // The flight is an exact parabola between bounces: the degree-2 slope is exact up to integration error.
   CHECK((r.x.row(1) - traj.x.row(1)).cwiseAbs().maxCoeff() < 1e-6);
   CHECK(r.x.row(0) == traj.x.row(0));
+}
+
+TEST_CASE("a raised stop flag: the reconstruction returns marked stopped; a lowered one changes nothing",
+          "[reconstruct][stop]") {
+  const Model model{BouncingBall{}};
+  const Trajectory traj = Ball(model);
+  const ReconstructionPlan plan = PlanReconstruction(model, {0});
+  const Reconstruction full = ReconstructStates(plan, traj.t, traj.x.topRows(1), {}, Vec());
+  std::atomic<bool> stop{false};
+  ReconstructOptions o;
+  o.stop = &stop;
+  const Reconstruction lowered = ReconstructStates(plan, traj.t, traj.x.topRows(1), {}, Vec(), o);
+  CHECK_FALSE(full.stopped);
+  CHECK_FALSE(lowered.stopped);
+  CHECK(lowered.x == full.x);
+  CHECK(lowered.gamma == full.gamma);
+  stop = true;
+  const Reconstruction raised = ReconstructStates(plan, traj.t, traj.x.topRows(1), {}, Vec(), o);
+  CHECK(raised.stopped);
+  CHECK(raised.segments == 0);
+  const KinkDetection kinks = DetectKinks(traj.t, traj.x.topRows(1), {}, Vec(), o);
+  CHECK(kinks.stopped);
+  CHECK(std::count(kinks.gamma.begin(), kinks.gamma.end(), 1) == 0);
 }
 
 TEST_CASE("a parabola's flight with 1 mm noise: bounces found, velocity within its predicted sd",

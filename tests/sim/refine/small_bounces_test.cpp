@@ -88,7 +88,10 @@ TEST_CASE("small late impacts at 10 % noise from the detections: not ok, or with
     ++ok;
     CHECK(run.WorstError(r, bound) < 4.0);
   }
-  // The fit grown from a short span (measured: draws 1, 4, 6, 9, within 2 CRLB sd); without it none is ok.
+  // The fit grown from a short span (measured: draws 1, 4, 6, 9, within 2 CRLB sd); without it none is
+  // ok. Multiple shooting, tried after it, mends none of the other six (jump-count-mismatch,
+  // not-converged: the detector found 6–8 of the 14 impacts, and the long spans without a detection
+  // hold several missed ones).
   CHECK(ok >= 4);
 }
 

@@ -1,0 +1,119 @@
+#include "sim/events/fitted_events.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "sim/input_signal.hpp"
+
+namespace hysid {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The first sample (data index) of every chain, as SplitChains and AssignChainMaps cut them.
+std::vector<long> ChainFirsts(const std::vector<std::uint8_t>& chain_start, long samples) {
+  std::vector<long> first;
+  for (long k = 0; k < samples; ++k) {
+    if (k == 0 || (!chain_start.empty() && chain_start[std::size_t(k)] != 0)) first.push_back(k);
+  }
+  return first;
+}
+
+// The chain's inputs over its first `used` samples, on its own clock (empty without inputs).
+InputSignal UsedInputs(const RefineChain& chain, long used) {
+  InputSignal s;
+  if (chain.u.rows() == 0) return s;
+  for (long k = 0; k < used; ++k) s.times.push_back(chain.t[std::size_t(k)] - chain.t.front());
+  s.values = chain.u.leftCols(used);
+  return s;
+}
+
+// The fitted model on chain c over its first `used` samples from x0, with ∂t_j/∂θ when `gradients`.
+SensitivityTrajectory RunChain(const Model& model, const RefineResult& r, const RefineChain& chain, const Vec& x0,
+                               long used, bool gradients, SensitivityOptions options) {
+  HybridParameters p = r.estimate;
+  p.x0 = x0;
+  p.initial_mode = chain.initial_mode >= 0 ? chain.initial_mode : r.initial_mode;
+  options.sensitivities = gradients;
+  const double t_end = chain.t[std::size_t(used - 1)] - chain.t.front();
+  const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
+  const InputSignal inputs = UsedInputs(chain, used);
+  return SimulateSensitivities(model, p, r.unknowns, grid, options, inputs.empty() ? nullptr : &inputs);
+}
+
+}  // namespace
+
+FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, const Mat& y,
+                           const std::vector<std::uint8_t>& chain_start, const Mat& u,
+                           const IdentifyResult& recursive, const RefineResult& r,
+                           const SensitivityOptions& options) {
+  FittedEvents out;
+  out.time.assign(recursive.events.size(), kNaN);
+  out.se.assign(recursive.events.size(), kNaN);
+  if (!r.ok()) {
+    out.reason = fmt::format("the refinement is not ok ({})", ToString(r.status));
+    return out;
+  }
+  std::vector<RefineChain> chains = SplitChains(t, y, chain_start, recursive.gamma, u);
+  AssignChainMaps(chain_start, recursive, &chains);
+  const std::vector<long> first = ChainFirsts(chain_start, y.cols());
+  bool first_fitted = true;
+  for (std::size_t c = 0; c < chains.size() && c < first.size(); ++c) {
+    const bool fitted = c < r.chain_x0.size() && r.chain_x0[c].size() != 0 && r.chain_samples_used[c] >= 2;
+    if (!fitted) {
+      out.reason = fmt::format("chain {} was not fitted", c + 1);
+      continue;
+    }
+    const RefineChain& chain = chains[c];
+    const auto used = static_cast<long>(chain.t.size());  // the whole chain, past a span the fit cut
+    if (r.chain_samples_used[c] < used && out.beyond.empty()) {
+      out.beyond = fmt::format("chain {}: after t = {:.6g} the fit left out the samples (the fitted model's prediction)",
+                               c + 1, chain.t[std::size_t(r.chain_samples_used[c] - 1)]);
+    }
+    const bool gradients = first_fitted && r.covariance.rows() == r.unknowns.size(model.state_size());
+    first_fitted = false;
+    const SensitivityTrajectory run = RunChain(model, r, chain, r.chain_x0[c], used, gradients, options);
+    if (!run.trajectory.status.completed()) {
+      out.reason = fmt::format("chain {}: the fitted model does not run ({})", c + 1, run.trajectory.status.message);
+      continue;
+    }
+    const std::vector<JumpRecord>& jumps = run.trajectory.jumps;
+    for (const JumpRecord& j : jumps) {
+      out.crossings.push_back({.time = chain.t.front() + j.t, .map = j.map, .chain = static_cast<int>(c)});
+    }
+    // The chain's events in order against the crossings in order, while their maps agree.
+    const long begin = first[c], end = c + 1 < first.size() ? first[c + 1] : y.cols();
+    std::size_t next = 0;
+    for (std::size_t i = 0; i < recursive.events.size(); ++i) {
+      const AutomatonEvent& e = recursive.events[i];
+      if (e.sample <= begin || e.sample >= end) continue;
+      if (next >= jumps.size() || jumps[next].map != e.map) {
+        if (out.reason.empty()) {
+          out.reason = fmt::format("chain {}: the fitted model's crossing {} does not apply the map of the event "
+                                   "at sample {}", c + 1, next + 1, e.sample);
+        }
+        next = jumps.size();  // the sequences parted: no later pairing is trusted
+        continue;
+      }
+      out.time[i] = chain.t.front() + jumps[next].t;
+      if (gradients && static_cast<Eigen::Index>(next) < run.jump_time_gradients.cols()) {
+        const Vec g = run.jump_time_gradients.col(static_cast<Eigen::Index>(next));
+        out.se[i] = std::sqrt(std::max(0.0, g.dot(r.covariance * g)));
+      }
+      ++next;
+    }
+  }
+  if (out.reason.empty()) {
+    for (std::size_t i = 0; i < out.time.size(); ++i) {
+      if (std::isnan(out.time[i])) {
+        out.reason = fmt::format("the event at sample {} lies in a chain not fitted", recursive.events[i].sample);
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace hysid
