@@ -1,7 +1,5 @@
 #include "sim/exogenous.hpp"
 
-#include <algorithm>
-
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -48,24 +46,12 @@ Context ContextSource::At(double t) {
   Context ctx;
   ctx.t = t;
   if (exo_.inputs) {
-    exo_.inputs->At(t, u_.data());
+    exo_.inputs->At(t, u_.data(), &hint_);
     ctx.u = u_.data();
   }
   if (exo_.gamma.size() != 0) ctx.gamma = exo_.gamma.data();
   ctx.mode = mode_;
   return ctx;
-}
-
-double ContextSource::NextInputTime(double t, double limit) const {
-  if (!exo_.inputs) return limit;
-  const std::vector<double>& times = exo_.inputs->times;
-  if (limit >= t) {
-    const auto it = std::upper_bound(times.begin(), times.end(), t);
-    return it == times.end() ? limit : std::min(*it, limit);
-  }
-  auto it = std::lower_bound(times.begin(), times.end(), t);  // first ≥ t; the one before is < t
-  if (it == times.begin()) return limit;
-  return std::max(*std::prev(it), limit);
 }
 
 }  // namespace hysid

@@ -33,10 +33,6 @@ class ContextSource {
  public:
   ContextSource(const Model& model, const Exogenous& exo);
   Context At(double t);
-  // The first input sample time strictly after t (forward) or strictly before t (backward), or
-  // `limit` when there is none before it. Without inputs: `limit`.
-  double NextInputTime(double t, double limit) const;
-  bool has_inputs() const { return exo_.inputs != nullptr; }
   // The mode every later At() carries in Context::mode.
   void set_mode(int mode) { mode_ = mode; }
   int mode() const { return mode_; }
@@ -44,6 +40,7 @@ class ContextSource {
  private:
   const Exogenous& exo_;
   std::vector<double> u_;
+  long hint_ = 0;  // the input interval of the last At
   int mode_ = 0;
 };
 

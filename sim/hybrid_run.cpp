@@ -95,6 +95,21 @@ Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Exog
   data_.n = n_;
   data_.guard_count = model_.guard_count();
   SetMode(InitialMode(model, exo));
+  if (exo.inputs) {
+    input_stops_ = options_.input_kink > 0.0 ? InputKinkTimes(*exo.inputs, options_.input_kink) : exo.inputs->times;
+  }
+}
+
+// The first input stop strictly after t (forward) or strictly before t (backward), or `limit` when
+// there is none before it.
+double Engine::NextInputStop(double t, double limit) const {
+  if (limit >= t) {
+    const auto it = std::upper_bound(input_stops_.begin(), input_stops_.end(), t);
+    return it == input_stops_.end() ? limit : std::min(*it, limit);
+  }
+  auto it = std::lower_bound(input_stops_.begin(), input_stops_.end(), t);  // first ≥ t; the one before is < t
+  if (it == input_stops_.begin()) return limit;
+  return std::max(*std::prev(it), limit);
 }
 
 // The current mode q: the context's Context::mode and, with explicit maps, the guards armed in it.
@@ -212,7 +227,7 @@ bool Engine::Start(double tstop, bool roots) {
   }
   at_init_ = false;
   last_tret_ = t_;
-  stop_set_ = context_.NextInputTime(t_, tstop);
+  stop_set_ = NextInputStop(t_, tstop);
   if (!Check(CVodeSetStopTime(mem, stop_set_), "CVodeSetStopTime")) return false;
   if (roots == roots_) return true;
   if (!roots) return DisableRoots();
@@ -241,13 +256,13 @@ int Engine::Step(double tstop, double* tret) {
   }
   ++steps_;
   double stop = tstop;
-  if (context_.has_inputs()) {
-    stop = context_.NextInputTime(last_tret_, tstop);
+  if (!input_stops_.empty()) {
+    stop = NextInputStop(last_tret_, tstop);
     if (stop != stop_set_ && !Check(CVodeSetStopTime(cvode_.get(), stop), "CVodeSetStopTime")) return -1;
     stop_set_ = stop;
   }
   int flag = CVode(cvode_.get(), stop, y_.get(), tret, CV_ONE_STEP);
-  if (flag == CV_TSTOP_RETURN && stop != tstop) flag = CV_SUCCESS;  // an input sample: go on
+  if (flag == CV_TSTOP_RETURN && stop != tstop) flag = CV_SUCCESS;  // an input kink: go on
   last_tret_ = *tret;
   if (flag < 0) {
     if (data_.nonfinite_rhs) {

@@ -125,8 +125,9 @@ class Engine {
   bool Start(double tstop, bool roots);
   bool DisableRoots();
   // One internal step towards tstop: the flag (CV_SUCCESS, CV_ROOT_RETURN, CV_TSTOP_RETURN at tstop) or −1
-  // when stopped. With inputs, no step crosses an input sample time (CVODE stops there and goes on:
-  // CV_SUCCESS), so no step integrates across a kink of the interpolated u.
+  // when stopped. With inputs, no step crosses a kink of the interpolated u (an input sample where
+  // the slope changes by more than SimOptions::input_kink times its median: CVODE stops there and
+  // goes on, CV_SUCCESS); other input samples are crossed under CVODE's error control.
   int Step(double tstop, double* tret);
   // The evaluation context at time t (u(t), γ, the current mode); valid until the next call.
   Context ContextAt(double t) { return context_.At(t); }
@@ -160,6 +161,7 @@ class Engine {
   bool JumpChain(int guard);
   bool MapChain(int guard, bool located);
   double MeanSampleInterval() const;
+  double NextInputStop(double t, double limit) const;
   int ChainedCrossing(bool* at_zero);
   void SetMode(int mode);
   bool CheckZenoAndBudget();
@@ -182,8 +184,9 @@ class Engine {
   bool several_modes_ = false;  // Trajectory::q is filled
   int mode_ = 0;                // the current mode q
   std::vector<char> armed_;     // per guard, armed in mode_ (explicit maps)
-  double stop_set_ = 0.0;  // the stop time CVODE holds (with inputs)
-  double last_tret_ = 0.0;  // the time the last step returned (with inputs)
+  std::vector<double> input_stops_;  // the input kinks CVODE stops at (InputKinkTimes), increasing
+  double stop_set_ = 0.0;            // the stop time CVODE holds (with input stops)
+  double last_tret_ = 0.0;           // the time the last step returned (with input stops)
   long n_ = 0;
   double t_last_ = 0.0;
   double t_ = 0.0;

@@ -13,8 +13,13 @@
 namespace hysid {
 
 void InputSignal::At(double t, double* u) const {
+  long hint = 0;
+  At(t, u, &hint);
+}
+
+void InputSignal::At(double t, double* u, long* hint) const {
   const Eigen::Index m = values.rows();
-  const auto count = static_cast<Eigen::Index>(times.size());
+  const auto count = static_cast<long>(times.size());
   if (count == 0) return;
   if (count == 1 || !(t > times.front())) {  // before the range (or NaN): the first value
     for (Eigen::Index i = 0; i < m; ++i) u[i] = values(i, 0);
@@ -24,11 +29,53 @@ void InputSignal::At(double t, double* u) const {
     for (Eigen::Index i = 0; i < m; ++i) u[i] = values(i, count - 1);
     return;
   }
-  // times[hi − 1] ≤ t < times[hi], 1 ≤ hi ≤ count − 1.
-  const auto hi = static_cast<Eigen::Index>(std::upper_bound(times.begin(), times.end(), t) - times.begin());
-  const double t0 = times[static_cast<std::size_t>(hi - 1)], t1 = times[static_cast<std::size_t>(hi)];
+  // times[hi − 1] ≤ t < times[hi], 1 ≤ hi ≤ count − 1: the hint's interval or a neighbour's when t is
+  // there (the same hi as the search), else a binary search.
+  long hi = std::clamp(*hint, 1L, count - 1);
+  const auto at = [&](long k) { return times[static_cast<std::size_t>(k)]; };
+  if (!(at(hi - 1) <= t && t < at(hi))) {
+    if (hi + 1 < count && at(hi) <= t && t < at(hi + 1)) {
+      ++hi;
+    } else if (hi > 1 && at(hi - 2) <= t && t < at(hi - 1)) {
+      --hi;
+    } else {
+      hi = static_cast<long>(std::upper_bound(times.begin(), times.end(), t) - times.begin());
+    }
+  }
+  *hint = hi;
+  const double t0 = at(hi - 1), t1 = at(hi);
   const double w = (t - t0) / (t1 - t0);
   for (Eigen::Index i = 0; i < m; ++i) u[i] = values(i, hi - 1) + w * (values(i, hi) - values(i, hi - 1));
+}
+
+std::vector<double> InputKinkTimes(const InputSignal& signal, double threshold) {
+  const auto count = static_cast<Eigen::Index>(signal.times.size());
+  std::vector<double> kinks;
+  if (count < 3) return kinks;
+  const auto dt = [&](Eigen::Index k) {
+    return signal.times[static_cast<std::size_t>(k + 1)] - signal.times[static_cast<std::size_t>(k)];
+  };
+  std::vector<char> kink(static_cast<std::size_t>(count), 0);
+  std::vector<double> slope(static_cast<std::size_t>(count - 1)), magnitude;
+  for (Eigen::Index i = 0; i < signal.values.rows(); ++i) {
+    for (Eigen::Index k = 0; k + 1 < count; ++k) {
+      slope[static_cast<std::size_t>(k)] = (signal.values(i, k + 1) - signal.values(i, k)) / dt(k);
+    }
+    magnitude.resize(slope.size());
+    std::transform(slope.begin(), slope.end(), magnitude.begin(), [](double s) { return std::abs(s); });
+    const auto middle = magnitude.begin() + static_cast<std::ptrdiff_t>(magnitude.size() / 2);
+    std::nth_element(magnitude.begin(), middle, magnitude.end());
+    const double scale = *middle > 0.0 ? *middle : *std::max_element(magnitude.begin(), magnitude.end());
+    const double limit = threshold * scale;
+    for (Eigen::Index k = 1; k + 1 < count; ++k) {
+      const double change = std::abs(slope[static_cast<std::size_t>(k)] - slope[static_cast<std::size_t>(k - 1)]);
+      if (change > limit) kink[static_cast<std::size_t>(k)] = 1;
+    }
+  }
+  for (Eigen::Index k = 1; k + 1 < count; ++k) {
+    if (kink[static_cast<std::size_t>(k)]) kinks.push_back(signal.times[static_cast<std::size_t>(k)]);
+  }
+  return kinks;
 }
 
 InputSignal ReadInputSignal(const std::string& path, const std::vector<std::string>& names) {

@@ -45,6 +45,10 @@ bool SimOptions::IsValid(std::string* error) const {
   if (max_steps < 1) {
     return fail(fmt::format("SimOptions::max_steps = {}. Violated constraint: max_steps >= 1", max_steps));
   }
+  if (!(input_kink >= 0.0) || !std::isfinite(input_kink)) {
+    return fail(fmt::format("SimOptions::input_kink = {}. Violated constraint: input_kink >= 0 and finite",
+                            input_kink));
+  }
   if (max_jumps < 1) {
     return fail(fmt::format("SimOptions::max_jumps = {}. Violated constraint: max_jumps >= 1", max_jumps));
   }

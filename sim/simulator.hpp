@@ -43,6 +43,10 @@ struct SimOptions {
   int zeno_window = 3;
   // A chain of jumps at one instant (ξ+ ∈ D again) longer than this is Zeno at that instant.
   int max_jumps_at_one_time = 100;
+  // Measured inputs: CVODE stops at an input sample only where u has a kink there, a slope change
+  // above input_kink times the input's median |slope| (InputKinkTimes); elsewhere its error control
+  // steps across the samples (x is C¹ across them). 0: a stop at every input sample.
+  double input_kink = 0.1;
   // Raised (by another thread: Ctrl-C in the Python module): the run stops before its next CVODE step
   // (status kSolverFailure, "stopped"). Null: never.
   const std::atomic<bool>* stop = nullptr;

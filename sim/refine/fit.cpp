@@ -362,9 +362,21 @@ double NewtonDecrement(const FitProblem& problem, const Vec& theta, const std::v
 // A statistical fit is done when the next Gauss–Newton step is far below the standard errors:
 // the estimates then stand within this fraction of a standard error of the least-squares point.
 constexpr double kStepStandardErrors = 1e-3;
+// ... or when that step is below this many standard errors and gains less cost than the integration
+// error moves it (the cost of a trial point then says nothing about the step: at the fits'
+// tolerances the cost of 40 001 samples moves by 0.05–0.3 between nearby points as CVODE's steps
+// change, while a step of λ standard errors gains λ²/2); a quarter of a standard error adds at most
+// 1/16 to an estimate's variance.
+constexpr double kNoiseStepStandardErrors = 0.25;
+// Steps from a point whose decrement is below this are Gauss–Newton steps in the quadratic region:
+// their gain differs from the predicted one by the integration error, not by nonlinearity.
+constexpr double kQuadraticRegion = 1.0;
 
-// Ends the solve successfully after an accepted step (or at the start) whose Newton decrement is
-// below kStepStandardErrors. Reads the parameter blocks, which Ceres updates every iteration.
+// Ends the solve successfully after an accepted step (or at the start) whose Newton decrement λ is
+// below kStepStandardErrors, or once λ < kNoiseStepStandardErrors and λ²/2 is below the largest
+// difference between the actual and the predicted cost change of a step taken in the quadratic
+// region (the cost's integration noise). Reads the parameter blocks, which Ceres updates every
+// iteration.
 class WithinStandardErrors final : public ceres::IterationCallback {
  public:
   WithinStandardErrors(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0,
@@ -373,9 +385,19 @@ class WithinStandardErrors final : public ceres::IterationCallback {
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
     if (stop_ != nullptr && stop_->load()) return ceres::SOLVER_ABORT;  // RefineOptions::stop
     // (Multiple shooting: the decrement leaves the continuity residuals out; Ceres' tolerances end it.)
-    if (!summary.step_is_successful || !problem_.links.empty()) return ceres::SOLVER_CONTINUE;
-    return NewtonDecrement(problem_, theta_, x0_) < kStepStandardErrors ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
-                                                                        : ceres::SOLVER_CONTINUE;
+    if (!problem_.links.empty()) return ceres::SOLVER_CONTINUE;
+    if (summary.iteration > 0 && summary.step_is_valid && lambda_ < kQuadraticRegion &&
+        summary.relative_decrease != 0.0 && std::isfinite(summary.relative_decrease)) {
+      const double predicted = summary.cost_change / summary.relative_decrease;
+      noise_ = std::max(noise_, std::abs(summary.cost_change - predicted));
+    }
+    if (summary.step_is_successful) {
+      lambda_ = NewtonDecrement(problem_, theta_, x0_);
+      if (lambda_ < kStepStandardErrors) return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+    return lambda_ < kNoiseStepStandardErrors && 0.5 * lambda_ * lambda_ < noise_
+               ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+               : ceres::SOLVER_CONTINUE;
   }
 
  private:
@@ -383,6 +405,8 @@ class WithinStandardErrors final : public ceres::IterationCallback {
   const Vec& theta_;
   const std::vector<Vec>& x0_;
   const std::atomic<bool>* stop_;
+  double lambda_ = std::numeric_limits<double>::infinity();  // at the last accepted point
+  double noise_ = 0.0;
 };
 
 // The Ceres solve: Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, ended

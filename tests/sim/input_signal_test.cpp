@@ -1,11 +1,14 @@
 // Measured inputs: linear interpolation against its closed form, the end values, the CSV reader's
-// column choice by header and its refusals by name, the range check.
+// column choice by header and its refusals by name, the range check, the interpolation's interval
+// hint, the kinks the run loop stops at.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "sim/input_signal.hpp"
 #include "tests/testing/temp_dir.hpp"
@@ -59,6 +62,51 @@ TEST_CASE("at a sample time the input is that sample; outside the range the end 
   CHECK(u[0] == s.values(0, 0));
   s.At(7.0, u);
   CHECK(u[1] == s.values(1, 4));
+}
+
+TEST_CASE("with a hint the interpolation finds the same interval from any earlier call", "[inputs]") {
+  const InputSignal s = TwoInputs();
+  long hint = 0;
+  // Forward, backward, jumps across several intervals, the ends and beyond.
+  for (double t : {0.0, 0.05, 0.1, 0.36, 0.4, 0.39, 0.11, 0.99, 1.0, 1.5, -0.2, 0.62, 0.35, 0.349}) {
+    double with[2], without[2];
+    s.At(t, with, &hint);
+    s.At(t, without);
+    CHECK(with[0] == without[0]);
+    CHECK(with[1] == without[1]);
+  }
+}
+
+TEST_CASE("kinks: the samples where a slope changes by more than the threshold times its median", "[inputs]") {
+  InputSignal s;
+  for (int k = 0; k <= 1000; ++k) s.times.push_back(0.001 * k);
+  s.values.resize(3, 1001);
+  for (int k = 0; k <= 1000; ++k) {
+    const double t = s.times[static_cast<std::size_t>(k)];
+    s.values(0, k) = std::sin(1.3 * t) + 0.5 * std::sin(3.7 * t);  // smooth, finely sampled
+    s.values(1, k) = k % 2 == 0 ? 0.0 : 1.0;                        // a zig-zag
+    s.values(2, k) = std::min(t, 0.25);                             // a ramp, then held
+  }
+  InputSignal smooth = s, zigzag = s, ramp = s;
+  smooth.values = s.values.row(0);
+  zigzag.values = s.values.row(1);
+  ramp.values = s.values.row(2);
+  // The two-tone signal's slope changes by about u''·δt = 0.003 of its median slope at most.
+  CHECK(InputKinkTimes(smooth, 0.1).empty());
+  CHECK(InputKinkTimes(smooth, 1e-4).size() > 900);
+  const std::vector<double> every(s.times.begin() + 1, s.times.end() - 1);
+  CHECK(InputKinkTimes(zigzag, 0.1) == every);
+  // Median slope 0 (held for 3/4 of the samples): against the largest slope, only the corner at
+  // t = 0.25 is a kink (not the rounding of the ramp's slopes).
+  CHECK(InputKinkTimes(ramp, 0.1) == std::vector<double>{s.times[250]});
+  // Several inputs: the union, each against its own median.
+  s.values.row(1).setZero();
+  CHECK(InputKinkTimes(s, 0.1) == std::vector<double>{s.times[250]});
+  // Fewer than three samples have no interior sample.
+  InputSignal two;
+  two.times = {0.0, 1.0};
+  two.values = Mat::Ones(1, 2);
+  CHECK(InputKinkTimes(two, 0.0).empty());
 }
 
 TEST_CASE("the range check names the inputs and both ranges", "[inputs]") {
