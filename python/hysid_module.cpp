@@ -200,9 +200,11 @@ py::dict Parameters(const Model& m) {
 py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::object& t_end,
                   const py::object& dt, const py::object& sigma, const py::object& x0_known_arg,
                   const py::object& rtol, const py::object& atol, const py::object& inputs,
-                  const py::object& param_bound) {
+                  const py::object& param_bound, const py::object& mode_arg) {
   Model model = ModelArgument(model_arg).model;
   Keyworded([&] { cli::ApplyBoundFlags(BoundTexts(param_bound), &model); });
+  const std::string mode_name = mode_arg.is_none() ? std::string() : py::cast<std::string>(py::str(mode_arg));
+  const int mode = Keyworded([&] { return cli::ModeFlag(mode_name, model); });
   const int n = model.state_size();
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol, inputs);
   const std::vector<int> measured = MeasuredIndices(model);
@@ -212,13 +214,15 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
   const auto keyword = MakeX0Known(X0KnownText(x0_known_arg));
   const std::vector<int> known = Keyworded([&] { return cli::X0KnownFlag(keyword->flag, model); });
   auto stop = std::make_shared<std::atomic<bool>>(false);
-  const Crlb c = RunInterruptible<Crlb>([model, run, s, known, measured, all, n, stop] {
+  const Crlb c = RunInterruptible<Crlb>([model, run, s, known, measured, all, n, mode, stop] {
     SensitivityOptions options;
     options.sim = run.sim;
     options.sim.stop = stop.get();
     // As `hysid crlb`: every component known, ξ0 is not in θ; some: in θ, held (sd 0).
     const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
-    Crlb c = ComputeCrlb(model, run.x0, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
+    HybridParameters at = HybridParameters::Of(model, run.x0);
+    at.initial_mode = mode;
+    Crlb c = ComputeCrlb(model, at, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
                          run.inputs.empty() ? nullptr : &run.inputs);
     if (known.empty() || !unknowns.x0 || c.status == CrlbStatus::kSimulationFailed) return c;
     std::vector<int> held;
@@ -356,11 +360,11 @@ PYBIND11_MODULE(hysid, m) {
   m.def("crlb", &CrlbDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
         py::arg("dt") = py::none(), py::arg("sigma") = 1.0, py::arg("x0_known") = false,
         py::arg("rtol") = hysid::SimOptions{}.rtol, py::arg("atol") = hysid::SimOptions{}.atol,
-        py::arg("inputs") = py::none(), py::arg("param_bound") = py::none(),
+        py::arg("inputs") = py::none(), py::arg("param_bound") = py::none(), py::arg("mode") = py::none(),
         "The Cramér–Rao lower bound as `hysid crlb`: dict with status, message, names, sd (by name), "
         "covariance, fisher, mean_e_alpha, mean_e_beta, mean_e_gamma, jumps, samples. sigma: per measured "
         "state; x0_known: True/'all' or state names (held: sd 0); inputs as simulate's; param_bound "
-        "{name: (lo, hi)}");
+        "{name: (lo, hi)}; mode: a hybrid automaton's initial mode by name (None: the model's default)");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
         "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts. "
         "Ctrl-C stops it between units (the journal keeps the finished ones) and raises KeyboardInterrupt");

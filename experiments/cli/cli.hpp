@@ -98,6 +98,9 @@ struct X0Known {
 };
 CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag);
 std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model);
+// --mode NAME: the index of a hybrid automaton's initial mode (the model's default_mode when empty);
+// refused (exit 2) for a model without modes and for a name that is not one of them.
+int ModeFlag(const std::string& name, const Model& model);
 // "x0 known", "x0 unknown", or "x0[v] known": for the run's header line.
 std::string X0KnownText(const std::vector<int>& known, const Model& model);
 // "mean e_alpha A, mean e_beta B, mean e_gamma G": the bound's CRLB-implied mean errors of the blocks

@@ -26,22 +26,6 @@ struct CrlbArgs {
   std::string mode;    // --mode NAME: the initial mode of a model with modes (empty: its default)
 };
 
-// --mode NAME: the index of the initial mode (the model's default when not given); refused for a
-// model without modes and for a name that is not one of them.
-int ModeFlag(const std::string& name, const Model& model) {
-  const ModelSpec& spec = model.spec();
-  if (name.empty()) return spec.default_mode;
-  if (spec.modes.empty()) {
-    BadFlag(fmt::format("--mode {}: model '{}' has no modes (only a hybrid automaton with modes has an initial mode)",
-                        name, model.name()));
-  }
-  const auto it = std::find(spec.modes.begin(), spec.modes.end(), name);
-  if (it == spec.modes.end()) {
-    BadFlag(fmt::format("--mode {}: model '{}' has no mode '{}' (modes: {})", name, model.name(), name,
-                        fmt::join(spec.modes, ", ")));
-  }
-  return static_cast<int>(it - spec.modes.begin());
-}
 
 // A hybrid automaton: the CRLB-implied mean error of each jump map's own unknown β entries (its block
 // of the covariance; identity maps and maps with every β known have none).
@@ -128,6 +112,21 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
 }
 
 }  // namespace
+
+int ModeFlag(const std::string& name, const Model& model) {
+  const ModelSpec& spec = model.spec();
+  if (name.empty()) return spec.default_mode;
+  if (spec.modes.empty()) {
+    BadFlag(fmt::format("--mode {}: model '{}' has no modes (only a hybrid automaton with modes has an initial mode)",
+                        name, model.name()));
+  }
+  const auto it = std::find(spec.modes.begin(), spec.modes.end(), name);
+  if (it == spec.modes.end()) {
+    BadFlag(fmt::format("--mode {}: model '{}' has no mode '{}' (modes: {})", name, model.name(), name,
+                        fmt::join(spec.modes, ", ")));
+  }
+  return static_cast<int>(it - spec.modes.begin());
+}
 
 void AddCrlbCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<CrlbArgs>();

@@ -415,6 +415,24 @@ def test_crlb_of_the_examples_equals_the_cli(example_name, name, kwargs, flags):
         assert (printed[name_] == "" and sd == 0.0) or float(printed[name_]) == float(f"{sd:.6g}"), name_
 
 
+@pytest.mark.parametrize("mode", ["off", "on"])
+def test_crlb_of_an_automaton_from_either_mode_equals_the_cli(mode):
+    """The pump tank's bound from a given initial mode, as `hysid crlb --mode` prints it; the two modes give
+    different bounds (the first switch comes at another time)."""
+    model = str(SOURCE / "examples" / "pump-tank" / "model.toml")
+    p = subprocess.run([BIN, "crlb", "--model-file", model, "--sigma", "0.001", "--mode", mode],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    bound = hysid.crlb(model, sigma=[0.001], mode=mode)
+    assert bound["status"] == "ok"
+    printed = dict(re.findall(r"^  (\S+)\s+= \S+\s+sd (\S+)", p.stdout, re.M))
+    assert set(printed) == set(bound["names"])
+    for name_, sd in bound["sd"].items():
+        assert float(printed[name_]) == float(f"{sd:.6g}"), name_
+    other = hysid.crlb(model, sigma=[0.001], mode="on" if mode == "off" else "off")
+    assert other["sd"] != bound["sd"]
+
+
 def test_runs_with_inputs_give_the_cli_report(tmp_path):
     """Two runs of the driven oscillator, each with its own input column: a list of y, u (dicts), t and the
     true jump counters, as two --data files; the same report, chains, truth and per-chain initial states."""
@@ -455,6 +473,7 @@ OTHER_REFUSALS = [
     ("rtol -1", "hysid.simulate('impact-msd', rtol=-1.0)", ["simulate", "--rtol", "-1", "--out", "o/t.csv"]),
     ("atol nan", "hysid.simulate('impact-msd', atol=float('nan'))", ["simulate", "--atol", "nan", "--out", "o/t.csv"]),
     ("crlb rtol 0", "hysid.crlb('impact-msd', rtol=0.0)", ["crlb", "--rtol", "0"]),
+    ("crlb mode of a model without modes", "hysid.crlb('impact-msd', mode='on')", ["crlb", "--mode", "on"]),
     ("Model unknown", "hysid.Model('pendulum')", ["models", "--show", "pendulum"]),
     ("Model missing file", "hysid.Model('nosuch.toml')", ["models", "--show", "nosuch.toml"]),
     ("Model directory", "hysid.Model('adir')", ["models", "--show", "adir"]),
