@@ -19,6 +19,7 @@
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/cli/checks.hpp"
+#include "sim/events/fitted_events.hpp"
 #include "sim/refine/refine.hpp"
 #include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
@@ -144,6 +145,7 @@ struct RefineStep {
   std::vector<int> known;  // --x0-known
   Crlb bound;              // at the truth (not ok without one)
   HybridParameters truth;
+  FittedEvents fitted;     // a hybrid automaton refined (--refine ml): its events' times from the fit
 };
 // The refinement (--refine ml) or the recursive estimate (none), and the bound at the truth.
 // `stop` (may be null) ends the refinement early (RefineOptions::stop).

@@ -269,6 +269,7 @@ RefineStep RunRefineStep(const Model& model, const SampleData& data, const Ident
   s.bound = TruthBound(model, truth, used, data, partial.measured.empty() ? MeasuredIndices(model) : partial.measured,
                        s.known);
   s.truth = HybridParameters::Of(model, truth.x0);
+  if (args.refine == "ml" && IsAutomaton(model.spec())) s.fitted = FittedEventsOf(model, data, recursive, r);
   return s;
 }
 
@@ -282,6 +283,9 @@ nlohmann::json RefineJson(const Model& model, const SampleData& data, const Iden
   j["fit_t_end"] = data.uniform && r.samples_used > 0
                        ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt)
                        : nlohmann::json();
+  if (args.refine == "ml" && IsAutomaton(model.spec()) && j.contains("automaton")) {
+    AddFittedEventsJson(step.fitted, &j["automaton"]);
+  }
   if (step.bound.ok())
     j["crlb_sd"] = std::vector<double>(step.bound.sd.data(), step.bound.sd.data() + step.bound.sd.size());
   j["crlb"] = CrlbJson(r, step.truth, step.bound);
@@ -311,12 +315,9 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                 std::filesystem::path(data.path).replace_extension(".json").c_str(),
                 CrlbMeanErrors(r.unknowns, step.bound, 4).c_str());
   }
-  const bool fitted_events = args.refine == "ml" && IsAutomaton(model.spec());
-  const FittedEvents fitted = fitted_events ? FittedEventsOf(model, data, recursive, r) : FittedEvents{};
-  if (fitted_events) PrintFittedEvents(model, recursive, fitted);
+  if (args.refine == "ml" && IsAutomaton(model.spec())) PrintFittedEvents(model, recursive, step.fitted);
   if (!args.json.empty()) {
-    nlohmann::json j = RefineJson(model, data, recursive, args, report, partial, step);
-    if (fitted_events && j.contains("automaton")) AddFittedEventsJson(fitted, &j["automaton"]);
+    const nlohmann::json j = RefineJson(model, data, recursive, args, report, partial, step);
     WriteFileAtomically(args.json, j.dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }

@@ -766,3 +766,18 @@ def test_modes_and_jump_maps_are_those_of_the_model_file(path):
         assert (got["guard"], got["from"], got["to"]) == (given["guard"], given.get("from"), given.get("to"))
         assert got["beta"] == [b["name"] for b in given.get("beta", [])]
         assert got["rows"] == given.get("rows", []) and got["identity"] == ("psi" not in given)
+
+
+def test_an_automatons_report_has_the_fitted_event_times():
+    """The pump tank: the report (the CLI's --json) gives each switch its time from the fitted model, within
+    a sample of the true switch and within 5 of its standard errors, where the detected kinks are coarser."""
+    model = hysid.Model(str(SOURCE / "examples" / "pump-tank" / "model.toml"))
+    traj = hysid.simulate(model, sigma=1e-3, seed=1)
+    fit = hysid.identify(model, traj["y"], dt=traj["dt"])
+    assert fit["refined"]["status"] == "ok"
+    events = fit["report"]["automaton"]["events"]
+    truth = [jump["t"] for jump in traj["jumps"]]
+    assert len(events) == len(truth) == 9
+    for event, t in zip(events, truth):
+        assert abs(event["time_fitted"] - t) < traj["dt"]
+        assert abs(event["time_fitted"] - t) < 5 * event["time_fitted_se"]
