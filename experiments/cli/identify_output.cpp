@@ -53,8 +53,10 @@ std::vector<TraceColumn> TraceColumns(const ModelSpec& spec, const DetectorDescr
       {std::string(detector.traits.statistic), of_sample([r](std::size_t k) { return r->statistic[k]; })},
       {std::string(detector.traits.threshold), of_sample([r](std::size_t k) { return r->threshold[k]; })},
       {"gamma", of_sample([r](std::size_t k) { return double(r->gamma[k]); })}};
-  for (const auto& [list, trace] :
+  for (const auto& block :
        {std::pair{&spec.alpha, &result.alpha_trace}, std::pair{&spec.beta, &result.beta_trace}}) {
+    const auto* list = block.first;
+    const Mat* trace = block.second;  // (named, not a structured binding: clang 14 cannot capture those)
     for (std::size_t i = 0; i < list->size(); ++i) {
       if ((*list)[i].known) continue;
       cols.push_back({(*list)[i].name + "_hat", of_sample([trace, i](std::size_t k) {
