@@ -61,6 +61,13 @@ struct Table {
   }
 };
 
+// A table of a run directory (trials.csv, summary.csv).
+Table ReadTable(const fs::path& file) {
+  Table t;
+  ReadTrialsCsv(file, &t.header, &t.rows);
+  return t;
+}
+
 // Runs sweep `c` into a fresh temporary directory named `name` (2 threads, no progress); returns it.
 fs::path RunInTemp(const SweepConfig& c, const std::string& name) {
   const fs::path dir = testing::FreshTempDir(name);
@@ -91,8 +98,7 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
   CHECK(cells[0].refine == "none");
   CHECK(cells[1].refine == "ml");
   const fs::path dir = RunInTemp(c, "sweep-refine");
-  Table t;
-  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
+  const Table t = ReadTable(dir / "trials.csv");
 
   const Model model = c.models[0].Build(Registry());
   Vec x0(2);
@@ -123,8 +129,7 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
   }
   CHECK(paired >= 4);  // most fits are ok on 3 s of the §5 system
 
-  Table s;
-  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);  // keyed by its first column, the cell
+  const Table s = ReadTable(dir / "summary.csv");  // keyed by its first column, the cell
   for (long cell = 0; cell < 4; ++cell) {
     const double eff = std::stod(s.At(cell, "efficiency_alpha"));
     CHECK(eff == Approx(std::stod(s.At(cell, "e_alpha_mean")) / std::stod(s.At(cell, "crlb_e_alpha"))));
@@ -140,10 +145,8 @@ TEST_CASE("sweep: a trial whose refinement failed is a failure of its cell, neve
   text.replace(text.find("trials = 3"), 10, "trials = 4");
   const SweepConfig c = ParseSweepText(text, "failing.toml", Registry());
   const fs::path dir = RunInTemp(c, "sweep-refine-fail");
-  Table t;
-  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
-  Table s;
-  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);
+  const Table t = ReadTable(dir / "trials.csv");
+  const Table s = ReadTable(dir / "summary.csv");
   long failed_total = 0;
   for (long cell = 0; cell < 4; ++cell) {
     long failed = 0, ok = 0;
@@ -198,8 +201,7 @@ TEST_CASE("sweep: unknown guard parameters add γ columns, other sweeps' tables 
   const std::string text = ExampleSweep("wall/wall.toml", "params = { w = 1.0 }\nt_end = 6.0", 5e-4, 3);
   const SweepConfig c = ParseSweepText(text, "wall.toml", Registry());
   const fs::path dir = RunInTemp(c, "sweep-wall");
-  Table t;
-  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
+  const Table t = ReadTable(dir / "trials.csv");
   const Model model = c.models[0].Build(Registry());
   REQUIRE(model.gamma()[0] == 1.0);
   const Crlb direct = ComputeCrlb(model, DefaultState(model), SampleGrid{6.0, 5e-4}, Vec::Constant(2, 1e-3),
@@ -214,8 +216,7 @@ TEST_CASE("sweep: unknown guard parameters add γ columns, other sweeps' tables 
     CHECK(std::abs(w_hat - 1.0) < 4 * std::stod(t.At(trial, "crlb_e_gamma")));
     CHECK(std::stod(t.At(trial, "crlb_e_gamma")) == Approx(direct.mean_e_gamma).epsilon(1e-9));  // direct: at σ
   }
-  Table s;
-  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);
+  const Table s = ReadTable(dir / "summary.csv");
   CHECK(std::stod(s.At(0, "efficiency_gamma")) ==
         Approx(std::stod(s.At(0, "e_gamma_mean")) / std::stod(s.At(0, "crlb_e_gamma"))));
 }
@@ -226,8 +227,7 @@ TEST_CASE("sweep of a hybrid automaton: events against the truth, each map's β 
   const std::string text = ExampleSweep("floor-ceiling/model.toml", "", 1e-3, 5);
   const SweepConfig c = ParseSweepText(text, "floor-ceiling.toml", Registry());
   const fs::path dir = RunInTemp(c, "sweep-floor-ceiling");
-  Table t;
-  ReadTrialsCsv(dir / "trials.csv", &t.header, &t.rows);
+  const Table t = ReadTable(dir / "trials.csv");
   const Model model = c.models[0].Build(Registry());
   const Unknowns unknowns = Unknowns::Of(model);
   const Crlb direct = ComputeCrlb(model, DefaultState(model), SampleGrid{5.0, 1e-3}, Vec::Constant(2, 1e-3), unknowns);
@@ -249,8 +249,7 @@ TEST_CASE("sweep of a hybrid automaton: events against the truth, each map's β 
     CHECK(std::stod(t.At(trial, "crlb_e_beta_ceiling")) == Approx(per_map[1]).epsilon(1e-9));
     CHECK(std::abs(ceiling - 0.7) < 4 * per_map[1]);
   }
-  Table s;
-  ReadTrialsCsv(dir / "summary.csv", &s.header, &s.rows);
+  const Table s = ReadTable(dir / "summary.csv");
   CHECK(s.At(0, "events_missed_mean") == "0");
   CHECK(std::stod(s.At(0, "e_beta_floor_mean")) ==
         Approx((std::stod(t.At(0, "e_beta_floor")) + std::stod(t.At(1, "e_beta_floor"))) / 2));
