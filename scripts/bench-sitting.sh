@@ -12,7 +12,8 @@
 # Run it on an idle machine: nothing else running, no build, no editor indexing. Every step records
 # `uptime` before and after it, and the table says which steps saw a load above 1.5.
 #
-# Estimated time on an idle 2-core machine (from the figures in BENCHMARKS.md): about 9 minutes.
+# Estimated time on an idle 2-core machine (from the figures in BENCHMARKS.md): about 7 minutes,
+# well inside a 15-minute sitting.
 #   Google Benchmark, 51 benchmarks: the 22 with a target at 5 repetitions (≈ 3 s each: 0.5 s per
 #   repetition plus the first repetition's iteration search), the other 29 at 3 (≈ 2 s each), plus
 #   the refinement fixtures' simulate + identify: ≈ 2.5 min.
@@ -20,7 +21,7 @@
 #   ≈ 43 + 85 s; writing the many-run data (400 `hysid simulate`) ≈ 15 s, its two identify runs
 #   ≈ 2 s; paper_noise on 2 threads ≈ 21 s; the default study with its figures ≈ 16 s; merging the
 #   map's tables ≈ 3 s; the Python overhead script ≈ 3 s; the Ctrl-C test ≈ 5 s: ≈ 4 min.
-#   With the studies at their targets (map ≤ 12 s, efficiency ≤ 15 s on 2 threads) about 7 minutes.
+#   With the studies at their targets (map ≤ 12 s, efficiency ≤ 15 s on 2 threads): about 5 minutes.
 #
 # HYSID_SITTING_SMOKE=1 checks the script itself in under a minute or two of CPU: every benchmark at
 # --benchmark_min_time=0.01 and 2 repetitions, every sweep as shard 1/50 (1/5 for the default
@@ -28,7 +29,7 @@
 set -uo pipefail
 
 if [[ $# -ne 2 ]]; then
-  sed -n '4,11p' "$0" >&2
+  sed -n '5,10s/^# \{0,1\}//p' "$0" >&2
   exit 2
 fi
 repo="$(cd "$(dirname "$0")/.." && pwd)"
@@ -43,6 +44,7 @@ hysid="$build/bin/hysid"
 for exe in "$hysid" "$build"/bin/hysid_bench_{simulator,identify,refine,estimators}; do
   [[ -x "$exe" ]] || { echo "bench-sitting: $exe missing (build it first)" >&2; exit 2; }
 done
+[[ -d "$build/python" ]] || echo "bench-sitting: no $build/python (the Python figures will be missing)" >&2
 [[ -x /usr/bin/time ]] || { echo "bench-sitting: /usr/bin/time missing (Debian package time)" >&2; exit 2; }
 cd "$repo"
 
