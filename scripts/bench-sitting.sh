@@ -70,12 +70,14 @@ fi
   echo "many runs: $many_runs"
 } > "$out/machine.txt"
 
+exec 3>&2  # the steps' progress lines, while their own output goes to log_*.txt
+
 # step NAME COMMAND...: runs COMMAND with `uptime` before and after it in uptime.log.
 step() {
   local name="$1" rc=0
   shift
   echo "$name	before	$(uptime)" >> "$out/uptime.log"
-  echo "[$(date -u +%H:%M:%S)] $name" >&2
+  echo "[$(date -u +%H:%M:%S)] $name" >&3
   "$@" || rc=$?
   echo "$name	after	$(uptime)" >> "$out/uptime.log"
   echo "$name	rc	$rc" >> "$out/uptime.log"
