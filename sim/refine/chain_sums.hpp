@@ -39,6 +39,36 @@ struct ChainSums {
 // The sums of run s against the chain's measured samples y (m × K, the rows `rows` of ξ).
 ChainSums SumChain(const SensitivityTrajectory& s, const Mat& y, const std::vector<int>& rows);
 
+// The same sums taken sample by sample while the run integrates (SimulateSensitivitiesMatched's
+// sink), so that no run holds S for all its samples: G_i and h_i as each sample's S_k comes, c_i and
+// l_i from the run's states at the end. Equal to SumChain's up to rounding (the order of summation).
+class ChainSummer final : public SensitivitySink {
+ public:
+  // y: the chain's measured samples (m × K; its storage and rows must outlive the summer); n states,
+  // p unknowns.
+  ChainSummer(const Eigen::Ref<const Mat>& y, const std::vector<int>& rows, int n, int p);
+  void Sample(long k, const double* x, const double* s) override;
+  // The sums once the run (its states: n × K) is done.
+  ChainSums Finish(const Mat& x);
+  // S at the chain's last sample (n × p; zero until the run read it).
+  const Mat& last_sensitivities() const { return last_; }
+
+ private:
+  // Samples gathered before they are added to G_i and h_i (a rank-kBlock update each).
+  static constexpr Eigen::Index kBlock = 128;
+  void Flush();
+
+  Eigen::Map<const Mat, 0, Eigen::OuterStride<>> y_;
+  const std::vector<int>& rows_;
+  int n_ = 0;
+  std::vector<Mat> gram_;      // G_i, the lower triangle
+  Mat h_;                      // p × m
+  std::vector<Mat> block_;     // per component: ∂ξ_i/∂θ of the gathered samples (p × kBlock)
+  Mat residuals_;              // kBlock × m: r_ik of the gathered samples
+  Eigen::Index gathered_ = 0;  // samples gathered
+  Mat last_;
+};
+
 // The compressed residual (p + 1 entries) and its Jacobian ((p + 1) × p, row-major) for the weights.
 void CompressedResidual(const ChainSums& sums, const Vec& weight, double* residuals, Mat* jacobian);
 

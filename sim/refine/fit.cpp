@@ -109,19 +109,20 @@ struct FitProblem {
     const Vec point = p.Theta(unknowns);
     if (cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
     cached_at[c].resize(0);
+    // The run's S_k summed as they come (sim/refine/chain_sums.hpp): no run holds S for its samples.
+    ChainSummer summer(fits[c].y(), rows, model->state_size(), static_cast<int>(point.size()));
     const SensitivityTrajectory s =
         Admissible(*model, p, fits[c].inputs)
             ? SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options,
-                                           InputsOf(fits[c].inputs))
+                                           InputsOf(fits[c].inputs), &summer)
             : LeftDomain();
     ChainEval& e = cached[c];
     e.ok = s.ok();
     e.message = s.trajectory.status.message;
     if (e.ok) {
-      e.sums = SumChain(s, fits[c].y(), rows);
-      const Eigen::Index last = s.trajectory.x.cols() - 1;
-      e.end = s.trajectory.x.col(last);
-      e.end_sensitivities = s.S(last);
+      e.sums = summer.Finish(s.trajectory.x);
+      e.end = s.trajectory.x.col(s.trajectory.x.cols() - 1);
+      e.end_sensitivities = summer.last_sensitivities();
     }
     if (e.ok && !e.sums.squares.allFinite()) {
       e.ok = false;

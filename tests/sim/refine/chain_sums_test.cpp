@@ -2,6 +2,7 @@
 // residuals and their Jacobian formed directly.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <random>
 
 #include <Eigen/QR>
@@ -54,6 +55,35 @@ TEST_CASE("chain sums give the full residuals' cost, gradient, Gauss-Newton matr
     const Vec ri = (run.y.row(i) - run.s.trajectory.x.row(run.rows[static_cast<std::size_t>(i)])).transpose();
     CHECK(sums.lag[i] == Approx(ri.head(199).dot(ri.tail(199))).epsilon(1e-12));
   }
+}
+
+TEST_CASE("chain sums taken sample by sample, in any order, equal the full residuals' sums", "[refine]") {
+  // 300 samples (not a whole number of the summer's blocks) fed in a shuffled order, the data a view
+  // of the first 300 columns of a longer record (a chain fit on a shorter span).
+  const RandomRun run(3, 5, 300, {0, 2}, 5);
+  Mat longer(2, 340);
+  longer.leftCols(300) = run.y;
+  longer.rightCols(40).setConstant(1e9);  // beyond the span: must not be read
+  ChainSummer summer(longer.leftCols(300), run.rows, 3, 5);
+  std::vector<long> order(300);
+  for (long k = 0; k < 300; ++k) order[static_cast<std::size_t>(k)] = k;
+  std::shuffle(order.begin(), order.end(), std::mt19937(3));
+  for (const long k : order)
+    summer.Sample(k, run.s.trajectory.x.col(k).data(), run.s.sensitivities.col(k).data());
+  const ChainSums sums = summer.Finish(run.s.trajectory.x);
+  const Vec w = (Vec(2) << 2.0, 0.5).finished();
+  Vec r;
+  Mat j;
+  run.Full(w, &r, &j);
+  CHECK(sums.samples == 300);
+  CHECK(sums.Cost(w) == Approx(r.squaredNorm()).epsilon(1e-12));
+  CHECK((sums.Gradient(w) - j.transpose() * r).norm() < 1e-10 * (j.transpose() * r).norm());
+  CHECK((sums.Information(w) - j.transpose() * j).norm() < 1e-10 * (j.transpose() * j).norm());
+  for (int i = 0; i < 2; ++i) {
+    const Vec ri = (run.y.row(i) - run.s.trajectory.x.row(run.rows[static_cast<std::size_t>(i)])).transpose();
+    CHECK(sums.lag[i] == Approx(ri.head(299).dot(ri.tail(299))).epsilon(1e-12));
+  }
+  CHECK(summer.last_sensitivities() == run.s.S(299));
 }
 
 TEST_CASE("the compressed residual has the full residuals' cost, gradient and Gauss-Newton matrix", "[refine]") {
