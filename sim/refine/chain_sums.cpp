@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <limits>
+
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
 namespace hysid {
@@ -104,6 +107,115 @@ ChainSums ChainSummer::Finish(const Mat& x) {
   sums.h = h_;
   for (const Mat& g : gram_) sums.gram.push_back(g.selfadjointView<Eigen::Lower>());
   return sums;
+}
+
+ChainInformation ChainInformation::Of(const std::vector<Mat>& chains, int shared) {
+  ChainInformation f;
+  f.shared = Mat::Zero(shared, shared);
+  for (const Mat& fc : chains) {
+    const Eigen::Index n = fc.rows() - shared;
+    f.shared += fc.topLeftCorner(shared, shared);
+    f.coupling.push_back(fc.topRightCorner(shared, n));
+    f.own.push_back(fc.bottomRightCorner(n, n));
+  }
+  return f;
+}
+
+Mat ChainInformation::Joint() const {
+  const Eigen::Index s = shared.rows();
+  Eigen::Index total = s;
+  for (const Mat& d : own) total += d.rows();
+  Mat f = Mat::Zero(total, total);
+  f.topLeftCorner(s, s) = shared;
+  Eigen::Index o = s;
+  for (std::size_t c = 0; c < own.size(); ++c) {
+    const Eigen::Index n = own[c].rows();
+    f.block(0, o, s, n) = coupling[c];
+    f.block(o, 0, n, s) = coupling[c].transpose();
+    f.block(o, o, n, n) = own[c];
+    o += n;
+  }
+  return f;
+}
+
+double ChainInformation::InverseQuadratic(const Vec& g) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Eigen::Index s = shared.rows();
+  Mat schur = shared;
+  Vec reduced = g.head(s);
+  double quadratic = 0.0;
+  Eigen::Index o = s;
+  for (std::size_t c = 0; c < own.size(); ++c) {
+    const Eigen::Index n = own[c].rows();
+    const Eigen::LLT<Mat> d(own[c]);
+    if (d.info() != Eigen::Success) return kInf;
+    const Vec gc = g.segment(o, n);
+    const Vec dg = d.solve(gc);
+    quadratic += gc.dot(dg);
+    reduced -= coupling[c] * dg;
+    schur -= coupling[c] * d.solve(coupling[c].transpose());
+    o += n;
+  }
+  const Eigen::LLT<Mat> llt(schur);
+  if (llt.info() != Eigen::Success) return kInf;
+  quadratic += reduced.dot(llt.solve(reduced));
+  return std::isfinite(quadratic) ? quadratic : kInf;
+}
+
+namespace {
+
+// The LDLT of a symmetric block, positive definite with pivots above 1e-14 (CrlbFromFisher's test).
+bool PositivePivots(const Eigen::LDLT<Mat>& ldlt) {
+  return ldlt.info() == Eigen::Success && ldlt.isPositive() &&
+         (ldlt.vectorD().size() == 0 || ldlt.vectorD().minCoeff() > 1e-14);
+}
+
+// diag(F)^(−1/2) of a block's diagonal; false when an entry is not positive and finite.
+bool Equilibration(const Vec& diagonal, Vec* d) {
+  if (!diagonal.allFinite() || !(diagonal.array() > 0.0).all()) return false;
+  *d = diagonal.cwiseSqrt().cwiseInverse();
+  return true;
+}
+
+}  // namespace
+
+bool ChainInformation::CovarianceBlock(std::size_t c, Mat* covariance) const {
+  const Eigen::Index s = shared.rows();
+  Vec ds;
+  if (!Equilibration(shared.diagonal(), &ds)) return false;
+  Mat schur = ds.asDiagonal() * shared * ds.asDiagonal();  // of the equilibrated F
+  Mat w_c;                                                 // D_c'⁻¹ B_c'ᵀ of chain c
+  Mat own_c_inverse;
+  Vec dc_kept;
+  for (std::size_t k = 0; k < own.size(); ++k) {
+    Vec dk;
+    if (!Equilibration(own[k].diagonal(), &dk)) return false;
+    const Mat b = ds.asDiagonal() * coupling[k] * dk.asDiagonal();
+    const Eigen::LDLT<Mat> d(dk.asDiagonal() * own[k] * dk.asDiagonal());
+    if (!PositivePivots(d)) return false;
+    const Mat w = d.solve(b.transpose());
+    schur -= b * w;
+    if (k == c) {
+      w_c = w;
+      own_c_inverse = d.solve(Mat::Identity(dk.size(), dk.size()));
+      dc_kept = dk;
+    }
+  }
+  schur = 0.5 * (schur + schur.transpose()).eval();
+  const Eigen::LDLT<Mat> ldlt(schur);
+  if (!PositivePivots(ldlt)) return false;
+  const Eigen::Index n = dc_kept.size();
+  const Mat s_inverse = ldlt.solve(Mat::Identity(s, s));
+  Mat e(s + n, s + n);  // the block of the equilibrated F⁻¹
+  e.topLeftCorner(s, s) = s_inverse;
+  e.topRightCorner(s, n) = -s_inverse * w_c.transpose();
+  e.bottomLeftCorner(n, s) = e.topRightCorner(s, n).transpose();
+  e.bottomRightCorner(n, n) = own_c_inverse + w_c * s_inverse * w_c.transpose();
+  Vec d(s + n);
+  d << ds, dc_kept;
+  *covariance = d.asDiagonal() * e * d.asDiagonal();
+  *covariance = 0.5 * (*covariance + covariance->transpose()).eval();
+  return true;
 }
 
 void CompressedResidual(const ChainSums& sums, const Vec& weight, double* residuals, Mat* jacobian) {

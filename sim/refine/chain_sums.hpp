@@ -69,6 +69,29 @@ class ChainSummer final : public SensitivitySink {
   Mat last_;
 };
 
+// The joint information of θ = (the s shared unknowns, then each chain's n-entry ξ0) over C chains,
+// held per chain: the chains couple only through the shared block, so F is an arrow of blocks
+//   F = [A B_1 … B_C; B_1ᵀ D_1 0 …; …; B_Cᵀ 0 … D_C],  A = Σ_c A_c,
+// and what the fit needs of F is computed with each ξ0_c eliminated (the Schur complement
+// S = A − Σ_c B_c D_c⁻¹ B_cᵀ), never forming the (s + n·C)² matrix.
+struct ChainInformation {
+  Mat shared;                 // A (s × s)
+  std::vector<Mat> coupling;  // B_c (s × n)
+  std::vector<Mat> own;       // D_c (n × n)
+
+  // From each chain's (s + n) × (s + n) information (its shared unknowns, then its ξ0).
+  static ChainInformation Of(const std::vector<Mat>& chains, int shared);
+  // F itself (for few chains, and for the message of a singular F).
+  Mat Joint() const;
+  // gᵀF⁻¹g for g over the joint θ; infinity when F is not positive definite.
+  double InverseQuadratic(const Vec& g) const;
+  // The block of F⁻¹ for the shared unknowns and chain c's ξ0 ((s + n) × (s + n)). False when F is
+  // not positive definite by CrlbFromFisher's test, applied to the blocks: on the equilibrated
+  // matrix (D = diag(F)^(−1/2)), every D_c and S positive definite with LDLT pivots above 1e-14
+  // (F is positive definite exactly when they all are).
+  bool CovarianceBlock(std::size_t c, Mat* covariance) const;
+};
+
 // The compressed residual (p + 1 entries) and its Jacobian ((p + 1) × p, row-major) for the weights.
 void CompressedResidual(const ChainSums& sums, const Vec& weight, double* residuals, Mat* jacobian);
 
