@@ -478,7 +478,7 @@ void Engine::EmitCurrent(long begin, long end, int segment) {
   Mark(begin, end, segment);
   for (long k = begin; k < end; ++k) {
     out_.x.col(k) = x_;
-    if (payload_) payload_->SampleCurrent(k);
+    if (payload_) payload_->SampleCurrent(k, x_.data());
   }
 }
 
@@ -511,7 +511,8 @@ void Engine::EmitStep(long begin, long end, int segment) {
     }
   }
   if (payload_) {
-    for (long k = begin; k < end; ++k) payload_->Sample(k, out_.t[static_cast<std::size_t>(k)]);
+    for (long k = begin; k < end; ++k)
+      payload_->Sample(k, out_.t[static_cast<std::size_t>(k)], out_.x.col(k).data());
   }
 }
 

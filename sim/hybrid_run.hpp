@@ -73,10 +73,10 @@ class Payload {
   // After the chain, at the post-jump state in the mode after it (ctx.mode); the current values hold
   // from there.
   virtual void EndJumps(const Vec& post, const Context& ctx) = 0;
-  // Sample k at time t within the last step.
-  virtual void Sample(long k, double t) = 0;
-  // Sample k at the current values (no step taken since them).
-  virtual void SampleCurrent(long k) = 0;
+  // Sample k at time t within the last step; x its state (n), as the trajectory records it.
+  virtual void Sample(long k, double t, const double* x) = 0;
+  // Sample k at the current values (no step taken since them); x its state.
+  virtual void SampleCurrent(long k, const double* x) = 0;
 };
 
 // Where the samples are: k·δt, or times[k] when given.

@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <limits>
+
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
 namespace hysid {
@@ -18,29 +21,201 @@ Vec ChainSums::Gradient(const Vec& weight) const { return -(h * weight.cwiseAbs2
 
 double ChainSums::Cost(const Vec& weight) const { return weight.cwiseAbs2().dot(squares); }
 
-ChainSums SumChain(const SensitivityTrajectory& s, const Mat& y, const std::vector<int>& rows) {
-  const Eigen::Index n = s.trajectory.x.rows(), p = s.parameters, k_count = y.cols();
+namespace {
+
+// c_i and l_i of the residuals y − ξ_rows (the states x: n × K) into sums.
+void ResidualSums(const Mat& x, const Eigen::Ref<const Mat>& y, const std::vector<int>& rows,
+                  ChainSums& sums) {
+  const Eigen::Index k_count = y.cols();
   const auto m = static_cast<Eigen::Index>(rows.size());
-  ChainSums sums;
   sums.samples = k_count;
-  sums.h.resize(p, m);
   sums.squares.resize(m);
   sums.lag.resize(m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const Eigen::Index row = rows[static_cast<std::size_t>(i)];
+    double squares = 0.0, lag = 0.0, previous = 0.0;
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      const double r = y(i, k) - x(row, k);
+      squares += r * r;
+      lag += previous * r;  // (0 for k = 0)
+      previous = r;
+    }
+    sums.squares[i] = squares;
+    sums.lag[i] = lag;
+  }
+}
+
+}  // namespace
+
+ChainSums SumChain(const SensitivityTrajectory& s, const Mat& y, const std::vector<int>& rows) {
+  const Eigen::Index n = s.trajectory.x.rows(), p = s.parameters;
+  const auto m = static_cast<Eigen::Index>(rows.size());
+  ChainSums sums;
+  ResidualSums(s.trajectory.x, y, rows, sums);
+  sums.h.resize(p, m);
   std::vector<int> at(static_cast<std::size_t>(p));
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    // Row a·n + rows[i] of the sensitivities is ∂ξ_rows[i]/∂θ_a at every sample.
+    // Row a·n + rows[i] of the sensitivities is ∂ξ_rows[i]/∂θ at every sample.
     for (Eigen::Index a = 0; a < p; ++a) at[static_cast<std::size_t>(a)] = static_cast<int>(a * n + rows[i]);
     const Mat rows_i = s.sensitivities(at, Eigen::all);  // p × K
     const Vec r = (y.row(static_cast<Eigen::Index>(i)) - s.trajectory.x.row(rows[i])).transpose();
     Mat g = Mat::Zero(p, p);
     g.selfadjointView<Eigen::Lower>().rankUpdate(rows_i);
     sums.gram.push_back(g.selfadjointView<Eigen::Lower>());
-    const auto c = static_cast<Eigen::Index>(i);
-    sums.h.col(c) = rows_i * r;
-    sums.squares[c] = r.squaredNorm();
-    sums.lag[c] = k_count > 1 ? r.head(k_count - 1).dot(r.tail(k_count - 1)) : 0.0;
+    sums.h.col(static_cast<Eigen::Index>(i)) = rows_i * r;
   }
   return sums;
+}
+
+ChainSummer::ChainSummer(const Eigen::Ref<const Mat>& y, const std::vector<int>& rows, int n, int p)
+    : y_(y.data(), y.rows(), y.cols(), Eigen::OuterStride<>(y.outerStride())),
+      rows_(rows),
+      n_(n),
+      gram_(rows.size(), Mat::Zero(p, p)),
+      h_(Mat::Zero(p, static_cast<Eigen::Index>(rows.size()))),
+      block_(rows.size(), Mat(p, kBlock)),
+      residuals_(kBlock, static_cast<Eigen::Index>(rows.size())),
+      last_(Mat::Zero(n, p)) {}
+
+void ChainSummer::Sample(long k, const double* x, const double* s) {
+  const Eigen::Index p = h_.rows();
+  for (std::size_t i = 0; i < rows_.size(); ++i) {
+    const int row = rows_[i];
+    // S is column-major n × p: ∂ξ_row/∂θ_a is s[a·n + row].
+    double* column = block_[i].col(gathered_).data();
+    for (Eigen::Index a = 0; a < p; ++a) column[a] = s[a * n_ + row];
+    residuals_(gathered_, static_cast<Eigen::Index>(i)) = y_(static_cast<Eigen::Index>(i), k) - x[row];
+  }
+  if (k + 1 == y_.cols()) last_ = Eigen::Map<const Mat>(s, n_, p);
+  if (++gathered_ == kBlock) Flush();
+}
+
+void ChainSummer::Flush() {
+  for (std::size_t i = 0; i < rows_.size(); ++i) {
+    const auto rows = block_[i].leftCols(gathered_);
+    gram_[i].selfadjointView<Eigen::Lower>().rankUpdate(rows);
+    h_.col(static_cast<Eigen::Index>(i)).noalias() +=
+        rows * residuals_.col(static_cast<Eigen::Index>(i)).head(gathered_);
+  }
+  gathered_ = 0;
+}
+
+ChainSums ChainSummer::Finish(const Mat& x) {
+  Flush();
+  ChainSums sums;
+  ResidualSums(x, y_, rows_, sums);
+  sums.h = h_;
+  for (const Mat& g : gram_) sums.gram.push_back(g.selfadjointView<Eigen::Lower>());
+  return sums;
+}
+
+ChainInformation ChainInformation::Of(const std::vector<Mat>& chains, int shared) {
+  ChainInformation f;
+  f.shared = Mat::Zero(shared, shared);
+  for (const Mat& fc : chains) {
+    const Eigen::Index n = fc.rows() - shared;
+    f.shared += fc.topLeftCorner(shared, shared);
+    f.coupling.push_back(fc.topRightCorner(shared, n));
+    f.own.push_back(fc.bottomRightCorner(n, n));
+  }
+  return f;
+}
+
+Mat ChainInformation::Joint() const {
+  const Eigen::Index s = shared.rows();
+  Eigen::Index total = s;
+  for (const Mat& d : own) total += d.rows();
+  Mat f = Mat::Zero(total, total);
+  f.topLeftCorner(s, s) = shared;
+  Eigen::Index o = s;
+  for (std::size_t c = 0; c < own.size(); ++c) {
+    const Eigen::Index n = own[c].rows();
+    f.block(0, o, s, n) = coupling[c];
+    f.block(o, 0, n, s) = coupling[c].transpose();
+    f.block(o, o, n, n) = own[c];
+    o += n;
+  }
+  return f;
+}
+
+double ChainInformation::InverseQuadratic(const Vec& g) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Eigen::Index s = shared.rows();
+  Mat schur = shared;
+  Vec reduced = g.head(s);
+  double quadratic = 0.0;
+  Eigen::Index o = s;
+  for (std::size_t c = 0; c < own.size(); ++c) {
+    const Eigen::Index n = own[c].rows();
+    const Eigen::LLT<Mat> d(own[c]);
+    if (d.info() != Eigen::Success) return kInf;
+    const Vec gc = g.segment(o, n);
+    const Vec dg = d.solve(gc);
+    quadratic += gc.dot(dg);
+    reduced -= coupling[c] * dg;
+    schur -= coupling[c] * d.solve(coupling[c].transpose());
+    o += n;
+  }
+  const Eigen::LLT<Mat> llt(schur);
+  if (llt.info() != Eigen::Success) return kInf;
+  quadratic += reduced.dot(llt.solve(reduced));
+  return std::isfinite(quadratic) ? quadratic : kInf;
+}
+
+namespace {
+
+// The LDLT of a symmetric block, positive definite with pivots above 1e-14 (CrlbFromFisher's test).
+bool PositivePivots(const Eigen::LDLT<Mat>& ldlt) {
+  return ldlt.info() == Eigen::Success && ldlt.isPositive() &&
+         (ldlt.vectorD().size() == 0 || ldlt.vectorD().minCoeff() > 1e-14);
+}
+
+// diag(F)^(−1/2) of a block's diagonal; false when an entry is not positive and finite.
+bool Equilibration(const Vec& diagonal, Vec* d) {
+  if (!diagonal.allFinite() || !(diagonal.array() > 0.0).all()) return false;
+  *d = diagonal.cwiseSqrt().cwiseInverse();
+  return true;
+}
+
+}  // namespace
+
+bool ChainInformation::CovarianceBlock(std::size_t c, Mat* covariance) const {
+  const Eigen::Index s = shared.rows();
+  Vec ds;
+  if (!Equilibration(shared.diagonal(), &ds)) return false;
+  Mat schur = ds.asDiagonal() * shared * ds.asDiagonal();  // of the equilibrated F
+  Mat w_c;                                                 // D_c'⁻¹ B_c'ᵀ of chain c
+  Mat own_c_inverse;
+  Vec dc_kept;
+  for (std::size_t k = 0; k < own.size(); ++k) {
+    Vec dk;
+    if (!Equilibration(own[k].diagonal(), &dk)) return false;
+    const Mat b = ds.asDiagonal() * coupling[k] * dk.asDiagonal();
+    const Eigen::LDLT<Mat> d(dk.asDiagonal() * own[k] * dk.asDiagonal());
+    if (!PositivePivots(d)) return false;
+    const Mat w = d.solve(b.transpose());
+    schur -= b * w;
+    if (k == c) {
+      w_c = w;
+      own_c_inverse = d.solve(Mat::Identity(dk.size(), dk.size()));
+      dc_kept = dk;
+    }
+  }
+  schur = 0.5 * (schur + schur.transpose()).eval();
+  const Eigen::LDLT<Mat> ldlt(schur);
+  if (!PositivePivots(ldlt)) return false;
+  const Eigen::Index n = dc_kept.size();
+  const Mat s_inverse = ldlt.solve(Mat::Identity(s, s));
+  Mat e(s + n, s + n);  // the block of the equilibrated F⁻¹
+  e.topLeftCorner(s, s) = s_inverse;
+  e.topRightCorner(s, n) = -s_inverse * w_c.transpose();
+  e.bottomLeftCorner(n, s) = e.topRightCorner(s, n).transpose();
+  e.bottomRightCorner(n, n) = own_c_inverse + w_c * s_inverse * w_c.transpose();
+  Vec d(s + n);
+  d << ds, dc_kept;
+  *covariance = d.asDiagonal() * e * d.asDiagonal();
+  *covariance = 0.5 * (*covariance + covariance->transpose()).eval();
+  return true;
 }
 
 void CompressedResidual(const ChainSums& sums, const Vec& weight, double* residuals, Mat* jacobian) {

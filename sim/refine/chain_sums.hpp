@@ -39,6 +39,59 @@ struct ChainSums {
 // The sums of run s against the chain's measured samples y (m × K, the rows `rows` of ξ).
 ChainSums SumChain(const SensitivityTrajectory& s, const Mat& y, const std::vector<int>& rows);
 
+// The same sums taken sample by sample while the run integrates (SimulateSensitivitiesMatched's
+// sink), so that no run holds S for all its samples: G_i and h_i as each sample's S_k comes, c_i and
+// l_i from the run's states at the end. Equal to SumChain's up to rounding (the order of summation).
+class ChainSummer final : public SensitivitySink {
+ public:
+  // y: the chain's measured samples (m × K; its storage and rows must outlive the summer); n states,
+  // p unknowns.
+  ChainSummer(const Eigen::Ref<const Mat>& y, const std::vector<int>& rows, int n, int p);
+  void Sample(long k, const double* x, const double* s) override;
+  // The sums once the run (its states: n × K) is done.
+  ChainSums Finish(const Mat& x);
+  // S at the chain's last sample (n × p; zero until the run read it).
+  const Mat& last_sensitivities() const { return last_; }
+
+ private:
+  // Samples gathered before they are added to G_i and h_i (a rank-kBlock update each).
+  static constexpr Eigen::Index kBlock = 128;
+  void Flush();
+
+  Eigen::Map<const Mat, 0, Eigen::OuterStride<>> y_;
+  const std::vector<int>& rows_;
+  int n_ = 0;
+  std::vector<Mat> gram_;      // G_i, the lower triangle
+  Mat h_;                      // p × m
+  std::vector<Mat> block_;     // per component: ∂ξ_i/∂θ of the gathered samples (p × kBlock)
+  Mat residuals_;              // kBlock × m: r_ik of the gathered samples
+  Eigen::Index gathered_ = 0;  // samples gathered
+  Mat last_;
+};
+
+// The joint information of θ = (the s shared unknowns, then each chain's n-entry ξ0) over C chains,
+// held per chain: the chains couple only through the shared block, so F is an arrow of blocks
+//   F = [A B_1 … B_C; B_1ᵀ D_1 0 …; …; B_Cᵀ 0 … D_C],  A = Σ_c A_c,
+// and what the fit needs of F is computed with each ξ0_c eliminated (the Schur complement
+// S = A − Σ_c B_c D_c⁻¹ B_cᵀ), never forming the (s + n·C)² matrix.
+struct ChainInformation {
+  Mat shared;                 // A (s × s)
+  std::vector<Mat> coupling;  // B_c (s × n)
+  std::vector<Mat> own;       // D_c (n × n)
+
+  // From each chain's (s + n) × (s + n) information (its shared unknowns, then its ξ0).
+  static ChainInformation Of(const std::vector<Mat>& chains, int shared);
+  // F itself (for few chains, and for the message of a singular F).
+  Mat Joint() const;
+  // gᵀF⁻¹g for g over the joint θ; infinity when F is not positive definite.
+  double InverseQuadratic(const Vec& g) const;
+  // The block of F⁻¹ for the shared unknowns and chain c's ξ0 ((s + n) × (s + n)). False when F is
+  // not positive definite by CrlbFromFisher's test, applied to the blocks: on the equilibrated
+  // matrix (D = diag(F)^(−1/2)), every D_c and S positive definite with LDLT pivots above 1e-14
+  // (F is positive definite exactly when they all are).
+  bool CovarianceBlock(std::size_t c, Mat* covariance) const;
+};
+
 // The compressed residual (p + 1 entries) and its Jacobian ((p + 1) × p, row-major) for the weights.
 void CompressedResidual(const ChainSums& sums, const Vec& weight, double* residuals, Mat* jacobian);
 

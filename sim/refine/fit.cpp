@@ -22,14 +22,18 @@ namespace {
 // One chain as fit: the span used, its times from 0, its detected segments.
 struct ChainFit {
   long index = 0;  // in the caller's list
-  std::vector<double> times;
+  // The span's sample times from its first: the chain's own times when they start at 0 and the
+  // whole chain is fit, else a copy (own_times).
+  const std::vector<double>* chain_times = nullptr;
+  std::vector<double> own_times;
+  const std::vector<double>& times() const { return chain_times != nullptr ? *chain_times : own_times; }
   // The measured samples of the span (m × K): the chain's own first K columns when every state is
   // measured, else a copy of the measured rows.
   const Mat* chain_y = nullptr;
   Mat measured_y;
   Eigen::Ref<const Mat> y() const {
     if (chain_y == nullptr) return measured_y;
-    return chain_y->leftCols(static_cast<Eigen::Index>(times.size()));
+    return chain_y->leftCols(static_cast<Eigen::Index>(times().size()));
   }
   std::vector<int> segments;
   Vec x0;
@@ -109,19 +113,20 @@ struct FitProblem {
     const Vec point = p.Theta(unknowns);
     if (cached_at[c].size() == point.size() && cached_at[c] == point) return cached[c];
     cached_at[c].resize(0);
+    // The run's S_k summed as they come (sim/refine/chain_sums.hpp): no run holds S for its samples.
+    ChainSummer summer(fits[c].y(), rows, model->state_size(), static_cast<int>(point.size()));
     const SensitivityTrajectory s =
         Admissible(*model, p, fits[c].inputs)
-            ? SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times, fits[c].segments, options,
-                                           InputsOf(fits[c].inputs))
+            ? SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times(), fits[c].segments, options,
+                                           InputsOf(fits[c].inputs), &summer)
             : LeftDomain();
     ChainEval& e = cached[c];
     e.ok = s.ok();
     e.message = s.trajectory.status.message;
     if (e.ok) {
-      e.sums = SumChain(s, fits[c].y(), rows);
-      const Eigen::Index last = s.trajectory.x.cols() - 1;
-      e.end = s.trajectory.x.col(last);
-      e.end_sensitivities = s.S(last);
+      e.sums = summer.Finish(s.trajectory.x);
+      e.end = s.trajectory.x.col(s.trajectory.x.cols() - 1);
+      e.end_sensitivities = summer.last_sensitivities();
     }
     if (e.ok && !e.sums.squares.allFinite()) {
       e.ok = false;
@@ -252,11 +257,15 @@ std::vector<ChainFit> PrepareChains(const Model& model, const std::vector<Refine
     }
     f.x0 = s.x0[c];
     for (const int i : options.x0_known) f.x0[i] = options.x0[i];  // (one chain only)
+    if (in.t.front() == 0.0 && used == std::ssize(in.t)) {
+      f.chain_times = &in.t;
+    } else {
+      for (long k = 0; k < used; ++k) f.own_times.push_back(in.t[static_cast<std::size_t>(k)] - in.t[0]);
+    }
     int j = 0;
+    f.segments.reserve(static_cast<std::size_t>(used));
     for (long k = 0; k < used; ++k) {
-      const auto u = static_cast<std::size_t>(k);
-      f.times.push_back(in.t[u] - in.t[0]);
-      j += (k > 0 && s.gamma[c][u] != 0) ? 1 : 0;
+      j += (k > 0 && s.gamma[c][static_cast<std::size_t>(k)] != 0) ? 1 : 0;
       f.segments.push_back(j);
     }
     f.inputs = ChainInputs(in, used);
@@ -298,37 +307,25 @@ void SetBounds(const FitProblem& problem, Vec& theta, ceres::Problem& cp) {
   }
 }
 
-// A matrix over the joint θ (shared, then x0 of each chain) from one p × p block per chain: the
-// shared blocks summed, each chain's x0 blocks in its place.
-Mat Joint(const FitProblem& problem, const std::vector<Mat>& blocks) {
-  const int s = problem.shared, n = problem.model->state_size();
-  const auto total = static_cast<Eigen::Index>(s + n * static_cast<int>(blocks.size()));
-  Mat f = Mat::Zero(total, total);
-  for (std::size_t c = 0; c < blocks.size(); ++c) {
-    const Mat& fc = blocks[c];
-    const auto o = static_cast<Eigen::Index>(s + n * static_cast<int>(c));
-    f.topLeftCorner(s, s) += fc.topLeftCorner(s, s);
-    f.block(0, o, s, n) = fc.topRightCorner(s, n);
-    f.block(o, 0, n, s) = fc.bottomLeftCorner(n, s);
-    f.block(o, o, n, n) = fc.bottomRightCorner(n, n);
-  }
-  return f;
+// The joint information of the weighted residuals over θ (shared, then x0 of each chain) from the
+// chains' sums at the weights w (1/σ per measured component).
+ChainInformation JointInformation(const FitProblem& problem, const Vec& w) {
+  std::vector<Mat> blocks;
+  for (const ChainEval& e : problem.cached) blocks.push_back(e.sums.Information(w));
+  return ChainInformation::Of(blocks, problem.shared);
 }
 
 // The normal equations of the weighted residuals over the joint θ from the chains' cached sums:
-// F = JᵀJ and g = −Jᵀr.
-void NormalEquations(const FitProblem& problem, Mat& f, Vec& g) {
+// F = JᵀJ (per chain) and g = −Jᵀr.
+void NormalEquations(const FitProblem& problem, ChainInformation& f, Vec& g) {
   const int s = problem.shared, n = problem.model->state_size();
-  std::vector<Mat> blocks;
   g = Vec::Zero(s + n * static_cast<Eigen::Index>(problem.cached.size()));
   for (std::size_t c = 0; c < problem.cached.size(); ++c) {
-    const ChainSums& sums = problem.cached[c].sums;
-    blocks.push_back(sums.Information(problem.weight));
-    const Vec gc = -sums.Gradient(problem.weight);
+    const Vec gc = -problem.cached[c].sums.Gradient(problem.weight);
     g.head(s) += gc.head(s);
     g.segment(s + n * static_cast<Eigen::Index>(c), n) = gc.tail(n);
   }
-  f = Joint(problem, blocks);
+  f = JointInformation(problem, problem.weight);
 }
 
 // The Newton decrement λ = √(gᵀF⁻¹g) at the point (theta, x0) of the cached evaluations (g the
@@ -342,20 +339,21 @@ double NewtonDecrement(const FitProblem& problem, const Vec& theta, const std::v
       return std::numeric_limits<double>::infinity();
     }
   }
-  Mat f;
+  ChainInformation joint;
   Vec g;
-  NormalEquations(problem, f, g);
-  if (!problem.held.empty()) {  // known components of ξ0: no step moves them
+  NormalEquations(problem, joint, g);
+  double lambda2 = 0.0;
+  if (problem.held.empty()) {
+    lambda2 = joint.InverseQuadratic(g);  // each chain's ξ0 eliminated
+  } else {                                // known components of ξ0 (one chain): no step moves them
     std::vector<int> free;
     for (int i = 0; i < static_cast<int>(g.size()); ++i) {
       if (std::find(problem.held.begin(), problem.held.end(), i) == problem.held.end()) free.push_back(i);
     }
-    f = Mat(f(free, free));
-    g = Vec(g(free));
+    const Eigen::LLT<Mat> fisher(joint.Joint()(free, free));
+    if (fisher.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+    lambda2 = Vec(g(free)).dot(fisher.solve(Vec(g(free))));
   }
-  const Eigen::LLT<Mat> fisher(f);
-  if (fisher.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
-  const double lambda2 = g.dot(fisher.solve(g));
   return std::isfinite(lambda2) ? std::sqrt(std::max(lambda2, 0.0)) : std::numeric_limits<double>::infinity();
 }
 
@@ -475,8 +473,8 @@ SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit
   if (!Admissible(*problem.model, p, f.inputs)) return LeftDomain();
   SensitivityOptions o = problem.options;
   o.sensitivities = false;
-  const double t_end = f.times.back();
-  const SampleGrid grid{t_end, t_end / static_cast<double>(f.times.size() - 1)};
+  const double t_end = f.times().back();
+  const SampleGrid grid{t_end, t_end / static_cast<double>(f.times().size() - 1)};
   return SimulateSensitivities(*problem.model, OnChain(f, p), problem.unknowns, grid, o, InputsOf(f.inputs));
 }
 
@@ -487,7 +485,7 @@ void NoteFailure(FitProblem& problem, std::size_t c, const SensitivityTrajectory
   problem.failure = ChainFailure{.chain = f.index, .disagreement = -1, .model_jumps = {}};
   if (plain.trajectory.status.stop == SimStop::kLeftDomain) return;
   problem.failure.disagreement =
-      FirstDisagreement(plain.trajectory.jumps, f.segments, SampleClock{.times = &f.times}, tolerance);
+      FirstDisagreement(plain.trajectory.jumps, f.segments, SampleClock{.times = &f.times()}, tolerance);
 }
 
 // A hybrid automaton with maps assigned to the detected events: the fitted model's jumps apply the
@@ -516,7 +514,7 @@ void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit,
   r.model_jumps += model;
   if (!r.ok()) return;  // an earlier chain failed: only the jumps are counted
   const std::string label = problem.Label(c);
-  const double step = f.times.back() / static_cast<double>(f.times.size() - 1);
+  const double step = f.times().back() / static_cast<double>(f.times().size() - 1);
   if (st.stop == SimStop::kZeno) {
     Fail(r, RefineStatus::kZeno, fmt::format("{}the fitted model is Zeno: {}", label, st.message));
   } else if (!st.completed()) {
@@ -531,7 +529,7 @@ void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit,
     Fail(r, RefineStatus::kJumpCountMismatch,
          fmt::format("{}the fitted model jumps {} times, the detector found {}", label, model, detected));
   } else {
-    const SampleClock clock{.times = &f.times};
+    const SampleClock clock{.times = &f.times()};
     std::size_t j = 0;
     for (std::size_t k = 1; k < f.segments.size() && r.ok(); ++k) {
       if (f.segments[k] == f.segments[k - 1]) continue;
@@ -540,20 +538,13 @@ void CheckJumps(FitProblem& problem, std::size_t c, const HybridParameters& fit,
       Fail(r, RefineStatus::kJumpCountMismatch,
            fmt::format("{}fitted jump {} at t = {:.6g} is {:.3g} samples from the detected interval "
                        "({:.6g}, {:.6g}]",
-                       label, j, t, off, f.times[k - 1], f.times[k]));
+                       label, j, t, off, f.times()[k - 1], f.times()[k]));
     }
     CheckMaps(*problem.model, f, jumps, label, r);
   }
   if (r.ok()) return;
   NoteFailure(problem, c, plain, options.jump_time_tolerance);
   for (const JumpRecord& jump : jumps) problem.failure.model_jumps.push_back(jump.t);
-}
-
-// The joint Fisher information at σ (per measured component): shared block plus one x0 block per chain.
-Mat JointFisher(const FitProblem& problem, const Vec& sigma) {
-  std::vector<Mat> blocks;
-  for (const ChainEval& e : problem.cached) blocks.push_back(e.sums.Information(sigma.cwiseInverse()));
-  return Joint(problem, blocks);
 }
 
 // The names of the joint θ: the shared unknowns, then x0 of each fitted chain (" chain c" when several).
@@ -624,6 +615,28 @@ Vec PooledFloor(const FitProblem& problem) {
   return NumericalFloor(largest, problem.options.sim);
 }
 
+// The covariance of the reported unknowns (the shared ones and the first fitted chain's ξ0) at σ:
+// the block of the joint Fisher information's inverse. Several chains (no ξ0 held): each chain's ξ0
+// eliminated (ChainInformation), the joint matrix formed only when that finds it singular, for
+// CrlbFromFisher's verdict and message. False with kSingularFisher.
+bool Covariance(const FitProblem& problem, const Vec& sigma, RefineResult& r) {
+  const ChainInformation joint = JointInformation(problem, sigma.cwiseInverse());
+  const auto p = static_cast<Eigen::Index>(problem.shared + problem.model->state_size());
+  if (problem.held.empty() && problem.fits.size() > 1 && joint.CovarianceBlock(0, &r.covariance)) {
+    r.standard_errors = r.covariance.diagonal().cwiseSqrt();
+    return true;
+  }
+  const Crlb bound = CrlbFromFisher(joint.Joint(), problem.unknowns, JointNames(problem), problem.held);
+  if (!bound.ok()) {
+    r.covariance.resize(0, 0);
+    Fail(r, RefineStatus::kSingularFisher, bound.message);
+    return false;
+  }
+  r.covariance = bound.covariance.topLeftCorner(p, p);
+  r.standard_errors = bound.sd.head(p);
+  return true;
+}
+
 // σ, the covariance of the reported unknowns (α, β, the first fitted chain's ξ0), normalised RMS and
 // lag-1 (within chains), pooled over the chains.
 void CheckResiduals(const FitProblem& problem, const Vec& mad_sigma, const RefineOptions& options, RefineResult& r) {
@@ -639,10 +652,7 @@ void CheckResiduals(const FitProblem& problem, const Vec& mad_sigma, const Refin
   const Vec sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);
   r.sigma = Vec::Zero(n);
   r.sigma(problem.rows) = sigma;
-  const Crlb bound = CrlbFromFisher(JointFisher(problem, sigma), problem.unknowns, JointNames(problem), problem.held);
-  if (!bound.ok()) return Fail(r, RefineStatus::kSingularFisher, bound.message);
-  r.covariance = bound.covariance.topLeftCorner(problem.shared + n, problem.shared + n);
-  r.standard_errors = bound.sd.head(problem.shared + n);
+  if (!Covariance(problem, sigma, r)) return;
   JudgeResiduals(squares, lags, samples, sigma, sigma_hat, mad_sigma, floor, options, r);
 }
 
@@ -750,19 +760,25 @@ constexpr long kMaxStepsPerSample = 1000;
 
 void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
                   Vec* weight) {
+  FitWeighting(y.cwiseAbs().rowwise().maxCoeff(), static_cast<long>(y.cols()), options, mad_sigma, sens,
+               weight);
+}
+
+void FitWeighting(const Vec& largest, long samples, const RefineOptions& options, const Vec& mad_sigma,
+                  SensitivityOptions* sens, Vec* weight) {
   const Vec weighting = options.sigma.size() ? options.sigma : mad_sigma;
   *sens = options.sensitivity;
   // The work of one simulation grows with the data, not without bound: a trial point whose flow
   // needs more than kMaxStepsPerSample CVODE steps per sample is far from data sampled that coarsely
   // (δt longer than the time between jumps made a fit take a minute); its evaluation fails and
   // Ceres steps back.
-  sens->sim.max_steps = std::min(sens->sim.max_steps, kMaxStepsPerSample * static_cast<long>(y.cols()));
-  const double scale = std::max(1.0, y.cwiseAbs().maxCoeff());
+  sens->sim.max_steps = std::min(sens->sim.max_steps, kMaxStepsPerSample * samples);
+  const double scale = std::max(1.0, largest.maxCoeff());
   const double tolerance = std::clamp(options.noise_tolerance * weighting.minCoeff() / scale,
                                       std::min(options.polish_tolerance, options.sensitivity.sim.rtol),
                                       options.sensitivity.sim.rtol);
   sens->sim.rtol = sens->sim.atol = tolerance;
-  *weight = weighting.cwiseMax(1e-3 * NumericalFloor(y, sens->sim)).cwiseInverse();
+  *weight = weighting.cwiseMax(1e-3 * NumericalFloor(largest, sens->sim)).cwiseInverse();
 }
 
 std::vector<int> MeasuredRows(const RefineOptions& options, int n) {
@@ -831,17 +847,20 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
                      r.samples_used, r.chains_used, r.chains_skipped, 2 * n + 2, p));
     return r;
   }
-  Vec mad_sigma;
-  {  // all chains' samples side by side, only while the weighting is chosen
-    Mat y(static_cast<Eigen::Index>(m), r.samples_used);
-    Eigen::Index k = 0;
-    for (const ChainFit& f : problem.fits) {
-      y.middleCols(k, f.y().cols()) = f.y();
-      k += f.y().cols();
+  Vec mad_sigma(problem.rows.size()), largest(problem.rows.size());
+  {  // all chains' samples of one component side by side, only while the weighting is chosen
+    Mat y(1, r.samples_used);
+    for (Eigen::Index i = 0; i < mad_sigma.size(); ++i) {
+      Eigen::Index k = 0;
+      for (const ChainFit& f : problem.fits) {
+        y.middleCols(k, f.y().cols()) = f.y().row(i);
+        k += f.y().cols();
+      }
+      mad_sigma[i] = EstimateNoiseSigma(y)[0];
+      largest[i] = y.cwiseAbs().maxCoeff();
     }
-    mad_sigma = EstimateNoiseSigma(y);
-    FitWeighting(y, options, mad_sigma, &problem.options, &problem.weight);
   }
+  FitWeighting(largest, r.samples_used, options, mad_sigma, &problem.options, &problem.weight);
   problem.start = r.start;
   problem.cached_at.resize(problem.fits.size());
   problem.cached.resize(problem.fits.size());

@@ -44,6 +44,9 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
 // (σ given, else the MAD estimate) for the samples y.
 void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sigma, SensitivityOptions* sens,
                   Vec* weight);
+// The same from what it reads of the samples: each component's largest |y_ik| and their number.
+void FitWeighting(const Vec& largest, long samples, const RefineOptions& options, const Vec& mad_sigma,
+                  SensitivityOptions* sens, Vec* weight);
 
 // The measured components: RefineOptions::measured, or all n when it is empty.
 std::vector<int> MeasuredRows(const RefineOptions& options, int n);

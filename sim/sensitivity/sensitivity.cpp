@@ -132,8 +132,9 @@ Mat CentralDifference(const F& map, const Vec& x, Eigen::Index m) {
 // sample than the polynomial of all n·p entries.
 class SensitivityPayload final : public hybrid::Payload {
  public:
+  // `sink`: each sample's S_k goes to it instead of the stored matrix (nullptr: stored).
   SensitivityPayload(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
-                     const Exogenous& exo, long sample_count)
+                     const Exogenous& exo, long sample_count, SensitivitySink* sink)
       : model_(model),
         params_(params),
         unknowns_(unknowns),
@@ -145,10 +146,15 @@ class SensitivityPayload final : public hybrid::Payload {
         jac_(n_, n_),
         phi_(n_, model.alpha_size()),
         f_plus_(n_),
-        f_minus_(n_) {
+        f_minus_(n_),
+        sink_(sink) {
     s_ = Mat::Zero(n_, p_);
     if (unknowns_.x0) s_.rightCols(n_).setIdentity();
-    sensitivities_.resize(static_cast<Eigen::Index>(n_) * p_, sample_count);
+    if (sink_ != nullptr) {
+      sample_.resize(n_, p_);
+    } else {
+      sensitivities_.resize(static_cast<Eigen::Index>(n_) * p_, sample_count);
+    }
     jump_time_gradients_.resize(p_, 0);
   }
 
@@ -171,13 +177,17 @@ class SensitivityPayload final : public hybrid::Payload {
   bool BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) override;
   void Jump(const Vec& pre, const Context& ctx) override;
   void EndJumps(const Vec& post, const Context& ctx) override;
-  void Sample(long k, double t) override;
-  void SampleCurrent(long k) override { sensitivities_.col(k) = Eigen::Map<const Vec>(s_.data(), s_.size()); }
+  void Sample(long k, double t, const double* x) override;
+  void SampleCurrent(long k, const double* x) override {
+    if (sink_ != nullptr) return sink_->Sample(k, x, s_.data());
+    sensitivities_.col(k) = Eigen::Map<const Vec>(s_.data(), s_.size());
+  }
 
-  // The samples' S_k and ∂t_j/∂θ, the first `samples` columns and `jumps` columns.
+  // The samples' S_k (unless they went to the sink) and ∂t_j/∂θ, the first `samples` columns and
+  // `jumps` columns.
   void MoveInto(SensitivityTrajectory* out) {
     out->sensitivities = std::move(sensitivities_);
-    out->sensitivities.conservativeResize(Eigen::NoChange, out->trajectory.size());
+    if (sink_ == nullptr) out->sensitivities.conservativeResize(Eigen::NoChange, out->trajectory.size());
     out->jump_time_gradients = std::move(jump_time_gradients_);
   }
 
@@ -245,6 +255,8 @@ class SensitivityPayload final : public hybrid::Payload {
   Eigen::RowVectorXd dt_dtheta_;  // ∂t_j/∂θ of the jumps under way
   Mat total_;                     // S⁻ + f⁻ ∂t_j/∂θ, then through each jump of the chain
   Mat sensitivities_, jump_time_gradients_;
+  SensitivitySink* sink_;  // takes the samples' S_k when not null (sensitivities_ then empty)
+  Mat sample_;             // with a sink: S_k of the sample under way (n × p)
 };
 
 // ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻) at a guard crossing (∂h/∂θ: the γ_u columns of
@@ -320,19 +332,21 @@ void SensitivityPayload::EndJumps(const Vec& post, const Context& ctx) {
   s_ = total_ - f_plus * dt_dtheta_;
 }
 
-void SensitivityPayload::Sample(long k, double t) {
-  double* s = sensitivities_.col(k).data();
+void SensitivityPayload::Sample(long k, double t, const double* x) {
+  double* s = sink_ != nullptr ? sample_.data() : sensitivities_.col(k).data();
   const Eigen::Index size = static_cast<Eigen::Index>(n_) * p_;
   const double h = window_b_.t - window_a_.t;
   if (h == 0.0) {
     std::copy_n(window_b_.s.data(), size, s);
-    return;
+  } else {
+    const double u = (t - window_a_.t) / h, u2 = u * u, u3 = u2 * u;
+    const double ca = 2 * u3 - 3 * u2 + 1, cda = (u3 - 2 * u2 + u) * h, cb = -2 * u3 + 3 * u2,
+                 cdb = (u3 - u2) * h;
+    const double *sa = window_a_.s.data(), *da = window_a_.d.data(), *sb = window_b_.s.data(),
+                 *db = window_b_.d.data();
+    for (Eigen::Index i = 0; i < size; ++i) s[i] = ca * sa[i] + cda * da[i] + cb * sb[i] + cdb * db[i];
   }
-  const double u = (t - window_a_.t) / h, u2 = u * u, u3 = u2 * u;
-  const double ca = 2 * u3 - 3 * u2 + 1, cda = (u3 - 2 * u2 + u) * h, cb = -2 * u3 + 3 * u2, cdb = (u3 - u2) * h;
-  const double *sa = window_a_.s.data(), *da = window_a_.d.data(), *sb = window_b_.s.data(),
-               *db = window_b_.d.data();
-  for (Eigen::Index i = 0; i < size; ++i) s[i] = ca * sa[i] + cda * da[i] + cb * sb[i] + cdb * db[i];
+  if (sink_ != nullptr) sink_->Sample(k, x, s);
 }
 
 // Matched mode on the run loop's primitives: segment j starts at the model's own jump (t_j(θ),
@@ -459,12 +473,13 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
 // Plain (segments null: Simulate's loop) or matched mode; the sensitivities as the loop's payload.
 SensitivityTrajectory Integrate(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
                                 const hybrid::SampleTimes& samples, const SensitivityOptions& options,
-                                const std::vector<int>* segments, const InputSignal* inputs) {
+                                const std::vector<int>* segments, const InputSignal* inputs,
+                                SensitivitySink* sink = nullptr) {
   SensitivityTrajectory out;
   out.parameters = unknowns.size(model.state_size());
   const Exogenous exo = ExogenousOf(params, inputs);
   std::optional<SensitivityPayload> payload;
-  if (options.sensitivities) payload.emplace(model, params, unknowns, exo, samples.count);
+  if (options.sensitivities) payload.emplace(model, params, unknowns, exo, samples.count, sink);
   hybrid::Engine engine(model, params.alpha, params.beta, exo, samples, options.sim, payload ? &*payload : nullptr,
                         segments ? hybrid::SampleOrder::kAny : hybrid::SampleOrder::kIncreasing);
   if (segments == nullptr) {
@@ -519,7 +534,8 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const std::vector<double>& times,
                                                    const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options, const InputSignal* inputs) {
+                                                   const SensitivityOptions& options,
+                                                   const InputSignal* inputs, SensitivitySink* sink) {
   if (times.size() < 2 || times[0] != 0.0) {
     throw std::invalid_argument(fmt::format("times: {} samples, first {}: need at least 2, the first at 0",
                                             times.size(), times.empty() ? 0.0 : times[0]));
@@ -535,7 +551,7 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
   CheckSegments(segment_of_sample, times.size());
   return Integrate(model, params, unknowns,
                    {.count = static_cast<long>(times.size()), .dt = grid.dt, .times = &times}, options,
-                   &segment_of_sample, inputs);
+                   &segment_of_sample, inputs, sink);
 }
 
 }  // namespace hysid

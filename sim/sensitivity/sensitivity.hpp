@@ -93,6 +93,18 @@ struct SensitivityTrajectory {
   }
 };
 
+// Takes each sample's state and sensitivities as a run reads them, instead of the run storing S for
+// every sample (SensitivityTrajectory::sensitivities is then left empty): a caller that only sums
+// over the samples holds O(p²) numbers instead of n·p per sample. Samples come in any order (the
+// matched mode reads a segment's early samples backward), each once; a run that stops early gives
+// only the samples before its stop.
+class SensitivitySink {
+ public:
+  virtual ~SensitivitySink() = default;
+  // Sample k: its state ξ(t_k) (n entries) and S_k (n × p, column-major), valid during the call.
+  virtual void Sample(long k, const double* x, const double* s) = 0;
+};
+
 // Throws std::invalid_argument for a bad grid, options, unknowns, parameter vectors of the wrong
 // size or not finite (x0 as Simulate), or inputs that do not fit the model or the samples' time range
 // (`inputs`: the measured u(t) of a model with inputs, else nullptr; ExogenousError). Numerical
@@ -110,11 +122,13 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
                                                    const SensitivityOptions& options = {},
                                                    const InputSignal* inputs = nullptr);
 // The same on samples at their own times (irregular sampling; times[0] = 0, increasing): sample k at
-// times[k] instead of k·δt.
+// times[k] instead of k·δt. With a sink (and options.sensitivities) each sample's S_k goes to it and
+// the trajectory's sensitivities stay empty.
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const std::vector<double>& times,
                                                    const std::vector<int>& segment_of_sample,
                                                    const SensitivityOptions& options = {},
-                                                   const InputSignal* inputs = nullptr);
+                                                   const InputSignal* inputs = nullptr,
+                                                   SensitivitySink* sink = nullptr);
 
 }  // namespace hysid

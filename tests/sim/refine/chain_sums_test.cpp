@@ -2,11 +2,14 @@
 // residuals and their Jacobian formed directly.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <random>
 
+#include <Eigen/LU>
 #include <Eigen/QR>
 
 #include "sim/refine/chain_sums.hpp"
+#include "sim/sensitivity/crlb.hpp"
 
 namespace hysid {
 namespace {
@@ -40,20 +43,44 @@ struct RandomRun {
   }
 };
 
-TEST_CASE("chain sums give the full residuals' cost, gradient, Gauss-Newton matrix and lag-1 sums", "[refine]") {
-  const RandomRun run(3, 5, 200, {0, 2}, 7);
-  const ChainSums sums = SumChain(run.s, run.y, run.rows);
+// The sums of `run` (two measured components) against its full weighted residuals and Jacobian.
+void CheckSums(const ChainSums& sums, const RandomRun& run) {
   const Vec w = (Vec(2) << 2.0, 0.5).finished();
   Vec r;
   Mat j;
   run.Full(w, &r, &j);
+  const Eigen::Index k = run.y.cols();
+  CHECK(sums.samples == k);
   CHECK(sums.Cost(w) == Approx(r.squaredNorm()).epsilon(1e-12));
   CHECK((sums.Gradient(w) - j.transpose() * r).norm() < 1e-10 * (j.transpose() * r).norm());
   CHECK((sums.Information(w) - j.transpose() * j).norm() < 1e-10 * (j.transpose() * j).norm());
   for (int i = 0; i < 2; ++i) {
     const Vec ri = (run.y.row(i) - run.s.trajectory.x.row(run.rows[static_cast<std::size_t>(i)])).transpose();
-    CHECK(sums.lag[i] == Approx(ri.head(199).dot(ri.tail(199))).epsilon(1e-12));
+    CHECK(sums.lag[i] == Approx(ri.head(k - 1).dot(ri.tail(k - 1))).epsilon(1e-12));
   }
+}
+
+TEST_CASE("chain sums give the full residuals' cost, gradient, Gauss-Newton matrix and lag-1 sums",
+          "[refine]") {
+  const RandomRun run(3, 5, 200, {0, 2}, 7);
+  CheckSums(SumChain(run.s, run.y, run.rows), run);
+}
+
+TEST_CASE("chain sums taken sample by sample, in any order, equal the full residuals' sums", "[refine]") {
+  // 300 samples (not a whole number of the summer's blocks) fed in a shuffled order, the data a view
+  // of the first 300 columns of a longer record (a chain fit on a shorter span).
+  const RandomRun run(3, 5, 300, {0, 2}, 5);
+  Mat longer(2, 340);
+  longer.leftCols(300) = run.y;
+  longer.rightCols(40).setConstant(1e9);  // beyond the span: must not be read
+  ChainSummer summer(longer.leftCols(300), run.rows, 3, 5);
+  std::vector<long> order(300);
+  for (long k = 0; k < 300; ++k) order[static_cast<std::size_t>(k)] = k;
+  std::shuffle(order.begin(), order.end(), std::mt19937(3));
+  for (const long k : order)
+    summer.Sample(k, run.s.trajectory.x.col(k).data(), run.s.sensitivities.col(k).data());
+  CheckSums(summer.Finish(run.s.trajectory.x), run);
+  CHECK(summer.last_sensitivities() == run.s.S(299));
 }
 
 TEST_CASE("the compressed residual has the full residuals' cost, gradient and Gauss-Newton matrix", "[refine]") {
@@ -80,6 +107,85 @@ TEST_CASE("the compressed residual has the full residuals' cost, gradient and Ga
   const Vec full_step = j.completeOrthogonalDecomposition().solve(-r);
   const Vec step = jc.completeOrthogonalDecomposition().solve(-compressed);
   CHECK((step - full_step).norm() < 1e-8 * full_step.norm());
+}
+
+// Per chain the information SᵀS of random sensitivities (s shared unknowns, then n of its ξ0), in
+// very different units per unknown.
+std::vector<Mat> RandomChainInformation(int chains, int s, int n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal;
+  Vec scale(s + n);
+  for (Eigen::Index a = 0; a < scale.size(); ++a) scale[a] = std::pow(10.0, static_cast<double>(a % 4) - 1.5);
+  std::vector<Mat> blocks;
+  for (int c = 0; c < chains; ++c) {
+    const Mat rows = Mat::NullaryExpr(3 * (s + n), s + n, [&] { return normal(rng); }) * scale.asDiagonal();
+    blocks.push_back(rows.transpose() * rows);
+  }
+  return blocks;
+}
+
+// The joint matrix formed directly, independently of ChainInformation::Joint.
+Mat JointDirectly(const std::vector<Mat>& blocks, int s, int n) {
+  const auto chains = static_cast<Eigen::Index>(blocks.size());
+  Mat f = Mat::Zero(s + n * chains, s + n * chains);
+  for (Eigen::Index c = 0; c < chains; ++c) {
+    std::vector<Eigen::Index> at;
+    for (Eigen::Index a = 0; a < s; ++a) at.push_back(a);
+    for (Eigen::Index a = 0; a < n; ++a) at.push_back(s + n * c + a);
+    for (Eigen::Index a = 0; a < s + n; ++a) {
+      for (Eigen::Index b = 0; b < s + n; ++b) f(at[a], at[b]) += blocks[static_cast<std::size_t>(c)](a, b);
+    }
+  }
+  return f;
+}
+
+TEST_CASE("each chain's initial state eliminated gives the joint information's inverse block", "[refine]") {
+  const int s = 4, n = 2, chains = 6;
+  const std::vector<Mat> blocks = RandomChainInformation(chains, s, n, 13);
+  const ChainInformation info = ChainInformation::Of(blocks, s);
+  const Mat joint = JointDirectly(blocks, s, n);
+  CHECK((info.Joint() - joint).norm() <= 1e-14 * joint.norm());  // (SᵀS rounds to symmetric within this)
+  const Mat inverse = joint.fullPivLu().inverse();
+  for (const std::size_t c : {std::size_t{0}, std::size_t{3}}) {
+    Mat block;
+    REQUIRE(info.CovarianceBlock(c, &block));
+    std::vector<Eigen::Index> at;
+    for (Eigen::Index a = 0; a < s; ++a) at.push_back(a);
+    for (Eigen::Index a = 0; a < n; ++a) at.push_back(s + n * static_cast<Eigen::Index>(c) + a);
+    const Mat expected = inverse(at, at);
+    for (Eigen::Index a = 0; a < s + n; ++a) {
+      for (Eigen::Index b = 0; b < s + n; ++b) {
+        CHECK(
+            block(a, b) ==
+            Approx(expected(a, b)).epsilon(1e-8).margin(1e-12 * std::sqrt(expected(a, a) * expected(b, b))));
+      }
+    }
+  }
+  Vec g(joint.rows());
+  for (Eigen::Index k = 0; k < g.size(); ++k) g[k] = std::sin(1.7 * static_cast<double>(k + 1));
+  CHECK(info.InverseQuadratic(g) == Approx(g.dot(inverse * g)).epsilon(1e-9));
+}
+
+TEST_CASE("a singular joint information is found singular per chain, as CrlbFromFisher finds it",
+          "[refine]") {
+  const int s = 3, n = 2;
+  std::vector<Mat> blocks = RandomChainInformation(4, s, n, 17);
+  SECTION("a chain's initial state not identifiable") {
+    blocks[2].row(s).setZero();  // its first ξ0 component carries no information
+    blocks[2].col(s).setZero();
+  }
+  SECTION("a shared direction not identifiable: two shared unknowns with the same sensitivities") {
+    for (Mat& b : blocks) {
+      b.row(1) = b.row(0);
+      b.col(1) = b.col(0);
+    }
+  }
+  const ChainInformation info = ChainInformation::Of(blocks, s);
+  Mat block;
+  CHECK_FALSE(info.CovarianceBlock(0, &block));
+  CHECK(std::isinf(info.InverseQuadratic(Vec::Ones(s + 4 * n))));
+  const Crlb joint = CrlbFromFisher(info.Joint(), Unknowns{}, std::vector<std::string>(s + 4 * n, "t"));
+  CHECK(joint.status == CrlbStatus::kSingular);
 }
 
 }  // namespace

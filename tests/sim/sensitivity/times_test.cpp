@@ -28,6 +28,40 @@ TEST_CASE("times equal to the grid's give the grid's states and sensitivities bi
   CHECK(timed.sensitivities == on_grid.sensitivities);
 }
 
+// Records what a run hands its sink: each sample's state and S_k, and how many times each came.
+class Recorder final : public SensitivitySink {
+ public:
+  Recorder(long n, long p, long k_count) : x(n, k_count), s(n * p, k_count), count(k_count, 0) {}
+  void Sample(long k, const double* xk, const double* sk) override {
+    x.col(k) = Eigen::Map<const Vec>(xk, x.rows());
+    s.col(k) = Eigen::Map<const Vec>(sk, s.rows());
+    ++count[static_cast<std::size_t>(k)];
+  }
+  Mat x, s;
+  std::vector<int> count;
+};
+
+TEST_CASE("a sink takes every sample's state and sensitivities once, as the stored run has them",
+          "[sensitivity]") {
+  const Model model{ImpactMsd{}};
+  const Vec x0 = (Vec(2) << 20.0, 0.0).finished();
+  const Trajectory truth = Simulate(model, x0, SampleGrid{5.0, kDt});
+  const HybridParameters p = HybridParameters::Of(model, x0);
+  const Unknowns u = Unknowns::Of(model);
+  const SensitivityTrajectory stored = SimulateSensitivitiesMatched(model, p, u, truth.t, truth.j);
+  Recorder sink(2, stored.parameters, truth.size());
+  const SensitivityTrajectory sunk =
+      SimulateSensitivitiesMatched(model, p, u, truth.t, truth.j, {}, nullptr, &sink);
+  REQUIRE(stored.ok());
+  REQUIRE(sunk.ok());
+  CHECK(sunk.sensitivities.size() == 0);
+  CHECK(sunk.trajectory.x == stored.trajectory.x);
+  CHECK(sink.x == stored.trajectory.x);
+  CHECK(sink.s == stored.sensitivities);
+  CHECK(std::all_of(sink.count.begin(), sink.count.end(), [](int c) { return c == 1; }));
+  CHECK(sunk.jump_time_gradients == stored.jump_time_gradients);
+}
+
 TEST_CASE("irregular times: the states are the simulator's at those times", "[sensitivity]") {
   const Model model{ImpactMsd{}};
   const Vec x0 = (Vec(2) << 20.0, 0.0).finished();
