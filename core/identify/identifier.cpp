@@ -1,8 +1,10 @@
 #include "core/identify/identifier.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
@@ -823,8 +825,23 @@ void MarkStopped(IdentifyResult* r) {
   r->flow_reason = r->jump_reason = "stopped";
 }
 
-// The final estimates, statuses, boxes and hulls.
-void Collect(Identifier& id, bool sets, IdentifyResult* r) {
+// The hulls' vertices and volumes, looking at IdentifyOptions::stop while the n ≥ 3 hulls are finished
+// (their boundary can have many facets); false, with no hulls, when stopped.
+bool CollectHulls(const Identifier& id, const std::atomic<bool>* stop, IdentifyResult* r) {
+  std::optional<Mat> flow = id.flow_set().vertices(stop);
+  std::optional<Mat> jump = flow ? id.jump_set().vertices(stop) : std::nullopt;
+  const std::optional<double> flow_volume = jump ? id.flow_set().Volume(stop) : std::nullopt;
+  const std::optional<double> jump_volume = flow_volume ? id.jump_set().Volume(stop) : std::nullopt;
+  if (!jump_volume) return false;
+  r->flow_hull = std::move(*flow);
+  r->jump_hull = std::move(*jump);
+  r->flow_hull_volume = *flow_volume;
+  r->jump_hull_volume = *jump_volume;
+  return true;
+}
+
+// The final estimates, statuses, boxes and hulls; false when stopped while the hulls were finished.
+bool Collect(Identifier& id, bool sets, const std::atomic<bool>* stop, IdentifyResult* r) {
   id.Finish();
   r->jumps_localized = id.jumps_localized();
   r->alpha_hat = id.alpha_hat();
@@ -836,11 +853,7 @@ void Collect(Identifier& id, bool sets, IdentifyResult* r) {
   r->jump_reason = id.jump_estimator().reason();
   r->flow_box = id.flow_estimator().solution_box();
   r->jump_box = id.jump_estimator().solution_box();
-  if (!sets) return;
-  r->flow_hull = id.flow_set().vertices();
-  r->jump_hull = id.jump_set().vertices();
-  r->flow_hull_volume = id.flow_set().Volume();
-  r->jump_hull_volume = id.jump_set().Volume();
+  return !sets || CollectHulls(id, stop, r);
 }
 
 // The paper detector's bound checked for the whole flow at the final α̂ (CheckPaperBound), over at
@@ -927,7 +940,10 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     MarkStopped(&r);
     return r;
   }
-  Collect(id, bounded.sets, &r);
+  if (!Collect(id, bounded.sets, options.stop, &r)) {
+    MarkStopped(&r);
+    return r;
+  }
   if (options.check_paper_bound && options.labels.empty() && settings.detector.kind == DetectorKind::kPaper)
     CheckDetectorBound(model, y, settings, &r);
   if (r.flow_status != EstimatorStatus::kOk && settings.flow_estimator.kind != EstimatorKind::kRls) {

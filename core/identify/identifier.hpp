@@ -196,9 +196,10 @@ struct IdentifyOptions {
   int initial_mode = -1;  // the mode at the first sample when known (−1: inferred)
   KinkSettings kinks{};
   // Raised (a signal handler, Python's Ctrl-C): the pass ends within kStopPollSamples samples (a
-  // sixteenth of that with hulls of n ≥ 3 states, whose insertions cost more) and the result says
-  // IdentifyResult::stopped: both statuses kNotExcited with reason "stopped", no hulls, no second
-  // pass, no safe start. Null: never.
+  // sixteenth of that with hulls of n ≥ 3 states, whose insertions cost more), and the final
+  // vertices and volumes of n ≥ 3 hulls look at it every 4096 boundary facets and every 16 exact
+  // vertex tests (SampleSet::vertices(stop)); the result says IdentifyResult::stopped: both statuses
+  // kNotExcited with reason "stopped", no hulls, no second pass, no safe start. Null: never.
   const std::atomic<bool>* stop = nullptr;
   static constexpr long kStopPollSamples = 4096;
 };
