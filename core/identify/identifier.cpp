@@ -519,6 +519,10 @@ Identifier::RowBlockFn Identifier::ChooseRowBlock(const State& s, int n, int u) 
 }
 
 void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
+  Feed(samples, nullptr, nullptr, decisions);
+}
+
+void Identifier::Feed(const ConstMatRef& samples, const double* phi, const double* y, Decision* decisions) {
   State& s = *s_;
   const Eigen::Index n = s.prev.size(), count = samples.cols();
   if (samples.rows() != n) {
@@ -541,13 +545,32 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
     return;
   }
   if (!s.has_prev && k < count) step(k++);
+  const auto u = static_cast<Eigen::Index>(s.builder.flow_layout().unknown.size());
   while (k < count) {
     const Eigen::Index len = std::min<Eigen::Index>(kFeedBlock, count - k);
-    s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(), s.block_y.data());
-    s.row_block(s, samples.col(k).data(), len, s.block_phi.data(), s.block_y.data(),
-                decisions == nullptr ? nullptr : decisions + k);
+    const double* block_phi = phi != nullptr ? phi + k * u : s.block_phi.data();
+    const double* block_y = y != nullptr ? y + k : s.block_y.data();
+    if (phi == nullptr) {
+      s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(), s.block_y.data());
+    }
+    s.row_block(s, samples.col(k).data(), len, block_phi, block_y, decisions == nullptr ? nullptr : decisions + k);
     k += len;
   }
+}
+
+FlowRows BuildFlowRows(const Model& model, const Mat& y, double dt) {
+  FlowRows rows;
+  rows.samples = y.data();
+  rows.count = y.cols();
+  rows.dt = dt;
+  RegressionBuilder builder(model);
+  if (builder.flow_layout().rows.size() != 1 || model.input_size() > 0 || y.cols() < 2) return rows;
+  const std::size_t u = builder.flow_layout().unknown.size();
+  const auto count = static_cast<std::size_t>(y.cols());
+  rows.phi.assign(count * u, 0.0);
+  rows.y.assign(count, 0.0);
+  builder.FlowRows(y.col(0).data(), y.col(1).data(), y.cols() - 1, dt, rows.phi.data() + u, rows.y.data() + 1);
+  return rows;
 }
 
 void Identifier::Finish() {
@@ -780,10 +803,16 @@ bool Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& option
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
     std::vector<Decision> decisions(static_cast<std::size_t>(std::min(poll, count)));
+    const FlowRows* rows = options.flow_rows != nullptr && !options.flow_rows->empty() ? options.flow_rows : nullptr;
+    const Eigen::Index u = rows != nullptr ? static_cast<Eigen::Index>(rows->phi.size()) / count : 0;
     for (Eigen::Index k = 0; k < count; k += poll) {
       if (StopRaised(options)) return false;
       const Eigen::Index len = std::min(poll, count - k);
-      id.Feed(y.middleCols(k, len), decisions.data());
+      if (rows != nullptr) {
+        id.Feed(y.middleCols(k, len), rows->phi.data() + k * u, rows->y.data() + k, decisions.data());
+      } else {
+        id.Feed(y.middleCols(k, len), decisions.data());
+      }
       for (Eigen::Index j = 0; j < len; ++j) Record(k + j, decisions[static_cast<std::size_t>(j)], r);
     }
     return true;
@@ -910,7 +939,18 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
           fmt::format("IdentifyOptions::{} has {} entries; the data has {} samples", what, size, y.cols()));
     }
   }
-  if (options.assign_events && IsAutomaton(model.spec())) return IdentifyAutomaton(model, y, dt, settings, options);
+  if (const FlowRows* rows = options.flow_rows;
+      rows != nullptr && (rows->samples != y.data() || rows->count != y.cols() || rows->dt != dt)) {
+    throw std::invalid_argument(fmt::format(
+        "IdentifyOptions::flow_rows were built from {} samples at dt = {:g} of another matrix than the {} "
+        "samples at dt = {:g} given", rows->count, rows->dt, y.cols(), dt));
+  }
+  if (options.assign_events && IsAutomaton(model.spec())) {
+    if (options.flow_rows == nullptr) return IdentifyAutomaton(model, y, dt, settings, options);
+    IdentifyOptions own = options;  // its passes identify other models (one per mode) on these samples
+    own.flow_rows = nullptr;
+    return IdentifyAutomaton(model, y, dt, settings, own);
+  }
   IdentifyResult r;
   IdentifierSettings bounded = settings;  // the exact hulls within their dimension limit
   if (const std::int64_t max = LimitValue(kMaxHullDimension); settings.sets && model.state_size() > max) {
