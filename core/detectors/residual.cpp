@@ -144,8 +144,8 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
 
 // V_i of NoiseVariance from the Jacobians; N = n when known at compile time (the loop unrolls), else 0.
 template <int N, class Var>
-void ResidualDetector::PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic, double dt,
-                                      const Mat& jac_prev, const Var& var) {
+void ResidualDetector::PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic,
+                                      double dt, const Mat& jac_prev, const Var& var) {
   const Eigen::Index n = N > 0 ? N : n_dynamic;
   const double h = 0.5 * dt;
   for (std::size_t i = 0; i < rows_.size(); ++i) {

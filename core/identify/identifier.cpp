@@ -551,9 +551,11 @@ void Identifier::Feed(const ConstMatRef& samples, const double* phi, const doubl
     const double* block_phi = phi != nullptr ? phi + k * u : s.block_phi.data();
     const double* block_y = y != nullptr ? y + k : s.block_y.data();
     if (phi == nullptr) {
-      s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(), s.block_y.data());
+      s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(),
+                         s.block_y.data());
     }
-    s.row_block(s, samples.col(k).data(), len, block_phi, block_y, decisions == nullptr ? nullptr : decisions + k);
+    s.row_block(s, samples.col(k).data(), len, block_phi, block_y,
+                decisions == nullptr ? nullptr : decisions + k);
     k += len;
   }
 }
@@ -569,7 +571,8 @@ FlowRows BuildFlowRows(const Model& model, const Mat& y, double dt) {
   const auto count = static_cast<std::size_t>(y.cols());
   rows.phi.assign(count * u, 0.0);
   rows.y.assign(count, 0.0);
-  builder.FlowRows(y.col(0).data(), y.col(1).data(), y.cols() - 1, dt, rows.phi.data() + u, rows.y.data() + 1);
+  builder.FlowRows(y.col(0).data(), y.col(1).data(), y.cols() - 1, dt, rows.phi.data() + u,
+                   rows.y.data() + 1);
   return rows;
 }
 
@@ -803,7 +806,8 @@ bool Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& option
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
     std::vector<Decision> decisions(static_cast<std::size_t>(std::min(poll, count)));
-    const FlowRows* rows = options.flow_rows != nullptr && !options.flow_rows->empty() ? options.flow_rows : nullptr;
+    const FlowRows* rows =
+        options.flow_rows != nullptr && !options.flow_rows->empty() ? options.flow_rows : nullptr;
     const Eigen::Index u = rows != nullptr ? static_cast<Eigen::Index>(rows->phi.size()) / count : 0;
     for (Eigen::Index k = 0; k < count; k += poll) {
       if (StopRaised(options)) return false;
@@ -867,6 +871,16 @@ bool CollectHulls(const Identifier& id, const std::atomic<bool>* stop, IdentifyR
   r->flow_hull_volume = *flow_volume;
   r->jump_hull_volume = *jump_volume;
   return true;
+}
+
+// IdentifyOptions::flow_rows, when given, were built from these samples.
+void CheckFlowRows(const IdentifyOptions& options, const Mat& y, double dt) {
+  const FlowRows* rows = options.flow_rows;
+  if (rows == nullptr || (rows->samples == y.data() && rows->count == y.cols() && rows->dt == dt)) return;
+  throw std::invalid_argument(
+      fmt::format("IdentifyOptions::flow_rows were built from {} samples at dt = {:g} of another matrix than "
+                  "the {} samples at dt = {:g} given",
+                  rows->count, rows->dt, y.cols(), dt));
 }
 
 // The final estimates, statuses, boxes and hulls; false when stopped while the hulls were finished.
@@ -939,12 +953,7 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
           fmt::format("IdentifyOptions::{} has {} entries; the data has {} samples", what, size, y.cols()));
     }
   }
-  if (const FlowRows* rows = options.flow_rows;
-      rows != nullptr && (rows->samples != y.data() || rows->count != y.cols() || rows->dt != dt)) {
-    throw std::invalid_argument(fmt::format(
-        "IdentifyOptions::flow_rows were built from {} samples at dt = {:g} of another matrix than the {} "
-        "samples at dt = {:g} given", rows->count, rows->dt, y.cols(), dt));
-  }
+  CheckFlowRows(options, y, dt);
   if (options.assign_events && IsAutomaton(model.spec())) {
     if (options.flow_rows == nullptr) return IdentifyAutomaton(model, y, dt, settings, options);
     IdentifyOptions own = options;  // its passes identify other models (one per mode) on these samples

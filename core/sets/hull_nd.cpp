@@ -73,7 +73,9 @@ bool Outside(Triangulation::Locate_type lt) {
 class StopPoll {
  public:
   StopPoll(const std::atomic<bool>* stop, long every) : stop_(stop), every_(every) {}
-  bool Raised() { return stop_ != nullptr && count_++ % every_ == 0 && stop_->load(std::memory_order_relaxed); }
+  bool Raised() {
+    return stop_ != nullptr && count_++ % every_ == 0 && stop_->load(std::memory_order_relaxed);
+  }
 
  private:
   const std::atomic<bool>* stop_;
@@ -216,7 +218,8 @@ std::optional<Mat> ExtremeBoundaryVertices(int n, int d, const std::vector<int>&
 
 // The extreme points of a dD triangulation's vertex set; nullopt when *stop is raised (looked at
 // every kFacetsPerPoll boundary cells and every kTestsPerPoll vertex tests).
-std::optional<Mat> TriangulationExtremePoints(const Triangulation& tri, int n, const std::atomic<bool>* stop) {
+std::optional<Mat> TriangulationExtremePoints(const Triangulation& tri, int n,
+                                              const std::atomic<bool>* stop) {
   const int d = tri.current_dimension();
   if (d <= 1) {
     // Empty, one point, or a segment: its two ends are the finite vertices of the infinite cells.
