@@ -13,6 +13,7 @@
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/fit.hpp"
+#include "sim/refine/mend.hpp"
 #include "sim/refine/shooting.hpp"
 #include "sim/refine/span.hpp"
 
@@ -183,31 +184,6 @@ RefineOptions StartWeighting(const RefineOptions& options) {
   return o;
 }
 
-// After a fit r from s whose jumps disagree with chain `failure.chain`'s detected ones: the fit from
-// r's point with that chain's detections mended from its fitted model. true (r and s replaced) when
-// that fit is ok and fits as many samples as r.
-bool FitMended(const Model& model, const std::vector<RefineChain>& chains, const RefineOptions& options,
-               const ChainFailure& failure, FitStart& s, RefineResult& r) {
-  const auto c = static_cast<std::size_t>(failure.chain);
-  FitStart m = s;
-  MoveTo(r, m);
-  std::string what;
-  const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
-  const std::string label = chains.size() > 1 ? fmt::format("chain {}: ", c + 1) : "";
-  if (!MendFromModel(chains[c], label, r.chain_samples_used[c], failure.model_jumps, reach, &m.gamma[c],
-                     &what)) {
-    return false;
-  }
-  ChainFailure ignored;
-  RefineResult next = FitChains(model, chains, m, options, &ignored);
-  if (!next.ok() || next.samples_used < r.samples_used) return false;  // (added jumps may shorten a span)
-  next.start = r.start;
-  next.mended = r.mended.empty() ? what : r.mended + "; " + what;
-  r = std::move(next);
-  s = std::move(m);
-  return true;
-}
-
 // The fit from s; while it fails because a chain's model and its detected jumps disagree (a jump the
 // detector missed, or one it added), that chain's span is cut to end SpanMargin samples before the
 // first disagreement and the chains are fit again, at most max_span_retries times per chain. A retry
@@ -224,7 +200,8 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
     const auto c = static_cast<std::size_t>(failure.chain);
     if (options.mend_detections && !mended[c] && !failure.model_jumps.empty()) {
       mended[c] = 1;
-      if (FitMended(model, chains, options, failure, s, r)) break;
+      const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
+      if (MendFromFit(model, chains, options, failure, reach, s, r)) break;
     }
     const long used = r.chain_samples_used[c], shorter = failure.disagreement - margin;
     if (retries[c] == options.max_span_retries || failure.disagreement < 0 || shorter >= used ||
@@ -238,6 +215,8 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
     if (!next.ok() && !SpanRetryable(next.status)) break;  // the failure before this retry is reported
     r = std::move(next);
   }
+  // Ok only on cut spans: carried to the whole chains when the fitted model's jumps are in the data.
+  if (options.mend_detections && r.ok() && r.samples_used < *first_used) SettleAtModelJumps(model, chains, options, false, s, r);
   return r;
 }
 
@@ -368,6 +347,8 @@ RefineResult FitShooting(const Model& model, const std::vector<RefineChain>& cha
   }
   long used = 0;
   if (!r.ok()) r = FitWithRetries(model, chains, joined, options, &used);
+  // The labels a detector placed a few samples off, or missed, placed at the fit's own jumps.
+  if (options.mend_detections) SettleAtModelJumps(model, chains, options, true, joined, r);
   r.mended = r.mended.empty() ? shot.mended : shot.mended + "; " + r.mended;
   return r;
 }

@@ -59,7 +59,8 @@ TEST_CASE("small late impacts at 10 % noise, the true jumps given: ok on the spa
     const RefineResult r =
         Refine(run.model, {RefineChain::Uniform(run.Measured(draw), run.grid.dt, run.gamma)}, alpha0, beta0,
                options);
-    INFO("draw " << draw << ": " << r.reason << " samples fit " << r.samples_used);
+    INFO("draw " << draw << ": " << r.reason << " samples fit " << r.samples_used << "; mended: " << r.mended
+                 << "; model jumps " << r.model_jumps << ", detected " << r.detected_jumps);
     REQUIRE(r.ok());
     const SampleGrid fitted{static_cast<double>(r.samples_used - 1) * run.grid.dt, run.grid.dt};
     const Crlb bound = ComputeCrlb(run.model, run.x0, fitted, run.sigma, r.unknowns);
