@@ -287,31 +287,30 @@ bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, co
 
 // The fit grown from a short span (RefineOptions::grow_span): the chains fit on the samples before
 // their third detected jump from s, then again and again on spans half as long again, from the
-// previous fit with the labels of each grown part mended from its model, until every chain is whole.
-// The last fit, on all samples, with every check; its status is the first failure otherwise.
+// previous fit with the labels of each grown part mended from its model, until every chain is whole;
+// then the labels settled by the local flows (and, `follow_settled`, following the settled fit's own
+// jumps when they leave them). The last fit, on all samples, with every check; its status is the
+// first failure otherwise.
 RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains, FitStart s,
-                      const RefineOptions& options) {
+                      const RefineOptions& options, bool follow_settled) {
   const long shortest = 2L * model.state_size() + 2, margin = SpanMargin(options);
   for (std::size_t c = 0; c < chains.size(); ++c) s.limit[c] = FirstGrowingSpan(s.gamma[c], shortest, margin);
   ChainFailure failure;
   RefineResult r = FitChains(model, chains, s, options, &failure);
+  if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
   while (r.ok() && GrowStep(model, chains, r, options, &s)) {
     r = FitChains(model, chains, s, options, &failure);
-    // A grown fit whose jumps moved off their labels: once more with the labels mended from its model.
-    if (!r.ok() && SpanRetryable(r.status) && failure.chain >= 0 && !failure.model_jumps.empty()) {
-      const auto c = static_cast<std::size_t>(failure.chain);
-      std::string what;
-      MoveTo(r, s);
-      // Reach 0: each label at its model jump's own sample (a detection a few samples off moves there).
-      if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what))
-        break;
-      r = FitChains(model, chains, s, options, &failure);
-    }
+    // A grown fit whose jumps moved off their labels: its labels placed at its model's own jumps
+    // (reach 0: a detection a few samples off moves there) and fit again, in rounds.
+    if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
   }
   // Settled: the labels placed where the fit's local flows meet, fit again until none moves.
+  // A settled fit whose jumps then leave their labels has them follow its model's own (in rounds)
+  // when `follow_settled`.
   for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s);
        ++settle) {
     r = FitChains(model, chains, s, options, &failure);
+    if (follow_settled && !r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
   }
   if (!r.ok()) return r;
   int added = 0, dropped = 0;
@@ -555,9 +554,11 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
   }
   // Still not ok, or ok only on cut spans: a fit grown from a short span, then multiple shooting, may
-  // follow the whole data.
+  // follow the whole data. (The settled labels follow the grown fit's own jumps only when nothing is
+  // ok yet: from the small late impacts' true jumps, ok on a cut span, such a fit became ok on all
+  // samples 6 CRLB sd off.)
   if (options.grow_span && MayBetter(r, first_used, options)) {
-    AdoptRoute(r, GrowSpan(model, chains, recursive, options), "grown from a short span");
+    AdoptRoute(r, GrowSpan(model, chains, recursive, options, !r.ok()), "grown from a short span");
   }
   // (Not for a fit ok on cut spans: from the small late impacts' true jumps, two such fits became ok
   // on all samples and 7 and 16 CRLB sd off.)
