@@ -90,9 +90,9 @@ TEST_CASE("small late impacts at 10 % noise from the detections: not ok, or with
     ++ok;
     CHECK(run.WorstError(r, bound) < 4.0);
   }
-  // The fit grown from a short span, its labels following its model's jumps in rounds and its settled
-  // labels kept only when the settled fit is ok (measured: draws 0–2, 4–6, 8, 9); without it none is
-  // ok. Multiple shooting, tried after it, mends neither of the other two.
+  // The fit grown from a short span, its labels (and the settled fit's) following its model's jumps in
+  // rounds (measured: draws 0–2, 4–6, 8, 9); without it none is ok. Multiple shooting, tried after
+  // it, mends neither of the other two.
   CHECK(ok >= 8);
 }
 
