@@ -455,8 +455,8 @@ TEST_CASE("sweep: sizes are checked against named limits before allocation", "[s
              Catch::Contains("identifier.window: 4294967296 must be at most 2147483647 in magnitude"));
   // The simulator's tolerances, in the file's terms.
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\nrtol = -1.0\n"),
-             Catch::Contains("bad.toml:8: simulator.rtol: -1 must be > 0"));
-  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\natol = 0\n"), Catch::Contains("bad.toml:8: simulator.atol: 0 must be > 0"));
+             Catch::Contains("bad.toml:7: simulator.rtol: -1 must be > 0"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\natol = 0\n"), Catch::Contains("bad.toml:7: simulator.atol: 0 must be > 0"));
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[run]\nseed = -1\n"), Catch::Contains("run.seed: -1 must be ≥ 0"));
 }
 
