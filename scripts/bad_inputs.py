@@ -376,6 +376,7 @@ INPUTS_FILES = {
     "u-nocol.csv": "t,w\n0,0\n50,1\n",
     "u-missing.csv": "t,u\n0,0\n1,\n50,1\n",
     "nou.csv": "t,y1,y2\n0,0,0\n0.001,0,0\n0.002,0,0\n",
+    "gtlsinputs.toml": '[model]\nfile = "driven.toml"\n[grid]\nsigma = 0.0\ndt = 1e-2\nestimator = ["rls", "gtls"]\n',
 }
 INPUTS_CASES = [
     ("simulate --inputs: a model without inputs", ["simulate", "--inputs", "u-short.csv"] + SIM),
@@ -389,6 +390,7 @@ INPUTS_CASES = [
                                                               "driven-nodefault.toml"] + SIM),
     ("identify: a model input missing from the data", ["identify", "--model-file", "driven.toml", "--data",
                                                        "nou.csv"]),
+    ("sweep: gtls on a model with inputs", ["sweep", "gtlsinputs.toml", "--out", "run", "--dry-run"]),
 ]
 
 # The truth of simulated data, files of several without samples, malformed expressions.
@@ -502,6 +504,7 @@ SUBJECTS = {
     "model file: [flow] and [[flow]] together": "fcboth.toml:15: TOML syntax",
     "model file: an unknown β of a [[jump]] map outside its rows": "fcrows.toml:22: jump[0].rows",
     "sweep: localize = true with a hybrid automaton": "localizeauto.toml:7: identifier.localize",
+    "sweep: gtls on a model with inputs": "gtlsinputs.toml:6: grid.estimator",
     "identify: --x0-known with --refine none": "--x0-known",
 }
 

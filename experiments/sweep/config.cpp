@@ -433,24 +433,29 @@ void ParseIdentifier(const TomlReader& rd, const toml::table& root, SweepConfig*
   }
 }
 
-// identifier.localize = true needs one flow and one jump map without inputs (core/identify/localize.hpp):
-// refused here for a hybrid automaton or a model with inputs, as `identify --localize` refuses it.
-void CheckLocalize(const TomlReader& rd, const toml::table& root, const SweepConfig& c,
-                   const ModelRegistry& registry) {
-  if (!c.identifier.localize) return;
+// What the identifier refuses for a model, refused when the file is read (as `hysid identify` refuses
+// the flags): identifier.localize = true for a hybrid automaton or a model with inputs (the jump
+// localiser fits one flow and one jump map without inputs), and on grid.estimator an estimator that
+// needs a noise shape (gtls, frisch) for a model with inputs (the shape is derived without them).
+void CheckSettingsForModels(const TomlReader& rd, const toml::table& root, const SweepConfig& c,
+                            const ModelRegistry& registry) {
   for (std::size_t i = 0; i < c.models.size(); ++i) {
     const Model model = c.models[i].Build(registry);
     const std::string which =
         c.models.size() == 1 ? fmt::format("model '{}'", model.name()) : fmt::format("model[{}] '{}'", i, model.name());
-    std::string why;
-    if (IsAutomaton(model.spec())) {
-      why = "is a hybrid automaton (modes or jump maps); the jump localiser fits one flow and one jump map";
-    } else if (model.input_size() > 0) {
-      why = "has inputs; the jump localiser fits flows without inputs";
-    }
-    if (!why.empty()) {
+    const bool inputs = model.input_size() > 0;
+    if (c.identifier.localize && (IsAutomaton(model.spec()) || inputs)) {
       rd.Fail(root.at_path("identifier.localize").node(), "identifier.localize",
-              fmt::format("{} {}, so localize = true is not available for it", which, why));
+              fmt::format("{} {}, so localize = true is not available for it", which,
+                          inputs ? "has inputs; the jump localiser fits flows without inputs"
+                                 : "is a hybrid automaton (modes or jump maps); the jump localiser fits one flow "
+                                   "and one jump map"));
+    }
+    for (EstimatorKind e : c.grid.estimator) {
+      if (!inputs || !DescriptorOf(e).traits.needs_noise_shape) continue;
+      rd.Fail(root.at_path("grid.estimator").node(), "grid.estimator",
+              fmt::format("'{}' needs a noise shape, which is not derived for {} with inputs (rls, for one, needs none)",
+                          ToString(e), which));
     }
   }
 }
@@ -561,8 +566,8 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   c.source = name;
   c.models = ParseModels(rd, root, registry);
   ParseIdentifier(rd, root, &c);
-  CheckLocalize(rd, root, c, registry);
   ParseGrid(rd, root, &c);
+  CheckSettingsForModels(rd, root, c, registry);
   ParseSimulator(rd, root, &c.simulator);
   ParseRun(rd, root, &c);
   CheckCellCount(c);

@@ -809,7 +809,7 @@ seed = 5
              Catch::Contains("summary.baseline.refine: unknown key"));
 }
 
-TEST_CASE("sweep files: localize = true is refused for a hybrid automaton or a model with inputs", "[sweep][config]") {
+TEST_CASE("sweep files: what the identifier refuses for a model is refused when the file is read", "[sweep][config]") {
   const std::string dir = HYSID_EXAMPLES_DIR;
   const std::string grid = "[grid]\nsigma = 0.0\ndt = 1e-2\n";
   auto error_of = [&](const std::string& text) {
@@ -831,4 +831,11 @@ TEST_CASE("sweep files: localize = true is refused for a hybrid automaton or a m
                       "[identifier]\nlocalize = true\n"),
              Catch::Contains("study.toml:7: identifier.localize: model 'driven-oscillator' has inputs"));
   CHECK(error_of("[model]\nname = \"impact-msd\"\n" + grid + "[identifier]\nlocalize = true\n") == "(no error)");
+  // gtls and frisch derive their noise shape without the inputs: refused for a model with inputs.
+  const std::string driven = "[model]\nfile = \"driven-oscillator/driven-oscillator.toml\"\n";
+  CHECK_THAT(error_of(driven + grid + "estimator = [\"rls\", \"frisch\"]\n"),
+             Catch::Contains("study.toml:6: grid.estimator: 'frisch' needs a noise shape, which is not derived for "
+                             "model 'driven-oscillator' with inputs"));
+  CHECK(error_of(driven + grid + "estimator = [\"rls\", \"integral\"]\n") == "(no error)");
+  CHECK(error_of("[model]\nname = \"impact-msd\"\n" + grid + "estimator = \"gtls\"\n") == "(no error)");
 }
