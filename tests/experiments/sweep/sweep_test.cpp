@@ -78,9 +78,10 @@ SweepOutcome Run(const SweepConfig& c, const fs::path& out, int threads, Shard s
   return RunSweep(c, Registry(), o, stop);
 }
 
-std::string ErrorOf(const std::string& text) {
+// The error of a sweep file's text read as `name` (model files are found relative to its folder).
+std::string ErrorOf(const std::string& text, const std::string& name = "bad.toml") {
   try {
-    ParseSweepText(text, "bad.toml", Registry());
+    ParseSweepText(text, name, Registry());
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -810,16 +811,8 @@ seed = 5
 }
 
 TEST_CASE("sweep files: what the identifier refuses for a model is refused when the file is read", "[sweep][config]") {
-  const std::string dir = HYSID_EXAMPLES_DIR;
   const std::string grid = "[grid]\nsigma = 0.0\ndt = 1e-2\n";
-  auto error_of = [&](const std::string& text) {
-    try {
-      ParseSweepText(text, dir + "/study.toml", Registry());
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string("(no error)");
-  };
+  auto error_of = [](const std::string& text) { return ErrorOf(text, HYSID_EXAMPLES_DIR "/study.toml"); };
   const std::string pump = "[model]\nfile = \"pump-tank/model.toml\"\n";
   CHECK_THAT(error_of(pump + grid + "[identifier]\nlocalize = true\n"),
              Catch::Contains("study.toml:7: identifier.localize: model 'pump-tank' is a hybrid automaton"));
