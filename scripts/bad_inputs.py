@@ -376,6 +376,7 @@ INPUTS_FILES = {
     "u-nocol.csv": "t,w\n0,0\n50,1\n",
     "u-missing.csv": "t,u\n0,0\n1,\n50,1\n",
     "nou.csv": "t,y1,y2\n0,0,0\n0.001,0,0\n0.002,0,0\n",
+    "gtlsinputs.toml": '[model]\nfile = "driven.toml"\n[grid]\nsigma = 0.0\ndt = 1e-2\nestimator = ["rls", "gtls"]\n',
 }
 INPUTS_CASES = [
     ("simulate --inputs: a model without inputs", ["simulate", "--inputs", "u-short.csv"] + SIM),
@@ -389,6 +390,7 @@ INPUTS_CASES = [
                                                               "driven-nodefault.toml"] + SIM),
     ("identify: a model input missing from the data", ["identify", "--model-file", "driven.toml", "--data",
                                                        "nou.csv"]),
+    ("sweep: gtls on a model with inputs", ["sweep", "gtlsinputs.toml", "--out", "run", "--dry-run"]),
 ]
 
 # The truth of simulated data, files of several without samples, malformed expressions.
@@ -422,6 +424,8 @@ AUTOMATON_FILES = {
     "fctwo.toml": FC.replace('guard = "ceiling"', 'guard = "floor"', 1),
     "fcnobeta.toml": re.sub(r'beta = \[ \{ name = "one_c".*?\]\n', "", FC, count=1, flags=re.S),
     "fcboth.toml": FC.replace("[flow]", '[[flow]]\nmode = "x"\nphi = [["v", 0], [0, -1]]\n\n[flow]', 1),
+    "fcrows.toml": FC.replace('psi = [["h", 0], [0, "-v"]]\nrows = ["v"]', 'psi = [["h", 0], [0, "-v"]]\nrows = ["h"]', 1),
+    "localizeauto.toml": '[model]\nfile = "pump.toml"\n[grid]\nsigma = 0.0\ndt = 1e-2\n[identifier]\nlocalize = true\n',
 }
 AUTOMATON_CASES = [
     ("model file: a map from a mode that does not exist", ["simulate", "--model-file", "pumpfrom.toml"] + SIM),
@@ -435,8 +439,10 @@ AUTOMATON_CASES = [
     ("model file: a mode without a [[flow]]", ["simulate", "--model-file", "pumpnoflow.toml"] + SIM),
     ("model file: [flow] with modes", ["simulate", "--model-file", "pumpflowtable.toml"] + SIM),
     ("model file: [flow] and [[flow]] together", ["simulate", "--model-file", "fcboth.toml"] + SIM),
+    ("model file: an unknown β of a [[jump]] map outside its rows", ["models", "--show", "fcrows.toml"]),
     ("identify: --localize with a hybrid automaton",
      ["identify", "--model-file", "pump.toml", "--data", "sim.csv", "--localize"]),
+    ("sweep: localize = true with a hybrid automaton", ["sweep", "localizeauto.toml", "--out", "run", "--dry-run"]),
     ("crlb: --mode for a model without modes", ["crlb", "--mode", "on"]),
     ("crlb: --mode that is not one of the model's", ["crlb", "--model-file", "pump.toml", "--mode", "idle"]),
 ]
@@ -496,6 +502,9 @@ SUBJECTS = {
     "model file: a mode without a [[flow]]": "pumpnoflow.toml:7: modes",
     "model file: [flow] with modes": "pumpflowtable.toml:17: flow",
     "model file: [flow] and [[flow]] together": "fcboth.toml:15: TOML syntax",
+    "model file: an unknown β of a [[jump]] map outside its rows": "fcrows.toml:22: jump[0].rows",
+    "sweep: localize = true with a hybrid automaton": "localizeauto.toml:7: identifier.localize",
+    "sweep: gtls on a model with inputs": "gtlsinputs.toml:6: grid.estimator",
     "identify: --x0-known with --refine none": "--x0-known",
 }
 

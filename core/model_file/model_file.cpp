@@ -530,7 +530,7 @@ std::vector<int> RowsWithUnknowns(const ExprMatrix& m, const std::vector<Paramet
 
 // Every unknown parameter that enters the matrix enters one of `rows`: the recursive pass regresses
 // the identified rows alone, so a parameter outside them would be reported at its initial value as
-// an estimate. `key` is "flow" or "jump"; the error names KEY.rows.
+// an estimate. `key` names the table (flow, jump, flow[i], jump[m]); the error names KEY.rows.
 void CheckRowsCarryUnknowns(const TomlReader& rd, const toml::table& t, const std::string& key, const ExprMatrix& m,
                             const std::vector<Parameter>& params, const std::vector<int>& rows,
                             const std::vector<std::string>& states) {
@@ -558,6 +558,17 @@ void CheckRowsCarryUnknowns(const TomlReader& rd, const toml::table& t, const st
   }
 }
 
+// KEY.rows of a table whose matrix is `m` over `params`: [flow], [jump], a [[flow]] that gives rows and
+// a [[jump]] map with psi all read their rows here, so every form has the same checks (states
+// named, each once, every unknown parameter of `m` in a row).
+std::vector<int> ParseCheckedRows(const TomlReader& rd, const toml::table& t, const std::string& key,
+                                  const ExprMatrix& m, const std::vector<Parameter>& params,
+                                  const std::vector<std::string>& states) {
+  std::vector<int> rows = ParseRows(rd, t, key, states);
+  CheckRowsCarryUnknowns(rd, t, key, m, params, rows, states);
+  return rows;
+}
+
 // One [[flow]] table (`key` = "flow[i]") of a file with modes: its mode, φ_q and rows (given, or
 // the rows with unknown α); returns the mode's index and whether it declares jacobian_constant.
 std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::table& t, const std::string& key,
@@ -572,7 +583,8 @@ std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::tab
   def.phi[q] = ParseMatrix(rd, rd.Require(t, key, "phi"), TomlReader::Join(key, "phi"),
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.alpha.size()), sym);
-  for (int r : t.contains("rows") ? ParseRows(rd, t, key, spec.state_names) : RowsWithUnknowns(def.phi[q], spec.alpha))
+  for (int r : t.contains("rows") ? ParseCheckedRows(rd, t, key, def.phi[q], spec.alpha, spec.state_names)
+                                  : RowsWithUnknowns(def.phi[q], spec.alpha))
     rows.insert(r);
   const toml::node* jc = t.get("jacobian_constant");
   return {q, jc != nullptr && rd.Boolean(*jc, TomlReader::Join(key, "jacobian_constant"))};
@@ -592,8 +604,7 @@ void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, 
     def.phi = {ParseMatrix(rd, rd.Require(t, "flow", "phi"), "flow.phi",
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.alpha.size()), sym)};
-    spec.flow_rows = ParseRows(rd, t, "flow", spec.state_names);
-    CheckRowsCarryUnknowns(rd, t, "flow", def.phi[0], spec.alpha, spec.flow_rows, spec.state_names);
+    spec.flow_rows = ParseCheckedRows(rd, t, "flow", def.phi[0], spec.alpha, spec.state_names);
     if (const toml::node* jc = t.get("jacobian_constant"))
       spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
     return;
@@ -653,7 +664,7 @@ void ParseMapPsi(const TomlReader& rd, const toml::table& t, const std::string& 
   spec.beta.insert(spec.beta.end(), params.begin(), params.end());
   def.psi.push_back(ParseMatrix(rd, *t.get("psi"), TomlReader::Join(key, "psi"),
                                 static_cast<Eigen::Index>(spec.state_names.size()), map.beta_count, sym));
-  map.rows = ParseRows(rd, t, key, spec.state_names);
+  map.rows = ParseCheckedRows(rd, t, key, def.psi.back(), params, spec.state_names);
 }
 
 // One [[jump]] table: name, guard, from/to modes, and β, ψ, rows (none of the three: the identity).
@@ -746,8 +757,7 @@ void ParseJumps(const TomlReader& rd, const toml::table& root, Definition& def, 
     def.psi = {ParseMatrix(rd, rd.Require(t, "jump", "psi"), "jump.psi",
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.beta.size()), sym)};
-    spec.jump_rows = ParseRows(rd, t, "jump", spec.state_names);
-    CheckRowsCarryUnknowns(rd, t, "jump", def.psi[0], spec.beta, spec.jump_rows, spec.state_names);
+    spec.jump_rows = ParseCheckedRows(rd, t, "jump", def.psi[0], spec.beta, spec.state_names);
     return;
   }
   const toml::array& arr = *node.as_array();

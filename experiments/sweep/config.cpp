@@ -21,6 +21,7 @@
 #include "core/io/limits.hpp"
 #include "core/io/toml_guard.hpp"
 #include "core/io/toml_reader.hpp"
+#include "core/model/automaton.hpp"
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/model_check/model_check.hpp"
@@ -194,7 +195,7 @@ struct IdentifierKey {
   std::function<double(const IdentifierSettings&)> get;
   std::function<std::string(double)> format;
   std::function<double(std::string_view)> parse;
-  std::function<void(double)> require;
+  std::function<std::string(double)> check;  // "" or the violated constraint, as Option::Check
 };
 
 template <class S, class Member>
@@ -205,7 +206,7 @@ void AddKeys(std::vector<IdentifierKey>* keys, const std::vector<Option<S>>& tab
                      [&o, member](IdentifierSettings& s, double v) { o.set(s.*member, v); },
                      [&o, member](const IdentifierSettings& s) { return o.get(s.*member); },
                      [&o](double v) { return o.Format(v); }, [&o](std::string_view t) { return o.Parse(t); },
-                     [&o](double v) { o.Require(v); }});
+                     [&o](double v) { return o.Check(v); }});
   }
 }
 
@@ -396,15 +397,16 @@ void ParseGrid(const TomlReader& rd, const toml::table& root, SweepConfig* c) {
 void SetIdentifierKey(const TomlReader& rd, const toml::node& v, const std::string& key,
                       const IdentifierKey& k, IdentifierSettings* s) {
   double value = 0.0;
-  try {
-    if (k.type == OptionType::kChoice) {
-      value = k.parse(rd.String(v, key));
-    } else {
-      value = k.type == OptionType::kInteger ? static_cast<double>(rd.Integer(v, key)) : rd.Number(v, key);
-      k.require(value);
+  if (k.type == OptionType::kChoice) {
+    const std::string text = rd.String(v, key);
+    try {
+      value = k.parse(text);
+    } catch (const std::invalid_argument&) {
+      rd.Fail(&v, key, fmt::format("'{}' {}", text, k.check(-1.0)));  // a choice's check lists the names
     }
-  } catch (const std::invalid_argument& e) {
-    rd.Fail(&v, key, e.what());
+  } else {
+    value = k.type == OptionType::kInteger ? static_cast<double>(rd.Integer(v, key)) : rd.Number(v, key);
+    if (std::string what = k.check(value); !what.empty()) rd.Fail(&v, key, fmt::format("{} {}", value, what));
   }
   k.set(*s, value);
 }
@@ -431,6 +433,33 @@ void ParseIdentifier(const TomlReader& rd, const toml::table& root, SweepConfig*
   }
 }
 
+// What the identifier refuses for a model, refused when the file is read (as `hysid identify` refuses
+// the flags): identifier.localize = true for a hybrid automaton or a model with inputs (the jump
+// localiser fits one flow and one jump map without inputs), and on grid.estimator an estimator that
+// needs a noise shape (gtls, frisch) for a model with inputs (the shape is derived without them).
+void CheckSettingsForModels(const TomlReader& rd, const toml::table& root, const SweepConfig& c,
+                            const ModelRegistry& registry) {
+  for (std::size_t i = 0; i < c.models.size(); ++i) {
+    const Model model = c.models[i].Build(registry);
+    const std::string which =
+        c.models.size() == 1 ? fmt::format("model '{}'", model.name()) : fmt::format("model[{}] '{}'", i, model.name());
+    const bool inputs = model.input_size() > 0;
+    if (c.identifier.localize && (IsAutomaton(model.spec()) || inputs)) {
+      rd.Fail(root.at_path("identifier.localize").node(), "identifier.localize",
+              fmt::format("{} {}, so localize = true is not available for it", which,
+                          inputs ? "has inputs; the jump localiser fits flows without inputs"
+                                 : "is a hybrid automaton (modes or jump maps); the jump localiser fits one flow "
+                                   "and one jump map"));
+    }
+    for (EstimatorKind e : c.grid.estimator) {
+      if (!inputs || !DescriptorOf(e).traits.needs_noise_shape) continue;
+      rd.Fail(root.at_path("grid.estimator").node(), "grid.estimator",
+              fmt::format("'{}' needs a noise shape, which is not derived for {} with inputs (rls, for one, needs none)",
+                          ToString(e), which));
+    }
+  }
+}
+
 void ParseSimulator(const TomlReader& rd, const toml::table& root, SimOptions* sim) {
   const toml::node* sn = root.get("simulator");
   if (!sn) return;
@@ -438,13 +467,14 @@ void ParseSimulator(const TomlReader& rd, const toml::table& root, SimOptions* s
   rd.OnlyKeys(st, "simulator", {"rtol", "atol", "max_steps", "max_jumps"});
   for (auto&& [k, v] : st) {
     const std::string key = fmt::format("simulator.{}", k.str());
-    if (k == "rtol") sim->rtol = rd.Number(v, key);
-    if (k == "atol") sim->atol = rd.Number(v, key);
+    for (auto [name, tol] : {std::pair{"rtol", &sim->rtol}, std::pair{"atol", &sim->atol}}) {
+      if (k != name) continue;
+      *tol = rd.Number(v, key);
+      rd.Above(&v, key, *tol, 0.0);
+    }
     if (k == "max_steps") sim->max_steps = rd.Integer(v, key, 1);
     if (k == "max_jumps")
       sim->max_jumps = static_cast<int>(rd.Integer(v, key, 1, std::numeric_limits<int>::max()));
-    std::string error;
-    if (!sim->IsValid(&error)) rd.Fail(&v, key, error);
   }
 }
 
@@ -537,6 +567,7 @@ SweepConfig ParseSweepText(std::string_view text, const std::string& name, const
   c.models = ParseModels(rd, root, registry);
   ParseIdentifier(rd, root, &c);
   ParseGrid(rd, root, &c);
+  CheckSettingsForModels(rd, root, c, registry);
   ParseSimulator(rd, root, &c.simulator);
   ParseRun(rd, root, &c);
   CheckCellCount(c);

@@ -261,5 +261,32 @@ TEST_CASE("bad automata are refused naming file, line and key", "[model_file]") 
                Contains("m.toml:30: defaults.mode: names a mode, but the file has no modes"));
 }
 
+// kTwoMaps with two flow modes of the same φ: the [[flow]] tables give `up_rows` and `down_rows`.
+std::string TwoModes(const std::string& up_rows, const std::string& down_rows) {
+  return Replace(Replace(kTwoMaps, "states = [\"h\", \"v\"]", "states = [\"h\", \"v\"]\nmodes = [\"up\", \"down\"]"),
+                 "[flow]\nphi = [[\"v\", 0], [0, -1]]\nrows = [\"v\"]\n",
+                 "[[flow]]\nmode = \"up\"\nphi = [[\"v\", 0], [0, -1]]\nrows = " + up_rows +
+                     "\n[[flow]]\nmode = \"down\"\nphi = [[\"v\", 0], [0, -1]]\nrows = " + down_rows + "\n");
+}
+
+TEST_CASE("the rows of [[flow]] and [[jump]] tables have the checks of [flow] and [jump]", "[model_file]") {
+  using Catch::Matchers::Contains;
+  // The jump maps' rows: a state named, each once, every unknown β of the map in a row.
+  const std::string jump0 = "psi = [[\"h\", 0], [0, \"-v\"]]\nrows = [\"v\"]";
+  CHECK_THAT(ErrorOf(Replace(kTwoMaps, jump0, "psi = [[\"h\", 0], [0, \"-v\"]]\nrows = [\"z\"]")),
+             Contains("m.toml:13: jump[0].rows[0]: unknown state 'z' (known: h, v)"));
+  CHECK_THAT(ErrorOf(Replace(kTwoMaps, jump0, "psi = [[\"h\", 0], [0, \"-v\"]]\nrows = [\"v\", \"v\"]")),
+             Contains("m.toml:13: jump[0].rows[1]: 'v' appears twice"));
+  CHECK_THAT(ErrorOf(Replace(kTwoMaps, jump0, "psi = [[\"h\", 0], [0, \"-v\"]]\nrows = [\"h\"]")),
+             Contains("m.toml:13: jump[0].rows: the unknown parameter 'e_floor' enters none of the rows (h), only v"));
+  // The modes' rows, where a [[flow]] gives them.
+  const ModelFile two = ParseModelFile(TwoModes("[\"v\"]", "[\"v\"]"), "m.toml");
+  REQUIRE(two.model.spec().flow_rows == std::vector<int>{1});
+  CHECK_THAT(ErrorOf(TwoModes("[\"v\"]", "[\"q\"]")), Contains("m.toml:12: flow[1].rows[0]: unknown state 'q' (known: h, v)"));
+  CHECK_THAT(ErrorOf(TwoModes("[\"v\", \"v\"]", "[\"v\"]")), Contains("m.toml:8: flow[0].rows[1]: 'v' appears twice"));
+  CHECK_THAT(ErrorOf(TwoModes("[\"v\"]", "[\"h\"]")),
+             Contains("m.toml:12: flow[1].rows: the unknown parameter 'g' enters none of the rows (h), only v"));
+}
+
 }  // namespace
 }  // namespace hysid

@@ -78,9 +78,10 @@ SweepOutcome Run(const SweepConfig& c, const fs::path& out, int threads, Shard s
   return RunSweep(c, Registry(), o, stop);
 }
 
-std::string ErrorOf(const std::string& text) {
+// The error of a sweep file's text read as `name` (model files are found relative to its folder).
+std::string ErrorOf(const std::string& text, const std::string& name = "bad.toml") {
   try {
-    ParseSweepText(text, "bad.toml", Registry());
+    ParseSweepText(text, name, Registry());
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -198,9 +199,9 @@ TEST_CASE("sweep files: option keys from the option tables, and oracle labels", 
   CHECK(c.identifier.detector.bound == BoundRule::kHomogeneous);
   CHECK(c.oracle);
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\nfrisch_box = \"union\"\n"),
-             Catch::Contains("bad.toml:7: identifier.frisch_box: frisch_box = 'union': must be one of"));
+             Catch::Contains("bad.toml:7: identifier.frisch_box: 'union' must be one of"));
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\n[identifier]\njump_window = -1\n"),
-             Catch::Contains("identifier.jump_window: window = -1: must be >= 0"));
+             Catch::Contains("identifier.jump_window: -1 must be >= 0"));
   // With the true labels nothing of a detector may be varied.
   CHECK_THAT(ErrorOf(head + "[grid]\nsigma = 0\ndt = 1e-3\nr = [5.0, 20.0]\n[identifier]\noracle = true\n"),
              Catch::Contains("grid.r: not used with identifier.oracle = true"));
@@ -450,10 +451,13 @@ TEST_CASE("sweep: sizes are checked against named limits before allocation", "[s
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\nmax_jumps = 4294967296\n"),
              Catch::Contains("simulator.max_jumps: 4294967296 must be ≤ 2147483647"));
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = -4294967296\n"),
-             Catch::Contains("identifier.window: window = -4294967296: must be >= 0"));
-  CHECK_THAT(
-      ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = 4294967296\n"),
-      Catch::Contains("identifier.window: window = 4294967296: must be at most 2147483647 in magnitude"));
+             Catch::Contains("identifier.window: -4294967296 must be >= 0"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[identifier]\nwindow = 4294967296\n"),
+             Catch::Contains("identifier.window: 4294967296 must be at most 2147483647 in magnitude"));
+  // The simulator's tolerances, in the file's terms.
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\nrtol = -1.0\n"),
+             Catch::Contains("bad.toml:7: simulator.rtol: -1 must be > 0"));
+  CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[simulator]\natol = 0\n"), Catch::Contains("bad.toml:7: simulator.atol: 0 must be > 0"));
   CHECK_THAT(ErrorOf(base + "dt = 1e-3\n[run]\nseed = -1\n"), Catch::Contains("run.seed: -1 must be ≥ 0"));
 }
 
@@ -804,4 +808,27 @@ seed = 5
              Catch::Contains("summary.baseline.refine: 'x' is not on grid.refine (none, ml)"));
   CHECK_THAT(ErrorOf(head + "[summary]\nbaseline = { refine = \"none\" }\n"),
              Catch::Contains("summary.baseline.refine: unknown key"));
+}
+
+TEST_CASE("sweep files: what the identifier refuses for a model is refused when the file is read", "[sweep][config]") {
+  const std::string grid = "[grid]\nsigma = 0.0\ndt = 1e-2\n";
+  auto error_of = [](const std::string& text) { return ErrorOf(text, HYSID_EXAMPLES_DIR "/study.toml"); };
+  const std::string pump = "[model]\nfile = \"pump-tank/model.toml\"\n";
+  CHECK_THAT(error_of(pump + grid + "[identifier]\nlocalize = true\n"),
+             Catch::Contains("study.toml:7: identifier.localize: model 'pump-tank' is a hybrid automaton"));
+  CHECK(error_of(pump + grid + "[identifier]\nlocalize = false\n") == "(no error)");
+  CHECK_THAT(error_of("[[model]]\nname = \"impact-msd\"\n[[model]]\nfile = \"floor-ceiling/model.toml\"\n" + grid +
+                      "[identifier]\nlocalize = true\n"),
+             Catch::Contains("study.toml:9: identifier.localize: model[1] 'floor-ceiling' is a hybrid automaton"));
+  CHECK_THAT(error_of("[model]\nfile = \"driven-oscillator/driven-oscillator.toml\"\n" + grid +
+                      "[identifier]\nlocalize = true\n"),
+             Catch::Contains("study.toml:7: identifier.localize: model 'driven-oscillator' has inputs"));
+  CHECK(error_of("[model]\nname = \"impact-msd\"\n" + grid + "[identifier]\nlocalize = true\n") == "(no error)");
+  // gtls and frisch derive their noise shape without the inputs: refused for a model with inputs.
+  const std::string driven = "[model]\nfile = \"driven-oscillator/driven-oscillator.toml\"\n";
+  CHECK_THAT(error_of(driven + grid + "estimator = [\"rls\", \"frisch\"]\n"),
+             Catch::Contains("study.toml:6: grid.estimator: 'frisch' needs a noise shape, which is not derived for "
+                             "model 'driven-oscillator' with inputs"));
+  CHECK(error_of(driven + grid + "estimator = [\"rls\", \"integral\"]\n") == "(no error)");
+  CHECK(error_of("[model]\nname = \"impact-msd\"\n" + grid + "estimator = \"gtls\"\n") == "(no error)");
 }
