@@ -257,6 +257,25 @@ bool GrowStep(const Model& model, const std::vector<RefineChain>& chains, const 
 // Re-placements of the grown fit's labels by its local flows.
 constexpr int kMaxSettle = 4;
 
+// A growing fit on spans short of the whole chains is only the next one's start, and jump times fit
+// on a short span are uncertain by a few samples: its jumps are checked at this multiple of
+// RefineOptions::jump_time_tolerance (the fit on all samples at jump_time_tolerance itself).
+constexpr double kGrowingJumpTolerance = 1.5;
+
+// The options of a growing fit from s: the looser jump-time check while a chain's span is short of
+// all its samples.
+RefineOptions GrowingOptions(const std::vector<RefineChain>& chains, const FitStart& s,
+                             const RefineOptions& options) {
+  RefineOptions part = options;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    if (s.limit[c] < chains[c].y.cols()) {
+      part.jump_time_tolerance *= kGrowingJumpTolerance;
+      break;
+    }
+  }
+  return part;
+}
+
 // After the ok fit r from s: each chain's labels placed where the local flows of r's α meet best
 // (RepairStart from r: a label moves to the sample where the flows fit on either side meet, one the
 // flows do not need is dropped, a jump r's model makes and the data show is added). false when none
@@ -285,31 +304,49 @@ bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, co
   return true;
 }
 
+// A settled fit r whose start failed (its labels outnumber its start's jumps: the local flows split
+// one jump in two): its labels mended from the model of the fit it settled from, `kept` (a label with
+// no model jump within ⌈jump_time_tolerance⌉ + 1 samples dropped, a model jump with no label added,
+// the others kept), adopted when that fit passes every check.
+void MendSettledStart(const Model& model, const std::vector<RefineChain>& chains,
+                      const RefineOptions& options, const RefineResult& kept, ChainFailure failure,
+                      FitStart& s, RefineResult& r) {
+  if (r.status != RefineStatus::kStartFailed || failure.chain < 0 || !failure.model_jumps.empty()) return;
+  const auto c = static_cast<std::size_t>(failure.chain);
+  failure.model_jumps = ModelJumps(model, chains[c], kept.refined, kept.chain_x0[c], s.limit[c], options);
+  MendFromFit(model, chains, options, failure, static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1,
+              s, r);
+}
+
 // The fit grown from a short span (RefineOptions::grow_span): the chains fit on the samples before
 // their third detected jump from s, then again and again on spans half as long again, from the
 // previous fit with the labels of each grown part mended from its model, until every chain is whole;
-// then the labels settled by the local flows (and, `follow_settled`, following the settled fit's own
-// jumps when they leave them). The last fit, on all samples, with every check; its status is the
-// first failure otherwise.
+// then the labels settled by the local flows (a settled start that fails mended from the model it
+// settled from; and, `follow_settled`, following the settled fit's own jumps when they leave them).
+// The last fit, on all samples, with every check; its status is the first failure otherwise.
 RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains, FitStart s,
                       const RefineOptions& options, bool follow_settled) {
   const long shortest = 2L * model.state_size() + 2, margin = SpanMargin(options);
   for (std::size_t c = 0; c < chains.size(); ++c) s.limit[c] = FirstGrowingSpan(s.gamma[c], shortest, margin);
   ChainFailure failure;
-  RefineResult r = FitChains(model, chains, s, options, &failure);
-  if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
+  RefineOptions growing = GrowingOptions(chains, s, options);
+  RefineResult r = FitChains(model, chains, s, growing, &failure);
+  if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, growing, failure, 0, s, r);
   while (r.ok() && GrowStep(model, chains, r, options, &s)) {
-    r = FitChains(model, chains, s, options, &failure);
+    growing = GrowingOptions(chains, s, options);
+    r = FitChains(model, chains, s, growing, &failure);
     // A grown fit whose jumps moved off their labels: its labels placed at its model's own jumps
     // (reach 0: a detection a few samples off moves there) and fit again, in rounds.
-    if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
+    if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, growing, failure, 0, s, r);
   }
   // Settled: the labels placed where the fit's local flows meet, fit again until none moves.
   // A settled fit whose jumps then leave their labels has them follow its model's own (in rounds)
   // when `follow_settled`.
   for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s);
        ++settle) {
+    const RefineResult kept = r;
     r = FitChains(model, chains, s, options, &failure);
+    MendSettledStart(model, chains, options, kept, failure, s, r);
     if (follow_settled && !r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
   }
   if (!r.ok()) return r;

@@ -116,8 +116,9 @@ struct RefineOptions {
   bool repair_start = true;
   // A fit still not ok (or ok only on cut spans) after the repaired start is grown from a short span:
   // the samples before each chain's third detected jump, then half as many again at each step, from
-  // the previous fit with the labels of the grown part mended from its model; adopted when its fit on
-  // all samples passes every check (it fits more samples); false: never.
+  // the previous fit with the labels of the grown part mended from its model (the fits on short spans
+  // with 1.5 × jump_time_tolerance); adopted when its fit on all samples passes every check (it fits
+  // more samples); false: never.
   bool grow_span = true;
   // A fit still not ok after the growing span (one ok on spans the retries cut stands) is tried by
   // multiple shooting (sim/refine/shooting.hpp): each chain cut into segments of shooting_jumps detected jumps (and no

@@ -69,9 +69,9 @@ TEST_CASE("small late impacts at 10 % noise, the true jumps given: ok on the spa
   }
 }
 
-// Measured: the residual detector finds 6–8 of the 14 impacts; 8 fits ok on all samples (within 3.4
-// CRLB sd), draws 3 and 7 not ok (not-converged, jump-count-mismatch: the grown fit's first span
-// fails); none ok and wrong.
+// Measured: the residual detector finds 6–8 of the 14 impacts; 9 fits ok on all samples (within 3.4
+// CRLB sd), draw 3 not ok (not-converged: the grown fit's first span does not converge); none ok and
+// wrong.
 TEST_CASE("small late impacts at 10 % noise from the detections: not ok, or within 4 CRLB sd", "[refine]") {
   const SmallBounces run;
   const Crlb bound = ComputeCrlb(run.model, run.x0, run.grid, run.sigma, Unknowns::Of(run.model));
@@ -91,9 +91,10 @@ TEST_CASE("small late impacts at 10 % noise from the detections: not ok, or with
     CHECK(run.WorstError(r, bound) < 4.0);
   }
   // The fit grown from a short span, its labels (and the settled fit's) following its model's jumps in
-  // rounds (measured: draws 0–2, 4–6, 8, 9); without it none is ok. Multiple shooting, tried after
-  // it, mends neither of the other two.
-  CHECK(ok >= 8);
+  // rounds (measured: draws 0–2, 4–9); without it none is ok. Draw 7 needs the growing spans' looser
+  // jump-time check and the settled start mended from its model (the local flows split its last jump
+  // in two). Multiple shooting, tried after it, does not mend draw 3.
+  CHECK(ok >= 9);
 }
 
 TEST_CASE("small late impacts from the detections, grow_span = false: never ok here", "[refine]") {
