@@ -101,7 +101,8 @@ struct SampleData {
 
 // Throws std::invalid_argument with "FILE:LINE: column C ('name'): ..." or "FILE: ..." messages.
 // The files are read one at a time, each streamed row by row into the samples (ReadCsvRows; memory:
-// the samples and one record); SampleDataFromTables makes the same checks in the same order.
+// the samples and one record); SampleDataFromTables makes the same checks row by row on tables
+// already read.
 SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
                           const SampleDataOptions& options = {});
 SampleData ReadSampleData(const std::string& path, int state_size);
