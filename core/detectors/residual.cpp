@@ -93,15 +93,17 @@ double ResidualDetector::QuantileAt(long nu) {
 
 void ResidualDetector::NoiseVariance(const SampleContext& c) {
   NoiseVariance(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat, c.version, c.sigma, c.data_rtol,
-                c.data_atol, c.at_prev, c.at_cur);
+                c.data_atol, &c.at_prev, &c.at_cur);
 }
 
 // V_i = Σ_j (σ_j² + d_j(t)²) a_ij² + (σ_j² + d_j(t−δt)²) b_ij², a = e_i − (δt/2)J_i(ξ(t)),
 // b = e_i + (δt/2)J_i(ξ(t−δt)), d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0 when σ is not given).
+// Null contexts: the Jacobian's x-only form (the same values: Model resolves an empty context
+// either way), which spares building and copying a Context per call.
 void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_data, Eigen::Index n,
                                      double dt, ConstVecRef alpha_hat, long version, const Vec* sigma,
-                                     double data_rtol, double data_atol, const Context& at_prev,
-                                     const Context& at_cur) {
+                                     double data_rtol, double data_atol, const Context* at_prev,
+                                     const Context* at_cur) {
   const ConstVecMap prev(prev_data, n), cur(cur_data, n);
   const bool have_sigma = sigma != nullptr && sigma->size() == n;
   auto var = [&](Eigen::Index j, double x) {
@@ -114,7 +116,7 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
     // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version); the same at both
     // samples.
     if (!have_jac_ || version != jac_version_) {
-      model_.FlowJacobian(cur, alpha_hat, jac_cur_, at_cur);
+      Jacobian(cur, alpha_hat, jac_cur_, at_cur);
       jac_version_ = version;
       have_jac_ = true;
     }
@@ -127,12 +129,24 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
     if (have_jac_ && jac_at_ == prev) {
       jac_prev_.swap(jac_cur_);
     } else {
-      model_.FlowJacobian(prev, alpha_hat, jac_prev_, at_prev);
+      Jacobian(prev, alpha_hat, jac_prev_, at_prev);
     }
-    model_.FlowJacobian(cur, alpha_hat, jac_cur_, at_cur);
+    Jacobian(cur, alpha_hat, jac_cur_, at_cur);
     jac_at_ = cur;
     have_jac_ = true;
   }
+  if (n == 2) {
+    PropagateNoise<2>(prev_data, cur_data, n, dt, *jac_prev, var);
+  } else {
+    PropagateNoise<0>(prev_data, cur_data, n, dt, *jac_prev, var);
+  }
+}
+
+// V_i of NoiseVariance from the Jacobians; N = n when known at compile time (the loop unrolls), else 0.
+template <int N, class Var>
+void ResidualDetector::PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic,
+                                      double dt, const Mat& jac_prev, const Var& var) {
+  const Eigen::Index n = N > 0 ? N : n_dynamic;
   const double h = 0.5 * dt;
   for (std::size_t i = 0; i < rows_.size(); ++i) {
     const int r = rows_[i];
@@ -140,7 +154,7 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
     for (Eigen::Index j = 0; j < n; ++j) {
       const double unit = j == r ? 1.0 : 0.0;
       const double a = unit - h * jac_cur_(r, j);
-      const double b = unit + h * (*jac_prev)(r, j);
+      const double b = unit + h * jac_prev(r, j);
       v += var(j, cur[j]) * a * a + var(j, prev[j]) * b * b;
     }
     noise_[i] = v;

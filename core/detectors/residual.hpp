@@ -135,7 +135,17 @@ class ResidualDetector final : public JumpDetector {
   void NoiseVariance(const SampleContext& c);
   void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
                      long version, const Vec* sigma, double data_rtol, double data_atol,
-                     const Context& at_prev = {}, const Context& at_cur = {});
+                     const Context* at_prev = nullptr, const Context* at_cur = nullptr);
+  template <int N, class Var>
+  void PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic, double dt,
+                      const Mat& jac_prev, const Var& var);
+  void Jacobian(const ConstVecRef& x, const ConstVecRef& alpha_hat, Mat& jac, const Context* at) const {
+    if (at == nullptr) {
+      model_.FlowJacobian(x, alpha_hat, jac);
+    } else {
+      model_.FlowJacobian(x, alpha_hat, jac, *at);
+    }
+  }
   // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); stores what
   // UpdateScale needs.
   [[gnu::always_inline]] double RowStatistic(std::size_t i, double rho, double lev, double magnitude,

@@ -1,8 +1,10 @@
 #include "core/identify/identifier.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
@@ -517,6 +519,10 @@ Identifier::RowBlockFn Identifier::ChooseRowBlock(const State& s, int n, int u) 
 }
 
 void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
+  Feed(samples, nullptr, nullptr, decisions);
+}
+
+void Identifier::Feed(const ConstMatRef& samples, const double* phi, const double* y, Decision* decisions) {
   State& s = *s_;
   const Eigen::Index n = s.prev.size(), count = samples.cols();
   if (samples.rows() != n) {
@@ -539,13 +545,35 @@ void Identifier::Feed(const ConstMatRef& samples, Decision* decisions) {
     return;
   }
   if (!s.has_prev && k < count) step(k++);
+  const auto u = static_cast<Eigen::Index>(s.builder.flow_layout().unknown.size());
   while (k < count) {
     const Eigen::Index len = std::min<Eigen::Index>(kFeedBlock, count - k);
-    s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(), s.block_y.data());
-    s.row_block(s, samples.col(k).data(), len, s.block_phi.data(), s.block_y.data(),
+    const double* block_phi = phi != nullptr ? phi + k * u : s.block_phi.data();
+    const double* block_y = y != nullptr ? y + k : s.block_y.data();
+    if (phi == nullptr) {
+      s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(),
+                         s.block_y.data());
+    }
+    s.row_block(s, samples.col(k).data(), len, block_phi, block_y,
                 decisions == nullptr ? nullptr : decisions + k);
     k += len;
   }
+}
+
+FlowRows BuildFlowRows(const Model& model, const Mat& y, double dt) {
+  FlowRows rows;
+  rows.samples = y.data();
+  rows.count = y.cols();
+  rows.dt = dt;
+  RegressionBuilder builder(model);
+  if (builder.flow_layout().rows.size() != 1 || model.input_size() > 0 || y.cols() < 2) return rows;
+  const std::size_t u = builder.flow_layout().unknown.size();
+  const auto count = static_cast<std::size_t>(y.cols());
+  rows.phi.assign(count * u, 0.0);
+  rows.y.assign(count, 0.0);
+  builder.FlowRows(y.col(0).data(), y.col(1).data(), y.cols() - 1, dt, rows.phi.data() + u,
+                   rows.y.data() + 1);
+  return rows;
 }
 
 void Identifier::Finish() {
@@ -778,10 +806,17 @@ bool Pass(Identifier& id, const Mat& y, double dt, const IdentifyOptions& option
   const Eigen::Index count = y.cols();
   if (!options.trace && options.labels.empty()) {
     std::vector<Decision> decisions(static_cast<std::size_t>(std::min(poll, count)));
+    const FlowRows* rows =
+        options.flow_rows != nullptr && !options.flow_rows->empty() ? options.flow_rows : nullptr;
+    const Eigen::Index u = rows != nullptr ? static_cast<Eigen::Index>(rows->phi.size()) / count : 0;
     for (Eigen::Index k = 0; k < count; k += poll) {
       if (StopRaised(options)) return false;
       const Eigen::Index len = std::min(poll, count - k);
-      id.Feed(y.middleCols(k, len), decisions.data());
+      if (rows != nullptr) {
+        id.Feed(y.middleCols(k, len), rows->phi.data() + k * u, rows->y.data() + k, decisions.data());
+      } else {
+        id.Feed(y.middleCols(k, len), decisions.data());
+      }
       for (Eigen::Index j = 0; j < len; ++j) Record(k + j, decisions[static_cast<std::size_t>(j)], r);
     }
     return true;
@@ -823,8 +858,33 @@ void MarkStopped(IdentifyResult* r) {
   r->flow_reason = r->jump_reason = "stopped";
 }
 
-// The final estimates, statuses, boxes and hulls.
-void Collect(Identifier& id, bool sets, IdentifyResult* r) {
+// The hulls' vertices and volumes, looking at IdentifyOptions::stop while the n ≥ 3 hulls are finished
+// (their boundary can have many facets); false, with no hulls, when stopped.
+bool CollectHulls(const Identifier& id, const std::atomic<bool>* stop, IdentifyResult* r) {
+  std::optional<Mat> flow = id.flow_set().vertices(stop);
+  std::optional<Mat> jump = flow ? id.jump_set().vertices(stop) : std::nullopt;
+  const std::optional<double> flow_volume = jump ? id.flow_set().Volume(stop) : std::nullopt;
+  const std::optional<double> jump_volume = flow_volume ? id.jump_set().Volume(stop) : std::nullopt;
+  if (!jump_volume) return false;
+  r->flow_hull = std::move(*flow);
+  r->jump_hull = std::move(*jump);
+  r->flow_hull_volume = *flow_volume;
+  r->jump_hull_volume = *jump_volume;
+  return true;
+}
+
+// IdentifyOptions::flow_rows, when given, were built from these samples.
+void CheckFlowRows(const IdentifyOptions& options, const Mat& y, double dt) {
+  const FlowRows* rows = options.flow_rows;
+  if (rows == nullptr || (rows->samples == y.data() && rows->count == y.cols() && rows->dt == dt)) return;
+  throw std::invalid_argument(
+      fmt::format("IdentifyOptions::flow_rows were built from {} samples at dt = {:g} of another matrix than "
+                  "the {} samples at dt = {:g} given",
+                  rows->count, rows->dt, y.cols(), dt));
+}
+
+// The final estimates, statuses, boxes and hulls; false when stopped while the hulls were finished.
+bool Collect(Identifier& id, bool sets, const std::atomic<bool>* stop, IdentifyResult* r) {
   id.Finish();
   r->jumps_localized = id.jumps_localized();
   r->alpha_hat = id.alpha_hat();
@@ -836,11 +896,7 @@ void Collect(Identifier& id, bool sets, IdentifyResult* r) {
   r->jump_reason = id.jump_estimator().reason();
   r->flow_box = id.flow_estimator().solution_box();
   r->jump_box = id.jump_estimator().solution_box();
-  if (!sets) return;
-  r->flow_hull = id.flow_set().vertices();
-  r->jump_hull = id.jump_set().vertices();
-  r->flow_hull_volume = id.flow_set().Volume();
-  r->jump_hull_volume = id.jump_set().Volume();
+  return !sets || CollectHulls(id, stop, r);
 }
 
 // The paper detector's bound checked for the whole flow at the final α̂ (CheckPaperBound), over at
@@ -897,7 +953,13 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
           fmt::format("IdentifyOptions::{} has {} entries; the data has {} samples", what, size, y.cols()));
     }
   }
-  if (options.assign_events && IsAutomaton(model.spec())) return IdentifyAutomaton(model, y, dt, settings, options);
+  CheckFlowRows(options, y, dt);
+  if (options.assign_events && IsAutomaton(model.spec())) {
+    if (options.flow_rows == nullptr) return IdentifyAutomaton(model, y, dt, settings, options);
+    IdentifyOptions own = options;  // its passes identify other models (one per mode) on these samples
+    own.flow_rows = nullptr;
+    return IdentifyAutomaton(model, y, dt, settings, own);
+  }
   IdentifyResult r;
   IdentifierSettings bounded = settings;  // the exact hulls within their dimension limit
   if (const std::int64_t max = LimitValue(kMaxHullDimension); settings.sets && model.state_size() > max) {
@@ -927,7 +989,10 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     MarkStopped(&r);
     return r;
   }
-  Collect(id, bounded.sets, &r);
+  if (!Collect(id, bounded.sets, options.stop, &r)) {
+    MarkStopped(&r);
+    return r;
+  }
   if (options.check_paper_bound && options.labels.empty() && settings.detector.kind == DetectorKind::kPaper)
     CheckDetectorBound(model, y, settings, &r);
   if (r.flow_status != EstimatorStatus::kOk && settings.flow_estimator.kind != EstimatorKind::kRls) {

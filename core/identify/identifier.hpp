@@ -113,6 +113,10 @@ class Identifier {
   // the K decisions. Throws std::invalid_argument when samples.rows() is not the state size, and for
   // a model with inputs (Step with a Context feeds those).
   void Feed(const ConstMatRef& samples, Decision* decisions);
+  // Feed with the flow regression rows already built (FlowRows): sample j's row (against the sample
+  // before it) at phi + j·|u|, y[j] (the first's unread when nothing was fed before). The same bits
+  // as Feed. Models without the direct path ignore the rows.
+  void Feed(const ConstMatRef& samples, const double* phi, const double* y, Decision* decisions);
   // Ends the stream: the newest sample joins Λ (the paper puts every ξ(t) in Λ until a jump moves it).
   void Finish();
   // Ends a chain (a gap, a missing sample, the end of a run): the newest sample joins Λ, and the next
@@ -162,6 +166,18 @@ class Identifier {
   std::unique_ptr<State> s_;
 };
 
+// The flow regression rows of samples y (n × K) for the identifier's direct path: row k ≥ 1 is
+// that of the pair (y_{k−1}, y_k) (RegressionBuilder::FlowRows), Φ at phi[k·|u| ..), its value
+// y[k]; row 0 is unused. Empty when the model has no one-row flow regression or inputs.
+struct FlowRows {
+  std::vector<double> phi, y;
+  const double* samples = nullptr;  // the data of the matrix they were built from
+  Eigen::Index count = 0;           // its K
+  double dt = 0.0;
+  bool empty() const { return y.empty(); }
+};
+FlowRows BuildFlowRows(const Model& model, const Mat& y, double dt);
+
 // A whole run: samples y (n × K, column k measured at t_k = kδt, or at times[k]).
 struct IdentifyOptions {
   bool trace = false;  // keep per-sample α̂, β̂ (else only γ, statistic, threshold)
@@ -196,11 +212,18 @@ struct IdentifyOptions {
   int initial_mode = -1;  // the mode at the first sample when known (−1: inferred)
   KinkSettings kinks{};
   // Raised (a signal handler, Python's Ctrl-C): the pass ends within kStopPollSamples samples (a
-  // sixteenth of that with hulls of n ≥ 3 states, whose insertions cost more) and the result says
-  // IdentifyResult::stopped: both statuses kNotExcited with reason "stopped", no hulls, no second
-  // pass, no safe start. Null: never.
+  // sixteenth of that with hulls of n ≥ 3 states, whose insertions cost more), and the final
+  // vertices and volumes of n ≥ 3 hulls look at it every 4096 boundary facets and every 16 exact
+  // vertex tests (SampleSet::vertices(stop)); the result says IdentifyResult::stopped: both statuses
+  // kNotExcited with reason "stopped", no hulls, no second pass, no safe start. Null: never.
   const std::atomic<bool>* stop = nullptr;
   static constexpr long kStopPollSamples = 4096;
+  // The flow regression rows of this call's samples (BuildFlowRows of the same model, y and δt),
+  // built once and shared by calls that differ only in settings (the sweep's detector settings on
+  // one trial's samples); used by the block path (no times, chains, inputs, labels or trace). Null
+  // or empty: built in each pass; not used for a hybrid automaton with assign_events. Throws
+  // std::invalid_argument when they were built from another matrix, sample count or δt.
+  const FlowRows* flow_rows = nullptr;
 };
 
 struct IdentifyResult {

@@ -29,6 +29,7 @@
 #include "core/sets/hull_nd.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -37,6 +38,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -65,6 +67,24 @@ void Demand(bool ok, const char* what) { sets_internal::Demand(ok, "SampleSet (n
 bool Outside(Triangulation::Locate_type lt) {
   return lt == Triangulation::OUTSIDE_CONVEX_HULL || lt == Triangulation::OUTSIDE_AFFINE_HULL;
 }
+
+// Looks at a stop flag (null: never) at the first of every `every` calls of Raised(): the final
+// vertices and volume poll it between boundary facets and between exact vertex tests.
+class StopPoll {
+ public:
+  StopPoll(const std::atomic<bool>* stop, long every) : stop_(stop), every_(every) {}
+  bool Raised() {
+    return stop_ != nullptr && count_++ % every_ == 0 && stop_->load(std::memory_order_relaxed);
+  }
+
+ private:
+  const std::atomic<bool>* stop_;
+  long every_;
+  long count_ = 0;
+};
+
+constexpr long kFacetsPerPoll = 4096;  // facets (or cells) between two looks at the stop flag
+constexpr long kTestsPerPoll = 16;     // exact vertex tests (a small dD triangulation each) between two
 
 double Factorial(int k) {
   double f = 1.0;
@@ -149,8 +169,10 @@ bool InConvexHull(const PointD& p, const std::vector<PointD>& others, int n) {
 // case), and any other v is tested exactly: v is extreme iff it is outside the hull of its boundary
 // neighbours (the facets of A around v cover a neighbourhood of v in A, so v ∈ conv(their vertices
 // other than v) when it is not extreme, and the converse holds as they are points of the set).
-Mat ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets, const std::vector<char>& flat,
-                            const Eigen::Ref<const Mat>& coords) {
+// Nullopt when *stop is raised (looked at every kTestsPerPoll vertex tests).
+std::optional<Mat> ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets,
+                                           const std::vector<char>& flat, const Eigen::Ref<const Mat>& coords,
+                                           const std::atomic<bool>* stop) {
   const std::size_t count = facets.size() / static_cast<std::size_t>(d);
   std::vector<char> on_boundary(static_cast<std::size_t>(coords.cols()), 0);
   std::vector<char> suspect(static_cast<std::size_t>(coords.cols()), 0);
@@ -176,9 +198,11 @@ Mat ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets, const 
     }
   }
   std::vector<int> extreme;
+  StopPoll poll(stop, kTestsPerPoll);
   for (Eigen::Index v = 0; v < coords.cols(); ++v) {
     if (!on_boundary[std::size_t(v)]) continue;
     if (suspect[std::size_t(v)]) {
+      if (poll.Raised()) return std::nullopt;
       std::vector<int>& nb = neighbours[int(v)];
       std::sort(nb.begin(), nb.end());
       nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
@@ -192,8 +216,10 @@ Mat ExtremeBoundaryVertices(int n, int d, const std::vector<int>& facets, const 
   return SortedColumns(coords, std::move(extreme));
 }
 
-// The extreme points of a dD triangulation's vertex set.
-Mat TriangulationExtremePoints(const Triangulation& tri, int n) {
+// The extreme points of a dD triangulation's vertex set; nullopt when *stop is raised (looked at
+// every kFacetsPerPoll boundary cells and every kTestsPerPoll vertex tests).
+std::optional<Mat> TriangulationExtremePoints(const Triangulation& tri, int n,
+                                              const std::atomic<bool>* stop) {
   const int d = tri.current_dimension();
   if (d <= 1) {
     // Empty, one point, or a segment: its two ends are the finite vertices of the infinite cells.
@@ -227,7 +253,9 @@ Mat TriangulationExtremePoints(const Triangulation& tri, int n) {
   facets.reserve(cells.size() * std::size_t(d));
   const auto in_affine_hull = tri.geom_traits().contained_in_affine_hull_d_object();
   std::vector<PointD> facet_points;
+  StopPoll poll(stop, kFacetsPerPoll);
   for (const auto& c : cells) {
+    if (poll.Raised()) return std::nullopt;
     facet_points.clear();
     for (int i = 0; i <= d; ++i) {
       if (!tri.is_infinite(c->vertex(i))) facet_points.push_back(c->vertex(i)->point());
@@ -241,7 +269,7 @@ Mat TriangulationExtremePoints(const Triangulation& tri, int n) {
       flat.push_back(in_affine_hull(facet_points.begin(), facet_points.end(), w->point()) ? 1 : 0);
     }
   }
-  return ExtremeBoundaryVertices(n, d, facets, flat, coords);
+  return ExtremeBoundaryVertices(n, d, facets, flat, coords, stop);
 }
 
 // Exact orientation of n + 1 points of R^n (the sign conventions of the policies may differ; a star
@@ -275,8 +303,8 @@ class Star {
   virtual bool Add(const double* x) = 0;
   virtual bool Contains(const double* x) const = 0;
   virtual double SquaredDistance(const Vec& x) const = 0;
-  virtual double Volume() const = 0;
-  virtual Mat Vertices() const = 0;
+  virtual std::optional<double> Volume(const std::atomic<bool>* stop) const = 0;
+  virtual std::optional<Mat> Vertices(const std::atomic<bool>* stop) const = 0;
   virtual std::vector<Mat> Simplices() const = 0;
 };
 
@@ -337,24 +365,28 @@ class StarHull final : public Star {
     return best;
   }
 
-  double Volume() const override {
+  std::optional<double> Volume(const std::atomic<bool>* stop) const override {
     double sum = 0.0;
     Mat e(n_, n_);
+    StopPoll poll(stop, kFacetsPerPoll);
     for (int f = 0; f < facet_slots(); ++f) {
       if (!alive_[std::size_t(f)]) continue;
+      if (poll.Raised()) return std::nullopt;
       for (int i = 0; i < n_; ++i) e.col(i) = Coords(Vertex(f, i)) - c_coords_;
       sum += std::abs(e.determinant());
     }
     return sum / Factorial(n_);
   }
 
-  Mat Vertices() const override {
+  std::optional<Mat> Vertices(const std::atomic<bool>* stop) const override {
     // Facets and, per ridge, whether the neighbour's apex is coplanar with the facet.
     std::vector<int> facets;
     std::vector<char> flat;
     Pointers p(std::size_t(n_ + 1));
+    StopPoll poll(stop, kFacetsPerPoll);
     for (int f = 0; f < facet_slots(); ++f) {
       if (!alive_[std::size_t(f)]) continue;
+      if (poll.Raised()) return std::nullopt;
       for (int i = 0; i < n_; ++i) p[std::size_t(i)] = &points_[std::size_t(Vertex(f, i))];
       for (int i = 0; i < n_; ++i) {
         facets.push_back(Vertex(f, i));
@@ -368,7 +400,7 @@ class StarHull final : public Star {
       }
     }
     const Eigen::Map<const Mat> coords(coords_.data(), n_, static_cast<Eigen::Index>(points_.size()));
-    return ExtremeBoundaryVertices(n_, n_, facets, flat, coords);
+    return ExtremeBoundaryVertices(n_, n_, facets, flat, coords, stop);
   }
 
   std::vector<Mat> Simplices() const override {
@@ -708,9 +740,9 @@ bool HullNd::Add(const ConstVecRef& x) {
 
 int HullNd::dimension() const { return impl_->star ? impl_->n : impl_->tri.current_dimension(); }
 
-Mat HullNd::Vertices() const {
+std::optional<Mat> HullNd::Vertices(const std::atomic<bool>* stop) const {
   const Impl& s = *impl_;
-  return s.star ? s.star->Vertices() : TriangulationExtremePoints(s.tri, s.n);
+  return s.star ? s.star->Vertices(stop) : TriangulationExtremePoints(s.tri, s.n, stop);
 }
 
 bool HullNd::Contains(const ConstVecRef& x) const {
@@ -748,13 +780,15 @@ double HullNd::SquaredDistance(const ConstVecRef& x) const {
   return best;
 }
 
-double HullNd::Volume() const {
+std::optional<double> HullNd::Volume(const std::atomic<bool>* stop) const {
   const Impl& s = *impl_;
-  if (s.star) return s.star->Volume();
+  if (s.star) return s.star->Volume(stop);
   if (s.tri.current_dimension() < s.n) return 0.0;
   double sum = 0.0;
   Mat e(s.n, s.n);
+  StopPoll poll(stop, kFacetsPerPoll);
   for (auto c = s.tri.finite_full_cells_begin(); c != s.tri.finite_full_cells_end(); ++c) {
+    if (poll.Raised()) return std::nullopt;
     const Vec v0 = ToVec(c->vertex(0)->point(), s.n);
     for (int i = 1; i <= s.n; ++i) e.col(i - 1) = ToVec(c->vertex(i)->point(), s.n) - v0;
     sum += std::abs(e.determinant());
@@ -797,7 +831,7 @@ Mat BatchExtremePoints(const Mat& points) {
   in.reserve(static_cast<std::size_t>(points.cols()));
   for (Eigen::Index k = 0; k < points.cols(); ++k) in.push_back(ToPointD(points.col(k).data(), n));
   tri.insert(in.begin(), in.end());
-  return TriangulationExtremePoints(tri, n);
+  return *TriangulationExtremePoints(tri, n, nullptr);
 }
 
 }  // namespace hysid::internal

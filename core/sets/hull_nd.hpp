@@ -3,7 +3,9 @@
 // CGAL stays in core/sets/hull_nd.cpp.
 #pragma once
 
+#include <atomic>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "core/model/model.hpp"
@@ -18,10 +20,13 @@ class HullNd {
   // x has n finite components (the caller checks). Returns true when the hull changed.
   bool Add(const ConstVecRef& x);
   int dimension() const;  // affine dimension of the hull, −1 when empty
-  Mat Vertices() const;   // n × h extreme points, in lexicographic order of their coordinates
+  // n × h extreme points, in lexicographic order of their coordinates; nullopt once *stop is raised
+  // (null: never; looked at every 4096 boundary facets and every 16 exact vertex tests).
+  std::optional<Mat> Vertices(const std::atomic<bool>* stop) const;
   bool Contains(const ConstVecRef& x) const;           // exact: inside or on the boundary
   double SquaredDistance(const ConstVecRef& x) const;  // floating point; 0 inside; +inf when empty
-  double Volume() const;                               // n-dimensional; 0 below full dimension
+  // n-dimensional; 0 below full dimension; nullopt once *stop is raised (every 4096 facets).
+  std::optional<double> Volume(const std::atomic<bool>* stop) const;
   std::vector<Mat> Simplices() const;                  // a triangulation of the hull (see HullSimplices)
 
  private:

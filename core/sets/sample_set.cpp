@@ -373,10 +373,12 @@ int SampleSet::hull_dimension() const {
   return s.lo == s.hi ? 0 : 1;
 }
 
-Mat SampleSet::vertices() const {
+Mat SampleSet::vertices() const { return *vertices(nullptr); }
+
+std::optional<Mat> SampleSet::vertices(const std::atomic<bool>* stop) const {
   const Impl& s = *impl_;
   if (s.n == 2) return ToMat(s.hull2.Vertices());
-  if (s.n >= 3) return s.nd->Vertices();
+  if (s.n >= 3) return s.nd->Vertices(stop);
   const int d = hull_dimension();
   Mat m(1, d + 1);
   if (d >= 0) m(0, 0) = s.lo;
@@ -405,10 +407,12 @@ bool SampleSet::Contains(ConstVecRef x, double tolerance) const {
 
 long SampleSet::version() const { return impl_->version; }
 
-double SampleSet::Volume() const {
+double SampleSet::Volume() const { return *Volume(nullptr); }
+
+std::optional<double> SampleSet::Volume(const std::atomic<bool>* stop) const {
   const Impl& s = *impl_;
   if (s.n == 1) return s.added > 0 ? s.hi - s.lo : 0.0;
-  if (s.n >= 3) return s.nd->Volume();
+  if (s.n >= 3) return s.nd->Volume(stop);
   if (s.hull2.dimension() < 2) return 0.0;
   const std::vector<Point> v = s.hull2.Vertices();
   // Shoelace formula relative to the first vertex.

@@ -62,7 +62,9 @@
 // triangulation's random generator.
 #pragma once
 
+#include <atomic>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "core/model/model.hpp"
@@ -95,6 +97,12 @@ class SampleSet {
   // n-dimensional volume: length in 1-D, area in 2-D, volume for n ≥ 3; 0 when the hull has a lower
   // affine dimension than n.
   double Volume() const;
+  // vertices() and Volume() that look at *stop (null: never) while they work and give nullopt once it
+  // is raised — for n ≥ 3, whose boundary can have many facets: every 4096 boundary facets and every 16
+  // exact vertex tests, first before any (CGAL's own walk over a triangulation's boundary cells in the
+  // early representation is not interrupted). 1-D and 2-D: O(h), not interrupted, never nullopt.
+  std::optional<Mat> vertices(const std::atomic<bool>* stop) const;
+  std::optional<double> Volume(const std::atomic<bool>* stop) const;
 
  private:
   struct Impl;

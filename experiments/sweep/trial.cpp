@@ -438,6 +438,14 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     if (!config.oracle) options.labels = rec.gamma;
   }
   const Mat& y = partial ? rec.x : noisy;
+  if (!partial && in.noisy != nullptr && options.labels.empty() && !IsAutomaton(model.spec()) &&
+      model.input_size() == 0) {
+    if (in.noisy->rows_sigma != cell.sigma) {  // the group's model; y changes with σ only
+      in.noisy->rows = BuildFlowRows(model, y, truth.dt);
+      in.noisy->rows_sigma = cell.sigma;
+    }
+    options.flow_rows = &in.noisy->rows;
+  }
   const IdentifyResult res = hysid::Identify(model, y, truth.dt, s, options);
   o->alpha_hat = res.alpha_hat;
   o->beta_hat = res.beta_hat;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/identify/identifier.hpp"
 #include "core/model/model.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/plan.hpp"
@@ -49,10 +50,13 @@ const std::vector<std::string>& SummaryMetrics();
 // What the units of one (group, trial) share: the group's noise-free trajectory from `x0`, the
 // trial's standard normals (n × K, the stream TrialNoiseKey; empty when no unit of the trial has
 // σ > 0 or the simulation failed) and a buffer for the noisy samples y = x + σ·normals, kept while
-// consecutive units have the same σ.
+// consecutive units have the same σ, with the identifier's flow regression rows of the samples at
+// `rows_sigma` (σ = 0: the noise-free trajectory), built by the first unit that needs them.
 struct NoisySamples {
   Mat y;
   double sigma = 0.0;  // the σ of y; 0: y not filled
+  FlowRows rows;
+  double rows_sigma = -1.0;  // the σ of the samples `rows` belong to; −1: none
 };
 struct TrialInputs {
   const Vec* x0 = nullptr;

@@ -13,6 +13,7 @@
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/fit.hpp"
+#include "sim/refine/mend.hpp"
 #include "sim/refine/shooting.hpp"
 #include "sim/refine/span.hpp"
 
@@ -183,31 +184,6 @@ RefineOptions StartWeighting(const RefineOptions& options) {
   return o;
 }
 
-// After a fit r from s whose jumps disagree with chain `failure.chain`'s detected ones: the fit from
-// r's point with that chain's detections mended from its fitted model. true (r and s replaced) when
-// that fit is ok and fits as many samples as r.
-bool FitMended(const Model& model, const std::vector<RefineChain>& chains, const RefineOptions& options,
-               const ChainFailure& failure, FitStart& s, RefineResult& r) {
-  const auto c = static_cast<std::size_t>(failure.chain);
-  FitStart m = s;
-  MoveTo(r, m);
-  std::string what;
-  const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
-  const std::string label = chains.size() > 1 ? fmt::format("chain {}: ", c + 1) : "";
-  if (!MendFromModel(chains[c], label, r.chain_samples_used[c], failure.model_jumps, reach, &m.gamma[c],
-                     &what)) {
-    return false;
-  }
-  ChainFailure ignored;
-  RefineResult next = FitChains(model, chains, m, options, &ignored);
-  if (!next.ok() || next.samples_used < r.samples_used) return false;  // (added jumps may shorten a span)
-  next.start = r.start;
-  next.mended = r.mended.empty() ? what : r.mended + "; " + what;
-  r = std::move(next);
-  s = std::move(m);
-  return true;
-}
-
 // The fit from s; while it fails because a chain's model and its detected jumps disagree (a jump the
 // detector missed, or one it added), that chain's span is cut to end SpanMargin samples before the
 // first disagreement and the chains are fit again, at most max_span_retries times per chain. A retry
@@ -224,7 +200,8 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
     const auto c = static_cast<std::size_t>(failure.chain);
     if (options.mend_detections && !mended[c] && !failure.model_jumps.empty()) {
       mended[c] = 1;
-      if (FitMended(model, chains, options, failure, s, r)) break;
+      const long reach = static_cast<long>(std::ceil(options.jump_time_tolerance)) + 1;
+      if (MendFromFit(model, chains, options, failure, reach, s, r)) break;
     }
     const long used = r.chain_samples_used[c], shorter = failure.disagreement - margin;
     if (retries[c] == options.max_span_retries || failure.disagreement < 0 || shorter >= used ||
@@ -238,6 +215,8 @@ RefineResult FitWithRetries(const Model& model, const std::vector<RefineChain>& 
     if (!next.ok() && !SpanRetryable(next.status)) break;  // the failure before this retry is reported
     r = std::move(next);
   }
+  // Ok only on cut spans: carried to the whole chains when the fitted model's jumps are in the data.
+  if (options.mend_detections && r.ok() && r.samples_used < *first_used) SettleAtModelJumps(model, chains, options, false, s, r);
   return r;
 }
 
@@ -308,31 +287,30 @@ bool SettleLabels(const Model& model, const std::vector<RefineChain>& chains, co
 
 // The fit grown from a short span (RefineOptions::grow_span): the chains fit on the samples before
 // their third detected jump from s, then again and again on spans half as long again, from the
-// previous fit with the labels of each grown part mended from its model, until every chain is whole.
-// The last fit, on all samples, with every check; its status is the first failure otherwise.
+// previous fit with the labels of each grown part mended from its model, until every chain is whole;
+// then the labels settled by the local flows (and, `follow_settled`, following the settled fit's own
+// jumps when they leave them). The last fit, on all samples, with every check; its status is the
+// first failure otherwise.
 RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains, FitStart s,
-                      const RefineOptions& options) {
+                      const RefineOptions& options, bool follow_settled) {
   const long shortest = 2L * model.state_size() + 2, margin = SpanMargin(options);
   for (std::size_t c = 0; c < chains.size(); ++c) s.limit[c] = FirstGrowingSpan(s.gamma[c], shortest, margin);
   ChainFailure failure;
   RefineResult r = FitChains(model, chains, s, options, &failure);
+  if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
   while (r.ok() && GrowStep(model, chains, r, options, &s)) {
     r = FitChains(model, chains, s, options, &failure);
-    // A grown fit whose jumps moved off their labels: once more with the labels mended from its model.
-    if (!r.ok() && SpanRetryable(r.status) && failure.chain >= 0 && !failure.model_jumps.empty()) {
-      const auto c = static_cast<std::size_t>(failure.chain);
-      std::string what;
-      MoveTo(r, s);
-      // Reach 0: each label at its model jump's own sample (a detection a few samples off moves there).
-      if (!MendFromModel(chains[c], "", r.chain_samples_used[c], failure.model_jumps, 0, &s.gamma[c], &what))
-        break;
-      r = FitChains(model, chains, s, options, &failure);
-    }
+    // A grown fit whose jumps moved off their labels: its labels placed at its model's own jumps
+    // (reach 0: a detection a few samples off moves there) and fit again, in rounds.
+    if (!r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
   }
   // Settled: the labels placed where the fit's local flows meet, fit again until none moves.
+  // A settled fit whose jumps then leave their labels has them follow its model's own (in rounds)
+  // when `follow_settled`.
   for (int settle = 0; r.ok() && settle < kMaxSettle && SettleLabels(model, chains, r, options, &s);
        ++settle) {
     r = FitChains(model, chains, s, options, &failure);
+    if (follow_settled && !r.ok() && SpanRetryable(r.status)) MendFromFit(model, chains, options, failure, 0, s, r);
   }
   if (!r.ok()) return r;
   int added = 0, dropped = 0;
@@ -368,6 +346,8 @@ RefineResult FitShooting(const Model& model, const std::vector<RefineChain>& cha
   }
   long used = 0;
   if (!r.ok()) r = FitWithRetries(model, chains, joined, options, &used);
+  // The labels a detector placed a few samples off, or missed, placed at the fit's own jumps.
+  if (options.mend_detections) SettleAtModelJumps(model, chains, options, true, joined, r);
   r.mended = r.mended.empty() ? shot.mended : shot.mended + "; " + r.mended;
   return r;
 }
@@ -574,9 +554,11 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
     AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
   }
   // Still not ok, or ok only on cut spans: a fit grown from a short span, then multiple shooting, may
-  // follow the whole data.
+  // follow the whole data. (The settled labels follow the grown fit's own jumps only when nothing is
+  // ok yet: from the small late impacts' true jumps, ok on a cut span, such a fit became ok on all
+  // samples 6 CRLB sd off.)
   if (options.grow_span && MayBetter(r, first_used, options)) {
-    AdoptRoute(r, GrowSpan(model, chains, recursive, options), "grown from a short span");
+    AdoptRoute(r, GrowSpan(model, chains, recursive, options, !r.ok()), "grown from a short span");
   }
   // (Not for a fit ok on cut spans: from the small late impacts' true jumps, two such fits became ok
   // on all samples and 7 and 16 CRLB sd off.)

@@ -25,10 +25,13 @@
 // with that chain's detections mended from the fitted model: a jump the model makes with no
 // detection within jump_time_tolerance + 1 samples is added at its sample, a detection the model has
 // no jump for is dropped, the others kept; the fit from the fitted point on the mended detections
-// is adopted when it passes every check (the data decide) and fits as many samples, once per chain
+// (mended again from its own model while its jumps disagree with them, at most 4 fits) is adopted
+// when it passes every check (the data decide) and fits as many samples, once per chain
 // (`mended` says what changed). A jump-count mismatch or a failed start of one chain is then retried with
 // that chain's span ending before the first disagreement between its model's jumps and its detected ones
-// (RefineOptions::max_span_retries). A fit that still fails (other than for the data or their
+// (RefineOptions::max_span_retries); a fit then ok only on cut spans is carried to all samples with the
+// jumps its model makes far from every detection added, when that fit passes every check (sim/refine/mend.hpp).
+// A fit that still fails (other than for the data or their
 // length), or is ok only on spans the retries cut, is tried once more from a repaired start
 // (sim/refine/start.hpp, per chain: detections the local flows do not need dropped, the others
 // moved to where the flows meet, missed jumps added, ξ0_c re-estimated; β from all chains' jump

@@ -169,6 +169,9 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
     const IdentifyResult direct = Identify(k.model, y, traj.dt, s, IdentifyOptions{.trace = true});
     // Without a trace, Identify feeds the samples in blocks (Identifier::Feed).
     const IdentifyResult fed = Identify(k.model, y, traj.dt, s);
+    // The flow rows built once (the sweep shares them between the units of a trial).
+    const FlowRows rows = BuildFlowRows(k.model, y, traj.dt);
+    const IdentifyResult shared = Identify(k.model, y, traj.dt, s, IdentifyOptions{.flow_rows = &rows});
     s.direct_calls = false;
     const IdentifyResult generic = Identify(k.model, y, traj.dt, s, IdentifyOptions{.trace = true});
     CHECK(direct.alpha_trace == generic.alpha_trace);
@@ -176,7 +179,7 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
     CHECK(direct.flow_status == generic.flow_status);
     CHECK(direct.jump_status == generic.jump_status);
     CHECK(direct.jumps_detected > 0);
-    for (const IdentifyResult* r : {&direct, &fed}) {
+    for (const IdentifyResult* r : {&direct, &fed, &shared}) {
       CHECK(r->gamma == generic.gamma);
       CHECK(r->statistic == generic.statistic);
       CHECK(r->threshold == generic.threshold);
@@ -187,6 +190,34 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
       CHECK(r->jumps_detected == generic.jumps_detected);
     }
   }
+}
+
+TEST_CASE("shared flow rows: each row is the pair's own regression; rows of other samples are refused",
+          "[identify][direct]") {
+  const Model model{ImpactMsd{}};
+  const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{2.0, 5e-4});
+  const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(2, 0.05), NoiseKey{7, 0});
+  const FlowRows rows = BuildFlowRows(model, y, traj.dt);
+  REQUIRE_FALSE(rows.empty());
+  const auto u = static_cast<Eigen::Index>(rows.phi.size()) / y.cols();
+  REQUIRE(u == 2);  // a and b unknown on the one identified row
+  RegressionBuilder builder(model);
+  Mat phi(1, u);
+  Vec value(1);
+  for (const Eigen::Index k : {Eigen::Index{1}, Eigen::Index{2}, y.cols() / 2, y.cols() - 1}) {
+    builder.Flow(y.col(k - 1), y.col(k), traj.dt, phi, value);
+    CHECK(rows.phi[static_cast<std::size_t>(k * u)] == phi(0, 0));
+    CHECK(rows.phi[static_cast<std::size_t>(k * u + 1)] == phi(0, 1));
+    CHECK(rows.y[static_cast<std::size_t>(k)] == value[0]);
+  }
+  IdentifierSettings settings;
+  const Mat copy = y;
+  CHECK_THROWS_AS(Identify(model, copy, traj.dt, settings, IdentifyOptions{.flow_rows = &rows}),
+                  std::invalid_argument);
+  CHECK_THROWS_AS(Identify(model, y, 2.0 * traj.dt, settings, IdentifyOptions{.flow_rows = &rows}),
+                  std::invalid_argument);
+  CHECK_THROWS_AS(Identify(model, y.leftCols(100), traj.dt, settings, IdentifyOptions{.flow_rows = &rows}),
+                  std::invalid_argument);
 }
 
 TEST_CASE(

@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -572,6 +573,50 @@ TEST_CASE("3-D: non-finite samples are ignored and counted, a moved set keeps it
   // The batch hull skips non-finite columns.
   CHECK(BatchHullVertices(nd::Cols({V({0, 0, 0}), V({NAN, 0, 0}), V({1, 0, 0})})) ==
         nd::Cols({V({0, 0, 0}), V({1, 0, 0})}));
+}
+
+TEST_CASE(
+    "a raised stop flag ends the n >= 3 hull's final vertices and volume; a lowered one changes nothing",
+    "[sets][nd][stop]") {
+  using nd::V;
+  // A 4-D curve in convex position (every sample extreme): thousands of boundary facets, the star.
+  const int count = 300;
+  Mat curve(4, count);
+  for (int k = 0; k < count; ++k) {
+    const double t = 0.02 * k;
+    curve.col(k) << std::cos(t), std::sin(t), std::cos(2.0 * t), std::sin(2.0 * t);
+  }
+  SampleSet star(4);
+  for (int k = 0; k < count; ++k) star.Add(curve.col(k));
+  REQUIRE(star.hull_dimension() == 4);
+  // Coplanar samples in 3-D: the early triangulation, forever (no interior point).
+  SampleSet flat(3);
+  for (const Vec& x : {V({0, 0, 0}), V({2, 0, 0}), V({0, 2, 0}), V({2, 2, 0}), V({1, 1, 0}), V({1, 0, 0})})
+    flat.Add(x);
+  REQUIRE(flat.hull_dimension() == 2);
+  for (const SampleSet* s : {&star, &flat}) {
+    INFO("hull dimension " << s->hull_dimension());
+    std::atomic<bool> stop{false};
+    const std::optional<Mat> lowered = s->vertices(&stop);
+    const std::optional<double> lowered_volume = s->Volume(&stop);
+    REQUIRE(lowered.has_value());
+    REQUIRE(lowered_volume.has_value());
+    CHECK(*lowered == s->vertices());
+    CHECK(*lowered == BatchHullVertices(s == &star ? curve : flat.vertices()));
+    CHECK(*lowered_volume == s->Volume());
+    stop = true;
+    CHECK_FALSE(s->vertices(&stop).has_value());
+    if (s == &star) CHECK_FALSE(s->Volume(&stop).has_value());
+    if (s == &flat) CHECK(s->Volume(&stop) == 0.0);  // below full dimension: nothing to sum
+  }
+  CHECK(star.vertices().cols() == count);
+  CHECK(flat.vertices().cols() == 4);  // the square's corners; (1, 1, 0) and (1, 0, 0) are not extreme
+  // 1-D and 2-D hulls are O(h) and not polled.
+  SampleSet plane(2);
+  for (const Vec& x : {V({0, 0}), V({1, 0}), V({0, 1})}) plane.Add(x);
+  std::atomic<bool> raised{true};
+  CHECK(plane.vertices(&raised) == plane.vertices());
+  CHECK(plane.Volume(&raised) == 0.5);
 }
 
 }  // namespace
