@@ -324,35 +324,32 @@ void ReadRecord(std::istream& in, const std::string& name, std::string& line, bo
   } while (!SplitRecord(record, name, first, limits.cell, cells));
 }
 
-// One data row into the table's columns: numbers, missing cells as NaN.
-void AddRow(CsvTable& table, const std::vector<std::string>& cells, long line_no) {
-  if (cells.size() != table.header.size()) {
-    throw std::invalid_argument(fmt::format("{}:{}: {} cells, the header has {} columns", table.path, line_no,
-                                            cells.size(), table.header.size()));
+// One data row's cells as numbers into *values (missing cells as NaN).
+void ParseRow(const CsvTable& head, const std::vector<std::string>& cells, long line_no,
+              std::vector<double>* values) {
+  if (cells.size() != head.header.size()) {
+    throw std::invalid_argument(fmt::format("{}:{}: {} cells, the header has {} columns", head.path, line_no,
+                                            cells.size(), head.header.size()));
   }
+  values->resize(cells.size());
   for (std::size_t c = 0; c < cells.size(); ++c) {
-    double value = 0.0;
+    double& value = (*values)[c];
     if (IsMissing(cells[c], &value)) {
-      table.columns[c].push_back(std::numeric_limits<double>::quiet_NaN());
-      ++table.missing_cells;
+      value = std::numeric_limits<double>::quiet_NaN();
       continue;
     }
     if (!ParseNumber(cells[c], &value)) {
-      throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not a number", table.path,
-                                              line_no, c + 1, table.header[c], Abbreviated(cells[c])));
+      throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not a number", head.path,
+                                              line_no, c + 1, head.header[c], Abbreviated(cells[c])));
     }
     if (!std::isfinite(value)) {
-      throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not finite", table.path,
-                                              line_no, c + 1, table.header[c], Abbreviated(cells[c])));
+      throw std::invalid_argument(fmt::format("{}:{}: column {} ('{}'): '{}' is not finite", head.path,
+                                              line_no, c + 1, head.header[c], Abbreviated(cells[c])));
     }
-    table.columns[c].push_back(value);
   }
-  table.line_of_row.push_back(line_no);
 }
 
-}  // namespace
-
-CsvTable ReadCsv(const std::filesystem::path& path) {
+std::ifstream OpenCsv(const std::filesystem::path& path) {
   CheckRegularFile(path.string(), "data file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::invalid_argument(IoError(path, "cannot open file", errno));
@@ -360,15 +357,23 @@ CsvTable ReadCsv(const std::filesystem::path& path) {
   if (std::filesystem::is_directory(path, ec)) {
     throw std::invalid_argument(fmt::format("{}: is a directory, expected a CSV file", path.string()));
   }
-  return ReadCsvStream(in, path.string());
+  return in;
 }
 
-CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
-  CsvTable table;
-  table.path = name;
+}  // namespace
+
+void ReadCsvRows(const std::filesystem::path& path, const CsvRowSink& sink) {
+  std::ifstream in = OpenCsv(path);
+  ReadCsvRowsStream(in, path.string(), sink);
+}
+
+void ReadCsvRowsStream(std::istream& in, const std::string& name, const CsvRowSink& sink) {
+  CsvTable head;
+  head.path = name;
   std::string line;
   std::vector<std::string> cells;
-  long line_no = 0;
+  std::vector<double> values;
+  long line_no = 0, rows = 0;
   bool have_header = false;
   const std::int64_t max_rows = LimitValue(kMaxCsvRows);
   const CsvLimits limits;
@@ -381,18 +386,41 @@ CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
     const long first = line_no;
     ReadRecord(in, name, line, lone_cr, &line_no, &cells, limits);
     if (!have_header) {
-      table.header = std::move(cells);
-      CheckHeader(table, first);
-      table.columns.assign(table.header.size(), {});
+      head.header = std::move(cells);
+      cells = {};
+      CheckHeader(head, first);
       have_header = true;
+      sink.header(head);
       continue;
     }
-    if (static_cast<std::int64_t>(table.line_of_row.size()) >= max_rows) {
-      CheckLimit(kMaxCsvRows, max_rows + 1, fmt::format("{}:{}", name, first));
-    }
-    AddRow(table, cells, first);
+    if (rows >= max_rows) CheckLimit(kMaxCsvRows, max_rows + 1, fmt::format("{}:{}", name, first));
+    ParseRow(head, cells, first, &values);
+    ++rows;
+    sink.row(values, first);
   }
-  if (!have_header) throw std::invalid_argument(fmt::format("{}: file is empty", table.path));
+  if (!have_header) throw std::invalid_argument(fmt::format("{}: file is empty", name));
+}
+
+CsvTable ReadCsv(const std::filesystem::path& path) {
+  std::ifstream in = OpenCsv(path);
+  return ReadCsvStream(in, path.string());
+}
+
+CsvTable ReadCsvStream(std::istream& in, const std::string& name) {
+  CsvTable table;
+  CsvRowSink sink;
+  sink.header = [&](const CsvTable& head) {
+    table = head;
+    table.columns.assign(table.header.size(), {});
+  };
+  sink.row = [&](std::span<const double> cells, long line) {
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+      table.columns[c].push_back(cells[c]);
+      if (std::isnan(cells[c])) ++table.missing_cells;
+    }
+    table.line_of_row.push_back(line);
+  };
+  ReadCsvRowsStream(in, name, sink);
   return table;
 }
 

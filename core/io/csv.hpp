@@ -14,6 +14,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <istream>
 #include <span>
 #include <string>
@@ -82,6 +83,16 @@ struct CsvTable {
 // for a missing or empty file, or one that is not a regular file (CheckRegularFile: a FIFO would block).
 CsvTable ReadCsv(const std::filesystem::path& path);
 CsvTable ReadCsvStream(std::istream& in, const std::string& name);
+
+// A CSV read row by row, with the checks and messages of ReadCsvStream, without the table held:
+// `header` is called once with the table's path and header (no rows), then `row` with each data row's
+// cells in header order (NaN for a missing cell) and its first line. Memory: one record.
+struct CsvRowSink {
+  std::function<void(const CsvTable& head)> header;
+  std::function<void(std::span<const double> cells, long line)> row;
+};
+void ReadCsvRows(const std::filesystem::path& path, const CsvRowSink& sink);
+void ReadCsvRowsStream(std::istream& in, const std::string& name, const CsvRowSink& sink);
 
 // Splits one record (its line breaks inside quoted fields included, CR of CRLF removed) into cells
 // per RFC 4180. False when the record ends inside a quoted field (the caller appends the next line).

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <optional>
+#include <span>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -177,24 +179,32 @@ std::string ColumnName(const CsvTable& table, int c) {
   return fmt::format("column {} ('{}')", c + 1, table.header[static_cast<std::size_t>(c)]);
 }
 
-// Time, run and j cells, and the magnitude of state cells, of row r.
-void CheckRow(const CsvTable& table, const Columns& c, std::size_t r) {
-  const long line = table.line_of_row[r];
-  auto cell = [&](int col) { return table.columns[static_cast<std::size_t>(col)][r]; };
+// One data row: its cells in header order and its first line in its file.
+struct RowView {
+  std::span<const double> cells;
+  long line = 0;
+  double operator()(int col) const { return cells[static_cast<std::size_t>(col)]; }
+};
+
+// A time, state or input cell beyond ±kMaxMagnitude (false for NaN: a missing cell).
+void CheckMagnitude(const CsvTable& table, int col, const RowView& cell) {
+  if (std::abs(cell(col)) > kMaxMagnitude) {
+    throw std::invalid_argument(fmt::format("{}:{}: {}: {} is out of range: |value| must be ≤ {:g} (rescale the data)",
+                                            table.path, cell.line, ColumnName(table, col), cell(col), kMaxMagnitude));
+  }
+}
+
+// Time, run and j cells, and the magnitude of state cells, of one row.
+void CheckRow(const CsvTable& table, const Columns& c, const RowView& cell) {
+  const long line = cell.line;
   if (std::isnan(cell(c.time))) {
     throw std::invalid_argument(
         fmt::format("{}:{}: {}: the time is missing", table.path, line, ColumnName(table, c.time)));
   }
-  std::vector<int> checked = c.state;
-  checked.insert(checked.end(), c.input.begin(), c.input.end());
-  checked.push_back(c.time);
-  for (int col : checked) {
-    if (std::abs(cell(col)) > kMaxMagnitude) {  // false for NaN (a missing state cell)
-      throw std::invalid_argument(
-          fmt::format("{}:{}: {}: {} is out of range: |value| must be ≤ {:g} (rescale the data)", table.path,
-                      line, ColumnName(table, col), cell(col), kMaxMagnitude));
-    }
+  for (const std::vector<int>* cols : {&c.state, &c.input}) {
+    for (int col : *cols) CheckMagnitude(table, col, cell);
   }
+  CheckMagnitude(table, c.time, cell);
   if (c.run >= 0) {
     const double v = cell(c.run);
     if (!(v == std::floor(v)) || std::abs(v) > 1e15) {
@@ -227,109 +237,34 @@ class JumpCounter {
  public:
   JumpCounter(const CsvTable& table, const Columns& c, const std::vector<int>& joined)
       : table_(table), col_(c.j), joined_(joined) {}
-  void StartRun(std::size_t r) {
+  void StartRun(const RowView& row) {
     if (col_ < 0) return;
-    offset_ = (joined_.empty() ? 0 : std::int64_t{joined_.back()}) - Cell(r);
-    run_start_ = r;
+    offset_ = (joined_.empty() ? 0 : std::int64_t{joined_.back()}) - Cell(row);
   }
-  // Row r's counter does not fall below the run's row before it.
-  void Check(std::size_t r) const {
-    if (col_ < 0 || r == run_start_ || Cell(r) >= Cell(r - 1)) return;
+  // The row's counter does not fall below the run's row before it (`prev`; null at a run's start).
+  void Check(const RowView& row, const RowView* prev) const {
+    if (col_ < 0 || prev == nullptr || Cell(row) >= Cell(*prev)) return;
     throw std::invalid_argument(fmt::format(
         "{}:{}: column {} ('j'): {} after {} (line {}): a jump counter never decreases within a run",
-        table_.path, table_.line_of_row[r], col_ + 1, Cell(r), Cell(r - 1), table_.line_of_row[r - 1]));
+        table_.path, row.line, col_ + 1, Cell(row), Cell(*prev), prev->line));
   }
-  int Joined(std::size_t r) const {
-    const std::int64_t v = offset_ + Cell(r);
+  int Joined(const RowView& row) const {
+    const std::int64_t v = offset_ + Cell(row);
     if (v > std::numeric_limits<int>::max()) {
       throw std::invalid_argument(
           fmt::format("{}:{}: column {} ('j'): the runs' jump counters add up to {}, beyond 2147483647",
-                      table_.path, table_.line_of_row[r], col_ + 1, v));
+                      table_.path, row.line, col_ + 1, v));
     }
     return static_cast<int>(v);
   }
 
  private:
-  std::int64_t Cell(std::size_t r) const {
-    return static_cast<std::int64_t>(table_.columns[static_cast<std::size_t>(col_)][r]);
-  }
+  std::int64_t Cell(const RowView& row) const { return static_cast<std::int64_t>(row(col_)); }
   const CsvTable& table_;
   int col_;
   const std::vector<int>& joined_;
   std::int64_t offset_ = 0;
-  std::size_t run_start_ = 0;
 };
-
-// Capacity for `rows` samples in every per-sample array (the first table's rows: a single file then
-// needs no growth, hence no slack; later tables grow them geometrically, trimmed at the end).
-void Reserve(std::size_t rows, const Columns& c, SampleData& out, std::vector<double>& y, std::vector<double>& u,
-             std::vector<int>& j) {
-  out.t.reserve(rows);
-  out.run.reserve(rows);
-  out.chain_start.reserve(rows);
-  out.line.reserve(rows);
-  y.reserve(rows * c.state.size());
-  u.reserve(rows * c.input.size());
-  if (c.j >= 0) j.reserve(rows);
-}
-
-// Appends the rows of one table to `out`: runs, missing rows left out, time order.
-void AppendTable(const CsvTable& table, const Columns& c, SampleData& out, std::vector<double>& y,
-                 std::vector<double>& u, std::vector<int>& j, std::vector<int>& map, std::vector<int>& q) {
-  std::map<long, int> seen;  // run number -> its index in out.run_names
-  long current = 0;
-  int run_index = -1;
-  bool break_next = true;
-  JumpCounter counter(table, c, j);
-  const auto t_col = static_cast<std::size_t>(c.time);
-  if (out.t.empty()) Reserve(table.columns[0].size(), c, out, y, u, j);
-  for (std::size_t r = 0; r < table.columns[0].size(); ++r) {
-    CheckRow(table, c, r);
-    const long run = c.run >= 0 ? static_cast<long>(table.columns[static_cast<std::size_t>(c.run)][r]) : 0;
-    if (run_index < 0 || run != current) {
-      if (seen.count(run)) {
-        throw std::invalid_argument(
-            fmt::format("{}:{}: {}: run {} appears again after run {}; the rows of a run must be contiguous",
-                        table.path, table.line_of_row[r], ColumnName(table, c.run), run, current));
-      }
-      run_index = static_cast<int>(out.run_names.size());
-      seen[run] = run_index;
-      out.run_names.push_back(c.run >= 0 ? fmt::format("{} run {}", table.path, run) : table.path);
-      current = run;
-      break_next = true;
-      counter.StartRun(r);
-    } else if (!(table.columns[t_col][r] > table.columns[t_col][r - 1])) {
-      throw std::invalid_argument(
-          fmt::format("{}:{}: {}: time {} is not after {} (line {}): time must increase", table.path,
-                      table.line_of_row[r], ColumnName(table, c.time), table.columns[t_col][r],
-                      table.columns[t_col][r - 1], table.line_of_row[r - 1]));
-    } else if (table.columns[t_col][r] - table.columns[t_col][r - 1] < kMinStep) {
-      throw std::invalid_argument(fmt::format(
-          "{}:{}: {}: the step {:g} after line {} is below {:g} s (rescale the time)", table.path,
-          table.line_of_row[r], ColumnName(table, c.time),
-          table.columns[t_col][r] - table.columns[t_col][r - 1], table.line_of_row[r - 1], kMinStep));
-    }
-    counter.Check(r);
-    bool missing = false;
-    for (int col : c.state) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
-    for (int col : c.input) missing = missing || std::isnan(table.columns[static_cast<std::size_t>(col)][r]);
-    if (missing) {  // left out; the chain goes on (the gap rule below judges the step across it)
-      if (out.missing_rows++ == 0) out.first_missing_line = table.line_of_row[r];
-      out.missing.push_back({.run = run_index, .line = table.line_of_row[r], .t = table.columns[t_col][r]});
-      continue;
-    }
-    out.t.push_back(table.columns[t_col][r]);
-    for (int col : c.state) y.push_back(table.columns[static_cast<std::size_t>(col)][r]);
-    for (int col : c.input) u.push_back(table.columns[static_cast<std::size_t>(col)][r]);
-    if (c.j >= 0) j.push_back(counter.Joined(r));
-    if (c.map >= 0) map.push_back(static_cast<int>(table.columns[static_cast<std::size_t>(c.map)][r]));
-    if (c.q >= 0) q.push_back(static_cast<int>(table.columns[static_cast<std::size_t>(c.q)][r]));
-    out.run.push_back(run_index);
-    out.chain_start.push_back(break_next ? 1 : 0);
-    out.line.push_back(table.line_of_row[r]);
-    break_next = false;
-  }
-}
 
 // Steps within chains: their median, the gap rule, and whether the data are one uniform chain.
 void CutGaps(const std::string& path, const SampleDataOptions& options, SampleData& d) {
@@ -370,8 +305,8 @@ void CheckStateScale(const SampleData& d) {
   }
 }
 
-// SampleData built table by table (a table may be freed once added): the per-sample arrays grow as
-// tables come, and are trimmed to their size at the end.
+// SampleData built table by table, each table row by row (a file need not be held whole): the
+// per-sample arrays grow as rows come, and are trimmed to their size at the end.
 class SampleBuilder {
  public:
   SampleBuilder(int state_size, const SampleDataOptions& options) : n_(state_size), options_(options) {
@@ -380,61 +315,30 @@ class SampleBuilder {
           "SampleDataOptions::max_gap = {}: must be finite and >= 0 (0: the default)", options.max_gap));
     }
   }
-  // `several`: more than one table is (or will be) added.
+  // A table's rows one by one: Begin with its path and header (no rows needed), Row for each data
+  // row in file order, End after the last (`several`: more than one table is or will be added).
+  void Begin(const CsvTable& head);
+  void Row(const RowView& row);
+  void End(bool several);
+  // A table already read, with capacity for its rows reserved when it is the first.
   void Add(const CsvTable& table, bool several) {
-    paths_.push_back(table.path);
-    const Columns c = ResolveColumns(table, n_, options_);
-    all_j_ = all_j_ && c.j >= 0;
-    all_map_ = all_map_ && c.map >= 0;
-    all_q_ = all_q_ && c.q >= 0;
-    std::vector<std::string> names;
-    for (int col : c.state) names.push_back(table.header[static_cast<std::size_t>(col)]);
-    if (d_.state_columns.empty()) d_.state_columns = names;
-    if (d_.input_columns.empty()) {
-      for (int col : c.input) d_.input_columns.push_back(table.header[static_cast<std::size_t>(col)]);
+    Begin(table);
+    if (d_.t.empty()) Reserve(static_cast<std::size_t>(table.rows()));
+    std::vector<double> cells(table.columns.size());
+    for (std::size_t r = 0; r < static_cast<std::size_t>(table.rows()); ++r) {
+      for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = table.columns[c][r];
+      Row({cells, table.line_of_row[r]});
     }
-    const std::size_t before = d_.t.size();
-    const long missing_before = d_.missing_rows;
-    AppendTable(table, c, d_, y_, u_, j_, map_, q_);
-    if (d_.t.size() == before && several) {  // one file of several is not left out silently
-      const long rows = d_.missing_rows - missing_before;
-      throw std::invalid_argument(
-          rows == 0 ? fmt::format("{}: no samples (no data rows)", table.path)
-                    : fmt::format("{}: no samples (each of its {} rows has a missing state value)",
-                                  table.path, rows));
-    }
+    End(several);
   }
-  SampleData Finish() && {
-    d_.path = fmt::format("{}", fmt::join(paths_, ", "));
-    const auto k = static_cast<long>(d_.t.size());
-    CheckLimit(kMaxSamples, k, d_.path);
-    if (k < 3) {
-      throw std::invalid_argument(
-          fmt::format("{}: {} samples{}; the identifier needs at least 3", d_.path, k,
-                      d_.missing_rows ? fmt::format(" ({} {} with a missing value left out)", d_.missing_rows,
-                                                    d_.missing_rows == 1 ? "row" : "rows")
-                                      : ""));
-    }
-    CutGaps(d_.path, options_, d_);
-    d_.y = Eigen::Map<const Mat>(y_.data(), n_, k);
-    y_ = {};
-    d_.u = Eigen::Map<const Mat>(u_.data(), static_cast<Eigen::Index>(options_.inputs.size()), k);
-    u_ = {};
-    CheckStateScale(d_);
-    d_.t.shrink_to_fit();
-    d_.run.shrink_to_fit();
-    d_.chain_start.shrink_to_fit();
-    d_.line.shrink_to_fit();
-    if (all_j_) {
-      j_.shrink_to_fit();
-      d_.j = std::move(j_);
-    }
-    if (all_map_) d_.map = std::move(map_);
-    if (all_q_) d_.q = std::move(q_);
-    return std::move(d_);
-  }
+  SampleData Finish() &&;
 
  private:
+  void Reserve(std::size_t rows);
+  void StartRun(const RowView& row, long run);
+  void CheckStep(const RowView& row) const;
+  void Append(const RowView& row);
+
   int n_;
   const SampleDataOptions& options_;
   SampleData d_;
@@ -442,7 +346,163 @@ class SampleBuilder {
   std::vector<double> y_, u_;
   std::vector<int> j_, map_, q_;
   bool all_j_ = true, all_map_ = true, all_q_ = true;
+  // The table being read.
+  CsvTable head_;
+  Columns c_;
+  std::optional<JumpCounter> counter_;
+  std::map<long, int> seen_;      // run number -> its index in d_.run_names
+  long current_ = 0;              // the run number of the row before
+  int run_index_ = -1;            // its index (-1: no row yet)
+  bool break_next_ = true;        // the next sample starts a chain
+  std::vector<double> prev_;      // the row before (its cells) ...
+  long prev_line_ = 0;            // ... and its line
+  std::size_t samples_before_ = 0;
+  long missing_before_ = 0;
 };
+
+void SampleBuilder::Begin(const CsvTable& head) {
+  paths_.push_back(head.path);
+  head_.path = head.path;
+  head_.header = head.header;
+  c_ = ResolveColumns(head_, n_, options_);
+  all_j_ = all_j_ && c_.j >= 0;
+  all_map_ = all_map_ && c_.map >= 0;
+  all_q_ = all_q_ && c_.q >= 0;
+  if (d_.state_columns.empty()) {
+    for (int col : c_.state) d_.state_columns.push_back(head_.header[static_cast<std::size_t>(col)]);
+  }
+  if (d_.input_columns.empty()) {
+    for (int col : c_.input) d_.input_columns.push_back(head_.header[static_cast<std::size_t>(col)]);
+  }
+  counter_.emplace(head_, c_, j_);
+  seen_.clear();
+  current_ = 0;
+  run_index_ = -1;
+  break_next_ = true;
+  samples_before_ = d_.t.size();
+  missing_before_ = d_.missing_rows;
+}
+
+void SampleBuilder::StartRun(const RowView& row, long run) {
+  if (seen_.count(run)) {
+    throw std::invalid_argument(
+        fmt::format("{}:{}: {}: run {} appears again after run {}; the rows of a run must be contiguous",
+                    head_.path, row.line, ColumnName(head_, c_.run), run, current_));
+  }
+  run_index_ = static_cast<int>(d_.run_names.size());
+  seen_[run] = run_index_;
+  d_.run_names.push_back(c_.run >= 0 ? fmt::format("{} run {}", head_.path, run) : head_.path);
+  current_ = run;
+  break_next_ = true;
+  counter_->StartRun(row);
+}
+
+// Time increases from the row before (in the same run) by at least kMinStep.
+void SampleBuilder::CheckStep(const RowView& row) const {
+  const double t = row(c_.time), before = prev_[static_cast<std::size_t>(c_.time)];
+  if (!(t > before)) {
+    throw std::invalid_argument(fmt::format("{}:{}: {}: time {} is not after {} (line {}): time must increase",
+                                            head_.path, row.line, ColumnName(head_, c_.time), t, before,
+                                            prev_line_));
+  }
+  if (t - before < kMinStep) {
+    throw std::invalid_argument(fmt::format("{}:{}: {}: the step {:g} after line {} is below {:g} s (rescale the time)",
+                                            head_.path, row.line, ColumnName(head_, c_.time), t - before,
+                                            prev_line_, kMinStep));
+  }
+}
+
+// One row: checked, then appended as a sample, or counted as missing (the chain goes on across it:
+// the gap rule judges the step over it).
+void SampleBuilder::Row(const RowView& row) {
+  CheckRow(head_, c_, row);
+  const long run = c_.run >= 0 ? static_cast<long>(row(c_.run)) : 0;
+  const bool same_run = run_index_ >= 0 && run == current_;
+  if (same_run) {
+    CheckStep(row);
+  } else {
+    StartRun(row, run);
+  }
+  const RowView prev{prev_, prev_line_};
+  counter_->Check(row, same_run ? &prev : nullptr);
+  bool missing = false;
+  for (int col : c_.state) missing = missing || std::isnan(row(col));
+  for (int col : c_.input) missing = missing || std::isnan(row(col));
+  if (missing) {
+    if (d_.missing_rows++ == 0) d_.first_missing_line = row.line;
+    d_.missing.push_back({.run = run_index_, .line = row.line, .t = row(c_.time)});
+  } else {
+    Append(row);
+  }
+  prev_.assign(row.cells.begin(), row.cells.end());
+  prev_line_ = row.line;
+}
+
+void SampleBuilder::Append(const RowView& row) {
+  d_.t.push_back(row(c_.time));
+  for (int col : c_.state) y_.push_back(row(col));
+  for (int col : c_.input) u_.push_back(row(col));
+  if (c_.j >= 0) j_.push_back(counter_->Joined(row));
+  if (c_.map >= 0) map_.push_back(static_cast<int>(row(c_.map)));
+  if (c_.q >= 0) q_.push_back(static_cast<int>(row(c_.q)));
+  d_.run.push_back(run_index_);
+  d_.chain_start.push_back(break_next_ ? 1 : 0);
+  d_.line.push_back(row.line);
+  break_next_ = false;
+}
+
+void SampleBuilder::End(bool several) {
+  counter_.reset();
+  if (d_.t.size() == samples_before_ && several) {  // one file of several is not left out silently
+    const long rows = d_.missing_rows - missing_before_;
+    throw std::invalid_argument(
+        rows == 0 ? fmt::format("{}: no samples (no data rows)", head_.path)
+                  : fmt::format("{}: no samples (each of its {} rows has a missing state value)", head_.path,
+                                rows));
+  }
+}
+
+// Capacity for `rows` samples in every per-sample array (a single table read whole then needs no
+// growth, hence no slack; rows read one by one grow them geometrically, trimmed at the end).
+void SampleBuilder::Reserve(std::size_t rows) {
+  d_.t.reserve(rows);
+  d_.run.reserve(rows);
+  d_.chain_start.reserve(rows);
+  d_.line.reserve(rows);
+  y_.reserve(rows * c_.state.size());
+  u_.reserve(rows * c_.input.size());
+  if (c_.j >= 0) j_.reserve(rows);
+}
+
+SampleData SampleBuilder::Finish() && {
+  d_.path = fmt::format("{}", fmt::join(paths_, ", "));
+  const auto k = static_cast<long>(d_.t.size());
+  CheckLimit(kMaxSamples, k, d_.path);
+  if (k < 3) {
+    throw std::invalid_argument(
+        fmt::format("{}: {} samples{}; the identifier needs at least 3", d_.path, k,
+                    d_.missing_rows ? fmt::format(" ({} {} with a missing value left out)", d_.missing_rows,
+                                                  d_.missing_rows == 1 ? "row" : "rows")
+                                    : ""));
+  }
+  CutGaps(d_.path, options_, d_);
+  d_.y = Eigen::Map<const Mat>(y_.data(), n_, k);
+  y_ = {};
+  d_.u = Eigen::Map<const Mat>(u_.data(), static_cast<Eigen::Index>(options_.inputs.size()), k);
+  u_ = {};
+  CheckStateScale(d_);
+  d_.t.shrink_to_fit();
+  d_.run.shrink_to_fit();
+  d_.chain_start.shrink_to_fit();
+  d_.line.shrink_to_fit();
+  if (all_j_) {
+    j_.shrink_to_fit();
+    d_.j = std::move(j_);
+  }
+  if (all_map_) d_.map = std::move(map_);
+  if (all_q_) d_.q = std::move(q_);
+  return std::move(d_);
+}
 
 }  // namespace
 
@@ -509,7 +569,13 @@ SampleData SampleDataFromArrays(const std::vector<std::vector<double>>& times, c
 SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
                           const SampleDataOptions& options) {
   SampleBuilder builder(state_size, options);
-  for (const std::string& p : paths) builder.Add(ReadCsv(p), paths.size() > 1);  // one file held at a time
+  CsvRowSink sink;  // each file streamed into the samples, never held whole
+  sink.header = [&](const CsvTable& head) { builder.Begin(head); };
+  sink.row = [&](std::span<const double> cells, long line) { builder.Row({cells, line}); };
+  for (const std::string& p : paths) {
+    ReadCsvRows(p, sink);
+    builder.End(paths.size() > 1);
+  }
   return std::move(builder).Finish();
 }
 

@@ -100,8 +100,9 @@ struct SampleData {
 };
 
 // Throws std::invalid_argument with "FILE:LINE: column C ('name'): ..." or "FILE: ..." messages.
-// The files are read one at a time, each table freed once its samples are taken (memory: one file's
-// table beside the samples).
+// The files are read one at a time, each streamed row by row into the samples (ReadCsvRows; memory:
+// the samples and one record); SampleDataFromTables makes the same checks row by row on tables
+// already read.
 SampleData ReadSampleData(const std::vector<std::string>& paths, int state_size,
                           const SampleDataOptions& options = {});
 SampleData ReadSampleData(const std::string& path, int state_size);

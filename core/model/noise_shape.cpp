@@ -103,6 +103,26 @@ Mat JumpNoiseShape(const Model& model, ConstVecRef sigma, const Mat& states) {
   return MeanShape(map, RegressionLayout::Jump(model), model.beta(), sigma, states, add);
 }
 
+double NoiseSigmaFromSecondDifferences(std::vector<double>& d) {
+  if (d.size() < 2) {
+    throw std::invalid_argument(
+        fmt::format("EstimateNoiseSigma: y has {} samples (columns), need at least 4", d.size() + 2));
+  }
+  if (!std::all_of(d.begin(), d.end(), [](double v) { return std::isfinite(v); })) {
+    throw std::invalid_argument("EstimateNoiseSigma: y must be finite");
+  }
+  auto median = [](std::vector<double>& v) {
+    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    double med = *mid;
+    if (v.size() % 2 == 0) med = 0.5 * (med + *std::max_element(v.begin(), mid));
+    return med;
+  };
+  const double centre = median(d);
+  for (double& v : d) v = std::abs(v - centre);
+  return 1.4826 * median(d) / std::sqrt(6.0);
+}
+
 Vec EstimateNoiseSigma(const Mat& y) {
   if (y.cols() < 4) {
     throw std::invalid_argument(
@@ -112,20 +132,11 @@ Vec EstimateNoiseSigma(const Mat& y) {
   const Eigen::Index k = y.cols() - 2;
   Vec sigma(y.rows());
   std::vector<double> d(static_cast<std::size_t>(k));
-  auto median = [](std::vector<double>& v) {
-    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-    std::nth_element(v.begin(), mid, v.end());
-    double med = *mid;
-    if (v.size() % 2 == 0) med = 0.5 * (med + *std::max_element(v.begin(), mid));
-    return med;
-  };
   for (Eigen::Index i = 0; i < y.rows(); ++i) {
     for (Eigen::Index j = 0; j < k; ++j) {
       d[static_cast<std::size_t>(j)] = y(i, j + 2) - 2.0 * y(i, j + 1) + y(i, j);
     }
-    const double centre = median(d);
-    for (double& v : d) v = std::abs(v - centre);
-    sigma[i] = 1.4826 * median(d) / std::sqrt(6.0);
+    sigma[i] = NoiseSigmaFromSecondDifferences(d);
   }
   return sigma;
 }

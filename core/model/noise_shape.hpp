@@ -25,6 +25,8 @@
 // Scale: the returned C is in absolute units (σ² included), so GTLS's σ̂² estimates 1 when σ is right.
 #pragma once
 
+#include <vector>
+
 #include "core/model/model.hpp"
 #include "core/model/regression.hpp"
 
@@ -44,5 +46,9 @@ Mat JumpNoiseShape(const Model& model, ConstVecRef sigma, const Mat& states);
 // σ̂ upwards only when it is comparable to σ (then sample faster or give σ). Throws
 // std::invalid_argument when y has fewer than 4 columns or non-finite entries.
 Vec EstimateNoiseSigma(const Mat& y);
+// The same σ̂ of one component from its second differences d_k (K − 2 of them, reordered in place), for
+// samples held apart (several chains read in order) that need not be copied side by side. Throws as
+// EstimateNoiseSigma for fewer than 2 differences or a non-finite one.
+double NoiseSigmaFromSecondDifferences(std::vector<double>& d);
 
 }  // namespace hysid

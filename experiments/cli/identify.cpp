@@ -441,11 +441,12 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
   IdentifyOptions options;
   options.trace = !args.trace.empty();
+  options.statistics = options.trace;  // the detector's statistic and threshold: only the trace shows them
   CheckOutputs(args);
   std::vector<double> kinks;
   const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
   IdentifyResult result = IdentifyData(model, settings, data, options);
-  if (!partial.reconstructed.empty()) {  // the detector's statistic is the kinks'
+  if (!partial.reconstructed.empty() && options.statistics) {  // the detector's statistic is the kinks'
     result.statistic = kinks;
     result.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
   }

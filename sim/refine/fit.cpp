@@ -848,16 +848,24 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
     return r;
   }
   Vec mad_sigma(problem.rows.size()), largest(problem.rows.size());
-  {  // all chains' samples of one component side by side, only while the weighting is chosen
-    Mat y(1, r.samples_used);
+  {  // one component's second differences over all chains' samples in order, only while the weighting is chosen
+    std::vector<double> d;
+    d.reserve(static_cast<std::size_t>(std::max<Eigen::Index>(r.samples_used - 2, 0)));
     for (Eigen::Index i = 0; i < mad_sigma.size(); ++i) {
-      Eigen::Index k = 0;
+      d.clear();
+      double before = 0.0, last = 0.0;  // the two samples before the next
+      Eigen::Index seen = 0;
+      largest[i] = 0.0;
       for (const ChainFit& f : problem.fits) {
-        y.middleCols(k, f.y().cols()) = f.y().row(i);
-        k += f.y().cols();
+        for (Eigen::Index c = 0; c < f.y().cols(); ++c, ++seen) {
+          const double v = f.y()(i, c);
+          if (seen >= 2) d.push_back(v - 2.0 * last + before);
+          before = last;
+          last = v;
+          largest[i] = std::max(largest[i], std::abs(v));
+        }
       }
-      mad_sigma[i] = EstimateNoiseSigma(y)[0];
-      largest[i] = y.cwiseAbs().maxCoeff();
+      mad_sigma[i] = NoiseSigmaFromSecondDifferences(d);
     }
   }
   FitWeighting(largest, r.samples_used, options, mad_sigma, &problem.options, &problem.weight);

@@ -136,6 +136,47 @@ TEST_CASE("read samples hold their arrays without slack: 41 bytes per sample for
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("a file streamed row by row gives the samples and the errors of its table read whole", "[sample_data]") {
+  const std::filesystem::path dir = testing::FreshTempDir("sample_data_stream");
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return (dir / name).string();
+  };
+  const std::string text =
+      "# runs\nrun,t,j,x,v,u\n3,0,4,1,2,0.5\n3,0.1,4,,2,0.5\n3,0.2,5,1.5,2,0.5\n\n3,0.3,5,1,2,NA\n"
+      "7,0,0,1,-2,1\n7,0.1,1,\"2\",-3,1\n7,0.9,1,3,-4,1\n";
+  const SampleDataOptions options{.inputs = {"u"}};
+  const std::string a = write("a.csv", text), b = write("b.csv", text);
+  const SampleData streamed = ReadSampleData({a, b}, 2, options);
+  const SampleData whole = SampleDataFromTables({ReadCsv(a), ReadCsv(b)}, 2, options);
+  CHECK(streamed.t == whole.t);
+  CHECK(streamed.y == whole.y);
+  CHECK(streamed.u == whole.u);
+  CHECK(*streamed.j == *whole.j);
+  CHECK(streamed.run == whole.run);
+  CHECK(streamed.chain_start == whole.chain_start);
+  CHECK(streamed.line == whole.line);
+  CHECK(streamed.run_names == whole.run_names);
+  CHECK(streamed.missing_rows == 4);
+  CHECK(streamed.missing.size() == whole.missing.size());
+  CHECK(streamed.gaps == whole.gaps);
+  CHECK(streamed.line == std::vector<long>{3, 5, 8, 9, 10, 3, 5, 8, 9, 10});
+  for (const char* bad :
+       {"t,x,v\n0,1,2\n0.1,1,2\n0.1,1,2\n", "t,j,x,v\n0,2,1,2\n0.1,1,1,2\n0.2,1,1,2\n",
+        "run,t,x,v\n1,0,1,2\n2,0,1,2\n1,0.1,1,2\n", "t,x,v\n0,1,2\n0.1,1e200,2\n", "t,x,v\n0,1,2\n,1,2\n"}) {
+    const std::string path = write("bad.csv", bad);
+    std::string whole_error;
+    try {
+      SampleDataFromTables({ReadCsv(path)}, 2, {});
+    } catch (const std::invalid_argument& e) {
+      whole_error = e.what();
+    }
+    REQUIRE(!whole_error.empty());
+    CHECK_THROWS_WITH(ReadSampleData({path}, 2, {}), whole_error);
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("a data file without samples is refused by name, also beside other files", "[sample_data]") {
   const CsvTable good = Table("t,x,v\n0,1,2\n0.1,1,2\n0.2,1,2\n0.3,1,2\n", "good.csv");
   const CsvTable header = Table("t,x,v\n", "header.csv");

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <vector>
 
 #include "core/builtin/impact_msd.hpp"
 #include "core/builtin/impact_pendulum.hpp"
@@ -101,6 +103,25 @@ TEST_CASE("MAD of second differences recovers sigma on a simulated trajectory", 
   }
   // Noise-free: only δt²ξ'' remains, far below either σ above.
   CHECK(EstimateNoiseSigma(traj.x).maxCoeff() <= 1e-3);
+}
+
+TEST_CASE("sigma from second differences is the MAD of them, as EstimateNoiseSigma gives on the row",
+          "[noise_shape]") {
+  // d = (3, -1, 0, 5, 2): median 2, |d − 2| = (1, 3, 2, 3, 0), median 2 → σ̂ = 1.4826 · 2 / √6.
+  std::vector<double> d{3.0, -1.0, 0.0, 5.0, 2.0};
+  CHECK(NoiseSigmaFromSecondDifferences(d) == Approx(1.4826 * 2.0 / std::sqrt(6.0)).epsilon(1e-15));
+  // A row whose second differences are those: y_{k+2} = d_k + 2y_{k+1} − y_k from y_0 = 1, y_1 = 4.
+  const std::vector<double> diffs{3.0, -1.0, 0.0, 5.0, 2.0};
+  Mat y(1, 7);
+  y(0, 0) = 1.0;
+  y(0, 1) = 4.0;
+  for (int k = 0; k < 5; ++k) y(0, k + 2) = diffs[static_cast<std::size_t>(k)] + 2.0 * y(0, k + 1) - y(0, k);
+  d = diffs;
+  CHECK(EstimateNoiseSigma(y)[0] == NoiseSigmaFromSecondDifferences(d));
+  std::vector<double> two{1.0};
+  CHECK_THROWS_WITH(NoiseSigmaFromSecondDifferences(two), Catch::Contains("at least 4"));
+  std::vector<double> inf{1.0, std::numeric_limits<double>::infinity()};
+  CHECK_THROWS_WITH(NoiseSigmaFromSecondDifferences(inf), Catch::Contains("finite"));
 }
 
 TEST_CASE("noise shape errors name the field", "[noise_shape]") {
