@@ -36,6 +36,10 @@ void IntegralLs::Reset() {
   ResetToPrior();
 }
 
+void IntegralLs::SetIllConditioned() {
+  SetNotOk(EstimatorStatus::kIllConditioned, "the normal equations are not positive definite");
+}
+
 const Mat* IntegralLs::covariance_matrix() const {
   if (covariance_stale_) {
     const Eigen::Index p = theta0_.size();

@@ -55,9 +55,15 @@ class IntegralLs final : public Estimator {
     if (!Admit(finite)) return;
     if (n_ == 0 || rows_ != 1) StartSegment(1);
     ++n_;
-    AccumulateRow<P>(0, phi, 1, y);
-    if (any) ++informative_;
-    Solve<P>();
+    if constexpr (P == 2) {
+      const Moments2 mc = AccumulateRow2(0, phi, 1, y);
+      if (any) ++informative_;
+      Solve2(mc);
+    } else {
+      AccumulateRow<P>(0, phi, 1, y);
+      if (any) ++informative_;
+      Solve<P>();
+    }
   }
 
  private:
@@ -89,45 +95,81 @@ class IntegralLs final : public Estimator {
       c_[i] += keep * d[i] * dz;
     }
   }
+  // M's entries 0, 1 (= 2) and 3 and c, for p = 2.
+  struct Moments2 {
+    double m0, m1, m3, c0, c1;
+  };
+  // AccumulateRow for p = 2, the same arithmetic with d and the updated M and c in scalars, handed to
+  // Solve2 in registers: GCC may read a two-entry d array, or M and c right after their scalar stores,
+  // back as vectors, which those stores do not forward (a stall that doubled the integral step).
+  Moments2 AccumulateRow2(Eigen::Index r, const double* phi, Eigen::Index stride, double y) {
+    double* cum = cum_phi_.data() + r * 2;
+    double* mean = mean_phi_.data() + r * 2;
+    const double w = 1.0 / static_cast<double>(n_), keep = 1.0 - w;
+    cum[0] += phi[0];
+    const double d0 = cum[0] - mean[0];
+    mean[0] += w * d0;
+    cum[1] += phi[stride];
+    const double d1 = cum[1] - mean[1];
+    mean[1] += w * d1;
+    cum_y_[r] += y;
+    const double dz = cum_y_[r] - mean_y_[r];
+    mean_y_[r] += w * dz;
+    const Moments2 mc{.m0 = m_[0] + keep * d0 * d0,
+                      .m1 = m_[1] + keep * d0 * d1,
+                      .m3 = m_[3] + keep * d1 * d1,
+                      .c0 = c_[0] + keep * d0 * dz,
+                      .c1 = c_[1] + keep * d1 * dz};
+    const double m2 = m_[2] + keep * d1 * d0;
+    m_[0] = mc.m0, m_[1] = mc.m1, m_[2] = m2, m_[3] = mc.m3;
+    c_[0] = mc.c0, c_[1] = mc.c1;
+    return mc;
+  }
 
   // α̂ = (A + I/p0)⁻¹(b + α0/p0): for p = 2 in closed form (one division), else by an LDLᵀ
   // factorisation (no square roots); A + I/p0 is kept for the covariance A⁻¹/2, computed when
   // asked. A matrix that is not positive definite leaves α̂ and sets kIllConditioned.
   template <int P>
   void Solve() {
-    if constexpr (P == 0) {
-      if (theta_.size() == 2) return Solve<2>();  // the same arithmetic as the direct path
+    if (P == 2 || (P == 0 && theta_.size() == 2)) {  // the same arithmetic as the direct path
+      return Solve2({.m0 = m_[0], .m1 = m_[1], .m3 = m_[3], .c0 = c_[0], .c1 = c_[1]});
     }
     const Eigen::Index p = P > 0 ? P : theta_.size();
     double* a = a_.data();
-    bool ok = false;
-    if constexpr (P == 2) {
-      const double a0 = a_closed_[0] + m_[0] + ridge_[0], a1 = a_closed_[1] + m_[1];
-      const double a3 = a_closed_[3] + m_[3] + ridge_[1];
-      const double v0 = b_closed_[0] + c_[0] + ridge_[0] * theta0_[0];
-      const double v1 = b_closed_[1] + c_[1] + ridge_[1] * theta0_[1];
-      a[0] = a0, a[1] = a[2] = a1, a[3] = a3;
-      const double det = a0 * a3 - a1 * a1;
-      ok = a0 > 0.0 && det > 0.0 && std::isfinite(det);
-      if (ok) {
-        const double inv = 1.0 / det;
-        theta_[0] = (a3 * v0 - a1 * v1) * inv;
-        theta_[1] = (a0 * v1 - a1 * v0) * inv;
-      }
-    } else {
-      double* v = work_.data();
-      for (Eigen::Index i = 0; i < p * p; ++i) a[i] = a_closed_[i] + m_[i];
-      for (Eigen::Index i = 0; i < p; ++i) {
-        a[i * p + i] += ridge_[i];
-        v[i] = b_closed_[i] + c_[i] + ridge_[i] * theta0_[i];
-      }
-      ok = SolveLdlt(p, a, v);
-      if (ok) {
-        for (Eigen::Index i = 0; i < p; ++i) theta_[i] = v[i];
-      }
+    double* v = work_.data();
+    for (Eigen::Index i = 0; i < p * p; ++i) a[i] = a_closed_[i] + m_[i];
+    for (Eigen::Index i = 0; i < p; ++i) {
+      a[i * p + i] += ridge_[i];
+      v[i] = b_closed_[i] + c_[i] + ridge_[i] * theta0_[i];
     }
+    const bool ok = SolveLdlt(p, a, v);
+    if (ok) {
+      for (Eigen::Index i = 0; i < p; ++i) theta_[i] = v[i];
+    }
+    Solved(ok, p);
+  }
+  // Solve for p = 2 in closed form from the open segment's M and c.
+  void Solve2(const Moments2& mc) {
+    double* a = a_.data();
+    const double a0 = a_closed_[0] + mc.m0 + ridge_[0], a1 = a_closed_[1] + mc.m1;
+    const double a3 = a_closed_[3] + mc.m3 + ridge_[1];
+    const double v0 = b_closed_[0] + mc.c0 + ridge_[0] * theta0_[0];
+    const double v1 = b_closed_[1] + mc.c1 + ridge_[1] * theta0_[1];
+    a[0] = a0, a[1] = a[2] = a1, a[3] = a3;
+    const double det = a0 * a3 - a1 * a1;
+    const bool ok = a0 > 0.0 && det > 0.0 && std::isfinite(det);
+    if (ok) {
+      const double inv = 1.0 / det;
+      theta_[0] = (a3 * v0 - a1 * v1) * inv;
+      theta_[1] = (a0 * v1 - a1 * v0) * inv;
+    }
+    Solved(ok, 2);
+  }
+  // After a solve: kIllConditioned when it failed, else the covariance stale and the status ok once
+  // excited.
+  void Solved(bool ok, Eigen::Index p) {
     if (!ok) {
-      SetNotOk(EstimatorStatus::kIllConditioned, "the normal equations are not positive definite");
+      SetIllConditioned();
       return;
     }
     covariance_stale_ = true;
@@ -140,6 +182,9 @@ class IntegralLs final : public Estimator {
   // Solves (row-major p × p, symmetric positive definite) a x = v in place of v by LDLᵀ; false when
   // a pivot is not a positive finite number.
   bool SolveLdlt(Eigen::Index p, const double* a, double* v);
+  // kIllConditioned with its reason. Out of line: the reason's string would keep Solve, and with it
+  // the per-sample UpdateRow, from being inlined.
+  void SetIllConditioned();
 
   Vec ridge_;  // 1/P0's diagonal
   // Closed segments: A and b (centred, offsets eliminated); p × p row-major, p.

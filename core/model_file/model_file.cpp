@@ -111,9 +111,15 @@ Compiled& Local(const std::shared_ptr<const Definition>& def) {
   return *last;
 }
 
+// out[0, n) = from[0, n) for the few entries of a state or an expression matrix, by a plain loop:
+// std::copy calls memmove, which costs more than these copies (two per sample in PhiColumns).
+void CopySmall(const double* from, std::size_t n, double* out) {
+  for (std::size_t i = 0; i < n; ++i) out[i] = from[i];
+}
+
 // Loads ξ, and for a model with inputs or γ also u, γ and t from the (resolved) context.
 void Load(const Definition& def, Compiled& c, const double* x, std::size_t n, const Context& ctx) {
-  std::copy(x, x + n, c.var.begin());
+  CopySmall(x, n, c.var.data());
   if (!def.contextual) return;
   const std::size_t m = def.spec.inputs.size(), g = def.spec.guard_params.size();
   // Loops, not std::copy: the x-only path's context (never reaching here) has null pointers that
@@ -125,7 +131,7 @@ void Load(const Definition& def, Compiled& c, const double* x, std::size_t n, co
 
 // Fills out (column-major, rows·cols) with the matrix at the loaded state.
 void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
-  std::copy(m.constant.begin(), m.constant.end(), out);
+  CopySmall(m.constant.data(), m.constant.size(), out);
   if (m.index.empty()) return;
   int count = 0;
   const double* v = p.Eval(count);
