@@ -29,7 +29,7 @@ struct ChainFit {
   const std::vector<double>& times() const { return chain_times != nullptr ? *chain_times : own_times; }
   // The measured samples of the span (m × K): the chain's own first K columns when every state is
   // measured, else a copy of the measured rows.
-  const Mat* chain_y = nullptr;
+  const SampleView* chain_y = nullptr;
   Mat measured_y;
   Eigen::Ref<const Mat> y() const {
     if (chain_y == nullptr) return measured_y;

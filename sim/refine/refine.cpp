@@ -164,7 +164,7 @@ void CheckInputs(const Model& model, const std::vector<RefineChain>& chains, con
 // are finite.
 std::string FirstNonFinite(const std::vector<RefineChain>& chains) {
   for (std::size_t c = 0; c < chains.size(); ++c) {
-    const Mat& y = chains[c].y;
+    const SampleView& y = chains[c].y;
     for (Eigen::Index k = 0; k < y.cols(); ++k) {
       for (Eigen::Index i = 0; i < y.rows(); ++i) {
         if (std::isfinite(y(i, k))) continue;
@@ -513,14 +513,58 @@ bool RepairChains(const Model& model, const std::vector<RefineChain>& chains, co
 
 }  // namespace
 
-RefineChain RefineChain::Uniform(const Mat& y, double dt, const std::vector<std::uint8_t>& gamma) {
+RefineChain RefineChain::Of(std::vector<double> t, Mat y, std::vector<std::uint8_t> gamma, Mat u) {
   RefineChain c;
-  c.t.resize(static_cast<std::size_t>(y.cols()));
-  for (std::size_t k = 0; k < c.t.size(); ++k) c.t[k] = static_cast<double>(k) * dt;
-  c.y = y;
-  c.gamma = gamma;
+  c.t = std::move(t);
+  c.gamma = std::move(gamma);
+  auto owned = std::make_shared<Samples>(Samples{std::move(y), std::move(u)});
+  c.y = SampleView(owned->y);
+  c.u = SampleView(owned->u);
+  c.owned = std::move(owned);
   return c;
 }
+
+RefineChain RefineChain::Uniform(const Mat& y, double dt, const std::vector<std::uint8_t>& gamma) {
+  std::vector<double> t(static_cast<std::size_t>(y.cols()));
+  for (std::size_t k = 0; k < t.size(); ++k) t[k] = static_cast<double>(k) * dt;
+  return Of(std::move(t), y, gamma);
+}
+
+namespace {
+
+// Samples [begin, end) of (t, y, gamma, u) as one chain: a view of y's and u's columns when all are
+// finite, else a copy of the finite ones (none: an empty chain).
+RefineChain ChainOf(const std::vector<double>& t, const Mat& y, const std::vector<std::uint8_t>& gamma,
+                    const Mat& u, std::size_t begin, std::size_t end) {
+  std::size_t present = 0;
+  for (std::size_t k = begin; k < end; ++k) present += y.col(static_cast<Eigen::Index>(k)).allFinite() ? 1 : 0;
+  const auto first = static_cast<Eigen::Index>(begin), count = static_cast<Eigen::Index>(end - begin);
+  if (present == end - begin) {
+    RefineChain c;
+    c.t.assign(t.begin() + first, t.begin() + first + count);
+    c.y = SampleView(y, first, count);
+    c.gamma.assign(gamma.begin() + first, gamma.begin() + first + count);
+    c.u = SampleView(u, u.rows() > 0 ? first : 0, u.rows() > 0 ? count : 0);
+    return c;
+  }
+  std::vector<double> ct;
+  std::vector<std::uint8_t> cg;
+  ct.reserve(present);
+  cg.reserve(present);
+  Mat cy(y.rows(), static_cast<Eigen::Index>(present)), cu(u.rows(), u.rows() > 0 ? cy.cols() : 0);
+  for (std::size_t k = begin; k < end; ++k) {
+    const auto kk = static_cast<Eigen::Index>(k);
+    if (!y.col(kk).allFinite()) continue;
+    const auto i = static_cast<Eigen::Index>(ct.size());
+    ct.push_back(t[k]);
+    cg.push_back(gamma[k]);
+    cy.col(i) = y.col(kk);
+    if (u.rows() > 0) cu.col(i) = u.col(kk);
+  }
+  return RefineChain::Of(std::move(ct), std::move(cy), std::move(cg), std::move(cu));
+}
+
+}  // namespace
 
 std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
                                      const std::vector<std::uint8_t>& chain_start,
@@ -532,26 +576,13 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
         fmt::format("SplitChains: {} samples, {} times, {} chain_start, {} gamma entries, {} input samples",
                     k_count, t.size(), chain_start.size(), gamma.size(), u.cols()));
   }
-  std::vector<std::vector<std::size_t>> members;  // per chain: its samples present
-  for (std::size_t k = 0; k < k_count; ++k) {
-    if (members.empty() || (!chain_start.empty() && chain_start[k] && !members.back().empty())) {
-      members.emplace_back();
-    }
-    if (y.col(static_cast<Eigen::Index>(k)).allFinite()) members.back().push_back(k);
-  }
   std::vector<RefineChain> chains;
-  for (const std::vector<std::size_t>& m : members) {
-    if (m.empty()) continue;
-    RefineChain c;
-    c.y.resize(y.rows(), static_cast<Eigen::Index>(m.size()));
-    c.u.resize(u.rows(), static_cast<Eigen::Index>(m.size()));
-    for (std::size_t i = 0; i < m.size(); ++i) {
-      c.t.push_back(t[m[i]]);
-      c.y.col(static_cast<Eigen::Index>(i)) = y.col(static_cast<Eigen::Index>(m[i]));
-      if (u.rows() > 0) c.u.col(static_cast<Eigen::Index>(i)) = u.col(static_cast<Eigen::Index>(m[i]));
-      c.gamma.push_back(gamma[m[i]]);
-    }
-    chains.push_back(std::move(c));
+  std::size_t begin = 0;
+  for (std::size_t k = 1; k <= k_count; ++k) {
+    if (k < k_count && (chain_start.empty() || !chain_start[k])) continue;
+    RefineChain c = ChainOf(t, y, gamma, u, begin, k);
+    if (!c.t.empty()) chains.push_back(std::move(c));
+    begin = k;
   }
   return chains;
 }

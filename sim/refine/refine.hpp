@@ -44,10 +44,12 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/identify/identifier.hpp"
+#include "sim/refine/sample_view.hpp"
 #include "sim/refine/start.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
@@ -182,30 +184,45 @@ struct RefineResult {
 };
 
 // One chain of samples: consecutive samples of one run (a missing sample inside a chain is simply
-// absent from its times).
+// absent from its times). y and u view samples held elsewhere: the caller's arrays (SplitChains) or
+// the chain's own copy (`owned`, shared by the chain's copies: Of, Uniform, a chain with a missing
+// sample).
 struct RefineChain {
   std::vector<double> t;            // sample times, increasing (any origin)
-  Mat y;                            // n × K
+  SampleView y;                     // n × K
   std::vector<std::uint8_t> gamma;  // 1 = a jump detected in (t_{k−1}, t_k]; gamma[0] is ignored
   // A model with inputs: u at each sample (m × K, finite); the fits run the model with u
-  // interpolated linearly between the samples (sim/input_signal.hpp). Empty without inputs.
-  Mat u;
+  // interpolated linearly between the samples (sim/input_signal.hpp). No rows without inputs.
+  SampleView u;
   // A hybrid automaton (core/model/automaton.hpp): the jump map assigned to each detected event of
   // the chain, in order (one per gamma = 1; empty: not assigned, the jump check counts events only),
   // and the mode at its first sample (−1: unknown, each mode is tried).
   std::vector<int> maps = {};
   int initial_mode = -1;
-  // K samples at t_k = k·dt.
+  // The samples y and u view when the chain holds them itself (null: they are the caller's).
+  struct Samples {
+    Mat y, u;
+  };
+  std::shared_ptr<const Samples> owned;
+  // A chain holding its own samples (y: n × K, u: m × K or empty).
+  static RefineChain Of(std::vector<double> t, Mat y, std::vector<std::uint8_t> gamma, Mat u = Mat());
+  // K samples at t_k = k·dt (a copy of y).
   static RefineChain Uniform(const Mat& y, double dt, const std::vector<std::uint8_t>& gamma);
 };
 
 // The chains of samples (t, y: n × K, gamma as RefineChain's, u: m × K inputs or empty) cut where
 // chain_start is 1 (sample 0 always starts one; empty chain_start: one chain). A sample with a
-// non-finite entry is missing: it is left out of its chain, which goes on. Throws
-// std::invalid_argument for sizes that disagree.
+// non-finite entry is missing: it is left out of its chain, which goes on. A chain with no sample
+// missing views its columns of y and u (which must outlive it), one with a sample missing holds a copy
+// of its samples. Throws std::invalid_argument for sizes that disagree.
 std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
                                      const std::vector<std::uint8_t>& chain_start,
                                      const std::vector<std::uint8_t>& gamma, const Mat& u = Mat());
+// (The chains would view a temporary.)
+std::vector<RefineChain> SplitChains(const std::vector<double>&, Mat&&, const std::vector<std::uint8_t>&,
+                                     const std::vector<std::uint8_t>&, const Mat& = Mat()) = delete;
+std::vector<RefineChain> SplitChains(const std::vector<double>&, const Mat&, const std::vector<std::uint8_t>&,
+                                     const std::vector<std::uint8_t>&, Mat&&) = delete;
 
 // A hybrid automaton (`result.mode` not empty): each chain's jump maps (those of the events of
 // `result` inside it, one per event, in order; left empty, so that the refinement checks the event

@@ -62,10 +62,11 @@ RefineChain Slice(const RefineChain& in, const std::vector<std::uint8_t>& gamma,
   RefineChain out;
   const long count = end - begin + 1;
   out.t.assign(in.t.begin() + begin, in.t.begin() + end + 1);
-  out.y = in.y.middleCols(begin, count);
+  out.y = SampleView(in.y.data() + in.y.rows() * begin, in.y.rows(), count);
   out.gamma.assign(gamma.begin() + begin, gamma.begin() + end + 1);
   out.gamma[0] = 0;
-  if (in.u.rows() > 0) out.u = in.u.middleCols(begin, count);
+  if (in.u.rows() > 0) out.u = SampleView(in.u.data() + in.u.rows() * begin, in.u.rows(), count);
+  out.owned = in.owned;  // (the samples viewed)
   out.initial_mode = in.initial_mode;
   return out;
 }

@@ -27,11 +27,8 @@ struct Run {
   }
   // Samples [from, to) as one chain.
   RefineChain Chain(long from, long to) const {
-    RefineChain c;
-    c.t.assign(truth.t.begin() + from, truth.t.begin() + to);
-    c.y = y.middleCols(from, to - from);
-    c.gamma.assign(gamma.begin() + from, gamma.begin() + to);
-    return c;
+    return RefineChain::Of({truth.t.begin() + from, truth.t.begin() + to}, y.middleCols(from, to - from),
+                           {gamma.begin() + from, gamma.begin() + to});
   }
 };
 
@@ -90,24 +87,26 @@ TEST_CASE("three runs, one cut in two: joint α, β within 4 se, the cut costs i
 TEST_CASE("samples at their own times: the model is read at each sample's time", "[refine][chains]") {
   // Every other sample of a run on a grid of 2.5e-4: steps of 2.5e-4 and 7.5e-4 alternate.
   const Run fine((Vec(2) << 20.0, 0.0).finished(), 0.05, 4, 10.0, 2.5e-4);
-  RefineChain irregular;
+  std::vector<double> t;
+  std::vector<std::uint8_t> gamma;
   for (long k = 0; k < fine.truth.size(); ++k) {
     if (k % 4 == 1 || k % 4 == 2) continue;  // keep samples 0, 3, 4, 7, 8, ...
     const auto u = static_cast<std::size_t>(k);
-    irregular.t.push_back(fine.truth.t[u]);
-    irregular.gamma.push_back(0);
+    t.push_back(fine.truth.t[u]);
+    gamma.push_back(0);
   }
-  irregular.y.resize(2, static_cast<Eigen::Index>(irregular.t.size()));
+  Mat y(2, static_cast<Eigen::Index>(t.size()));
   long i = 0;
   int j_prev = 0;
   for (long k = 0; k < fine.truth.size(); ++k) {
     if (k % 4 == 1 || k % 4 == 2) continue;
-    irregular.y.col(i) = fine.y.col(k);
+    y.col(i) = fine.y.col(k);
     const int j = fine.truth.j[static_cast<std::size_t>(k)];
-    irregular.gamma[static_cast<std::size_t>(i)] = i > 0 && j != j_prev;
+    gamma[static_cast<std::size_t>(i)] = i > 0 && j != j_prev;
     j_prev = j;
     ++i;
   }
+  const RefineChain irregular = RefineChain::Of(std::move(t), std::move(y), std::move(gamma));
   const RefineResult r = Refine(fine.model, {irregular}, Start(fine.model), fine.model.beta());
   INFO(r.reason);
   REQUIRE(r.ok());
