@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/io/block_array.hpp"
 #include "core/io/csv.hpp"
 #include "core/io/limits.hpp"
 
@@ -235,7 +236,7 @@ void CheckRow(const CsvTable& table, const Columns& c, const RowView& cell) {
 // value the run starts at), so a run boundary is never a true jump.
 class JumpCounter {
  public:
-  JumpCounter(const CsvTable& table, const Columns& c, const std::vector<int>& joined)
+  JumpCounter(const CsvTable& table, const Columns& c, const BlockArray<int>& joined)
       : table_(table), col_(c.j), joined_(joined) {}
   void StartRun(const RowView& row) {
     if (col_ < 0) return;
@@ -262,7 +263,7 @@ class JumpCounter {
   std::int64_t Cell(const RowView& row) const { return static_cast<std::int64_t>(row(col_)); }
   const CsvTable& table_;
   int col_;
-  const std::vector<int>& joined_;
+  const BlockArray<int>& joined_;
   std::int64_t offset_ = 0;
 };
 
@@ -306,7 +307,8 @@ void CheckStateScale(const SampleData& d) {
 }
 
 // SampleData built table by table, each table row by row (a file need not be held whole): the
-// per-sample arrays grow as rows come, and are trimmed to their size at the end.
+// per-sample arrays grow block by block as rows come (BlockArray: nothing copied, at most a block
+// unused), and are moved into arrays of their exact size at the end, one at a time.
 class SampleBuilder {
  public:
   SampleBuilder(int state_size, const SampleDataOptions& options) : n_(state_size), options_(options) {
@@ -320,10 +322,9 @@ class SampleBuilder {
   void Begin(const CsvTable& head);
   void Row(const RowView& row);
   void End(bool several);
-  // A table already read, with capacity for its rows reserved when it is the first.
+  // A table already read.
   void Add(const CsvTable& table, bool several) {
     Begin(table);
-    if (d_.t.empty()) Reserve(static_cast<std::size_t>(table.rows()));
     std::vector<double> cells(table.columns.size());
     for (std::size_t r = 0; r < static_cast<std::size_t>(table.rows()); ++r) {
       for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = table.columns[c][r];
@@ -334,7 +335,6 @@ class SampleBuilder {
   SampleData Finish() &&;
 
  private:
-  void Reserve(std::size_t rows);
   void StartRun(const RowView& row, long run);
   void CheckStep(const RowView& row) const;
   void Append(const RowView& row);
@@ -343,8 +343,12 @@ class SampleBuilder {
   const SampleDataOptions& options_;
   SampleData d_;
   std::vector<std::string> paths_;
-  std::vector<double> y_, u_;
-  std::vector<int> j_, map_, q_;
+  // The per-sample arrays as they grow (SampleData's t, y by columns, u by columns, j, map, q, run,
+  // chain_start, line).
+  BlockArray<double> t_, y_, u_;
+  BlockArray<int> j_, map_, q_, run_;
+  BlockArray<std::uint8_t> chain_start_;
+  BlockArray<long> line_;
   bool all_j_ = true, all_map_ = true, all_q_ = true;
   // The table being read.
   CsvTable head_;
@@ -379,7 +383,7 @@ void SampleBuilder::Begin(const CsvTable& head) {
   current_ = 0;
   run_index_ = -1;
   break_next_ = true;
-  samples_before_ = d_.t.size();
+  samples_before_ = t_.size();
   missing_before_ = d_.missing_rows;
 }
 
@@ -439,21 +443,21 @@ void SampleBuilder::Row(const RowView& row) {
 }
 
 void SampleBuilder::Append(const RowView& row) {
-  d_.t.push_back(row(c_.time));
+  t_.push_back(row(c_.time));
   for (int col : c_.state) y_.push_back(row(col));
   for (int col : c_.input) u_.push_back(row(col));
   if (c_.j >= 0) j_.push_back(counter_->Joined(row));
   if (c_.map >= 0) map_.push_back(static_cast<int>(row(c_.map)));
   if (c_.q >= 0) q_.push_back(static_cast<int>(row(c_.q)));
-  d_.run.push_back(run_index_);
-  d_.chain_start.push_back(break_next_ ? 1 : 0);
-  d_.line.push_back(row.line);
+  run_.push_back(run_index_);
+  chain_start_.push_back(break_next_ ? 1 : 0);
+  line_.push_back(row.line);
   break_next_ = false;
 }
 
 void SampleBuilder::End(bool several) {
   counter_.reset();
-  if (d_.t.size() == samples_before_ && several) {  // one file of several is not left out silently
+  if (t_.size() == samples_before_ && several) {  // one file of several is not left out silently
     const long rows = d_.missing_rows - missing_before_;
     throw std::invalid_argument(
         rows == 0 ? fmt::format("{}: no samples (no data rows)", head_.path)
@@ -462,21 +466,9 @@ void SampleBuilder::End(bool several) {
   }
 }
 
-// Capacity for `rows` samples in every per-sample array (a single table read whole then needs no
-// growth, hence no slack; rows read one by one grow them geometrically, trimmed at the end).
-void SampleBuilder::Reserve(std::size_t rows) {
-  d_.t.reserve(rows);
-  d_.run.reserve(rows);
-  d_.chain_start.reserve(rows);
-  d_.line.reserve(rows);
-  y_.reserve(rows * c_.state.size());
-  u_.reserve(rows * c_.input.size());
-  if (c_.j >= 0) j_.reserve(rows);
-}
-
 SampleData SampleBuilder::Finish() && {
   d_.path = fmt::format("{}", fmt::join(paths_, ", "));
-  const auto k = static_cast<long>(d_.t.size());
+  const auto k = static_cast<long>(t_.size());
   CheckLimit(kMaxSamples, k, d_.path);
   if (k < 3) {
     throw std::invalid_argument(
@@ -485,22 +477,19 @@ SampleData SampleBuilder::Finish() && {
                                                   d_.missing_rows == 1 ? "row" : "rows")
                                     : ""));
   }
+  d_.t = t_.Take();
+  d_.chain_start = chain_start_.Take();
+  d_.run = run_.Take();
   CutGaps(d_.path, options_, d_);
-  d_.y = Eigen::Map<const Mat>(y_.data(), n_, k);
-  y_ = {};
-  d_.u = Eigen::Map<const Mat>(u_.data(), static_cast<Eigen::Index>(options_.inputs.size()), k);
-  u_ = {};
+  d_.y.resize(n_, k);
+  y_.MoveTo(d_.y.data());
+  d_.u.resize(static_cast<Eigen::Index>(options_.inputs.size()), k);
+  u_.MoveTo(d_.u.data());
   CheckStateScale(d_);
-  d_.t.shrink_to_fit();
-  d_.run.shrink_to_fit();
-  d_.chain_start.shrink_to_fit();
-  d_.line.shrink_to_fit();
-  if (all_j_) {
-    j_.shrink_to_fit();
-    d_.j = std::move(j_);
-  }
-  if (all_map_) d_.map = std::move(map_);
-  if (all_q_) d_.q = std::move(q_);
+  d_.line = line_.Take();
+  if (all_j_) d_.j = j_.Take();
+  if (all_map_) d_.map = map_.Take();
+  if (all_q_) d_.q = q_.Take();
   return std::move(d_);
 }
 
