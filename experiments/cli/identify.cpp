@@ -426,6 +426,18 @@ IdentifyResult IdentifyData(const Model& model, const IdentifierSettings& settin
   return result;
 }
 
+// What only the recursive part of the report reads (printed, --trace and --json's `report` built by
+// then): each sample's run and line, the detector's statistic and threshold and the estimates'
+// traces. Freed, so that the refinement's peak does not hold them.
+void ReleaseReported(SampleData& data, IdentifyResult& result) {
+  std::vector<int>().swap(data.run);
+  std::vector<long>().swap(data.line);
+  std::vector<double>().swap(result.statistic);
+  std::vector<double>().swap(result.threshold);
+  result.alpha_trace = Mat();
+  result.beta_trace = Mat();
+}
+
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   Model model = MakeModel(env, args.model);
   ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
@@ -462,6 +474,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   }
   if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
   const nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
+  ReleaseReported(data, result);
   const int code = RefineAndReport(model, data, result, sigma, args.refine, report, partial);
   if (code == 0 && args.refine.refine == "none" &&
       (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
