@@ -2,7 +2,8 @@
 // at the end (the samples of a CSV read row by row, core/io/sample_data.cpp). Growing never copies
 // what is held and leaves at most one block unused, where a std::vector that doubles holds room for
 // up to twice its values, and three times while it reallocates. MoveTo hands the values over block
-// by block, freeing each block once it is copied, so the values are held about once throughout.
+// by block, freeing each block once it is copied: while an array is moved, the part of the
+// destination written and the blocks not yet copied hold its values about once.
 #pragma once
 
 #include <algorithm>
