@@ -80,7 +80,8 @@ MetricSummary Summarize(std::vector<double> v, MetricRange range, BootstrapPlans
   if (v.empty()) return s;
   std::array<double, 2> ci{kNaN, kNaN};
   if (range == MetricRange::kUnitInterval) ci = RateInterval(v);
-  if (range == MetricRange::kNonNegative) ci = plans != nullptr ? plans->MeanInterval(v) : BootstrapMeanInterval(v);
+  if (range == MetricRange::kNonNegative)
+    ci = plans != nullptr ? plans->MeanInterval(v) : BootstrapMeanInterval(v);
   double sum = 0;
   for (double x : v) sum += x;
   s.mean = sum / static_cast<double>(v.size());
