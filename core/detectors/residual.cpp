@@ -105,13 +105,7 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
                                      double data_rtol, double data_atol, const Context* at_prev,
                                      const Context* at_cur) {
   const ConstVecMap prev(prev_data, n), cur(cur_data, n);
-  const bool have_sigma = sigma != nullptr && sigma->size() == n;
-  auto var = [&](Eigen::Index j, double x) {
-    const double s = have_sigma ? (*sigma)[j] : 0.0;
-    const double d = data_rtol * std::abs(x) + data_atol;
-    return s * s + d * d;
-  };
-  const Mat* jac_prev = &jac_prev_;
+  bool same_jacobian = false;  // jac_cur_ at both samples
   if (model_.spec().flow_jacobian_constant) {
     // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version); the same at both
     // samples.
@@ -120,7 +114,7 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
       jac_version_ = version;
       have_jac_ = true;
     }
-    jac_prev = &jac_cur_;
+    same_jacobian = true;
   } else {
     // φ(ξ(t−δt)) was ξ(t) of the previous call: reuse its Jacobian (α̂ moved by one update since,
     // a negligible change in an O(δt) correction of the variance).
@@ -135,18 +129,42 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
     jac_at_ = cur;
     have_jac_ = true;
   }
-  if (n == 2) {
-    PropagateNoise<2>(prev_data, cur_data, n, dt, *jac_prev, var);
+  const bool have_sigma = sigma != nullptr && sigma->size() == n;
+  if (have_sigma && data_rtol == 0.0 && data_atol == 0.0) {
+    // σ only: d_j = 0·|ξ_j| + 0 = 0 for a finite sample (the only ones the detector sees), so
+    // σ_j² + d_j² = σ_j² exactly: neither |ξ_j| nor d_j² is computed.
+    PropagateNoise(prev_data, cur_data, n, dt, same_jacobian, [&](Eigen::Index j, double /*x*/) {
+      const double s = (*sigma)[j];
+      return s * s;
+    });
   } else {
-    PropagateNoise<0>(prev_data, cur_data, n, dt, *jac_prev, var);
+    PropagateNoise(prev_data, cur_data, n, dt, same_jacobian, [&](Eigen::Index j, double x) {
+      const double s = have_sigma ? (*sigma)[j] : 0.0;
+      const double d = data_rtol * std::abs(x) + data_atol;
+      return s * s + d * d;
+    });
   }
 }
 
-// V_i of NoiseVariance from the Jacobians; N = n when known at compile time (the loop unrolls), else 0.
-template <int N, class Var>
+template <class Var>
+void ResidualDetector::PropagateNoise(const double* prev, const double* cur, Eigen::Index n, double dt,
+                                      bool same_jacobian, const Var& var) {
+  if (n == 2) {
+    same_jacobian ? PropagateNoise<2, true>(prev, cur, n, dt, var)
+                  : PropagateNoise<2, false>(prev, cur, n, dt, var);
+  } else {
+    same_jacobian ? PropagateNoise<0, true>(prev, cur, n, dt, var)
+                  : PropagateNoise<0, false>(prev, cur, n, dt, var);
+  }
+}
+
+// V_i of NoiseVariance from the Jacobians; N = n when known at compile time (the loop unrolls), else 0;
+// kSame: jac_cur_ at both samples (a constant Jacobian: (δt/2)·J_ij computed once for a and b).
+template <int N, bool kSame, class Var>
 void ResidualDetector::PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic,
-                                      double dt, const Mat& jac_prev, const Var& var) {
+                                      double dt, const Var& var) {
   const Eigen::Index n = N > 0 ? N : n_dynamic;
+  const Mat& jac_prev = kSame ? jac_cur_ : jac_prev_;
   const double h = 0.5 * dt;
   for (std::size_t i = 0; i < rows_.size(); ++i) {
     const int r = rows_[i];

@@ -136,9 +136,13 @@ class ResidualDetector final : public JumpDetector {
   void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
                      long version, const Vec* sigma, double data_rtol, double data_atol,
                      const Context* at_prev = nullptr, const Context* at_cur = nullptr);
-  template <int N, class Var>
+  // V_i from the Jacobians and var(j, ξ_j) = σ_j² + d_j² (jac_cur_ at both samples when same_jacobian).
+  template <class Var>
+  void PropagateNoise(const double* prev, const double* cur, Eigen::Index n, double dt, bool same_jacobian,
+                      const Var& var);
+  template <int N, bool kSame, class Var>
   void PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic, double dt,
-                      const Mat& jac_prev, const Var& var);
+                      const Var& var);
   void Jacobian(const ConstVecRef& x, const ConstVecRef& alpha_hat, Mat& jac, const Context* at) const {
     if (at == nullptr) {
       model_.FlowJacobian(x, alpha_hat, jac);

@@ -174,18 +174,9 @@ void RegressionBuilder::EvaluatePhi(const double* prev, const double* cur, Eigen
   have_last_ = true;
 }
 
-void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y) {
-  model_.Psi(prev, psi_);
-  JumpFromPsi(cur, psi, y);
-}
-
-void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y,
-                             const Context& at_prev) {
-  model_.Psi(prev, psi_, at_prev);
-  JumpFromPsi(cur, psi, y);
-}
-
-void RegressionBuilder::JumpFromPsi(const ConstVecRef& cur, MatRef psi, VecRef y) {
+// Inlined into both Jump overloads (as one function called from two, it cost a call per jump sample).
+[[gnu::always_inline]] inline void RegressionBuilder::JumpFromPsi(const ConstVecRef& cur, MatRef psi,
+                                                                  VecRef y) {
   for (std::size_t i = 0; i < jump_.rows.size(); ++i) {
     const int r = jump_.rows[i];
     double yi = cur[r];
@@ -195,6 +186,17 @@ void RegressionBuilder::JumpFromPsi(const ConstVecRef& cur, MatRef psi, VecRef y
       psi(Eigen::Index(i), Eigen::Index(j)) = psi_(r, jump_.unknown[j]);
     }
   }
+}
+
+void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y) {
+  model_.Psi(prev, psi_);
+  JumpFromPsi(cur, psi, y);
+}
+
+void RegressionBuilder::Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y,
+                             const Context& at_prev) {
+  model_.Psi(prev, psi_, at_prev);
+  JumpFromPsi(cur, psi, y);
 }
 
 }  // namespace hysid

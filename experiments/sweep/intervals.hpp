@@ -15,10 +15,21 @@
 //                              only on n, so the same values give the same bounds on every run and thread
 //                              count. Inside [min v, max v], so never below 0 for non-negative values.
 // Both return {NaN, NaN} for fewer than 2 values and {v, v} when all values equal v.
+// BootstrapPlan(n)             the resample indices of BootstrapMeanInterval for n values, drawn once;
+//                              its MeanInterval(v) returns BootstrapMeanInterval(v) bit for bit (each
+//                              resample's sum in the same order), so a summary draws them once per
+//                              trial count instead of once per metric and cell.
+// BootstrapPlans               the plans of a summary by n, made on first use and shared by the threads
+//                              that summarise cells in parallel. Its plans hold at most kMaxPlanIndices
+//                              indices (32 MB) together; a size that no longer fits draws as
+//                              BootstrapMeanInterval does (the same bounds, slower).
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace hysid {
@@ -29,5 +40,32 @@ inline constexpr std::uint64_t kBootstrapSeed = 20201123;
 std::array<double, 2> WilsonInterval(double p, double n, double z);
 std::array<double, 2> RateInterval(const std::vector<double>& values);
 std::array<double, 2> BootstrapMeanInterval(const std::vector<double>& values);
+
+class BootstrapPlan {
+ public:
+  explicit BootstrapPlan(std::size_t n);
+  std::size_t n() const { return n_; }
+  // values.size() must be n.
+  std::array<double, 2> MeanInterval(const std::vector<double>& values) const;
+
+ private:
+  std::size_t n_;
+  std::vector<std::uint32_t> index_;  // resample b's draws at [b·n, (b + 1)·n)
+};
+
+class BootstrapPlans {
+ public:
+  static constexpr std::size_t kMaxPlanIndices = std::size_t{1} << 23;
+
+  std::array<double, 2> MeanInterval(const std::vector<double>& values);
+
+ private:
+  // The plan for n values, or null when it does not fit.
+  const BootstrapPlan* PlanFor(std::size_t n);
+
+  std::mutex mutex_;
+  std::size_t indices_ = 0;  // held by plans_
+  std::map<std::size_t, std::unique_ptr<const BootstrapPlan>> plans_;
+};
 
 }  // namespace hysid

@@ -316,7 +316,7 @@ void RunPendingUnits(const SweepConfig& config, const std::vector<Model>& models
 }
 
 // Every unit of the shard is in the journal: writes trials.csv, timings.csv and summary.csv from it
-// and counts the failures.
+// (the summary's cells on the sweep's threads) and counts the failures.
 void WriteShardTables(const SweepConfig& config, const std::vector<SweepCell>& cells,
                       const std::vector<std::string>& header, const SweepOptions& options,
                       SweepOutcome* outcome) {
@@ -330,6 +330,9 @@ void WriteShardTables(const SweepConfig& config, const std::vector<SweepCell>& c
     if (cells_of_row[static_cast<std::size_t>(status_col)] != kTrialOk) ++outcome->failures;
     rows.emplace(id, cells_of_row);
   }
+  // The summary's cells in parallel on the sweep's threads.
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                  static_cast<std::size_t>(ThreadCount(options)));
   WriteSweepTables(options.out, header, rows, config.baseline);
 }
 

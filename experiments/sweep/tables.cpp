@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <oneapi/tbb/parallel_for.h>
 
 #include "core/detectors/detector.hpp"
 #include "core/estimators/estimator.hpp"
@@ -74,12 +75,13 @@ MetricRange MetricRangeOf(const std::string& metric) {
   throw std::logic_error(fmt::format("'{}' is not a summary metric", metric));
 }
 
-MetricSummary Summarize(std::vector<double> v, MetricRange range) {
+MetricSummary Summarize(std::vector<double> v, MetricRange range, BootstrapPlans* plans) {
   MetricSummary s{static_cast<long>(v.size()), kNaN, kNaN, kNaN, kNaN, kNaN};
   if (v.empty()) return s;
   std::array<double, 2> ci{kNaN, kNaN};
   if (range == MetricRange::kUnitInterval) ci = RateInterval(v);
-  if (range == MetricRange::kNonNegative) ci = BootstrapMeanInterval(v);
+  if (range == MetricRange::kNonNegative)
+    ci = plans != nullptr ? plans->MeanInterval(v) : BootstrapMeanInterval(v);
   double sum = 0;
   for (double x : v) sum += x;
   s.mean = sum / static_cast<double>(v.size());
@@ -285,12 +287,12 @@ std::vector<std::string> SummaryHeader(const std::vector<std::string>& keys,
 }
 
 // The statistics of metric m (named `name`) over the cell's trials with a value.
-MetricSummary MetricOf(const CellRows& c, std::size_t m, const std::string& name) {
+MetricSummary MetricOf(const CellRows& c, std::size_t m, const std::string& name, BootstrapPlans* plans) {
   std::vector<double> v;
   for (const auto& [trial, values] : c.values) {
     if (!std::isnan(values[m])) v.push_back(values[m]);
   }
-  return Summarize(std::move(v), MetricRangeOf(name));
+  return Summarize(std::move(v), MetricRangeOf(name), plans);
 }
 
 void AppendStats(const MetricSummary& s, std::vector<std::string>* out) {
@@ -328,6 +330,37 @@ void WriteTrialAndTimingTables(const std::filesystem::path& dir, const std::vect
   timings.Commit();
 }
 
+// What summary.csv holds besides the keys: the metrics (the first n_core of them before the baseline and
+// efficiency columns), the baseline's paired differences, the efficiency columns (γ's too).
+struct SummaryLayout {
+  const std::vector<std::string>& metrics;
+  std::size_t n_core;
+  bool baseline, efficiency, gamma;
+};
+
+// Cell c's row of summary.csv; `b` its baseline cell (null: none).
+std::vector<std::string> SummaryRow(const CellRows& c, const CellRows* b, const SummaryLayout& layout,
+                                    BootstrapPlans* plans) {
+  const std::vector<std::string>& metrics = layout.metrics;
+  std::vector<std::string> out = c.keys;
+  out.push_back(fmt::format("{}", c.n));
+  out.push_back(fmt::format("{}", c.failures));
+  std::vector<MetricSummary> stats;
+  for (std::size_t m = 0; m < metrics.size(); ++m) stats.push_back(MetricOf(c, m, metrics[m], plans));
+  for (std::size_t m = 0; m < layout.n_core; ++m) AppendStats(stats[m], &out);
+  if (layout.baseline) AppendBaselineDiffs(c, b, layout.n_core, &out);
+  if (layout.efficiency) {
+    const auto mean_of = [&](const char* name) {
+      return stats[static_cast<std::size_t>(Column(metrics, name))].mean;
+    };
+    const std::vector<std::string> e = EfficiencyCells(c, mean_of("e_alpha"), mean_of("e_beta"), layout.gamma,
+                                                       layout.gamma ? mean_of("e_gamma") : kNaN);
+    out.insert(out.end(), e.begin(), e.end());
+  }
+  for (std::size_t m = layout.n_core; m < metrics.size(); ++m) AppendStats(stats[m], &out);
+  return out;
+}
+
 }  // namespace
 
 void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::string>& trial_header,
@@ -344,30 +377,18 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
     for (const CellRows& c : cells) match.push_back(c.match);
     base = MatchBaselines(BaselineKeyNames(), match, baseline);
   }
+  const SummaryLayout layout{metrics, n_core, !baseline.empty(), efficiency, gamma};
+  // Each cell's row depends on its own rows (and its baseline's) only: summarised in parallel, written
+  // in order.
+  std::vector<std::vector<std::string>> out(cells.size());
+  BootstrapPlans plans;
+  tbb::parallel_for(std::size_t{0}, cells.size(), [&](std::size_t ci) {
+    const CellRows* b = nullptr;
+    if (layout.baseline && base[ci] >= 0) b = &cells[static_cast<std::size_t>(base[ci])];
+    out[ci] = SummaryRow(cells[ci], b, layout, &plans);
+  });
   CsvWriter summary(dir / "summary.csv", SummaryHeader(keys, metrics, !baseline.empty(), efficiency, gamma));
-  for (std::size_t ci = 0; ci < cells.size(); ++ci) {
-    const CellRows& c = cells[ci];
-    std::vector<std::string> out = c.keys;
-    out.push_back(fmt::format("{}", c.n));
-    out.push_back(fmt::format("{}", c.failures));
-    std::vector<MetricSummary> stats;
-    for (std::size_t m = 0; m < metrics.size(); ++m) stats.push_back(MetricOf(c, m, metrics[m]));
-    for (std::size_t m = 0; m < n_core; ++m) AppendStats(stats[m], &out);
-    if (!baseline.empty()) {
-      const CellRows* b = base[ci] >= 0 ? &cells[static_cast<std::size_t>(base[ci])] : nullptr;
-      AppendBaselineDiffs(c, b, n_core, &out);
-    }
-    if (efficiency) {
-      const auto mean_of = [&](const char* name) {
-        return stats[static_cast<std::size_t>(Column(metrics, name))].mean;
-      };
-      const std::vector<std::string> e = EfficiencyCells(c, mean_of("e_alpha"), mean_of("e_beta"), gamma,
-                                                         gamma ? mean_of("e_gamma") : kNaN);
-      out.insert(out.end(), e.begin(), e.end());
-    }
-    for (std::size_t m = n_core; m < metrics.size(); ++m) AppendStats(stats[m], &out);
-    summary.TextRow(out);
-  }
+  for (const auto& row : out) summary.TextRow(row);
   summary.Commit();
 }
 

@@ -2,7 +2,8 @@
 // exactly what an unsharded run writes):
 //   trials.csv   the rows sorted by unit id, without the wall time;
 //   timings.csv  unit, cell, trial, wall_ms (varies from run to run, hence kept apart);
-//   summary.csv  one row per cell: its keys, n (trials), failures, and for each metric of
+//   summary.csv  one row per cell (the cells summarised in parallel on TBB's current concurrency, each
+//                from its own rows only, written in cell order): its keys, n (trials), failures, and for each metric of
 //                SummaryMetrics() over the rows with status ok: mean, median, std (n − 1), and the 95 %
 //                confidence interval of the mean inside the metric's range (MetricRangeOf, intervals.hpp;
 //                empty when n < 2): a rate's Wilson interval, a non-negative metric's percentile bootstrap.
@@ -18,6 +19,8 @@
 #include <vector>
 
 namespace hysid {
+
+class BootstrapPlans;
 
 // The journal's columns: trials.csv's plus a last "wall_ms".
 std::vector<std::string> JournalHeader(const std::vector<std::string>& trial_header);
@@ -57,6 +60,9 @@ struct MetricSummary {
   long n = 0;
   double mean, median, std, ci_lo, ci_hi;  // NaN when undefined
 };
-MetricSummary Summarize(std::vector<double> values, MetricRange range = MetricRange::kReal);
+// The statistics of `values`; with `plans`, a non-negative metric's bootstrap takes its draws from
+// them (the same bounds).
+MetricSummary Summarize(std::vector<double> values, MetricRange range = MetricRange::kReal,
+                        BootstrapPlans* plans = nullptr);
 
 }  // namespace hysid

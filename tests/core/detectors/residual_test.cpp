@@ -16,6 +16,7 @@
 #include "core/identify/identifier.hpp"
 #include "core/identify/localize.hpp"
 #include "core/identify/metrics.hpp"
+#include "core/model/regression.hpp"
 #include "core/stats/quantiles.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
@@ -61,6 +62,73 @@ TEST_CASE("quantiles match closed forms", "[residual]") {
   CHECK(StudentUpperQuantile(1e-3, 1e6) == Approx(NormalUpperQuantile(1e-3)).epsilon(1e-5));
   CHECK_THROWS_AS(StudentUpperQuantile(0.0, 3), std::invalid_argument);
   CHECK_THROWS_AS(StudentUpperQuantile(0.1, 0.5), std::invalid_argument);
+}
+
+// The first tested sample (no scale yet, no covariance): z² = ρ²/(V + ε²) with V the noise propagated
+// through the flow Jacobian, V = Σ_j v_j(ξ(t))·a_j² + v_j(ξ(t−δt))·b_j², a = e_r − (δt/2)J_r(ξ(t)),
+// b = e_r + (δt/2)J_r(ξ(t−δt)), v_j(x) = σ_j² + (data_rtol·|x_j| + data_atol)², against the same sum
+// written here, for a constant (§5) and a state-dependent (pendulum) Jacobian, with σ alone, σ and the
+// data accuracy, and the data accuracy alone.
+TEST_CASE("residual detector: the propagated noise variance of a known sigma", "[residual]") {
+  for (const Model& model : {Model{ImpactMsd{}}, Model{ImpactPendulum{}}}) {
+    const RegressionLayout layout = RegressionLayout::Flow(model);
+    REQUIRE(layout.rows.size() == 1u);
+    const int r = layout.rows[0];
+    const auto n = static_cast<Eigen::Index>(model.state_size());
+    const auto m = static_cast<Eigen::Index>(layout.unknown.size());
+    const double dt = 0.01;
+    Vec prev(n), cur(n), sigma(n);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      prev[j] = 0.3 + 0.7 * static_cast<double>(j);
+      cur[j] = prev[j] - 0.05 * static_cast<double>(j + 1);
+      sigma[j] = 0.02 * static_cast<double>(j + 1);
+    }
+    const Vec alpha = model.alpha();
+    Mat phi(1, m);
+    for (Eigen::Index k = 0; k < m; ++k) phi(0, k) = 0.1 * static_cast<double>(k + 1);
+    Vec y(1);
+    y << 0.37;
+    double rho = y[0];
+    for (Eigen::Index k = 0; k < m; ++k)
+      rho -= phi(0, k) * alpha[layout.unknown[static_cast<std::size_t>(k)]];
+    Mat jac_cur(n, n), jac_prev(n, n);
+    model.FlowJacobian(cur, alpha, jac_cur);
+    model.FlowJacobian(prev, alpha, jac_prev);
+    struct Accuracy {
+      bool sigma;
+      double rtol, atol;
+    };
+    for (const Accuracy acc :
+         {Accuracy{true, 0.0, 0.0}, Accuracy{true, 1e-3, 1e-4}, Accuracy{false, 1e-3, 1e-4}}) {
+      INFO(model.name() << " sigma " << acc.sigma << " rtol " << acc.rtol);
+      const auto var = [&](Eigen::Index j, double x) {
+        const double d = acc.rtol * std::abs(x) + acc.atol;
+        return (acc.sigma ? sigma[j] * sigma[j] : 0.0) + d * d;
+      };
+      double v = 0.0;
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const double unit = j == r ? 1.0 : 0.0;
+        const double a = unit - 0.5 * dt * jac_cur(r, j), b = unit + 0.5 * dt * jac_prev(r, j);
+        v += var(j, cur[j]) * a * a + var(j, prev[j]) * b * b;
+      }
+      DetectorSettings ds;
+      ds.kind = DetectorKind::kResidual;
+      const auto detector = MakeDetector(ds, model);
+      const SampleContext c{.model = &model,
+                            .dt = dt,
+                            .prev = ConstVecMap(prev.data(), n),
+                            .cur = ConstVecMap(cur.data(), n),
+                            .flow_phi = ConstMatMap(phi.data(), 1, m),
+                            .flow_y = ConstVecMap(y.data(), 1),
+                            .alpha_hat = ConstVecMap(alpha.data(), alpha.size()),
+                            .flow_updates = m,
+                            .sigma = acc.sigma ? &sigma : nullptr,
+                            .data_rtol = acc.rtol,
+                            .data_atol = acc.atol};
+      const Decision d = detector->Classify(c);
+      CHECK(d.statistic * d.statistic == Approx(rho * rho / v).epsilon(1e-12));
+    }
+  }
 }
 
 TEST_CASE("residual detector settings errors name the field", "[residual]") {

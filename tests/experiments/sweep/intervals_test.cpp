@@ -1,12 +1,15 @@
 // The range-respecting intervals of summary.csv: the Wilson interval against its closed form and
 // published values, the rate interval's effective sample size for 0/1 data, the percentile bootstrap
-// against the exact binomial quantiles of resampled 0/1 data, and both staying inside the range.
+// against the exact binomial quantiles of resampled 0/1 data and a sorted reference, its plans equal to
+// it bit for bit (shared by threads), and both intervals staying inside the range.
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
 
 #include <catch2/catch.hpp>
+#include <oneapi/tbb/global_control.h>
+#include <oneapi/tbb/parallel_for.h>
 
 #include "core/stats/quantiles.hpp"
 #include "experiments/sweep/intervals.hpp"
@@ -21,6 +24,41 @@ std::vector<double> ZerosAndOnes(int n, int k) {
   std::vector<double> v(static_cast<std::size_t>(n), 0.0);
   for (int i = 0; i < k; ++i) v[static_cast<std::size_t>(i * n / k)] = 1.0;
   return v;
+}
+
+// The percentile bootstrap as specified (intervals.hpp), written plainly: B resamples drawn by
+// mt19937_64(kBootstrapSeed) mod n, each mean summed in draw order, all means sorted, quantiles
+// interpolated at q·(B − 1).
+std::array<double, 2> SortedBootstrap(const std::vector<double>& v) {
+  std::mt19937_64 rng(kBootstrapSeed);
+  const std::uint64_t n = v.size();
+  std::vector<double> means;
+  for (int b = 0; b < kBootstrapResamples; ++b) {
+    double sum = 0;
+    for (std::uint64_t k = 0; k < n; ++k) sum += v[rng() % n];
+    means.push_back(sum / static_cast<double>(n));
+  }
+  std::sort(means.begin(), means.end());
+  const auto quantile = [&](double q) {
+    const double pos = q * (kBootstrapResamples - 1);
+    const auto i = static_cast<std::size_t>(pos);
+    return means[i] + (pos - static_cast<double>(i)) * (means[i + 1] - means[i]);
+  };
+  return {quantile(0.025), quantile(0.975)};
+}
+
+// Non-negative values of n = 2 … 2 + count − 1 with ties, zeros and a wide spread.
+std::vector<std::vector<double>> VariedSamples(int count) {
+  std::mt19937_64 rng(3);
+  std::lognormal_distribution<double> spread(0.0, 2.0);
+  std::vector<std::vector<double>> out;
+  for (int n = 2; n < 2 + count; ++n) {
+    std::vector<double> v(static_cast<std::size_t>(n));
+    for (double& x : v) x = rng() % 4 == 0 ? 0.0 : spread(rng);
+    if (n % 5 == 0) v[1] = v[0];
+    out.push_back(std::move(v));
+  }
+  return out;
 }
 
 }  // namespace
@@ -73,6 +111,37 @@ TEST_CASE("bootstrap interval: exact binomial quantiles of resampled 0/1 data", 
   CHECK(BootstrapMeanInterval(twice)[0] == 2.0 * BootstrapMeanInterval(v)[0]);
   CHECK(BootstrapMeanInterval({3.0, 3.0}) == std::array<double, 2>{3.0, 3.0});
   CHECK(std::isnan(BootstrapMeanInterval({3.0})[1]));
+}
+
+TEST_CASE("bootstrap interval: a plan and a sorted reference give the same bits", "[intervals]") {
+  BootstrapPlans plans;
+  for (const std::vector<double>& v : VariedSamples(120)) {
+    const auto reference = SortedBootstrap(v);
+    CHECK(BootstrapMeanInterval(v) == reference);
+    CHECK(BootstrapPlan(v.size()).MeanInterval(v) == reference);
+    CHECK(plans.MeanInterval(v) == reference);
+    CHECK(plans.MeanInterval(v) == reference);  // the plan made by the call before
+  }
+  // Beyond what the plans may hold, the draws are made per call: the same bounds.
+  const std::size_t big = BootstrapPlans::kMaxPlanIndices / kBootstrapResamples + 1;
+  std::vector<double> v(big);
+  for (std::size_t i = 0; i < big; ++i) v[i] = static_cast<double>((i * 7919) % 1000) * 1e-3;
+  CHECK(plans.MeanInterval(v) == SortedBootstrap(v));
+}
+
+TEST_CASE("bootstrap plans shared by threads give what one thread gives", "[intervals]") {
+  const std::vector<std::vector<double>> samples = VariedSamples(60);
+  std::vector<std::array<double, 2>> serial;
+  for (const auto& v : samples) serial.push_back(BootstrapMeanInterval(v));
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 4);
+  for (int rep = 0; rep < 3; ++rep) {
+    BootstrapPlans plans;
+    std::vector<std::array<double, 2>> parallel(samples.size() * 4);
+    // Each size asked for by four tasks at once, so threads race to make its plan.
+    tbb::parallel_for(std::size_t{0}, parallel.size(),
+                      [&](std::size_t i) { parallel[i] = plans.MeanInterval(samples[i / 4]); });
+    for (std::size_t i = 0; i < parallel.size(); ++i) CHECK(parallel[i] == serial[i / 4]);
+  }
 }
 
 TEST_CASE("summary intervals stay in the metric's range and contain the mean", "[intervals]") {
