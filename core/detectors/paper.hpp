@@ -85,7 +85,8 @@ template <int P>
 // ClassifyConstant<2, true>'s state and arithmetic for two states, one identified row and A = |α|
 // (2 or 3) with two unknowns, in scalars: for a loop that keeps them in local variables over a run
 // of consecutive samples (the identifier's flow runs; PaperDetector::LoadConstant2,
-// StoreConstant2). Same operations in the same order as ClassifyConstant, so the same bits.
+// StoreConstant2). The same bits as ClassifyConstant, with fewer operations where they provably
+// cannot change a bit (see Classify and NormSquared).
 template <int A>
 struct PaperConstant2 {
   double half_r;
@@ -97,6 +98,11 @@ struct PaperConstant2 {
   bool has_last;
   long cached_version;
   double cached_l2, cached_l;
+  // GᵀG is zero outside (u0, u0) and (u1, u1), u0 < u1, and every entry of GᵀG and α̂'s known
+  // entries is finite (LoadConstant2): the unknowns do not mix in ‖J̄_r(α)‖² and the known entries
+  // do not enter it, ‖J̄_r(α)‖² = t0·(q0·t0) + t1·(q1·t1) up to the sign of a zero (NormSquared).
+  bool separable;
+  double q0, q1;  // GᵀG at (u0, u0) and (u1, u1)
 
   // ‖ξ(t−δt)‖ of a pair: the previous call's ‖ξ(t)‖ when ξ(t−δt) is that ξ(t).
   double PrevNorm(double p0, double p1) const {
@@ -104,35 +110,45 @@ struct PaperConstant2 {
     const double x[2] = {p0, p1};
     return BoundNorm(x, 2, homogeneous ? BoundMode::kHomogeneous : BoundMode::kPaper);
   }
-  // The decision for ξ(t) = (c0, c1) after ξ(t−δt) = (p0, p1), whose norm is prev_norm; the
-  // unknowns of α̂ = (t0, t1) at `version`; warm-up over.
-  [[gnu::always_inline]] Decision Classify(double p0, double p1, double c0, double c1, double prev_norm,
-                                           double inv_dt, double t0, double t1, long version) {
-    Decision d;
-    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
-    double d2 = 0.0, cur2 = 0.0;
-    d2 += v0 * v0;
-    cur2 += c0 * c0;
-    d2 += v1 * v1;
-    cur2 += c1 * c1;
-    if (homogeneous) cur2 += 1.0;
-    const double cur_norm = std::sqrt(cur2);
-    d.statistic = std::sqrt(d2);
-    has_last = true;
-    last_x0 = c0;
-    last_x1 = c1;
-    last_norm = cur_norm;
-    if (version != cached_version) {
-      alpha[u0] = t0;
-      alpha[u1] = t1;
-      cached_l2 = QuadraticForm<A>(A, q, alpha);
-      cached_l = std::sqrt(cached_l2);
-      cached_version = version;
+  // ‖J̄_r(α̂)‖² = α̂ᵀGᵀGα̂ for the unknowns (t0, t1), with QuadraticForm<A>'s bits. Separable: the
+  // terms of QuadraticForm's sums that hold a zero entry of GᵀG are ±0 (the known entries and
+  // t0, t1 finite), and adding ±0 to a sum changes at most the sign of a zero sum; so
+  // t0·(q0·t0) + t1·(q1·t1), in QuadraticForm's order, has its bits unless it is zero (or t0, t1 are
+  // not finite), where the full form is taken.
+  [[gnu::always_inline]] double NormSquared(double t0, double t1) {
+    if (separable) {
+      const double l2 = t0 * (q0 * t0) + t1 * (q1 * t1);
+      if (l2 != 0.0 && std::isfinite(t0 + t1)) return l2;
     }
-    const double s = cur_norm + prev_norm;
-    d.gamma = d2 > half_r * half_r * cached_l2 * s * s;
-    d.threshold = half_r * cached_l * s;
+    alpha[u0] = t0;
+    alpha[u1] = t1;
+    return QuadraticForm<A>(A, q, alpha);
+  }
+  // The decision for ξ(t) = (c0, c1) after ξ(t−δt) = (p0, p1), whose norm is prev_norm, with the
+  // unknowns of α̂ = (t0, t1); warm-up over. ‖ξ(t)‖ goes to *cur_norm; the caller keeps the pair's
+  // state (last_x0, last_x1, last_norm, has_last) and the cache (cached_*) itself. ClassifyConstant's
+  // sums of squares start at +0, and a square is never −0, so they start here at the first square;
+  // its two square roots are one packed root, as there.
+  [[gnu::always_inline]] Decision Classify(double p0, double p1, double c0, double c1, double prev_norm,
+                                           double inv_dt, double t0, double t1, double* cur_norm) {
+    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
+    const double d2 = v0 * v0 + v1 * v1;
+    const double cur2 = c0 * c0 + c1 * c1 + (homogeneous ? 1.0 : 0.0);  // + 0 leaves a sum ≥ +0 as it is
+    const Eigen::Array2d roots = Eigen::Array2d(d2, cur2).sqrt();
+    const double l2 = NormSquared(t0, t1);
+    const double s = roots[1] + prev_norm;
+    Decision d;
+    d.statistic = roots[0];
+    d.gamma = d2 > half_r * half_r * l2 * s * s;
+    d.threshold = half_r * std::sqrt(l2) * s;
+    *cur_norm = roots[1];
     return d;
+  }
+  // The cache as ClassifyConstant leaves it after a call at `version` with the unknowns (t0, t1).
+  void Cache(long version, double t0, double t1) {
+    cached_l2 = NormSquared(t0, t1);
+    cached_l = std::sqrt(cached_l2);
+    cached_version = version;
   }
 };
 
@@ -204,6 +220,16 @@ class PaperDetector final : public JumpDetector {
     c.cached_version = cached_version_;
     c.cached_l2 = cached_l2_;
     c.cached_l = cached_l_;
+    c.q0 = c.q[u0 * A + u0];
+    c.q1 = c.q[u1 * A + u1];
+    c.separable = u0 < u1;
+    for (int i = 0; i < A; ++i) {
+      if (i != u0 && i != u1 && !std::isfinite(alpha[i])) c.separable = false;
+      for (int j = 0; j < A; ++j) {
+        const double v = c.q[j * A + i];
+        if (!std::isfinite(v) || (v != 0.0 && !(i == j && (i == u0 || i == u1)))) c.separable = false;
+      }
+    }
     return c;
   }
   template <int A>

@@ -459,7 +459,8 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
 // (detail::PaperConstant2, r) and no call in the loop, the same arithmetic as the per-sample path.
 // Stops before a sample whose row is not finite, and at a jump or a failed RLS update: that sample's
 // decision goes to *pending (*decided = true) for the caller to apply. Returns the sample it stopped
-// at (count: the block is done).
+// at (count: the block is done). α̂ changes at every sample of the run, so ‖J̄_r(α̂)‖² is computed at
+// each (the same value the per-sample path's cache would hold) and the cache is set once at the end.
 template <int A>
 Eigen::Index Identifier::FlowRun(State& s, const double* xs, Eigen::Index k, Eigen::Index count,
                                  const double* phi, const double* y, Decision* decisions,
@@ -470,35 +471,51 @@ Eigen::Index Identifier::FlowRun(State& s, const double* xs, Eigen::Index k, Eig
   const double lambda = s.rls->forgetting(), max_trace = s.rls->max_trace(), inv_dt = 1.0 / s.dt;
   double p0 = s.prev[0], p1 = s.prev[1];
   double prev_norm = c.PrevNorm(p0, p1);
-  long version = s.version, admitted = 0, informative = 0;
+  const Eigen::Index first = k;
+  long uninformative = 0;  // rows with φ = 0
   for (; k < count; ++k) {
     const double f0 = phi[2 * k], f1 = phi[2 * k + 1], yk = y[k];
-    if (!(std::isfinite(f0) && std::isfinite(f1) && std::isfinite(yk))) break;
+    // x − x is 0 for a finite x and NaN otherwise: one test for the three.
+    if (!((f0 - f0) + (f1 - f1) + (yk - yk) == 0.0)) break;
     const double c0 = xs[2 * k], c1 = xs[2 * k + 1];
-    const Decision d = c.Classify(p0, p1, c0, c1, prev_norm, inv_dt, r.t0, r.t1, version);
+    double cur_norm;
+    const Decision d = c.Classify(p0, p1, c0, c1, prev_norm, inv_dt, r.t0, r.t1, &cur_norm);
     if (d.gamma || !r.Update(f0, f1, yk, lambda, max_trace)) {
       *pending = d;
       *decided = true;
+      p0 = c0;  // the detector's last pair ends at this sample; s.prev is the caller's
+      p1 = c1;
+      prev_norm = cur_norm;
       break;
     }
-    if (decisions != nullptr) decisions[k] = d;
-    prev_norm = c.last_norm;
-    ++admitted;
-    informative += f0 != 0.0 || f1 != 0.0 ? 1 : 0;
-    ++version;
+    if (decisions != nullptr) {
+      decisions[k].gamma = false;
+      decisions[k].statistic = d.statistic;
+      decisions[k].threshold = d.threshold;
+    }
+    if (f0 == 0.0 && f1 == 0.0) ++uninformative;
+    prev_norm = cur_norm;
     p0 = c0;
     p1 = c1;
   }
   rls = r;
-  s.paper->StoreConstant2(c);
+  const long admitted = static_cast<long>(k - first);
+  if (admitted > 0 || *decided) {  // a sample was classified: the detector's state moves on
+    c.last_x0 = p0;
+    c.last_x1 = p1;
+    c.last_norm = prev_norm;
+    c.has_last = true;
+    c.Cache(s.version + admitted, rls.t0, rls.t1);
+    s.paper->StoreConstant2(c);
+  }
   if (admitted > 0) {
-    s.rls->CountRowsIn(admitted, informative);
+    s.rls->CountRowsIn(admitted, admitted - uninformative);
     s.samples += admitted;
-    s.version = version;
-    s.alpha_full[unknown[0]] = r.t0;
-    s.alpha_full[unknown[1]] = r.t1;
-    s.prev[0] = p0;
-    s.prev[1] = p1;
+    s.version += admitted;
+    s.alpha_full[unknown[0]] = rls.t0;
+    s.alpha_full[unknown[1]] = rls.t1;
+    s.prev[0] = xs[2 * (k - 1)];  // the last sample admitted
+    s.prev[1] = xs[2 * (k - 1) + 1];
   }
   return k;
 }

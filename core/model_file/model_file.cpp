@@ -138,6 +138,31 @@ void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
   for (std::size_t k = 0; k < m.index.size(); ++k) out[m.index[k]] = v[k];
 }
 
+// φ (the matrix m, evaluated by p) at `count` states x_k = x[k·n .. k·n + n) of a model without
+// inputs or γ, to phi + k·|m| (Load and Evaluate for each): N = n when fixed at compile time (else
+// 0). What the loop holds is read once: the expression list's positions and the constant entries,
+// written by plain loops of their own (a loop of run-time length over a few doubles is vectorised
+// by g++ behind a run-time check that costs more than the copy).
+template <int N>
+void PhiColumnsOf(const ExprMatrix& m, Compiled& c, const mu::Parser& p, const double* x, Eigen::Index count,
+                  double* phi) {
+  const Eigen::Index n = N > 0 ? N : m.rows, size = m.rows * m.cols;
+  const auto expressions = static_cast<Eigen::Index>(m.index.size());
+  const double* constant = m.constant.data();
+  const Eigen::Index* index = m.index.data();
+  double* var = c.var.data();
+  for (Eigen::Index k = 0; k < count; ++k) {
+    const double* xk = x + k * n;
+    double* out = phi + k * size;
+    for (Eigen::Index i = 0; i < n; ++i) var[i] = xk[i];
+    for (Eigen::Index j = 0; j < size; ++j) out[j] = constant[j];
+    if (expressions == 0) continue;
+    int results = 0;
+    const double* v = p.Eval(results);
+    for (Eigen::Index e = 0; e < expressions; ++e) out[index[e]] = v[e];
+  }
+}
+
 // The HybridModel struct over a Definition (the context forms; Model resolves the context).
 struct FileModel {
   std::shared_ptr<const Definition> def;
@@ -151,6 +176,15 @@ struct FileModel {
     Compiled& c = Local(def);
     const std::size_t q = Index(ctx.mode, def->phi.size(), "mode");
     const Eigen::Index n = def->phi[q].rows, size = def->phi[q].rows * def->phi[q].cols;
+    if (!def->contextual) {  // ξ alone: the loop of PhiColumnsOf, with n fixed when it is small
+      switch (n) {
+        case 1: return PhiColumnsOf<1>(def->phi[q], c, c.phi[q], x, count, phi);
+        case 2: return PhiColumnsOf<2>(def->phi[q], c, c.phi[q], x, count, phi);
+        case 3: return PhiColumnsOf<3>(def->phi[q], c, c.phi[q], x, count, phi);
+        case 4: return PhiColumnsOf<4>(def->phi[q], c, c.phi[q], x, count, phi);
+        default: return PhiColumnsOf<0>(def->phi[q], c, c.phi[q], x, count, phi);
+      }
+    }
     for (Eigen::Index k = 0; k < count; ++k) {
       Load(*def, c, x + k * n, static_cast<std::size_t>(n), ctx);
       Evaluate(def->phi[q], c.phi[q], phi + k * size);

@@ -2,7 +2,10 @@
 // vertex, while evaluating far fewer.
 #include <catch2/catch.hpp>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
 
 #include "core/builtin/impact_pendulum.hpp"
@@ -48,6 +51,64 @@ TEST_CASE("vertex sup without points is 0", "[paper]") {
   const Model model{ImpactPendulum{}};
   VertexJacobianSup sup(model, BoundMode::kPaper);
   CHECK(sup.Sup(model.alpha()) == 0.0);
+}
+
+TEST_CASE("a flow run's norm of J(alpha) has QuadraticForm's bits, signed zeros and non-finite unknowns too",
+          "[paper]") {
+  // detail::PaperConstant2::NormSquared takes t0·(q0·t0) + t1·(q1·t1) when GᵀG is zero outside the
+  // unknowns' diagonal (the §5 model: GᵀG = diag(0, 1, 1), unknowns 1 and 2), and QuadraticForm<3>
+  // otherwise or when that sum is zero or an unknown not finite (a zero sum's sign, a NaN).
+  auto same = [](double x, double y) {
+    return std::bit_cast<std::uint64_t>(x) == std::bit_cast<std::uint64_t>(y) || (std::isnan(x) && std::isnan(y));
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  const double values[] = {-0.0, 0.0, 1e-200, -3.0, 0.7, inf, -inf, std::nan("")};
+  struct Case {
+    const char* what;
+    double q[9];
+    int u0, u1;
+    bool separable;
+  };
+  const Case cases[] = {
+      {"§5: diag(0, 1, 1)", {0, 0, 0, 0, 1, 0, 0, 0, 1}, 1, 2, true},
+      {"diag(0, 2.5, 1e-3)", {0, 0, 0, 0, 2.5, 0, 0, 0, 1e-3}, 1, 2, true},
+      // Not a Gram matrix, but NormSquared takes any symmetric one: products that underflow to −0.
+      {"diag(0, -1, -1)", {0, 0, 0, 0, -1, 0, 0, 0, -1}, 1, 2, true},
+      {"unknowns first, -0 off the diagonal", {1, -0.0, 0, -0.0, 1, 0, 0, 0, 0}, 0, 1, true},
+      {"cross term", {0, 0, 0, 0, 1, 0.5, 0, 0.5, 1}, 1, 2, false},
+      {"known entry enters", {1, 0, 0.5, 0, 1, 0, 0.5, 0, 1}, 1, 2, false},
+  };
+  const double alpha[3] = {1.0, 0.0, 0.0};
+  for (const Case& k : cases) {
+    INFO(k.what);
+    detail::PaperConstant2<3> c{};
+    for (int i = 0; i < 9; ++i) c.q[i] = k.q[i];
+    for (int i = 0; i < 3; ++i) c.alpha[i] = alpha[i];
+    c.u0 = k.u0;
+    c.u1 = k.u1;
+    // LoadConstant2's rule, as a PaperDetector would set it.
+    c.separable = c.u0 < c.u1;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        const double v = c.q[j * 3 + i];
+        if (v != 0.0 && !(i == j && (i == c.u0 || i == c.u1))) c.separable = false;
+      }
+    }
+    c.q0 = c.q[c.u0 * 3 + c.u0];
+    c.q1 = c.q[c.u1 * 3 + c.u1];
+    CHECK(c.separable == k.separable);
+    for (const double t0 : values) {
+      for (const double t1 : values) {
+        double full[3] = {alpha[0], alpha[1], alpha[2]};
+        full[k.u0] = t0;
+        full[k.u1] = t1;
+        const double expected = detail::QuadraticForm<3>(3, k.q, full);
+        const double got = c.NormSquared(t0, t1);
+        INFO("t0 " << t0 << ", t1 " << t1 << ": " << got << " against " << expected);
+        CHECK(same(got, expected));
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -1,7 +1,9 @@
 // RLS against batch least squares with the same prior, forgetting, and degenerate data.
 #include <catch2/catch.hpp>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 #include <Eigen/Dense>
 
@@ -174,6 +176,37 @@ TEST_CASE("the two-parameter scalar update equals the general-p loop bit for bit
     CHECK(before[2] == r.p00);
     CHECK(before[4] == r.p11);
   }
+}
+
+TEST_CASE("the two-parameter update keeps the general loop's signed zeros bit for bit", "[rls]") {
+  // Rls2State::Update takes Pφ as a + b and adds the leading 0 of the general loop's 0 + a + b
+  // beside the chain; rows and states with ±0 entries, where only the sign of a zero can differ,
+  // compared bit by bit (== does not see the sign of a zero).
+  const double values[] = {-0.0, 0.0, 1.0, -2.5};
+  auto same = [](double x, double y) { return std::bit_cast<std::uint64_t>(x) == std::bit_cast<std::uint64_t>(y); };
+  long zero_gains = 0;
+  for (const double f0 : values) {
+    for (const double f1 : values) {
+      for (const double p10 : {-0.0, 0.0, 0.5}) {
+        for (const double t : {-0.0, 0.0, 3.0}) {
+          for (const double y : {-0.0, 0.0, 1.5}) {
+            double theta[2] = {t, -t}, pp[4] = {2.0, p10, p10, 4.0}, g[2];
+            detail::Rls2State r{theta[0], theta[1], pp[0], pp[1], pp[3]};
+            const double phi[2] = {f0, f1};
+            const bool general = detail::ScalarRlsUpdate<0>(2, pp, theta, g, phi, 1, y, 1.0, 6.0);
+            REQUIRE(general == r.Update(f0, f1, y, 1.0, 6.0));
+            REQUIRE(same(r.t0, theta[0]));
+            REQUIRE(same(r.t1, theta[1]));
+            REQUIRE(same(r.p00, pp[0]));
+            REQUIRE(same(r.p10, pp[1]));
+            REQUIRE(same(r.p11, pp[3]));
+            zero_gains += g[0] == 0.0 ? 1 : 0;
+          }
+        }
+      }
+    }
+  }
+  CHECK(zero_gains > 0);
 }
 
 }  // namespace
