@@ -82,6 +82,23 @@ template <int P>
   return s;
 }
 
+// What the paper detector takes from a pair ξ(t−δt) = (p0, p1), ξ(t) = (c0, c1) of two states alone,
+// whatever α̂: D² and D = ‖ξ(t) − ξ(t−δt)‖/δt, and ‖ξ(t)‖ in the bound's norm (homogeneous: ‖[ξ; 1]‖).
+struct PairTerms2 {
+  double d2, statistic, cur_norm;
+  [[gnu::always_inline]] static PairTerms2 Of(double p0, double p1, double c0, double c1, double inv_dt,
+                                              bool homogeneous) {
+    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
+    double d2 = 0.0, cur2 = 0.0;
+    d2 += v0 * v0;
+    cur2 += c0 * c0;
+    d2 += v1 * v1;
+    cur2 += c1 * c1;
+    if (homogeneous) cur2 += 1.0;
+    return {d2, std::sqrt(d2), std::sqrt(cur2)};
+  }
+};
+
 // ClassifyConstant<2, true>'s state and arithmetic for two states, one identified row and A = |α|
 // (2 or 3) with two unknowns, in scalars: for a loop that keeps them in local variables over a run
 // of consecutive samples (the identifier's flow runs; PaperDetector::LoadConstant2,
@@ -108,16 +125,15 @@ struct PaperConstant2 {
   // unknowns of α̂ = (t0, t1) at `version`; warm-up over.
   [[gnu::always_inline]] Decision Classify(double p0, double p1, double c0, double c1, double prev_norm,
                                            double inv_dt, double t0, double t1, long version) {
+    return Decide(PairTerms2::Of(p0, p1, c0, c1, inv_dt, homogeneous), c0, c1, prev_norm, t0, t1, version);
+  }
+  // Classify with the pair's terms computed already (by one caller for several detectors with the
+  // same bound mode on the same samples).
+  [[gnu::always_inline]] Decision Decide(const PairTerms2& pair, double c0, double c1, double prev_norm,
+                                         double t0, double t1, long version) {
     Decision d;
-    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
-    double d2 = 0.0, cur2 = 0.0;
-    d2 += v0 * v0;
-    cur2 += c0 * c0;
-    d2 += v1 * v1;
-    cur2 += c1 * c1;
-    if (homogeneous) cur2 += 1.0;
-    const double cur_norm = std::sqrt(cur2);
-    d.statistic = std::sqrt(d2);
+    const double d2 = pair.d2, cur_norm = pair.cur_norm;
+    d.statistic = pair.statistic;
     has_last = true;
     last_x0 = c0;
     last_x1 = c1;
