@@ -1072,10 +1072,9 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
 
 namespace detail {
 
-bool PassInBlocks(const Model& model, const Mat& y, const IdentifierSettings& settings,
-                  const IdentifyOptions& options) {
+bool PassInBlocks(const Model& model, const Mat& y, const IdentifyOptions& options) {
   return !(options.assign_events && IsAutomaton(model.spec())) && !NeedsChains(y, options) && !options.trace &&
-         options.labels.empty() && !settings.second_pass;
+         options.labels.empty();
 }
 
 Identifier StartIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,

@@ -312,12 +312,11 @@ const IdentifyResult& RefinementStart(const IdentifyResult& recursive);
 namespace detail {
 // Identify in parts, for IdentifyLockstep (core/identify/lockstep.hpp), which feeds the pass of
 // several identifiers itself. PassInBlocks: whether Identify's pass feeds the samples in blocks (no
-// hybrid automaton to assign, no times, chains, inputs, modes, labels, trace or second pass, all
-// samples finite). StartIdentify: Identify's checks (throwing as it does) and its identifier, *r
+// hybrid automaton to assign, no times, chains, inputs, modes, labels or trace, all samples finite;
+// and IdentifierSettings::second_pass off). StartIdentify: Identify's checks (throwing as it does) and its identifier, *r
 // sized for the pass. FinishIdentify: after the pass (`completed` false: stopped), what Identify
 // does after it (final estimates, statuses, hulls, the detector's bound, the safe start).
-bool PassInBlocks(const Model& model, const Mat& y, const IdentifierSettings& settings,
-                  const IdentifyOptions& options);
+bool PassInBlocks(const Model& model, const Mat& y, const IdentifyOptions& options);
 Identifier StartIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
                          const IdentifyOptions& options, IdentifyResult* r);
 void FinishIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,

@@ -178,8 +178,9 @@ bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const F
 std::vector<IdentifyResult> IdentifyLockstep(const Model& model, const Mat& y, double dt,
                                              const std::vector<IdentifierSettings>& settings,
                                              const IdentifyOptions& options, LockstepCounts* counts) {
-  bool together = settings.size() > 1 && model.state_size() == 2 && y.cols() >= 2 && y.rows() == 2;
-  for (const IdentifierSettings& s : settings) together = together && detail::PassInBlocks(model, y, s, options);
+  bool together = settings.size() > 1 && model.state_size() == 2 && y.cols() >= 2 && y.rows() == 2 &&
+                  std::none_of(settings.begin(), settings.end(), [](const auto& s) { return s.second_pass; }) &&
+                  detail::PassInBlocks(model, y, options);
   FlowRows own;
   const FlowRows* rows = options.flow_rows;
   if (together && (rows == nullptr || rows->empty())) {

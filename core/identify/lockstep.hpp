@@ -29,7 +29,7 @@ struct LockstepCounts {
 };
 
 // Identify(model, y, dt, settings[i], options) for each i, in that order, the same bits. Fed
-// together when there are several, every one's pass feeds blocks (detail::PassInBlocks), and the
+// together when there are several, their pass feeds blocks (detail::PassInBlocks, no second pass), and the
 // model has two states and one identified flow row with two unknowns; otherwise one Identify after
 // the other. The flow rows are options.flow_rows when given, else built once for all. `counts`,
 // unless null, receives how many unit-samples went through the lockstep. Throws as Identify does.
