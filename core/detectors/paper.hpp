@@ -125,19 +125,24 @@ struct PaperConstant2 {
   // unknowns of α̂ = (t0, t1) at `version`; warm-up over.
   [[gnu::always_inline]] Decision Classify(double p0, double p1, double c0, double c1, double prev_norm,
                                            double inv_dt, double t0, double t1, long version) {
-    return Decide(PairTerms2::Of(p0, p1, c0, c1, inv_dt, homogeneous), c0, c1, prev_norm, t0, t1, version);
+    const PairTerms2 pair = PairTerms2::Of(p0, p1, c0, c1, inv_dt, homogeneous);
+    Saw(c0, c1, pair.cur_norm);
+    return Decide(pair, prev_norm, t0, t1, version);
   }
-  // Classify with the pair's terms computed already (by one caller for several detectors with the
-  // same bound mode on the same samples).
-  [[gnu::always_inline]] Decision Decide(const PairTerms2& pair, double c0, double c1, double prev_norm,
-                                         double t0, double t1, long version) {
-    Decision d;
-    const double d2 = pair.d2, cur_norm = pair.cur_norm;
-    d.statistic = pair.statistic;
+  // Classify in two parts, for one caller that classifies consecutive samples with several
+  // detectors of one bound mode: Decide with the pair's terms computed once for all, and Saw, which
+  // only the last sample classified needs before the state is stored.
+  void Saw(double c0, double c1, double norm) {
     has_last = true;
     last_x0 = c0;
     last_x1 = c1;
-    last_norm = cur_norm;
+    last_norm = norm;
+  }
+  [[gnu::always_inline]] Decision Decide(const PairTerms2& pair, double prev_norm, double t0, double t1,
+                                         long version) {
+    Decision d;
+    const double d2 = pair.d2, cur_norm = pair.cur_norm;
+    d.statistic = pair.statistic;
     if (version != cached_version) {
       alpha[u0] = t0;
       alpha[u1] = t1;

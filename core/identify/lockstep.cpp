@@ -29,27 +29,33 @@ Eigen::Index StepTogether(detail::FlowRunUnit<A>* const* units, const double* xs
   for (int i = 0; i < M; ++i) u[i] = *units[i];
   const bool homogeneous = u[0].paper.homogeneous;  // every unit's (FeedBlock)
   unsigned stop = 0;
-  double p0 = xs[2 * k - 2], p1 = xs[2 * k - 1];
+  bool seen = false;  // a sample classified: its ξ(t) and ‖ξ(t)‖ are the detectors' last
+  double p0 = xs[2 * k - 2], p1 = xs[2 * k - 1], norm = 0.0;
   for (; k < count; ++k) {
     const double f0 = phi[2 * k], f1 = phi[2 * k + 1], yk = y[k];
     if (!(std::isfinite(f0) && std::isfinite(f1) && std::isfinite(yk))) break;
     const double c0 = xs[2 * k], c1 = xs[2 * k + 1];
     const detail::PairTerms2 pair = detail::PairTerms2::Of(p0, p1, c0, c1, inv_dt, homogeneous);
+    seen = true;
+    norm = pair.cur_norm;
 #pragma GCC unroll 8
     for (int i = 0; i < M; ++i) {
       Decision d;
-      if (u[i].Step(pair, c0, c1, f0, f1, yk, &d)) {
+      if (u[i].Step(pair, f0, f1, yk, &d)) {
         decisions[i][k] = d;
       } else {
         pending[i] = d;
         stop |= 1U << i;
       }
     }
-    if (stop != 0) break;
     p0 = c0;
     p1 = c1;
+    if (stop != 0) break;
   }
-  for (int i = 0; i < M; ++i) *units[i] = u[i];
+  for (int i = 0; i < M; ++i) {
+    if (seen) u[i].paper.Saw(p0, p1, norm);
+    *units[i] = u[i];
+  }
   *stopped = stop;
   return k;
 }
