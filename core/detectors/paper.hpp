@@ -138,6 +138,9 @@ struct PaperConstant2 {
     last_x1 = c1;
     last_norm = norm;
   }
+  // kThreshold false: no d.threshold, and cached_l is left for Settle (which the caller must call
+  // before the state is stored): L̂ itself only enters the threshold reported.
+  template <bool kThreshold = true>
   [[gnu::always_inline]] Decision Decide(const PairTerms2& pair, double prev_norm, double t0, double t1,
                                          long version) {
     Decision d;
@@ -147,14 +150,15 @@ struct PaperConstant2 {
       alpha[u0] = t0;
       alpha[u1] = t1;
       cached_l2 = QuadraticForm<A>(A, q, alpha);
-      cached_l = std::sqrt(cached_l2);
+      if constexpr (kThreshold) cached_l = std::sqrt(cached_l2);
       cached_version = version;
     }
     const double s = cur_norm + prev_norm;
     d.gamma = d2 > half_r * half_r * cached_l2 * s * s;
-    d.threshold = half_r * cached_l * s;
+    if constexpr (kThreshold) d.threshold = half_r * cached_l * s;
     return d;
   }
+  void Settle() { cached_l = std::sqrt(cached_l2); }
 };
 
 }  // namespace detail

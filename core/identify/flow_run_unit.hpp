@@ -26,8 +26,10 @@ struct FlowRunUnit {
   // here) at a jump or a failed update, the decision in *d for the identifier's own path to apply;
   // nothing counted then. The caller tells paper (PaperConstant2::Saw) of the last sample classified
   // before the state goes back.
+  // kThreshold: as PaperConstant2::Decide.
+  template <bool kThreshold = true>
   [[gnu::always_inline]] bool Step(const PairTerms2& pair, double f0, double f1, double yk, Decision* d) {
-    *d = paper.Decide(pair, prev_norm, rls.t0, rls.t1, version);
+    *d = paper.template Decide<kThreshold>(pair, prev_norm, rls.t0, rls.t1, version);
     if (d->gamma || !rls.Update(f0, f1, yk, lambda, max_trace)) return false;
     prev_norm = pair.cur_norm;
     ++admitted;

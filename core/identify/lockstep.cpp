@@ -16,12 +16,13 @@ namespace {
 // loading and storing the units' state would cost more than it saves.
 constexpr Eigen::Index kMinLockstepRun = 16;
 
-// M flow runs (all in one bound mode) from sample k of a block (xs, phi, y: its samples and rows; sample k − 1 is xs[2k − 2 …],
-// before the block's start too) stepped side by side until one stops. Returns the sample they stopped
-// at (count: the block is done). *stopped: a bit per unit whose run stopped there, its decision in
-// pending[i]; the others took that sample. 0 with a result below count: the sample's row is not
-// finite and no unit took it.
-template <int A, int M>
+// M flow runs (all in one bound mode) from sample k of a block (xs, phi, y: its samples and rows;
+// sample k − 1 is xs[2k − 2 …], before the block's start too) stepped side by side until one stops.
+// Returns the sample they stopped at (count: the block is done). *stopped: a bit per unit whose run
+// stopped there, its decision in pending[i]; the others took that sample. 0 with a result below
+// count: the sample's row is not finite and no unit took it. kThreshold false: the decisions
+// without their thresholds (nobody reads them), L̂ settled once at the end.
+template <int A, bool kThreshold, int M>
 Eigen::Index StepTogether(detail::FlowRunUnit<A>* const* units, const double* xs, Eigen::Index k,
                           Eigen::Index count, const double* phi, const double* y, double inv_dt,
                           Decision* const* decisions, unsigned* stopped, Decision* pending) {
@@ -41,7 +42,7 @@ Eigen::Index StepTogether(detail::FlowRunUnit<A>* const* units, const double* xs
 #pragma GCC unroll 8
     for (int i = 0; i < M; ++i) {
       Decision d;
-      if (u[i].Step(pair, f0, f1, yk, &d)) {
+      if (u[i].template Step<kThreshold>(pair, f0, f1, yk, &d)) {
         decisions[i][k] = d;
       } else {
         pending[i] = d;
@@ -54,6 +55,7 @@ Eigen::Index StepTogether(detail::FlowRunUnit<A>* const* units, const double* xs
   }
   for (int i = 0; i < M; ++i) {
     if (seen) u[i].paper.Saw(p0, p1, norm);
+    if constexpr (!kThreshold) u[i].paper.Settle();
     *units[i] = u[i];
   }
   *stopped = stop;
@@ -64,18 +66,18 @@ template <int A>
 using StepFn = Eigen::Index (*)(detail::FlowRunUnit<A>* const*, const double*, Eigen::Index, Eigen::Index,
                                 const double*, const double*, double, Decision* const*, unsigned*, Decision*);
 
-template <int A, std::size_t... M>
+template <int A, bool kThreshold, std::size_t... M>
 constexpr std::array<StepFn<A>, sizeof...(M)> StepTable(std::index_sequence<M...>) {
-  return {&StepTogether<A, static_cast<int>(M) + 1>...};
+  return {&StepTogether<A, kThreshold, static_cast<int>(M) + 1>...};
 }
 
 // The units `ids` (each already in a flow run, its state in units[i]) over one block, in lockstep
 // while they run; each ends by its own path (Identifier::EndFlowRun).
-template <int A>
+template <int A, bool kThreshold>
 void RunTogether(Identifier* const* ids, detail::FlowRunUnit<A>* units, int m, const double* xs,
                  Eigen::Index count, const double* phi, const double* y, double inv_dt, Decision* const* decisions,
                  long* taken) {
-  static constexpr auto kStep = StepTable<A>(std::make_index_sequence<kMaxLockstep>{});
+  static constexpr auto kStep = StepTable<A, kThreshold>(std::make_index_sequence<kMaxLockstep>{});
   std::array<int, kMaxLockstep> live{};  // the units still in the lockstep
   std::array<detail::FlowRunUnit<A>*, kMaxLockstep> unit{};
   std::array<Decision*, kMaxLockstep> out{};
@@ -111,7 +113,7 @@ void RunTogether(Identifier* const* ids, detail::FlowRunUnit<A>* units, int m, c
 }
 
 // One block (xs: n × count from the second sample on; phi, y its rows) fed to every identifier.
-template <int A>
+template <int A, bool kThreshold>
 void FeedBlock(std::vector<Identifier>& ids, const double* xs, Eigen::Index count, const double* phi,
                const double* y, double inv_dt, Decision* const* decisions, long* taken) {
   std::array<detail::FlowRunUnit<A>, kMaxLockstep> units;
@@ -119,7 +121,7 @@ void FeedBlock(std::vector<Identifier>& ids, const double* xs, Eigen::Index coun
   std::array<Decision*, kMaxLockstep> out{};
   int m = 0;
   auto run = [&] {
-    RunTogether<A>(group.data(), units.data(), m, xs, count, phi, y, inv_dt, out.data(), taken);
+    RunTogether<A, kThreshold>(group.data(), units.data(), m, xs, count, phi, y, inv_dt, out.data(), taken);
     m = 0;
   };
   for (std::size_t i = 0; i < ids.size(); ++i) {
@@ -151,7 +153,7 @@ void RecordDecisions(const Decision* d, Eigen::Index k, Eigen::Index len, Identi
 }
 
 // The pass of every identifier, in lockstep where they take flow runs; false when stopped.
-template <int A>
+template <int A, bool kThreshold>
 bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const FlowRows& rows,
                   const std::atomic<bool>* stop, std::vector<IdentifyResult>* results, long* taken) {
   const Eigen::Index count = y.cols(), chunk = IdentifyOptions::kStopPollSamples;
@@ -171,7 +173,7 @@ bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const F
     for (; j < len; j += kLockstepBlock) {
       const Eigen::Index block = std::min(kLockstepBlock, len - j);
       for (std::size_t i = 0; i < ids.size(); ++i) at_block[i] = decisions[i] + j;
-      FeedBlock<A>(ids, y.col(k + j).data(), block, rows.phi.data() + 2 * (k + j), rows.y.data() + k + j, inv_dt,
+      FeedBlock<A, kThreshold>(ids, y.col(k + j).data(), block, rows.phi.data() + 2 * (k + j), rows.y.data() + k + j, inv_dt,
                    at_block.data(), taken);
     }
     for (std::size_t i = 0; i < ids.size(); ++i) RecordDecisions(decisions[i], k, len, &(*results)[i]);
@@ -206,9 +208,10 @@ std::vector<IdentifyResult> IdentifyLockstep(const Model& model, const Mat& y, d
     ids.push_back(detail::StartIdentify(model, y, dt, settings[i], options, &results[i]));
   }
   long taken = 0;
-  const bool completed = model.alpha_size() == 3
-                             ? PassTogether<3>(ids, y, dt, *rows, options.stop, &results, &taken)
-                             : PassTogether<2>(ids, y, dt, *rows, options.stop, &results, &taken);
+  // Without statistics, no unit's threshold is reported: the runs leave it out (Decide<false>).
+  const auto pass = model.alpha_size() == 3 ? (options.statistics ? &PassTogether<3, true> : &PassTogether<3, false>)
+                                            : (options.statistics ? &PassTogether<2, true> : &PassTogether<2, false>);
+  const bool completed = pass(ids, y, dt, *rows, options.stop, &results, &taken);
   if (counts != nullptr) {
     counts->lockstep += taken;
     counts->total += static_cast<long>(settings.size()) * y.cols();
