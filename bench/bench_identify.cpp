@@ -7,6 +7,7 @@
 
 #include "core/builtin/impact_msd.hpp"
 #include "core/identify/identifier.hpp"
+#include "core/identify/lockstep.hpp"
 #include "core/sets/sample_set.hpp"
 #include "sim/measurement.hpp"
 #include "sim/model_check/model_check.hpp"
@@ -165,6 +166,48 @@ void BM_IdentifyStepFusedReference(benchmark::State& state) {
                          benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_IdentifyStepFusedReference)->Unit(benchmark::kMillisecond);
+
+// A sweep trial's paper-detector units: M = state.range(0) identifications of the §5 run (σ =
+// state.range(1) / 100) that differ only in r (the robustness map's 220, 500, 1000, 50, 20, 5, the
+// first M), on flow rows built once, no sets, statistics off. Lockstep: IdentifyLockstep (their
+// flow runs side by side); alone: one Identify after the other (the same bits). Counter: per
+// unit-sample; "lockstep_share": the share of unit-samples stepped in lockstep.
+void RunUnits(benchmark::State& state, bool lockstep) {
+  const Model model{ImpactMsd{}};
+  const Mat y = PaperSamples(static_cast<double>(state.range(1)) / 100.0);
+  const auto m = static_cast<std::size_t>(state.range(0));
+  const double rs[] = {220.0, 500.0, 1000.0, 50.0, 20.0, 5.0};
+  std::vector<IdentifierSettings> settings(m);
+  for (std::size_t i = 0; i < m; ++i) {
+    settings[i].sets = false;
+    settings[i].detector.r = rs[i % 6];
+  }
+  const FlowRows rows = BuildFlowRows(model, y, 5e-4);
+  IdentifyOptions options;
+  options.statistics = false;
+  options.check_paper_bound = false;
+  options.flow_rows = &rows;
+  LockstepCounts counts;
+  for (auto _ : state) {
+    if (lockstep) {
+      benchmark::DoNotOptimize(IdentifyLockstep(model, y, 5e-4, settings, options, &counts).data());
+    } else {
+      for (const IdentifierSettings& s : settings) benchmark::DoNotOptimize(Identify(model, y, 5e-4, s, options));
+    }
+  }
+  state.counters["per_sample"] =
+      benchmark::Counter(static_cast<double>(y.cols()) * static_cast<double>(m),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  if (lockstep) {
+    state.counters["lockstep_share"] = static_cast<double>(counts.lockstep) / static_cast<double>(counts.total);
+  }
+}
+void BM_IdentifyStepLockstep(benchmark::State& state) { RunUnits(state, true); }
+BENCHMARK(BM_IdentifyStepLockstep)
+    ->Args({1, 0})->Args({2, 0})->Args({4, 0})->Args({6, 0})->Args({6, 25})
+    ->Unit(benchmark::kMillisecond);
+void BM_IdentifyStepUnitsAlone(benchmark::State& state) { RunUnits(state, false); }
+BENCHMARK(BM_IdentifyStepUnitsAlone)->Args({1, 0})->Args({6, 0})->Args({6, 25})->Unit(benchmark::kMillisecond);
 
 // The hull update alone: the 40001 samples of the §5 run (σ = state.range(0) / 100) added to one
 // SampleSet, as Λ receives them. Counter: per sample; "vertices" is the final hull size.

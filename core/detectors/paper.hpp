@@ -82,6 +82,23 @@ template <int P>
   return s;
 }
 
+// What the paper detector takes from a pair ξ(t−δt) = (p0, p1), ξ(t) = (c0, c1) of two states alone,
+// whatever α̂: D² and D = ‖ξ(t) − ξ(t−δt)‖/δt, and ‖ξ(t)‖ in the bound's norm (homogeneous: ‖[ξ; 1]‖).
+struct PairTerms2 {
+  double d2, statistic, cur_norm;
+  [[gnu::always_inline]] static PairTerms2 Of(double p0, double p1, double c0, double c1, double inv_dt,
+                                              bool homogeneous) {
+    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
+    double d2 = 0.0, cur2 = 0.0;
+    d2 += v0 * v0;
+    cur2 += c0 * c0;
+    d2 += v1 * v1;
+    cur2 += c1 * c1;
+    if (homogeneous) cur2 += 1.0;
+    return {d2, std::sqrt(d2), std::sqrt(cur2)};
+  }
+};
+
 // ClassifyConstant<2, true>'s state and arithmetic for two states, one identified row and A = |α|
 // (2 or 3) with two unknowns, in scalars: for a loop that keeps them in local variables over a run
 // of consecutive samples (the identifier's flow runs; PaperDetector::LoadConstant2,
@@ -150,6 +167,34 @@ struct PaperConstant2 {
     cached_l = std::sqrt(cached_l2);
     cached_version = version;
   }
+  // Classify in two parts, for one caller that classifies consecutive samples with several
+  // detectors of one bound mode (core/identify/lockstep.cpp): Decide with the pair's terms computed
+  // once for all, and Saw, which only the last sample classified needs before the state is stored.
+  void Saw(double c0, double c1, double norm) {
+    has_last = true;
+    last_x0 = c0;
+    last_x1 = c1;
+    last_norm = norm;
+  }
+  // kThreshold false: no d.threshold, and cached_l is left for Settle (which the caller must call
+  // before the state is stored): L̂ itself only enters the threshold reported.
+  template <bool kThreshold = true>
+  [[gnu::always_inline]] Decision Decide(const PairTerms2& pair, double prev_norm, double t0, double t1,
+                                         long version) {
+    Decision d;
+    const double d2 = pair.d2, cur_norm = pair.cur_norm;
+    d.statistic = pair.statistic;
+    if (version != cached_version) {
+      cached_l2 = NormSquared(t0, t1);
+      if constexpr (kThreshold) cached_l = std::sqrt(cached_l2);
+      cached_version = version;
+    }
+    const double s = cur_norm + prev_norm;
+    d.gamma = d2 > half_r * half_r * cached_l2 * s * s;
+    if constexpr (kThreshold) d.threshold = half_r * cached_l * s;
+    return d;
+  }
+  void Settle() { cached_l = std::sqrt(cached_l2); }
 };
 
 }  // namespace detail

@@ -16,6 +16,7 @@
 #include "core/estimators/integral.hpp"
 #include "core/estimators/rls.hpp"
 #include "core/identify/events.hpp"
+#include "core/identify/flow_run_unit.hpp"
 #include "core/identify/localize.hpp"
 #include "core/io/limits.hpp"
 #include "core/model/automaton.hpp"
@@ -520,6 +521,66 @@ Eigen::Index Identifier::FlowRun(State& s, const double* xs, Eigen::Index k, Eig
   return k;
 }
 
+template <int A>
+bool Identifier::BeginFlowRun(detail::FlowRunUnit<A>* unit) const {
+  const State& s = *s_;
+  if (!s.flow_run || s.frozen || s.settings.sets || !s.has_prev || s.alpha_full.size() != A ||
+      s.rls->updates() < s.paper->unknowns()) {
+    return false;
+  }
+  const int* unknown = s.builder.flow_layout().unknown.data();
+  unit->rls = s.rls->Load2();
+  unit->paper = s.paper->LoadConstant2<A>(s.alpha_full.data(), unknown[0], unknown[1]);
+  unit->lambda = s.rls->forgetting();
+  unit->max_trace = s.rls->max_trace();
+  unit->prev_norm = unit->paper.PrevNorm(s.prev[0], s.prev[1]);
+  unit->version = s.version;
+  unit->admitted = unit->informative = 0;
+  return true;
+}
+
+template <int A>
+void Identifier::EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs, Eigen::Index k,
+                            Eigen::Index count, const double* phi, const double* y, const Decision* pending,
+                            Decision* decisions) {
+  State& s = *s_;
+  s.rls->Store2(unit.rls);
+  s.paper->StoreConstant2(unit.paper);
+  if (unit.admitted > 0) {  // as FlowRun's end: samples k − admitted … k − 1 taken
+    const int* unknown = s.builder.flow_layout().unknown.data();
+    s.rls->CountRowsIn(unit.admitted, unit.informative);
+    s.samples += unit.admitted;
+    s.version = unit.version;
+    s.alpha_full[unknown[0]] = unit.rls.t0;
+    s.alpha_full[unknown[1]] = unit.rls.t1;
+    s.prev[0] = xs[2 * k - 2];
+    s.prev[1] = xs[2 * k - 1];
+  }
+  if (k == count) return;
+  if (pending != nullptr) {  // RowBlock's per-sample path with the decision taken
+    const double* x = xs + 2 * k;
+    ++s.samples;
+    if (!pending->gamma) {
+      s.rls->UpdateRow<2>(phi + 2 * k, y[k]);
+      AfterFlowUpdate<2>(s, s.rls->estimate().data());
+    } else {
+      AfterJump(s, ConstVecMap(x, 2), s.alpha_full);
+    }
+    s.prev[0] = x[0];
+    s.prev[1] = x[1];
+    decisions[k] = *pending;
+    ++k;
+  }
+  if (k < count) s.row_block(s, xs + 2 * k, count - k, phi + 2 * k, y + k, decisions + k);
+}
+
+template bool Identifier::BeginFlowRun<2>(detail::FlowRunUnit<2>*) const;
+template bool Identifier::BeginFlowRun<3>(detail::FlowRunUnit<3>*) const;
+template void Identifier::EndFlowRun<2>(const detail::FlowRunUnit<2>&, const double*, Eigen::Index, Eigen::Index,
+                                        const double*, const double*, const Decision*, Decision*);
+template void Identifier::EndFlowRun<3>(const detail::FlowRunUnit<3>&, const double*, Eigen::Index, Eigen::Index,
+                                        const double*, const double*, const Decision*, Decision*);
+
 template <Identifier::DetectorCall kCall, class E>
 Identifier::RowBlockFn Identifier::ChooseRowBlock(int n, int u) {
   if (n == 2 && u == 2) return &RowBlock<2, 2, kCall, E>;
@@ -774,8 +835,8 @@ bool StopRaised(const IdentifyOptions& options) {
 }
 
 // Samples between two looks at IdentifyOptions::stop: fewer when hulls of n ≥ 3 states are built.
-Eigen::Index StopPoll(const IdentifierSettings& settings, Eigen::Index n) {
-  return settings.sets && n >= 3 ? IdentifyOptions::kStopPollSamples / 16 : IdentifyOptions::kStopPollSamples;
+Eigen::Index StopPoll(bool sets, Eigen::Index n) {
+  return sets && n >= 3 ? IdentifyOptions::kStopPollSamples / 16 : IdentifyOptions::kStopPollSamples;
 }
 
 // A column with a non-finite entry is a missing sample: skipped, and the chain goes on (the next pair
@@ -945,8 +1006,10 @@ void CheckDetectorBound(const Model& model, const Mat& y, const IdentifierSettin
 
 }  // namespace
 
-IdentifyResult Identify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
-                        const IdentifyOptions& options) {
+namespace {
+
+// Identify's checks of the data and the options against the model.
+void CheckIdentifyInputs(const Model& model, const Mat& y, double dt, const IdentifyOptions& options) {
   if (y.rows() != model.state_size()) {
     throw std::invalid_argument(fmt::format("data has {} state rows; model '{}' has {} states", y.rows(),
                                             model.name(), model.state_size()));
@@ -971,6 +1034,44 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     }
   }
   CheckFlowRows(options, y, dt);
+}
+
+// The identifier of Identify's pass (the hulls within their dimension limit, the noise shapes and
+// prior scales from the data), and *r sized for the pass.
+Identifier PassIdentifier(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                          const IdentifyOptions& options, IdentifyResult* r) {
+  IdentifierSettings bounded = settings;  // the exact hulls within their dimension limit
+  if (const std::int64_t max = LimitValue(kMaxHullDimension); settings.sets && model.state_size() > max) {
+    bounded.sets = false;
+    r->sets_skipped = fmt::format("{} states exceed the limit of {} {} (raise it with {}=N)",
+                                  model.state_size(), max, kMaxHullDimension.what, kMaxHullDimension.variable);
+  }
+  if (model.input_size() > 0) CheckInputSettings(model, bounded);  // before the noise shapes
+  Identifier id(model, dt,
+                WithPriorScales(model, y, dt, options, ResolveNoiseShapes(model, y, dt, bounded, r)));
+  const auto count = static_cast<std::size_t>(y.cols());
+  r->gamma.resize(count);
+  if (options.statistics) {
+    r->statistic.resize(count);
+    r->threshold.resize(count);
+  }
+  if (options.trace) {
+    r->alpha_trace.resize(model.alpha_size(), y.cols());
+    r->beta_trace.resize(model.beta_size(), y.cols());
+  }
+  return id;
+}
+
+// Whether the pass builds hulls (IdentifierSettings::sets within the dimension limit).
+bool PassSets(const IdentifierSettings& settings, const IdentifyResult& r) {
+  return settings.sets && r.sets_skipped.empty();
+}
+
+}  // namespace
+
+IdentifyResult Identify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                        const IdentifyOptions& options) {
+  CheckIdentifyInputs(model, y, dt, options);
   if (options.assign_events && IsAutomaton(model.spec())) {
     if (options.flow_rows == nullptr) return IdentifyAutomaton(model, y, dt, settings, options);
     IdentifyOptions own = options;  // its passes identify other models (one per mode) on these samples
@@ -978,52 +1079,55 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
     return IdentifyAutomaton(model, y, dt, settings, own);
   }
   IdentifyResult r;
-  IdentifierSettings bounded = settings;  // the exact hulls within their dimension limit
-  if (const std::int64_t max = LimitValue(kMaxHullDimension); settings.sets && model.state_size() > max) {
-    bounded.sets = false;
-    r.sets_skipped = fmt::format("{} states exceed the limit of {} {} (raise it with {}=N)",
-                                 model.state_size(), max, kMaxHullDimension.what, kMaxHullDimension.variable);
-  }
-  if (model.input_size() > 0) CheckInputSettings(model, bounded);  // before the noise shapes
-  Identifier id(model, dt,
-                WithPriorScales(model, y, dt, options, ResolveNoiseShapes(model, y, dt, bounded, &r)));
-  const auto count = static_cast<std::size_t>(y.cols());
-  r.gamma.resize(count);
-  if (options.statistics) {
-    r.statistic.resize(count);
-    r.threshold.resize(count);
-  }
-  if (options.trace) {
-    r.alpha_trace.resize(model.alpha_size(), y.cols());
-    r.beta_trace.resize(model.beta_size(), y.cols());
-  }
-  const Eigen::Index poll = StopPoll(bounded, model.state_size());
-  if (!Pass(id, y, dt, options, poll, &r) ||
-      (settings.second_pass && !SecondPass(id, y, dt, options, poll, &r))) {
-    r.alpha_hat = id.alpha_hat();  // of the samples seen
-    r.beta_hat = id.beta_hat();
-    r.jumps_detected = id.jumps_detected();
-    MarkStopped(&r);
-    return r;
-  }
-  if (!Collect(id, bounded.sets, options.stop, &r)) {
-    MarkStopped(&r);
-    return r;
-  }
-  if (options.check_paper_bound && options.labels.empty() && settings.detector.kind == DetectorKind::kPaper)
-    CheckDetectorBound(model, y, settings, &r);
-  if (r.flow_status != EstimatorStatus::kOk && settings.flow_estimator.kind != EstimatorKind::kRls) {
-    IdentifierSettings safe = settings;
-    safe.flow_estimator.kind = EstimatorKind::kRls;
-    r.safe_start = std::make_shared<const IdentifyResult>(Identify(model, y, dt, safe, options));
-    if (r.safe_start->stopped) MarkStopped(&r);
-    r.safe_start_reason =
-        fmt::format("the {} estimate of alpha is {}{}{}; the refinement starts from rls (alpha {})",
-                    ToString(settings.flow_estimator.kind), ToString(r.flow_status),
-                    r.flow_reason.empty() ? "" : ": ", r.flow_reason, ToString(r.safe_start->flow_status));
-  }
+  Identifier id = PassIdentifier(model, y, dt, settings, options, &r);
+  const Eigen::Index poll = StopPoll(PassSets(settings, r), model.state_size());
+  const bool completed = Pass(id, y, dt, options, poll, &r) &&
+                         (!settings.second_pass || SecondPass(id, y, dt, options, poll, &r));
+  detail::FinishIdentify(model, y, dt, settings, options, id, completed, &r);
   return r;
 }
+
+namespace detail {
+
+bool PassInBlocks(const Model& model, const Mat& y, const IdentifyOptions& options) {
+  return !(options.assign_events && IsAutomaton(model.spec())) && !NeedsChains(y, options) && !options.trace &&
+         options.labels.empty();
+}
+
+Identifier StartIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                         const IdentifyOptions& options, IdentifyResult* r) {
+  CheckIdentifyInputs(model, y, dt, options);
+  return PassIdentifier(model, y, dt, settings, options, r);
+}
+
+void FinishIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                    const IdentifyOptions& options, Identifier& id, bool completed, IdentifyResult* r) {
+  if (!completed) {
+    r->alpha_hat = id.alpha_hat();  // of the samples seen
+    r->beta_hat = id.beta_hat();
+    r->jumps_detected = id.jumps_detected();
+    MarkStopped(r);
+    return;
+  }
+  if (!Collect(id, PassSets(settings, *r), options.stop, r)) {
+    MarkStopped(r);
+    return;
+  }
+  if (options.check_paper_bound && options.labels.empty() && settings.detector.kind == DetectorKind::kPaper)
+    CheckDetectorBound(model, y, settings, r);
+  if (r->flow_status != EstimatorStatus::kOk && settings.flow_estimator.kind != EstimatorKind::kRls) {
+    IdentifierSettings safe = settings;
+    safe.flow_estimator.kind = EstimatorKind::kRls;
+    r->safe_start = std::make_shared<const IdentifyResult>(Identify(model, y, dt, safe, options));
+    if (r->safe_start->stopped) MarkStopped(r);
+    r->safe_start_reason =
+        fmt::format("the {} estimate of alpha is {}{}{}; the refinement starts from rls (alpha {})",
+                    ToString(settings.flow_estimator.kind), ToString(r->flow_status),
+                    r->flow_reason.empty() ? "" : ": ", r->flow_reason, ToString(r->safe_start->flow_status));
+  }
+}
+
+}  // namespace detail
 
 const IdentifyResult& RefinementStart(const IdentifyResult& recursive) {
   return recursive.safe_start ? *recursive.safe_start : recursive;

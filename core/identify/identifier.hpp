@@ -36,6 +36,8 @@ namespace hysid {
 
 namespace detail {
 struct Rls2State;
+template <int A>
+struct FlowRunUnit;  // core/identify/flow_run_unit.hpp
 }  // namespace detail
 
 struct IdentifierSettings {
@@ -128,6 +130,21 @@ class Identifier {
   // Starts a second pass over the same stream: α̂ and its covariance are frozen for classification,
   // the estimators and sets restart from their priors, the detector keeps what it has learned.
   void BeginSecondPass();
+
+  // A flow run driven from outside, so that identifiers on the same samples with the same flow rows
+  // run side by side (IdentifyLockstep, core/identify/lockstep.hpp). BeginFlowRun: whether Feed
+  // would now take a flow run with |α| = A (two states, RLS for two unknowns and the paper detector
+  // called directly, warm-up over, no sets, first pass, a sample fed before); its state then in
+  // *unit. EndFlowRun: the run stepped `unit` over samples 0 … k − 1 of a block (xs: its first sample,
+  // n × count contiguous; phi, y: its flow rows as in Feed; decisions: the block's, written) and
+  // stopped at k: its state written back, sample k's decision `pending` (k < count; null when none,
+  // as before a non-finite row) applied as the per-sample path applies it, and the block's samples
+  // after that fed by this identifier's own path. The same bits as Feed on the block.
+  template <int A>
+  bool BeginFlowRun(detail::FlowRunUnit<A>* unit) const;
+  template <int A>
+  void EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs, Eigen::Index k, Eigen::Index count,
+                  const double* phi, const double* y, const Decision* pending, Decision* decisions);
 
   Vec alpha_hat() const;  // full α̂: known entries at their known values
   Vec beta_hat() const;
@@ -291,5 +308,19 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
 // The recursive result a refinement starts from: recursive.safe_start when there is one (the α
 // estimator was not ok), else recursive itself.
 const IdentifyResult& RefinementStart(const IdentifyResult& recursive);
+
+namespace detail {
+// Identify in parts, for IdentifyLockstep (core/identify/lockstep.hpp), which feeds the pass of
+// several identifiers itself. PassInBlocks: whether Identify's pass feeds the samples in blocks (no
+// hybrid automaton to assign, no times, chains, inputs, modes, labels or trace, all samples finite;
+// and IdentifierSettings::second_pass off). StartIdentify: Identify's checks (throwing as it does) and its identifier, *r
+// sized for the pass. FinishIdentify: after the pass (`completed` false: stopped), what Identify
+// does after it (final estimates, statuses, hulls, the detector's bound, the safe start).
+bool PassInBlocks(const Model& model, const Mat& y, const IdentifyOptions& options);
+Identifier StartIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                         const IdentifyOptions& options, IdentifyResult* r);
+void FinishIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
+                    const IdentifyOptions& options, Identifier& id, bool completed, IdentifyResult* r);
+}  // namespace detail
 
 }  // namespace hysid

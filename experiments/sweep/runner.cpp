@@ -263,16 +263,27 @@ class UnitRunner {
                          config_.grid.refine_axis ? &truth.crlb : nullptr,
                          truth.inputs.empty() ? nullptr : &truth.inputs,
                          stop_};
-    for (const long id : ids) {
+    // Consecutive units of one σ (the same noisy samples) are run together (RunTrials); each row's
+    // time is its share of theirs.
+    for (std::size_t a = 0; a < ids.size();) {
       if (Stopped()) return;
+      std::vector<const SweepCell*> cells{&CellOf(ids[a])};
+      std::size_t b = a + 1;
+      for (; b < ids.size() && CellOf(ids[b]).sigma == cells.front()->sigma; ++b) cells.push_back(&CellOf(ids[b]));
+      const std::vector<long> units(ids.begin() + static_cast<std::ptrdiff_t>(a),
+                                    ids.begin() + static_cast<std::ptrdiff_t>(b));
       const auto start = Clock::now();
-      std::vector<std::string> row = RunTrial(config_, models_, CellOf(id), id, trial, in);
-      if (Stopped()) return;  // its refinement may have ended early: not journaled, run again on resume
-      row.push_back(
-          fmt::format("{:.3f}", std::chrono::duration<double, std::milli>(Clock::now() - start).count()));
-      journal_->Append(row);
-      run_.fetch_add(1, std::memory_order_relaxed);
-      progress->Tick(SamplesOf(id));
+      std::vector<std::vector<std::string>> rows = RunTrials(config_, models_, cells, units, trial, in);
+      if (Stopped()) return;  // a refinement may have ended early: not journaled, run again on resume
+      const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count() /
+                        static_cast<double>(units.size());
+      for (std::size_t i = 0; i < units.size(); ++i) {
+        rows[i].push_back(fmt::format("{:.3f}", ms));
+        journal_->Append(rows[i]);
+        run_.fetch_add(1, std::memory_order_relaxed);
+        progress->Tick(SamplesOf(units[i]));
+      }
+      a = b;
     }
   }
 

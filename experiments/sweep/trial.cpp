@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "core/identify/identifier.hpp"
+#include "core/identify/lockstep.hpp"
 #include "core/identify/metrics.hpp"
 #include "core/identify/reconstruct.hpp"
 #include "core/model/automaton.hpp"
@@ -402,14 +403,26 @@ void CompareAutomaton(const Trajectory& truth, const IdentifyResult& res, TrialO
   }
 }
 
-// The identifier on the unit's noisy samples and the metrics against the truth.
+// What the identifier of a unit is given: its settings, options and samples (the noisy samples,
+// or the states reconstructed from the measured ones).
+struct UnitInput {
+  IdentifierSettings settings;
+  IdentifyOptions options;
+  std::vector<int> measured;
+  bool partial = false;
+  Reconstruction rec;
+  const Mat* noisy = nullptr;  // the noisy samples (σ = 0: the truth)
+  const Mat& y() const { return partial ? rec.x : *noisy; }
+};
+
+// The unit's input to the identifier.
 // The noisy samples are y = x + σ·E with the trial's standard normals E, shared by every cell of the
-// group (common random numbers).
-void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o) {
-  const Model& model = *o->model;
-  const SweepCell& cell = *o->cell;
+// group (common random numbers); with them the flow rows, shared by the units of one σ.
+void PrepareUnit(const SweepConfig& config, const TrialInputs& in, const TrialOutcome& o, UnitInput* u) {
+  const Model& model = *o.model;
+  const SweepCell& cell = *o.cell;
   const Trajectory& truth = *in.truth;
-  const IdentifierSettings s = CellSettings(config, model, cell);
+  u->settings = CellSettings(config, model, cell);
   if (cell.sigma > 0) {
     if (in.normals == nullptr || in.normals->cols() != truth.x.cols() || in.noisy == nullptr) {
       throw std::logic_error("RunTrial: σ > 0 without the trial's standard normals");
@@ -419,34 +432,46 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
       in.noisy->sigma = cell.sigma;
     }
   }
-  IdentifyOptions options;
+  IdentifyOptions& options = u->options;
   options.statistics = false;
   options.check_paper_bound = false;  // every detection is counted against the true jumps
   options.stop = in.stop;             // a stopped trial's row is dropped by the runner
   if (config.oracle) options.labels = TrueLabels(truth);
   if (in.inputs != nullptr) options.inputs = in.inputs->values.leftCols(truth.x.cols());
-  const std::vector<int> measured = MeasuredIndices(model);
-  const bool partial = static_cast<int>(measured.size()) < model.state_size();
+  u->measured = MeasuredIndices(model);
+  u->partial = static_cast<int>(u->measured.size()) < model.state_size();
   const Mat& noisy = cell.sigma > 0 ? in.noisy->y : truth.x;
   // Only some states measured: the others reconstructed from them as the identifier's start, the
   // detected kinks as its labels (core/identify/reconstruct.hpp), as `hysid identify` does.
-  Reconstruction rec;
-  if (partial) {
+  if (u->partial) {
     ReconstructOptions ro;
     ro.stop = in.stop;
-    rec = ReconstructStates(PlanReconstruction(model, measured), truth.t, noisy(measured, Eigen::all), {}, Vec(), ro);
-    if (!config.oracle) options.labels = rec.gamma;
+    u->rec = ReconstructStates(PlanReconstruction(model, u->measured), truth.t, noisy(u->measured, Eigen::all), {},
+                               Vec(), ro);
+    if (!config.oracle) options.labels = u->rec.gamma;
   }
-  const Mat& y = partial ? rec.x : noisy;
-  if (!partial && in.noisy != nullptr && options.labels.empty() && !IsAutomaton(model.spec()) &&
+  u->noisy = &noisy;
+  if (!u->partial && in.noisy != nullptr && options.labels.empty() && !IsAutomaton(model.spec()) &&
       model.input_size() == 0) {
     if (in.noisy->rows_sigma != cell.sigma) {  // the group's model; y changes with σ only
-      in.noisy->rows = BuildFlowRows(model, y, truth.dt);
+      in.noisy->rows = BuildFlowRows(model, u->y(), truth.dt);
       in.noisy->rows_sigma = cell.sigma;
     }
     options.flow_rows = &in.noisy->rows;
   }
-  const IdentifyResult res = hysid::Identify(model, y, truth.dt, s, options);
+}
+
+// The identification's result `res` of the unit (refined with refine = ml) against the truth.
+void Evaluate(const SweepConfig& config, const TrialInputs& in, const UnitInput& u, const IdentifyResult& res,
+              TrialOutcome* o) {
+  const Model& model = *o->model;
+  const SweepCell& cell = *o->cell;
+  const Trajectory& truth = *in.truth;
+  const IdentifierSettings& s = u.settings;
+  const IdentifyOptions& options = u.options;
+  const std::vector<int>& measured = u.measured;
+  const bool partial = u.partial;
+  const Mat& y = u.y();
   o->alpha_hat = res.alpha_hat;
   o->beta_hat = res.beta_hat;
   if (cell.refine == "ml") {
@@ -500,6 +525,13 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
   }
 }
 
+// The identifier on the unit's samples and the metrics against the truth.
+void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o) {
+  UnitInput u;
+  PrepareUnit(config, in, *o, &u);
+  Evaluate(config, in, u, hysid::Identify(*o->model, u.y(), in.truth->dt, u.settings, u.options), o);
+}
+
 }  // namespace
 
 std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vector<Model>& models) {
@@ -508,10 +540,12 @@ std::vector<std::string> TrialHeader(const SweepConfig& config, const std::vecto
   return header;
 }
 
-std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
-                                  const SweepCell& cell, long unit, long trial, const TrialInputs& in) {
+namespace {
+
+// Unit (cell, trial)'s outcome before its identification: its keys, and a failed simulation as its status.
+TrialOutcome StartOutcome(const SweepConfig& config, const std::vector<Model>& models, const SweepCell& cell,
+                          long unit, long trial, const TrialInputs& in) {
   const Trajectory& truth = *in.truth;
-  const std::string& sim_error = in.sim_error;
   TrialOutcome o;
   o.config = &config;
   o.model = &models[static_cast<std::size_t>(cell.model)];
@@ -525,9 +559,9 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
   }
   o.samples = truth.size();
   o.jumps_true = static_cast<long>(truth.jumps.size());
-  if (!sim_error.empty()) {
+  if (!in.sim_error.empty()) {
     o.status = "error";
-    o.message = sim_error;
+    o.message = in.sim_error;
   } else if (!truth.status.completed()) {
     o.status = ToString(truth.status.stop);
     o.message =
@@ -535,18 +569,86 @@ std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<M
             ? fmt::format("Zeno: jumps accumulate at t = {:.6g} s before t_end = {} s; shorten t_end",
                           truth.status.zeno_time, config.models[static_cast<std::size_t>(cell.model)].t_end)
             : truth.status.message;
-  } else {
-    try {
-      Identify(config, in, &o);
-    } catch (const std::exception& e) {
-      o.status = "error";
-      o.message = e.what();
-      o.have_estimates = false;
-    }
   }
+  return o;
+}
+
+// An exception inside the identifier or the metrics: the row's status.
+void Fail(const std::exception& e, TrialOutcome* o) {
+  o->status = "error";
+  o->message = e.what();
+  o->have_estimates = false;
+}
+
+std::vector<std::string> RowOf(const SweepConfig& config, const std::vector<Model>& models, const TrialOutcome& o) {
   std::vector<std::string> row;
   for (const TrialColumn& c : TrialColumns(config, models)) row.push_back(c.cell(o));
   return row;
+}
+
+// The units' outcomes identified together (IdentifyLockstep); false, with nothing to use, when they
+// cannot be: a failed simulation, units on different samples or options, or an exception (then
+// each run alone reports its own).
+bool IdentifyTogether(const SweepConfig& config, const std::vector<Model>& models,
+                      const std::vector<const SweepCell*>& cells, const std::vector<long>& units, long trial,
+                      const TrialInputs& in, std::vector<TrialOutcome>* outcomes) {
+  for (const SweepCell* c : cells) {
+    if (c->sigma != cells.front()->sigma || c->model != cells.front()->model) return false;  // other samples
+  }
+  std::vector<UnitInput> inputs(units.size());
+  std::vector<IdentifierSettings> settings;
+  try {
+    for (std::size_t i = 0; i < units.size(); ++i) {
+      outcomes->push_back(StartOutcome(config, models, *cells[i], units[i], trial, in));
+      if (!outcomes->back().ok()) return false;
+      PrepareUnit(config, in, outcomes->back(), &inputs[i]);
+      if (inputs[i].options.flow_rows == nullptr) return false;  // not the block path (labels, inputs, …)
+      settings.push_back(inputs[i].settings);
+    }
+    const TrialOutcome& first = outcomes->front();
+    const std::vector<IdentifyResult> results =
+        IdentifyLockstep(*first.model, inputs.front().y(), in.truth->dt, settings, inputs.front().options);
+    for (std::size_t i = 0; i < units.size(); ++i) {
+      try {
+        Evaluate(config, in, inputs[i], results[i], &(*outcomes)[i]);
+      } catch (const std::exception& e) {
+        Fail(e, &(*outcomes)[i]);
+      }
+    }
+  } catch (const std::exception&) {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
+                                  const SweepCell& cell, long unit, long trial, const TrialInputs& in) {
+  TrialOutcome o = StartOutcome(config, models, cell, unit, trial, in);
+  if (o.ok()) {
+    try {
+      Identify(config, in, &o);
+    } catch (const std::exception& e) {
+      Fail(e, &o);
+    }
+  }
+  return RowOf(config, models, o);
+}
+
+std::vector<std::vector<std::string>> RunTrials(const SweepConfig& config, const std::vector<Model>& models,
+                                                const std::vector<const SweepCell*>& cells,
+                                                const std::vector<long>& units, long trial, const TrialInputs& in) {
+  std::vector<std::vector<std::string>> rows;
+  std::vector<TrialOutcome> outcomes;
+  if (units.size() > 1 && IdentifyTogether(config, models, cells, units, trial, in, &outcomes)) {
+    for (const TrialOutcome& o : outcomes) rows.push_back(RowOf(config, models, o));
+    return rows;
+  }
+  for (std::size_t i = 0; i < units.size(); ++i) {
+    rows.push_back(RunTrial(config, models, *cells[i], units[i], trial, in));
+  }
+  return rows;
 }
 
 }  // namespace hysid

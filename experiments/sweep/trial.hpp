@@ -86,6 +86,14 @@ InputSignal DefaultInputs(const Model& model, double dt, double t_end);
 std::vector<std::string> RunTrial(const SweepConfig& config, const std::vector<Model>& models,
                                   const SweepCell& cell, long unit, long trial, const TrialInputs& in);
 
+// Runs units `units` (unit i of cell *cells[i]) of one trial: the rows RunTrial gives each, in order,
+// byte for byte. Units on the same samples (one model and σ) whose identifier feeds its samples in
+// blocks are identified together (IdentifyLockstep, core/identify/lockstep.hpp); otherwise, or when
+// that throws, one RunTrial after the other.
+std::vector<std::vector<std::string>> RunTrials(const SweepConfig& config, const std::vector<Model>& models,
+                                                const std::vector<const SweepCell*>& cells,
+                                                const std::vector<long>& units, long trial, const TrialInputs& in);
+
 // The shortest text that reads back as exactly v (fmt "{}"), or "" for NaN.
 std::string FormatNumber(double v);
 

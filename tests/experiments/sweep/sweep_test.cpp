@@ -20,6 +20,7 @@
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "experiments/sweep/tables.hpp"
+#include "experiments/sweep/trial.hpp"
 #include "sim/measurement.hpp"
 #include "sim/simulator.hpp"
 #include "tests/testing/temp_dir.hpp"
@@ -831,4 +832,60 @@ TEST_CASE("sweep files: what the identifier refuses for a model is refused when 
                              "model 'driven-oscillator' with inputs"));
   CHECK(error_of(driven + grid + "estimator = [\"rls\", \"integral\"]\n") == "(no error)");
   CHECK(error_of("[model]\nname = \"impact-msd\"\n" + grid + "estimator = \"gtls\"\n") == "(no error)");
+}
+
+TEST_CASE("sweep: a trial's units of one σ identified together give the rows each gives alone",
+          "[sweep][lockstep]") {
+  const std::string text = R"(
+[model]
+name = "impact-msd"
+x0 = [20.0, 0.0]
+t_end = 4.0
+[grid]
+sigma = [0.0, 0.02, 0.25]
+dt = [5e-4]
+r = [5.0, 20.0, 220.0, 1000.0]
+false_alarm = [1e-6, 1e-8]
+detector = ["paper", "residual"]
+[identifier]
+sets = false
+[run]
+trials = 2
+seed = 3
+)";
+  const SweepConfig c = ParseSweepText(text, "lockstep.toml", Registry());
+  std::vector<Model> models;
+  for (const SweepModel& m : c.models) models.push_back(m.Build(Registry()));
+  const std::vector<SweepCell> cells = EnumerateCells(c);
+  const Vec x0 = Eigen::Vector2d(20.0, 0.0);
+  const Trajectory truth = Simulate(models[0], x0, SampleGrid{4.0, 5e-4}, c.simulator);
+  REQUIRE(truth.status.completed());
+  for (long trial = 0; trial < c.trials; ++trial) {
+    Mat normals(truth.x.rows(), truth.x.cols());
+    FillStandardNormals(TrialNoiseKey(c, 0, 5e-4, trial), 0, normals.data(), static_cast<std::size_t>(normals.size()));
+    for (const double sigma : c.grid.sigma) {
+      INFO("trial " << trial << ", sigma " << sigma);
+      std::vector<const SweepCell*> of_sigma;
+      std::vector<long> units;
+      for (const SweepCell& cell : cells) {
+        if (cell.sigma != sigma) continue;
+        of_sigma.push_back(&cell);
+        units.push_back(UnitIndex({cell.index, trial}, c.trials));
+      }
+      REQUIRE(of_sigma.size() == 6);  // 4 r of the paper detector, 2 false-alarm probabilities
+      NoisySamples shared, own;
+      TrialInputs together_in;
+      together_in.x0 = &x0;
+      together_in.truth = &truth;
+      together_in.normals = &normals;
+      together_in.noisy = &shared;
+      TrialInputs alone_in = together_in;
+      alone_in.noisy = &own;
+      const std::vector<std::vector<std::string>> together = RunTrials(c, models, of_sigma, units, trial, together_in);
+      REQUIRE(together.size() == units.size());
+      for (std::size_t i = 0; i < units.size(); ++i) {
+        CHECK(together[i] == RunTrial(c, models, *of_sigma[i], units[i], trial, alone_in));
+      }
+    }
+  }
 }
