@@ -402,10 +402,19 @@ void CompareAutomaton(const Trajectory& truth, const IdentifyResult& res, TrialO
   }
 }
 
+// Whether two cells identify alike: they differ in `refine` at most (unused axes are NaN in both).
+bool SameIdentification(const SweepCell& a, const SweepCell& b) {
+  const auto same = [](double u, double v) { return u == v || (std::isnan(u) && std::isnan(v)); };
+  return a.model == b.model && a.dt == b.dt && a.sigma == b.sigma && a.estimator == b.estimator &&
+         a.detector == b.detector &&
+         std::equal(a.options.begin(), a.options.end(), b.options.begin(), b.options.end(), same);
+}
+
 // The identifier on the unit's noisy samples and the metrics against the truth.
 // The noisy samples are y = x + σ·E with the trial's standard normals E, shared by every cell of the
 // group (common random numbers).
 void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o) {
+  NoisySamples local;  // without the trial's shared buffer: this unit's result only
   const Model& model = *o->model;
   const SweepCell& cell = *o->cell;
   const Trajectory& truth = *in.truth;
@@ -446,7 +455,15 @@ void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o)
     }
     options.flow_rows = &in.noisy->rows;
   }
-  const IdentifyResult res = hysid::Identify(model, y, truth.dt, s, options);
+  // The recursive pass of a refined cell is its recursive cell's, run just before on the same samples.
+  NoisySamples* kept = in.noisy;
+  if (kept == nullptr || !kept->identified_cell || !SameIdentification(*kept->identified_cell, cell)) {
+    IdentifyResult fresh = hysid::Identify(model, y, truth.dt, s, options);
+    if (kept == nullptr) kept = &local;
+    kept->identified = std::move(fresh);
+    kept->identified_cell = cell;
+  }
+  const IdentifyResult& res = kept->identified;
   o->alpha_hat = res.alpha_hat;
   o->beta_hat = res.beta_hat;
   if (cell.refine == "ml") {
