@@ -525,11 +525,26 @@ void Evaluate(const SweepConfig& config, const TrialInputs& in, const UnitInput&
   }
 }
 
-// The identifier on the unit's samples and the metrics against the truth.
+// Whether two cells identify alike: they differ in `refine` at most (unused axes are NaN in both).
+bool SameIdentification(const SweepCell& a, const SweepCell& b) {
+  const auto same = [](double u, double v) { return u == v || (std::isnan(u) && std::isnan(v)); };
+  return a.model == b.model && a.dt == b.dt && a.sigma == b.sigma && a.estimator == b.estimator &&
+         a.detector == b.detector &&
+         std::equal(a.options.begin(), a.options.end(), b.options.begin(), b.options.end(), same);
+}
+
+// The identifier on the unit's samples and the metrics against the truth. The recursive pass of a
+// refined cell is its recursive cell's, run just before on the same samples (kept in in.noisy).
 void Identify(const SweepConfig& config, const TrialInputs& in, TrialOutcome* o) {
   UnitInput u;
   PrepareUnit(config, in, *o, &u);
-  Evaluate(config, in, u, hysid::Identify(*o->model, u.y(), in.truth->dt, u.settings, u.options), o);
+  NoisySamples local;  // without the trial's shared buffer: this unit's result only
+  NoisySamples* kept = in.noisy != nullptr ? in.noisy : &local;
+  if (!kept->identified_cell || !SameIdentification(*kept->identified_cell, *o->cell)) {
+    kept->identified = hysid::Identify(*o->model, u.y(), in.truth->dt, u.settings, u.options);
+    kept->identified_cell = *o->cell;
+  }
+  Evaluate(config, in, u, kept->identified, o);
 }
 
 }  // namespace
@@ -597,12 +612,18 @@ bool IdentifyTogether(const SweepConfig& config, const std::vector<Model>& model
   }
   std::vector<UnitInput> inputs(units.size());
   std::vector<IdentifierSettings> settings;
+  std::vector<std::size_t> result_of(units.size());  // a unit's identification among `settings`
   try {
     for (std::size_t i = 0; i < units.size(); ++i) {
       outcomes->push_back(StartOutcome(config, models, *cells[i], units[i], trial, in));
       if (!outcomes->back().ok()) return false;
       PrepareUnit(config, in, outcomes->back(), &inputs[i]);
       if (inputs[i].options.flow_rows == nullptr) return false;  // not the block path (labels, inputs, …)
+      if (i > 0 && SameIdentification(*cells[i - 1], *cells[i])) {
+        result_of[i] = result_of[i - 1];  // a refined cell: its recursive cell's identification
+        continue;
+      }
+      result_of[i] = settings.size();
       settings.push_back(inputs[i].settings);
     }
     const TrialOutcome& first = outcomes->front();
@@ -610,7 +631,7 @@ bool IdentifyTogether(const SweepConfig& config, const std::vector<Model>& model
         IdentifyLockstep(*first.model, inputs.front().y(), in.truth->dt, settings, inputs.front().options);
     for (std::size_t i = 0; i < units.size(); ++i) {
       try {
-        Evaluate(config, in, inputs[i], results[i], &(*outcomes)[i]);
+        Evaluate(config, in, inputs[i], results[result_of[i]], &(*outcomes)[i]);
       } catch (const std::exception& e) {
         Fail(e, &(*outcomes)[i]);
       }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <atomic>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,12 +52,16 @@ const std::vector<std::string>& SummaryMetrics();
 // trial's standard normals (n × K, the stream TrialNoiseKey; empty when no unit of the trial has
 // σ > 0 or the simulation failed) and a buffer for the noisy samples y = x + σ·normals, kept while
 // consecutive units have the same σ, with the identifier's flow regression rows of the samples at
-// `rows_sigma` (σ = 0: the noise-free trajectory), built by the first unit that needs them.
+// `rows_sigma` (σ = 0: the noise-free trajectory), built by the first unit that needs them, and the
+// last unit's recursive identification with its cell: the next unit reuses it when its cell differs
+// only in `refine` (refine varies fastest, so a refined cell's unit follows its recursive one's).
 struct NoisySamples {
   Mat y;
   double sigma = 0.0;  // the σ of y; 0: y not filled
   FlowRows rows;
   double rows_sigma = -1.0;  // the σ of the samples `rows` belong to; −1: none
+  IdentifyResult identified;
+  std::optional<SweepCell> identified_cell;  // the cell `identified` ran for; empty: none
 };
 struct TrialInputs {
   const Vec* x0 = nullptr;

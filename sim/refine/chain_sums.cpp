@@ -73,29 +73,77 @@ ChainSummer::ChainSummer(const Eigen::Ref<const Mat>& y, const std::vector<int>&
       n_(n),
       gram_(rows.size(), Mat::Zero(p, p)),
       h_(Mat::Zero(p, static_cast<Eigen::Index>(rows.size()))),
-      block_(rows.size(), Mat(p, kBlock)),
+      block_(rows.size(), Mat(kBlock, p)),
       residuals_(kBlock, static_cast<Eigen::Index>(rows.size())),
-      last_(Mat::Zero(n, p)) {}
+      last_(Mat::Zero(n, p)),
+      window_residuals_(Mat::Zero(4, static_cast<Eigen::Index>(rows.size()))),
+      ends_(4, p),
+      ends_weighted_(4, p) {}
 
 void ChainSummer::Sample(long k, const double* x, const double* s) {
   const Eigen::Index p = h_.rows();
   for (std::size_t i = 0; i < rows_.size(); ++i) {
     const int row = rows_[i];
     // S is column-major n × p: ∂ξ_row/∂θ_a is s[a·n + row].
-    double* column = block_[i].col(gathered_).data();
-    for (Eigen::Index a = 0; a < p; ++a) column[a] = s[a * n_ + row];
+    Mat& block = block_[i];
+    for (Eigen::Index a = 0; a < p; ++a) block(gathered_, a) = s[a * n_ + row];
     residuals_(gathered_, static_cast<Eigen::Index>(i)) = y_(static_cast<Eigen::Index>(i), k) - x[row];
   }
   if (k + 1 == y_.cols()) last_ = Eigen::Map<const Mat>(s, n_, p);
   if (++gathered_ == kBlock) Flush();
 }
 
-void ChainSummer::Flush() {
+void ChainSummer::WindowSample(long k, const double* x, const double* w) {
+  const Eigen::Map<const Eigen::Vector4d> weights(w);
+  window_weights_.noalias() += weights * weights.transpose();
   for (std::size_t i = 0; i < rows_.size(); ++i) {
-    const auto rows = block_[i].leftCols(gathered_);
-    gram_[i].selfadjointView<Eigen::Lower>().rankUpdate(rows);
+    const double r = y_(static_cast<Eigen::Index>(i), k) - x[rows_[i]];
+    window_residuals_.col(static_cast<Eigen::Index>(i)) += r * weights;
+  }
+  if (k + 1 == y_.cols()) {
+    last_weights_ = weights;
+    last_in_window_ = true;
+  }
+}
+
+void ChainSummer::CloseWindow(const double* sa, const double* da, const double* sb, const double* db) {
+  const Eigen::Index p = h_.rows();
+  const double* ends[4] = {sa, da, sb, db};
+  for (std::size_t i = 0; i < rows_.size(); ++i) {
+    const int row = rows_[i];
+    for (int e = 0; e < 4; ++e) {
+      for (Eigen::Index a = 0; a < p; ++a) ends_(e, a) = ends[e][a * n_ + row];
+    }
+    ends_weighted_.noalias() = window_weights_ * ends_;
+    gram_[i].noalias() += ends_.transpose() * ends_weighted_;
     h_.col(static_cast<Eigen::Index>(i)).noalias() +=
-        rows * residuals_.col(static_cast<Eigen::Index>(i)).head(gathered_);
+        ends_.transpose() * window_residuals_.col(static_cast<Eigen::Index>(i));
+  }
+  if (last_in_window_) {
+    const auto size = static_cast<Eigen::Index>(n_) * p;
+    Eigen::Map<Vec> last(last_.data(), size);
+    last.setZero();
+    for (int e = 0; e < 4; ++e) last += last_weights_[e] * Eigen::Map<const Vec>(ends[e], size);
+    last_in_window_ = false;
+  }
+  window_weights_.setZero();
+  window_residuals_.setZero();
+}
+
+// G_i's lower triangle and h_i as dot products of the block's columns (each unknown's sensitivities
+// over the gathered samples, contiguous): for p of a few, Eigen's rank update spent most of its time
+// packing blocks for its matrix kernel.
+void ChainSummer::Flush() {
+  const Eigen::Index p = h_.rows();
+  for (std::size_t i = 0; i < rows_.size(); ++i) {
+    const Mat& block = block_[i];
+    Mat& gram = gram_[i];
+    const auto r = residuals_.col(static_cast<Eigen::Index>(i)).head(gathered_);
+    for (Eigen::Index a = 0; a < p; ++a) {
+      const auto sa = block.col(a).head(gathered_);
+      for (Eigen::Index b = 0; b <= a; ++b) gram(a, b) += sa.dot(block.col(b).head(gathered_));
+      h_(a, static_cast<Eigen::Index>(i)) += sa.dot(r);
+    }
   }
   gathered_ = 0;
 }

@@ -39,15 +39,21 @@ struct ChainSums {
 // The sums of run s against the chain's measured samples y (m × K, the rows `rows` of ξ).
 ChainSums SumChain(const SensitivityTrajectory& s, const Mat& y, const std::vector<int>& rows);
 
-// The same sums taken sample by sample while the run integrates (SimulateSensitivitiesMatched's
-// sink), so that no run holds S for all its samples: G_i and h_i as each sample's S_k comes, c_i and
-// l_i from the run's states at the end. Equal to SumChain's up to rounding (the order of summation).
+// The same sums taken while the run integrates (SimulateSensitivitiesMatched's sink), so that no run
+// holds S for all its samples: G_i and h_i as each sample's S_k comes, c_i and l_i from the run's
+// states at the end. Most samples come as windows (SensitivitySink::windows): S_ik = V_iᵀw_k with V_i
+// the 4 × p rows of component i of the window's ends, so the window adds V_iᵀ(Σ_k w_k w_kᵀ)V_i to G_i
+// and V_iᵀ(Σ_k w_k r_ik) to h_i: 4 × 4 products per sample instead of p × p. Equal to SumChain's up
+// to rounding (the order of summation).
 class ChainSummer final : public SensitivitySink {
  public:
   // y: the chain's measured samples (m × K; its storage and rows must outlive the summer); n states,
   // p unknowns.
   ChainSummer(const Eigen::Ref<const Mat>& y, const std::vector<int>& rows, int n, int p);
   void Sample(long k, const double* x, const double* s) override;
+  bool windows() const override { return true; }
+  void WindowSample(long k, const double* x, const double* w) override;
+  void CloseWindow(const double* sa, const double* da, const double* sb, const double* db) override;
   // The sums once the run (its states: n × K) is done.
   ChainSums Finish(const Mat& x);
   // S at the chain's last sample (n × p; zero until the run read it).
@@ -63,10 +69,17 @@ class ChainSummer final : public SensitivitySink {
   int n_ = 0;
   std::vector<Mat> gram_;      // G_i, the lower triangle
   Mat h_;                      // p × m
-  std::vector<Mat> block_;     // per component: ∂ξ_i/∂θ of the gathered samples (p × kBlock)
+  std::vector<Mat> block_;     // per component: ∂ξ_i/∂θ of the gathered samples (kBlock × p)
   Mat residuals_;              // kBlock × m: r_ik of the gathered samples
   Eigen::Index gathered_ = 0;  // samples gathered
   Mat last_;
+  // The open window: Σ_k w_k w_kᵀ and, per component, Σ_k w_k r_ik (4 × m) over its samples; the
+  // weights of the chain's last sample when it is among them.
+  Eigen::Matrix4d window_weights_ = Eigen::Matrix4d::Zero();
+  Mat window_residuals_;
+  Eigen::Vector4d last_weights_;
+  bool last_in_window_ = false;
+  Mat ends_, ends_weighted_;  // scratch: V_i (4 × p) and (Σ w wᵀ)V_i
 };
 
 // The joint information of θ = (the s shared unknowns, then each chain's n-entry ξ0) over C chains,

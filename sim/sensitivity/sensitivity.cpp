@@ -107,6 +107,14 @@ HybridParameters HybridParameters::WithTheta(const Unknowns& u, const ConstVecRe
 
 bool SensitivityOptions::IsValid(std::string* error) const { return sim.IsValid(error); }
 
+void SensitivitySink::WindowSample(long, const double*, const double*) {
+  throw std::logic_error("SensitivitySink::WindowSample: a sink that takes windows must override it");
+}
+
+void SensitivitySink::CloseWindow(const double*, const double*, const double*, const double*) {
+  throw std::logic_error("SensitivitySink::CloseWindow: a sink that takes windows must override it");
+}
+
 namespace {
 
 // Central-difference Jacobian (m × n) of a map ℝⁿ → ℝᵐ at x; step 1e-5·max(1, |x_i|).
@@ -152,6 +160,7 @@ class SensitivityPayload final : public hybrid::Payload {
     if (unknowns_.x0) s_.rightCols(n_).setIdentity();
     if (sink_ != nullptr) {
       sample_.resize(n_, p_);
+      windows_ = sink_->windows();
     } else {
       sensitivities_.resize(static_cast<Eigen::Index>(n_) * p_, sample_count);
     }
@@ -164,12 +173,14 @@ class SensitivityPayload final : public hybrid::Payload {
     Derivative(Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_), ctx, d);
   }
   void Restart(const Context& ctx, const Vec& x, double* extra) override {
+    CloseWindow();
     context_.set_mode(ctx.mode);  // the flow's mode until the next restart
     Eigen::Map<Mat>(extra, n_, p_) = s_;
     SetWindowEnd(window_b_, ctx.t, x, s_);
     window_a_ = window_b_;
   }
   void Returned(double t, const double* x, const double* s) override {  // the window: (previous, t)
+    CloseWindow();
     std::swap(window_a_, window_b_);
     SetWindowEnd(window_b_, t, Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_));
   }
@@ -186,6 +197,7 @@ class SensitivityPayload final : public hybrid::Payload {
   // The samples' S_k (unless they went to the sink) and ∂t_j/∂θ, the first `samples` columns and
   // `jumps` columns.
   void MoveInto(SensitivityTrajectory* out) {
+    CloseWindow();
     out->sensitivities = std::move(sensitivities_);
     if (sink_ == nullptr) out->sensitivities.conservativeResize(Eigen::NoChange, out->trajectory.size());
     out->jump_time_gradients = std::move(jump_time_gradients_);
@@ -234,6 +246,12 @@ class SensitivityPayload final : public hybrid::Payload {
     end.d.resize(n_, p_);
     Derivative(x, s, context_.At(t), end.d);
   }
+  // The window's ends to a sink that takes windows, once samples were read in it.
+  void CloseWindow() {
+    if (!window_open_) return;
+    window_open_ = false;
+    sink_->CloseWindow(window_a_.s.data(), window_a_.d.data(), window_b_.s.data(), window_b_.d.data());
+  }
   Eigen::RowVectorXd GuardGradient(int guard, const Vec& x, const Context& ctx) const {
     const Mat jac =
         CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h, ctx); }, x, model_.guard_count());
@@ -257,6 +275,8 @@ class SensitivityPayload final : public hybrid::Payload {
   Mat sensitivities_, jump_time_gradients_;
   SensitivitySink* sink_;  // takes the samples' S_k when not null (sensitivities_ then empty)
   Mat sample_;             // with a sink: S_k of the sample under way (n × p)
+  bool windows_ = false;       // the sink takes windows (SensitivitySink::windows)
+  bool window_open_ = false;   // samples were given as weights of the current window
 };
 
 // ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻) at a guard crossing (∂h/∂θ: the γ_u columns of
@@ -333,15 +353,25 @@ void SensitivityPayload::EndJumps(const Vec& post, const Context& ctx) {
 }
 
 void SensitivityPayload::Sample(long k, double t, const double* x) {
+  const double h = window_b_.t - window_a_.t;
+  double w[4] = {0.0, 0.0, 1.0, 0.0};  // (h = 0: the window's end)
+  if (h != 0.0) {
+    const double u = (t - window_a_.t) / h, u2 = u * u, u3 = u2 * u;
+    w[0] = 2 * u3 - 3 * u2 + 1;
+    w[1] = (u3 - 2 * u2 + u) * h;
+    w[2] = -2 * u3 + 3 * u2;
+    w[3] = (u3 - u2) * h;
+  }
+  if (windows_) {
+    window_open_ = true;
+    return sink_->WindowSample(k, x, w);
+  }
   double* s = sink_ != nullptr ? sample_.data() : sensitivities_.col(k).data();
   const Eigen::Index size = static_cast<Eigen::Index>(n_) * p_;
-  const double h = window_b_.t - window_a_.t;
   if (h == 0.0) {
     std::copy_n(window_b_.s.data(), size, s);
   } else {
-    const double u = (t - window_a_.t) / h, u2 = u * u, u3 = u2 * u;
-    const double ca = 2 * u3 - 3 * u2 + 1, cda = (u3 - 2 * u2 + u) * h, cb = -2 * u3 + 3 * u2,
-                 cdb = (u3 - u2) * h;
+    const double ca = w[0], cda = w[1], cb = w[2], cdb = w[3];
     const double *sa = window_a_.s.data(), *da = window_a_.d.data(), *sb = window_b_.s.data(),
                  *db = window_b_.d.data();
     for (Eigen::Index i = 0; i < size; ++i) s[i] = ca * sa[i] + cda * da[i] + cb * sb[i] + cdb * db[i];

@@ -103,6 +103,18 @@ class SensitivitySink {
   virtual ~SensitivitySink() = default;
   // Sample k: its state ξ(t_k) (n entries) and S_k (n × p, column-major), valid during the call.
   virtual void Sample(long k, const double* x, const double* s) = 0;
+
+  // Windows (a sink whose windows() is true): a sample read between two solver returns a and b
+  // comes instead as WindowSample with the weights w (4 entries) of its cubic Hermite interpolation,
+  //   S_k = w0·S_a + w1·S'_a + w2·S_b + w3·S'_b      (S' = dS/dt),
+  // and once the window's samples are given, before its ends change, CloseWindow hands the four
+  // ends (each n × p, column-major). A sample at the run's current state (at a jump, at a
+  // segment's start) still comes as Sample. A sink that sums products of S_k over the samples can
+  // then sum products of w per sample and apply the ends once per window (a solver step spans tens
+  // of samples at the refinement's tolerances).
+  virtual bool windows() const { return false; }
+  virtual void WindowSample(long k, const double* x, const double* w);
+  virtual void CloseWindow(const double* sa, const double* da, const double* sb, const double* db);
 };
 
 // Throws std::invalid_argument for a bad grid, options, unknowns, parameter vectors of the wrong

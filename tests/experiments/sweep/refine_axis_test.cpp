@@ -137,6 +137,40 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
   }
 }
 
+TEST_CASE("sweep: a refined unit's recursive pass is its recursive cell's, as a refined sweep alone has it",
+          "[sweep][refine]") {
+  // Two estimators: each refined unit follows its own recursive one on the same samples and reuses
+  // that identification; its row is the one a sweep of the refined cells alone (each identified
+  // afresh) writes.
+  std::string text = kSweep;
+  text.replace(text.find("estimator = \"rls\""), 17, "estimator = [\"rls\", \"gtls\"]");
+  const SweepConfig both = ParseSweepText(text, "both.toml", Registry());
+  text.replace(text.find("refine = [\"none\", \"ml\"]"), 23, "refine = [\"ml\", \"none\"]");
+  const SweepConfig ml_first = ParseSweepText(text, "ml_first.toml", Registry());
+  REQUIRE(EnumerateCells(both).size() == 8u);
+  const Table t = ReadTable(RunInTemp(both, "sweep-refine-both") / "trials.csv");
+  const Table u = ReadTable(RunInTemp(ml_first, "sweep-refine-ml-first") / "trials.csv");
+  long compared = 0;
+  for (long cell = 0; cell < 8; cell += 2) {
+    for (long trial = 0; trial < both.trials; ++trial) {
+      const long none = cell * both.trials + trial, ml = (cell + 1) * both.trials + trial;
+      // ml_first: the same cells with refine swapped, so the refined unit comes first and runs fresh.
+      const long fresh = cell * both.trials + trial;
+      REQUIRE(t.At(ml, "refine") == "ml");
+      REQUIRE(u.At(fresh, "refine") == "ml");
+      for (const char* name : {"jumps_detected", "tp", "fp", "fn", "flow_status", "jump_status"}) {
+        CHECK(t.At(ml, name) == t.At(none, name));
+      }
+      for (std::size_t c = 0; c < t.header.size(); ++c) {
+        if (t.header[c] == "unit" || t.header[c] == "cell") continue;
+        CHECK(t.rows.at(ml)[c] == u.rows.at(fresh)[c]);
+        ++compared;
+      }
+    }
+  }
+  CHECK(compared > 100);
+}
+
 TEST_CASE("sweep: a trial whose refinement failed is a failure of its cell, never averaged",
           "[sweep][refine]") {
   // At σ = 8 and 15 on 3 s of the §5 system most refinements fail (missed jumps, Zeno fits).

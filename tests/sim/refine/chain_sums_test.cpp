@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 
+#include "core/builtin/impact_msd.hpp"
 #include "sim/refine/chain_sums.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
@@ -81,6 +82,67 @@ TEST_CASE("chain sums taken sample by sample, in any order, equal the full resid
     summer.Sample(k, run.s.trajectory.x.col(k).data(), run.s.sensitivities.col(k).data());
   CheckSums(summer.Finish(run.s.trajectory.x), run);
   CHECK(summer.last_sensitivities() == run.s.S(299));
+}
+
+TEST_CASE("samples given as window weights sum as the interpolated samples themselves", "[refine]") {
+  // Each window: random ends E_0..E_3 (n × p) and weights w_k; sample k's S_k = Σ_q w_kq E_q. One
+  // summer takes the windows, the other the S_k; the last sample lies in the second window.
+  const int n = 3, p = 5;
+  const RandomRun run(n, p, 60, {0, 2}, 13);
+  std::mt19937 rng(17);
+  std::normal_distribution<double> normal;
+  ChainSummer windowed(run.y, run.rows, n, p), direct(run.y, run.rows, n, p);
+  Mat s(n * p, 60);
+  for (const auto& [begin, end] : {std::pair<long, long>{0, 35}, {35, 60}}) {
+    Mat ends(n * p, 4);
+    for (double& v : ends.reshaped()) v = normal(rng);
+    for (long k = end - 1; k >= begin; --k) {  // (any order)
+      const Eigen::Vector4d w(normal(rng), normal(rng), normal(rng), normal(rng));
+      s.col(k) = ends * w;
+      windowed.WindowSample(k, run.s.trajectory.x.col(k).data(), w.data());
+      direct.Sample(k, run.s.trajectory.x.col(k).data(), s.col(k).data());
+    }
+    windowed.CloseWindow(ends.col(0).data(), ends.col(1).data(), ends.col(2).data(), ends.col(3).data());
+  }
+  const ChainSums a = windowed.Finish(run.s.trajectory.x), b = direct.Finish(run.s.trajectory.x);
+  for (std::size_t i = 0; i < 2; ++i) CHECK((a.gram[i] - b.gram[i]).norm() < 1e-12 * b.gram[i].norm());
+  CHECK((a.h - b.h).norm() < 1e-12 * b.h.norm());
+  CHECK(a.squares == b.squares);
+  CHECK((windowed.last_sensitivities().reshaped() - s.col(59)).norm() < 1e-12 * s.col(59).norm());
+}
+
+TEST_CASE("a run's sums taken as it integrates equal the stored run's", "[refine]") {
+  // The §5 system over 6 s (4 jumps) at the refinement's tolerances: the summer takes most samples
+  // as window weights, those at the segments' starts as S_k.
+  const Model model{ImpactMsd{}};
+  const Vec x0 = (Vec(2) << 20.0, 0.0).finished();
+  const SampleGrid grid{6.0, 5e-4};
+  const Trajectory truth = Simulate(model, x0, grid);
+  Mat y = truth.x;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal;
+  for (double& v : y.reshaped()) v += 0.1 * normal(rng);
+  const Unknowns u = Unknowns::Of(model);
+  const HybridParameters truth_p = HybridParameters::Of(model, x0);
+  const Vec theta = truth_p.Theta(u);  // a point off the truth by 1 %, 2 % … in each unknown
+  const HybridParameters at =
+      truth_p.WithTheta(u, theta + (theta.cwiseAbs().array() + 0.1).matrix().cwiseProduct(
+                                       Vec::LinSpaced(theta.size(), 0.01, 0.01 * static_cast<double>(theta.size()))));
+  SensitivityOptions o;
+  o.sim.rtol = o.sim.atol = 5e-7;
+  const std::vector<int> rows{0, 1};
+  const SensitivityTrajectory stored = SimulateSensitivitiesMatched(model, at, u, truth.t, truth.j, o);
+  ChainSummer summer(y, rows, 2, static_cast<int>(theta.size()));
+  const SensitivityTrajectory sunk = SimulateSensitivitiesMatched(model, at, u, truth.t, truth.j, o, nullptr, &summer);
+  REQUIRE(stored.ok());
+  REQUIRE(sunk.ok());
+  REQUIRE(truth.jumps.size() >= 4);
+  const ChainSums a = summer.Finish(sunk.trajectory.x), b = SumChain(stored, y, rows);
+  for (std::size_t i = 0; i < 2; ++i) CHECK((a.gram[i] - b.gram[i]).norm() < 1e-11 * b.gram[i].norm());
+  CHECK((a.h - b.h).norm() < 1e-11 * b.h.norm());
+  CHECK(a.squares == b.squares);
+  CHECK(a.lag == b.lag);
+  CHECK((summer.last_sensitivities() - stored.S(truth.size() - 1)).norm() < 1e-12 * stored.S(truth.size() - 1).norm());
 }
 
 TEST_CASE("the compressed residual has the full residuals' cost, gradient and Gauss-Newton matrix", "[refine]") {

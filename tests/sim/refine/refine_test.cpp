@@ -111,6 +111,14 @@ TEST_CASE("the fit ends where the next Gauss–Newton step is below 1e-3 standar
     INFO("unknown " << i << ": step " << step[i] << ", standard error " << std::sqrt(covariance(i, i)));
     CHECK(std::abs(step[i]) < 1e-3 * std::sqrt(covariance(i, i)));
   }
+  // The fit's covariance is the information of its last run with sensitivities, up to a Gauss–Newton
+  // step before the result: within 1 % of the one at the result (at the fit's σ).
+  const Vec inverse_variance = r.sigma.cwiseAbs2().cwiseInverse();
+  Mat information = Mat::Zero(s.parameters, s.parameters);
+  for (Eigen::Index k = 0; k < run.y.cols(); ++k) information += s.S(k).transpose() * inverse_variance.asDiagonal() * s.S(k);
+  const Vec sd = Mat(information.inverse()).diagonal().cwiseSqrt();
+  REQUIRE(r.standard_errors.size() == sd.size());
+  for (Eigen::Index i = 0; i < sd.size(); ++i) CHECK(r.standard_errors[i] == Approx(sd[i]).epsilon(1e-2));
 }
 
 TEST_CASE("noise-free data: the refinement recovers α and β to 1e-9", "[refine]") {
