@@ -17,6 +17,7 @@
 namespace hysid {
 
 class SampleSet;  // core/sets/sample_set.hpp
+struct DetectorSettings;
 
 // Everything a detector may use for one sample. References stay valid for the call only.
 using ConstVecMap = Eigen::Map<const Vec>;
@@ -59,6 +60,10 @@ class JumpDetector {
   virtual void Observe(const SampleContext& /*context*/, const Decision& /*decision*/) {}
   virtual std::string name() const = 0;
   virtual void Reset() = 0;
+  // A copy of what this detector has learned, with `settings` instead of its own (the same kind and
+  // everything else equal; they may differ in the threshold alone: a sweep's units that share one
+  // identifier until their decisions differ, core/identify/lockstep.hpp).
+  virtual std::unique_ptr<JumpDetector> CloneWith(const DetectorSettings& settings) const = 0;
 };
 
 enum class DetectorKind { kPaper, kResidual };

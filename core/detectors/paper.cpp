@@ -190,6 +190,28 @@ double PaperDetector::SpectralLinearNormSquared(const double* alpha) {
   return SpectralNormSquared(Eigen::Map<const Mat>(jvec_.data(), reduced_rows_, m / reduced_rows_));
 }
 
+std::unique_ptr<JumpDetector> PaperDetector::CloneWith(const DetectorSettings& settings) const {
+  auto copy = std::make_unique<PaperDetector>(*this);
+  copy->settings_ = settings;
+  return copy;
+}
+
+// ClassifyConstant's D², ‖ξ(t)‖ and ‖ξ(t−δt)‖ (Prologue's sums, in its order; the previous call's
+// ‖ξ(t)‖ is BoundNorm's sum and root), and its test with the factor r.
+bool PaperDetector::FlagsWith(double r, const double* prev, const double* cur, Eigen::Index n, double dt,
+                              long flow_updates) const {
+  if (flow_updates < unknowns_) return true;  // τ̂0 decided, the same for every r
+  const double inv_dt = 1.0 / dt;
+  double d2 = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double v = (cur[i] - prev[i]) * inv_dt;
+    d2 += v * v;
+  }
+  const double s = BoundNorm(cur, n, mode_) + BoundNorm(prev, n, mode_);
+  const double half_r = 0.5 * r;
+  return d2 > half_r * half_r * cached_l2_ * s * s;
+}
+
 void PaperDetector::Reset() {
   cached_version_ = -1;
   cached_hull_version_ = -1;

@@ -240,6 +240,12 @@ class PaperDetector final : public JumpDetector {
   PaperDetector(const DetectorSettings& settings, const Model& model);
   Decision Classify(const SampleContext& context) override;
   std::string name() const override { return "paper"; }
+  std::unique_ptr<JumpDetector> CloneWith(const DetectorSettings& settings) const override;
+  // Whether a paper detector with factor r and this one's learned state flags the pair (prev, cur)
+  // that this one classified last, by ClassifyConstant, and flagged: the same bits as that detector's
+  // own ClassifyConstant. `flow_updates` as there (in the warm-up, τ̂0 decides for every r).
+  bool FlagsWith(double r, const double* prev, const double* cur, Eigen::Index n, double dt,
+                 long flow_updates) const;
   // One identified flow row: ‖J̄_r(α)‖² is a quadratic form in α (ClassifyConstant<N, true>).
   bool one_row() const { return reduced_rows_ == 1; }
   // ClassifyConstant<2, true> in local variables (detail::PaperConstant2<A>, α̂ = `alpha` with its
@@ -371,7 +377,7 @@ class PaperDetector final : public JumpDetector {
   double SpectralLinearNormSquared(const double* alpha);
   Decision ClassifyWithInputs(const SampleContext& c);
 
-  const DetectorSettings settings_;  // reads r, tau0 and bound
+  DetectorSettings settings_;  // reads r, tau0 and bound
   BoundMode mode_;
   bool constant_jacobian_;
   bool inputs_;  // the model has inputs (ClassifyWithInputs)

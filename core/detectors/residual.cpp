@@ -77,6 +77,29 @@ void ResidualDetector::Reset() {
   have_jac_ = false;
 }
 
+std::unique_ptr<JumpDetector> ResidualDetector::CloneWith(const DetectorSettings& settings) const {
+  auto copy = std::make_unique<ResidualDetector>(*this);
+  copy->settings_ = settings;
+  copy->grid_q_.assign(grid_.size(), -1.0);  // the quantiles of its own false_alarm
+  copy->cached_nu_ = -1;
+  return copy;
+}
+
+// The decision was taken at ν = min(scale samples before its update, kMemory), with a scale (it
+// flagged).
+bool ResidualDetector::FlagsWith(ResidualDetector& twin) const {
+  twin.QuantileAt(std::min(scale_samples_ - 1, kMemory));
+  return last_z2_ > twin.cached_q2_;
+}
+
+bool ResidualDetector::ThresholdsBelow(ResidualDetector& twin) {
+  for (const long nu : grid_) {
+    const double q = QuantileAt(nu);
+    if (!(q <= twin.QuantileAt(nu))) return false;
+  }
+  return true;
+}
+
 double ResidualDetector::QuantileAt(long nu) {
   // Largest grid point ≤ ν.
   const auto it = std::upper_bound(grid_.begin(), grid_.end(), nu);

@@ -74,6 +74,13 @@ class ResidualDetector final : public JumpDetector {
   void Observe(const SampleContext& context, const Decision& decision) override;
   std::string name() const override { return "residual"; }
   void Reset() override;
+  std::unique_ptr<JumpDetector> CloneWith(const DetectorSettings& settings) const override;
+  // Whether `twin` (another false_alarm, this detector's learned state) flags the sample this one
+  // classified last and flagged: the same bits as twin's own decision there.
+  bool FlagsWith(ResidualDetector& twin) const;
+  // Whether twin's quantile is at least this one's at every ν: then wherever this detector decides
+  // flow, so does twin with the same learned state.
+  bool ThresholdsBelow(ResidualDetector& twin);
 
   // The current robust scale s²_i of row i and the samples it rests on (for tests and traces).
   double excess_variance(int row) const { return excess_[static_cast<std::size_t>(row)]; }
@@ -114,6 +121,7 @@ class ResidualDetector final : public JumpDetector {
       lev = std::max(0.0, lev);
     }
     const double z2max = std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, known_noise));
+    last_z2_ = z2max;
     d.statistic = std::sqrt(z2max);
     if (scale_samples_ == 0) {
       d.threshold = std::numeric_limits<double>::infinity();
@@ -192,7 +200,7 @@ class ResidualDetector final : public JumpDetector {
   }
 
   Model model_;
-  const DetectorSettings settings_;  // reads false_alarm
+  DetectorSettings settings_;  // reads false_alarm
   std::vector<int> rows_;            // identified state rows
   std::vector<int> unknown_;         // unknown α columns (columns of flow_phi)
   int unknowns_ = 0;
@@ -209,6 +217,7 @@ class ResidualDetector final : public JumpDetector {
   // Per-sample scratch, filled by Classify and reused by Observe.
   std::vector<double> rho2_, lev_, noise_, round2_;
   bool active_ = false;
+  double last_z2_ = 0.0;  // the last classified sample's max z²
   Mat jac_prev_, jac_cur_;
   Vec jac_at_;
   bool have_jac_ = false;

@@ -123,6 +123,8 @@ class Estimator {
   long skipped() const { return skipped_; }  // non-finite regressions ignored
   int parameter_count() const { return static_cast<int>(theta_.size()); }
   virtual std::string name() const = 0;
+  // A copy of this estimator, state and settings.
+  virtual std::unique_ptr<Estimator> Clone() const = 0;
   // Back to the prior θ0.
   virtual void Reset() = 0;
   // The next row does not continue the trajectory of the previous ones (a jump, a gap in the data,

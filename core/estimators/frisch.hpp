@@ -98,6 +98,7 @@ class Frisch final : public Estimator {
          const Mat& noise_shape = Mat(), double confidence = 0.0);
 
   std::string name() const override { return "frisch"; }
+  std::unique_ptr<Estimator> Clone() const override { return std::make_unique<Frisch>(*this); }
   void Reset() override;
   Mat solution_box() const override;
 

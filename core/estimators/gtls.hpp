@@ -42,6 +42,7 @@ class Gtls final : public Estimator {
   Gtls(const Vec& theta0, const Mat& noise_shape, double forgetting, int refactor_every);
 
   std::string name() const override { return "gtls"; }
+  std::unique_ptr<Estimator> Clone() const override { return std::make_unique<Gtls>(*this); }
   // (Φ̃ᵀΦ̃)⁻¹ over the rows so far (forgetting-weighted, the θ block of S), as RLS's P without a
   // prior: the parameter covariance up to the noise variance, which the residual jump detector uses
   // for its leverage term. Computed when asked after S changed; none before S's θ block is

@@ -38,6 +38,7 @@ class IntegralLs final : public Estimator {
   IntegralLs(const Vec& theta0, const Vec& p0_diagonal);
   const Mat* covariance_matrix() const override;
   std::string name() const override { return "integral"; }
+  std::unique_ptr<Estimator> Clone() const override { return std::make_unique<IntegralLs>(*this); }
   void Reset() override;
   void Break() override;
 

@@ -125,6 +125,7 @@ class Rls final : public Estimator {
   Rls(const Vec& theta0, const Vec& p0_diagonal, double forgetting);
   const Mat* covariance_matrix() const override { return &p_; }
   std::string name() const override { return "rls"; }
+  std::unique_ptr<Estimator> Clone() const override { return std::make_unique<Rls>(*this); }
   void Reset() override;
 
   // Update with one regression row φ (p entries, contiguous) and y: the same as Update(φᵀ, y) for a

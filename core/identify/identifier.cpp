@@ -111,17 +111,16 @@ void (*ChooseJumpRow(int p))(Rls&, const double*, double) {
 
 }  // namespace
 
-struct Identifier::State {
-  State(const Model& m, double step, const IdentifierSettings& s)
+namespace {
+
+// The identifier's state that copies as it is (Identifier::State adds the estimators, the detector,
+// the sets and the direct calls bound to them).
+struct IdentifierValues {
+  IdentifierValues(const Model& m, double step, const IdentifierSettings& s)
       : model(m),
         dt(step),
         settings(s),
         builder(m),
-        flow(MakeEstimator(s.flow_estimator, Prior(s.alpha0, builder.flow_layout(), "alpha0"))),
-        jump(MakeEstimator(s.jump_estimator, Prior(s.beta0, builder.jump_layout(), "beta0"))),
-        detector(MakeDetector(s.detector, m)),
-        flow_set(s.sets ? m.state_size() : 2),
-        jump_set(s.sets ? m.state_size() : 2),
         alpha_known(m.alpha()),
         beta_known(m.beta()),
         prev(m.state_size()),
@@ -133,64 +132,12 @@ struct Identifier::State {
         inputs(m.input_size() > 0),
         contextual(inputs || IsAutomaton(m.spec())),
         prev_u(m.input_size()),
-        cur_u(m.input_size()) {
-    alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
-    block_phi.resize(std::size_t(kFeedBlock) * builder.flow_layout().unknown.size());
-    block_y.resize(std::size_t(kFeedBlock));
-    // The common configurations get direct, inlined calls instead of the virtual interfaces: RLS
-    // for α on one identified row, and with it the paper detector on a model with a constant flow
-    // Jacobian. Same arithmetic in the same order (tests/core/identify/identifier_test.cpp checks
-    // bit-equality).
-    if (s.direct_calls && builder.flow_layout().rows.size() == 1 && !inputs) {
-      rls = dynamic_cast<Rls*>(flow.get());
-      integral = dynamic_cast<IntegralLs*>(flow.get());
-      if (rls != nullptr || integral != nullptr) {
-        if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
-        if (paper != nullptr && !paper->one_row()) paper = nullptr;
-        residual = dynamic_cast<ResidualDetector*>(detector.get());
-        const std::vector<int>& unknown = builder.flow_layout().unknown;
-        flow_run = paper != nullptr && rls != nullptr && m.state_size() == 2 && unknown.size() == 2 &&
-                   paper->constant2(static_cast<int>(alpha_full.size()));
-        const int u = static_cast<int>(builder.flow_layout().unknown.size());
-        row_block = rls != nullptr ? ChooseRowBlock<Rls>(*this, m.state_size(), u)
-                                   : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
-      }
-    }
-    if (s.direct_calls && builder.jump_layout().rows.size() == 1) {
-      jump_rls = dynamic_cast<Rls*>(jump.get());
-      jump_row = ChooseJumpRow(static_cast<int>(builder.jump_layout().unknown.size()));
-    }
-    if (DescriptorOf(s.jump_estimator.kind).traits.flow_only) {
-      throw std::invalid_argument(
-          fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
-                      ToString(s.jump_estimator.kind)));
-    }
-    if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
-      throw std::invalid_argument(
-          fmt::format("IdentifierSettings::sigma has {} entries; the model has {} states", s.sigma.size(),
-                      m.state_size()));
-    }
-  }
+        cur_u(m.input_size()) {}
 
   Model model;
   double dt;
   IdentifierSettings settings;
   RegressionBuilder builder;
-  std::unique_ptr<Estimator> flow, jump;
-  std::unique_ptr<JumpDetector> detector;
-  // The α estimator on one identified row (direct_calls), when it is RLS or integral.
-  Rls* rls = nullptr;
-  IntegralLs* integral = nullptr;
-  // The β estimator on one identified row (direct_calls), when it is RLS.
-  Rls* jump_rls = nullptr;
-  void (*jump_row)(Rls&, const double*, double) = nullptr;  // its UpdateRow for |u| unknowns
-  // With rls or integral: the detector, when it is the paper's (on a constant Jacobian) or the residual
-  // detector, and RowBlock for the model's sizes.
-  PaperDetector* paper = nullptr;
-  ResidualDetector* residual = nullptr;
-  RowBlockFn row_block = nullptr;
-  bool flow_run = false;  // RowBlock<2, 2, kPaperDirect, Rls> may take runs of flow samples (FlowRun)
-  SampleSet flow_set, jump_set;
   Vec alpha_known, beta_known, alpha_full;
   Vec prev;
   bool has_prev = false;
@@ -218,10 +165,96 @@ struct Identifier::State {
   Vec prev_u, cur_u;
   double prev_t = 0.0, cur_t = 0.0;
   int prev_mode = 0, cur_mode = 0, cur_map = 0;
+  // Identifier::StopAtJumps: the direct path stops before it applies a jump, its decision here.
+  bool stop_at_jumps = false;
+  Decision stopped;
   Context PrevAt() const {
     return {.t = prev_t, .u = inputs ? prev_u.data() : nullptr, .mode = prev_mode, .map = cur_map};
   }
   Context CurAt() const { return {.t = cur_t, .u = inputs ? cur_u.data() : nullptr, .mode = cur_mode, .map = cur_map}; }
+};
+
+}  // namespace
+
+struct Identifier::State : IdentifierValues {
+  State(const Model& m, double step, const IdentifierSettings& s)
+      : IdentifierValues(m, step, s),
+        flow(MakeEstimator(s.flow_estimator, Prior(s.alpha0, builder.flow_layout(), "alpha0"))),
+        jump(MakeEstimator(s.jump_estimator, Prior(s.beta0, builder.jump_layout(), "beta0"))),
+        detector(MakeDetector(s.detector, m)),
+        flow_set(s.sets ? m.state_size() : 2),
+        jump_set(s.sets ? m.state_size() : 2) {
+    alpha_full = builder.flow_layout().Assemble(alpha_known, flow->estimate());
+    block_phi.resize(std::size_t(kFeedBlock) * builder.flow_layout().unknown.size());
+    block_y.resize(std::size_t(kFeedBlock));
+    Bind();
+    if (DescriptorOf(s.jump_estimator.kind).traits.flow_only) {
+      throw std::invalid_argument(
+          fmt::format("jump_estimator: '{}' estimates alpha only (its rows are consecutive flow differences)",
+                      ToString(s.jump_estimator.kind)));
+    }
+    if (s.sigma.size() != 0 && s.sigma.size() != m.state_size()) {
+      throw std::invalid_argument(
+          fmt::format("IdentifierSettings::sigma has {} entries; the model has {} states", s.sigma.size(),
+                      m.state_size()));
+    }
+  }
+  // `other`'s state with `own` settings, which differ from other's in the detector's settings alone
+  // (Identifier::AdoptState); no sets (they do not copy).
+  State(const State& other, const IdentifierSettings& own)
+      : IdentifierValues(other),
+        flow(other.flow->Clone()),
+        jump(other.jump->Clone()),
+        detector(other.detector->CloneWith(own.detector)),
+        flow_set(2),
+        jump_set(2) {
+    settings = own;
+    Bind();
+  }
+
+  // The common configurations get direct, inlined calls instead of the virtual interfaces: RLS
+  // for α on one identified row, and with it the paper detector on a model with a constant flow
+  // Jacobian. Same arithmetic in the same order (tests/core/identify/identifier_test.cpp checks
+  // bit-equality).
+  void Bind() {
+    const IdentifierSettings& s = settings;
+    const Model& m = model;
+    if (s.direct_calls && builder.flow_layout().rows.size() == 1 && !inputs) {
+      rls = dynamic_cast<Rls*>(flow.get());
+      integral = dynamic_cast<IntegralLs*>(flow.get());
+      if (rls != nullptr || integral != nullptr) {
+        if (m.spec().flow_jacobian_constant) paper = dynamic_cast<PaperDetector*>(detector.get());
+        if (paper != nullptr && !paper->one_row()) paper = nullptr;
+        residual = dynamic_cast<ResidualDetector*>(detector.get());
+        const std::vector<int>& unknown = builder.flow_layout().unknown;
+        flow_run = paper != nullptr && rls != nullptr && m.state_size() == 2 && unknown.size() == 2 &&
+                   paper->constant2(static_cast<int>(alpha_full.size()));
+        const int u = static_cast<int>(builder.flow_layout().unknown.size());
+        row_block = rls != nullptr ? ChooseRowBlock<Rls>(*this, m.state_size(), u)
+                                   : ChooseRowBlock<IntegralLs>(*this, m.state_size(), u);
+      }
+    }
+    if (s.direct_calls && builder.jump_layout().rows.size() == 1) {
+      jump_rls = dynamic_cast<Rls*>(jump.get());
+      jump_row = ChooseJumpRow(static_cast<int>(builder.jump_layout().unknown.size()));
+    }
+  }
+
+  std::unique_ptr<Estimator> flow, jump;
+  std::unique_ptr<JumpDetector> detector;
+  SampleSet flow_set, jump_set;
+  // The α estimator on one identified row (direct_calls), when it is RLS or integral.
+  Rls* rls = nullptr;
+  IntegralLs* integral = nullptr;
+  // The β estimator on one identified row (direct_calls), when it is RLS.
+  Rls* jump_rls = nullptr;
+  void (*jump_row)(Rls&, const double*, double) = nullptr;  // its UpdateRow for |u| unknowns
+  // With rls or integral: the detector, when it is the paper's (on a constant Jacobian) or the residual
+  // detector, and RowBlock for the model's sizes.
+  PaperDetector* paper = nullptr;
+  ResidualDetector* residual = nullptr;
+  RowBlockFn row_block = nullptr;
+  bool flow_run = false;  // RowBlock<2, 2, kPaperDirect, Rls> may take runs of flow samples (FlowRun)
 };
 
 Identifier::Identifier(const Model& model, double dt, const IdentifierSettings& settings) {
@@ -312,7 +345,9 @@ Decision Identifier::Advance(ConstVecRef x, const bool* given, const Context* at
   if (s.row_block != nullptr && given == nullptr && (at == nullptr || !s.contextual)) {  // counts the sample
     s.builder.FlowRow(s.prev.data(), x.data(), s.dt, s.phi.data(), s.y.data());
     Decision d;
-    s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d);
+    if (s.row_block(s, x.data(), 1, s.phi.data(), s.y.data(), &d) != 1) {
+      throw std::logic_error("Identifier::Step: stopped at a jump (StopAtJumps is for FeedRest)");
+    }
     return d;
   }
   // Several identified rows, another estimator, or given labels: the interfaces throughout.
@@ -374,8 +409,8 @@ SampleContext Identifier::SampleContextOf(State& s, const double* x, const doubl
 // kPaper: the paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the
 // detector's interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
 template <int N, int P, Identifier::DetectorCall kCall, class E>
-void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
-                          Decision* decisions) {
+Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
+                                  const double* y, Decision* decisions) {
   E* est = nullptr;
   if constexpr (std::is_same_v<E, Rls>) {
     est = s.rls;
@@ -395,6 +430,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   // loading and storing the state would cost more than the run saves.
   constexpr Eigen::Index kMinFlowRun = 16;
   [[maybe_unused]] bool try_run = true;
+  Eigen::Index stop = count;
   for (Eigen::Index k = 0; k < count; ++k) {
     Decision d;
     bool decided = false;  // d is sample k's decision already (a flow run stopped there)
@@ -408,9 +444,16 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
       }
     }
     const double* x = xs + k * n;
-    ++s.samples;
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
+    // Stopping at a jump (StopAtJumps): classified, not counted, not applied.
+    auto stops = [&](const Decision& d) {
+      if (!d.gamma || !s.stop_at_jumps) return false;
+      s.stopped = d;
+      stop = k;
+      return true;
+    };
     auto update = [&](const Decision& d) {
+      ++s.samples;
       if (!d.gamma) {
         if constexpr (kLocal) {
           est->UpdateRowIn(local, phi + k * u, y[k]);
@@ -431,6 +474,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
                                                s.frozen ? -2 : s.version,
                                                s.frozen ? s.frozen_updates : est->updates());
       }
+      if (stops(d)) break;
       update(d);
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
@@ -441,6 +485,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
           s.prev.data(), x, n, dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()),
           cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : est->updates(),
           s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
+      if (stops(d)) break;
       update(d);
     } else {
       const SampleContext c = SampleContextOf(s, x, phi + k * u, y + k, alpha_class);
@@ -453,6 +498,7 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     if (decisions != nullptr) decisions[k] = d;
   }
   if constexpr (kLocal) est->Store2(local);
+  return stop;
 }
 
 // Consecutive flow samples k, k + 1, … of a row block (n = 2, |α| = 2 unknowns, RLS, the paper
@@ -540,9 +586,9 @@ bool Identifier::BeginFlowRun(detail::FlowRunUnit<A>* unit) const {
 }
 
 template <int A>
-void Identifier::EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs, Eigen::Index k,
-                            Eigen::Index count, const double* phi, const double* y, const Decision* pending,
-                            Decision* decisions) {
+Eigen::Index Identifier::EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs, Eigen::Index k,
+                                    Eigen::Index count, const double* phi, const double* y,
+                                    const Decision* pending, Decision* decisions) {
   State& s = *s_;
   s.rls->Store2(unit.rls);
   s.paper->StoreConstant2(unit.paper);
@@ -556,30 +602,99 @@ void Identifier::EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs
     s.prev[0] = xs[2 * k - 2];
     s.prev[1] = xs[2 * k - 1];
   }
-  if (k == count) return;
-  if (pending != nullptr) {  // RowBlock's per-sample path with the decision taken
-    const double* x = xs + 2 * k;
-    ++s.samples;
-    if (!pending->gamma) {
-      s.rls->UpdateRow<2>(phi + 2 * k, y[k]);
-      AfterFlowUpdate<2>(s, s.rls->estimate().data());
-    } else {
-      AfterJump(s, ConstVecMap(x, 2), s.alpha_full);
-    }
-    s.prev[0] = x[0];
-    s.prev[1] = x[1];
-    decisions[k] = *pending;
-    ++k;
+  if (k == count) return count;
+  if (pending == nullptr) return FeedRest(xs, k, count, phi, y, decisions);
+  if (pending->gamma && s.stop_at_jumps) {
+    s.stopped = *pending;
+    return k;
   }
-  if (k < count) s.row_block(s, xs + 2 * k, count - k, phi + 2 * k, y + k, decisions + k);
+  return ApplyAndFeed(xs, k, count, phi, y, *pending, decisions);
+}
+
+Eigen::Index Identifier::ApplyAndFeed(const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
+                                      const double* y, const Decision& d, Decision* decisions) {
+  State& s = *s_;
+  const double* x = xs + 2 * k;  // RowBlock's per-sample path with the decision taken
+  ++s.samples;
+  if (!d.gamma) {
+    s.rls->UpdateRow<2>(phi + 2 * k, y[k]);
+    AfterFlowUpdate<2>(s, s.rls->estimate().data());
+  } else {
+    AfterJump(s, ConstVecMap(x, 2), s.alpha_full);
+  }
+  s.prev[0] = x[0];
+  s.prev[1] = x[1];
+  decisions[k] = d;
+  return FeedRest(xs, k + 1, count, phi, y, decisions);
+}
+
+Eigen::Index Identifier::FeedRest(const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
+                                  const double* y, Decision* decisions) {
+  if (k == count) return count;
+  return k + s_->row_block(*s_, xs + 2 * k, count - k, phi + 2 * k, y + k, decisions + k);
 }
 
 template bool Identifier::BeginFlowRun<2>(detail::FlowRunUnit<2>*) const;
 template bool Identifier::BeginFlowRun<3>(detail::FlowRunUnit<3>*) const;
-template void Identifier::EndFlowRun<2>(const detail::FlowRunUnit<2>&, const double*, Eigen::Index, Eigen::Index,
-                                        const double*, const double*, const Decision*, Decision*);
-template void Identifier::EndFlowRun<3>(const detail::FlowRunUnit<3>&, const double*, Eigen::Index, Eigen::Index,
-                                        const double*, const double*, const Decision*, Decision*);
+template Eigen::Index Identifier::EndFlowRun<2>(const detail::FlowRunUnit<2>&, const double*, Eigen::Index,
+                                                Eigen::Index, const double*, const double*, const Decision*,
+                                                Decision*);
+template Eigen::Index Identifier::EndFlowRun<3>(const detail::FlowRunUnit<3>&, const double*, Eigen::Index,
+                                                Eigen::Index, const double*, const double*, const Decision*,
+                                                Decision*);
+
+namespace {
+
+bool SameValues(const Vec& a, const Vec& b) { return a.size() == b.size() && (a.array() == b.array()).all(); }
+bool SameValues(const Mat& a, const Mat& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() && (a.array() == b.array()).all();
+}
+bool SameEstimator(const EstimatorSettings& a, const EstimatorSettings& b) {
+  return a.kind == b.kind && a.forgetting == b.forgetting && a.p0 == b.p0 && SameValues(a.prior_scale, b.prior_scale) &&
+         a.refactor_every == b.refactor_every && a.window == b.window && a.frisch_box == b.frisch_box &&
+         a.frisch_point == b.frisch_point && a.frisch_confidence == b.frisch_confidence &&
+         SameValues(a.noise_shape, b.noise_shape);
+}
+// Every field equal except the detector's r and false_alarm (the thresholds).
+bool SameExceptThreshold(const IdentifierSettings& a, const IdentifierSettings& b) {
+  return SameEstimator(a.flow_estimator, b.flow_estimator) && SameEstimator(a.jump_estimator, b.jump_estimator) &&
+         a.detector.kind == b.detector.kind && a.detector.tau0 == b.detector.tau0 &&
+         a.detector.bound == b.detector.bound && a.sets == b.sets && SameValues(a.sigma, b.sigma) &&
+         a.data_rtol == b.data_rtol && a.data_atol == b.data_atol && SameValues(a.alpha0, b.alpha0) &&
+         SameValues(a.beta0, b.beta0) && a.localize == b.localize && a.second_pass == b.second_pass &&
+         a.direct_calls == b.direct_calls;
+}
+
+}  // namespace
+
+bool Identifier::Leads(Identifier& twin) {
+  State& s = *s_;
+  State& t = *twin.s_;
+  const bool paper = s.paper != nullptr && t.paper != nullptr;
+  const bool residual = s.residual != nullptr && t.residual != nullptr;
+  if (!(paper || residual) || s.rls == nullptr || t.rls == nullptr || s.prev.size() != 2 ||
+      s.builder.flow_layout().unknown.size() != 2 || s.settings.sets || s.frozen || t.frozen ||
+      s.dt != t.dt || !SameExceptThreshold(s.settings, t.settings)) {
+    return false;
+  }
+  return paper ? s.settings.detector.r <= t.settings.detector.r : s.residual->ThresholdsBelow(*t.residual);
+}
+
+void Identifier::StopAtJumps(bool on) { s_->stop_at_jumps = on; }
+const Decision& Identifier::stopped() const { return s_->stopped; }
+
+bool Identifier::Flags(const Identifier& leader, const double* cur) {
+  const State& l = *leader.s_;
+  if (l.paper != nullptr) {
+    return l.paper->FlagsWith(s_->settings.detector.r, l.prev.data(), cur, 2, l.dt, l.rls->updates());
+  }
+  return l.residual->FlagsWith(*s_->residual);
+}
+
+void Identifier::AdoptState(const Identifier& leader) {
+  s_ = std::make_unique<State>(*leader.s_, s_->settings);
+  s_->stop_at_jumps = false;
+}
 
 template <Identifier::DetectorCall kCall, class E>
 Identifier::RowBlockFn Identifier::ChooseRowBlock(int n, int u) {
@@ -632,8 +747,10 @@ void Identifier::Feed(const ConstMatRef& samples, const double* phi, const doubl
       s.builder.FlowRows(s.prev.data(), samples.col(k).data(), len, s.dt, s.block_phi.data(),
                          s.block_y.data());
     }
-    s.row_block(s, samples.col(k).data(), len, block_phi, block_y,
-                decisions == nullptr ? nullptr : decisions + k);
+    if (s.row_block(s, samples.col(k).data(), len, block_phi, block_y,
+                    decisions == nullptr ? nullptr : decisions + k) != len) {
+      throw std::logic_error("Identifier::Feed: stopped at a jump (StopAtJumps is for FeedRest)");
+    }
     k += len;
   }
 }

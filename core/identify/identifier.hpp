@@ -142,9 +142,37 @@ class Identifier {
   // after that fed by this identifier's own path. The same bits as Feed on the block.
   template <int A>
   bool BeginFlowRun(detail::FlowRunUnit<A>* unit) const;
+  // EndFlowRun returns where it stopped (StopAtJumps), else count.
   template <int A>
-  void EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs, Eigen::Index k, Eigen::Index count,
-                  const double* phi, const double* y, const Decision* pending, Decision* decisions);
+  Eigen::Index EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs, Eigen::Index k,
+                          Eigen::Index count, const double* phi, const double* y, const Decision* pending,
+                          Decision* decisions);
+
+  // One identifier for several units that differ only in the detector's threshold, until their
+  // decisions differ (IdentifyLockstep's twins; two states, one identified row with two unknowns,
+  // RLS for α, the paper or the residual detector called directly, no sets, first pass).
+  // Leads: whether `twin` (built for the same model, δt and samples) may follow this identifier:
+  // its settings equal except the detector's r or false_alarm, and its threshold at least this one's
+  // wherever the two would decide with the same learned state, so that wherever this identifier
+  // decides flow, so does twin. Only this identifier's jumps need asking then.
+  bool Leads(Identifier& twin);
+  // StopAtJumps(true): EndFlowRun, FeedRest and ApplyAndFeed stop before they apply a jump (the
+  // sample classified, not counted, not applied) and return its index; its decision is stopped().
+  // Feed and Step throw std::logic_error when they would stop.
+  void StopAtJumps(bool on);
+  const Decision& stopped() const;
+  // Whether this identifier's detector, with `leader`'s learned state, flags the sample `cur` at
+  // which leader stopped (leader.Leads(*this) held).
+  bool Flags(const Identifier& leader, const double* cur);
+  // This identifier becomes a copy of `leader`'s state, with its own settings.
+  void AdoptState(const Identifier& leader);
+  // From sample k of a block (xs: its samples, 2 × count; phi, y: its flow rows as in Feed; its
+  // decisions written): FeedRest feeds samples k … count − 1; ApplyAndFeed first applies decision d to
+  // sample k. Both return where they stopped, else count.
+  Eigen::Index FeedRest(const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
+                        const double* y, Decision* decisions);
+  Eigen::Index ApplyAndFeed(const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
+                            const double* y, const Decision& d, Decision* decisions);
 
   Vec alpha_hat() const;  // full α̂: known entries at their known values
   Vec beta_hat() const;
@@ -159,13 +187,15 @@ class Identifier {
  private:
   struct State;
   static constexpr Eigen::Index kFeedBlock = 256;  // samples per block of regressions in Feed
-  using RowBlockFn = void (*)(State&, const double*, Eigen::Index, const double*, const double*, Decision*);
+  // A row block returns where it stopped (StopAtJumps), else count.
+  using RowBlockFn = Eigen::Index (*)(State&, const double*, Eigen::Index, const double*, const double*,
+                                      Decision*);
   // The detector of a row block: through its interface, or called directly.
   enum DetectorCall { kInterface, kPaperDirect, kResidualDirect };
   // E: the α estimator's type on the direct path (Rls or IntegralLs).
   template <int N, int P, DetectorCall kCall, class E>
-  static void RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi, const double* y,
-                       Decision* decisions);
+  static Eigen::Index RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
+                               const double* y, Decision* decisions);
   template <DetectorCall kCall, class E>
   static RowBlockFn ChooseRowBlock(int n, int u);
   template <class E>

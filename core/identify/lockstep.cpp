@@ -16,6 +16,96 @@ namespace {
 // loading and storing the units' state would cost more than it saves.
 constexpr Eigen::Index kMinLockstepRun = 16;
 
+// One block of the pass: its samples xs (2 × count, the sample before xs[0] fed already), flow rows
+// (phi, y), each identifier's decisions of the block and of the chunk it lies in (`offset` samples in).
+struct Block {
+  const double* xs;
+  Eigen::Index count;
+  const double* phi;
+  const double* y;
+  Decision* const* decisions;
+  Decision* const* chunk;
+  Eigen::Index offset;
+};
+
+// Units that differ only in the detector's threshold share one identifier (the leader, the smallest
+// threshold, Identifier::Leads) until their decisions differ: a follower is not fed, and decides flow
+// wherever its leader does. At each jump of a leader with followers (Identifier::StopAtJumps), the
+// followers that decide flow there leave: the smallest of them takes a copy of the leader's state
+// (Identifier::AdoptState) and leads the others on. Each unit's arithmetic is its own run's, so each
+// result is still bit for bit Identify's. Only without statistics (followers compute no statistic).
+class Twins {
+ public:
+  Twins(std::vector<Identifier>& ids, bool on) : ids_(ids), leader_(ids.size(), -1) {
+    for (std::size_t i = 0; on && i < ids.size(); ++i) Join(static_cast<int>(i));
+    for (std::size_t i = 0; i < ids.size(); ++i) ids_[i].StopAtJumps(Leads(static_cast<int>(i)));
+  }
+  bool follows(std::size_t i) const { return leader_[i] >= 0; }
+  int leader(std::size_t i) const { return leader_[i]; }
+  bool Leads(int i) const { return std::find(leader_.begin(), leader_.end(), i) != leader_.end(); }
+
+  // Identifier i stopped at sample k of block b at a jump: the followers that decide flow there leave
+  // with a copy; every part goes on to the block's end.
+  void Settle(int i, Eigen::Index k, const Block& b) {
+    std::vector<std::pair<int, Eigen::Index>> todo{{i, k}};
+    while (!todo.empty()) {
+      const auto [l, at] = todo.back();
+      todo.pop_back();
+      if (at == b.count) continue;
+      const int n = Split(l, b.xs + 2 * at);
+      if (n >= 0) {
+        ids_[n].AdoptState(ids_[l]);
+        std::copy_n(b.chunk[l], b.offset + at, b.chunk[n]);  // its decisions so far: the leader's
+        ids_[n].StopAtJumps(Leads(n));
+        ids_[l].StopAtJumps(Leads(l));
+        Decision d = ids_[l].stopped();
+        d.gamma = false;
+        todo.emplace_back(n, ids_[n].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, d, b.decisions[n]));
+      }
+      todo.emplace_back(l, ids_[l].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, ids_[l].stopped(), b.decisions[l]));
+    }
+  }
+  // After the pass: every follower takes its leader's state.
+  void Finish() {
+    for (std::size_t i = 0; i < ids_.size(); ++i) {
+      if (follows(i)) ids_[i].AdoptState(ids_[static_cast<std::size_t>(leader_[i])]);
+    }
+  }
+
+ private:
+  // Unit i follows the first leader that can lead it, or leads that leader's group when it can.
+  void Join(int i) {
+    for (int j = 0; j < i; ++j) {
+      if (follows(static_cast<std::size_t>(j))) continue;
+      if (ids_[static_cast<std::size_t>(j)].Leads(ids_[static_cast<std::size_t>(i)])) {
+        leader_[static_cast<std::size_t>(i)] = j;
+        return;
+      }
+      if (ids_[static_cast<std::size_t>(i)].Leads(ids_[static_cast<std::size_t>(j)])) {
+        for (int& l : leader_) l = l == j ? i : l;
+        leader_[static_cast<std::size_t>(j)] = i;
+        return;
+      }
+    }
+  }
+  // The followers of l that do not flag sample x (where l stopped) leave l; returns the one that leads
+  // them (−1: none leaves).
+  int Split(int l, const double* x) {
+    std::vector<int> leaving;
+    for (std::size_t f = 0; f < ids_.size(); ++f) {
+      if (leader_[f] == l && !ids_[f].Flags(ids_[static_cast<std::size_t>(l)], x)) leaving.push_back(static_cast<int>(f));
+    }
+    if (leaving.empty()) return -1;
+    int n = leaving.front();
+    for (const int f : leaving) n = ids_[static_cast<std::size_t>(f)].Leads(ids_[static_cast<std::size_t>(n)]) ? f : n;
+    for (const int f : leaving) leader_[static_cast<std::size_t>(f)] = f == n ? -1 : n;
+    return n;
+  }
+
+  std::vector<Identifier>& ids_;
+  std::vector<int> leader_;  // the unit each follows; −1: fed itself
+};
+
 // M flow runs (all in one bound mode) from sample k of a block (xs, phi, y: its samples and rows;
 // sample k − 1 is xs[2k − 2 …], before the block's start too) stepped side by side until one stops.
 // Returns the sample they stopped at (count: the block is done). *stopped: a bit per unit whose run
@@ -71,12 +161,12 @@ constexpr std::array<StepFn<A>, sizeof...(M)> StepTable(std::index_sequence<M...
   return {&StepTogether<A, kThreshold, static_cast<int>(M) + 1>...};
 }
 
-// The units `ids` (each already in a flow run, its state in units[i]) over one block, in lockstep
-// while they run; each ends by its own path (Identifier::EndFlowRun).
+// The units `group` (indices into ids, each already in a flow run, its state in units[i]) over block
+// b, in lockstep while they run; each ends by its own path (Identifier::EndFlowRun), a stop at a jump
+// settled by the twins.
 template <int A, bool kThreshold>
-void RunTogether(Identifier* const* ids, detail::FlowRunUnit<A>* units, int m, const double* xs,
-                 Eigen::Index count, const double* phi, const double* y, double inv_dt, Decision* const* decisions,
-                 long* taken) {
+void RunTogether(std::vector<Identifier>& ids, const int* group, detail::FlowRunUnit<A>* units, int m,
+                 const Block& b, double inv_dt, Twins& twins, long* taken) {
   static constexpr auto kStep = StepTable<A, kThreshold>(std::make_index_sequence<kMaxLockstep>{});
   std::array<int, kMaxLockstep> live{};  // the units still in the lockstep
   std::array<detail::FlowRunUnit<A>*, kMaxLockstep> unit{};
@@ -88,13 +178,13 @@ void RunTogether(Identifier* const* ids, detail::FlowRunUnit<A>* units, int m, c
     for (int i = 0; i < m; ++i) {
       const auto j = static_cast<std::size_t>(live[static_cast<std::size_t>(i)]);
       unit[static_cast<std::size_t>(i)] = &units[j];
-      out[static_cast<std::size_t>(i)] = decisions[j];
+      out[static_cast<std::size_t>(i)] = b.decisions[group[j]];
     }
     unsigned stopped = 0;
     const Eigen::Index at =
-        count - k < kMinLockstepRun
+        b.count - k < kMinLockstepRun
             ? k
-            : kStep[static_cast<std::size_t>(m - 1)](unit.data(), xs, k, count, phi, y, inv_dt, out.data(),
+            : kStep[static_cast<std::size_t>(m - 1)](unit.data(), b.xs, k, b.count, b.phi, b.y, inv_dt, out.data(),
                                                       &stopped, pending.data());
     int kept = 0;
     for (int i = 0; i < m; ++i) {
@@ -102,7 +192,10 @@ void RunTogether(Identifier* const* ids, detail::FlowRunUnit<A>* units, int m, c
       const auto j = static_cast<std::size_t>(live[slot]);
       if (stopped == 0 || (stopped & (1U << i)) != 0) {  // leaves: ends by its own path
         *taken += units[j].admitted;
-        ids[j]->EndFlowRun(units[j], xs, at, count, phi, y, stopped != 0 ? &pending[slot] : nullptr, decisions[j]);
+        const int id = group[j];
+        const Eigen::Index end = ids[static_cast<std::size_t>(id)].EndFlowRun(
+            units[j], b.xs, at, b.count, b.phi, b.y, stopped != 0 ? &pending[slot] : nullptr, b.decisions[id]);
+        twins.Settle(id, end, b);
       } else {
         live[static_cast<std::size_t>(kept++)] = live[slot];
       }
@@ -112,30 +205,34 @@ void RunTogether(Identifier* const* ids, detail::FlowRunUnit<A>* units, int m, c
   }
 }
 
-// One block (xs: n × count from the second sample on; phi, y its rows) fed to every identifier.
+// Block b fed to every identifier that is not a follower at its start.
 template <int A, bool kThreshold>
-void FeedBlock(std::vector<Identifier>& ids, const double* xs, Eigen::Index count, const double* phi,
-               const double* y, double inv_dt, Decision* const* decisions, long* taken) {
+void FeedBlock(std::vector<Identifier>& ids, const Block& b, double inv_dt, Twins& twins, long* taken) {
   std::array<detail::FlowRunUnit<A>, kMaxLockstep> units;
-  std::array<Identifier*, kMaxLockstep> group{};
-  std::array<Decision*, kMaxLockstep> out{};
+  std::array<int, kMaxLockstep> group{};
   int m = 0;
   auto run = [&] {
-    RunTogether<A, kThreshold>(group.data(), units.data(), m, xs, count, phi, y, inv_dt, out.data(), taken);
+    RunTogether<A, kThreshold>(ids, group.data(), units.data(), m, b, inv_dt, twins, taken);
     m = 0;
   };
+  std::vector<int> fed;  // a follower that leaves in this block is fed there by Settle
   for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (!twins.follows(i)) fed.push_back(static_cast<int>(i));
+  }
+  for (const int i : fed) {
+    Identifier& id = ids[static_cast<std::size_t>(i)];
     const auto slot = static_cast<std::size_t>(m);
-    if (count >= kMinLockstepRun && ids[i].BeginFlowRun<A>(&units[slot])) {
+    if (b.count >= kMinLockstepRun && id.BeginFlowRun<A>(&units[slot])) {
       if (m > 0 && units[slot].paper.homogeneous != units[0].paper.homogeneous) {  // another bound mode
-        ids[i].EndFlowRun(units[slot], xs, 0, count, phi, y, nullptr, decisions[i]);
+        twins.Settle(i, id.EndFlowRun(units[slot], b.xs, 0, b.count, b.phi, b.y, nullptr, b.decisions[i]), b);
         continue;
       }
-      group[slot] = &ids[i];
-      out[slot] = decisions[i];
+      group[slot] = i;
       if (++m == kMaxLockstep) run();
+    } else if (twins.Leads(i)) {
+      twins.Settle(i, id.FeedRest(b.xs, 0, b.count, b.phi, b.y, b.decisions[i]), b);
     } else {
-      ids[i].Feed(ConstMatMap(xs, 2, count), phi, y, decisions[i]);
+      id.Feed(ConstMatMap(b.xs, 2, b.count), b.phi, b.y, b.decisions[i]);
     }
   }
   if (m > 0) run();
@@ -154,8 +251,9 @@ void RecordDecisions(const Decision* d, Eigen::Index k, Eigen::Index len, Identi
 
 // The pass of every identifier, in lockstep where they take flow runs; false when stopped.
 template <int A, bool kThreshold>
-bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const FlowRows& rows,
-                  const std::atomic<bool>* stop, std::vector<IdentifyResult>* results, long* taken) {
+bool PassBlocks(std::vector<Identifier>& ids, const Mat& y, double dt, const FlowRows& rows,
+                const std::atomic<bool>* stop, std::vector<IdentifyResult>* results, Twins& twins,
+                LockstepCounts* counts) {
   const Eigen::Index count = y.cols(), chunk = IdentifyOptions::kStopPollSamples;
   std::vector<Decision> buffer(ids.size() * static_cast<std::size_t>(chunk));
   std::vector<Decision*> decisions(ids.size());
@@ -173,12 +271,32 @@ bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const F
     for (; j < len; j += kLockstepBlock) {
       const Eigen::Index block = std::min(kLockstepBlock, len - j);
       for (std::size_t i = 0; i < ids.size(); ++i) at_block[i] = decisions[i] + j;
-      FeedBlock<A, kThreshold>(ids, y.col(k + j).data(), block, rows.phi.data() + 2 * (k + j), rows.y.data() + k + j, inv_dt,
-                   at_block.data(), taken);
+      const Block b{.xs = y.col(k + j).data(),
+                    .count = block,
+                    .phi = rows.phi.data() + 2 * (k + j),
+                    .y = rows.y.data() + k + j,
+                    .decisions = at_block.data(),
+                    .chunk = decisions.data(),
+                    .offset = j};
+      FeedBlock<A, kThreshold>(ids, b, inv_dt, twins, &counts->lockstep);
     }
-    for (std::size_t i = 0; i < ids.size(); ++i) RecordDecisions(decisions[i], k, len, &(*results)[i]);
+    for (std::size_t i = 0; i < ids.size(); ++i) {  // a follower's decisions are its leader's
+      const bool follows = twins.follows(i);
+      RecordDecisions(decisions[follows ? static_cast<std::size_t>(twins.leader(i)) : i], k, len, &(*results)[i]);
+      if (follows) counts->shared += len;
+    }
   }
   return true;
+}
+
+// Without statistics (kThreshold false), units that differ only in their threshold are twins.
+template <int A, bool kThreshold>
+bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const FlowRows& rows,
+                  const std::atomic<bool>* stop, std::vector<IdentifyResult>* results, LockstepCounts* counts) {
+  Twins twins(ids, !kThreshold);
+  const bool completed = PassBlocks<A, kThreshold>(ids, y, dt, rows, stop, results, twins, counts);
+  twins.Finish();
+  return completed;
 }
 
 }  // namespace
@@ -207,13 +325,17 @@ std::vector<IdentifyResult> IdentifyLockstep(const Model& model, const Mat& y, d
   for (std::size_t i = 0; i < settings.size(); ++i) {
     ids.push_back(detail::StartIdentify(model, y, dt, settings[i], options, &results[i]));
   }
-  long taken = 0;
+  LockstepCounts taken;
   // Without statistics, no unit's threshold is reported: the runs leave it out (Decide<false>).
-  const auto pass = model.alpha_size() == 3 ? (options.statistics ? &PassTogether<3, true> : &PassTogether<3, false>)
-                                            : (options.statistics ? &PassTogether<2, true> : &PassTogether<2, false>);
+  using Pass = bool (*)(std::vector<Identifier>&, const Mat&, double, const FlowRows&, const std::atomic<bool>*,
+                        std::vector<IdentifyResult>*, LockstepCounts*);
+  const Pass pass = model.alpha_size() == 3
+                        ? (options.statistics ? &PassTogether<3, true> : &PassTogether<3, false>)
+                        : (options.statistics ? &PassTogether<2, true> : &PassTogether<2, false>);
   const bool completed = pass(ids, y, dt, *rows, options.stop, &results, &taken);
   if (counts != nullptr) {
-    counts->lockstep += taken;
+    counts->lockstep += taken.lockstep;
+    counts->shared += taken.shared;
     counts->total += static_cast<long>(settings.size()) * y.cols();
   }
   for (std::size_t i = 0; i < settings.size(); ++i) {

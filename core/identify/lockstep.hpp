@@ -22,9 +22,11 @@ namespace hysid {
 inline constexpr int kMaxLockstep = 8;                // identifiers stepped side by side at most
 inline constexpr Eigen::Index kLockstepBlock = 256;  // samples per block
 
-// Unit-samples taken in lockstep (samples × units that took them there), of all fed.
+// Unit-samples taken in lockstep (samples × units that took them there), decided by a twin's
+// identifier (a follower's samples), of all.
 struct LockstepCounts {
   long lockstep = 0;
+  long shared = 0;
   long total = 0;
 };
 
