@@ -234,6 +234,7 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
         RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise);
     z2max = std::max(z2max, z2);
   }
+  last_z2_ = z2max;
   d.statistic = std::sqrt(z2max);
   if (scale_samples_ == 0) {  // no scale yet: this sample starts it
     d.threshold = std::numeric_limits<double>::infinity();

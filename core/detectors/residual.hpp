@@ -76,7 +76,7 @@ class ResidualDetector final : public JumpDetector {
   void Reset() override;
   std::unique_ptr<JumpDetector> CloneWith(const DetectorSettings& settings) const override;
   // Whether `twin` (another false_alarm, this detector's learned state) flags the sample this one
-  // classified last and flagged: the same bits as twin's own decision there.
+  // classified and observed last, and flagged: the same bits as twin's own decision there.
   bool FlagsWith(ResidualDetector& twin) const;
   // Whether twin's quantile is at least this one's at every ν: then wherever this detector decides
   // flow, so does twin with the same learned state.

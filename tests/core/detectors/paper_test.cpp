@@ -8,8 +8,11 @@
 #include <limits>
 #include <random>
 
+#include "core/builtin/impact_msd.hpp"
 #include "core/builtin/impact_pendulum.hpp"
 #include "core/detectors/paper.hpp"
+#include "sim/measurement.hpp"
+#include "sim/simulator.hpp"
 
 namespace hysid {
 namespace {
@@ -108,6 +111,45 @@ TEST_CASE("a flow run's norm of J(alpha) has QuadraticForm's bits, signed zeros 
         CHECK(same(got, expected));
       }
     }
+  }
+}
+
+}  // namespace
+}  // namespace hysid
+
+namespace hysid {
+namespace {
+
+TEST_CASE("FlagsWith: another r with this detector's state decides as a detector of that r", "[paper][twins]") {
+  const Model model{ImpactMsd{}};
+  const Trajectory truth = Simulate(model, DefaultState(model), SampleGrid{20.0, 1e-3});
+  REQUIRE(truth.status.completed());
+  const Mat y = AddMeasurementNoise(truth.x, Vec::Constant(2, 0.05), NoiseKey{3, 0});
+  for (const BoundRule bound : {BoundRule::kPaper, BoundRule::kHomogeneous}) {
+    DetectorSettings low, high;
+    low.r = 5.0;
+    high.r = 20.0;
+    low.bound = high.bound = bound;
+    PaperDetector a(low, model), b(high, model);
+    const Vec alpha = model.alpha();  // α̂ held at the truth: both detectors see the same state
+    long flagged = 0, differ = 0;
+    for (Eigen::Index k = 1; k < y.cols(); ++k) {
+      const Decision da = a.ClassifyConstant<2, true>(y.col(k - 1).data(), y.col(k).data(), 2, truth.dt,
+                                                      alpha.data(), 0, 10);
+      const Decision db = b.ClassifyConstant<2, true>(y.col(k - 1).data(), y.col(k).data(), 2, truth.dt,
+                                                      alpha.data(), 0, 10);
+      if (!da.gamma) {
+        CHECK(!db.gamma);  // a larger r flags no sample the smaller one does not
+        continue;
+      }
+      ++flagged;
+      differ += db.gamma ? 0 : 1;
+      CHECK(a.FlagsWith(high.r, y.col(k - 1).data(), y.col(k).data(), 2, truth.dt, 10) == db.gamma);
+    }
+    CHECK(flagged > 50);
+    CHECK(differ > 10);  // both outcomes asked
+    CHECK(differ < flagged);
+    CHECK(a.FlagsWith(high.r, y.col(0).data(), y.col(1).data(), 2, truth.dt, 0));  // warm-up: τ̂0 for every r
   }
 }
 

@@ -13,6 +13,7 @@
 #include "core/builtin/impact_msd.hpp"
 #include "core/builtin/impact_pendulum.hpp"
 #include "core/detectors/detector.hpp"
+#include "core/detectors/residual.hpp"
 #include "core/identify/identifier.hpp"
 #include "core/identify/localize.hpp"
 #include "core/identify/metrics.hpp"
@@ -332,6 +333,59 @@ TEST_CASE("forgetting: the residual detector keeps working with a forgetting RLS
   CHECK(r.confusion.tp == 14);
   CHECK(r.confusion.fp <= 1);
   CHECK(r.errors.rel_alpha < 0.05);
+}
+
+}  // namespace
+}  // namespace hysid
+
+namespace hysid {
+namespace {
+
+TEST_CASE("FlagsWith: another false_alarm with this detector's state decides as a detector of that "
+          "false_alarm; ThresholdsBelow orders them",
+          "[residual][twins]") {
+  const Model model{ImpactMsd{}};
+  const Trajectory truth = Simulate(model, DefaultState(model), SampleGrid{20.0, 1e-3});
+  REQUIRE(truth.status.completed());
+  const Mat y = AddMeasurementNoise(truth.x, Vec::Constant(2, 0.05), NoiseKey{4, 0});
+  DetectorSettings often, rarely;
+  often.kind = rarely.kind = DetectorKind::kResidual;
+  often.false_alarm = 0.05;
+  rarely.false_alarm = 1e-4;
+  ResidualDetector a(often, model), b(rarely, model);
+  CHECK(a.ThresholdsBelow(b));
+  CHECK_FALSE(b.ThresholdsBelow(a));
+  RegressionBuilder builder(model);
+  Mat phi(1, 2);
+  Vec row(1);
+  const Vec alpha = model.alpha();  // α̂ held at the truth: both detectors see the same state
+  long flagged = 0, differ = 0;
+  for (Eigen::Index k = 1; k < y.cols(); ++k) {
+    builder.Flow(y.col(k - 1), y.col(k), truth.dt, phi, row);
+    const SampleContext c{.model = &model,
+                          .dt = truth.dt,
+                          .prev = ConstVecMap(y.col(k - 1).data(), 2),
+                          .cur = ConstVecMap(y.col(k).data(), 2),
+                          .flow_phi = ConstMatMap(phi.data(), 1, 2),
+                          .flow_y = ConstVecMap(row.data(), 1),
+                          .alpha_hat = ConstVecMap(alpha.data(), alpha.size()),
+                          .flow_updates = 10};
+    const Decision da = a.Classify(c);
+    a.Observe(c, da);
+    const Decision db = b.Classify(c);
+    b.Observe(c, db);
+    CHECK(da.statistic == db.statistic);  // the same learned state
+    if (!da.gamma) {
+      CHECK(!db.gamma);
+      continue;
+    }
+    ++flagged;
+    differ += db.gamma ? 0 : 1;
+    CHECK(a.FlagsWith(b) == db.gamma);
+  }
+  CHECK(flagged > 50);
+  CHECK(differ > 10);  // both outcomes asked
+  CHECK(differ < flagged);
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <memory>
+#include <string>
 
 #include "core/estimators/estimator.hpp"
 #include "tests/testing/eiv_problem.hpp"
@@ -78,6 +80,42 @@ TEST_CASE("every estimator by name: degenerate data gives finite estimates and a
       CheckFinite(*e);
       CHECK(e->status() == EstimatorStatus::kOk);
     }
+  }
+}
+
+}  // namespace
+}  // namespace hysid
+
+namespace hysid {
+namespace {
+
+TEST_CASE("every estimator by name: a clone goes on as the original, bit for bit", "[estimator]") {
+  const testing::EivData d = testing::MakeEivData(Vec::Ones(3), Vec::Constant(3, 0.2), 0.2, 600, 9, 0);
+  for (const std::string& name : PluginNames<EstimatorKind>()) {
+    INFO("estimator " << name);
+    EstimatorSettings s;
+    s.kind = ParseKind<EstimatorKind>(name);
+    s.window = 50;
+    s.refactor_every = 100;
+    if (s.NeedsNoiseShape()) s.noise_shape = Mat::Identity(4, 4);
+    auto original = MakeEstimator(s, Vec::Zero(3));
+    for (long k = 0; k < 300; ++k) original->Update(d.phi.middleRows(k, 1), d.y.segment(k, 1));
+    const std::unique_ptr<Estimator> clone = original->Clone();
+    for (long k = 300; k < d.phi.rows(); ++k) {
+      original->Update(d.phi.middleRows(k, 1), d.y.segment(k, 1));
+      clone->Update(d.phi.middleRows(k, 1), d.y.segment(k, 1));
+    }
+    CHECK(clone->name() == original->name());
+    CHECK(clone->estimate() == original->estimate());
+    CHECK(clone->updates() == original->updates());
+    CHECK(clone->status() == original->status());
+    CHECK(clone->solution_box() == original->solution_box());
+    const Mat* a = original->covariance_matrix();
+    const Mat* b = clone->covariance_matrix();
+    REQUIRE((a == nullptr) == (b == nullptr));
+    if (a != nullptr) CHECK(*a == *b);
+    original->Update(d.phi.topRows(1), d.y.head(1));  // the clone does not share the original's state
+    CHECK(clone->updates() + 1 == original->updates());
   }
 }
 

@@ -134,6 +134,39 @@ TEST_CASE("a trial's mix together: paper and residual detectors, sets, statistic
   }
 }
 
+TEST_CASE("twins (statistics off): units that differ only in r or false_alarm, in any order, share an "
+          "identifier until they differ and still give each unit's own result, bit for bit",
+          "[identify][lockstep][twins]") {
+  const Run run;
+  std::vector<IdentifierSettings> settings;
+  for (const double r : {500.0, 5.0, 1000.0, 20.0, 220.0, 50.0}) settings.push_back(Paper(r));
+  for (const double p : {1e-8, 1e-3, 1e-6}) settings.push_back(Residual(p));  // 1e-3: false alarms
+  IdentifierSettings other_tau0 = Paper(220.0);
+  other_tau0.detector.tau0 = 1e4;  // not a twin of the others
+  settings.push_back(other_tau0);
+  IdentifierSettings forgetting = Residual(1e-8);
+  forgetting.flow_estimator.forgetting = 0.9999;  // nor this
+  settings.push_back(forgetting);
+  const long followers_at_most = 5 + 2;  // the paper group and the residual group, each led by one
+  for (const double sigma : {0.0, 0.01, 0.05, 0.25}) {
+    INFO("sigma " << sigma);
+    const Mat y = AddMeasurementNoise(run.truth.x, Vec::Constant(2, sigma), NoiseKey{14, 0});
+    IdentifyOptions options;
+    options.statistics = false;
+    options.check_paper_bound = false;
+    LockstepCounts counts;
+    const std::vector<IdentifyResult> together =
+        IdentifyLockstep(run.model, y, run.truth.dt, settings, options, &counts);
+    REQUIRE(together.size() == settings.size());
+    for (std::size_t i = 0; i < settings.size(); ++i) {
+      INFO("unit " << i);
+      CheckSame(together[i], Identify(run.model, y, run.truth.dt, settings[i], options));
+    }
+    CHECK(counts.shared > 0);
+    CHECK(counts.shared < followers_at_most * y.cols());  // some left their leader
+  }
+}
+
 TEST_CASE("lockstep: a stop flag raised before the call stops every unit, bad inputs throw as Identify does",
           "[identify][lockstep][stop]") {
   const Run run;
