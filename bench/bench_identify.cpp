@@ -169,10 +169,14 @@ BENCHMARK(BM_IdentifyStepFusedReference)->Unit(benchmark::kMillisecond);
 
 // A sweep trial's paper-detector units: M = state.range(0) identifications of the §5 run (σ =
 // state.range(1) / 100) that differ only in r (the robustness map's 220, 500, 1000, 50, 20, 5, the
-// first M), on flow rows built once, no sets, statistics off. Lockstep: IdentifyLockstep (their
-// flow runs side by side); alone: one Identify after the other (the same bits). Counter: per
-// unit-sample; "lockstep_share": the share of unit-samples stepped in lockstep.
-void RunUnits(benchmark::State& state, bool lockstep) {
+// first M), on flow rows built once, no sets, statistics off. Lockstep: IdentifyLockstep with each
+// unit's τ̂0 a little different (1e5 + i; no sample of the run is decided by τ̂0), so that no two are
+// twins and all flow runs go side by side; twins: IdentifyLockstep as the sweep calls it (units that
+// decide alike share one identifier); alone: one Identify after the other. All give the same bits.
+// Counter: per unit-sample; "lockstep_share", "shared_share": the shares of unit-samples stepped in
+// lockstep and decided by a twin.
+enum class Units { kAlone, kLockstep, kTwins };
+void RunUnits(benchmark::State& state, Units mode) {
   const Model model{ImpactMsd{}};
   const Mat y = PaperSamples(static_cast<double>(state.range(1)) / 100.0);
   const auto m = static_cast<std::size_t>(state.range(0));
@@ -181,6 +185,7 @@ void RunUnits(benchmark::State& state, bool lockstep) {
   for (std::size_t i = 0; i < m; ++i) {
     settings[i].sets = false;
     settings[i].detector.r = rs[i % 6];
+    if (mode == Units::kLockstep) settings[i].detector.tau0 = 1e5 + static_cast<double>(i);
   }
   const FlowRows rows = BuildFlowRows(model, y, 5e-4);
   IdentifyOptions options;
@@ -189,7 +194,7 @@ void RunUnits(benchmark::State& state, bool lockstep) {
   options.flow_rows = &rows;
   LockstepCounts counts;
   for (auto _ : state) {
-    if (lockstep) {
+    if (mode != Units::kAlone) {
       benchmark::DoNotOptimize(IdentifyLockstep(model, y, 5e-4, settings, options, &counts).data());
     } else {
       for (const IdentifierSettings& s : settings) benchmark::DoNotOptimize(Identify(model, y, 5e-4, s, options));
@@ -198,15 +203,19 @@ void RunUnits(benchmark::State& state, bool lockstep) {
   state.counters["per_sample"] =
       benchmark::Counter(static_cast<double>(y.cols()) * static_cast<double>(m),
                          benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  if (lockstep) {
+  if (mode != Units::kAlone) {
     state.counters["lockstep_share"] = static_cast<double>(counts.lockstep) / static_cast<double>(counts.total);
+    state.counters["shared_share"] = static_cast<double>(counts.shared) / static_cast<double>(counts.total);
   }
 }
-void BM_IdentifyStepLockstep(benchmark::State& state) { RunUnits(state, true); }
+
+void BM_IdentifyStepLockstep(benchmark::State& state) { RunUnits(state, Units::kLockstep); }
 BENCHMARK(BM_IdentifyStepLockstep)
     ->Args({1, 0})->Args({2, 0})->Args({4, 0})->Args({6, 0})->Args({6, 25})
     ->Unit(benchmark::kMillisecond);
-void BM_IdentifyStepUnitsAlone(benchmark::State& state) { RunUnits(state, false); }
+void BM_IdentifyStepTwins(benchmark::State& state) { RunUnits(state, Units::kTwins); }
+BENCHMARK(BM_IdentifyStepTwins)->Args({6, 0})->Args({6, 25})->Unit(benchmark::kMillisecond);
+void BM_IdentifyStepUnitsAlone(benchmark::State& state) { RunUnits(state, Units::kAlone); }
 BENCHMARK(BM_IdentifyStepUnitsAlone)->Args({1, 0})->Args({6, 0})->Args({6, 25})->Unit(benchmark::kMillisecond);
 
 // The hull update alone: the 40001 samples of the §5 run (σ = state.range(0) / 100) added to one

@@ -10,6 +10,10 @@
 // applied and the rest of the block fed by its own path (Identifier::EndFlowRun); a non-finite row
 // ends the run of all. The others go on together, and every unit joins again at the next block.
 // The other identifiers are fed each block alone (Identifier::Feed with the shared flow rows).
+// Without statistics, units that differ only in the detector's threshold are twins: one identifier
+// (the smallest threshold's) is fed for all of them until their decisions differ, and a unit that
+// leaves takes a copy of its state (Identifier::Leads, StopAtJumps, Flags, AdoptState;
+// docs/architecture.md, "Twins").
 // Each unit's arithmetic is its own pass's, so every result is bit for bit Identify's.
 #pragma once
 
