@@ -223,8 +223,8 @@ class Model {
   // Row `row` of φ at `count` states, in PhiColumns' layout: φ(row, c) of state k for every column c
   // at phi + k·n·|α| + c·n + row; the other entries of each n × |α| block may be left as they were.
   // For paths that read one row (RegressionBuilder::FlowRows): a struct with PhiRowColumns evaluates
-  // that row alone (a model file: that row's expressions), any other all of φ (PhiColumns). The
-  // row's values are PhiColumns' bit for bit. 0 ≤ row < n is the caller's to keep.
+  // that row alone (a model file: that row's expressions; the values must be its PhiColumns' bit for
+  // bit), any other all of φ (PhiColumns). 0 ≤ row < n is the caller's to keep.
   void PhiRowColumns(int row, const double* x, Eigen::Index count, double* phi) const {
     if (contextual_) return PhiRowColumns(row, x, count, phi, {});
     impl_->PhiRowColumns(row, x, count, state_size(), alpha_size(), phi);
