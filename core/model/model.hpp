@@ -104,7 +104,8 @@ concept XOnlyModel = requires(const M& m, ConstVecRef x, MatRef out_mat, VecRef 
 };
 
 // ... or the context forms, evaluated at (ξ, t, u, γ). Optional members take the context in the same
-// place: PhiColumns(x, count, ctx, phi), ProjectOntoGuard(i, ctx, x), DistanceToJumpSet(x, ctx).
+// place: PhiColumns(x, count, ctx, phi), PhiRowColumns(row, x, count, ctx, phi), ProjectOntoGuard(i, ctx,
+// x), DistanceToJumpSet(x, ctx).
 template <class M>
 concept ContextModel = requires(const M& m, ConstVecRef x, const Context& ctx, MatRef out_mat, VecRef out_vec) {
   m.Phi(x, ctx, out_mat);
@@ -138,6 +139,13 @@ concept HasPhiColumns = requires(const M& m, const double* x, Eigen::Index count
   m.PhiColumns(x, count, phi);
 };
 
+// Optional: row `row` of φ alone at `count` states (Model::PhiRowColumns). For structs that can
+// evaluate one row for less than all of φ (the model-file evaluator: that row's expressions).
+template <class M>
+concept HasPhiRowColumns = requires(const M& m, int row, const double* x, Eigen::Index count, double* phi) {
+  m.PhiRowColumns(row, x, count, phi);
+};
+
 template <class M>
 concept HasGuardProjection = requires(const M& m, int i, VecRef x) {
   m.ProjectOntoGuard(i, x);
@@ -147,6 +155,11 @@ template <class M>
 concept HasContextPhiColumns = requires(const M& m, const double* x, Eigen::Index count, const Context& ctx,
                                         double* phi) {
   m.PhiColumns(x, count, ctx, phi);
+};
+template <class M>
+concept HasContextPhiRowColumns = requires(const M& m, int row, const double* x, Eigen::Index count,
+                                           const Context& ctx, double* phi) {
+  m.PhiRowColumns(row, x, count, ctx, phi);
 };
 template <class M>
 concept HasContextGuardProjection = requires(const M& m, int i, const Context& ctx, VecRef x) {
@@ -206,6 +219,18 @@ class Model {
   }
   void PhiColumns(const double* x, Eigen::Index count, double* phi, const Context& ctx) const {
     impl_->PhiColumns(x, count, state_size(), alpha_size(), Resolve(ctx), phi);
+  }
+  // Row `row` of φ at `count` states, in PhiColumns' layout: φ(row, c) of state k for every column c
+  // at phi + k·n·|α| + c·n + row; the other entries of each n × |α| block may be left as they were.
+  // For paths that read one row (RegressionBuilder::FlowRows): a struct with PhiRowColumns evaluates
+  // that row alone (a model file: that row's expressions; the values must be its PhiColumns' bit for
+  // bit), any other all of φ (PhiColumns). 0 ≤ row < n is the caller's to keep.
+  void PhiRowColumns(int row, const double* x, Eigen::Index count, double* phi) const {
+    if (contextual_) return PhiRowColumns(row, x, count, phi, {});
+    impl_->PhiRowColumns(row, x, count, state_size(), alpha_size(), phi);
+  }
+  void PhiRowColumns(int row, const double* x, Eigen::Index count, double* phi, const Context& ctx) const {
+    impl_->PhiRowColumns(row, x, count, state_size(), alpha_size(), Resolve(ctx), phi);
   }
   void Psi(const ConstVecRef& x, MatRef psi) const {
     if (contextual_) return impl_->Psi(x, Resolve({}), psi);
@@ -283,6 +308,8 @@ class Model {
     virtual void Phi(const ConstVecRef& x, MatRef phi) const = 0;
     virtual void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
                             double* phi) const = 0;
+    virtual void PhiRowColumns(int row, const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
+                               double* phi) const = 0;
     virtual void Psi(const ConstVecRef& x, MatRef psi) const = 0;
     virtual void Guards(const ConstVecRef& x, VecRef h) const = 0;
     virtual bool InFlowSet(const ConstVecRef& x) const = 0;
@@ -297,6 +324,8 @@ class Model {
     virtual void Phi(const ConstVecRef& x, const Context& ctx, MatRef phi) const = 0;
     virtual void PhiColumns(const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
                             const Context& ctx, double* phi) const = 0;
+    virtual void PhiRowColumns(int row, const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
+                               const Context& ctx, double* phi) const = 0;
     virtual void Psi(const ConstVecRef& x, const Context& ctx, MatRef psi) const = 0;
     virtual void Guards(const ConstVecRef& x, const Context& ctx, VecRef h) const = 0;
     virtual bool InFlowSet(const ConstVecRef& x, const Context& ctx) const = 0;
@@ -341,6 +370,20 @@ class Model {
       for (Eigen::Index k = 0; k < count; ++k) {
         Eigen::Map<Mat> out(phi + k * n * m, n, m);
         Phi(Eigen::Map<const Vec>(x + k * n, n), ctx, out);
+      }
+    }
+    void PhiRowColumns(int row, const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
+                       double* phi) const override {
+      PhiRowColumns(row, x, count, n, m, kNoContext, phi);
+    }
+    void PhiRowColumns(int row, const double* x, Eigen::Index count, Eigen::Index n, Eigen::Index m,
+                       const Context& ctx, double* phi) const override {
+      if constexpr (kContext && HasContextPhiRowColumns<M>) {
+        m_.PhiRowColumns(row, x, count, ctx, phi);
+      } else if constexpr (!kContext && HasPhiRowColumns<M>) {
+        m_.PhiRowColumns(row, x, count, phi);
+      } else {
+        PhiColumns(x, count, n, m, ctx, phi);
       }
     }
     void Psi(const ConstVecRef& x, MatRef psi) const override { Psi(x, kNoContext, psi); }

@@ -126,19 +126,19 @@ void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen:
     for (std::size_t c = 0; c < u; ++c) out[c] = phi_nm[unknown[c]];
     for (std::size_t c = 0; c < k; ++c) out[u + c] = phi_nm[known[c]];
   };
+  const int r = flow_.rows[0];
   double row_prev[Model::kMaxParameters], row_cur[Model::kMaxParameters];
   if (consecutive) {
     for (std::size_t j = 0; j < u + k; ++j) row_prev[j] = row_last_[j];
   } else {
-    model_.PhiColumns(prev, 1, phi_block_.data());
+    model_.PhiRowColumns(r, prev, 1, phi_block_.data());
     gather(phi_block_.data(), row_prev);
   }
   const double h = 0.5 * dt;
-  const Eigen::Index r = flow_.rows[0];
   const double* known_alpha = row_known_alpha_.data();
   for (Eigen::Index start = 0; start < count; start += kBlock) {
     const Eigen::Index len = std::min(kBlock, count - start);
-    model_.PhiColumns(xs + start * n, len, phi_block_.data());
+    model_.PhiRowColumns(r, xs + start * n, len, phi_block_.data());
     for (Eigen::Index j = 0; j < len; ++j) {
       const Eigen::Index s = start + j;
       const double* cur = xs + s * n;

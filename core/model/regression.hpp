@@ -49,9 +49,9 @@ class RegressionBuilder {
   // agree bit for bit.
   void FlowRow(const double* prev, const double* cur, double dt, double* phi, double* y);
   // FlowRow for the `count` consecutive pairs (prev, x_0), (x_0, x_1), …, (x_{count−2}, x_{count−1})
-  // with x_k = xs[k·n .. k·n + n): row k of Φ at phi + k·|u|, y_k at y[k]. φ is evaluated for blocks
-  // of samples with one call (Model::PhiColumns) and each state's φ once. Same values as FlowRow on
-  // each pair.
+  // with x_k = xs[k·n .. k·n + n): row k of Φ at phi + k·|u|, y_k at y[k]. Row r of φ is evaluated
+  // for blocks of samples with one call (Model::PhiRowColumns: a model file evaluates that row's
+  // expressions alone) and at each state once. Same values as FlowRow on each pair.
   void FlowRows(const double* prev, const double* xs, Eigen::Index count, double dt, double* phi, double* y);
   // Jump regression: ξ_r(t) on ψ_{r,u}(ξ(t−δt)), ψ at the pre-jump sample's context when given.
   void Jump(const ConstVecRef& prev, const ConstVecRef& cur, MatRef psi, VecRef y);

@@ -28,13 +28,15 @@ namespace hysid {
 namespace {
 
 // A matrix of expressions, column-major: constant entries are stored as numbers, the others are
-// joined into one muParser expression list "e1, e2, ..." evaluated with one call.
+// joined into one muParser expression list "e1, e2, ..." evaluated with one call. A part of a matrix
+// (one row of φ, RowOf) keeps the whole matrix's rows and cols and lists its constants' positions.
 struct ExprMatrix {
   Eigen::Index rows = 0, cols = 0;
-  std::vector<double> constant;     // rows·cols values (0 where the entry is an expression)
-  std::vector<Eigen::Index> index;  // column-major position of each expression
-  std::vector<std::string> text;    // every entry as written (for the equations)
-  std::string joined;               // the expressions, comma-separated
+  std::vector<double> constant = {};     // rows·cols values (0 where the entry is an expression) ...
+  std::vector<Eigen::Index> index = {};  // column-major position of each expression
+  std::vector<std::string> text = {};    // every entry as written (for the equations; empty for a part)
+  std::string joined = {};               // the expressions, comma-separated
+  std::vector<Eigen::Index> constant_at = {};  // ... or a part's constants, at these positions
 };
 
 // Slots of Compiled::var: the states, then the inputs u, the guard parameters γ and the time t.
@@ -49,6 +51,7 @@ struct Definition {
   bool binds_time = false;  // `t` is a variable (a model with inputs and no state named t)
   ModelSpec spec;
   std::vector<ExprMatrix> phi;  // per mode q: φ_q, n × |α|
+  std::vector<std::vector<ExprMatrix>> phi_rows;  // per mode q and row r: row r of φ_q alone
   // The single [jump]: one n × |β| matrix. [[jump]] maps (`sliced`): per map its n × |β_m| slice
   // (0 columns for an identity map), written into columns [beta_first, beta_first + beta_count).
   std::vector<ExprMatrix> psi;
@@ -66,6 +69,8 @@ std::atomic<std::uint64_t> next_definition_id{1};
 struct Compiled {
   std::array<double, kTimeSlot + 1> var{};
   std::vector<mu::Parser> phi, psi;  // as Definition::phi, ::psi
+  // Per mode q and row r, at q·n + r: row r of φ_q's expressions, compiled when first asked for.
+  std::vector<std::unique_ptr<mu::Parser>> phi_rows;
   mu::Parser guards, in_c, in_d, distance;
   std::vector<mu::Parser> project;
 };
@@ -84,6 +89,7 @@ std::unique_ptr<Compiled> Compile(const Definition& def) {
   auto c = std::make_unique<Compiled>();
   c->phi.resize(def.phi.size());
   for (std::size_t q = 0; q < def.phi.size(); ++q) Bind(c->phi[q], def, *c, def.phi[q].joined);
+  c->phi_rows.resize(def.phi.size() * def.spec.state_names.size());
   c->psi.resize(def.psi.size());
   for (std::size_t m = 0; m < def.psi.size(); ++m) Bind(c->psi[m], def, *c, def.psi[m].joined);
   Bind(c->guards, def, *c, def.guards.joined);
@@ -111,6 +117,17 @@ Compiled& Local(const std::shared_ptr<const Definition>& def) {
   return *last;
 }
 
+// The parser of row r of φ_q's expressions (compiled on first use; a row of constants gets one that
+// is never evaluated).
+const mu::Parser& RowParser(const Definition& def, Compiled& c, std::size_t q, std::size_t r) {
+  std::unique_ptr<mu::Parser>& p = c.phi_rows[q * def.spec.state_names.size() + r];
+  if (p == nullptr) {
+    p = std::make_unique<mu::Parser>();
+    Bind(*p, def, c, def.phi_rows[q][r].joined);
+  }
+  return *p;
+}
+
 // out[0, n) = from[0, n) for the few entries of a state or an expression matrix, by a plain loop:
 // std::copy calls memmove, which costs more than these copies (two per sample in PhiColumns).
 void CopySmall(const double* from, std::size_t n, double* out) {
@@ -129,33 +146,43 @@ void Load(const Definition& def, Compiled& c, const double* x, std::size_t n, co
   c.var[kTimeSlot] = ctx.t;
 }
 
-// Fills out (column-major, rows·cols) with the matrix at the loaded state.
+// Fills out (column-major, rows·cols) with the matrix (a part: its entries) at the loaded state.
 void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
-  CopySmall(m.constant.data(), m.constant.size(), out);
+  if (m.constant_at.empty()) {
+    CopySmall(m.constant.data(), m.constant.size(), out);
+  } else {
+    for (std::size_t j = 0; j < m.constant.size(); ++j) out[m.constant_at[j]] = m.constant[j];
+  }
   if (m.index.empty()) return;
   int count = 0;
   const double* v = p.Eval(count);
   for (std::size_t k = 0; k < m.index.size(); ++k) out[m.index[k]] = v[k];
 }
 
-// φ (the matrix m, evaluated by p) at `count` states x_k = x[k·n .. k·n + n) of a model without
-// inputs or γ, to phi + k·|m| (Load and Evaluate for each): N = n when fixed at compile time (else
-// 0). What the loop holds is read once: the expression list's positions and the constant entries,
-// written by plain loops of their own (a loop of run-time length over a few doubles is vectorised
-// by g++ behind a run-time check that costs more than the copy).
+// φ (the matrix m, or a part of it, evaluated by p) at `count` states x_k = x[k·n .. k·n + n) of a
+// model without inputs or γ, to phi + k·|m| (Load and Evaluate for each): N = n when fixed at
+// compile time (else 0). What the loop holds is read once: the expression list's positions and the
+// constant entries, written by plain loops of their own (a loop of run-time length over a few
+// doubles is vectorised by g++ behind a run-time check that costs more than the copy).
 template <int N>
 void PhiColumnsOf(const ExprMatrix& m, Compiled& c, const mu::Parser& p, const double* x, Eigen::Index count,
                   double* phi) {
   const Eigen::Index n = N > 0 ? N : m.rows, size = m.rows * m.cols;
   const auto expressions = static_cast<Eigen::Index>(m.index.size());
+  const auto constants = static_cast<Eigen::Index>(m.constant.size());
   const double* constant = m.constant.data();
+  const Eigen::Index* constant_at = m.constant_at.empty() ? nullptr : m.constant_at.data();
   const Eigen::Index* index = m.index.data();
   double* var = c.var.data();
   for (Eigen::Index k = 0; k < count; ++k) {
     const double* xk = x + k * n;
     double* out = phi + k * size;
     for (Eigen::Index i = 0; i < n; ++i) var[i] = xk[i];
-    for (Eigen::Index j = 0; j < size; ++j) out[j] = constant[j];
+    if (constant_at == nullptr) {
+      for (Eigen::Index j = 0; j < size; ++j) out[j] = constant[j];
+    } else {
+      for (Eigen::Index j = 0; j < constants; ++j) out[constant_at[j]] = constant[j];
+    }
     if (expressions == 0) continue;
     int results = 0;
     const double* v = p.Eval(results);
@@ -175,20 +202,14 @@ struct FileModel {
   void PhiColumns(const double* x, Eigen::Index count, const Context& ctx, double* phi) const {
     Compiled& c = Local(def);
     const std::size_t q = Index(ctx.mode, def->phi.size(), "mode");
-    const Eigen::Index n = def->phi[q].rows, size = def->phi[q].rows * def->phi[q].cols;
-    if (!def->contextual) {  // ξ alone: the loop of PhiColumnsOf, with n fixed when it is small
-      switch (n) {
-        case 1: return PhiColumnsOf<1>(def->phi[q], c, c.phi[q], x, count, phi);
-        case 2: return PhiColumnsOf<2>(def->phi[q], c, c.phi[q], x, count, phi);
-        case 3: return PhiColumnsOf<3>(def->phi[q], c, c.phi[q], x, count, phi);
-        case 4: return PhiColumnsOf<4>(def->phi[q], c, c.phi[q], x, count, phi);
-        default: return PhiColumnsOf<0>(def->phi[q], c, c.phi[q], x, count, phi);
-      }
-    }
-    for (Eigen::Index k = 0; k < count; ++k) {
-      Load(*def, c, x + k * n, static_cast<std::size_t>(n), ctx);
-      Evaluate(def->phi[q], c.phi[q], phi + k * size);
-    }
+    Columns(def->phi[q], c, c.phi[q], x, count, ctx, phi);
+  }
+  // Row `row` of φ alone: that row's expressions (its own parser) and constants.
+  void PhiRowColumns(int row, const double* x, Eigen::Index count, const Context& ctx, double* phi) const {
+    Compiled& c = Local(def);
+    const std::size_t q = Index(ctx.mode, def->phi.size(), "mode");
+    const std::size_t r = Index(row, def->spec.state_names.size(), "row");
+    Columns(def->phi_rows[q][r], c, RowParser(*def, c, q, r), x, count, ctx, phi);
   }
   // ψ_m in its β slice, zeros elsewhere (an identity map: all zeros; Model::Jump applies ξ+ = ξ).
   void Psi(ConstVecRef x, const Context& ctx, MatRef psi) const {
@@ -229,6 +250,24 @@ struct FileModel {
       throw std::logic_error(fmt::format("model file: Context {} {} outside [0, {})", what, value, size));
     }
     return std::size_t(value);
+  }
+  // The matrix m (or part) evaluated by p at `count` states, to phi + k·|m|.
+  void Columns(const ExprMatrix& m, Compiled& c, const mu::Parser& p, const double* x, Eigen::Index count,
+               const Context& ctx, double* phi) const {
+    const Eigen::Index n = m.rows, size = m.rows * m.cols;
+    if (!def->contextual) {  // ξ alone: the loop of PhiColumnsOf, with n fixed when it is small
+      switch (n) {
+        case 1: return PhiColumnsOf<1>(m, c, p, x, count, phi);
+        case 2: return PhiColumnsOf<2>(m, c, p, x, count, phi);
+        case 3: return PhiColumnsOf<3>(m, c, p, x, count, phi);
+        case 4: return PhiColumnsOf<4>(m, c, p, x, count, phi);
+        default: return PhiColumnsOf<0>(m, c, p, x, count, phi);
+      }
+    }
+    for (Eigen::Index k = 0; k < count; ++k) {
+      Load(*def, c, x + k * n, static_cast<std::size_t>(n), ctx);
+      Evaluate(m, p, phi + k * size);
+    }
   }
   // This thread's parsers with (x, ctx) loaded.
   Compiled& Loaded(ConstVecRef x, const Context& ctx) const {
@@ -373,6 +412,25 @@ ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::
   }
   m.joined = fmt::format("{}", fmt::join(exprs, ","));
   return m;
+}
+
+// Row r of φ alone: its expressions in one list as ParseMatrix writes them (muParser evaluates each
+// entry of a list on its own, so the values are the whole matrix's bit for bit) and its constants.
+ExprMatrix RowOf(const ExprMatrix& m, Eigen::Index r) {
+  ExprMatrix row{.rows = m.rows, .cols = m.cols};
+  std::vector<std::string> exprs;
+  for (Eigen::Index j = 0; j < m.cols; ++j) {
+    const Eigen::Index at = j * m.rows + r;
+    if (std::find(m.index.begin(), m.index.end(), at) != m.index.end()) {
+      row.index.push_back(at);
+      exprs.push_back("(" + m.text[std::size_t(at)] + ")");
+    } else {
+      row.constant_at.push_back(at);
+      row.constant.push_back(m.constant[std::size_t(at)]);
+    }
+  }
+  row.joined = fmt::format("{}", fmt::join(exprs, ","));
+  return row;
 }
 
 // PARAM.bounds = [lo, hi]: lo < hi, the value inside.
@@ -1059,6 +1117,10 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
                     std::find(spec.state_names.begin(), spec.state_names.end(), "t") == spec.state_names.end();
   Symbols sym = MakeSymbols(*def);
   ParseFlows(rd, root, *def, sym);
+  for (const ExprMatrix& phi : def->phi) {
+    def->phi_rows.emplace_back();
+    for (Eigen::Index r = 0; r < phi.rows; ++r) def->phi_rows.back().push_back(RowOf(phi, r));
+  }
   ParseGuards(rd, root, *def, sym);
   ParseJumps(rd, root, *def, sym);
   ParseSets(rd, root, *def, sym);

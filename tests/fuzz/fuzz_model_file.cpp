@@ -2,7 +2,8 @@
 // model or std::invalid_argument. ParseModelFile does not simulate the default trajectory, so one
 // input stays cheap. A model that loads is evaluated (φ, ψ, guards, sets, the jump-set distance, the
 // flow Jacobian, the guard projections) at a few states, finite and not: values may be anything, but
-// the shapes must be the spec's and nothing may crash.
+// the shapes must be the spec's, the block evaluators (PhiColumns, PhiRowColumns) must agree with
+// Phi, and nothing may crash.
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -63,6 +64,18 @@ void Evaluate(const hysid::Model& model) {
     for (Eigen::Index i = 0; i < phi.size(); ++i) {
       const double p = phi.data()[i], q = one.data()[i];
       if (!(p == q || (p != p && q != q))) __builtin_trap();
+    }
+  }
+  // Each row alone (PhiRowColumns, that row's expressions) must give the block evaluator's row.
+  std::vector<double> row(columns.size());
+  for (int r = 0; r < n; ++r) {
+    model.PhiRowColumns(r, block.data(), static_cast<Eigen::Index>(states.size()), row.data());
+    for (std::size_t k = 0; k < states.size(); ++k) {
+      for (int c = 0; c < a; ++c) {
+        const std::size_t at = k * n * a + static_cast<std::size_t>(c * n + r);
+        const double p = row[at], q = columns[at];
+        if (!(p == q || (p != p && q != q))) __builtin_trap();
+      }
     }
   }
 }
