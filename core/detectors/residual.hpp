@@ -63,6 +63,14 @@ namespace hysid {
 // Reads false_alarm; reports max |z| and the quantile q.
 DetectorDescriptor ResidualDetectorDescriptor();
 
+// α̂'s two unknowns (a0, a1) and their 2 × 2 covariance (c_ab: entry (a, b); none when
+// has_covariance is false), as values (ResidualDetector::ClassifyObserveRow2).
+struct Row2Estimate {
+  double a0 = 0.0, a1 = 0.0;
+  double c00 = 0.0, c10 = 0.0, c01 = 0.0, c11 = 0.0;
+  bool has_covariance = false;
+};
+
 class ResidualDetector final : public JumpDetector {
  public:
   static constexpr double kClip = 3.0;
@@ -90,6 +98,41 @@ class ResidualDetector final : public JumpDetector {
                                                      double y, ConstVecMap alpha_hat, const double* cov,
                                                      long version, long flow_updates, const Vec* sigma,
                                                      double data_rtol, double data_atol) {
+    const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
+    return ClassifyObserveRowWith<N, M>(
+        prev, cur, n_dynamic, dt, phi, y, alpha_hat,
+        [&](Eigen::Index j) { return alpha_hat[unknown_[static_cast<std::size_t>(j)]]; },
+        [&](Eigen::Index a, Eigen::Index b) { return cov[b * m + a]; }, cov != nullptr, version, flow_updates,
+        sigma, data_rtol, data_atol);
+  }
+
+  // The same for two unknowns, with α̂'s two unknowns and their covariance given as values (`row`):
+  // a caller that keeps them in local variables (the identifier's RLS state) passes them without
+  // storing them first. alpha_hat (the full α̂) is read only for the flow Jacobian.
+  template <int N>
+  [[gnu::always_inline]] Decision ClassifyObserveRow2(const double* prev, const double* cur,
+                                                      Eigen::Index n_dynamic, double dt, const double* phi,
+                                                      double y, ConstVecMap alpha_hat, const Row2Estimate& row,
+                                                      long version, long flow_updates, const Vec* sigma,
+                                                      double data_rtol, double data_atol) {
+    return ClassifyObserveRowWith<N, 2>(
+        prev, cur, n_dynamic, dt, phi, y, alpha_hat, [&](Eigen::Index j) { return j == 0 ? row.a0 : row.a1; },
+        [&](Eigen::Index a, Eigen::Index b) {
+          return a == 0 ? (b == 0 ? row.c00 : row.c01) : (b == 0 ? row.c10 : row.c11);
+        },
+        row.has_covariance, version, flow_updates, sigma, data_rtol, data_atol);
+  }
+
+ private:
+  // ClassifyObserveRow's body; alpha_u(j): α̂'s j-th unknown, cov(a, b): its covariance's entry (a, b)
+  // (read only when has_cov).
+  template <int N, int M, class AlphaU, class Cov>
+  [[gnu::always_inline]] Decision ClassifyObserveRowWith(const double* prev, const double* cur,
+                                                         Eigen::Index n_dynamic, double dt, const double* phi,
+                                                         double y, ConstVecMap alpha_hat, const AlphaU& alpha_u,
+                                                         const Cov& cov, bool has_cov, long version,
+                                                         long flow_updates, const Vec* sigma, double data_rtol,
+                                                         double data_atol) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
     const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
     Decision d;
@@ -100,15 +143,15 @@ class ResidualDetector final : public JumpDetector {
     if (known_noise) NoiseVariance(prev, cur, n, dt, alpha_hat, version, sigma, data_rtol, data_atol);
     double pred = 0.0, magnitude = 0.0;
     for (Eigen::Index j = 0; j < m; ++j) {
-      const double term = phi[j] * alpha_hat[unknown_[static_cast<std::size_t>(j)]];
+      const double term = phi[j] * alpha_u(j);
       pred += term;
       magnitude += std::abs(term);
     }
     double lev = 0.0;
-    if (cov != nullptr) {
+    if (has_cov) {
       for (Eigen::Index a = 0; a < m; ++a) {
         double s = 0.0;
-        for (Eigen::Index b = 0; b < m; ++b) s += cov[b * m + a] * phi[b];
+        for (Eigen::Index b = 0; b < m; ++b) s += cov(a, b) * phi[b];
         lev += phi[a] * s;
       }
       lev = std::max(0.0, lev);
@@ -124,8 +167,6 @@ class ResidualDetector final : public JumpDetector {
     UpdateScale();
     return d;
   }
-
- private:
   // q for ν = min(scale samples, kMemory): cached while ν stays on one value (from kMemory on).
   double Quantile() {
     const long nu = std::min(scale_samples_, kMemory);
