@@ -101,7 +101,7 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
 // Null contexts: the Jacobian's x-only form (the same values: Model resolves an empty context
 // either way), which spares building and copying a Context per call.
 void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_data, Eigen::Index n,
-                                     double dt, ConstVecRef alpha_hat, long version, const Vec* sigma,
+                                     double dt, const ConstVecRef& alpha_hat, long version, const Vec* sigma,
                                      double data_rtol, double data_atol, const Context* at_prev,
                                      const Context* at_cur) {
   const ConstVecMap prev(prev_data, n), cur(cur_data, n);
@@ -183,8 +183,7 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
   Decision d;
   active_ = c.flow_updates >= unknowns_;
   if (!active_) return d;  // warm-up: flow, scale not updated
-  const bool known_noise = (c.sigma != nullptr && c.sigma->size() == c.cur.size() && c.sigma->any()) ||
-                           c.data_rtol > 0.0 || c.data_atol > 0.0;
+  const bool known_noise = ResidualNoise::Make(c.sigma, c.cur.size(), c.data_rtol, c.data_atol).known;
   if (known_noise) NoiseVariance(c);
   const Mat* p = c.alpha_covariance;
   const Eigen::Index m = c.flow_phi.cols();
@@ -207,8 +206,12 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
       }
       lev = std::max(0.0, lev);
     }
+    RowTerms terms;
     const double z2 =
-        RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise);
+        RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise, &terms);
+    rho2_[i] = terms.rho2;  // for Observe (noise_[i] is set)
+    lev_[i] = terms.lev;
+    round2_[i] = terms.round2;
     z2max = std::max(z2max, z2);
   }
   d.statistic = std::sqrt(z2max);

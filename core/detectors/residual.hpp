@@ -63,6 +63,21 @@ namespace hysid {
 // Reads false_alarm; reports max |z| and the quantile q.
 DetectorDescriptor ResidualDetectorDescriptor();
 
+// The measurement-noise inputs of the direct path (SampleContext's sigma, data_rtol, data_atol), with
+// `known`: whether they give a noise variance to propagate (Make; fixed for a run, so a caller
+// decides it once per block of samples).
+struct ResidualNoise {
+  const Vec* sigma = nullptr;
+  double data_rtol = 0.0, data_atol = 0.0;
+  bool known = false;
+
+  // sigma may be null; n = the state size.
+  static ResidualNoise Make(const Vec* sigma, Eigen::Index n, double data_rtol, double data_atol) {
+    return {sigma, data_rtol, data_atol,
+            (sigma != nullptr && sigma->size() == n && sigma->any()) || data_rtol > 0.0 || data_atol > 0.0};
+  }
+};
+
 // α̂'s two unknowns (a0, a1) and their 2 × 2 covariance (c_ab: entry (a, b); none when
 // has_covariance is false), as values (ResidualDetector::ClassifyObserveRow2).
 struct Row2Estimate {
@@ -90,20 +105,21 @@ class ResidualDetector final : public JumpDetector {
   // Classify and then Observe on one sample of a model with one identified row, from raw arrays:
   // the identifier's direct (non-virtual, inlined) path, the same arithmetic in the same order.
   // phi: the row's M unknowns' entries; y: its value; cov: the α estimator's M × M covariance
-  // (column-major) or null; the other arguments as in SampleContext. N = n and M = the number of
+  // (column-major) or null; alpha_hat: α̂ (all entries); the other arguments as in SampleContext
+  // (noise: ResidualNoise::Make of its sigma, data_rtol, data_atol). N = n and M = the number of
   // unknowns when known at compile time (the loops unroll), else 0.
   template <int N, int M>
   [[gnu::always_inline]] Decision ClassifyObserveRow(const double* prev, const double* cur,
                                                      Eigen::Index n_dynamic, double dt, const double* phi,
-                                                     double y, ConstVecMap alpha_hat, const double* cov,
-                                                     long version, long flow_updates, const Vec* sigma,
-                                                     double data_rtol, double data_atol) {
+                                                     double y, const ConstVecRef& alpha_hat, const double* cov,
+                                                     long version, long flow_updates,
+                                                     const ResidualNoise& noise) {
     const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
     return ClassifyObserveRowWith<N, M>(
         prev, cur, n_dynamic, dt, phi, y, alpha_hat,
         [&](Eigen::Index j) { return alpha_hat[unknown_[static_cast<std::size_t>(j)]]; },
         [&](Eigen::Index a, Eigen::Index b) { return cov[b * m + a]; }, cov != nullptr, version, flow_updates,
-        sigma, data_rtol, data_atol);
+        noise);
   }
 
   // The same for two unknowns, with α̂'s two unknowns and their covariance given as values (`row`):
@@ -112,15 +128,15 @@ class ResidualDetector final : public JumpDetector {
   template <int N>
   [[gnu::always_inline]] Decision ClassifyObserveRow2(const double* prev, const double* cur,
                                                       Eigen::Index n_dynamic, double dt, const double* phi,
-                                                      double y, ConstVecMap alpha_hat, const Row2Estimate& row,
-                                                      long version, long flow_updates, const Vec* sigma,
-                                                      double data_rtol, double data_atol) {
+                                                      double y, const ConstVecRef& alpha_hat,
+                                                      const Row2Estimate& row, long version, long flow_updates,
+                                                      const ResidualNoise& noise) {
     return ClassifyObserveRowWith<N, 2>(
         prev, cur, n_dynamic, dt, phi, y, alpha_hat, [&](Eigen::Index j) { return j == 0 ? row.a0 : row.a1; },
         [&](Eigen::Index a, Eigen::Index b) {
           return a == 0 ? (b == 0 ? row.c00 : row.c01) : (b == 0 ? row.c10 : row.c11);
         },
-        row.has_covariance, version, flow_updates, sigma, data_rtol, data_atol);
+        row.has_covariance, version, flow_updates, noise);
   }
 
  private:
@@ -129,18 +145,16 @@ class ResidualDetector final : public JumpDetector {
   template <int N, int M, class AlphaU, class Cov>
   [[gnu::always_inline]] Decision ClassifyObserveRowWith(const double* prev, const double* cur,
                                                          Eigen::Index n_dynamic, double dt, const double* phi,
-                                                         double y, ConstVecMap alpha_hat, const AlphaU& alpha_u,
-                                                         const Cov& cov, bool has_cov, long version,
-                                                         long flow_updates, const Vec* sigma, double data_rtol,
-                                                         double data_atol) {
+                                                         double y, const ConstVecRef& alpha_hat,
+                                                         const AlphaU& alpha_u, const Cov& cov, bool has_cov,
+                                                         long version, long flow_updates,
+                                                         const ResidualNoise& noise) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
     const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
     Decision d;
     active_ = flow_updates >= unknowns_;
     if (!active_) return d;
-    const bool known_noise =
-        (sigma != nullptr && sigma->size() == n && sigma->any()) || data_rtol > 0.0 || data_atol > 0.0;
-    if (known_noise) NoiseVariance(prev, cur, n, dt, alpha_hat, version, sigma, data_rtol, data_atol);
+    if (noise.known) NoiseVariance(prev, cur, n, dt, alpha_hat, version, noise.sigma, noise.data_rtol, noise.data_atol);
     double pred = 0.0, magnitude = 0.0;
     for (Eigen::Index j = 0; j < m; ++j) {
       const double term = phi[j] * alpha_u(j);
@@ -156,7 +170,8 @@ class ResidualDetector final : public JumpDetector {
       }
       lev = std::max(0.0, lev);
     }
-    const double z2max = std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, known_noise));
+    RowTerms terms;
+    const double z2max = std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, noise.known, &terms));
     d.statistic = std::sqrt(z2max);
     if (scale_samples_ == 0) {
       d.threshold = std::numeric_limits<double>::infinity();
@@ -164,7 +179,8 @@ class ResidualDetector final : public JumpDetector {
       d.threshold = Quantile();
       d.gamma = z2max > cached_q2_;
     }
-    UpdateScale();
+    UpdateRowScale(0, terms, ScaleWeight());  // UpdateScale for the one row, its terms not stored
+    ++scale_samples_;
     return d;
   }
   // q for ν = min(scale samples, kMemory): cached while ν stays on one value (from kMemory on).
@@ -174,7 +190,7 @@ class ResidualDetector final : public JumpDetector {
   }
   double QuantileAt(long nu);
   void NoiseVariance(const SampleContext& c);
-  void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
+  void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, const ConstVecRef& alpha_hat,
                      long version, const Vec* sigma, double data_rtol, double data_atol,
                      const Context* at_prev = nullptr, const Context* at_cur = nullptr);
   // V_i from the Jacobians and var(j, ξ_j) = σ_j² + d_j² (jac_cur_ at both samples when same_jacobian).
@@ -191,45 +207,56 @@ class ResidualDetector final : public JumpDetector {
       model_.FlowJacobian(x, alpha_hat, jac, *at);
     }
   }
-  // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); stores what
-  // UpdateScale needs.
+  // What the scale update needs of row i's sample: ρ², the leverage h, V_i (0 when σ is not known)
+  // and ε²_i.
+  struct RowTerms {
+    double rho2, lev, noise, round2;
+  };
+  // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); *terms: what the
+  // scale update needs.
   [[gnu::always_inline]] double RowStatistic(std::size_t i, double rho, double lev, double magnitude,
-                                             const double* prev, const double* cur, double y,
-                                             bool known_noise) {
+                                             const double* prev, const double* cur, double y, bool known_noise,
+                                             RowTerms* terms) {
     constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
     const int r = rows_[i];
     const double round = kRound * (std::abs(cur[r]) + std::abs(prev[r]) + magnitude + std::abs(y));
     const double noise = known_noise ? noise_[i] : 0.0;
     noise_[i] = noise;
     const double v = (1.0 + lev) * (noise + excess_[i]) + round * round;
-    rho2_[i] = rho * rho;
-    lev_[i] = lev;
-    round2_[i] = round * round;
+    *terms = RowTerms{.rho2 = rho * rho, .lev = lev, .noise = noise, .round2 = round * round};
     // v = 0 only with an exactly zero residual scale and ρ = 0 (then z = 0).
     return v > 0.0 ? rho * rho / v : (rho == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
   }
-  // The robust scale update of Observe (active_ set).
+  // The robust scale update of Observe (active_ set), from the terms Classify stored.
   [[gnu::always_inline]] void UpdateScale() {
+    const double w = ScaleWeight();
+    for (std::size_t i = 0; i < rows_.size(); ++i) {
+      UpdateRowScale(i, RowTerms{.rho2 = rho2_[i], .lev = lev_[i], .noise = noise_[i], .round2 = round2_[i]}, w);
+    }
+    ++scale_samples_;
+  }
+  // The weight of this sample in the scale: 1/n for the first kMemory samples, then 1/kMemory.
+  [[gnu::always_inline]] double ScaleWeight() const {
     const long n = std::min(scale_samples_ + 1, kMemory);
     // 1/kMemory folded by the compiler (the same correctly rounded quotient) once n stays there.
     constexpr double kMemoryWeight = 1.0 / static_cast<double>(kMemory);
-    const double w = n == kMemory ? kMemoryWeight : 1.0 / static_cast<double>(n);
-    for (std::size_t i = 0; i < rows_.size(); ++i) {
-      double r = rho2_[i] / (1.0 + lev_[i]);
-      // Clipping can only act when r exceeds kClip² (σ² + s²), a lower bound of kClip² · reference
-      // (rounded sums and products of non-negative terms are monotonic): below it the reference and
-      // its division are skipped, with the same result.
-      const double base = noise_[i] + excess_[i];
-      if (scale_samples_ >= kUnclipped && !(r <= kClip * kClip * base)) {
-        // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
-        // clipping everything to zero).
-        const double reference = base + round2_[i] / (1.0 + lev_[i]) + std::numeric_limits<double>::min();
-        r = std::min(r, kClip * kClip * reference);
-      }
-      const double x = (r - kappa_ * noise_[i]) / kappa_;
-      excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
+    return n == kMemory ? kMemoryWeight : 1.0 / static_cast<double>(n);
+  }
+  // s²_i's update with weight w (scale_samples_ not yet counting this sample).
+  [[gnu::always_inline]] void UpdateRowScale(std::size_t i, const RowTerms& t, double w) {
+    double r = t.rho2 / (1.0 + t.lev);
+    // Clipping can only act when r exceeds kClip² (σ² + s²), a lower bound of kClip² · reference
+    // (rounded sums and products of non-negative terms are monotonic): below it the reference and
+    // its division are skipped, with the same result.
+    const double base = t.noise + excess_[i];
+    if (scale_samples_ >= kUnclipped && !(r <= kClip * kClip * base)) {
+      // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
+      // clipping everything to zero).
+      const double reference = base + t.round2 / (1.0 + t.lev) + std::numeric_limits<double>::min();
+      r = std::min(r, kClip * kClip * reference);
     }
-    ++scale_samples_;
+    const double x = (r - kappa_ * t.noise) / kappa_;
+    excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
   }
 
   Model model_;

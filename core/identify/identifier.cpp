@@ -68,6 +68,11 @@ Row2Estimate FrozenRow2(const Vec& alpha, const int* unknown, const std::optiona
   return row;
 }
 
+// RLS's θ and P (symmetric) as the residual detector reads them.
+Row2Estimate Row2Of(const detail::Rls2State& r) {
+  return {.a0 = r.t0, .a1 = r.t1, .c00 = r.p00, .c10 = r.p10, .c01 = r.p10, .c11 = r.p11, .has_covariance = true};
+}
+
 // Settings with the noise shapes filled at the model's default state (Identifier's constructor).
 IdentifierSettings ResolvedAtDefault(const Model& m, double dt, const IdentifierSettings& s) {
   if (!s.flow_estimator.NeedsNoiseShape() && !s.jump_estimator.NeedsNoiseShape()) return s;
@@ -406,9 +411,18 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   constexpr bool kLocal = kCall != kInterface && std::is_same_v<E, Rls> && P == 2;
   [[maybe_unused]] detail::Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
-  [[maybe_unused]] Row2Estimate frozen_row;  // the frozen α̂ and covariance (a second pass), as values
-  if constexpr (kLocal && kCall == kResidualDirect) {
-    if (s.frozen) frozen_row = FrozenRow2(s.frozen_alpha, s.builder.flow_layout().unknown.data(), s.frozen_covariance);
+  // The residual detector's inputs fixed through the block: α̂ (bound once), the noise inputs, and
+  // in a second pass the frozen α̂'s unknowns and covariance as values.
+  [[maybe_unused]] std::optional<ConstVecRef> alpha_ref;
+  [[maybe_unused]] ResidualNoise noise;
+  [[maybe_unused]] Row2Estimate frozen_row;
+  if constexpr (kCall == kResidualDirect) {
+    alpha_ref.emplace(s.frozen ? s.frozen_alpha : s.alpha_full);
+    noise = ResidualNoise::Make(s.settings.sigma.size() ? &s.settings.sigma : nullptr, n, s.settings.data_rtol,
+                                s.settings.data_atol);
+    if (kLocal && s.frozen) {
+      frozen_row = FrozenRow2(s.frozen_alpha, s.builder.flow_layout().unknown.data(), s.frozen_covariance);
+    }
   }
   // A flow run is tried again only after a flow sample of the per-sample path: where most samples are
   // jumps (a small r), runs would end at once. Fewer than kMinFlowRun samples left (Step feeds one):
@@ -455,27 +469,18 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
       // covariance pointer, taken before the update).
-      const ConstVecMap alpha_hat(alpha_class.data(), alpha_class.size());
-      const long version = s.frozen ? -2 : s.version, updates = s.frozen ? s.frozen_updates : est->updates();
-      const Vec* sigma = s.settings.sigma.size() ? &s.settings.sigma : nullptr;
+      const double* row = phi + k * u;
       if constexpr (kLocal) {
-        const Row2Estimate row = s.frozen ? frozen_row
-                                          : Row2Estimate{.a0 = local.t0,
-                                                         .a1 = local.t1,
-                                                         .c00 = local.p00,
-                                                         .c10 = local.p10,
-                                                         .c01 = local.p10,
-                                                         .c11 = local.p11,
-                                                         .has_covariance = true};
-        d = s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, phi + k * u, y[k], alpha_hat, row,
-                                               version, updates, sigma, s.settings.data_rtol,
-                                               s.settings.data_atol);
+        d = s.frozen ? s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref, frozen_row,
+                                                          -2, s.frozen_updates, noise)
+                     : s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref,
+                                                          Row2Of(local), s.version, est->updates(), noise);
       } else {
         const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
                                      : est->covariance_matrix()->data();
-        d = s.residual->ClassifyObserveRow<N, P>(s.prev.data(), x, n, dt, phi + k * u, y[k], alpha_hat, cov,
-                                                 version, updates, sigma, s.settings.data_rtol,
-                                                 s.settings.data_atol);
+        d = s.residual->ClassifyObserveRow<N, P>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref, cov,
+                                                 s.frozen ? -2 : s.version,
+                                                 s.frozen ? s.frozen_updates : est->updates(), noise);
       }
       update(d);
     } else {
