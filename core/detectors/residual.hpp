@@ -111,8 +111,8 @@ class ResidualDetector final : public JumpDetector {
   template <int N, int M>
   [[gnu::always_inline]] Decision ClassifyObserveRow(const double* prev, const double* cur,
                                                      Eigen::Index n_dynamic, double dt, const double* phi,
-                                                     double y, const ConstVecRef& alpha_hat, const double* cov,
-                                                     long version, long flow_updates,
+                                                     double y, const ConstVecRef& alpha_hat,
+                                                     const double* cov, long version, long flow_updates,
                                                      const ResidualNoise& noise) {
     const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
     return ClassifyObserveRowWith<N, M>(
@@ -129,8 +129,8 @@ class ResidualDetector final : public JumpDetector {
   [[gnu::always_inline]] Decision ClassifyObserveRow2(const double* prev, const double* cur,
                                                       Eigen::Index n_dynamic, double dt, const double* phi,
                                                       double y, const ConstVecRef& alpha_hat,
-                                                      const Row2Estimate& row, long version, long flow_updates,
-                                                      const ResidualNoise& noise) {
+                                                      const Row2Estimate& row, long version,
+                                                      long flow_updates, const ResidualNoise& noise) {
     return ClassifyObserveRowWith<N, 2>(
         prev, cur, n_dynamic, dt, phi, y, alpha_hat, [&](Eigen::Index j) { return j == 0 ? row.a0 : row.a1; },
         [&](Eigen::Index a, Eigen::Index b) {
@@ -171,7 +171,8 @@ class ResidualDetector final : public JumpDetector {
       lev = std::max(0.0, lev);
     }
     RowTerms terms;
-    const double z2max = std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, noise.known, &terms));
+    const double z2max =
+        std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, noise.known, &terms));
     d.statistic = std::sqrt(z2max);
     if (scale_samples_ == 0) {
       d.threshold = std::numeric_limits<double>::infinity();
@@ -190,14 +191,14 @@ class ResidualDetector final : public JumpDetector {
   }
   double QuantileAt(long nu);
   void NoiseVariance(const SampleContext& c);
-  void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, const ConstVecRef& alpha_hat,
-                     long version, const Vec* sigma, double data_rtol, double data_atol,
-                     const Context* at_prev = nullptr, const Context* at_cur = nullptr);
+  void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt,
+                     const ConstVecRef& alpha_hat, long version, const Vec* sigma, double data_rtol,
+                     double data_atol, const Context* at_prev = nullptr, const Context* at_cur = nullptr);
   // NoiseVariance without contexts (the direct path): with a constant flow Jacobian and n = 2, the
   // Jacobian is evaluated (out of line) only when α̂ changed and V_i is summed here.
   template <int N>
-  [[gnu::always_inline]] void NoiseVarianceDirect(const double* prev, const double* cur, Eigen::Index n, double dt,
-                                                  const ConstVecRef& alpha_hat, long version,
+  [[gnu::always_inline]] void NoiseVarianceDirect(const double* prev, const double* cur, Eigen::Index n,
+                                                  double dt, const ConstVecRef& alpha_hat, long version,
                                                   const ResidualNoise& noise) {
     if constexpr (N == 2) {
       if (jacobian_constant_) {
@@ -215,8 +216,9 @@ class ResidualDetector final : public JumpDetector {
   // when σ is not given). With σ only, d_j = 0·|ξ_j| + 0 = 0 for a finite sample (the only ones the
   // detector sees), so σ_j² + d_j² = σ_j² exactly: neither |ξ_j| nor d_j² is computed.
   template <int N, bool kSame>
-  [[gnu::always_inline]] void PropagateInputs(const double* prev, const double* cur, Eigen::Index n, double dt,
-                                              const Vec* sigma, double data_rtol, double data_atol) {
+  [[gnu::always_inline]] void PropagateInputs(const double* prev, const double* cur, Eigen::Index n,
+                                              double dt, const Vec* sigma, double data_rtol,
+                                              double data_atol) {
     const bool have_sigma = sigma != nullptr && sigma->size() == n;
     if (have_sigma && data_rtol == 0.0 && data_atol == 0.0) {
       PropagateNoise<N, kSame>(prev, cur, n, dt, [&](Eigen::Index j, double /*x*/) {
@@ -266,8 +268,8 @@ class ResidualDetector final : public JumpDetector {
   // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); *terms: what the
   // scale update needs.
   [[gnu::always_inline]] double RowStatistic(std::size_t i, double rho, double lev, double magnitude,
-                                             const double* prev, const double* cur, double y, bool known_noise,
-                                             RowTerms* terms) {
+                                             const double* prev, const double* cur, double y,
+                                             bool known_noise, RowTerms* terms) {
     constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
     const int r = rows_[i];
     const double round = kRound * (std::abs(cur[r]) + std::abs(prev[r]) + magnitude + std::abs(y));
@@ -282,7 +284,8 @@ class ResidualDetector final : public JumpDetector {
   [[gnu::always_inline]] void UpdateScale() {
     const double w = ScaleWeight();
     for (std::size_t i = 0; i < rows_.size(); ++i) {
-      UpdateRowScale(i, RowTerms{.rho2 = rho2_[i], .lev = lev_[i], .noise = noise_[i], .round2 = round2_[i]}, w);
+      UpdateRowScale(i, RowTerms{.rho2 = rho2_[i], .lev = lev_[i], .noise = noise_[i], .round2 = round2_[i]},
+                     w);
     }
     ++scale_samples_;
   }

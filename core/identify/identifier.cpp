@@ -70,7 +70,8 @@ Row2Estimate FrozenRow2(const Vec& alpha, const int* unknown, const std::optiona
 
 // RLS's θ and P (symmetric) as the residual detector reads them.
 Row2Estimate Row2Of(const detail::Rls2State& r) {
-  return {.a0 = r.t0, .a1 = r.t1, .c00 = r.p00, .c10 = r.p10, .c01 = r.p10, .c11 = r.p11, .has_covariance = true};
+  return {
+      .a0 = r.t0, .a1 = r.t1, .c00 = r.p00, .c10 = r.p10, .c01 = r.p10, .c11 = r.p11, .has_covariance = true};
 }
 
 // Settings with the noise shapes filled at the model's default state (Identifier's constructor).
@@ -418,8 +419,8 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
   [[maybe_unused]] Row2Estimate frozen_row;
   if constexpr (kCall == kResidualDirect) {
     alpha_ref.emplace(s.frozen ? s.frozen_alpha : s.alpha_full);
-    noise = ResidualNoise::Make(s.settings.sigma.size() ? &s.settings.sigma : nullptr, n, s.settings.data_rtol,
-                                s.settings.data_atol);
+    noise = ResidualNoise::Make(s.settings.sigma.size() ? &s.settings.sigma : nullptr, n,
+                                s.settings.data_rtol, s.settings.data_atol);
     if (kLocal && s.frozen) {
       frozen_row = FrozenRow2(s.frozen_alpha, s.builder.flow_layout().unknown.data(), s.frozen_covariance);
     }
@@ -471,8 +472,8 @@ void Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const 
       // covariance pointer, taken before the update).
       const double* row = phi + k * u;
       if constexpr (kLocal) {
-        d = s.frozen ? s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref, frozen_row,
-                                                          -2, s.frozen_updates, noise)
+        d = s.frozen ? s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref,
+                                                          frozen_row, -2, s.frozen_updates, noise)
                      : s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref,
                                                           Row2Of(local), s.version, est->updates(), noise);
       } else {

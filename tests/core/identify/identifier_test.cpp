@@ -155,10 +155,10 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
        0.999, false, true, false, "residual", true},
       {"§5 sigma 0.05, residual detector, data accuracy, second pass, a non-finite row", Model{ImpactMsd{}},
        0.05, 220.0, 1.0, false, true, false, "residual", false, true, true},
-      {"§5 sigma 0.25, residual detector, a non-finite row", Model{ImpactMsd{}}, 0.25, 220.0, 1.0, false, false,
-       false, "residual", false, false, true},
-      {"§5 sigma 0.1, residual detector, σ given, a non-finite row", Model{ImpactMsd{}}, 0.1, 220.0, 1.0, false,
-       false, false, "residual", true, false, true},
+      {"§5 sigma 0.25, residual detector, a non-finite row", Model{ImpactMsd{}}, 0.25, 220.0, 1.0, false,
+       false, false, "residual", false, false, true},
+      {"§5 sigma 0.1, residual detector, σ given, a non-finite row", Model{ImpactMsd{}}, 0.1, 220.0, 1.0,
+       false, false, false, "residual", true, false, true},
   };
   for (const Case& k : cases) {
     INFO(k.what);
