@@ -203,7 +203,7 @@ class ResidualDetector final : public JumpDetector {
     if constexpr (N == 2) {
       if (jacobian_constant_) {
         if (!have_jac_ || version != jac_version_) ConstantJacobian(cur, n, alpha_hat, version, nullptr);
-        PropagateInputs<2, true>(prev, cur, n, dt, noise.sigma, noise.data_rtol, noise.data_atol);
+        PropagateInputs<2, true, true>(prev, cur, n, dt, noise.sigma, noise.data_rtol, noise.data_atol);
         return;
       }
     }
@@ -214,34 +214,43 @@ class ResidualDetector final : public JumpDetector {
                         const Context* at_cur);
   // V_i from the Jacobians and var(j, ξ_j) = σ_j² + d_j², d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0
   // when σ is not given). With σ only, d_j = 0·|ξ_j| + 0 = 0 for a finite sample (the only ones the
-  // detector sees), so σ_j² + d_j² = σ_j² exactly: neither |ξ_j| nor d_j² is computed.
-  template <int N, bool kSame>
+  // detector sees), so σ_j² + d_j² = σ_j² exactly: neither |ξ_j| nor d_j² is computed. Without σ,
+  // 0² + d_j² = d_j² (a square is never −0), so σ_j² is not added. kOneRow: the first row only (the
+  // direct path's one identified row).
+  template <int N, bool kSame, bool kOneRow = false>
   [[gnu::always_inline]] void PropagateInputs(const double* prev, const double* cur, Eigen::Index n,
                                               double dt, const Vec* sigma, double data_rtol,
                                               double data_atol) {
     const bool have_sigma = sigma != nullptr && sigma->size() == n;
     if (have_sigma && data_rtol == 0.0 && data_atol == 0.0) {
-      PropagateNoise<N, kSame>(prev, cur, n, dt, [&](Eigen::Index j, double /*x*/) {
+      PropagateNoise<N, kSame, kOneRow>(prev, cur, n, dt, [&](Eigen::Index j, double /*x*/) {
         const double s = (*sigma)[j];
         return s * s;
       });
+    } else if (!have_sigma) {
+      PropagateNoise<N, kSame, kOneRow>(prev, cur, n, dt, [&](Eigen::Index /*j*/, double x) {
+        const double d = data_rtol * std::abs(x) + data_atol;
+        return d * d;
+      });
     } else {
-      PropagateNoise<N, kSame>(prev, cur, n, dt, [&](Eigen::Index j, double x) {
-        const double s = have_sigma ? (*sigma)[j] : 0.0;
+      PropagateNoise<N, kSame, kOneRow>(prev, cur, n, dt, [&](Eigen::Index j, double x) {
+        const double s = (*sigma)[j];
         const double d = data_rtol * std::abs(x) + data_atol;
         return s * s + d * d;
       });
     }
   }
   // V_i from the Jacobians; N = n when known at compile time (the loop unrolls), else 0; kSame:
-  // jac_cur_ at both samples (a constant Jacobian: (δt/2)·J_ij computed once for a and b).
-  template <int N, bool kSame, class Var>
+  // jac_cur_ at both samples (a constant Jacobian: (δt/2)·J_ij computed once for a and b); kOneRow:
+  // the first row only.
+  template <int N, bool kSame, bool kOneRow, class Var>
   [[gnu::always_inline]] void PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic,
                                              double dt, const Var& var) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
     const Mat& jac_prev = kSame ? jac_cur_ : jac_prev_;
     const double h = 0.5 * dt;
-    for (std::size_t i = 0; i < rows_.size(); ++i) {
+    const std::size_t rows = kOneRow ? 1 : rows_.size();
+    for (std::size_t i = 0; i < rows; ++i) {
       const int r = rows_[i];
       double v = 0.0;
       for (Eigen::Index j = 0; j < n; ++j) {
