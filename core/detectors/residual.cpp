@@ -51,6 +51,7 @@ ResidualDetector::ResidualDetector(const DetectorSettings& settings, const Model
   rows_ = layout.rows;
   unknown_ = layout.unknown;
   unknowns_ = static_cast<int>(unknown_.size());
+  jacobian_constant_ = model.spec().flow_jacobian_constant;
   for (long g = 1; g <= 10; ++g) grid_.push_back(g);
   for (long g = 13; g < kMemory; g = static_cast<long>(std::ceil(1.25 * static_cast<double>(g)))) {
     grid_.push_back(g);
@@ -120,23 +121,19 @@ void ResidualDetector::NoiseVariance(const SampleContext& c) {
 }
 
 // V_i = Σ_j (σ_j² + d_j(t)²) a_ij² + (σ_j² + d_j(t−δt)²) b_ij², a = e_i − (δt/2)J_i(ξ(t)),
-// b = e_i + (δt/2)J_i(ξ(t−δt)), d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0 when σ is not given).
+// b = e_i + (δt/2)J_i(ξ(t−δt)) (PropagateInputs).
 // Null contexts: the Jacobian's x-only form (the same values: Model resolves an empty context
 // either way), which spares building and copying a Context per call.
 void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_data, Eigen::Index n,
-                                     double dt, ConstVecRef alpha_hat, long version, const Vec* sigma,
+                                     double dt, const ConstVecRef& alpha_hat, long version, const Vec* sigma,
                                      double data_rtol, double data_atol, const Context* at_prev,
                                      const Context* at_cur) {
   const ConstVecMap prev(prev_data, n), cur(cur_data, n);
   bool same_jacobian = false;  // jac_cur_ at both samples
-  if (model_.spec().flow_jacobian_constant) {
+  if (jacobian_constant_) {
     // Depends on α̂ only: evaluated when α̂ changes (SampleContext::version); the same at both
     // samples.
-    if (!have_jac_ || version != jac_version_) {
-      Jacobian(cur, alpha_hat, jac_cur_, at_cur);
-      jac_version_ = version;
-      have_jac_ = true;
-    }
+    if (!have_jac_ || version != jac_version_) ConstantJacobian(cur_data, n, alpha_hat, version, at_cur);
     same_jacobian = true;
   } else {
     // φ(ξ(t−δt)) was ξ(t) of the previous call: reuse its Jacobian (α̂ moved by one update since,
@@ -152,62 +149,27 @@ void ResidualDetector::NoiseVariance(const double* prev_data, const double* cur_
     jac_at_ = cur;
     have_jac_ = true;
   }
-  const bool have_sigma = sigma != nullptr && sigma->size() == n;
-  if (have_sigma && data_rtol == 0.0 && data_atol == 0.0) {
-    // σ only: d_j = 0·|ξ_j| + 0 = 0 for a finite sample (the only ones the detector sees), so
-    // σ_j² + d_j² = σ_j² exactly: neither |ξ_j| nor d_j² is computed.
-    PropagateNoise(prev_data, cur_data, n, dt, same_jacobian, [&](Eigen::Index j, double /*x*/) {
-      const double s = (*sigma)[j];
-      return s * s;
-    });
-  } else {
-    PropagateNoise(prev_data, cur_data, n, dt, same_jacobian, [&](Eigen::Index j, double x) {
-      const double s = have_sigma ? (*sigma)[j] : 0.0;
-      const double d = data_rtol * std::abs(x) + data_atol;
-      return s * s + d * d;
-    });
-  }
-}
-
-template <class Var>
-void ResidualDetector::PropagateNoise(const double* prev, const double* cur, Eigen::Index n, double dt,
-                                      bool same_jacobian, const Var& var) {
   if (n == 2) {
-    same_jacobian ? PropagateNoise<2, true>(prev, cur, n, dt, var)
-                  : PropagateNoise<2, false>(prev, cur, n, dt, var);
+    same_jacobian ? PropagateInputs<2, true>(prev_data, cur_data, n, dt, sigma, data_rtol, data_atol)
+                  : PropagateInputs<2, false>(prev_data, cur_data, n, dt, sigma, data_rtol, data_atol);
   } else {
-    same_jacobian ? PropagateNoise<0, true>(prev, cur, n, dt, var)
-                  : PropagateNoise<0, false>(prev, cur, n, dt, var);
+    same_jacobian ? PropagateInputs<0, true>(prev_data, cur_data, n, dt, sigma, data_rtol, data_atol)
+                  : PropagateInputs<0, false>(prev_data, cur_data, n, dt, sigma, data_rtol, data_atol);
   }
 }
 
-// V_i of NoiseVariance from the Jacobians; N = n when known at compile time (the loop unrolls), else 0;
-// kSame: jac_cur_ at both samples (a constant Jacobian: (δt/2)·J_ij computed once for a and b).
-template <int N, bool kSame, class Var>
-void ResidualDetector::PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic,
-                                      double dt, const Var& var) {
-  const Eigen::Index n = N > 0 ? N : n_dynamic;
-  const Mat& jac_prev = kSame ? jac_cur_ : jac_prev_;
-  const double h = 0.5 * dt;
-  for (std::size_t i = 0; i < rows_.size(); ++i) {
-    const int r = rows_[i];
-    double v = 0.0;
-    for (Eigen::Index j = 0; j < n; ++j) {
-      const double unit = j == r ? 1.0 : 0.0;
-      const double a = unit - h * jac_cur_(r, j);
-      const double b = unit + h * jac_prev(r, j);
-      v += var(j, cur[j]) * a * a + var(j, prev[j]) * b * b;
-    }
-    noise_[i] = v;
-  }
+void ResidualDetector::ConstantJacobian(const double* cur, Eigen::Index n, const ConstVecRef& alpha_hat,
+                                        long version, const Context* at_cur) {
+  Jacobian(ConstVecMap(cur, n), alpha_hat, jac_cur_, at_cur);
+  jac_version_ = version;
+  have_jac_ = true;
 }
 
 Decision ResidualDetector::Classify(const SampleContext& c) {
   Decision d;
   active_ = c.flow_updates >= unknowns_;
   if (!active_) return d;  // warm-up: flow, scale not updated
-  const bool known_noise = (c.sigma != nullptr && c.sigma->size() == c.cur.size() && c.sigma->any()) ||
-                           c.data_rtol > 0.0 || c.data_atol > 0.0;
+  const bool known_noise = ResidualNoise::Make(c.sigma, c.cur.size(), c.data_rtol, c.data_atol).known;
   if (known_noise) NoiseVariance(c);
   const Mat* p = c.alpha_covariance;
   const Eigen::Index m = c.flow_phi.cols();
@@ -230,8 +192,12 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
       }
       lev = std::max(0.0, lev);
     }
+    RowTerms terms;
     const double z2 =
-        RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise);
+        RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise, &terms);
+    rho2_[i] = terms.rho2;  // for Observe (noise_[i] is set)
+    lev_[i] = terms.lev;
+    round2_[i] = terms.round2;
     z2max = std::max(z2max, z2);
   }
   last_z2_ = z2max;

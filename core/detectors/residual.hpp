@@ -63,6 +63,29 @@ namespace hysid {
 // Reads false_alarm; reports max |z| and the quantile q.
 DetectorDescriptor ResidualDetectorDescriptor();
 
+// The measurement-noise inputs of the direct path (SampleContext's sigma, data_rtol, data_atol), with
+// `known`: whether they give a noise variance to propagate (Make; fixed for a run, so a caller
+// decides it once per block of samples).
+struct ResidualNoise {
+  const Vec* sigma = nullptr;
+  double data_rtol = 0.0, data_atol = 0.0;
+  bool known = false;
+
+  // sigma may be null; n = the state size.
+  static ResidualNoise Make(const Vec* sigma, Eigen::Index n, double data_rtol, double data_atol) {
+    return {sigma, data_rtol, data_atol,
+            (sigma != nullptr && sigma->size() == n && sigma->any()) || data_rtol > 0.0 || data_atol > 0.0};
+  }
+};
+
+// α̂'s two unknowns (a0, a1) and their 2 × 2 covariance (c_ab: entry (a, b); none when
+// has_covariance is false), as values (ResidualDetector::ClassifyObserveRow2).
+struct Row2Estimate {
+  double a0 = 0.0, a1 = 0.0;
+  double c00 = 0.0, c10 = 0.0, c01 = 0.0, c11 = 0.0;
+  bool has_covariance = false;
+};
+
 class ResidualDetector final : public JumpDetector {
  public:
   static constexpr double kClip = 3.0;
@@ -89,38 +112,74 @@ class ResidualDetector final : public JumpDetector {
   // Classify and then Observe on one sample of a model with one identified row, from raw arrays:
   // the identifier's direct (non-virtual, inlined) path, the same arithmetic in the same order.
   // phi: the row's M unknowns' entries; y: its value; cov: the α estimator's M × M covariance
-  // (column-major) or null; the other arguments as in SampleContext. N = n and M = the number of
+  // (column-major) or null; alpha_hat: α̂ (all entries); the other arguments as in SampleContext
+  // (noise: ResidualNoise::Make of its sigma, data_rtol, data_atol). N = n and M = the number of
   // unknowns when known at compile time (the loops unroll), else 0.
   template <int N, int M>
   [[gnu::always_inline]] Decision ClassifyObserveRow(const double* prev, const double* cur,
                                                      Eigen::Index n_dynamic, double dt, const double* phi,
-                                                     double y, ConstVecMap alpha_hat, const double* cov,
-                                                     long version, long flow_updates, const Vec* sigma,
-                                                     double data_rtol, double data_atol) {
+                                                     double y, const ConstVecRef& alpha_hat,
+                                                     const double* cov, long version, long flow_updates,
+                                                     const ResidualNoise& noise) {
+    const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
+    return ClassifyObserveRowWith<N, M>(
+        prev, cur, n_dynamic, dt, phi, y, alpha_hat,
+        [&](Eigen::Index j) { return alpha_hat[unknown_[static_cast<std::size_t>(j)]]; },
+        [&](Eigen::Index a, Eigen::Index b) { return cov[b * m + a]; }, cov != nullptr, version, flow_updates,
+        noise);
+  }
+
+  // The same for two unknowns, with α̂'s two unknowns and their covariance given as values (`row`):
+  // a caller that keeps them in local variables (the identifier's RLS state) passes them without
+  // storing them first. alpha_hat (the full α̂) is read only for the flow Jacobian.
+  template <int N>
+  [[gnu::always_inline]] Decision ClassifyObserveRow2(const double* prev, const double* cur,
+                                                      Eigen::Index n_dynamic, double dt, const double* phi,
+                                                      double y, const ConstVecRef& alpha_hat,
+                                                      const Row2Estimate& row, long version,
+                                                      long flow_updates, const ResidualNoise& noise) {
+    return ClassifyObserveRowWith<N, 2>(
+        prev, cur, n_dynamic, dt, phi, y, alpha_hat, [&](Eigen::Index j) { return j == 0 ? row.a0 : row.a1; },
+        [&](Eigen::Index a, Eigen::Index b) {
+          return a == 0 ? (b == 0 ? row.c00 : row.c01) : (b == 0 ? row.c10 : row.c11);
+        },
+        row.has_covariance, version, flow_updates, noise);
+  }
+
+ private:
+  // ClassifyObserveRow's body; alpha_u(j): α̂'s j-th unknown, cov(a, b): its covariance's entry (a, b)
+  // (read only when has_cov).
+  template <int N, int M, class AlphaU, class Cov>
+  [[gnu::always_inline]] Decision ClassifyObserveRowWith(const double* prev, const double* cur,
+                                                         Eigen::Index n_dynamic, double dt, const double* phi,
+                                                         double y, const ConstVecRef& alpha_hat,
+                                                         const AlphaU& alpha_u, const Cov& cov, bool has_cov,
+                                                         long version, long flow_updates,
+                                                         const ResidualNoise& noise) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
     const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
     Decision d;
     active_ = flow_updates >= unknowns_;
     if (!active_) return d;
-    const bool known_noise =
-        (sigma != nullptr && sigma->size() == n && sigma->any()) || data_rtol > 0.0 || data_atol > 0.0;
-    if (known_noise) NoiseVariance(prev, cur, n, dt, alpha_hat, version, sigma, data_rtol, data_atol);
+    if (noise.known) NoiseVarianceDirect<N>(prev, cur, n, dt, alpha_hat, version, noise);
     double pred = 0.0, magnitude = 0.0;
     for (Eigen::Index j = 0; j < m; ++j) {
-      const double term = phi[j] * alpha_hat[unknown_[static_cast<std::size_t>(j)]];
+      const double term = phi[j] * alpha_u(j);
       pred += term;
       magnitude += std::abs(term);
     }
     double lev = 0.0;
-    if (cov != nullptr) {
+    if (has_cov) {
       for (Eigen::Index a = 0; a < m; ++a) {
         double s = 0.0;
-        for (Eigen::Index b = 0; b < m; ++b) s += cov[b * m + a] * phi[b];
+        for (Eigen::Index b = 0; b < m; ++b) s += cov(a, b) * phi[b];
         lev += phi[a] * s;
       }
       lev = std::max(0.0, lev);
     }
-    const double z2max = std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, known_noise));
+    RowTerms terms;
+    const double z2max =
+        std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, noise.known, &terms));
     last_z2_ = z2max;
     d.statistic = std::sqrt(z2max);
     if (scale_samples_ == 0) {
@@ -129,11 +188,10 @@ class ResidualDetector final : public JumpDetector {
       d.threshold = Quantile();
       d.gamma = z2max > cached_q2_;
     }
-    UpdateScale();
+    UpdateRowScale(0, terms, ScaleWeight());  // UpdateScale for the one row, its terms not stored
+    ++scale_samples_;
     return d;
   }
-
- private:
   // q for ν = min(scale samples, kMemory): cached while ν stays on one value (from kMemory on).
   double Quantile() {
     const long nu = std::min(scale_samples_, kMemory);
@@ -141,16 +199,77 @@ class ResidualDetector final : public JumpDetector {
   }
   double QuantileAt(long nu);
   void NoiseVariance(const SampleContext& c);
-  void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt, ConstVecRef alpha_hat,
-                     long version, const Vec* sigma, double data_rtol, double data_atol,
-                     const Context* at_prev = nullptr, const Context* at_cur = nullptr);
-  // V_i from the Jacobians and var(j, ξ_j) = σ_j² + d_j² (jac_cur_ at both samples when same_jacobian).
-  template <class Var>
-  void PropagateNoise(const double* prev, const double* cur, Eigen::Index n, double dt, bool same_jacobian,
-                      const Var& var);
-  template <int N, bool kSame, class Var>
-  void PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic, double dt,
-                      const Var& var);
+  void NoiseVariance(const double* prev, const double* cur, Eigen::Index n, double dt,
+                     const ConstVecRef& alpha_hat, long version, const Vec* sigma, double data_rtol,
+                     double data_atol, const Context* at_prev = nullptr, const Context* at_cur = nullptr);
+  // NoiseVariance without contexts (the direct path): with a constant flow Jacobian and n = 2, the
+  // Jacobian is evaluated (out of line) only when α̂ changed and V_i is summed here.
+  template <int N>
+  [[gnu::always_inline]] void NoiseVarianceDirect(const double* prev, const double* cur, Eigen::Index n,
+                                                  double dt, const ConstVecRef& alpha_hat, long version,
+                                                  const ResidualNoise& noise) {
+    if constexpr (N == 2) {
+      if (jacobian_constant_) {
+        if (!have_jac_ || version != jac_version_) ConstantJacobian(cur, n, alpha_hat, version, nullptr);
+        PropagateInputs<2, true, true>(prev, cur, n, dt, noise.sigma, noise.data_rtol, noise.data_atol);
+        return;
+      }
+    }
+    NoiseVariance(prev, cur, n, dt, alpha_hat, version, noise.sigma, noise.data_rtol, noise.data_atol);
+  }
+  // jac_cur_ = the constant flow Jacobian at α̂ (version `version`).
+  void ConstantJacobian(const double* cur, Eigen::Index n, const ConstVecRef& alpha_hat, long version,
+                        const Context* at_cur);
+  // V_i from the Jacobians and var(j, ξ_j) = σ_j² + d_j², d_j = data_rtol·|ξ_j| + data_atol (σ_j = 0
+  // when σ is not given). With σ only, d_j = 0·|ξ_j| + 0 = 0 for a finite sample (the only ones the
+  // detector sees), so σ_j² + d_j² = σ_j² exactly: neither |ξ_j| nor d_j² is computed. Without σ,
+  // 0² + d_j² = d_j² (a square is never −0), so σ_j² is not added. kOneRow: the first row only (the
+  // direct path's one identified row).
+  template <int N, bool kSame, bool kOneRow = false>
+  [[gnu::always_inline]] void PropagateInputs(const double* prev, const double* cur, Eigen::Index n,
+                                              double dt, const Vec* sigma, double data_rtol,
+                                              double data_atol) {
+    const bool have_sigma = sigma != nullptr && sigma->size() == n;
+    if (have_sigma && data_rtol == 0.0 && data_atol == 0.0) {
+      PropagateNoise<N, kSame, kOneRow>(prev, cur, n, dt, [&](Eigen::Index j, double /*x*/) {
+        const double s = (*sigma)[j];
+        return s * s;
+      });
+    } else if (!have_sigma) {
+      PropagateNoise<N, kSame, kOneRow>(prev, cur, n, dt, [&](Eigen::Index /*j*/, double x) {
+        const double d = data_rtol * std::abs(x) + data_atol;
+        return d * d;
+      });
+    } else {
+      PropagateNoise<N, kSame, kOneRow>(prev, cur, n, dt, [&](Eigen::Index j, double x) {
+        const double s = (*sigma)[j];
+        const double d = data_rtol * std::abs(x) + data_atol;
+        return s * s + d * d;
+      });
+    }
+  }
+  // V_i from the Jacobians; N = n when known at compile time (the loop unrolls), else 0; kSame:
+  // jac_cur_ at both samples (a constant Jacobian: (δt/2)·J_ij computed once for a and b); kOneRow:
+  // the first row only.
+  template <int N, bool kSame, bool kOneRow, class Var>
+  [[gnu::always_inline]] void PropagateNoise(const double* prev, const double* cur, Eigen::Index n_dynamic,
+                                             double dt, const Var& var) {
+    const Eigen::Index n = N > 0 ? N : n_dynamic;
+    const Mat& jac_prev = kSame ? jac_cur_ : jac_prev_;
+    const double h = 0.5 * dt;
+    const std::size_t rows = kOneRow ? 1 : rows_.size();
+    for (std::size_t i = 0; i < rows; ++i) {
+      const int r = rows_[i];
+      double v = 0.0;
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const double unit = j == r ? 1.0 : 0.0;
+        const double a = unit - h * jac_cur_(r, j);
+        const double b = unit + h * jac_prev(r, j);
+        v += var(j, cur[j]) * a * a + var(j, prev[j]) * b * b;
+      }
+      noise_[i] = v;
+    }
+  }
   void Jacobian(const ConstVecRef& x, const ConstVecRef& alpha_hat, Mat& jac, const Context* at) const {
     if (at == nullptr) {
       model_.FlowJacobian(x, alpha_hat, jac);
@@ -158,45 +277,57 @@ class ResidualDetector final : public JumpDetector {
       model_.FlowJacobian(x, alpha_hat, jac, *at);
     }
   }
-  // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); stores what
-  // UpdateScale needs.
+  // What the scale update needs of row i's sample: ρ², the leverage h, V_i (0 when σ is not known)
+  // and ε²_i.
+  struct RowTerms {
+    double rho2, lev, noise, round2;
+  };
+  // z²_i of row i from its residual ρ, leverage h and |Φ_i|·|α̂| (`magnitude`); *terms: what the
+  // scale update needs.
   [[gnu::always_inline]] double RowStatistic(std::size_t i, double rho, double lev, double magnitude,
                                              const double* prev, const double* cur, double y,
-                                             bool known_noise) {
+                                             bool known_noise, RowTerms* terms) {
     constexpr double kRound = 4.0 * std::numeric_limits<double>::epsilon() / 2.0;
     const int r = rows_[i];
     const double round = kRound * (std::abs(cur[r]) + std::abs(prev[r]) + magnitude + std::abs(y));
     const double noise = known_noise ? noise_[i] : 0.0;
     noise_[i] = noise;
     const double v = (1.0 + lev) * (noise + excess_[i]) + round * round;
-    rho2_[i] = rho * rho;
-    lev_[i] = lev;
-    round2_[i] = round * round;
+    *terms = RowTerms{.rho2 = rho * rho, .lev = lev, .noise = noise, .round2 = round * round};
     // v = 0 only with an exactly zero residual scale and ρ = 0 (then z = 0).
     return v > 0.0 ? rho * rho / v : (rho == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
   }
-  // The robust scale update of Observe (active_ set).
+  // The robust scale update of Observe (active_ set), from the terms Classify stored.
   [[gnu::always_inline]] void UpdateScale() {
+    const double w = ScaleWeight();
+    for (std::size_t i = 0; i < rows_.size(); ++i) {
+      UpdateRowScale(i, RowTerms{.rho2 = rho2_[i], .lev = lev_[i], .noise = noise_[i], .round2 = round2_[i]},
+                     w);
+    }
+    ++scale_samples_;
+  }
+  // The weight of this sample in the scale: 1/n for the first kMemory samples, then 1/kMemory.
+  [[gnu::always_inline]] double ScaleWeight() const {
     const long n = std::min(scale_samples_ + 1, kMemory);
     // 1/kMemory folded by the compiler (the same correctly rounded quotient) once n stays there.
     constexpr double kMemoryWeight = 1.0 / static_cast<double>(kMemory);
-    const double w = n == kMemory ? kMemoryWeight : 1.0 / static_cast<double>(n);
-    for (std::size_t i = 0; i < rows_.size(); ++i) {
-      double r = rho2_[i] / (1.0 + lev_[i]);
-      // Clipping can only act when r exceeds kClip² (σ² + s²), a lower bound of kClip² · reference
-      // (rounded sums and products of non-negative terms are monotonic): below it the reference and
-      // its division are skipped, with the same result.
-      const double base = noise_[i] + excess_[i];
-      if (scale_samples_ >= kUnclipped && !(r <= kClip * kClip * base)) {
-        // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
-        // clipping everything to zero).
-        const double reference = base + round2_[i] / (1.0 + lev_[i]) + std::numeric_limits<double>::min();
-        r = std::min(r, kClip * kClip * reference);
-      }
-      const double x = (r - kappa_ * noise_[i]) / kappa_;
-      excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
+    return n == kMemory ? kMemoryWeight : 1.0 / static_cast<double>(n);
+  }
+  // s²_i's update with weight w (scale_samples_ not yet counting this sample).
+  [[gnu::always_inline]] void UpdateRowScale(std::size_t i, const RowTerms& t, double w) {
+    double r = t.rho2 / (1.0 + t.lev);
+    // Clipping can only act when r exceeds kClip² (σ² + s²), a lower bound of kClip² · reference
+    // (rounded sums and products of non-negative terms are monotonic): below it the reference and
+    // its division are skipped, with the same result.
+    const double base = t.noise + excess_[i];
+    if (scale_samples_ >= kUnclipped && !(r <= kClip * kClip * base)) {
+      // Reference: the predicted variance of ρ/√(1+h) (its rounding floor keeps a zero scale from
+      // clipping everything to zero).
+      const double reference = base + t.round2 / (1.0 + t.lev) + std::numeric_limits<double>::min();
+      r = std::min(r, kClip * kClip * reference);
     }
-    ++scale_samples_;
+    const double x = (r - kappa_ * t.noise) / kappa_;
+    excess_[i] = std::max(0.0, excess_[i] + w * (x - excess_[i]));
   }
 
   Model model_;
@@ -204,6 +335,7 @@ class ResidualDetector final : public JumpDetector {
   std::vector<int> rows_;            // identified state rows
   std::vector<int> unknown_;         // unknown α columns (columns of flow_phi)
   int unknowns_ = 0;
+  bool jacobian_constant_ = false;  // the model's spec().flow_jacobian_constant
   double kappa_;  // E[min(Z², kClip²)], Z ~ N(0, 1)
   // Quantile cache on the ν grid.
   std::vector<long> grid_;

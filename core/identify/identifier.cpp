@@ -53,6 +53,27 @@ void CheckInputSettings(const Model& m, const IdentifierSettings& s) {
   }
 }
 
+// The residual detector's view of a frozen α̂ (a second pass) with two unknowns: their values and
+// the frozen covariance's entries, read once per row block.
+Row2Estimate FrozenRow2(const Vec& alpha, const int* unknown, const std::optional<Mat>& covariance) {
+  Row2Estimate row{.a0 = alpha[unknown[0]], .a1 = alpha[unknown[1]]};
+  if (covariance) {
+    const double* c = covariance->data();
+    row.c00 = c[0];
+    row.c10 = c[1];
+    row.c01 = c[2];
+    row.c11 = c[3];
+    row.has_covariance = true;
+  }
+  return row;
+}
+
+// RLS's θ and P (symmetric) as the residual detector reads them.
+Row2Estimate Row2Of(const detail::Rls2State& r) {
+  return {
+      .a0 = r.t0, .a1 = r.t1, .c00 = r.p00, .c10 = r.p10, .c01 = r.p10, .c11 = r.p11, .has_covariance = true};
+}
+
 // Settings with the noise shapes filled at the model's default state (Identifier's constructor).
 IdentifierSettings ResolvedAtDefault(const Model& m, double dt, const IdentifierSettings& s) {
   if (!s.flow_estimator.NeedsNoiseShape() && !s.jump_estimator.NeedsNoiseShape()) return s;
@@ -420,11 +441,25 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
   const Eigen::Index n = N > 0 ? N : s.prev.size();
   const Eigen::Index u = P > 0 ? P : s.phi.cols();
   const double dt = s.dt;  // a local: what the detectors derive from δt is computed once per block
-  // RLS with two unknowns beside the paper detector: θ and P stay in local variables through the
-  // block (Rls::Load2, UpdateRowIn, Store2; nothing in the block reads them from the estimator).
-  constexpr bool kLocal = kCall == kPaperDirect && std::is_same_v<E, Rls> && P == 2;
+  // RLS with two unknowns beside the paper or the residual detector: θ and P stay in local variables
+  // through the block (Rls::Load2, UpdateRowIn, Store2; nothing in the block reads them from the
+  // estimator: the residual detector takes them as values, ClassifyObserveRow2).
+  constexpr bool kLocal = kCall != kInterface && std::is_same_v<E, Rls> && P == 2;
   [[maybe_unused]] detail::Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
+  // The residual detector's inputs fixed through the block: α̂ (bound once), the noise inputs, and
+  // in a second pass the frozen α̂'s unknowns and covariance as values.
+  [[maybe_unused]] std::optional<ConstVecRef> alpha_ref;
+  [[maybe_unused]] ResidualNoise noise;
+  [[maybe_unused]] Row2Estimate frozen_row;
+  if constexpr (kCall == kResidualDirect) {
+    alpha_ref.emplace(s.frozen ? s.frozen_alpha : s.alpha_full);
+    noise = ResidualNoise::Make(s.settings.sigma.size() ? &s.settings.sigma : nullptr, n,
+                                s.settings.data_rtol, s.settings.data_atol);
+    if (kLocal && s.frozen) {
+      frozen_row = FrozenRow2(s.frozen_alpha, s.builder.flow_layout().unknown.data(), s.frozen_covariance);
+    }
+  }
   // A flow run is tried again only after a flow sample of the per-sample path: where most samples are
   // jumps (a small r), runs would end at once. Fewer than kMinFlowRun samples left (Step feeds one):
   // loading and storing the state would cost more than the run saves.
@@ -434,7 +469,7 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
   for (Eigen::Index k = 0; k < count; ++k) {
     Decision d;
     bool decided = false;  // d is sample k's decision already (a flow run stopped there)
-    if constexpr (kLocal && N == 2) {
+    if constexpr (kLocal && kCall == kPaperDirect && N == 2) {
       if (try_run && count - k >= kMinFlowRun && s.flow_run && !s.frozen && !s.settings.sets &&
           est->updates() >= s.paper->unknowns()) {
         k = s.alpha_full.size() == 3 ? FlowRun<3>(s, xs, k, count, phi, y, decisions, local, &d, &decided)
@@ -479,12 +514,19 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
       // covariance pointer, taken before the update).
-      const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
-                                   : est->covariance_matrix()->data();
-      d = s.residual->ClassifyObserveRow<N, P>(
-          s.prev.data(), x, n, dt, phi + k * u, y[k], ConstVecMap(alpha_class.data(), alpha_class.size()),
-          cov, s.frozen ? -2 : s.version, s.frozen ? s.frozen_updates : est->updates(),
-          s.settings.sigma.size() ? &s.settings.sigma : nullptr, s.settings.data_rtol, s.settings.data_atol);
+      const double* row = phi + k * u;
+      if constexpr (kLocal) {
+        d = s.frozen ? s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref,
+                                                          frozen_row, -2, s.frozen_updates, noise)
+                     : s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref,
+                                                          Row2Of(local), s.version, est->updates(), noise);
+      } else {
+        const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
+                                     : est->covariance_matrix()->data();
+        d = s.residual->ClassifyObserveRow<N, P>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref, cov,
+                                                 s.frozen ? -2 : s.version,
+                                                 s.frozen ? s.frozen_updates : est->updates(), noise);
+      }
       if (stops(d)) break;
       update(d);
     } else {
@@ -493,7 +535,7 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
       update(d);
       s.detector->Observe(c, d);
     }
-    if constexpr (kLocal && N == 2) try_run = try_run || !d.gamma;
+    if constexpr (kLocal && kCall == kPaperDirect && N == 2) try_run = try_run || !d.gamma;
     for (Eigen::Index i = 0; i < n; ++i) s.prev[i] = x[i];
     if (decisions != nullptr) decisions[k] = d;
   }

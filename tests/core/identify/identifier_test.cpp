@@ -130,6 +130,7 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
     bool sets, second_pass, localize;
     const char* detector = "paper";
     bool known_sigma = false, data_accuracy = false;
+    bool overflow = false;  // two samples of 1.7e308: the row between them is not finite (RLS skips it)
   };
   const Case cases[] = {
       {"§5 noise-free, sets", Model{ImpactMsd{}}, 0.0, 220.0, 1.0, true, false, false},
@@ -150,13 +151,22 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
        false, "residual", false, true},
       {"impact pendulum, residual detector, σ given", Model{ImpactPendulum{}}, 0.01, 220.0, 1.0, false, false,
        false, "residual", true},
+      {"§5 sigma 0.1, residual detector, σ given, forgetting, second pass", Model{ImpactMsd{}}, 0.1, 220.0,
+       0.999, false, true, false, "residual", true},
+      {"§5 sigma 0.05, residual detector, data accuracy, second pass, a non-finite row", Model{ImpactMsd{}},
+       0.05, 220.0, 1.0, false, true, false, "residual", false, true, true},
+      {"§5 sigma 0.25, residual detector, a non-finite row", Model{ImpactMsd{}}, 0.25, 220.0, 1.0, false,
+       false, false, "residual", false, false, true},
+      {"§5 sigma 0.1, residual detector, σ given, a non-finite row", Model{ImpactMsd{}}, 0.1, 220.0, 1.0,
+       false, false, false, "residual", true, false, true},
   };
   for (const Case& k : cases) {
     INFO(k.what);
     const auto& spec = k.model.spec();
     const Trajectory traj =
         Simulate(k.model, DefaultState(k.model), SampleGrid{spec.default_t_end, spec.default_dt});
-    const Mat y = AddMeasurementNoise(traj.x, Vec::Constant(k.model.state_size(), k.sigma), NoiseKey{3, 0});
+    Mat y = AddMeasurementNoise(traj.x, Vec::Constant(k.model.state_size(), k.sigma), NoiseKey{3, 0});
+    if (k.overflow) y.middleCols(y.cols() / 2, 2).setConstant(1.7e308);  // φ = (δt/2)(φ(ξ) + φ(ξ')) = ∞
     IdentifierSettings s;
     s.detector.kind = ParseKind<DetectorKind>(k.detector);
     s.detector.r = k.r;
@@ -171,6 +181,10 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
     const IdentifyResult fed = Identify(k.model, y, traj.dt, s);
     // The flow rows built once (the sweep shares them between the units of a trial).
     const FlowRows rows = BuildFlowRows(k.model, y, traj.dt);
+    if (k.overflow) {
+      const auto u = static_cast<Eigen::Index>(rows.phi.size()) / y.cols();
+      REQUIRE_FALSE(std::isfinite(rows.phi[static_cast<std::size_t>((y.cols() / 2 + 1) * u)]));
+    }
     const IdentifyResult shared = Identify(k.model, y, traj.dt, s, IdentifyOptions{.flow_rows = &rows});
     s.direct_calls = false;
     const IdentifyResult generic = Identify(k.model, y, traj.dt, s, IdentifyOptions{.trace = true});
