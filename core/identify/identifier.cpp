@@ -692,19 +692,19 @@ bool SameValues(const Mat& a, const Mat& b) {
   return a.rows() == b.rows() && a.cols() == b.cols() && (a.array() == b.array()).all();
 }
 bool SameEstimator(const EstimatorSettings& a, const EstimatorSettings& b) {
-  return a.kind == b.kind && a.forgetting == b.forgetting && a.p0 == b.p0 && SameValues(a.prior_scale, b.prior_scale) &&
-         a.refactor_every == b.refactor_every && a.window == b.window && a.frisch_box == b.frisch_box &&
-         a.frisch_point == b.frisch_point && a.frisch_confidence == b.frisch_confidence &&
-         SameValues(a.noise_shape, b.noise_shape);
+  return a.kind == b.kind && a.forgetting == b.forgetting && a.p0 == b.p0 &&
+         SameValues(a.prior_scale, b.prior_scale) && a.refactor_every == b.refactor_every &&
+         a.window == b.window && a.frisch_box == b.frisch_box && a.frisch_point == b.frisch_point &&
+         a.frisch_confidence == b.frisch_confidence && SameValues(a.noise_shape, b.noise_shape);
 }
 // Every field equal except the detector's r and false_alarm (the thresholds).
 bool SameExceptThreshold(const IdentifierSettings& a, const IdentifierSettings& b) {
-  return SameEstimator(a.flow_estimator, b.flow_estimator) && SameEstimator(a.jump_estimator, b.jump_estimator) &&
-         a.detector.kind == b.detector.kind && a.detector.tau0 == b.detector.tau0 &&
-         a.detector.bound == b.detector.bound && a.sets == b.sets && SameValues(a.sigma, b.sigma) &&
-         a.data_rtol == b.data_rtol && a.data_atol == b.data_atol && SameValues(a.alpha0, b.alpha0) &&
-         SameValues(a.beta0, b.beta0) && a.localize == b.localize && a.second_pass == b.second_pass &&
-         a.direct_calls == b.direct_calls;
+  return SameEstimator(a.flow_estimator, b.flow_estimator) &&
+         SameEstimator(a.jump_estimator, b.jump_estimator) && a.detector.kind == b.detector.kind &&
+         a.detector.tau0 == b.detector.tau0 && a.detector.bound == b.detector.bound && a.sets == b.sets &&
+         SameValues(a.sigma, b.sigma) && a.data_rtol == b.data_rtol && a.data_atol == b.data_atol &&
+         SameValues(a.alpha0, b.alpha0) && SameValues(a.beta0, b.beta0) && a.localize == b.localize &&
+         a.second_pass == b.second_pass && a.direct_calls == b.direct_calls;
 }
 
 }  // namespace

@@ -62,7 +62,8 @@ class Twins {
         d.gamma = false;
         todo.emplace_back(n, ids_[n].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, d, b.decisions[n]));
       }
-      todo.emplace_back(l, ids_[l].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, ids_[l].stopped(), b.decisions[l]));
+      todo.emplace_back(
+          l, ids_[l].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, ids_[l].stopped(), b.decisions[l]));
     }
   }
   // After the pass: every follower takes its leader's state.
@@ -93,11 +94,15 @@ class Twins {
   int Split(int l, const double* x) {
     std::vector<int> leaving;
     for (std::size_t f = 0; f < ids_.size(); ++f) {
-      if (leader_[f] == l && !ids_[f].Flags(ids_[static_cast<std::size_t>(l)], x)) leaving.push_back(static_cast<int>(f));
+      if (leader_[f] == l && !ids_[f].Flags(ids_[static_cast<std::size_t>(l)], x)) {
+        leaving.push_back(static_cast<int>(f));
+      }
     }
     if (leaving.empty()) return -1;
     int n = leaving.front();
-    for (const int f : leaving) n = ids_[static_cast<std::size_t>(f)].Leads(ids_[static_cast<std::size_t>(n)]) ? f : n;
+    for (const int f : leaving) {
+      if (ids_[static_cast<std::size_t>(f)].Leads(ids_[static_cast<std::size_t>(n)])) n = f;
+    }
     for (const int f : leaving) leader_[static_cast<std::size_t>(f)] = f == n ? -1 : n;
     return n;
   }
@@ -181,11 +186,10 @@ void RunTogether(std::vector<Identifier>& ids, const int* group, detail::FlowRun
       out[static_cast<std::size_t>(i)] = b.decisions[group[j]];
     }
     unsigned stopped = 0;
-    const Eigen::Index at =
-        b.count - k < kMinLockstepRun
-            ? k
-            : kStep[static_cast<std::size_t>(m - 1)](unit.data(), b.xs, k, b.count, b.phi, b.y, inv_dt, out.data(),
-                                                      &stopped, pending.data());
+    const Eigen::Index at = b.count - k < kMinLockstepRun ? k
+                                                          : kStep[static_cast<std::size_t>(m - 1)](
+                                                                unit.data(), b.xs, k, b.count, b.phi, b.y,
+                                                                inv_dt, out.data(), &stopped, pending.data());
     int kept = 0;
     for (int i = 0; i < m; ++i) {
       const auto slot = static_cast<std::size_t>(i);
@@ -194,7 +198,8 @@ void RunTogether(std::vector<Identifier>& ids, const int* group, detail::FlowRun
         *taken += units[j].admitted;
         const int id = group[j];
         const Eigen::Index end = ids[static_cast<std::size_t>(id)].EndFlowRun(
-            units[j], b.xs, at, b.count, b.phi, b.y, stopped != 0 ? &pending[slot] : nullptr, b.decisions[id]);
+            units[j], b.xs, at, b.count, b.phi, b.y, stopped != 0 ? &pending[slot] : nullptr,
+            b.decisions[id]);
         twins.Settle(id, end, b);
       } else {
         live[static_cast<std::size_t>(kept++)] = live[slot];
@@ -257,7 +262,8 @@ bool PassBlocks(std::vector<Identifier>& ids, const Mat& y, double dt, const Flo
   const Eigen::Index count = y.cols(), chunk = IdentifyOptions::kStopPollSamples;
   std::vector<Decision> buffer(ids.size() * static_cast<std::size_t>(chunk));
   std::vector<Decision*> decisions(ids.size());
-  for (std::size_t i = 0; i < ids.size(); ++i) decisions[i] = buffer.data() + i * static_cast<std::size_t>(chunk);
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    decisions[i] = buffer.data() + i * static_cast<std::size_t>(chunk);
   std::vector<Decision*> at_block(ids.size());  // the decisions of a block's first sample
   const double inv_dt = 1.0 / dt;
   for (Eigen::Index k = 0; k < count; k += chunk) {
@@ -282,7 +288,8 @@ bool PassBlocks(std::vector<Identifier>& ids, const Mat& y, double dt, const Flo
     }
     for (std::size_t i = 0; i < ids.size(); ++i) {  // a follower's decisions are its leader's
       const bool follows = twins.follows(i);
-      RecordDecisions(decisions[follows ? static_cast<std::size_t>(twins.leader(i)) : i], k, len, &(*results)[i]);
+      RecordDecisions(decisions[follows ? static_cast<std::size_t>(twins.leader(i)) : i], k, len,
+                      &(*results)[i]);
       if (follows) counts->shared += len;
     }
   }
@@ -292,7 +299,8 @@ bool PassBlocks(std::vector<Identifier>& ids, const Mat& y, double dt, const Flo
 // Without statistics (kThreshold false), units that differ only in their threshold are twins.
 template <int A, bool kThreshold>
 bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const FlowRows& rows,
-                  const std::atomic<bool>* stop, std::vector<IdentifyResult>* results, LockstepCounts* counts) {
+                  const std::atomic<bool>* stop, std::vector<IdentifyResult>* results,
+                  LockstepCounts* counts) {
   Twins twins(ids, !kThreshold);
   const bool completed = PassBlocks<A, kThreshold>(ids, y, dt, rows, stop, results, twins, counts);
   twins.Finish();
@@ -304,9 +312,10 @@ bool PassTogether(std::vector<Identifier>& ids, const Mat& y, double dt, const F
 std::vector<IdentifyResult> IdentifyLockstep(const Model& model, const Mat& y, double dt,
                                              const std::vector<IdentifierSettings>& settings,
                                              const IdentifyOptions& options, LockstepCounts* counts) {
-  bool together = settings.size() > 1 && model.state_size() == 2 && y.cols() >= 2 && y.rows() == 2 &&
-                  std::none_of(settings.begin(), settings.end(), [](const auto& s) { return s.second_pass; }) &&
-                  detail::PassInBlocks(model, y, options);
+  bool together =
+      settings.size() > 1 && model.state_size() == 2 && y.cols() >= 2 && y.rows() == 2 &&
+      std::none_of(settings.begin(), settings.end(), [](const auto& s) { return s.second_pass; }) &&
+      detail::PassInBlocks(model, y, options);
   FlowRows own;
   const FlowRows* rows = options.flow_rows;
   if (together && (rows == nullptr || rows->empty())) {
@@ -316,7 +325,8 @@ std::vector<IdentifyResult> IdentifyLockstep(const Model& model, const Mat& y, d
   together = together && !rows->empty() && rows->phi.size() == 2 * rows->y.size();  // one row, two unknowns
   std::vector<IdentifyResult> results(settings.size());
   if (!together) {
-    for (std::size_t i = 0; i < settings.size(); ++i) results[i] = Identify(model, y, dt, settings[i], options);
+    for (std::size_t i = 0; i < settings.size(); ++i)
+      results[i] = Identify(model, y, dt, settings[i], options);
     if (counts != nullptr) counts->total += static_cast<long>(settings.size()) * y.cols();
     return results;
   }
@@ -327,8 +337,8 @@ std::vector<IdentifyResult> IdentifyLockstep(const Model& model, const Mat& y, d
   }
   LockstepCounts taken;
   // Without statistics, no unit's threshold is reported: the runs leave it out (Decide<false>).
-  using Pass = bool (*)(std::vector<Identifier>&, const Mat&, double, const FlowRows&, const std::atomic<bool>*,
-                        std::vector<IdentifyResult>*, LockstepCounts*);
+  using Pass = bool (*)(std::vector<Identifier>&, const Mat&, double, const FlowRows&,
+                        const std::atomic<bool>*, std::vector<IdentifyResult>*, LockstepCounts*);
   const Pass pass = model.alpha_size() == 3
                         ? (options.statistics ? &PassTogether<3, true> : &PassTogether<3, false>)
                         : (options.statistics ? &PassTogether<2, true> : &PassTogether<2, false>);

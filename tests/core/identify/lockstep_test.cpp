@@ -52,6 +52,20 @@ struct Run {
   Run() : truth(Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4})) {}
 };
 
+// IdentifyLockstep of `settings` on y, each result against Identify alone, bit for bit; its counts.
+LockstepCounts CheckEachAlone(const Run& run, const Mat& y, const std::vector<IdentifierSettings>& settings,
+                              const IdentifyOptions& options) {
+  LockstepCounts counts;
+  const std::vector<IdentifyResult> together =
+      IdentifyLockstep(run.model, y, run.truth.dt, settings, options, &counts);
+  REQUIRE(together.size() == settings.size());
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    INFO("unit " << i);
+    CheckSame(together[i], Identify(run.model, y, run.truth.dt, settings[i], options));
+  }
+  return counts;
+}
+
 }  // namespace
 
 TEST_CASE("the §5 run noisy: M = 1 … 6 paper-detector units together give each unit's own result, bit for bit",
@@ -115,14 +129,7 @@ TEST_CASE("a trial's mix together: paper and residual detectors, sets, statistic
     options.check_paper_bound = statistics;
     const FlowRows rows = BuildFlowRows(run.model, y, run.truth.dt);
     if (!statistics) options.flow_rows = &rows;  // the sweep's shared rows
-    LockstepCounts counts;
-    const std::vector<IdentifyResult> together =
-        IdentifyLockstep(run.model, y, run.truth.dt, settings, options, &counts);
-    REQUIRE(together.size() == settings.size());
-    for (std::size_t i = 0; i < settings.size(); ++i) {
-      INFO("unit " << i);
-      CheckSame(together[i], Identify(run.model, y, run.truth.dt, settings[i], options));
-    }
+    const LockstepCounts counts = CheckEachAlone(run, y, settings, options);
     // The 8 paper units without sets step in lockstep through most of their flow samples, or (statistics
     // off) follow a twin's identifier.
     CHECK(counts.lockstep + counts.shared > 8 * (y.cols() / 2));
@@ -154,14 +161,7 @@ TEST_CASE("twins (statistics off): units that differ only in r or false_alarm, i
     IdentifyOptions options;
     options.statistics = false;
     options.check_paper_bound = false;
-    LockstepCounts counts;
-    const std::vector<IdentifyResult> together =
-        IdentifyLockstep(run.model, y, run.truth.dt, settings, options, &counts);
-    REQUIRE(together.size() == settings.size());
-    for (std::size_t i = 0; i < settings.size(); ++i) {
-      INFO("unit " << i);
-      CheckSame(together[i], Identify(run.model, y, run.truth.dt, settings[i], options));
-    }
+    const LockstepCounts counts = CheckEachAlone(run, y, settings, options);
     CHECK(counts.shared > 0);
     CHECK(counts.shared < followers_at_most * y.cols());  // some left their leader
   }
