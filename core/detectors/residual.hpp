@@ -180,13 +180,13 @@ class ResidualDetector final : public JumpDetector {
     RowTerms terms;
     const double z2max =
         std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, noise.known, &terms));
-    last_z2_ = z2max;
     d.statistic = std::sqrt(z2max);
     if (scale_samples_ == 0) {
       d.threshold = std::numeric_limits<double>::infinity();
     } else {
       d.threshold = Quantile();
       d.gamma = z2max > cached_q2_;
+      if (d.gamma) last_z2_ = z2max;
     }
     UpdateRowScale(0, terms, ScaleWeight());  // UpdateScale for the one row, its terms not stored
     ++scale_samples_;

@@ -480,13 +480,6 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
     }
     const double* x = xs + k * n;
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
-    // Stopping at a jump (StopAtJumps): classified, not counted, not applied.
-    auto stops = [&](const Decision& d) {
-      if (!d.gamma || !s.stop_at_jumps) return false;
-      s.stopped = d;
-      stop = k;
-      return true;
-    };
     auto update = [&](const Decision& d) {
       ++s.samples;
       if (!d.gamma) {
@@ -509,7 +502,11 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
                                                s.frozen ? -2 : s.version,
                                                s.frozen ? s.frozen_updates : est->updates());
       }
-      if (stops(d)) break;
+      if (d.gamma && s.stop_at_jumps) [[unlikely]] {  // StopAtJumps: classified, not counted, not applied
+        s.stopped = d;
+        stop = k;
+        break;
+      }
       update(d);
     } else if constexpr (kCall == kResidualDirect) {
       // Classify and Observe before the update, which Observe does not read (as Context's
@@ -527,7 +524,11 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
                                                  s.frozen ? -2 : s.version,
                                                  s.frozen ? s.frozen_updates : est->updates(), noise);
       }
-      if (stops(d)) break;
+      if (d.gamma && s.stop_at_jumps) [[unlikely]] {  // StopAtJumps: classified, not counted, not applied
+        s.stopped = d;
+        stop = k;
+        break;
+      }
       update(d);
     } else {
       const SampleContext c = SampleContextOf(s, x, phi + k * u, y + k, alpha_class);
