@@ -38,11 +38,11 @@ class Twins {
  public:
   Twins(std::vector<Identifier>& ids, bool on) : ids_(ids), leader_(ids.size(), -1) {
     for (std::size_t i = 0; on && i < ids.size(); ++i) Join(static_cast<int>(i));
-    for (std::size_t i = 0; i < ids.size(); ++i) ids_[i].StopAtJumps(Leads(static_cast<int>(i)));
+    for (std::size_t i = 0; i < ids.size(); ++i) ids_[i].StopAtJumps(HasFollowers(static_cast<int>(i)));
   }
   bool follows(std::size_t i) const { return leader_[i] >= 0; }
   int leader(std::size_t i) const { return leader_[i]; }
-  bool Leads(int i) const { return std::find(leader_.begin(), leader_.end(), i) != leader_.end(); }
+  bool HasFollowers(int i) const { return std::find(leader_.begin(), leader_.end(), i) != leader_.end(); }
 
   // Identifier i stopped at sample k of block b at a jump: the followers that decide flow there leave
   // with a copy; every part goes on to the block's end.
@@ -56,8 +56,8 @@ class Twins {
       if (n >= 0) {
         ids_[n].AdoptState(ids_[l]);
         std::copy_n(b.chunk[l], b.offset + at, b.chunk[n]);  // its decisions so far: the leader's
-        ids_[n].StopAtJumps(Leads(n));
-        ids_[l].StopAtJumps(Leads(l));
+        ids_[n].StopAtJumps(HasFollowers(n));
+        ids_[l].StopAtJumps(HasFollowers(l));
         Decision d = ids_[l].stopped();
         d.gamma = false;
         todo.emplace_back(n, ids_[n].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, d, b.decisions[n]));
@@ -234,7 +234,7 @@ void FeedBlock(std::vector<Identifier>& ids, const Block& b, double inv_dt, Twin
       }
       group[slot] = i;
       if (++m == kMaxLockstep) run();
-    } else if (twins.Leads(i)) {
+    } else if (twins.HasFollowers(i)) {
       twins.Settle(i, id.FeedRest(b.xs, 0, b.count, b.phi, b.y, b.decisions[i]), b);
     } else {
       id.Feed(ConstMatMap(b.xs, 2, b.count), b.phi, b.y, b.decisions[i]);
@@ -262,8 +262,9 @@ bool PassBlocks(std::vector<Identifier>& ids, const Mat& y, double dt, const Flo
   const Eigen::Index count = y.cols(), chunk = IdentifyOptions::kStopPollSamples;
   std::vector<Decision> buffer(ids.size() * static_cast<std::size_t>(chunk));
   std::vector<Decision*> decisions(ids.size());
-  for (std::size_t i = 0; i < ids.size(); ++i)
+  for (std::size_t i = 0; i < ids.size(); ++i) {
     decisions[i] = buffer.data() + i * static_cast<std::size_t>(chunk);
+  }
   std::vector<Decision*> at_block(ids.size());  // the decisions of a block's first sample
   const double inv_dt = 1.0 / dt;
   for (Eigen::Index k = 0; k < count; k += chunk) {
