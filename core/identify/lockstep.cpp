@@ -47,6 +47,7 @@ class Twins {
   // Identifier i stopped at sample k of block b at a jump: the followers that decide flow there leave
   // with a copy; every part goes on to the block's end.
   void Settle(int i, Eigen::Index k, const Block& b) {
+    if (k == b.count) return;  // not stopped
     std::vector<std::pair<int, Eigen::Index>> todo{{i, k}};
     while (!todo.empty()) {
       const auto [l, at] = todo.back();
@@ -65,6 +66,15 @@ class Twins {
       todo.emplace_back(
           l, ids_[l].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, ids_[l].stopped(), b.decisions[l]));
     }
+  }
+  // The units fed at the start of a block (those that follow nobody), in order; a follower that
+  // leaves within the block is fed there by Settle.
+  const std::vector<int>& Fed() {
+    fed_.clear();
+    for (std::size_t i = 0; i < ids_.size(); ++i) {
+      if (!follows(i)) fed_.push_back(static_cast<int>(i));
+    }
+    return fed_;
   }
   // After the pass: every follower takes its leader's state.
   void Finish() {
@@ -109,6 +119,7 @@ class Twins {
 
   std::vector<Identifier>& ids_;
   std::vector<int> leader_;  // the unit each follows; −1: fed itself
+  std::vector<int> fed_;     // Fed()'s list, kept for its capacity
 };
 
 // M flow runs (all in one bound mode) from sample k of a block (xs, phi, y: its samples and rows;
@@ -220,11 +231,7 @@ void FeedBlock(std::vector<Identifier>& ids, const Block& b, double inv_dt, Twin
     RunTogether<A, kThreshold>(ids, group.data(), units.data(), m, b, inv_dt, twins, taken);
     m = 0;
   };
-  std::vector<int> fed;  // a follower that leaves in this block is fed there by Settle
-  for (std::size_t i = 0; i < ids.size(); ++i) {
-    if (!twins.follows(i)) fed.push_back(static_cast<int>(i));
-  }
-  for (const int i : fed) {
+  for (const int i : twins.Fed()) {
     Identifier& id = ids[static_cast<std::size_t>(i)];
     const auto slot = static_cast<std::size_t>(m);
     if (b.count >= kMinLockstepRun && id.BeginFlowRun<A>(&units[slot])) {
