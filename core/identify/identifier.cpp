@@ -425,10 +425,67 @@ SampleContext Identifier::SampleContextOf(State& s, const double* x, const doubl
                        .at_cur = s.contextual ? s.CurAt() : Context{}};
 }
 
+// The residual detector's inputs fixed through a row block: α̂ (bound once), the noise inputs, and in
+// a second pass the frozen α̂'s unknowns and covariance as values (kLocal).
+struct Identifier::ResidualInputs {
+  ResidualInputs(const State& s, Eigen::Index n, bool local)
+      : alpha(s.frozen ? s.frozen_alpha : s.alpha_full),
+        noise(ResidualNoise::Make(s.settings.sigma.size() ? &s.settings.sigma : nullptr, n, s.settings.data_rtol,
+                                  s.settings.data_atol)) {
+    if (local && s.frozen) {
+      frozen_row = FrozenRow2(s.frozen_alpha, s.builder.flow_layout().unknown.data(), s.frozen_covariance);
+    }
+  }
+  ConstVecRef alpha;
+  ResidualNoise noise;
+  Row2Estimate frozen_row;
+};
+
+// The residual detector's decision on sample x (classified and observed; the update, which Observe
+// does not read, comes after, as Context's covariance pointer is taken before it).
+template <int N, int P, bool kLocal, class E>
+Decision Identifier::ClassifyResidual(State& s, E* est, const ResidualInputs& in, const detail::Rls2State& local,
+                                      const double* x, Eigen::Index n, double dt, const double* row, double yk) {
+  if constexpr (kLocal) {
+    return s.frozen ? s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, yk, in.alpha, in.frozen_row,
+                                                         -2, s.frozen_updates, in.noise)
+                    : s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, yk, in.alpha, Row2Of(local),
+                                                         s.version, est->updates(), in.noise);
+  } else {
+    const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
+                                 : est->covariance_matrix()->data();
+    return s.residual->ClassifyObserveRow<N, P>(s.prev.data(), x, n, dt, row, yk, in.alpha, cov,
+                                                s.frozen ? -2 : s.version,
+                                                s.frozen ? s.frozen_updates : est->updates(), in.noise);
+  }
+}
+
+// Decision d applied to sample x, whose flow row is (row, yk): α̂ updated (γ = 0) or the jump regressed.
+template <int P, bool kLocal, class E>
+void Identifier::ApplyRow(State& s, E* est, detail::Rls2State& local, const Decision& d, const double* row,
+                          double yk, const double* x, Eigen::Index n, const Vec& alpha_class) {
+  ++s.samples;
+  if (d.gamma) {
+    AfterJump(s, ConstVecMap(x, n), alpha_class);
+    return;
+  }
+  if constexpr (kLocal) {
+    est->UpdateRowIn(local, row, yk);
+    const double theta[2] = {local.t0, local.t1};
+    AfterFlowUpdate<P>(s, theta);
+  } else {
+    est->template UpdateRow<P>(row, yk);
+    AfterFlowUpdate<P>(s, est->estimate().data());
+  }
+  if (s.settings.sets) s.flow_set.Add(s.prev);
+}
+
 // One identified row estimated by RLS or integral (E, s.rls or s.integral set), for `count` consecutive
 // samples x_k = xs + k·n after s.prev, with their flow regression rows (phi + k·|u|, y[k]) already built.
-// kPaper: the paper detector on a constant-Jacobian model, called directly (s.paper); otherwise the
-// detector's interface. N = n and P = |u| when known at compile time (the loops unroll), else 0.
+// kCall: the paper detector on a constant-Jacobian model or the residual detector, called directly
+// (s.paper, s.residual), or the detector's interface. N = n and P = |u| when known at compile time (the
+// loops unroll), else 0. Returns where it stopped (StopAtJumps: a direct path's jump classified, not
+// counted, not applied), else count.
 template <int N, int P, Identifier::DetectorCall kCall, class E>
 Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
                                   const double* y, Decision* decisions) {
@@ -447,19 +504,8 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
   constexpr bool kLocal = kCall != kInterface && std::is_same_v<E, Rls> && P == 2;
   [[maybe_unused]] detail::Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
-  // The residual detector's inputs fixed through the block: α̂ (bound once), the noise inputs, and
-  // in a second pass the frozen α̂'s unknowns and covariance as values.
-  [[maybe_unused]] std::optional<ConstVecRef> alpha_ref;
-  [[maybe_unused]] ResidualNoise noise;
-  [[maybe_unused]] Row2Estimate frozen_row;
-  if constexpr (kCall == kResidualDirect) {
-    alpha_ref.emplace(s.frozen ? s.frozen_alpha : s.alpha_full);
-    noise = ResidualNoise::Make(s.settings.sigma.size() ? &s.settings.sigma : nullptr, n,
-                                s.settings.data_rtol, s.settings.data_atol);
-    if (kLocal && s.frozen) {
-      frozen_row = FrozenRow2(s.frozen_alpha, s.builder.flow_layout().unknown.data(), s.frozen_covariance);
-    }
-  }
+  [[maybe_unused]] std::optional<ResidualInputs> inputs;
+  if constexpr (kCall == kResidualDirect) inputs.emplace(s, n, kLocal);
   // A flow run is tried again only after a flow sample of the per-sample path: where most samples are
   // jumps (a small r), runs would end at once. Fewer than kMinFlowRun samples left (Step feeds one):
   // loading and storing the state would cost more than the run saves.
@@ -480,61 +526,27 @@ Eigen::Index Identifier::RowBlock(State& s, const double* xs, Eigen::Index count
     }
     const double* x = xs + k * n;
     const Vec& alpha_class = s.frozen ? s.frozen_alpha : s.alpha_full;
-    auto update = [&](const Decision& d) {
-      ++s.samples;
-      if (!d.gamma) {
-        if constexpr (kLocal) {
-          est->UpdateRowIn(local, phi + k * u, y[k]);
-          const double theta[2] = {local.t0, local.t1};
-          AfterFlowUpdate<P>(s, theta);
-        } else {
-          est->template UpdateRow<P>(phi + k * u, y[k]);
-          AfterFlowUpdate<P>(s, est->estimate().data());
-        }
-        if (s.settings.sets) s.flow_set.Add(s.prev);
-      } else {
-        AfterJump(s, ConstVecMap(x, n), alpha_class);
-      }
-    };
-    if constexpr (kCall == kPaperDirect) {
-      if (!decided) {
-        d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, dt, alpha_class.data(),
-                                               s.frozen ? -2 : s.version,
-                                               s.frozen ? s.frozen_updates : est->updates());
-      }
-      if (d.gamma && s.stop_at_jumps) [[unlikely]] {  // StopAtJumps: classified, not counted, not applied
-        s.stopped = d;
-        stop = k;
-        break;
-      }
-      update(d);
-    } else if constexpr (kCall == kResidualDirect) {
-      // Classify and Observe before the update, which Observe does not read (as Context's
-      // covariance pointer, taken before the update).
-      const double* row = phi + k * u;
-      if constexpr (kLocal) {
-        d = s.frozen ? s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref,
-                                                          frozen_row, -2, s.frozen_updates, noise)
-                     : s.residual->ClassifyObserveRow2<N>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref,
-                                                          Row2Of(local), s.version, est->updates(), noise);
-      } else {
-        const double* cov = s.frozen ? (s.frozen_covariance ? s.frozen_covariance->data() : nullptr)
-                                     : est->covariance_matrix()->data();
-        d = s.residual->ClassifyObserveRow<N, P>(s.prev.data(), x, n, dt, row, y[k], *alpha_ref, cov,
-                                                 s.frozen ? -2 : s.version,
-                                                 s.frozen ? s.frozen_updates : est->updates(), noise);
-      }
-      if (d.gamma && s.stop_at_jumps) [[unlikely]] {  // StopAtJumps: classified, not counted, not applied
-        s.stopped = d;
-        stop = k;
-        break;
-      }
-      update(d);
-    } else {
+    if constexpr (kCall == kInterface) {
       const SampleContext c = SampleContextOf(s, x, phi + k * u, y + k, alpha_class);
       d = s.detector->Classify(c);
-      update(d);
+      ApplyRow<P, kLocal>(s, est, local, d, phi + k * u, y[k], x, n, alpha_class);
       s.detector->Observe(c, d);
+    } else {
+      if constexpr (kCall == kPaperDirect) {
+        if (!decided) {
+          d = s.paper->ClassifyConstant<N, true>(s.prev.data(), x, n, dt, alpha_class.data(),
+                                                 s.frozen ? -2 : s.version,
+                                                 s.frozen ? s.frozen_updates : est->updates());
+        }
+      } else {
+        d = ClassifyResidual<N, P, kLocal>(s, est, *inputs, local, x, n, dt, phi + k * u, y[k]);
+      }
+      if (d.gamma && s.stop_at_jumps) [[unlikely]] {  // StopAtJumps: classified, not counted, not applied
+        s.stopped = d;
+        stop = k;
+        break;
+      }
+      ApplyRow<P, kLocal>(s, est, local, d, phi + k * u, y[k], x, n, alpha_class);
     }
     if constexpr (kLocal && kCall == kPaperDirect && N == 2) try_run = try_run || !d.gamma;
     for (Eigen::Index i = 0; i < n; ++i) s.prev[i] = x[i];

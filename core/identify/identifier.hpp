@@ -200,6 +200,18 @@ class Identifier {
   static RowBlockFn ChooseRowBlock(int n, int u);
   template <class E>
   static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
+  // RowBlock's parts: the residual detector's inputs fixed through a block, its decision on one
+  // sample, and the decision applied (θ and P in `local` when kLocal).
+  struct ResidualInputs;
+  template <int N, int P, bool kLocal, class E>
+  [[gnu::always_inline]] static inline Decision ClassifyResidual(State& s, E* est, const ResidualInputs& in,
+                                                                 const detail::Rls2State& local, const double* x,
+                                                                 Eigen::Index n, double dt, const double* row,
+                                                                 double yk);
+  template <int P, bool kLocal, class E>
+  [[gnu::always_inline]] static inline void ApplyRow(State& s, E* est, detail::Rls2State& local, const Decision& d,
+                                                     const double* row, double yk, const double* x, Eigen::Index n,
+                                                     const Vec& alpha_class);
   template <int A>
   static Eigen::Index FlowRun(State& s, const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
                               const double* y, Decision* decisions, detail::Rls2State& r, Decision* pending,
