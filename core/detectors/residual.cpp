@@ -200,7 +200,6 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
     round2_[i] = terms.round2;
     z2max = std::max(z2max, z2);
   }
-  last_z2_ = z2max;
   d.statistic = std::sqrt(z2max);
   if (scale_samples_ == 0) {  // no scale yet: this sample starts it
     d.threshold = std::numeric_limits<double>::infinity();
@@ -209,6 +208,7 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
   d.threshold = Quantile();
   // On squares: the square root of the statistic stays off the decision.
   d.gamma = z2max > cached_q2_;
+  if (d.gamma) last_z2_ = z2max;
   return d;
 }
 

@@ -349,7 +349,7 @@ class ResidualDetector final : public JumpDetector {
   // Per-sample scratch, filled by Classify and reused by Observe.
   std::vector<double> rho2_, lev_, noise_, round2_;
   bool active_ = false;
-  double last_z2_ = 0.0;  // the last classified sample's max z²
+  double last_z2_ = 0.0;  // max z² of the last sample flagged (FlagsWith)
   Mat jac_prev_, jac_cur_;
   Vec jac_at_;
   bool have_jac_ = false;
