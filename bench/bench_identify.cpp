@@ -167,6 +167,34 @@ void BM_IdentifyStepFusedReference(benchmark::State& state) {
 }
 BENCHMARK(BM_IdentifyStepFusedReference)->Unit(benchmark::kMillisecond);
 
+// Reference, not hysid's code path: only the RLS update of the step (P0 = 1e8·I, λ = 1) by hand, in
+// scalars, over the §5 run's flow rows built beforehand (BuildFlowRows), every row taken as a flow
+// row: the loop-carried chain the step cannot beat, with no detector, no decisions and no rows formed.
+void BM_RlsUpdateReference(benchmark::State& state) {
+  const Mat y = PaperSamples(0.0);
+  const FlowRows rows = BuildFlowRows(Model{ImpactMsd{}}, y, 5e-4);
+  for (auto _ : state) {
+    double a = 0.0, b = 0.0, p00 = 1e8, p01 = 0.0, p11 = 1e8;
+    for (Eigen::Index k = 1; k < y.cols(); ++k) {
+      const double f0 = rows.phi[2 * k], f1 = rows.phi[2 * k + 1], dv = rows.y[k];
+      const double g0 = p00 * f0 + p01 * f1, g1 = p01 * f0 + p11 * f1;
+      const double inv = 1.0 / (1.0 + f0 * g0 + f1 * g1);
+      const double e = dv - f0 * a - f1 * b;
+      a += g0 * inv * e;
+      b += g1 * inv * e;
+      p00 -= g0 * g0 * inv;
+      p01 -= g0 * g1 * inv;
+      p11 -= g1 * g1 * inv;
+    }
+    benchmark::DoNotOptimize(a);
+    benchmark::DoNotOptimize(b);
+  }
+  state.counters["per_sample"] =
+      benchmark::Counter(static_cast<double>(y.cols()),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_RlsUpdateReference)->Unit(benchmark::kMillisecond);
+
 // A sweep trial's paper-detector units: M = state.range(0) identifications of the §5 run (σ =
 // state.range(1) / 100) that differ only in r (the robustness map's 220, 500, 1000, 50, 20, 5, the
 // first M), on flow rows built once, no sets, statistics off. Lockstep: IdentifyLockstep with each
