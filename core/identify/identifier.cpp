@@ -670,13 +670,8 @@ Eigen::Index Identifier::ApplyAndFeed(const double* xs, Eigen::Index k, Eigen::I
                                       const double* y, const Decision& d, Decision* decisions) {
   State& s = *s_;
   const double* x = xs + 2 * k;  // RowBlock's per-sample path with the decision taken
-  ++s.samples;
-  if (!d.gamma) {
-    s.rls->UpdateRow<2>(phi + 2 * k, y[k]);
-    AfterFlowUpdate<2>(s, s.rls->estimate().data());
-  } else {
-    AfterJump(s, ConstVecMap(x, 2), s.alpha_full);
-  }
+  detail::Rls2State unused{};
+  ApplyRow<2, false>(s, s.rls, unused, d, phi + 2 * k, y[k], x, 2, s.alpha_full);
   s.prev[0] = x[0];
   s.prev[1] = x[1];
   decisions[k] = d;
