@@ -167,6 +167,64 @@ void BM_IdentifyStepFusedReference(benchmark::State& state) {
 }
 BENCHMARK(BM_IdentifyStepFusedReference)->Unit(benchmark::kMillisecond);
 
+// Reference, not hysid's code path: BM_IdentifyStepFusedReference plus what Identify keeps of every
+// sample, its Decision (γ, the statistic D = ‖Δξ‖/δt and the threshold τ̂ = (r/2)·‖α̂‖·s, τ̂0 in the
+// warm-up) written to an array: two more square roots per sample than the reference's squared test,
+// and ‖ξ‖ carried to the next sample as the step carries it. "jumps" must equal 14.
+void BM_IdentifyStepFusedRecordingReference(benchmark::State& state) {
+  const Mat y = PaperSamples(0.0);
+  const double dt = 5e-4, h = 0.5 * dt, half_r = 110.0, tau0 = 1e5;
+  std::vector<Decision> decisions(static_cast<std::size_t>(y.cols()));
+  long jumps = 0;
+  for (auto _ : state) {
+    double a = 0.0, b = 0.0, p00 = 1e8, p01 = 0.0, p11 = 1e8;  // θ = (a, b), P
+    long updates = 0;
+    jumps = 0;
+    double px = y(0, 0), pv = y(1, 0), prev_norm = std::sqrt(px * px + pv * pv);
+    for (Eigen::Index k = 1; k < y.cols(); ++k) {
+      const double x = y(0, k), v = y(1, k);
+      const double f0 = -h * (x + px), f1 = -h * (v + pv), dv = v - pv;  // Φ = (f0, f1), y = Δξ2
+      const double d2 = ((x - px) * (x - px) + dv * dv) / (dt * dt);
+      const double norm = std::sqrt(x * x + v * v);
+      Decision d;
+      d.statistic = std::sqrt(d2);
+      if (updates < 2) {
+        d.gamma = d2 > tau0 * tau0;
+        d.threshold = tau0;
+      } else {
+        const double s = norm + prev_norm, l2 = a * a + b * b;
+        d.gamma = d2 > half_r * half_r * l2 * s * s;
+        d.threshold = half_r * std::sqrt(l2) * s;
+      }
+      if (!d.gamma) {
+        const double g0 = p00 * f0 + p01 * f1, g1 = p01 * f0 + p11 * f1;
+        const double inv = 1.0 / (1.0 + f0 * g0 + f1 * g1);
+        const double e = dv - f0 * a - f1 * b;
+        a += g0 * inv * e;
+        b += g1 * inv * e;
+        p00 -= g0 * g0 * inv;
+        p01 -= g0 * g1 * inv;
+        p11 -= g1 * g1 * inv;
+        ++updates;
+      } else {
+        ++jumps;
+      }
+      decisions[static_cast<std::size_t>(k)] = d;
+      px = x;
+      pv = v;
+      prev_norm = norm;
+    }
+    benchmark::DoNotOptimize(a);
+    benchmark::DoNotOptimize(b);
+    benchmark::DoNotOptimize(decisions.data());
+  }
+  state.counters["jumps"] = static_cast<double>(jumps);
+  state.counters["per_sample"] =
+      benchmark::Counter(static_cast<double>(y.cols()),
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_IdentifyStepFusedRecordingReference)->Unit(benchmark::kMillisecond);
+
 // Reference, not hysid's code path: only the RLS update of the step (P0 = 1e8·I, λ = 1) by hand, in
 // scalars, over the §5 run's flow rows built beforehand (BuildFlowRows), every row taken as a flow
 // row: the loop-carried chain the step cannot beat, with no detector, no decisions and no rows formed.
