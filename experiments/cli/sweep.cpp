@@ -148,7 +148,7 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
 void AddSweepCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<SweepArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "sweep", "run a Monte Carlo sweep file (TOML) in parallel; resumable, shardable (README: Sweeps)");
+      "sweep", "run a Monte Carlo sweep file (TOML) in parallel; resumable, shardable (docs/cli.md: Sweeps)");
   cmd->add_option("file", args->file, "sweep file, e.g. experiments/studies/paper_noise.toml")->required();
   cmd->add_option("--out", args->out, "run directory (default: the file's run.out)");
   cmd->add_option("--threads", args->threads, "worker threads (0: all cores); results do not depend on it")
