@@ -37,6 +37,7 @@ struct ExprMatrix {
   std::vector<std::string> text = {};    // every entry as written (for the equations; empty for a part)
   std::string joined = {};               // the expressions, comma-separated
   std::vector<Eigen::Index> constant_at = {};  // ... or a part's constants, at these positions
+  bool part = false;                           // a part: constant and constant_at hold its constants alone
 };
 
 // Slots of Compiled::var: the states, then the inputs u, the guard parameters γ and the time t.
@@ -148,7 +149,7 @@ void Load(const Definition& def, Compiled& c, const double* x, std::size_t n, co
 
 // Fills out (column-major, rows·cols) with the matrix (a part: its entries) at the loaded state.
 void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
-  if (m.constant_at.empty()) {
+  if (!m.part) {
     CopySmall(m.constant.data(), m.constant.size(), out);
   } else {
     for (std::size_t j = 0; j < m.constant.size(); ++j) out[m.constant_at[j]] = m.constant[j];
@@ -171,14 +172,15 @@ void PhiColumnsOf(const ExprMatrix& m, Compiled& c, const mu::Parser& p, const d
   const auto expressions = static_cast<Eigen::Index>(m.index.size());
   const auto constants = static_cast<Eigen::Index>(m.constant.size());
   const double* constant = m.constant.data();
-  const Eigen::Index* constant_at = m.constant_at.empty() ? nullptr : m.constant_at.data();
+  const Eigen::Index* constant_at = m.constant_at.data();
+  const bool part = m.part;
   const Eigen::Index* index = m.index.data();
   double* var = c.var.data();
   for (Eigen::Index k = 0; k < count; ++k) {
     const double* xk = x + k * n;
     double* out = phi + k * size;
     for (Eigen::Index i = 0; i < n; ++i) var[i] = xk[i];
-    if (constant_at == nullptr) {
+    if (!part) {
       for (Eigen::Index j = 0; j < size; ++j) out[j] = constant[j];
     } else {
       for (Eigen::Index j = 0; j < constants; ++j) out[constant_at[j]] = constant[j];
@@ -417,7 +419,7 @@ ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::
 // Row r of φ alone: its expressions in one list as ParseMatrix writes them (muParser evaluates each
 // entry of a list on its own, so the values are the whole matrix's bit for bit) and its constants.
 ExprMatrix RowOf(const ExprMatrix& m, Eigen::Index r) {
-  ExprMatrix row{.rows = m.rows, .cols = m.cols};
+  ExprMatrix row{.rows = m.rows, .cols = m.cols, .part = true};
   std::vector<std::string> exprs;
   for (Eigen::Index j = 0; j < m.cols; ++j) {
     const Eigen::Index at = j * m.rows + r;

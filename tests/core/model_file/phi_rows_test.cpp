@@ -137,6 +137,48 @@ TEST_CASE("one row of φ alone with a guard parameter: the context's γ, as the 
   CHECK(phi[11] == 1.0 - 0.25);
 }
 
+// A row of expressions only (no constant entry) and a row of constants only, with the context path
+// too (a guard parameter in the guard).
+const std::string kNoConstants = R"toml(name = "no-constants"
+states = ["x", "v"]
+alpha = [{ name = "a", value = 5.0 }, { name = "b", value = 0.1 }]
+beta = [{ name = "lambda", value = 0.9 }]
+[flow]
+phi = [[1, 0], ["-x", "-v"]]
+rows = ["v"]
+[jump]
+psi = [["0*x"], ["-v"]]
+rows = ["v"]
+[[guard]]
+name = "wall"
+h = "x"
+direction = "falling"
+[sets]
+C = "x >= 0"
+D = "x == 0 && v <= 0"
+[defaults]
+x0 = [1.0, 0.0]
+t_end = 1.0
+dt = 1e-3
+)toml";
+
+TEST_CASE("one row of φ alone: a row without constants and a row without expressions", "[model_file]") {
+  const Model model = ParseModelFile(kNoConstants, "no-constants.toml").model;
+  REQUIRE(RequireRowsAsColumns(model, Context{}) == 2 * 2 * 150);
+  std::string with_gamma = kNoConstants;
+  with_gamma.replace(with_gamma.find("[flow]"), 6, "guard_params = [{ name = \"w\", value = 0.5 }]\n[flow]");
+  with_gamma.replace(with_gamma.find("h = \"x\""), 7, "h = \"x - w\"");
+  const Model contextual = ParseModelFile(with_gamma, "no-constants-gamma.toml").model;
+  REQUIRE(contextual.gamma_size() == 1);
+  REQUIRE(RequireRowsAsColumns(contextual, Context{}) == 2 * 2 * 150);
+  const double x[2] = {2.0, -3.0};
+  std::vector<double> phi(4, 0.0);
+  model.PhiRowColumns(1, x, 1, phi.data());
+  CHECK((phi[1] == -2.0 && phi[3] == 3.0));
+  model.PhiRowColumns(0, x, 1, phi.data());
+  CHECK((phi[0] == 1.0 && phi[2] == 0.0));
+}
+
 // Two modes whose φ differ (the issue's pump tank with a second state; γ in the guards).
 const std::string kModes = R"toml(name = "tank"
 states = ["h", "q"]
