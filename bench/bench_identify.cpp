@@ -169,8 +169,8 @@ BENCHMARK(BM_IdentifyStepFusedReference)->Unit(benchmark::kMillisecond);
 
 // Reference, not hysid's code path: BM_IdentifyStepFusedReference plus what Identify keeps of every
 // sample, its Decision (γ, the statistic D = ‖Δξ‖/δt and the threshold τ̂ = (r/2)·‖α̂‖·s, τ̂0 in the
-// warm-up) written to an array: two more square roots per sample than the reference's squared test,
-// and ‖ξ‖ carried to the next sample as the step carries it. "jumps" must equal 14.
+// warm-up) written to an array. Three square roots per sample (‖ξ‖, carried to the next sample as the
+// step carries it, D and τ̂) against the reference's two norms. "jumps" must equal 14.
 void BM_IdentifyStepFusedRecordingReference(benchmark::State& state) {
   const Mat y = PaperSamples(0.0);
   const double dt = 5e-4, h = 0.5 * dt, half_r = 110.0, tau0 = 1e5;
