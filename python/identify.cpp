@@ -289,10 +289,12 @@ py::dict RefinedDict(const RefineResult& r, const IdentifyResult& given, bool ch
   py::dict out;
   out["status"] = ToString(r.status);
   out["reason"] = r.reason;
+  out["route"] = r.route;
+  out["reported"] = r.reported;
   out["names"] = r.names;
   out["estimates"] = ByName(r.names, r.estimate.Theta(r.unknowns));
   out["recursive_estimates"] = ByName(r.names, r.start.Theta(r.unknowns));
-  out["standard_errors"] = ByName(r.names, r.standard_errors);  // empty unless the fit is ok
+  out["standard_errors"] = ByName(r.names, r.standard_errors);  // empty unless reported
   out["covariance"] = Transposed(r.covariance);
   out["alpha"] = ToArray(r.estimate.alpha);
   out["beta"] = ToArray(r.estimate.beta);

@@ -29,6 +29,7 @@
 #include "experiments/cli/cli.hpp"
 #include "experiments/cli/identify_events.hpp"
 #include "experiments/cli/identify_output.hpp"
+#include "sim/sensitivity/sensitivity.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -369,6 +370,49 @@ void CheckOutputs(const IdentifyArgs& args) {
 
 }  // namespace
 
+// The states the measured ones cannot give (ReconstructionPlan::error): each chain simulated from the
+// model's own values (a model file's start values), from its first sample's measured states and the
+// model's default for the others; the measured rows are the data's. A start only: the refinement
+// fits every state from there.
+Mat SimulatedStates(const Model& model, const std::vector<int>& measured, const SampleData& data) {
+  const int n = model.state_size();
+  const Eigen::Index K = data.y.cols();
+  const Vec fallback = DefaultState(model);
+  Mat x = fallback.replicate(1, K);
+  for (std::size_t r = 0; r < measured.size(); ++r) x.row(measured[r]) = data.y.row(Eigen::Index(r));
+  SensitivityOptions o;
+  o.sensitivities = false;
+  o.sim.rtol = o.sim.atol = 1e-8;
+  for (Eigen::Index a = 0; a < K;) {
+    Eigen::Index b = a + 1;
+    while (b < K && (data.chain_start.empty() || !data.chain_start[std::size_t(b)])) ++b;
+    std::vector<double> times;
+    for (Eigen::Index k = a; k < b; ++k) times.push_back(data.t[std::size_t(k)] - data.t[std::size_t(a)]);
+    InputSignal inputs;
+    if (data.u.rows() > 0) {
+      inputs.times = times;
+      inputs.values = data.u.middleCols(a, b - a);
+    }
+    SensitivityTrajectory run;
+    try {
+      if (times.size() >= 2) {
+        run = SimulateSensitivities(model, HybridParameters::Of(model, x.col(a)), Unknowns{{}, {}, {}, false}, times,
+                                    o, inputs.empty() ? nullptr : &inputs);
+      }
+    } catch (const std::invalid_argument&) {  // the first sample outside C and D: the default stands
+    }
+    for (Eigen::Index k = 0; k < b - a; ++k) {
+      const long at = std::min<long>(k, run.trajectory.size() - 1);
+      if (at < 0) break;
+      for (int j = 0; j < n; ++j) {
+        if (std::find(measured.begin(), measured.end(), j) == measured.end()) x(j, a + k) = run.trajectory.x(j, at);
+      }
+    }
+    a = b;
+  }
+  return x;
+}
+
 // Only some states measured: the others reconstructed from the measured ones on the flow segments
 // between the kinks detected in them (core/identify/reconstruct.hpp), data.y replaced by the n × K
 // reconstruction and the detected jumps given to the identifier as labels. Returns what was done.
@@ -380,9 +424,15 @@ PartialOutputs Reconstruct(const Model& model, const std::string& model_file, co
   if (static_cast<int>(measured.size()) == model.state_size()) return partial;
   const ReconstructionPlan plan = PlanReconstruction(model, measured);
   if (!plan.ok()) {
-    throw std::invalid_argument(fmt::format(
-        "{}: measured: {}", model_file.empty() ? fmt::format("model '{}'", model.name()) : "--model-file " + model_file,
-        plan.error));
+    (void)model_file;
+    for (int i = 0; i < model.state_size(); ++i) {
+      if (std::find(measured.begin(), measured.end(), i) == measured.end()) partial.reconstructed.push_back(i);
+    }
+    data.y = SimulatedStates(model, measured, data);
+    partial.reconstruction = fmt::format(
+        "simulated from the model's own values (a start only: {}; the refinement fits them with the model)",
+        plan.error);
+    return partial;
   }
   ReconstructOptions ro;
   ro.stop = options.stop;

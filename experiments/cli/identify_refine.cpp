@@ -94,9 +94,9 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
 nlohmann::json ChecksJson(const RefineResult& r, const RefineOptions& options) {
   return {{"residual_rms",
            {{"value", r.normalized_rms},
-            {"low", r.sigma_estimated ? nlohmann::json() : nlohmann::json(options.rms_low)},
-            {"high", options.rms_high}}},
-          {"lag1", {{"value", r.lag1}, {"limit", options.max_lag1}}},
+            {"test_size", options.residual_test_size / 2},
+            {"high", r.sigma_estimated ? nlohmann::json(options.rms_high) : nlohmann::json()}}},
+          {"lag1", {{"value", r.lag1}, {"test_size", options.residual_test_size / 2}}},
           {"jump_count", {{"model", r.model_jumps}, {"detected", r.detected_jumps}}},
           {"iterations", {{"value", r.iterations}, {"limit", options.max_iterations}}},
           {"initial_cost", r.initial_cost},
@@ -127,6 +127,8 @@ nlohmann::json ToJson(nlohmann::json j, const RefineResult& r, const IdentifyRes
   j["refine"] = refine;
   j["status"] = refine == "none" ? "recursive" : ToString(r.status);
   j["reason"] = r.reason;
+  j["route"] = r.route;
+  j["reported"] = refine != "none" && r.reported;
   j["names"] = r.names;
   j["estimate"] = vec(r.estimate.Theta(r.unknowns));
   j["recursive_estimate"] = vec(r.start.Theta(r.unknowns));
@@ -183,8 +185,9 @@ RefineResult RunRefinement(const Model& model, const SampleData& data, const Ide
 // The refinement's status, the chains and samples it fit, and how the fit was reached (--refine ml).
 void PrintRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                      const RefineResult& r) {
-  std::printf("refinement (maximum likelihood on the detected hybrid time domain): %s%s%s\n",
-              ToString(r.status), r.ok() ? "" : ": ", r.reason.c_str());
+  std::printf("refinement (maximum likelihood, output error): %s%s%s\n", ToString(r.status), r.ok() ? "" : ": ",
+              r.reason.c_str());
+  if (!r.route.empty()) std::printf("  route: %s\n", r.route.c_str());
   if (!data.uniform) {
     std::printf(
         "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "
@@ -200,12 +203,15 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
   if (!r.mended.empty()) std::printf("  mended or reached by: %s\n", r.mended.c_str());
   if (recursive.safe_start) std::printf("  %s\n", recursive.safe_start_reason.c_str());
   if (!r.start_repair.empty()) std::printf("  from a repaired start (%s)\n", r.start_repair.c_str());
-  if (r.ok()) {
+  if (r.reported) {
     std::printf("  %d iterations, sigma %s (%s), normalised residual RMS %.4g, lag-1 autocorrelation %.3g\n",
                 r.iterations, r.sigma_estimated ? "from the residuals" : "as given",
                 fmt::format("{:.4g}", fmt::join(r.sigma, ", ")).c_str(), r.normalized_rms, r.lag1);
-  } else {
+  }
+  if (!r.reported) {
     std::printf("  the recursive estimate is kept\n");
+  } else if (!r.ok()) {
+    std::printf("  the refined estimate is reported: the fit converged, its residual tests refuse it\n");
   }
 }
 

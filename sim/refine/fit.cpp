@@ -14,9 +14,21 @@
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/chain_sums.hpp"
+#include "sim/refine/residual_tests.hpp"
 #include "sim/refine/span.hpp"
 
 namespace hysid {
+
+bool Admissible(const Model& model, const HybridParameters& p, const InputSignal& inputs) {
+  if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() || !p.gamma.allFinite()) return false;
+  const Vec gamma = p.GammaOr(model);
+  const Context at{.t = 0.0,
+                   .u = inputs.empty() ? nullptr : inputs.values.col(0).data(),
+                   .gamma = gamma.data(),
+                   .mode = p.initial_mode >= 0 ? p.initial_mode : model.spec().default_mode};
+  return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
+}
+
 namespace {
 
 // One chain as fit: the span used, its times from 0, its detected segments.
@@ -48,14 +60,6 @@ HybridParameters OnChain(const ChainFit& f, HybridParameters p) {
   return p;
 }
 
-// Whether the model can be simulated at p: α, β, γ and x0 finite, x0 in C or D (at t = 0, u(0) and
-// p's γ).
-bool Admissible(const Model& model, const HybridParameters& p, const InputSignal& inputs) {
-  if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() || !p.gamma.allFinite()) return false;
-  const Vec gamma = p.GammaOr(model);
-  const Context at{.t = 0.0, .u = inputs.empty() ? nullptr : inputs.values.col(0).data(), .gamma = gamma.data()};
-  return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
-}
 
 // The trajectory that stands for one that cannot be simulated (status left-domain, with the reason).
 SensitivityTrajectory LeftDomain() {
@@ -614,36 +618,44 @@ std::vector<std::string> JointNames(const FitProblem& problem) {
 }
 
 // The residual checks from the residuals' sums of squares and lag-1 sums per component (pooled over
-// the chains), with the σ they are normalised by, the residual σ̂, its MAD estimate from the data
-// and the floor: sets normalized_rms and lag1, and fails with kResidualRms (RMS outside [rms_low,
-// rms_high]; with σ estimated, σ̂ over the MAD estimate above rms_high) or kResidualCorrelation
-// (|lag1| > max_lag1 while the residuals are above the floor).
-void JudgeResiduals(const Vec& squares, const Vec& lags, long samples, const Vec& sigma, const Vec& sigma_hat,
-                    const Vec& mad_sigma, const Vec& floor, const RefineOptions& options, RefineResult& r) {
+// the chains), with the σ they are normalised by, the residual σ̂, its MAD estimate from the data,
+// the floor and the number of unknowns: sets normalized_rms and lag1, and fails with kResidualRms
+// (σ given: Σ(r/σ)² refused by its χ² test; with σ estimated, σ̂ over the MAD estimate above
+// rms_high) or kResidualCorrelation (√N ρ̂₁ refused by its test while the residuals are above the
+// floor); both tests at RefineOptions::residual_test_size (sim/refine/residual_tests.hpp).
+void JudgeResiduals(const Vec& squares, const Vec& lags, long samples, double parameters, const Vec& sigma,
+                    const Vec& sigma_hat, const Vec& mad_sigma, const Vec& floor, const RefineOptions& options,
+                    RefineResult& r) {
   const Vec w2 = sigma.cwiseInverse().cwiseAbs2();
   const double z2 = w2.dot(squares), lag = w2.dot(lags);
+  const long residuals = samples * squares.size();
+  const ResidualLimits limits = ResidualLimitsFor(residuals, parameters, options.residual_test_size);
   r.normalized_rms = 0.0;
   if (r.sigma_estimated) {
     for (Eigen::Index i = 0; i < sigma_hat.size(); ++i) {
       if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
     }
   } else {
-    r.normalized_rms = std::sqrt(z2 / static_cast<double>(samples * squares.size()));
+    r.normalized_rms = std::sqrt(z2 / static_cast<double>(residuals));
   }
   r.lag1 = z2 > 0.0 ? lag / z2 : 0.0;
   const bool above_floor = (sigma_hat.array() > floor.array()).all();
-  if (r.normalized_rms > options.rms_high ||
-      (!r.sigma_estimated && above_floor && r.normalized_rms < options.rms_low)) {
+  if (r.sigma_estimated ? r.normalized_rms > options.rms_high
+                        : z2 > limits.level_high || (above_floor && z2 < limits.level_low)) {
     return Fail(r, RefineStatus::kResidualRms,
-                fmt::format("normalised residual RMS {:.4g} outside [{:g}, {:g}]{}", r.normalized_rms,
-                            r.sigma_estimated ? 0.0 : options.rms_low, options.rms_high,
-                            r.sigma_estimated ? " (residual sigma over the MAD estimate)" : ""));
+                r.sigma_estimated
+                    ? fmt::format("residual sigma over the MAD estimate {:.4g} > {:g}", r.normalized_rms, options.rms_high)
+                    : fmt::format("normalised residual RMS {:.4g}: Σ(r/σ)² = {:.6g} outside [{:.6g}, {:.6g}] (the χ² "
+                                  "test of size {:g} over {} residuals)",
+                                  r.normalized_rms, z2, limits.level_low, limits.level_high,
+                                  options.residual_test_size / 2, residuals));
   }
-  if (above_floor && std::abs(r.lag1) > options.max_lag1) {
+  const double z = std::sqrt(static_cast<double>(residuals)) * r.lag1;
+  if (above_floor && std::abs(z) > limits.z) {
     return Fail(r, RefineStatus::kResidualCorrelation,
-                fmt::format("lag-1 autocorrelation of the residuals {:.4g} (|.| > {:g}): the model or "
-                            "the detected jumps do not fit the data",
-                            r.lag1, options.max_lag1));
+                fmt::format("lag-1 autocorrelation of the residuals {:.4g} (√N·ρ₁ = {:.3g}, beyond {:.3g}: the "
+                            "test of size {:g}): the model or the detected jumps do not fit the data",
+                            r.lag1, z, limits.z, options.residual_test_size / 2));
   }
 }
 
@@ -707,7 +719,7 @@ void CheckResiduals(const FitProblem& problem, const Vec& mad_sigma, const Refin
   r.sigma = Vec::Zero(n);
   r.sigma(problem.rows) = sigma;
   if (!Covariance(problem, sigma, r)) return;
-  JudgeResiduals(squares, lags, samples, sigma, sigma_hat, mad_sigma, floor, options, r);
+  JudgeResiduals(squares, lags, samples, p, sigma, sigma_hat, mad_sigma, floor, options, r);
 }
 
 // Each chain simulated at (theta, x0), the runs' sums left in problem.cached; -1, or the first chain

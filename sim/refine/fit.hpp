@@ -48,6 +48,10 @@ void FitWeighting(const Mat& y, const RefineOptions& options, const Vec& mad_sig
 void FitWeighting(const Vec& largest, long samples, const RefineOptions& options, const Vec& mad_sigma,
                   SensitivityOptions* sens, Vec* weight);
 
+// Whether the model can be simulated at p: α, β, γ and x0 finite, x0 in C or D (at t = 0, u(0), p's
+// γ and initial mode).
+bool Admissible(const Model& model, const HybridParameters& p, const InputSignal& inputs);
+
 // The measured components: RefineOptions::measured, or all n when it is empty.
 std::vector<int> MeasuredRows(const RefineOptions& options, int n);
 

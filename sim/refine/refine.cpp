@@ -16,6 +16,7 @@
 #include "sim/refine/mend.hpp"
 #include "sim/refine/shooting.hpp"
 #include "sim/refine/span.hpp"
+#include "sim/refine/time_shooting.hpp"
 
 namespace hysid {
 
@@ -58,11 +59,8 @@ bool RefineOptions::IsValid(std::string* error) const {
   if (!(rms_high > 1.0) || !std::isfinite(rms_high)) {
     return fail(fmt::format("RefineOptions::rms_high = {}: must be finite and > 1", rms_high));
   }
-  if (!(rms_low > 0.0) || !(rms_low < 1.0)) {
-    return fail(fmt::format("RefineOptions::rms_low = {}: must be in (0, 1)", rms_low));
-  }
-  if (!(max_lag1 > 0.0) || !(max_lag1 <= 1.0)) {
-    return fail(fmt::format("RefineOptions::max_lag1 = {}: must be in (0, 1]", max_lag1));
+  if (!(residual_test_size > 0.0) || !(residual_test_size < 0.5)) {
+    return fail(fmt::format("RefineOptions::residual_test_size = {}: must be in (0, 0.5)", residual_test_size));
   }
   if (!(jump_time_tolerance >= 0.0) || !std::isfinite(jump_time_tolerance)) {
     return fail(
@@ -415,7 +413,7 @@ Vec GuardStart(const Model& model, const std::vector<RefineChain>& chains, const
   Vec rhs(0);
   for (const RefineChain& c : chains) {
     AppendGuardRows(model, c.t, c.y, c.gamma, alpha0, model.gamma(), unknowns, &rows, &rhs, c.maps,
-                    c.initial_mode);
+                    c.initial_mode, c.u);
   }
   return SolveGuardRows(unknowns, rows, rhs, model.gamma());
 }
@@ -589,6 +587,48 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
 
 namespace {
 
+// Whether fit a is better than fit b: ok before not ok, then reported before not, then the lower
+// final cost (the same data and weights, so the higher likelihood).
+bool Better(const RefineResult& a, const RefineResult& b) {
+  if (a.ok() != b.ok()) return a.ok();
+  if (a.reported != b.reported) return a.reported;
+  return a.reported && a.final_cost < b.final_cost;
+}
+
+// Multiple shooting by time from the recursive start and from the model's own values (a model file's
+// start values): the better of the two fits (Better).
+RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
+                                    const HybridParameters& recursive, const RefineOptions& options) {
+  RefineResult best = FitByTimeShooting(model, chains, recursive, options);
+  HybridParameters own = recursive;
+  own.alpha = model.alpha();
+  own.beta = model.beta();
+  own.gamma = model.gamma();
+  if (options.stopped() || (own.alpha == recursive.alpha && own.beta == recursive.beta &&
+                            own.gamma == recursive.GammaOr(model))) {
+    return best;
+  }
+  RefineResult other = FitByTimeShooting(model, chains, own, options);
+  if (Better(other, best)) {
+    other.start = recursive;
+    best = std::move(other);
+  }
+  return best;
+}
+
+// The time-shooting fit replaces r (not ok) when it is ok, or when r is not reported and it is; else
+// r's reason says how that route ended.
+void AdoptTimeShooting(RefineResult& r, RefineResult other) {
+  if (other.ok() || (other.reported && !r.reported)) {
+    other.start = r.start;
+    if (!r.ok() && !r.reason.empty() && !other.ok()) other.reason += "; the detected labels' fit: " + r.reason;
+    r = std::move(other);
+  } else if (!r.ok()) {
+    r.reason += fmt::format("; {}: {}: {}", other.route, ToString(other.status), other.reason);
+  }
+}
+
+
 // The refinement from one initial mode per chain (Refine's body).
 RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                              const Vec& beta0, const RefineOptions& given) {
@@ -633,7 +673,9 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
   if (options.multiple_shooting && options.x0_known.empty() && !r.ok() && MayBetter(r, first_used, options)) {
     AdoptRoute(r, FitShooting(model, chains, recursive, options), "multiple shooting");
   }
-  if (r.ok()) {
+  if (r.ok() && r.route.empty()) r.route = r.start_repair.empty() ? "single shooting on the detected labels" : "repaired start";
+  r.reported = r.ok();
+  if (r.reported) {
     r.estimate = r.refined;
   } else {
     r.covariance.resize(0, 0);
@@ -642,22 +684,10 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
   return r;
 }
 
-// Whether fit a is better than fit b: ok before not ok, then the lower final cost (the same data
-// and weights, so the higher likelihood).
-bool Better(const RefineResult& a, const RefineResult& b) {
-  if (a.ok() != b.ok()) return a.ok();
-  return a.ok() && a.final_cost < b.final_cost;
-}
-
-}  // namespace
-
-RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
-                    const Vec& beta0, const RefineOptions& given) {
-  CheckInputs(model, chains, alpha0, beta0, given);
-  // Every run of every route (fits, repaired start, local flows) ends at its next CVODE step once
-  // the stop flag is raised.
-  RefineOptions options = given;
-  if (options.sensitivity.sim.stop == nullptr) options.sensitivity.sim.stop = options.stop;
+// The labelled routes from one initial mode per chain, each candidate mode in turn where a chain's is
+// unknown (the best fit kept).
+RefineResult RefineLabelled(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                            const Vec& beta0, const RefineOptions& options) {
   const ModelSpec& spec = model.spec();
   const bool unknown = std::any_of(chains.begin(), chains.end(), [](const RefineChain& c) { return c.initial_mode < 0; });
   if (ModeCount(spec) == 1 || !unknown) {
@@ -679,6 +709,24 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   }
   best.mode_search = fmt::format("{}", fmt::join(tried, "; "));
   return best;
+}
+
+}  // namespace
+
+RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
+                    const Vec& beta0, const RefineOptions& given) {
+  CheckInputs(model, chains, alpha0, beta0, given);
+  // Every run of every route (fits, repaired start, local flows) ends at its next CVODE step once
+  // the stop flag is raised.
+  RefineOptions options = given;
+  if (options.sensitivity.sim.stop == nullptr) options.sensitivity.sim.stop = options.stop;
+  RefineResult r = RefineLabelled(model, chains, alpha0, beta0, options);
+  const bool data_fault = r.status == RefineStatus::kNonFiniteData || r.status == RefineStatus::kTooFewSamples;
+  if (options.time_shooting && options.x0_known.empty() && !r.ok() && !data_fault && !options.stopped()) {
+    AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options));
+    if (r.reported) r.estimate = r.refined;
+  }
+  return r;
 }
 
 void AssignChainMaps(const std::vector<std::uint8_t>& chain_start, const IdentifyResult& result,

@@ -18,9 +18,9 @@
 // the data are not finite, there are too few samples, the start does not simulate, Ceres does not
 // converge, the fitted model run on its own over a chain is Zeno or its jump count or jump times
 // disagree with the detector's, the Fisher information is singular, the normalised residual RMS is
-// outside [rms_low, rms_high] (σ estimated: the residual σ̂ above rms_high × the MAD estimate), or
-// the residuals' lag-1 autocorrelation within chains exceeds max_lag1 (when they are above the
-// integration accuracy). Never NaN. Messages name the chain when there are several.
+// refused by its test (σ estimated: the residual σ̂ above rms_high × the MAD estimate), or the
+// residuals' lag-1 autocorrelation within chains is refused by its test (when they are above the
+// integration accuracy); both tests at the stated size residual_test_size. Never NaN. Messages name the chain when there are several.
 // A fit whose jumps disagree with a chain's detected ones (count or times) is first tried again
 // with that chain's detections mended from the fitted model: a jump the model makes with no
 // detection within jump_time_tolerance + 1 samples is added at its sample, a detection the model has
@@ -98,9 +98,11 @@ struct RefineOptions {
   std::vector<int> x0_known;
   Vec x0;
   Vec sigma;  // per measured component (≥ 0; n entries when all are measured) when known; empty: estimated
-  double rms_low = 0.8;               // σ given: normalised residual RMS in [rms_low, rms_high]
+  // The size of the residual tests that make a fit ok (sim/refine/residual_tests.hpp): the
+  // probability that a fit at the noise is refused, half for the level Σ(r/σ)² against χ²_{N−p} (σ
+  // given), half for the lag-1 autocorrelation within chains (√N ρ̂₁ against the normal law).
+  double residual_test_size = 0.01;
   double rms_high = 1.25;  // σ estimated: residual σ̂ ≤ rms_high × MAD σ̂ (core/model/noise_shape)
-  double max_lag1 = 0.2;   // |lag-1 autocorrelation| of the normalised residuals, within chains
   double jump_time_tolerance = 3.0;  // samples (of the detected interval's own step)
   // Detected jumps closer than this many samples are not resolved reliably (a bouncing ball nearing
   // its Zeno time): the samples before the first such jump are fit (RefineResult::samples_used).
@@ -130,12 +132,17 @@ struct RefineOptions {
   // on all samples (`mended` then begins "multiple shooting over S segments"); false: never.
   bool multiple_shooting = true;
   int shooting_jumps = 2;
+  // A fit still not ok is tried by multiple shooting with nodes placed by time, the model finding its
+  // own events (sim/refine/time_shooting.hpp), from the recursive start and from the model's own
+  // values; adopted when ok, or when it converged and nothing else did (its residual tests then
+  // refuse it, the estimates stand with sandwich standard errors); false: never.
+  bool time_shooting = true;
   StartRepairOptions start_repair;
   // Raised (by another thread: Ctrl-C in the Python module): the solve ends at its next iteration and
   // nothing more is tried (the result is then not ok). Null: never.
   const std::atomic<bool>* stop = nullptr;
   bool stopped() const { return stop != nullptr && stop->load(); }
-  // Field-naming message, e.g. "RefineOptions::rms_low = 2: must be in (0, rms_high)".
+  // Field-naming message, e.g. "RefineOptions::residual_test_size = 2: must be in (0, 0.5)".
   bool IsValid(std::string* error) const;
 };
 
@@ -143,6 +150,10 @@ struct RefineResult {
   RefineStatus status = RefineStatus::kOk;
   std::string reason;  // why the status is not ok ("" when ok)
   bool ok() const { return status == RefineStatus::kOk; }
+  // The refined point stands as the estimate with its covariance: ok, or a converged fit whose
+  // residuals the tests refuse (model error: the covariance is then the sandwich's).
+  bool reported = false;
+  std::string route;  // the route whose fit this is (RefineRoutes)
   // θ's entries reported: the unknown α, β and γ entries and the first fitted chain's initial state
   // (all chains' initial states are in chain_x0).
   std::vector<std::string> names;

@@ -370,7 +370,7 @@ Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, con
 void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat& y,
                      const std::vector<std::uint8_t>& labels, const Vec& alpha, const Vec& gamma0,
                      const Unknowns& unknowns, Mat* rows, Vec* rhs, const std::vector<int>& maps,
-                     int initial_mode) {
+                     int initial_mode, const Eigen::Ref<const Mat>& u) {
   const auto q = static_cast<Eigen::Index>(unknowns.gamma.size());
   const int n = model.state_size(), guards = model.guard_count();
   if (q == 0 || guards == 0) return;
@@ -386,7 +386,9 @@ void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat
     if (map >= 0) mode = ModeAfter(model.spec(), mode, map);
     const auto pre = static_cast<Eigen::Index>(k - 1);
     if (!y.col(pre).allFinite()) continue;
-    const Context ctx{.t = t[k - 1], .u = nullptr, .gamma = gamma0.data(), .mode = leaves};
+    if (u.cols() > 0 && !u.col(pre).allFinite()) continue;
+    const Context ctx{.t = t[k - 1], .u = u.cols() > 0 ? u.col(pre).data() : nullptr, .gamma = gamma0.data(),
+                      .mode = leaves};
     model.Flow(y.col(pre), alpha, f, ctx);
     const Vec moved = y.col(pre) + 0.5 * (t[k] - t[k - 1]) * f;
     model.Guards(moved, h, ctx);

@@ -65,11 +65,12 @@ StartRepair RepairStart(const Model& model, const Mat& y, double dt, const std::
 // (SolveGuardRows). Columns: γ's unknown entries. Samples with a non-finite entry give no row.
 // A hybrid automaton with the events assigned (`maps`: one per label, in order; RefineChain::maps):
 // each event's row is its own map's guard, the flow in the mode it leaves (from `initial_mode`,
-// then ModeAfter); `maps` empty: the nearest guard, the flow in mode 0.
+// then ModeAfter); `maps` empty: the nearest guard, the flow in mode 0. A model with inputs: u holds
+// them at each sample (m × K), the flow and guards read them at the pre-jump sample.
 void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat& y,
                      const std::vector<std::uint8_t>& labels, const Vec& alpha, const Vec& gamma0,
                      const Unknowns& unknowns, Mat* rows, Vec* rhs, const std::vector<int>& maps = {},
-                     int initial_mode = 0);
+                     int initial_mode = 0, const Eigen::Ref<const Mat>& u = Mat());
 
 // γ0 with its unknown entries moved by the least-squares Newton step of the rows; an unknown entry no
 // row involves (its column zero), or all of them when the rows are rank-deficient, stays at γ0.

@@ -561,11 +561,10 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
                    inputs);
 }
 
-SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
-                                                   const Unknowns& unknowns, const std::vector<double>& times,
-                                                   const std::vector<int>& segment_of_sample,
-                                                   const SensitivityOptions& options,
-                                                   const InputSignal* inputs, SensitivitySink* sink) {
+namespace {
+
+// The grid standing for samples at their own times (checked: at least 2, the first at 0, increasing).
+SampleGrid GridOfTimes(const std::vector<double>& times) {
   if (times.size() < 2 || times[0] != 0.0) {
     throw std::invalid_argument(fmt::format("times: {} samples, first {}: need at least 2, the first at 0",
                                             times.size(), times.empty() ? 0.0 : times[0]));
@@ -576,7 +575,27 @@ SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const Hyb
           fmt::format("times[{}] = {} after {}: must increase", k, times[k], times[k - 1]));
     }
   }
-  const SampleGrid grid{.t_end = times.back(), .dt = times.back() / static_cast<double>(times.size() - 1)};
+  return SampleGrid{.t_end = times.back(), .dt = times.back() / static_cast<double>(times.size() - 1)};
+}
+
+}  // namespace
+
+SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
+                                            const Unknowns& unknowns, const std::vector<double>& times,
+                                            const SensitivityOptions& options, const InputSignal* inputs) {
+  const SampleGrid grid = GridOfTimes(times);
+  CheckInputs(model, params, unknowns, grid, options, inputs);
+  return Integrate(model, params, unknowns,
+                   {.count = static_cast<long>(times.size()), .dt = grid.dt, .times = &times}, options, nullptr,
+                   inputs);
+}
+
+SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
+                                                   const Unknowns& unknowns, const std::vector<double>& times,
+                                                   const std::vector<int>& segment_of_sample,
+                                                   const SensitivityOptions& options,
+                                                   const InputSignal* inputs, SensitivitySink* sink) {
+  const SampleGrid grid = GridOfTimes(times);
   CheckInputs(model, params, unknowns, grid, options, inputs);
   CheckSegments(segment_of_sample, times.size());
   return Integrate(model, params, unknowns,

@@ -126,6 +126,13 @@ SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridPara
                                             const SensitivityOptions& options = {},
                                             const InputSignal* inputs = nullptr);
 
+// The same on samples at their own times (times[0] = 0, increasing): sample k at times[k], on the
+// segment the model is in then (its own events).
+SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridParameters& params,
+                                            const Unknowns& unknowns, const std::vector<double>& times,
+                                            const SensitivityOptions& options = {},
+                                            const InputSignal* inputs = nullptr);
+
 // `segment_of_sample` has one entry per sample of the grid, starting at 0 and increasing by 0 or 1
 // from one sample to the next (else std::invalid_argument naming the sample).
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,

@@ -133,15 +133,27 @@ TEST_CASE("noise-free data: the refinement recovers α and β to 1e-9", "[refine
   CHECK((r.estimate.beta - run.model.beta()).norm() < 1e-9);
 }
 
-TEST_CASE("a start far from the truth: not ok, recursive estimate kept", "[refine]") {
+// Each entry of the refined θ within k CRLB standard deviations of the truth.
+void RequireWithinBound(const Run& run, const RefineResult& r, double sigma, double k);
+
+TEST_CASE("a start far from the truth: the labelled routes fail, multiple shooting by time reaches the bound",
+          "[refine]") {
   const Run run(0.05);
   Vec alpha0 = run.model.alpha();
   alpha0[1] = 20.0;  // stiffness 4× off: twice the frequency, a different number of impacts
-  const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, run.model.beta(), run.gamma);
-  RequireKept(r);
+  RefineOptions labelled;
+  labelled.time_shooting = false;
+  const RefineResult kept = RefineRun(run.model, run.y, run.grid.dt, alpha0, run.model.beta(), run.gamma, labelled);
+  RequireKept(kept);
   // The repaired start keeps α̂: its local flows cannot follow the data, and that fit fails too.
-  CHECK_THAT(r.reason, Catch::Contains("from a repaired start"));
-  CHECK(r.start_repair.empty());
+  CHECK_THAT(kept.reason, Catch::Contains("from a repaired start"));
+  CHECK(kept.start_repair.empty());
+  const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, run.model.beta(), run.gamma);
+  INFO(ToString(r.status) << ": " << r.reason);
+  REQUIRE(r.ok());
+  CHECK(r.route == "multiple shooting by time");
+  CHECK(r.start.alpha == alpha0);  // the start reported is the caller's
+  RequireWithinBound(run, r, 0.05, 4.0);
 }
 
 // Each entry of the refined θ within k CRLB standard deviations of the truth.
@@ -164,6 +176,7 @@ TEST_CASE("a detector that missed a jump: not ok from the recursive start, ok on
   RefineOptions no_repair;
   no_repair.repair_start = false;
   no_repair.grow_span = false;
+  no_repair.time_shooting = false;
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -201,6 +214,7 @@ TEST_CASE("a false detection and the β̂ it ruined: the repaired start converge
   RefineOptions no_repair;
   no_repair.repair_start = false;
   no_repair.grow_span = false;
+  no_repair.time_shooting = false;
   const RefineResult kept = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma, no_repair);
   RequireKept(kept);
   const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
@@ -348,6 +362,7 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
   const long missed = run.RemoveJump(all.samples_used, true);
   RefineOptions no_retry;
   no_retry.max_span_retries = 0;
+  no_retry.time_shooting = false;
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_retry);
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -379,6 +394,7 @@ TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help
   RefineOptions no_repair;
   no_repair.repair_start = false;
   no_repair.grow_span = false;
+  no_repair.time_shooting = false;
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -401,9 +417,9 @@ TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help
 TEST_CASE("bad options and inputs name the field", "[refine]") {
   const Run run(0.05);
   RefineOptions o;
-  o.rms_low = 2.0;
+  o.residual_test_size = 0.5;
   CHECK_THROWS_WITH(RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, o),
-                    Catch::Contains("RefineOptions::rms_low = 2"));
+                    Catch::Contains("RefineOptions::residual_test_size = 0.5"));
   std::vector<std::uint8_t> short_gamma(10, 0);
   CHECK_THROWS_WITH(RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), short_gamma),
                     Catch::Contains("gamma has 10 entries"));

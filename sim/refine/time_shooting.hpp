@@ -1,0 +1,57 @@
+// The output-error fit in which the model finds its own events: hybrid multiple shooting with nodes
+// placed by time (sim/refine/refine.hpp's last route; docs/method.md "The output-error refinement").
+// Internal to sim/refine.
+//
+// Each chain is cut at nodes every L samples (TimeShootingNodeSpacing), each node with a free state
+// s_i (n entries) and a mode q_i. Segment i is simulated from (s_i, q_i) with the model's own guard
+// crossings and resets, and gives the residuals w_r·(x_r(t_k) − y_rk) of every measured row r at each
+// of its samples (a missing sample has none) and, when the chain goes on, the continuity residuals
+// (x(τ_{i+1}⁻) − s_{i+1})/(ε·c_j) (c_j the state's scale: σ_j for a measured state, for a hidden one
+// σ scaled by its range against the measured one's). The unknowns are θ (the unknown α, β, guard
+// parameters) and every s_i; Ceres' Levenberg–Marquardt with a sparse Cholesky factorisation (the
+// normal matrix is block-banded). No detected label enters: the detector gives only θ's start.
+//
+// Start: node states from the data (measured rows), hidden rows from the chain's reconstruction
+// where finite, else from the segment before simulated at the start; modes, for an automaton, the
+// one whose segment fits the node's samples best. Continuation: ε = 1, 0.1, 0.01, 0.001
+// (kContinuationWidths): nearly free segments first, so that θ is fit to each segment's own data
+// before a far start can lead the whole record astray; at each width the nodes' modes are settled
+// from the segment before (at most kModeRounds solves), and samples more than kTrim robust standard
+// deviations off on the model's own run are left out (a sample on the wrong side of a jump in a
+// measured state has a residual the jump's size, which no sensitivity can explain). Final solve: every
+// sample but those beside a jump of the model that are that far off, read on the model's own jump
+// counts at the point reached (matched: each flow continued past the model's jump, so the cost is
+// smooth there), again while those counts move.
+//
+// At the fit: the covariance of θ and each chain's first node state from the Gauss–Newton normal
+// matrix at the fitted σ (the continuity rows make it the single-shooting covariance to within ε²),
+// the residual tests of sim/refine/residual_tests.hpp, and when they refuse whiteness (model error),
+// the sandwich covariance with a Newey–West (Bartlett) estimate of the scores' autocovariance within
+// chains (the estimate is then reported, `reported`, with a status that says the residuals are
+// refused).
+#pragma once
+
+#include <vector>
+
+#include "sim/refine/fit.hpp"
+
+namespace hysid {
+
+// The continuity widths ε of the continuation, the last one the fit's: a defect of ε · c_j costs as
+// much as one sample's residual of one σ. At each width the nodes' modes are settled in at most
+// kModeRounds solves.
+constexpr double kContinuationWidths[] = {1.0, 0.1, 1e-2, 1e-3};
+constexpr int kModeRounds = 4;
+// Samples beyond this many robust standard deviations are left out of the continuation's solves.
+constexpr double kTrim = 6.0;
+
+// Samples per segment for chains of `samples` samples in all (at least 4n + 4, about 1/48 of the data,
+// at most 2 000).
+long TimeShootingNodeSpacing(long samples, int n);
+
+// The fit of the chains from `start` (full α, β, γ; its x0 unused). Status, estimates, covariance,
+// residual statistics and `route` in the result; `chain_x0` the chains' first node states.
+RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain>& chains,
+                               const HybridParameters& start, const RefineOptions& options);
+
+}  // namespace hysid

@@ -1,0 +1,134 @@
+// Multiple shooting by time, the model finding its own events: the fit reaches the Cramér–Rao bound
+// from starts 2× off with no detected label, with a hidden state, and over a gap; the residual tests
+// refuse at their stated size.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "core/builtin/bouncing_ball.hpp"
+#include "core/builtin/impact_msd.hpp"
+#include "sim/measurement.hpp"
+#include "sim/refine/refine.hpp"
+#include "sim/refine/residual_tests.hpp"
+#include "sim/refine/time_shooting.hpp"
+#include "sim/sensitivity/crlb.hpp"
+
+namespace hysid {
+namespace {
+
+struct Data {
+  Model model;
+  SampleGrid grid;
+  Vec x0;
+  Trajectory truth;
+  Mat y;
+  Data(Model m, SampleGrid g, Vec start, double sigma, std::uint64_t seed)
+      : model(std::move(m)), grid(g), x0(std::move(start)), truth(Simulate(model, x0, grid)) {
+    y = AddMeasurementNoise(truth.x, Vec::Constant(model.state_size(), sigma), NoiseKey{.seed = seed, .stream = 0});
+  }
+};
+
+// Every unknown within 4 of its reported standard errors of the truth, and each standard error within
+// 25 % of the bound's sd.
+void RequireAtTheBound(const RefineResult& r, const Vec& truth, const Crlb& bound) {
+  INFO(r.reason);
+  REQUIRE(r.ok());
+  REQUIRE(bound.ok());
+  const Vec theta = r.estimate.Theta(r.unknowns);
+  for (Eigen::Index i = 0; i < theta.size(); ++i) {
+    INFO(r.names[std::size_t(i)] << " = " << theta[i] << " ± " << r.standard_errors[i] << ", truth " << truth[i]
+                                  << ", CRLB sd " << bound.sd[i]);
+    CHECK(std::abs(theta[i] - truth[i]) < 4 * r.standard_errors[i]);
+    CHECK(r.standard_errors[i] == Approx(bound.sd[i]).epsilon(0.25));
+  }
+}
+
+TEST_CASE("time shooting fits the §5 system from a start 2x off with no detected jump", "[time_shooting]") {
+  const double sigma = 0.05;
+  const Data d(Model(ImpactMsd{}), SampleGrid{6.0, 2e-3}, (Vec(2) << 20.0, 0.0).finished(), sigma, 11);
+  REQUIRE(d.truth.jumps.size() >= 4);
+  const std::vector<std::uint8_t> no_labels(d.truth.t.size(), 0);
+  HybridParameters start = HybridParameters::Of(d.model, d.x0);
+  const Unknowns unknown = Unknowns::Of(d.model);
+  for (int i : unknown.alpha) start.alpha[i] *= 2.0;  // a = 10, b = 0.2
+  for (int i : unknown.beta) start.beta[i] *= 0.5;    // λ = 0.495, μ = 0
+  RefineOptions options;
+  options.sigma = Vec::Constant(2, sigma);
+  const RefineResult r = FitByTimeShooting(d.model, {RefineChain::Uniform(d.y, d.grid.dt, no_labels)}, start, options);
+  const Unknowns u = Unknowns::Of(d.model);
+  const Crlb bound = ComputeCrlb(d.model, d.x0, d.grid, Vec::Constant(2, sigma), u);
+  RequireAtTheBound(r, HybridParameters::Of(d.model, d.x0).Theta(u), bound);
+}
+
+TEST_CASE("time shooting fits a ball measured by its height alone, over a gap", "[time_shooting]") {
+  const double sigma = 2e-3;
+  const Data d(Model(BouncingBall{}), SampleGrid{3.0, 1.0 / 120}, (Vec(2) << 1.0, 0.0).finished(), sigma, 5);
+  REQUIRE(d.truth.jumps.size() >= 3);
+  // The height alone; samples 100–135 missing (a dropout of 0.3 s): two chains.
+  const long K = d.truth.size(), gap_from = 100, gap_to = 136;
+  auto chain = [&](long a, long b) {
+    std::vector<double> t(d.truth.t.begin() + a, d.truth.t.begin() + b);
+    Mat y = d.y.middleCols(a, b - a);
+    // The velocity is not measured: its start the central differences of the heights (as a
+    // reconstruction gives it), the fit's residuals the heights alone.
+    for (long k = 0; k < b - a; ++k) {
+      const long lo = std::max(0L, k - 1), hi = std::min(b - a - 1, k + 1);
+      y(1, k) = (y(0, hi) - y(0, lo)) / (t[std::size_t(hi)] - t[std::size_t(lo)]);
+    }
+    return RefineChain::Of(std::move(t), std::move(y), std::vector<std::uint8_t>(std::size_t(b - a), 0));
+  };
+  HybridParameters start = HybridParameters::Of(d.model, d.x0);
+  const Unknowns u = Unknowns::Of(d.model);
+  REQUIRE(u.alpha.size() + u.beta.size() >= 2);
+  for (int i : u.alpha) start.alpha[i] *= 0.8;
+  for (int i : u.beta) start.beta[i] *= 0.8;
+  RefineOptions options;
+  options.sigma = Vec::Constant(1, sigma);
+  options.measured = {0};
+  const RefineResult r = FitByTimeShooting(d.model, {chain(0, gap_from), chain(gap_to, K)}, start, options);
+  INFO(r.reason);
+  REQUIRE(r.ok());
+  const Vec theta = r.estimate.Theta(r.unknowns), truth = HybridParameters::Of(d.model, d.x0).Theta(r.unknowns);
+  for (Eigen::Index i = 0; i < u.shared(); ++i) CHECK(std::abs(theta[i] - truth[i]) < 4 * r.standard_errors[i]);
+}
+
+// N white residuals per draw: the tests refuse about `alpha` of the draws (σ given: level and whiteness).
+TEST_CASE("the residual tests refuse white residuals at their stated size", "[time_shooting]") {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal;
+  const int draws = 2000;
+  int refused = 0;
+  for (int i = 0; i < draws; ++i) {
+    Mat e(2, 1500);
+    for (Eigen::Index k = 0; k < e.size(); ++k) e.data()[k] = 0.3 * normal(rng);
+    const ResidualTestResult t = ResidualTests({e}, Vec::Constant(2, 0.3), true, 4, RefineOptions{}.residual_test_size);
+    refused += !(t.level_ok && t.white);
+  }
+  // Binomial(2000, 0.01): mean 20, sd 4.5.
+  CHECK(refused >= 5);
+  CHECK(refused <= 38);
+}
+
+TEST_CASE("the residual tests refuse coloured residuals and a wrong σ", "[time_shooting]") {
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> normal;
+  Mat white(1, 5000), coloured(1, 5000);
+  double ar = 0.0;
+  for (Eigen::Index k = 0; k < white.cols(); ++k) {
+    white(0, k) = normal(rng);
+    ar = 0.1 * ar + normal(rng);
+    coloured(0, k) = ar;
+  }
+  const Vec one = Vec::Ones(1);
+  CHECK(ResidualTests({white}, one, true, 2, RefineOptions{}.residual_test_size).white);
+  CHECK(ResidualTests({white}, one, true, 2, RefineOptions{}.residual_test_size).level_ok);
+  CHECK_FALSE(ResidualTests({coloured}, one, false, 2, RefineOptions{}.residual_test_size).white);  // √N·0.1 ≈ 7
+  CHECK_FALSE(ResidualTests({white}, Vec::Constant(1, 1.1), true, 2, RefineOptions{}.residual_test_size).level_ok);
+  // Two chains: no lag across their boundary.
+  Mat a = white.leftCols(2500), b = -white.rightCols(2500);
+  CHECK(ResidualTests({a, b}, one, false, 2, RefineOptions{}.residual_test_size).white);
+}
+
+}  // namespace
+}  // namespace hysid
