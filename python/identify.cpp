@@ -290,6 +290,7 @@ py::dict RefinedDict(const RefineResult& r, const IdentifyResult& given, bool ch
   out["status"] = ToString(r.status);
   out["reason"] = r.reason;
   out["route"] = r.route;
+  out["routes_tried"] = r.routes_tried;
   out["reported"] = r.reported;
   out["names"] = r.names;
   out["estimates"] = ByName(r.names, r.estimate.Theta(r.unknowns));

@@ -128,6 +128,7 @@ nlohmann::json ToJson(nlohmann::json j, const RefineResult& r, const IdentifyRes
   j["status"] = refine == "none" ? "recursive" : ToString(r.status);
   j["reason"] = r.reason;
   j["route"] = r.route;
+  j["routes_tried"] = r.routes_tried;
   j["reported"] = refine != "none" && r.reported;
   j["names"] = r.names;
   j["estimate"] = vec(r.estimate.Theta(r.unknowns));
@@ -188,6 +189,7 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
   std::printf("refinement (maximum likelihood, output error): %s%s%s\n", ToString(r.status), r.ok() ? "" : ": ",
               r.reason.c_str());
   if (!r.route.empty()) std::printf("  route: %s\n", r.route.c_str());
+  for (const std::string& tried : r.routes_tried) std::printf("  tried: %s\n", tried.c_str());
   if (!data.uniform) {
     std::printf(
         "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "

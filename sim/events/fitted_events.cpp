@@ -30,12 +30,13 @@ InputSignal UsedInputs(const RefineChain& chain, long used) {
   return s;
 }
 
-// The fitted model on chain c over its first `used` samples from x0, with ∂t_j/∂θ when `gradients`.
-SensitivityTrajectory RunChain(const Model& model, const RefineResult& r, const RefineChain& chain, const Vec& x0,
+// The fitted model on chain c over its first `used` samples from its fitted x0 and mode, with ∂t_j/∂θ when
+// `gradients`.
+SensitivityTrajectory RunChain(const Model& model, const RefineResult& r, std::size_t c, const RefineChain& chain,
                                long used, bool gradients, SensitivityOptions options) {
   HybridParameters p = r.estimate;
-  p.x0 = x0;
-  p.initial_mode = chain.initial_mode >= 0 ? chain.initial_mode : r.initial_mode;
+  p.x0 = r.chain_x0[c];
+  p.initial_mode = c < r.chain_mode.size() ? r.chain_mode[c] : chain.initial_mode >= 0 ? chain.initial_mode : r.initial_mode;
   options.sensitivities = gradients;
   const double t_end = chain.t[std::size_t(used - 1)] - chain.t.front();
   const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
@@ -74,7 +75,7 @@ FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, con
     }
     const bool gradients = first_fitted && r.covariance.rows() == r.unknowns.size(model.state_size());
     first_fitted = false;
-    const SensitivityTrajectory run = RunChain(model, r, chain, r.chain_x0[c], used, gradients, options);
+    const SensitivityTrajectory run = RunChain(model, r, c, chain, used, gradients, options);
     if (!run.trajectory.status.completed()) {
       out.reason = fmt::format("chain {}: the fitted model does not run ({})", c + 1, run.trajectory.status.message);
       continue;

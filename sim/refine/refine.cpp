@@ -616,16 +616,30 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   return best;
 }
 
-// The time-shooting fit replaces r (not ok) when it is ok, or when r is not reported and it is; else
-// r's reason says how that route ended.
+// The time-shooting fit replaces r when it is ok and r is not, or is ok on fewer samples; or when r
+// is not reported and it is; else r's reason (when r is not ok) says how that route ended.
 void AdoptTimeShooting(RefineResult& r, RefineResult other) {
-  if (other.ok() || (other.reported && !r.reported)) {
+  auto outcome = [](const RefineResult& f) {
+    return fmt::format("{}: {} on {} samples{}{}", f.route.empty() ? "the detected labels' routes" : f.route,
+                       ToString(f.status), f.samples_used, f.reason.empty() ? "" : " (", f.reason.empty() ? "" : f.reason + ")");
+  };
+  std::vector<std::string> tried = {outcome(r), outcome(other)};
+  // Over more samples than an ok fit on cut spans, a fit at the same optimum has smaller standard
+  // errors of θ; larger ones say it is not (a ball chattering to rest fit through its last bounces).
+  const auto shared = static_cast<Eigen::Index>(r.unknowns.shared());
+  const bool more_informative =
+      !r.ok() || (other.standard_errors.size() >= shared && r.standard_errors.size() >= shared &&
+                  (other.standard_errors.head(shared).array() <= r.standard_errors.head(shared).array()).all());
+  if ((other.ok() && (!r.ok() || other.samples_used > r.samples_used) && more_informative) ||
+      (other.reported && !r.reported)) {
     other.start = r.start;
+    other.mode_search = r.mode_search;
     if (!r.ok() && !r.reason.empty() && !other.ok()) other.reason += "; the detected labels' fit: " + r.reason;
     r = std::move(other);
   } else if (!r.ok()) {
     r.reason += fmt::format("; {}: {}: {}", other.route, ToString(other.status), other.reason);
   }
+  r.routes_tried = std::move(tried);
 }
 
 
@@ -721,8 +735,12 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   RefineOptions options = given;
   if (options.sensitivity.sim.stop == nullptr) options.sensitivity.sim.stop = options.stop;
   RefineResult r = RefineLabelled(model, chains, alpha0, beta0, options);
-  const bool data_fault = r.status == RefineStatus::kNonFiniteData || r.status == RefineStatus::kTooFewSamples;
-  if (options.time_shooting && options.x0_known.empty() && !r.ok() && !data_fault && !options.stopped()) {
+  const bool data_fault = r.status == RefineStatus::kNonFiniteData;
+  long samples = 0;
+  for (const RefineChain& c : chains) samples += static_cast<long>(c.t.size());
+  // Not ok, or ok on spans that leave samples out: multiple shooting by time fits every sample.
+  if (options.time_shooting && options.x0_known.empty() && (!r.ok() || r.samples_used < samples) && !data_fault &&
+      !options.stopped()) {
     AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options));
     if (r.reported) r.estimate = r.refined;
   }

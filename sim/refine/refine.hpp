@@ -153,7 +153,10 @@ struct RefineResult {
   // The refined point stands as the estimate with its covariance: ok, or a converged fit whose
   // residuals the tests refuse (model error: the covariance is then the sandwich's).
   bool reported = false;
-  std::string route;  // the route whose fit this is (RefineRoutes)
+  std::string route;  // the route whose fit this is
+  // Every route tried, in order, with its outcome ("single shooting on the detected labels: ok on 257
+  // of 365 samples", "multiple shooting by time: residual-correlation").
+  std::vector<std::string> routes_tried;
   // θ's entries reported: the unknown α, β and γ entries and the first fitted chain's initial state
   // (all chains' initial states are in chain_x0).
   std::vector<std::string> names;
@@ -184,6 +187,9 @@ struct RefineResult {
   // outside C ∪ D).
   std::vector<Vec> chain_x0;
   std::vector<long> chain_samples_used;
+  // Per chain, the mode its fitted initial state is in, when the fit chose it (multiple shooting by
+  // time; empty: each chain's own RefineChain::initial_mode, else initial_mode).
+  std::vector<int> chain_mode;
   // A hybrid automaton: the mode the chains with an unknown initial mode were fit from (the candidate
   // of lowest final cost among the ok fits, else of the first; the given one, or the model's
   // default_mode, when none is unknown) and, when candidates were tried, each one's outcome

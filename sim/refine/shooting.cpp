@@ -142,6 +142,15 @@ bool ShootSegments(const Model& model, const std::vector<RefineChain>& chains, c
     Fail(*shot, RefineStatus::kTooFewSamples, "no chain has the jumps to cut into segments");
     return false;
   }
+  // Segments cut at detected jumps: a detector that flags noise cuts thousands, whose joint
+  // information (dense, segments · n wide) costs minutes and gigabytes; multiple shooting by time
+  // places its own nodes instead.
+  if (g.chains.size() > kMaxShootingSegments) {
+    *shot = RefineResult{};
+    Fail(*shot, RefineStatus::kNotConverged,
+         fmt::format("{} segments between detected jumps, more than {}", g.chains.size(), kMaxShootingSegments));
+    return false;
+  }
   // The segments' fit is only a start: a looser stop than the result's.
   RefineOptions loose = options;
   loose.function_tolerance = std::max(options.function_tolerance, kShootingTolerance);

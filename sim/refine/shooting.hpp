@@ -26,5 +26,7 @@ struct ShootingSegments {
 bool ShootSegments(const Model& model, const std::vector<RefineChain>& chains, const FitStart& s,
                    const RefineOptions& options, RefineResult* shot, FitStart* joined);
 constexpr int kShootingRounds = 4;
+// At most this many segments (else the route is not tried: its reason says so).
+constexpr std::size_t kMaxShootingSegments = 200;
 
 }  // namespace hysid

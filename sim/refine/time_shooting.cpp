@@ -327,7 +327,7 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
   so.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)
                               ? ceres::SPARSE_NORMAL_CHOLESKY
                               : ceres::DENSE_QR;
-  so.max_num_iterations = 4 * options.max_iterations;
+  so.max_num_iterations = options.max_iterations;
   so.function_tolerance = options.function_tolerance;
   so.parameter_tolerance = options.parameter_tolerance;
   so.gradient_tolerance = 1e-16;
@@ -540,6 +540,9 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   }
 }
 
+RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>& chains, const HybridParameters& start,
+                             const RefineOptions& options, ShootingProblem& pr, long total);
+
 }  // namespace
 
 RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain>& chains,
@@ -557,12 +560,47 @@ RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain
   pr.base = start;
   if (pr.base.gamma.size() == 0) pr.base.gamma = model.gamma();
   pr.rows = MeasuredRows(options, pr.n);
+  // Chains of fewer than 2n + 2 samples are left out (as by the labelled routes).
+  std::vector<RefineChain> fit;
+  std::vector<std::size_t> index;
   long total = 0;
-  for (const RefineChain& c : chains) total += static_cast<long>(c.t.size());
-  if (total < pr.shared + 2 * pr.n + 2) {
-    Fail(r, RefineStatus::kTooFewSamples, fmt::format("{} samples for {} unknowns", total, pr.shared + pr.n));
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    if (static_cast<long>(chains[c].t.size()) < 2L * pr.n + 2) continue;
+    fit.push_back(chains[c]);
+    index.push_back(c);
+    total += static_cast<long>(chains[c].t.size());
+  }
+  if (fit.empty() || total < pr.shared + 2 * pr.n + 2) {
+    Fail(r, RefineStatus::kTooFewSamples,
+         fmt::format("{} samples in chains of at least {} for {} unknowns", total, 2 * pr.n + 2, pr.shared + pr.n));
     return r;
   }
+  r = FitChainsByTime(model, fit, start, options, pr, total);
+  // Back to the caller's chains: the ones left out have no initial state and no samples.
+  std::vector<Vec> x0(chains.size());
+  std::vector<long> used(chains.size(), 0);
+  std::vector<int> mode(chains.size(), -1);
+  for (std::size_t i = 0; i < index.size() && i < r.chain_x0.size(); ++i) {
+    x0[index[i]] = r.chain_x0[i];
+    used[index[i]] = r.chain_samples_used[i];
+    mode[index[i]] = r.chain_mode[i];
+  }
+  r.chain_x0 = std::move(x0);
+  r.chain_samples_used = std::move(used);
+  r.chain_mode = std::move(mode);
+  r.chains_skipped = static_cast<long>(chains.size() - index.size());
+  return r;
+}
+
+namespace {
+
+RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>& chains, const HybridParameters& start,
+                             const RefineOptions& options, ShootingProblem& pr, long total) {
+  RefineResult r;
+  r.route = "multiple shooting by time";
+  r.unknowns = pr.unknowns;
+  r.names = r.unknowns.Names(model);
+  r.start = r.refined = r.estimate = start;
   Weigh(chains, options, pr);
   pr.segments = CutSegments(chains, pr.rows, TimeShootingNodeSpacing(total, pr.n));
   Vec theta = start.Theta(Unknowns{r.unknowns.alpha, r.unknowns.beta, r.unknowns.gamma, false});
@@ -600,9 +638,13 @@ RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain
   r.refined = pr.At(theta.data(), s.front().data(), pr.segments.front().mode);
   r.chain_x0.clear();
   r.chain_samples_used.clear();
+  r.chain_mode.clear();
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
-    if (i == 0 || pr.segments[i - 1].chain != pr.segments[i].chain) r.chain_x0.push_back(s[i]);
+    if (i > 0 && pr.segments[i - 1].chain == pr.segments[i].chain) continue;
+    r.chain_x0.push_back(s[i]);
+    r.chain_mode.push_back(pr.segments[i].mode);
   }
+  r.initial_mode = pr.segments.front().mode >= 0 ? pr.segments.front().mode : model.spec().default_mode;
   for (const RefineChain& c : chains) r.chain_samples_used.push_back(static_cast<long>(c.t.size()));
   const bool converged = summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS;
   if (!converged || !theta.allFinite()) {
@@ -615,4 +657,5 @@ RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain
   return r;
 }
 
+}  // namespace
 }  // namespace hysid

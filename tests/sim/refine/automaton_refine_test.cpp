@@ -83,9 +83,19 @@ TEST_CASE("floor/ceiling ball: a fit whose maps disagree with the assigned ones 
   std::swap(chain.maps[0], chain.maps[1]);  // the ceiling's impact assigned to the floor and back
   RefineOptions options;
   options.max_span_retries = 0;
+  options.time_shooting = false;
   const RefineResult r = Refine(truth.model, {chain}, truth.model.alpha(), truth.model.beta(), options);
   CHECK(r.status == RefineStatus::kJumpCountMismatch);
   CHECK(r.reason.find("applies map 'ceiling'; the event was assigned to 'floor'") != std::string::npos);
+  // The labels are a start, not a gate: multiple shooting by time follows the model's own maps.
+  options.time_shooting = true;
+  const RefineResult own = Refine(truth.model, {chain}, truth.model.alpha(), truth.model.beta(), options);
+  INFO(own.reason);
+  REQUIRE(own.ok());
+  CHECK(own.route == "multiple shooting by time");
+  const Vec theta = own.estimate.Theta(own.unknowns),
+            truth_theta = HybridParameters::Of(truth.model, truth.x0).Theta(own.unknowns);
+  for (Eigen::Index i = 0; i < theta.size(); ++i) CHECK(std::abs(theta[i] - truth_theta[i]) < 4.0 * own.standard_errors[i]);
 }
 
 TEST_CASE("pump tank: the unknown initial mode is the candidate of best likelihood", "[refine]") {

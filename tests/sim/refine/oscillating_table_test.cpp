@@ -68,7 +68,7 @@ TEST_CASE("oscillating table: one shooting alone fits a cut span, multiple shoot
   const Mat y = AddMeasurementNoise(run.truth.x, run.sigma, NoiseKey{.seed = 1, .stream = 0});
   const IdentifyResult recursive = RefinementStart(run.Recursive(y));
   RefineOptions options;
-  options.grow_span = options.multiple_shooting = false;
+  options.grow_span = options.multiple_shooting = options.time_shooting = false;
   const RefineResult single = RefineIdentification(run.model, run.truth.t, y, {}, recursive, options);
   INFO(single.reason << "; " << single.span_reason);
   CHECK((!single.ok() || single.samples_used < run.grid.size()));

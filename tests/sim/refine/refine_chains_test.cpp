@@ -42,6 +42,7 @@ RefineOptions NoRecovery() {
   o.max_span_retries = 0;
   o.repair_start = false;
   o.grow_span = false;
+  o.time_shooting = false;
   return o;
 }
 
@@ -202,6 +203,7 @@ TEST_CASE("a chain whose detector missed its first jump: the span cannot help; t
   RefineOptions retries_only;
   retries_only.repair_start = false;
   retries_only.grow_span = false;
+  retries_only.time_shooting = false;
   for (const RefineOptions& o : {NoRecovery(), retries_only}) {
     const RefineResult kept = runs.Fit(o);
     INFO(ToString(kept.status) << ": " << kept.reason);
