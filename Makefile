@@ -25,7 +25,7 @@ test: build
 clean:
 	rm -rf $(BUILD_DIR)
 
-# Sanitizers and fuzzers (docs/architecture.md "Robustness"): ASan+UBSan (gcc), UBSan with
+# Sanitizers and fuzzers (docs/architecture.md "Checks beyond the unit tests"): ASan+UBSan (gcc), UBSan with
 # float-cast-overflow (clang 14), libFuzzer harnesses for FUZZ_RUNS executions each (default 1 M).
 deps-sanitize:
 	./scripts/install-deps.sh sanitize

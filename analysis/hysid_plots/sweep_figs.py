@@ -10,7 +10,7 @@ ERROR_PANELS = [("e_alpha", r"$e_\alpha = \|\hat\alpha - \alpha\|$"),
                 ("e_beta", r"$e_\beta = \|\hat\beta - \beta\|$"),
                 ("misclassification", "misclassification rate")]
 SIGMA_LABEL = r"noise $\sigma$"
-# What the CRLB-implied errors include (docs/architecture.md, sensitivities): the bound of the unknown α, β
+# What the CRLB-implied errors include (docs/method.md, sensitivities): the bound of the unknown α, β
 # and ξ0 from the sensitivities at a fixed jump count, so the information in the jump times is left out.
 BOUND_NOTE = ("The bound (summary.csv's crlb_e_alpha, crlb_e_beta) is that of the unknown α, β and ξ0 with "
               "the jump times held fixed: it leaves out the information the jump times carry, so an estimator "

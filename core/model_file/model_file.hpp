@@ -1,6 +1,6 @@
 // Model files: a TOML file that describes a hybrid model completely (states, parameters, φ and ψ as
 // matrices of expressions in the states, identified rows, guards, C, D, defaults), evaluated with
-// muParser. The result is an ordinary hysid::Model. docs/architecture.md "Model files" has the format.
+// muParser. The result is an ordinary hysid::Model. docs/model-files.md has the format.
 //
 // What can be checked without simulating is checked here; the programs load model files through
 // sim/model_check/model_check.hpp, which also simulates the default trajectory.

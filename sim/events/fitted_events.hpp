@@ -1,5 +1,5 @@
-// The event times of a refined hybrid automaton (docs/architecture.md "Systems as measured and hybrid
-// automata", Identification): the fitted model's own guard crossings, run from the refined α, β, γ
+// The event times of a refined hybrid automaton (docs/method.md "The output-error refinement", event
+// times from the fitted model): the fitted model's own guard crossings, run from the refined α, β, γ
 // and each chain's refined ξ0 over the whole chain, so each time uses all the data rather than the
 // samples around one event (past a span the refinement cut, RefineResult::chain_samples_used, they
 // are the fitted model's prediction; `beyond` says where). A detected event (IdentifyResult::events) gets the crossing of

@@ -46,7 +46,7 @@ import numpy as np
 ARGS = None
 HYSID = None
 PYDIR = None
-ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..")  # the source tree
 WALL = open(os.path.join(ROOT, "models", "wall-msd.toml")).read()
 DRIVEN = open(os.path.join(ROOT, "examples", "driven-oscillator", "driven-oscillator.toml")).read()
 COUNTS = {}
