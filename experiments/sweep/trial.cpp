@@ -504,6 +504,10 @@ void Evaluate(const SweepConfig& config, const TrialInputs& in, const UnitInput&
       o->message = fmt::format("refinement {}: {}", ToString(rr.status), rr.reason);
     }
   }
+  if (cell.refine != "ml" && res.flow_status == EstimatorStatus::kInconsistent) {
+    o->status = kTrialInconsistent;
+    o->message = res.flow_reason;
+  }
   o->have_estimates = true;
   o->jumps_detected = res.jumps_detected;
   o->flow_status = ToString(res.flow_status);
