@@ -145,11 +145,12 @@ void ClaimDirectory(const SweepConfig& config, const SweepOptions& options, long
     return;
   }
   const nlohmann::json old = ReadJson(identity_path);
+    const std::string what = DescribeConfigChange(old.value("config", nlohmann::json::object()), config);
   if (old.value("hash", "") != identity["hash"]) {
     throw std::invalid_argument(fmt::format(
-        "{}: holds another study (sweep hash {} there, {} now: the sweep file or a model file it names "
-        "changed what a trial computes); use another --out or delete the directory",
-        options.out.string(), old.value("hash", "?"), config.Hash()));
+        "{}: holds another study (sweep hash {} there, {} now; {} differs: the sweep file or a model file it "
+        "names changed since that run); use another --out or delete the directory",
+        options.out.string(), old.value("hash", "?"), config.Hash(), what.empty() ? "its identity" : what));
   }
   if (old.value("shard", "") != identity["shard"]) {
     throw std::invalid_argument(fmt::format("{}: holds shard {}, not shard {}", options.out.string(),
