@@ -49,7 +49,7 @@ const std::vector<Keyword>& OwnKeywords() {
       {"estimator", "'rls'", "estimator of alpha and beta: " + PluginList(AllPlugins<EstimatorKind>())},
       {"detector", "'residual'", "jump detector: " + PluginList(AllPlugins<DetectorKind>())},
       {"sigma", "None",
-       "known measurement noise sigma (one number, or one per state); None: estimated where needed"},
+       "known measurement noise sigma > 0 (one number, or one per state); None: estimated where needed"},
       {"max_gap", "None", "seconds: a step longer than this restarts the chain; None: 5 x the median step"},
       {"localize", "False", "regress each jump at its located instant inside (t-dt, t]"},
       {"second_pass", "False", "re-classify every sample with the final estimates and re-estimate"},
@@ -181,6 +181,7 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
   }
   if (const std::string problem = RefineChoiceProblem(a.refine); !problem.empty())
     throw std::invalid_argument("refine: " + problem);
+  CheckBoundsNeedRefinement(!a.bounds.empty(), a.refine, Spelling::kKeyword);
   return a;
 }
 
@@ -191,12 +192,13 @@ IdentifierSettings Settings(const IdentifyArgs& a, const Model& model) {
   ApplyPluginOptions(a.options, Spelling::kKeyword, &s);
   s.flow_estimator.noise_shape = a.flow_shape;
   s.jump_estimator.noise_shape = a.jump_shape;
+  CheckNoiseShapesUsed(s, a.flow_shape.size() > 0, a.jump_shape.size() > 0, Spelling::kKeyword);
   CheckDataAccuracy(a.data_rtol, a.data_atol, Spelling::kKeyword);
   s.localize = a.localize;
   s.second_pass = a.second_pass;
   s.sets = a.sets;
   if (!a.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size())
-    s.sigma = CheckedSigma(a.sigma, model.state_size(), true, Spelling::kKeyword);
+    s.sigma = CheckedSigma(a.sigma, model.state_size(), /*allow_zero=*/false, Spelling::kKeyword);
   s.data_rtol = a.data_rtol;
   s.data_atol = a.data_atol;
   try {
@@ -537,7 +539,8 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   job.settings = Settings(args, model);
   job.measured = MeasuredIndices(model);
   if (!args.sigma.empty())
-    job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), true, Spelling::kKeyword);
+    job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), /*allow_zero=*/false,
+                             Spelling::kKeyword);
   // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
   job.data = RunsOf(model, args, y, t, dt.value_or(0.0));
   if (dt && !t.is_none() && !(std::abs(job.data.dt - *dt) <= 1e-6 * *dt)) {

@@ -102,6 +102,7 @@ def files():
     f.update(INPUTS_FILES)
     f.update(TRUTH_FILES)
     f.update(AUTOMATON_FILES)
+    f.update(ACCEPTED_FILES)
     return f
 
 
@@ -301,7 +302,8 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES + PROBE_CASES
+    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES + PROBE_CASES \
+      + ACCEPTED_CASES
 
 
 # Found by scripts/probe_hostile.py: empty flag values, a column named twice, a grid axis no detector
@@ -446,6 +448,23 @@ AUTOMATON_CASES = [
     ("crlb: --mode for a model without modes", ["crlb", "--mode", "on"]),
     ("crlb: --mode that is not one of the model's", ["crlb", "--model-file", "pump.toml", "--mode", "idle"]),
 ]
+# Inputs that were accepted and gave a wrong answer: refused by name.
+ACCEPTED_FILES = {
+    "knownbound.toml": MSD.replace('{ name = "alpha_x", value = 1.0, known = true,',
+                                   '{ name = "alpha_x", value = 1.0, known = true, bounds = [0, 2],', 1),
+    "linebreakname.toml": MSD.replace('name = "mu"', 'name = "k\\nz"', 1),
+    "nodefaultsweep.toml": '[model]\nfile = "driven-nodefault.toml"\n[grid]\nsigma = 0.0\ndt = 1e-2\n',
+}
+ACCEPTED_CASES = [
+    ("identify: --sigma 0", ["identify", "--sigma", "0", "--data", "sim.csv"]),
+    ("identify: --param-bound with --refine none",
+     ["identify", "--param-bound", "mu=-0.01,0.01", "--refine", "none", "--data", "sim.csv"]),
+    ("model file: bounds on a known parameter", ["simulate", "--model-file", "knownbound.toml"] + SIM),
+    ("identify: --flow-noise-shape with rls",
+     ["identify", "--flow-noise-shape", "1,0,0,0,1,0,0,0,1", "--data", "sim.csv"]),
+    ("model file: a parameter name with a line break", ["simulate", "--model-file", "linebreakname.toml"] + SIM),
+    ("sweep: an input without input_defaults", ["sweep", "nodefaultsweep.toml", "--out", "run", "--dry-run"]),
+]
 
 def truth_setup(d):
     """simb.csv: sim.csv again, its sidecar saying a = 6."""
@@ -535,6 +554,10 @@ def run(hysid, args, cwd):
 def setup(hysid, d):
     for name, text in files().items():
         os.makedirs(os.path.dirname(os.path.join(d, name)), exist_ok=True)
+        if isinstance(text, bytes):
+            with open(os.path.join(d, name), "wb") as f:
+                f.write(text)
+            continue
         with open(os.path.join(d, name), "w", encoding="utf-8", newline="") as f:
             f.write(text)
     os.makedirs(os.path.join(d, "o"))

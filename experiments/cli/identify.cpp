@@ -73,6 +73,7 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   ApplyPluginOptions(args.options, Spelling::kFlag, &settings);
   settings.flow_estimator.noise_shape = NoiseShapeFlag(args.flow_shape, "--flow-noise-shape");
   settings.jump_estimator.noise_shape = NoiseShapeFlag(args.jump_shape, "--jump-noise-shape");
+  CheckNoiseShapesUsed(settings, !args.flow_shape.empty(), !args.jump_shape.empty(), Spelling::kFlag);
   if (args.localize && IsAutomaton(model.spec())) {
     BadFlag(fmt::format("--localize: model '{}' is a hybrid automaton (modes or jump maps); the jump localiser "
                         "fits one flow and one jump map, so it is not available for it",
@@ -84,7 +85,7 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
   if (!args.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size()) {
-    settings.sigma = SigmaFlag(args.sigma, model.state_size());
+    settings.sigma = SigmaFlag(args.sigma, model.state_size(), /*allow_zero=*/false);
   }
   // Settings errors (noise shape sizes, ...) before the data is read.
   try {
@@ -440,13 +441,16 @@ void ReleaseReported(SampleData& data, IdentifyResult& result) {
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   Model model = MakeModel(env, args.model);
+  CheckBoundsNeedRefinement(!args.bounds.empty(), args.refine.refine, Spelling::kFlag);
   ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
   const std::string truth_source = TakeSidecarTruth(args, &model);
   IdentifierSettings settings = BuildSettings(args, model);
   const std::vector<int> measured = MeasuredIndices(model);
   const bool all = static_cast<int>(measured.size()) == model.state_size();
   // σ per measured state; the identifier's own σ only when every state is measured.
-  const Vec sigma = args.sigma.empty() ? Vec() : SigmaFlag(args.sigma, static_cast<int>(measured.size()));
+  const Vec sigma = args.sigma.empty()
+                        ? Vec()
+                        : SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
   if (!all) settings.sigma.resize(0);
   SampleData data = ReadData(args, model, measured);
   CheckRefineArgs(args.refine, model, data);
@@ -532,8 +536,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_flag("--second-pass", args->second_pass,
                 "re-classify every sample with the final estimates, re-estimate, report the changes");
   AddSigmaOption(*cmd, args->sigma,
-                 "known measurement noise σ (one, or one per measured state); gtls/frisch estimate it from "
-                 "the data when not given");
+                 "known measurement noise σ > 0 (one, or one per measured state); gtls/frisch estimate it "
+                 "from the data when not given");
   CLI::Option* rtol_option =
       cmd->add_option("--data-rtol", args->data_rtol,
                       "residual detector: relative accuracy of the data apart from the noise (simulated "

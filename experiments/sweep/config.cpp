@@ -22,6 +22,7 @@
 #include "core/io/toml_guard.hpp"
 #include "core/io/toml_reader.hpp"
 #include "core/model/automaton.hpp"
+#include "core/model_file/input_defaults.hpp"
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/model_check/model_check.hpp"
@@ -119,6 +120,14 @@ void ParseModelSource(const TomlReader& rd, const toml::table& t, const std::str
     }
     m->file = path.lexically_normal().string();
     m->name = m->from_file->name();
+    // Each trial simulates with the model's default inputs: one missing fails every trial.
+    if (const std::string missing = InputsWithoutDefault(m->from_file->spec()); !missing.empty()) {
+      rd.Fail(
+          file, key + ".file",
+          fmt::format("{}: input {} has no input_defaults expression, and a sweep simulates every trial with "
+                      "the defaults (add input_defaults = {{ NAME = \"expression of t\" }})",
+                      m->file, missing));
+    }
     // Unmeasured states must be reconstructible for the identifier's start (core/identify/reconstruct.hpp).
     if (const ReconstructionPlan plan = PlanReconstruction(*m->from_file, MeasuredIndices(*m->from_file)); !plan.ok()) {
       rd.Fail(file, key + ".file", fmt::format("{}: measured: {}", m->file, plan.error));

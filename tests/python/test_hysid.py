@@ -233,6 +233,11 @@ IDENTIFY_REFUSED = [
     (["--tau0", "10"], {"tau0": 10.0}),
     (["--estimator", "kalman"], {"estimator": "kalman"}), (["--detector", "oracle"], {"detector": "oracle"}),
     (["--data-atol", "nan"], {"data_atol": NAN}), (["--data-rtol", "-1"], {"data_rtol": -1.0}),
+    (["--sigma", "0"], {"sigma": 0.0}),
+    (["--param-bound", "mu=-0.01,0.01", "--refine", "none"], {"param_bound": {"mu": (-0.01, 0.01)}, "refine": "none"}),
+    (["--flow-noise-shape", "1,0,0,0,1,0,0,0,1"], {"flow_noise_shape": np.eye(3)}),
+    (["--estimator", "integral", "--jump-noise-shape", "1,0,0,0,1,0,0,0,1"],
+     {"estimator": "integral", "jump_noise_shape": np.eye(3)}),
 ]
 
 

@@ -12,8 +12,8 @@
    value, a guard parameter, input_defaults, measured, a projection, a set, a default, a comment) is
    refused naming the directory and the model file;
    `merge --out` onto another sweep's run directory is refused and leaves its tables as they were.
-4. Names are written per RFC 4180: a model and parameters named with a comma, a quote and a line
-   break run, resume, and read back with Python's csv module.
+4. Names are written per RFC 4180: a model named with a comma, a quote and a line break runs,
+   resumes, and reads back with Python's csv module.
 
 Usage: outputs_safety.py HYSID MODELS_DIR
 """
@@ -227,9 +227,10 @@ def one_study_per_directory(d):
 
 
 def names_escaped(d):
-    """Names with a comma, a quote and a line break: sweep, resume, read back."""
+    """A model name with a comma, a quote and a line break: sweep, resume, read back. (Parameter names
+    are identifiers, checked by the model file's reader.)"""
     text = open(os.path.join(MODELS, "wall-msd.toml")).read()
-    text = text.replace('name = "wall-msd"', 'name = "wall,msd"').replace('name = "k"', 'name = "k,\\"1\\"\\nnew"')
+    text = text.replace('name = "wall-msd"', 'name = "wall,\\"msd\\"\\nnew"')
     sd = os.path.join(d, "names")
     os.makedirs(sd)
     with open(os.path.join(sd, "m.toml"), "w") as f:
@@ -243,8 +244,7 @@ def names_escaped(d):
         rows = list(csv.reader(f))
     header = rows[0]
     expect(len(rows) == 3 and all(len(r) == len(header) for r in rows), "names: trials.csv rows")
-    expect(rows[1][header.index("model")] == "wall,msd", f"names: model cell {rows[1][:5]}")
-    expect('alpha_hat_k,"1"\nnew' in header, f"names: parameter column {header}")
+    expect(rows[1][header.index("model")] == 'wall,"msd"\nnew', f"names: model cell {rows[1][:5]}")
     return 1
 
 
