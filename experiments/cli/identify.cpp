@@ -352,12 +352,14 @@ SampleData ReadData(const IdentifyArgs& args, const Model& model, const std::vec
 }
 
 // --trace, --hulls and --json: each writable, no two the same file, none an input of this run (a
-// --data file, its sidecar FILE.json, the model file).
+// --data file, its sidecar FILE.json, the model file). FILE.json is an input only when it is a
+// sidecar of `simulate` (ReadSidecar): an earlier --json report of FILE.csv there is an output, replaced.
 void CheckOutputs(const IdentifyArgs& args) {
   InputFiles inputs;
   for (const std::string& d : args.data) {
     inputs.Add("--data", d);
-    inputs.Add("--data (sidecar)", std::filesystem::path(d).replace_extension(".json"));
+    if (!ReadSidecar(d).is_null())
+      inputs.Add("--data (sidecar)", std::filesystem::path(d).replace_extension(".json"));
   }
   inputs.Add("--model-file", args.model.file);
   std::vector<std::pair<std::string, std::filesystem::path>> outputs;
