@@ -142,6 +142,16 @@ def failed_writes(d):
     expect(p.returncode != 0 and "File too large" in err and "full.csv" in err and
            not os.path.exists(os.path.join(d, "full.csv")), f"simulate on a full disk: {err!r:.300}")
     no_temporaries(d)
+    # The same under a shell's `ulimit -f`, SIGXFSZ at its default action (subprocess restores it):
+    # hysid ignores it itself, so the write fails with EFBIG: exit 2 naming the file, no .tmp left.
+    p = run(["simulate", "--t-end", "2", "--out", "t.csv"], d,
+            preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (100 * 1024, 100 * 1024)))
+    err = p.stderr.decode(errors="replace")
+    expect(p.returncode == 2 and "File too large" in err and "t.csv" in err and
+           not os.path.exists(os.path.join(d, "t.csv")),
+           f"simulate under ulimit -f 100 (SIGXFSZ at its default): exit {p.returncode}, {err!r:.300}")
+    no_temporaries(d)
+    cases += 1
     # Standard output: a full device and a closed pipe (SIGPIPE ignored, as under many shells and Python).
     for args in [["models"], identify]:
         with open("/dev/full", "w") as full:
