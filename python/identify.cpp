@@ -542,6 +542,7 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
     job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), /*allow_zero=*/false,
                              Spelling::kKeyword);
   // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
+  CheckSigmaRange(job.sigma, Spelling::kKeyword);
   job.data = RunsOf(model, args, y, t, dt.value_or(0.0));
   if (dt && !t.is_none() && !(std::abs(job.data.dt - *dt) <= 1e-6 * *dt)) {
     throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree",

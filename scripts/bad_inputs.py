@@ -103,6 +103,7 @@ def files():
     f.update(TRUTH_FILES)
     f.update(AUTOMATON_FILES)
     f.update(ACCEPTED_FILES)
+    f.update(UNCLEAR_FILES)
     return f
 
 
@@ -174,6 +175,8 @@ def safety_cases():
 
 
 SAFETY_SUBJECTS = {
+    'identify: a sidecar with "rtol": "x"': "rtolx.json",
+    "sweep: sweep.json is a directory": "jsondir/sweep.json",
     "crlb: --t-end= with nothing after": "--t-end",
     "HYSID_MAX_SAMPLES=1000: the built-in models load, the run is refused": "HYSID_MAX_SAMPLES",
     "HYSID_MAX_SAMPLES=abc": "HYSID_MAX_SAMPLES",
@@ -303,7 +306,7 @@ def cases():
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
     ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES + PROBE_CASES \
-      + ACCEPTED_CASES
+      + ACCEPTED_CASES + UNCLEAR_CASES
 
 
 # Found by scripts/probe_hostile.py: empty flag values, a column named twice, a grid axis no detector
@@ -466,6 +469,32 @@ ACCEPTED_CASES = [
     ("sweep: an input without input_defaults", ["sweep", "nodefaultsweep.toml", "--out", "run", "--dry-run"]),
 ]
 
+# Messages that did not name the file, flag or key, or not the real reason.
+UNCLEAR_FILES = {
+    "utf16.csv": "\ufefft,y1,y2\n0,1,2\n0.1,1,2\n0.2,1,2\n".encode("utf-16-le"),
+    "divzero.toml": MSD.replace('[0, "-x", "-v"]', '[0, "-x/0", "-v"]', 1),
+    "sqrtneg.toml": MSD.replace('[0, "-x", "-v"]', '[0, "sqrt(-1-x*x)", "-v"]', 1),
+    "uhuge.toml": DRIVEN.replace('u = "sin(1.3*t) + 0.5*sin(3.7*t)"', 'u = "1e999"', 1),
+}
+UNCLEAR_CASES = [
+    ("identify: a UTF-16 CSV", ["identify", "--data", "utf16.csv"]),
+    ("identify: a sidecar with \"rtol\": \"x\"", ["identify", "--data", "rtolx.csv"]),
+    ("sweep: sweep.json is a directory", ["sweep", "ok.toml", "--out", "jsondir"]),
+    ("model file: -x/0 in phi", ["simulate", "--model-file", "divzero.toml"] + SIM),
+    ("model file: sqrt(-1-x*x) in phi", ["simulate", "--model-file", "sqrtneg.toml"] + SIM),
+    ("crlb: --sigma 1e-300", ["crlb", "--sigma", "1e-300"]),
+    ("crlb: --sigma 1e300", ["crlb", "--sigma", "1e300"]),
+    ("crlb: --t-end 1e-300", ["crlb", "--t-end", "1e-300"]),
+    ("simulate: --param a=1e999", ["simulate", "--param", "a=1e999"] + SIM),
+    ("identify: --r 1e999", ["identify", "--detector", "paper", "--r", "1e999", "--data", "sim.csv"]),
+    ("identify: --false-alarm 1e-320",
+     ["identify", "--detector", "residual", "--false-alarm", "1e-320", "--data", "sim.csv"]),
+    ("simulate: input_defaults u = \"1e999\"", ["simulate", "--model-file", "uhuge.toml"] + SIM),
+    ("simulate: --max-jumps 2147483648", ["simulate", "--max-jumps", "2147483648"] + SIM),
+    ("identify: --columns gives t= twice", ["identify", "--columns", "t=t,t=j,x,v", "--data", "sim.csv"]),
+]
+
+
 def truth_setup(d):
     """simb.csv: sim.csv again, its sidecar saying a = 6."""
     with open(os.path.join(d, "sim.csv")) as src, open(os.path.join(d, "simb.csv"), "w") as dst:
@@ -561,8 +590,18 @@ def setup(hysid, d):
         with open(os.path.join(d, name), "w", encoding="utf-8", newline="") as f:
             f.write(text)
     os.makedirs(os.path.join(d, "o"))
+    os.makedirs(os.path.join(d, "jsondir", "sweep.json"))
     os.mkfifo(os.path.join(d, "fifo.csv"))
     subprocess.run([hysid, "simulate", "--sigma", "0.1", "--out", "sim.csv"], cwd=d, check=True, capture_output=True)
+    # The same data with a sidecar whose solver.rtol is text.
+    import json
+    with open(os.path.join(d, "sim.csv")) as src, open(os.path.join(d, "rtolx.csv"), "w") as dst:
+        dst.write(src.read())
+    with open(os.path.join(d, "sim.json")) as src:
+        meta = json.load(src)
+    meta["solver"]["rtol"] = "x"
+    with open(os.path.join(d, "rtolx.json"), "w") as dst:
+        json.dump(meta, dst)
     # A finished run, and run directories corrupted from it.
     subprocess.run([hysid, "sweep", "ok.toml", "--out", "done", "--progress", "none"], cwd=d, check=True,
                    capture_output=True)

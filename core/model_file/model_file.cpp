@@ -4,8 +4,10 @@
 #include <array>
 #include <atomic>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -319,6 +321,17 @@ struct Checked {
   bool state = false;      // uses a state
 };
 
+// A token muParser could not read that is a decimal number beyond a double's range ("1e999", "1e-400"):
+// strtod reads all of it and reports ERANGE.
+bool NumberOutOfRange(const std::string& token) {
+  if (token.empty() || !(std::isdigit(static_cast<unsigned char>(token[0])) != 0 || token[0] == '.'))
+    return false;
+  char* end = nullptr;
+  errno = 0;
+  std::strtod(token.c_str(), &end);
+  return errno == ERANGE && end != token.c_str();
+}
+
 // Compiles one expression alone with the file's variables; throws naming the key and the text.
 Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std::string& key,
                         const std::string& expr, Symbols& sym) {
@@ -344,6 +357,13 @@ Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std:
     }
     return out;
   } catch (const mu::Parser::exception_type& e) {
+    if (e.GetCode() == mu::ecUNASSIGNABLE_TOKEN && NumberOutOfRange(e.GetToken())) {
+      rd.Fail(
+          node, key,
+          fmt::format("\"{}\": the number {} is out of range (a finite double: magnitude below 1.8e308, not "
+                      "below 2.2e-308 unless 0)",
+                      expr, e.GetToken()));
+    }
     if (e.GetCode() == mu::ecUNASSIGNABLE_TOKEN) {
       rd.Fail(node, key,
               fmt::format("\"{}\": unknown symbol \"{}\" (the variables: {})", expr, e.GetToken(), sym.list));

@@ -60,6 +60,23 @@ Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero,
   return sigma;
 }
 
+void CheckSigmaRange(const Vec& sigma, Spelling spelling) {
+  for (const double v : sigma) {
+    if (v >= kMinSigma && v <= kMaxSigma) continue;
+    throw std::invalid_argument(fmt::format(
+        "{} = {:g}: out of range ({:g} <= sigma <= {:g}: the information scales as 1/sigma^2, which would "
+        "overflow or underflow; rescale the data's units)",
+        Spelled("sigma", spelling), v, kMinSigma, kMaxSigma));
+  }
+}
+
+void CheckBoundGrid(const SampleGrid& grid, Spelling spelling) {
+  if (grid.t_end >= grid.dt) return;
+  throw std::invalid_argument(fmt::format(
+      "{} = {:g}: out of range: the bound needs at least 2 samples ({} >= {} = {:g})",
+      Spelled("t_end", spelling), grid.t_end, Spelled("t_end", spelling), Spelled("dt", spelling), grid.dt));
+}
+
 void CheckNoiseShapesUsed(const IdentifierSettings& settings, bool flow_given, bool jump_given,
                           Spelling spelling) {
   std::vector<std::string> users;

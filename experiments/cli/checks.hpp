@@ -30,6 +30,13 @@ SampleGrid CheckedGrid(double t_end, double dt, Spelling spelling);
 // σ: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
 Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling);
 
+// The range in which σ (for the CRLB and a known σ of the refinement) keeps 1/σ² and the residuals
+// r/σ finite and normal: "--sigma = 1e-300: out of range (1e-150 <= sigma <= 1e+150 ...)".
+inline constexpr double kMinSigma = 1e-150, kMaxSigma = 1e150;
+void CheckSigmaRange(const Vec& sigma, Spelling spelling);
+
+// The CRLB's grid: at least two samples ("--t-end = 1e-300: out of range: ... t_end >= dt").
+void CheckBoundGrid(const SampleGrid& grid, Spelling spelling);
 
 // The solver's rtol and atol (each finite and > 0) and max_jumps (>= 1): "--rtol = -1: must be > 0".
 void CheckSimOptions(const SimOptions& options, Spelling spelling);

@@ -114,13 +114,22 @@ std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* se
   if (args.data_accuracy_given) return "as given";
   const nlohmann::json meta = ReadSidecar(args.data.front());
   if (meta.is_null() || !meta.contains("solver") || !meta["solver"].is_object() ||
-      meta["solver"].value("rtol", -1.0) < 0.0 || meta["solver"].value("atol", -1.0) < 0.0) {
+      !meta["solver"].contains("rtol") || !meta["solver"].contains("atol")) {
     return "none given";
+  }
+  const std::string sidecar = std::filesystem::path(args.data.front()).replace_extension(".json").string();
+  for (const char* key : {"rtol", "atol"}) {
+    const nlohmann::json& v = meta["solver"][key];
+    if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0.0) {
+      throw std::invalid_argument(
+          fmt::format("{}: solver.{} = {}: must be a number >= 0 (the tolerance the data "
+                      "were simulated with)",
+                      sidecar, key, Abbreviated(v.dump(), 40)));
+    }
   }
   settings->data_rtol = meta["solver"]["rtol"].get<double>();
   settings->data_atol = meta["solver"]["atol"].get<double>();
-  return fmt::format("the solver tolerances in {}",
-                     std::filesystem::path(args.data.front()).replace_extension(".json").string());
+  return fmt::format("the solver tolerances in {}", sidecar);
 }
 
 // One parameter of a sidecar's "parameters" set on `model` as the truth; `given` holds the names
@@ -453,6 +462,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const Vec sigma = args.sigma.empty()
                         ? Vec()
                         : SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
+  CheckSigmaRange(sigma, Spelling::kFlag);
   if (!all) settings.sigma.resize(0);
   SampleData data = ReadData(args, model, measured);
   CheckRefineArgs(args.refine, model, data);

@@ -81,7 +81,10 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
       continue;
     }
     line += se ? fmt::format(" ± {:<10.4g}", r.standard_errors[ii]) : fmt::format(" {:<12}", "(no se)");
-    if (truth) {
+    if (truth && !(bound.sd[ii] > 0.0)) {  // held in the bound (--x0-known): it has no CRLB sd
+      line += fmt::format("  truth {:.10g}: error {:.3g} (no CRLB: known, held in the bound)", true_theta[ii],
+                          theta[ii] - true_theta[ii]);
+    } else if (truth) {
       line += fmt::format("  truth {:.10g}: error {:.3g} = {:.2f} CRLB sd", true_theta[ii],
                           theta[ii] - true_theta[ii], std::abs(theta[ii] - true_theta[ii]) / bound.sd[ii]);
       if (se) line += fmt::format(", se/CRLB sd {:.3f}", r.standard_errors[ii] / bound.sd[ii]);

@@ -224,7 +224,9 @@ SIMULATE_REFUSED = [
     (["--x0", "nan,0"], {"x0": [NAN, 0.0]}),
 ]
 CRLB_REFUSED = [(["--sigma", "0"], {"sigma": 0.0}), (["--sigma", "nan"], {"sigma": NAN}),
-                (["--dt", "1e-320"], {"dt": 1e-320})]
+                (["--dt", "1e-320"], {"dt": 1e-320}),
+                (["--sigma", "1e-300"], {"sigma": 1e-300}), (["--sigma", "1e300"], {"sigma": 1e300}),
+                (["--t-end", "1e-300"], {"t_end": 1e-300})]
 IDENTIFY_REFUSED = [
     (["--sigma", "nan"], {"sigma": NAN}), (["--sigma", "-1"], {"sigma": -1.0}),
     (["--forgetting", "2"], {"forgetting": 2.0}), (["--jump-forgetting", "0"], {"jump_forgetting": 0.0}),
@@ -233,7 +235,7 @@ IDENTIFY_REFUSED = [
     (["--tau0", "10"], {"tau0": 10.0}),
     (["--estimator", "kalman"], {"estimator": "kalman"}), (["--detector", "oracle"], {"detector": "oracle"}),
     (["--data-atol", "nan"], {"data_atol": NAN}), (["--data-rtol", "-1"], {"data_rtol": -1.0}),
-    (["--sigma", "0"], {"sigma": 0.0}),
+    (["--sigma", "0"], {"sigma": 0.0}), (["--sigma", "1e-300"], {"sigma": 1e-300}),
     (["--param-bound", "mu=-0.01,0.01", "--refine", "none"], {"param_bound": {"mu": (-0.01, 0.01)}, "refine": "none"}),
     (["--flow-noise-shape", "1,0,0,0,1,0,0,0,1"], {"flow_noise_shape": np.eye(3)}),
     (["--estimator", "integral", "--jump-noise-shape", "1,0,0,0,1,0,0,0,1"],

@@ -3,6 +3,11 @@
 
 1. `identify --data X.csv --json X.json` run twice: the second run replaces the report (a report is
    never read as the data's sidecar); a sidecar of `simulate` stays an input (--json onto it refused).
+2. `simulate --version` (any subcommand) answers the version, not a missing --out.
+3. `--param a=+5`: a leading + is accepted (the sidecar records a = 5).
+4. `--x0-known all --x0 25,0` on data with a truth: no NaN printed; the held components say why they
+   have no CRLB sd.
+5. A file name longer than the message limit: the message keeps its reason (the end of the message).
 
 Usage: trust_checks.py HYSID
 """
@@ -43,13 +48,48 @@ def report_twice(d):
     expect(open(os.path.join(d, "X.json")).read() == keep, "--json onto the sidecar: the sidecar changed")
 
 
+def version(d):
+    _, top, _ = run(["--version"], d)
+    for sub in ["simulate", "identify", "sweep", "crlb"]:
+        code, out, err = run([sub, "--version"], d)
+        expect(code == 0 and out.strip() == top.strip() and out.strip() and not err,
+               f"{sub} --version: exit {code}, {out!r:.100} {err!r:.200}")
+
+
+def leading_plus(d):
+    code, _, err = run(["simulate", "--param", "a=+5", "--t-end", "1", "--out", "plus.csv"], d)
+    expect(code == 0, f"--param a=+5: exit {code}, {err!r:.300}")
+    if code == 0:
+        with open(os.path.join(d, "plus.json")) as f:
+            meta = json.load(f)
+        expect(meta["parameters"]["a"] == 5.0, f"--param a=+5: sidecar a = {meta['parameters']['a']}")
+
+
+def x0_known_no_nan(d):
+    code, _, _ = run(["simulate", "--sigma", "0.01", "--out", "k.csv"], d)
+    code, out, err = run(["identify", "--data", "k.csv", "--x0-known", "all", "--x0", "25,0"], d)
+    expect(code in (0, 1) and "nan" not in out.lower(), f"--x0-known all --x0 25,0: exit {code}, {out!r:.600}")
+    expect("no CRLB: known" in out, f"--x0-known all: the held components do not say why: {out!r:.600}")
+
+
+def long_name(d):
+    name = "a" * 3000 + ".csv"
+    code, _, err = run(["identify", "--data", name], d)
+    expect(code == 2 and "File name too long" in err and "bytes cut" in err,
+           f"a 3000-byte file name: exit {code}, the reason lost: {err[-300:]!r}")
+
+
 def main():
     with tempfile.TemporaryDirectory(prefix="hysid-trust-") as d:
         report_twice(d)
+        version(d)
+        leading_plus(d)
+        x0_known_no_nan(d)
+        long_name(d)
     if FAILURES:
         print("\n".join(FAILURES), file=sys.stderr)
         sys.exit(1)
-    print("report twice: as documented")
+    print("report twice, --version, --param +5, --x0-known all, long names: as documented")
 
 
 if __name__ == "__main__":
