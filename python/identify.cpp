@@ -347,6 +347,7 @@ py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool refin
   out["jump_hull"] = Transposed(r.jump_hull);
   out["sets_skipped"] = r.sets_skipped;
   if (refine) out["refined"] = RefinedDict(f.step.result, r, chains);
+  out["notes"] = f.step.notes;  // an estimate far from its start value: "check the units"
   return out;
 }
 
@@ -541,8 +542,8 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   if (!args.sigma.empty())
     job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), /*allow_zero=*/false,
                              Spelling::kKeyword);
-  // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
   CheckSigmaRange(job.sigma, Spelling::kKeyword);
+  // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
   job.data = RunsOf(model, args, y, t, dt.value_or(0.0));
   if (dt && !t.is_none() && !(std::abs(job.data.dt - *dt) <= 1e-6 * *dt)) {
     throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree",
@@ -583,8 +584,10 @@ std::string Docstring() {
       "restarts the chain, as does a step longer than max_gap. An unknown keyword, and an option the chosen "
       "detector or estimator does not read, is refused.\n\n"
       "Returns a dict: alpha, beta (full vectors), estimates (the unknowns by name), gamma, statistic, "
-      "threshold, alpha_trace, beta_trace, jumps_detected, flow_status, jump_status, flow_reason, "
-      "jump_reason, flow_hull, jump_hull, sets_skipped; with refine='ml' also refined (the keys of "
+      "threshold, alpha_trace, beta_trace, jumps_detected, flow_status (`inconsistent` when the recursive "
+      "estimate contradicts its data: docs/method.md), jump_status, flow_reason, jump_reason, flow_hull, "
+      "jump_hull, sets_skipped, notes (an estimate 100 times or more from its start value: \"check the "
+      "units\"); with refine='ml' also refined (the keys of "
       "`hysid identify --json`: status, reason, names, estimates, recursive_estimates, standard_errors, "
       "covariance, alpha, beta, x0, sigma, sigma_estimated, normalized_rms, lag1, iterations, samples_used, "
       "span_reason, model_jumps, start_repair, mended, start; with runs or times also chain_x0, "

@@ -788,3 +788,14 @@ def test_an_automatons_report_has_the_fitted_event_times():
     for event, t in zip(events, truth):
         assert abs(event["time_fitted"] - t) < traj["dt"]
         assert abs(event["time_fitted"] - t) < 5 * event["time_fitted_se"]
+
+
+def test_units_note_on_an_estimate_far_from_its_start(paper_data):
+    """Time in ms (v in m/ms): a and b come out 1e6 and 1e3 times smaller than the model's values, a
+    note, not a refusal; the same samples in s: no note."""
+    data = np.loadtxt(paper_data, delimiter=",", skiprows=1)
+    y = data[:, 4:6]
+    plain = hysid.identify("impact-msd", y, dt=5e-4, refine="none")
+    assert plain["notes"] == []
+    ms = hysid.identify("impact-msd", y / [1.0, 1000.0], dt=0.5, refine="none")
+    assert any(n.startswith("a = ") and "check the units" in n for n in ms["notes"]), ms["notes"]

@@ -8,6 +8,8 @@
 4. `--x0-known all --x0 25,0` on data with a truth: no NaN printed; the held components say why they
    have no CRLB sd.
 5. A file name longer than the message limit: the message keeps its reason (the end of the message).
+6. The §5 samples with time in ms: a, b are ≥ 100× from their start values and the text and --json
+   `notes` say "check the units"; the same samples in s: no note.
 
 Usage: trust_checks.py HYSID
 """
@@ -79,6 +81,30 @@ def long_name(d):
            f"a 3000-byte file name: exit {code}, the reason lost: {err[-300:]!r}")
 
 
+def units_note(d):
+    code, _, err = run(["simulate", "--sigma", "0.01", "--out", "m.csv"], d)
+    expect(code == 0, f"simulate: {err!r:.300}")
+    lines = open(os.path.join(d, "m.csv")).read().splitlines()
+    header = lines[0].split(",")
+    rows = [dict(zip(header, line.split(","))) for line in lines[1:]]
+    # The same samples with the time in ms (v in m/ms): x'' = -a x - b x' gives a × 1e-6, b × 1e-3.
+    # No sidecar (no truth): the start values are the model's (a = 5, b = 0.1).
+    for name, scale in [("ms.csv", 1000.0), ("s.csv", 1.0)]:
+        with open(os.path.join(d, name), "w") as f:
+            f.write("t,x,v\n")
+            for r in rows:
+                f.write(f"{float(r['t']) * scale!r},{r['x']},{float(r['v']) / scale!r}\n")
+    for data, noted in [("ms.csv", True), ("s.csv", False)]:
+        code, out, err = run(["identify", "--data", data, "--refine", "none", "--json", data + ".json"], d)
+        notes = json.load(open(os.path.join(d, data + ".json")))["notes"] if code in (0, 1) else None
+        if noted:
+            expect("note: a = " in out and "check the units" in out, f"{data}: no units note: {out!r:.900}")
+            expect(notes and any(n.startswith("a = ") for n in notes), f"{data}: --json notes {notes}")
+        else:
+            expect(code == 0 and "check the units" not in out and notes == [],
+                   f"{data}: exit {code}, a units note: {out!r:.900} {notes}")
+
+
 def main():
     with tempfile.TemporaryDirectory(prefix="hysid-trust-") as d:
         report_twice(d)
@@ -86,10 +112,11 @@ def main():
         leading_plus(d)
         x0_known_no_nan(d)
         long_name(d)
+        units_note(d)
     if FAILURES:
         print("\n".join(FAILURES), file=sys.stderr)
         sys.exit(1)
-    print("report twice, --version, --param +5, --x0-known all, long names: as documented")
+    print("report twice, --version, --param +5, --x0-known all, long names, units notes: as documented")
 
 
 if __name__ == "__main__":
