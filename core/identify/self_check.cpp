@@ -156,8 +156,10 @@ std::string CheckFlowResiduals(const Model& model, const Mat& y, double dt,
   for (std::size_t i = 0; i < rows.size(); ++i) {
     if (static_cast<long>(rows[i].e.size()) < kMinSamples) continue;
     const int row = layout.rows[i];
-    const double sigma =
-        settings.sigma.size() == y.rows() ? settings.sigma[row] : NoiseSigma(y, options, row);
+    // σ given (> 0), else the data's own: a σ of 0 says noise-free, which rounding and integrator
+    // error are not, and the second differences measure what is there.
+    const bool given = settings.sigma.size() == y.rows() && settings.sigma[row] > 0.0;
+    const double sigma = given ? settings.sigma[row] : NoiseSigma(y, options, row);
     if (!(sigma >= 0.0)) continue;
     const double s = std::max(std::sqrt(2.0) * sigma, kResidualFloor * Rms(rows[i].lhs));
     if (!(s > 0.0) || !std::isfinite(s)) continue;

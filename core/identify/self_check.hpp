@@ -5,7 +5,7 @@
 // Per identified flow row r, over the samples taken for flow (γ = 0; a pair of consecutive finite
 // samples in one chain), the residual e_k = Δξ_r(t_k) − Φ_r(t_k)α̂ (the flow regression of
 // core/model/regression.hpp at the final α̂) against s_r = √2·σ̂_r, the sd of the noise of Δξ_r: σ̂ is
-// IdentifierSettings::sigma when given, else the MAD of the row's second differences
+// IdentifierSettings::sigma when given and > 0, else the MAD of the row's second differences
 // (EstimateNoiseSigma, which the rare jumps do not move); s_r is never below kResidualFloor × the RMS of
 // the regressed left side (noise-free data: rounding and integrator error).
 //   residuals  RMS(e) > kResidualRatio · s_r: the residual variance is more than 9× what the noise
