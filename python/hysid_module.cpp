@@ -211,6 +211,8 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
   const bool all = static_cast<int>(measured.size()) == n;
   const Vec s = CheckedSigma(Numbers(sigma, "sigma"), static_cast<int>(measured.size()), /*allow_zero=*/false,
                              Spelling::kKeyword);
+  CheckSigmaRange(s, Spelling::kKeyword);
+  CheckBoundGrid(run.grid, Spelling::kKeyword);
   const auto keyword = MakeX0Known(X0KnownText(x0_known_arg));
   const std::vector<int> known = Keyworded([&] { return cli::X0KnownFlag(keyword->flag, model); });
   auto stop = std::make_shared<std::atomic<bool>>(false);

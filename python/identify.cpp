@@ -49,7 +49,7 @@ const std::vector<Keyword>& OwnKeywords() {
       {"estimator", "'rls'", "estimator of alpha and beta: " + PluginList(AllPlugins<EstimatorKind>())},
       {"detector", "'residual'", "jump detector: " + PluginList(AllPlugins<DetectorKind>())},
       {"sigma", "None",
-       "known measurement noise sigma (one number, or one per state); None: estimated where needed"},
+       "known measurement noise sigma > 0 (one number, or one per state); None: estimated where needed"},
       {"max_gap", "None", "seconds: a step longer than this restarts the chain; None: 5 x the median step"},
       {"localize", "False", "regress each jump at its located instant inside (t-dt, t]"},
       {"second_pass", "False", "re-classify every sample with the final estimates and re-estimate"},
@@ -181,6 +181,7 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
   }
   if (const std::string problem = RefineChoiceProblem(a.refine); !problem.empty())
     throw std::invalid_argument("refine: " + problem);
+  CheckBoundsNeedRefinement(!a.bounds.empty(), a.refine, Spelling::kKeyword);
   return a;
 }
 
@@ -191,12 +192,13 @@ IdentifierSettings Settings(const IdentifyArgs& a, const Model& model) {
   ApplyPluginOptions(a.options, Spelling::kKeyword, &s);
   s.flow_estimator.noise_shape = a.flow_shape;
   s.jump_estimator.noise_shape = a.jump_shape;
+  CheckNoiseShapesUsed(s, a.flow_shape.size() > 0, a.jump_shape.size() > 0, Spelling::kKeyword);
   CheckDataAccuracy(a.data_rtol, a.data_atol, Spelling::kKeyword);
   s.localize = a.localize;
   s.second_pass = a.second_pass;
   s.sets = a.sets;
   if (!a.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size())
-    s.sigma = CheckedSigma(a.sigma, model.state_size(), true, Spelling::kKeyword);
+    s.sigma = CheckedSigma(a.sigma, model.state_size(), /*allow_zero=*/false, Spelling::kKeyword);
   s.data_rtol = a.data_rtol;
   s.data_atol = a.data_atol;
   try {
@@ -348,6 +350,7 @@ py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool refin
   out["jump_hull"] = Transposed(r.jump_hull);
   out["sets_skipped"] = r.sets_skipped;
   if (refine) out["refined"] = RefinedDict(f.step.result, r, chains);
+  out["notes"] = f.step.notes;  // an estimate far from its start value: "check the units"
   return out;
 }
 
@@ -540,7 +543,9 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   job.settings = Settings(args, model);
   job.measured = MeasuredIndices(model);
   if (!args.sigma.empty())
-    job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), true, Spelling::kKeyword);
+    job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), /*allow_zero=*/false,
+                             Spelling::kKeyword);
+  CheckSigmaRange(job.sigma, Spelling::kKeyword);
   // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
   job.data = RunsOf(model, args, y, t, dt.value_or(0.0));
   if (dt && !t.is_none() && !(std::abs(job.data.dt - *dt) <= 1e-6 * *dt)) {
@@ -582,8 +587,10 @@ std::string Docstring() {
       "restarts the chain, as does a step longer than max_gap. An unknown keyword, and an option the chosen "
       "detector or estimator does not read, is refused.\n\n"
       "Returns a dict: alpha, beta (full vectors), estimates (the unknowns by name), gamma, statistic, "
-      "threshold, alpha_trace, beta_trace, jumps_detected, flow_status, jump_status, flow_reason, "
-      "jump_reason, flow_hull, jump_hull, sets_skipped; with refine='ml' also refined (the keys of "
+      "threshold, alpha_trace, beta_trace, jumps_detected, flow_status (`inconsistent` when the recursive "
+      "estimate contradicts its data: docs/method.md), jump_status, flow_reason, jump_reason, flow_hull, "
+      "jump_hull, sets_skipped, notes (an estimate 100 times or more from its start value: \"check the "
+      "units\"); with refine='ml' also refined (the keys of "
       "`hysid identify --json`: status, reason, names, estimates, recursive_estimates, standard_errors, "
       "covariance, alpha, beta, x0, sigma, sigma_estimated, normalized_rms, lag1, iterations, samples_used, "
       "span_reason, model_jumps, start_repair, mended, start; with runs or times also chain_x0, "

@@ -62,6 +62,7 @@ const char* ToString(EstimatorStatus status) {
     case EstimatorStatus::kNotExcited: return "not-excited";
     case EstimatorStatus::kNonGeneric: return "non-generic";
     case EstimatorStatus::kIllConditioned: return "ill-conditioned";
+    case EstimatorStatus::kInconsistent: return "inconsistent";
   }
   return "?";
 }

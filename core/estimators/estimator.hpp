@@ -24,6 +24,9 @@ enum class EstimatorStatus {
   kNonGeneric,      // TLS non-generic case: the extreme eigenvector has no θ component
   kIllConditioned,  // the data do not determine the estimate (reason() says why): a factorisation
                     // failed, or (gtls) the regressors' weakest direction is within the noise
+  kInconsistent,    // set by Identify, not by an estimator: the estimate contradicts its data (its flow
+                    // residuals far above the noise, or jumps in data where the detector found none;
+                    // core/identify/self_check.hpp)
 };
 const char* ToString(EstimatorStatus status);
 

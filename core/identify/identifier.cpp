@@ -18,6 +18,7 @@
 #include "core/identify/events.hpp"
 #include "core/identify/flow_run_unit.hpp"
 #include "core/identify/localize.hpp"
+#include "core/identify/self_check.hpp"
 #include "core/io/limits.hpp"
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
@@ -1291,6 +1292,14 @@ void FinishIdentify(const Model& model, const Mat& y, double dt, const Identifie
         fmt::format("the {} estimate of alpha is {}{}{}; the refinement starts from rls (alpha {})",
                     ToString(settings.flow_estimator.kind), ToString(r->flow_status),
                     r->flow_reason.empty() ? "" : ": ", r->flow_reason, ToString(r->safe_start->flow_status));
+  }
+  if (r->flow_status == EstimatorStatus::kOk &&
+      options.check_residuals) {  // after the safe start: not its cause
+    std::string why = CheckFlowResiduals(model, y, dt, settings, options, *r);
+    if (!why.empty()) {
+      r->flow_status = EstimatorStatus::kInconsistent;
+      r->flow_reason = std::move(why);
+    }
   }
 }
 

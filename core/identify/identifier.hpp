@@ -262,6 +262,11 @@ struct IdentifyOptions {
   // estimate is ill-conditioned with the reason. Sweeps, which count every detection against the
   // true jumps, turn it off: their tables keep the detector's outcome as it is.
   bool check_paper_bound = true;
+  // Check the final α̂ against its data (CheckFlowResiduals, core/identify/self_check.hpp): flow
+  // residuals far above the noise, or jumps in data where the detector found none, make the flow
+  // status kInconsistent with the reason. Applies when the detector decides (no labels), to the
+  // paper's class (not a hybrid automaton).
+  bool check_residuals = true;
   // A hybrid automaton (IsAutomaton: several modes or explicit jump maps). assign_events: Identify
   // detects the events, assigns each to a map, infers the initial mode and runs the pass with the
   // modes and maps found (core/identify/events.hpp, IdentifyAutomaton). Off: one pass with `modes`

@@ -367,6 +367,20 @@ void ReadCsvRows(const std::filesystem::path& path, const CsvRowSink& sink) {
   ReadCsvRowsStream(in, path.string(), sink);
 }
 
+namespace {
+
+// A UTF-16 file (a byte order mark FF FE or FE FF, or NUL bytes between the characters of the
+// first line, as spreadsheet programs save "Unicode text"): named, not read as garbled cells.
+void CheckNotUtf16(std::string_view first_line, const std::string& name) {
+  const bool bom = first_line.starts_with("\xFF\xFE") || first_line.starts_with("\xFE\xFF");
+  if (!bom && first_line.find('\0') == std::string_view::npos) return;
+  throw std::invalid_argument(
+      fmt::format("{}: is UTF-16 ({}); save it as UTF-8 (CSV, comma-separated)", name,
+                  bom ? "its first bytes are a UTF-16 byte order mark" : "it holds NUL bytes"));
+}
+
+}  // namespace
+
 void ReadCsvRowsStream(std::istream& in, const std::string& name, const CsvRowSink& sink) {
   CsvTable head;
   head.path = name;
@@ -381,6 +395,7 @@ void ReadCsvRowsStream(std::istream& in, const std::string& name, const CsvRowSi
   while (ReadLine(in, line, name, line_no + 1, &lone_cr, limits.line)) {
     ++line_no;
     if (line_no == 1 && line.starts_with(kUtf8Bom)) line.erase(0, kUtf8Bom.size());
+    if (line_no == 1) CheckNotUtf16(line, name);
     const std::string_view trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
     const long first = line_no;

@@ -91,4 +91,11 @@ std::string Abbreviated(std::string_view text, std::size_t max) {
   return fmt::format("{}… ({} bytes)", Printable(text.substr(0, max)), text.size());
 }
 
+std::string ShortenedMessage(std::string_view text, std::size_t max) {
+  if (text.size() <= max) return Printable(text);
+  const std::size_t head = max * 2 / 3, tail = max - head;
+  return fmt::format("{} … ({} bytes cut) … {}", Printable(text.substr(0, head)), text.size() - head - tail,
+                     Printable(text.substr(text.size() - tail)));
+}
+
 }  // namespace hysid

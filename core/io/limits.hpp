@@ -50,5 +50,9 @@ void CheckRegularFile(const std::string& path, const char* what);
 std::string Printable(std::string_view text);
 // `text` cut to `max` bytes with its full length appended, then Printable, for echoing input in messages.
 std::string Abbreviated(std::string_view text, std::size_t max = 60);
+// A whole message longer than `max` bytes: its first two thirds and its last third of `max` kept,
+// "… (N bytes cut) …" between them, then Printable; the reason at a message's end stays readable
+// after a long echoed path or expression.
+std::string ShortenedMessage(std::string_view text, std::size_t max);
 
 }  // namespace hysid

@@ -46,10 +46,21 @@ Columns NamedColumns(const CsvTable& table, int state_size, const std::vector<st
   Columns c;
   c.run = -1;
   bool any_state = false;
+  std::string time_entry, run_entry;  // the entry that named the time (run) column
+  const auto once = [&](std::string& seen, const std::string& entry, const char* key) {
+    if (!seen.empty()) {
+      throw std::invalid_argument(
+          fmt::format("{}:1: SampleDataOptions::columns: {}= is given twice ({} and {})", table.path, key,
+                      Abbreviated(seen, 40), Abbreviated(entry, 40)));
+    }
+    seen = entry;
+  };
   for (const std::string& entry : spec) {
     if (entry.rfind("t=", 0) == 0) {
+      once(time_entry, entry, "t");
       c.time = FindColumn(table, entry.substr(2));
     } else if (entry.rfind("run=", 0) == 0) {
+      once(run_entry, entry, "run");
       c.run = FindColumn(table, entry.substr(4));
     } else {
       c.state.push_back(FindColumn(table, entry));

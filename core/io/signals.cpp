@@ -76,6 +76,9 @@ void RemoveTemporaryFiles() {
 }
 
 void InstallSignalCleanup() {
+  // A write beyond the file size limit (ulimit -f) then fails with EFBIG, which the writer reports
+  // naming its file and cleans up after, instead of the process dying silently by SIGXFSZ.
+  ::signal(SIGXFSZ, SIG_IGN);
   for (const Ending& e : kEndings) {
     struct sigaction current {};
     if (::sigaction(e.signal, nullptr, &current) != 0 || current.sa_handler == SIG_IGN) continue;

@@ -29,6 +29,8 @@ inline constexpr int kMaxTemporaryFiles = 128;
 //    restores the default action and raises the signal again, so the process dies quietly by
 //    SIGPIPE as pipeline tools do (the shell shows 141).
 // An output renamed onto its name before the signal stays; one not yet renamed is never half written.
+// SIGXFSZ (a write beyond the file size limit, `ulimit -f`) is ignored: the write fails with EFBIG
+// ("File too large"), reported by the writer with its file's name, its temporary file removed.
 void InstallSignalCleanup();
 
 }  // namespace hysid

@@ -216,9 +216,19 @@ void Model::SetParameter(std::string_view assignment) {
   }
   const std::string_view pname = assignment.substr(0, eq);
   const std::string_view text = assignment.substr(eq + 1);
+  // A leading + is accepted (from_chars takes none): "+5" is 5; "+-5" and "++5" are not numbers.
+  const std::string_view digits =
+      text.starts_with('+') && text.size() > 1 && text[1] != '-' && text[1] != '+' ? text.substr(1) : text;
   double value = 0.0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc() || end != text.data() + text.size() || text.empty()) {
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+  if (ec == std::errc::result_out_of_range && end == digits.data() + digits.size()) {
+    throw std::invalid_argument(
+        fmt::format("parameter '{}': value '{}' is out of range (a finite double: magnitude below 1.8e308, "
+                    "not below 2.2e-308 "
+                    "unless 0)",
+                    pname, text));
+  }
+  if (ec != std::errc() || end != digits.data() + digits.size() || digits.empty()) {
     throw std::invalid_argument(fmt::format("parameter '{}': value '{}' is not a number", pname, text));
   }
   SetParameter(pname, value);

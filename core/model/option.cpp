@@ -73,6 +73,12 @@ double ParseValue(std::string_view name, OptionType type, const std::vector<std:
   double v = 0.0;
   try {
     v = type == OptionType::kInteger ? static_cast<double>(std::stol(s, &used)) : std::stod(s, &used);
+  } catch (const std::out_of_range&) {  // a number, beyond what a double (long) holds
+    ThrowInvalid(
+        name, fmt::format("'{}'", text),
+        type == OptionType::kInteger
+            ? fmt::format("out of range (an integer within ±{})", std::numeric_limits<long>::max())
+            : "out of range (a finite double: magnitude below 1.8e308, not below 2.2e-308 unless 0)");
   } catch (const std::exception&) {
     used = 0;
   }

@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -318,6 +321,17 @@ struct Checked {
   bool state = false;      // uses a state
 };
 
+// A token muParser could not read that is a decimal number beyond a double's range ("1e999", "1e-400"):
+// strtod reads all of it and reports ERANGE.
+bool NumberOutOfRange(const std::string& token) {
+  if (token.empty() || !(std::isdigit(static_cast<unsigned char>(token[0])) != 0 || token[0] == '.'))
+    return false;
+  char* end = nullptr;
+  errno = 0;
+  std::strtod(token.c_str(), &end);
+  return errno == ERANGE && end != token.c_str();
+}
+
 // Compiles one expression alone with the file's variables; throws naming the key and the text.
 Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std::string& key,
                         const std::string& expr, Symbols& sym) {
@@ -343,6 +357,13 @@ Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std:
     }
     return out;
   } catch (const mu::Parser::exception_type& e) {
+    if (e.GetCode() == mu::ecUNASSIGNABLE_TOKEN && NumberOutOfRange(e.GetToken())) {
+      rd.Fail(
+          node, key,
+          fmt::format("\"{}\": the number {} is out of range (a finite double: magnitude below 1.8e308, not "
+                      "below 2.2e-308 unless 0)",
+                      expr, e.GetToken()));
+    }
     if (e.GetCode() == mu::ecUNASSIGNABLE_TOKEN) {
       rd.Fail(node, key,
               fmt::format("\"{}\": unknown symbol \"{}\" (the variables: {})", expr, e.GetToken(), sym.list));
@@ -435,6 +456,20 @@ ExprMatrix RowOf(const ExprMatrix& m, Eigen::Index r) {
   return row;
 }
 
+// PARAM.name: an identifier (a letter or _, then letters, digits and _), as the flags (--param
+// NAME=VALUE), the tables' columns and Python's dict keys name it.
+void CheckParameterName(const TomlReader& rd, const toml::node* node, const std::string& key,
+                        const std::string& name) {
+  const auto word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; };
+  const bool first =
+      !name.empty() && (std::isalpha(static_cast<unsigned char>(name[0])) != 0 || name[0] == '_');
+  if (first && std::all_of(name.begin(), name.end(), word)) return;
+  rd.Fail(
+      node, key,
+      fmt::format("'{}': a parameter name must be an identifier (a letter or _, then letters, digits or _)",
+                  Abbreviated(name, 40)));
+}
+
 // PARAM.bounds = [lo, hi]: lo < hi, the value inside.
 void ParseBounds(const TomlReader& rd, const toml::node& node, const std::string& key, Parameter& p) {
   const std::vector<double> b = rd.Numbers(node, key);
@@ -464,10 +499,19 @@ std::vector<Parameter> ParseParameterList(const TomlReader& rd, const toml::node
       rd.Fail(t.get("name"), key + ".name",
               fmt::format("\"{}\": names x0[...] are the initial states' (x0[STATE])", p.name));
     }
+    CheckParameterName(rd, t.get("name"), key + ".name", p.name);
     p.value = rd.Number(rd.Require(t, key, "value"), key + ".value");
     if (const toml::node* k = t.get("known")) p.known = rd.Boolean(*k, key + ".known");
     if (const toml::node* d = t.get("description")) p.description = rd.String(*d, key + ".description");
-    if (const toml::node* b = t.get("bounds")) ParseBounds(rd, *b, key + ".bounds", p);
+    if (const toml::node* b = t.get("bounds")) {
+      if (p.known) {
+        rd.Fail(b, key + ".bounds",
+                fmt::format("'{}' is known (known = true): it is held at its value; bounds are for unknown "
+                            "parameters",
+                            p.name));
+      }
+      ParseBounds(rd, *b, key + ".bounds", p);
+    }
     out.push_back(std::move(p));
   }
   return out;

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <system_error>
+#include <tuple>
 #include <utility>
 
 #include <fmt/format.h>
@@ -57,6 +58,47 @@ Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero,
         fmt::format("{} = {}: must be {} 0", name, fmt::join(values, ","), allow_zero ? ">=" : ">"));
   }
   return sigma;
+}
+
+void CheckSigmaRange(const Vec& sigma, Spelling spelling) {
+  for (const double v : sigma) {
+    if (v >= kMinSigma && v <= kMaxSigma) continue;
+    throw std::invalid_argument(fmt::format(
+        "{} = {:g}: out of range ({:g} <= sigma <= {:g}: the information scales as 1/sigma^2, which would "
+        "overflow or underflow; rescale the data's units)",
+        Spelled("sigma", spelling), v, kMinSigma, kMaxSigma));
+  }
+}
+
+void CheckBoundGrid(const SampleGrid& grid, Spelling spelling) {
+  if (grid.t_end >= grid.dt) return;
+  throw std::invalid_argument(fmt::format(
+      "{} = {:g}: out of range: the bound needs at least 2 samples ({} >= {} = {:g})",
+      Spelled("t_end", spelling), grid.t_end, Spelled("t_end", spelling), Spelled("dt", spelling), grid.dt));
+}
+
+void CheckNoiseShapesUsed(const IdentifierSettings& settings, bool flow_given, bool jump_given,
+                          Spelling spelling) {
+  std::vector<std::string> users;
+  for (const auto& d : AllPlugins<EstimatorKind>()) {
+    if (d.traits.needs_noise_shape) users.emplace_back(d.name);
+  }
+  for (const auto& [given, kind, name, which] :
+       {std::tuple{flow_given, settings.flow_estimator.kind, "flow_noise_shape", "alpha"},
+        std::tuple{jump_given, settings.jump_estimator.kind, "jump_noise_shape", "beta"}}) {
+    if (!given || DescriptorOf(kind).traits.needs_noise_shape) continue;
+    throw std::invalid_argument(fmt::format("{}: the {} estimator {} uses no noise shape (only {} do)",
+                                            Spelled(name, spelling), which, ToString(kind),
+                                            fmt::join(users, ", ")));
+  }
+}
+
+void CheckBoundsNeedRefinement(bool bounds_given, const std::string& refine, Spelling spelling) {
+  if (!bounds_given || refine != "none") return;
+  throw std::invalid_argument(fmt::format(
+      "{}: bounds act on the refinement, and {} = none has none (the recursive estimate cannot honour a "
+      "bound); use the refinement or leave the bounds out",
+      Spelled("param_bound", spelling), Spelled("refine", spelling)));
 }
 
 void CheckSimOptions(const SimOptions& options, Spelling spelling) {

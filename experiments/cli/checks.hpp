@@ -30,6 +30,14 @@ SampleGrid CheckedGrid(double t_end, double dt, Spelling spelling);
 // σ: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
 Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling);
 
+// The range in which σ (for the CRLB and a known σ of the refinement) keeps 1/σ² and the residuals
+// r/σ finite and normal: "--sigma = 1e-300: out of range (1e-150 <= sigma <= 1e+150 ...)".
+inline constexpr double kMinSigma = 1e-150, kMaxSigma = 1e150;
+void CheckSigmaRange(const Vec& sigma, Spelling spelling);
+
+// The CRLB's grid: at least two samples ("--t-end = 1e-300: out of range: ... t_end >= dt").
+void CheckBoundGrid(const SampleGrid& grid, Spelling spelling);
+
 // The solver's rtol and atol (each finite and > 0) and max_jumps (>= 1): "--rtol = -1: must be > 0".
 void CheckSimOptions(const SimOptions& options, Spelling spelling);
 
@@ -44,6 +52,15 @@ std::string NeitherModelNorFile(const std::string& name, const std::vector<std::
 // The refinement's choices ("ml", "none"): "" or "maybe not in {ml,none}" (CLI11's wording, as the
 // command line's --refine checks it).
 std::string RefineChoiceProblem(const std::string& value);
+
+// A noise shape given (flow_given, jump_given) for an estimator that uses none: "--flow-noise-shape:
+// the alpha estimator rls uses no noise shape (only gtls, frisch do)". The kinds must be set.
+void CheckNoiseShapesUsed(const IdentifierSettings& settings, bool flow_given, bool jump_given,
+                          Spelling spelling);
+
+// Parameter bounds given while the refinement, the only part that honours bounds, is off: "--param-bound:
+// bounds act on the refinement; with --refine none ...".
+void CheckBoundsNeedRefinement(bool bounds_given, const std::string& refine, Spelling spelling);
 
 // data_rtol and data_atol: finite and >= 0.
 void CheckDataAccuracy(double data_rtol, double data_atol, Spelling spelling);

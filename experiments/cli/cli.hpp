@@ -146,7 +146,14 @@ struct RefineStep {
   Crlb bound;              // at the truth (not ok without one)
   HybridParameters truth;
   FittedEvents fitted;     // a hybrid automaton refined (--refine ml): its events' times from the fit
+  // Notes, not refusals: an estimate kUnitsFactor times or more larger or smaller in magnitude than its
+  // start value (the model's value) says "check the units" (printed, --json `notes`, Python `notes`).
+  std::vector<std::string> notes;
 };
+inline constexpr double kUnitsFactor = 100.0;
+// The notes on the estimate `e` against the model's values (unknown α, β and guard parameters with a
+// start value other than 0).
+std::vector<std::string> UnitNotes(const Model& model, const HybridParameters& e);
 // The refinement (--refine ml) or the recursive estimate (none), and the bound at the truth.
 // `stop` (may be null) ends the refinement early (RefineOptions::stop).
 RefineStep RunRefineStep(const Model& model, const SampleData& data, const IdentifyResult& recursive,

@@ -52,6 +52,8 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const std::vector<int> measured = MeasuredIndices(model);
   const bool all = static_cast<int>(measured.size()) == n;
   const Vec sigma = SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
+  CheckSigmaRange(sigma, Spelling::kFlag);
+  CheckBoundGrid(grid, Spelling::kFlag);
   const std::vector<int> known = X0KnownFlag(args.x0_known, model);
   // Every component known: ξ0 is not in θ; some: in θ, held (sd 0, left out of the inverse).
   const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);

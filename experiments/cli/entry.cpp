@@ -70,14 +70,14 @@ int RunParsed(CLI::App& app, int argc, char** argv) {
     return e.get_exit_code();  // a run that finished with a status that is not ok (already printed)
   } catch (const CLI::ParseError& e) {
     // CLI11's own codes (104 conversion, 106 required, 109 extras, ...) are all usage errors.
-    std::fprintf(stderr, "hysid: error: %s (see hysid %s--help)\n", Abbreviated(e.what(), 300).c_str(),
+    std::fprintf(stderr, "hysid: error: %s (see hysid %s--help)\n", ShortenedMessage(e.what(), 300).c_str(),
                  app.get_subcommands().empty() ? "" : (app.get_subcommands()[0]->get_name() + " ").c_str());
     return 2;
   } catch (const RunFailed& e) {
     std::fprintf(stderr, "hysid: %s\n", e.what());
     return e.code();
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "hysid: error: %s\n", Abbreviated(e.what(), 2000).c_str());
+    std::fprintf(stderr, "hysid: error: %s\n", ShortenedMessage(e.what(), 2000).c_str());
     return 2;
   }
   return 0;
@@ -97,6 +97,9 @@ int Main(int argc, char** argv, ModelRegistry registry) {
   AddReproduceCommand(app, env);
   AddSweepCommand(app, env);
   AddCrlbCommand(app, env);
+  // `hysid SUBCOMMAND --version` answers the version too, before the subcommand's required flags.
+  for (CLI::App* sub : app.get_subcommands({}))
+    sub->set_version_flag("--version", HYSID_VERSION " (" HYSID_GIT_REVISION ")");
   if (UnknownSubcommand(app, argc, argv) || EmptyArgument(argc, argv)) return 2;
   // A signal that ends the process removes the temporary files of the outputs being written.
   InstallSignalCleanup();

@@ -74,6 +74,7 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   ApplyPluginOptions(args.options, Spelling::kFlag, &settings);
   settings.flow_estimator.noise_shape = NoiseShapeFlag(args.flow_shape, "--flow-noise-shape");
   settings.jump_estimator.noise_shape = NoiseShapeFlag(args.jump_shape, "--jump-noise-shape");
+  CheckNoiseShapesUsed(settings, !args.flow_shape.empty(), !args.jump_shape.empty(), Spelling::kFlag);
   if (args.localize && IsAutomaton(model.spec())) {
     BadFlag(fmt::format("--localize: model '{}' is a hybrid automaton (modes or jump maps); the jump localiser "
                         "fits one flow and one jump map, so it is not available for it",
@@ -85,7 +86,7 @@ IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
   settings.data_rtol = args.data_rtol;
   settings.data_atol = args.data_atol;
   if (!args.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size()) {
-    settings.sigma = SigmaFlag(args.sigma, model.state_size());
+    settings.sigma = SigmaFlag(args.sigma, model.state_size(), /*allow_zero=*/false);
   }
   // Settings errors (noise shape sizes, ...) before the data is read.
   try {
@@ -114,13 +115,22 @@ std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* se
   if (args.data_accuracy_given) return "as given";
   const nlohmann::json meta = ReadSidecar(args.data.front());
   if (meta.is_null() || !meta.contains("solver") || !meta["solver"].is_object() ||
-      meta["solver"].value("rtol", -1.0) < 0.0 || meta["solver"].value("atol", -1.0) < 0.0) {
+      !meta["solver"].contains("rtol") || !meta["solver"].contains("atol")) {
     return "none given";
+  }
+  const std::string sidecar = std::filesystem::path(args.data.front()).replace_extension(".json").string();
+  for (const char* key : {"rtol", "atol"}) {
+    const nlohmann::json& v = meta["solver"][key];
+    if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0.0) {
+      throw std::invalid_argument(
+          fmt::format("{}: solver.{} = {}: must be a number >= 0 (the tolerance the data "
+                      "were simulated with)",
+                      sidecar, key, Abbreviated(v.dump(), 40)));
+    }
   }
   settings->data_rtol = meta["solver"]["rtol"].get<double>();
   settings->data_atol = meta["solver"]["atol"].get<double>();
-  return fmt::format("the solver tolerances in {}",
-                     std::filesystem::path(args.data.front()).replace_extension(".json").string());
+  return fmt::format("the solver tolerances in {}", sidecar);
 }
 
 // One parameter of a sidecar's "parameters" set on `model` as the truth; `given` holds the names
@@ -352,12 +362,14 @@ SampleData ReadData(const IdentifyArgs& args, const Model& model, const std::vec
 }
 
 // --trace, --hulls and --json: each writable, no two the same file, none an input of this run (a
-// --data file, its sidecar FILE.json, the model file).
+// --data file, its sidecar FILE.json, the model file). FILE.json is an input only when it is a
+// sidecar of `simulate` (ReadSidecar): an earlier --json report of FILE.csv there is an output, replaced.
 void CheckOutputs(const IdentifyArgs& args) {
   InputFiles inputs;
   for (const std::string& d : args.data) {
     inputs.Add("--data", d);
-    inputs.Add("--data (sidecar)", std::filesystem::path(d).replace_extension(".json"));
+    if (!ReadSidecar(d).is_null())
+      inputs.Add("--data (sidecar)", std::filesystem::path(d).replace_extension(".json"));
   }
   inputs.Add("--model-file", args.model.file);
   std::vector<std::pair<std::string, std::filesystem::path>> outputs;
@@ -490,13 +502,17 @@ void ReleaseReported(SampleData& data, IdentifyResult& result) {
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   Model model = MakeModel(env, args.model);
+  CheckBoundsNeedRefinement(!args.bounds.empty(), args.refine.refine, Spelling::kFlag);
   ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
   const std::string truth_source = TakeSidecarTruth(args, &model);
   IdentifierSettings settings = BuildSettings(args, model);
   const std::vector<int> measured = MeasuredIndices(model);
   const bool all = static_cast<int>(measured.size()) == model.state_size();
   // σ per measured state; the identifier's own σ only when every state is measured.
-  const Vec sigma = args.sigma.empty() ? Vec() : SigmaFlag(args.sigma, static_cast<int>(measured.size()));
+  const Vec sigma = args.sigma.empty()
+                        ? Vec()
+                        : SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
+  CheckSigmaRange(sigma, Spelling::kFlag);
   if (!all) settings.sigma.resize(0);
   SampleData data = ReadData(args, model, measured);
   CheckRefineArgs(args.refine, model, data);
@@ -582,8 +598,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   cmd->add_flag("--second-pass", args->second_pass,
                 "re-classify every sample with the final estimates, re-estimate, report the changes");
   AddSigmaOption(*cmd, args->sigma,
-                 "known measurement noise σ (one, or one per measured state); gtls/frisch estimate it from "
-                 "the data when not given");
+                 "known measurement noise σ > 0 (one, or one per measured state); gtls/frisch estimate it "
+                 "from the data when not given");
   CLI::Option* rtol_option =
       cmd->add_option("--data-rtol", args->data_rtol,
                       "residual detector: relative accuracy of the data apart from the noise (simulated "

@@ -81,7 +81,10 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
       continue;
     }
     line += se ? fmt::format(" ± {:<10.4g}", r.standard_errors[ii]) : fmt::format(" {:<12}", "(no se)");
-    if (truth) {
+    if (truth && !(bound.sd[ii] > 0.0)) {  // held in the bound (--x0-known): it has no CRLB sd
+      line += fmt::format("  truth {:.10g}: error {:.3g} (no CRLB: known, held in the bound)", true_theta[ii],
+                          theta[ii] - true_theta[ii]);
+    } else if (truth) {
       line += fmt::format("  truth {:.10g}: error {:.3g} = {:.2f} CRLB sd", true_theta[ii],
                           theta[ii] - true_theta[ii], std::abs(theta[ii] - true_theta[ii]) / bound.sd[ii]);
       if (se) line += fmt::format(", se/CRLB sd {:.3f}", r.standard_errors[ii] / bound.sd[ii]);
@@ -278,7 +281,29 @@ RefineStep RunRefineStep(const Model& model, const SampleData& data, const Ident
                        s.known);
   s.truth = HybridParameters::Of(model, truth.x0);
   if (args.refine == "ml" && IsAutomaton(model.spec())) s.fitted = FittedEventsOf(model, data, recursive, r);
+  s.notes = UnitNotes(model, r.estimate);
   return s;
+}
+
+std::vector<std::string> UnitNotes(const Model& model, const HybridParameters& e) {
+  std::vector<std::string> notes;
+  const ModelSpec& spec = model.spec();
+  for (const auto& [params, values] : {std::pair{&spec.alpha, &e.alpha}, std::pair{&spec.beta, &e.beta},
+                                       std::pair{&spec.guard_params, &e.gamma}}) {
+    for (std::size_t i = 0; i < params->size() && static_cast<Eigen::Index>(i) < values->size(); ++i) {
+      const Parameter& p = (*params)[i];
+      const double estimate = (*values)[static_cast<Eigen::Index>(i)];
+      if (p.known || p.value == 0.0 || estimate == 0.0 || !std::isfinite(estimate)) continue;
+      const double ratio = std::abs(estimate / p.value);
+      if (ratio < kUnitsFactor && ratio > 1.0 / kUnitsFactor) continue;
+      notes.push_back(
+          fmt::format("{} = {:.4g} is {:.2g} times {} than its start value {:g} (the model's): check "
+                      "the units of the data and of the model's values",
+                      p.name, estimate, ratio >= 1.0 ? ratio : 1.0 / ratio,
+                      ratio >= 1.0 ? "larger" : "smaller", p.value));
+    }
+  }
+  return notes;
 }
 
 nlohmann::json RefineJson(const Model& model, const SampleData& data, const IdentifyResult& recursive,
@@ -307,6 +332,7 @@ nlohmann::json RefineJson(const Model& model, const SampleData& data, const Iden
   j["reconstructed"] = named(partial.reconstructed);
   if (!partial.reconstruction.empty()) j["reconstruction"] = partial.reconstruction;
   j["x0_known"] = named(step.known);
+  j["notes"] = step.notes;
   return j;
 }
 
@@ -318,6 +344,7 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
   const RefineResult& r = step.result;
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, step.truth, step.bound);
+  for (const std::string& note : step.notes) std::printf("note: %s\n", note.c_str());
   if (step.bound.ok()) {
     std::printf("  CRLB at the truth (sigma from %s): %s\n",
                 std::filesystem::path(data.path).replace_extension(".json").c_str(),

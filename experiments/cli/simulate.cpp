@@ -1,9 +1,12 @@
 // hysid simulate: one trajectory of a model, its samples (true and measured) and its jumps.
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
@@ -18,8 +21,9 @@
 
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
-#include "experiments/cli/cli.hpp"
+#include "core/io/limits.hpp"
 #include "core/model/automaton.hpp"
+#include "experiments/cli/cli.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
@@ -309,7 +313,21 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
       ->capture_default_str()
       ->transform(NonNegativeInteger);
   AddToleranceOptions(*sub, args->sim, "");
-  sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget")->capture_default_str();
+  sub->add_option("--max-jumps", args->sim.max_jumps, "jump budget (1 to 2147483647)")
+      ->capture_default_str()
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            char* end = nullptr;
+            errno = 0;
+            const long long v = std::strtoll(text.c_str(), &end, 10);
+            const bool integer = end != text.c_str() && *end == '\0';
+            if (integer && errno == 0 && v >= std::numeric_limits<int>::min() &&
+                v <= std::numeric_limits<int>::max())
+              return std::string();  // below 1: CheckSimOptions says so
+            return fmt::format("{}: {} (an integer from 1 to {})", Abbreviated(text, 40),
+                               integer ? "out of range" : "not an integer", std::numeric_limits<int>::max());
+          },
+          "1..2147483647"));
   sub->add_option(
          "--out", args->out,
          "trajectory CSV: t,j,true_STATE..,STATE.. (noise-free and measured state, columns named after "

@@ -22,6 +22,7 @@
 #include "core/io/toml_guard.hpp"
 #include "core/io/toml_reader.hpp"
 #include "core/model/automaton.hpp"
+#include "core/model_file/input_defaults.hpp"
 #include "experiments/sweep/plan.hpp"
 #include "experiments/sweep/run_context.hpp"
 #include "sim/model_check/model_check.hpp"
@@ -111,12 +112,22 @@ void ParseModelSource(const TomlReader& rd, const toml::table& t, const std::str
     const std::filesystem::path path =
         std::filesystem::path(rd.file()).parent_path() / rd.String(*file, key + ".file");
     try {
-      m->from_file = std::make_shared<const Model>(LoadModelFile(path));
+      const std::string text = ReadWholeFile(path, "model file");
+      m->from_file = std::make_shared<const Model>(ParseModelText(text, path.string()));
+      m->file_digest = Fnv1aDigest(text);
     } catch (const std::invalid_argument& e) {
       rd.Fail(file, key + ".file", e.what());
     }
     m->file = path.lexically_normal().string();
     m->name = m->from_file->name();
+    // Each trial simulates with the model's default inputs: one missing fails every trial.
+    if (const std::string missing = InputsWithoutDefault(m->from_file->spec()); !missing.empty()) {
+      rd.Fail(
+          file, key + ".file",
+          fmt::format("{}: input {} has no input_defaults expression, and a sweep simulates every trial with "
+                      "the defaults (add input_defaults = {{ NAME = \"expression of t\" }})",
+                      m->file, missing));
+    }
     // Unmeasured states must be reconstructible for the identifier's start (core/identify/reconstruct.hpp).
     if (const ReconstructionPlan plan = PlanReconstruction(*m->from_file, MeasuredIndices(*m->from_file)); !plan.ok()) {
       rd.Fail(file, key + ".file", fmt::format("{}: measured: {}", m->file, plan.error));
@@ -589,7 +600,10 @@ nlohmann::json SweepConfig::ToJson() const {
     nlohmann::json params = nlohmann::json::array();
     for (const auto& [k, v] : m.params) params.push_back({k, v});
     nlohmann::json j = {{"name", m.name}, {"params", params}, {"t_end", m.t_end}};
-    if (m.from_file) j["definition"] = ModelDefinitionJson(*m.from_file);  // all the file defines
+    if (m.from_file) {
+      j["definition"] = ModelDefinitionJson(*m.from_file);  // what the file defines, readable
+      j["file_digest"] = m.file_digest;                     // and every byte of it
+    }
     if (!m.x0_range.empty()) {
       j["x0_range"] = m.x0_range;
     } else {
@@ -636,14 +650,39 @@ nlohmann::json SweepConfig::ToJson() const {
   return j;
 }
 
-std::string SweepConfig::Hash() const {
-  const std::string text = ToJson().dump();
+std::string SweepConfig::Hash() const { return Fnv1aDigest(ToJson().dump()); }
+
+std::string Fnv1aDigest(std::string_view bytes) {
   std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char ch : text) {
+  for (const unsigned char ch : bytes) {
     h ^= ch;
     h *= 1099511628211ull;
   }
   return fmt::format("{:016x}", h);
+}
+
+std::string DescribeConfigChange(const nlohmann::json& before, const SweepConfig& now) {
+  const nlohmann::json patch = nlohmann::json::diff(before, now.ToJson());
+  if (patch.empty()) return "";
+  // A JSON pointer (/model/0/file_digest) as a key (model[0].file_digest).
+  const std::string pointer = patch[0].value("path", "");
+  std::string key;
+  std::vector<std::string> parts;
+  for (std::size_t at = 1; at <= pointer.size();) {
+    const std::size_t end = std::min(pointer.find('/', at), pointer.size());
+    parts.push_back(pointer.substr(at, end - at));
+    at = end + 1;
+  }
+  for (const std::string& part : parts) {
+    const bool index = !part.empty() && part.find_first_not_of("0123456789") == std::string::npos;
+    key += index ? "[" + part + "]" : (key.empty() ? "" : ".") + part;
+  }
+  if (key.empty()) return "the configuration";
+  if (parts.size() >= 3 && parts[0] == "model" && (parts[2] == "file_digest" || parts[2] == "definition")) {
+    const std::size_t m = std::stoul(parts[1]);
+    if (m < now.models.size()) return fmt::format("{} (the model file {} changed)", key, now.models[m].file);
+  }
+  return key;
 }
 
 }  // namespace hysid

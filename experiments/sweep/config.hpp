@@ -29,6 +29,9 @@ struct SweepModel {
   std::string name;                                    // registry name (or the model file's name)
   std::string file;                                    // model file, when given instead of a name
   std::shared_ptr<const Model> from_file;              // the loaded model file (else null)
+  // FNV-1a of the model file's bytes: every byte of it is part of the sweep's identity (guard
+  // parameters, input_defaults, measured, ... and comments), so a resume after any edit is refused.
+  std::string file_digest;
   std::vector<std::pair<std::string, double>> params;  // true parameter values set by the file
   std::vector<double> x0;                              // fixed initial state, or
   std::vector<std::array<double, 2>> x0_range;         // [lo, hi] per component, drawn per trial
@@ -78,6 +81,13 @@ struct SweepConfig {
   // FNV-1a of ToJson().dump(): equal configurations hash equal.
   std::string Hash() const;
 };
+
+// FNV-1a (64 bits) of `bytes` as 16 hex digits.
+std::string Fnv1aDigest(std::string_view bytes);
+
+// What differs between an earlier sweep's ToJson() and `now`'s, for a refusal: the first differing
+// key ("model[0].file_digest (the model file FILE changed)", "grid.sigma[1]", ...); "" when equal.
+std::string DescribeConfigChange(const nlohmann::json& before, const SweepConfig& now);
 
 // Throws std::invalid_argument "FILE:LINE: KEY: problem" (or "FILE: ..." when unreadable).
 SweepConfig ParseSweepFile(const std::filesystem::path& path, const ModelRegistry& registry);

@@ -31,10 +31,9 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(fmt::format("{}: cannot open", path.string()));
+  const std::string text = ReadWholeFile(path, "run directory's JSON file");  // a directory there is named
   try {
-    return nlohmann::json::parse(in);
+    return nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     throw std::invalid_argument(fmt::format("{}: not valid JSON: {}", path.string(), e.what()));
   }
@@ -146,10 +145,11 @@ void ClaimDirectory(const SweepConfig& config, const SweepOptions& options, long
   }
   const nlohmann::json old = ReadJson(identity_path);
   if (old.value("hash", "") != identity["hash"]) {
+    const std::string what = DescribeConfigChange(old.value("config", nlohmann::json::object()), config);
     throw std::invalid_argument(fmt::format(
-        "{}: holds another study (sweep hash {} there, {} now: the sweep file or a model file it names "
-        "changed what a trial computes); use another --out or delete the directory",
-        options.out.string(), old.value("hash", "?"), config.Hash()));
+        "{}: holds another study (sweep hash {} there, {} now; {} differs: the sweep file or a model file it "
+        "names changed since that run); use another --out or delete the directory",
+        options.out.string(), old.value("hash", "?"), config.Hash(), what.empty() ? "its identity" : what));
   }
   if (old.value("shard", "") != identity["shard"]) {
     throw std::invalid_argument(fmt::format("{}: holds shard {}, not shard {}", options.out.string(),

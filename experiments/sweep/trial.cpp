@@ -141,8 +141,16 @@ TrialColumn Metric(std::string name, double (*get)(const TrialOutcome&)) {
   return {std::move(name),
           [get](const TrialOutcome& o) { return o.ok() ? FormatNumber(get(o)) : std::string(); }};
 }
-TrialColumn Count(std::string name, long (*get)(const TrialOutcome&)) {
-  return {std::move(name), [get](const TrialOutcome& o) { return o.ok() ? Integer(get(o)) : std::string(); }};
+// The detector's counts and rates: kept where the fit is not ok only because its estimate contradicts
+// the data (kTrialInconsistent), since what the detector found is a fact of the trial.
+bool DetectionKnown(const TrialOutcome& o) { return o.ok() || o.status == kTrialInconsistent; }
+TrialColumn DetectionCount(std::string name, long (*get)(const TrialOutcome&)) {
+  return {std::move(name),
+          [get](const TrialOutcome& o) { return DetectionKnown(o) ? Integer(get(o)) : std::string(); }};
+}
+TrialColumn DetectionMetric(std::string name, double (*get)(const TrialOutcome&)) {
+  return {std::move(name),
+          [get](const TrialOutcome& o) { return DetectionKnown(o) ? FormatNumber(get(o)) : std::string(); }};
 }
 
 // The columns that identify the unit and its cell: unit, cell, trial, model, dt, sigma, the option axes,
@@ -182,14 +190,14 @@ void OutcomeColumns(std::vector<TrialColumn>* cols) {
   cols->push_back({"message", [](const O& o) { return Clean(o.message); }});
   cols->push_back({"samples", [](const O& o) { return Integer(o.samples); }});
   cols->push_back({"jumps_true", [](const O& o) { return Integer(o.jumps_true); }});
-  cols->push_back(Count("jumps_detected", [](const O& o) { return o.jumps_detected; }));
-  cols->push_back(Count("tp", [](const O& o) { return o.conf.tp; }));
-  cols->push_back(Count("fp", [](const O& o) { return o.conf.fp; }));
-  cols->push_back(Count("fn", [](const O& o) { return o.conf.fn; }));
-  cols->push_back(Count("tn", [](const O& o) { return o.conf.tn; }));
-  cols->push_back(Metric("misclassification", [](const O& o) { return o.conf.misclassification(); }));
-  cols->push_back(Metric("precision", [](const O& o) { return o.conf.precision(); }));
-  cols->push_back(Metric("recall", [](const O& o) { return o.conf.recall(); }));
+  cols->push_back(DetectionCount("jumps_detected", [](const O& o) { return o.jumps_detected; }));
+  cols->push_back(DetectionCount("tp", [](const O& o) { return o.conf.tp; }));
+  cols->push_back(DetectionCount("fp", [](const O& o) { return o.conf.fp; }));
+  cols->push_back(DetectionCount("fn", [](const O& o) { return o.conf.fn; }));
+  cols->push_back(DetectionCount("tn", [](const O& o) { return o.conf.tn; }));
+  cols->push_back(DetectionMetric("misclassification", [](const O& o) { return o.conf.misclassification(); }));
+  cols->push_back(DetectionMetric("precision", [](const O& o) { return o.conf.precision(); }));
+  cols->push_back(DetectionMetric("recall", [](const O& o) { return o.conf.recall(); }));
   cols->push_back(Metric("e_alpha", [](const O& o) { return o.err.e_alpha; }));
   cols->push_back(Metric("e_beta", [](const O& o) { return o.err.e_beta; }));
   cols->push_back(Metric("rel_alpha", [](const O& o) { return o.err.rel_alpha; }));
@@ -503,6 +511,10 @@ void Evaluate(const SweepConfig& config, const TrialInputs& in, const UnitInput&
       o->status = kTrialRefineFailed;
       o->message = fmt::format("refinement {}: {}", ToString(rr.status), rr.reason);
     }
+  }
+  if (cell.refine != "ml" && res.flow_status == EstimatorStatus::kInconsistent) {
+    o->status = kTrialInconsistent;
+    o->message = res.flow_reason;
   }
   o->have_estimates = true;
   o->jumps_detected = res.jumps_detected;

@@ -27,6 +27,9 @@ inline constexpr const char* kTrialOk = "ok";
 // With refine = ml: the refinement's status is not ok (refine_status, message say why). The row
 // counts as a failure of its cell; alpha_hat / beta_hat hold the recursive estimate it kept.
 inline constexpr const char* kTrialRefineFailed = "refine_failed";
+// Without a refinement: the recursive flow estimate contradicts its data (flow_status inconsistent,
+// message says why; core/identify/self_check.hpp). The row counts as a failure of its cell.
+inline constexpr const char* kTrialInconsistent = "inconsistent";
 
 // Prefix of the per-parameter error columns of trials.csv (summary.csv aggregates them too).
 inline constexpr const char* kRelativeErrorPrefix = "rel_err_";

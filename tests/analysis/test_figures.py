@@ -154,7 +154,7 @@ def test_small_sweep_plotted_means_equal_the_summary(small_run, captured, tmp_pa
     rows = list(csv.DictReader(open(os.path.join(small_run, "summary.csv"))))
     for fig, stem, _ in captured.figs:
         dt = stem.rsplit("_dt", 1)[1]
-        assert legend_texts(fig) == ["paper r = 20", "paper r = 220", "residual p = 1e-08"]
+        assert legend_texts(fig) == ["paper r = 20", "paper r = 100", "residual p = 1e-08"]
         for ax, metric in zip(data_axes(fig), ["e_alpha", "e_beta", "misclassification"]):
             for ln, label in zip(ax.get_lines(), legend_texts(fig)):
                 det, _, _, val = label.split(" ")

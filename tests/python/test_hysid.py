@@ -224,7 +224,9 @@ SIMULATE_REFUSED = [
     (["--x0", "nan,0"], {"x0": [NAN, 0.0]}),
 ]
 CRLB_REFUSED = [(["--sigma", "0"], {"sigma": 0.0}), (["--sigma", "nan"], {"sigma": NAN}),
-                (["--dt", "1e-320"], {"dt": 1e-320})]
+                (["--dt", "1e-320"], {"dt": 1e-320}),
+                (["--sigma", "1e-300"], {"sigma": 1e-300}), (["--sigma", "1e300"], {"sigma": 1e300}),
+                (["--t-end", "1e-300"], {"t_end": 1e-300})]
 IDENTIFY_REFUSED = [
     (["--sigma", "nan"], {"sigma": NAN}), (["--sigma", "-1"], {"sigma": -1.0}),
     (["--forgetting", "2"], {"forgetting": 2.0}), (["--jump-forgetting", "0"], {"jump_forgetting": 0.0}),
@@ -233,6 +235,11 @@ IDENTIFY_REFUSED = [
     (["--tau0", "10"], {"tau0": 10.0}),
     (["--estimator", "kalman"], {"estimator": "kalman"}), (["--detector", "oracle"], {"detector": "oracle"}),
     (["--data-atol", "nan"], {"data_atol": NAN}), (["--data-rtol", "-1"], {"data_rtol": -1.0}),
+    (["--sigma", "0"], {"sigma": 0.0}), (["--sigma", "1e-300"], {"sigma": 1e-300}),
+    (["--param-bound", "mu=-0.01,0.01", "--refine", "none"], {"param_bound": {"mu": (-0.01, 0.01)}, "refine": "none"}),
+    (["--flow-noise-shape", "1,0,0,0,1,0,0,0,1"], {"flow_noise_shape": np.eye(3)}),
+    (["--estimator", "integral", "--jump-noise-shape", "1,0,0,0,1,0,0,0,1"],
+     {"estimator": "integral", "jump_noise_shape": np.eye(3)}),
 ]
 
 
@@ -627,9 +634,9 @@ def test_identify_takes_every_option_of_the_tables():
     covered = own | {o["flag"] for o in options.values()}
     # The flags that are not identify's options in Python: the files (data, columns, outputs, model).
     # --x0, --x0-known (a known initial state, for measured outputs) and --param-bound (bounds come
-    # from the model file in Python) are not keywords yet.
+    # from the model file in Python) are not keywords yet; --version is every subcommand's.
     assert flags - covered == {"--model", "--model-file", "--param", "--data", "--columns", "--trace",
-                               "--hulls", "--json", "--x0", "--x0-known", "--param-bound"}
+                               "--hulls", "--json", "--x0", "--x0-known", "--param-bound", "--version"}
 
 
 def test_unknown_keywords_are_refused_by_name():
@@ -784,3 +791,14 @@ def test_an_automatons_report_has_the_fitted_event_times():
     for event, t in zip(events, truth):
         assert abs(event["time_fitted"] - t) < traj["dt"]
         assert abs(event["time_fitted"] - t) < 5 * event["time_fitted_se"]
+
+
+def test_units_note_on_an_estimate_far_from_its_start(paper_data):
+    """Time in ms (v in m/ms): a and b come out 1e6 and 1e3 times smaller than the model's values, a
+    note, not a refusal; the same samples in s: no note."""
+    data = np.loadtxt(paper_data, delimiter=",", skiprows=1)
+    y = data[:, 4:6]
+    plain = hysid.identify("impact-msd", y, dt=5e-4, refine="none")
+    assert plain["notes"] == []
+    ms = hysid.identify("impact-msd", y / [1.0, 1000.0], dt=0.5, refine="none")
+    assert any(n.startswith("a = ") and "check the units" in n for n in ms["notes"]), ms["notes"]

@@ -104,6 +104,8 @@ def files():
     f.update(INPUTS_FILES)
     f.update(TRUTH_FILES)
     f.update(AUTOMATON_FILES)
+    f.update(ACCEPTED_FILES)
+    f.update(UNCLEAR_FILES)
     return f
 
 
@@ -175,6 +177,8 @@ def safety_cases():
 
 
 SAFETY_SUBJECTS = {
+    'identify: a sidecar with "rtol": "x"': "rtolx.json",
+    "sweep: sweep.json is a directory": "jsondir/sweep.json",
     "crlb: --t-end= with nothing after": "--t-end",
     "HYSID_MAX_SAMPLES=1000: the built-in models load, the run is refused": "HYSID_MAX_SAMPLES",
     "HYSID_MAX_SAMPLES=abc": "HYSID_MAX_SAMPLES",
@@ -303,7 +307,8 @@ def cases():
         ("sweep: the run directory is locked", ["sweep", "ok.toml", "--out", "locked"]),
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
-    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES + PROBE_CASES
+    ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES + PROBE_CASES \
+      + ACCEPTED_CASES + UNCLEAR_CASES
 
 
 # Found by tests/experiments/cli/probe_hostile.py: empty flag values, a column named twice, a grid axis no detector
@@ -448,6 +453,49 @@ AUTOMATON_CASES = [
     ("crlb: --mode for a model without modes", ["crlb", "--mode", "on"]),
     ("crlb: --mode that is not one of the model's", ["crlb", "--model-file", "pump.toml", "--mode", "idle"]),
 ]
+# Inputs that were accepted and gave a wrong answer: refused by name.
+ACCEPTED_FILES = {
+    "knownbound.toml": MSD.replace('{ name = "alpha_x", value = 1.0, known = true,',
+                                   '{ name = "alpha_x", value = 1.0, known = true, bounds = [0, 2],', 1),
+    "linebreakname.toml": MSD.replace('name = "mu"', 'name = "k\\nz"', 1),
+    "nodefaultsweep.toml": '[model]\nfile = "driven-nodefault.toml"\n[grid]\nsigma = 0.0\ndt = 1e-2\n',
+}
+ACCEPTED_CASES = [
+    ("identify: --sigma 0", ["identify", "--sigma", "0", "--data", "sim.csv"]),
+    ("identify: --param-bound with --refine none",
+     ["identify", "--param-bound", "mu=-0.01,0.01", "--refine", "none", "--data", "sim.csv"]),
+    ("model file: bounds on a known parameter", ["simulate", "--model-file", "knownbound.toml"] + SIM),
+    ("identify: --flow-noise-shape with rls",
+     ["identify", "--flow-noise-shape", "1,0,0,0,1,0,0,0,1", "--data", "sim.csv"]),
+    ("model file: a parameter name with a line break", ["simulate", "--model-file", "linebreakname.toml"] + SIM),
+    ("sweep: an input without input_defaults", ["sweep", "nodefaultsweep.toml", "--out", "run", "--dry-run"]),
+]
+
+# Messages that did not name the file, flag or key, or not the real reason.
+UNCLEAR_FILES = {
+    "utf16.csv": "\ufefft,y1,y2\n0,1,2\n0.1,1,2\n0.2,1,2\n".encode("utf-16-le"),
+    "divzero.toml": MSD.replace('[0, "-x", "-v"]', '[0, "-x/0", "-v"]', 1),
+    "sqrtneg.toml": MSD.replace('[0, "-x", "-v"]', '[0, "sqrt(-1-x*x)", "-v"]', 1),
+    "uhuge.toml": DRIVEN.replace('u = "sin(1.3*t) + 0.5*sin(3.7*t)"', 'u = "1e999"', 1),
+}
+UNCLEAR_CASES = [
+    ("identify: a UTF-16 CSV", ["identify", "--data", "utf16.csv"]),
+    ("identify: a sidecar with \"rtol\": \"x\"", ["identify", "--data", "rtolx.csv"]),
+    ("sweep: sweep.json is a directory", ["sweep", "ok.toml", "--out", "jsondir"]),
+    ("model file: -x/0 in phi", ["simulate", "--model-file", "divzero.toml"] + SIM),
+    ("model file: sqrt(-1-x*x) in phi", ["simulate", "--model-file", "sqrtneg.toml"] + SIM),
+    ("crlb: --sigma 1e-300", ["crlb", "--sigma", "1e-300"]),
+    ("crlb: --sigma 1e300", ["crlb", "--sigma", "1e300"]),
+    ("crlb: --t-end 1e-300", ["crlb", "--t-end", "1e-300"]),
+    ("simulate: --param a=1e999", ["simulate", "--param", "a=1e999"] + SIM),
+    ("identify: --r 1e999", ["identify", "--detector", "paper", "--r", "1e999", "--data", "sim.csv"]),
+    ("identify: --false-alarm 1e-320",
+     ["identify", "--detector", "residual", "--false-alarm", "1e-320", "--data", "sim.csv"]),
+    ("simulate: input_defaults u = \"1e999\"", ["simulate", "--model-file", "uhuge.toml"] + SIM),
+    ("simulate: --max-jumps 2147483648", ["simulate", "--max-jumps", "2147483648"] + SIM),
+    ("identify: --columns gives t= twice", ["identify", "--columns", "t=t,t=j,x,v", "--data", "sim.csv"]),
+]
+
 
 def truth_setup(d):
     """simb.csv: sim.csv again, its sidecar saying a = 6."""
@@ -537,11 +585,25 @@ def run(hysid, args, cwd):
 def setup(hysid, d):
     for name, text in files().items():
         os.makedirs(os.path.dirname(os.path.join(d, name)), exist_ok=True)
+        if isinstance(text, bytes):
+            with open(os.path.join(d, name), "wb") as f:
+                f.write(text)
+            continue
         with open(os.path.join(d, name), "w", encoding="utf-8", newline="") as f:
             f.write(text)
     os.makedirs(os.path.join(d, "o"))
+    os.makedirs(os.path.join(d, "jsondir", "sweep.json"))
     os.mkfifo(os.path.join(d, "fifo.csv"))
     subprocess.run([hysid, "simulate", "--sigma", "0.1", "--out", "sim.csv"], cwd=d, check=True, capture_output=True)
+    # The same data with a sidecar whose solver.rtol is text.
+    import json
+    with open(os.path.join(d, "sim.csv")) as src, open(os.path.join(d, "rtolx.csv"), "w") as dst:
+        dst.write(src.read())
+    with open(os.path.join(d, "sim.json")) as src:
+        meta = json.load(src)
+    meta["solver"]["rtol"] = "x"
+    with open(os.path.join(d, "rtolx.json"), "w") as dst:
+        json.dump(meta, dst)
     # A finished run, and run directories corrupted from it.
     subprocess.run([hysid, "sweep", "ok.toml", "--out", "done", "--progress", "none"], cwd=d, check=True,
                    capture_output=True)
