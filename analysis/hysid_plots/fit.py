@@ -210,9 +210,11 @@ def draw_run(fit, run, width):
         ax = axes[k]
         thr = "q" if det == "z" else "tau_hat"
         stat, limit = fit.trace[det][rows], fit.trace[thr][rows]
-        ax.plot(t, stat, color="0.35", lw=0.6, label="statistic", gid="statistic")
-        ax.plot(t, limit, color=style.COLORS[1], lw=0.9, ls="--", label="threshold", gid="threshold")
-        if np.nanmin(np.r_[stat, limit]) > 0:
+        # Log axis: a statistic or threshold of 0 (a chain's first samples) is not drawn.
+        ax.plot(t, np.where(stat > 0, stat, np.nan), color="0.35", lw=0.6, label="statistic", gid="statistic")
+        ax.plot(t, np.where(limit > 0, limit, np.nan), color=style.COLORS[1], lw=0.9, ls="--", label="threshold",
+                gid="threshold")
+        if np.any(np.r_[stat, limit] > 0):
             ax.set_yscale("log")
         mark_events(ax, dets, events)
         ax.set_ylabel(r"max $|z|$, $q$" if det == "z" else r"$D_{\delta t}\xi$, $\hat\tau$")
@@ -317,11 +319,14 @@ def caption(fit, run):
                     for n, v, se in zip(rep.get("names") or [], rep.get("estimate") or [],
                                         (rep.get("standard_errors") or []) + [None] * 99)
                     if not str(n).startswith("x0"))
-    parts = [f"{rep.get('model', '?')}, run {run} of {len(fit.runs())}: the measured {names} (grey dots)"]
+    text = f"{rep.get('model', '?')}, run {run} of {len(fit.runs())}: the measured {names} (grey dots)"
     if not fit.missing_columns:
-        parts.append("with the fitted model's output (line), each chain run from its fitted initial state")
-    parts.append("; dotted grey: the detected jumps; green: the fitted event times with ± their standard error")
-    text = " ".join(parts) + (f". Refinement: {rep.get('status')}" + (f" ({rep.get('reason')})" if rep.get("reason")
+        text += " with the fitted model's output (line), each chain run from its fitted initial state"
+    thr = "q" if "z" in fit.trace else "τ̂"
+    text += (f"; dotted grey: the detected jumps; green: the fitted event times with ± their standard error; "
+             f"below them the detector's statistic (grey) against its threshold {thr} (dashed), log axis, zeros "
+             "not drawn")
+    text = text + (f". Refinement: {rep.get('status')}" + (f" ({rep.get('reason')})" if rep.get("reason")
                                                                      else "") + f"; {est}.")
     if not fit.missing_columns:
         text += (f" Below: the normalised residuals r/σ against time, their autocorrelation at lags 1–{ACF_LAGS} "

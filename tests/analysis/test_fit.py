@@ -93,7 +93,8 @@ def test_fit_figure_draws_the_trace_and_report(tmp_path, captured):
             ys = band.get_xy()[:, 1]
             assert ys.min() == pytest.approx(-1.96 / math.sqrt(60)) and ys.max() == pytest.approx(1.96 / math.sqrt(60))
         (stat,) = gid_lines(axes[2], "statistic")
-        np.testing.assert_array_equal(stat.get_ydata(), [tr["z"] for tr in trace if tr["run"] == run])
+        np.testing.assert_array_equal(stat.get_ydata(), [tr["z"] if tr["z"] > 0 else np.nan for tr in trace
+                                                         if tr["run"] == run])
         (qq,) = gid_lines(axes[5], "qq")
         pooled = np.sort(np.concatenate([[tr["residual_h"] / 0.01, tr["residual_v"] / 0.1] for tr in trace
                                          if tr["run"] == run]))
