@@ -13,8 +13,11 @@ KINDS = {  # subcommand: (module, function, what it draws)
     "efficiency": ("sweep_figs", "efficiency", "mean error / CRLB-implied error vs σ (needs crlb_* columns)"),
     "relative-error": ("sweep_figs", "relative_error",
                        "per-parameter relative error vs σ, one panel per parameter (needs trials.csv)"),
+    "coverage": ("sweep_figs", "coverage",
+                 "share of trials whose reported 95 %% interval covers the truth vs σ (needs cover_* columns)"),
 }
-ALL_ORDER = ["error-vs-sigma", "relative-error", "efficiency", "misclassification-map", "detector-comparison"]
+ALL_ORDER = ["error-vs-sigma", "relative-error", "efficiency", "coverage", "misclassification-map",
+             "detector-comparison"]
 
 
 def need_libraries(matplotlib=True):
@@ -48,6 +51,16 @@ def truth(text):
     return out
 
 
+def run_list(text):
+    try:
+        out = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}': expected run numbers, e.g. 1,2,5") from None
+    if not out or min(out) < 1:
+        raise argparse.ArgumentTypeError(f"'{text}': run numbers start at 1")
+    return out
+
+
 def figure_options(p, paper=False):
     p.add_argument("--format", type=formats, default=["png"], metavar="pdf|svg|png[,...]",
                    help="file format(s), e.g. pdf,png (default png)")
@@ -77,6 +90,14 @@ def parser():
                                      "`hysid reproduce example6`), whichever CSVs RUN_DIR holds")
     p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", default="results/paper")
     figure_options(p, paper=True)
+    p = sub.add_parser("fit", help="the figure of one identification: measured outputs, fitted model, events, "
+                                   "detector, residuals with their autocorrelation and normal quantiles",
+                       description="RUN: an `identify --json` report REPORT.json (its trace beside it: REPORT.csv) "
+                                   "or their common prefix P (P.json, P.csv)")
+    p.add_argument("run", metavar="RUN")
+    p.add_argument("--runs", type=run_list, default=None, metavar="N[,N...]",
+                   help="the runs of the data to draw, one figure each (default: the first 3)")
+    figure_options(p, paper=True)
     p = sub.add_parser("table", help="the summary as a paper table (mean [95 %% interval] per cell)")
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md")
@@ -100,6 +121,9 @@ def run_kind(args):
     if args.kind == "paper":
         from hysid_plots import paper
         return paper.paper_figures(args.run_dir, args.out, args.format, args.width)
+    if args.kind == "fit":
+        from hysid_plots import fit
+        return fit.fit_figures(args.run, args.out, args.format, args.width, args.runs)
     run = data.Run(args.run_dir)
     run.truth = args.truth
     if args.kind != "all":

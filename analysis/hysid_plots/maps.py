@@ -6,6 +6,7 @@ import os
 
 import matplotlib
 import matplotlib.colors
+import matplotlib.patches
 import numpy as np
 from matplotlib.font_manager import FontProperties
 from matplotlib.textpath import TextToPath
@@ -38,6 +39,42 @@ def heat(ax, m, xs, ys, norm):
     ax.set_yticks(range(len(ys)), [yl[float(v)] for v in ys])
     ax.tick_params(length=0)
     return im
+
+
+def failure_matrix(rows, shape, index):
+    """(failed trials, every trial failed) per cell of a map: index(row) -> (i, j) or None."""
+    f = np.zeros(shape)
+    gone = np.zeros(shape, bool)
+    for r in rows:
+        ij = index(r)
+        if ij is None:
+            continue
+        n, k = r.get("trials", math.nan), r.get("failures", 0.0)
+        k = k if math.isfinite(k) else 0.0
+        f[ij] = k
+        gone[ij] = math.isfinite(n) and n > 0 and k >= n
+    return f, gone
+
+
+def mark_failed_cells(ax, failed, gone, label):
+    """A cell every trial of which failed: grey and hatched (a patch of gid 'failed'), never the white of a
+    rate of 0; with `label`, each cell with failed trials shows their count in its upper left corner (gid
+    'failures')."""
+    for (a, b), k in np.ndenumerate(failed):
+        if gone[a, b]:
+            ax.add_patch(matplotlib.patches.Rectangle((b - 0.5, a - 0.5), 1, 1, facecolor="0.7", edgecolor="0.35",
+                                                      hatch="xx", lw=0, gid="failed"))
+        if k > 0 and label:
+            ax.text(b - 0.45, a + 0.45, f"{int(k)}×", ha="left", va="top", fontsize=style.CELL_LABEL_PT,
+                    color="#882255", gid="failures")
+
+
+def failed_caption(failed, gone):
+    if not failed.any():
+        return ""
+    return (f" Grey, hatched: a cell every trial of which failed ({int(gone.sum())} cells); "
+            f"{int((failed > 0).sum())} cells have failed trials ({int(failed.sum())} in all; with cell labels, "
+            "'k×' in a cell's corner counts them), left out of its rate.")
 
 
 def cell_text(v):
@@ -106,13 +143,15 @@ def misclassification_map(run, out_dir, formats, width, stat="mean"):
         nrows = math.ceil(len(sigmas) / cols)
         pw = (style.WIDTHS[width] - 0.3) / cols
         fig, axes = style.figure(width, nrows, cols, height=nrows * pw * 0.7 + 0.8, constrained_layout=True)
-        mats = {}
+        mats, fails = {}, {}
         for sg in sigmas:
             m = np.full((len(dts), len(rs)), np.nan)
             for r in rows:
                 if r["sigma"] == sg:
                     m[dts.index(r["dt"]), rs.index(r["r"])] = r[f"misclassification_{stat}"]
             mats[sg] = m
+            fails[sg] = failure_matrix(rows, m.shape, lambda r, sg=sg: (dts.index(r["dt"]), rs.index(r["r"]))
+                                       if r["sigma"] == sg else None)
         norm = rate_norm([v for m in mats.values() for v in m.ravel()])
         im = None
         for i, sg in enumerate(sigmas):
@@ -129,12 +168,17 @@ def misclassification_map(run, out_dir, formats, width, stat="mean"):
         fig.colorbar(im, ax=axes.ravel().tolist(), label=f"{stat} misclassification rate", shrink=0.9,
                      location="bottom", aspect=30 if width == "single" else 45)
         annotate = label_cells(fig, [(axes[i // cols][i % cols], mats[sg]) for i, sg in enumerate(sigmas)], norm)
+        for i, sg in enumerate(sigmas):
+            mark_failed_cells(axes[i // cols][i % cols], *fails[sg], annotate)
+        failed_all = np.concatenate([fails[sg][0].ravel() for sg in sigmas])
+        gone_all = np.concatenate([fails[sg][1].ravel() for sg in sigmas])
         stem = f"misclassification_map_{model}_{est}_{det}"
         n = sorted({int(r["trials"] - r["failures"]) for r in rows})
         cap = (f"{model}, {est} estimator, {det} detector: {stat} misclassification rate (false and missed "
                f"jumps over all samples) over the sample time δt and the bound scale r, one panel per noise σ; "
                f"log colour scale, white = 0 (no misclassified sample in any trial)"
-               f"{'; cell labels: the rate to 1 significant digit (4e-3 = 4·10⁻³)' if annotate else ''}. "
+               f"{'; cell labels: the rate to 1 significant digit (4e-3 = 4·10⁻³)' if annotate else ''}."
+               f"{failed_caption(failed_all, gone_all)} "
                f"{'n = ' + str(n[0]) if len(n) == 1 else f'n = {n[0]}–{n[-1]}'} trials per cell "
                f"(summary.csv). Data: {run.source()}.")
         written += style.save(fig, out_dir, stem, formats, cap)
@@ -146,23 +190,27 @@ def compare(run, p, iv):
     cells = {}
     for r in run.summary.rows:
         key = (r.get("model", ""), r.get("estimator", ""), r["sigma"], r["dt"])
-        c = cells.setdefault(key, {"paper": {}, "residual": None})
+        c = cells.setdefault(key, {"paper": {}, "residual": None, "rows": {}})
         if r["detector"] == "paper":
             c["paper"][r["r"]] = r["misclassification_mean"]
+            c["rows"][r["r"]] = r
         elif r["detector"] == "residual" and r.get("false_alarm") == p:
             c["residual"] = iv.of(r, "misclassification")
+            c["residual_row"] = r
     out = []
     for key in sorted(cells):
         c = cells[key]
         if not c["paper"] or c["residual"] is None:
             continue
-        best_r = min(c["paper"], key=lambda r: (c["paper"][r], r))
+        # A setting every trial of which failed has no rate and is never the best.
+        best_r = min(c["paper"], key=lambda r: (not math.isfinite(c["paper"][r]), c["paper"][r], r))
         best = c["paper"][best_r]
         res, lo, hi, n = c["residual"]
         tied = res == best or (math.isfinite(lo) and lo <= best <= hi)
         out.append({"model": key[0], "estimator": key[1], "sigma": key[2], "dt": key[3], "p": p,
                     "paper": c["paper"], "best_r": best_r, "best": best, "residual": res, "lo": lo, "hi": hi,
-                    "n": n, "match_or_beat": res <= best, "tied": tied})
+                    "n": n, "match_or_beat": res <= best, "tied": tied,
+                    "best_row": c["rows"][best_r], "residual_row": c["residual_row"]})
     return out
 
 
@@ -252,6 +300,9 @@ def detector_comparison(run, out_dir, formats, width, stat="mean", tables=True):
                 m[sigmas.index(c["sigma"]), dts.index(c["dt"])] = c[key]
             mats.append(m)
         norm = rate_norm([v for m in mats for v in m.ravel()])
+        fails = [failure_matrix([c[row] for c in cmp], (len(sigmas), len(dts)),
+                                lambda r: (sigmas.index(r["sigma"]), dts.index(r["dt"])))
+                 for cmp, row in [(mine[0], "best_row")] + [(c, "residual_row") for c in mine]]
         titles = ["paper detector, best r per cell"] + [f"residual detector, p = {c[0]['p']:g}" for c in mine]
         for ax, m, title in zip(axes, mats, titles):
             im = heat(ax, m, dts, sigmas, norm)
@@ -260,13 +311,17 @@ def detector_comparison(run, out_dir, formats, width, stat="mean", tables=True):
             ax.set_xlabel(r"$\delta t$ [s]")
         fig.colorbar(im, ax=axes.tolist(), label=RATE_LABEL, shrink=0.9,
                      location="bottom", aspect=30 if width == "single" else 45)
-        label_cells(fig, list(zip(axes, mats)), norm)
+        annotate = label_cells(fig, list(zip(axes, mats)), norm)
+        for ax, (failed, gone) in zip(axes, fails):
+            mark_failed_cells(ax, failed, gone, annotate)
         n = sorted({c["n"] for cmp in mine for c in cmp})
         cap = (f"{model}, {est} estimator: mean misclassification rate per (σ, δt) cell of the paper detector "
                f"with the r that is best in that cell (chosen in hindsight) and of the residual detector "
                f"(nothing tuned) at each false-alarm probability p; log colour scale, white = 0. "
                f"n = {n[0] if len(n) == 1 else f'{n[0]}–{n[-1]}'} trials per cell. Both detectors and every r see "
-               f"the same noisy samples (common random numbers). Data: {run.source()}.")
+               f"the same noisy samples (common random numbers)."
+               f"{failed_caption(np.concatenate([f.ravel() for f, _ in fails]), np.concatenate([g.ravel() for _, g in fails]))}"
+               f" Data: {run.source()}.")
         stem = "detector_comparison" if len(pairs) == 1 else f"detector_comparison_{model}_{est}"
         written += style.save(fig, out_dir, stem, formats, cap)
     if tables:

@@ -24,6 +24,7 @@ namespace hysid {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kWilsonZ95 = 1.959963984540054;  // the coverage's Wilson interval: two-sided 95 %
 
 long Column(const std::vector<std::string>& header, const std::string& name) {
   const auto it = std::find(header.begin(), header.end(), name);
@@ -68,6 +69,7 @@ MetricRange MetricRangeOf(const std::string& metric) {
   for (const char* rate : {"misclassification", "precision", "recall", "flow_outside_share"}) {
     if (metric == rate) return MetricRange::kUnitInterval;
   }
+  if (metric.rfind(kCoveragePrefix, 0) == 0) return MetricRange::kUnitInterval;
   const auto& core = SummaryMetrics();
   if (std::find(core.begin(), core.end(), metric) != core.end() || metric == "e_gamma" ||
       metric.rfind(kRelativeErrorPrefix, 0) == 0 || IsAutomatonMetric(metric))
@@ -156,6 +158,9 @@ struct CellRows {
   std::map<long, std::vector<double>> values;  // trial → one value per metric
   std::array<double, 3> crlb{0.0, 0.0, 0.0};   // Σ crlb_e_alpha, crlb_e_beta (crlb_e_gamma) over the rows with one
   long crlb_n = 0;
+  // Σ crlb_fit_e_alpha, crlb_fit_e_beta (crlb_fit_e_gamma) over the ok rows with one.
+  std::array<double, 3> crlb_fit{0.0, 0.0, 0.0};
+  long crlb_fit_n = 0;
 };
 
 bool Has(const std::vector<std::string>& header, const std::string& name) {
@@ -177,13 +182,32 @@ void AddCrlb(const std::vector<std::string>& header, const std::vector<std::stri
   ++c->crlb_n;
 }
 
+// Adds the ok row's crlb_fit_e_alpha, crlb_fit_e_beta (crlb_fit_e_gamma) when the table has them and they
+// are not empty.
+void AddFitCrlb(const std::vector<std::string>& header, const std::vector<std::string>& cells, CellRows* c) {
+  if (!Has(header, "crlb_fit_e_alpha")) return;
+  const bool gamma = Has(header, "crlb_fit_e_gamma");
+  std::array<std::string, 3> v;
+  for (int i = 0; i < (gamma ? 3 : 2); ++i) {
+    static const char* const names[] = {"crlb_fit_e_alpha", "crlb_fit_e_beta", "crlb_fit_e_gamma"};
+    v[static_cast<std::size_t>(i)] = cells[static_cast<std::size_t>(Column(header, names[i]))];
+    if (v[static_cast<std::size_t>(i)].empty()) return;
+  }
+  for (std::size_t i = 0; i < 3; ++i) c->crlb_fit[i] += v[i].empty() ? 0.0 : std::stod(v[i]);
+  ++c->crlb_fit_n;
+}
+
 // crlb_e_alpha, crlb_e_beta (the mean over the cell's rows; equal unless x0 is drawn per trial) and
 // efficiency_alpha, efficiency_beta = e_alpha_mean / crlb_e_alpha, … (empty without a bound); with
 // unknown guard parameters (`gamma`) then crlb_e_gamma and efficiency_gamma.
+// With `fit`, the same of crlb_fit_* over the cell's ok rows (the bound over the samples each estimate
+// used): crlb_fit_e_alpha, crlb_fit_e_beta, efficiency_fit_alpha, efficiency_fit_beta, ….
 std::vector<std::string> EfficiencyCells(const CellRows& c, double e_alpha_mean, double e_beta_mean,
-                                         bool gamma, double e_gamma_mean) {
-  if (c.crlb_n == 0) return std::vector<std::string>(gamma ? 6 : 4);
-  const auto mean = [&](int i) { return c.crlb[static_cast<std::size_t>(i)] / static_cast<double>(c.crlb_n); };
+                                         bool gamma, double e_gamma_mean, bool fit = false) {
+  const std::array<double, 3>& sum = fit ? c.crlb_fit : c.crlb;
+  const long n = fit ? c.crlb_fit_n : c.crlb_n;
+  if (n == 0) return std::vector<std::string>(gamma ? 6 : 4);
+  const auto mean = [&](int i) { return sum[static_cast<std::size_t>(i)] / static_cast<double>(n); };
   const auto ratio = [](double e, double bound) {
     return bound > 0 && !std::isnan(e) ? FormatNumber(e / bound) : std::string();
   };
@@ -221,6 +245,7 @@ std::vector<CellRows> CollectCells(const std::vector<std::string>& header,
         ++c.failures;
         continue;
       }
+      AddFitCrlb(header, cells, &c);
       std::vector<double>& v = c.values[std::stol(cells[trial_col])];
       for (std::size_t m = 0; m < metric_col.size(); ++m) {
         const std::string& text = cells[static_cast<std::size_t>(metric_col[m])];
@@ -256,15 +281,29 @@ std::vector<std::string> CellMetrics(const std::vector<std::string>& trial_heade
   for (const std::string& h : trial_header) {
     if (IsAutomatonMetric(h)) metrics.push_back(h);
   }
+  for (const std::string& h : trial_header) {
+    if (h.rfind(kCoveragePrefix, 0) == 0) metrics.push_back(h);
+  }
   return metrics;
 }
 
+// The number of coverage columns (cover_*) among the metrics: they come last.
+std::size_t CoverageCount(const std::vector<std::string>& metrics) {
+  return static_cast<std::size_t>(std::count_if(metrics.begin(), metrics.end(), [](const std::string& m) {
+    return m.rfind(kCoveragePrefix, 0) == 0;
+  }));
+}
+
 constexpr std::array<const char*, 5> kStats{"mean", "median", "std", "ci95_lo", "ci95_hi"};
+// A coverage column's statistics: the trials with an interval, the share covering the truth and its
+// Wilson score interval.
+constexpr std::array<const char*, 4> kCoverageStats{"n", "mean", "ci95_lo", "ci95_hi"};
 
 std::vector<std::string> SummaryHeader(const std::vector<std::string>& keys,
                                        const std::vector<std::string>& metrics, bool baseline,
-                                       bool efficiency, bool gamma) {
+                                       bool efficiency, bool gamma, bool fit) {
   const std::size_t n_core = SummaryMetrics().size();
+  const std::size_t n_plain = metrics.size() - CoverageCount(metrics);
   std::vector<std::string> header = keys;
   header.insert(header.end(), {"trials", "failures"});
   for (std::size_t m = 0; m < n_core; ++m) {
@@ -280,8 +319,16 @@ std::vector<std::string> SummaryHeader(const std::vector<std::string>& keys,
   if (efficiency)
     header.insert(header.end(), {"crlb_e_alpha", "crlb_e_beta", "efficiency_alpha", "efficiency_beta"});
   if (efficiency && gamma) header.insert(header.end(), {"crlb_e_gamma", "efficiency_gamma"});
-  for (std::size_t m = n_core; m < metrics.size(); ++m) {
+  if (fit) {
+    header.insert(header.end(),
+                  {"crlb_fit_e_alpha", "crlb_fit_e_beta", "efficiency_fit_alpha", "efficiency_fit_beta"});
+    if (gamma) header.insert(header.end(), {"crlb_fit_e_gamma", "efficiency_fit_gamma"});
+  }
+  for (std::size_t m = n_core; m < n_plain; ++m) {
     for (const char* stat : kStats) header.push_back(metrics[m] + "_" + stat);
+  }
+  for (std::size_t m = n_plain; m < metrics.size(); ++m) {
+    for (const char* stat : kCoverageStats) header.push_back(metrics[m] + "_" + stat);
   }
   return header;
 }
@@ -297,6 +344,25 @@ MetricSummary MetricOf(const CellRows& c, std::size_t m, const std::string& name
 
 void AppendStats(const MetricSummary& s, std::vector<std::string>* out) {
   for (double x : {s.mean, s.median, s.std, s.ci_lo, s.ci_hi}) out->push_back(FormatNumber(x));
+}
+
+// Coverage column m of the cell: n (trials with a 0/1 value), the share of 1s and its Wilson score
+// interval at n with z = 1.96 (empty when n = 0).
+void AppendCoverage(const CellRows& c, std::size_t m, std::vector<std::string>* out) {
+  long n = 0, covered = 0;
+  for (const auto& [trial, values] : c.values) {
+    if (std::isnan(values[m])) continue;
+    ++n;
+    covered += values[m] > 0.5 ? 1 : 0;
+  }
+  out->push_back(fmt::format("{}", n));
+  if (n == 0) {
+    out->insert(out->end(), 3, std::string());
+    return;
+  }
+  const double p = static_cast<double>(covered) / static_cast<double>(n);
+  const std::array<double, 2> ci = WilsonInterval(p, static_cast<double>(n), kWilsonZ95);
+  for (double x : {p, ci[0], ci[1]}) out->push_back(FormatNumber(x));
 }
 
 // The baseline cell and the paired differences cell − baseline of each of the first n_metrics metrics.
@@ -335,7 +401,8 @@ void WriteTrialAndTimingTables(const std::filesystem::path& dir, const std::vect
 struct SummaryLayout {
   const std::vector<std::string>& metrics;
   std::size_t n_core;
-  bool baseline, efficiency, gamma;
+  bool baseline, efficiency, gamma, fit;
+  std::size_t n_plain;  // the metrics before the coverage columns
 };
 
 // Cell c's row of summary.csv; `b` its baseline cell (null: none).
@@ -346,7 +413,7 @@ std::vector<std::string> SummaryRow(const CellRows& c, const CellRows* b, const 
   out.push_back(fmt::format("{}", c.n));
   out.push_back(fmt::format("{}", c.failures));
   std::vector<MetricSummary> stats;
-  for (std::size_t m = 0; m < metrics.size(); ++m) stats.push_back(MetricOf(c, m, metrics[m], plans));
+  for (std::size_t m = 0; m < layout.n_plain; ++m) stats.push_back(MetricOf(c, m, metrics[m], plans));
   for (std::size_t m = 0; m < layout.n_core; ++m) AppendStats(stats[m], &out);
   if (layout.baseline) AppendBaselineDiffs(c, b, layout.n_core, &out);
   if (layout.efficiency) {
@@ -356,8 +423,15 @@ std::vector<std::string> SummaryRow(const CellRows& c, const CellRows* b, const 
     const std::vector<std::string> e = EfficiencyCells(c, mean_of("e_alpha"), mean_of("e_beta"), layout.gamma,
                                                        layout.gamma ? mean_of("e_gamma") : kNaN);
     out.insert(out.end(), e.begin(), e.end());
+    if (layout.fit) {
+      const std::vector<std::string> f =
+          EfficiencyCells(c, mean_of("e_alpha"), mean_of("e_beta"), layout.gamma,
+                          layout.gamma ? mean_of("e_gamma") : kNaN, true);
+      out.insert(out.end(), f.begin(), f.end());
+    }
   }
-  for (std::size_t m = layout.n_core; m < metrics.size(); ++m) AppendStats(stats[m], &out);
+  for (std::size_t m = layout.n_core; m < layout.n_plain; ++m) AppendStats(stats[m], &out);
+  for (std::size_t m = layout.n_plain; m < metrics.size(); ++m) AppendCoverage(c, m, &out);
   return out;
 }
 
@@ -368,6 +442,7 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
   WriteTrialAndTimingTables(dir, trial_header, rows);
   const std::vector<std::string> keys = SummaryKeys(trial_header);
   const bool efficiency = Has(trial_header, "crlb_e_alpha"), gamma = Has(trial_header, "crlb_e_gamma");
+  const bool fit = efficiency && Has(trial_header, "crlb_fit_e_alpha");
   const std::vector<std::string> metrics = CellMetrics(trial_header);
   const std::size_t n_core = SummaryMetrics().size();
   const std::vector<CellRows> cells = CollectCells(trial_header, rows, keys, metrics);
@@ -377,7 +452,8 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
     for (const CellRows& c : cells) match.push_back(c.match);
     base = MatchBaselines(BaselineKeyNames(), match, baseline);
   }
-  const SummaryLayout layout{metrics, n_core, !baseline.empty(), efficiency, gamma};
+  const SummaryLayout layout{metrics, n_core, !baseline.empty(), efficiency, gamma, fit,
+                             metrics.size() - CoverageCount(metrics)};
   // Each cell's row depends on its own rows (and its baseline's) only: summarised in parallel, written
   // in order.
   std::vector<std::vector<std::string>> out(cells.size());
@@ -387,7 +463,8 @@ void WriteSweepTables(const std::filesystem::path& dir, const std::vector<std::s
     if (layout.baseline && base[ci] >= 0) b = &cells[static_cast<std::size_t>(base[ci])];
     out[ci] = SummaryRow(cells[ci], b, layout, &plans);
   });
-  CsvWriter summary(dir / "summary.csv", SummaryHeader(keys, metrics, !baseline.empty(), efficiency, gamma));
+  CsvWriter summary(dir / "summary.csv",
+                    SummaryHeader(keys, metrics, !baseline.empty(), efficiency, gamma, fit));
   for (const auto& row : out) summary.TextRow(row);
   summary.Commit();
 }

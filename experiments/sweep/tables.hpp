@@ -7,6 +7,11 @@
 //                SummaryMetrics() over the rows with status ok: mean, median, std (n − 1), and the 95 %
 //                confidence interval of the mean inside the metric's range (MetricRangeOf, intervals.hpp;
 //                empty when n < 2): a rate's Wilson interval, a non-negative metric's percentile bootstrap.
+//                With the refine axis also crlb_fit_e_alpha, crlb_fit_e_beta (the mean over the ok rows of
+//                the bound over the samples each estimate used) and efficiency_fit_alpha,
+//                efficiency_fit_beta (the mean errors over them), and per cover_NAME column of trials.csv
+//                cover_NAME_n (trials with a reported interval), _mean (the share covering the truth)
+//                and its Wilson score interval _ci95_lo, _ci95_hi (z = 1.96, at n; empty when n = 0).
 //                With a baseline ([summary] baseline): the baseline's cell, and for each metric the
 //                paired differences cell − baseline over the trials where both have a value: their
 //                count, mean and 95 % interval mean ± t(0.975, n − 1)·std/√n (a difference can be < 0).

@@ -1,6 +1,7 @@
 #include "experiments/sweep/trial.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <exception>
 #include <functional>
@@ -125,6 +126,14 @@ struct TrialOutcome {
   std::vector<double> e_beta_map, crlb_e_beta_map;
   Vec gamma_hat;         // refine = ml: the refined γ (empty otherwise: the recursive pass has none)
   double e_gamma = kNaN;  // ‖γ̂ − γ‖ over the unknown entries (refine = ml)
+  // refine = ml and the refinement ok: the standard errors of α̂, β̂, γ̂ (full vectors, NaN for a
+  // known entry); empty otherwise.
+  Vec se_alpha, se_beta, se_gamma;
+  // grid.refine, σ > 0: the CRLB-implied mean errors of α, β, γ at σ over the samples the estimate
+  // used (refine = ml: the refinement's samples_used, a prefix of the record; none: every sample);
+  // NaN without a bound.
+  std::array<double, 3> crlb_fit{kNaN, kNaN, kNaN};
+  long samples_used = -1;  // grid.refine: the samples the estimate used (−1: no estimate)
   bool have_estimates = false;
   bool ok() const { return status == kTrialOk; }
 };
@@ -267,6 +276,49 @@ void RelativeErrorColumns(const std::vector<Model>& models, std::vector<TrialCol
   }
 }
 
+const Vec& StandardErrors(const TrialOutcome& o, Block b) {
+  return b == Block::kAlpha ? o.se_alpha : b == Block::kBeta ? o.se_beta : o.se_gamma;
+}
+
+// The z of a two-sided 95 % normal interval: the reported interval of θ_i is θ̂_i ± kZ95·se_i.
+constexpr double kZ95 = 1.959963984540054;
+
+// The se_NAME (cover = false) or cover_NAME cell of parameter `name` of `block` (see UncertaintyColumns).
+std::string UncertaintyCell(const TrialOutcome& o, Block block, const std::string& name, bool cover) {
+  const auto& params = Params(*o.model, block);
+  const Vec& hat = Estimate(o, block);
+  const Vec& se = StandardErrors(o, block);
+  std::string text;
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const auto ii = static_cast<Eigen::Index>(i);
+    if (params[i].name != name || params[i].known || !o.ok() || ii >= se.size()) continue;
+    if (std::isnan(se[ii])) continue;
+    const bool in = std::abs(hat[ii] - params[i].value) <= kZ95 * se[ii];
+    text = cover ? Integer(in ? 1 : 0) : FormatNumber(se[ii]);
+  }
+  return text;
+}
+
+// grid.refine: se_NAME (the refinement's standard error of each unknown parameter, empty where the
+// refinement did not run or is not ok) and cover_NAME (1 when the truth lies in θ̂ ± 1.96·se, else 0;
+// empty without a standard error), named as the rel_err_* columns (se_beta_NAME, cover_beta_NAME for
+// a β name that is also an α name).
+void UncertaintyColumns(const std::vector<Model>& models, std::vector<TrialColumn>* cols) {
+  const std::vector<std::string> alpha_names = UnknownNames(models, Block::kAlpha);
+  for (const bool cover : {false, true}) {
+    for (Block block : {Block::kAlpha, Block::kBeta, Block::kGamma}) {
+      for (const std::string& name : UnknownNames(models, block)) {
+        const bool clash = block == Block::kBeta &&
+                           std::find(alpha_names.begin(), alpha_names.end(), name) != alpha_names.end();
+        cols->push_back({(cover ? kCoveragePrefix : "se_") + std::string(clash ? "beta_" : "") + name,
+                         [block, name, cover](const TrialOutcome& o) {
+                           return UncertaintyCell(o, block, name, cover);
+                         }});
+      }
+    }
+  }
+}
+
 // grid.refine: the refinement's status and the cell's CRLB-implied mean errors (the σ = 1 bound scaled
 // by σ; empty for σ = 0 or without a bound).
 // With unknown guard parameters also e_gamma (‖γ̂ − γ‖ of the refined estimate) and crlb_e_gamma.
@@ -279,9 +331,19 @@ void RefineColumns(bool gamma, std::vector<TrialColumn>* cols) {
   cols->push_back({"refine_status", [](const O& o) { return o.refine_status; }});
   cols->push_back({"crlb_e_alpha", [bound](const O& o) { return bound(o, &Crlb::mean_e_alpha); }});
   cols->push_back({"crlb_e_beta", [bound](const O& o) { return bound(o, &Crlb::mean_e_beta); }});
+  // The bound over the samples the estimate used (empty where the row is not ok).
+  const auto fit = [](const O& o, int i) {
+    return o.ok() ? FormatNumber(o.crlb_fit[static_cast<std::size_t>(i)]) : std::string();
+  };
+  cols->push_back({"samples_used", [](const O& o) {
+                     return o.samples_used >= 0 && o.have_estimates ? Integer(o.samples_used) : std::string();
+                   }});
+  cols->push_back({"crlb_fit_e_alpha", [fit](const O& o) { return fit(o, 0); }});
+  cols->push_back({"crlb_fit_e_beta", [fit](const O& o) { return fit(o, 1); }});
   if (!gamma) return;
   cols->push_back(Metric("e_gamma", [](const O& o) { return o.e_gamma; }));
   cols->push_back({"crlb_e_gamma", [bound](const O& o) { return bound(o, &Crlb::mean_e_gamma); }});
+  cols->push_back({"crlb_fit_e_gamma", [fit](const O& o) { return fit(o, 2); }});
 }
 
 // The names of the jump maps with unknown β over the automaton models, in first-seen order.
@@ -357,6 +419,7 @@ std::vector<TrialColumn> TrialColumns(const SweepConfig& config, const std::vect
   if (AnyAutomaton(models)) AutomatonColumns(config, models, &cols);
   EstimateColumns(models, &cols);
   RelativeErrorColumns(models, &cols);
+  if (config.grid.refine_axis) UncertaintyColumns(models, &cols);
   return cols;
 }
 
@@ -469,6 +532,34 @@ void PrepareUnit(const SweepConfig& config, const TrialInputs& in, const TrialOu
   }
 }
 
+// The refinement's standard errors as full α, β, γ vectors (NaN for a known entry); empty when not ok.
+void KeepStandardErrors(const Model& model, const RefineResult& rr, TrialOutcome* o) {
+  if (!rr.ok() || rr.standard_errors.size() < rr.unknowns.shared()) return;
+  o->se_alpha = Vec::Constant(model.alpha().size(), kNaN);
+  o->se_beta = Vec::Constant(model.beta().size(), kNaN);
+  o->se_gamma = Vec::Constant(model.gamma().size(), kNaN);
+  Eigen::Index k = 0;
+  for (int i : rr.unknowns.alpha) o->se_alpha[i] = rr.standard_errors[k++];
+  for (int i : rr.unknowns.beta) o->se_beta[i] = rr.standard_errors[k++];
+  for (int i : rr.unknowns.gamma) o->se_gamma[i] = rr.standard_errors[k++];
+}
+
+// crlb_fit: the group's bound (σ = 1) when the estimate used every sample, else the bound over the
+// first `used` samples at the truth; scaled by σ. NaN without a bound or for σ = 0.
+void FitBound(const TrialInputs& in, long used, TrialOutcome* o) {
+  o->samples_used = used;
+  const double sigma = o->cell->sigma;
+  if (in.crlb == nullptr || !in.crlb->ok() || sigma <= 0 || used < 2) return;
+  const Trajectory& truth = *in.truth;
+  Crlb cut;
+  if (used < truth.size()) {  // the last fitted sample is used − 1: t_end between it and the next
+    cut = UnitCrlb(*o->model, *in.x0, truth.dt, (static_cast<double>(used) - 0.5) * truth.dt, in.inputs);
+    if (!cut.ok()) return;
+  }
+  const Crlb& c = used < truth.size() ? cut : *in.crlb;
+  o->crlb_fit = {sigma * c.mean_e_alpha, sigma * c.mean_e_beta, sigma * c.mean_e_gamma};
+}
+
 // The identification's result `res` of the unit (refined with refine = ml) against the truth.
 void Evaluate(const SweepConfig& config, const TrialInputs& in, const UnitInput& u, const IdentifyResult& res,
               TrialOutcome* o) {
@@ -499,6 +590,8 @@ void Evaluate(const SweepConfig& config, const TrialInputs& in, const UnitInput&
       for (const FittedCrossing& c : fitted.crossings) o->fitted_events.push_back({0, c.time, c.map});
     }
     o->refine_status = ToString(rr.status);
+    KeepStandardErrors(model, rr, o);
+    FitBound(in, rr.samples_used, o);
     o->alpha_hat = rr.estimate.alpha;
     o->beta_hat = rr.estimate.beta;
     o->gamma_hat = rr.estimate.gamma;
@@ -511,6 +604,8 @@ void Evaluate(const SweepConfig& config, const TrialInputs& in, const UnitInput&
       o->status = kTrialRefineFailed;
       o->message = fmt::format("refinement {}: {}", ToString(rr.status), rr.reason);
     }
+  } else if (config.grid.refine_axis) {
+    FitBound(in, truth.size(), o);  // the recursive estimate uses every sample
   }
   if (cell.refine != "ml" && res.flow_status == EstimatorStatus::kInconsistent) {
     o->status = kTrialInconsistent;

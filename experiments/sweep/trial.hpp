@@ -33,6 +33,9 @@ inline constexpr const char* kTrialInconsistent = "inconsistent";
 
 // Prefix of the per-parameter error columns of trials.csv (summary.csv aggregates them too).
 inline constexpr const char* kRelativeErrorPrefix = "rel_err_";
+// Prefix of the per-parameter coverage columns of trials.csv (grid.refine): 1 when the truth lies in
+// the refinement's reported 95 % interval θ̂ ± 1.96·se, 0 when not (summary.csv: the share per cell).
+inline constexpr const char* kCoveragePrefix = "cover_";
 
 // Columns of trials.csv for this sweep: identification, grid keys, x0, status, then the metrics
 // (SummaryMetrics() among them), then α̂ and β̂ per unknown parameter name (union over the models), then
@@ -40,7 +43,14 @@ inline constexpr const char* kRelativeErrorPrefix = "rel_err_";
 // then β's, a β name that is also an α name as rel_err_beta_NAME; empty where the row's model has no
 // such unknown or the status is not ok).
 // With grid.refine: `refine` after `detector`, and refine_status, crlb_e_alpha, crlb_e_beta (the
-// cell's CRLB-implied mean errors at its σ; empty for σ = 0) after flow_hull/jump_hull columns.
+// cell's CRLB-implied mean errors at its σ over the whole record; empty for σ = 0), samples_used (the
+// samples the estimate used: the refinement's samples_used with refine = ml, every sample with none;
+// empty without an estimate), crlb_fit_e_alpha,
+// crlb_fit_e_beta (the same over the samples the estimate used: the refinement's samples_used, a
+// prefix of the record, with refine = ml, every sample with none; empty where the row is not ok)
+// after flow_hull/jump_hull columns; and after the rel_err_* columns se_NAME (the refinement's
+// standard error; empty where it did not run or is not ok) then cover_NAME (1 when |θ̂ − θ| ≤
+// 1.96·se, else 0; empty without se) per unknown parameter, named as rel_err_*.
 // When a model is a hybrid automaton (core/model/automaton.hpp), then: events_true, events_right (true
 // events matched within one sample to a detected event assigned to their map), events_wrong_map
 // (matched, another map), events_missed, events_spurious, event_time_error (the largest |t̂ − t| of

@@ -2,7 +2,9 @@
 
 HYSID_SWEEP_RUN: a run directory of tests/data/sweep_small.toml (fixture test sweep.small);
 HYSID_PAPER_RUN: the output of `hysid reproduce paper` (fixture test analysis.paper_run);
-HYSID_EXAMPLE6_RUN: the output of `hysid reproduce example6` (fixture test analysis.example6_run).
+HYSID_EXAMPLE6_RUN: the output of `hysid reproduce example6` (fixture test analysis.example6_run);
+HYSID_IDENTIFY_RUN: data.csv of `hysid simulate` and its `hysid identify` report id.json and trace id.csv
+(fixture test analysis.identify_run).
 The committed results/* are copied without their trials.csv, as a fresh checkout has them.
 """
 import os

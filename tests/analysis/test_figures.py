@@ -353,3 +353,131 @@ def test_heat_map_cell_labels_are_at_least_8_pt(committed_figs):
             for ax in fig.axes:
                 for t in ax.texts:
                     assert t.get_fontsize() >= 8, (stem, t.get_text(), t.get_fontsize())
+
+
+def with_failures(src, dst, gone, partial):
+    """src's summary with the cells of `gone` (cell numbers) failed in every trial (their metrics empty)
+    and those of `partial` ({cell: failed trials}) with that many failures."""
+    os.makedirs(dst)
+    shutil.copy(os.path.join(src, "run.json"), dst)
+    rows = list(csv.reader(open(os.path.join(src, "summary.csv"))))
+    h = rows[0]
+    fi, ti, ci = h.index("failures"), h.index("trials"), h.index("cell")
+    with open(os.path.join(dst, "summary.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(h)
+        for r in rows[1:]:
+            cell = int(r[ci])
+            if cell in gone:
+                r = r[:fi] + [r[ti]] + [""] * (len(r) - fi - 1)
+            elif cell in partial:
+                r[fi] = str(partial[cell])
+            w.writerow(r)
+    return dst
+
+
+def test_failed_cells_are_drawn_and_counted(committed, captured, tmp_path):
+    # paper_noise: cell 41 (σ = 1, frisch, residual) fails in all 100 trials, cell 40 (σ = 1, frisch, paper)
+    # in 7; the all-failed cell is an × at the foot of every panel at its σ, the other's count beside its point.
+    src = committed["results/paper_noise"]
+    rows = {int(r["cell"]): r for r in csv.DictReader(open(os.path.join(src, "summary.csv")))}
+    assert (rows[41]["sigma"], rows[41]["estimator"], rows[41]["detector"]) == ("1", "frisch", "residual")
+    assert (rows[40]["sigma"], rows[40]["estimator"], rows[40]["detector"]) == ("1", "frisch", "paper")
+    run_dir = with_failures(src, str(tmp_path / "run"), {41}, {40: 7})
+    render(["error-vs-sigma", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf"])
+    fig, stem, caption = captured.figs[0]
+    assert sweep_figs.FAILED_NOTE in caption and sweep_figs.FAILED_LABEL in legend_texts(fig)
+    labels = legend_texts(fig)
+    for ax, metric in zip(data_axes(fig), ["e_alpha", "e_beta", "misclassification"]):
+        failed = [ln for ln in ax.get_lines() if ln.get_gid() == "failed"]
+        assert len(failed) == 1 and list(failed[0].get_xdata()) == [1.0]
+        counts = [t for t in ax.texts if t.get_gid() == "failures"]  # annotations are texts too
+        assert sorted(t.get_text() for t in counts) == ["100", "7"]
+        # The 7 sits at the partly failed cell's point: σ = 1 and its mean (the summary's, trials.csv absent).
+        (seven,) = [t for t in counts if t.get_text() == "7"]
+        assert seven.xy == (1.0, pytest.approx(float(rows[40][f"{metric}_mean"]), rel=1e-12))
+        line = ax.get_lines()[labels.index("frisch, paper r = 220")]
+        assert 1.0 in list(line.get_xdata())
+        gone = ax.get_lines()[labels.index("frisch, residual p = 1e-08")]
+        assert 1.0 not in list(gone.get_xdata())  # no point: every trial failed
+    assert ax.get_xlim()[1] > 1.0  # the failed σ is on the axis
+
+
+def test_failed_cells_of_a_map_are_grey_not_white(committed, captured, tmp_path):
+    src = committed["results/robustness_map"]
+    rows = {int(r["cell"]): r for r in csv.DictReader(open(os.path.join(src, "summary.csv")))}
+    (cell,) = [c for c, r in rows.items() if (r["sigma"], r["dt"], r["r"], r["detector"]) == ("0.1", "0.001", "50",
+                                                                                          "paper")]
+    run_dir = with_failures(src, str(tmp_path / "run"), {cell}, {})
+    render(["misclassification-map", run_dir, "--out", str(tmp_path / "f"), "--format", "pdf", "--width", "double"])
+    fig, stem, caption = captured.figs[0]
+    assert "Grey, hatched: a cell every trial of which failed (1 cells)" in caption
+    sigmas = sorted({float(r["sigma"]) for r in rows.values()})
+    panels = [ax for ax in fig.axes if ax.images]
+    dts = sorted({float(r["dt"]) for r in rows.values()})
+    rs = sorted({float(r["r"]) for r in rows.values() if r["r"]})
+    for ax, sg in zip(panels, sigmas):
+        patches = [p for p in ax.patches if p.get_gid() == "failed"]
+        if sg != 0.1:
+            assert not patches
+            continue
+        (p,) = patches
+        assert (p.get_x() + 0.5, p.get_y() + 0.5) == (rs.index(50.0), dts.index(0.001))
+        assert [t.get_text() for t in ax.texts if t.get_gid() == "failures"] == ["100×"]
+
+
+def test_coverage_figure_draws_the_summarys_shares_and_wilson_intervals(tmp_path, captured):
+    # The committed efficiency study: per unknown parameter, the share of refined trials whose 95 %
+    # interval covers the truth, with the summary's Wilson interval as its band; no point for refine = none.
+    from conftest import committed_copy
+    run_dir = committed_copy(str(tmp_path), "results/efficiency")
+    render(["coverage", run_dir, "--format", "pdf", "--out", str(tmp_path / "f")])
+    (fig, stem, caption), = captured.figs
+    assert stem == "coverage_impact-msd_dt0.0005" and "Wilson score interval" in caption
+    rows = list(csv.DictReader(open(os.path.join(run_dir, "summary.csv"))))
+    labels = legend_texts(fig)
+    assert labels[-1] == "nominal 0.95" and all("ml" in label for label in labels[:-1])
+    for ax, name in zip(data_axes(fig), ["a", "b", "lambda", "mu"]):
+        for ln, label in zip(ax.get_lines(), labels[:-1]):
+            est = label.split(",")[0]
+            mine = sorted((float(r["sigma"]), r) for r in rows if r["estimator"] == est and r["refine"] == "ml")
+            np.testing.assert_array_equal(ln.get_xdata(), [s for s, _ in mine])
+            np.testing.assert_array_equal(ln.get_ydata(), [float(r[f"cover_{name}_mean"]) for _, r in mine])
+        # The bands' vertices hold each cell's Wilson bounds.
+        drawn = np.concatenate([p.vertices[:, 1] for c in ax.collections if isinstance(c, PolyCollection)
+                                for p in c.get_paths()])
+        for _, r in mine:
+            for end in ("lo", "hi"):
+                assert np.min(np.abs(drawn - float(r[f"cover_{name}_ci95_{end}"]))) < 1e-12
+        assert [ln.get_ydata()[0] for ln in ax.get_lines() if ln.get_label() == "nominal 0.95"] == [0.95]
+
+
+def test_efficiency_divides_by_the_bound_of_the_samples_used(tmp_path, captured):
+    from conftest import committed_copy
+    run_dir = committed_copy(str(tmp_path), "results/efficiency")
+    render(["efficiency", run_dir, "--format", "pdf", "--out", str(tmp_path / "f")])
+    (fig, stem, caption), = captured.figs
+    assert "over the samples its estimates used" in caption
+    rows = data.Summary(os.path.join(run_dir, "summary.csv")).rows
+    labels = [label for label in legend_texts(fig) if "refine = " in label]
+    assert len(labels) == 6
+    for ax, metric in zip(data_axes(fig), ["e_alpha", "e_beta"]):
+        for ln, label in zip(ax.get_lines(), labels):
+            est, refine = label.split(", ")[0], label.split("refine = ")[1]
+            for x, y in zip(ln.get_xdata(), ln.get_ydata()):
+                (r,) = [r for r in rows if r["sigma"] == x and r["estimator"] == est and r["refine"] == refine]
+                assert y == pytest.approx(r[f"{metric}_mean"] / r[f"crlb_fit_{metric}"], rel=1e-12)
+
+
+def test_efficiency_of_a_cut_record_uses_the_bound_of_the_fitted_samples(tmp_path, captured):
+    # The drag ball's fits leave out its last bounces: e_β over the whole record's bound is 1.24, over
+    # the bound of the samples fit about 1.
+    from conftest import committed_copy
+    run_dir = committed_copy(str(tmp_path), "results/drag-ball")
+    render(["efficiency", run_dir, "--format", "pdf", "--out", str(tmp_path / "f")])
+    (fig, stem, caption), = captured.figs
+    (r,) = data.Summary(os.path.join(run_dir, "summary.csv")).rows
+    assert r["crlb_fit_e_beta"] > 1.1 * r["crlb_e_beta"]
+    for ax, metric in zip(data_axes(fig), ["e_alpha", "e_beta"]):
+        y = ax.get_lines()[0].get_ydata()
+        assert list(y) == [pytest.approx(r[f"{metric}_mean"] / r[f"crlb_fit_{metric}"], rel=1e-12)]

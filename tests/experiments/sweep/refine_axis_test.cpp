@@ -4,6 +4,7 @@
 // σ); summary.csv's efficiency is the mean error over it. A hybrid automaton's sweep adds the events
 // against the truth and each jump map's β error and bound.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -135,6 +136,101 @@ TEST_CASE("sweep: refine axis, paired ML gain and the CRLB columns", "[sweep][re
     CHECK(eff == Approx(std::stod(s.At(cell, "e_alpha_mean")) / std::stod(s.At(cell, "crlb_e_alpha"))));
     CHECK(s.At(cell, "refine") == (cell % 2 == 0 ? "none" : "ml"));
   }
+}
+
+namespace {
+
+// The Wilson score interval of p observed in n trials at z = 1.96, in closed form (intervals.hpp).
+std::array<double, 2> Wilson(double p, double n) {
+  const double z = 1.959963984540054, c = (p + z * z / (2 * n)) / (1 + z * z / n);
+  const double h = z * std::sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n);
+  return {c - h, c + h};
+}
+
+}  // namespace
+
+TEST_CASE("sweep: per-trial standard errors, coverage of the 95 % intervals and its Wilson interval",
+          "[sweep][refine]") {
+  const SweepConfig c = ParseSweepText(kSweep, "refine.toml", Registry());
+  const fs::path dir = RunInTemp(c, "sweep-coverage");
+  const Table t = ReadTable(dir / "trials.csv");
+  const Table s = ReadTable(dir / "summary.csv");
+  const std::map<std::string, double> truth{{"a", 5.0}, {"b", 0.1}, {"lambda", 0.99}, {"mu", 0.0}};
+  for (long cell = 0; cell < 4; ++cell) {
+    for (const auto& [name, value] : truth) {
+      const std::string hat = (name == "a" || name == "b" ? "alpha_hat_" : "beta_hat_") + name;
+      long n = 0, covered = 0;
+      for (long trial = 0; trial < c.trials; ++trial) {
+        const long unit = cell * c.trials + trial;
+        INFO("unit " << unit << " " << name << " " << t.At(unit, "message"));
+        if (t.At(unit, "refine") == "none" || t.At(unit, "status") != "ok") {
+          CHECK(t.At(unit, "se_" + name).empty());
+          CHECK(t.At(unit, "cover_" + name).empty());
+          continue;
+        }
+        const double se = std::stod(t.At(unit, "se_" + name));
+        REQUIRE(se > 0);
+        const bool in = std::abs(std::stod(t.At(unit, hat)) - value) <= 1.959963984540054 * se;
+        CHECK(t.At(unit, "cover_" + name) == (in ? "1" : "0"));
+        ++n;
+        covered += in ? 1 : 0;
+      }
+      CHECK(std::stol(s.At(cell, "cover_" + name + "_n")) == n);
+      if (n == 0) {
+        CHECK(s.At(cell, "cover_" + name + "_mean").empty());
+        continue;
+      }
+      const double p = double(covered) / double(n);
+      const std::array<double, 2> w = Wilson(p, double(n));
+      CHECK(std::stod(s.At(cell, "cover_" + name + "_mean")) == Approx(p).epsilon(1e-15));
+      CHECK(std::stod(s.At(cell, "cover_" + name + "_ci95_lo")) == Approx(w[0]).epsilon(1e-12).margin(1e-15));
+      CHECK(std::stod(s.At(cell, "cover_" + name + "_ci95_hi")) == Approx(w[1]).epsilon(1e-12));
+      CHECK(w[0] < p);  // 3 of 3 covered still has an interval reaching below 1
+    }
+  }
+  // Every estimate of this sweep used every sample: the bound over them is the whole record's.
+  for (const auto& [unit, row] : t.rows) {
+    if (t.At(unit, "status") != "ok") continue;
+    CHECK(t.At(unit, "samples_used") == t.At(unit, "samples"));
+    CHECK(t.At(unit, "crlb_fit_e_alpha") == t.At(unit, "crlb_e_alpha"));
+    CHECK(t.At(unit, "crlb_fit_e_beta") == t.At(unit, "crlb_e_beta"));
+  }
+}
+
+TEST_CASE("sweep: the bound over the samples a fit used when the span rule cuts the record",
+          "[sweep][refine]") {
+  // The drag ball nears its Zeno time in 5 s: the fit leaves out the bounces closer than 50 samples.
+  const std::string text = ExampleSweep("drag-ball/drag-ball.toml", "x0 = [2.0, 0.0]\nt_end = 5.0",
+                                        1.0 / 150.0, 1);
+  const SweepConfig c = ParseSweepText(text, "drag.toml", Registry());
+  const fs::path dir = RunInTemp(c, "sweep-drag-cut");
+  const Table t = ReadTable(dir / "trials.csv");
+  const Model model = c.models[0].Build(Registry());
+  Vec x0(2);
+  x0 << 2.0, 0.0;
+  double sum_alpha = 0, sum_beta = 0, sum_e_alpha = 0;
+  for (long trial = 0; trial < 2; ++trial) {
+    INFO(t.At(trial, "message"));
+    REQUIRE(t.At(trial, "status") == "ok");
+    const long used = std::stol(t.At(trial, "samples_used"));
+    REQUIRE(used < std::stol(t.At(trial, "samples")));
+    // The bound over samples 0 … used − 1, directly: height only, σ = 1e-3.
+    const double dt = std::stod(t.At(trial, "dt"));  // the sweep's δt as written (ExampleSweep's 6 decimals)
+    const Crlb direct = ComputeCrlb(model, x0, SampleGrid{(double(used) - 0.5) * dt, dt},
+                                    Vec::Constant(1, 1e-3), Unknowns::Of(model), {}, {0});
+    REQUIRE(direct.ok());
+    REQUIRE(direct.samples == used);
+    CHECK(std::stod(t.At(trial, "crlb_fit_e_alpha")) == Approx(direct.mean_e_alpha).epsilon(1e-9));
+    CHECK(std::stod(t.At(trial, "crlb_fit_e_beta")) == Approx(direct.mean_e_beta).epsilon(1e-9));
+    CHECK(std::stod(t.At(trial, "crlb_fit_e_beta")) > std::stod(t.At(trial, "crlb_e_beta")));  // less data
+    sum_alpha += std::stod(t.At(trial, "crlb_fit_e_alpha"));
+    sum_beta += std::stod(t.At(trial, "crlb_fit_e_beta"));
+    sum_e_alpha += std::stod(t.At(trial, "e_alpha"));
+  }
+  const Table s = ReadTable(dir / "summary.csv");
+  CHECK(std::stod(s.At(0, "crlb_fit_e_alpha")) == Approx(sum_alpha / 2).epsilon(1e-12));
+  CHECK(std::stod(s.At(0, "crlb_fit_e_beta")) == Approx(sum_beta / 2).epsilon(1e-12));
+  CHECK(std::stod(s.At(0, "efficiency_fit_alpha")) == Approx(sum_e_alpha / sum_alpha).epsilon(1e-12));
 }
 
 TEST_CASE("sweep: a refined unit's recursive pass is its recursive cell's, as a refined sweep alone has it",
