@@ -18,7 +18,7 @@ TS = 4
 SOURCE = pathlib.Path(__file__).resolve().parent / "data" / "dataBenchmark.csv"
 
 
-def ReadColumns(path):
+def read_columns(path):
     """The benchmark's columns uEst, uVal, yEst, yVal as lists of strings (the text as written)."""
     with open(path, newline="") as f:
         rows = [r for r in csv.reader(f) if r]
@@ -35,7 +35,7 @@ def ReadColumns(path):
     return columns
 
 
-def Write(path, header, columns):
+def write(path, header, columns):
     with open(path, "w", newline="") as f:
         writer = csv.writer(f, lineterminator="\n")
         writer.writerow(header)
@@ -48,10 +48,10 @@ def main(argv):
         raise SystemExit("usage: convert.py OUTDIR")
     out = pathlib.Path(argv[1])
     out.mkdir(parents=True, exist_ok=True)
-    c = ReadColumns(SOURCE)
-    Write(out / "estimation.csv", ["t", "y", "u"], [c["yEst"], c["uEst"]])
-    Write(out / "validation.csv", ["t", "y", "u"], [c["yVal"], c["uVal"]])
-    Write(out / "validation_input.csv", ["t", "u"], [c["uVal"]])
+    c = read_columns(SOURCE)
+    write(out / "estimation.csv", ["t", "y", "u"], [c["yEst"], c["uEst"]])
+    write(out / "validation.csv", ["t", "y", "u"], [c["yVal"], c["uVal"]])
+    write(out / "validation_input.csv", ["t", "u"], [c["uVal"]])
     return 0
 
 

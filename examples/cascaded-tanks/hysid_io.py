@@ -13,7 +13,7 @@ import math
 import sys
 
 
-def Params(identify_json, out):
+def params_file(identify_json, out):
     report = json.load(open(identify_json))
     estimate = dict(zip(report["names"], report["estimate"]))
     x0 = [estimate.pop("x0[h1]"), estimate.pop("x0[y]")]
@@ -22,14 +22,14 @@ def Params(identify_json, out):
     print(f"identify status: {report.get('status')} {report.get('reason', '')}".rstrip())
 
 
-def ReadColumn(path, name):
+def read_column(path, name):
     with open(path, newline="") as f:
         rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
     return [float(r["t"]) for r in rows], [float(r[name]) for r in rows]
 
 
-def TestSimulation(sim_csv, out):
-    t, y = ReadColumn(sim_csv, "true_y")
+def test_simulation(sim_csv, out):
+    t, y = read_column(sim_csv, "true_y")
     if len(t) != 1024:
         raise SystemExit(f"hysid_io.py: error: {sim_csv}: {len(t)} rows, expected 1024")
     with open(out, "w", newline="") as f:
@@ -38,16 +38,16 @@ def TestSimulation(sim_csv, out):
         w.writerows([[repr(a), repr(b)] for a, b in zip(t, y)])
 
 
-def Rmse(test_csv, validation_csv):
-    _, a = ReadColumn(test_csv, "y")
-    _, b = ReadColumn(validation_csv, "y")
+def rmse(test_csv, validation_csv):
+    _, a = read_column(test_csv, "y")
+    _, b = read_column(validation_csv, "y")
     if len(a) != len(b):
         raise SystemExit(f"hysid_io.py: error: {test_csv} has {len(a)} rows, {validation_csv} {len(b)}")
     print(f"test RMSE {math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)) / len(a)):.4f} V")
 
 
 def main(argv):
-    commands = {"params": (Params, 2), "test-simulation": (TestSimulation, 2), "rmse": (Rmse, 2)}
+    commands = {"params": (params_file, 2), "test-simulation": (test_simulation, 2), "rmse": (rmse, 2)}
     if len(argv) < 2 or argv[1] not in commands or len(argv) - 2 != commands[argv[1]][1]:
         raise SystemExit(__doc__)
     commands[argv[1]][0](*argv[2:])

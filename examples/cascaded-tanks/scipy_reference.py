@@ -49,6 +49,9 @@ VARIANTS = {
     "overflow-fraction-offset-upper-only": (True, True, True, False, False, False),
     "overflow-fraction-offset-pump": (True, True, True, True, True, False),
     "overflow-fraction-offset-viscous": (True, True, True, True, False, True),
+    "overflow-fraction-viscous": (True, True, False, True, False, True),
+    "overflow-offset-viscous": (True, False, True, True, False, True),
+    "offset-viscous": (False, False, True, False, False, True),
     "overflow-fraction-offset-pump-viscous": (True, True, True, True, True, True),
 }
 DEFAULT_VARIANT = "overflow-fraction-offset-viscous"
@@ -59,7 +62,7 @@ BOUNDS = {"k1": (1e-4, 1.0), "k2": (1e-4, 1.0), "k3": (1e-4, 1.0), "k4": (1e-4, 
           "c2": (-0.05, 0.05), "c3": (-0.05, 0.05), "h1_0": (0.0, H1), "h2_0": (0.0, 20.0)}
 
 
-def ReadBenchmark(path=HERE / "data" / "dataBenchmark.csv"):
+def read_benchmark(path=HERE / "data" / "dataBenchmark.csv"):
     """(u_est, u_val, y_est, y_val) from the benchmark's CSV (columns uEst, uVal, yEst, yVal, Ts)."""
     data = np.genfromtxt(path, delimiter=",", names=True, usecols=(0, 1, 2, 3))
     return data["uEst"], data["uVal"], data["yEst"], data["yVal"]
@@ -69,7 +72,7 @@ def sqrt0(h):
     return math.sqrt(h) if h > 0.0 else 0.0
 
 
-def TanksModel(upper: bool, lower: bool) -> oe.HybridModel:
+def tanks_model(upper: bool, lower: bool) -> oe.HybridModel:
     """p = (k1, k2, k3, k4, f, y0, u0, c1, c2, c3); modes (upper overflowing, lower overflowing)."""
     def pump(u, p):
         return p[3] * max(u - p[6], 0.0)
@@ -117,7 +120,7 @@ def TanksModel(upper: bool, lower: bool) -> oe.HybridModel:
                           output=lambda x, p: x[1] + p[5])
 
 
-def MakeProblem(variant: str, u, y, kind: str) -> tuple[oe.FitProblem, list[str]]:
+def make_problem(variant: str, u, y, kind: str) -> tuple[oe.FitProblem, list[str]]:
     upper, fraction, offset, lower, pump, viscous = VARIANTS[variant]
     names = ["k1", "k2", "k3", "k4"] + (["f"] if fraction else []) + (["y0"] if offset else []) \
         + (["u0"] if pump else []) + (["c1", "c2", "c3"] if viscous else []) + ["h1_0", "h2_0"]
@@ -131,14 +134,14 @@ def MakeProblem(variant: str, u, y, kind: str) -> tuple[oe.FitProblem, list[str]
 
     t = TS * np.arange(len(y))
     problem = oe.FitProblem(
-        model=TanksModel(upper, lower), unpack=unpack,
+        model=tanks_model(upper, lower), unpack=unpack,
         theta0=np.array([start[n] for n in names]),
         lower=np.array([BOUNDS[n][0] for n in names]), upper=np.array([BOUNDS[n][1] for n in names]),
         mode0=(False, False), t=t, y=np.asarray(y, dtype=float), u=oe.SampledInput(t, u, kind))
     return problem, names
 
 
-def HysidParams(estimates: dict) -> tuple[dict, list]:
+def hysid_params(estimates: dict) -> tuple[dict, list]:
     """A variant's estimates as tanks.toml's parameters and initial state (h1, y = h2 + y0).
 
     tanks.toml writes the spill to the lower tank as g_u u + g_0 and the end of each overflow as a
@@ -162,18 +165,19 @@ def HysidParams(estimates: dict) -> tuple[dict, list]:
     return params, [e["h1_0"], e["h2_0"] + y0]
 
 
-def RunVariant(variant: str, kind: str = "cubic") -> dict:
-    u_est, u_val, y_est, y_val = ReadBenchmark()
-    problem, names = MakeProblem(variant, u_est, y_est, kind)
-    fit = oe.FitOutputError(problem)
+def run_variant(variant: str, kind: str = "cubic") -> dict:
+    u_est, u_val, y_est, y_val = read_benchmark()
+    problem, names = make_problem(variant, u_est, y_est, kind)
+    fit = oe.fit_output_error(problem)
     p, x0 = problem.unpack(fit.theta)
     t = TS * np.arange(len(y_val))
-    test = oe.Simulate(problem.model, p, x0, problem.mode0, t, oe.SampledInput(t, u_val, kind),
+    test = oe.simulate(problem.model, p, x0, problem.mode0, t, oe.SampledInput(t, u_val, kind),
                        problem.sim)
     y_test = problem.model.output(test.x, p)
     return {"variant": variant, "input": kind, "estimates": dict(zip(names, fit.theta.tolist())),
-            "fit_rmse": fit.rmse, "test_rmse": oe.Rmse(y_test, y_val), "test_status": test.status,
-            "test_switches": len(test.events), "fit_seconds": fit.seconds, "simulations": fit.simulations,
+            "fit_rmse": fit.rmse, "test_rmse": oe.rmse(y_test, y_val), "test_status": test.status,
+            "test_switches": len(test.events), "fit_seconds": fit.seconds,
+            "fit_cpu_seconds": fit.cpu_seconds, "simulations": fit.simulations,
             "fit_message": fit.message, "y_test": y_test}
 
 
@@ -192,13 +196,14 @@ def main(argv=None) -> int:
     variants = list(VARIANTS) if args.variant == "all" else [args.variant]
     results, worst = [], 0.0
     for variant in variants:
-        r = RunVariant(variant, args.input)
+        r = run_variant(variant, args.input)
         est = ", ".join(f"{k} = {v:.4g}" for k, v in r["estimates"].items())
         print(f"{variant:38s} fit RMSE {r['fit_rmse']:.4f} V  test RMSE {r['test_rmse']:.4f} V  "
-              f"{r['fit_seconds']:.1f} s ({r['simulations']} simulations; test: {r['test_status']}, "
+              f"{r['fit_seconds']:.1f} s wall, {r['fit_cpu_seconds']:.1f} s CPU "
+              f"({r['simulations']} simulations; test: {r['test_status']}, "
               f"{r['test_switches']} switches)\n    {est}", flush=True)
         if args.hysid_params and len(variants) == 1:
-            params, x0 = HysidParams(r["estimates"])
+            params, x0 = hysid_params(r["estimates"])
             lines = [f"{k}={v:.17g}" for k, v in params.items()] + [f"x0={x0[0]:.17g},{x0[1]:.17g}"]
             pathlib.Path(args.hysid_params).write_text("\n".join(lines) + "\n")
         if args.test_out and len(variants) == 1:

@@ -2,9 +2,9 @@
 
 The model is a set of modes, each with a flow f_q(t, x, u, p) and guards g(t, x, u, p) that leave
 the mode when they cross zero in their direction (with an optional reset map x+ = r(t, x, u, p)).
-`Simulate` integrates it with scipy.integrate.solve_ivp, one call per stretch between events and
+`simulate` integrates it with scipy.integrate.solve_ivp, one call per stretch between events and
 input breakpoints, the guards of the current mode as terminal events; it restarts after each event
-in the target mode. `FitOutputError` wraps it in scipy.optimize.least_squares over the unknown
+in the target mode. `fit_output_error` wraps it in scipy.optimize.least_squares over the unknown
 parameters and initial states (finite-difference Jacobian), the residual being the simulated
 measured output minus the data at every sample.
 
@@ -136,7 +136,7 @@ def _event_functions(guards: Sequence[Guard], u: SampledInput, p, t0, x0, band):
     return funcs
 
 
-def Simulate(model: HybridModel, p, x0, mode0, t_eval, u: SampledInput,
+def simulate(model: HybridModel, p, x0, mode0, t_eval, u: SampledInput,
              options: SimOptions = SimOptions()) -> SimResult:
     """The hybrid trajectory at t_eval (increasing, t_eval[0] the initial time)."""
     t_eval = np.asarray(t_eval, dtype=float)
@@ -144,8 +144,8 @@ def Simulate(model: HybridModel, p, x0, mode0, t_eval, u: SampledInput,
     xs, modes, events = np.full((n, N), np.nan), [None] * N, []
     stops = np.concatenate([u.breakpoints[(u.breakpoints > t_eval[0]) & (u.breakpoints < t_eval[-1])],
                             [t_eval[-1]]])
-    t, x, mode, k, budget = t_eval[0], np.asarray(x0, dtype=float), mode0, 0, options.max_events
-    xs[:, 0], modes[0], k = x, mode, 1
+    t, x, mode, budget = t_eval[0], np.asarray(x0, dtype=float), mode0, options.max_events
+    xs[:, 0], modes[0], k = x, mode, 1  # k: the next sample to record
     for stop in stops:
         while t < stop:
             mode, x, budget = _settle(model, mode, t, x, u(t), p, events, budget, options.band)
@@ -153,11 +153,10 @@ def Simulate(model: HybridModel, p, x0, mode0, t_eval, u: SampledInput,
                 return SimResult(xs, modes, events, "max-events")
             inside = t_eval[k:][t_eval[k:] <= stop]
             ask = inside if inside.size and inside[-1] == stop else np.append(inside, stop)
-            flow = model.flows[mode]
-            guards = model.guards.get(mode, ())
+            flow, guards = model.flows[mode], model.guards.get(mode, ())
             sol = solve_ivp(lambda s, y: flow(s, y, u(s), p), (t, stop), x, method=options.method,
-                            t_eval=ask, events=_event_functions(guards, u, p, t, x, options.band), rtol=options.rtol,
-                            atol=options.atol, max_step=options.max_step)
+                            t_eval=ask, events=_event_functions(guards, u, p, t, x, options.band),
+                            rtol=options.rtol, atol=options.atol, max_step=options.max_step)
             if sol.status < 0:
                 return SimResult(xs, modes, events, f"solver-failure: {sol.message}")
             got = min(np.size(sol.t), inside.size)
@@ -179,7 +178,7 @@ def Simulate(model: HybridModel, p, x0, mode0, t_eval, u: SampledInput,
 
 @dataclasses.dataclass
 class FitProblem:
-    """What `FitOutputError` fits: the parameters and initial states in one vector θ.
+    """What `fit_output_error` fits: the parameters and initial states in one vector θ.
 
     `unpack(theta) -> (p, x0)` maps θ to the model's parameter vector and initial state; `theta0` is
     the start, `lower`/`upper` its bounds.
@@ -204,31 +203,32 @@ class FitResult:
     message: str
     simulations: int       # residual evaluations, the finite-difference Jacobians' included
     seconds: float         # wall time of the fit
+    cpu_seconds: float     # CPU time of the fit (this process)
 
 
 FAILED_RESIDUAL = 1e3  # the residual of every sample when a simulation fails
 
 
-def Residual(problem: FitProblem, theta) -> np.ndarray:
+def residual(problem: FitProblem, theta) -> np.ndarray:
     p, x0 = problem.unpack(theta)
-    sim = Simulate(problem.model, p, x0, problem.mode0, problem.t, problem.u, problem.sim)
+    sim = simulate(problem.model, p, x0, problem.mode0, problem.t, problem.u, problem.sim)
     if not sim.ok or not np.all(np.isfinite(sim.x)):
         return np.full(problem.y.shape, FAILED_RESIDUAL)
     return problem.model.output(sim.x, p) - problem.y
 
 
-def FitOutputError(problem: FitProblem, diff_step: float = 1e-4, max_nfev: int | None = None,
+def fit_output_error(problem: FitProblem, diff_step: float = 1e-4, max_nfev: int | None = None,
                    verbose: int = 0) -> FitResult:
-    """least_squares (trust-region reflective, bounds, finite-difference Jacobian) on `Residual`."""
-    start = time.perf_counter()
-    sol = least_squares(lambda th: Residual(problem, th), problem.theta0,
+    """least_squares (trust-region reflective, bounds, finite-difference Jacobian) on `residual`."""
+    start, cpu_start = time.perf_counter(), time.process_time()
+    sol = least_squares(lambda th: residual(problem, th), problem.theta0,
                         bounds=(problem.lower, problem.upper), method="trf", x_scale="jac",
                         diff_step=diff_step, max_nfev=max_nfev, verbose=verbose)
-    seconds = time.perf_counter() - start
+    seconds, cpu_seconds = time.perf_counter() - start, time.process_time() - cpu_start
     rmse = float(np.sqrt(np.mean(sol.fun ** 2)))
     simulations = int(sol.nfev) + int(sol.njev or 0) * len(sol.x)
-    return FitResult(sol.x, rmse, bool(sol.success), sol.message, simulations, seconds)
+    return FitResult(sol.x, rmse, bool(sol.success), sol.message, simulations, seconds, cpu_seconds)
 
 
-def Rmse(a, b) -> float:
+def rmse(a, b) -> float:
     return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
