@@ -1,18 +1,23 @@
 #!/usr/bin/python3
 """The Cascaded Tanks benchmark fitted by a plain scipy output-error fit (tests/reference/scipy_oe.py).
 
-System: two tanks, Torricelli outflows, pump voltage u in, lower level y out (data/PROVENANCE.md).
-    normal:         h1' = k4 u - k1 sqrt(h1)          h2' = k2 sqrt(h1) - k3 sqrt(h2)
-    upper overflow: h1' = 0 (h1 at the rim H1)        h2' = k2 sqrt(H1) - k3 sqrt(h2) + f q,
-                    q = k4 u - k1 sqrt(H1) the water spilling over the rim, f the part of it that
-                    reaches the lower tank; the overflow starts when h1 rises to H1 and ends when
-                    q falls below 0.
-    lower overflow: h2' = 0 (h2 at its rim H2 = ymax - y0); ends when the inflow falls below k3 sqrt(H2).
-    output:         y = h2 + y0 (the sensor's offset y0; Torricelli acts on h2 = y - y0).
-h1 is not measured, so its scale is free: the rim H1 is fixed at 10 (h1 is in units of the rim/10).
-Fit: the estimation record only, θ = (k1..k4, [f], [y0], h1(0), h2(0)), from the start values below.
-Test: the validation input from the estimation's fitted initial state (the benchmark's protocol: the
-unknown initial state is the same for both records), RMSE against the validation output.
+System: two tanks, pump voltage u in, lower level y out (data/PROVENANCE.md), the fullest variant:
+    normal:         h1' = k4 max(u - u0, 0) - k1 sqrt(h1) - c1 h1
+                    h2' = k2 sqrt(h1) + c2 h1 - k3 sqrt(h2) - c3 h2
+    upper overflow: h1' = 0 (h1 at the rim H1)
+                    h2' = k2 sqrt(H1) + c2 H1 + f s - k3 sqrt(h2) - c3 h2,
+                    s = k4 max(u - u0, 0) - k1 sqrt(H1) - c1 H1 the water spilling over the rim, f
+                    the part of it that reaches the lower tank; the overflow starts when h1 rises
+                    to H1 and ends when s falls below 0.
+    lower overflow: h2' = 0 (h2 at its rim H2 = YMAX - y0); ends when its inflow falls below its
+                    outflow at H2.
+    output:         y = h2 + y0 (the sensor's offset y0; the outflow acts on the head h2 = y - y0).
+A variant (VARIANTS) leaves out the overflows, f, y0, u0 or the viscous c1, c2, c3 (all then 0).
+h1 is not measured, so its scale is free: the rim H1 is fixed at 10.
+Fit: the estimation record only, θ = (k1..k4, [f], [y0], [u0], [c1, c2, c3], h1(0), h2(0)), from the
+start values START. Test: the validation input from the estimation's fitted initial state (the
+benchmark's protocol: the unknown initial state is the same for both records), RMSE against the
+validation output.
 
     /usr/bin/python3 examples/cascaded-tanks/scipy_reference.py                 # the default variant
     /usr/bin/python3 examples/cascaded-tanks/scipy_reference.py --variant all   # every variant
