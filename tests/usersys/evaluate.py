@@ -10,7 +10,7 @@ up to 2.5x (`--start truth`: the true model file instead), timed; and the bound 
 data.csv (systems.crlb). Writes one CSV row per draw (WORK/hysid-START.csv) and prints a table per
 system: fits with status ok; ok with every unknown within 4 reported SE of the truth; ok beyond 4 SE
 (confident and wrong); ok fits with every SE within 25 % of the CRLB sd; the range of SE / CRLB sd;
-wall time per fit. --check exits 1 unless every system meets the targets: ok within 4 SE in all but
+wall and CPU time per fit. --check exits 1 unless every system meets the targets: ok within 4 SE in all but
 N//20 draws, never ok beyond 4 SE, every SE of an ok fit within 25 % of the CRLB sd.
 """
 import argparse
@@ -18,6 +18,7 @@ import csv
 import json
 import math
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -35,16 +36,17 @@ def identify(hysid, draw_path, model_file, tag):
     out.unlink(missing_ok=True)
     cmd = [str(hysid), "identify", "--model-file", str(model_file),
            "--data", str(Path(draw_path) / "data.csv"), "--json", str(out)]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
     run = subprocess.run(cmd, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
+    wall, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
     (Path(draw_path) / f"id-{tag}.txt").write_text(run.stdout + run.stderr)
     if not out.exists():
         lines = (run.stderr or run.stdout).strip().splitlines()
         reason = (lines[-1] if lines else "").replace(str(Path(draw_path)) + "/", "")
-        return {"exit": run.returncode, "wall": wall, "status": "error", "reason": reason}
+        return {"exit": run.returncode, "wall": wall, "cpu": cpu, "status": "error", "reason": reason}
     result = json.loads(out.read_text())
-    result.update(exit=run.returncode, wall=wall)
+    result.update(exit=run.returncode, wall=wall, cpu=cpu)
     return result
 
 
@@ -66,7 +68,7 @@ def evaluate_draw(hysid, sys_, draw_path, start):
     model_file = sys_.path if start == "truth" else Path(draw_path) / "start.toml"
     r = identify(hysid, draw_path, model_file, start)
     row = {"system": sys_.name, "draw": Path(draw_path).name, "start": start, "status": r["status"],
-           "exit": r["exit"], "wall_s": round(r["wall"], 4),
+           "exit": r["exit"], "wall_s": round(r["wall"], 4), "cpu_s": round(r["cpu"], 4),
            "reason": (r.get("reason") or "").replace("\n", " ")[:300],
            "samples": r.get("samples", ""), "samples_used": r.get("samples_used", ""),
            "crlb_source": bound["source"]}
@@ -97,6 +99,7 @@ def summarize(rows):
     lo = [r["se_over_crlb_min"] for r in ok if r["se_over_crlb_min"] != ""]
     hi = [r["se_over_crlb_max"] for r in ok if r["se_over_crlb_max"] != ""]
     walls = sorted(r["wall_s"] for r in rows)
+    cpus = sorted(r["cpu_s"] for r in rows)
     statuses = {}
     for r in rows:
         key = r["status"] if r["status"] != "error" else "error: " + r["reason"][:90]
@@ -107,6 +110,7 @@ def summarize(rows):
             "se_within_25pc": sum(r["se_within_25pc"] for r in ok),
             "se_over_crlb": f"{min(lo):.3g}-{max(hi):.3g}" if lo else "-",
             "wall_median_s": walls[len(walls) // 2], "wall_max_s": walls[-1],
+            "cpu_median_s": cpus[len(cpus) // 2], "cpu_max_s": cpus[-1],
             "statuses": "; ".join(f"{k} x{v}" for k, v in sorted(statuses.items()))}
 
 
@@ -118,12 +122,13 @@ def meets_targets(s):
 
 def print_table(summaries, out=sys.stdout):
     head = f"{'system':<11} {'draws':>5} {'ok':>3} {'ok<=4SE':>7} {'ok>4SE':>6} {'SE~CRLB':>7} " \
-           f"{'SE/CRLB':>11} {'wall med':>8} {'max':>6}  target"
+           f"{'SE/CRLB':>11} {'wall med':>8} {'max':>6} {'cpu med':>7} {'max':>6}  target"
     print(head, file=out)
     for s in summaries:
         print(f"{s['system']:<11} {s['draws']:>5} {s['ok']:>3} {s['ok_within_4se']:>7} "
               f"{s['ok_beyond_4se']:>6} {s['se_within_25pc']:>7} {s['se_over_crlb']:>11} "
-              f"{s['wall_median_s']:>8.3f} {s['wall_max_s']:>6.2f}  "
+              f"{s['wall_median_s']:>8.3f} {s['wall_max_s']:>6.2f} {s['cpu_median_s']:>7.3f} "
+              f"{s['cpu_max_s']:>6.2f}  "
               f"{'met' if meets_targets(s) else 'NOT met'}", file=out)
     for s in summaries:
         print(f"  {s['system']}: {s['statuses']}", file=out)
@@ -170,7 +175,8 @@ def main(argv=None):
         if s.name not in names:
             continue
         ensure_draws(hysid, args.work, i, s, args.draws)
-        mine = [evaluate_draw(hysid, s, systems.draw_dir(args.work, s, d), args.start) for d in range(args.draws)]
+        mine = [evaluate_draw(hysid, s, systems.draw_dir(args.work, s, d), args.start)
+                for d in range(args.draws)]
         rows += mine
         summaries.append(summarize(mine))
     write_csv(rows, args.csv or Path(args.work) / f"hysid-{args.start}.csv")

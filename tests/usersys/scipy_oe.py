@@ -2,6 +2,7 @@
 """The peer a user would write: an output-error fit with scipy (README.md here).
 
     scipy_oe.py --work DIR [--draws 20] [--systems ball,...] [--csv FILE]
+    scipy_oe.py --work DIR --summarize CSV...
 
 Per draw of generate.py: scipy.optimize.least_squares (trf, finite-difference Jacobian) around
 scipy.integrate.solve_ivp (DOP853, rtol 1e-9, atol 1e-12) with terminal events for the guards, the
@@ -9,10 +10,11 @@ reset or mode switch applied at each event and the integration restarted after i
 values as hysid (the draw's start.toml; x0 of a measured state from the first sample), the same
 data (data.csv: missing samples left out of the cost); a measured input is a cubic spline through
 its samples (solve_ivp crawls across the kinks of the linear interpolation hysid uses: 20 s instead
-of 0.6 s per run of the impact oscillator; the difference at the truth is below 0.1 σ). The model of each system is written by hand
-below from its model file. The initial mode of the thermostat is not known: both are fitted and the
-lower cost kept. Standard errors: σ from the residuals, the Jacobian at the optimum by central
-differences. Success: the fit converged and every unknown is within 4 of its own standard error; also reported against 4 CRLB sd (crlb.json of evaluate.py).
+of 0.6 s per run of the impact oscillator; the difference at the truth is below 0.1 σ). The model of
+each system is written by hand below from its model file. The initial mode of the thermostat is not
+known: both are fitted and the lower cost kept. Standard errors: σ from the residuals, the Jacobian
+at the optimum by central differences. Success: the fit converged and every unknown is within 4 of
+its own standard error; also reported against 4 CRLB sd (crlb.json of evaluate.py).
 """
 import argparse
 import json
@@ -197,7 +199,8 @@ def evaluate_draw(sys_, draw_path):
     truth = systems.truth(spec)
     crlb_file = Path(draw_path) / "crlb.json"
     crlb_sd = json.loads(crlb_file.read_text())["sd"] if crlb_file.exists() else {}
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
+    np.seterr(invalid="ignore")
     modes = MODELS[sys_.name].modes if sys_.name == "thermostat" else [MODELS[sys_.name].modes[0]]
     if "mode" in spec.get("defaults", {}) and sys_.name != "thermostat":
         modes = [spec["defaults"]["mode"]]
@@ -206,7 +209,7 @@ def evaluate_draw(sys_, draw_path):
         names, res, se = fit(sys_, draw_path, q0)
         if best is None or res.cost < best[1].cost:
             best = (names, res, se, q0)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     names, res, se, q0 = best
     err = np.array([res.x[i] - truth[n] for i, n in enumerate(names)])
     z_se = np.abs(err) / se
@@ -215,7 +218,8 @@ def evaluate_draw(sys_, draw_path):
     converged = bool(res.success)
     row = {"system": sys_.name, "draw": Path(draw_path).name, "converged": int(converged),
            "message": res.message, "nfev": res.nfev, "initial_mode": q0,
-           "normalized_rms": round(math.sqrt(2 * res.cost / res.fun.size), 4), "wall_s": round(wall, 3),
+           "normalized_rms": round(math.sqrt(2 * res.cost / res.fun.size), 4),
+           "wall_s": round(wall, 3), "cpu_s": round(cpu, 3),
            "within_4se": int(converged and bool(np.all(z_se <= Z))),
            "within_4crlb": int(converged and bool(np.all(z_crlb <= Z))),
            "max_err_in_se": round(float(np.nanmax(z_se)), 3),
@@ -248,8 +252,20 @@ def print_table(summaries, out=sys.stdout):
           f"{'SE/CRLB':>11} {'wall med':>8} {'max':>7}", file=out)
     for s in summaries:
         print(f"{s['system']:<11} {s['draws']:>5} {s['converged']:>4} {s['within_4se']:>5} "
-              f"{s['within_4crlb']:>7} {s['confident_wrong']:>13} {s['se_over_crlb']:>11} {s['wall_median_s']:>8.2f} "
+              f"{s['within_4crlb']:>7} {s['confident_wrong']:>13} {s['se_over_crlb']:>11} "
+              f"{s['wall_median_s']:>8.2f} "
               f"{s['wall_max_s']:>7.2f}", file=out)
+
+
+def read_rows(path):
+    """Rows of a per-draw CSV written by this script, numbers as numbers."""
+    rows = systems.read_csv(path)
+    for r in rows:
+        for k in ("converged", "within_4se", "within_4crlb", "confident_wrong"):
+            r[k] = int(r[k])
+        for k in ("wall_s", "se_over_crlb_min", "se_over_crlb_max"):
+            r[k] = float(r[k]) if r[k] not in ("", "nan") else ("" if r[k] == "" else math.nan)
+    return rows
 
 
 def main(argv=None):
@@ -257,9 +273,16 @@ def main(argv=None):
     ap.add_argument("--work", required=True, help="directory of the draws (generate.py, evaluate.py)")
     ap.add_argument("--draws", type=int, default=20)
     ap.add_argument("--systems", default=",".join(s.name for s in systems.SYSTEMS))
-    ap.add_argument("--csv", help="per-draw CSV (default WORK/scipy.csv)")
+    ap.add_argument("--csv", help="per-draw CSV, rewritten after each draw (default WORK/scipy-SYSTEMS.csv)")
+    ap.add_argument("--summarize", nargs="+", metavar="CSV", help="only print the table of these CSVs")
     args = ap.parse_args(argv)
     names = args.systems.split(",")
+    if args.summarize:
+        rows = [r for path in args.summarize for r in read_rows(path)]
+        print_table([summarize([r for r in rows if r["system"] == s.name])
+                     for s in systems.SYSTEMS if any(r["system"] == s.name for r in rows)])
+        return 0
+    out = args.csv or Path(args.work) / f"scipy-{'-'.join(names)}.csv"
     rows, summaries = [], []
     for s in systems.SYSTEMS:
         if s.name not in names:
@@ -267,12 +290,11 @@ def main(argv=None):
         mine = []
         for d in range(args.draws):
             mine.append(evaluate_draw(s, systems.draw_dir(args.work, s, d)))
+            write_csv(rows + mine, out)
             print(f"{s.name} draw {d + 1}: converged {mine[-1]['converged']}, within 4 SE "
                   f"{mine[-1]['within_4se']}, {mine[-1]['wall_s']} s", file=sys.stderr, flush=True)
         rows += mine
         summaries.append(summarize(mine))
-    write_csv(rows, args.csv or Path(args.work) / ("scipy.csv" if len(names) == len(systems.SYSTEMS)
-                                                   else f"scipy-{'-'.join(names)}.csv"))
     print_table(summaries)
     return 0
 

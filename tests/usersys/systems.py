@@ -223,15 +223,15 @@ def _simulate_true(hysid, sys, draw_path, theta, out):
     return {r["t"]: [float(r["true_" + s]) for s in measured(spec)] for r in rows}
 
 
-def fd_crlb(hysid, sys, draw_path, times_text):
+def fd_crlb(hysid, sys, draw_path, times_text, rel=1e-6):
     """CRLB sd of every unknown on the given sample times: the Fisher information SᵀS/σ² with the
-    sensitivities S by central differences of noise-free `hysid simulate` runs (step 1e-6 relative)."""
+    sensitivities S by central differences of noise-free `hysid simulate` runs (step rel·|θ|)."""
     spec = sys.spec()
     theta = truth(spec)
-    tmp = Path(draw_path) / "fd.csv"
+    tmp = Path(draw_path) / f"fd{rel:g}.csv"
     columns = []
     for name, value in theta.items():
-        step = 1e-6 * max(abs(value), 1e-2)
+        step = rel * max(abs(value), 1e-2)
         plus = _simulate_true(hysid, sys, draw_path, {**theta, name: value + step}, tmp)
         minus = _simulate_true(hysid, sys, draw_path, {**theta, name: value - step}, tmp)
         columns.append(np.concatenate([(np.array(plus[t]) - np.array(minus[t])) / (2 * step)
