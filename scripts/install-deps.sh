@@ -12,7 +12,7 @@ packages=(
   libcli11-dev librandom123-dev libtomlplusplus-dev nlohmann-json3-dev libceres-dev
   libmuparser-dev                    # model files: the expressions of φ, ψ, guards, C, D
   pybind11-dev python3-dev           # the `hysid` Python module
-  python3 python3-matplotlib python3-numpy python3-pytest
+  python3 python3-matplotlib python3-numpy python3-pytest python3-scipy  # scipy: the output-error reference (tests/reference, tests/usersys)
   slurm-wlm munge
 )
 
