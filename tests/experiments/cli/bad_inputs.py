@@ -340,7 +340,6 @@ LIMITS_FILES = {
     "rowsdup.toml": MSD.replace('rows = ["v"]', 'rows = ["v", "v"]', 1),
     "x0name.toml": MSD.replace('name = "mu"', 'name = "x0[x]"', 1),
     "longdefault.toml": re.sub(r"\ndt = [^\n]*", "\ndt = 1e-9", MSD, count=1),
-    "vonly.toml": MSD.replace('states = ["x", "v"]', 'states = ["x", "v"]\nmeasured = ["v"]', 1),
 }
 LIMITS_CASES = [
     ("--seed 0x10 (only decimal; 010 is ten)", ["simulate", "--seed", "0x10"] + SIM),
@@ -512,8 +511,6 @@ MEASURED_CASES = [
     ("identify: --x0-known on two runs", ["identify", "--data", "sim.csv", "--data", "sim.csv", "--x0-known"]),
     ("identify: --x0-known with --refine none", ["identify", "--data", "sim.csv", "--x0-known", "--refine", "none"]),
     ("crlb: --x0-known names a state twice", ["crlb", "--x0-known", "x,x"]),
-    ("identify: an unmeasured state that cannot be reconstructed",
-     ["identify", "--model-file", "vonly.toml", "--data", "sim.csv"]),
     ("crlb: --sigma of the wrong length", ["crlb", "--sigma", "1,2,3"]),
 ]
 
