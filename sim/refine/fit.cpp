@@ -53,7 +53,11 @@ HybridParameters OnChain(const ChainFit& f, HybridParameters p) {
 bool Admissible(const Model& model, const HybridParameters& p, const InputSignal& inputs) {
   if (!p.alpha.allFinite() || !p.beta.allFinite() || !p.x0.allFinite() || !p.gamma.allFinite()) return false;
   const Vec gamma = p.GammaOr(model);
-  const Context at{.t = 0.0, .u = inputs.empty() ? nullptr : inputs.values.col(0).data(), .gamma = gamma.data()};
+  const Context at{.t = 0.0,
+                   .u = inputs.empty() ? nullptr : inputs.values.col(0).data(),
+                   .gamma = gamma.data(),
+                   .alpha = p.alpha.data(),
+                   .beta = p.beta.data()};
   return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
 }
 
