@@ -81,10 +81,20 @@ struct Compiled {
   std::vector<mu::Parser> project;
 };
 
-// Whether α or β entry `p` is a variable of the guards and sets: not when a state has its name (the
-// state's, there).
+// Whether α or β entry `p` is a variable of the guards and sets: its name a valid variable name (α and
+// β names are free text), not t, a built-in function or constant, and no state's (the state's, there).
 bool ParameterBound(const ModelSpec& s, const Parameter& p) {
-  return std::find(s.state_names.begin(), s.state_names.end(), p.name) == s.state_names.end();
+  if (p.name == "t" || std::find(s.state_names.begin(), s.state_names.end(), p.name) != s.state_names.end()) {
+    return false;
+  }
+  mu::Parser probe;
+  try {
+    double dummy = 0.0;
+    probe.DefineVar(p.name, &dummy);
+  } catch (const mu::Parser::exception_type&) {
+    return false;
+  }
+  return !probe.GetFunDef().contains(p.name) && !probe.GetConst().contains(p.name);
 }
 
 // `parameters`: the α and β names too (guards, sets).
