@@ -1,5 +1,8 @@
 #include "sim/exogenous.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -39,8 +42,8 @@ int InitialMode(const Model& model, const Exogenous& exo) {
   return exo.initial_mode >= 0 ? exo.initial_mode : model.spec().default_mode;
 }
 
-ContextSource::ContextSource(const Model& model, const Exogenous& exo)
-    : exo_(exo), u_(model.spec().inputs.size(), 0.0), mode_(InitialMode(model, exo)) {}
+ContextSource::ContextSource(const Model& model, const Exogenous& exo, const Vec* alpha, const Vec* beta)
+    : exo_(exo), alpha_(alpha), beta_(beta), u_(model.spec().inputs.size(), 0.0), mode_(InitialMode(model, exo)) {}
 
 Context ContextSource::At(double t) {
   Context ctx;
@@ -50,8 +53,25 @@ Context ContextSource::At(double t) {
     ctx.u = u_.data();
   }
   if (exo_.gamma.size() != 0) ctx.gamma = exo_.gamma.data();
+  if (alpha_ != nullptr) ctx.alpha = alpha_->data();
+  if (beta_ != nullptr) ctx.beta = beta_->data();
   ctx.mode = mode_;
   return ctx;
+}
+
+void ContextSource::GuardTimeDerivative(const Model& model, const ConstVecRef& x, const Context& ctx,
+                                        VecRef dh_dt) {
+  const double step = 1e-6 * std::max(1.0, std::abs(ctx.t));
+  Vec hm(model.guard_count());
+  Context at = ctx;
+  at.t = ctx.t + step;
+  at.u = At(at.t).u;
+  model.Guards(x, dh_dt, at);
+  at.t = ctx.t - step;
+  at.u = At(at.t).u;
+  model.Guards(x, hm, at);
+  dh_dt = (dh_dt - hm) / ((ctx.t + step) - (ctx.t - step));
+  At(ctx.t);  // the buffer holds u(ctx.t) again: ctx may point into it
 }
 
 }  // namespace hysid

@@ -27,18 +27,25 @@ int InitialMode(const Model& model, const Exogenous& exo);
 std::string ExogenousError(const Model& model, const Exogenous& exo, double t_end);
 
 // The Context of a time: u(t) interpolated into a buffer of its own, γ from the Exogenous (or the
-// model's own), the mode set last (set_mode; the run loop's current mode). One per run (not shared between threads); a Context it returns points into its
-// buffer and is valid until its next At().
+// model's own), the run's α and β (the guards and sets may read them; nullptr: the model's own), the
+// mode set last (set_mode; the run loop's current mode). One per run (not shared between threads); a
+// Context it returns points into its buffer and is valid until its next At().
 class ContextSource {
  public:
-  ContextSource(const Model& model, const Exogenous& exo);
+  ContextSource(const Model& model, const Exogenous& exo, const Vec* alpha = nullptr, const Vec* beta = nullptr);
   Context At(double t);
+  // ∂h/∂t at (x, ctx) with ξ held and u(t) moving (the time and the inputs of ctx replaced): central
+  // differences over t ± 1e-6·max(1, |t|); zero, bit for bit, for guards that read neither. ctx may come
+  // from this source's At(ctx.t): its inputs are u(ctx.t) again on return.
+  void GuardTimeDerivative(const Model& model, const ConstVecRef& x, const Context& ctx, VecRef dh_dt);
   // The mode every later At() carries in Context::mode.
   void set_mode(int mode) { mode_ = mode; }
   int mode() const { return mode_; }
 
  private:
   const Exogenous& exo_;
+  const Vec* alpha_;
+  const Vec* beta_;
   std::vector<double> u_;
   long hint_ = 0;  // the input interval of the last At
   int mode_ = 0;

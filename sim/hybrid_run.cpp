@@ -70,7 +70,7 @@ Engine::Engine(const Model& model, const Vec& alpha, const Vec& beta, const Exog
       options_(options),
       payload_(payload),
       order_(order),
-      context_(model, exo),
+      context_(model, exo, &alpha, &beta),
       explicit_maps_(!model.spec().jumps.empty()),
       several_modes_(ModeCount(model.spec()) > 1),
       n_(model.state_size()) {
@@ -376,31 +376,33 @@ bool Engine::MapChain(int guard, bool located) {
 }
 
 // The guard armed in the current mode that fires at (t_, x_) without flowing: past zero in its
-// direction, or at zero (kAtZero) with its rate ∇h·f (central difference along the current mode's
-// flow) in its direction; of several, the one whose map comes first in spec.jumps. −1 when none.
+// direction, or at zero (kAtZero) with its rate dh/dt = ∇h·f + ∂h/∂t (central differences along the
+// current mode's flow and in time, u(t) moving) in its direction; of several, the one whose map comes
+// first in spec.jumps. −1 when none.
 int Engine::ChainedCrossing(bool* at_zero) {
   const int count = model_.guard_count();
   const Context ctx = ContextAt(t_);
-  Vec h(count), f(n_), hp(count), hm(count);
+  Vec h(count), f(n_), rate = Vec::Zero(count), dh_dt(count);
   model_.Guards(x_, h, ctx);
   model_.Flow(x_, alpha_, f, ctx);
   const double scale = std::max(1.0, x_.cwiseAbs().maxCoeff());
   const double fnorm = f.cwiseAbs().maxCoeff();
   if (fnorm > 0.0 && std::isfinite(fnorm)) {
     const double eps = 1e-6 * scale / fnorm;
-    model_.Guards(x_ + eps * f, hp, ctx);
+    Vec hm(count);
+    model_.Guards(x_ + eps * f, rate, ctx);
     model_.Guards(x_ - eps * f, hm, ctx);
-  } else {
-    hp = h;
-    hm = h;
+    rate = (rate - hm) / (2.0 * eps);
   }
+  context_.GuardTimeDerivative(model_, x_, ctx, dh_dt);
+  rate += dh_dt;
   int fired = -1, first_map = 0;
   for (int g = 0; g < count; ++g) {
     const int map = ArmedMap(model_.spec(), mode_, g);
     const double s = DirectionSign(model_.spec().guards[std::size_t(g)].direction);
     if (map < 0 || s == 0.0) continue;
     const bool zero = std::abs(h[g]) <= kAtZero * scale;
-    const bool fires = zero ? s * (hp[g] - hm[g]) > 0.0 : s * h[g] > 0.0;
+    const bool fires = zero ? s * rate[g] > 0.0 : s * h[g] > 0.0;
     if (fires && (fired < 0 || map < first_map)) {
       fired = g;
       first_map = map;

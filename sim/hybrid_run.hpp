@@ -19,9 +19,10 @@
 //           one instant: the one whose map comes first in spec.jumps fires; the others, and every
 //           guard armed in the new mode, are re-checked at ξ+ (ChainedCrossing): a guard past zero in
 //           its direction, or at zero (within 1e-10·max(1, ‖ξ‖∞)) and moving in its direction under
-//           the new mode's flow, fires next at the same instant (each counts toward
-//           max_jumps_at_one_time). A guard of direction "both" fires only where CVODE locates it.
-//           Then CVODE is re-initialised.
+//           the new mode's flow (its rate dh/dt = ∇h·f + ∂h/∂t: a guard in the inputs or t moves
+//           with them), fires next at the same instant (each counts toward max_jumps_at_one_time).
+//           A guard of direction "both" fires only where CVODE locates it. Then CVODE is
+//           re-initialised.
 // Zeno:     a chain of more than max_jumps_at_one_time jumps at one instant; or, after each crossing,
 //           jump intervals below zeno_interval that shrank for zeno_window jumps in a row, each below
 //           (1 − 1e-3) times the one before (constant intervals equal up to rounding, a stiff

@@ -282,6 +282,7 @@ void Assign(const Model& model, const std::vector<JumpMap>& maps, const Mat& y, 
   if (pre < 0 || !y.col(pre).allFinite()) pre = e->sample;
   const Context ctx{.t = t[std::size_t(pre)],
                     .u = inputs.rows() > 0 ? inputs.col(pre).data() : nullptr,
+                    .alpha = alpha.data(),
                     .mode = e->mode_before};
   const double step = t[std::size_t(e->sample)] - t[std::size_t(pre)];
   e->map = -1;

@@ -250,25 +250,32 @@ void Model::CentralDifferenceJacobian(const Concept& c, const ConstVecRef& x, co
   }
 }
 
-void Model::GuardGammaJacobian(const ConstVecRef& x, const Context& ctx, MatRef dh_dgamma) const {
+void Model::GuardParameterJacobian(const ConstVecRef& x, const Context& ctx, ParameterBlock block,
+                                   MatRef dh) const {
   const Context base = Resolve(ctx);
-  const Eigen::Index m = gamma_.size(), g = guard_count();
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> gp =
-      Eigen::Map<const Vec>(base.gamma, m);
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> gm = gp;
+  const double* Context::*const field = block == ParameterBlock::kAlpha  ? &Context::alpha
+                                        : block == ParameterBlock::kBeta ? &Context::beta
+                                                                          : &Context::gamma;
+  const Eigen::Index m = block == ParameterBlock::kAlpha  ? alpha_.size()
+                         : block == ParameterBlock::kBeta ? beta_.size()
+                                                           : gamma_.size();
+  const double* value = base.*field;
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> vp = Eigen::Map<const Vec>(value, m);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> vm = vp;
+  const Eigen::Index g = guard_count();
   Vec hp(g), hm(g);
   Context cp = base, cm = base;
-  cp.gamma = gp.data();
-  cm.gamma = gm.data();
+  cp.*field = vp.data();
+  cm.*field = vm.data();
   for (Eigen::Index i = 0; i < m; ++i) {
-    const double step = 1e-6 * std::max(1.0, std::abs(base.gamma[i]));
-    gp[i] = base.gamma[i] + step;
-    gm[i] = base.gamma[i] - step;
+    const double step = 1e-6 * std::max(1.0, std::abs(value[i]));
+    vp[i] = value[i] + step;
+    vm[i] = value[i] - step;
     impl_->Guards(x, cp, hp);
     impl_->Guards(x, cm, hm);
-    dh_dgamma.col(i) = (hp - hm) / (2.0 * step);
-    gp[i] = base.gamma[i];
-    gm[i] = base.gamma[i];
+    dh.col(i) = (hp - hm) / (2.0 * step);
+    vp[i] = value[i];
+    vm[i] = value[i];
   }
 }
 

@@ -237,33 +237,22 @@ class Model {
     impl_->Psi(x, psi);
   }
   void Psi(const ConstVecRef& x, MatRef psi, const Context& ctx) const { impl_->Psi(x, Resolve(ctx), psi); }
-  void Guards(const ConstVecRef& x, VecRef h) const {
-    if (contextual_) return impl_->Guards(x, Resolve({}), h);
-    impl_->Guards(x, h);
-  }
+  // The guards, projections and sets take the resolved context in both forms: they may read α and β.
+  void Guards(const ConstVecRef& x, VecRef h) const { impl_->Guards(x, Resolve({}), h); }
   void Guards(const ConstVecRef& x, VecRef h, const Context& ctx) const { impl_->Guards(x, Resolve(ctx), h); }
-  bool InFlowSet(const ConstVecRef& x) const {
-    return contextual_ ? impl_->InFlowSet(x, Resolve({})) : impl_->InFlowSet(x);
-  }
+  bool InFlowSet(const ConstVecRef& x) const { return impl_->InFlowSet(x, Resolve({})); }
   bool InFlowSet(const ConstVecRef& x, const Context& ctx) const { return impl_->InFlowSet(x, Resolve(ctx)); }
-  bool InJumpSet(const ConstVecRef& x) const {
-    return contextual_ ? impl_->InJumpSet(x, Resolve({})) : impl_->InJumpSet(x);
-  }
+  bool InJumpSet(const ConstVecRef& x) const { return impl_->InJumpSet(x, Resolve({})); }
   bool InJumpSet(const ConstVecRef& x, const Context& ctx) const { return impl_->InJumpSet(x, Resolve(ctx)); }
   // Puts x exactly on guard i when the struct knows how; otherwise leaves x unchanged (the
   // simulator's direction filter then keeps the guard from firing again).
-  void ProjectOntoGuard(int i, VecRef x) const {
-    if (contextual_) return impl_->ProjectOntoGuard(i, Resolve({}), x);
-    impl_->ProjectOntoGuard(i, x);
-  }
+  void ProjectOntoGuard(int i, VecRef x) const { impl_->ProjectOntoGuard(i, Resolve({}), x); }
   void ProjectOntoGuard(int i, VecRef x, const Context& ctx) const {
     impl_->ProjectOntoGuard(i, Resolve(ctx), x);
   }
   // Euclidean distance from x to D when the struct provides DistanceToJumpSet, else NaN.
   bool has_jump_set_distance() const { return impl_->ProvidesJumpSetDistance(); }
-  double DistanceToJumpSet(const ConstVecRef& x) const {
-    return contextual_ ? impl_->DistanceToJumpSet(x, Resolve({})) : impl_->DistanceToJumpSet(x);
-  }
+  double DistanceToJumpSet(const ConstVecRef& x) const { return impl_->DistanceToJumpSet(x, Resolve({})); }
   double DistanceToJumpSet(const ConstVecRef& x, const Context& ctx) const {
     return impl_->DistanceToJumpSet(x, Resolve(ctx));
   }
@@ -291,7 +280,14 @@ class Model {
     impl_->FlowJacobian(x, alpha, Resolve(ctx), jac);
   }
   // ∂h/∂γ at (x, ctx), |guards| × |γ|, by central differences around ctx.gamma (or the model's γ).
-  void GuardGammaJacobian(const ConstVecRef& x, const Context& ctx, MatRef dh_dgamma) const;
+  void GuardGammaJacobian(const ConstVecRef& x, const Context& ctx, MatRef dh_dgamma) const {
+    GuardParameterJacobian(x, ctx, ParameterBlock::kGamma, dh_dgamma);
+  }
+  // ∂h/∂α (|guards| × |α|), ∂h/∂β (|guards| × |β|) or ∂h/∂γ at (x, ctx), by central differences around
+  // the context's vector (or the model's own), step 1e-6·max(1, |value|); zero columns for entries no
+  // guard reads.
+  enum class ParameterBlock { kAlpha, kBeta, kGamma };
+  void GuardParameterJacobian(const ConstVecRef& x, const Context& ctx, ParameterBlock block, MatRef dh) const;
 
   // Largest number of states and parameters (and inputs) the fixed-capacity scratch buffers allow.
   static constexpr int kMaxStates = 16;
@@ -481,11 +477,13 @@ class Model {
   void CheckSpec() const;
   void CheckAutomaton() const;
   int beta_size_spec() const { return static_cast<int>(spec_.beta.size()); }
-  // ctx with γ filled in (the model's own when ctx.gamma is nullptr); throws std::logic_error when the
+  // ctx with γ, α and β filled in (the model's own where ctx has nullptr); throws std::logic_error when the
   // model has inputs and ctx.u is nullptr.
   Context Resolve(const Context& ctx) const {
     Context out = ctx;
     if (out.gamma == nullptr) out.gamma = gamma_.data();
+    if (out.alpha == nullptr) out.alpha = alpha_.data();
+    if (out.beta == nullptr) out.beta = beta_.data();
     if (out.u == nullptr && !spec_.inputs.empty()) ThrowMissingInputs();
     return out;
   }

@@ -43,16 +43,21 @@ struct ExprMatrix {
   bool part = false;                           // a part: constant and constant_at hold its constants alone
 };
 
-// Slots of Compiled::var: the states, then the inputs u, the guard parameters γ and the time t.
+// Slots of Compiled::var: the states, then the inputs u, the guard parameters γ, the time t, and α and
+// β (read by the guards and sets only).
 constexpr std::size_t kInputSlot = Model::kMaxStates;
 constexpr std::size_t kGammaSlot = kInputSlot + Model::kMaxParameters;
 constexpr std::size_t kTimeSlot = kGammaSlot + Model::kMaxParameters;
+constexpr std::size_t kAlphaSlot = kTimeSlot + 1;
+constexpr std::size_t kBetaSlot = kAlphaSlot + Model::kMaxParameters;
+constexpr std::size_t kSlots = kBetaSlot + Model::kMaxParameters;
 
 // The parsed file, shared (immutable) by every copy of the model.
 struct Definition {
   std::uint64_t id = 0;
   bool contextual = false;  // inputs or γ: every evaluation loads them (and t) from the context
   bool binds_time = false;  // `t` is a variable (a model with inputs and no state named t)
+  bool reads_parameters = false;  // a guard or set reads an α or β name: Load loads them
   ModelSpec spec;
   std::vector<ExprMatrix> phi;  // per mode q: φ_q, n × |α|
   std::vector<std::vector<ExprMatrix>> phi_rows;  // per mode q and row r: row r of φ_q alone
@@ -69,9 +74,9 @@ struct Definition {
 
 std::atomic<std::uint64_t> next_definition_id{1};
 
-// One thread's compiled parsers; `var` holds ξ, u, γ and t, bound to their names.
+// One thread's compiled parsers; `var` holds ξ, u, γ, t, α and β, bound to their names.
 struct Compiled {
-  std::array<double, kTimeSlot + 1> var{};
+  std::array<double, kSlots> var{};
   std::vector<mu::Parser> phi, psi;  // as Definition::phi, ::psi
   // Per mode q and row r, at q·n + r: row r of φ_q's expressions, compiled when first asked for.
   std::vector<std::unique_ptr<mu::Parser>> phi_rows;
@@ -79,13 +84,36 @@ struct Compiled {
   std::vector<mu::Parser> project;
 };
 
-void Bind(mu::Parser& p, const Definition& def, Compiled& c, const std::string& expr) {
+// Whether α or β entry `p` is a variable of the guards and sets: its name a valid variable name (α and
+// β names are free text), not t, a built-in function or constant, and no state's (the state's, there).
+bool ParameterBound(const ModelSpec& s, const Parameter& p) {
+  if (p.name == "t" || std::find(s.state_names.begin(), s.state_names.end(), p.name) != s.state_names.end()) {
+    return false;
+  }
+  mu::Parser probe;
+  try {
+    double dummy = 0.0;
+    probe.DefineVar(p.name, &dummy);
+  } catch (const mu::Parser::exception_type&) {
+    return false;
+  }
+  return !probe.GetFunDef().contains(p.name) && !probe.GetConst().contains(p.name);
+}
+
+// `parameters`: the α and β names too (guards, sets).
+void Bind(mu::Parser& p, const Definition& def, Compiled& c, const std::string& expr, bool parameters = false) {
   const ModelSpec& s = def.spec;
   for (std::size_t i = 0; i < s.state_names.size(); ++i) p.DefineVar(s.state_names[i], &c.var[i]);
   for (std::size_t i = 0; i < s.inputs.size(); ++i) p.DefineVar(s.inputs[i], &c.var[kInputSlot + i]);
   for (std::size_t i = 0; i < s.guard_params.size(); ++i)
     p.DefineVar(s.guard_params[i].name, &c.var[kGammaSlot + i]);
   if (def.binds_time) p.DefineVar("t", &c.var[kTimeSlot]);
+  for (std::size_t i = 0; parameters && i < s.alpha.size(); ++i) {
+    if (ParameterBound(s, s.alpha[i])) p.DefineVar(s.alpha[i].name, &c.var[kAlphaSlot + i]);
+  }
+  for (std::size_t i = 0; parameters && i < s.beta.size(); ++i) {
+    if (ParameterBound(s, s.beta[i])) p.DefineVar(s.beta[i].name, &c.var[kBetaSlot + i]);
+  }
   p.SetExpr(expr.empty() ? "0" : expr);
 }
 
@@ -96,10 +124,10 @@ std::unique_ptr<Compiled> Compile(const Definition& def) {
   c->phi_rows.resize(def.phi.size() * def.spec.state_names.size());
   c->psi.resize(def.psi.size());
   for (std::size_t m = 0; m < def.psi.size(); ++m) Bind(c->psi[m], def, *c, def.psi[m].joined);
-  Bind(c->guards, def, *c, def.guards.joined);
-  Bind(c->in_c, def, *c, def.in_c);
-  Bind(c->in_d, def, *c, def.in_d);
-  Bind(c->distance, def, *c, def.distance);
+  Bind(c->guards, def, *c, def.guards.joined, true);
+  Bind(c->in_c, def, *c, def.in_c, true);
+  Bind(c->in_d, def, *c, def.in_d, true);
+  Bind(c->distance, def, *c, def.distance, true);
   c->project.resize(def.project.size());
   for (std::size_t g = 0; g < def.project.size(); ++g) Bind(c->project[g], def, *c, def.project[g].joined);
   return c;
@@ -138,9 +166,14 @@ void CopySmall(const double* from, std::size_t n, double* out) {
   for (std::size_t i = 0; i < n; ++i) out[i] = from[i];
 }
 
-// Loads ξ, and for a model with inputs or γ also u, γ and t from the (resolved) context.
+// Loads ξ; for a model whose guards or sets read α or β also those (when the context has them: Model
+// resolves them for the guards and sets); and for a model with inputs or γ also u, γ and t.
 void Load(const Definition& def, Compiled& c, const double* x, std::size_t n, const Context& ctx) {
   CopySmall(x, n, c.var.data());
+  if (def.reads_parameters) {
+    for (std::size_t i = 0; ctx.alpha != nullptr && i < def.spec.alpha.size(); ++i) c.var[kAlphaSlot + i] = ctx.alpha[i];
+    for (std::size_t i = 0; ctx.beta != nullptr && i < def.spec.beta.size(); ++i) c.var[kBetaSlot + i] = ctx.beta[i];
+  }
   if (!def.contextual) return;
   const std::size_t m = def.spec.inputs.size(), g = def.spec.guard_params.size();
   // Loops, not std::copy: the x-only path's context (never reaching here) has null pointers that
@@ -310,7 +343,7 @@ bool HasAssignment(const mu::Parser& p, std::string_view expr) {
 // of them the expressions use.
 struct Symbols {
   std::vector<std::string> names;
-  std::size_t states = 0;  // names[0, states) are the states
+  std::set<std::string> varying;  // the names that change along a run: states, inputs, t
   std::set<std::string> used;
   std::string list;  // for messages: "states x, v; inputs u; ..."
 };
@@ -318,7 +351,7 @@ struct Symbols {
 struct Checked {
   double value = 0.0;      // at every variable 0
   bool variable = false;   // uses a variable (else a constant)
-  bool state = false;      // uses a state
+  bool varies = false;     // uses a state, an input or t (else constants and parameters only)
 };
 
 // A token muParser could not read that is a decimal number beyond a double's range ("1e999", "1e-400"):
@@ -335,7 +368,7 @@ bool NumberOutOfRange(const std::string& token) {
 // Compiles one expression alone with the file's variables; throws naming the key and the text.
 Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std::string& key,
                         const std::string& expr, Symbols& sym) {
-  std::array<double, kTimeSlot + 1> var{};
+  std::vector<double> var(sym.names.size(), 0.0);
   mu::Parser p;
   if (HasAssignment(p, expr)) {
     rd.Fail(node, key,
@@ -352,8 +385,7 @@ Checked CheckExpression(const TomlReader& rd, const toml::node* node, const std:
     Checked out{v[0], !p.GetUsedVar().empty(), false};
     for (const auto& [name, ptr] : p.GetUsedVar()) {
       sym.used.insert(name);
-      const auto at = std::find(sym.names.begin(), sym.names.end(), name);
-      out.state = out.state || std::size_t(at - sym.names.begin()) < sym.states;
+      out.varies = out.varies || sym.varying.contains(name);
     }
     return out;
   } catch (const mu::Parser::exception_type& e) {
@@ -380,7 +412,8 @@ Symbols MakeSymbols(const Definition& def) {
   const ModelSpec& s = def.spec;
   Symbols sym;
   sym.names = s.state_names;
-  sym.states = s.state_names.size();
+  sym.varying.insert(s.state_names.begin(), s.state_names.end());
+  sym.varying.insert(s.inputs.begin(), s.inputs.end());
   sym.list = fmt::format("states {}", fmt::join(s.state_names, ", "));
   if (!s.inputs.empty()) {
     sym.names.insert(sym.names.end(), s.inputs.begin(), s.inputs.end());
@@ -394,9 +427,25 @@ Symbols MakeSymbols(const Definition& def) {
   }
   if (def.binds_time) {
     sym.names.push_back("t");
+    sym.varying.insert("t");
     sym.list += "; time t";
   }
   return sym;
+}
+
+// The guards' and sets' variables: `sym` and the α and β names (ParameterBound).
+Symbols WithParameters(const Symbols& sym, const ModelSpec& s) {
+  Symbols out = sym;
+  for (const auto& [list, what] : {std::pair{&s.alpha, "flow parameters"}, std::pair{&s.beta, "jump parameters"}}) {
+    std::vector<std::string> names;
+    for (const Parameter& p : *list) {
+      if (ParameterBound(s, p)) names.push_back(p.name);
+    }
+    if (names.empty()) continue;
+    out.names.insert(out.names.end(), names.begin(), names.end());
+    out.list += fmt::format("; {} {}", what, fmt::join(names, ", "));
+  }
+  return out;
 }
 
 // An entry of a matrix: a number or a string expression.
@@ -422,7 +471,7 @@ ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::
     for (Eigen::Index j = 0; j < cols; ++j) {
       const std::string ekey = TomlReader::Index(rkey, std::size_t(j));
       const std::string text = EntryText(rd, row[std::size_t(j)], ekey);
-      const auto [value, uses_variable, uses_state] = CheckExpression(rd, &row[std::size_t(j)], ekey, text, sym);
+      const auto [value, uses_variable, varies] = CheckExpression(rd, &row[std::size_t(j)], ekey, text, sym);
       const Eigen::Index at = j * rows + i;
       m.text[std::size_t(at)] = text;
       if (uses_variable) {
@@ -593,7 +642,9 @@ void ParseProjection(const TomlReader& rd, const toml::node& node, const std::st
   proj.joined = fmt::format("{}", fmt::join(exprs, ","));
 }
 
-void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
+// The [[guard]] tables' names and directions (the jump maps name their guard); their expressions
+// come after the maps (ParseGuardExpressions), when every β name is known.
+void ParseGuardHeads(const TomlReader& rd, const toml::table& root, Definition& def) {
   const toml::array& arr = rd.Array(rd.Require(root, "", "guard"), "guard");
   rd.NotEmpty(&arr, "guard", arr.size(), "[[guard]]");
   for (std::size_t g = 0; g < arr.size(); ++g) {
@@ -604,10 +655,26 @@ void ParseGuards(const TomlReader& rd, const toml::table& root, Definition& def,
     guard.name = t.get("name") ? rd.String(*t.get("name"), key + ".name") : fmt::format("guard{}", g);
     guard.direction = ParseDirection(rd, rd.Require(t, key, "direction"), key + ".direction");
     def.spec.guards.push_back(guard);
+  }
+}
+
+// Each guard's h and projection. h may read the states, inputs, t (with inputs), γ, α and β (`with`);
+// it must read something that changes along a run (a state, an input or t): one of constants and
+// parameters alone never crosses zero. A projection reads `sym` (no α or β: the sensitivities
+// differentiate it in ξ and γ only).
+void ParseGuardExpressions(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& with,
+                           Symbols& sym) {
+  const toml::array& arr = *root.get("guard")->as_array();
+  for (std::size_t g = 0; g < arr.size(); ++g) {
+    const std::string key = TomlReader::Index("guard", g);
+    const toml::table& t = *arr[g].as_table();
     const toml::node& h = rd.Require(t, key, "h");
     const std::string text = EntryText(rd, h, key + ".h");
-    if (!CheckExpression(rd, &h, key + ".h", text, sym).state) {
-      rd.Fail(&h, key + ".h", fmt::format("\"{}\" does not depend on the state", text));
+    if (!CheckExpression(rd, &h, key + ".h", text, with).varies) {
+      rd.Fail(&h, key + ".h",
+              fmt::format("guard '{}': \"{}\" reads no state, input or time, so it never changes along a run "
+                          "and can never cross zero",
+                          def.spec.guards[g].name, text));
     }
     def.guards.text.push_back(text);
     def.guards.index.push_back(static_cast<Eigen::Index>(g));
@@ -1102,7 +1169,7 @@ std::vector<std::string> ParseInputDefaults(const TomlReader& rd, const toml::ta
   const toml::node* node = root.get("input_defaults");
   if (node == nullptr) return {};
   std::vector<std::string> out(spec.inputs.size());
-  Symbols time{{"t"}, 0, {}, "time t"};
+  Symbols time{{"t"}, {"t"}, {}, "time t"};
   for (auto&& [k, v] : rd.Table(*node, "input_defaults")) {
     const std::string key = TomlReader::Join("input_defaults", k.str());
     const std::size_t at = rd.Choice(&v, key, "input", std::string(k.str()), spec.inputs);
@@ -1167,9 +1234,15 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
     def->phi_rows.emplace_back();
     for (Eigen::Index r = 0; r < phi.rows; ++r) def->phi_rows.back().push_back(RowOf(phi, r));
   }
-  ParseGuards(rd, root, *def, sym);
+  ParseGuardHeads(rd, root, *def);
   ParseJumps(rd, root, *def, sym);
-  ParseSets(rd, root, *def, sym);
+  Symbols with = WithParameters(sym, spec);
+  ParseGuardExpressions(rd, root, *def, with, sym);
+  ParseSets(rd, root, *def, with);
+  sym.used.insert(with.used.begin(), with.used.end());
+  for (const auto* list : {&spec.alpha, &spec.beta}) {
+    for (const Parameter& p : *list) def->reads_parameters = def->reads_parameters || (ParameterBound(spec, p) && with.used.contains(p.name));
+  }
   CheckUsed(rd, root, spec, sym);
   ParseDefaults(rd, root, spec);
   spec.equations = Equations(*def);

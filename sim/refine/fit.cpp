@@ -25,6 +25,8 @@ bool Admissible(const Model& model, const HybridParameters& p, const InputSignal
   const Context at{.t = 0.0,
                    .u = inputs.empty() ? nullptr : inputs.values.col(0).data(),
                    .gamma = gamma.data(),
+                   .alpha = p.alpha.data(),
+                   .beta = p.beta.data(),
                    .mode = p.initial_mode >= 0 ? p.initial_mode : model.spec().default_mode};
   return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
 }

@@ -44,7 +44,9 @@ class LocalFlows {
   const Mat& y() const { return y_; }
   const Vec& weight() const { return weight_; }
   // Where C and D are evaluated: the start's guard parameters γ.
-  Context At() const { return {.t = 0.0, .u = nullptr, .gamma = p_.GammaOr(model_).data()}; }
+  Context At() const {
+    return {.t = 0.0, .u = nullptr, .gamma = p_.GammaOr(model_).data(), .alpha = p_.alpha.data(), .beta = p_.beta.data()};
+  }
 
   // The flow through z at sample `ref`, read at samples [lo, hi) (ref inside): forward with α̂,
   // backward as the forward flow of −α̂ (ξ' = φ(ξ)α reversed in time). s: ∂ξ_k/∂z (n·n per column).
@@ -288,7 +290,8 @@ std::vector<long> MissedJumps(const Model& model, const HybridParameters& p, con
     const LocalFit& from = s == 0 ? first : c.right[s - 1];
     const long begin = s == 0 ? 0 : c.jumps[s - 1];
     const long end = s < c.jumps.size() ? c.jumps[s] : k_count;
-    const Context at{.t = 0.0, .u = nullptr, .gamma = p.GammaOr(model).data()};
+    const Context at{.t = 0.0, .u = nullptr, .gamma = p.GammaOr(model).data(), .alpha = p.alpha.data(),
+                     .beta = p.beta.data()};
     if (!from.ok || end - from.ref < 2 || (!model.InFlowSet(from.z, at) && !model.InJumpSet(from.z, at))) continue;
     const SampleGrid grid{(static_cast<double>(end - from.ref) - 0.5) * dt, dt};
     const SensitivityTrajectory t =
@@ -387,7 +390,10 @@ void AppendGuardRows(const Model& model, const std::vector<double>& t, const Mat
     const auto pre = static_cast<Eigen::Index>(k - 1);
     if (!y.col(pre).allFinite()) continue;
     if (u.cols() > 0 && !u.col(pre).allFinite()) continue;
-    const Context ctx{.t = t[k - 1], .u = u.cols() > 0 ? u.col(pre).data() : nullptr, .gamma = gamma0.data(),
+    const Context ctx{.t = t[k - 1],
+                      .u = u.cols() > 0 ? u.col(pre).data() : nullptr,
+                      .gamma = gamma0.data(),
+                      .alpha = alpha.data(),
                       .mode = leaves};
     model.Flow(y.col(pre), alpha, f, ctx);
     const Vec moved = y.col(pre) + 0.5 * (t[k] - t[k - 1]) * f;

@@ -146,7 +146,7 @@ class SensitivityPayload final : public hybrid::Payload {
       : model_(model),
         params_(params),
         unknowns_(unknowns),
-        context_(model, exo),
+        context_(model, exo, &params.alpha, &params.beta),
         n_(model.state_size()),
         p_(unknowns.size(model.state_size())),
         gamma_offset_(static_cast<Eigen::Index>(unknowns.alpha.size() + unknowns.beta.size())),
@@ -240,6 +240,20 @@ class SensitivityPayload final : public hybrid::Payload {
     map(ctx, minus);
     plus = (plus - minus) / ((gamma_[i] + h) - (gamma_[i] - h));
   }
+  // (map(t + h) − map(t − h)) / 2h into plus (minus: scratch), h = 1e-6·max(1, |t|), at the context
+  // `base` with its time and inputs u moved (zero, bit for bit, for a map that reads neither).
+  template <class Map>
+  void TimeDifference(const Context& base, const Map& map, Vec& plus, Vec& minus) {
+    const double h = 1e-6 * std::max(1.0, std::abs(base.t));
+    Context at = base;
+    at.t = base.t + h;
+    at.u = context_.At(at.t).u;
+    map(at, plus);
+    at.t = base.t - h;
+    at.u = context_.At(at.t).u;
+    map(at, minus);
+    plus = (plus - minus) / ((base.t + h) - (base.t - h));
+  }
   void SetWindowEnd(WindowEnd& end, double t, const ConstVecRef& x, const Eigen::Ref<const Mat>& s) {
     end.t = t;
     end.s = s;
@@ -252,6 +266,7 @@ class SensitivityPayload final : public hybrid::Payload {
     window_open_ = false;
     sink_->CloseWindow(window_a_.s.data(), window_a_.d.data(), window_b_.s.data(), window_b_.d.data());
   }
+  void AddGuardParameterColumns(int guard, const Vec& x, const Context& ctx, Eigen::RowVectorXd& dh) const;
   Eigen::RowVectorXd GuardGradient(int guard, const Vec& x, const Context& ctx) const {
     const Mat jac =
         CentralDifference([&](const Vec& z, Vec& h) { model_.Guards(z, h, ctx); }, x, model_.guard_count());
@@ -279,8 +294,10 @@ class SensitivityPayload final : public hybrid::Payload {
   bool window_open_ = false;   // samples were given as weights of the current window
 };
 
-// ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻) at a guard crossing (∂h/∂θ: the γ_u columns of
-// Model::GuardGammaJacobian; zero for the initial state's jumps, at t = 0 whatever θ);
+// ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(dh/dt) at a guard crossing, dh/dt = ∇ₓh·f⁻ + ∂h/∂t the rate of h
+// along the flow (∂h/∂t: h's own time and inputs u(t) moving, zero for a guard in ξ and parameters);
+// ∂h/∂θ: the α_u, β_u and γ_u columns of Model::GuardParameterJacobian (zero for a guard that reads
+// none of them; all of θ zero for the initial state's jumps, at t = 0 whatever θ);
 // total = S⁻ + f⁻ ∂t_j/∂θ.
 bool SensitivityPayload::BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) {
   const double t = ctx.t;
@@ -291,26 +308,42 @@ bool SensitivityPayload::BeginJumps(const Context& ctx, int guard, const Vec& x,
   chain_ = 0;
   if (guard >= 0) {
     const Eigen::RowVectorXd grad = GuardGradient(guard, x, ctx);
-    const double rate = grad.dot(f_minus);
-    if (!(std::abs(rate) > 1e-14 * std::max(1.0, grad.norm() * f_minus.norm()))) {
+    Vec dh_dt(model_.guard_count());
+    context_.GuardTimeDerivative(model_, x, ctx, dh_dt);
+    const double rate = grad.dot(f_minus) + dh_dt[guard];
+    if (!(std::abs(rate) > 1e-14 * std::max(1.0, grad.norm() * f_minus.norm() + std::abs(dh_dt[guard])))) {
       *why = fmt::format("grazing guard crossing at t = {:.17g}: the jump time has no sensitivity", t);
       return false;
     }
     Eigen::RowVectorXd dh = grad * s_;
-    if (!unknowns_.gamma.empty()) {
-      Mat dh_dgamma(model_.guard_count(), model_.gamma_size());
-      model_.GuardGammaJacobian(x, ctx, dh_dgamma);
-      for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
-        dh[gamma_offset_ + static_cast<Eigen::Index>(c)] += dh_dgamma(guard, unknowns_.gamma[c]);
-      }
-    }
+    AddGuardParameterColumns(guard, x, ctx, dh);
     dt_dtheta_ = -dh / rate;
   }
   total_ = s_ + f_minus * dt_dtheta_;
   return true;
 }
 
-// total ← (∂g/∂ξ)·total + ∂g/∂θ at the pre-jump state, g the map ctx.map (Context::map: ψ with
+// dh(θ's α_u, β_u, γ_u columns) += ∂h_guard/∂(α, β, γ) at (x, ctx), for the blocks with unknowns.
+void SensitivityPayload::AddGuardParameterColumns(int guard, const Vec& x, const Context& ctx,
+                                                  Eigen::RowVectorXd& dh) const {
+  using Block = Model::ParameterBlock;
+  const std::pair<const std::vector<int>*, Block> blocks[] = {
+      {&unknowns_.alpha, Block::kAlpha}, {&unknowns_.beta, Block::kBeta}, {&unknowns_.gamma, Block::kGamma}};
+  const int sizes[] = {model_.alpha_size(), model_.beta_size(), model_.gamma_size()};
+  Eigen::Index offset = 0;
+  for (int b = 0; b < 3; ++b) {
+    const std::vector<int>& indices = *blocks[b].first;
+    if (!indices.empty()) {
+      Mat jac(model_.guard_count(), sizes[b]);
+      model_.GuardParameterJacobian(x, ctx, blocks[b].second, jac);
+      for (std::size_t c = 0; c < indices.size(); ++c) dh[offset + static_cast<Eigen::Index>(c)] += jac(guard, indices[c]);
+    }
+    offset += static_cast<Eigen::Index>(indices.size());
+  }
+}
+
+// total ← (∂g/∂ξ)·total + ∂g/∂θ + (∂g/∂t)·∂t_j/∂θ at the pre-jump state (∂g/∂t: the map's own time and
+// inputs u(t) moving, zero unless ψ reads them), g the map ctx.map (Context::map: ψ with
 // that map's β slice only, so ∂g/∂β is zero off the slice; an identity map: ∂g/∂ξ = I, ∂g/∂β = 0).
 // g = ψ(ξ)β; with unknown γ the chain's first jump is g = ψ(P(ξ, γ))β, P the projection onto the
 // guard that fired, so that ∂g/∂γ carries the projection's dependence on γ (∂g/∂ξ and ∂g/∂γ by
@@ -338,6 +371,10 @@ void SensitivityPayload::Jump(const Vec& pre, const Context& ctx) {
     GammaDifference(
         unknowns_.gamma[c], ctx, [&](const Context& at, VecRef g) { jump(pre, at, g); }, f_plus_, f_minus_);
     next.col(gamma_offset_ + static_cast<Eigen::Index>(c)) += f_plus_;
+  }
+  if (guard_ >= 0) {  // a map that reads the time or the inputs moves with the jump time: + (∂g/∂t) ∂t_j/∂θ
+    TimeDifference(ctx, [&](const Context& at, VecRef g) { jump(pre, at, g); }, f_plus_, f_minus_);
+    next.noalias() += f_plus_ * dt_dtheta_;
   }
   total_ = std::move(next);
   jump_time_gradients_.conservativeResize(Eigen::NoChange, jump_time_gradients_.cols() + 1);
@@ -494,7 +531,7 @@ void CheckInputs(const Model& model, const HybridParameters& params, const Unkno
       !why.empty()) {
     throw std::invalid_argument(why);
   }
-  ContextSource context(model, exo);
+  ContextSource context(model, exo, &params.alpha, &params.beta);
   if (!model.InFlowSet(params.x0, context.At(0.0)) && !model.InJumpSet(params.x0, context.At(0.0))) {
     throw std::invalid_argument(fmt::format("x0 lies outside C and D of model '{}'", model.name()));
   }

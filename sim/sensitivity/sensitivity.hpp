@@ -7,9 +7,13 @@
 //        differences, zero unless φ uses γ), integrated with the state
 //        as one vector (ξ, then S column-major) by CVODE (Adams, fixed-point corrector; S is in the
 //        error test).
-// Jump:  at a guard crossing h(ξ, γ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β, flow f⁺ after:
-//          ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻)      (∂h/∂γ: Model::GuardGammaJacobian)
-//          S⁺ = (∂g/∂ξ)(S⁻ + f⁻ ∂t_j/∂θ) + ∂g/∂θ − f⁺ ∂t_j/∂θ      (saltation; Hiskens & Pai 2000)
+// Jump:  at a guard crossing h(ξ, t, u(t), α, β, γ) = 0 with flow f⁻ before, jump map g(ξ) = ψ(ξ)β,
+//        flow f⁺ after:
+//          ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻ + ∂h/∂t)
+//        (∂h/∂α, ∂h/∂β, ∂h/∂γ: Model::GuardParameterJacobian; ∂h/∂t with u(t) moving:
+//        ContextSource::GuardTimeDerivative; the denominator is dh/dt along the flow)
+//          S⁺ = (∂g/∂ξ)(S⁻ + f⁻ ∂t_j/∂θ) + ∂g/∂θ + (∂g/∂t − f⁺) ∂t_j/∂θ
+//        (saltation; Hiskens & Pai 2000; ∂g/∂t ≠ 0 only for a ψ that reads the time or the inputs)
 //        ∇h and ∂g/∂ξ by central differences of Model::Guards and Model::Jump (exact up to rounding
 //        for guards and jump maps affine in ξ); ∂g/∂β_i = column i of ψ(ξ⁻). With unknown γ the
 //        chain's first jump is g = ψ(P(ξ, γ))β, P the projection onto the guard that fired, and

@@ -313,8 +313,48 @@ TEST_CASE("bad model files are refused naming file, line, key and expression", "
                Contains("m.toml:3: alpha[1].value: expected a number, got a string"));
   REQUIRE_THAT(ErrorOf("name = \n"), Contains("m.toml:1: TOML syntax"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "h = \"x\"", "h = \"2\"")),
-               Contains("m.toml:13: guard[0].h: \"2\" does not depend on the state"));
+               Contains("m.toml:13: guard[0].h: guard 'wall': \"2\" reads no state, input or time, so it never "
+                        "changes along a run and can never cross zero"));
 }
+
+TEST_CASE("a guard reads α and β by name, at the context's values, and parameters alone are refused", "[model_file]") {
+  using Catch::Matchers::Contains;
+  // x oscillates in [-1, 1]: the wall at x = a/10 − lambda/2 = 0.05 is reached.
+  const std::string text = Replace(kGood, "h = \"x\"", "h = \"x - a/10 + lambda/2\"");
+  Model m = ParseModelFile(text, "m.toml").model;
+  Vec x(2);
+  x << 0.5, -0.2;
+  Vec h(1);
+  m.Guards(x, h);  // the model's own α, β
+  CHECK(h[0] == 0.5 - 5.0 / 10 + 0.9 / 2);
+  const Vec alpha = (Vec(2) << 1.0, 3.0).finished(), beta = (Vec(2) << 1.0, 0.5).finished();
+  m.Guards(x, h, Context{.alpha = alpha.data(), .beta = beta.data()});
+  CHECK(h[0] == 0.5 - 3.0 / 10 + 0.5 / 2);
+  Mat dh_da(1, 2), dh_db(1, 2);
+  m.GuardParameterJacobian(x, Context{}, Model::ParameterBlock::kAlpha, dh_da);
+  m.GuardParameterJacobian(x, Context{}, Model::ParameterBlock::kBeta, dh_db);
+  CHECK(dh_da(0, 0) == 0.0);
+  CHECK(std::abs(dh_da(0, 1) + 0.1) <= 1e-9);
+  CHECK(std::abs(dh_db(0, 1) - 0.5) <= 1e-9);
+  m.SetParameter("a", 2.0);  // SetParameter moves the guard with the model's own α
+  m.Guards(x, h);
+  CHECK(h[0] == 0.5 - 2.0 / 10 + 0.9 / 2);
+  // The sets read them too.
+  const std::string sets = Replace(text, "C = \"x >= 0\"", "C = \"x >= a - 5\"");
+  const Model with_sets = ParseModelFile(sets, "m.toml").model;
+  const Vec below = (Vec(2) << -0.5, 0.0).finished();
+  CHECK(with_sets.InFlowSet(below, Context{.alpha = alpha.data(), .beta = beta.data()}));  // -0.5 >= 3 - 5
+  CHECK_FALSE(with_sets.InFlowSet(below));                                                   // -0.5 >= 0
+  // φ stays linear in α: an α name is no variable of φ.
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "[0, \"-x\"]", "[0, \"-x*a\"]")), Contains("unknown symbol \"a\""));
+  // Constants and parameters alone never change along a run.
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "h = \"x\"", "h = \"a - lambda\""), false),
+               Contains("m.toml:13: guard[0].h: guard 'wall': \"a - lambda\" reads no state, input or time"));
+  // The variables an unknown symbol's message lists include them.
+  REQUIRE_THAT(ErrorOf(Replace(kGood, "h = \"x\"", "h = \"x - q\""), false),
+               Contains("(the variables: states x, v; flow parameters one, a; jump parameters one_b, lambda)"));
+}
+
 
 // Every place a model file holds an expression (φ and ψ entries, a guard's h and projection, C, D, the
 // distance to D), each with '=' written for '==' or as an assignment: refused naming the file, line,
@@ -407,6 +447,7 @@ TEST_CASE("malformed expressions are refused naming the key and the expression",
     check(expr, false);
   }
 }
+
 
 }  // namespace
 
@@ -567,4 +608,14 @@ TEST_CASE("bad measured, inputs, guard parameters and bounds are refused by name
   CHECK_THAT(error("[0, \"-x\", \"u\"]", "[0, \"-x\", \"u*q\"]"),
              Contains("unknown symbol \"q\" (the variables: states x, v; inputs u; guard parameters w; time t)"));
 }
+TEST_CASE("a guard in an input alone (no state) is accepted and evaluates at the context's input", "[model_file]") {
+  std::string text = Replace(kCart, "h = \"x - w\"", "h = \"u - w/10 + G*0\"");
+  text = Replace(text, "project = { x = \"w\" }\n", "");
+  const Model m = ParseModelFile(text, "cart.toml").model;
+  const double u = 0.3;
+  Vec h(1);
+  m.Guards(Vec::Zero(2), h, Context{.t = 1.0, .u = &u});
+  CHECK(h[0] == 0.3 - 0.1);
+}
+
 }  // namespace hysid
