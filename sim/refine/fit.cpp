@@ -9,12 +9,12 @@
 #include <Eigen/Cholesky>
 #include <ceres/ceres.h>
 #include <fmt/format.h>
-#include <glog/logging.h>
 
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/chain_sums.hpp"
 #include "sim/refine/residual_tests.hpp"
+#include "sim/refine/solver.hpp"
 #include "sim/refine/span.hpp"
 
 namespace hysid {
@@ -455,26 +455,12 @@ ceres::Solver::Summary Solve(const FitProblem& problem, const RefineOptions& opt
     cp.SetManifold(x0.front().data(), new ceres::SubsetManifold(problem.model->state_size(), known));
   }
   SetBounds(problem, theta, cp);
-  ceres::Solver::Options so;
-  so.minimizer_type = ceres::TRUST_REGION;
-  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  ceres::Solver::Options so = LevenbergMarquardt(options);
   // One chain: 6 or so unknowns in all, where eliminating ξ0 saves nothing and the Schur
   // eliminator's per-row block work costs more than forming JᵀJ; several: ξ0_c eliminated.
   so.linear_solver_type = problem.fits.size() == 1 ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_SCHUR;
-  so.max_num_iterations = options.max_iterations;
-  so.function_tolerance = options.function_tolerance;
-  so.parameter_tolerance = options.parameter_tolerance;
-  so.gradient_tolerance = 1e-16;
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
-  so.num_threads = 1;
   so.callbacks.push_back(&within);
   so.update_state_every_iteration = true;
-  static const bool quiet = [] {  // Ceres reports a failed evaluation through glog as well
-    FLAGS_minloglevel = google::GLOG_FATAL;
-    return true;
-  }();
-  (void)quiet;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &cp, &summary);
   return summary;

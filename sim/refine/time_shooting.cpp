@@ -2,10 +2,10 @@
 #include "sim/refine/time_shooting.hpp"
 
 #include "sim/refine/residual_tests.hpp"
+#include "sim/refine/solver.hpp"
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
-#include <glog/logging.h>
 
 #include <algorithm>
 #include <cmath>
@@ -322,22 +322,10 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
     if (std::isfinite(params[std::size_t(i)]->lower)) cp.SetParameterLowerBound(theta.data(), i, params[std::size_t(i)]->lower);
     if (std::isfinite(params[std::size_t(i)]->upper)) cp.SetParameterUpperBound(theta.data(), i, params[std::size_t(i)]->upper);
   }
-  ceres::Solver::Options so;
-  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  ceres::Solver::Options so = LevenbergMarquardt(options);
   so.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)
                               ? ceres::SPARSE_NORMAL_CHOLESKY
                               : ceres::DENSE_QR;
-  so.max_num_iterations = options.max_iterations;
-  so.function_tolerance = options.function_tolerance;
-  so.parameter_tolerance = options.parameter_tolerance;
-  so.gradient_tolerance = 1e-16;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  static const bool quiet = [] {
-    FLAGS_minloglevel = google::GLOG_FATAL;
-    return true;
-  }();
-  (void)quiet;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &cp, &summary);
   return summary;

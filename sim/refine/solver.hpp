@@ -1,0 +1,15 @@
+// The Ceres options every fit of the refinement shares (sim/refine/fit.cpp, time_shooting.cpp).
+// Internal to sim/refine.
+#pragma once
+
+#include <ceres/solver.h>
+
+#include "sim/refine/refine.hpp"
+
+namespace hysid {
+
+// Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, one thread, and Ceres'
+// own logging silenced (glog's threshold raised once per process: a fit's outcome is its status).
+ceres::Solver::Options LevenbergMarquardt(const RefineOptions& options);
+
+}  // namespace hysid
