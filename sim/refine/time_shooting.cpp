@@ -140,7 +140,6 @@ class SegmentCost final : public ceres::CostFunction {
   const Segment& seg_;
 };
 
-
 // The segments of the chains, nodes every `spacing` samples (a last piece shorter than half of it
 // joins the one before); times from each node, measured rows and inputs copied.
 std::vector<Segment> CutSegments(const std::vector<RefineChain>& chains, const std::vector<int>& rows, long spacing) {
@@ -171,10 +170,10 @@ std::vector<Segment> CutSegments(const std::vector<RefineChain>& chains, const s
   return out;
 }
 
-// Per segment, its node's start: the measured rows from the data, the hidden rows from the chain's
-// reconstruction where finite, else from the previous segment simulated at the start (the chain's
-// first node: the model's default state); modes from the chain's initial mode, then each previous
-// segment's end. Segments that cannot be simulated pass their node state on unchanged.
+// Per segment, its node's start: the measured rows from the data; the hidden rows from the previous
+// segment simulated at the start (a chain's first node: its reconstruction where finite, else the
+// model's default state; a segment that cannot be simulated passes its node's rows on); modes from
+// the chain's initial mode, then each previous segment's end.
 std::vector<Vec> StartNodes(const ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
                             std::vector<Segment>& segments) {
   const Model& model = *pr.model;

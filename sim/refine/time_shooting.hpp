@@ -11,8 +11,8 @@
 // parameters) and every s_i; Ceres' Levenberg–Marquardt with a sparse Cholesky factorisation (the
 // normal matrix is block-banded). No detected label enters: the detector gives only θ's start.
 //
-// Start: node states from the data (measured rows), hidden rows from the chain's reconstruction
-// where finite, else from the segment before simulated at the start; modes, for an automaton, the
+// Start: node states from the data (measured rows), hidden rows from the segment before simulated
+// at the start (a chain's first node: its reconstruction where finite, else the default state); modes, for an automaton, the
 // one whose segment fits the node's samples best. Continuation: ε = 1, 0.1, 0.01, 0.001
 // (kContinuationWidths): nearly free segments first, so that θ is fit to each segment's own data
 // before a far start can lead the whole record astray; at each width the nodes' modes are settled
