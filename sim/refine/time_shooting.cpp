@@ -420,31 +420,27 @@ long TimeShootingNodeSpacing(long samples, int n) {
 
 namespace {
 
-// The problem's weights and tolerances: σ given or the MAD estimate of each measured row (pooled over
-// the chains), the state scales c_j for the continuity (σ_j for a measured state, else the largest
-// measured σ scaled by the state's range over the node starts against that row's range).
+// The problem's weights and tolerances (FitWeighting): σ given or the MAD estimate of each measured
+// row, from the chains' samples read in place; the measured states' continuity scales c_j = σ_j (a
+// hidden state's: WeighHidden).
 void Weigh(const std::vector<RefineChain>& chains, const RefineOptions& options, ShootingProblem& pr) {
   const auto m = static_cast<Eigen::Index>(pr.rows.size());
-  Mat all = Concatenated(chains, pr.model->state_size());
-  Mat measured(m, all.cols());
-  for (Eigen::Index r = 0; r < m; ++r) measured.row(r) = all.row(pr.rows[std::size_t(r)]);
-  Vec mad(m);
+  Vec mad(m), largest = Vec::Zero(m);
+  long samples = 0;
+  for (const RefineChain& c : chains) samples += static_cast<long>(c.y.cols());
   for (Eigen::Index r = 0; r < m; ++r) {
+    const int j = pr.rows[std::size_t(r)];
     std::vector<double> d;
     for (const RefineChain& c : chains) {
       const Eigen::Index K = c.y.cols();
-      for (Eigen::Index k = 1; k + 1 < K; ++k) {
-        const int j = pr.rows[std::size_t(r)];
-        d.push_back(c.y(j, k + 1) - 2.0 * c.y(j, k) + c.y(j, k - 1));
-      }
+      if (K > 0) largest[r] = std::max(largest[r], c.y.row(j).cwiseAbs().maxCoeff());
+      for (Eigen::Index k = 1; k + 1 < K; ++k) d.push_back(c.y(j, k + 1) - 2.0 * c.y(j, k) + c.y(j, k - 1));
     }
     mad[r] = d.size() >= 2 ? NoiseSigmaFromSecondDifferences(d) : 0.0;
   }
-  Vec sigma_in = options.sigma;
-  if (sigma_in.size() == pr.n && m < pr.n) sigma_in = sigma_in(pr.rows).eval();
   RefineOptions o = options;
-  o.sigma = sigma_in;
-  FitWeighting(measured, o, mad, &pr.sens, &pr.weight);
+  if (o.sigma.size() == pr.n && m < pr.n) o.sigma = Vec(options.sigma(pr.rows));
+  FitWeighting(largest, samples, o, mad, &pr.sens, &pr.weight);
   pr.scale = Vec::Constant(pr.n, 1.0 / pr.weight.maxCoeff());
   for (Eigen::Index r = 0; r < m; ++r) pr.scale[pr.rows[std::size_t(r)]] = 1.0 / pr.weight[r];
 }
