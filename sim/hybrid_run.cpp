@@ -334,8 +334,8 @@ bool Engine::JumpChain(int guard) {
   return true;
 }
 
-// Explicit maps: the map armed for `guard` in the current mode (ξ put on the guard first when the
-// crossing was located or is at zero), the mode after it, then the next chained crossing at ξ+.
+// Explicit maps: the map armed for `guard` in the current mode (ξ put on the guard first), the mode
+// after it, then the next chained crossing at ξ+.
 // Each crossing is its own BeginJumps … EndJumps for the payload; a crossing not located (past zero,
 // or the initial state's) has a jump time that does not move with θ (guard −1 to the payload).
 bool Engine::MapChain(int guard, bool located) {
@@ -356,8 +356,10 @@ bool Engine::MapChain(int guard, bool located) {
     }
     Context ctx = ContextAt(t_);
     ctx.map = map;
-    if (located) model_.ProjectOntoGuard(guard, x_, ctx);
-    if (payload_ && !payload_->BeginJumps(ctx, located ? guard : -1, x_, &why)) {
+    // A crossing past zero is put on the guard too (a tank past its rim is at its rim): the jump map
+    // reads the guard's state, as at a located crossing.
+    model_.ProjectOntoGuard(guard, x_, ctx);
+    if (payload_ && !payload_->BeginJumps(ctx, located ? guard : -1, x_, &why, located ? -1 : guard)) {
       return Fail(SimStop::kSolverFailure, why);
     }
     model_.Jump(x_, beta_, post, ctx);

@@ -67,8 +67,10 @@ class Payload {
   // Before the jumps at one instant ctx.t in mode ctx.mode, ξ on guard `guard` (−1: a jump whose time
   // does not move with θ: the initial state in D or past a guard, or a chained crossing past zero);
   // false with *why when the jump rule cannot be applied (the run stops as a solver failure). With
-  // explicit maps each crossing of a chain is its own BeginJumps … EndJumps.
-  virtual bool BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) = 0;
+  // explicit maps each crossing of a chain is its own BeginJumps … EndJumps. `projected` ≥ 0: a
+  // crossing past zero whose state x was put on that guard (its projection) before the jump, so
+  // that the jump reads the projected state whatever the state before.
+  virtual bool BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why, int projected = -1) = 0;
   // Each jump of the chain, from the pre-jump state; ctx.mode the mode before it, ctx.map its map.
   virtual void Jump(const Vec& pre, const Context& ctx) = 0;
   // After the chain, at the post-jump state in the mode after it (ctx.mode); the current values hold

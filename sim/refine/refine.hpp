@@ -177,6 +177,10 @@ struct RefineResult {
   double initial_cost = 0.0, final_cost = 0.0;  // ½ Σ (r/σ_w)² with the weighting σ
   long samples_used = 0;     // samples fit, over all chains (see RefineOptions::min_jump_interval)
   std::string span_reason;   // why samples were left out ("" when all are fit; "chain c: …" when several)
+  // Measured values left out of the final solve and of its tests and information (multiple shooting
+  // by time): beside a fitted jump, farther than kTrim robust sd from the model, i.e. on the jump's
+  // other side (a jump time within its uncertainty may fall on either side of a sample).
+  long left_out = 0;
   int detected_jumps = 0;    // in the fitted spans (of the repaired detections when start_repair is set)
   std::string start_repair;  // what the repaired start changed, when the result comes from it ("" else)
   std::string mended;        // the detections mended from the fitted model ("" when none)

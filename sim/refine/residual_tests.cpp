@@ -36,8 +36,9 @@ ResidualTestResult ResidualTests(const std::vector<Mat>& residuals, const Vec& s
     for (const Mat& res : residuals) {
       for (Eigen::Index k = 0; k < res.cols(); ++k) {
         const double e = res(r, k);
+        if (!std::isfinite(e)) continue;  // a sample left out
         sum2 += e * e;
-        if (k > 0) lag += e * res(r, k - 1);
+        if (k > 0 && std::isfinite(res(r, k - 1))) lag += e * res(r, k - 1);
         ++count;
       }
     }

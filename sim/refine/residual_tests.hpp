@@ -21,7 +21,8 @@ ResidualLimits ResidualLimitsFor(long N, double parameters, double alpha);
 //  level (σ given): Σ (r/σ)² against χ²_{N−p} (two-sided);
 //  whiteness: per measured row, z = √N ρ̂₁ with ρ̂₁ the lag-1 autocorrelation within chains, |z| against
 //  the normal quantile of size alpha / (2 · rows) (Bonferroni).
-// `residuals` per chain: rows × K (raw residuals); `sigma` per row (given or estimated); `given`: σ given.
+// `residuals` per chain: rows × K (raw residuals; a non-finite entry is a sample left out of the tests); `sigma`
+// per row (given or estimated); `given`: σ given.
 struct ResidualTestResult {
   double level_statistic = 0.0;  // Σ (r/σ)² / (N − p): near 1 for a fit at the noise
   bool level_ok = true;

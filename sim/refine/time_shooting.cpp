@@ -3,6 +3,7 @@
 
 #include "sim/refine/residual_tests.hpp"
 #include "sim/refine/solver.hpp"
+#include "sim/refine/start.hpp"
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
@@ -30,6 +31,7 @@ struct Segment {
   int mode = -1;              // q at the node
   std::vector<int> labels;    // per time: the model's jump count from the node at the last point (empty: none yet)
   Mat keep;                   // rows × samples: 1, or 0 for a sample trimmed (Trim); empty: all 1
+  bool off = false;           // does not simulate at the point reached (RepairNodes): left out of the solve
   long samples() const { return end - first; }
 };
 
@@ -66,6 +68,11 @@ bool SimulateSegment(const ShootingProblem& pr, const Segment& seg, const Hybrid
   if (!Admissible(*pr.model, at, seg.inputs)) return false;
   SensitivityOptions o = pr.sens;
   o.sensitivities = sensitivities;
+  // A segment's budget: a model that jumps more often than its samples, or steps hundreds of times
+  // per sample, chatters there (a ball coming to rest) and cannot be read on the samples.
+  const auto samples = static_cast<long>(seg.times.size());
+  o.sim.max_jumps = static_cast<int>(std::min<long>(o.sim.max_jumps, 2 * samples + 10));
+  o.sim.max_steps = std::min(o.sim.max_steps, 200 * samples + 1000);
   try {
     *out = reading == Reading::kOwn || seg.labels.empty()
                ? SimulateSensitivities(*pr.model, at, pr.unknowns, seg.times, o, InputsOf(seg.inputs))
@@ -140,30 +147,36 @@ class SegmentCost final : public ceres::CostFunction {
   const Segment& seg_;
 };
 
+// A segment of chain `c` over samples [a, b): times from the node, measured rows and inputs copied;
+// it continues (to the node at b) when the chain goes on.
+Segment MakeSegment(const RefineChain& ch, std::size_t c, const std::vector<int>& rows, long a, long b) {
+  const long K = static_cast<long>(ch.t.size());
+  Segment s;
+  s.chain = c;
+  s.first = a;
+  s.end = b;
+  s.continues = b < K;
+  const long last = s.continues ? b : b - 1;
+  for (long k = a; k <= last; ++k) s.times.push_back(ch.t[std::size_t(k)] - ch.t[std::size_t(a)]);
+  s.y.resize(static_cast<Eigen::Index>(rows.size()), b - a);
+  for (std::size_t r = 0; r < rows.size(); ++r) s.y.row(Eigen::Index(r)) = ch.y.row(rows[r]).segment(a, b - a);
+  if (ch.u.rows() > 0) {
+    s.inputs.times = s.times;
+    s.inputs.values = ch.u.middleCols(a, last - a + 1);
+  }
+  return s;
+}
+
 // The segments of the chains, nodes every `spacing` samples (a last piece shorter than half of it
-// joins the one before); times from each node, measured rows and inputs copied.
+// joins the one before).
 std::vector<Segment> CutSegments(const std::vector<RefineChain>& chains, const std::vector<int>& rows, long spacing) {
   std::vector<Segment> out;
   for (std::size_t c = 0; c < chains.size(); ++c) {
-    const RefineChain& ch = chains[c];
-    const long K = static_cast<long>(ch.t.size());
+    const long K = static_cast<long>(chains[c].t.size());
     for (long a = 0; a < K;) {
       long b = std::min(K, a + spacing);
       if (K - b < spacing / 2) b = K;
-      Segment s;
-      s.chain = c;
-      s.first = a;
-      s.end = b;
-      s.continues = b < K;
-      const long last = s.continues ? b : b - 1;
-      for (long k = a; k <= last; ++k) s.times.push_back(ch.t[std::size_t(k)] - ch.t[std::size_t(a)]);
-      s.y.resize(static_cast<Eigen::Index>(rows.size()), b - a);
-      for (std::size_t r = 0; r < rows.size(); ++r) s.y.row(Eigen::Index(r)) = ch.y.row(rows[r]).segment(a, b - a);
-      if (ch.u.rows() > 0) {
-        s.inputs.times = s.times;
-        s.inputs.values = ch.u.middleCols(a, last - a + 1);
-      }
-      out.push_back(std::move(s));
+      out.push_back(MakeSegment(chains[c], c, rows, a, b));
       a = b;
     }
   }
@@ -236,20 +249,118 @@ int Relabel(ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s) {
     Segment& seg = pr.segments[i];
     SensitivityTrajectory tr;
     if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &tr, Reading::kOwn)) continue;
-    if (tr.trajectory.j != seg.labels) {
-      seg.labels = tr.trajectory.j;
+    // A jump at the node itself, or several jumps between two samples (a chatter), cannot be read
+    // matched: such a segment is read on its own run.
+    std::vector<int> labels = tr.trajectory.j;
+    if (!labels.empty() && labels.front() != 0) labels.clear();  // a jump at the node itself
+    for (std::size_t k = 1; k < labels.size(); ++k) {
+      if (labels[k] - labels[k - 1] > 1) {
+        labels.clear();
+        break;
+      }
+    }
+    if (labels != seg.labels) {
+      seg.labels = std::move(labels);
       ++changed;
     }
   }
   return changed;
 }
 
+// A node beside a jump of the model's own runs on either side of it (within L/8 samples, at least 2)
+// sits near a guard: a step of its state leaves C, and a step of θ moves the jump across the node, so
+// that the continuity residual changes by the jump's size. Such a node moves, within the two
+// segments it joins (each keeping at least L/4 samples), to the sample farthest from their jumps;
+// its state and mode become the runs' there. The number of nodes moved.
+int MoveNodesOffEvents(ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
+                       std::vector<Vec>& s, long spacing) {
+  const long margin = std::max(2L, spacing / 8), shortest = std::max(2L * pr.n + 2, spacing / 4);
+  int moved = 0;
+  for (std::size_t i = 0; i + 1 < pr.segments.size(); ++i) {
+    const Segment& left = pr.segments[i];
+    const Segment& right = pr.segments[i + 1];
+    if (!left.continues || right.chain != left.chain) continue;
+    SensitivityTrajectory a, b;
+    if (!SimulateSegment(pr, left, pr.At(theta.data(), s[i].data(), left.mode), false, &a, Reading::kOwn) ||
+        !SimulateSegment(pr, right, pr.At(theta.data(), s[i + 1].data(), right.mode), false, &b, Reading::kOwn)) {
+      continue;
+    }
+    std::vector<long> events;  // chain samples e with a jump in (t_{e−1}, t_e]
+    const long node_sample = left.end;
+    if (!b.trajectory.j.empty() && b.trajectory.j.front() != 0) events.push_back(node_sample);  // at the node
+    for (const auto& [seg, run] : {std::pair{&left, &a}, std::pair{&right, &b}}) {
+      const std::vector<int>& j = run->trajectory.j;
+      for (std::size_t k = 1; k < j.size(); ++k) {
+        if (j[k] != j[k - 1]) events.push_back(seg->first + static_cast<long>(k));
+      }
+    }
+    auto distance = [&](long k) {
+      long d = std::numeric_limits<long>::max();
+      for (const long e : events) d = std::min(d, k >= e ? k - e : e - 1 - k);
+      return d;
+    };
+    const long node = left.end;
+    const long lo = left.first + shortest, hi = right.end - shortest;
+    if (distance(node) >= margin || lo > hi) continue;
+    long best = node, far = distance(node);
+    for (long k = lo; k <= hi; ++k) {
+      const long d = distance(k);
+      if (d > far || (d == far && std::abs(k - node) < std::abs(best - node))) best = k, far = d;
+    }
+    if (best == node) continue;
+    const SensitivityTrajectory& run = best < node ? a : b;
+    const long at = best < node ? best - left.first : best - node;
+    s[i + 1] = run.trajectory.x.col(at);
+    const int mode_left = left.mode;
+    const int mode_right = run.trajectory.q.empty() ? right.mode : run.trajectory.q[std::size_t(at)];
+    const std::size_t c = left.chain;
+    const long first = left.first, end = right.end;
+    pr.segments[i] = MakeSegment(chains[c], c, pr.rows, first, best);
+    pr.segments[i + 1] = MakeSegment(chains[c], c, pr.rows, best, end);
+    pr.segments[i].mode = mode_left;
+    pr.segments[i + 1].mode = mode_right;
+    ++moved;
+  }
+  return moved;
+}
+
+// In `other` (rows × samples), 1 where a sample lies on the other side of a jump of the model's run
+// `run` than the model: from each jump outwards while the weighted residual r is nearer the jump's
+// size Δ (before the jump: r ≈ −Δ; after it: r ≈ Δ) than zero, in some row.
+void MarkOtherSide(const ShootingProblem& pr, const Trajectory& run, const Mat& r, Mat& other) {
+  const std::vector<int>& j = run.j;
+  const long K = r.cols();
+  for (long e = 1; e < K; ++e) {
+    if (j[std::size_t(e)] == j[std::size_t(e - 1)]) continue;
+    Vec delta(r.rows());
+    for (Eigen::Index row = 0; row < r.rows(); ++row) {
+      delta[row] = pr.weight[row] * (run.x(pr.rows[std::size_t(row)], e) - run.x(pr.rows[std::size_t(row)], e - 1));
+    }
+    auto walk = [&](long k, long step, double sign) {
+      for (; k >= 0 && k < K && j[std::size_t(k)] == j[std::size_t(step < 0 ? e - 1 : e)]; k += step) {
+        bool any = false;
+        for (Eigen::Index row = 0; row < r.rows(); ++row) {
+          if (std::abs(r(row, k) - sign * delta[row]) < std::abs(r(row, k))) {
+            other(row, k) = 1.0;
+            any = true;
+          }
+        }
+        if (!any) break;
+      }
+    };
+    walk(e - 1, -1, -1.0);
+    walk(e, +1, +1.0);
+  }
+}
+
 // Samples whose weighted residual on the model's own run exceeds kTrim robust standard deviations
 // (1.4826 · the median |w r|, at least 1) are left out of the next solves: a sample on the wrong side
 // of a jump in a measured state (its residual the jump's size) carries no information the
-// sensitivities can use. The final solve keeps every sample.
+// sensitivities can use. At the final solve (`at_events_only`) only samples on the other side of a
+// jump of the model are left out: from the jump outwards, the samples whose residual is nearer the
+// jump's size (model after the jump minus model before) than zero.
 void Trim(ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s, bool at_events_only = false) {
-  std::vector<Mat> residual(pr.segments.size());
+  std::vector<Mat> residual(pr.segments.size()), eligible(pr.segments.size());
   std::vector<double> all;
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
     const Segment& seg = pr.segments[i];
@@ -257,25 +368,170 @@ void Trim(ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s, bool
     if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &tr, Reading::kOwn)) continue;
     Mat& r = residual[i];
     r.resize(seg.y.rows(), seg.samples());
-    const std::vector<int>& j_of = tr.trajectory.j;
     for (long k = 0; k < seg.samples(); ++k) {
-      // Beside a jump of the model: the samples k − 1 and k around a change of the jump count.
-      const bool beside = (k > 0 && j_of[std::size_t(k)] != j_of[std::size_t(k - 1)]) ||
-                          (k + 1 < static_cast<long>(j_of.size()) && j_of[std::size_t(k + 1)] != j_of[std::size_t(k)]);
       for (Eigen::Index j = 0; j < r.rows(); ++j) {
         r(j, k) = pr.weight[j] * (tr.trajectory.x(pr.rows[std::size_t(j)], k) - seg.y(j, k));
         all.push_back(std::abs(r(j, k)));
-        if (at_events_only && !beside) r(j, k) = 0.0;  // never trimmed
       }
     }
+    eligible[i] = Mat::Constant(r.rows(), r.cols(), at_events_only ? 0.0 : 1.0);
+    if (at_events_only) MarkOtherSide(pr, tr.trajectory, r, eligible[i]);
   }
   if (all.empty()) return;
   std::nth_element(all.begin(), all.begin() + long(all.size() / 2), all.end());
   const double cut = kTrim * std::max(1.0, 1.4826 * all[all.size() / 2]);
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
     if (residual[i].size() == 0) continue;
-    pr.segments[i].keep = (residual[i].array().abs() <= cut).cast<double>().matrix();
+    pr.segments[i].keep =
+        (residual[i].array().abs() <= cut || eligible[i].array() == 0.0).cast<double>().matrix();
   }
+}
+
+// Nodes whose segment does not simulate with its sensitivities at θ (a state outside C and D in its
+// mode after θ or a mode moved, a grazing crossing, labels the run no longer follows): its own run,
+// another mode, else the end of the segment before in its chain. A segment that still does not
+// simulate (the model sticks in D from there at θ) is left out of the next solve (`off`); its node
+// follows the segment before. The number of such segments.
+int RepairNodes(ShootingProblem& pr, const Vec& theta, std::vector<Vec>& s) {
+  const int modes = ModeCount(pr.model->spec());
+  int failing = 0;
+  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
+    Segment& seg = pr.segments[i];
+    SensitivityTrajectory tr;
+    seg.off = false;
+    if (SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), true, &tr)) continue;
+    seg.labels.clear();  // read on its own run from here
+    if (SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), true, &tr)) continue;
+    bool repaired = false;
+    for (int q = 0; q < modes && !repaired; ++q) {
+      if (q == seg.mode || !SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), q), true, &tr)) continue;
+      seg.mode = q;
+      repaired = true;
+    }
+    const bool first = i == 0 || pr.segments[i - 1].chain != seg.chain;
+    if (!repaired && !first) {
+      const Segment& before = pr.segments[i - 1];
+      SensitivityTrajectory prev;
+      if (SimulateSegment(pr, before, pr.At(theta.data(), s[i - 1].data(), before.mode), false, &prev, Reading::kOwn)) {
+        const Vec x = prev.trajectory.x.col(prev.trajectory.size() - 1);
+        const int q = prev.trajectory.q.empty() ? before.mode : prev.trajectory.q.back();
+        if (SimulateSegment(pr, seg, pr.At(theta.data(), x.data(), q), true, &tr)) {
+          s[i] = x;
+          seg.mode = q;
+          repaired = true;
+        }
+      }
+    }
+    seg.off = !repaired;
+    failing += repaired ? 0 : 1;
+  }
+  return failing;
+}
+
+// A hybrid automaton whose guards have unknown parameters γ: where the modes the data choose at two
+// nodes of a chain (BestModes) differ and a jump map leads from the one to the other, the data
+// switched inside the segment between them; where the model's own run does not make that switch, it
+// is put at the sample that splits the
+// segment's one-step trapezoid residuals best (the mode before, then the mode after), and γ moves by
+// least-squares Newton steps that put these switches on their guards (AppendGuardRows,
+// SolveGuardRows). A start whose guards the data never reach gives γ no gradient (the model never
+// switches where the data do); this gives the model's own switches a start near the data's. Whether
+// γ moved.
+bool LocateSwitches(const ShootingProblem& pr, const std::vector<RefineChain>& chains, Vec& theta,
+                    const std::vector<Vec>& s) {
+  const Model& model = *pr.model;
+  if (pr.unknowns.gamma.empty() || !IsAutomaton(model.spec())) return false;
+  const std::vector<JumpMap> maps = JumpMaps(model.spec());
+  const HybridParameters at = pr.At(theta.data(), s.front().data(), 0);
+  const Vec alpha = at.alpha;
+  Vec gamma = at.GammaOr(model);
+  const int n = pr.n;
+  std::vector<Mat> states(chains.size());  // measured rows from the data, hidden ones from the runs
+  std::vector<std::vector<std::uint8_t>> labels(chains.size());
+  std::vector<std::vector<int>> chain_maps(chains.size());
+  std::vector<int> initial(chains.size(), -1);
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    states[c] = chains[c].y;
+    labels[c].assign(chains[c].t.size(), 0);
+  }
+  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
+    const Segment& seg = pr.segments[i];
+    if (initial[seg.chain] < 0) initial[seg.chain] = std::max(seg.mode, 0);
+    SensitivityTrajectory tr;
+    if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &tr, Reading::kOwn)) continue;
+    for (int j = 0; j < n; ++j) {
+      if (std::find(pr.rows.begin(), pr.rows.end(), j) != pr.rows.end()) continue;
+      states[seg.chain].row(j).segment(seg.first, seg.samples()) = tr.trajectory.x.row(j).head(seg.samples());
+    }
+  }
+  Vec f0(n), f1(n);
+  for (std::size_t i = 0; i + 1 < pr.segments.size(); ++i) {
+    const Segment& seg = pr.segments[i];
+    const Segment& next = pr.segments[i + 1];
+    if (!seg.continues || next.chain != seg.chain || seg.mode == next.mode || seg.mode < 0 || next.mode < 0) continue;
+    int map = -1;
+    for (std::size_t m = 0; m < maps.size() && map < 0; ++m) {
+      if ((maps[m].from == seg.mode || maps[m].from < 0) && maps[m].to == next.mode) map = static_cast<int>(m);
+    }
+    if (map < 0) continue;
+    SensitivityTrajectory own;  // a switch the model makes itself is on its guard already
+    if (SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &own, Reading::kOwn) &&
+        !own.trajectory.q.empty() && own.trajectory.q.back() == next.mode) {
+      continue;
+    }
+    const RefineChain& ch = chains[seg.chain];
+    const Mat& x = states[seg.chain];
+    // e_q(k): the weighted one-step trapezoid residual of the step k − 1 → k in mode q.
+    auto step_residual = [&](long k, int q) {
+      const auto a = static_cast<Eigen::Index>(k - 1), b = static_cast<Eigen::Index>(k);
+      if (!x.col(a).allFinite() || !x.col(b).allFinite()) return 0.0;
+      const double dt = ch.t[std::size_t(k)] - ch.t[std::size_t(k - 1)];
+      Context ca{.t = ch.t[std::size_t(k - 1)], .u = ch.u.cols() ? ch.u.col(a).data() : nullptr, .gamma = gamma.data(),
+                 .alpha = alpha.data(), .mode = q};
+      Context cb = ca;
+      cb.t = ch.t[std::size_t(k)];
+      cb.u = ch.u.cols() ? ch.u.col(b).data() : nullptr;
+      model.Flow(x.col(a), alpha, f0, ca);
+      model.Flow(x.col(b), alpha, f1, cb);
+      double e2 = 0.0;
+      for (std::size_t r = 0; r < pr.rows.size(); ++r) {
+        const int j = pr.rows[r];
+        const double e = x(j, b) - x(j, a) - 0.5 * dt * (f0[j] + f1[j]);
+        e2 += std::pow(pr.weight[Eigen::Index(r)] * e, 2);
+      }
+      return std::isfinite(e2) ? e2 : 0.0;
+    };
+    const long lo = seg.first + 1, hi = seg.end;  // the switch in (t_{k−1}, t_k], k ∈ [lo, hi]
+    std::vector<double> before(std::size_t(hi - lo + 2), 0.0), after(std::size_t(hi - lo + 2), 0.0);
+    for (long k = lo; k <= hi; ++k) before[std::size_t(k - lo + 1)] = before[std::size_t(k - lo)] + step_residual(k, seg.mode);
+    for (long k = hi; k >= lo; --k) after[std::size_t(k - lo)] = after[std::size_t(k - lo + 1)] + step_residual(k, next.mode);
+    long best = lo;
+    double least = std::numeric_limits<double>::infinity();
+    for (long k = lo; k <= hi; ++k) {
+      const double cost = before[std::size_t(k - lo)] + after[std::size_t(k - lo)];
+      if (cost < least) least = cost, best = k;
+    }
+    labels[seg.chain][std::size_t(best)] = 1;
+    chain_maps[seg.chain].push_back(map);
+  }
+  const Vec gamma0 = gamma;
+  for (int newton = 0; newton < 3; ++newton) {
+    Mat rows(0, static_cast<Eigen::Index>(pr.unknowns.gamma.size()));
+    Vec rhs(0);
+    for (std::size_t c = 0; c < chains.size(); ++c) {
+      AppendGuardRows(model, chains[c].t, states[c], labels[c], alpha, gamma, pr.unknowns, &rows, &rhs, chain_maps[c],
+                      initial[c], chains[c].u);
+    }
+    gamma = SolveGuardRows(pr.unknowns, rows, rhs, gamma);
+  }
+  if (!gamma.allFinite() || gamma == gamma0) return false;
+  const std::vector<const Parameter*> params = pr.unknowns.Parameters(model);
+  const auto offset = static_cast<Eigen::Index>(pr.unknowns.alpha.size() + pr.unknowns.beta.size());
+  for (std::size_t g = 0; g < pr.unknowns.gamma.size(); ++g) {
+    const auto i = offset + static_cast<Eigen::Index>(g);
+    theta[i] = std::clamp(gamma[pr.unknowns.gamma[g]], params[std::size_t(i)]->lower, params[std::size_t(i)]->upper);
+  }
+  return true;
 }
 
 // A hybrid automaton: each node's mode the one whose segment, simulated from the node's state at θ,
@@ -310,6 +566,7 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem cp(po);
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
+    if (pr.segments[i].off) continue;
     std::vector<double*> blocks;
     if (pr.shared > 0) blocks.push_back(theta.data());
     blocks.push_back(s[i].data());
@@ -330,7 +587,8 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
   return summary;
 }
 
-// The raw data residuals (model − data) per chain (rows × K) at the fit, from the states alone.
+// The raw data residuals (model − data) per chain (rows × K) at the fit, from the states alone (a
+// segment whose labels its run no longer follows read on its own run).
 bool Residuals(const ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
                const std::vector<Vec>& s, std::vector<Mat>* out) {
   const auto m = static_cast<Eigen::Index>(pr.rows.size());
@@ -339,7 +597,10 @@ bool Residuals(const ShootingProblem& pr, const std::vector<RefineChain>& chains
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
     const Segment& seg = pr.segments[i];
     SensitivityTrajectory tr;
-    if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &tr)) return false;
+    const HybridParameters at = pr.At(theta.data(), s[i].data(), seg.mode);
+    if (!SimulateSegment(pr, seg, at, false, &tr) && !SimulateSegment(pr, seg, at, false, &tr, Reading::kOwn)) {
+      return false;
+    }
     for (long k = 0; k < seg.samples(); ++k) {
       for (Eigen::Index r = 0; r < m; ++r) {
         (*out)[seg.chain](r, seg.first + k) = tr.trajectory.x(pr.rows[std::size_t(r)], k) - seg.y(r, k);
@@ -363,7 +624,10 @@ bool NormalMatrix(const ShootingProblem& pr, const Vec& theta, const std::vector
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
     const Segment& seg = pr.segments[i];
     SensitivityTrajectory tr;
-    if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), true, &tr)) return false;
+    const HybridParameters at = pr.At(theta.data(), s[i].data(), seg.mode);
+    if (!SimulateSegment(pr, seg, at, true, &tr) && !SimulateSegment(pr, seg, at, true, &tr, Reading::kOwn)) {
+      return false;
+    }
     const auto node = static_cast<Eigen::Index>(p + n * static_cast<int>(i));
     auto fill = [&](long k, int state, double w) {
       row.setZero();
@@ -374,6 +638,7 @@ bool NormalMatrix(const ShootingProblem& pr, const Vec& theta, const std::vector
     for (long k = 0; k < seg.samples(); ++k) {
       Vec score = scores ? Vec::Zero(P) : Vec();
       for (Eigen::Index r = 0; r < m; ++r) {
+        if (seg.keep.size() && seg.keep(r, k) == 0.0) continue;  // left out of the final solve
         fill(k, pr.rows[std::size_t(r)], weight[r]);
         H->selfadjointView<Eigen::Lower>().rankUpdate(row);
         if (scores) score += weight[r] * residuals[seg.chain](r, seg.first + k) * row;
@@ -475,13 +740,34 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
     return;
   }
   const auto m = static_cast<Eigen::Index>(pr.rows.size());
-  const auto P = static_cast<double>(pr.shared + pr.n * static_cast<int>(pr.segments.size()));
+  // The parameters the residuals spend: θ and one initial state per chain (the continuity rows tie
+  // every other node to the segment before, to within ε).
+  const auto P = static_cast<double>(pr.shared + pr.n * static_cast<int>(chains.size()));
+  // The samples the final solve left out (beside a fitted jump, on its other side) are left out of
+  // the tests and the information too.
+  long left_out = 0;
+  for (const Segment& seg : pr.segments) {
+    if (seg.keep.size() == 0) continue;
+    for (long k = 0; k < seg.samples(); ++k) {
+      for (Eigen::Index j = 0; j < m; ++j) {
+        if (seg.keep(j, k) != 0.0) continue;
+        residuals[seg.chain](j, seg.first + k) = std::numeric_limits<double>::quiet_NaN();
+        ++left_out;
+      }
+    }
+  }
   long N = 0;
   Vec squares = Vec::Zero(m);
   for (const Mat& res : residuals) {
-    squares += res.rowwise().squaredNorm();
+    for (Eigen::Index j = 0; j < m; ++j) {
+      for (Eigen::Index k = 0; k < res.cols(); ++k) {
+        if (std::isfinite(res(j, k))) squares[j] += res(j, k) * res(j, k);
+      }
+    }
     N += static_cast<long>(res.cols());
   }
+  N -= left_out / std::max<Eigen::Index>(m, 1);
+  r.left_out = left_out;
   const double dof = std::max(1.0, static_cast<double>(N) - P / static_cast<double>(m));
   r.sigma_estimated = options.sigma.size() == 0;
   const Vec sigma = r.sigma_estimated ? Vec((squares / dof).cwiseSqrt()) : Vec(pr.weight.cwiseInverse());
@@ -585,35 +871,56 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   r.names = r.unknowns.Names(model);
   r.start = r.refined = r.estimate = start;
   Weigh(chains, options, pr);
-  pr.segments = CutSegments(chains, pr.rows, TimeShootingNodeSpacing(total, pr.n));
+  const long spacing = TimeShootingNodeSpacing(total, pr.n);
+  pr.segments = CutSegments(chains, pr.rows, spacing);
   Vec theta = start.Theta(Unknowns{r.unknowns.alpha, r.unknowns.beta, r.unknowns.gamma, false});
   const std::vector<const Parameter*> params = r.unknowns.Parameters(model);
   for (int i = 0; i < pr.shared; ++i) theta[i] = std::clamp(theta[i], params[std::size_t(i)]->lower, params[std::size_t(i)]->upper);
   std::vector<Vec> s = StartNodes(pr, chains, theta, pr.segments);
   WeighHidden(s, pr);
   BestModes(pr, theta, s);
+  MoveNodesOffEvents(pr, chains, theta, s, spacing);
   // Continuation in the continuity's width: nearly free segments first (θ fit to each segment's own
   // data, where a far start cannot lead the whole record astray), then continuity tightened to ε.
   ceres::Solver::Summary summary;
+  // The route's budget: kIterationBudget solves' worth of iterations in all.
+  const int budget = kIterationBudget * options.max_iterations;
   for (const double width : kContinuationWidths) {
     pr.link_weight = (width * pr.scale).cwiseInverse();
-    for (int round = 0; round < kModeRounds; ++round) {
+    for (int round = 0; round < kModeRounds && r.iterations < budget; ++round) {
+      RepairNodes(pr, theta, s);
       summary = Solve(pr, options, theta, s);
       r.iterations += static_cast<int>(summary.iterations.size());
       if (r.initial_cost == 0.0) r.initial_cost = summary.initial_cost;
       if (options.stopped() || !summary.IsSolutionUsable()) break;
+      if (width == kContinuationWidths[0] && round == 0) {  // α fit to the segments: the data's switches
+        const Vec before = theta;
+        const std::vector<Segment> segments = pr.segments;
+        BestModes(pr, theta, s);
+        if (LocateSwitches(pr, chains, theta, s)) {
+          if (RepairNodes(pr, theta, s) == 0) continue;
+          theta = before;
+          pr.segments = segments;
+        }
+      }
       Trim(pr, theta, s);
-      if (SettleModes(pr, theta, s) == 0) break;
+      const int settled = SettleModes(pr, theta, s);
+      if (MoveNodesOffEvents(pr, chains, theta, s, spacing) + settled == 0) break;
     }
     if (options.stopped() || !summary.IsSolutionUsable()) break;
   }
   // The final solve on every sample, read on the model's own events at the point reached (labels),
-  // so that the cost is smooth there; again while the labels move.
-  for (int round = 0; round < kModeRounds && summary.IsSolutionUsable() && !options.stopped(); ++round) {
+  // so that the cost is smooth there; again while the labels move. A solve that fails leaves the
+  // point of the one before.
+  for (int round = 0; round < kModeRounds && summary.IsSolutionUsable() && !options.stopped() && r.iterations < budget;
+       ++round) {
     Trim(pr, theta, s, /*at_events_only=*/true);
     if (Relabel(pr, theta, s) == 0 && round > 0) break;
-    summary = Solve(pr, options, theta, s);
-    r.iterations += static_cast<int>(summary.iterations.size());
+    RepairNodes(pr, theta, s);
+    const ceres::Solver::Summary next = Solve(pr, options, theta, s);
+    r.iterations += static_cast<int>(next.iterations.size());
+    if (!next.IsSolutionUsable()) break;
+    summary = next;
   }
   r.final_cost = summary.final_cost;
   r.samples_used = total;
@@ -630,6 +937,11 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   r.initial_mode = pr.segments.front().mode >= 0 ? pr.segments.front().mode : model.spec().default_mode;
   for (const RefineChain& c : chains) r.chain_samples_used.push_back(static_cast<long>(c.t.size()));
   const bool converged = summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS;
+  if (r.iterations >= budget) {
+    Fail(r, RefineStatus::kNotConverged,
+         fmt::format("multiple shooting by time: its budget of {} iterations is spent", budget));
+    return r;
+  }
   if (!converged || !theta.allFinite()) {
     Fail(r, RefineStatus::kNotConverged, fmt::format("multiple shooting by time: {}", summary.message));
     return r;

@@ -44,6 +44,8 @@ constexpr double kContinuationWidths[] = {1.0, 0.1, 1e-2, 1e-3};
 constexpr int kModeRounds = 4;
 // Samples beyond this many robust standard deviations are left out of the continuation's solves.
 constexpr double kTrim = 6.0;
+// The route's iteration budget: this many times RefineOptions::max_iterations over all its solves.
+constexpr int kIterationBudget = 12;
 
 // Samples per segment for chains of `samples` samples in all (at least 4n + 4, about 1/48 of the data,
 // at most 2 000).

@@ -185,7 +185,7 @@ class SensitivityPayload final : public hybrid::Payload {
     SetWindowEnd(window_b_, t, Eigen::Map<const Vec>(x, n_), Eigen::Map<const Mat>(s, n_, p_));
   }
   void AdoptReturned() override { s_ = window_b_.s; }
-  bool BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) override;
+  bool BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why, int projected) override;
   void Jump(const Vec& pre, const Context& ctx) override;
   void EndJumps(const Vec& post, const Context& ctx) override;
   void Sample(long k, double t, const double* x) override;
@@ -281,6 +281,7 @@ class SensitivityPayload final : public hybrid::Payload {
   Eigen::Index gamma_offset_ = 0;  // of γ_u's columns in θ
   Vec gamma_, gamma_scratch_;      // the run's γ; γ ± a step
   int guard_ = -1, chain_ = 0;     // the guard that fired, and the jumps applied, in the chain under way
+  int projected_ = -1;             // a guard crossed past zero whose projection the state went through
   Mat jac_, phi_;                 // scratch, n × n and n × |α|
   Vec f_plus_, f_minus_;          // scratch, n
   Mat s_;                         // S at the current state (the run loop's restart point)
@@ -299,12 +300,13 @@ class SensitivityPayload final : public hybrid::Payload {
 // ∂h/∂θ: the α_u, β_u and γ_u columns of Model::GuardParameterJacobian (zero for a guard that reads
 // none of them; all of θ zero for the initial state's jumps, at t = 0 whatever θ);
 // total = S⁻ + f⁻ ∂t_j/∂θ.
-bool SensitivityPayload::BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why) {
+bool SensitivityPayload::BeginJumps(const Context& ctx, int guard, const Vec& x, std::string* why, int projected) {
   const double t = ctx.t;
   Vec f_minus(n_);
   model_.Flow(x, params_.alpha, f_minus, ctx);
   dt_dtheta_ = Eigen::RowVectorXd::Zero(p_);
   guard_ = guard;
+  projected_ = projected;
   chain_ = 0;
   if (guard >= 0) {
     const Eigen::RowVectorXd grad = GuardGradient(guard, x, ctx);
@@ -345,15 +347,17 @@ void SensitivityPayload::AddGuardParameterColumns(int guard, const Vec& x, const
 // total ← (∂g/∂ξ)·total + ∂g/∂θ + (∂g/∂t)·∂t_j/∂θ at the pre-jump state (∂g/∂t: the map's own time and
 // inputs u(t) moving, zero unless ψ reads them), g the map ctx.map (Context::map: ψ with
 // that map's β slice only, so ∂g/∂β is zero off the slice; an identity map: ∂g/∂ξ = I, ∂g/∂β = 0).
-// g = ψ(ξ)β; with unknown γ the chain's first jump is g = ψ(P(ξ, γ))β, P the projection onto the
-// guard that fired, so that ∂g/∂γ carries the projection's dependence on γ (∂g/∂ξ and ∂g/∂γ by
-// central differences of that composite).
+// g = ψ(ξ)β; with unknown γ, or after a crossing past zero, the chain's first jump is g = ψ(P(ξ, γ))β,
+// P the projection onto the guard that fired, so that ∂g/∂γ carries the projection's dependence on γ
+// and ∂g/∂ξ its independence of the projected rows (both by central differences of that composite).
 void SensitivityPayload::Jump(const Vec& pre, const Context& ctx) {
-  const bool project = chain_++ == 0 && guard_ >= 0 && !unknowns_.gamma.empty();
+  // Past zero, the projection decides the state the map reads (∂/∂ξ of the projected rows is 0).
+  const bool project = chain_++ == 0 && ((guard_ >= 0 && !unknowns_.gamma.empty()) || projected_ >= 0);
+  const int onto = guard_ >= 0 ? guard_ : projected_;
   const auto jump = [&](const Vec& z, const Context& ctx, VecRef g) {
     if (!project) return model_.Jump(z, params_.beta, g, ctx);
     Vec on = z;
-    model_.ProjectOntoGuard(guard_, on, ctx);
+    model_.ProjectOntoGuard(onto, on, ctx);
     model_.Jump(on, params_.beta, g, ctx);
   };
   const Mat g_x = CentralDifference([&](const Vec& z, Vec& g) { jump(z, ctx, g); }, pre, n_);

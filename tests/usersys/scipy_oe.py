@@ -79,7 +79,7 @@ class Tanks:
     def events(self, q, p, u):
         if q == "normal":
             return [(lambda t, x, *_: x[0] - p["H"], +1)]
-        return [(lambda t, x, *_: u(t) - p["u_c"], -1)]
+        return [(lambda t, x, *_: p["k1"] * u(t) - p["a1"] * math.sqrt(p["H"]), -1)]
 
     def reset(self, i, t, x, q, p, u):
         if q == "normal":

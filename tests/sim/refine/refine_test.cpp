@@ -322,6 +322,7 @@ TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the 
   options.min_jump_interval = 0;
   options.repair_start = false;  // (the repaired start merges bounces closer than 10 samples)
   options.grow_span = false;
+  options.time_shooting = false;  // the labelled routes' Zeno rule
   const RefineResult r = RefineRun(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
