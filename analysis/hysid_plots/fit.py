@@ -118,6 +118,9 @@ class Fit:
         self.hidden = [s for s in self.states if s not in self.names]
         self.missing_columns = [c for n in self.names for c in (f"fit_{n}", f"residual_{n}")
                                 if c not in self.trace]
+        # A refinement that reported no fit: its columns are nan throughout (fitted_events.reason says why).
+        self.no_fit = not self.missing_columns and not any(np.any(np.isfinite(self.trace[f"fit_{n}"]))
+                                                           for n in self.names)
         self._samples = np.flatnonzero(self.trace["missing"] == 0)
 
     @classmethod
@@ -173,6 +176,14 @@ class Fit:
                 out.append((float(tf), float(e.get("time_fitted_se") or 0.0)))
         return out
 
+    def detector(self):
+        """The trace's detector statistic column ('z' or 'D'), or None when it has none or it is never
+        positive (a hybrid automaton's events come from the slope-change statistic, not in the trace)."""
+        for stat, thr in (("z", "q"), ("D", "tau_hat")):
+            if stat in self.trace and np.any(np.r_[self.trace[stat], self.trace[thr]] > 0):
+                return stat
+        return None
+
     def sample_rows(self):
         """Every sample row (all runs)."""
         return self._samples
@@ -201,8 +212,9 @@ class Fit:
         return out, which
 
     def residuals(self, rows):
-        """Normalised residuals r/σ per measured state over `rows` (NaN where not fitted), or None."""
-        if any(f"residual_{n}" not in self.trace for n in self.names):
+        """Normalised residuals r/σ per measured state over `rows` (NaN where not fitted), or None
+        (no residual columns, or no fit)."""
+        if self.missing_columns or self.no_fit:
             return None
         out = []
         for n in self.names:
@@ -241,8 +253,9 @@ def draw_run(fit, run, width):
     rows = fit.rows(run)
     t = fit.trace["t"][rows]
     res = fit.residuals(rows)
-    det = "z" if "z" in fit.trace else ("D" if "D" in fit.trace else None)
+    det = fit.detector()
     modes, _ = fit.modes(run, rows)
+    mode_handles = []
     shown = fit.names + fit.hidden
     top = len(shown) + (det is not None) + (res is not None)
     fig = style.plt.figure(figsize=(style.WIDTHS[width], 1.05 * top + (1.6 if res is not None else 0) + 0.3),
@@ -261,7 +274,7 @@ def draw_run(fit, run, width):
         draw_model(ax, fit, name, rows, t)
         mark_events(ax, dets, events)
         if modes and i == 0:
-            mode_ribbon(ax, modes)
+            mode_handles = mode_ribbon(ax, modes)
         ax.set_ylabel(name if name in fit.names else f"{name} (hidden)")
     k = len(shown)
     if det is not None:
@@ -298,9 +311,9 @@ def draw_run(fit, run, width):
     for ax in axes[:-1]:
         ax.tick_params(labelbottom=False)
     axes[-1].set_xlabel("t")
-    handles = [h for h in axes[0].get_lines() if h.get_gid() in ("measured", "fit", "recursive")]
+    handles = [h for h in axes[0].get_lines() if h.get_gid() in ("measured", "fit", "recursive")] + mode_handles
     axes[0].legend(handles, [h.get_label() for h in handles], loc="lower left", bbox_to_anchor=(0.0, 0.98),
-                   fontsize=6, markerscale=4, ncol=len(handles), borderaxespad=0.0)
+                   fontsize=6, markerscale=4, ncol=min(len(handles), 3), borderaxespad=0.0, handlelength=1.8)
     return fig
 
 
@@ -349,7 +362,7 @@ def mark_events(ax, dets, events):
 
 
 def mode_ribbon(ax, modes):
-    """The mode sequence as a coloured ribbon along the top of the panel, each mode named once."""
+    """The mode sequence as a coloured ribbon along the top of the panel; returns a legend handle per mode."""
     names = []
     for _, _, m in modes:
         if m not in names:
@@ -359,9 +372,7 @@ def mode_ribbon(ax, modes):
         ax.add_patch(matplotlib.patches.Rectangle((t0, 0.93), t1 - t0, 0.07, transform=trans, lw=0,
                                                   color=style.COLORS[3 + names.index(m) % 4], gid="mode",
                                                   label=str(m)))
-    for m in names:
-        t0 = next(a for a, _, q in modes if q == m)
-        ax.text(t0, 0.91, f" {m}", transform=trans, fontsize=6, va="top", gid="mode_label")
+    return [matplotlib.patches.Patch(color=style.COLORS[3 + i % 4], label=f"mode {m}") for i, m in enumerate(names)]
 
 
 def draw_diagnostics(ax_acf, ax_qq, fit, rows, res):
@@ -439,26 +450,33 @@ def caption(fit, run):
                                         (rep.get("standard_errors") or []) + [None] * 99)
                     if not str(n).startswith("x0"))
     text = f"{rep.get('model', '?')}, run {run} of {len(fit.runs())}: the measured {names} (grey dots)"
-    if not fit.missing_columns:
+    if not fit.missing_columns and not fit.no_fit:
         text += (" with the fitted model run on its own over the whole record from each chain's fitted initial "
                  "state (blue line, band ±1.96 sd from the fit's covariance on the first chain) and the recursive "
                  "estimate's run (dashed orange, where it differs)")
-    if fit.hidden:
+    elif fit.no_fit:
+        text += " with the recursive estimate's run from each chain's first sample (dashed orange)"
+    if fit.hidden and not fit.no_fit:
         text += f"; the hidden {', '.join(fit.hidden)} as the fitted model estimates them, with the same band"
+    elif fit.hidden:
+        text += f"; the hidden {', '.join(fit.hidden)} as the recursive estimate's run has them"
     rows = fit.rows(run)
     _, which = fit.modes(run, rows)
     if fit.modes(run, rows)[0]:
         text += f"; the ribbon on top: the {which} mode sequence"
-    thr = "q" if "z" in fit.trace else "τ̂"
-    text += (f"; dotted grey: the detected jumps; green: the fitted model's events with ± their standard error "
-             f"(shaded; often narrower than the line); the detector's statistic (grey) against its threshold {thr} "
-             "(dashed), log axis, zeros not drawn")
+    text += ("; dotted grey: the detected jumps; green: the fitted model's events with ± their standard error "
+             "(shaded; often narrower than the line)")
+    if fit.detector() is not None:
+        thr = "q" if fit.detector() == "z" else "τ̂"
+        text += f"; the detector's statistic (grey) against its threshold {thr} (dashed), log axis, zeros not drawn"
     reason = (rep.get("fitted_events") or {}).get("reason")
     text = text + (f". Refinement: {rep.get('status')}" + (f" ({rep.get('reason')})" if rep.get("reason")
                                                                      else "") + f"; {est}.")
-    if reason:
+    if reason and not fit.no_fit:
         text += f" The fitted model's run: {reason}."
-    if not fit.missing_columns:
+    if fit.no_fit:
+        text += " No fitted model, no residuals: the refinement reported no fit."
+    elif not fit.missing_columns:
         n = int(fit.in_fit(fit.sample_rows()).sum())
         _, z = fit.lag1_band(max(n, 1))
         every = f" of all {len(fit.runs())} runs" if len(fit.runs()) > 1 else ""

@@ -210,3 +210,28 @@ def test_fit_of_a_real_identification(captured, tmp_path):
         np.testing.assert_allclose(res.get_ydata(), (data[name] - trace[f"fit_{name}"]) / sigma, rtol=1e-9, atol=1e-9)
         assert np.nanmax(np.abs(res.get_ydata())) < 5
     assert f"Refinement: {report['status']}" in caption
+
+
+def test_fit_of_an_automaton_draws_its_fitted_events_and_modes(captured, tmp_path):
+    """examples/heater as scripts/example-figures.sh runs it: the fitted model's switches with their
+    standard errors and its mode sequence are the report's fitted_events, the band the trace's sd_T."""
+    run = env_dir("HYSID_HEATER_RUN")
+    assert cli.main(["fit", os.path.join(run, "id"), "--format", "png", "--dpi", "60", "--out", str(tmp_path)]) == 0
+    (fig, stem, caption), = captured.figs
+    report = json.load(open(os.path.join(run, "id.json")))
+    trace = np.genfromtxt(os.path.join(run, "id.csv"), delimiter=",", names=True)
+    fe = report["fitted_events"]
+    assert report["status"] == "ok" and fe["reason"] == "" and len(fe["jumps"]) == 11
+    axes = [ax for ax in fig.axes if ax.axison]
+    assert [ax.get_ylabel() for ax in axes] == ["T", "residual / σ", "autocorrelation", "residual / σ, sorted"]
+    ax = axes[0]
+    assert [ln.get_xdata()[0] for ln in gid_lines(ax, "fitted_events")] == [j["t"] for j in fe["jumps"]]
+    spans = [p.get_xy()[:, 0] for p in ax.patches if p.get_gid() == "fitted_event_se"]
+    np.testing.assert_allclose([x.max() - x.min() for x in spans], [2 * j["se"] for j in fe["jumps"]], rtol=1e-9)
+    ribbon = [(p.get_x(), p.get_label()) for p in ax.patches if p.get_gid() == "mode"]
+    assert ribbon == [(m["t"], m["mode"]) for m in fe["modes"]]
+    (band,) = [c for c in ax.collections if c.get_gid() == "fit_band"]
+    ys = band.get_paths()[0].vertices[:, 1]
+    upper = trace["fit_T"] + 1.96 * trace["sd_T"]
+    assert np.all(np.isclose(upper[:, None], ys[None, :], rtol=0, atol=1e-12).any(axis=1))
+    assert "the fitted mode sequence" in caption
