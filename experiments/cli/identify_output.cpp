@@ -274,7 +274,8 @@ std::vector<FitColumn> FitColumns(const ModelSpec& spec, const std::vector<int>&
   for (std::size_t r = 0; r < measured.size(); ++r) {
     const int i = measured[r];
     const Eigen::Index row = full ? i : Eigen::Index(r);
-    cols.push_back({"residual_" + names[std::size_t(i)], [&f, &y, i, row](long k) { return y(row, k) - f.x(i, k); }});
+    cols.push_back(
+        {"residual_" + names[std::size_t(i)], [&f, &y, i, row](long k) { return y(row, k) - f.matched(i, k); }});
   }
   for (std::size_t i = 0; i < names.size(); ++i) {
     cols.push_back({"recursive_" + names[i], [&f, i](long k) { return f.recursive(Eigen::Index(i), k); }});

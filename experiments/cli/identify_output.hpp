@@ -27,7 +27,7 @@ void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDe
                 const SampleData& data, const IdentifyResult& result);
 
 // The fitted model's columns of the trace, each described once: fit_STATE, sd_STATE per state,
-// residual_STATE (y − fit) per measured state, recursive_STATE per state, in_fit, and mode_fitted for a
+// residual_STATE (y − the fit read on the detected segments, FittedOutputs::matched) per measured state, recursive_STATE per state, in_fit, and mode_fitted for a
 // model with several modes; cell(k) for sample k. `y`: the samples, n × K, or m × K with the measured
 // rows only (in `measured`'s order); they and `fitted` must outlive the columns.
 struct FitColumn {

@@ -51,6 +51,37 @@ SensitivityTrajectory RunChain(const Model& model, const HybridParameters& param
   }
 }
 
+// The fitted run read on the detected segments, as the refinement compares it with the data: sample k
+// on the segment of the chain's detected events before it (gamma), each segment's flow continued past
+// its jump (SimulateSensitivitiesMatched). Empty when it does not run (the detected events are not the
+// model's: more segments than the model reaches).
+Mat RunMatched(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
+               const std::vector<double>& t, const Mat& u, std::pair<long, long> span,
+               const std::vector<std::uint8_t>& gamma) {
+  const auto [a, b] = span;
+  std::vector<double> times;
+  std::vector<int> segment;
+  for (long k = a; k < b; ++k) {
+    times.push_back(t[std::size_t(k)] - t[std::size_t(a)]);
+    segment.push_back(k == a ? 0 : segment.back() + (gamma[std::size_t(k)] != 0 ? 1 : 0));
+  }
+  InputSignal inputs;
+  if (u.rows() > 0) {
+    inputs.times = times;
+    inputs.values = u.middleCols(a, b - a);
+  }
+  SensitivityOptions o;
+  o.sensitivities = false;
+  o.sim.rtol = o.sim.atol = 1e-9;
+  try {
+    const SensitivityTrajectory run = SimulateSensitivitiesMatched(model, params, unknowns, times, segment, o,
+                                                                   inputs.empty() ? nullptr : &inputs);
+    if (run.ok() && run.trajectory.size() == b - a) return run.trajectory.x;
+  } catch (const std::invalid_argument&) {
+  }
+  return Mat();
+}
+
 // The run's samples into columns [a, a + run size) of `x` (and the band into `sd` with C).
 void Store(const SensitivityTrajectory& run, long a, const Mat* covariance, Mat* x, Mat* sd) {
   for (long k = 0; k < run.trajectory.size(); ++k) {
@@ -102,7 +133,7 @@ FittedOutputs RunFittedModel(const Model& model, const std::vector<double>& t, c
                                             t.size(), y.rows(), K, chain_start.size(), u.cols(), n));
   }
   FittedOutputs out;
-  out.x = out.sd = out.recursive = Mat::Constant(n, K, kNaN);
+  out.x = out.sd = out.recursive = out.matched = Mat::Constant(n, K, kNaN);
   out.in_fit.assign(std::size_t(K), 0);
   if (ModeCount(model.spec()) > 1) out.mode.assign(std::size_t(K), -1);
   const std::vector<std::pair<long, long>> spans = ChainSpans(chain_start, K);
@@ -127,6 +158,10 @@ FittedOutputs RunFittedModel(const Model& model, const std::vector<double>& t, c
     first_fitted = false;
     const SensitivityTrajectory run = RunChain(model, p, r.unknowns, t, u, spans[c], gradients);
     Store(run, a, gradients ? &r.covariance : nullptr, &out.x, &out.sd);
+    const Mat matched = recursive.gamma.size() == std::size_t(K)
+                            ? RunMatched(model, p, r.unknowns, t, u, spans[c], recursive.gamma)
+                            : Mat();
+    out.matched.middleCols(a, b - a) = matched.cols() == b - a ? matched : out.x.middleCols(a, b - a);
     for (long k = 0; k < run.trajectory.size() && !out.mode.empty() && !run.trajectory.q.empty(); ++k)
       out.mode[std::size_t(a + k)] = run.trajectory.q[std::size_t(k)];
     if (run.trajectory.size() < b - a && out.reason.empty()) out.reason = Stopped(c, run, t, a);

@@ -12,7 +12,7 @@
 // sim/sensitivity/sensitivity.hpp), likewise on the first fitted chain only.
 // The recursive run: the recursive estimate (RefineResult::start's α, β, γ) from each chain's first
 // sample (its measured states; a hidden state's start as the identifier had it) and the recursive
-// pass's mode there.
+// pass's mode there. The residuals a figure shows are y − `matched`.
 #pragma once
 
 #include <cstdint>
@@ -38,6 +38,11 @@ struct FittedOutputs {
   // n × K, per sample of the data (the columns of y): NaN in a chain not fitted, after a run that
   // stopped (Zeno, left the domain), and everywhere when the refinement reported no fit.
   Mat x, sd;
+  // n × K: the fitted run read on the detected segments (the recursive pass's gamma), as the
+  // refinement compares it with the data: each segment's flow continued past its jump, so a sample
+  // between a detected jump and the model's own is read on the data's side (SimulateSensitivitiesMatched);
+  // x where that run does not reach every detected segment (the detections are not the model's).
+  Mat matched;
   Mat recursive;  // n × K: the recursive estimate's run (NaN after it stops or where it cannot start)
   std::vector<int> mode;             // the fitted run's mode per sample (−1: none); empty for one mode
   std::vector<std::uint8_t> in_fit;  // 1: the sample is inside its chain's fitted span

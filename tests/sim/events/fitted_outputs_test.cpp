@@ -1,6 +1,7 @@
 // The fitted model over the whole record (sim/events/fitted_outputs.hpp) on the bouncing ball, whose
 // free fall has closed forms: h(t) = h0 − g t²/2 before the first impact at t1 = √(2h0/g); with only
-// x0[h] uncertain (variance s²), sd(h) = s and sd(v) = 0 before it, and se(t1) = s·dt1/dh0 = s/√(2 g h0).
+// x0[h] uncertain (variance s²), sd(h) = s and sd(v) = 0 before it, and se(t1) = s·dt1/dh0 = s/√(2 g h0);
+// a sample detected on the fall's side of the impact is read on the fall continued: h0 − g t²/2 < 0.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -57,6 +58,25 @@ TEST_CASE("fitted outputs: the fitted and recursive runs, the band and the jump'
   CHECK(f.jumps[0].chain == 0);
   CHECK(f.jumps[0].in_fit);
   CHECK(f.mode.empty());  // one mode
+}
+
+TEST_CASE("fitted outputs: the residuals' run reads each sample on its detected segment") {
+  Ball b;
+  const double t1 = std::sqrt(2 * kH0 / kG);
+  const auto k1 = static_cast<long>(std::ceil(t1 / 0.01));  // the first sample after the impact
+  b.recursive.gamma.assign(101, 0);
+  b.recursive.gamma[std::size_t(k1 + 1)] = 1;  // detected one sample late
+  const FittedOutputs f = RunFittedModel(b.model, b.t, b.y, {}, Mat(), b.recursive, b.r);
+  const double tk = b.t[std::size_t(k1)];
+  CHECK(f.x(0, k1) >= 0.0);  // the model's own run: after its impact
+  CHECK(f.matched(0, k1) == Approx(kH0 - kG * tk * tk / 2).margin(1e-7));  // the fall continued below 0
+  CHECK(f.matched(0, k1) < 0.0);
+  CHECK(f.matched(0, k1 - 1) == Approx(f.x(0, k1 - 1)).margin(1e-9));
+  CHECK(f.matched(0, k1 + 1) == Approx(f.x(0, k1 + 1)).margin(1e-7));
+
+  b.recursive.gamma.assign(101, 1);  // more detected segments than the model's jumps: the own run
+  const FittedOutputs g = RunFittedModel(b.model, b.t, b.y, {}, Mat(), b.recursive, b.r);
+  CHECK(g.matched(0, 50) == g.x(0, 50));
 }
 
 TEST_CASE("fitted outputs: the band and se on the first fitted chain only; the fit's span; no fit reported") {
