@@ -250,12 +250,11 @@ def autocorrelation(r, lags, chain=None):
 
 
 def draw_run(fit, run, width):
+    """The figure of one run: a panel per measured then hidden state, the detector's, the residuals'
+    and below them the autocorrelation and the normal quantiles."""
     rows = fit.rows(run)
-    t = fit.trace["t"][rows]
     res = fit.residuals(rows)
     det = fit.detector()
-    modes, _ = fit.modes(run, rows)
-    mode_handles = []
     shown = fit.names + fit.hidden
     top = len(shown) + (det is not None) + (res is not None)
     fig = style.plt.figure(figsize=(style.WIDTHS[width], 1.05 * top + (1.6 if res is not None else 0) + 0.3),
@@ -264,48 +263,14 @@ def draw_run(fit, run, width):
     axes = []
     for i in range(top):
         axes.append(fig.add_subplot(gs[i, :], sharex=axes[0] if axes else None))
-    dets = fit.detections(run)
-    events = fit.fitted_events(run, rows)
-    for i, name in enumerate(shown):
-        ax = axes[i]
-        if name in fit.names:
-            ax.plot(t, fit.y[rows, fit.names.index(name)], ls="none", marker=".", ms=1.5, color="0.55",
-                    label="measured", gid="measured")
-        draw_model(ax, fit, name, rows, t)
-        mark_events(ax, dets, events)
-        if modes and i == 0:
-            mode_handles = mode_ribbon(ax, modes)
-        ax.set_ylabel(name if name in fit.names else f"{name} (hidden)")
+    marks = (fit.detections(run), fit.fitted_events(run, rows))
+    mode_handles = draw_states(axes[:len(shown)], fit, run, rows, shown, marks)
     k = len(shown)
     if det is not None:
-        ax = axes[k]
-        thr = "q" if det == "z" else "tau_hat"
-        stat, limit = fit.trace[det][rows], fit.trace[thr][rows]
-        # Log axis: a statistic or threshold of 0 (a chain's first samples) is not drawn.
-        ax.plot(t, np.where(stat > 0, stat, np.nan), color="0.35", lw=0.6, label="statistic", gid="statistic")
-        ax.plot(t, np.where(limit > 0, limit, np.nan), color=style.COLORS[1], lw=0.9, ls="--", label="threshold",
-                gid="threshold")
-        if np.any(np.r_[stat, limit] > 0):
-            ax.set_yscale("log")
-        mark_events(ax, dets, events)
-        ax.set_ylabel(r"max $|z|$, $q$" if det == "z" else r"$D_{\delta t}\xi$, $\hat\tau$")
+        draw_detector(axes[k], fit, rows, det, marks)
         k += 1
     if res is not None:
-        ax = axes[k]
-        used = fit.in_fit(rows)
-        for i, name in enumerate(fit.names):
-            color = style.COLORS[i % len(style.COLORS)]
-            ax.plot(t, np.where(used, res[i], np.nan), ls="none", marker=".", ms=1.0, alpha=0.6, color=color,
-                    label=name, gid=f"residual_{name}")
-            if not used.all():
-                ax.plot(t, np.where(used, np.nan, res[i]), ls="none", marker=".", ms=1.0, color="0.7",
-                        gid=f"residual_unfitted_{name}")
-        ax.axhline(0, color="black", lw=0.6)
-        mark_events(ax, dets, events)
-        ax.set_ylabel("residual / σ" if any(math.isfinite(fit.sigma(n)) for n in fit.names) else "residual")
-        if len(fit.names) > 1:
-            ax.legend(loc="lower right", bbox_to_anchor=(1.0, 0.98), fontsize=6, markerscale=5, ncol=len(fit.names),
-                      borderaxespad=0.0, handletextpad=0.1)
+        draw_residuals(axes[k], fit, rows, res, marks)
         every = fit.sample_rows()  # the diagnostics pool every run, as the refinement's tests do
         draw_diagnostics(fig.add_subplot(gs[top, 0]), fig.add_subplot(gs[top, 1]), fit, every, fit.residuals(every))
     for ax in axes[:-1]:
@@ -315,6 +280,58 @@ def draw_run(fit, run, width):
     axes[0].legend(handles, [h.get_label() for h in handles], loc="lower left", bbox_to_anchor=(0.0, 0.98),
                    fontsize=6, markerscale=4, ncol=min(len(handles), 3), borderaxespad=0.0, handlelength=1.8)
     return fig
+
+
+def draw_states(axes, fit, run, rows, shown, marks):
+    """Each state's panel: the measured samples, the models' runs, the events; the mode ribbon on the
+    first. Returns the ribbon's legend handles."""
+    t = fit.trace["t"][rows]
+    modes, _ = fit.modes(run, rows)
+    handles = []
+    for i, name in enumerate(shown):
+        ax = axes[i]
+        if name in fit.names:
+            ax.plot(t, fit.y[rows, fit.names.index(name)], ls="none", marker=".", ms=1.5, color="0.55",
+                    label="measured", gid="measured")
+        draw_model(ax, fit, name, rows, t)
+        mark_events(ax, *marks)
+        if modes and i == 0:
+            handles = mode_ribbon(ax, modes)
+        ax.set_ylabel(name if name in fit.names else f"{name} (hidden)")
+    return handles
+
+
+def draw_detector(ax, fit, rows, det, marks):
+    """The detector's statistic against its threshold (log axis: a 0 of a chain's first samples is not
+    drawn)."""
+    t = fit.trace["t"][rows]
+    thr = "q" if det == "z" else "tau_hat"
+    stat, limit = fit.trace[det][rows], fit.trace[thr][rows]
+    ax.plot(t, np.where(stat > 0, stat, np.nan), color="0.35", lw=0.6, label="statistic", gid="statistic")
+    ax.plot(t, np.where(limit > 0, limit, np.nan), color=style.COLORS[1], lw=0.9, ls="--", label="threshold",
+            gid="threshold")
+    ax.set_yscale("log")
+    mark_events(ax, *marks)
+    ax.set_ylabel(r"max $|z|$, $q$" if det == "z" else r"$D_{\delta t}\xi$, $\hat\tau$")
+
+
+def draw_residuals(ax, fit, rows, res, marks):
+    """The normalised residuals against time: coloured where the fit used the sample, grey elsewhere."""
+    t = fit.trace["t"][rows]
+    used = fit.in_fit(rows)
+    for i, name in enumerate(fit.names):
+        color = style.COLORS[i % len(style.COLORS)]
+        ax.plot(t, np.where(used, res[i], np.nan), ls="none", marker=".", ms=1.0, alpha=0.6, color=color,
+                label=name, gid=f"residual_{name}")
+        if not used.all():
+            ax.plot(t, np.where(used, np.nan, res[i]), ls="none", marker=".", ms=1.0, color="0.7",
+                    gid=f"residual_unfitted_{name}")
+    ax.axhline(0, color="black", lw=0.6)
+    mark_events(ax, *marks)
+    ax.set_ylabel("residual / σ" if any(math.isfinite(fit.sigma(n)) for n in fit.names) else "residual")
+    if len(fit.names) > 1:
+        ax.legend(loc="lower right", bbox_to_anchor=(1.0, 0.98), fontsize=6, markerscale=5, ncol=len(fit.names),
+                  borderaxespad=0.0, handletextpad=0.1)
 
 
 def draw_model(ax, fit, name, rows, t):
