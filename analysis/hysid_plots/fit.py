@@ -194,11 +194,14 @@ class Fit:
 
     def modes(self, run, rows):
         """([(t_start, t_end, mode)] of the runs of equal mode inside the run, 'fitted' or 'detected'):
-        the fitted run's (fitted_events.modes), else the detected sequence (automaton.modes)."""
+        the fitted run's (fitted_events.modes), else the detected sequence (automaton.modes); none for a
+        model with one mode."""
         fe = self.report.get("fitted_events") or {}
         spans, which = fe.get("modes"), "fitted"
         if not spans:
             spans, which = (self.report.get("automaton") or {}).get("modes") or [], "detected"
+        if len({m.get("mode") for m in spans}) < 2:  # one mode (jump maps only): no sequence to show
+            return [], which
         t = self.trace["t"]
         t_end = t[rows].max()
         out = []
