@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=
 
-.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-usersys
+.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-usersys example-figures
 
 deps:
 	./scripts/install-deps.sh
@@ -37,3 +37,8 @@ check-sanitize: deps-sanitize
 # with the defaults; fails while the targets are not met. Skipped by a plain `ctest`.
 check-usersys: build
 	HYSID_USERSYS=1 ctest --test-dir $(BUILD_DIR) -L usersys --output-on-failure
+
+# The fit figure of every example (examples/*/fit.png and fit.txt, shown in each README): its README's
+# commands, identify --json --trace, then analysis/hysid_plots fit (scripts/example-figures.sh).
+example-figures:
+	HYSID=$(BUILD_DIR)/bin/hysid OUT=$(BUILD_DIR)/example-figures ./scripts/example-figures.sh

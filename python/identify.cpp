@@ -354,6 +354,35 @@ py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool refin
   return out;
 }
 
+// What a fit figure reads, as `hysid identify --trace` has it per sample (hysid_plots.fit.plot_fit):
+// run, chain, t, missing (0: the samples), the measured samples (samples, measured states) and the
+// fitted model's columns (cli::FitColumns: fit_STATE, sd_STATE, residual_STATE, recursive_STATE, in_fit,
+// mode_fitted).
+py::dict FitTraceDict(const Model& model, const SampleData& data, const std::vector<int>& measured,
+                      const FitOutcome& f) {
+  const auto K = static_cast<long>(data.t.size());
+  const auto size = static_cast<std::size_t>(K);
+  const std::vector<long> chains = cli::ChainNumbers(data);
+  std::vector<double> run(size), chain(size), missing(size, 0.0), cells(size);
+  for (std::size_t k = 0; k < std::size_t(K); ++k) {
+    run[k] = k < data.run.size() ? data.run[k] + 1.0 : 1.0;
+    chain[k] = static_cast<double>(chains[k]);
+  }
+  py::dict out;
+  out["run"] = py::array_t<double>(py::ssize_t(K), run.data());
+  out["chain"] = py::array_t<double>(py::ssize_t(K), chain.data());
+  out["t"] = py::array_t<double>(py::ssize_t(K), data.t.data());
+  out["missing"] = py::array_t<double>(py::ssize_t(K), missing.data());
+  out["measured"] = data.y.rows() == static_cast<Eigen::Index>(measured.size())
+                        ? Transposed(data.y)
+                        : Transposed(Mat(data.y(measured, Eigen::all)));
+  for (const cli::FitColumn& c : cli::FitColumns(model.spec(), measured, data.y, f.step.outputs)) {
+    for (long k = 0; k < K; ++k) cells[std::size_t(k)] = c.cell(k);
+    out[py::str(c.name)] = py::array_t<double>(py::ssize_t(K), cells.data());
+  }
+  return out;
+}
+
 bool IsList(const py::handle& o) { return py::isinstance<py::list>(o) || py::isinstance<py::tuple>(o); }
 
 // y is a list of runs when it is a list or tuple that is not one run's rows (a 2-D array of numbers).
@@ -566,6 +595,8 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
       RunInterruptible<FitOutcome>([job, stop] { return RunFit(job, stop.get()); }, stop);
   py::dict out = FitDict(model, f, args.trace, refine, chains);
   out["report"] = FromJson(f.report);
+  out["fit_trace"] =
+      FitTraceDict(model, job.data, f.partial.measured.empty() ? job.measured : f.partial.measured, f);
   if (!grid) {
     out["t"] = py::array_t<double>(py::ssize_t(job.data.t.size()), job.data.t.data());
     out["run"] = py::array_t<int>(py::ssize_t(job.data.run.size()), job.data.run.data());
@@ -598,7 +629,10 @@ std::string Docstring() {
       "max_gap the per-sample arrays are over the samples used, listed in t and run, with chains and "
       "missing_rows. report: what `hysid identify --json` writes, key for key (docs/outputs.md: settings, "
       "data, detections with their times, chains, truth with truth=, crlb, checks, measured, "
-      "reconstructed, ...). Ctrl-C raises KeyboardInterrupt and stops the refinement.\n\nKeywords:\n";
+      "reconstructed, fitted_events, ...). fit_trace: per sample what `hysid identify --trace` adds after "
+      "the refinement (run, chain, t, missing, measured, fit_STATE, sd_STATE, residual_STATE, "
+      "recursive_STATE, in_fit, mode_fitted), read by hysid_plots.fit.plot_fit(result). Ctrl-C raises "
+      "KeyboardInterrupt and stops the refinement.\n\nKeywords:\n";
   for (const Keyword& k : OwnKeywords())
     doc += fmt::format("  {} = {}: {}\n", k.name, k.default_text, k.help);
   for (const PluginOptionArgument& a : PluginOptionArguments()) {

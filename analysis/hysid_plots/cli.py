@@ -61,11 +61,11 @@ def run_list(text):
     return out
 
 
-def figure_options(p, paper=False):
+def figure_options(p, paper=False, width="double"):
     p.add_argument("--format", type=formats, default=["png"], metavar="pdf|svg|png[,...]",
                    help="file format(s), e.g. pdf,png (default png)")
-    p.add_argument("--width", choices=["single", "double"], default="double",
-                   help="single column (3.5 in) or full width (7.16 in) of a two-column paper (default double)")
+    p.add_argument("--width", choices=["single", "double"], default=width,
+                   help=f"single column (3.5 in) or full width (7.16 in) of a two-column paper (default {width})")
     p.add_argument("--dpi", type=int, default=300, help="resolution of PNG files (default 300)")
     p.add_argument("--out", default=None, help="output directory (default RUN_DIR" + ("" if paper else "/figures")
                    + ")")
@@ -90,14 +90,15 @@ def parser():
                                      "`hysid reproduce example6`), whichever CSVs RUN_DIR holds")
     p.add_argument("run_dir", metavar="RUN_DIR", nargs="?", default="results/paper")
     figure_options(p, paper=True)
-    p = sub.add_parser("fit", help="the figure of one identification: measured outputs, fitted model, events, "
+    p = sub.add_parser("fit", help="the figure of one identification: measured outputs with the fitted model, "
+                                   "events with their standard errors, modes, hidden states with a band, "
                                    "detector, residuals with their autocorrelation and normal quantiles",
                        description="RUN: an `identify --json` report REPORT.json (its trace beside it: REPORT.csv) "
                                    "or their common prefix P (P.json, P.csv)")
     p.add_argument("run", metavar="RUN")
     p.add_argument("--runs", type=run_list, default=None, metavar="N[,N...]",
                    help="the runs of the data to draw, one figure each (default: the first 3)")
-    figure_options(p, paper=True)
+    figure_options(p, paper=True, width="single")
     p = sub.add_parser("table", help="the summary as a paper table (mean [95 %% interval] per cell)")
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md")

@@ -20,9 +20,11 @@
 #include "core/model/registry.hpp"
 #include "experiments/cli/checks.hpp"
 #include "sim/events/fitted_events.hpp"
+#include "sim/events/fitted_outputs.hpp"
 #include "sim/refine/refine.hpp"
 #include "sim/sensitivity/crlb.hpp"
 #include "sim/simulator.hpp"
+#include "experiments/sweep/progress.hpp"
 
 namespace hysid::cli {
 
@@ -51,6 +53,8 @@ class RunFailed : public std::runtime_error {
 
 // A bad flag value: `what` names the flag, e.g. "--dt = -1: must be > 0".
 [[noreturn]] void BadFlag(const std::string& what);
+// --progress: auto, bar, lines or none (BadFlag naming the flag otherwise).
+Progress::Mode ProgressFlag(const std::string& text);
 
 // Builds a model from its name and "name=value" assignments; errors name --model / --param.
 Model MakeModel(const Environment& env, const std::string& name, const std::vector<std::string>& params);
@@ -131,7 +135,8 @@ void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleDat
 // `report`: the recursive run's part of --json (RecursiveJson, identify_output.hpp).
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
-                    const PartialOutputs& partial = {});
+                    const PartialOutputs& partial = {}, const std::string& trace = "",
+                    StageProgress* progress = nullptr);
 
 // What RefineAndReport computes and reports, for a caller with its own output (the Python module).
 // The truth the estimates are compared with: the simulation's x0 and σ (the command line: from the
@@ -146,6 +151,7 @@ struct RefineStep {
   Crlb bound;              // at the truth (not ok without one)
   HybridParameters truth;
   FittedEvents fitted;     // a hybrid automaton refined (--refine ml): its events' times from the fit
+  FittedOutputs outputs;   // the fitted and the recursive model run over the whole record (--trace, --json)
   // Notes, not refusals: an estimate kUnitsFactor times or more larger or smaller in magnitude than its
   // start value (the model's value) says "check the units" (printed, --json `notes`, Python `notes`).
   std::vector<std::string> notes;
@@ -158,7 +164,8 @@ std::vector<std::string> UnitNotes(const Model& model, const HybridParameters& e
 // `stop` (may be null) ends the refinement early (RefineOptions::stop).
 RefineStep RunRefineStep(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                          const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial,
-                         const Truth& truth, const std::atomic<bool>* stop = nullptr);
+                         const Truth& truth, const std::atomic<bool>* stop = nullptr,
+                         StageProgress* progress = nullptr);
 // --json: `report` (RecursiveJson) with the refinement's part.
 nlohmann::json RefineJson(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                           const RefineArgs& args, const nlohmann::json& report, const PartialOutputs& partial,

@@ -309,4 +309,12 @@ Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero) {
   return CheckedSigma(values, states, allow_zero, Spelling::kFlag);
 }
 
+Progress::Mode ProgressFlag(const std::string& text) {
+  if (text == "auto") return Progress::Mode::kAuto;
+  if (text == "bar") return Progress::Mode::kBar;
+  if (text == "lines") return Progress::Mode::kLines;
+  if (text == "none") return Progress::Mode::kNone;
+  BadFlag(fmt::format("--progress = '{}': expected auto, bar, lines or none", Abbreviated(text, 40)));
+}
+
 }  // namespace hysid::cli

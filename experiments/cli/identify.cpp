@@ -52,6 +52,7 @@ struct IdentifyArgs {
   bool data_accuracy_given = false;  // --data-rtol or --data-atol on the command line
   std::string trace;
   std::string hulls;
+  std::string progress = "auto";  // --progress
   RefineArgs refine;  // --refine, --json (identify_refine.cpp)
 };
 
@@ -521,9 +522,12 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   options.trace = !args.trace.empty();
   options.statistics = options.trace;  // the detector's statistic and threshold: only the trace shows them
   CheckOutputs(args);
+  StageProgress progress("identify", ProgressFlag(args.progress));
+  progress.Stage("recursive pass");
   std::vector<double> kinks;
   const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
   IdentifyResult result = IdentifyData(model, settings, data, options);
+  progress.Clear();
   if (!partial.reconstructed.empty() && options.statistics) {  // the detector's statistic is the kinks'
     result.statistic = kinks;
     result.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
@@ -541,7 +545,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
   const nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
   ReleaseReported(data, result);
-  const int code = RefineAndReport(model, data, result, sigma, args.refine, report, partial);
+  const int code = RefineAndReport(model, data, result, sigma, args.refine, report, partial, args.trace, &progress);
   if (code == 0 && args.refine.refine == "none" &&
       (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
     throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
@@ -612,8 +616,13 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
           ->capture_default_str();
   cmd->add_option("--trace", args->trace,
                   "CSV, one row per data row: run, chain, line, t, missing, the detector's statistic and "
-                  "threshold, gamma, estimates (docs/outputs.md)");
+                  "threshold, gamma, estimates; after the refinement the fitted model's run over the record, "
+                  "its band, residuals and the recursive estimate's run (docs/outputs.md)");
   cmd->add_option("--hulls", args->hulls, "CSV of the hull vertices of C^ and D^");
+  cmd->add_option("--progress", args->progress,
+                  "auto (a line on stderr when it is a terminal and the work takes over 1 s: stage, fit, "
+                  "iteration, cost), bar, lines (one every 10 s), none")
+      ->capture_default_str();
   cmd->callback([args, &env, rtol_option, atol_option, option_flags] {
     args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;
     for (const auto& [flag, option] : option_flags) {

@@ -5,11 +5,14 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <fstream>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "core/identify/metrics.hpp"
+#include "core/model/automaton.hpp"
 #include "core/io/csv.hpp"
 #include "core/sets/set_metrics.hpp"
 #include "experiments/cli/identify_events.hpp"
@@ -255,6 +258,94 @@ void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDe
   csv.Commit();
   std::printf("wrote %s (%zu rows: %zu samples, %zu rows with a missing value)\n", path.c_str(),
               samples + data.missing.size(), samples, data.missing.size());
+}
+
+std::vector<FitColumn> FitColumns(const ModelSpec& spec, const std::vector<int>& measured, const Mat& y,
+                                  const FittedOutputs& f) {
+  const auto& names = spec.state_names;
+  std::vector<FitColumn> cols;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    cols.push_back({"fit_" + names[i], [&f, i](long k) { return f.x(Eigen::Index(i), k); }});
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    cols.push_back({"sd_" + names[i], [&f, i](long k) { return f.sd(Eigen::Index(i), k); }});
+  }
+  const bool full = y.rows() == static_cast<Eigen::Index>(names.size());
+  for (std::size_t r = 0; r < measured.size(); ++r) {
+    const int i = measured[r];
+    const Eigen::Index row = full ? i : Eigen::Index(r);
+    cols.push_back(
+        {"residual_" + names[std::size_t(i)], [&f, &y, i, row](long k) { return y(row, k) - f.matched(i, k); }});
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    cols.push_back({"recursive_" + names[i], [&f, i](long k) { return f.recursive(Eigen::Index(i), k); }});
+  }
+  cols.push_back({"in_fit", [&f](long k) { return double(f.in_fit[std::size_t(k)]); }});
+  if (!f.mode.empty()) {
+    cols.push_back({"mode_fitted", [&f](long k) {
+                      return f.mode[std::size_t(k)] >= 0 ? double(f.mode[std::size_t(k)]) : kNan;
+                    }});
+  }
+  return cols;
+}
+
+void AppendFitColumns(const std::string& path, const ModelSpec& spec, const std::vector<int>& measured,
+                      const Mat& y, const FittedOutputs& f) {
+  const std::vector<FitColumn> cols = FitColumns(spec, measured, y, f);
+  // The trace is hysid's own file: one record per line, cells of numbers (nan, inf included) after
+  // the header; each line is kept as written and the new cells appended.
+  std::ifstream in(path);
+  std::string line;
+  if (!std::getline(in, line)) throw std::runtime_error(fmt::format("{}: cannot read the trace back", path));
+  std::vector<std::string> header = SplitCsvLine(line, path, 1);
+  const auto at = std::find(header.begin(), header.end(), "missing");
+  const auto missing = static_cast<std::size_t>(at - header.begin());
+  for (const FitColumn& c : cols) header.push_back(c.name);
+  CsvWriter csv(path, header);
+  long k = 0, line_no = 1;
+  std::vector<double> row;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> cells_in = SplitCsvLine(line, path, ++line_no);
+    row.clear();
+    for (const std::string& c : cells_in) row.push_back(std::strtod(c.c_str(), nullptr));
+    const bool left_out = missing < cells_in.size() && cells_in[missing] == "1";
+    for (const FitColumn& c : cols) row.push_back(left_out || k >= f.x.cols() ? kNan : c.cell(k));
+    if (!left_out) ++k;
+    csv.Row(row);
+  }
+  if (k != f.x.cols()) {  // an internal invariant: the trace was written from these samples
+    throw std::logic_error(fmt::format("{}: {} samples in the trace, {} fitted", path, k, f.x.cols()));
+  }
+  csv.Commit();
+}
+
+nlohmann::json FittedEventsJson(const ModelSpec& spec, const std::vector<double>& t, const FittedOutputs& f) {
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+  const bool automaton = IsAutomaton(spec);
+  const std::vector<JumpMap> maps = automaton ? JumpMaps(spec) : std::vector<JumpMap>{};
+  auto mode_name = [&](int q) {
+    return q >= 0 && q < static_cast<int>(spec.modes.size()) ? nlohmann::json(spec.modes[std::size_t(q)])
+                                                              : nlohmann::json(q);
+  };
+  nlohmann::json jumps = nlohmann::json::array();
+  for (const FittedJump& j : f.jumps) {
+    nlohmann::json e = {{"t", j.time}, {"se", number(j.se)}, {"chain", j.chain + 1}, {"in_fit", j.in_fit}};
+    if (automaton) {
+      e["map"] = j.map >= 0 && j.map < static_cast<int>(maps.size()) ? nlohmann::json(maps[std::size_t(j.map)].name)
+                                                                    : nlohmann::json();
+      e["mode_after"] = mode_name(j.mode_after);
+    }
+    jumps.push_back(e);
+  }
+  nlohmann::json modes = nlohmann::json::array();
+  for (std::size_t k = 0; k < f.mode.size(); ++k) {
+    if (f.mode[k] >= 0 && (k == 0 || f.mode[k] != f.mode[k - 1]))
+      modes.push_back({{"first_sample", k}, {"t", t[k]}, {"mode", mode_name(f.mode[k])}});
+  }
+  return {{"jumps", jumps},
+          {"modes", f.mode.empty() ? nlohmann::json() : modes},
+          {"reason", f.reason},
+          {"recursive_reason", f.recursive_reason}};
 }
 
 void WriteHulls(const std::string& path, const ModelSpec& spec, const IdentifyResult& result) {

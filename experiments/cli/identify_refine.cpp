@@ -12,9 +12,11 @@
 #include "core/io/files.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/cli/identify_events.hpp"
+#include "experiments/cli/identify_output.hpp"
 #include "sim/input_signal.hpp"
 #include "core/model/automaton.hpp"
 #include "sim/refine/refine.hpp"
+#include "sim/refine/solver_progress.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -259,7 +261,7 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
 
 RefineStep RunRefineStep(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                          const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial,
-                         const Truth& truth, const std::atomic<bool>* stop) {
+                         const Truth& truth, const std::atomic<bool>* stop, StageProgress* progress) {
   RefineStep s;
   s.options.stop = stop;
   s.known = X0KnownFlag(args.x0_known, model);
@@ -269,6 +271,10 @@ RefineStep RunRefineStep(const Model& model, const SampleData& data, const Ident
   s.options.x0_known = s.known;
   if (!s.known.empty()) s.options.x0 = InitialStateFlag(args.x0, model, FirstSample(data));
   if (args.refine == "ml") {
+    if (progress != nullptr) progress->Stage("refinement");
+    const ScopedSolverProgress watch([progress](int fit, int iteration, double cost) {
+      if (progress != nullptr) progress->Iteration(fit, iteration, cost);
+    });
     r = RunRefinement(model, data, recursive, s.options);
   } else {
     r.unknowns = Unknowns::Of(model);
@@ -280,7 +286,10 @@ RefineStep RunRefineStep(const Model& model, const SampleData& data, const Ident
   s.bound = TruthBound(model, truth, used, data, partial.measured.empty() ? MeasuredIndices(model) : partial.measured,
                        s.known);
   s.truth = HybridParameters::Of(model, truth.x0);
+  if (progress != nullptr) progress->Stage("the fitted model over the record");
   if (args.refine == "ml" && IsAutomaton(model.spec())) s.fitted = FittedEventsOf(model, data, recursive, r);
+  s.outputs = RunFittedModel(model, data.t, data.y, data.chain_start, data.u, recursive, r);
+  if (progress != nullptr) progress->Clear();
   s.notes = UnitNotes(model, r.estimate);
   return s;
 }
@@ -322,6 +331,7 @@ nlohmann::json RefineJson(const Model& model, const SampleData& data, const Iden
   if (step.bound.ok())
     j["crlb_sd"] = std::vector<double>(step.bound.sd.data(), step.bound.sd.data() + step.bound.sd.size());
   j["crlb"] = CrlbJson(r, step.truth, step.bound);
+  j["fitted_events"] = FittedEventsJson(model.spec(), data.t, step.outputs);
   // The states the data held, those reconstructed as the recursive pass's start, and x0 held.
   auto named = [&](const std::vector<int>& indices) {
     std::vector<std::string> out;
@@ -338,9 +348,9 @@ nlohmann::json RefineJson(const Model& model, const SampleData& data, const Iden
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
-                    const PartialOutputs& partial) {
+                    const PartialOutputs& partial, const std::string& trace, StageProgress* progress) {
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
-  const RefineStep step = RunRefineStep(model, data, recursive, sigma, args, partial, truth);
+  const RefineStep step = RunRefineStep(model, data, recursive, sigma, args, partial, truth, nullptr, progress);
   const RefineResult& r = step.result;
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, step.truth, step.bound);
@@ -351,6 +361,11 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                 CrlbMeanErrors(r.unknowns, step.bound, 4).c_str());
   }
   if (args.refine == "ml" && IsAutomaton(model.spec())) PrintFittedEvents(model, recursive, step.fitted);
+  if (!trace.empty()) {
+    AppendFitColumns(trace, model.spec(), partial.measured.empty() ? MeasuredIndices(model) : partial.measured,
+                     data.y, step.outputs);
+    std::printf("wrote %s: the fitted model's columns added (fit_, sd_, residual_, recursive_)\n", trace.c_str());
+  }
   if (!args.json.empty()) {
     const nlohmann::json j = RefineJson(model, data, recursive, args, report, partial, step);
     WriteFileAtomically(args.json, j.dump(2) + "\n");

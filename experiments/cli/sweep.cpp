@@ -90,17 +90,7 @@ void RunSweepCommand(const SweepArgs& args, const Environment& env) {
   if (args.threads < 0) BadFlag(fmt::format("--threads = {}: must be ≥ 1 (0: all cores)", args.threads));
   options.threads = args.threads;
   options.shard = ParseShard(args.shard);
-  if (args.progress == "auto") {
-    options.progress = Progress::Mode::kAuto;
-  } else if (args.progress == "bar") {
-    options.progress = Progress::Mode::kBar;
-  } else if (args.progress == "lines") {
-    options.progress = Progress::Mode::kLines;
-  } else if (args.progress == "none") {
-    options.progress = Progress::Mode::kNone;
-  } else {
-    BadFlag(fmt::format("--progress = '{}': expected auto, bar, lines or none", args.progress));
-  }
+  options.progress = ProgressFlag(args.progress);
   if (!args.dry_run) {
     CheckOutputDirectory("--out", options.out);
   } else if (std::error_code ec;

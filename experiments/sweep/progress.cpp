@@ -84,4 +84,79 @@ void Progress::Print(bool final) {
   std::fflush(stderr);
 }
 
+StageProgress::StageProgress(std::string label, Progress::Mode mode, double delay, double line_interval)
+    : label_(std::move(label)),
+      mode_(mode),
+      delay_(delay),
+      line_interval_(line_interval),
+      start_(std::chrono::steady_clock::now()),
+      last_line_(start_) {
+  if (mode_ == Progress::Mode::kAuto) mode_ = ::isatty(STDERR_FILENO) ? Progress::Mode::kBar : Progress::Mode::kNone;
+  if (mode_ != Progress::Mode::kNone) thread_ = std::thread([this] { Loop(); });
+}
+
+StageProgress::~StageProgress() {
+  if (!thread_.joinable()) return;
+  {
+    const std::lock_guard lock(mutex_);
+    stop_ = true;
+    Erase();
+  }
+  cv_.notify_all();
+  thread_.join();
+}
+
+void StageProgress::Stage(std::string stage) {
+  const std::lock_guard lock(mutex_);
+  stage_ = std::move(stage);
+  fit_ = 0;
+  iteration_ = -1;
+}
+
+void StageProgress::Iteration(int fit, int iteration, double cost) {
+  const std::lock_guard lock(mutex_);
+  fit_ = fit;
+  iteration_ = iteration;
+  cost_ = cost;
+}
+
+void StageProgress::Clear() {
+  const std::lock_guard lock(mutex_);
+  stage_.clear();
+  Erase();
+}
+
+void StageProgress::Loop() {
+  std::unique_lock lock(mutex_);
+  while (!cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return stop_; })) Draw();
+}
+
+void StageProgress::Draw() {
+  const auto now = std::chrono::steady_clock::now();
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  if (stage_.empty() || elapsed < delay_) return;
+  if (mode_ == Progress::Mode::kLines &&
+      std::chrono::duration<double>(now - last_line_).count() < line_interval_) {
+    return;
+  }
+  std::string text = fmt::format("{}: {}", label_, stage_);
+  if (iteration_ >= 0) text += fmt::format(", fit {}, iteration {}, cost {:.6g}", fit_, iteration_, cost_);
+  text += fmt::format(", elapsed {}", Duration(elapsed));
+  if (mode_ == Progress::Mode::kBar) {
+    std::fprintf(stderr, "\r%s\033[K", text.c_str());
+    drawn_ = true;
+  } else {
+    std::fprintf(stderr, "progress: %s\n", text.c_str());
+    last_line_ = now;
+  }
+  std::fflush(stderr);
+}
+
+void StageProgress::Erase() {
+  if (!drawn_) return;
+  std::fprintf(stderr, "\r\033[K");
+  std::fflush(stderr);
+  drawn_ = false;
+}
+
 }  // namespace hysid

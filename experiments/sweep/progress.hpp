@@ -52,4 +52,38 @@ class Progress {
   std::thread thread_;
 };
 
+// The stage of one long computation (an identification) on one line of stderr, redrawn every 250 ms
+// ("identify: refinement, fit 3, iteration 12, cost 1234.5, 4s"), shown only once the work has run
+// `delay` seconds: kBar (kAuto when stderr is a terminal) redraws the line, kLines prints it every
+// `line_interval` seconds, kNone (kAuto when stderr is not a terminal) prints nothing. Clear() erases
+// the line before the caller prints (it is drawn again at the next Stage). Thread-safe.
+class StageProgress {
+ public:
+  StageProgress(std::string label, Progress::Mode mode, double delay = 1.0, double line_interval = 10.0);
+  ~StageProgress();  // erases the line
+  StageProgress(const StageProgress&) = delete;
+  StageProgress& operator=(const StageProgress&) = delete;
+
+  void Stage(std::string stage);                    // a new stage: its fit, iteration and cost forgotten
+  void Iteration(int fit, int iteration, double cost);
+  void Clear();                                     // no stage: the line erased
+
+ private:
+  void Loop();
+  void Draw();   // under mutex_
+  void Erase();  // under mutex_
+
+  std::string label_;
+  Progress::Mode mode_;
+  double delay_, line_interval_;
+  std::chrono::steady_clock::time_point start_, last_line_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool stop_ = false, drawn_ = false;
+  std::string stage_;
+  int fit_ = 0, iteration_ = -1;
+  double cost_ = 0.0;
+  std::thread thread_;
+};
+
 }  // namespace hysid

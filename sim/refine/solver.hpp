@@ -9,7 +9,9 @@
 namespace hysid {
 
 // Levenberg–Marquardt with RefineOptions' iteration budget and tolerances, one thread, and Ceres'
-// own logging silenced (glog's threshold raised once per process: a fit's outcome is its status).
+// own logging silenced (glog's threshold raised once per process: a fit's outcome is its status);
+// with a ScopedSolverProgress on this thread (sim/refine/solver_progress.hpp), each iteration is
+// handed to it.
 ceres::Solver::Options LevenbergMarquardt(const RefineOptions& options);
 
 }  // namespace hysid

@@ -300,6 +300,7 @@ def cases():
         ("sweep: --shard 0/2", ["sweep", "ok.toml", "--shard", "0/2", "--out", "run"]),
         ("sweep: --threads -1", ["sweep", "ok.toml", "--threads", "-1", "--out", "run"]),
         ("sweep: --progress fancy", ["sweep", "ok.toml", "--progress", "fancy", "--out", "run"]),
+        ("identify: --progress fancy", ["identify", "--data", "sim.csv", "--progress", "fancy"]),
         ("sweep: HYSID_MAX_TRIALS=many", ["env:HYSID_MAX_TRIALS=many", "sweep", "ok.toml", "--out", "run"]),
         ("sweep: another sweep's journal (sweep.json deleted)", ["sweep", "ok.toml", "--out", "foreign"]),
         ("sweep: a foreign row in the journal", ["sweep", "ok.toml", "--out", "forged"]),
