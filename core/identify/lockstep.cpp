@@ -142,7 +142,7 @@ Eigen::Index StepTogether(detail::FlowRunUnit<A>* const* units, const double* xs
     const double f0 = phi[2 * k], f1 = phi[2 * k + 1], yk = y[k];
     if (!(std::isfinite(f0) && std::isfinite(f1) && std::isfinite(yk))) break;
     const double c0 = xs[2 * k], c1 = xs[2 * k + 1];
-    const detail::PairTerms2 pair = detail::PairTerms2::Of(p0, p1, c0, c1, inv_dt, homogeneous);
+    const detail::PairTerms pair = detail::PairTerms::Of(p0, p1, c0, c1, inv_dt, homogeneous);
     seen = true;
     norm = pair.cur_norm;
 #pragma GCC unroll 8
