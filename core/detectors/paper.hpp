@@ -120,9 +120,10 @@ struct PairTerms {
   return d2 > half_r * half_r * l2 * s * s;
 }
 // The decision with its statistic D and threshold τ̂ (l = L̂ = √l2, computed off that chain).
-[[gnu::always_inline]] inline Decision PaperDecision(const PairTerms& pair, double half_r, double l2, double l,
-                                                     double s) {
-  return {.gamma = PaperFlags(pair.d2, half_r, l2, s), .statistic = pair.statistic, .threshold = half_r * l * s};
+[[gnu::always_inline]] inline Decision PaperDecision(const PairTerms& pair, double half_r, double l2,
+                                                     double l, double s) {
+  return {
+      .gamma = PaperFlags(pair.d2, half_r, l2, s), .statistic = pair.statistic, .threshold = half_r * l * s};
 }
 
 // ClassifyConstant<2, true>'s state and arithmetic for two states, one identified row and A = |α|
@@ -341,10 +342,11 @@ class PaperDetector final : public JumpDetector {
   // The pair's terms, and ‖ξ(t−δt)‖ in the bound's norm: the previous call's ‖ξ(t)‖ when the pairs
   // are consecutive.
   template <int N = 0>
-  [[gnu::always_inline]] detail::PairTerms Prologue(const double* prev, const double* cur, Eigen::Index n_dynamic,
-                                            double dt, double* prev_norm) {
+  [[gnu::always_inline]] detail::PairTerms Prologue(const double* prev, const double* cur,
+                                                    Eigen::Index n_dynamic, double dt, double* prev_norm) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
-    const detail::PairTerms pair = detail::PairTerms::Of<N>(prev, cur, n, 1.0 / dt, mode_ == BoundMode::kHomogeneous);
+    const detail::PairTerms pair =
+        detail::PairTerms::Of<N>(prev, cur, n, 1.0 / dt, mode_ == BoundMode::kHomogeneous);
     bool consecutive = last_n_ == n;
     for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = last_x_[i] == prev[i];
     *prev_norm = consecutive ? last_norm_ : BoundNorm(prev, n, mode_);

@@ -178,8 +178,8 @@ Decision ResidualDetector::Classify(const SampleContext& c) {
         [&](Eigen::Index j) { return c.alpha_hat[unknown_[static_cast<std::size_t>(j)]]; },
         [&](Eigen::Index a, Eigen::Index b) { return (*p)(a, b); }, p != nullptr);
     RowTerms terms;
-    const double z2 = RowStatistic(i, c.flow_y[ii] - fit.pred, fit.lev, fit.magnitude, c.prev.data(), c.cur.data(),
-                                   c.flow_y[ii], known_noise, &terms);
+    const double z2 = RowStatistic(i, c.flow_y[ii] - fit.pred, fit.lev, fit.magnitude, c.prev.data(),
+                                   c.cur.data(), c.flow_y[ii], known_noise, &terms);
     rho2_[i] = terms.rho2;  // for Observe (noise_[i] is set)
     lev_[i] = terms.lev;
     round2_[i] = terms.round2;

@@ -160,10 +160,11 @@ class ResidualDetector final : public JumpDetector {
     if (!Activate(flow_updates)) return {};
     if (noise.known) NoiseVarianceDirect<N>(prev, cur, n, dt, alpha_hat, version, noise);
     const RowFit fit = FitRow<M>(
-        static_cast<Eigen::Index>(unknown_.size()), [&](Eigen::Index j) { return phi[j]; }, alpha_u, cov, has_cov);
+        static_cast<Eigen::Index>(unknown_.size()), [&](Eigen::Index j) { return phi[j]; }, alpha_u, cov,
+        has_cov);
     RowTerms terms;
-    const double z2max =
-        std::max(0.0, RowStatistic(0, y - fit.pred, fit.lev, fit.magnitude, prev, cur, y, noise.known, &terms));
+    const double z2max = std::max(
+        0.0, RowStatistic(0, y - fit.pred, fit.lev, fit.magnitude, prev, cur, y, noise.known, &terms));
     const Decision d = Decide(z2max);
     UpdateRowScale(0, terms, ScaleWeight());  // UpdateScale for the one row, its terms not stored
     ++scale_samples_;

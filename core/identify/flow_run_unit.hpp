@@ -1,9 +1,10 @@
 // One identifier's flow run in local variables: RLS for two unknowns (detail::Rls2State) beside the
 // paper detector on a constant flow Jacobian (detail::PaperConstant2<A>, A = |α|), with the counters
-// the run adds to the identifier when it ends. Identifier::BeginFlowRun fills it and EndFlowRun
-// writes it back; IdentifyLockstep (core/identify/lockstep.hpp) steps several of them side by side
-// over the same samples, the pair's terms computed once for all. Step is the loop body of
-// Identifier::FlowRun: the same operations in the same order, so the same bits.
+// the run adds to the identifier when it ends. BeginFlowRun fills it and EndFlowRun writes it back
+// (core/identify/lockstep_units.hpp); IdentifyLockstep (core/identify/lockstep.hpp) steps several of
+// them side by side over the same samples, the pair's terms computed once for all. Step is the loop
+// body of the identifier's FlowRun (core/identify/row_block.cpp): the same operations in the same
+// order, so the same bits. Not installed.
 #pragma once
 
 #include "core/detectors/detector.hpp"
