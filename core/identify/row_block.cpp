@@ -50,6 +50,18 @@ struct ResidualInputs {
   Row2Estimate frozen_row;
 };
 
+// A row block's ResidualInputs, with the residual detector called directly; nothing otherwise (an
+// empty std::optional<ResidualInputs> in their place is zeroed at every call, Step's too).
+struct NoInputs {};
+template <DetectorCall kCall>
+[[gnu::always_inline]] inline auto InputsOf(const IdentifierState& s, Eigen::Index n, bool local) {
+  if constexpr (kCall == kResidualDirect) {
+    return ResidualInputs(s, n, local);
+  } else {
+    return NoInputs{};
+  }
+}
+
 // The residual detector's decision on sample x (classified and observed; the update, which Observe
 // does not read, comes after, as Context's covariance pointer is taken before it).
 template <int N, int P, bool kLocal, class E>
@@ -185,8 +197,7 @@ Eigen::Index RowBlock(IdentifierState& s, const double* xs, Eigen::Index count, 
   constexpr bool kLocal = kCall != kInterface && std::is_same_v<E, Rls> && P == 2;
   [[maybe_unused]] Rls2State local{};
   if constexpr (kLocal) local = est->Load2();
-  [[maybe_unused]] std::optional<ResidualInputs> inputs;
-  if constexpr (kCall == kResidualDirect) inputs.emplace(s, n, kLocal);
+  [[maybe_unused]] const auto inputs = InputsOf<kCall>(s, n, kLocal);
   // A flow run is tried again only after a flow sample of the per-sample path: where most samples are
   // jumps (a small r), runs would end at once. Fewer than kMinFlowRun samples left (Step feeds one):
   // loading and storing the state would cost more than the run saves.
@@ -220,7 +231,7 @@ Eigen::Index RowBlock(IdentifierState& s, const double* xs, Eigen::Index count, 
                                                  s.frozen ? s.frozen_updates : est->updates());
         }
       } else {
-        d = ClassifyResidual<N, P, kLocal>(s, est, *inputs, local, x, n, dt, phi + k * u, y[k]);
+        d = ClassifyResidual<N, P, kLocal>(s, est, inputs, local, x, n, dt, phi + k * u, y[k]);
       }
       if (d.gamma && s.stop_at_jumps) [[unlikely]] {  // StopAtJumps: classified, not counted, not applied
         s.stopped = d;
