@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=
 
-.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-usersys example-figures
+.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-usersys example-figures check-bench
 
 deps:
 	./scripts/install-deps.sh
@@ -42,3 +42,8 @@ check-usersys: build
 # commands, identify --json --trace, then analysis/hysid_plots fit (scripts/example-figures.sh).
 example-figures:
 	HYSID=$(BUILD_DIR)/bin/hysid OUT=$(BUILD_DIR)/example-figures ./scripts/example-figures.sh
+
+# The identification step's regression guard (BENCHMARKS.md): BM_IdentifyStep ÷
+# BM_IdentifyStepFusedReference ≤ 1.6 on an idle machine; fails above. Skipped by a plain `ctest`.
+check-bench: build
+	HYSID_BENCH_GUARD=1 ctest --test-dir $(BUILD_DIR) -L bench --output-on-failure

@@ -24,29 +24,70 @@ Mat PaperSamples(double sigma) {
   return AddMeasurementNoise(traj.x, Vec::Constant(2, sigma), NoiseKey{1, 0});
 }
 
+// One case of the identification step on the §5 run: which settings, and how the samples are fed.
+struct StepCase {
+  const char* name;
+  const char* detector = "paper";
+  double sigma = 0.0;        // measurement noise of the samples
+  bool sets = false;         // Algorithm 2's sample sets and hulls
+  bool known_sigma = false;  // σ given to the identifier
+  bool localize = false;     // sub-sample jump localisation
+  const char* estimator = "rls";
+  bool data_accuracy = false;  // the simulator's tolerances as the data's accuracy (as in sweeps)
+  bool one_at_a_time = false;  // one Identifier::Step call per sample instead of Feed
+  bool model_file = false;     // models/impact-msd.toml (muParser) instead of the built-in struct
+};
+
+// Every BM_IdentifyStep* case but the references below, registered in main. The paper detector has
+// r = 220 and the estimator is RLS for α and β unless a case says otherwise; no sample sets.
+const StepCase kStepCases[] = {
+    {.name = "BM_IdentifyStep"},
+    // One Identifier::Step call per sample (an application feeding samples as they come).
+    {.name = "BM_IdentifyStepOneAtATime", .one_at_a_time = true},
+    // The §5 model read from its model file (expressions evaluated by muParser).
+    {.name = "BM_IdentifyStepModelFile", .model_file = true},
+    // The integral estimator for α in place of RLS (β: rls), through the estimator interface.
+    {.name = "BM_IdentifyStepIntegral", .estimator = "integral"},
+    // Algorithm 2 (incremental hulls of Λ and Γ).
+    {.name = "BM_IdentifyStepWithHulls", .sets = true},
+    // Noisy samples (σ = 0.25): the hull of Λ keeps growing at the edges.
+    {.name = "BM_IdentifyStepWithHullsNoisy", .sigma = 0.25, .sets = true},
+    // The tuning-free residual detector in place of the paper's.
+    {.name = "BM_IdentifyStepResidual", .detector = "residual"},
+    // As in sweeps: σ not given, the simulator's tolerances as the data's accuracy (propagated
+    // through the flow Jacobian every sample, like a known σ).
+    {.name = "BM_IdentifyStepResidualDataAccuracy",
+     .detector = "residual",
+     .sigma = 0.25,
+     .data_accuracy = true},
+    // σ = 0.25 given: the noise is propagated through the flow Jacobian every sample.
+    {.name = "BM_IdentifyStepResidualKnownSigma", .detector = "residual", .sigma = 0.25, .known_sigma = true},
+    // The paper detector on the same noisy samples, for the comparison above.
+    {.name = "BM_IdentifyStepNoisy", .sigma = 0.25},
+    // The residual detector with jump localisation (14 located jumps per run).
+    {.name = "BM_IdentifyStepResidualLocalized", .detector = "residual", .localize = true},
+};
+
 // One iteration = a whole 40001-sample run through Identifier::Feed (the path of Identify, hence of
 // `hysid identify`, reproduce and sweeps), or one Identifier::Step call per sample; the counter is
 // per sample.
-void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char* detector = "paper",
-                   bool known_sigma = false, bool localize = false, const std::string& estimator = "rls",
-                   bool data_accuracy = false, bool one_at_a_time = false, bool model_file = false) {
-  // The built-in C++ struct, or the same model from models/impact-msd.toml (muParser).
-  const Model model = model_file ? LoadModelFile(HYSID_MODELS_DIR "/impact-msd.toml") : Model{ImpactMsd{}};
-  const Mat y = PaperSamples(sigma);
+void RunIdentifier(benchmark::State& state, const StepCase& c) {
+  const Model model = c.model_file ? LoadModelFile(HYSID_MODELS_DIR "/impact-msd.toml") : Model{ImpactMsd{}};
+  const Mat y = PaperSamples(c.sigma);
   IdentifierSettings settings;
-  settings.sets = sets;
-  settings.detector.kind = ParseKind<DetectorKind>(detector);
-  settings.localize = localize;
-  if (known_sigma) settings.sigma = Vec::Constant(2, sigma);
-  settings.UseEstimator(ParseKind<EstimatorKind>(estimator));
-  if (data_accuracy) {  // as in sweeps: the simulator's tolerances as the data's accuracy
+  settings.sets = c.sets;
+  settings.detector.kind = ParseKind<DetectorKind>(c.detector);
+  settings.localize = c.localize;
+  if (c.known_sigma) settings.sigma = Vec::Constant(2, c.sigma);
+  settings.UseEstimator(ParseKind<EstimatorKind>(c.estimator));
+  if (c.data_accuracy) {
     settings.data_rtol = SimOptions{}.rtol;
     settings.data_atol = SimOptions{}.atol;
   }
   std::vector<Decision> decisions(static_cast<std::size_t>(y.cols()));
   for (auto _ : state) {
     Identifier id(model, 5e-4, settings);
-    if (one_at_a_time) {
+    if (c.one_at_a_time) {
       for (Eigen::Index k = 0; k < y.cols(); ++k) benchmark::DoNotOptimize(id.Step(y.col(k)));
     } else {
       id.Feed(y, decisions.data());
@@ -58,63 +99,6 @@ void RunIdentifier(benchmark::State& state, bool sets, double sigma, const char*
       benchmark::Counter(static_cast<double>(y.cols()),
                          benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-
-// Detector (paper, r = 220) + regressions + RLS for α and β; no sample sets.
-void BM_IdentifyStep(benchmark::State& state) { RunIdentifier(state, false, 0.0); }
-BENCHMARK(BM_IdentifyStep)->Unit(benchmark::kMillisecond);
-
-// The same, one Identifier::Step call per sample (an application feeding samples as they come).
-void BM_IdentifyStepOneAtATime(benchmark::State& state) {
-  RunIdentifier(state, false, 0.0, "paper", false, false, "rls", false, true);
-}
-BENCHMARK(BM_IdentifyStepOneAtATime)->Unit(benchmark::kMillisecond);
-
-// The same with the §5 model read from its model file (expressions evaluated by muParser).
-void BM_IdentifyStepModelFile(benchmark::State& state) {
-  RunIdentifier(state, false, 0.0, "paper", false, false, "rls", false, false, true);
-}
-BENCHMARK(BM_IdentifyStepModelFile)->Unit(benchmark::kMillisecond);
-
-// The integral estimator for α in place of RLS (β: rls), through the estimator interface.
-void BM_IdentifyStepIntegral(benchmark::State& state) {
-  RunIdentifier(state, false, 0.0, "paper", false, false, "integral");
-}
-BENCHMARK(BM_IdentifyStepIntegral)->Unit(benchmark::kMillisecond);
-
-// The same plus Algorithm 2 (incremental hulls of Λ and Γ).
-void BM_IdentifyStepWithHulls(benchmark::State& state) { RunIdentifier(state, true, 0.0); }
-BENCHMARK(BM_IdentifyStepWithHulls)->Unit(benchmark::kMillisecond);
-
-// Noisy samples (σ = 0.25): the hull of Λ keeps growing at the edges.
-void BM_IdentifyStepWithHullsNoisy(benchmark::State& state) { RunIdentifier(state, true, 0.25); }
-BENCHMARK(BM_IdentifyStepWithHullsNoisy)->Unit(benchmark::kMillisecond);
-
-// The tuning-free residual detector in place of the paper's, same run, no sample sets.
-void BM_IdentifyStepResidual(benchmark::State& state) { RunIdentifier(state, false, 0.0, "residual"); }
-BENCHMARK(BM_IdentifyStepResidual)->Unit(benchmark::kMillisecond);
-
-// As in sweeps: σ not given, the simulator's tolerances as the data's accuracy (propagated through
-// the flow Jacobian every sample, like a known σ).
-void BM_IdentifyStepResidualDataAccuracy(benchmark::State& state) {
-  RunIdentifier(state, false, 0.25, "residual", false, false, "rls", true);
-}
-BENCHMARK(BM_IdentifyStepResidualDataAccuracy)->Unit(benchmark::kMillisecond);
-
-// σ = 0.25 given: the noise is propagated through the flow Jacobian every sample.
-void BM_IdentifyStepResidualKnownSigma(benchmark::State& state) {
-  RunIdentifier(state, false, 0.25, "residual", true);
-}
-BENCHMARK(BM_IdentifyStepResidualKnownSigma)->Unit(benchmark::kMillisecond);
-
-// Paper detector on the same noisy samples, for the comparison above.
-void BM_IdentifyStepNoisy(benchmark::State& state) { RunIdentifier(state, false, 0.25); }
-BENCHMARK(BM_IdentifyStepNoisy)->Unit(benchmark::kMillisecond);
-
-// Residual detector with jump localisation (14 located jumps per run).
-void BM_IdentifyStepResidualLocalized(benchmark::State& state) {
-  RunIdentifier(state, false, 0.0, "residual", false, true);
-}
-BENCHMARK(BM_IdentifyStepResidualLocalized)->Unit(benchmark::kMillisecond);
 
 // Reference, not hysid's code path: the same §5 step (paper detector r = 220, τ̂0 = 1e5, RLS with
 // P0 = 1e8·I on the one identified row, no sets) written out by hand with compile-time sizes and
@@ -322,20 +306,20 @@ void BM_SampleSetAdd(benchmark::State& state) {
 }
 BENCHMARK(BM_SampleSetAdd)->Arg(0)->Arg(25)->Unit(benchmark::kMillisecond);
 
-// Each estimator of the factory for α and β (paper detector, σ = 0.25 given, so gtls / frisch
-// derive their noise shapes once in the constructor; no sample sets).
-void BM_IdentifyStepEstimator(benchmark::State& state, const std::string& name) {
-  RunIdentifier(state, false, 0.25, "paper", true, false, name);
-}
-
 }  // namespace
 }  // namespace hysid
 
 int main(int argc, char** argv) {
-  for (const std::string& name : hysid::PluginNames<hysid::EstimatorKind>()) {
+  for (const hysid::StepCase& c : hysid::kStepCases) {
+    benchmark::RegisterBenchmark(c.name, hysid::RunIdentifier, c)->Unit(benchmark::kMillisecond);
+  }
+  // Each estimator of the factory for α and β: the paper detector, σ = 0.25 given (gtls / frisch derive
+  // their noise shapes once in the constructor). The names outlive the run (StepCase keeps pointers).
+  static const std::vector<std::string> estimators = hysid::PluginNames<hysid::EstimatorKind>();
+  for (const std::string& name : estimators) {
     const std::string bench = "BM_IdentifyStepEstimator/" + name;
-    benchmark::RegisterBenchmark(bench.c_str(), hysid::BM_IdentifyStepEstimator, name)
-        ->Unit(benchmark::kMillisecond);
+    const hysid::StepCase c{.name = "", .sigma = 0.25, .known_sigma = true, .estimator = name.c_str()};
+    benchmark::RegisterBenchmark(bench.c_str(), hysid::RunIdentifier, c)->Unit(benchmark::kMillisecond);
   }
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

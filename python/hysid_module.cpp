@@ -224,15 +224,10 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
     const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
     HybridParameters at = HybridParameters::Of(model, run.x0);
     at.initial_mode = mode;
-    Crlb c = ComputeCrlb(model, at, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
-                         run.inputs.empty() ? nullptr : &run.inputs);
-    if (known.empty() || !unknowns.x0 || c.status == CrlbStatus::kSimulationFailed) return c;
-    std::vector<int> held;
-    for (const int i : known) held.push_back(unknowns.size(n) - n + i);
-    Crlb h = CrlbFromFisher(c.fisher, unknowns, c.names, held);
-    h.samples = c.samples;
-    h.jumps = c.jumps;
-    return h;
+    return HoldKnownX0(
+        ComputeCrlb(model, at, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
+                    run.inputs.empty() ? nullptr : &run.inputs),
+        unknowns, known, n);
   }, stop);
   py::dict sd;
   for (std::size_t i = 0; i < c.names.size() && c.ok(); ++i) sd[py::str(c.names[i])] = c.sd[Eigen::Index(i)];

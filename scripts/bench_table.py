@@ -22,7 +22,7 @@ TARGETS = [
     ("BM_IdentifyStep, per sample", ("gb_ns_sample", "BM_IdentifyStep"), ("<=", 15.0)),
     ("BM_IdentifyStepFusedReference, per sample", ("gb_ns_sample", "BM_IdentifyStepFusedReference"), None),
     ("BM_IdentifyStep ÷ BM_IdentifyStepFusedReference",
-     ("gb_ratio", "BM_IdentifyStep", "BM_IdentifyStepFusedReference"), ("<=", 1.2)),
+     ("gb_ratio", "BM_IdentifyStep", "BM_IdentifyStepFusedReference"), ("<=", 1.6)),
     ("BM_IdentifyStepResidual, per sample", ("gb_ns_sample", "BM_IdentifyStepResidual"), ("<=", 22.0)),
     ("BM_IdentifyStepResidual ÷ BM_IdentifyStep",
      ("gb_ratio", "BM_IdentifyStepResidual", "BM_IdentifyStep"), ("<=", 1.5)),

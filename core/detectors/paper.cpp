@@ -196,20 +196,14 @@ std::unique_ptr<JumpDetector> PaperDetector::CloneWith(const DetectorSettings& s
   return copy;
 }
 
-// ClassifyConstant's D², ‖ξ(t)‖ and ‖ξ(t−δt)‖ (Prologue's sums, in its order; the previous call's
-// ‖ξ(t)‖ is BoundNorm's sum and root), and its test with the factor r.
+// ClassifyConstant's pair terms and ‖ξ(t−δt)‖ (the previous call's ‖ξ(t)‖ is BoundNorm's sum and root),
+// and its rule with the factor r.
 bool PaperDetector::FlagsWith(double r, const double* prev, const double* cur, Eigen::Index n, double dt,
                               long flow_updates) const {
   if (flow_updates < unknowns_) return true;  // τ̂0 decided, the same for every r
-  const double inv_dt = 1.0 / dt;
-  double d2 = 0.0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double v = (cur[i] - prev[i]) * inv_dt;
-    d2 += v * v;
-  }
-  const double s = BoundNorm(cur, n, mode_) + BoundNorm(prev, n, mode_);
-  const double half_r = 0.5 * r;
-  return d2 > half_r * half_r * cached_l2_ * s * s;
+  const detail::PairTerms pair =
+      detail::PairTerms::Of(prev, cur, n, 1.0 / dt, mode_ == BoundMode::kHomogeneous);
+  return detail::PaperFlags(pair.d2, 0.5 * r, cached_l2_, pair.cur_norm + BoundNorm(prev, n, mode_));
 }
 
 void PaperDetector::Reset() {
@@ -226,12 +220,16 @@ Decision PaperDetector::Classify(const SampleContext& c) {
     return ClassifyConstant(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, c.alpha_hat.data(), c.version,
                             c.flow_updates);
   }
-  if (inputs_) return ClassifyWithInputs(c);
+  double prev_norm;
+  const detail::PairTerms pair = Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &prev_norm);
   Decision d;
-  double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
-  Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
-  if (WarmUp(c.flow_updates, &d)) return d;
-  // Vertices of Ĉ (cached per α̂ and hull version), then the current pair.
+  if (WarmUp(pair, c.flow_updates, &d)) return d;
+  const double l2 = inputs_ ? PairNormSquared(c) : HullNormSquared(c);
+  return detail::PaperDecision(pair, 0.5 * settings_.r, l2, std::sqrt(l2), pair.cur_norm + prev_norm);
+}
+
+// L̂² over the vertices of Ĉ (cached per α̂ and hull version) and the current pair.
+double PaperDetector::HullNormSquared(const SampleContext& c) {
   const long hull_version = c.flow_set ? c.flow_set->version() : -1;
   if (c.version != cached_version_ || hull_version != cached_hull_version_) {
     double l = 0.0;
@@ -247,27 +245,14 @@ Decision PaperDetector::Classify(const SampleContext& c) {
   pair_.col(0) = c.prev;
   pair_.col(1) = c.cur;
   const double l = SupJacobianNorm(*c.model, c.alpha_hat, mode_, pair_, scratch_);
-  const double l2 = std::max(cached_l2_, l * l);
-  const double s = cur_norm + prev_norm;
-  const double half_r = 0.5 * settings_.r;
-  d.gamma = d2 > half_r * half_r * l2 * s * s;
-  d.threshold = half_r * std::sqrt(l2) * s;
-  return d;
+  return std::max(cached_l2_, l * l);
 }
 
-// L̂ from the pair alone, each sample at its own time and inputs (the header's rule for inputs).
-Decision PaperDetector::ClassifyWithInputs(const SampleContext& c) {
-  Decision d;
-  double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
-  Prologue(c.prev.data(), c.cur.data(), c.cur.size(), c.dt, &d, &d2, &cur_norm, &prev_norm);
-  if (WarmUp(c.flow_updates, &d)) return d;
+// L̂² from the pair alone, each sample at its own time and inputs (the header's rule for inputs).
+double PaperDetector::PairNormSquared(const SampleContext& c) {
   const double l = std::max(SupJacobianNorm(*c.model, c.alpha_hat, mode_, c.prev, scratch_, c.at_prev),
                             SupJacobianNorm(*c.model, c.alpha_hat, mode_, c.cur, scratch_, c.at_cur));
-  const double s = cur_norm + prev_norm;
-  const double half_r = 0.5 * settings_.r;
-  d.gamma = d2 > half_r * half_r * l * l * s * s;
-  d.threshold = half_r * l * s;
-  return d;
+  return l * l;
 }
 
 DetectorDescriptor PaperDetectorDescriptor() {

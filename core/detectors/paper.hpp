@@ -82,22 +82,49 @@ template <int P>
   return s;
 }
 
-// What the paper detector takes from a pair ξ(t−δt) = (p0, p1), ξ(t) = (c0, c1) of two states alone,
-// whatever α̂: D² and D = ‖ξ(t) − ξ(t−δt)‖/δt, and ‖ξ(t)‖ in the bound's norm (homogeneous: ‖[ξ; 1]‖).
-struct PairTerms2 {
+// What the paper detector takes from a pair ξ(t−δt), ξ(t) of n states alone, whatever α̂: D² and
+// D = ‖ξ(t) − ξ(t−δt)‖/δt, and ‖ξ(t)‖ in the bound's norm (homogeneous: ‖[ξ; 1]‖); every path's. Square
+// roots are the costly instructions here: D and ‖ξ(t)‖ share one packed square root. The sums start
+// at the first square instead of +0: a square is never −0, so +0 + x² is x², bit for bit.
+struct PairTerms {
   double d2, statistic, cur_norm;
-  [[gnu::always_inline]] static PairTerms2 Of(double p0, double p1, double c0, double c1, double inv_dt,
-                                              bool homogeneous) {
-    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
-    double d2 = 0.0, cur2 = 0.0;
-    d2 += v0 * v0;
-    cur2 += c0 * c0;
-    d2 += v1 * v1;
-    cur2 += c1 * c1;
+
+  // N = n when known at compile time (the loop unrolls), else 0; n ≥ 1.
+  template <int N = 0>
+  [[gnu::always_inline]] static PairTerms Of(const double* prev, const double* cur, Eigen::Index n_dynamic,
+                                             double inv_dt, bool homogeneous) {
+    const Eigen::Index n = N > 0 ? N : n_dynamic;
+    double v = (cur[0] - prev[0]) * inv_dt;
+    double d2 = v * v, cur2 = cur[0] * cur[0];
+    for (Eigen::Index i = 1; i < n; ++i) {
+      v = (cur[i] - prev[i]) * inv_dt;
+      d2 += v * v;
+      cur2 += cur[i] * cur[i];
+    }
     if (homogeneous) cur2 += 1.0;
-    return {d2, std::sqrt(d2), std::sqrt(cur2)};
+    const Eigen::Array2d roots = Eigen::Array2d(d2, cur2).sqrt();
+    return {d2, roots[0], roots[1]};
+  }
+  // Two states in scalars: ξ(t−δt) = (p0, p1), ξ(t) = (c0, c1).
+  [[gnu::always_inline]] static PairTerms Of(double p0, double p1, double c0, double c1, double inv_dt,
+                                             bool homogeneous) {
+    const double prev[2] = {p0, p1}, cur[2] = {c0, c1};
+    return Of<2>(prev, cur, 2, inv_dt, homogeneous);
   }
 };
+// The paper detector's decision (eq. 3), the one rule of every path: γ = 1 when D > τ̂,
+// τ̂ = (r/2)·L̂·s with s = ‖ξ(t)‖ + ‖ξ(t−δt)‖ in the bound's norm. Taken on squares, D² > τ̂² (d2 = D²,
+// l2 = L̂², half_r = r/2), so that no square root sits on the chain α̂ → τ̂ → γ → α̂ of consecutive
+// samples.
+[[gnu::always_inline]] inline bool PaperFlags(double d2, double half_r, double l2, double s) {
+  return d2 > half_r * half_r * l2 * s * s;
+}
+// The decision with its statistic D and threshold τ̂ (l = L̂ = √l2, computed off that chain).
+[[gnu::always_inline]] inline Decision PaperDecision(const PairTerms& pair, double half_r, double l2,
+                                                     double l, double s) {
+  return {
+      .gamma = PaperFlags(pair.d2, half_r, l2, s), .statistic = pair.statistic, .threshold = half_r * l * s};
+}
 
 // ClassifyConstant<2, true>'s state and arithmetic for two states, one identified row and A = |α|
 // (2 or 3) with two unknowns, in scalars: for a loop that keeps them in local variables over a run
@@ -143,23 +170,13 @@ struct PaperConstant2 {
   }
   // The decision for ξ(t) = (c0, c1) after ξ(t−δt) = (p0, p1), whose norm is prev_norm, with the
   // unknowns of α̂ = (t0, t1); warm-up over. ‖ξ(t)‖ goes to *cur_norm; the caller keeps the pair's
-  // state (last_x0, last_x1, last_norm, has_last) and the cache (cached_*) itself. ClassifyConstant's
-  // sums of squares start at +0, and a square is never −0, so they start here at the first square;
-  // its two square roots are one packed root, as there.
+  // state (last_x0, last_x1, last_norm, has_last) and the cache (cached_*) itself.
   [[gnu::always_inline]] Decision Classify(double p0, double p1, double c0, double c1, double prev_norm,
                                            double inv_dt, double t0, double t1, double* cur_norm) {
-    const double v0 = (c0 - p0) * inv_dt, v1 = (c1 - p1) * inv_dt;
-    const double d2 = v0 * v0 + v1 * v1;
-    const double cur2 = c0 * c0 + c1 * c1 + (homogeneous ? 1.0 : 0.0);  // + 0 leaves a sum ≥ +0 as it is
-    const Eigen::Array2d roots = Eigen::Array2d(d2, cur2).sqrt();
+    const PairTerms pair = PairTerms::Of(p0, p1, c0, c1, inv_dt, homogeneous);
     const double l2 = NormSquared(t0, t1);
-    const double s = roots[1] + prev_norm;
-    Decision d;
-    d.statistic = roots[0];
-    d.gamma = d2 > half_r * half_r * l2 * s * s;
-    d.threshold = half_r * std::sqrt(l2) * s;
-    *cur_norm = roots[1];
-    return d;
+    *cur_norm = pair.cur_norm;
+    return PaperDecision(pair, half_r, l2, std::sqrt(l2), pair.cur_norm + prev_norm);
   }
   // The cache as ClassifyConstant leaves it after a call at `version` with the unknowns (t0, t1).
   void Cache(long version, double t0, double t1) {
@@ -179,20 +196,16 @@ struct PaperConstant2 {
   // kThreshold false: no d.threshold, and cached_l is left for Settle (which the caller must call
   // before the state is stored): L̂ itself only enters the threshold reported.
   template <bool kThreshold = true>
-  [[gnu::always_inline]] Decision Decide(const PairTerms2& pair, double prev_norm, double t0, double t1,
+  [[gnu::always_inline]] Decision Decide(const PairTerms& pair, double prev_norm, double t0, double t1,
                                          long version) {
-    Decision d;
-    const double d2 = pair.d2, cur_norm = pair.cur_norm;
-    d.statistic = pair.statistic;
     if (version != cached_version) {
       cached_l2 = NormSquared(t0, t1);
       if constexpr (kThreshold) cached_l = std::sqrt(cached_l2);
       cached_version = version;
     }
-    const double s = cur_norm + prev_norm;
-    d.gamma = d2 > half_r * half_r * cached_l2 * s * s;
-    if constexpr (kThreshold) d.threshold = half_r * cached_l * s;
-    return d;
+    const double s = pair.cur_norm + prev_norm;
+    if constexpr (kThreshold) return PaperDecision(pair, half_r, cached_l2, cached_l, s);
+    return {.gamma = PaperFlags(pair.d2, half_r, cached_l2, s), .statistic = pair.statistic};
   }
   void Settle() { cached_l = std::sqrt(cached_l2); }
 };
@@ -307,56 +320,40 @@ class PaperDetector final : public JumpDetector {
   [[gnu::always_inline]] Decision ClassifyConstant(const double* prev, const double* cur, Eigen::Index n,
                                                    double dt, const double* alpha_hat, long version,
                                                    long flow_updates) {
+    double prev_norm;
+    const detail::PairTerms pair = Prologue<N>(prev, cur, n, dt, &prev_norm);
     Decision d;
-    double d2 = 0.0, cur_norm = 0.0, prev_norm = 0.0;
-    Prologue<N>(prev, cur, n, dt, &d, &d2, &cur_norm, &prev_norm);
-    if (WarmUp(flow_updates, &d)) return d;
+    if (WarmUp(pair, flow_updates, &d)) return d;
     if (version != cached_version_) {
       cached_l2_ = kOneRow ? OneRowNormSquared(alpha_hat) : LinearNormSquared(alpha_hat);
       cached_l_ = std::sqrt(cached_l2_);
       cached_version_ = version;
     }
-    const double s = cur_norm + prev_norm;
-    const double half_r = 0.5 * settings_.r;
-    d.gamma = d2 > half_r * half_r * cached_l2_ * s * s;
-    d.threshold = half_r * cached_l_ * s;
-    return d;
+    return detail::PaperDecision(pair, 0.5 * settings_.r, cached_l2_, cached_l_, pair.cur_norm + prev_norm);
   }
 
  private:
-  // Until α̂ has seen as many flow samples as it has unknowns: τ̂ = τ̂0. True when that decides.
-  bool WarmUp(long flow_updates, Decision* d) const {
+  // Until α̂ has seen as many flow samples as it has unknowns: τ̂ = τ̂0. True when that decides (*d).
+  bool WarmUp(const detail::PairTerms& pair, long flow_updates, Decision* d) const {
     if (flow_updates >= unknowns_) return false;
-    d->threshold = settings_.tau0;
-    d->gamma = d->statistic > d->threshold;
+    *d = {.gamma = pair.statistic > settings_.tau0, .statistic = pair.statistic, .threshold = settings_.tau0};
     return true;
   }
-  // D² and D (d->statistic), ‖ξ(t)‖ and ‖ξ(t−δt)‖ in the bound's norm. Square roots are the costly
-  // instructions here: ‖ξ(t−δt)‖ is the previous call's ‖ξ(t)‖ when the pairs are consecutive, and
-  // D and ‖ξ(t)‖ share one packed square root.
+  // The pair's terms, and ‖ξ(t−δt)‖ in the bound's norm: the previous call's ‖ξ(t)‖ when the pairs
+  // are consecutive.
   template <int N = 0>
-  [[gnu::always_inline]] void Prologue(const double* prev, const double* cur, Eigen::Index n_dynamic,
-                                       double dt, Decision* d, double* d2_out, double* cur_norm,
-                                       double* prev_norm) {
+  [[gnu::always_inline]] detail::PairTerms Prologue(const double* prev, const double* cur,
+                                                    Eigen::Index n_dynamic, double dt, double* prev_norm) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
-    const double inv_dt = 1.0 / dt;
-    double d2 = 0.0, cur2 = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const double v = (cur[i] - prev[i]) * inv_dt;
-      d2 += v * v;
-      cur2 += cur[i] * cur[i];
-    }
-    if (mode_ == BoundMode::kHomogeneous) cur2 += 1.0;
-    const Eigen::Array2d roots = Eigen::Array2d(d2, cur2).sqrt();
-    d->statistic = roots[0];
-    *d2_out = d2;
-    *cur_norm = roots[1];
+    const detail::PairTerms pair =
+        detail::PairTerms::Of<N>(prev, cur, n, 1.0 / dt, mode_ == BoundMode::kHomogeneous);
     bool consecutive = last_n_ == n;
     for (Eigen::Index i = 0; consecutive && i < n; ++i) consecutive = last_x_[i] == prev[i];
     *prev_norm = consecutive ? last_norm_ : BoundNorm(prev, n, mode_);
     last_n_ = n;
     for (Eigen::Index i = 0; i < n; ++i) last_x_[i] = cur[i];
-    last_norm_ = roots[1];
+    last_norm_ = pair.cur_norm;
+    return pair;
   }
   // ‖J̄_r(α)‖₂² for a constant Jacobian. One identified row: ‖Gα‖² = αᵀ(GᵀG)α with GᵀG
   // precomputed; more rows: the spectral norm of the reshaped Gα.
@@ -375,12 +372,14 @@ class PaperDetector final : public JumpDetector {
     }
   }
   double SpectralLinearNormSquared(const double* alpha);
-  Decision ClassifyWithInputs(const SampleContext& c);
+  // L̂² of Classify's general path: over Ĉ's vertices and the pair, or (a model with inputs) the pair alone.
+  double HullNormSquared(const SampleContext& c);
+  double PairNormSquared(const SampleContext& c);
 
   DetectorSettings settings_;  // reads r, tau0 and bound
   BoundMode mode_;
   bool constant_jacobian_;
-  bool inputs_;  // the model has inputs (ClassifyWithInputs)
+  bool inputs_;  // the model has inputs (PairNormSquared)
   int unknowns_;
   // Constant Jacobians are linear in α: vec(J̄_r(α)) = G α, G precomputed (rows × |α|) from unit α.
   Mat g_;

@@ -90,7 +90,7 @@ std::unique_ptr<JumpDetector> ResidualDetector::CloneWith(const DetectorSettings
 // flagged).
 bool ResidualDetector::FlagsWith(ResidualDetector& twin) const {
   twin.QuantileAt(std::min(scale_samples_ - 1, kMemory));
-  return last_z2_ > twin.cached_q2_;
+  return twin.Exceeds(last_z2_);
 }
 
 bool ResidualDetector::ThresholdsBelow(ResidualDetector& twin) {
@@ -166,50 +166,26 @@ void ResidualDetector::ConstantJacobian(const double* cur, Eigen::Index n, const
 }
 
 Decision ResidualDetector::Classify(const SampleContext& c) {
-  Decision d;
-  active_ = c.flow_updates >= unknowns_;
-  if (!active_) return d;  // warm-up: flow, scale not updated
+  if (!Activate(c.flow_updates)) return {};
   const bool known_noise = ResidualNoise::Make(c.sigma, c.cur.size(), c.data_rtol, c.data_atol).known;
   if (known_noise) NoiseVariance(c);
   const Mat* p = c.alpha_covariance;
-  const Eigen::Index m = c.flow_phi.cols();
   double z2max = 0.0;
   for (std::size_t i = 0; i < rows_.size(); ++i) {
     const auto ii = static_cast<Eigen::Index>(i);
-    double pred = 0.0, magnitude = 0.0;
-    for (Eigen::Index j = 0; j < m; ++j) {
-      const double term = c.flow_phi(ii, j) * c.alpha_hat[unknown_[static_cast<std::size_t>(j)]];
-      pred += term;
-      magnitude += std::abs(term);
-    }
-    const double rho = c.flow_y[ii] - pred;
-    double lev = 0.0;
-    if (p != nullptr) {
-      for (Eigen::Index a = 0; a < m; ++a) {
-        double s = 0.0;
-        for (Eigen::Index b = 0; b < m; ++b) s += (*p)(a, b) * c.flow_phi(ii, b);
-        lev += c.flow_phi(ii, a) * s;
-      }
-      lev = std::max(0.0, lev);
-    }
+    const RowFit fit = FitRow<0>(
+        c.flow_phi.cols(), [&](Eigen::Index j) { return c.flow_phi(ii, j); },
+        [&](Eigen::Index j) { return c.alpha_hat[unknown_[static_cast<std::size_t>(j)]]; },
+        [&](Eigen::Index a, Eigen::Index b) { return (*p)(a, b); }, p != nullptr);
     RowTerms terms;
-    const double z2 =
-        RowStatistic(i, rho, lev, magnitude, c.prev.data(), c.cur.data(), c.flow_y[ii], known_noise, &terms);
+    const double z2 = RowStatistic(i, c.flow_y[ii] - fit.pred, fit.lev, fit.magnitude, c.prev.data(),
+                                   c.cur.data(), c.flow_y[ii], known_noise, &terms);
     rho2_[i] = terms.rho2;  // for Observe (noise_[i] is set)
     lev_[i] = terms.lev;
     round2_[i] = terms.round2;
     z2max = std::max(z2max, z2);
   }
-  d.statistic = std::sqrt(z2max);
-  if (scale_samples_ == 0) {  // no scale yet: this sample starts it
-    d.threshold = std::numeric_limits<double>::infinity();
-    return d;
-  }
-  d.threshold = Quantile();
-  // On squares: the square root of the statistic stays off the decision.
-  d.gamma = z2max > cached_q2_;
-  if (d.gamma) last_z2_ = z2max;
-  return d;
+  return Decide(z2max);
 }
 
 // Robust scale update (every classified sample, jumps included, clipped at kClip² × prediction).

@@ -157,41 +157,68 @@ class ResidualDetector final : public JumpDetector {
                                                          long version, long flow_updates,
                                                          const ResidualNoise& noise) {
     const Eigen::Index n = N > 0 ? N : n_dynamic;
-    const Eigen::Index m = M > 0 ? M : static_cast<Eigen::Index>(unknown_.size());
-    Decision d;
-    active_ = flow_updates >= unknowns_;
-    if (!active_) return d;
+    if (!Activate(flow_updates)) return {};
     if (noise.known) NoiseVarianceDirect<N>(prev, cur, n, dt, alpha_hat, version, noise);
-    double pred = 0.0, magnitude = 0.0;
-    for (Eigen::Index j = 0; j < m; ++j) {
-      const double term = phi[j] * alpha_u(j);
-      pred += term;
-      magnitude += std::abs(term);
-    }
-    double lev = 0.0;
-    if (has_cov) {
-      for (Eigen::Index a = 0; a < m; ++a) {
-        double s = 0.0;
-        for (Eigen::Index b = 0; b < m; ++b) s += cov(a, b) * phi[b];
-        lev += phi[a] * s;
-      }
-      lev = std::max(0.0, lev);
-    }
+    const RowFit fit = FitRow<M>(
+        static_cast<Eigen::Index>(unknown_.size()), [&](Eigen::Index j) { return phi[j]; }, alpha_u, cov,
+        has_cov);
     RowTerms terms;
-    const double z2max =
-        std::max(0.0, RowStatistic(0, y - pred, lev, magnitude, prev, cur, y, noise.known, &terms));
-    d.statistic = std::sqrt(z2max);
-    if (scale_samples_ == 0) {
-      d.threshold = std::numeric_limits<double>::infinity();
-    } else {
-      d.threshold = Quantile();
-      d.gamma = z2max > cached_q2_;
-      if (d.gamma) last_z2_ = z2max;
-    }
+    const double z2max = std::max(
+        0.0, RowStatistic(0, y - fit.pred, fit.lev, fit.magnitude, prev, cur, y, noise.known, &terms));
+    const Decision d = Decide(z2max);
     UpdateRowScale(0, terms, ScaleWeight());  // UpdateScale for the one row, its terms not stored
     ++scale_samples_;
     return d;
   }
+  // Whether the test runs: the α estimator has seen as many flow samples as α has unknowns. Before,
+  // every sample is flow and the scale is not updated.
+  [[gnu::always_inline]] bool Activate(long flow_updates) {
+    active_ = flow_updates >= unknowns_;
+    return active_;
+  }
+  // A row's one-step prediction Φ_i α̂_u, its magnitude Σ_j |Φ_ij α̂_j| and its leverage h_i = Φ_i P Φ_iᵀ
+  // (0 without a covariance): phi(j) = Φ_ij, alpha_u(j): α̂'s j-th unknown, cov(a, b): P's entry
+  // (a, b) (read only when has_cov); M = the number of unknowns when known at compile time, else 0.
+  struct RowFit {
+    double pred, magnitude, lev;
+  };
+  template <int M, class Phi, class AlphaU, class Cov>
+  [[gnu::always_inline]] static RowFit FitRow(Eigen::Index m_dynamic, const Phi& phi, const AlphaU& alpha_u,
+                                              const Cov& cov, bool has_cov) {
+    const Eigen::Index m = M > 0 ? M : m_dynamic;
+    RowFit fit{0.0, 0.0, 0.0};
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const double term = phi(j) * alpha_u(j);
+      fit.pred += term;
+      fit.magnitude += std::abs(term);
+    }
+    if (has_cov) {
+      for (Eigen::Index a = 0; a < m; ++a) {
+        double s = 0.0;
+        for (Eigen::Index b = 0; b < m; ++b) s += cov(a, b) * phi(b);
+        fit.lev += phi(a) * s;
+      }
+      fit.lev = std::max(0.0, fit.lev);
+    }
+    return fit;
+  }
+  // The test on the largest z²_i of the sample, the one rule of every path: statistic max |z|,
+  // threshold q, γ = 1 when z² > q² (on squares: the square root of the statistic stays off the
+  // decision). No scale yet: this sample starts it (flow, q = ∞).
+  [[gnu::always_inline]] Decision Decide(double z2max) {
+    Decision d;
+    d.statistic = std::sqrt(z2max);
+    if (scale_samples_ == 0) {
+      d.threshold = std::numeric_limits<double>::infinity();
+      return d;
+    }
+    d.threshold = Quantile();
+    d.gamma = Exceeds(z2max);
+    if (d.gamma) last_z2_ = z2max;
+    return d;
+  }
+  // z² beyond the quantile of the last Quantile or QuantileAt.
+  [[gnu::always_inline]] bool Exceeds(double z2) const { return z2 > cached_q2_; }
   // q for ν = min(scale samples, kMemory): cached while ν stays on one value (from kMemory on).
   double Quantile() {
     const long nu = std::min(scale_samples_, kMemory);

@@ -35,9 +35,8 @@
 namespace hysid {
 
 namespace detail {
-struct Rls2State;
-template <int A>
-struct FlowRunUnit;  // core/identify/flow_run_unit.hpp
+struct IdentifierState;   // core/identify/identifier_state.hpp (internal)
+struct IdentifierAccess;  // the same
 }  // namespace detail
 
 struct IdentifierSettings {
@@ -131,49 +130,6 @@ class Identifier {
   // the estimators and sets restart from their priors, the detector keeps what it has learned.
   void BeginSecondPass();
 
-  // A flow run driven from outside, so that identifiers on the same samples with the same flow rows
-  // run side by side (IdentifyLockstep, core/identify/lockstep.hpp). BeginFlowRun: whether Feed
-  // would now take a flow run with |α| = A (two states, RLS for two unknowns and the paper detector
-  // called directly, warm-up over, no sets, first pass, a sample fed before); its state then in
-  // *unit. EndFlowRun: the run stepped `unit` over samples 0 … k − 1 of a block (xs: its first sample,
-  // n × count contiguous; phi, y: its flow rows as in Feed; decisions: the block's, written) and
-  // stopped at k: its state written back, sample k's decision `pending` (k < count; null when none,
-  // as before a non-finite row) applied as the per-sample path applies it, and the block's samples
-  // after that fed by this identifier's own path. The same bits as Feed on the block.
-  template <int A>
-  bool BeginFlowRun(detail::FlowRunUnit<A>* unit) const;
-  // EndFlowRun returns where it stopped (StopAtJumps), else count.
-  template <int A>
-  Eigen::Index EndFlowRun(const detail::FlowRunUnit<A>& unit, const double* xs, Eigen::Index k,
-                          Eigen::Index count, const double* phi, const double* y, const Decision* pending,
-                          Decision* decisions);
-
-  // One identifier for several units that differ only in the detector's threshold, until their
-  // decisions differ (IdentifyLockstep's twins; two states, one identified row with two unknowns,
-  // RLS for α, the paper or the residual detector called directly, no sets, first pass).
-  // Leads: whether `twin` (built for the same model, δt and samples) may follow this identifier:
-  // its settings equal except the detector's r or false_alarm, and its threshold at least this one's
-  // wherever the two would decide with the same learned state, so that wherever this identifier
-  // decides flow, so does twin. Only this identifier's jumps need asking then.
-  bool Leads(Identifier& twin);
-  // StopAtJumps(true): EndFlowRun, FeedRest and ApplyAndFeed stop before they apply a jump (the
-  // sample classified, not counted, not applied) and return its index; its decision is stopped().
-  // Feed and Step throw std::logic_error when they would stop.
-  void StopAtJumps(bool on);
-  const Decision& stopped() const;
-  // Whether this identifier's detector, with `leader`'s learned state, flags the sample `cur` at
-  // which leader stopped (leader.Leads(*this) held).
-  bool Flags(const Identifier& leader, const double* cur);
-  // This identifier becomes a copy of `leader`'s state, with its own settings.
-  void AdoptState(const Identifier& leader);
-  // From sample k of a block (xs: its samples, 2 × count; phi, y: its flow rows as in Feed; its
-  // decisions written): FeedRest feeds samples k … count − 1; ApplyAndFeed first applies decision d to
-  // sample k. Both return where they stopped, else count.
-  Eigen::Index FeedRest(const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
-                        const double* y, Decision* decisions);
-  Eigen::Index ApplyAndFeed(const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
-                            const double* y, const Decision& d, Decision* decisions);
-
   Vec alpha_hat() const;  // full α̂: known entries at their known values
   Vec beta_hat() const;
   const Estimator& flow_estimator() const;
@@ -185,44 +141,10 @@ class Identifier {
   long jumps_localized() const;  // jumps whose regression used the located instant
 
  private:
-  struct State;
-  static constexpr Eigen::Index kFeedBlock = 256;  // samples per block of regressions in Feed
-  // A row block returns where it stopped (StopAtJumps), else count.
-  using RowBlockFn = Eigen::Index (*)(State&, const double*, Eigen::Index, const double*, const double*,
-                                      Decision*);
-  // The detector of a row block: through its interface, or called directly.
-  enum DetectorCall { kInterface, kPaperDirect, kResidualDirect };
-  // E: the α estimator's type on the direct path (Rls or IntegralLs).
-  template <int N, int P, DetectorCall kCall, class E>
-  static Eigen::Index RowBlock(State& s, const double* xs, Eigen::Index count, const double* phi,
-                               const double* y, Decision* decisions);
-  template <DetectorCall kCall, class E>
-  static RowBlockFn ChooseRowBlock(int n, int u);
-  template <class E>
-  static RowBlockFn ChooseRowBlock(const State& s, int n, int u);
-  // RowBlock's parts: the residual detector's inputs fixed through a block, its decision on one
-  // sample, and the decision applied (θ and P in `local` when kLocal).
-  struct ResidualInputs;
-  template <int N, int P, bool kLocal, class E>
-  [[gnu::always_inline]] static inline Decision ClassifyResidual(State& s, E* est, const ResidualInputs& in,
-                                                                 const detail::Rls2State& local, const double* x,
-                                                                 Eigen::Index n, double dt, const double* row,
-                                                                 double yk);
-  template <int P, bool kLocal, class E>
-  [[gnu::always_inline]] static inline void ApplyRow(State& s, E* est, detail::Rls2State& local, const Decision& d,
-                                                     const double* row, double yk, const double* x, Eigen::Index n,
-                                                     const Vec& alpha_class);
-  template <int A>
-  static Eigen::Index FlowRun(State& s, const double* xs, Eigen::Index k, Eigen::Index count, const double* phi,
-                              const double* y, Decision* decisions, detail::Rls2State& r, Decision* pending,
-                              bool* decided);
-  static SampleContext SampleContextOf(State& s, const double* x, const double* phi, const double* y,
-                                       const Vec& alpha_class);
-  template <int P>
-  [[gnu::always_inline]] static inline void AfterFlowUpdate(State& s, const double* theta);
-  static void AfterJump(State& s, ConstVecRef x, const Vec& alpha_class);
-  Decision Advance(ConstVecRef x, const bool* given, const Context* at);
-  std::unique_ptr<State> s_;
+  // Its sources and the lockstep driver's (core/identify/lockstep_units.hpp) reach the state through
+  // detail::IdentifierAccess.
+  friend struct detail::IdentifierAccess;
+  std::unique_ptr<detail::IdentifierState> s_;
 };
 
 // The flow regression rows of samples y (n × K) for the identifier's direct path: row k ≥ 1 is
@@ -355,19 +277,5 @@ IdentifyResult Identify(const Model& model, const Mat& y, double dt, const Ident
 // The recursive result a refinement starts from: recursive.safe_start when there is one (the α
 // estimator was not ok), else recursive itself.
 const IdentifyResult& RefinementStart(const IdentifyResult& recursive);
-
-namespace detail {
-// Identify in parts, for IdentifyLockstep (core/identify/lockstep.hpp), which feeds the pass of
-// several identifiers itself. PassInBlocks: whether Identify's pass feeds the samples in blocks (no
-// hybrid automaton to assign, no times, chains, inputs, modes, labels or trace, all samples finite;
-// and IdentifierSettings::second_pass off). StartIdentify: Identify's checks (throwing as it does) and its identifier, *r
-// sized for the pass. FinishIdentify: after the pass (`completed` false: stopped), what Identify
-// does after it (final estimates, statuses, hulls, the detector's bound, the safe start).
-bool PassInBlocks(const Model& model, const Mat& y, const IdentifyOptions& options);
-Identifier StartIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
-                         const IdentifyOptions& options, IdentifyResult* r);
-void FinishIdentify(const Model& model, const Mat& y, double dt, const IdentifierSettings& settings,
-                    const IdentifyOptions& options, Identifier& id, bool completed, IdentifyResult* r);
-}  // namespace detail
 
 }  // namespace hysid

@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <utility>
 
-#include "core/identify/flow_run_unit.hpp"
+#include "core/identify/lockstep_units.hpp"
 
 namespace hysid {
 namespace {
@@ -29,16 +29,17 @@ struct Block {
 };
 
 // Units that differ only in the detector's threshold share one identifier (the leader, the smallest
-// threshold, Identifier::Leads) until their decisions differ: a follower is not fed, and decides flow
-// wherever its leader does. At each jump of a leader with followers (Identifier::StopAtJumps), the
+// threshold, detail::Leads) until their decisions differ: a follower is not fed, and decides flow
+// wherever its leader does. At each jump of a leader with followers (detail::StopAtJumps), the
 // followers that decide flow there leave: the smallest of them takes a copy of the leader's state
-// (Identifier::AdoptState) and leads the others on. Each unit's arithmetic is its own run's, so each
+// (detail::AdoptState) and leads the others on. Each unit's arithmetic is its own run's, so each
 // result is still bit for bit Identify's. Only without statistics (followers compute no statistic).
 class Twins {
  public:
   Twins(std::vector<Identifier>& ids, bool on) : ids_(ids), leader_(ids.size(), -1) {
     for (std::size_t i = 0; on && i < ids.size(); ++i) Join(static_cast<int>(i));
-    for (std::size_t i = 0; i < ids.size(); ++i) ids_[i].StopAtJumps(HasFollowers(static_cast<int>(i)));
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      detail::StopAtJumps(ids_[i], HasFollowers(static_cast<int>(i)));
   }
   bool follows(std::size_t i) const { return leader_[i] >= 0; }
   int leader(std::size_t i) const { return leader_[i]; }
@@ -55,16 +56,16 @@ class Twins {
       if (at == b.count) continue;
       const int n = Split(l, b.xs + 2 * at);
       if (n >= 0) {
-        ids_[n].AdoptState(ids_[l]);
+        detail::AdoptState(ids_[n], ids_[l]);
         std::copy_n(b.chunk[l], b.offset + at, b.chunk[n]);  // its decisions so far: the leader's
-        ids_[n].StopAtJumps(HasFollowers(n));
-        ids_[l].StopAtJumps(HasFollowers(l));
-        Decision d = ids_[l].stopped();
+        detail::StopAtJumps(ids_[n], HasFollowers(n));
+        detail::StopAtJumps(ids_[l], HasFollowers(l));
+        Decision d = detail::Stopped(ids_[l]);
         d.gamma = false;
-        todo.emplace_back(n, ids_[n].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, d, b.decisions[n]));
+        todo.emplace_back(n, detail::ApplyAndFeed(ids_[n], b.xs, at, b.count, b.phi, b.y, d, b.decisions[n]));
       }
-      todo.emplace_back(
-          l, ids_[l].ApplyAndFeed(b.xs, at, b.count, b.phi, b.y, ids_[l].stopped(), b.decisions[l]));
+      todo.emplace_back(l, detail::ApplyAndFeed(ids_[l], b.xs, at, b.count, b.phi, b.y,
+                                                detail::Stopped(ids_[l]), b.decisions[l]));
     }
   }
   // The units fed at the start of a block (those that follow nobody), in order; a follower that
@@ -79,7 +80,7 @@ class Twins {
   // After the pass: every follower takes its leader's state.
   void Finish() {
     for (std::size_t i = 0; i < ids_.size(); ++i) {
-      if (follows(i)) ids_[i].AdoptState(ids_[static_cast<std::size_t>(leader_[i])]);
+      if (follows(i)) detail::AdoptState(ids_[i], ids_[static_cast<std::size_t>(leader_[i])]);
     }
   }
 
@@ -88,11 +89,11 @@ class Twins {
   void Join(int i) {
     for (int j = 0; j < i; ++j) {
       if (follows(static_cast<std::size_t>(j))) continue;
-      if (ids_[static_cast<std::size_t>(j)].Leads(ids_[static_cast<std::size_t>(i)])) {
+      if (detail::Leads(ids_[static_cast<std::size_t>(j)], ids_[static_cast<std::size_t>(i)])) {
         leader_[static_cast<std::size_t>(i)] = j;
         return;
       }
-      if (ids_[static_cast<std::size_t>(i)].Leads(ids_[static_cast<std::size_t>(j)])) {
+      if (detail::Leads(ids_[static_cast<std::size_t>(i)], ids_[static_cast<std::size_t>(j)])) {
         for (int& l : leader_) l = l == j ? i : l;
         leader_[static_cast<std::size_t>(j)] = i;
         return;
@@ -104,14 +105,14 @@ class Twins {
   int Split(int l, const double* x) {
     std::vector<int> leaving;
     for (std::size_t f = 0; f < ids_.size(); ++f) {
-      if (leader_[f] == l && !ids_[f].Flags(ids_[static_cast<std::size_t>(l)], x)) {
+      if (leader_[f] == l && !detail::Flags(ids_[f], ids_[static_cast<std::size_t>(l)], x)) {
         leaving.push_back(static_cast<int>(f));
       }
     }
     if (leaving.empty()) return -1;
     int n = leaving.front();
     for (const int f : leaving) {
-      if (ids_[static_cast<std::size_t>(f)].Leads(ids_[static_cast<std::size_t>(n)])) n = f;
+      if (detail::Leads(ids_[static_cast<std::size_t>(f)], ids_[static_cast<std::size_t>(n)])) n = f;
     }
     for (const int f : leaving) leader_[static_cast<std::size_t>(f)] = f == n ? -1 : n;
     return n;
@@ -142,7 +143,7 @@ Eigen::Index StepTogether(detail::FlowRunUnit<A>* const* units, const double* xs
     const double f0 = phi[2 * k], f1 = phi[2 * k + 1], yk = y[k];
     if (!(std::isfinite(f0) && std::isfinite(f1) && std::isfinite(yk))) break;
     const double c0 = xs[2 * k], c1 = xs[2 * k + 1];
-    const detail::PairTerms2 pair = detail::PairTerms2::Of(p0, p1, c0, c1, inv_dt, homogeneous);
+    const detail::PairTerms pair = detail::PairTerms::Of(p0, p1, c0, c1, inv_dt, homogeneous);
     seen = true;
     norm = pair.cur_norm;
 #pragma GCC unroll 8
@@ -178,7 +179,7 @@ constexpr std::array<StepFn<A>, sizeof...(M)> StepTable(std::index_sequence<M...
 }
 
 // The units `group` (indices into ids, each already in a flow run, its state in units[i]) over block
-// b, in lockstep while they run; each ends by its own path (Identifier::EndFlowRun), a stop at a jump
+// b, in lockstep while they run; each ends by its own path (detail::EndFlowRun), a stop at a jump
 // settled by the twins.
 template <int A, bool kThreshold>
 void RunTogether(std::vector<Identifier>& ids, const int* group, detail::FlowRunUnit<A>* units, int m,
@@ -208,9 +209,9 @@ void RunTogether(std::vector<Identifier>& ids, const int* group, detail::FlowRun
       if (stopped == 0 || (stopped & (1U << i)) != 0) {  // leaves: ends by its own path
         *taken += units[j].admitted;
         const int id = group[j];
-        const Eigen::Index end = ids[static_cast<std::size_t>(id)].EndFlowRun(
-            units[j], b.xs, at, b.count, b.phi, b.y, stopped != 0 ? &pending[slot] : nullptr,
-            b.decisions[id]);
+        const Eigen::Index end =
+            detail::EndFlowRun(ids[static_cast<std::size_t>(id)], units[j], b.xs, at, b.count, b.phi, b.y,
+                               stopped != 0 ? &pending[slot] : nullptr, b.decisions[id]);
         twins.Settle(id, end, b);
       } else {
         live[static_cast<std::size_t>(kept++)] = live[slot];
@@ -234,15 +235,16 @@ void FeedBlock(std::vector<Identifier>& ids, const Block& b, double inv_dt, Twin
   for (const int i : twins.Fed()) {
     Identifier& id = ids[static_cast<std::size_t>(i)];
     const auto slot = static_cast<std::size_t>(m);
-    if (b.count >= kMinLockstepRun && id.BeginFlowRun<A>(&units[slot])) {
+    if (b.count >= kMinLockstepRun && detail::BeginFlowRun<A>(id, &units[slot])) {
       if (m > 0 && units[slot].paper.homogeneous != units[0].paper.homogeneous) {  // another bound mode
-        twins.Settle(i, id.EndFlowRun(units[slot], b.xs, 0, b.count, b.phi, b.y, nullptr, b.decisions[i]), b);
+        twins.Settle(
+            i, detail::EndFlowRun(id, units[slot], b.xs, 0, b.count, b.phi, b.y, nullptr, b.decisions[i]), b);
         continue;
       }
       group[slot] = i;
       if (++m == kMaxLockstep) run();
     } else if (twins.HasFollowers(i)) {
-      twins.Settle(i, id.FeedRest(b.xs, 0, b.count, b.phi, b.y, b.decisions[i]), b);
+      twins.Settle(i, detail::FeedRest(id, b.xs, 0, b.count, b.phi, b.y, b.decisions[i]), b);
     } else {
       id.Feed(ConstMatMap(b.xs, 2, b.count), b.phi, b.y, b.decisions[i]);
     }

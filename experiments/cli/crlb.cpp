@@ -60,17 +60,10 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const int mode = ModeFlag(args.mode, model);
   HybridParameters at = HybridParameters::Of(model, x0);
   at.initial_mode = mode;
-  Crlb c = ComputeCrlb(model, at, grid, sigma, unknowns, args.options, all ? std::vector<int>{} : measured,
-                       inputs.empty() ? nullptr : &inputs);
-  if (!known.empty() && unknowns.x0 && c.status != CrlbStatus::kSimulationFailed) {
-    std::vector<int> held;
-    const int shared = unknowns.size(n) - n;
-    for (const int i : known) held.push_back(shared + i);
-    Crlb h = CrlbFromFisher(c.fisher, unknowns, c.names, held);
-    h.samples = c.samples;
-    h.jumps = c.jumps;
-    c = std::move(h);
-  }
+  const Crlb c =
+      HoldKnownX0(ComputeCrlb(model, at, grid, sigma, unknowns, args.options,
+                              all ? std::vector<int>{} : measured, inputs.empty() ? nullptr : &inputs),
+                  unknowns, known, n);
   std::vector<std::string> measured_names;
   for (const int i : measured) measured_names.push_back(spec.state_names[static_cast<std::size_t>(i)]);
   std::printf("model %s, x0 = (%s)%s, t_end = %g, dt = %g (%ld samples), sigma = (%s), %s%s\n", spec.name.c_str(),

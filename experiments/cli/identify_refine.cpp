@@ -62,12 +62,11 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, const Samp
   }
   const bool all = static_cast<int>(measured.size()) == model.state_size();
   const Unknowns unknowns = Unknowns::Of(model);
-  const Crlb c = ComputeCrlb(model, truth.x0, grid, all ? truth.sigma : Vec(truth.sigma(measured)), unknowns, {},
-                             all ? std::vector<int>{} : measured, inputs.empty() ? nullptr : &inputs);
-  if (known.empty() || c.status == CrlbStatus::kSimulationFailed) return c;
-  std::vector<int> held;  // the known components of ξ0, as the refinement holds them
-  for (const int i : known) held.push_back(unknowns.size(model.state_size()) - model.state_size() + i);
-  return CrlbFromFisher(c.fisher, unknowns, c.names, held);
+  // The known components of ξ0 held, as the refinement holds them.
+  return HoldKnownX0(
+      ComputeCrlb(model, truth.x0, grid, all ? truth.sigma : Vec(truth.sigma(measured)), unknowns, {},
+                  all ? std::vector<int>{} : measured, inputs.empty() ? nullptr : &inputs),
+      unknowns, known, model.state_size());
 }
 
 void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params, const Crlb& bound) {

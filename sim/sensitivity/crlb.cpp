@@ -177,6 +177,16 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
   return out;
 }
 
+Crlb HoldKnownX0(Crlb c, const Unknowns& unknowns, const std::vector<int>& known, int n) {
+  if (known.empty() || !unknowns.x0 || c.status == CrlbStatus::kSimulationFailed) return c;
+  std::vector<int> held;
+  for (const int i : known) held.push_back(unknowns.size(n) - n + i);
+  Crlb h = CrlbFromFisher(c.fisher, unknowns, c.names, held);
+  h.samples = c.samples;
+  h.jumps = c.jumps;
+  return h;
+}
+
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured,
                  const InputSignal* inputs) {

@@ -55,6 +55,11 @@ std::vector<double> MeanEBetaPerMap(const ModelSpec& spec, const Unknowns& unkno
 Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
                     const std::vector<int>& held = {});
 
+// The bound `c` (computed for `unknowns` over n states, ξ0 last in θ) with the components `known` of ξ0
+// (state indices) known: held, sd 0, left out of the inverse (CrlbFromFisher), its samples and jumps
+// kept. `c` itself when none is known, ξ0 is not in θ or the simulation failed.
+Crlb HoldKnownX0(Crlb c, const Unknowns& unknowns, const std::vector<int>& known, int n);
+
 // The bound at the model's true α, β and the given ξ0 over `grid` with noise σ (one entry > 0 per
 // measured state) on the states `measured` (indices, increasing; empty: all), with the measured
 // inputs `inputs` for a model with inputs (else nullptr).

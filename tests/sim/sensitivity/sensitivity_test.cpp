@@ -1,6 +1,7 @@
 // Hybrid forward sensitivities against central differences of the simulator (all three built-in
 // models), the matched (hybrid time domain) mode against central differences of itself, the §5
-// CRLB against the independent figures, and the mean Gaussian norm against closed forms.
+// CRLB against the independent figures (and with ξ0 known), and the mean Gaussian norm against closed
+// forms.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -164,6 +165,30 @@ TEST_CASE("CRLB of the §5 system (x0 unknown) within 2 % of the independent fig
   REQUIRE(known.ok());
   const double expected_known[] = {1.593e-4, 1.033e-3, 7.684e-4, 8.402e-3};
   for (int i = 0; i < 4; ++i) CHECK(known.sd[i] == Approx(0.25 * expected_known[i]).epsilon(0.02));
+}
+
+TEST_CASE("x0 known: every component held is the bound without x0 in theta", "[sensitivity]") {
+  const Model model{ImpactMsd{}};
+  const SampleGrid grid{20.0, 5e-4};
+  const Unknowns with_x0 = Unknowns::Of(model);
+  const Crlb c = ComputeCrlb(model, DefaultX0(model), grid, Vec::Ones(2), with_x0);
+  const Crlb without = ComputeCrlb(model, DefaultX0(model), grid, Vec::Ones(2), Unknowns::Of(model, false));
+  REQUIRE(c.ok());
+  REQUIRE(without.ok());
+  const Crlb held = HoldKnownX0(c, with_x0, {0, 1}, 2);
+  REQUIRE(held.ok());
+  REQUIRE(held.sd.size() == 6);
+  for (int i = 0; i < 4; ++i) CHECK(held.sd[i] == Approx(without.sd[i]).epsilon(1e-9));
+  CHECK(held.sd[4] == 0.0);
+  CHECK(held.sd[5] == 0.0);
+  CHECK(held.samples == c.samples);
+  CHECK(held.jumps == 14);
+  // One component held: between the two; none held: the bound itself.
+  const Crlb one = HoldKnownX0(c, with_x0, {1}, 2);
+  REQUIRE(one.ok());
+  CHECK(one.sd[5] == 0.0);
+  for (int i = 0; i < 4; ++i) CHECK((one.sd[i] <= c.sd[i] && one.sd[i] >= held.sd[i] * (1 - 1e-12)));
+  CHECK((HoldKnownX0(c, with_x0, {}, 2).sd.array() == c.sd.array()).all());
 }
 
 TEST_CASE("mean Gaussian norm: closed forms in 1, 2 and 3 dimensions", "[sensitivity]") {
