@@ -150,7 +150,8 @@ def hysid_params(estimates: dict) -> tuple[dict, list]:
     e = {n: 0.0 for n in ("f", "y0", "u0", "c1", "c2", "c3")} | estimates
     if e["u0"] != 0.0:
         raise ValueError("tanks.toml has no pump threshold u0")
-    params = {n: e[n] for n in ("k1", "c1", "k4", "k2", "c2", "k3", "c3", "f", "y0")}
+    params = {n: 100.0 * e[n] for n in ("k1", "c1", "k4", "k2", "c2", "k3", "c3")}  # per 100 s
+    params |= {"f": e["f"], "y0": e["y0"]}
     return params, [e["h1_0"], e["h2_0"] + e["y0"]]
 
 
