@@ -32,7 +32,6 @@ import pathlib
 import sys
 
 import numpy as np
-from scipy.optimize import brentq
 
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1] / "tests" / "reference"))
@@ -147,27 +146,13 @@ def make_problem(variant: str, u, y, kind: str) -> tuple[oe.FitProblem, list[str
 
 
 def hysid_params(estimates: dict) -> tuple[dict, list]:
-    """A variant's estimates as tanks.toml's parameters and initial state (h1, y = h2 + y0).
-
-    tanks.toml writes the spill to the lower tank as g_u u + g_0 and the end of each overflow as a
-    threshold of its own (u_spill, h1_drain, u_drain): those follow from the estimates here.
-    """
+    """A variant's estimates as tanks.toml's parameters and initial state (h1, y = h2 + y0)."""
     e = {n: 0.0 for n in ("f", "y0", "u0", "c1", "c2", "c3")} | estimates
     if e["u0"] != 0.0:
         raise ValueError("tanks.toml has no pump threshold u0")
-    k1, k2, k3, k4, c1, c2, c3, f, y0 = (e[n] for n in ("k1", "k2", "k3", "k4", "c1", "c2", "c3",
-                                                          "f", "y0"))
-    rim_out = k1 * math.sqrt(H1) + c1 * H1
-    lower_out = k3 * math.sqrt(YMAX - y0) + c3 * (YMAX - y0)
-    inflow_full = k2 * math.sqrt(H1) + c2 * H1
-    g_u, g_0 = f * k4, -f * rim_out
-    # mode lower: the inflow k2 sqrt(h1) + c2 h1 equals the full tank's outflow at h1_drain
-    h1_drain = brentq(lambda h: k2 * math.sqrt(h) + c2 * h - lower_out, 1e-12, 1e3) \
-        if k2 * math.sqrt(1e3) + c2 * 1e3 > lower_out else 1e3
-    u_drain = (lower_out - inflow_full - g_0) / g_u if g_u > 0 else 0.0
-    params = {"k1": k1, "c1": c1, "k4": k4, "k2": k2, "c2": c2, "k3": k3, "c3": c3, "g_u": g_u,
-              "g_0": g_0, "y0": y0, "u_spill": rim_out / k4, "h1_drain": h1_drain, "u_drain": u_drain}
-    return params, [e["h1_0"], e["h2_0"] + y0]
+    params = {n: 100.0 * e[n] for n in ("k1", "c1", "k4", "k2", "c2", "k3", "c3")}  # per 100 s
+    params |= {"f": e["f"], "y0": e["y0"]}
+    return params, [e["h1_0"], e["h2_0"] + e["y0"]]
 
 
 def run_variant(variant: str, kind: str = "cubic") -> dict:

@@ -433,8 +433,11 @@ class Matched {
     const long count = engine_.samples().count;
     long lo = 0;
     for (int j = 0; j <= last; ++j) {
-      long hi = lo;
+      long hi = lo - 1;
       while (hi + 1 < count && segments_[static_cast<std::size_t>(hi + 1)] == j) ++hi;
+      // A segment without samples lies between two samples; one the run has passed already was left
+      // by a chain of jumps at one instant (at t = 0: the initial state's).
+      if (hi < lo && engine_.jumps() > j) continue;
       long first_forward = lo;
       while (first_forward <= hi && At(first_forward) < engine_.t()) ++first_forward;
       if (first_forward > lo && !Backward(j, lo, first_forward - 1)) return false;
@@ -581,11 +584,10 @@ void CheckSegments(const std::vector<int>& segment_of_sample, std::size_t k_coun
   }
   for (std::size_t k = 0; k < k_count; ++k) {
     const int prev = k == 0 ? 0 : segment_of_sample[k - 1];
-    const int step = segment_of_sample[k] - prev;
-    if (step != 0 && !(step == 1 && k > 0)) {
-      throw std::invalid_argument(
-          fmt::format("segment_of_sample[{}] = {} after {}: must start at 0 and grow by 0 or 1 per sample", k,
-                      segment_of_sample[k], prev));
+    if (segment_of_sample[k] < prev) {
+      throw std::invalid_argument(fmt::format("segment_of_sample[{}] = {} after {}: must be at least 0 and never "
+                                              "decrease from one sample to the next",
+                                              k, segment_of_sample[k], prev));
     }
   }
 }

@@ -137,8 +137,11 @@ SensitivityTrajectory SimulateSensitivities(const Model& model, const HybridPara
                                             const SensitivityOptions& options = {},
                                             const InputSignal* inputs = nullptr);
 
-// `segment_of_sample` has one entry per sample of the grid, starting at 0 and increasing by 0 or 1
-// from one sample to the next (else std::invalid_argument naming the sample).
+// `segment_of_sample` has one entry per sample of the grid, at least 0 and never decreasing from one
+// sample to the next (else std::invalid_argument naming the sample). A segment no sample names is one
+// the model passes between two samples (several jumps inside one sample interval), or that a chain of
+// jumps at one instant leaves at once (the first sample's label above 0: the initial state's chain);
+// the model's own jump counts (SensitivityTrajectory::trajectory.j of a plain run) are such labels.
 SensitivityTrajectory SimulateSensitivitiesMatched(const Model& model, const HybridParameters& params,
                                                    const Unknowns& unknowns, const SampleGrid& grid,
                                                    const std::vector<int>& segment_of_sample,

@@ -7,6 +7,10 @@
     check_tanks.py hysid-match HYSID   tanks.toml simulated by hysid against the same model in scipy
                                        (scipy_reference.tanks_model), same parameters, same
                                        piecewise-linear test input: outputs and switch times agree
+    check_tanks.py run HYSID MAX_RMSE  examples/cascaded-tanks/run.sh with HYSID into a temporary
+                                       directory: test_simulation.csv has the header t,y and 1 024
+                                       rows at t = 0, 4, ..., 4092, and its RMS error against the
+                                       test record is at most MAX_RMSE (V)
 Exit 0 when the check holds, 1 with the numbers when it does not.
 """
 
@@ -86,11 +90,38 @@ def hysid_match(hysid):
     return 0
 
 
+def run(hysid, max_rmse):
+    import scipy_reference as ref
+    _, _, _, y_val = ref.read_benchmark()
+    with tempfile.TemporaryDirectory() as tmp:
+        out = pathlib.Path(tmp) / "out"
+        done = subprocess.run([str(TANKS / "run.sh"), str(out)], env={"HYSID": hysid, "PATH": "/usr/bin:/bin"},
+                              capture_output=True, text=True)
+        print(done.stdout[-2000:], done.stderr[-2000:], sep="")
+        path = out / "test_simulation.csv"
+        if not path.exists():
+            return fail(f"run.sh exited {done.returncode} without {path.name}")
+        rows = list(csv.reader(open(path)))
+    if rows[0] != ["t", "y"] or len(rows) != 1025:
+        return fail(f"test_simulation.csv: header {rows[0]}, {len(rows) - 1} rows (expected t,y and 1024)")
+    t = np.array([float(r[0]) for r in rows[1:]])
+    y = np.array([float(r[1]) for r in rows[1:]])
+    if not np.array_equal(t, ref.TS * np.arange(1024)):
+        return fail("test_simulation.csv: t is not 0, 4, ..., 4092")
+    error = oe.rmse(y, y_val)
+    print(f"test RMSE {error:.4f} V (at most {max_rmse} V)")
+    if not error <= float(max_rmse):
+        return fail(f"test RMSE {error:.4f} V above {max_rmse} V")
+    return 0
+
+
 def main(argv):
     if argv[1:] == ["analytic"]:
         return analytic()
     if len(argv) == 3 and argv[1] == "hysid-match":
         return hysid_match(argv[2])
+    if len(argv) == 4 and argv[1] == "run":
+        return run(argv[2], argv[3])
     raise SystemExit(__doc__)
 
 

@@ -310,7 +310,7 @@ TEST_CASE("a ball run to its Zeno time and resting: the part before the dense bo
   CHECK((r.estimate.beta - model.beta()).norm() < 1e-8);
 }
 
-TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the fit is Zeno", "[refine]") {
+TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the labelled fit is Zeno", "[refine]") {
   const Model model{BouncingBall{}};
   const SampleGrid grid{10.0, 1e-3};
   const Vec x0 = (Vec(2) << 1.0, 0.0).finished();
@@ -327,6 +327,17 @@ TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the 
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
   CHECK(r.status == RefineStatus::kZeno);
+  // Time shooting reads each node's segment on the model's own jump counts, several jumps inside one
+  // sample interval near the Zeno time included: its fit is reported, at the truth.
+  options.time_shooting = true;
+  const RefineResult own = RefineRun(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
+  INFO(ToString(own.status) << ": " << own.reason);
+  CHECK(own.route == "multiple shooting by time");
+  REQUIRE(own.reported);
+  const Unknowns u = Unknowns::Of(model);
+  const Vec truth = HybridParameters::Of(model, x0).Theta(u), fit = own.estimate.Theta(u);
+  INFO("fit " << fit.transpose() << ", truth " << truth.transpose());
+  CHECK((fit.head(u.shared()) - truth.head(u.shared())).cwiseAbs().maxCoeff() < 1e-6);
 }
 
 // A noisy ball up to just before its Zeno time with the true jump labels (the detector's, when it

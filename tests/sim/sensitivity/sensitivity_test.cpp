@@ -215,9 +215,10 @@ TEST_CASE("bad inputs name the field", "[sensitivity]") {
       Catch::Contains("Unknowns::alpha has index 7"));
   std::vector<int> seg(1001, 0);
   seg[5] = 2;
+  seg[6] = 1;
   CHECK_THROWS_WITH(SimulateSensitivitiesMatched(model, HybridParameters::Of(model, DefaultX0(model)),
                                                  Unknowns::Of(model), SampleGrid{1.0, 1e-3}, seg),
-                    Catch::Contains("segment_of_sample[5] = 2"));
+                    Catch::Contains("segment_of_sample[6] = 1 after 2"));
 }
 
 }  // namespace
