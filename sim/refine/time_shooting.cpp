@@ -782,13 +782,17 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
     Fail(r, RefineStatus::kNotConverged, "the fit does not simulate with sensitivities");
     return;
   }
-  const Eigen::LDLT<Mat> ldlt(H);
+  // The singularity test on the Jacobi-scaled matrix S H S (S = diag(H_ii^−½)): the units a parameter
+  // is written in scale its row and column, not its information.
+  const Vec scale = H.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
+  const Mat scaled = scale.asDiagonal() * H * scale.asDiagonal();
+  const Eigen::LDLT<Mat> ldlt(scaled);
   const double largest = ldlt.vectorD().cwiseAbs().maxCoeff();
   if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 1e-13 * largest).all()) {
     Fail(r, RefineStatus::kSingularFisher, "the information matrix of the fit is singular");
     return;
   }
-  const Mat Hinv = ldlt.solve(Mat::Identity(H.rows(), H.cols()));
+  const Mat Hinv = scale.asDiagonal() * ldlt.solve(Mat::Identity(H.rows(), H.cols())) * scale.asDiagonal();
   const Mat cov = tests.white ? Hinv : Mat(Hinv * NeweyWest(scores, H.rows()) * Hinv);
   std::vector<Eigen::Index> idx;  // θ, then the first chain's first node state
   for (int i = 0; i < pr.shared + pr.n; ++i) idx.push_back(i);
