@@ -87,8 +87,6 @@ bool SelectOptions::IsValid(std::string* error) const {
   if (iterations < 1) return fail(fmt::format("SelectOptions::iterations = {}: must be >= 1", iterations));
   if (min_segment < 2) return fail(fmt::format("SelectOptions::min_segment = {}: must be >= 2", min_segment));
   if (folds < 2) return fail(fmt::format("SelectOptions::folds = {}: must be >= 2", folds));
-  if (!(outlier_factor > 1.0))
-    return fail(fmt::format("SelectOptions::outlier_factor = {}: must be > 1", outlier_factor));
   return true;
 }
 
@@ -337,61 +335,10 @@ CrossValidation MakeFolds(const FlowSums& sums, const std::vector<int>& multipli
 
 }  // namespace
 
-namespace {
-
-// Segments whose mean square residual at the full support exceeds outlier_factor × the median get
-// multiplicity 0; returns how many.
-int LeaveOutOutliers(const FlowSums& sums, const std::vector<bool>& all, const SelectOptions& options,
-                     std::vector<int>* multiplicity) {
-  if (multiplicity->empty()) multiplicity->assign(sums.segments.size(), 1);
-  const std::vector<Normal> rows = RowTotals(sums, *multiplicity, options.min_segment);
-  if (rows.empty()) return 0;
-  const std::vector<int> idx = Indices(all);
-  const std::vector<double> w = RowWeights(rows, all);
-  const Fit fit = Solve(Combined(rows, w), idx);
-  if (!fit.ok) return 0;
-  std::vector<double> ms(sums.segments.size(), -1.0);
-  std::vector<double> present;
-  for (std::size_t i = 0; i < sums.segments.size(); ++i) {
-    if ((*multiplicity)[i] == 0) continue;
-    std::vector<int> only(sums.segments.size(), 0);
-    only[i] = 1;
-    const std::vector<Normal> seg = RowTotals(sums, only, options.min_segment);
-    const Normal one = Combined(seg, w);
-    if (!(one.rows > one.offsets)) continue;
-    ms[i] = HeldOutRss(one, idx, fit.alpha) / (one.rows - one.offsets);
-    present.push_back(ms[i]);
-  }
-  if (present.size() < 3) return 0;
-  std::nth_element(present.begin(), present.begin() + std::ptrdiff_t(present.size() / 2), present.end());
-  const double median = present[present.size() / 2];
-  int left_out = 0;
-  for (std::size_t i = 0; i < ms.size(); ++i) {
-    if (ms[i] > options.outlier_factor * median) {
-      (*multiplicity)[i] = 0;
-      ++left_out;
-    }
-  }
-  return left_out;
-}
-
-Selection SelectOnSegments(const FlowSums& sums, const std::vector<bool>& selectable, const SelectOptions& options,
-                           const std::vector<int>& multiplicity, int left_out);
-
-}  // namespace
-
 Selection SelectTerms(const FlowSums& sums, const std::vector<bool>& selectable, const SelectOptions& options,
                       const std::vector<int>& multiplicity) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument(error);
-  return SelectOnSegments(sums, selectable, options, multiplicity, -1);
-}
-
-namespace {
-
-// SelectTerms; left_out < 0: outliers not yet left out.
-Selection SelectOnSegments(const FlowSums& sums, const std::vector<bool>& selectable, const SelectOptions& options,
-                           const std::vector<int>& multiplicity, int left_out) {
   const std::size_t p = sums.columns.size();
   if (selectable.size() != p) {
     throw std::invalid_argument(fmt::format("SelectTerms: {} selectable flags for {} columns", selectable.size(), p));
@@ -407,12 +354,6 @@ Selection SelectOnSegments(const FlowSums& sums, const std::vector<bool>& select
     return out;
   }
   const std::vector<bool> all(p, true);
-  std::vector<int> kept = multiplicity;
-  if (left_out < 0) {
-    left_out = LeaveOutOutliers(sums, all, options, &kept);
-    if (left_out > 0) return SelectOnSegments(sums, selectable, options, kept, left_out);
-  }
-  out.segments_left_out = left_out;
   const std::vector<double> weights = RowWeights(rows, all);
   const Normal ne = Combined(rows, weights);
   const double N = ne.rows - ne.offsets;
@@ -491,8 +432,6 @@ Selection SelectOnSegments(const FlowSums& sums, const std::vector<bool>& select
   out.ok = true;
   return out;
 }
-
-}  // namespace
 
 BootstrapResult BootstrapSelection(const FlowSums& sums, const std::vector<bool>& selectable,
                                    const SelectOptions& options, int draws, std::uint64_t seed,

@@ -76,9 +76,6 @@ struct SelectOptions {
   int thresholds = 40;   // λ values on the STLSQ path (log-spaced over the relative coefficients)
   int iterations = 20;   // at most per STLSQ run
   int min_segment = 3;   // segments with fewer samples are left out
-  // A segment whose mean square residual at the full support's fit exceeds this factor times the
-  // median segment's is left out (a jump the detector missed leaves a step in its running sums).
-  double outlier_factor = 100.0;
   bool IsValid(std::string* error) const;
 };
 
@@ -93,7 +90,6 @@ struct Selection {
   std::vector<bool> runner_up;
   long rows = 0;               // N: rows less offsets
   int supports = 0;            // distinct supports compared
-  int segments_left_out = 0;   // by outlier_factor
 };
 
 // `selectable[j]`: column j may be dropped. `multiplicity` (empty: 1 each): how often each segment

@@ -34,13 +34,13 @@ std::string TermText(const ModelSpec& spec, int alpha) {
 void PrintSelection(const Model& model, const SelectStep& step) {
   const ModelSpec& spec = model.spec();
   const Selection& s = step.selection;
-  std::printf("selection: %zu candidate terms, %d flow segments (%s; %d left out as outliers), %ld integral "
+  std::printf("selection: %zu candidate terms, %d flow segments (%s), %ld integral "
               "rows; %d supports from thresholded least squares and backward elimination, chosen by "
               "cross-validation over the segments (%.2f s)\n",
               spec.candidates.size(), step.segments,
               step.round == 1 ? "the detections of the pass with every candidate"
                               : fmt::format("the detections of the chosen model, round {}", step.round).c_str(),
-              s.segments_left_out, s.rows, s.supports, step.seconds);
+              s.rows, s.supports, step.seconds);
   std::printf("  chosen: %s (held-out mean square %.6g; BIC %.2f, the least BIC of another support %s)\n",
               step.kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(step.kept, ", ")).c_str(), s.cv, s.bic,
               std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
