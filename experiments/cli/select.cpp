@@ -11,8 +11,8 @@
 
 #include "core/io/files.hpp"
 #include "core/model_file/chosen.hpp"
+#include "core/model_file/model_file.hpp"
 #include "experiments/cli/cli.hpp"
-#include "sim/model_check/model_check.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -124,7 +124,9 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
     if (step.selectable[j] && step.selection.chosen[j]) step.kept.push_back(name);
     if (step.selection.chosen[j]) values[name] = step.selection.estimate[Eigen::Index(j)];
   }
-  step.chosen = ParseModelText(ChosenText(step, values, "the selection's least-squares values"), file + " (chosen)");
+  // Not required to reach its guards on the default trajectory (ParseModelFile, not ParseModelText):
+  // with the least-squares values of a first round it may not.
+  step.chosen = ParseModelFile(ChosenText(step, values, "the selection's least-squares values"), file + " (chosen)").model;
   step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return step;
 }
