@@ -4,7 +4,7 @@
 # Fails naming every #include "..." that points up (a file's folder is the longest one listed that
 # holds it).
 set(layers
-  core/stats core/model core/io core/estimators core/sets core/detectors core/identify core/model_file
+  core/stats core/model core/io core/estimators core/sets core/detectors core/identify core/select core/model_file
   core/builtin
   sim sim/sensitivity sim/refine sim/events sim/model_check
   experiments/sweep experiments/cli)

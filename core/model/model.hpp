@@ -57,6 +57,14 @@ struct Parameter {
   double upper = std::numeric_limits<double>::infinity();
 };
 
+// A candidate term of a flow row (a model file's [flow] candidates): the α entry whose φ column is
+// the expression `term` in row `row` and 0 elsewhere, its coefficient to be selected from the data.
+struct CandidateTerm {
+  int alpha = 0;
+  int row = 0;
+  std::string term;
+};
+
 struct ModelSpec {
   std::string name;
   std::string description;
@@ -90,6 +98,8 @@ struct ModelSpec {
   std::vector<std::string> modes = {};
   std::vector<JumpMap> jumps = {};
   int default_mode = 0;  // q0 when none is given
+  // Candidate terms among α (empty: none); each is an unknown α entry.
+  std::vector<CandidateTerm> candidates = {};
 };
 
 // Which member functions a model struct must provide. ξ has size n = spec.state_names.size().

@@ -801,6 +801,66 @@ std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::tab
   return {q, jc != nullptr && rd.Boolean(*jc, TomlReader::Join(key, "jacobian_constant"))};
 }
 
+std::vector<std::string> TakenNames(const ModelSpec& spec);
+
+// One candidate term `text` of row r: an unknown α entry ROW_K (value 0) and its φ column, the term in
+// row r and 0 elsewhere, appended to φ as ParseMatrix writes an entry.
+void AppendCandidate(const TomlReader& rd, const toml::node& node, const std::string& key, int r,
+                     const std::string& text, Definition& def, Symbols& sym, const std::string& name) {
+  ModelSpec& spec = def.spec;
+  ExprMatrix& m = def.phi[0];
+  const auto [value, uses_variable, varies] = CheckExpression(rd, &node, key, text, sym);
+  for (Eigen::Index i = 0; i < m.rows; ++i) {
+    const Eigen::Index at = m.cols * m.rows + i;
+    const bool here = i == r;
+    m.constant.push_back(here && !uses_variable ? value : 0.0);
+    m.text.push_back(here ? text : "0");
+    if (here && uses_variable) {
+      m.index.push_back(at);
+      m.joined += (m.joined.empty() ? "(" : ",(") + text + ")";
+    }
+  }
+  ++m.cols;
+  spec.candidates.push_back({static_cast<int>(spec.alpha.size()), r, text});
+  spec.alpha.push_back(Parameter{.name = name, .value = 0.0, .description = "candidate term " + text});
+}
+
+// [flow] candidates = { ROW = ["TERM", ...] }: per identified row its candidate terms, each appended
+// to α (named ROW_K) and φ. The flow Jacobian of a model with candidates is not declared constant.
+void ParseCandidates(const TomlReader& rd, const toml::node& node, Definition& def, Symbols& sym) {
+  ModelSpec& spec = def.spec;
+  std::vector<std::string> taken = TakenNames(spec);
+  taken.insert(taken.end(), spec.inputs.begin(), spec.inputs.end());
+  for (const Parameter& p : spec.guard_params) taken.push_back(p.name);
+  for (auto&& [k, v] : rd.Table(node, "flow.candidates")) {
+    const std::string row_name(k.str());
+    const std::string key = TomlReader::Join("flow.candidates", row_name);
+    const int r = static_cast<int>(rd.Choice(&v, key, "state", row_name, spec.state_names));
+    if (std::find(spec.flow_rows.begin(), spec.flow_rows.end(), r) == spec.flow_rows.end()) {
+      rd.Fail(&v, key, fmt::format("'{}' is not one of flow.rows: candidate terms are in identified rows", row_name));
+    }
+    const toml::array& terms = rd.Array(v, key);
+    rd.NotEmpty(&terms, key, terms.size(), "candidate term");
+    std::vector<std::string> seen;
+    for (std::size_t i = 0; i < terms.size(); ++i) {
+      const std::string ikey = TomlReader::Index(key, i);
+      const std::string text = EntryText(rd, terms[i], ikey);
+      if (std::find(seen.begin(), seen.end(), text) != seen.end()) rd.Twice(&terms[i], ikey, fmt::format("\"{}\"", text));
+      seen.push_back(text);
+      const std::string name = fmt::format("{}_{}", row_name, i + 1);
+      if (std::find(taken.begin(), taken.end(), name) != taken.end()) {
+        rd.Fail(&terms[i], ikey, fmt::format("the candidate's name '{}' is already taken (a state, parameter or input)", name));
+      }
+      if (spec.alpha.size() >= std::size_t(Model::kMaxParameters)) {
+        rd.Fail(&terms[i], ikey, fmt::format("alpha with the candidates would have more than {} entries", Model::kMaxParameters));
+      }
+      AppendCandidate(rd, terms[i], ikey, r, text, def, sym, name);
+      taken.push_back(name);
+    }
+  }
+  spec.flow_jacobian_constant = false;
+}
+
 // [flow] (one mode) or, with modes, one [[flow]] per mode: φ_q over the one α. flow_rows is the union
 // of the modes' rows; jacobian_constant holds when every mode declares it.
 void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
@@ -811,13 +871,14 @@ void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, 
       rd.Fail(&node, "flow", "with modes = [...], give one [[flow]] table per mode (mode = \"NAME\")");
     }
     const toml::table& t = rd.Table(node, "flow");
-    rd.OnlyKeys(t, "flow", {"phi", "rows", "jacobian_constant"});
+    rd.OnlyKeys(t, "flow", {"phi", "rows", "jacobian_constant", "candidates"});
     def.phi = {ParseMatrix(rd, rd.Require(t, "flow", "phi"), "flow.phi",
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.alpha.size()), sym)};
     spec.flow_rows = ParseCheckedRows(rd, t, "flow", def.phi[0], spec.alpha, spec.state_names);
     if (const toml::node* jc = t.get("jacobian_constant"))
       spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
+    if (const toml::node* c = t.get("candidates")) ParseCandidates(rd, *c, def, sym);
     return;
   }
   const toml::array& arr = *node.as_array();

@@ -133,10 +133,11 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
 void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleData& data);
 // data.y: n × K (the unmeasured rows reconstructed); sigma: per measured state, or empty.
 // `report`: the recursive run's part of --json (RecursiveJson, identify_output.hpp).
+// `refined` (may be null) receives the refinement's result.
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
                     const PartialOutputs& partial = {}, const std::string& trace = "",
-                    StageProgress* progress = nullptr);
+                    StageProgress* progress = nullptr, RefineResult* refined = nullptr);
 
 // What RefineAndReport computes and reports, for a caller with its own output (the Python module).
 // The truth the estimates are compared with: the simulation's x0 and σ (the command line: from the

@@ -29,6 +29,7 @@
 #include "experiments/cli/cli.hpp"
 #include "experiments/cli/identify_events.hpp"
 #include "experiments/cli/identify_output.hpp"
+#include "experiments/cli/select.hpp"
 #include "sim/sensitivity/sensitivity.hpp"
 
 namespace hysid::cli {
@@ -54,6 +55,7 @@ struct IdentifyArgs {
   std::string hulls;
   std::string progress = "auto";  // --progress
   RefineArgs refine;  // --refine, --json (identify_refine.cpp)
+  SelectArgs select;  // --chosen-model, --select-* (select.cpp)
 };
 
 Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
@@ -375,7 +377,8 @@ void CheckOutputs(const IdentifyArgs& args) {
   inputs.Add("--model-file", args.model.file);
   std::vector<std::pair<std::string, std::filesystem::path>> outputs;
   for (const auto& [flag, path] : {std::pair{"--trace", &args.trace}, std::pair{"--hulls", &args.hulls},
-                                   std::pair{"--json", &args.refine.json}}) {
+                                   std::pair{"--json", &args.refine.json},
+                                   std::pair{"--chosen-model", &args.select.chosen_model}}) {
     if (!path->empty()) outputs.emplace_back(flag, *path);
   }
   CheckOutputPaths(outputs, inputs);
@@ -505,7 +508,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   Model model = MakeModel(env, args.model);
   CheckBoundsNeedRefinement(!args.bounds.empty(), args.refine.refine, Spelling::kFlag);
   ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
-  const std::string truth_source = TakeSidecarTruth(args, &model);
+  std::string truth_source = TakeSidecarTruth(args, &model);
   IdentifierSettings settings = BuildSettings(args, model);
   const std::vector<int> measured = MeasuredIndices(model);
   const bool all = static_cast<int>(measured.size()) == model.state_size();
@@ -515,6 +518,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
                         : SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
   CheckSigmaRange(sigma, Spelling::kFlag);
   if (!all) settings.sigma.resize(0);
+  CheckSelectArgs(args.select, model);
   SampleData data = ReadData(args, model, measured);
   CheckRefineArgs(args.refine, model, data);
   const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
@@ -528,6 +532,29 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
   IdentifyResult result = IdentifyData(model, settings, data, options);
   progress.Clear();
+  std::optional<SelectStep> select;
+  if (!model.spec().candidates.empty()) {
+    // Choose the terms on the pass with every candidate, identify the chosen model, choose again on its
+    // detections until the support holds (at most kSelectRounds passes), then go on with the chosen model.
+    constexpr int kSelectRounds = 3;
+    const Model full = model;
+    select = SelectCandidates(full, args.model.file, data, result, args.select, false);
+    for (int round = 2;; ++round) {
+      model = *select->chosen;
+      settings = BuildSettings(args, model);
+      if (!all) settings.sigma.resize(0);
+      ReadSidecarAccuracy(args, &settings);
+      result = IdentifyData(model, settings, data, options);
+      if (round > kSelectRounds) break;
+      SelectStep again = SelectCandidates(full, args.model.file, data, result, args.select, true);
+      again.round = round;
+      const bool held = again.kept == select->kept;
+      select = std::move(again);
+      if (held) break;
+    }
+    PrintSelection(full, *select);
+    truth_source = "the selection's least-squares values (the chosen model has no truth)";
+  }
   if (!partial.reconstructed.empty() && options.statistics) {  // the detector's statistic is the kinks'
     result.statistic = kinks;
     result.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
@@ -543,9 +570,13 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
     WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
   }
   if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
-  const nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
+  nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
+  if (select) report["selection"] = SelectionJson(*select);
   ReleaseReported(data, result);
-  const int code = RefineAndReport(model, data, result, sigma, args.refine, report, partial, args.trace, &progress);
+  RefineResult refined;
+  const int code =
+      RefineAndReport(model, data, result, sigma, args.refine, report, partial, args.trace, &progress, &refined);
+  if (select) FinishSelection(*select, model, result, args.refine.refine == "ml" ? &refined : nullptr, args.select);
   if (code == 0 && args.refine.refine == "none" &&
       (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
     throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
@@ -631,6 +662,7 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
     if (const int code = RunIdentify(*args, env); code != 0) throw CLI::RuntimeError(code);
   });
   AddRefineOptions(cmd, args->refine);
+  AddSelectOptions(*cmd, args->select);
 }
 
 }  // namespace hysid::cli

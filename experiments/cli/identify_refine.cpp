@@ -347,9 +347,11 @@ nlohmann::json RefineJson(const Model& model, const SampleData& data, const Iden
 
 int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                     const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
-                    const PartialOutputs& partial, const std::string& trace, StageProgress* progress) {
+                    const PartialOutputs& partial, const std::string& trace, StageProgress* progress,
+                    RefineResult* refined) {
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const RefineStep step = RunRefineStep(model, data, recursive, sigma, args, partial, truth, nullptr, progress);
+  if (refined != nullptr) *refined = step.result;
   const RefineResult& r = step.result;
   if (args.refine == "ml") PrintRefinement(model, data, recursive, r);
   PrintEstimates(r, step.truth, step.bound);

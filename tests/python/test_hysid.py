@@ -634,11 +634,12 @@ def test_identify_takes_every_option_of_the_tables():
     covered = own | {o["flag"] for o in options.values()}
     # The flags that are not identify's options in Python: the files (data, columns, outputs, model).
     # --x0, --x0-known (a known initial state, for measured outputs) and --param-bound (bounds come
-    # from the model file in Python) are not keywords yet; --version is every subcommand's; --progress
+    # from the model file in Python) are not keywords yet, nor the selection of candidate terms
+    # (--chosen-model, --select-bootstrap, --select-seed); --version is every subcommand's; --progress
     # draws on the terminal.
     assert flags - covered == {"--model", "--model-file", "--param", "--data", "--columns", "--trace",
                                "--hulls", "--json", "--x0", "--x0-known", "--param-bound", "--version",
-                               "--progress"}
+                               "--progress", "--chosen-model", "--select-bootstrap", "--select-seed"}
 
 
 def test_unknown_keywords_are_refused_by_name():

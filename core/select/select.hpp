@@ -1,0 +1,111 @@
+// Which terms of a flow row do the data support: sparse selection among a model's candidate terms on
+// the flow regression's integral rows (docs/method.md#which-model-candidate-terms).
+//
+// Rows. RegressionBuilder gives, per pair the recursive pass took for flow, the trapezoid row
+// y_k = Δξ_r − Φ_{r,known} α_known, Φ_k = Φ_{r,unknown} (eq. 7). Within one flow segment (consecutive
+// flow pairs of one chain) their running sums telescope, z_k = ξ_k − ξ_a = I_k α with I_k = Σ Φ_i,
+// so each sample measures the integral with its own noise only (white residuals, unlike the
+// trapezoid rows' differences); the segment's start is an offset per row, eliminated by centring
+// (the `integral` estimator's rows). Per segment and row the centred sums are kept: G = Σ (I − Ī)(I − Ī)ᵀ,
+// b = Σ (I − Ī)(z − z̄), s = Σ (z − z̄)², and the counts, so a subset of columns, a weighting of the
+// rows or a bootstrap of segments is a sum of small matrices.
+//
+// Selection. Over the selectable columns (the candidates; the other unknowns are always kept):
+// sequentially thresholded least squares (solve, zero the coefficients whose relative size
+// |α_j|·√G_jj/√s is below λ, re-solve, until nothing changes) for a path of λ, and backward
+// elimination (drop the column of least |t|, re-solve) give supports. The rule that picks one
+// (SelectionRule): by default K-fold cross-validation over the segments, the fewest columns within one
+// standard error of the least held-out mean square; or the least BIC = N log(RSS/N) + k log N (N the
+// rows less the offsets, k the columns kept), which counts every row as independent: the noise of
+// the regressors, integrated along a segment, is not, and BIC then keeps spurious terms.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/model/model.hpp"
+
+namespace hysid {
+
+// The centred sums of one identified row over one flow segment.
+struct RowSums {
+  Mat gram;             // p × p
+  Vec cross;            // p
+  double square = 0.0;  // Σ (z − z̄)²
+  long count = 0;       // samples (the segment's anchor included)
+};
+
+struct SegmentSums {
+  int chain = 0;              // the chain the segment lies in
+  std::vector<RowSums> rows;  // one per identified flow row (RegressionLayout::Flow's order)
+};
+
+// The flow regression's integral sums per segment; `columns` are the unknown α indices, in the order
+// of the sums' entries.
+struct FlowSums {
+  std::vector<int> columns;
+  std::vector<SegmentSums> segments;
+};
+
+// Samples on the detected hybrid time domain. y: n × K states; gamma[k] = 1 where the pair (k−1, k)
+// is a jump (IdentifyResult::gamma); times: per sample (empty: uniform with step dt); chain_start:
+// 1 where a chain starts (empty: one chain); inputs: m × K (empty: none). A non-finite sample ends a
+// segment.
+struct FlowSamples {
+  const Mat* y = nullptr;
+  const std::vector<std::uint8_t>* gamma = nullptr;
+  double dt = 0.0;
+  const std::vector<double>* times = nullptr;
+  const std::vector<std::uint8_t>* chain_start = nullptr;
+  const Mat* inputs = nullptr;
+};
+
+// Throws std::invalid_argument on sizes that disagree.
+FlowSums SumFlowSegments(const Model& model, const FlowSamples& samples);
+
+// How the support is chosen among those of the path.
+enum class SelectionRule {
+  kCrossValidation,  // fewest columns within one standard error of the least held-out mean square
+  kBic,              // least BIC
+};
+
+struct SelectOptions {
+  SelectionRule rule = SelectionRule::kCrossValidation;
+  int folds = 5;         // cross-validation: segment i is held out in fold i mod folds
+  int thresholds = 40;   // λ values on the STLSQ path (log-spaced over the relative coefficients)
+  int iterations = 20;   // at most per STLSQ run
+  int min_segment = 3;   // segments with fewer samples are left out
+  bool IsValid(std::string* error) const;
+};
+
+struct Selection {
+  bool ok = false;
+  std::string reason;          // why not ok
+  std::vector<bool> chosen;    // per column of FlowSums::columns
+  Vec estimate;                // least squares on the chosen columns (0 elsewhere)
+  double bic = 0.0;            // of the chosen support
+  double cv = 0.0;             // its held-out mean square (cross-validation; 0 with kBic)
+  double runner_up_bic = 0.0;  // the least BIC of another support (infinity when none)
+  std::vector<bool> runner_up;
+  long rows = 0;               // N: rows less offsets
+  int supports = 0;            // distinct supports compared
+};
+
+// `selectable[j]`: column j may be dropped. `multiplicity` (empty: 1 each): how often each segment
+// counts (a bootstrap draw).
+Selection SelectTerms(const FlowSums& sums, const std::vector<bool>& selectable, const SelectOptions& options,
+                      const std::vector<int>& multiplicity = {});
+
+// How often each column is chosen over `draws` resamples of the segments with replacement (drawn from
+// std::mt19937_64 seeded by (seed, draw)); a draw whose selection fails counts as no choice.
+struct BootstrapResult {
+  Vec frequency;   // per column, in [0, 1]
+  int draws = 0;   // draws whose selection was ok
+  int support_matches = 0;  // draws that chose exactly `reference`'s support
+};
+BootstrapResult BootstrapSelection(const FlowSums& sums, const std::vector<bool>& selectable,
+                                   const SelectOptions& options, int draws, std::uint64_t seed,
+                                   const std::vector<bool>& reference);
+
+}  // namespace hysid

@@ -1,0 +1,58 @@
+// hysid identify on a model file with candidate terms: the selection of the terms the data support
+// (core/select), its bootstrap, the chosen model (core/model_file/chosen.hpp) that the rest of
+// identify refines, and --chosen-model.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json_fwd.hpp>
+
+#include "core/identify/identifier.hpp"
+#include "core/io/sample_data.hpp"
+#include "core/model/model.hpp"
+#include "core/select/select.hpp"
+#include "sim/refine/refine.hpp"
+
+namespace hysid::cli {
+
+struct SelectArgs {
+  std::string chosen_model;  // --chosen-model PATH
+  int bootstrap = 100;       // --select-bootstrap N (0: none)
+  std::uint64_t seed = 1;    // --select-seed
+};
+void AddSelectOptions(CLI::App& cmd, SelectArgs& args);
+// --chosen-model given for a model without candidates, or --select-* out of range: BadFlag.
+void CheckSelectArgs(const SelectArgs& args, const Model& model);
+
+struct SelectStep {
+  std::optional<Model> chosen;          // the chosen model, values from the selection's fit
+  std::string text, file;               // the model file with candidates (its text, its path)
+  std::vector<int> columns;             // unknown α indices of the full model (FlowSums::columns)
+  std::vector<bool> selectable;         // per column: a candidate
+  // Per column: the α name and, for a candidate, "ROW' term TERM", its row's state and its term.
+  std::vector<std::string> names, terms, rows, raw_terms;
+  Selection selection;
+  BootstrapResult bootstrap;
+  std::vector<std::string> kept;        // names of the chosen candidates
+  int segments = 0;                     // flow segments summed
+  int round = 1;                        // 1: on the pass with every candidate; then on the chosen model's
+  double seconds = 0.0;                 // the selection and its bootstrap
+};
+
+// The selection on the detections of a recursive pass (`detected`: of the model with candidates, or
+// of a chosen model) over `model`'s candidates; the bootstrap when `bootstrap`. Throws RunFailed when
+// no support can be chosen.
+SelectStep SelectCandidates(const Model& model, const std::string& file, const SampleData& data,
+                            const IdentifyResult& detected, const SelectArgs& args, bool bootstrap);
+void PrintSelection(const Model& model, const SelectStep& step);
+nlohmann::json SelectionJson(const SelectStep& step);
+// After the chosen model's refinement (`refined`, null: none ran) or recursive pass: the chosen terms
+// with their estimates and bootstrap frequencies; --chosen-model written with the estimates.
+void FinishSelection(const SelectStep& step, const Model& chosen, const IdentifyResult& recursive,
+                     const RefineResult* refined, const SelectArgs& args);
+
+}  // namespace hysid::cli
