@@ -12,6 +12,8 @@
    `notes` say "check the units"; the same samples in s: no note.
 7. A model file's bounds on mu = [-0.01, 0.01] with --refine none: the recursive estimate (mu 0.048)
    lies outside them, and the text and --json `notes` say so; refined, mu is within them and no note.
+8. The §5 system with b = -5 (a growing oscillation, one impact): identify's refinement is bounded in
+   time and memory (measured: 5.6 s, 51 MB), under 60 s of CPU and 512 MB resident here.
 
 Usage: trust_checks.py HYSID
 """
@@ -132,6 +134,20 @@ def bounds_note(d):
                    f"--refine ml: exit {code}, mu = {mu}, notes {report.get('notes')}")
 
 
+def b_minus_5_bounded(d):
+    code, _, err = run(["simulate", "--param", "b=-5", "--t-end", "20", "--sigma", "0.01", "--out", "b5.csv"], d)
+    expect(code == 0, f"simulate b = -5: exit {code} {err!r:.300}")
+    p = subprocess.Popen([HYSID, "identify", "--data", "b5.csv", "--param", "b=-5"], cwd=d,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out = p.stdout.read().decode(errors="replace")
+    p.stderr.read()
+    _, status, usage = os.wait4(p.pid, 0)
+    cpu, resident_mb = usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0
+    expect(os.waitstatus_to_exitcode(status) in (0, 1) and "\nstatus: " in out,
+           f"identify b = -5: exit {os.waitstatus_to_exitcode(status)}, {out[-300:]!r}")
+    expect(cpu < 60.0 and resident_mb < 512.0, f"identify b = -5: {cpu:.1f} s CPU, {resident_mb:.0f} MB resident")
+
+
 def main():
     with tempfile.TemporaryDirectory(prefix="hysid-trust-") as d:
         report_twice(d)
@@ -141,10 +157,11 @@ def main():
         long_name(d)
         units_note(d)
         bounds_note(d)
+        b_minus_5_bounded(d)
     if FAILURES:
         print("\n".join(FAILURES), file=sys.stderr)
         sys.exit(1)
-    print("report twice, --version, --param +5, --x0-known all, long names, units notes, bounds notes: as documented")
+    print("report twice, --version, --param +5, --x0-known all, long names, units notes, bounds notes, b = -5 bounded: as documented")
 
 
 if __name__ == "__main__":
