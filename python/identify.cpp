@@ -526,9 +526,12 @@ SampleData RunsOf(const Model& model, const IdentifyArgs& args, const py::object
       times[r] = Times(RunItem(t, runs, r, ys.size(), "t"), runs ? fmt::format("t[{}]", r) : "t");
   }
   SampleData data;
-  try {
-    py::gil_scoped_release release;
-    data = SampleDataFromArrays(times, columns, dt, {.max_gap = args.max_gap.value_or(0.0)});
+  try {  // its checks and copies take a while on large arrays: on a thread, Ctrl-C answered meanwhile
+    const auto arrays = std::make_shared<const std::pair<std::vector<std::vector<double>>, std::vector<Mat>>>(
+        std::move(times), std::move(columns));
+    const double max_gap = args.max_gap.value_or(0.0);
+    data = RunInterruptible<SampleData>(
+        [arrays, dt, max_gap] { return SampleDataFromArrays(arrays->first, arrays->second, dt, {.max_gap = max_gap}); });
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(ArrayMessage(e.what(), runs, ny, m));
   }
@@ -621,7 +624,7 @@ std::string Docstring() {
       "threshold, alpha_trace, beta_trace, jumps_detected, flow_status (`inconsistent` when the recursive "
       "estimate contradicts its data: docs/method.md), jump_status, flow_reason, jump_reason, flow_hull, "
       "jump_hull, sets_skipped, notes (an estimate 100 times or more from its start value: \"check the "
-      "units\"); with refine='ml' also refined (the keys of "
+      "units\"; a recursive estimate outside the model's bounds: \"lies outside its bounds\"); with refine='ml' also refined (the keys of "
       "`hysid identify --json`: status, reason, names, estimates, recursive_estimates, standard_errors, "
       "covariance, alpha, beta, x0, sigma, sigma_estimated, normalized_rms, lag1, iterations, samples_used, "
       "span_reason, model_jumps, start_repair, mended, start; with runs or times also chain_x0, "

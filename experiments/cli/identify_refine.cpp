@@ -258,6 +258,29 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
                   "(docs/outputs.md)");
 }
 
+namespace {
+
+// The notes on the unknown α, β and guard parameters of `e` outside the model's bounds (a model file's
+// `bounds`, --param-bound): only the refinement applies bounds, so such an estimate is the recursive one.
+std::vector<std::string> BoundNotes(const Model& model, const HybridParameters& e) {
+  std::vector<std::string> notes;
+  const ModelSpec& spec = model.spec();
+  for (const auto& [params, values] : {std::pair{&spec.alpha, &e.alpha}, std::pair{&spec.beta, &e.beta},
+                                       std::pair{&spec.guard_params, &e.gamma}}) {
+    for (std::size_t i = 0; i < params->size() && static_cast<Eigen::Index>(i) < values->size(); ++i) {
+      const Parameter& p = (*params)[i];
+      const double estimate = (*values)[static_cast<Eigen::Index>(i)];
+      if (p.known || !(estimate < p.lower || estimate > p.upper)) continue;
+      notes.push_back(fmt::format("{} = {:.6g} lies outside its bounds [{:g}, {:g}]: this is the recursive "
+                                  "estimate, which applies no bounds (only the refinement does)",
+                                  p.name, estimate, p.lower, p.upper));
+    }
+  }
+  return notes;
+}
+
+}  // namespace
+
 RefineStep RunRefineStep(const Model& model, const SampleData& data, const IdentifyResult& recursive,
                          const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial,
                          const Truth& truth, const std::atomic<bool>* stop, StageProgress* progress) {
@@ -290,6 +313,7 @@ RefineStep RunRefineStep(const Model& model, const SampleData& data, const Ident
   s.outputs = RunFittedModel(model, data.t, data.y, data.chain_start, data.u, recursive, r);
   if (progress != nullptr) progress->Clear();
   s.notes = UnitNotes(model, r.estimate);
+  for (std::string& note : BoundNotes(model, r.estimate)) s.notes.push_back(std::move(note));
   return s;
 }
 
@@ -349,6 +373,9 @@ int RefineAndReport(const Model& model, const SampleData& data, const IdentifyRe
                     const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
                     const PartialOutputs& partial, const std::string& trace, StageProgress* progress,
                     RefineResult* refined) {
+  // The recursive report is out before the refinement, which may take long: a signal that ends hysid
+  // then (its handler exits without flushing) keeps it, also when stdout is a file or a pipe.
+  if (args.refine == "ml") std::fflush(stdout);
   const Truth truth = data.j && data.uniform ? ReadTruth(data.path, model.state_size()) : Truth{};
   const RefineStep step = RunRefineStep(model, data, recursive, sigma, args, partial, truth, nullptr, progress);
   if (refined != nullptr) *refined = step.result;

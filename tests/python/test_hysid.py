@@ -616,6 +616,27 @@ def test_ctrl_c_stops_the_recursive_pass():
     assert p.returncode == 0 and "still running" not in p.stderr, p.stderr
 
 
+def test_ctrl_c_while_the_arrays_are_checked():
+    """SIGINT 0.05 s into an identify of 2 000 005 samples, while the arrays are checked and copied into the
+    identifier's data (over a second here, before the identification starts): KeyboardInterrupt within
+    0.5 s, as during the computation."""
+    import sys
+    script = (
+        "import os, signal, threading, time, numpy as np, hysid\n"
+        "tr = hysid.simulate('impact-msd', t_end=200.0, dt=5e-4, sigma=0.01)\n"
+        "y = np.tile(tr['y'], (5, 1))\n"
+        "sent = []\n"
+        "def fire():\n    sent.append(time.monotonic())\n    os.kill(os.getpid(), signal.SIGINT)\n"
+        "threading.Timer(0.05, fire).start()\n"
+        "try:\n    hysid.identify('impact-msd', y, dt=5e-4, refine='none')\n    print('finished', flush=True)\n"
+        "except KeyboardInterrupt:\n    print('interrupted', time.monotonic() - sent[0], flush=True)\n")
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    words = p.stdout.split()
+    assert words and words[0] == "interrupted", (p.stdout, p.stderr)
+    print(f"SIGINT 0.05 s into the call: KeyboardInterrupt {float(words[1]):.3f} s after it")
+    assert 0.0 <= float(words[1]) < 0.5
+
+
 def test_identify_takes_every_option_of_the_tables():
     """Every detector and estimator option of `hysid identify --help` is a keyword with its help and
     default, and nothing else is: one table feeds both."""
@@ -805,3 +826,20 @@ def test_units_note_on_an_estimate_far_from_its_start(paper_data):
     assert plain["notes"] == []
     ms = hysid.identify("impact-msd", y / [1.0, 1000.0], dt=0.5, refine="none")
     assert any(n.startswith("a = ") and "check the units" in n for n in ms["notes"]), ms["notes"]
+
+
+def test_bounds_note_on_a_recursive_estimate_outside_them(tmp_path):
+    """A model file's bounds on mu = [-0.01, 0.01]: the recursive estimate (refine='none', which applies no
+    bounds) lies outside them and `notes` says so; the refined one lies inside, without that note."""
+    text = (MODELS / "impact-msd.toml").read_text()
+    bounded = text.replace('{ name = "mu", value = 0.0,', '{ name = "mu", value = 0.0, bounds = [-0.01, 0.01],')
+    assert bounded != text
+    (tmp_path / "mb.toml").write_text(bounded)
+    model = hysid.Model(str(tmp_path / "mb.toml"))
+    traj = hysid.simulate(model, sigma=0.01, seed=1)
+    recursive = hysid.identify(model, traj["y"], dt=traj["dt"], refine="none")
+    assert not -0.01 <= recursive["estimates"]["mu"] <= 0.01
+    assert any(n.startswith("mu = ") and "outside its bounds [-0.01, 0.01]" in n for n in recursive["notes"])
+    refined = hysid.identify(model, traj["y"], dt=traj["dt"])
+    assert refined["refined"]["status"] == "ok" and -0.01 <= refined["refined"]["estimates"]["mu"] <= 0.01
+    assert not any("outside its bounds" in n for n in refined["notes"]), refined["notes"]

@@ -5,7 +5,9 @@
    exists): exit 130, 143 or 129 with "hysid: interrupted by SIGxxx" on stderr, no *.tmp left, and the
    older file of the same name unchanged (nor a sidecar written).
 2. The same signals during the computation, before any output is opened: the same exit, no output.
-3. Standard output a pipe whose reader has gone (`hysid identify … | head -1`; SIGPIPE at its default
+3. SIGTERM during `identify`'s refinement with standard output a file: the recursive report printed
+   before the refinement is in the file (flushed before the refinement starts), the exit 143.
+4. Standard output a pipe whose reader has gone (`hysid identify … | head -1`; SIGPIPE at its default
    action): hysid dies of SIGPIPE, quietly (nothing on stderr), as pipeline tools do; the files it
    had written are whole and no *.tmp is left.
 
@@ -101,6 +103,27 @@ def while_writing(d, sig, args, out, what):
     expect(is_old(os.path.join(d, out)), f"{what}: {out} is not the older file")
 
 
+def report_kept(d, data):
+    """Case 3: stdout a file; SIGTERM once the recursive report is in it (the refinement running)."""
+    with open(os.path.join(d, "report.txt"), "wb") as out:
+        p = subprocess.Popen([HYSID, "identify", "--data", data], cwd=d, stdout=out, stderr=subprocess.PIPE,
+                             preexec_fn=default_signals)
+        end = time.monotonic() + 300.0
+        while p.poll() is None and os.path.getsize(os.path.join(d, "report.txt")) == 0 and time.monotonic() < end:
+            time.sleep(0.01)
+        ran = p.poll() is None
+        expect(ran, f"identify ended (exit {p.returncode}) before any of its report reached the file: "
+                    "the recursive report is not flushed before the refinement")
+        if ran:
+            p.send_signal(signal.SIGTERM)
+            check_interrupted(p, signal.SIGTERM, d, "identify, SIGTERM in the refinement")
+        else:
+            p.communicate()
+    with open(os.path.join(d, "report.txt")) as f:
+        text = f.read()
+    expect("alpha a" in text and "jumps detected" in text, f"SIGTERM in the refinement: the report file {text!r:.300}")
+
+
 def main():
     with tempfile.TemporaryDirectory(prefix="hysid-signals-") as d:
         # 600 001 samples: about 60 MB of CSV, so writing takes a while on any machine.
@@ -122,7 +145,9 @@ def main():
             check_interrupted(p, sig, d, f"identify, {NAMES[sig]} before any output")
             expect(not os.path.exists(os.path.join(d, "early.csv")), f"identify, {NAMES[sig]}: early.csv written")
 
-        # Case 3: the reader of standard output has gone before hysid writes to it.
+        report_kept(d, "data.csv")
+
+        # Case 4: the reader of standard output has gone before hysid writes to it.
         small = subprocess.run([HYSID, "simulate", "--sigma", "0.01", "--out", "small.csv"], cwd=d,
                                capture_output=True)
         expect(small.returncode == 0, f"simulate small.csv: exit {small.returncode}")

@@ -10,6 +10,10 @@
 5. A file name longer than the message limit: the message keeps its reason (the end of the message).
 6. The §5 samples with time in ms: a, b are ≥ 100× from their start values and the text and --json
    `notes` say "check the units"; the same samples in s: no note.
+7. A model file's bounds on mu = [-0.01, 0.01] with --refine none: the recursive estimate (mu 0.048)
+   lies outside them, and the text and --json `notes` say so; refined, mu is within them and no note.
+8. The §5 system with b = -5 (a growing oscillation, one impact): identify's refinement is bounded in
+   time and memory (measured: 5.6 s, 51 MB), under 60 s of CPU and 512 MB resident here.
 
 Usage: trust_checks.py HYSID
 """
@@ -20,6 +24,7 @@ import sys
 import tempfile
 
 HYSID = os.path.abspath(sys.argv[1])
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..")
 FAILURES = []
 
 
@@ -105,6 +110,44 @@ def units_note(d):
                    f"{data}: exit {code}, a units note: {out!r:.900} {notes}")
 
 
+def bounds_note(d):
+    model = open(os.path.join(ROOT, "models", "impact-msd.toml")).read()
+    bounded = model.replace('{ name = "mu", value = 0.0,', '{ name = "mu", value = 0.0, bounds = [-0.01, 0.01],')
+    expect(bounded != model, "impact-msd.toml: the mu entry not found")
+    with open(os.path.join(d, "mb.toml"), "w") as f:
+        f.write(bounded)
+    code, _, err = run(["simulate", "--sigma", "0.01", "--out", "b.csv"], d)
+    expect(code == 0, f"simulate: {err!r:.300}")
+    for refine, noted in [("none", True), ("ml", False)]:
+        code, out, err = run(["identify", "--model-file", "mb.toml", "--data", "b.csv", "--refine", refine,
+                              "--json", f"b-{refine}.json"], d)
+        report = json.load(open(os.path.join(d, f"b-{refine}.json"))) if code in (0, 1) else {}
+        mu = dict(zip(report.get("names", []), report.get("estimate", []))).get("mu")
+        said = [n for n in report.get("notes", []) if n.startswith("mu = ") and "outside its bounds" in n]
+        if noted:
+            expect(code == 0 and mu is not None and not -0.01 <= mu <= 0.01,
+                   f"--refine none: exit {code}, mu = {mu} (expected outside [-0.01, 0.01]) {err!r:.300}")
+            expect("note: mu = " in out and "outside its bounds [-0.01, 0.01]" in out and said,
+                   f"--refine none: mu outside its bounds without a note: {out!r:.1200} {report.get('notes')}")
+        else:
+            expect(code == 0 and mu is not None and -0.01 <= mu <= 0.01 and not said and "outside its bounds" not in out,
+                   f"--refine ml: exit {code}, mu = {mu}, notes {report.get('notes')}")
+
+
+def b_minus_5_bounded(d):
+    code, _, err = run(["simulate", "--param", "b=-5", "--t-end", "20", "--sigma", "0.01", "--out", "b5.csv"], d)
+    expect(code == 0, f"simulate b = -5: exit {code} {err!r:.300}")
+    p = subprocess.Popen([HYSID, "identify", "--data", "b5.csv", "--param", "b=-5"], cwd=d,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out = p.stdout.read().decode(errors="replace")
+    p.stderr.read()
+    _, status, usage = os.wait4(p.pid, 0)
+    cpu, resident_mb = usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0
+    expect(os.waitstatus_to_exitcode(status) in (0, 1) and "\nstatus: " in out,
+           f"identify b = -5: exit {os.waitstatus_to_exitcode(status)}, {out[-300:]!r}")
+    expect(cpu < 60.0 and resident_mb < 512.0, f"identify b = -5: {cpu:.1f} s CPU, {resident_mb:.0f} MB resident")
+
+
 def main():
     with tempfile.TemporaryDirectory(prefix="hysid-trust-") as d:
         report_twice(d)
@@ -113,10 +156,12 @@ def main():
         x0_known_no_nan(d)
         long_name(d)
         units_note(d)
+        bounds_note(d)
+        b_minus_5_bounded(d)
     if FAILURES:
         print("\n".join(FAILURES), file=sys.stderr)
         sys.exit(1)
-    print("report twice, --version, --param +5, --x0-known all, long names, units notes: as documented")
+    print("report twice, --version, --param +5, --x0-known all, long names, units notes, bounds notes, b = -5 bounded: as documented")
 
 
 if __name__ == "__main__":
