@@ -31,6 +31,11 @@ bool Admissible(const Model& model, const HybridParameters& p, const InputSignal
   return model.InFlowSet(p.x0, at) || model.InJumpSet(p.x0, at);
 }
 
+// Integration accuracy per component: residuals below it are numerical, not noise.
+Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
+  return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
+}
+
 namespace {
 
 // One chain as fit: the span used, its times from 0, its detected segments.
@@ -229,11 +234,6 @@ class ContinuityCost final : public ceres::CostFunction {
   const FitProblem& problem_;
   std::size_t chain_;
 };
-
-// Integration accuracy per component: residuals below it are numerical, not noise.
-Vec NumericalFloor(const Mat& y, const SimOptions& sim) {
-  return (1e3 * (sim.rtol * y.cwiseAbs().rowwise().maxCoeff().array() + sim.atol)).matrix();
-}
 
 // The samples before the first detected jump that follows the previous one by fewer than
 // `min_interval` samples (jumps that close are not resolved reliably: the part before them is fit).

@@ -85,4 +85,8 @@ void MoveTo(const RefineResult& r, FitStart& s);
 // A failed fit: its status and the reason printed with it.
 void Fail(RefineResult& r, RefineStatus status, std::string reason);
 
+// Integration accuracy per row of y (1e3 · (rtol · max_k |y_k| + atol)): residuals below it are
+// numerical, not noise (noise-free data), and get no residual test.
+Vec NumericalFloor(const Mat& y, const SimOptions& sim);
+
 }  // namespace hysid
