@@ -197,9 +197,9 @@ TEST_CASE("sweep: per-trial standard errors, coverage of the 95 % intervals and 
   }
 }
 
-TEST_CASE("sweep: the bound over the samples a fit used when the span rule cuts the record",
-          "[sweep][refine]") {
-  // The drag ball nears its Zeno time in 5 s: the fit leaves out the bounces closer than 50 samples.
+TEST_CASE("sweep: the bound over the samples a fit used is the bound computed over them", "[sweep][refine]") {
+  // The drag ball nears its Zeno time in 5 s: the labelled routes leave out the bounces closer than 50
+  // samples; multiple shooting by time fits them (measured: all 750 samples in both trials).
   const std::string text = ExampleSweep("drag-ball/drag-ball.toml", "x0 = [2.0, 0.0]\nt_end = 5.0",
                                         1.0 / 150.0, 1);
   const SweepConfig c = ParseSweepText(text, "drag.toml", Registry());
@@ -213,7 +213,7 @@ TEST_CASE("sweep: the bound over the samples a fit used when the span rule cuts 
     INFO(t.At(trial, "message"));
     REQUIRE(t.At(trial, "status") == "ok");
     const long used = std::stol(t.At(trial, "samples_used"));
-    REQUIRE(used < std::stol(t.At(trial, "samples")));
+    REQUIRE(used <= std::stol(t.At(trial, "samples")));
     // The bound over samples 0 … used − 1, directly: height only, σ = 1e-3.
     const double dt = std::stod(t.At(trial, "dt"));  // the sweep's δt as written (ExampleSweep's 6 decimals)
     const Crlb direct = ComputeCrlb(model, x0, SampleGrid{(double(used) - 0.5) * dt, dt},
@@ -222,7 +222,7 @@ TEST_CASE("sweep: the bound over the samples a fit used when the span rule cuts 
     REQUIRE(direct.samples == used);
     CHECK(std::stod(t.At(trial, "crlb_fit_e_alpha")) == Approx(direct.mean_e_alpha).epsilon(1e-9));
     CHECK(std::stod(t.At(trial, "crlb_fit_e_beta")) == Approx(direct.mean_e_beta).epsilon(1e-9));
-    CHECK(std::stod(t.At(trial, "crlb_fit_e_beta")) > std::stod(t.At(trial, "crlb_e_beta")));  // less data
+    CHECK(std::stod(t.At(trial, "crlb_fit_e_beta")) >= std::stod(t.At(trial, "crlb_e_beta")) * (1 - 1e-9));
     sum_alpha += std::stod(t.At(trial, "crlb_fit_e_alpha"));
     sum_beta += std::stod(t.At(trial, "crlb_fit_e_beta"));
     sum_e_alpha += std::stod(t.At(trial, "e_alpha"));
