@@ -139,7 +139,9 @@ TEST_CASE("a narrow-band thermostat from thresholds that miss the band: at the b
   const Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
   const SampleGrid grid{1800.0, 1.0};
   const Vec x0 = Vec::Constant(1, 21.0);
-  const Trajectory truth = Simulate(model, x0, grid, {}, Exogenous{.initial_mode = 1});
+  Exogenous exo;
+  exo.initial_mode = 1;  // heating
+  const Trajectory truth = Simulate(model, x0, grid, {}, exo);
   REQUIRE(truth.status.completed());
   REQUIRE(truth.jumps.size() >= 15);
   const Mat y = AddMeasurementNoise(truth.x, Vec::Constant(1, 0.05), NoiseKey{.seed = 7, .stream = 0});
@@ -162,7 +164,9 @@ TEST_CASE("cascaded tanks, the upper level hidden, the overflow ending in α, γ
   const SampleGrid grid{1200.0, 2.0};
   const InputSignal u = TankInput(grid);
   const Vec x0 = (Vec(2) << 6.0, 4.0).finished();
-  const Trajectory truth = Simulate(model, x0, grid, {}, Exogenous{.inputs = &u});
+  Exogenous exo;
+  exo.inputs = &u;
+  const Trajectory truth = Simulate(model, x0, grid, {}, exo);
   REQUIRE(truth.status.completed());
   REQUIRE(truth.jumps.size() >= 6);
   const double sigma = 0.02;
