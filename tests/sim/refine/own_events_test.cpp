@@ -8,6 +8,7 @@
 
 #include "core/model_file/model_file.hpp"
 #include "sim/measurement.hpp"
+#include "tests/sim/refine/at_the_bound.hpp"
 #include "sim/refine/time_shooting.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
@@ -118,19 +119,6 @@ InputSignal TankInput(const SampleGrid& grid) {
     u.values(0, Eigen::Index(k)) = 4.3 + 1.2 * std::sin(0.0209 * t) + 0.6 * std::sin(0.0571 * t + 1);
   }
   return u;
-}
-
-void RequireAtTheBound(const RefineResult& r, const Vec& truth, const Crlb& bound) {
-  INFO(ToString(r.status) << ": " << r.reason << "; at " << r.refined.Theta(r.unknowns).transpose());
-  REQUIRE(r.ok());
-  REQUIRE(bound.ok());
-  const Vec theta = r.estimate.Theta(r.unknowns);
-  for (Eigen::Index i = 0; i < theta.size(); ++i) {
-    INFO(r.names[std::size_t(i)] << " = " << theta[i] << " ± " << r.standard_errors[i] << ", truth " << truth[i]
-                                  << ", CRLB sd " << bound.sd[i]);
-    CHECK(std::abs(theta[i] - truth[i]) < 4 * r.standard_errors[i]);
-    CHECK(r.standard_errors[i] == Approx(bound.sd[i]).epsilon(0.25));
-  }
 }
 
 // Measured: from this start (k, P 0.47× and 0.62×, the band 20.21–21.95) the thresholds never move

@@ -9,6 +9,7 @@
 #include "core/builtin/bouncing_ball.hpp"
 #include "core/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
+#include "tests/sim/refine/at_the_bound.hpp"
 #include "sim/refine/refine.hpp"
 #include "sim/refine/residual_tests.hpp"
 #include "sim/refine/time_shooting.hpp"
@@ -28,21 +29,6 @@ struct Data {
     y = AddMeasurementNoise(truth.x, Vec::Constant(model.state_size(), sigma), NoiseKey{.seed = seed, .stream = 0});
   }
 };
-
-// Every unknown within 4 of its reported standard errors of the truth, and each standard error within
-// 25 % of the bound's sd.
-void RequireAtTheBound(const RefineResult& r, const Vec& truth, const Crlb& bound) {
-  INFO(r.reason);
-  REQUIRE(r.ok());
-  REQUIRE(bound.ok());
-  const Vec theta = r.estimate.Theta(r.unknowns);
-  for (Eigen::Index i = 0; i < theta.size(); ++i) {
-    INFO(r.names[std::size_t(i)] << " = " << theta[i] << " ± " << r.standard_errors[i] << ", truth " << truth[i]
-                                  << ", CRLB sd " << bound.sd[i]);
-    CHECK(std::abs(theta[i] - truth[i]) < 4 * r.standard_errors[i]);
-    CHECK(r.standard_errors[i] == Approx(bound.sd[i]).epsilon(0.25));
-  }
-}
 
 TEST_CASE("time shooting fits the §5 system from a start 2x off with no detected jump", "[time_shooting]") {
   const double sigma = 0.05;
