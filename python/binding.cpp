@@ -28,8 +28,12 @@ const ModelRegistry& Builtins() {
   return *registry;
 }
 
+// A Python model may start an identification, so its file's values are start values: a guard its
+// default trajectory does not reach is a warning (sim/model_check).
 PyModel ModelFromFile(const std::string& path) {
-  PyModel m{LoadModelFile(path), "", path, ""};
+  std::string note;
+  PyModel m{LoadModelFile(path, ModelValues::kStart, &note), "", path, ""};
+  if (!note.empty() && PyErr_WarnEx(PyExc_UserWarning, note.c_str(), 1) != 0) throw py::error_already_set();
   std::ifstream in(path, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
@@ -60,7 +64,8 @@ PyModel ModelFromState(const py::tuple& state) {
   if (state.size() != 4) throw std::invalid_argument("hysid.Model: not a pickled model");
   const auto builtin = state[0].cast<std::string>(), file = state[1].cast<std::string>(),
              text = state[2].cast<std::string>();
-  PyModel m{builtin.empty() ? ParseModelText(text, file) : Builtins().Make(builtin), builtin, file, text};
+  PyModel m{builtin.empty() ? ParseModelText(text, file, ModelValues::kStart) : Builtins().Make(builtin), builtin,
+            file, text};
   for (const auto& [name, value] : state[3].cast<py::dict>()) {
     m.model.SetParameter(name.cast<std::string>(), value.cast<double>());
   }

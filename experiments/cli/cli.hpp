@@ -19,6 +19,7 @@
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/cli/checks.hpp"
+#include "sim/model_check/model_check.hpp"
 #include "sim/events/fitted_events.hpp"
 #include "sim/events/fitted_outputs.hpp"
 #include "sim/refine/refine.hpp"
@@ -58,9 +59,11 @@ Progress::Mode ProgressFlag(const std::string& text);
 
 // Builds a model from its name and "name=value" assignments; errors name --model / --param.
 Model MakeModel(const Environment& env, const std::string& name, const std::vector<std::string>& params);
-// The same from a model file when `file` is not empty (errors name --model-file), else by name.
+// The same from a model file when `file` is not empty (errors name --model-file), else by name; a file's
+// values are checked as `values` says (sim/model_check), a kStart note put in `note` when given.
 Model MakeModel(const Environment& env, const std::string& name, const std::string& file,
-                const std::vector<std::string>& params);
+                const std::vector<std::string>& params, ModelValues values = ModelValues::kTruth,
+                std::string* note = nullptr);
 // --model, --model-file (instead of --model) and --param of a subcommand that runs one model.
 struct ModelFlags {
   std::string name = "impact-msd";
@@ -70,7 +73,8 @@ struct ModelFlags {
 // Adds the three flags to `cmd`; `param_help` is --param's help.
 void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_help);
 // The model the flags name; errors name --model, --model-file or --param.
-Model MakeModel(const Environment& env, const ModelFlags& flags);
+Model MakeModel(const Environment& env, const ModelFlags& flags, ModelValues values = ModelValues::kTruth,
+                std::string* note = nullptr);
 
 // --param-bound NAME=LO,HI (repeatable) of identify and crlb (not --bound: the paper detector's
 // bound mode has that flag), and the bounds it sets on the model

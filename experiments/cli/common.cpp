@@ -40,10 +40,10 @@ Model MakeModel(const Environment& env, const std::string& name, const std::vect
 }
 
 Model MakeModel(const Environment& env, const std::string& name, const std::string& file,
-                const std::vector<std::string>& params) {
+                const std::vector<std::string>& params, ModelValues values, std::string* note) {
   Model model = [&] {
     try {
-      return file.empty() ? env.models.Make(name) : LoadModelFile(file);
+      return file.empty() ? env.models.Make(name) : LoadModelFile(file, values, note);
     } catch (const std::invalid_argument& e) {
       BadFlag(fmt::format("{}: {}{}", file.empty() ? "--model" : "--model-file", e.what(),
                           file.empty() ? ModelFileHint(env, name) : ""));
@@ -65,8 +65,8 @@ Model MakeModel(const Environment& env, const std::string& name, const std::stri
   return model;
 }
 
-Model MakeModel(const Environment& env, const ModelFlags& flags) {
-  return MakeModel(env, flags.name, flags.file, flags.params);
+Model MakeModel(const Environment& env, const ModelFlags& flags, ModelValues values, std::string* note) {
+  return MakeModel(env, flags.name, flags.file, flags.params, values, note);
 }
 
 void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_help) {

@@ -505,7 +505,8 @@ void ReleaseReported(SampleData& data, IdentifyResult& result) {
 }
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
-  Model model = MakeModel(env, args.model);
+  std::string start_note;  // a guard the start values' default trajectory does not reach
+  Model model = MakeModel(env, args.model, ModelValues::kStart, &start_note);
   CheckBoundsNeedRefinement(!args.bounds.empty(), args.refine.refine, Spelling::kFlag);
   ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
   std::string truth_source = TakeSidecarTruth(args, &model);
@@ -560,6 +561,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
     result.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
   }
   PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
+  if (!start_note.empty()) std::printf("note: %s\n", start_note.c_str());
   PrintPartial(model, partial);
   PrintEstimates(model.spec(), args, result);
   PrintEvents(model, data, result);

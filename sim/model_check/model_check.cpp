@@ -34,10 +34,11 @@ void CheckPhiFiniteAtStart(const ModelFile& file, const std::string& name, const
   }
 }
 
-// Every guard of the file's model reaches D at least once on the default trajectory. A model with
-// inputs is not simulated here (its u(t) comes with each run), nor one with candidate terms (its flow
-// is what the data will choose).
-Model CheckGuardsFire(ModelFile file, const std::string& name) {
+// Every guard of the file's model reaches D at least once on the default trajectory (kStart: the first
+// that does not is put in `note`). A model with inputs is not simulated here (its u(t) comes with each
+// run), nor one with candidate terms (its flow is what the data will choose).
+Model CheckGuardsFire(ModelFile file, const std::string& name, ModelValues values, std::string* note) {
+  if (note != nullptr) note->clear();
   const Model& model = file.model;
   const ModelSpec& s = model.spec();
   if (!s.inputs.empty() || !s.candidates.empty()) return std::move(file.model);
@@ -50,6 +51,14 @@ Model CheckGuardsFire(ModelFile file, const std::string& name) {
   }
   for (std::size_t g = 0; g < fired.size(); ++g) {
     if (fired[g] > 0) continue;
+    if (values == ModelValues::kStart) {
+      if (note != nullptr) {
+        *note = fmt::format("{}: with its start values, guard \"{}\" never reaches D on the default trajectory "
+                            "(x0 = ({}), t_end = {}); the fit places the switches from the data",
+                            file.guard_where[g], s.guards[g].name, fmt::join(s.default_x0, ", "), s.default_t_end);
+      }
+      break;
+    }
     throw std::invalid_argument(
         fmt::format("{}: guard \"{}\" never reaches D on the default trajectory (x0 = ({}), t_end = {}; "
                     "simulation {}: {})",
@@ -61,12 +70,12 @@ Model CheckGuardsFire(ModelFile file, const std::string& name) {
 
 }  // namespace
 
-Model LoadModelFile(const std::filesystem::path& path) {
-  return CheckGuardsFire(ReadModelFile(path), path.string());
+Model LoadModelFile(const std::filesystem::path& path, ModelValues values, std::string* note) {
+  return CheckGuardsFire(ReadModelFile(path), path.string(), values, note);
 }
 
-Model ParseModelText(std::string_view text, const std::string& name) {
-  return CheckGuardsFire(ParseModelFile(text, name), name);
+Model ParseModelText(std::string_view text, const std::string& name, ModelValues values, std::string* note) {
+  return CheckGuardsFire(ParseModelFile(text, name), name, values, note);
 }
 
 }  // namespace hysid

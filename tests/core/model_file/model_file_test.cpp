@@ -274,6 +274,23 @@ std::string ErrorOf(const std::string& text, bool simulate = true) {
   return "(accepted)";
 }
 
+// A file whose values are start values (identify): a guard its default trajectory never reaches is a
+// note naming the file, line and guard, and the model loads; the same file as the truth is refused.
+TEST_CASE("a guard that start values never reach is a note, not a refusal", "[model_file]") {
+  using Catch::Matchers::Contains;
+  const std::string text = Replace(kGood, "h = \"x\"", "h = \"x + 10\"");
+  REQUIRE_THAT(ErrorOf(text), Contains("never reaches D"));
+  std::string note = "stale";
+  const Model m = ParseModelText(text, "m.toml", ModelValues::kStart, &note);
+  CHECK(m.state_size() == 2);
+  CHECK_THAT(note, Contains("m.toml:11: guard[0].h: with its start values, guard \"wall\" never reaches D"));
+  ParseModelText(kGood, "m.toml", ModelValues::kStart, &note);
+  CHECK(note.empty());
+  // Other checks stay errors for start values.
+  CHECK_THROWS_WITH(ParseModelText(Replace(kGood, "x0 = [1.0, 0.0]", "x0 = [-1.0, 0.0]"), "m.toml", ModelValues::kStart),
+                    Contains("defaults.x0: (-1, 0) is outside C and D"));
+}
+
 TEST_CASE("a good file loads and its equations read back", "[model_file]") {
   const Model m = ParseModelText(kGood, "m.toml");
   REQUIRE(m.state_size() == 2);
