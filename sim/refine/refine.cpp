@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -14,6 +15,7 @@
 #include "core/model/noise_shape.hpp"
 #include "sim/refine/fit.hpp"
 #include "sim/refine/mend.hpp"
+#include "sim/refine/mode_start.hpp"
 #include "sim/refine/shooting.hpp"
 #include "sim/refine/span.hpp"
 #include "sim/refine/time_shooting.hpp"
@@ -596,7 +598,8 @@ bool Better(const RefineResult& a, const RefineResult& b) {
 }
 
 // Multiple shooting by time from the recursive start and from the model's own values (a model file's
-// start values): the better of the two fits (Better).
+// start values), and while neither is ok, for an automaton with a hidden mode, from α of the modes the
+// data show (ModeClusteredAlpha, with the model's own β and γ): the best of the fits (Better).
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
                                     const HybridParameters& recursive, const RefineOptions& options) {
   RefineResult best = FitByTimeShooting(model, chains, recursive, options);
@@ -604,14 +607,27 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   own.alpha = model.alpha();
   own.beta = model.beta();
   own.gamma = model.gamma();
-  if (options.stopped() || (own.alpha == recursive.alpha && own.beta == recursive.beta &&
-                            own.gamma == recursive.GammaOr(model))) {
-    return best;
+  auto consider = [&](const HybridParameters& from) {
+    RefineResult other = FitByTimeShooting(model, chains, from, options);
+    if (Better(other, best)) {
+      other.start = recursive;
+      best = std::move(other);
+    }
+  };
+  if (!options.stopped() && (own.alpha != recursive.alpha || own.beta != recursive.beta ||
+                             own.gamma != recursive.GammaOr(model))) {
+    consider(own);
   }
-  RefineResult other = FitByTimeShooting(model, chains, own, options);
-  if (Better(other, best)) {
-    other.start = recursive;
-    best = std::move(other);
+  if (best.ok() || options.stopped()) return best;
+  const int n = model.state_size();
+  long samples = 0;
+  for (const RefineChain& c : chains) samples += static_cast<long>(c.t.size());
+  const long window = std::max(2L * n + 2, TimeShootingNodeSpacing(samples, n) / 4);
+  if (const std::optional<Vec> alpha =
+          ModeClusteredAlpha(model, chains, MeasuredRows(options, n), own, Unknowns::Of(model), window)) {
+    HybridParameters clustered = own;
+    clustered.alpha = *alpha;
+    consider(clustered);
   }
   return best;
 }

@@ -560,6 +560,56 @@ void BestModes(ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s)
   }
 }
 
+// Segment i's weighted squared residuals when simulated from (x, q) at θ; infinity when it does not simulate.
+double SegmentFit(const ShootingProblem& pr, std::size_t i, const Vec& theta, const Vec& x, int q) {
+  const Segment& seg = pr.segments[i];
+  SensitivityTrajectory tr;
+  if (!SimulateSegment(pr, seg, pr.At(theta.data(), x.data(), q), false, &tr, Reading::kOwn)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  double cost = 0.0;
+  for (long k = 0; k < seg.samples(); ++k) {
+    for (std::size_t r = 0; r < pr.rows.size(); ++r) {
+      const double e = pr.weight[Eigen::Index(r)] * (tr.trajectory.x(pr.rows[r], k) - seg.y(Eigen::Index(r), k));
+      if (std::isfinite(e)) cost += e * e;
+    }
+  }
+  return cost;
+}
+
+// At the point reached, each node's (state, mode) pair against the data's: its own state or the one
+// with the measured rows at the node's sample, in each mode. A node the continuation left in a wrong
+// mode with a state fitted to it (a state past a guard, where both modes run alike) is set right.
+// The number of nodes changed.
+int SetNodesFromData(ShootingProblem& pr, const Vec& theta, std::vector<Vec>& s) {
+  const int modes = ModeCount(pr.model->spec());
+  int changed = 0;
+  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
+    Segment& seg = pr.segments[i];
+    Vec data = s[i];
+    for (std::size_t r = 0; r < pr.rows.size(); ++r) {
+      if (std::isfinite(seg.y(Eigen::Index(r), 0))) data[pr.rows[r]] = seg.y(Eigen::Index(r), 0);
+    }
+    const double now = SegmentFit(pr, i, theta, s[i], seg.mode);
+    double best = now;
+    int mode = seg.mode;
+    bool from_data = false;
+    for (int q = 0; q < modes; ++q) {
+      for (const bool d : {false, true}) {
+        const double c = SegmentFit(pr, i, theta, d ? data : s[i], q);
+        if (c < best) best = c, mode = q, from_data = d;
+      }
+    }
+    // A clear improvement only: the node's own fitted pair is kept on a near tie.
+    if (mode == seg.mode && !from_data) continue;
+    if (!(best < now - 9.0)) continue;
+    seg.mode = mode;
+    if (from_data) s[i] = data;
+    ++changed;
+  }
+  return changed;
+}
+
 ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& options, Vec& theta,
                              std::vector<Vec>& s) {
   ceres::Problem::Options po;
@@ -923,6 +973,25 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
       if (MoveNodesOffEvents(pr, chains, theta, s, spacing) + settled == 0) break;
     }
     if (options.stopped() || !summary.IsSolutionUsable()) break;
+  }
+  // The nodes against the data at the point reached (SetNodesFromData), and the last width solved
+  // again; kept when its cost is lower.
+  if (summary.IsSolutionUsable() && !options.stopped() && r.iterations < budget) {
+    const Vec theta_before = theta;
+    const std::vector<Vec> s_before = s;
+    const std::vector<Segment> segments_before = pr.segments;
+    if (SetNodesFromData(pr, theta, s) > 0) {
+      RepairNodes(pr, theta, s);
+      const ceres::Solver::Summary next = Solve(pr, options, theta, s);
+      r.iterations += static_cast<int>(next.iterations.size());
+      if (next.IsSolutionUsable() && next.final_cost < summary.final_cost) {
+        summary = next;
+      } else {
+        theta = theta_before;
+        s = s_before;
+        pr.segments = segments_before;
+      }
+    }
   }
   // The final solve on every sample, read on the model's own events at the point reached (labels),
   // so that the cost is smooth there; again while the labels move. A solve that fails leaves the

@@ -1,14 +1,20 @@
 // Multiple shooting by time on systems whose detector labels cannot start a fit: a thermostat whose
-// narrow band the start's thresholds miss (the data's switches located, γ moved onto them), cascaded
+// narrow band the start's thresholds miss (the data's switches located, γ moved onto them), one whose
+// start heater cools (α from the modes the data show, nodes set against the data), cascaded
 // tanks with the upper level hidden and an overflow guard in α, γ and the input (a start past the
 // rim put on it), and the past-zero projection's sensitivities against finite differences.
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <optional>
+#include <utility>
+
+#include <Eigen/Dense>
 
 #include "core/model_file/model_file.hpp"
 #include "sim/measurement.hpp"
 #include "tests/sim/refine/at_the_bound.hpp"
+#include "sim/refine/mode_start.hpp"
 #include "sim/refine/time_shooting.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
@@ -144,6 +150,73 @@ TEST_CASE("a narrow-band thermostat from thresholds that miss the band: at the b
   RequireAtTheBound(r, HybridParameters::Of(model, x0).Theta(u),
                     ComputeCrlb(model, HybridParameters::Of(model, x0), grid, Vec::Constant(1, 0.05), u, {}, {},
                                 nullptr));
+}
+
+// The thermostat's data (σ = 0.05, seed `seed`), its true mode per sample in `q`.
+Mat ThermostatData(const Model& model, std::uint64_t seed, std::vector<int>* q) {
+  Exogenous exo;
+  exo.initial_mode = 1;
+  const Trajectory truth = Simulate(model, Vec::Constant(1, 21.0), SampleGrid{1800.0, 1.0}, {}, exo);
+  REQUIRE(truth.status.completed());
+  REQUIRE(truth.jumps.size() >= 15);
+  if (q != nullptr) q->assign(truth.q.begin(), truth.q.end());
+  return AddMeasurementNoise(truth.x, Vec::Constant(1, 0.05), NoiseKey{.seed = seed, .stream = 0});
+}
+
+// The start's heater cools at the band (P − k·11 < 0): every window's best mode at the start is "on",
+// and a fit on those modes collapses. The windows' modes found by expectation–maximisation give α
+// within 3 % of the least squares on the windows that the true modes leave whole (computed here from
+// the thermostat's φ written out: ΔT = −k Σ ½(T_{k−1} + T_k − 20) + P q W).
+TEST_CASE("a thermostat whose start heater cools: α from the modes the data show", "[time_shooting]") {
+  const Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
+  std::vector<int> q;
+  const Mat y = ThermostatData(model, 11, &q);
+  HybridParameters start = HybridParameters::Of(model, Vec::Constant(1, 21.0));
+  start.alpha << 0.0021, 0.0203;
+  start.gamma = (Vec(2) << 20.36, 20.85).finished();
+  REQUIRE(start.alpha[1] - 11.0 * start.alpha[0] < 0.0);
+  const long window = 9;
+  const RefineChain chain = RefineChain::Uniform(y, 1.0, std::vector<std::uint8_t>(std::size_t(y.cols()), 0));
+  const std::optional<Vec> alpha = ModeClusteredAlpha(model, {chain}, {0}, start, Unknowns::Of(model), window);
+  REQUIRE(alpha.has_value());
+  Eigen::Matrix2d ata = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d atb = Eigen::Vector2d::Zero();
+  for (long a = 0; a + window < y.cols(); a += window) {
+    bool whole = true;
+    for (long k = a; k <= a + window; ++k) whole = whole && q[std::size_t(k)] == q[std::size_t(a)];
+    if (!whole) continue;
+    double integral = 0.0;
+    for (long k = a + 1; k <= a + window; ++k) integral += 0.5 * (y(0, k - 1) + y(0, k) - 20.0);
+    const Eigen::RowVector2d row(-integral, q[std::size_t(a)] * double(window));
+    ata += row.transpose() * row;
+    atb += row.transpose() * (y(0, a + window) - y(0, a));
+  }
+  const Eigen::Vector2d whole_windows = ata.ldlt().solve(atb);
+  CHECK((*alpha)[0] == Approx(whole_windows[0]).epsilon(0.03));
+  CHECK((*alpha)[1] == Approx(whole_windows[1]).epsilon(0.03));
+  // Not for a model whose every state is not measured, nor for one mode.
+  CHECK_FALSE(ModeClusteredAlpha(model, {chain}, {}, start, Unknowns::Of(model), 0).has_value());
+}
+
+// The whole refinement (Refine: the labelled routes, then multiple shooting by time from each start)
+// from the model's own start values, with no detected label: at the bound. Measured: without α from
+// the modes (ModeClusteredAlpha returning nothing) the residual tests refuse this fit (residual-rms).
+TEST_CASE("a thermostat from a start whose heater cools: the refinement at the bound", "[time_shooting]") {
+  Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
+  const Vec x0 = Vec::Constant(1, 21.0);
+  const HybridParameters truth = HybridParameters::Of(model, x0);
+  const Mat y = ThermostatData(model, 5, nullptr);
+  for (const auto& [name, value] : {std::pair{"k", 0.0020752}, {"P", 0.0202873}, {"T_lo", 20.355}, {"T_hi", 20.851}}) {
+    model.SetParameter(name, value);
+  }
+  RefineOptions options;
+  options.sigma = Vec::Constant(1, 0.05);
+  const RefineChain chain = RefineChain::Uniform(y, 1.0, std::vector<std::uint8_t>(std::size_t(y.cols()), 0));
+  const RefineResult r = Refine(model, {chain}, model.alpha(), model.beta(), options);
+  const Unknowns u = Unknowns::Of(model);
+  RequireAtTheBound(r, truth.Theta(u),
+                    ComputeCrlb(ParseModelFile(kThermostat, "thermostat.toml").model, truth, SampleGrid{1800.0, 1.0},
+                                Vec::Constant(1, 0.05), u, {}, {}, nullptr));
 }
 
 TEST_CASE("cascaded tanks, the upper level hidden, the overflow ending in α, γ and u: at the bound from far off",
