@@ -202,6 +202,9 @@ struct RefineResult {
   std::string mode_search;
   std::vector<std::string> chain_span_reason;
   long chains_used = 0, chains_skipped = 0;
+  // Multiple shooting by time: gaps the model was run through (chains of one run fitted as one
+  // trajectory, RefineChain::after_gap); chains_used counts the chains before joining.
+  long gaps_joined = 0;
 };
 
 // One chain of samples: consecutive samples of one run (a missing sample inside a chain is simply
@@ -220,6 +223,9 @@ struct RefineChain {
   // and the mode at its first sample (−1: unknown, each mode is tried).
   std::vector<int> maps = {};
   int initial_mode = -1;
+  // The chain continues the one before it in the same run after a gap (a step longer than the data's
+  // max_gap): multiple shooting by time simulates the run through the gap, one trajectory.
+  bool after_gap = false;
   // The samples y and u view when the chain holds them itself (null: they are the caller's).
   struct Samples {
     Mat y, u;

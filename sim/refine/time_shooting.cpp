@@ -874,8 +874,41 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   }
 }
 
+// A caller's chain within a joined one: the joined chain and its first sample there.
+struct ChainStart {
+  std::size_t chain = 0;
+  long offset = 0;
+};
+
 RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>& chains, const HybridParameters& start,
-                             const RefineOptions& options, ShootingProblem& pr, long total);
+                             const RefineOptions& options, ShootingProblem& pr, long total,
+                             const std::vector<ChainStart>& starts);
+
+
+// A chain and the ones after it in its run after gaps, as one chain (times, samples, inputs joined).
+RefineChain Joined(const std::vector<RefineChain>& chains, std::size_t first, std::size_t end) {
+  std::vector<double> t;
+  std::vector<std::uint8_t> gamma;
+  std::vector<int> maps;
+  Eigen::Index cols = 0;
+  for (std::size_t c = first; c < end; ++c) cols += static_cast<Eigen::Index>(chains[c].t.size());
+  Mat y(chains[first].y.rows(), cols), u(chains[first].u.rows(), chains[first].u.rows() ? cols : 0);
+  Eigen::Index at = 0;
+  for (std::size_t c = first; c < end; ++c) {
+    const RefineChain& ch = chains[c];
+    const auto k = static_cast<Eigen::Index>(ch.t.size());
+    t.insert(t.end(), ch.t.begin(), ch.t.end());
+    gamma.insert(gamma.end(), ch.gamma.begin(), ch.gamma.end());
+    maps.insert(maps.end(), ch.maps.begin(), ch.maps.end());
+    y.middleCols(at, k) = ch.y;
+    if (u.cols()) u.middleCols(at, k) = ch.u;
+    at += k;
+  }
+  RefineChain out = RefineChain::Of(std::move(t), std::move(y), std::move(gamma), std::move(u));
+  out.maps = std::move(maps);
+  out.initial_mode = chains[first].initial_mode;
+  return out;
+}
 
 }  // namespace
 
@@ -894,42 +927,57 @@ RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain
   pr.base = start;
   if (pr.base.gamma.size() == 0) pr.base.gamma = model.gamma();
   pr.rows = MeasuredRows(options, pr.n);
-  // Chains of fewer than 2n + 2 samples are left out (as by the labelled routes).
+  // The chains of a run joined through their gaps; joined chains of fewer than 2n + 2 samples are
+  // left out (as by the labelled routes). Per caller's chain: its joined chain and first sample there.
   std::vector<RefineChain> fit;
+  std::vector<ChainStart> starts;
   std::vector<std::size_t> index;
   long total = 0;
-  for (std::size_t c = 0; c < chains.size(); ++c) {
-    if (static_cast<long>(chains[c].t.size()) < 2L * pr.n + 2) continue;
-    fit.push_back(chains[c]);
-    index.push_back(c);
-    total += static_cast<long>(chains[c].t.size());
+  for (std::size_t c = 0; c < chains.size();) {
+    std::size_t end = c + 1;
+    while (end < chains.size() && chains[end].after_gap) ++end;
+    RefineChain joined = end == c + 1 ? chains[c] : Joined(chains, c, end);
+    if (static_cast<long>(joined.t.size()) >= 2L * pr.n + 2) {
+      long offset = 0;
+      for (std::size_t k = c; k < end; ++k) {
+        starts.push_back({fit.size(), offset});
+        index.push_back(k);
+        offset += static_cast<long>(chains[k].t.size());
+      }
+      total += static_cast<long>(joined.t.size());
+      fit.push_back(std::move(joined));
+    }
+    c = end;
   }
   if (fit.empty() || total < pr.shared + 2 * pr.n + 2) {
     Fail(r, RefineStatus::kTooFewSamples,
          fmt::format("{} samples in chains of at least {} for {} unknowns", total, 2 * pr.n + 2, pr.shared + pr.n));
     return r;
   }
-  r = FitChainsByTime(model, fit, start, options, pr, total);
+  r = FitChainsByTime(model, fit, start, options, pr, total, starts);
   // Back to the caller's chains: the ones left out have no initial state and no samples.
   std::vector<Vec> x0(chains.size());
   std::vector<long> used(chains.size(), 0);
   std::vector<int> mode(chains.size(), -1);
   for (std::size_t i = 0; i < index.size() && i < r.chain_x0.size(); ++i) {
     x0[index[i]] = r.chain_x0[i];
-    used[index[i]] = r.chain_samples_used[i];
+    used[index[i]] = static_cast<long>(chains[index[i]].t.size());
     mode[index[i]] = r.chain_mode[i];
   }
   r.chain_x0 = std::move(x0);
   r.chain_samples_used = std::move(used);
   r.chain_mode = std::move(mode);
   r.chains_skipped = static_cast<long>(chains.size() - index.size());
+  r.chains_used = static_cast<long>(index.size());
+  r.gaps_joined = static_cast<long>(index.size() - fit.size());
   return r;
 }
 
 namespace {
 
 RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>& chains, const HybridParameters& start,
-                             const RefineOptions& options, ShootingProblem& pr, long total) {
+                             const RefineOptions& options, ShootingProblem& pr, long total,
+                             const std::vector<ChainStart>& starts) {
   RefineResult r;
   r.route = "multiple shooting by time";
   r.unknowns = pr.unknowns;
@@ -1013,10 +1061,25 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   r.chain_x0.clear();
   r.chain_samples_used.clear();
   r.chain_mode.clear();
-  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
-    if (i > 0 && pr.segments[i - 1].chain == pr.segments[i].chain) continue;
-    r.chain_x0.push_back(s[i]);
-    r.chain_mode.push_back(pr.segments[i].mode);
+  // Per caller's chain: its first node, or after a gap the state and mode the fit runs through there.
+  for (const ChainStart& at : starts) {
+    std::size_t i = 0;
+    while (i + 1 < pr.segments.size() &&
+           (pr.segments[i].chain != at.chain || pr.segments[i].end <= at.offset)) {
+      ++i;
+    }
+    const Segment& seg = pr.segments[i];
+    Vec x = s[i];
+    int mode = seg.mode;
+    SensitivityTrajectory tr;
+    if (at.offset > seg.first &&
+        SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &tr, Reading::kOwn) &&
+        tr.trajectory.size() > at.offset - seg.first) {
+      x = tr.trajectory.x.col(at.offset - seg.first);
+      if (!tr.trajectory.q.empty()) mode = tr.trajectory.q[std::size_t(at.offset - seg.first)];
+    }
+    r.chain_x0.push_back(x);
+    r.chain_mode.push_back(mode);
   }
   r.initial_mode = pr.segments.front().mode >= 0 ? pr.segments.front().mode : model.spec().default_mode;
   for (const RefineChain& c : chains) r.chain_samples_used.push_back(static_cast<long>(c.t.size()));

@@ -219,6 +219,46 @@ TEST_CASE("a thermostat from a start whose heater cools: the refinement at the b
                                 Vec::Constant(1, 0.05), u, {}, {}, nullptr));
 }
 
+// A 60 s dropout in a run (two chains, the second after the gap): the model runs through it, one
+// trajectory with one initial state, and the fit is at the bound of the samples the data hold (the
+// Fisher information summed here over those samples from the sensitivities of one run).
+TEST_CASE("a thermostat with a dropout: the run fitted through the gap at the bound of its samples", "[time_shooting]") {
+  const Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
+  std::vector<int> q;
+  const Mat y = ThermostatData(model, 3, &q);
+  const long gap_first = 600, gap_end = 660;
+  std::vector<double> t(std::size_t(y.cols()));
+  for (std::size_t k = 0; k < t.size(); ++k) t[k] = double(k);
+  auto chain = [&](long a, long b) {
+    return RefineChain::Of(std::vector<double>(t.begin() + a, t.begin() + b), y.middleCols(a, b - a),
+                           std::vector<std::uint8_t>(std::size_t(b - a), 0));
+  };
+  std::vector<RefineChain> chains = {chain(0, gap_first), chain(gap_end, y.cols())};
+  chains[1].after_gap = true;
+  HybridParameters truth = HybridParameters::Of(model, Vec::Constant(1, 21.0));
+  truth.initial_mode = 1;
+  RefineOptions options;
+  options.sigma = Vec::Constant(1, 0.05);
+  const RefineResult r = FitByTimeShooting(model, chains, truth, options);
+  CHECK(r.gaps_joined == 1);
+  CHECK(r.chains_used == 2);
+  const Unknowns u = Unknowns::Of(model);
+  const SensitivityTrajectory run = SimulateSensitivities(model, truth, u, SampleGrid{1800.0, 1.0});
+  REQUIRE(run.ok());
+  Mat fisher = Mat::Zero(u.size(1), u.size(1));
+  for (long k = 0; k < y.cols(); ++k) {
+    if (k >= gap_first && k < gap_end) continue;
+    const Eigen::RowVectorXd row = run.S(k).row(0);
+    fisher += row.transpose() * row / (0.05 * 0.05);
+  }
+  RequireAtTheBound(r, truth.Theta(u), CrlbFromFisher(fisher, u, r.names));
+  // The second chain's state is the fitted run's at its first sample: near the truth there.
+  REQUIRE(r.chain_x0.size() == 2);
+  REQUIRE(r.chain_x0[1].size() == 1);
+  CHECK(std::abs(r.chain_x0[1][0] - run.trajectory.x(0, gap_end)) < 0.02);
+  CHECK(r.chain_mode[1] == q[std::size_t(gap_end)]);
+}
+
 TEST_CASE("cascaded tanks, the upper level hidden, the overflow ending in α, γ and u: at the bound from far off",
           "[time_shooting]") {
   const Model model = ParseModelFile(kTanks, "tanks.toml").model;
