@@ -7,7 +7,7 @@ set(layers
   core/stats core/model core/io core/estimators core/sets core/detectors core/identify core/select core/model_file
   core/builtin
   sim sim/sensitivity sim/refine sim/events sim/model_check
-  experiments/sweep experiments/cli)
+  experiments/sweep experiments/request experiments/cli)
 
 function(layer_of path out)
   set(best -1)
