@@ -97,19 +97,17 @@ std::vector<std::string> AllKeywords() {
   return names;
 }
 
+// The keywords: those that are the identification's settings straight into the request (the samples
+// and the truth are added later), the rest beside it.
 struct IdentifyArgs {
-  std::string estimator = "rls", detector = "residual";
-  std::map<std::string, std::string> options;  // the plugin options given (not None), as text
-  std::vector<double> sigma;
+  explicit IdentifyArgs(Model model) : request(std::move(model)) {
+    request.trace = true;
+    request.spelling = Spelling::kKeyword;
+  }
+  IdentifyRequest request;
   std::optional<double> max_gap;
-  double data_rtol = 0.0, data_atol = 0.0;
-  bool localize = false, second_pass = false, sets = true, trace = true;
-  Mat flow_shape, jump_shape;
-  std::string refine = "ml";
   py::object u = py::none(), truth = py::none();
-  std::optional<std::string> x0_known;  // as --x0-known's text
-  std::vector<double> x0;
-  std::vector<std::string> bounds;  // as --param-bound's values, NAME=LO,HI
+  std::vector<std::string> bounds;  // ApplyBounds' texts, NAME=LO,HI
 };
 
 // A plugin option's value as the command line's text: a number as the shortest text that reads
@@ -131,39 +129,41 @@ Mat NoiseShape(const py::handle& value, const std::string& name) {
   return NoiseShapeOf(std::vector<double>(a.data(), a.data() + a.size()), name, Spelling::kKeyword);
 }
 
-IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
-  IdentifyArgs a;
+IdentifyArgs ParseKeywords(const py::kwargs& kwargs, const Model& model) {
+  IdentifyArgs a(model);
+  IdentifyRequest& r = a.request;
   const std::vector<std::string> known = AllKeywords();
   for (const auto& [key, value] : kwargs) {
     const std::string name = key.cast<std::string>();
     if (PluginKeywords().contains(name)) {
-      if (!value.is_none()) a.options[name] = OptionText(value, name);
+      if (!value.is_none()) r.plugin_options[name] = OptionText(value, name);
     } else if (name == "estimator" || name == "detector") {
-      (name == "estimator" ? a.estimator : a.detector) = Text(value, name);
+      (name == "estimator" ? r.estimator : r.detector) = Text(value, name);
     } else if (name == "refine") {
-      a.refine = Text(value, name);
+      r.refine = Text(value, name);
     } else if (name == "u" || name == "truth") {
       (name == "u" ? a.u : a.truth) = py::reinterpret_borrow<py::object>(value);
     } else if (name == "x0_known") {
-      a.x0_known = X0KnownText(value);
+      r.x0_known = X0KnownText(value);
     } else if (name == "x0") {
-      a.x0 = Numbers(value, name);
+      r.x0 = Numbers(value, name);
     } else if (name == "param_bound") {
       a.bounds = BoundTexts(value);
     } else if (name == "sigma") {
-      a.sigma = Numbers(value, name);
+      r.sigma = Numbers(value, name);
     } else if (name == "max_gap") {
       a.max_gap = OptionalNumber(value, name);
     } else if (name == "data_rtol" || name == "data_atol") {
-      (name == "data_rtol" ? a.data_rtol : a.data_atol) = Number(value, name);
+      (name == "data_rtol" ? r.data_rtol : r.data_atol) = Number(value, name);
+      r.data_accuracy_source = "as given";
     } else if (name == "flow_noise_shape" || name == "jump_noise_shape") {
-      (name == "flow_noise_shape" ? a.flow_shape : a.jump_shape) = NoiseShape(value, name);
+      (name == "flow_noise_shape" ? r.flow_noise_shape : r.jump_noise_shape) = NoiseShape(value, name);
     } else if (name == "localize" || name == "second_pass" || name == "sets" || name == "trace") {
       const bool v = Flag(value, name);
-      (name == "localize"      ? a.localize
-       : name == "second_pass" ? a.second_pass
-       : name == "sets"        ? a.sets
-                               : a.trace) = v;
+      (name == "localize"      ? r.localize
+       : name == "second_pass" ? r.second_pass
+       : name == "sets"        ? r.sets
+                               : r.trace) = v;
     } else {
       throw py::type_error(
           fmt::format("identify() got an unexpected keyword argument '{}'; its keywords are model, "
@@ -171,9 +171,9 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
                       name, fmt::join(known, ", ")));
     }
   }
-  if (const std::string problem = RefineChoiceProblem(a.refine); !problem.empty())
+  if (const std::string problem = RefineChoiceProblem(r.refine); !problem.empty())
     throw std::invalid_argument("refine: " + problem);
-  CheckBoundsNeedRefinement(!a.bounds.empty(), a.refine, Spelling::kKeyword);
+  CheckBoundsNeedRefinement(!a.bounds.empty(), r.refine, Spelling::kKeyword);
   return a;
 }
 
@@ -189,12 +189,12 @@ py::array_t<double> Array(const nlohmann::json& j) {
   return out;
 }
 
-// A matrix of the report (a list of rows) as a (rows, columns) array.
-py::array_t<double> Matrix(const nlohmann::json& j) {
+// A matrix of the report (a list of rows) as Transposed returns the matrix: one row per column.
+py::array_t<double> TransposedMatrix(const nlohmann::json& j) {
   const auto rows = py::ssize_t(j.size()), cols = rows > 0 ? py::ssize_t(j[0].size()) : 0;
-  py::array_t<double> out({rows, cols});
+  py::array_t<double> out({cols, rows});
   for (py::ssize_t r = 0; r < rows; ++r) {
-    for (py::ssize_t c = 0; c < cols; ++c) out.mutable_at(r, c) = Real(j[std::size_t(r)][std::size_t(c)]);
+    for (py::ssize_t c = 0; c < cols; ++c) out.mutable_at(c, r) = Real(j[std::size_t(r)][std::size_t(c)]);
   }
   return out;
 }
@@ -225,7 +225,7 @@ py::dict RefinedDict(const nlohmann::json& report, bool chains) {
   out["estimates"] = ByName(names, report.at("estimate"));
   out["recursive_estimates"] = ByName(names, report.at("recursive_estimate"));
   out["standard_errors"] = ByName(names, report.at("standard_errors"));  // empty unless reported
-  out["covariance"] = Matrix(report.at("covariance"));
+  out["covariance"] = TransposedMatrix(report.at("covariance"));
   for (const char* key : {"alpha", "beta", "sigma"}) out[key] = Array(report.at(key));
   nlohmann::json x0 = nlohmann::json::array();
   for (std::size_t i = 0; i < names.size(); ++i) {
@@ -484,28 +484,6 @@ Truth TruthOf(const IdentifyArgs& args, const Model& model, const SampleData& da
           CheckedSigma(Numbers(args.truth["sigma"], "truth['sigma']"), n, /*allow_zero=*/true, Spelling::kKeyword)};
 }
 
-// The request from the keywords (the model's bounds set); errors name the keyword.
-IdentifyRequest MakeRequest(const IdentifyArgs& a, const Model& model, const py::kwargs& kwargs) {
-  IdentifyRequest r(model);
-  r.estimator = a.estimator;
-  r.detector = a.detector;
-  r.plugin_options = a.options;
-  r.flow_noise_shape = a.flow_shape;
-  r.jump_noise_shape = a.jump_shape;
-  r.localize = a.localize;
-  r.second_pass = a.second_pass;
-  r.sets = a.sets;
-  r.trace = a.trace;
-  r.sigma = a.sigma;
-  r.data_rtol = a.data_rtol;
-  r.data_atol = a.data_atol;
-  r.data_accuracy_source = kwargs.contains("data_rtol") || kwargs.contains("data_atol") ? "as given" : "none given";
-  r.refine = a.refine;
-  r.x0_known = a.x0_known;
-  r.x0 = a.x0;
-  r.spelling = Spelling::kKeyword;
-  return r;
-}
 
 // The outcome and its report, made on the computation's thread.
 struct Fit {
@@ -515,8 +493,9 @@ struct Fit {
 
 py::dict Identify(const py::object& model_arg, const py::object& y, const py::object& dt_arg,
                   const py::object& t, const py::kwargs& kwargs) {
-  Model model = ModelArgument(model_arg).model;
-  const IdentifyArgs args = ParseKeywords(kwargs);
+  IdentifyArgs args = ParseKeywords(kwargs, ModelArgument(model_arg).model);
+  IdentifyRequest& request = args.request;
+  Model& model = request.model;
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
@@ -525,7 +504,6 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   }
   if (t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
   ApplyBounds(args.bounds, Spelling::kKeyword, &model);
-  IdentifyRequest request = MakeRequest(args, model, kwargs);
   CheckRequest(request);
   // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
   request.data = RunsOf(model, args, y, t, dt.value_or(0.0));
@@ -538,7 +516,7 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   if (grid) data.dt = *dt;  // one run on the grid k·dt, no sample missing: the grid's own dt
   CheckRequestData(request);
   request.truth = TruthOf(args, model, data);
-  const bool refine = args.refine == "ml", chains = !data.uniform;
+  const bool refine = request.refine == "ml", chains = !data.uniform;
   auto stop = std::make_shared<std::atomic<bool>>(false);
   const Fit f = RunInterruptible<Fit>(
       [request, stop] {
@@ -549,7 +527,7 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
         return Fit{std::move(outcome), std::move(report)};
       },
       stop);
-  py::dict out = FitDict(model, f.outcome, f.report, args.trace, refine, chains);
+  py::dict out = FitDict(model, f.outcome, f.report, request.trace, refine, chains);
   out["report"] = FromJson(f.report);
   out["fit_trace"] = FitTraceDict(model, data, MeasuredIndices(model), f.outcome.refinement.outputs);
   if (!grid) {
