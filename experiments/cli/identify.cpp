@@ -306,22 +306,10 @@ std::string ColumnEntry(const std::string& entry) {
 }
 
 // The data files (the columns of the measured states); a message about the column choice names the flag.
-SampleData ReadData(const IdentifyArgs& args, const Model& model, const std::vector<int>& measured) {
+SampleData ReadData(const IdentifyArgs& args, const Model& model) {
   std::vector<std::string> columns;
   for (const std::string& entry : args.columns) columns.push_back(ColumnEntry(entry));
-  std::vector<std::string> names;
-  for (const int i : measured) names.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
-  try {
-    return ReadSampleData(args.data, static_cast<int>(measured.size()),
-                          {.columns = columns, .inputs = model.spec().inputs, .max_gap = args.max_gap,
-                           .state_names = names});
-  } catch (const std::invalid_argument& e) {
-    std::string message = e.what();
-    const std::string field = "SampleDataOptions::columns";
-    if (const auto at = message.find(field); at != std::string::npos)
-      message.replace(at, field.size(), "--columns");
-    throw std::invalid_argument(message);
-  }
+  return ReadSampleFiles(args.data, model, columns, args.max_gap, Spelling::kFlag);
 }
 
 // --trace, --hulls and --json: each writable, no two the same file, none an input of this run (a
@@ -413,7 +401,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   IdentifyRequest request = MakeRequest(args, model);
   CheckRequest(request);  // settings errors before the data is read
   CheckSelectArgs(args.select, model);
-  request.data = ReadData(args, model, MeasuredIndices(model));
+  request.data = ReadData(args, model);
   CheckRequestData(request);
   request.data_accuracy_source = ReadSidecarAccuracy(args, &request);
   if (request.data.j && request.data.uniform) request.truth = ReadTruth(request.data.path, model.state_size());

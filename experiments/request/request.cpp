@@ -386,6 +386,24 @@ void RunRefinement(const IdentifyRequest& request, IdentifyOutcome* o) {
   o->refinement = RunRefineStep(request, *o);
 }
 
+SampleData ReadSampleFiles(const std::vector<std::string>& paths, const Model& model,
+                           const std::vector<std::string>& columns, double max_gap, Spelling spelling) {
+  std::vector<std::string> names;
+  const std::vector<int> measured = MeasuredIndices(model);
+  for (const int i : measured) names.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
+  try {
+    return ReadSampleData(paths, static_cast<int>(measured.size()),
+                          {.columns = columns, .inputs = model.spec().inputs, .max_gap = max_gap,
+                           .state_names = names});
+  } catch (const std::invalid_argument& e) {
+    std::string message = e.what();
+    const std::string field = "SampleDataOptions::columns";
+    if (const auto at = message.find(field); at != std::string::npos)
+      message.replace(at, field.size(), Spelled("columns", spelling));
+    throw std::invalid_argument(message);
+  }
+}
+
 IdentifyOutcome RunIdentification(IdentifyRequest request) {
   IdentifyOutcome outcome = RunRecursivePass(request);
   RunRefinement(request, &outcome);

@@ -113,7 +113,18 @@ void CheckRequestData(const IdentifyRequest& request);
 // ("flow_noise_shape").
 Mat NoiseShapeOf(const std::vector<double>& values, const std::string& option, Spelling spelling);
 
-// The whole identification: RunRecursivePass, then RunRefinement.
+// Data files as the request's samples: the measured states (the columns named after them, else the
+// default rule of core/io/sample_data.hpp, or `columns`: "t=NAME", the states in order, "run=NAME"),
+// the model's inputs by name, chains broken at steps longer than `max_gap` (0: 5 × the median step).
+// A message about the column choice names `columns` as `spelling` spells it.
+SampleData ReadSampleFiles(const std::vector<std::string>& paths, const Model& model,
+                           const std::vector<std::string>& columns, double max_gap, Spelling spelling);
+
+// The whole identification: RunRecursivePass, then RunRefinement. A C++ caller (e.g. comparing model
+// files on one record) builds the request from a model (LoadModelFile) and ReadSampleFiles; the
+// outcome's refinement.result holds the fit (names: the parameters fitted, final_cost: ½ Σ (r/σ)²,
+// samples_used, sigma, status) and refinement.outputs the fitted model over the record (its residuals:
+// FitColumns, outcome_json.hpp).
 IdentifyOutcome RunIdentification(IdentifyRequest request);
 // The checks, the reconstruction of unmeasured states and the recursive pass; `request.data` is
 // moved into the outcome.

@@ -12,7 +12,6 @@
 #include <nlohmann/json.hpp>
 
 #include "core/builtin/builtin.hpp"
-#include "core/io/sample_data.hpp"
 #include "core/model/registry.hpp"
 #include "experiments/cli/entry.hpp"
 #include "experiments/request/outcome_json.hpp"
@@ -66,7 +65,7 @@ TEST_CASE("request: a request built in C++ gives the command line's estimates an
   const nlohmann::json cli = nlohmann::json::parse(in);
 
   IdentifyRequest request = ImpactRequest(Spelling::kFlag);
-  request.data = ReadSampleData({data}, request.model.state_size(), {.state_names = {"x", "v"}});
+  request.data = ReadSampleFiles({data}, request.model, {}, 0.0, Spelling::kFlag);
   const IdentifyOutcome outcome = RunIdentification(request);
   REQUIRE(outcome.ok());
   const nlohmann::json report = OutcomeJson(outcome);
