@@ -14,7 +14,7 @@
 #include <fmt/ranges.h>
 
 #include "core/builtin/builtin.hpp"
-#include "experiments/cli/checks.hpp"
+#include "experiments/request/checks.hpp"
 #include "sim/model_check/model_check.hpp"
 
 namespace hysid::python {
@@ -136,27 +136,7 @@ std::vector<std::string> BoundTexts(const py::handle& value) {
 }
 
 
-std::string KeywordMessage(const std::string& message) {
-  static const std::regex flag(R"(--([a-z][a-z0-9-]*))");
-  std::string out;
-  auto it = message.cbegin();
-  for (std::smatch m; std::regex_search(it, message.cend(), m, flag); it = m.suffix().first) {
-    std::string name = m[1];
-    std::replace(name.begin(), name.end(), '-', '_');
-    out += std::string(it, m[0].first) + name;
-  }
-  return out + std::string(it, message.cend());
-}
 
-std::shared_ptr<X0KnownKeyword> MakeX0Known(const std::optional<std::string>& text) {
-  auto k = std::make_shared<X0KnownKeyword>();
-  CLI::Option* option = cli::AddX0KnownOption(k->app, k->flag);
-  if (text) {
-    option->add_result(*text);
-    k->flag.text = *text;
-  }
-  return k;
-}
 
 bool IsValueError(const py::error_already_set& e) {
   return e.matches(PyExc_ValueError) || e.matches(PyExc_TypeError);

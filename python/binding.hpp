@@ -19,7 +19,6 @@
 
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
-#include "experiments/cli/cli.hpp"
 
 namespace hysid::python {
 
@@ -71,29 +70,11 @@ std::string ShapeText(const py::array& a);
 // of u ("u[K-1, i]"), then truth['j'].
 std::string ArrayMessage(const std::string& message, bool runs, int ny = 1 << 30, int nu = 0);
 
-// x0_known as --x0-known's text: True or 'all' for every component, state names as a list or
-// comma-separated; None or False: not given.
+// x0_known as KnownX0's text (experiments/request/checks.hpp): True or 'all' for every component,
+// state names as a list or comma-separated; None or False: not given.
 std::optional<std::string> X0KnownText(const py::handle& value);
-// param_bound {name: (lo, hi)} as --param-bound's values NAME=LO,HI (numbers as the shortest text).
+// param_bound {name: (lo, hi)} as ApplyBounds' texts NAME=LO,HI (numbers as the shortest text).
 std::vector<std::string> BoundTexts(const py::handle& value);
-// --x0-known as the command line holds it (X0Known reads whether its option was given: an App owns it).
-struct X0KnownKeyword {
-  CLI::App app;
-  cli::X0Known flag;
-};
-std::shared_ptr<X0KnownKeyword> MakeX0Known(const std::optional<std::string>& text);
-// A message of the command line's checks with each flag spelled as the keyword (--x0-known as x0_known).
-std::string KeywordMessage(const std::string& message);
-// Runs f, its std::invalid_argument rethrown with KeywordMessage.
-template <class F>
-auto Keyworded(F&& f) {
-  try {
-    return f();
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(KeywordMessage(e.what()));
-  }
-}
-
 // ---- NumPy results ----
 py::array_t<double> ToArray(const Vec& v);
 // A matrix stored column-major as rows × cols, returned with one row per column (cols × rows).

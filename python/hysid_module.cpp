@@ -19,11 +19,10 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "experiments/cli/checks.hpp"
+#include "experiments/request/checks.hpp"
 #include "experiments/sweep/config.hpp"
 #include "experiments/sweep/runner.hpp"
 #include "python/binding.hpp"
-#include "experiments/cli/cli.hpp"
 #include "sim/input_signal.hpp"
 #include "sim/measurement.hpp"
 #include "sim/sensitivity/crlb.hpp"
@@ -45,7 +44,7 @@ struct Run {
 // (as the command line without --inputs); or {'t': times, name: values, ...} (t left out: the sample
 // times), linear between the given times. Empty for a model without inputs.
 InputSignal InputsArgument(const py::object& value, const ModelSpec& spec, const SampleGrid& grid) {
-  if (value.is_none()) return Keyworded([&] { return cli::InputsFlag("", spec, grid); });
+  if (value.is_none()) return CheckedInputs("", spec, grid, Spelling::kKeyword);
   if (spec.inputs.empty()) throw std::invalid_argument(fmt::format("inputs: model '{}' has no inputs", spec.name));
   if (!py::isinstance<py::dict>(value))
     throw std::invalid_argument("inputs: expected a dict {'t': times, input name: values}");
@@ -202,9 +201,9 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
                   const py::object& rtol, const py::object& atol, const py::object& inputs,
                   const py::object& param_bound, const py::object& mode_arg) {
   Model model = ModelArgument(model_arg).model;
-  Keyworded([&] { cli::ApplyBoundFlags(BoundTexts(param_bound), &model); });
+  ApplyBounds(BoundTexts(param_bound), Spelling::kKeyword, &model);
   const std::string mode_name = mode_arg.is_none() ? std::string() : py::cast<std::string>(py::str(mode_arg));
-  const int mode = Keyworded([&] { return cli::ModeFlag(mode_name, model); });
+  const int mode = ModeIndex(mode_name, model, Spelling::kKeyword);
   const int n = model.state_size();
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol, inputs);
   const std::vector<int> measured = MeasuredIndices(model);
@@ -213,8 +212,7 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
                              Spelling::kKeyword);
   CheckSigmaRange(s, Spelling::kKeyword);
   CheckBoundGrid(run.grid, Spelling::kKeyword);
-  const auto keyword = MakeX0Known(X0KnownText(x0_known_arg));
-  const std::vector<int> known = Keyworded([&] { return cli::X0KnownFlag(keyword->flag, model); });
+  const std::vector<int> known = KnownX0(X0KnownText(x0_known_arg), model, Spelling::kKeyword);
   auto stop = std::make_shared<std::atomic<bool>>(false);
   const Crlb c = RunInterruptible<Crlb>([model, run, s, known, measured, all, n, mode, stop] {
     SensitivityOptions options;

@@ -1,6 +1,8 @@
-// hysid.identify: every option of `hysid identify` as a keyword. The detector's and the estimators'
-// options come from their tables (PluginOptionArguments, experiments/cli/checks.hpp: the same list
-// the command line builds its flags from), with their help texts and defaults in the docstring.
+// hysid.identify: every option of `hysid identify` as a keyword, translated into an IdentifyRequest
+// (experiments/request/request.hpp) and its outcome into a dict: the report (OutcomeJson) as JSON, its
+// `refined` part and recursive keys read from it, plus the per-sample arrays. The detector's and the
+// estimators' options come from their tables (PluginOptionArguments, experiments/request/checks.hpp: the
+// same list the command line builds its flags from), with their help texts and defaults in the docstring.
 #include <pybind11/stl.h>
 
 #include <nlohmann/json.hpp>
@@ -10,7 +12,6 @@
 #include <atomic>
 #include <map>
 #include <memory>
-#include <regex>
 #include <optional>
 #include <set>
 #include <string>
@@ -21,11 +22,10 @@
 #include <fmt/ranges.h>
 
 #include "core/identify/identifier.hpp"
-#include "core/identify/reconstruct.hpp"
 #include "core/io/sample_data.hpp"
-#include "experiments/cli/checks.hpp"
-#include "experiments/cli/cli.hpp"
-#include "experiments/cli/identify_output.hpp"
+#include "experiments/request/checks.hpp"
+#include "experiments/request/outcome_json.hpp"
+#include "experiments/request/request.hpp"
 #include "python/binding.hpp"
 #include "sim/refine/refine.hpp"
 
@@ -97,19 +97,17 @@ std::vector<std::string> AllKeywords() {
   return names;
 }
 
+// The keywords: those that are the identification's settings straight into the request (the samples
+// and the truth are added later), the rest beside it.
 struct IdentifyArgs {
-  std::string estimator = "rls", detector = "residual";
-  std::map<std::string, std::string> options;  // the plugin options given (not None), as text
-  std::vector<double> sigma;
+  explicit IdentifyArgs(Model model) : request(std::move(model)) {
+    request.trace = true;
+    request.spelling = Spelling::kKeyword;
+  }
+  IdentifyRequest request;
   std::optional<double> max_gap;
-  double data_rtol = 0.0, data_atol = 0.0;
-  bool localize = false, second_pass = false, sets = true, trace = true;
-  Mat flow_shape, jump_shape;
-  std::string refine = "ml";
   py::object u = py::none(), truth = py::none();
-  std::optional<std::string> x0_known;  // as --x0-known's text
-  std::vector<double> x0;
-  std::vector<std::string> bounds;  // as --param-bound's values, NAME=LO,HI
+  std::vector<std::string> bounds;  // ApplyBounds' texts, NAME=LO,HI
 };
 
 // A plugin option's value as the command line's text: a number as the shortest text that reads
@@ -128,50 +126,44 @@ Mat NoiseShape(const py::handle& value, const std::string& name) {
     throw std::invalid_argument(
         fmt::format("{}: shape {}: give a square matrix (parameters + 1)^2", name, ShapeText(a)));
   }
-  const std::vector<double> v(a.data(), a.data() + a.size());
-  CheckFinite(name, v);
-  const auto m = static_cast<Eigen::Index>(std::lround(std::sqrt(double(v.size()))));
-  if (m * m != static_cast<Eigen::Index>(v.size())) {
-    throw std::invalid_argument(
-        fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major", name, v.size()));
-  }
-  return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-      v.data(), m, m));
+  return NoiseShapeOf(std::vector<double>(a.data(), a.data() + a.size()), name, Spelling::kKeyword);
 }
 
-IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
-  IdentifyArgs a;
+IdentifyArgs ParseKeywords(const py::kwargs& kwargs, const Model& model) {
+  IdentifyArgs a(model);
+  IdentifyRequest& r = a.request;
   const std::vector<std::string> known = AllKeywords();
   for (const auto& [key, value] : kwargs) {
     const std::string name = key.cast<std::string>();
     if (PluginKeywords().contains(name)) {
-      if (!value.is_none()) a.options[name] = OptionText(value, name);
+      if (!value.is_none()) r.plugin_options[name] = OptionText(value, name);
     } else if (name == "estimator" || name == "detector") {
-      (name == "estimator" ? a.estimator : a.detector) = Text(value, name);
+      (name == "estimator" ? r.estimator : r.detector) = Text(value, name);
     } else if (name == "refine") {
-      a.refine = Text(value, name);
+      r.refine = Text(value, name);
     } else if (name == "u" || name == "truth") {
       (name == "u" ? a.u : a.truth) = py::reinterpret_borrow<py::object>(value);
     } else if (name == "x0_known") {
-      a.x0_known = X0KnownText(value);
+      r.x0_known = X0KnownText(value);
     } else if (name == "x0") {
-      a.x0 = Numbers(value, name);
+      r.x0 = Numbers(value, name);
     } else if (name == "param_bound") {
       a.bounds = BoundTexts(value);
     } else if (name == "sigma") {
-      a.sigma = Numbers(value, name);
+      r.sigma = Numbers(value, name);
     } else if (name == "max_gap") {
       a.max_gap = OptionalNumber(value, name);
     } else if (name == "data_rtol" || name == "data_atol") {
-      (name == "data_rtol" ? a.data_rtol : a.data_atol) = Number(value, name);
+      (name == "data_rtol" ? r.data_rtol : r.data_atol) = Number(value, name);
+      r.data_accuracy_source = "as given";
     } else if (name == "flow_noise_shape" || name == "jump_noise_shape") {
-      (name == "flow_noise_shape" ? a.flow_shape : a.jump_shape) = NoiseShape(value, name);
+      (name == "flow_noise_shape" ? r.flow_noise_shape : r.jump_noise_shape) = NoiseShape(value, name);
     } else if (name == "localize" || name == "second_pass" || name == "sets" || name == "trace") {
       const bool v = Flag(value, name);
-      (name == "localize"      ? a.localize
-       : name == "second_pass" ? a.second_pass
-       : name == "sets"        ? a.sets
-                               : a.trace) = v;
+      (name == "localize"      ? r.localize
+       : name == "second_pass" ? r.second_pass
+       : name == "sets"        ? r.sets
+                               : r.trace) = v;
     } else {
       throw py::type_error(
           fmt::format("identify() got an unexpected keyword argument '{}'; its keywords are model, "
@@ -179,160 +171,95 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs) {
                       name, fmt::join(known, ", ")));
     }
   }
-  if (const std::string problem = RefineChoiceProblem(a.refine); !problem.empty())
+  if (const std::string problem = RefineChoiceProblem(r.refine); !problem.empty())
     throw std::invalid_argument("refine: " + problem);
-  CheckBoundsNeedRefinement(!a.bounds.empty(), a.refine, Spelling::kKeyword);
+  CheckBoundsNeedRefinement(!a.bounds.empty(), r.refine, Spelling::kKeyword);
   return a;
 }
 
-// The identifier's settings, checked as `hysid identify` checks its flags, with the same messages.
-IdentifierSettings Settings(const IdentifyArgs& a, const Model& model) {
-  IdentifierSettings s;
-  SetPluginKinds(a.estimator, a.detector, Spelling::kKeyword, &s);
-  ApplyPluginOptions(a.options, Spelling::kKeyword, &s);
-  s.flow_estimator.noise_shape = a.flow_shape;
-  s.jump_estimator.noise_shape = a.jump_shape;
-  CheckNoiseShapesUsed(s, a.flow_shape.size() > 0, a.jump_shape.size() > 0, Spelling::kKeyword);
-  CheckDataAccuracy(a.data_rtol, a.data_atol, Spelling::kKeyword);
-  s.localize = a.localize;
-  s.second_pass = a.second_pass;
-  s.sets = a.sets;
-  if (!a.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size())
-    s.sigma = CheckedSigma(a.sigma, model.state_size(), /*allow_zero=*/false, Spelling::kKeyword);
-  s.data_rtol = a.data_rtol;
-  s.data_atol = a.data_atol;
-  try {
-    Identifier check(model, 1.0, s);
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(fmt::format("estimator/detector/*_noise_shape: {}", e.what()));
-  }
-  return s;
+
+py::object FromJson(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
+
+// A number of the report (NaN and infinities are written as null): null as NaN.
+double Real(const nlohmann::json& j) { return j.is_number() ? j.get<double>() : std::nan(""); }
+
+py::array_t<double> Array(const nlohmann::json& j) {
+  py::array_t<double> out(py::ssize_t(j.size()));
+  for (std::size_t i = 0; i < j.size(); ++i) out.mutable_at(py::ssize_t(i)) = Real(j[i]);
+  return out;
 }
 
-// The unknown entries of `values` by name.
-py::dict Unknowns(const std::vector<Parameter>& params, const Vec& values) {
-  py::dict out;
-  for (std::size_t i = 0; i < params.size(); ++i) {
-    if (!params[i].known) out[py::str(params[i].name)] = values[Eigen::Index(i)];
+// A matrix of the report (a list of rows) as Transposed returns the matrix: one row per column.
+py::array_t<double> TransposedMatrix(const nlohmann::json& j) {
+  const auto rows = py::ssize_t(j.size()), cols = rows > 0 ? py::ssize_t(j[0].size()) : 0;
+  py::array_t<double> out({cols, rows});
+  for (py::ssize_t r = 0; r < rows; ++r) {
+    for (py::ssize_t c = 0; c < cols; ++c) out.mutable_at(c, r) = Real(j[std::size_t(r)][std::size_t(c)]);
   }
   return out;
 }
 
-py::dict ByName(const std::vector<std::string>& names, const Vec& values) {
+// values[i] by names[i].
+py::dict ByName(const nlohmann::json& names, const nlohmann::json& values) {
   py::dict out;
-  for (std::size_t i = 0; i < names.size() && Eigen::Index(i) < values.size(); ++i)
-    out[py::str(names[i])] = values[Eigen::Index(i)];
+  for (std::size_t i = 0; i < names.size() && i < values.size(); ++i)
+    out[py::str(names[i].get<std::string>())] = Real(values[i]);
   return out;
 }
 
-// What `hysid identify` computes (RunIdentify, experiments/cli/identify.cpp): the reconstruction of
-// unmeasured states, the recursive pass, the refinement and the --json report.
-struct FitOutcome {
-  IdentifyResult recursive;
-  cli::PartialOutputs partial;
-  cli::RefineStep step;
-  nlohmann::json report;
-};
-
-// --refine, --x0-known and --x0 as RefineArgs (the App that holds --x0-known's option with them).
-struct RefineFlags {
-  std::shared_ptr<X0KnownKeyword> known;
-  cli::RefineArgs args;
-};
-
-RefineFlags MakeRefineFlags(const IdentifyArgs& a) {
-  RefineFlags f{MakeX0Known(a.x0_known), {}};
-  f.args.refine = a.refine;
-  f.args.x0.x0 = a.x0;
-  f.args.x0_known = f.known->flag;
-  return f;
+// The unknown entries of `values` (a list of the report) by the parameters' names.
+void AddUnknowns(const std::vector<Parameter>& params, const nlohmann::json& values, py::dict* out) {
+  for (std::size_t i = 0; i < params.size() && i < values.size(); ++i) {
+    if (!params[i].known) (*out)[py::str(params[i].name)] = Real(values[i]);
+  }
 }
 
-// Everything a fit reads, owned (it runs on its own thread: RunInterruptible).
-struct FitJob {
-  explicit FitJob(Model m) : model(std::move(m)) {}
-  Model model;
-  SampleData data;
-  IdentifierSettings settings;
-  Vec sigma;  // per measured state, or empty
-  std::vector<int> measured;
-  RefineFlags flags;
-  cli::Truth truth;
-  std::string accuracy_source;
-  bool trace = true;
-};
-
-FitOutcome RunFit(FitJob job, const std::atomic<bool>* stop) {
-  IdentifyOptions options{.trace = job.trace, .stop = stop};
-  if (!job.data.uniform) {
-    options.times = job.data.t;
-    options.chain_start = job.data.chain_start;
-  }
-  options.inputs = job.data.u;
-  std::vector<double> kinks;
-  FitOutcome out;
-  out.partial = cli::Reconstruct(job.model, "", job.measured, job.sigma, job.data, options, &kinks);
-  out.recursive = hysid::Identify(job.model, job.data.y, job.data.dt, job.settings, options);
-  if (!out.partial.reconstructed.empty()) {  // the detector's statistic is the kinks'
-    out.recursive.statistic = kinks;
-    out.recursive.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
-  }
-  const nlohmann::json report =
-      cli::RecursiveJson(job.model, job.data, job.settings, job.accuracy_source, out.recursive);
-  out.step = cli::RunRefineStep(job.model, job.data, out.recursive, job.sigma, job.flags.args, out.partial,
-                                job.truth, stop);
-  out.report = cli::RefineJson(job.model, job.data, out.recursive, job.flags.args, report, out.partial, out.step);
-  return out;
-}
-
-// The refinement's dict: the keys of `hysid identify --json` (names, sigma, normalized_rms, lag1,
-// iterations, ...), the estimates also by name.
-py::dict RefinedDict(const RefineResult& r, const IdentifyResult& given, bool chains) {
+// The refinement's dict, read from the report (OutcomeJson): its keys, the estimates by name, x0 (the
+// estimate's x0[...] entries) and where the fit started; with `chains` (runs or times) the per-chain keys.
+py::dict RefinedDict(const nlohmann::json& report, bool chains) {
   py::dict out;
-  out["status"] = ToString(r.status);
-  out["reason"] = r.reason;
-  out["route"] = r.route;
-  out["routes_tried"] = r.routes_tried;
-  out["reported"] = r.reported;
-  out["names"] = r.names;
-  out["estimates"] = ByName(r.names, r.estimate.Theta(r.unknowns));
-  out["recursive_estimates"] = ByName(r.names, r.start.Theta(r.unknowns));
-  out["standard_errors"] = ByName(r.names, r.standard_errors);  // empty unless reported
-  out["covariance"] = Transposed(r.covariance);
-  out["alpha"] = ToArray(r.estimate.alpha);
-  out["beta"] = ToArray(r.estimate.beta);
-  out["x0"] = ToArray(r.estimate.x0);
-  out["sigma"] = ToArray(r.sigma);
-  out["sigma_estimated"] = r.sigma_estimated;
-  out["normalized_rms"] = r.normalized_rms;
-  out["lag1"] = r.lag1;
-  out["iterations"] = r.iterations;
-  out["samples_used"] = r.samples_used;
-  out["span_reason"] = r.span_reason;
-  out["model_jumps"] = r.model_jumps;
-  out["start_repair"] = r.start_repair;
-  out["mended"] = r.mended;  // detections mended, or the route that reached the fit ("" when none)
-  out["start"] = given.safe_start ? given.safe_start_reason : std::string("the recursive estimate");
+  for (const char* key : {"status", "reason", "route", "routes_tried", "reported", "names", "sigma_estimated",
+                          "iterations", "samples_used", "span_reason", "model_jumps", "start_repair", "mended"})
+    out[key] = FromJson(report.at(key));
+  const nlohmann::json& names = report.at("names");
+  out["estimates"] = ByName(names, report.at("estimate"));
+  out["recursive_estimates"] = ByName(names, report.at("recursive_estimate"));
+  out["standard_errors"] = ByName(names, report.at("standard_errors"));  // empty unless reported
+  out["covariance"] = TransposedMatrix(report.at("covariance"));
+  for (const char* key : {"alpha", "beta", "sigma"}) out[key] = Array(report.at(key));
+  nlohmann::json x0 = nlohmann::json::array();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i].get<std::string>().starts_with("x0[")) x0.push_back(report.at("estimate")[i]);
+  }
+  out["x0"] = Array(x0);
+  out["normalized_rms"] = Real(report.at("normalized_rms"));
+  out["lag1"] = Real(report.at("lag1"));
+  out["start"] = report.contains("start") ? report["start"].at("reason").get<std::string>()
+                                          : std::string("the recursive estimate");
   if (chains) {
-    py::list x0;
-    for (const Vec& v : r.chain_x0) x0.append(v.size() ? py::object(ToArray(v)) : py::object(py::none()));
-    out["chain_x0"] = x0;
-    out["chain_samples_used"] = r.chain_samples_used;
-    out["chain_span_reason"] = r.chain_span_reason;
-    out["chains_used"] = r.chains_used;
-    out["chains_skipped"] = r.chains_skipped;
+    py::list x0s;
+    for (const nlohmann::json& v : report.value("chain_x0", nlohmann::json::array()))
+      x0s.append(v.is_null() ? py::object(py::none()) : py::object(Array(v)));
+    out["chain_x0"] = x0s;
+    for (const char* key : {"chain_samples_used", "chain_span_reason"})
+      out[key] = FromJson(report.value(key, nlohmann::json::array()));
+    for (const char* key : {"chains_used", "chains_skipped"}) out[key] = FromJson(report.value(key, 0));
   }
   return out;
 }
 
-py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool refine, bool chains) {
+// The dict's recursive keys (from the report) and per-sample arrays (from the outcome).
+py::dict FitDict(const Model& model, const IdentifyOutcome& f, const nlohmann::json& report, bool trace,
+                 bool refine, bool chains) {
   const IdentifyResult& r = f.recursive;
-  const ModelSpec& spec = model.spec();
+  const nlohmann::json& recursive = report.at("recursive");
+  const nlohmann::json& detector = report.at("detector");
   py::dict out;
-  out["alpha"] = ToArray(r.alpha_hat);
-  out["beta"] = ToArray(r.beta_hat);
-  py::dict estimates = Unknowns(spec.alpha, r.alpha_hat);
-  for (auto [k, v] : Unknowns(spec.beta, r.beta_hat)) estimates[k] = v;
+  out["alpha"] = Array(recursive.at("alpha"));
+  out["beta"] = Array(recursive.at("beta"));
+  py::dict estimates;
+  AddUnknowns(model.spec().alpha, recursive.at("alpha"), &estimates);
+  AddUnknowns(model.spec().beta, recursive.at("beta"), &estimates);
   out["estimates"] = estimates;
   out["gamma"] = py::array_t<std::uint8_t>(py::ssize_t(r.gamma.size()), r.gamma.data());
   out["statistic"] = py::array_t<double>(py::ssize_t(r.statistic.size()), r.statistic.data());
@@ -341,28 +268,28 @@ py::dict FitDict(const Model& model, const FitOutcome& f, bool trace, bool refin
     out["alpha_trace"] = Transposed(r.alpha_trace);
     out["beta_trace"] = Transposed(r.beta_trace);
   }
-  out["jumps_detected"] = r.jumps_detected;
-  out["flow_status"] = ToString(r.flow_status);
-  out["jump_status"] = ToString(r.jump_status);
-  out["flow_reason"] = r.flow_reason;
-  out["jump_reason"] = r.jump_reason;
+  out["jumps_detected"] = FromJson(detector.at("jumps_detected"));
+  for (const auto& [key, from] : {std::pair{"flow_status", "flow_estimator"}, std::pair{"jump_status", "jump_estimator"},
+                                  std::pair{"flow_reason", "flow_estimator_reason"},
+                                  std::pair{"jump_reason", "jump_estimator_reason"}})
+    out[key] = FromJson(detector.at(from));
   out["flow_hull"] = Transposed(r.flow_hull);
   out["jump_hull"] = Transposed(r.jump_hull);
-  out["sets_skipped"] = r.sets_skipped;
-  if (refine) out["refined"] = RefinedDict(f.step.result, r, chains);
-  out["notes"] = f.step.notes;  // an estimate far from its start value: "check the units"
+  out["sets_skipped"] = FromJson(recursive.at("sets_skipped"));
+  if (refine) out["refined"] = RefinedDict(report, chains);
+  out["notes"] = FromJson(report.at("notes"));  // an estimate far from its start value: "check the units"
   return out;
 }
 
 // What a fit figure reads, as `hysid identify --trace` has it per sample (hysid_plots.fit.plot_fit):
 // run, chain, t, missing (0: the samples), the measured samples (samples, measured states) and the
-// fitted model's columns (cli::FitColumns: fit_STATE, sd_STATE, residual_STATE, recursive_STATE, in_fit,
+// fitted model's columns (FitColumns: fit_STATE, sd_STATE, residual_STATE, recursive_STATE, in_fit,
 // mode_fitted).
 py::dict FitTraceDict(const Model& model, const SampleData& data, const std::vector<int>& measured,
-                      const FitOutcome& f) {
+                      const FittedOutputs& outputs) {
   const auto K = static_cast<long>(data.t.size());
   const auto size = static_cast<std::size_t>(K);
-  const std::vector<long> chains = cli::ChainNumbers(data);
+  const std::vector<long> chains = ChainNumbers(data);
   std::vector<double> run(size), chain(size), missing(size, 0.0), cells(size);
   for (std::size_t k = 0; k < std::size_t(K); ++k) {
     run[k] = k < data.run.size() ? data.run[k] + 1.0 : 1.0;
@@ -376,7 +303,7 @@ py::dict FitTraceDict(const Model& model, const SampleData& data, const std::vec
   out["measured"] = data.y.rows() == static_cast<Eigen::Index>(measured.size())
                         ? Transposed(data.y)
                         : Transposed(Mat(data.y(measured, Eigen::all)));
-  for (const cli::FitColumn& c : cli::FitColumns(model.spec(), measured, data.y, f.step.outputs)) {
+  for (const FitColumn& c : FitColumns(model.spec(), measured, data.y, outputs)) {
     for (long k = 0; k < K; ++k) cells[std::size_t(k)] = c.cell(k);
     out[py::str(c.name)] = py::array_t<double>(py::ssize_t(K), cells.data());
   }
@@ -547,7 +474,7 @@ SampleData RunsOf(const Model& model, const IdentifyArgs& args, const py::object
 
 // The truth's x0 and sigma (one value, or one per state) for the CRLB at the truth; none unless both
 // are given and the data are one uniform run (as the command line's sidecar).
-cli::Truth TruthOf(const IdentifyArgs& args, const Model& model, const SampleData& data) {
+Truth TruthOf(const IdentifyArgs& args, const Model& model, const SampleData& data) {
   if (args.truth.is_none() || !data.uniform || !args.truth.contains("x0") || !args.truth.contains("sigma")) return {};
   const int n = model.state_size();
   const std::vector<double> x0 = Numbers(args.truth["x0"], "truth['x0']");
@@ -557,12 +484,18 @@ cli::Truth TruthOf(const IdentifyArgs& args, const Model& model, const SampleDat
           CheckedSigma(Numbers(args.truth["sigma"], "truth['sigma']"), n, /*allow_zero=*/true, Spelling::kKeyword)};
 }
 
-py::object FromJson(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
+
+// The outcome and its report, made on the computation's thread.
+struct Fit {
+  IdentifyOutcome outcome;
+  nlohmann::json report;
+};
 
 py::dict Identify(const py::object& model_arg, const py::object& y, const py::object& dt_arg,
                   const py::object& t, const py::kwargs& kwargs) {
-  Model model = ModelArgument(model_arg).model;
-  const IdentifyArgs args = ParseKeywords(kwargs);
+  IdentifyArgs args = ParseKeywords(kwargs, ModelArgument(model_arg).model);
+  IdentifyRequest& request = args.request;
+  Model& model = request.model;
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
@@ -570,41 +503,38 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
     throw std::invalid_argument(fmt::format("max_gap = {}: must be a number > 0 (seconds)", *args.max_gap));
   }
   if (t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
-  Keyworded([&] { cli::ApplyBoundFlags(args.bounds, &model); });
-  FitJob job(model);
-  job.settings = Settings(args, model);
-  job.measured = MeasuredIndices(model);
-  if (!args.sigma.empty())
-    job.sigma = CheckedSigma(args.sigma, static_cast<int>(job.measured.size()), /*allow_zero=*/false,
-                             Spelling::kKeyword);
-  CheckSigmaRange(job.sigma, Spelling::kKeyword);
+  ApplyBounds(args.bounds, Spelling::kKeyword, &model);
+  CheckRequest(request);
   // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
-  job.data = RunsOf(model, args, y, t, dt.value_or(0.0));
-  if (dt && !t.is_none() && !(std::abs(job.data.dt - *dt) <= 1e-6 * *dt)) {
+  request.data = RunsOf(model, args, y, t, dt.value_or(0.0));
+  SampleData& data = request.data;
+  if (dt && !t.is_none() && !(std::abs(data.dt - *dt) <= 1e-6 * *dt)) {
     throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree",
-                                            *dt, job.data.uniform ? "the" : "the median", job.data.dt));
+                                            *dt, data.uniform ? "the" : "the median", data.dt));
   }
-  const bool grid = t.is_none() && !args.max_gap && !IsRuns(y) &&
-                    static_cast<std::size_t>(job.data.y.cols()) == py::len(y);
-  if (grid) job.data.dt = *dt;  // one run on the grid k·dt, no sample missing: the grid's own dt
-  job.flags = MakeRefineFlags(args);
-  Keyworded([&] { cli::CheckRefineArgs(job.flags.args, model, job.data); });
-  job.truth = TruthOf(args, model, job.data);
-  job.accuracy_source = kwargs.contains("data_rtol") || kwargs.contains("data_atol") ? "as given" : "none given";
-  job.trace = args.trace;
-  const bool refine = args.refine == "ml", chains = !job.data.uniform;
+  const bool grid = t.is_none() && !args.max_gap && !IsRuns(y) && static_cast<std::size_t>(data.y.cols()) == py::len(y);
+  if (grid) data.dt = *dt;  // one run on the grid k·dt, no sample missing: the grid's own dt
+  CheckRequestData(request);
+  request.truth = TruthOf(args, model, data);
+  const bool refine = request.refine == "ml", chains = !data.uniform;
   auto stop = std::make_shared<std::atomic<bool>>(false);
-  const FitOutcome f =
-      RunInterruptible<FitOutcome>([job, stop] { return RunFit(job, stop.get()); }, stop);
-  py::dict out = FitDict(model, f, args.trace, refine, chains);
+  const Fit f = RunInterruptible<Fit>(
+      [request, stop] {
+        IdentifyRequest r = request;
+        r.stop = stop.get();
+        IdentifyOutcome outcome = RunIdentification(std::move(r));
+        nlohmann::json report = OutcomeJson(outcome);
+        return Fit{std::move(outcome), std::move(report)};
+      },
+      stop);
+  py::dict out = FitDict(model, f.outcome, f.report, request.trace, refine, chains);
   out["report"] = FromJson(f.report);
-  out["fit_trace"] =
-      FitTraceDict(model, job.data, f.partial.measured.empty() ? job.measured : f.partial.measured, f);
+  out["fit_trace"] = FitTraceDict(model, data, MeasuredIndices(model), f.outcome.refinement.outputs);
   if (!grid) {
-    out["t"] = py::array_t<double>(py::ssize_t(job.data.t.size()), job.data.t.data());
-    out["run"] = py::array_t<int>(py::ssize_t(job.data.run.size()), job.data.run.data());
-    out["chains"] = job.data.chains();
-    out["missing_rows"] = job.data.missing_rows;
+    out["t"] = py::array_t<double>(py::ssize_t(data.t.size()), data.t.data());
+    out["run"] = py::array_t<int>(py::ssize_t(data.run.size()), data.run.data());
+    out["chains"] = data.chains();
+    out["missing_rows"] = data.missing_rows;
   }
   return out;
 }

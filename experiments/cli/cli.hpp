@@ -18,7 +18,8 @@
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
-#include "experiments/cli/checks.hpp"
+#include "experiments/request/checks.hpp"
+#include "experiments/request/request.hpp"
 #include "sim/model_check/model_check.hpp"
 #include "sim/events/fitted_events.hpp"
 #include "sim/events/fitted_outputs.hpp"
@@ -116,69 +117,25 @@ std::string X0KnownText(const std::vector<int>& known, const Model& model);
 // of θ with unknown entries only ("" when none), each to `digits` significant digits.
 std::string CrlbMeanErrors(const Unknowns& unknowns, const Crlb& bound, int digits);
 
-// hysid identify's refinement flags (--refine, --json) and what runs after the recursive estimate:
-// the refinement, the estimates with standard errors (and CRLB ratios when the data carry the
-// truth), --json. Returns the exit code: 1 when the refinement ran and its status is not ok.
+// hysid identify's refinement flags (--refine, --json, --x0-known, --x0), read into the request.
 struct RefineArgs {
   std::string refine = "ml";
   std::string json;
   X0Known x0_known;          // --x0-known: components of x0 held at --x0 (one chain only)
   TrajectoryFlags x0;        // --x0 (the known values; default: the model's)
 };
-// The states the data holds: the measured ones (indices; every state when all are measured), the
-// others reconstructed as a start (core/identify/reconstruct.hpp), and how.
-struct PartialOutputs {
-  std::vector<int> measured;
-  std::vector<int> reconstructed;
-  std::string reconstruction;  // how (windows, segments, jump detection); "" when all are measured
-};
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
-// --x0-known and --x0 against the model and the data (one chain), before anything runs.
-void CheckRefineArgs(const RefineArgs& args, const Model& model, const SampleData& data);
-// data.y: n × K (the unmeasured rows reconstructed); sigma: per measured state, or empty.
-// `report`: the recursive run's part of --json (RecursiveJson, identify_output.hpp).
-// `refined` (may be null) receives the refinement's result.
-int RefineAndReport(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                    const Vec& sigma, const RefineArgs& args, const nlohmann::json& report,
-                    const PartialOutputs& partial = {}, const std::string& trace = "",
-                    StageProgress* progress = nullptr, RefineResult* refined = nullptr);
-
-// What RefineAndReport computes and reports, for a caller with its own output (the Python module).
-// The truth the estimates are compared with: the simulation's x0 and σ (the command line: from the
-// sidecar of data written by `hysid simulate`); empty: none.
-struct Truth {
-  Vec x0, sigma;
-};
-struct RefineStep {
-  RefineResult result;
-  RefineOptions options;
-  std::vector<int> known;  // --x0-known
-  Crlb bound;              // at the truth (not ok without one)
-  HybridParameters truth;
-  FittedEvents fitted;     // a hybrid automaton refined (--refine ml): its events' times from the fit
-  FittedOutputs outputs;   // the fitted and the recursive model run over the whole record (--trace, --json)
-  // Notes, not refusals: an estimate kUnitsFactor times or more larger or smaller in magnitude than its
-  // start value (the model's value) says "check the units" (printed, --json `notes`, Python `notes`).
-  std::vector<std::string> notes;
-};
-inline constexpr double kUnitsFactor = 100.0;
-// The notes on the estimate `e` against the model's values (unknown α, β and guard parameters with a
-// start value other than 0).
-std::vector<std::string> UnitNotes(const Model& model, const HybridParameters& e);
-// The refinement (--refine ml) or the recursive estimate (none), and the bound at the truth.
-// `stop` (may be null) ends the refinement early (RefineOptions::stop).
-RefineStep RunRefineStep(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                         const Vec& sigma, const RefineArgs& args, const PartialOutputs& partial,
-                         const Truth& truth, const std::atomic<bool>* stop = nullptr,
-                         StageProgress* progress = nullptr);
-// --json: `report` (RecursiveJson) with the refinement's part.
-nlohmann::json RefineJson(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                          const RefineArgs& args, const nlohmann::json& report, const PartialOutputs& partial,
-                          const RefineStep& step);
-// Only some states measured: the others reconstructed from the measured ones (identify.cpp).
-PartialOutputs Reconstruct(const Model& model, const std::string& model_file, const std::vector<int>& measured,
-                           const Vec& sigma, SampleData& data, IdentifyOptions& options,
-                           std::vector<double>* statistic);
+// --x0-known's text for the request: nullopt when the flag is not given.
+std::optional<std::string> X0KnownRequest(const X0Known& flag);
+// After RunRecursivePass and the recursive report: the refinement (RunRefinement), the estimates with
+// standard errors (and CRLB ratios when the data carry the truth), the trace's fitted columns (`trace`),
+// --json (with `selection` added when not null). Returns the exit code: 1 when the refinement ran and
+// its status is not ok.
+int RefineAndReport(const IdentifyRequest& request, IdentifyOutcome& outcome, const RefineArgs& args,
+                    const std::string& trace, const nlohmann::json& selection);
+// The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json; empty when
+// there is none.
+Truth ReadTruth(const std::string& data_path, int n);
 
 // The sample grid of --t-end and --dt (or the model's defaults); BadFlag when either is not a finite
 // positive number or the grid exceeds the samples limit (core/io/limits.hpp).

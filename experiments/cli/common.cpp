@@ -12,10 +12,8 @@
 #include <fmt/ranges.h>
 
 #include "core/io/limits.hpp"
-#include "core/model_file/input_defaults.hpp"
-#include "experiments/cli/checks.hpp"
+#include "experiments/request/checks.hpp"
 #include "experiments/cli/cli.hpp"
-#include "sim/input_signal.hpp"
 #include "sim/model_check/model_check.hpp"
 
 namespace hysid::cli {
@@ -85,33 +83,7 @@ void AddBoundFlag(CLI::App& cmd, std::vector<std::string>& bounds) {
 }
 
 void ApplyBoundFlags(const std::vector<std::string>& bounds, Model* model) {
-  std::map<std::string, std::string> given;  // name -> the flag value that set it
-  for (const std::string& b : bounds) {
-    const std::size_t eq = b.find('='), comma = b.find(',', eq == std::string::npos ? 0 : eq);
-    if (eq == std::string::npos || eq == 0 || comma == std::string::npos) {
-      BadFlag(fmt::format("--param-bound {}: must be NAME=LO,HI", Abbreviated(b)));
-    }
-    const std::string name = b.substr(0, eq);
-    if (const auto [at, fresh] = given.emplace(name, b); !fresh) {
-      BadFlag(fmt::format("--param-bound {}: parameter '{}' is already bounded by --param-bound {}", Abbreviated(b),
-                          Abbreviated(name, 40), Abbreviated(at->second)));
-    }
-    auto number = [&](const std::string& text, const char* which) {
-      char* end = nullptr;
-      const double v = std::strtod(text.c_str(), &end);
-      if (text.empty() || end != text.c_str() + text.size() || std::isnan(v)) {
-        BadFlag(fmt::format("--param-bound {}: {} '{}' is not a number", Abbreviated(b), which, Abbreviated(text, 40)));
-      }
-      return v;
-    };
-    const double lo = number(b.substr(eq + 1, comma - eq - 1), "LO");
-    const double hi = number(b.substr(comma + 1), "HI");
-    try {
-      model->SetBounds(name, lo, hi);
-    } catch (const std::invalid_argument& e) {
-      BadFlag(fmt::format("--param-bound {}: {}", Abbreviated(b), e.what()));
-    }
-  }
+  ApplyBounds(bounds, Spelling::kFlag, model);
 }
 
 namespace {
@@ -194,31 +166,7 @@ CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag) {
 }
 
 std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model) {
-  const std::vector<std::string>& names = model.spec().state_names;
-  std::vector<int> known;
-  if (!flag.given()) return known;
-  if (flag.text.empty() || flag.text == "all") {
-    for (int i = 0; i < model.state_size(); ++i) known.push_back(i);
-    return known;
-  }
-  std::size_t begin = 0;
-  while (begin <= flag.text.size()) {
-    const std::size_t end = std::min(flag.text.find(',', begin), flag.text.size());
-    const std::string name = flag.text.substr(begin, end - begin);
-    const auto at = std::find(names.begin(), names.end(), name);
-    if (at == names.end()) {
-      BadFlag(fmt::format("--x0-known = {}: '{}' is not a state of '{}' (states: {}; or 'all')",
-                          Abbreviated(flag.text, 60), Abbreviated(name, 40), model.name(), fmt::join(names, ", ")));
-    }
-    const int i = static_cast<int>(at - names.begin());
-    if (std::find(known.begin(), known.end(), i) != known.end()) {
-      BadFlag(fmt::format("--x0-known = {}: '{}' named twice", Abbreviated(flag.text, 60), name));
-    }
-    known.push_back(i);
-    begin = end + 1;
-  }
-  std::sort(known.begin(), known.end());
-  return known;
+  return KnownX0(flag.given() ? std::optional<std::string>(flag.text) : std::nullopt, model, Spelling::kFlag);
 }
 
 std::string CrlbMeanErrors(const Unknowns& unknowns, const Crlb& bound, int digits) {
@@ -244,49 +192,11 @@ SampleGrid GridFlag(const TrajectoryFlags& flags, const Model& model) {
 }
 
 Vec InitialStateFlag(const TrajectoryFlags& flags, const Model& model, const Context& at) {
-  const ModelSpec& spec = model.spec();
-  const int n = model.state_size();
-  Vec x0 = DefaultState(model);
-  if (!flags.x0.empty()) {
-    RequireFinite("--x0", flags.x0);
-    if (static_cast<int>(flags.x0.size()) != n) {
-      BadFlag(fmt::format("--x0 has {} values; model '{}' has {} states ({})", flags.x0.size(), spec.name, n,
-                          fmt::join(spec.state_names, ", ")));
-    }
-    x0 = Eigen::Map<const Vec>(flags.x0.data(), n);
-  }
-  if (!model.InFlowSet(x0, at) && !model.InJumpSet(x0, at)) {
-    BadFlag(fmt::format("--x0 = {}: outside the flow set C and the jump set D of '{}'", fmt::join(x0, ","),
-                        spec.name));
-  }
-  return x0;
+  return CheckedX0(flags.x0, model, at, Spelling::kFlag);
 }
 
 InputSignal InputsFlag(const std::string& path, const ModelSpec& spec, const SampleGrid& grid) {
-  InputSignal s;
-  if (spec.inputs.empty()) {
-    if (!path.empty()) BadFlag(fmt::format("--inputs {}: model '{}' has no inputs", path, spec.name));
-    return s;
-  }
-  const double t_last = static_cast<double>(grid.size() - 1) * grid.dt;
-  if (const std::string missing = InputsWithoutDefault(spec); path.empty() && !missing.empty()) {
-    BadFlag(fmt::format("--inputs: model '{}' gives no default for its inputs {}; give --inputs FILE",
-                        spec.name, missing));
-  }
-  try {
-    if (path.empty()) {
-      for (long k = 0; k < grid.size(); ++k) s.times.push_back(static_cast<double>(k) * grid.dt);
-      s.values = EvaluateInputDefaults(spec, s.times);
-      return s;
-    }
-    s = ReadInputSignal(path, spec.inputs);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--inputs{}: {}", path.empty() ? "" : " " + path, e.what()));
-  }
-  if (const std::string e = InputRangeError(s, spec.inputs, 0.0, t_last); !e.empty()) {
-    BadFlag(fmt::format("--inputs {}: {}", path, e));
-  }
-  return s;
+  return CheckedInputs(path, spec, grid, Spelling::kFlag);
 }
 
 void RequireFinite(const std::string& flag, const std::vector<double>& values) { CheckFinite(flag, values); }

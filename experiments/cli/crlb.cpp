@@ -108,20 +108,7 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
 
 }  // namespace
 
-int ModeFlag(const std::string& name, const Model& model) {
-  const ModelSpec& spec = model.spec();
-  if (name.empty()) return spec.default_mode;
-  if (spec.modes.empty()) {
-    BadFlag(fmt::format("--mode {}: model '{}' has no modes (only a hybrid automaton with modes has an initial mode)",
-                        name, model.name()));
-  }
-  const auto it = std::find(spec.modes.begin(), spec.modes.end(), name);
-  if (it == spec.modes.end()) {
-    BadFlag(fmt::format("--mode {}: model '{}' has no mode '{}' (modes: {})", name, model.name(), name,
-                        fmt::join(spec.modes, ", ")));
-  }
-  return static_cast<int>(it - spec.modes.begin());
-}
+int ModeFlag(const std::string& name, const Model& model) { return ModeIndex(name, model, Spelling::kFlag); }
 
 void AddCrlbCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<CrlbArgs>();

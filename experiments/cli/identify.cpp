@@ -18,19 +18,19 @@
 
 #include "core/identify/identifier.hpp"
 #include "core/identify/metrics.hpp"
-#include "core/identify/reconstruct.hpp"
 #include "core/io/csv.hpp"
 #include "core/io/files.hpp"
 #include "core/io/limits.hpp"
 #include "core/io/sample_data.hpp"
 #include "core/model/automaton.hpp"
 #include "core/sets/set_metrics.hpp"
-#include "experiments/cli/checks.hpp"
+#include "experiments/request/checks.hpp"
 #include "experiments/cli/cli.hpp"
 #include "experiments/cli/identify_events.hpp"
 #include "experiments/cli/identify_output.hpp"
+#include "experiments/request/outcome_json.hpp"
+#include "experiments/request/request.hpp"
 #include "experiments/cli/select.hpp"
-#include "sim/sensitivity/sensitivity.hpp"
 
 namespace hysid::cli {
 namespace {
@@ -43,7 +43,7 @@ struct IdentifyArgs {
   double max_gap = 0.0;              // --max-gap (0: 5 × the median step)
   std::string estimator = "rls";
   std::string detector = "residual";
-  // Plugin options given on the command line, by flag ("--r", "--jump-forgetting"): the text to parse.
+  // Plugin options given on the command line, by keyword ("r", "jump_forgetting"): the text to parse.
   std::map<std::string, std::string> options;
   std::vector<double> flow_shape, jump_shape;  // user noise shapes C, row-major
   bool localize = false;
@@ -54,51 +54,11 @@ struct IdentifyArgs {
   std::string trace;
   std::string hulls;
   std::string progress = "auto";  // --progress
-  RefineArgs refine;  // --refine, --json (identify_refine.cpp)
+  RefineArgs refine;  // --refine, --json, --x0-known, --x0 (identify_refine.cpp)
   SelectArgs select;  // --chosen-model, --select-* (select.cpp)
 };
 
-Mat NoiseShapeFlag(const std::vector<double>& v, const char* flag) {
-  if (v.empty()) return Mat();
-  RequireFinite(flag, v);
-  const auto m = static_cast<Eigen::Index>(std::lround(std::sqrt(double(v.size()))));
-  if (m * m != static_cast<Eigen::Index>(v.size())) {
-    BadFlag(
-        fmt::format("{} has {} values: give a square matrix (parameters + 1)^2, row-major", flag, v.size()));
-  }
-  return Mat(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-      v.data(), m, m));
-}
 
-// The identifier's settings from the flags; errors name the flag.
-IdentifierSettings BuildSettings(const IdentifyArgs& args, const Model& model) {
-  IdentifierSettings settings;
-  SetPluginKinds(args.estimator, args.detector, &settings);
-  ApplyPluginOptions(args.options, Spelling::kFlag, &settings);
-  settings.flow_estimator.noise_shape = NoiseShapeFlag(args.flow_shape, "--flow-noise-shape");
-  settings.jump_estimator.noise_shape = NoiseShapeFlag(args.jump_shape, "--jump-noise-shape");
-  CheckNoiseShapesUsed(settings, !args.flow_shape.empty(), !args.jump_shape.empty(), Spelling::kFlag);
-  if (args.localize && IsAutomaton(model.spec())) {
-    BadFlag(fmt::format("--localize: model '{}' is a hybrid automaton (modes or jump maps); the jump localiser "
-                        "fits one flow and one jump map, so it is not available for it",
-                        model.name()));
-  }
-  settings.localize = args.localize;
-  settings.second_pass = args.second_pass;
-  CheckDataAccuracy(args.data_rtol, args.data_atol, Spelling::kFlag);
-  settings.data_rtol = args.data_rtol;
-  settings.data_atol = args.data_atol;
-  if (!args.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size()) {
-    settings.sigma = SigmaFlag(args.sigma, model.state_size(), /*allow_zero=*/false);
-  }
-  // Settings errors (noise shape sizes, ...) before the data is read.
-  try {
-    Identifier check(model, 1.0, settings);
-  } catch (const std::invalid_argument& e) {
-    BadFlag(fmt::format("--estimator/--detector/--*-noise-shape: {}", e.what()));
-  }
-  return settings;
-}
 
 // The sidecar FILE.json that `hysid simulate` writes beside FILE.csv, or null when there is none (or
 // it is not a sidecar of `simulate`). A sidecar that exists must be a readable regular file.
@@ -114,7 +74,7 @@ nlohmann::json ReadSidecar(const std::filesystem::path& data) {
 // Data written by `hysid simulate` has a sidecar FILE.json with the solver's tolerances: without
 // --data-rtol/--data-atol they are the data's accuracy (noise-free data is then as exact as that).
 // Returns where the accuracy came from.
-std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* settings) {
+std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifyRequest* request) {
   if (args.data_accuracy_given) return "as given";
   const nlohmann::json meta = ReadSidecar(args.data.front());
   if (meta.is_null() || !meta.contains("solver") || !meta["solver"].is_object() ||
@@ -131,8 +91,8 @@ std::string ReadSidecarAccuracy(const IdentifyArgs& args, IdentifierSettings* se
                       sidecar, key, Abbreviated(v.dump(), 40)));
     }
   }
-  settings->data_rtol = meta["solver"]["rtol"].get<double>();
-  settings->data_atol = meta["solver"]["atol"].get<double>();
+  request->data_rtol = meta["solver"]["rtol"].get<double>();
+  request->data_atol = meta["solver"]["atol"].get<double>();
   return fmt::format("the solver tolerances in {}", sidecar);
 }
 
@@ -346,22 +306,10 @@ std::string ColumnEntry(const std::string& entry) {
 }
 
 // The data files (the columns of the measured states); a message about the column choice names the flag.
-SampleData ReadData(const IdentifyArgs& args, const Model& model, const std::vector<int>& measured) {
+SampleData ReadData(const IdentifyArgs& args, const Model& model) {
   std::vector<std::string> columns;
   for (const std::string& entry : args.columns) columns.push_back(ColumnEntry(entry));
-  std::vector<std::string> names;
-  for (const int i : measured) names.push_back(model.spec().state_names[static_cast<std::size_t>(i)]);
-  try {
-    return ReadSampleData(args.data, static_cast<int>(measured.size()),
-                          {.columns = columns, .inputs = model.spec().inputs, .max_gap = args.max_gap,
-                           .state_names = names});
-  } catch (const std::invalid_argument& e) {
-    std::string message = e.what();
-    const std::string field = "SampleDataOptions::columns";
-    if (const auto at = message.find(field); at != std::string::npos)
-      message.replace(at, field.size(), "--columns");
-    throw std::invalid_argument(message);
-  }
+  return ReadSampleFiles(args.data, model, columns, args.max_gap, Spelling::kFlag);
 }
 
 // --trace, --hulls and --json: each writable, no two the same file, none an input of this run (a
@@ -384,124 +332,67 @@ void CheckOutputs(const IdentifyArgs& args) {
   CheckOutputPaths(outputs, inputs);
 }
 
-}  // namespace
-
-// The states the measured ones cannot give (ReconstructionPlan::error): each chain simulated from the
-// model's own values (a model file's start values), from its first sample's measured states and the
-// model's default for the others; the measured rows are the data's. A start only: the refinement
-// fits every state from there.
-Mat SimulatedStates(const Model& model, const std::vector<int>& measured, const SampleData& data) {
-  const int n = model.state_size();
-  const Eigen::Index K = data.y.cols();
-  const Vec fallback = DefaultState(model);
-  Mat x = fallback.replicate(1, K);
-  for (std::size_t r = 0; r < measured.size(); ++r) x.row(measured[r]) = data.y.row(Eigen::Index(r));
-  SensitivityOptions o;
-  o.sensitivities = false;
-  o.sim.rtol = o.sim.atol = 1e-8;
-  for (Eigen::Index a = 0; a < K;) {
-    Eigen::Index b = a + 1;
-    while (b < K && (data.chain_start.empty() || !data.chain_start[std::size_t(b)])) ++b;
-    std::vector<double> times;
-    for (Eigen::Index k = a; k < b; ++k) times.push_back(data.t[std::size_t(k)] - data.t[std::size_t(a)]);
-    InputSignal inputs;
-    if (data.u.rows() > 0) {
-      inputs.times = times;
-      inputs.values = data.u.middleCols(a, b - a);
-    }
-    SensitivityTrajectory run;
-    try {
-      if (times.size() >= 2) {
-        run = SimulateSensitivities(model, HybridParameters::Of(model, x.col(a)), Unknowns{{}, {}, {}, false}, times,
-                                    o, inputs.empty() ? nullptr : &inputs);
-      }
-    } catch (const std::invalid_argument&) {  // the first sample outside C and D: the default stands
-    }
-    for (Eigen::Index k = 0; k < b - a; ++k) {
-      const long at = std::min<long>(k, run.trajectory.size() - 1);
-      if (at < 0) break;
-      for (int j = 0; j < n; ++j) {
-        if (std::find(measured.begin(), measured.end(), j) == measured.end()) x(j, a + k) = run.trajectory.x(j, at);
-      }
-    }
-    a = b;
-  }
-  return x;
+// The request from the flags (the model's bounds and truth already set); errors name the flag.
+IdentifyRequest MakeRequest(const IdentifyArgs& args, const Model& model) {
+  IdentifyRequest r(model);
+  r.estimator = args.estimator;
+  r.detector = args.detector;
+  r.plugin_options = args.options;
+  r.flow_noise_shape = NoiseShapeOf(args.flow_shape, "flow_noise_shape", Spelling::kFlag);
+  r.jump_noise_shape = NoiseShapeOf(args.jump_shape, "jump_noise_shape", Spelling::kFlag);
+  r.localize = args.localize;
+  r.second_pass = args.second_pass;
+  r.trace = !args.trace.empty();
+  r.statistics = r.trace;  // the detector's statistic and threshold: only the trace shows them
+  r.sigma = args.sigma;
+  r.data_rtol = args.data_rtol;
+  r.data_atol = args.data_atol;
+  r.refine = args.refine.refine;
+  r.x0_known = X0KnownRequest(args.refine.x0_known);
+  r.x0 = args.refine.x0.x0;
+  r.release_per_sample = true;
+  r.spelling = Spelling::kFlag;
+  return r;
 }
 
-// Only some states measured: the others reconstructed from the measured ones on the flow segments
-// between the kinks detected in them (core/identify/reconstruct.hpp), data.y replaced by the n × K
-// reconstruction and the detected jumps given to the identifier as labels. Returns what was done.
-PartialOutputs Reconstruct(const Model& model, const std::string& model_file, const std::vector<int>& measured,
-                           const Vec& sigma, SampleData& data, IdentifyOptions& options,
-                           std::vector<double>* statistic) {
-  PartialOutputs partial;
-  partial.measured = measured;
-  if (static_cast<int>(measured.size()) == model.state_size()) return partial;
-  const ReconstructionPlan plan = PlanReconstruction(model, measured);
-  if (!plan.ok()) {
-    (void)model_file;
-    for (int i = 0; i < model.state_size(); ++i) {
-      if (std::find(measured.begin(), measured.end(), i) == measured.end()) partial.reconstructed.push_back(i);
-    }
-    data.y = SimulatedStates(model, measured, data);
-    partial.reconstruction = fmt::format(
-        "simulated from the model's own values (a start only: {}; the refinement fits them with the model)",
-        plan.error);
-    return partial;
+// A model file with candidate terms: choose the terms on the pass with every candidate, identify the
+// chosen model, choose again on its detections until the support holds (at most kSelectRounds
+// passes); the outcome goes on with the chosen model.
+SelectStep SelectTerms(const IdentifyArgs& args, const IdentifyRequest& request, IdentifyOutcome* outcome) {
+  constexpr int kSelectRounds = 3;
+  const Model full = outcome->model;
+  SelectStep select = SelectCandidates(full, args.model.file, outcome->data, outcome->recursive, args.select, false);
+  for (int round = 2;; ++round) {
+    RunRecursivePassAgain(request, *select.chosen, outcome);
+    if (round > kSelectRounds) break;
+    SelectStep again = SelectCandidates(full, args.model.file, outcome->data, outcome->recursive, args.select, true);
+    again.round = round;
+    const bool held = again.kept == select.kept;
+    select = std::move(again);
+    if (held) break;
   }
-  ReconstructOptions ro;
-  ro.stop = options.stop;
-  const Reconstruction r = ReconstructStates(plan, data.t, data.y, data.chain_start, sigma, ro);
-  partial.reconstructed = plan.reconstructed;
-  const auto& names = model.spec().state_names;
-  std::vector<std::string> from;
-  for (const int i : plan.reconstructed) {
-    from.push_back(fmt::format("{} from d{}/dt", names[static_cast<std::size_t>(i)],
-                               names[static_cast<std::size_t>(plan.source[static_cast<std::size_t>(i)])]));
-  }
-  partial.reconstruction = fmt::format(
-      "{} (a start only: Savitzky–Golay slopes of degree 2, windows of {}–{} samples, on {} flow segments "
-      "between {} jumps detected as kinks in the measured states above {:g} noise sd, sigma {})",
-      fmt::join(from, ", "), r.min_window, r.max_window, r.segments,
-      std::count(r.gamma.begin(), r.gamma.end(), 1), ro.kink_threshold, fmt::format("{:.4g}", fmt::join(r.sigma, ", ")));
-  data.y = r.x;
-  options.labels = r.gamma;
-  *statistic = r.statistic;
-  return partial;
+  PrintSelection(full, select);
+  return select;
 }
 
-namespace {
-
-// Identify on the data: the times and chain starts when the data are not uniform (each pair with its
-// own step, chains restarted at runs, gaps and missing rows) and the model's inputs (m × K, read by
-// name) lent to it, moved into `options` and back (no second copy of a per-sample array).
-IdentifyResult IdentifyData(const Model& model, const IdentifierSettings& settings, SampleData& data,
-                            IdentifyOptions& options) {
-  if (!data.uniform) {
-    options.times = std::move(data.t);
-    options.chain_start = std::move(data.chain_start);
+// The recursive run's text report (with the note on start values whose guards the default
+// trajectory does not reach), --trace and --hulls.
+void ReportRecursive(const IdentifyArgs& args, const IdentifyRequest& request, const IdentifyOutcome& o,
+                     const std::string& truth_source, const std::string& start_note) {
+  const Model& model = o.model;
+  const IdentifyResult& result = o.recursive;
+  PrintSettings(args, model.spec(), o.data, o.settings, request.data_accuracy_source, result);
+  if (!start_note.empty()) std::printf("note: %s\n", start_note.c_str());
+  PrintPartial(model, o.partial);
+  PrintEstimates(model.spec(), args, result);
+  PrintEvents(model, o.data, result);
+  if (!result.sets_skipped.empty())
+    std::printf("sets C^ and D^: not computed: %s\n", result.sets_skipped.c_str());
+  if (o.data.j) PrintTruth(model, *o.data.j, truth_source, result);
+  if (!args.trace.empty()) {
+    WriteTrace(args.trace, model.spec(), DescriptorOf(o.settings.detector.kind), o.data, result);
   }
-  options.inputs = std::move(data.u);
-  IdentifyResult result = Identify(model, data.y, data.dt, settings, options);
-  if (!data.uniform) {
-    data.t = std::move(options.times);
-    data.chain_start = std::move(options.chain_start);
-  }
-  data.u = std::move(options.inputs);
-  return result;
-}
-
-// What only the recursive part of the report reads (printed, --trace and --json's `report` built by
-// then): each sample's run and line, the detector's statistic and threshold and the estimates'
-// traces. Freed, so that the refinement's peak does not hold them.
-void ReleaseReported(SampleData& data, IdentifyResult& result) {
-  std::vector<int>().swap(data.run);
-  std::vector<long>().swap(data.line);
-  std::vector<double>().swap(result.statistic);
-  std::vector<double>().swap(result.threshold);
-  result.alpha_trace = Mat();
-  result.beta_trace = Mat();
+  if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
 }
 
 int RunIdentify(const IdentifyArgs& args, const Environment& env) {
@@ -510,79 +401,34 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   CheckBoundsNeedRefinement(!args.bounds.empty(), args.refine.refine, Spelling::kFlag);
   ApplyBoundFlags(args.bounds, &model);  // on the model as given, before the sidecar's truth
   std::string truth_source = TakeSidecarTruth(args, &model);
-  IdentifierSettings settings = BuildSettings(args, model);
-  const std::vector<int> measured = MeasuredIndices(model);
-  const bool all = static_cast<int>(measured.size()) == model.state_size();
-  // σ per measured state; the identifier's own σ only when every state is measured.
-  const Vec sigma = args.sigma.empty()
-                        ? Vec()
-                        : SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
-  CheckSigmaRange(sigma, Spelling::kFlag);
-  if (!all) settings.sigma.resize(0);
+  IdentifyRequest request = MakeRequest(args, model);
+  CheckRequest(request);  // settings errors before the data is read
   CheckSelectArgs(args.select, model);
-  SampleData data = ReadData(args, model, measured);
-  CheckRefineArgs(args.refine, model, data);
-  const std::string accuracy_source = ReadSidecarAccuracy(args, &settings);
-  IdentifyOptions options;
-  options.trace = !args.trace.empty();
-  options.statistics = options.trace;  // the detector's statistic and threshold: only the trace shows them
+  request.data = ReadData(args, model);
+  CheckRequestData(request);
+  request.data_accuracy_source = ReadSidecarAccuracy(args, &request);
+  if (request.data.j && request.data.uniform) request.truth = ReadTruth(request.data.path, model.state_size());
   CheckOutputs(args);
   StageProgress progress("identify", ProgressFlag(args.progress));
+  request.progress = &progress;
   progress.Stage("recursive pass");
-  std::vector<double> kinks;
-  const PartialOutputs partial = Reconstruct(model, args.model.file, measured, sigma, data, options, &kinks);
-  IdentifyResult result = IdentifyData(model, settings, data, options);
+  IdentifyOutcome outcome = RunRecursivePass(request);
   progress.Clear();
   std::optional<SelectStep> select;
   if (!model.spec().candidates.empty()) {
-    // Choose the terms on the pass with every candidate, identify the chosen model, choose again on its
-    // detections until the support holds (at most kSelectRounds passes), then go on with the chosen model.
-    constexpr int kSelectRounds = 3;
-    const Model full = model;
-    select = SelectCandidates(full, args.model.file, data, result, args.select, false);
-    for (int round = 2;; ++round) {
-      model = *select->chosen;
-      settings = BuildSettings(args, model);
-      if (!all) settings.sigma.resize(0);
-      ReadSidecarAccuracy(args, &settings);
-      result = IdentifyData(model, settings, data, options);
-      if (round > kSelectRounds) break;
-      SelectStep again = SelectCandidates(full, args.model.file, data, result, args.select, true);
-      again.round = round;
-      const bool held = again.kept == select->kept;
-      select = std::move(again);
-      if (held) break;
-    }
-    PrintSelection(full, *select);
+    select = SelectTerms(args, request, &outcome);
     truth_source = "the selection's least-squares values (the chosen model has no truth)";
   }
-  if (!partial.reconstructed.empty() && options.statistics) {  // the detector's statistic is the kinks'
-    result.statistic = kinks;
-    result.threshold.assign(kinks.size(), ReconstructOptions{}.kink_threshold);
-  }
-  PrintSettings(args, model.spec(), data, settings, accuracy_source, result);
-  if (!start_note.empty()) std::printf("note: %s\n", start_note.c_str());
-  PrintPartial(model, partial);
-  PrintEstimates(model.spec(), args, result);
-  PrintEvents(model, data, result);
-  if (!result.sets_skipped.empty())
-    std::printf("sets C^ and D^: not computed: %s\n", result.sets_skipped.c_str());
-  if (data.j) PrintTruth(model, *data.j, truth_source, result);
-  if (!args.trace.empty()) {
-    WriteTrace(args.trace, model.spec(), DescriptorOf(settings.detector.kind), data, result);
-  }
-  if (!args.hulls.empty()) WriteHulls(args.hulls, model.spec(), result);
-  nlohmann::json report = RecursiveJson(model, data, settings, accuracy_source, result);
-  if (select) report["selection"] = SelectionJson(*select);
-  ReleaseReported(data, result);
-  RefineResult refined;
+  ReportRecursive(args, request, outcome, truth_source, start_note);
   const int code =
-      RefineAndReport(model, data, result, sigma, args.refine, report, partial, args.trace, &progress, &refined);
-  if (select) FinishSelection(*select, model, result, args.refine.refine == "ml" ? &refined : nullptr, args.select);
-  if (code == 0 && args.refine.refine == "none" &&
-      (result.flow_status != EstimatorStatus::kOk || result.jump_status != EstimatorStatus::kOk)) {
+      RefineAndReport(request, outcome, args.refine, args.trace, select ? SelectionJson(*select) : nlohmann::json());
+  if (select) {
+    FinishSelection(*select, outcome.model, outcome.recursive,
+                    args.refine.refine == "ml" ? &outcome.refinement.result : nullptr, args.select);
+  }
+  if (code == 0 && !outcome.ok()) {
     throw RunFailed(fmt::format("identify: the fit is not ok (flow estimator {}, jump estimator {})",
-                                ToString(result.flow_status), ToString(result.jump_status)));
+                                ToString(outcome.recursive.flow_status), ToString(outcome.recursive.jump_status)));
   }
   return code;
 }
@@ -621,9 +467,10 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
       ->capture_default_str();
   std::vector<std::pair<std::string, CLI::Option*>> option_flags;
   for (const PluginOptionArgument& a : PluginOptionArguments()) {
-    const std::string flag = Spelled(a.name, Spelling::kFlag, a.prefix);
-    option_flags.emplace_back(
-        flag, cmd->add_option(flag, args->options[flag], a.help)->default_str(a.default_text));
+    const std::string keyword = Spelled(a.name, Spelling::kKeyword, a.prefix);
+    option_flags.emplace_back(keyword, cmd->add_option(Spelled(a.name, Spelling::kFlag, a.prefix),
+                                                       args->options[keyword], a.help)
+                                           ->default_str(a.default_text));
   }
   AddNumberList(*cmd, "--flow-noise-shape", args->flow_shape,
                 "gtls/frisch: noise covariance shape C of the flow rows [phi, y], row-major, "
@@ -658,8 +505,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
       ->capture_default_str();
   cmd->callback([args, &env, rtol_option, atol_option, option_flags] {
     args->data_accuracy_given = rtol_option->count() > 0 || atol_option->count() > 0;
-    for (const auto& [flag, option] : option_flags) {
-      if (option->count() == 0) args->options.erase(flag);
+    for (const auto& [keyword, option] : option_flags) {
+      if (option->count() == 0) args->options.erase(keyword);
     }
     if (const int code = RunIdentify(*args, env); code != 0) throw CLI::RuntimeError(code);
   });

@@ -727,6 +727,10 @@ OTHER_REFUSALS = [
      "x0: expected a number or a 1-D sequence of numbers, got shape (1, 2)"),
     (lambda: hysid.crlb("impact-msd", sigma="x"), "sigma: expected numbers, got str 'x'"),
     (lambda: hysid.crlb("impact-msd", x0_known=1), "x0_known: expected True, 'all' or state names (a list or comma-separated), got int 1"),
+    (lambda: hysid.identify(str(SOURCE / "examples" / "floor-ceiling" / "model.toml"), np.ones((5, 1)), dt=1e-3,
+                            localize=True),
+     "localize: model 'floor-ceiling' is a hybrid automaton (modes or jump maps); the jump localiser fits one flow "
+     "and one jump map, so it is not available for it"),
 ]
 
 

@@ -6,12 +6,16 @@
 
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "core/identify/identifier.hpp"
+#include "core/model/context.hpp"
+#include "core/model/model.hpp"
 #include "core/model/option.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/simulator.hpp"
 
 namespace hysid {
@@ -87,10 +91,32 @@ struct PluginOptionArgument {
 };
 const std::vector<PluginOptionArgument>& PluginOptionArguments();
 
-// The given options (by their spelled name, as text) into `settings`, whose kinds are already set:
-// an unknown name, a value the option refuses, or an option the chosen plugin does not read is an
-// error naming the argument (and the plugin).
+// The given options (by keyword: "r", "jump_forgetting"; as text) into `settings`, whose kinds are
+// already set: an unknown name, a value the option refuses, or an option the chosen plugin does not
+// read is an error naming the argument as `spelling` spells it (and the plugin).
 void ApplyPluginOptions(const std::map<std::string, std::string>& given, Spelling spelling,
                         IdentifierSettings* settings);
+
+// ---- arguments of one model's run, shared by identify, simulate and crlb ----
+
+// Parameter bounds "NAME=LO,HI" set on the model (Model::SetBounds); errors name param_bound: malformed
+// text, a name given twice or unknown, a known constant, LO >= HI, or the model's value outside [LO, HI].
+void ApplyBounds(const std::vector<std::string>& bounds, Spelling spelling, Model* model);
+
+// The known components of x0: nullopt (not given) none; "" or "all" every one; else state names,
+// comma-separated. Errors name x0_known: a name that is not a state, or one named twice.
+std::vector<int> KnownX0(const std::optional<std::string>& text, const Model& model, Spelling spelling);
+
+// x0 (the model's default when empty): finite, one value per state, inside C or D at the context `at`.
+Vec CheckedX0(const std::vector<double>& x0, const Model& model, const Context& at, Spelling spelling);
+
+// The index of a hybrid automaton's initial mode by name (the model's default_mode when empty);
+// refused for a model without modes and for a name that is not one of them.
+int ModeIndex(const std::string& name, const Model& model, Spelling spelling);
+
+// The inputs of a run over `grid`: the file `path` (its time range must cover the run), else the
+// model's default expressions at the sample times; empty for a model without inputs. Errors name inputs.
+InputSignal CheckedInputs(const std::string& path, const ModelSpec& spec, const SampleGrid& grid,
+                          Spelling spelling);
 
 }  // namespace hysid

@@ -1,8 +1,10 @@
-#include "experiments/cli/checks.hpp"
+#include "experiments/request/checks.hpp"
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
+#include <map>
 #include <cstdint>
 #include <stdexcept>
 #include <system_error>
@@ -13,6 +15,7 @@
 #include <fmt/ranges.h>
 
 #include "core/io/limits.hpp"
+#include "core/model_file/input_defaults.hpp"
 
 namespace hysid {
 
@@ -223,12 +226,13 @@ const std::vector<PluginOptionArgument>& PluginOptionArguments() {
 
 void ApplyPluginOptions(const std::map<std::string, std::string>& given, Spelling spelling,
                         IdentifierSettings* settings) {
-  std::map<std::string, const PluginOptionArgument*> by_name;
+  std::map<std::string, const PluginOptionArgument*> by_keyword;
   for (const PluginOptionArgument& a : PluginOptionArguments())
-    by_name[Spelled(a.name, spelling, a.prefix)] = &a;
-  for (const auto& [name, text] : given) {
-    const auto it = by_name.find(name);
-    if (it == by_name.end()) throw std::invalid_argument(fmt::format("{}: no such option", name));
+    by_keyword[Spelled(a.name, Spelling::kKeyword, a.prefix)] = &a;
+  for (const auto& [keyword, text] : given) {
+    const auto it = by_keyword.find(keyword);
+    if (it == by_keyword.end()) throw std::invalid_argument(fmt::format("{}: no such option", keyword));
+    const std::string name = Spelled(it->second->name, spelling, it->second->prefix);
     if (const std::string why = it->second->unread(*settings, spelling); !why.empty()) {
       throw std::invalid_argument(fmt::format("{}: {}", name, why));
     }
@@ -238,6 +242,135 @@ void ApplyPluginOptions(const std::map<std::string, std::string>& given, Spellin
       throw std::invalid_argument(fmt::format("{}: {}", name, e.what()));
     }
   }
+}
+
+void ApplyBounds(const std::vector<std::string>& bounds, Spelling spelling, Model* model) {
+  const std::string flag = Spelled("param_bound", spelling);
+  std::map<std::string, std::string> given;  // name -> the value that set it
+  for (const std::string& b : bounds) {
+    const std::size_t eq = b.find('='), comma = b.find(',', eq == std::string::npos ? 0 : eq);
+    if (eq == std::string::npos || eq == 0 || comma == std::string::npos) {
+      throw std::invalid_argument(fmt::format("{} {}: must be NAME=LO,HI", flag, Abbreviated(b)));
+    }
+    const std::string name = b.substr(0, eq);
+    if (const auto [at, fresh] = given.emplace(name, b); !fresh) {
+      throw std::invalid_argument(fmt::format("{} {}: parameter '{}' is already bounded by {} {}", flag,
+                                              Abbreviated(b), Abbreviated(name, 40), flag, Abbreviated(at->second)));
+    }
+    auto number = [&](const std::string& text, const char* which) {
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (text.empty() || end != text.c_str() + text.size() || std::isnan(v)) {
+        throw std::invalid_argument(
+            fmt::format("{} {}: {} '{}' is not a number", flag, Abbreviated(b), which, Abbreviated(text, 40)));
+      }
+      return v;
+    };
+    const double lo = number(b.substr(eq + 1, comma - eq - 1), "LO");
+    const double hi = number(b.substr(comma + 1), "HI");
+    try {
+      model->SetBounds(name, lo, hi);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(fmt::format("{} {}: {}", flag, Abbreviated(b), e.what()));
+    }
+  }
+}
+
+std::vector<int> KnownX0(const std::optional<std::string>& text, const Model& model, Spelling spelling) {
+  const std::vector<std::string>& names = model.spec().state_names;
+  std::vector<int> known;
+  if (!text) return known;
+  if (text->empty() || *text == "all") {
+    for (int i = 0; i < model.state_size(); ++i) known.push_back(i);
+    return known;
+  }
+  const std::string flag = Spelled("x0_known", spelling);
+  std::size_t begin = 0;
+  while (begin <= text->size()) {
+    const std::size_t end = std::min(text->find(',', begin), text->size());
+    const std::string name = text->substr(begin, end - begin);
+    const auto at = std::find(names.begin(), names.end(), name);
+    if (at == names.end()) {
+      throw std::invalid_argument(fmt::format("{} = {}: '{}' is not a state of '{}' (states: {}; or 'all')", flag,
+                                              Abbreviated(*text, 60), Abbreviated(name, 40), model.name(),
+                                              fmt::join(names, ", ")));
+    }
+    const int i = static_cast<int>(at - names.begin());
+    if (std::find(known.begin(), known.end(), i) != known.end()) {
+      throw std::invalid_argument(fmt::format("{} = {}: '{}' named twice", flag, Abbreviated(*text, 60), name));
+    }
+    known.push_back(i);
+    begin = end + 1;
+  }
+  std::sort(known.begin(), known.end());
+  return known;
+}
+
+Vec CheckedX0(const std::vector<double>& values, const Model& model, const Context& at, Spelling spelling) {
+  const ModelSpec& spec = model.spec();
+  const std::string flag = Spelled("x0", spelling);
+  const int n = model.state_size();
+  Vec x0 = DefaultState(model);
+  if (!values.empty()) {
+    CheckFinite(flag, values);
+    if (static_cast<int>(values.size()) != n) {
+      throw std::invalid_argument(fmt::format("{} has {} values; model '{}' has {} states ({})", flag, values.size(),
+                                              spec.name, n, fmt::join(spec.state_names, ", ")));
+    }
+    x0 = Eigen::Map<const Vec>(values.data(), n);
+  }
+  if (!model.InFlowSet(x0, at) && !model.InJumpSet(x0, at)) {
+    throw std::invalid_argument(fmt::format("{} = {}: outside the flow set C and the jump set D of '{}'", flag,
+                                            fmt::join(x0, ","), spec.name));
+  }
+  return x0;
+}
+
+int ModeIndex(const std::string& name, const Model& model, Spelling spelling) {
+  const ModelSpec& spec = model.spec();
+  if (name.empty()) return spec.default_mode;
+  const std::string flag = Spelled("mode", spelling);
+  if (spec.modes.empty()) {
+    throw std::invalid_argument(
+        fmt::format("{} {}: model '{}' has no modes (only a hybrid automaton with modes has an initial mode)", flag,
+                    name, model.name()));
+  }
+  const auto it = std::find(spec.modes.begin(), spec.modes.end(), name);
+  if (it == spec.modes.end()) {
+    throw std::invalid_argument(fmt::format("{} {}: model '{}' has no mode '{}' (modes: {})", flag, name,
+                                            model.name(), name, fmt::join(spec.modes, ", ")));
+  }
+  return static_cast<int>(it - spec.modes.begin());
+}
+
+InputSignal CheckedInputs(const std::string& path, const ModelSpec& spec, const SampleGrid& grid,
+                          Spelling spelling) {
+  const std::string flag = Spelled("inputs", spelling);
+  InputSignal s;
+  if (spec.inputs.empty()) {
+    if (!path.empty())
+      throw std::invalid_argument(fmt::format("{} {}: model '{}' has no inputs", flag, path, spec.name));
+    return s;
+  }
+  const double t_last = static_cast<double>(grid.size() - 1) * grid.dt;
+  if (const std::string missing = InputsWithoutDefault(spec); path.empty() && !missing.empty()) {
+    throw std::invalid_argument(fmt::format("{}: model '{}' gives no default for its inputs {}; give {} FILE", flag,
+                                            spec.name, missing, flag));
+  }
+  try {
+    if (path.empty()) {
+      for (long k = 0; k < grid.size(); ++k) s.times.push_back(static_cast<double>(k) * grid.dt);
+      s.values = EvaluateInputDefaults(spec, s.times);
+      return s;
+    }
+    s = ReadInputSignal(path, spec.inputs);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(fmt::format("{}{}: {}", flag, path.empty() ? "" : " " + path, e.what()));
+  }
+  if (const std::string e = InputRangeError(s, spec.inputs, 0.0, t_last); !e.empty()) {
+    throw std::invalid_argument(fmt::format("{} {}: {}", flag, path, e));
+  }
+  return s;
 }
 
 }  // namespace hysid
