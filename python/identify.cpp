@@ -243,7 +243,7 @@ py::dict RefinedDict(const nlohmann::json& report, bool chains) {
     out["chain_x0"] = x0s;
     for (const char* key : {"chain_samples_used", "chain_span_reason"})
       out[key] = FromJson(report.value(key, nlohmann::json::array()));
-    for (const char* key : {"chains_used", "chains_skipped"}) out[key] = FromJson(report.value(key, 0));
+    for (const char* key : {"chains_used", "chains_skipped", "gaps_joined"}) out[key] = FromJson(report.value(key, 0));
   }
   return out;
 }
@@ -558,7 +558,7 @@ std::string Docstring() {
       "`hysid identify --json`: status, reason, names, estimates, recursive_estimates, standard_errors, "
       "covariance, alpha, beta, x0, sigma, sigma_estimated, normalized_rms, lag1, iterations, samples_used, "
       "span_reason, model_jumps, start_repair, mended, start; with runs or times also chain_x0, "
-      "chain_samples_used, chain_span_reason, chains_used, chains_skipped). With t, runs, NaN rows or "
+      "chain_samples_used, chain_span_reason, chains_used, chains_skipped, gaps_joined). With t, runs, NaN rows or "
       "max_gap the per-sample arrays are over the samples used, listed in t and run, with chains and "
       "missing_rows. report: what `hysid identify --json` writes, key for key (docs/outputs.md: settings, "
       "data, detections with their times, chains, truth with truth=, crlb, checks, measured, "

@@ -77,10 +77,16 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
   if (!r.route.empty()) std::printf("  route: %s\n", r.route.c_str());
   for (const std::string& tried : r.routes_tried) std::printf("  tried: %s\n", tried.c_str());
   if (!data.uniform) {
+    const std::string each =
+        r.gaps_joined > 0 ? fmt::format("as {} trajector{}, the model run through {} gap{}; one initial state per "
+                                        "trajectory",
+                                        r.chains_used - r.gaps_joined, r.chains_used - r.gaps_joined > 1 ? "ies" : "y",
+                                        r.gaps_joined, r.gaps_joined > 1 ? "s" : "")
+                          : std::string("one initial state each");
     std::printf(
-        "  %ld chains fitted (one initial state each, alpha and beta shared), %ld left out (fewer "
+        "  %ld chains fitted (%s, alpha and beta shared), %ld left out (fewer "
         "than %d samples or a first sample outside C and D); %ld of %ld samples\n",
-        r.chains_used, r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
+        r.chains_used, each.c_str(), r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
         static_cast<long>(data.y.cols()));
     if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
   } else if (r.samples_used < data.y.cols()) {

@@ -244,6 +244,7 @@ nlohmann::json RefinementJson(nlohmann::json j, const RefineResult& r, const Ide
     j["chain_span_reason"] = r.chain_span_reason;
     j["chains_used"] = r.chains_used;
     j["chains_skipped"] = r.chains_skipped;
+    j["gaps_joined"] = r.gaps_joined;
   }
   return j;
 }

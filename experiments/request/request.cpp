@@ -166,6 +166,21 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, const Samp
       unknowns, known, model.state_size());
 }
 
+// A chain that starts after a gap in the run of the chain before it (not at a run's start). Without
+// the per-sample runs (released once reported), one run means every chain after the first.
+void MarkGaps(const SampleData& data, std::vector<RefineChain>* chains) {
+  std::vector<std::size_t> first;
+  for (std::size_t k = 0; k < data.chain_start.size(); ++k) {
+    if (k == 0 || data.chain_start[k]) first.push_back(k);
+  }
+  if (first.size() != chains->size()) return;
+  const bool runs = data.run.size() == data.chain_start.size();
+  if (!runs && data.run_names.size() > 1) return;
+  for (std::size_t c = 1; c < first.size(); ++c) {
+    (*chains)[c].after_gap = !runs || data.run[first[c]] == data.run[first[c - 1]];
+  }
+}
+
 // From RefinementStart(recursive): the recursive result itself, or its rls re-run when the α
 // estimator was not ok.
 RefineResult RefineOnChains(const Model& model, const SampleData& data, const IdentifyResult& given,
@@ -173,6 +188,7 @@ RefineResult RefineOnChains(const Model& model, const SampleData& data, const Id
   const IdentifyResult& recursive = RefinementStart(given);
   std::vector<RefineChain> chains = SplitChains(data.t, data.y, data.chain_start, recursive.gamma, data.u);
   AssignChainMaps(data.chain_start, given, &chains);
+  MarkGaps(data, &chains);
   return Refine(model, chains, recursive.alpha_hat, recursive.beta_hat, options);
 }
 
