@@ -169,6 +169,12 @@ nlohmann::json VectorJson(const Vec& v) {
 
 nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
+nlohmann::json ChainStates(const std::vector<Vec>& states) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const Vec& v : states) out.push_back(v.size() ? VectorJson(v) : nlohmann::json());
+  return out;
+}
+
 nlohmann::json CandidateJson(const Candidate& c) {
   nlohmann::json estimates = nlohmann::json::object(), se = nlohmann::json::object();
   for (std::size_t i = 0; i < c.fit.names.size(); ++i) {
@@ -186,7 +192,8 @@ nlohmann::json CandidateJson(const Candidate& c) {
           {"aic_weight", r ? Finite(c.aic_weight) : nlohmann::json()}, {"aic_rank", c.aic_rank},
           {"bic", r ? Finite(c.bic) : nlohmann::json()}, {"delta_bic", r ? Finite(c.delta_bic) : nlohmann::json()},
           {"bic_weight", r ? Finite(c.bic_weight) : nlohmann::json()}, {"bic_rank", c.bic_rank},
-          {"estimates", estimates}, {"standard_errors", se},
+          {"estimates", estimates}, {"standard_errors", se}, {"chain_x0", ChainStates(c.fit.chain_x0)},
+          {"chain_mode", c.fit.chain_mode},
           {"holdout",
            {{"done", c.holdout.done}, {"status", c.holdout.status}, {"reason", c.holdout.reason},
             {"samples", c.holdout.samples}, {"rmse", VectorJson(c.holdout.rmse)},

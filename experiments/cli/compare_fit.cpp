@@ -132,6 +132,12 @@ ComparisonFit FitForComparison(const Model& model, const SampleData& data) {
   c.names = r.names;
   c.estimates = r.estimate.Theta(r.unknowns);
   c.standard_errors = r.standard_errors;
+  c.chain_x0 = r.chain_x0;
+  const auto& modes = model.spec().modes;
+  for (std::size_t i = 0; i < r.chain_x0.size(); ++i) {
+    const int q = i < r.chain_mode.size() ? r.chain_mode[i] : r.initial_mode;
+    c.chain_mode.push_back(q >= 0 && std::size_t(q) < modes.size() ? modes[std::size_t(q)] : std::string());
+  }
   c.residuals = Mat::Constant(m, K, kNaN);
   const Mat& x = f.step.outputs.x;
   if (x.cols() == K) {

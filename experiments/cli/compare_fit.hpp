@@ -50,6 +50,10 @@ struct ComparisonFit {
   Mat residuals;                     // measured × K: y − ŷ (NaN where ŷ is not available)
   std::vector<std::string> names;    // the refinement's θ names (unknown α, β, γ and the first chain's ξ0)
   Vec estimates, standard_errors;
+  // Per chain: its fitted initial state (empty: not fitted) and, for a model with modes, the name of
+  // the mode it starts in ("" when none).
+  std::vector<Vec> chain_x0;
+  std::vector<std::string> chain_mode;
 };
 
 // The held-out forecast of one candidate.
