@@ -37,7 +37,8 @@ std::vector<Model> LoadCandidates(const CompareArgs& args) {
     try {
       models.push_back(LoadModelFile(file));
     } catch (const std::invalid_argument& e) {
-      BadFlag(fmt::format("model file {}: {}", file, e.what()));
+      const std::string what = e.what();  // the reader's messages begin with the file's name
+      BadFlag(what.rfind(file, 0) == 0 ? what : fmt::format("model file {}: {}", file, what));
     }
     if (!models.back().spec().candidates.empty()) {
       BadFlag(fmt::format("model file {}: has candidate terms; compare fits models as written (write the "

@@ -81,7 +81,12 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--check", action="store_true")
     ap.add_argument("--target", type=float, default=0.95)
+    ap.add_argument("--gate", help="skip (exit 77) unless this environment variable is 1")
     a = ap.parse_args()
+    if a.gate and os.environ.get(a.gate) != "1":
+        print(f"skipped: set {a.gate}=1 to run")
+        return 77
+    os.makedirs(a.work, exist_ok=True)
     systems = a.systems.split(",")
     tasks = [(s, d) for s in systems for d in range(a.first, a.first + a.draws)]
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
