@@ -28,12 +28,12 @@ struct CompareArgs {
 };
 
 // The candidates' files as models (a file's error names it), none with candidate terms.
-std::vector<Model> LoadCandidates(const CompareArgs& args) {
-  if (args.models.size() < 2) {
-    BadFlag(fmt::format("compare: {} model file(s) given: give at least 2 candidate model files", args.models.size()));
+std::vector<Model> LoadCandidates(const std::vector<std::string>& files) {
+  if (files.size() < 2) {
+    BadFlag(fmt::format("compare: {} model file(s) given: give at least 2 candidate model files", files.size()));
   }
   std::vector<Model> models;
-  for (const std::string& file : args.models) {
+  for (const std::string& file : files) {
     try {
       models.push_back(LoadModelFile(file));
     } catch (const std::invalid_argument& e) {
@@ -51,15 +51,16 @@ std::vector<Model> LoadCandidates(const CompareArgs& args) {
 
 // The data read for each candidate: the same files, columns and samples for all, else an error naming
 // the candidate that reads them differently.
-std::vector<SampleData> ReadCandidateData(const CompareArgs& args, const std::vector<Model>& models) {
+std::vector<SampleData> ReadCandidateData(const std::vector<std::string>& files, const std::vector<std::string>& paths,
+                                         const std::vector<Model>& models) {
   std::vector<SampleData> data;
   for (std::size_t i = 0; i < models.size(); ++i) {
-    data.push_back(ReadComparisonData(models[i], args.data));
+    data.push_back(ReadComparisonData(models[i], paths));
     const SampleData& d = data.back();
     if (d.state_columns != data.front().state_columns || d.t.size() != data.front().t.size()) {
       BadFlag(fmt::format("model file {}: reads the columns ({}) of the data, {} samples, but {} reads ({}), {} "
                           "samples: the candidates must measure the same outputs",
-                          args.models[i], fmt::join(d.state_columns, ","), d.t.size(), args.models.front(),
+                          files[i], fmt::join(d.state_columns, ","), d.t.size(), files.front(),
                           fmt::join(data.front().state_columns, ","), data.front().t.size()));
     }
   }
@@ -201,18 +202,46 @@ nlohmann::json CandidateJson(const Candidate& c) {
             {"score", c.holdout.done ? Finite(c.holdout.score) : nlohmann::json()}, {"rank", c.holdout_rank}}}};
 }
 
-nlohmann::json CompareJson(const CompareArgs& args, const std::vector<Candidate>& candidates,
-                           const std::vector<std::string>& outputs) {
+}  // namespace
+
+nlohmann::json ComparisonJson(const std::vector<std::string>& data, double holdout,
+                              const std::vector<Candidate>& candidates) {
+  const std::vector<std::string> outputs = candidates.empty() ? std::vector<std::string>{} : candidates.front().fit.outputs;
   nlohmann::json models = nlohmann::json::array();
   for (const Candidate& c : candidates) models.push_back(CandidateJson(c));
   auto best = [&](int Candidate::*place) {
     const Candidate* c = Best(candidates, place);
     return c ? nlohmann::json(c->file) : nlohmann::json();
   };
-  return {{"command", "compare"}, {"data", args.data}, {"outputs", outputs}, {"holdout_fraction", args.holdout},
+  return {{"command", "compare"}, {"data", data}, {"outputs", outputs}, {"holdout_fraction", holdout},
           {"models", models}, {"best", {{"aic", best(&Candidate::aic_rank)}, {"bic", best(&Candidate::bic_rank)},
                                         {"holdout", best(&Candidate::holdout_rank)}}}};
 }
+
+std::vector<Candidate> CompareModels(const std::vector<std::string>& files, const std::vector<std::string>& data,
+                                     const ComparisonSettings& settings,
+                                     const std::function<void(const SampleData&)>& read,
+                                     const std::function<void(const Candidate&)>& fitted) {
+  if (std::string error; !settings.IsValid(&error)) throw std::invalid_argument(error);
+  if (data.empty()) throw std::invalid_argument("compare: no data file given");
+  const std::vector<Model> models = LoadCandidates(files);
+  const std::vector<SampleData> samples = ReadCandidateData(files, data, models);
+  if (read) read(samples.front());
+  std::vector<Candidate> candidates;
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    Candidate c;
+    c.file = files[i];
+    c.name = models[i].name();
+    c.fit = FitForComparison(models[i], samples[i]);
+    if (settings.holdout > 0.0) c.holdout = PredictHeldOut(models[i], samples[i], settings);
+    if (fitted) fitted(c);
+    candidates.push_back(std::move(c));
+  }
+  RankCandidates(&candidates);
+  return candidates;
+}
+
+namespace {
 
 // --csv: one row per candidate, each column a name and how to read it.
 void WriteCsv(const std::string& path, const std::vector<Candidate>& candidates) {
@@ -259,32 +288,24 @@ void WriteCsv(const std::string& path, const std::vector<Candidate>& candidates)
 int RunCompare(const CompareArgs& args) {
   const ComparisonSettings settings{.holdout = args.holdout};
   if (std::string error; !settings.IsValid(&error)) BadFlag(fmt::format("--holdout = {}: must be in [0, 0.9]", args.holdout));
-  const std::vector<Model> models = LoadCandidates(args);
   CheckCompareOutputs(args);
-  const std::vector<SampleData> data = ReadCandidateData(args, models);
-  const SampleData& d = data.front();
-  std::printf("compare: %zu candidate models on %s: %zu samples, %ld chain(s), outputs %s; held out: the last %g of "
-              "each chain\n",
-              models.size(), d.path.c_str(), d.t.size(), d.chains(), fmt::format("{}", fmt::join(d.state_columns, ",")).c_str(),
-              args.holdout);
-  std::vector<Candidate> candidates;
-  for (std::size_t i = 0; i < models.size(); ++i) {
-    Candidate c;
-    c.file = args.models[i];
-    c.name = models[i].name();
-    c.fit = FitForComparison(models[i], data[i]);
-    if (settings.holdout > 0.0) c.holdout = PredictHeldOut(models[i], data[i], settings);
+  auto read = [&](const SampleData& d) {
+    std::printf("compare: %zu candidate models on %s: %zu samples, %ld chain(s), outputs %s; held out: the last %g "
+                "of each chain\n",
+                args.models.size(), d.path.c_str(), d.t.size(), d.chains(),
+                fmt::format("{}", fmt::join(d.state_columns, ",")).c_str(), args.holdout);
+  };
+  auto fitted = [](const Candidate& c) {
     std::printf("  %s (%s): %s%s%s\n", c.file.c_str(), c.name.c_str(), c.fit.status.c_str(),
                 c.fit.route.empty() ? "" : ", route: ", c.fit.route.c_str());
     std::fflush(stdout);
-    candidates.push_back(std::move(c));
-  }
-  RankCandidates(&candidates);
+  };
+  const std::vector<Candidate> candidates = CompareModels(args.models, args.data, settings, read, fitted);
   const std::vector<std::string> outputs = candidates.front().fit.outputs;
   PrintTable(candidates, outputs);
   PrintMeaning(candidates);
   if (!args.json.empty()) {
-    WriteFileAtomically(args.json, CompareJson(args, candidates, outputs).dump(2) + "\n");
+    WriteFileAtomically(args.json, ComparisonJson(args.data, args.holdout, candidates).dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
   if (!args.csv.empty()) {

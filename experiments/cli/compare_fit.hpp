@@ -15,8 +15,11 @@
 // the held-out tail (a forecast: no held-out sample enters the fit or the initial state).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
@@ -91,6 +94,20 @@ struct Candidate {
 // w_i = exp(−Δ_i/2) / Σ_l exp(−Δ_l/2) over the ranked candidates; the held-out ranks over those
 // with a forecast.
 void RankCandidates(std::vector<Candidate>* candidates);
+
+// The whole comparison (hysid compare, Python's hysid.compare): the files loaded (at least 2, none with
+// candidate terms), the data read for each (the same columns and samples for all), each fitted and,
+// with settings.holdout > 0, its held-out forecast made, then ranked. `read` (may be empty) is called
+// with the data once read, `fitted` after each candidate. Throws std::invalid_argument naming the file
+// or the setting for bad input.
+std::vector<Candidate> CompareModels(const std::vector<std::string>& files, const std::vector<std::string>& data,
+                                     const ComparisonSettings& settings,
+                                     const std::function<void(const SampleData&)>& read = {},
+                                     const std::function<void(const Candidate&)>& fitted = {});
+
+// The comparison as `hysid compare --json` writes it (docs/outputs.md).
+nlohmann::json ComparisonJson(const std::vector<std::string>& data, double holdout,
+                              const std::vector<Candidate>& candidates);
 
 // What a difference in AIC or BIC says (Burnham & Anderson's scale): "≤ 2: substantial support", …
 std::string DeltaMeaning(double delta);
