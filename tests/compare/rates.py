@@ -32,9 +32,12 @@ def model(system, modes):
     return os.path.join(HERE, f"{system}-{modes}.toml")
 
 
-def run_draw(hysid, work, system, draw, holdout):
+def run_draw(hysid, work, system, draw, holdout, resume):
     sigma, measured = SYSTEMS[system]
     out = os.path.join(work, system, f"draw{draw:02d}")
+    report = os.path.join(out, "compare.json")
+    if resume and os.path.exists(report):
+        return summarise(system, draw, 0, report)
     os.makedirs(out, exist_ok=True)
     sim = os.path.join(out, "sim.csv")
     subprocess.run([hysid, "simulate", "--model-file", model(system, 2), "--sigma", str(sigma), "--seed", str(draw),
@@ -47,7 +50,6 @@ def run_draw(hysid, work, system, draw, holdout):
         w.writerow(["t"] + measured)
         for r in rows:
             w.writerow([r["t"]] + [r[c] for c in measured])
-    report = os.path.join(out, "compare.json")
     cmd = [hysid, "compare"] + [model(system, m) for m in (1, 2, 3)] + ["--data", data, "--holdout", str(holdout),
                                                                          "--json", report]
     p = subprocess.run(cmd, capture_output=True, text=True)
@@ -55,9 +57,14 @@ def run_draw(hysid, work, system, draw, holdout):
         f.write(p.stdout + p.stderr)
     if p.returncode not in (0, 1) or not os.path.exists(report):
         return {"system": system, "draw": draw, "exit": p.returncode}
+    return summarise(system, draw, p.returncode, report)
+
+
+def summarise(system, draw, code, report):
+    """One draw's row from its compare.json: each criterion's pick (1, 2, 3 modes; 0: none)."""
     with open(report) as f:
         j = json.load(f)
-    row = {"system": system, "draw": draw, "exit": p.returncode}
+    row = {"system": system, "draw": draw, "exit": code}
     for c in CRITERIA:
         best = j["best"][c]
         row[c] = 0 if best is None else int(os.path.basename(best).split("-")[-1].split(".")[0])
@@ -80,6 +87,7 @@ def main():
     ap.add_argument("--holdout", type=float, default=0.25)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--check", action="store_true")
+    ap.add_argument("--resume", action="store_true", help="reuse the draws whose compare.json exists")
     ap.add_argument("--target", type=float, default=0.95)
     ap.add_argument("--gate", help="skip (exit 77) unless this environment variable is 1")
     a = ap.parse_args()
@@ -90,7 +98,7 @@ def main():
     systems = a.systems.split(",")
     tasks = [(s, d) for s in systems for d in range(a.first, a.first + a.draws)]
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
-        rows = list(pool.map(lambda t: run_draw(a.hysid, a.work, t[0], t[1], a.holdout), tasks))
+        rows = list(pool.map(lambda t: run_draw(a.hysid, a.work, t[0], t[1], a.holdout, a.resume), tasks))
     keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("system", "draw", "exit"), k))
     with open(os.path.join(a.work, "draws.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
