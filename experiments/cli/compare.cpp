@@ -290,10 +290,11 @@ int RunCompare(const CompareArgs& args) {
   if (std::string error; !settings.IsValid(&error)) BadFlag(fmt::format("--holdout = {}: must be in [0, 0.9]", args.holdout));
   CheckCompareOutputs(args);
   auto read = [&](const SampleData& d) {
-    std::printf("compare: %zu candidate models on %s: %zu samples, %ld chain(s), outputs %s; held out: the last %g "
-                "of each chain\n",
-                args.models.size(), d.path.c_str(), d.t.size(), d.chains(),
-                fmt::format("{}", fmt::join(d.state_columns, ",")).c_str(), args.holdout);
+    const std::string held = args.holdout > 0.0 ? fmt::format("held out: the last {:g} of each chain", args.holdout)
+                                                : std::string("no hold-out");
+    std::printf("compare: %zu candidate models on %s: %zu samples, %ld chain(s), outputs %s; %s\n", args.models.size(),
+                d.path.c_str(), d.t.size(), d.chains(), fmt::format("{}", fmt::join(d.state_columns, ",")).c_str(),
+                held.c_str());
   };
   auto fitted = [](const Candidate& c) {
     std::printf("  %s (%s): %s%s%s\n", c.file.c_str(), c.name.c_str(), c.fit.status.c_str(),
