@@ -90,18 +90,18 @@ std::string StatusText(const Candidate& c) {
 }
 
 std::string HoldoutText(const Candidate& c) {
-  if (!c.holdout.done) return c.holdout.status == "none" ? "none" : "no forecast";
+  if (!c.holdout.done) return c.holdout.status == "none" ? "-" : "no forecast";
   std::vector<std::string> parts;
   for (Eigen::Index j = 0; j < c.holdout.rmse.size(); ++j) parts.push_back(fmt::format("{:.4g}", c.holdout.rmse[j]));
   return fmt::format("{} (#{})", fmt::join(parts, ", "), c.holdout_rank);
 }
 
-// Ranked by AIC first, then the others in the order given.
+// Ranked by BIC first, then the others in the order given.
 std::vector<const Candidate*> TableOrder(const std::vector<Candidate>& candidates) {
   std::vector<const Candidate*> order;
   for (const Candidate& c : candidates)
     if (c.ranked) order.push_back(&c);
-  std::stable_sort(order.begin(), order.end(), [](const Candidate* a, const Candidate* b) { return a->aic_rank < b->aic_rank; });
+  std::stable_sort(order.begin(), order.end(), [](const Candidate* a, const Candidate* b) { return a->bic_rank < b->bic_rank; });
   for (const Candidate& c : candidates)
     if (!c.ranked) order.push_back(&c);
   return order;
@@ -112,7 +112,7 @@ void PrintTable(const std::vector<Candidate>& candidates, const std::vector<std:
               "AIC", "dAIC", "w_AIC", "BIC", "dBIC", "w_BIC",
               fmt::format("held-out RMSE ({})", fmt::join(outputs, ", ")).c_str());
   for (const Candidate* c : TableOrder(candidates)) {
-    const std::string rank = c->ranked ? std::to_string(c->aic_rank) : "-";
+    const std::string rank = c->ranked ? std::to_string(c->bic_rank) : "-";
     std::printf("%-4s %-28s %-24s %3d %12s %12s %8s %6s %12s %8s %6s  %s\n", rank.c_str(), c->name.c_str(),
                 StatusText(*c).c_str(), c->fit.parameters, Number(c->fit.loglik).c_str(),
                 c->ranked ? Number(c->aic).c_str() : "-", c->ranked ? Number(c->delta_aic).c_str() : "-",
@@ -134,10 +134,10 @@ void PrintMeaning(const std::vector<Candidate>& candidates) {
   const Candidate* aic = Best(candidates, &Candidate::aic_rank);
   const Candidate* bic = Best(candidates, &Candidate::bic_rank);
   const Candidate* held = Best(candidates, &Candidate::holdout_rank);
-  std::printf("lowest AIC: %s; lowest BIC: %s; best held-out forecast: %s\n", aic ? aic->name.c_str() : "none",
-              bic ? bic->name.c_str() : "none", held ? held->name.c_str() : "none");
+  std::printf("the structure the data support (lowest BIC): %s; lowest AIC: %s; best held-out forecast: %s\n",
+              bic ? bic->name.c_str() : "none", aic ? aic->name.c_str() : "none", held ? held->name.c_str() : "none");
   for (const Candidate* c : TableOrder(candidates)) {
-    if (c->ranked && c->aic_rank > 1) {
+    if (c->ranked && c->bic_rank > 1) {
       std::printf("  %s: dAIC %.1f (%s; Akaike weight %.3g), dBIC %.1f (%s)\n", c->name.c_str(), c->delta_aic,
                   DeltaMeaning(c->delta_aic).c_str(), c->aic_weight, c->delta_bic, DeltaMeaning(c->delta_bic).c_str());
     }
@@ -159,7 +159,9 @@ void PrintMeaning(const std::vector<Candidate>& candidates) {
       std::printf("  no forecast: %s: %s\n", c->name.c_str(), c->holdout.reason.c_str());
     }
   }
-  std::printf("dAIC, dBIC: differences to the lowest (<= 2 substantial support, 4-7 considerably less, > 10 "
+  std::printf("rank: by BIC (consistent: it picks the true structure as N grows; AIC, which selects for "
+              "prediction, prefers a nested model with one parameter more with probability 0.16 however large N is); "
+              "dAIC, dBIC: differences to the lowest (<= 2 substantial support, 4-7 considerably less, > 10 "
               "essentially none); w: the weights exp(-d/2) normalised over the ranked models\n");
 }
 
@@ -233,7 +235,12 @@ std::vector<Candidate> CompareModels(const std::vector<std::string>& files, cons
     c.file = files[i];
     c.name = models[i].name();
     c.fit = FitForComparison(models[i], samples[i]);
-    if (settings.holdout > 0.0) c.holdout = PredictHeldOut(models[i], samples[i], settings);
+    if (settings.holdout > 0.0) {
+      c.holdout = PredictHeldOut(models[i], samples[i], settings);
+    } else {
+      c.holdout.status = "none";
+      c.holdout.reason = "no hold-out asked for";
+    }
     if (fitted) fitted(c);
     candidates.push_back(std::move(c));
   }
