@@ -108,12 +108,14 @@ std::vector<const Candidate*> TableOrder(const std::vector<Candidate>& candidate
 }
 
 void PrintTable(const std::vector<Candidate>& candidates, const std::vector<std::string>& outputs) {
-  std::printf("%-4s %-28s %-24s %3s %12s %12s %8s %6s %12s %8s %6s  %s\n", "rank", "model", "status", "k", "log L",
+  int width = 5;
+  for (const Candidate& c : candidates) width = std::max(width, static_cast<int>(c.name.size()));
+  std::printf("%-4s %-*s %-24s %3s %12s %12s %8s %6s %12s %8s %6s  %s\n", "rank", width, "model", "status", "k", "log L",
               "AIC", "dAIC", "w_AIC", "BIC", "dBIC", "w_BIC",
               fmt::format("held-out RMSE ({})", fmt::join(outputs, ", ")).c_str());
   for (const Candidate* c : TableOrder(candidates)) {
     const std::string rank = c->ranked ? std::to_string(c->bic_rank) : "-";
-    std::printf("%-4s %-28s %-24s %3d %12s %12s %8s %6s %12s %8s %6s  %s\n", rank.c_str(), c->name.c_str(),
+    std::printf("%-4s %-*s %-24s %3d %12s %12s %8s %6s %12s %8s %6s  %s\n", rank.c_str(), width, c->name.c_str(),
                 StatusText(*c).c_str(), c->fit.parameters, Number(c->fit.loglik).c_str(),
                 c->ranked ? Number(c->aic).c_str() : "-", c->ranked ? Number(c->delta_aic).c_str() : "-",
                 c->ranked ? Number(c->aic_weight, "{:.3f}").c_str() : "-", c->ranked ? Number(c->bic).c_str() : "-",

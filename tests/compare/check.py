@@ -9,7 +9,8 @@
   -1/2 sum_j N_j (log(2 pi sigma_j^2) + 1), k = the unknown alpha, beta, gamma + n per chain + one sigma
   per output (to 0.01: the two runs integrate at different tolerances);
 - the Akaike weights are exp(-dAIC/2) normalised, and the --csv rows carry the --json values;
-- with a hold-out, the true model forecasts the held-out samples within 1.5 sigma RMS.
+- with a hold-out, the true model forecasts the held-out samples within 1.5 sigma RMS;
+- (hopper) a file that cannot be fitted is listed as not ranked, without criteria.
 
     /usr/bin/python3 tests/compare/check.py --hysid build/bin/hysid --work DIR --system thermostat
 """
@@ -78,6 +79,8 @@ def main():
     os.makedirs(a.work, exist_ok=True)
     sigma, measured, _, _, _ = SYSTEMS[a.system]
     files = [os.path.join(HERE, f"{a.system}-{m}.toml") for m in (1, 2, 3)]
+    # the hopper also with a file that cannot be fitted: listed as not ranked, with no criteria
+    extra = [os.path.join(HERE, "hopper-unidentifiable.toml")] if a.system == "hopper" else []
     sim = os.path.join(a.work, "sim.csv")
     subprocess.run([a.hysid, "simulate", "--model-file", files[1], "--sigma", str(sigma), "--seed", str(a.seed),
                     "--out", sim], check=True, capture_output=True)
@@ -89,7 +92,7 @@ def main():
             w.writerow([r["t"]] + [r[c] for c in measured])
     data = read_csv(data_path)
     report, table = os.path.join(a.work, "compare.json"), os.path.join(a.work, "compare.csv")
-    p = subprocess.run([a.hysid, "compare"] + files + ["--data", data_path, "--holdout", str(a.holdout),
+    p = subprocess.run([a.hysid, "compare"] + files + extra + ["--data", data_path, "--holdout", str(a.holdout),
                                                         "--json", report, "--csv", table],
                        capture_output=True, text=True)
     print(p.stdout, p.stderr)
@@ -108,6 +111,11 @@ def main():
     by_file = {m["file"]: m for m in j["models"]}
     one = by_file[files[0]]
     check(not one["ranked"] or one["delta_aic"] > 100, f"the 1-mode file is not ranked or far behind ({one['delta_aic']})")
+    for f in extra:
+        m = by_file[f]
+        check(not m["ranked"] and m["status"] != "ok" and m["aic"] is None and m["aic_rank"] == 0
+              and m["bic_rank"] == 0 and f"not ranked: {m['name']}: no fit reported" in p.stdout,
+              f"{os.path.basename(f)}: {m['status']}, not ranked, no AIC, said so in the report")
     ranked = [m for m in j["models"] if m["ranked"]]
     total = sum(math.exp(-m["delta_aic"] / 2) for m in ranked)
     for m in ranked:
