@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=
 
-.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-usersys example-figures check-bench
+.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-usersys check-compare-rates example-figures check-bench
 
 deps:
 	./scripts/install-deps.sh
@@ -37,6 +37,11 @@ check-sanitize: deps-sanitize
 # with the defaults; fails while the targets are not met. Skipped by a plain `ctest`.
 check-usersys: build
 	HYSID_USERSYS=1 ctest --test-dir $(BUILD_DIR) -L usersys --output-on-failure
+
+# How often `hysid compare` picks the true mode count of a thermostat and a hopper over 50 noise draws
+# (tests/compare/rates.py; fails below 95 % by BIC).
+check-compare-rates: build
+	HYSID_COMPARE_RATES=1 ctest --test-dir $(BUILD_DIR) -L compare-rates --output-on-failure
 
 # The fit figure of every example (examples/*/fit.png and fit.txt, shown in each README): its README's
 # commands, identify --json --trace, then analysis/hysid_plots fit (scripts/example-figures.sh).

@@ -122,5 +122,7 @@ R RunInterruptible(std::function<R()> work, const std::shared_ptr<std::atomic<bo
 
 // hysid.identify (python/identify.cpp).
 void BindIdentify(py::module_& m);
+// hysid.compare (python/compare.cpp).
+void BindCompare(py::module_& m);
 
 }  // namespace hysid::python

@@ -352,6 +352,7 @@ PYBIND11_MODULE(hysid, m) {
       "or {'t': times, name: values} (t left out: the sample times), linear between samples. Ctrl-C raises "
       "KeyboardInterrupt");
   BindIdentify(m);
+  BindCompare(m);
   m.def("crlb", &CrlbDict, py::arg("model"), py::arg("x0") = py::none(), py::arg("t_end") = py::none(),
         py::arg("dt") = py::none(), py::arg("sigma") = 1.0, py::arg("x0_known") = false,
         py::arg("rtol") = hysid::SimOptions{}.rtol, py::arg("atol") = hysid::SimOptions{}.atol,

@@ -41,6 +41,7 @@ void AddIdentifyCommand(CLI::App& app, Environment& env);
 void AddReproduceCommand(CLI::App& app, Environment& env);
 void AddSweepCommand(CLI::App& app, Environment& env);  // sweep and merge
 void AddCrlbCommand(CLI::App& app, Environment& env);
+void AddCompareCommand(CLI::App& app, Environment& env);
 
 // A run that finished with a failed status (exit 1) or was interrupted (exit 130): thrown after
 // the outputs are written, so that `main` returns the code and destructors still run.

@@ -97,6 +97,7 @@ int Main(int argc, char** argv, ModelRegistry registry) {
   AddReproduceCommand(app, env);
   AddSweepCommand(app, env);
   AddCrlbCommand(app, env);
+  AddCompareCommand(app, env);
   // `hysid SUBCOMMAND --version` answers the version too, before the subcommand's required flags.
   for (CLI::App* sub : app.get_subcommands({}))
     sub->set_version_flag("--version", HYSID_VERSION " (" HYSID_GIT_REVISION ")");

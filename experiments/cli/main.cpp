@@ -1,5 +1,5 @@
 // hysid: identification of hybrid dynamical systems from sampled states.
-// Subcommands: models, simulate, identify, reproduce, sweep, merge, crlb. `hysid --help` lists them.
+// Subcommands: models, simulate, identify, reproduce, sweep, merge, crlb, compare. `hysid --help` lists them.
 #include <cstdio>
 #include <exception>
 

@@ -177,6 +177,8 @@ def safety_cases():
 
 
 SAFETY_SUBJECTS = {
+    "compare: one model file": "candidate model files",
+    "compare: a model file that does not load": "pumpguard.toml",
     'identify: a sidecar with "rtol": "x"': "rtolx.json",
     "sweep: sweep.json is a directory": "jsondir/sweep.json",
     "crlb: --t-end= with nothing after": "--t-end",
@@ -309,7 +311,7 @@ def cases():
         ("merge: output is an input", ["merge", "done", "--out", "done"]),
         ("merge: not a run directory", ["merge", "o", "--out", "m"]),
     ] + safety_cases() + LIMITS_CASES + INPUTS_CASES + TRUTH_CASES + MEASURED_CASES + AUTOMATON_CASES + PROBE_CASES \
-      + ACCEPTED_CASES + UNCLEAR_CASES
+      + ACCEPTED_CASES + UNCLEAR_CASES + COMPARE_CASES
 
 
 # Found by tests/experiments/cli/probe_hostile.py: empty flag values, a column named twice, a grid axis no detector
@@ -504,6 +506,14 @@ def truth_setup(d):
     with open(os.path.join(d, "sim.json")) as src, open(os.path.join(d, "simb.json"), "w") as dst:
         dst.write(src.read().replace('"a": 5.0', '"a": 6.0'))
 
+
+# hysid compare: candidate model files on one record.
+COMPARE_CASES = [
+    ("compare: one model file", ["compare", "pump.toml", "--data", "sim.csv"]),
+    ("compare: a model file that does not load", ["compare", "pump.toml", "pumpguard.toml", "--data", "sim.csv"]),
+    ("compare: --holdout 1", ["compare", "pump.toml", "pump.toml", "--data", "sim.csv", "--holdout", "1"]),
+    ("compare: --json is a model file", ["compare", "pump.toml", "pump.toml", "--data", "sim.csv", "--json", "pump.toml"]),
+]
 
 # Partial outputs and known initial states (examples/drag-ball).
 MEASURED_CASES = [
