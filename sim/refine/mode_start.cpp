@@ -121,22 +121,20 @@ Vec SolveAlpha(const Model& model, const std::vector<Window>& windows, const std
                const std::vector<bool>& kept, const Vec& start, const Unknowns& unknowns) {
   const auto u = static_cast<Eigen::Index>(unknowns.alpha.size());
   const Eigen::Index n = windows.front().delta.size();
-  Mat a(0, u);
-  Vec b(0);
+  const auto rows = n * static_cast<Eigen::Index>(std::count(kept.begin(), kept.end(), true));
+  Mat a(rows, u);
+  Vec b(rows);
+  Eigen::Index at = 0;
   for (std::size_t i = 0; i < windows.size(); ++i) {
     if (!kept[i]) continue;
     const Mat& g = windows[i].g[std::size_t(mode[i])];
-    Vec rhs = windows[i].delta - g * start;  // the unknown entries' columns add back below
-    Mat cols(n, u);
+    b.segment(at, n) = windows[i].delta - g * start;  // the unknown entries' columns add back below
     for (Eigen::Index j = 0; j < u; ++j) {
       const int c = unknowns.alpha[std::size_t(j)];
-      cols.col(j) = g.col(c);
-      rhs += g.col(c) * start[c];
+      a.block(at, j, n, 1) = g.col(c);
+      b.segment(at, n) += g.col(c) * start[c];
     }
-    a.conservativeResize(a.rows() + n, Eigen::NoChange);
-    a.bottomRows(n) = cols;
-    b.conservativeResize(b.size() + n);
-    b.tail(n) = rhs;
+    at += n;
   }
   Vec alpha = start;
   if (a.rows() < u) return alpha;
