@@ -534,32 +534,6 @@ bool LocateSwitches(const ShootingProblem& pr, const std::vector<RefineChain>& c
   return true;
 }
 
-// A hybrid automaton: each node's mode the one whose segment, simulated from the node's state at θ,
-// fits the segment's samples best (the data's own say on a hidden mode; modes in which the state
-// lies outside C and D are not candidates).
-void BestModes(ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s) {
-  const int modes = ModeCount(pr.model->spec());
-  if (modes < 2) return;
-  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
-    Segment& seg = pr.segments[i];
-    double best = std::numeric_limits<double>::infinity();
-    for (int q = 0; q < modes; ++q) {
-      SensitivityTrajectory tr;
-      if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), q), false, &tr, Reading::kOwn)) continue;
-      double cost = 0.0;
-      for (long k = 0; k < seg.samples(); ++k) {
-        for (std::size_t r = 0; r < pr.rows.size(); ++r) {
-          cost += std::pow(pr.weight[Eigen::Index(r)] * (tr.trajectory.x(pr.rows[r], k) - seg.y(Eigen::Index(r), k)), 2);
-        }
-      }
-      if (cost < best) {
-        best = cost;
-        seg.mode = q;
-      }
-    }
-  }
-}
-
 // Segment i's weighted squared residuals when simulated from (x, q) at θ; infinity when it does not simulate.
 double SegmentFit(const ShootingProblem& pr, std::size_t i, const Vec& theta, const Vec& x, int q) {
   const Segment& seg = pr.segments[i];
@@ -575,6 +549,24 @@ double SegmentFit(const ShootingProblem& pr, std::size_t i, const Vec& theta, co
     }
   }
   return cost;
+}
+
+// A hybrid automaton: each node's mode the one whose segment, simulated from the node's state at θ,
+// fits the segment's samples best (the data's own say on a hidden mode; modes in which the state
+// lies outside C and D are not candidates).
+void BestModes(ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s) {
+  const int modes = ModeCount(pr.model->spec());
+  if (modes < 2) return;
+  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int q = 0; q < modes; ++q) {
+      const double cost = SegmentFit(pr, i, theta, s[i], q);
+      if (cost < best) {
+        best = cost;
+        pr.segments[i].mode = q;
+      }
+    }
+  }
 }
 
 // At the point reached, each node's (state, mode) pair against the data's: its own state or the one
@@ -884,7 +876,6 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
                              const RefineOptions& options, ShootingProblem& pr, long total,
                              const std::vector<ChainStart>& starts);
 
-
 // A chain and the ones after it in its run after gaps, as one chain (times, samples, inputs joined).
 RefineChain Joined(const std::vector<RefineChain>& chains, std::size_t first, std::size_t end) {
   std::vector<double> t;
@@ -1059,7 +1050,6 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   r.chains_used = static_cast<long>(chains.size());
   r.refined = pr.At(theta.data(), s.front().data(), pr.segments.front().mode);
   r.chain_x0.clear();
-  r.chain_samples_used.clear();
   r.chain_mode.clear();
   // Per caller's chain: its first node, or after a gap the state and mode the fit runs through there.
   for (const ChainStart& at : starts) {
@@ -1082,7 +1072,6 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
     r.chain_mode.push_back(mode);
   }
   r.initial_mode = pr.segments.front().mode >= 0 ? pr.segments.front().mode : model.spec().default_mode;
-  for (const RefineChain& c : chains) r.chain_samples_used.push_back(static_cast<long>(c.t.size()));
   const bool converged = summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS;
   if (r.iterations >= budget) {
     Fail(r, RefineStatus::kNotConverged,
