@@ -599,9 +599,9 @@ def test_ctrl_c_stops_the_recursive_pass():
         "threads = lambda: len(os.listdir('/proc/self/task'))\nbefore = threads()\n"
         "start = time.monotonic()\nr = hysid.identify('impact-msd', y, **kw)\n"
         "print('full', time.monotonic() - start, r['flow_status'], flush=True)\n"
-        "threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
         "start = time.monotonic()\n"
-        "try:\n    hysid.identify('impact-msd', y, **kw)\n    print('finished', flush=True)\n"
+        "try:\n    threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
+        "    hysid.identify('impact-msd', y, **kw)\n    print('finished', flush=True)\n"
         "except KeyboardInterrupt:\n    at = time.monotonic()\n"
         "    while threads() > before and time.monotonic() - at < 30.0:\n        time.sleep(0.01)\n"
         "    print('interrupted', at - start, time.monotonic() - start, flush=True)\n")
