@@ -25,24 +25,35 @@ std::vector<std::pair<long, long>> ChainSpans(const std::vector<std::uint8_t>& c
   return out;
 }
 
+// A span's sample times from its first and its inputs on them (none without input rows).
+struct SpanSamples {
+  std::vector<double> times;
+  InputSignal inputs;
+  const InputSignal* inputs_or_null() const { return inputs.empty() ? nullptr : &inputs; }
+};
+
+SpanSamples SamplesOf(const std::vector<double>& t, const Mat& u, std::pair<long, long> span) {
+  const auto [a, b] = span;
+  SpanSamples s;
+  for (long k = a; k < b; ++k) s.times.push_back(t[std::size_t(k)] - t[std::size_t(a)]);
+  if (u.rows() > 0) {
+    s.inputs.times = s.times;
+    s.inputs.values = u.middleCols(a, b - a);
+  }
+  return s;
+}
+
 // One chain's run from `params` on its own sample times (with S and ∂t_j/∂θ when `gradients`); a
 // start outside C ∪ D (std::invalid_argument) is a run with no samples and that message.
 SensitivityTrajectory RunChain(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
                                const std::vector<double>& t, const Mat& u, std::pair<long, long> span,
                                bool gradients) {
-  const auto [a, b] = span;
-  std::vector<double> times;
-  for (long k = a; k < b; ++k) times.push_back(t[std::size_t(k)] - t[std::size_t(a)]);
-  InputSignal inputs;
-  if (u.rows() > 0) {
-    inputs.times = times;
-    inputs.values = u.middleCols(a, b - a);
-  }
+  const SpanSamples samples = SamplesOf(t, u, span);
   SensitivityOptions o;
   o.sensitivities = gradients;
   o.sim.rtol = o.sim.atol = 1e-9;
   try {
-    return SimulateSensitivities(model, params, unknowns, times, o, inputs.empty() ? nullptr : &inputs);
+    return SimulateSensitivities(model, params, unknowns, samples.times, o, samples.inputs_or_null());
   } catch (const std::invalid_argument& e) {
     SensitivityTrajectory none;
     none.trajectory.status.stop = SimStop::kLeftDomain;
@@ -59,23 +70,15 @@ Mat RunMatched(const Model& model, const HybridParameters& params, const Unknown
                const std::vector<double>& t, const Mat& u, std::pair<long, long> span,
                const std::vector<std::uint8_t>& gamma) {
   const auto [a, b] = span;
-  std::vector<double> times;
+  const SpanSamples samples = SamplesOf(t, u, span);
   std::vector<int> segment;
-  for (long k = a; k < b; ++k) {
-    times.push_back(t[std::size_t(k)] - t[std::size_t(a)]);
-    segment.push_back(k == a ? 0 : segment.back() + (gamma[std::size_t(k)] != 0 ? 1 : 0));
-  }
-  InputSignal inputs;
-  if (u.rows() > 0) {
-    inputs.times = times;
-    inputs.values = u.middleCols(a, b - a);
-  }
+  for (long k = a; k < b; ++k) segment.push_back(k == a ? 0 : segment.back() + (gamma[std::size_t(k)] != 0 ? 1 : 0));
   SensitivityOptions o;
   o.sensitivities = false;
   o.sim.rtol = o.sim.atol = 1e-9;
   try {
-    const SensitivityTrajectory run = SimulateSensitivitiesMatched(model, params, unknowns, times, segment, o,
-                                                                   inputs.empty() ? nullptr : &inputs);
+    const SensitivityTrajectory run = SimulateSensitivitiesMatched(model, params, unknowns, samples.times, segment, o,
+                                                                   samples.inputs_or_null());
     if (run.ok() && run.trajectory.size() == b - a) return run.trajectory.x;
   } catch (const std::invalid_argument&) {
   }
