@@ -50,7 +50,7 @@ TEST_CASE("linear interpolation is exact for a linear input and the chord of a c
   }
 }
 
-TEST_CASE("at a sample time the input is that sample; outside the range the end value", "[inputs]") {
+TEST_CASE("at a sample time the input is that sample - outside the range the end value", "[inputs]") {
   const InputSignal s = TwoInputs();
   double u[2];
   for (int k = 0; k < 5; ++k) {

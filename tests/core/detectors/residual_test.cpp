@@ -342,7 +342,7 @@ namespace hysid {
 namespace {
 
 TEST_CASE("FlagsWith: another false_alarm with this detector's state decides as a detector of that "
-          "false_alarm; ThresholdsBelow orders them",
+          "false_alarm - ThresholdsBelow orders them",
           "[residual][twins]") {
   const Model model{ImpactMsd{}};
   const Trajectory truth = Simulate(model, DefaultState(model), SampleGrid{20.0, 1e-3});

@@ -128,7 +128,7 @@ TEST_CASE("integral estimator equals the batch offset-per-segment least squares"
   }
 }
 
-TEST_CASE("integral estimator: UpdateRow equals Update; noise-free rows give θ; Reset", "[integral]") {
+TEST_CASE("integral estimator: UpdateRow equals Update - noise-free rows give θ - Reset", "[integral]") {
   Vec theta(2), theta0 = Vec::Zero(2);
   theta << 5.0, 0.1;
   const auto noisy = RandomSegments({300, 50}, 1, theta, 1e-2, 3);
@@ -146,7 +146,7 @@ TEST_CASE("integral estimator: UpdateRow equals Update; noise-free rows give θ;
   CHECK(exact.status() == EstimatorStatus::kNotExcited);
 }
 
-TEST_CASE("integral estimator: not excited until p + 1 informative rows; non-finite rows skipped",
+TEST_CASE("integral estimator: not excited until p + 1 informative rows - non-finite rows skipped",
           "[integral]") {
   IntegralLs e(Vec::Zero(2), Vec::Constant(2, 1e8));
   Mat phi(1, 2);

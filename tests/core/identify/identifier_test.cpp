@@ -38,7 +38,7 @@ TEST_CASE("noise-free §5: all 14 jumps, no false ones, e_alpha < 1e-4", "[ident
   CHECK(e.e_beta < 1e-3);
 }
 
-TEST_CASE("a stop flag: raised before the call, nothing is ok; raised during it, a finished result is the "
+TEST_CASE("a stop flag: raised before the call, nothing is ok - raised during it, a finished result is the "
           "unstopped one and a stopped one is not ok", "[identify][stop]") {
   const Model model{ImpactMsd{}};
   const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{200.0, 5e-4});  // 400 001 samples
@@ -206,7 +206,7 @@ TEST_CASE("direct calls (paper or residual detector + RLS) give the interfaces' 
   }
 }
 
-TEST_CASE("shared flow rows: each row is the pair's own regression; rows of other samples are refused",
+TEST_CASE("shared flow rows: each row is the pair's own regression - rows of other samples are refused",
           "[identify][direct]") {
   const Model model{ImpactMsd{}};
   const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{2.0, 5e-4});
@@ -557,7 +557,7 @@ TEST_CASE("true smoothness bound of impact-msd is ‖(a, b)‖ times the trapezo
   CHECK(tau[2] == Approx(0.5 * l * (4.0 + 1.0)));
 }
 
-TEST_CASE("integral estimator in the identifier: direct calls equal the interfaces; far closer to α than RLS",
+TEST_CASE("integral estimator in the identifier: direct calls equal the interfaces - far closer to α than RLS",
           "[identify][integral]") {
   const Model model{ImpactMsd{}};
   const Trajectory traj = Simulate(model, DefaultState(model), SampleGrid{20.0, 5e-4});

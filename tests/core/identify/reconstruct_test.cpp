@@ -109,7 +109,7 @@ TEST_CASE("a parabola's flight: the bounces and the velocity from the height alo
   CHECK(r.x.row(0) == traj.x.row(0));
 }
 
-TEST_CASE("a raised stop flag: the reconstruction returns marked stopped; a lowered one changes nothing",
+TEST_CASE("a raised stop flag: the reconstruction returns marked stopped - a lowered one changes nothing",
           "[reconstruct][stop]") {
   const Model model{BouncingBall{}};
   const Trajectory traj = Ball(model);

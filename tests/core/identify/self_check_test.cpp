@@ -58,8 +58,8 @@ dt = 0.006666666666666667
 }  // namespace
 
 TEST_CASE(
-    "drag ball, both states measured: the paper detector finds at most one bounce, g is far off; the flow "
-    "estimate is inconsistent, not ok; the residual detector's right fit stays ok",
+    "drag ball, both states measured: the paper detector finds at most one bounce, g is far off - the flow "
+    "estimate is inconsistent, not ok - the residual detector's right fit stays ok",
     "[identify][self_check]") {
   const Model model = ParseModelFile(kDragBall, "drag-ball.toml").model;
   const SampleGrid grid{5.0, 1.0 / 150.0};
@@ -94,7 +94,7 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "§5 with noise: no false refusal over 20 draws; noise-free with a detector that misses every "
+    "§5 with noise: no false refusal over 20 draws - noise-free with a detector that misses every "
     "jump: not ok, the data jump where nothing was detected",
     "[identify][self_check]") {
   const Model model{ImpactMsd{}};
@@ -133,7 +133,7 @@ TEST_CASE(
 
 TEST_CASE(
     "one step in v that no detector sees: the residuals' RMS is within the noise, the largest residual "
-    "is not; not ok, naming its time",
+    "is not - not ok, naming its time",
     "[identify][self_check]") {
   const Model model{ImpactMsd{}};
   // §5 before its first impact (t ≈ 0.70 s): 1201 samples of flow, σ = 0.01.

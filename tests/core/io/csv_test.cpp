@@ -247,7 +247,7 @@ TEST_CASE("RFC 4180: quoted fields, doubled quotes, commas and line breaks insid
                     "o.csv:2: column 2: the quoted cell is not closed before the end of the file");
 }
 
-TEST_CASE("missing cells (empty, nan, NA) are NaN and counted; words and infinities are refused", "[csv]") {
+TEST_CASE("missing cells (empty, nan, NA) are NaN and counted - words and infinities are refused", "[csv]") {
   std::istringstream in("t,x,y\n0,,1\n1,nan,NA\n2,\"\",-nan\n3,4,5\n");
   const CsvTable t = ReadCsvStream(in, "m.csv");
   REQUIRE(t.rows() == 4);
@@ -262,7 +262,7 @@ TEST_CASE("missing cells (empty, nan, NA) are NaN and counted; words and infinit
   CHECK_THROWS_WITH(ReadCsvStream(inf, "i.csv"), "i.csv:2: column 2 ('x'): 'inf' is not finite");
 }
 
-TEST_CASE("lines and cells are bounded before a line is split; messages never echo a huge cell",
+TEST_CASE("lines and cells are bounded before a line is split - messages never echo a huge cell",
           "[csv][limits]") {
   const std::string big(2u << 20, '7');  // 2 MiB of digits, beyond the default line limit
   std::istringstream long_line("t,y\n0," + big + "\n");
@@ -311,7 +311,7 @@ TEST_CASE("bytes echoed in a message are printable: control and invalid UTF-8 by
 namespace hysid {
 namespace {
 
-TEST_CASE("records end at LF, CR LF or a lone CR; a byte order mark is skipped", "[csv]") {
+TEST_CASE("records end at LF, CR LF or a lone CR - a byte order mark is skipped", "[csv]") {
   for (const std::string& text :
        {std::string("t,x\n0,1\n1,2\n"), std::string("t,x\r\n0,1\r\n1,2\r\n"), std::string("t,x\r0,1\r1,2\r"),
         std::string("\xEF\xBB\xBFt,x\n0,1\n1,2\n")}) {

@@ -30,7 +30,7 @@ TEST_CASE("uniform data: one run, one chain, the mean step", "[sample_data]") {
   CHECK(*d.j == std::vector<int>{0, 0, 1});
 }
 
-TEST_CASE("a missing state cell drops its row and the chain goes on; a long step starts a chain",
+TEST_CASE("a missing state cell drops its row and the chain goes on - a long step starts a chain",
           "[sample_data]") {
   // Steps 0.1 (0.2 across a dropped row) except one of 0.7 (> 5 × the median 0.1): chains at sample 0
   // and at t = 1.5.
@@ -55,7 +55,7 @@ TEST_CASE("a missing state cell drops its row and the chain goes on; a long step
   CHECK(narrow.chain_start == std::vector<std::uint8_t>{1, 0, 1, 1, 0, 0, 0, 1, 0});
 }
 
-TEST_CASE("irregular steps are accepted; time must still increase", "[sample_data]") {
+TEST_CASE("irregular steps are accepted - time must still increase", "[sample_data]") {
   const SampleData d = SampleDataFromTable(Table("t,x,v\n0,1,2\n0.101,1,2\n0.199,1,2\n0.3,1,2\n"), 2);
   CHECK_FALSE(d.uniform);
   CHECK(d.chains() == 1);
@@ -66,7 +66,7 @@ TEST_CASE("irregular steps are accepted; time must still increase", "[sample_dat
                     "m.csv:3: column 1 ('t'): the time is missing");
 }
 
-TEST_CASE("several runs: files and a run column; each run starts a chain and its own clock",
+TEST_CASE("several runs: files and a run column - each run starts a chain and its own clock",
           "[sample_data]") {
   const CsvTable a = Table("t,j,x,v\n0,0,1,2\n0.1,0,1,2\n0.2,1,1,2\n", "a.csv");
   const CsvTable b = Table("run,t,j,x,v\n7,0,0,5,6\n7,0.1,1,5,6\n3,0,0,8,9\n3,0.1,0,8,9\n", "b.csv");
@@ -199,7 +199,7 @@ TEST_CASE("a data file without samples is refused by name, also beside other fil
 namespace hysid {
 namespace {
 
-TEST_CASE("the jump counters of several runs join without a step whatever each starts at; j never falls",
+TEST_CASE("the jump counters of several runs join without a step whatever each starts at - j never falls",
           "[sample_data]") {
   // The second file is a later part of the run (its counter starts at 5): no jump at the boundary.
   const CsvTable a = Table("t,j,x,v\n0,0,1,2\n0.1,1,1,2\n0.2,1,1,2\n", "a.csv");
@@ -227,7 +227,7 @@ TEST_CASE("two columns of one name, and steps below the smallest, are refused by
       "s.csv:3: column 1 ('t'): the step 1e-160 after line 2 is below 1e-150 s (rescale the time)");
 }
 
-TEST_CASE("columns named after the model's states are the measured state; true_* never is", "[sample_data]") {
+TEST_CASE("columns named after the model's states are the measured state - true_* never is", "[sample_data]") {
   // `hysid simulate`'s file: t, j, the noise-free state true_x, true_v, the measured x, v.
   const std::string sim = "t,j,true_x,true_v,x,v\n0,0,1,2,1.5,2.5\n0.1,0,1,2,1.5,2.5\n0.2,0,1,2,1.5,2.5\n";
   const SampleDataOptions named{.state_names = {"x", "v"}};

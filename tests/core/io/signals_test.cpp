@@ -52,7 +52,7 @@ TEST_CASE("only the temporary files not yet published are removed", "[signals]")
   CHECK(Text(dir / "published.csv") == "new\n");
 }
 
-TEST_CASE("slots are reused; beyond the last one a file is not registered", "[signals]") {
+TEST_CASE("slots are reused - beyond the last one a file is not registered", "[signals]") {
   std::vector<int> slots;
   for (int i = 0; i < kMaxTemporaryFiles; ++i) {
     slots.push_back(RegisterTemporaryFile("/nonexistent/hysid-signals-test-" + std::to_string(i)));

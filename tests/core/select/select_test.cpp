@@ -216,7 +216,7 @@ TEST_CASE("the bootstrap of flow segments chooses the true terms of §5 in almos
   CHECK(again.frequency == b.frequency);
 }
 
-TEST_CASE("terms that are not selectable are always kept; bad options and sizes are refused by name", "[select]") {
+TEST_CASE("terms that are not selectable are always kept - bad options and sizes are refused by name", "[select]") {
   const Model library = ParseModelFile(Section5Library(), "library.toml").model;
   const Data d = Simulated(Section5Truth(), V(20.0, 0.0), 4.0, 5e-4, 0.01, 1);
   const FlowSums sums = Sums(library, d, 5e-4);

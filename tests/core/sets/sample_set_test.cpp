@@ -576,7 +576,7 @@ TEST_CASE("3-D: non-finite samples are ignored and counted, a moved set keeps it
 }
 
 TEST_CASE(
-    "a raised stop flag ends the n >= 3 hull's final vertices and volume; a lowered one changes nothing",
+    "a raised stop flag ends the n >= 3 hull's final vertices and volume - a lowered one changes nothing",
     "[sets][nd][stop]") {
   using nd::V;
   // A 4-D curve in convex position (every sample extreme): thousands of boundary facets, the star.

@@ -194,7 +194,7 @@ TEST_CASE("a chain whose detector missed its last jump, near its end: that chain
   RequireNearTruth(runs.a.model, r, 4.0);
 }
 
-TEST_CASE("a chain whose detector missed its first jump: the span cannot help; the repaired start adds it",
+TEST_CASE("a chain whose detector missed its first jump: the span cannot help - the repaired start adds it",
           "[refine][chains]") {
   TwoRuns runs(1000);
   std::size_t k = 1;

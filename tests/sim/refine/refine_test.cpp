@@ -399,7 +399,7 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
   }
 }
 
-TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help; the repaired start adds it",
+TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help - the repaired start adds it",
           "[refine]") {
   BallRun run;
   const long missed = run.RemoveJump(static_cast<long>(run.gamma.size()), false);
