@@ -472,7 +472,7 @@ def caption(fit, run):
     text = f"{rep.get('model', '?')}, run {run} of {len(fit.runs())}: the measured {names} (grey dots)"
     if not fit.missing_columns and not fit.no_fit:
         text += (" with the fitted model run on its own over the whole record from each chain's fitted initial "
-                 "state (blue line, band ±1.96 sd from the fit's covariance on the first chain) and the recursive "
+                 "state (blue line, band ±1.96 sd from the fit's covariance) and the recursive "
                  "estimate's run (dashed orange, where it differs)")
     elif fit.no_fit:
         text += " with the recursive estimate's run from each chain's first sample (dashed orange)"

@@ -68,7 +68,7 @@ void PrintEvents(const Model& model, const SampleData& data, const IdentifyResul
 void PrintFittedEvents(const Model& model, const IdentifyResult& r, const FittedEvents& fitted) {
   if (!IsAutomaton(model.spec()) || r.events.empty()) return;
   const std::vector<JumpMap> maps = JumpMaps(model.spec());
-  std::printf("event times from the fitted model (its guard crossings; se from the covariance, first chain):\n");
+  std::printf("event times from the fitted model (its guard crossings; se from the covariance):\n");
   if (!fitted.reason.empty()) std::printf("  not every event has one: %s\n", fitted.reason.c_str());
   if (!fitted.beyond.empty()) std::printf("  %s\n", fitted.beyond.c_str());
   std::printf("  %8s %-12s %14s %14s %12s\n", "sample", "map", "t detected", "t fitted", "se");

@@ -60,7 +60,6 @@ FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, con
   std::vector<RefineChain> chains = SplitChains(t, y, chain_start, recursive.gamma, u);
   AssignChainMaps(chain_start, recursive, &chains);
   const std::vector<long> first = ChainFirsts(chain_start, y.cols());
-  bool first_fitted = true;
   for (std::size_t c = 0; c < chains.size() && c < first.size(); ++c) {
     const bool fitted = c < r.chain_x0.size() && r.chain_x0[c].size() != 0 && r.chain_samples_used[c] >= 2;
     if (!fitted) {
@@ -73,8 +72,8 @@ FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, con
       out.beyond = fmt::format("chain {}: after t = {:.6g} the fit left out the samples (the fitted model's prediction)",
                                c + 1, chain.t[std::size_t(r.chain_samples_used[c] - 1)]);
     }
-    const bool gradients = first_fitted && r.covariance.rows() == r.unknowns.size(model.state_size());
-    first_fitted = false;
+    const Mat* covariance = r.covariance_of_chain(c, model.state_size());
+    const bool gradients = covariance != nullptr;
     const SensitivityTrajectory run = RunChain(model, r, c, chain, used, gradients, options);
     if (!run.trajectory.status.completed()) {
       out.reason = fmt::format("chain {}: the fitted model does not run ({})", c + 1, run.trajectory.status.message);
@@ -101,7 +100,7 @@ FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, con
       out.time[i] = chain.t.front() + jumps[next].t;
       if (gradients && static_cast<Eigen::Index>(next) < run.jump_time_gradients.cols()) {
         const Vec g = run.jump_time_gradients.col(static_cast<Eigen::Index>(next));
-        out.se[i] = std::sqrt(std::max(0.0, g.dot(r.covariance * g)));
+        out.se[i] = std::sqrt(std::max(0.0, g.dot(*covariance * g)));
       }
       ++next;
     }

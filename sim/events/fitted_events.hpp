@@ -7,8 +7,8 @@
 // refinement's jump check makes the sequences agree when it is ok).
 //
 // Standard error: the run's ∂t_j/∂θ (saltation, sim/sensitivity/sensitivity.hpp:
-// ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻)) with the refinement's covariance C of θ, se = √(gᵀCg);
-// only for the first fitted chain, whose ξ0 the covariance holds (NaN for the others).
+// ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻)) with the refinement's covariance C of θ and the chain's
+// own ξ0 (RefineResult::chain_covariance), se = √(gᵀCg).
 #pragma once
 
 #include <cstdint>
@@ -29,7 +29,7 @@ struct FittedCrossing {
 
 struct FittedEvents {
   // Per IdentifyResult::events: the fitted crossing's time and its standard error (NaN: none, see
-  // `reason`; se also NaN outside the first fitted chain or without a covariance).
+  // `reason`; se also NaN without a covariance).
   std::vector<double> time, se;
   std::vector<FittedCrossing> crossings;  // every crossing of the fitted model, all chains, in order
   std::string reason;                     // why a time is NaN ("" when every event has one)

@@ -145,7 +145,6 @@ FittedOutputs RunFittedModel(const Model& model, const std::vector<double>& t, c
     out.reason = "the refinement reported no fit";
     return out;
   }
-  bool first_fitted = true;
   for (std::size_t c = 0; c < spans.size(); ++c) {
     const auto [a, b] = spans[c];
     const bool fitted = c < r.chain_x0.size() && r.chain_x0[c].size() != 0 && r.chain_samples_used[c] >= 2;
@@ -157,10 +156,10 @@ FittedOutputs RunFittedModel(const Model& model, const std::vector<double>& t, c
     HybridParameters p = r.estimate;
     p.x0 = r.chain_x0[c];
     p.initial_mode = c < r.chain_mode.size() ? r.chain_mode[c] : r.initial_mode;
-    const bool gradients = first_fitted && r.covariance.rows() == r.unknowns.size(n);
-    first_fitted = false;
+    const Mat* covariance = r.covariance_of_chain(c, n);
+    const bool gradients = covariance != nullptr;
     const SensitivityTrajectory run = RunChain(model, p, r.unknowns, t, u, spans[c], gradients);
-    Store(run, a, gradients ? &r.covariance : nullptr, &out.x, &out.sd);
+    Store(run, a, gradients ? covariance : nullptr, &out.x, &out.sd);
     const Mat matched = recursive.gamma.size() == std::size_t(K)
                             ? RunMatched(model, p, r.unknowns, t, u, spans[c], recursive.gamma)
                             : Mat();
@@ -175,7 +174,7 @@ FittedOutputs RunFittedModel(const Model& model, const std::vector<double>& t, c
                    .mode_after = jr.mode, .in_fit = t[std::size_t(a)] + jr.t <= t_fit};
       if (gradients && static_cast<Eigen::Index>(j) < run.jump_time_gradients.cols()) {
         const Vec g = run.jump_time_gradients.col(static_cast<Eigen::Index>(j));
-        f.se = std::sqrt(std::max(0.0, g.dot(r.covariance * g)));
+        f.se = std::sqrt(std::max(0.0, g.dot(*covariance * g)));
       }
       out.jumps.push_back(f);
     }

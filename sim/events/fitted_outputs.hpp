@@ -7,9 +7,9 @@
 // fitted ξ0 and mode) simulated on the chain's sample times from its first sample, in plain mode: each
 // sample on the segment the model itself is in then (its own events, not the detected ones), so past
 // a span the fit cut it is the model's prediction. Band: sd_ik = √(S_k,i C S_k,iᵀ), S_k = ∂ξ(t_k)/∂θ and
-// C the refinement's covariance of θ (its ξ0 is the first fitted chain's: the band is drawn on that
-// chain only, NaN elsewhere). A jump's standard error: √(gᵀCg), g = ∂t_j/∂θ (saltation,
-// sim/sensitivity/sensitivity.hpp), likewise on the first fitted chain only.
+// C the refinement's covariance of θ with the chain's own ξ0 (RefineResult::chain_covariance), on every
+// fitted chain. A jump's standard error: √(gᵀCg), g = ∂t_j/∂θ (saltation,
+// sim/sensitivity/sensitivity.hpp), likewise.
 // The recursive run: the recursive estimate (RefineResult::start's α, β, γ) from each chain's first
 // sample (its measured states; a hidden state's start as the identifier had it) and the recursive
 // pass's mode there. The residuals a figure shows are y − `matched`.
@@ -27,7 +27,7 @@ namespace hysid {
 // One jump of the fitted model, on the data's clock.
 struct FittedJump {
   double time = 0.0;
-  double se = 0.0;      // NaN outside the first fitted chain or without a covariance
+  double se = 0.0;      // NaN in a chain not fitted or without a covariance
   int chain = 0;        // 0-based, SplitChains' order
   int map = 0;          // the jump map applied (0 for the paper's class)
   int mode_after = 0;   // the mode after it

@@ -670,15 +670,24 @@ Vec PooledFloor(const FitProblem& problem) {
 }
 
 // The covariance of the reported unknowns (the shared ones and the first fitted chain's ξ0) at σ:
-// the block of the joint Fisher information's inverse. Several chains (no ξ0 held): each chain's ξ0
-// eliminated (ChainInformation), the joint matrix formed only when that finds it singular, for
-// CrlbFromFisher's verdict and message. False with kSingularFisher.
+// the block of the joint Fisher information's inverse; the same block with each fitted chain's ξ0 in
+// r.chain_covariance. Several chains (no ξ0 held): each chain's ξ0 eliminated (ChainInformation),
+// the joint matrix formed only when that finds it singular, for CrlbFromFisher's verdict and message.
+// False with kSingularFisher.
 bool Covariance(const FitProblem& problem, const Vec& sigma, RefineResult& r) {
   const ChainInformation joint = JointInformation(problem, sigma.cwiseInverse());
-  const auto p = static_cast<Eigen::Index>(problem.shared + problem.model->state_size());
-  if (problem.held.empty() && problem.fits.size() > 1 && joint.CovarianceBlock(0, &r.covariance)) {
-    r.standard_errors = r.covariance.diagonal().cwiseSqrt();
-    return true;
+  const int shared = problem.shared, n = problem.model->state_size();
+  r.chain_covariance.assign(r.chain_x0.size(), Mat());
+  if (problem.held.empty() && problem.fits.size() > 1) {
+    bool blocks = true;
+    for (std::size_t c = 0; c < problem.fits.size() && blocks; ++c)
+      blocks = joint.CovarianceBlock(c, &r.chain_covariance[std::size_t(problem.fits[c].index)]);
+    if (blocks) {
+      r.covariance = r.chain_covariance[std::size_t(problem.fits.front().index)];
+      r.standard_errors = r.covariance.diagonal().cwiseSqrt();
+      return true;
+    }
+    r.chain_covariance.assign(r.chain_x0.size(), Mat());
   }
   const Crlb bound = CrlbFromFisher(joint.Joint(), problem.unknowns, JointNames(problem), problem.held);
   if (!bound.ok()) {
@@ -686,8 +695,15 @@ bool Covariance(const FitProblem& problem, const Vec& sigma, RefineResult& r) {
     Fail(r, RefineStatus::kSingularFisher, bound.message);
     return false;
   }
-  r.covariance = bound.covariance.topLeftCorner(p, p);
-  r.standard_errors = bound.sd.head(p);
+  // The joint order: the shared entries, then each chain's ξ0 in problem.fits' order.
+  for (std::size_t c = 0; c < problem.fits.size(); ++c) {
+    std::vector<Eigen::Index> idx;
+    for (int i = 0; i < shared; ++i) idx.push_back(i);
+    for (int i = 0; i < n; ++i) idx.push_back(shared + n * static_cast<Eigen::Index>(c) + i);
+    r.chain_covariance[std::size_t(problem.fits[c].index)] = bound.covariance(idx, idx);
+  }
+  r.covariance = r.chain_covariance[std::size_t(problem.fits.front().index)];
+  r.standard_errors = bound.sd.head(shared + n);
   return true;
 }
 

@@ -709,6 +709,7 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
     r.estimate = r.refined;
   } else {
     r.covariance.resize(0, 0);
+    r.chain_covariance.clear();
     r.standard_errors.resize(0);
   }
   return r;

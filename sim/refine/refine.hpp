@@ -194,6 +194,15 @@ struct RefineResult {
   // Per chain, the mode its fitted initial state is in, when the fit chose it (multiple shooting by
   // time; empty: each chain's own RefineChain::initial_mode, else initial_mode).
   std::vector<int> chain_mode;
+  // Per chain (the caller's order), beside `covariance`: the covariance of the shared unknowns and
+  // that chain's initial state (chain_x0), ordered as `names`; the first fitted chain's is
+  // `covariance`. Empty for a chain left out, and all empty when there is no covariance.
+  std::vector<Mat> chain_covariance;
+  // chain_covariance[c] when it is there (θ and chain c's ξ0 of an n-state model), else null.
+  const Mat* covariance_of_chain(std::size_t c, int n) const {
+    return c < chain_covariance.size() && chain_covariance[c].rows() == unknowns.size(n) ? &chain_covariance[c]
+                                                                                           : nullptr;
+  }
   // A hybrid automaton: the mode the chains with an unknown initial mode were fit from (the candidate
   // of lowest final cost among the ok fits, else of the first; the given one, or the model's
   // default_mode, when none is unknown) and, when candidates were tried, each one's outcome

@@ -773,9 +773,10 @@ void WeighHidden(const std::vector<Vec>& s, ShootingProblem& pr) {
   }
 }
 
-// Covariance, residual statistics and tests at the fit; the status.
+// Covariance, residual statistics and tests at the fit; the status. `full`: the covariance of θ and
+// every node state (pr.segments' order), when reported.
 void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
-           const std::vector<Vec>& s, const RefineOptions& options, RefineResult& r) {
+           const std::vector<Vec>& s, const RefineOptions& options, RefineResult& r, Mat* full) {
   std::vector<Mat> residuals;
   if (!Residuals(pr, chains, theta, s, &residuals)) {
     Fail(r, RefineStatus::kNotConverged, "the fit does not simulate");
@@ -850,6 +851,7 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   std::vector<Eigen::Index> idx;  // θ, then the first chain's first node state
   for (int i = 0; i < pr.shared + pr.n; ++i) idx.push_back(i);
   r.covariance = cov(idx, idx);
+  *full = cov;
   r.standard_errors = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   r.reported = true;
   if (!tests.level_ok) {
@@ -864,6 +866,34 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
                      "standard errors from the Newey–West sandwich",
                      tests.lag1, tests.worst_z, options.residual_test_size / 2));
   }
+}
+
+// A caller's chain's initial state as the fit reaches it: from a node's state, and its derivative
+// by (θ, that state) (n × (shared + n); empty when the run from the node does not reach it).
+struct NodeReach {
+  std::size_t node = 0;
+  Mat derivative;
+};
+
+// Per caller's chain: the covariance of θ and its initial state, J C Jᵀ with C the block of `full`
+// for θ and the node's state and J = [I 0; ∂x/∂θ ∂x/∂s] (empty where the derivative is).
+std::vector<Mat> ChainCovariances(const ShootingProblem& pr, const std::vector<NodeReach>& reach, const Mat& full) {
+  std::vector<Mat> out;
+  const int p = pr.shared, n = pr.n;
+  for (const NodeReach& to : reach) {
+    if (to.derivative.size() == 0) {
+      out.emplace_back();
+      continue;
+    }
+    std::vector<Eigen::Index> idx;
+    for (int i = 0; i < p; ++i) idx.push_back(i);
+    for (int i = 0; i < n; ++i) idx.push_back(p + n * static_cast<Eigen::Index>(to.node) + i);
+    Mat J = Mat::Zero(p + n, p + n);
+    J.topLeftCorner(p, p).setIdentity();
+    J.bottomRows(n) = to.derivative;
+    out.push_back(J * full(idx, idx) * J.transpose());
+  }
+  return out;
 }
 
 // A caller's chain within a joined one: the joined chain and its first sample there.
@@ -950,11 +980,14 @@ RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain
   std::vector<Vec> x0(chains.size());
   std::vector<long> used(chains.size(), 0);
   std::vector<int> mode(chains.size(), -1);
+  std::vector<Mat> covariance(r.chain_covariance.empty() ? 0 : chains.size());
   for (std::size_t i = 0; i < index.size() && i < r.chain_x0.size(); ++i) {
     x0[index[i]] = r.chain_x0[i];
     used[index[i]] = static_cast<long>(chains[index[i]].t.size());
     mode[index[i]] = r.chain_mode[i];
+    if (i < r.chain_covariance.size()) covariance[index[i]] = r.chain_covariance[i];
   }
+  r.chain_covariance = std::move(covariance);
   r.chain_x0 = std::move(x0);
   r.chain_samples_used = std::move(used);
   r.chain_mode = std::move(mode);
@@ -1051,7 +1084,9 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   r.refined = pr.At(theta.data(), s.front().data(), pr.segments.front().mode);
   r.chain_x0.clear();
   r.chain_mode.clear();
-  // Per caller's chain: its first node, or after a gap the state and mode the fit runs through there.
+  // Per caller's chain: its first node, or after a gap the state and mode the fit runs through there,
+  // with that state's derivative by (θ, the node's state) for its covariance.
+  std::vector<NodeReach> reach;
   for (const ChainStart& at : starts) {
     std::size_t i = 0;
     while (i + 1 < pr.segments.size() &&
@@ -1061,15 +1096,23 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
     const Segment& seg = pr.segments[i];
     Vec x = s[i];
     int mode = seg.mode;
+    NodeReach to{.node = i, .derivative = Mat::Zero(pr.n, pr.shared + pr.n)};
+    to.derivative.rightCols(pr.n).setIdentity();
     SensitivityTrajectory tr;
-    if (at.offset > seg.first &&
-        SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &tr, Reading::kOwn) &&
-        tr.trajectory.size() > at.offset - seg.first) {
-      x = tr.trajectory.x.col(at.offset - seg.first);
-      if (!tr.trajectory.q.empty()) mode = tr.trajectory.q[std::size_t(at.offset - seg.first)];
+    if (at.offset > seg.first) {
+      const long k = at.offset - seg.first;
+      if (SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), true, &tr, Reading::kOwn) &&
+          tr.trajectory.size() > k) {
+        x = tr.trajectory.x.col(k);
+        if (!tr.trajectory.q.empty()) mode = tr.trajectory.q[std::size_t(k)];
+        to.derivative = tr.S(k);
+      } else {
+        to.derivative.resize(0, 0);
+      }
     }
     r.chain_x0.push_back(x);
     r.chain_mode.push_back(mode);
+    reach.push_back(std::move(to));
   }
   r.initial_mode = pr.segments.front().mode >= 0 ? pr.segments.front().mode : model.spec().default_mode;
   const bool converged = summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS;
@@ -1082,7 +1125,9 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
     Fail(r, RefineStatus::kNotConverged, fmt::format("multiple shooting by time: {}", summary.message));
     return r;
   }
-  Judge(pr, chains, theta, s, options, r);
+  Mat full;
+  Judge(pr, chains, theta, s, options, r, &full);
+  if (r.reported) r.chain_covariance = ChainCovariances(pr, reach, full);
   r.mended = fmt::format("multiple shooting by time over {} segments", pr.segments.size());
   r.estimate = r.reported ? r.refined : r.start;
   return r;

@@ -35,6 +35,7 @@ struct Ball {
     r.chain_samples_used = {101};
     r.covariance = Mat::Zero(5, 5);
     r.covariance(3, 3) = kS * kS;
+    r.chain_covariance = {r.covariance};
   }
 };
 
@@ -79,7 +80,7 @@ TEST_CASE("fitted outputs: the residuals' run reads each sample on its detected 
   CHECK(g.matched(0, 50) == g.x(0, 50));
 }
 
-TEST_CASE("fitted outputs: the band and se on the first fitted chain only; the fit's span; no fit reported") {
+TEST_CASE("fitted outputs: the band and se of each chain from its own covariance - the fit's span - no fit reported") {
   Ball b;
   const std::vector<std::uint8_t> starts = [] {
     std::vector<std::uint8_t> s(101, 0);
@@ -88,23 +89,33 @@ TEST_CASE("fitted outputs: the band and se on the first fitted chain only; the f
   }();
   b.r.chain_x0.push_back(Vec(b.y.col(60)));
   b.r.chain_samples_used = {30, 41};
+  constexpr double kS2 = 0.005;  // chain 2's x0[h] sd
+  b.r.chain_covariance.push_back(Mat::Zero(5, 5));
+  b.r.chain_covariance[1](3, 3) = kS2 * kS2;
   const FittedOutputs f = RunFittedModel(b.model, b.t, b.y, starts, Mat(), b.recursive, b.r);
   CHECK(f.in_fit[29] == 1);
   CHECK(f.in_fit[30] == 0);  // past chain 1's fitted span: the model's prediction
   CHECK(std::isfinite(f.x(0, 45)));
   CHECK(f.in_fit[60] == 1);
   CHECK(f.x(0, 60) == 0.5);
-  CHECK(std::isnan(f.sd(0, 60)));  // the covariance holds chain 1's x0 only
+  CHECK(f.sd(0, 60) == Approx(kS2).epsilon(1e-6));
+  CHECK(f.sd(0, 61) == Approx(kS2).epsilon(1e-6));
+  CHECK(f.sd(0, 20) == Approx(kS).epsilon(1e-6));
   const double t2 = 0.6 + std::sqrt(2 * 0.5 / kG);
   bool found = false;
   for (const FittedJump& j : f.jumps) {
     if (j.chain != 1) continue;
     found = true;
     CHECK(j.time == Approx(t2).epsilon(1e-8));
-    CHECK(std::isnan(j.se));
+    CHECK(j.se == Approx(kS2 / std::sqrt(2 * kG * 0.5)).epsilon(1e-5));
     break;
   }
   CHECK(found);
+  // A chain without its covariance: no band, no se.
+  b.r.chain_covariance[1].resize(0, 0);
+  const FittedOutputs bare = RunFittedModel(b.model, b.t, b.y, starts, Mat(), b.recursive, b.r);
+  CHECK(std::isnan(bare.sd(0, 60)));
+  CHECK(bare.sd(0, 20) == Approx(kS).epsilon(1e-6));
   CHECK(f.jumps[0].in_fit == false);  // t1 ≈ 0.45 > t = 0.29, the last fitted sample of chain 1
 
   b.r.reported = false;

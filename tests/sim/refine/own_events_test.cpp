@@ -257,6 +257,22 @@ TEST_CASE("a thermostat with a dropout: the run fitted through the gap at the bo
   REQUIRE(r.chain_x0[1].size() == 1);
   CHECK(std::abs(r.chain_x0[1][0] - run.trajectory.x(0, gap_end)) < 0.02);
   CHECK(r.chain_mode[1] == q[std::size_t(gap_end)]);
+  // Its covariance with θ: the bound's carried to the state at the gap's end, J F⁻¹ Jᵀ with
+  // J = [I 0; ∂x(t)/∂θ ∂x(t)/∂x0] from the one run.
+  REQUIRE(r.chain_covariance.size() == 2);
+  const Mat* second = r.covariance_of_chain(1, 1);
+  REQUIRE(second != nullptr);
+  CHECK(r.covariance_of_chain(0, 1)->isApprox(r.covariance));
+  const Eigen::Index p = u.size(1);
+  Mat J = Mat::Identity(p, p);
+  J.row(p - 1) = run.S(gap_end).row(0);
+  const Mat carried = J * fisher.inverse() * J.transpose();
+  for (Eigen::Index i = 0; i < p; ++i) {
+    CAPTURE(i);
+    CHECK(std::sqrt((*second)(i, i)) == Approx(std::sqrt(carried(i, i))).epsilon(0.1));
+  }
+  CHECK((*second)(p - 1, 0) / std::sqrt((*second)(p - 1, p - 1) * (*second)(0, 0)) ==
+        Approx(carried(p - 1, 0) / std::sqrt(carried(p - 1, p - 1) * carried(0, 0))).margin(0.1));
 }
 
 TEST_CASE("cascaded tanks, the upper level hidden, the overflow ending in α, γ and u: at the bound from far off",
