@@ -38,6 +38,31 @@ const char* ToString(RefineStatus status) {
   return "unknown";
 }
 
+const char* ToString(RefineRoute route) {
+  switch (route) {
+    case RefineRoute::kLabels: return "single shooting on the detected labels";
+    case RefineRoute::kRepairedStart: return "repaired start";
+    case RefineRoute::kGrownSpan: return "grown from a short span";
+    case RefineRoute::kSegmentShooting: return "multiple shooting";
+    case RefineRoute::kTimeShooting: return "multiple shooting by time";
+  }
+  return "?";
+}
+
+std::vector<RefineRoute> AllRefineRoutes() {
+  return {RefineRoute::kLabels, RefineRoute::kRepairedStart, RefineRoute::kGrownSpan, RefineRoute::kSegmentShooting,
+          RefineRoute::kTimeShooting};
+}
+
+std::vector<RefineRoute> RefineRoutesWithout(std::initializer_list<RefineRoute> dropped) {
+  std::vector<RefineRoute> kept;
+  for (RefineRoute route : AllRefineRoutes()) {
+    if (route == RefineRoute::kLabels || std::find(dropped.begin(), dropped.end(), route) == dropped.end())
+      kept.push_back(route);
+  }
+  return kept;
+}
+
 bool RefineOptions::IsValid(std::string* error) const {
   auto fail = [&](std::string what) {
     if (error) *error = std::move(what);
@@ -79,6 +104,20 @@ bool RefineOptions::IsValid(std::string* error) const {
   }
   if (sigma.size() != 0 && (!sigma.allFinite() || (sigma.array() < 0.0).any())) {
     return fail("RefineOptions::sigma: every entry must be finite and >= 0");
+  }
+  const std::vector<RefineRoute> all = AllRefineRoutes();
+  auto next = all.begin();
+  for (RefineRoute route : routes) {
+    next = std::find(next, all.end(), route);
+    if (next == all.end()) {
+      return fail(fmt::format("RefineOptions::routes: '{}' out of order or repeated: the routes are tried in "
+                              "AllRefineRoutes' order, each once",
+                              ToString(route)));
+    }
+    ++next;
+  }
+  if (routes.empty() || routes.front() != RefineRoute::kLabels) {
+    return fail(fmt::format("RefineOptions::routes: must begin with '{}'", ToString(RefineRoute::kLabels)));
   }
   return true;
 }
@@ -318,7 +357,7 @@ void MendSettledStart(const Model& model, const std::vector<RefineChain>& chains
               s, r);
 }
 
-// The fit grown from a short span (RefineOptions::grow_span): the chains fit on the samples before
+// The fit grown from a short span (RefineRoute::kGrownSpan): the chains fit on the samples before
 // their third detected jump from s, then again and again on spans half as long again, from the
 // previous fit with the labels of each grown part mended from its model, until every chain is whole;
 // then the labels settled by the local flows (a settled start that fails mended from the model it
@@ -361,7 +400,7 @@ RefineResult GrowSpan(const Model& model, const std::vector<RefineChain>& chains
   return r;
 }
 
-// The fit by multiple shooting (RefineOptions::multiple_shooting, sim/refine/shooting.hpp): the
+// The fit by multiple shooting (RefineRoute::kSegmentShooting, sim/refine/shooting.hpp): the
 // chains by single shooting (with the retries) from the segments' fit. Its status is the segments'
 // failure when they are not fit, else the single-shooting fit's.
 RefineResult FitShooting(const Model& model, const std::vector<RefineChain>& chains, const FitStart& s,
@@ -391,12 +430,13 @@ RefineResult FitShooting(const Model& model, const std::vector<RefineChain>& cha
 
 // The fit `other` by another route replaces r when it is ok and fits more samples (its start then
 // r's); else, when r is not ok, r's reason says how `route` ended.
-void AdoptRoute(RefineResult& r, RefineResult other, const char* route) {
+void AdoptRoute(RefineResult& r, RefineResult other, RefineRoute route) {
   if (other.ok() && other.samples_used > (r.ok() ? r.samples_used : 0)) {
     other.start = r.start;
+    other.route = ToString(route);
     r = std::move(other);
   } else if (!r.ok()) {
-    r.reason += fmt::format("; {}: {}", route, other.ok() ? "ok on fewer samples" : other.reason);
+    r.reason += fmt::format("; {}: {}", ToString(route), other.ok() ? "ok on fewer samples" : other.reason);
   }
 }
 
@@ -659,12 +699,51 @@ void AdoptTimeShooting(RefineResult& r, RefineResult other) {
 }
 
 
-// The refinement from one initial mode per chain (Refine's body).
+// The routes of the detected labels (RefineRoute, all but kTimeShooting) that follow kLabels, each
+// tried after the fit r so far by its own rule and its fit adopted by its own rule. *first_used: the
+// samples of the first fit, before the retries cut its spans.
+struct LabelledRoutes {
+  const Model& model;
+  const std::vector<RefineChain>& chains;
+  const FitStart& recursive;
+  const RefineOptions& options;
+  long first_used = 0;
+
+  void Labels(RefineResult& r) { r = FitWithRetries(model, chains, recursive, options, &first_used); }
+  // Not ok (other than for too few samples), or ok only on spans the retries cut.
+  void RepairedStart(RefineResult& r) {
+    FitStart repaired;
+    std::string summary;
+    if ((!r.ok() || r.samples_used < first_used) && model.input_size() == 0 && !options.stopped() &&
+        r.status != RefineStatus::kTooFewSamples &&
+        RepairChains(model, chains, recursive, options, &repaired, &summary)) {
+      AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
+    }
+  }
+  // (The settled labels follow the grown fit's own jumps only when nothing is ok yet: from the small
+  // late impacts' true jumps, ok on a cut span, such a fit became ok on all samples 6 CRLB sd off.)
+  void GrownSpan(RefineResult& r) {
+    if (MayBetter(r, first_used, options))
+      AdoptRoute(r, GrowSpan(model, chains, recursive, options, !r.ok()), RefineRoute::kGrownSpan);
+  }
+  // Not for a fit ok on cut spans: from the small late impacts' true jumps, two such fits became ok
+  // on all samples and 7 and 16 CRLB sd off.
+  void SegmentShooting(RefineResult& r) {
+    if (options.x0_known.empty() && !r.ok() && MayBetter(r, first_used, options))
+      AdoptRoute(r, FitShooting(model, chains, recursive, options), RefineRoute::kSegmentShooting);
+  }
+};
+
+// The refinement from one initial mode per chain along the labelled routes, in RefineOptions::routes'
+// order.
 RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>& chains, const Vec& alpha0,
                              const Vec& beta0, const RefineOptions& given) {
   RefineOptions options = given;
   if (IsAutomaton(model.spec())) {  // the repairs regress one jump map and cut labels without maps
-    options.repair_start = options.grow_span = options.multiple_shooting = false;
+    std::erase_if(options.routes, [](RefineRoute route) {
+      return route == RefineRoute::kRepairedStart || route == RefineRoute::kGrownSpan ||
+             route == RefineRoute::kSegmentShooting;
+    });
     for (const RefineChain& c : chains) options.mend_detections = options.mend_detections && c.maps.empty();
   }
   const FitStart recursive = RecursiveStart(model, chains, alpha0, beta0);
@@ -680,30 +759,18 @@ RefineResult RefineFromModes(const Model& model, const std::vector<RefineChain>&
     Fail(r, RefineStatus::kStartFailed, "the recursive estimate is not finite");
     return r;
   }
-  long first_used = 0;
-  r = FitWithRetries(model, chains, recursive, options, &first_used);
-  // Not ok (other than for too few samples), or ok only on spans cut short by the retries: the
-  // repaired start may fit more.
-  FitStart repaired;
-  std::string summary;
-  if ((!r.ok() || r.samples_used < first_used) && options.repair_start && model.input_size() == 0 && !options.stopped() &&
-      r.status != RefineStatus::kTooFewSamples &&
-      RepairChains(model, chains, recursive, options, &repaired, &summary)) {
-    AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
+  LabelledRoutes routes{model, chains, recursive, options};
+  for (RefineRoute route : options.routes) {
+    switch (route) {
+      case RefineRoute::kLabels: routes.Labels(r); break;
+      case RefineRoute::kRepairedStart: routes.RepairedStart(r); break;
+      case RefineRoute::kGrownSpan: routes.GrownSpan(r); break;
+      case RefineRoute::kSegmentShooting: routes.SegmentShooting(r); break;
+      case RefineRoute::kTimeShooting: break;  // once, after the best initial mode's fit (Refine)
+    }
   }
-  // Still not ok, or ok only on cut spans: a fit grown from a short span, then multiple shooting, may
-  // follow the whole data. (The settled labels follow the grown fit's own jumps only when nothing is
-  // ok yet: from the small late impacts' true jumps, ok on a cut span, such a fit became ok on all
-  // samples 6 CRLB sd off.)
-  if (options.grow_span && MayBetter(r, first_used, options)) {
-    AdoptRoute(r, GrowSpan(model, chains, recursive, options, !r.ok()), "grown from a short span");
-  }
-  // (Not for a fit ok on cut spans: from the small late impacts' true jumps, two such fits became ok
-  // on all samples and 7 and 16 CRLB sd off.)
-  if (options.multiple_shooting && options.x0_known.empty() && !r.ok() && MayBetter(r, first_used, options)) {
-    AdoptRoute(r, FitShooting(model, chains, recursive, options), "multiple shooting");
-  }
-  if (r.ok() && r.route.empty()) r.route = r.start_repair.empty() ? "single shooting on the detected labels" : "repaired start";
+  if (r.ok() && r.route.empty())
+    r.route = ToString(r.start_repair.empty() ? RefineRoute::kLabels : RefineRoute::kRepairedStart);
   r.reported = r.ok();
   if (r.reported) {
     r.estimate = r.refined;
@@ -756,7 +823,8 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   long samples = 0;
   for (const RefineChain& c : chains) samples += static_cast<long>(c.t.size());
   // Not ok, or ok on spans that leave samples out: multiple shooting by time fits every sample.
-  if (options.time_shooting && options.x0_known.empty() && (!r.ok() || r.samples_used < samples) && !data_fault &&
+  if (options.tries(RefineRoute::kTimeShooting) && options.x0_known.empty() && (!r.ok() || r.samples_used < samples) &&
+      !data_fault &&
       !options.stopped()) {
     AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options));
     if (r.reported) r.estimate = r.refined;

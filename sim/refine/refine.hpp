@@ -31,18 +31,19 @@
 // that chain's span ending before the first disagreement between its model's jumps and its detected ones
 // (RefineOptions::max_span_retries); a fit then ok only on cut spans is carried to all samples with the
 // jumps its model makes far from every detection added, when that fit passes every check (sim/refine/mend.hpp).
-// A fit that still fails (other than for the data or their
-// length), or is ok only on spans the retries cut, is tried once more from a repaired start
-// (sim/refine/start.hpp, per chain: detections the local flows do not need dropped, the others
-// moved to where the flows meet, missed jumps added, ξ0_c re-estimated; β from all chains' jump
-// regressions pooled); that fit is adopted when it is ok (and fits more samples), else the first
-// fit's status stands. One still not ok (or ok on cut spans) is grown from a short span
-// (RefineOptions::grow_span) and adopted when its fit on all samples passes every check; one still
-// not ok (not one ok on cut spans) is tried by multiple shooting (RefineOptions::multiple_shooting),
-// a route to the same single-shooting fit (same cost, checks and covariance), adopted likewise.
+// A fit that still fails (other than for the data or their length), or is ok only on spans the
+// retries cut, goes on along the routes of RefineRoute in their order (RefineOptions::routes): a
+// repaired start (sim/refine/start.hpp, per chain: detections the local flows do not need dropped,
+// the others moved to where the flows meet, missed jumps added, ξ0_c re-estimated; β from all
+// chains' jump regressions pooled), a span grown from a short one, multiple shooting between detected
+// jumps (a route to the same single-shooting fit: same cost, checks and covariance), then multiple
+// shooting by time; each route's fit is adopted by its own rule, and RefineResult::route names the
+// route of the fit reported.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
+#include <initializer_list>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -70,6 +71,41 @@ enum class RefineStatus {
   kResidualCorrelation,  // residuals not white: the model or the segmentation is wrong
 };
 const char* ToString(RefineStatus status);
+
+// The refinement's routes, in the one order they are tried: each after the ones before it while
+// their fit is not ok (or is ok only on spans the retries cut), under the rule each states.
+enum class RefineRoute {
+  // Single shooting on the detected labels (always tried first): the fit from the recursive start,
+  // with the span retries and the detections mended from the fitted model (mend_detections).
+  kLabels,
+  // The same from a repaired start (see above; not for a model with inputs); adopted when ok (and it
+  // fits more samples).
+  kRepairedStart,
+  // Grown from a short span: the samples before each chain's third detected jump, then half as many
+  // again at each step, from the previous fit with the labels of the grown part mended from its model
+  // (the fits on short spans with 1.5 × jump_time_tolerance); adopted when its fit on all samples
+  // passes every check (it fits more samples).
+  kGrownSpan,
+  // Multiple shooting between detected jumps (sim/refine/shooting.hpp; only while not ok: one ok on
+  // spans the retries cut stands): each chain cut into segments of shooting_jumps detected jumps (and
+  // no longer than shooting_jumps + 1 median intervals between them), each with its own free initial
+  // state, consecutive segments linked by continuity residuals; the segments' labels mended from
+  // their own models; then the chains by single shooting from that fit's point, adopted when ok on
+  // all samples (`mended` then begins "multiple shooting over S segments").
+  kSegmentShooting,
+  // Multiple shooting with nodes placed by time, the model finding its own events
+  // (sim/refine/time_shooting.hpp), from the recursive start, from the model's own values and, for a
+  // hidden mode, from α of the modes the data show; tried once after the best initial mode's routes,
+  // and adopted when ok, or when it converged and nothing else did (its residual tests then refuse
+  // it, the estimates stand with sandwich standard errors).
+  kTimeShooting,
+};
+// "single shooting on the detected labels", "repaired start", "grown from a short span",
+// "multiple shooting", "multiple shooting by time": the names `RefineResult::route` records.
+const char* ToString(RefineRoute route);
+// Every route, in order; and every route but `dropped` (kLabels cannot be dropped).
+std::vector<RefineRoute> AllRefineRoutes();
+std::vector<RefineRoute> RefineRoutesWithout(std::initializer_list<RefineRoute> dropped);
 
 struct RefineOptions {
   // Integration of the fits: budgets, the Zeno rule, and the loosest tolerances (rtol = atol) used.
@@ -116,27 +152,12 @@ struct RefineOptions {
   // A fit whose jumps disagree with a chain's detected ones is tried again with that chain's
   // detections mended from the fitted model (see above); false: never.
   bool mend_detections = true;
-  // A failed fit is tried again from a repaired start (see above); false: never.
-  bool repair_start = true;
-  // A fit still not ok (or ok only on cut spans) after the repaired start is grown from a short span:
-  // the samples before each chain's third detected jump, then half as many again at each step, from
-  // the previous fit with the labels of the grown part mended from its model (the fits on short spans
-  // with 1.5 × jump_time_tolerance); adopted when its fit on all samples passes every check (it fits
-  // more samples); false: never.
-  bool grow_span = true;
-  // A fit still not ok after the growing span (one ok on spans the retries cut stands) is tried by
-  // multiple shooting (sim/refine/shooting.hpp): each chain cut into segments of shooting_jumps detected jumps (and no
-  // longer than shooting_jumps + 1 median intervals between detected jumps), each with its own free
-  // initial state, consecutive segments linked by continuity residuals; the segments' labels mended
-  // from their own models; then the chains by single shooting from that fit's point, adopted when ok
-  // on all samples (`mended` then begins "multiple shooting over S segments"); false: never.
-  bool multiple_shooting = true;
-  int shooting_jumps = 2;
-  // A fit still not ok is tried by multiple shooting with nodes placed by time, the model finding its
-  // own events (sim/refine/time_shooting.hpp), from the recursive start and from the model's own
-  // values; adopted when ok, or when it converged and nothing else did (its residual tests then
-  // refuse it, the estimates stand with sandwich standard errors); false: never.
-  bool time_shooting = true;
+  // The routes tried (RefineRoute), in AllRefineRoutes' order, kLabels first; a route left out is
+  // never tried (an automaton skips kRepairedStart, kGrownSpan and kSegmentShooting: they regress one
+  // jump map and cut labels without maps).
+  std::vector<RefineRoute> routes = AllRefineRoutes();
+  bool tries(RefineRoute route) const { return std::find(routes.begin(), routes.end(), route) != routes.end(); }
+  int shooting_jumps = 2;  // kSegmentShooting: detected jumps per segment
   StartRepairOptions start_repair;
   // Raised (by another thread: Ctrl-C in the Python module): the solve ends at its next iteration and
   // nothing more is tried (the result is then not ok). Null: never.

@@ -83,12 +83,12 @@ TEST_CASE("floor/ceiling ball: a fit whose maps disagree with the assigned ones 
   std::swap(chain.maps[0], chain.maps[1]);  // the ceiling's impact assigned to the floor and back
   RefineOptions options;
   options.max_span_retries = 0;
-  options.time_shooting = false;
+  options.routes = RefineRoutesWithout({RefineRoute::kTimeShooting});
   const RefineResult r = Refine(truth.model, {chain}, truth.model.alpha(), truth.model.beta(), options);
   CHECK(r.status == RefineStatus::kJumpCountMismatch);
   CHECK(r.reason.find("applies map 'ceiling'; the event was assigned to 'floor'") != std::string::npos);
   // The labels are a start, not a gate: multiple shooting by time follows the model's own maps.
-  options.time_shooting = true;
+  options.routes = AllRefineRoutes();
   const RefineResult own = Refine(truth.model, {chain}, truth.model.alpha(), truth.model.beta(), options);
   INFO(own.reason);
   REQUIRE(own.ok());

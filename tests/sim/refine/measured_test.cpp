@@ -88,8 +88,7 @@ TEST_CASE("height only: the refinement never uses the reconstructed row as data"
   for (Eigen::Index k = 1; k < scrambled.cols(); ++k) scrambled(1, k) = 100.0 * std::sin(double(k));
   RefineOptions options;
   options.measured = {0};
-  options.repair_start = false;  // (the repaired start reads every row)
-  options.grow_span = false;
+  options.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan});  // (the repaired start reads every row)
   const RefineResult a = RefineIdentification(run.model, run.truth.t, rec.x, {}, recursive, options);
   const RefineResult b = RefineIdentification(run.model, run.truth.t, scrambled, {}, recursive, options);
   REQUIRE(a.ok());

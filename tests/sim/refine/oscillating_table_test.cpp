@@ -68,16 +68,17 @@ TEST_CASE("oscillating table: one shooting alone fits a cut span, multiple shoot
   const Mat y = AddMeasurementNoise(run.truth.x, run.sigma, NoiseKey{.seed = 1, .stream = 0});
   const IdentifyResult recursive = RefinementStart(run.Recursive(y));
   RefineOptions options;
-  options.grow_span = options.multiple_shooting = options.time_shooting = false;
+  options.routes = RefineRoutesWithout({RefineRoute::kGrownSpan, RefineRoute::kSegmentShooting, RefineRoute::kTimeShooting});
   const RefineResult single = RefineIdentification(run.model, run.truth.t, y, {}, recursive, options);
   INFO(single.reason << "; " << single.span_reason);
   CHECK((!single.ok() || single.samples_used < run.grid.size()));
-  options.multiple_shooting = true;
+  options.routes = RefineRoutesWithout({RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   options.max_span_retries = 0;  // (multiple shooting is not tried for a fit ok on cut spans)
   const RefineResult shot = RefineIdentification(run.model, run.truth.t, y, {}, recursive, options);
   INFO(shot.reason);
   REQUIRE(shot.ok());
   CHECK_THAT(shot.mended, Catch::StartsWith("multiple shooting over"));
+  CHECK(shot.route == "multiple shooting");  // the route whose fit won
   CHECK(shot.samples_used == run.grid.size());
   CHECK(shot.model_jumps == 28);
   CheckAtTheBound(run, shot, bound);
@@ -85,6 +86,18 @@ TEST_CASE("oscillating table: one shooting alone fits a cut span, multiple shoot
   std::string error;
   CHECK_FALSE(options.IsValid(&error));
   CHECK(error == "RefineOptions::shooting_jumps = 0: must be >= 1");
+  options.shooting_jumps = 2;
+  REQUIRE(options.IsValid(&error));
+  options.routes = {RefineRoute::kLabels, RefineRoute::kTimeShooting, RefineRoute::kGrownSpan};
+  CHECK_FALSE(options.IsValid(&error));
+  CHECK(error == "RefineOptions::routes: 'grown from a short span' out of order or repeated: the routes are tried "
+                 "in AllRefineRoutes' order, each once");
+  options.routes = {RefineRoute::kTimeShooting};
+  CHECK_FALSE(options.IsValid(&error));
+  CHECK(error == "RefineOptions::routes: must begin with 'single shooting on the detected labels'");
+  CHECK(RefineRoutesWithout({RefineRoute::kLabels, RefineRoute::kGrownSpan}) ==
+        std::vector<RefineRoute>{RefineRoute::kLabels, RefineRoute::kRepairedStart, RefineRoute::kSegmentShooting,
+                                 RefineRoute::kTimeShooting});
 }
 
 }  // namespace

@@ -40,9 +40,7 @@ Vec Start(const Model& m) {  // a recursive-quality start: α, β off by about 1
 RefineOptions NoRecovery() {
   RefineOptions o;
   o.max_span_retries = 0;
-  o.repair_start = false;
-  o.grow_span = false;
-  o.time_shooting = false;
+  o.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   return o;
 }
 
@@ -201,9 +199,7 @@ TEST_CASE("a chain whose detector missed its first jump: the span cannot help - 
   while (runs.second.gamma[k] == 0) ++k;
   runs.second.gamma[k] = 0;
   RefineOptions retries_only;
-  retries_only.repair_start = false;
-  retries_only.grow_span = false;
-  retries_only.time_shooting = false;
+  retries_only.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   for (const RefineOptions& o : {NoRecovery(), retries_only}) {
     const RefineResult kept = runs.Fit(o);
     INFO(ToString(kept.status) << ": " << kept.reason);
@@ -230,8 +226,7 @@ TEST_CASE("a spurious detection near a chain's end: the retries fit less, the re
   runs.second.gamma[spurious] = 1;
   CHECK(runs.Fit(NoRecovery()).status == RefineStatus::kStartFailed);
   RefineOptions retries_only;
-  retries_only.repair_start = false;
-  retries_only.grow_span = false;
+  retries_only.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan});
   const RefineResult cut = runs.Fit(retries_only);
   INFO(ToString(cut.status) << ": " << cut.reason << " | " << cut.span_reason);
   REQUIRE(cut.ok());

@@ -142,7 +142,7 @@ TEST_CASE("a start far from the truth: the labelled routes fail, multiple shooti
   Vec alpha0 = run.model.alpha();
   alpha0[1] = 20.0;  // stiffness 4× off: twice the frequency, a different number of impacts
   RefineOptions labelled;
-  labelled.time_shooting = false;
+  labelled.routes = RefineRoutesWithout({RefineRoute::kTimeShooting});
   const RefineResult kept = RefineRun(run.model, run.y, run.grid.dt, alpha0, run.model.beta(), run.gamma, labelled);
   RequireKept(kept);
   // The repaired start keeps α̂: its local flows cannot follow the data, and that fit fails too.
@@ -174,9 +174,7 @@ TEST_CASE("a detector that missed a jump: not ok from the recursive start, ok on
   while (run.gamma[k] == 0) ++k;
   run.gamma[k] = 0;
   RefineOptions no_repair;
-  no_repair.repair_start = false;
-  no_repair.grow_span = false;
-  no_repair.time_shooting = false;
+  no_repair.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -212,9 +210,7 @@ TEST_CASE("a false detection and the β̂ it ruined: the repaired start converge
   Vec alpha0 = run.model.alpha();
   alpha0[1] += 5e-4;  // the recursive α̂'s error at this σ
   RefineOptions no_repair;
-  no_repair.repair_start = false;
-  no_repair.grow_span = false;
-  no_repair.time_shooting = false;
+  no_repair.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   const RefineResult kept = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma, no_repair);
   RequireKept(kept);
   const RefineResult r = RefineRun(run.model, run.y, run.grid.dt, alpha0, beta0, run.gamma);
@@ -320,16 +316,16 @@ TEST_CASE("every jump of a ball up to its Zeno time, with the span not cut: the 
   for (std::size_t k = 1; k < gamma.size(); ++k) gamma[k] = t.j[k] != t.j[k - 1];
   RefineOptions options;
   options.min_jump_interval = 0;
-  options.repair_start = false;  // (the repaired start merges bounces closer than 10 samples)
-  options.grow_span = false;
-  options.time_shooting = false;  // the labelled routes' Zeno rule
+  // Not the repaired start (it merges bounces closer than 10 samples), nor time shooting: the
+  // labelled routes' Zeno rule.
+  options.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   const RefineResult r = RefineRun(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
   INFO(ToString(r.status) << ": " << r.reason);
   RequireKept(r);
   CHECK(r.status == RefineStatus::kZeno);
   // Time shooting reads each node's segment on the model's own jump counts, several jumps inside one
   // sample interval near the Zeno time included: its fit is reported, at the truth.
-  options.time_shooting = true;
+  options.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan});
   const RefineResult own = RefineRun(model, t.x, grid.dt, model.alpha(), model.beta(), gamma, options);
   INFO(ToString(own.status) << ": " << own.reason);
   CHECK(own.route == "multiple shooting by time");
@@ -374,7 +370,7 @@ TEST_CASE("a ball whose detector missed a late bounce: the span is cut before it
   const long missed = run.RemoveJump(all.samples_used, true);
   RefineOptions no_retry;
   no_retry.max_span_retries = 0;
-  no_retry.time_shooting = false;
+  no_retry.routes = RefineRoutesWithout({RefineRoute::kTimeShooting});
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_retry);
   INFO(ToString(kept.status) << ": " << kept.reason);
@@ -404,9 +400,7 @@ TEST_CASE("a ball whose detector missed the first bounce: shortening cannot help
   BallRun run;
   const long missed = run.RemoveJump(static_cast<long>(run.gamma.size()), false);
   RefineOptions no_repair;
-  no_repair.repair_start = false;
-  no_repair.grow_span = false;
-  no_repair.time_shooting = false;
+  no_repair.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   const RefineResult kept =
       RefineRun(run.model, run.y, run.grid.dt, run.model.alpha(), run.model.beta(), run.gamma, no_repair);
   INFO(ToString(kept.status) << ": " << kept.reason);

@@ -99,8 +99,7 @@ TEST_CASE("small late impacts from the detections, grow_span = false: never ok h
   settings.detector.kind = DetectorKind::kResidual;
   settings.data_rtol = settings.data_atol = 1e-12;
   RefineOptions options;
-  options.grow_span = false;
-  options.time_shooting = false;
+  options.routes = RefineRoutesWithout({RefineRoute::kGrownSpan, RefineRoute::kTimeShooting});
   const Mat y = run.Measured(1);
   const IdentifyResult recursive = Identify(run.model, y, run.grid.dt, settings);
   CHECK(recursive.jumps_detected < 10);
@@ -108,7 +107,7 @@ TEST_CASE("small late impacts from the detections, grow_span = false: never ok h
   CHECK_FALSE(r.ok());
   // The fit grown from a short span follows all 14 impacts, but its residuals are refused at size 1 %
   // (measured: lag-1 0.057, √N·ρ₁ = 8.2 over 20 301 pairs of residuals): not ok.
-  options.grow_span = true;
+  options.routes = RefineRoutesWithout({RefineRoute::kTimeShooting});
   const RefineResult grown = RefineIdentification(run.model, run.truth.t, y, {}, recursive, options);
   INFO(grown.reason);
   CHECK_FALSE(grown.ok());

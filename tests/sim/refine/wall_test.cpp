@@ -108,7 +108,7 @@ TEST_CASE("wall: bounds hold the fit, a start outside them is moved inside", "[r
   model.SetBounds("w", 0.5, 0.95);
   const Mat y = truth.Noisy(1);
   RefineOptions options;
-  options.repair_start = options.grow_span = false;
+  options.routes = RefineRoutesWithout({RefineRoute::kRepairedStart, RefineRoute::kGrownSpan});
   const RefineResult r = Refine(model, {RefineChain::Uniform(y, truth.grid.dt, truth.labels)},
                                 truth.model.alpha(), truth.model.beta(), options);
   CHECK(r.start.gamma[0] <= 0.95);
