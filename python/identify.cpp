@@ -499,9 +499,7 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
-  if (args.max_gap && (!(*args.max_gap > 0.0) || !std::isfinite(*args.max_gap))) {
-    throw std::invalid_argument(fmt::format("max_gap = {}: must be a number > 0 (seconds)", *args.max_gap));
-  }
+  if (args.max_gap) CheckMaxGap(*args.max_gap, fmt::format("{}", *args.max_gap), Spelling::kKeyword);
   if (t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
   ApplyBounds(args.bounds, Spelling::kKeyword, &model);
   CheckRequest(request);

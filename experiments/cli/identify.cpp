@@ -456,9 +456,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
       ->each([](const std::string& text) {
         char* end = nullptr;
         const double v = std::strtod(text.c_str(), &end);
-        if (end == text.c_str() || *end != '\0' || !(v > 0.0) || !std::isfinite(v)) {
-          BadFlag(fmt::format("--max-gap = {}: must be a number > 0 (seconds)", Abbreviated(text, 40)));
-        }
+        CheckMaxGap(end == text.c_str() || *end != '\0' ? std::nan("") : v, Abbreviated(text, 40),
+                    Spelling::kFlag);
       });
   cmd->add_option("--estimator", args->estimator,
                   PluginHelp("estimator of alpha and beta", AllPlugins<EstimatorKind>()))

@@ -122,3 +122,14 @@ TEST_CASE("request: a refusal names the option as the front-end spells it", "[re
           (flag ? "--param-bound k=1: must be NAME=LO,HI" : "param_bound k=1: must be NAME=LO,HI"));
   }
 }
+
+TEST_CASE("request: max_gap is one check, named as each front-end spells it", "[request]") {
+  CHECK(Refusal([] { CheckMaxGap(0.0, "0", Spelling::kFlag); }) == "--max-gap = 0: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(-1.5, "-1.5", Spelling::kKeyword); }) ==
+        "max_gap = -1.5: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(std::nan(""), "abc", Spelling::kFlag); }) ==
+        "--max-gap = abc: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(HUGE_VAL, "inf", Spelling::kKeyword); }) ==
+        "max_gap = inf: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(0.25, "0.25", Spelling::kFlag); }).empty());
+}
