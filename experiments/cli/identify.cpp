@@ -453,7 +453,8 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   AddSetting(*cmd, "max_gap", args->max_gap)->each([](const std::string& text) {
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
-    CheckMaxGap(end == text.c_str() || *end != '\0' ? std::nan("") : v, Abbreviated(text, 40), Spelling::kFlag);
+    CheckMaxGap(end == text.c_str() || *end != '\0' ? std::nan("") : v, Abbreviated(text, 40),
+                Spelling::kFlag);
   });
   AddSetting(*cmd, "estimator", args->estimator);
   AddSetting(*cmd, "detector", args->detector);
