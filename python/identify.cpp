@@ -1,8 +1,10 @@
-// hysid.identify: every option of `hysid identify` as a keyword, translated into an IdentifyRequest
+// hysid.identify: the settings of `hysid identify` as keywords, translated into an IdentifyRequest
 // (experiments/request/request.hpp) and its outcome into a dict: the report (OutcomeJson) as JSON, its
-// `refined` part and recursive keys read from it, plus the per-sample arrays. The detector's and the
-// estimators' options come from their tables (PluginOptionArguments, experiments/request/checks.hpp: the
-// same list the command line builds its flags from), with their help texts and defaults in the docstring.
+// `refined` part and recursive keys read from it, plus the per-sample arrays. The keywords come from the
+// tables the command line builds its flags from: the identification's own settings (IdentifySettings,
+// experiments/request/settings.hpp) and the detector's and the estimators' options (PluginOptionArguments,
+// experiments/request/checks.hpp), with their help texts and defaults in the docstring; Python adds its own
+// (PythonKeywords: the arrays, the truth, what the dict holds).
 #include <pybind11/stl.h>
 
 #include <nlohmann/json.hpp>
@@ -10,6 +12,9 @@
 #include <cmath>
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -26,52 +31,26 @@
 #include "experiments/request/checks.hpp"
 #include "experiments/request/outcome_json.hpp"
 #include "experiments/request/request.hpp"
+#include "experiments/request/settings.hpp"
 #include "python/binding.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid::python {
 namespace {
 
-// identify's keywords besides the plugin options: name, default as Python spells it, help.
+// The keywords only Python has (the settings both front-ends have: IdentifySettings,
+// experiments/request/settings.hpp): name, default as Python spells it, help.
 struct Keyword {
   std::string name, default_text, help;
 };
 
-template <class Descriptor>
-std::string PluginList(const std::vector<Descriptor>& all) {
-  std::vector<std::string> parts;
-  for (const Descriptor& d : all) parts.push_back(fmt::format("'{}' ({})", d.name, d.help));
-  return fmt::format("{}", fmt::join(parts, "; "));
-}
-
-const std::vector<Keyword>& OwnKeywords() {
+const std::vector<Keyword>& PythonKeywords() {
   static const std::vector<Keyword> keywords{
-      {"estimator", "'rls'", "estimator of alpha and beta: " + PluginList(AllPlugins<EstimatorKind>())},
-      {"detector", "'residual'", "jump detector: " + PluginList(AllPlugins<DetectorKind>())},
-      {"sigma", "None",
-       "known measurement noise sigma > 0 (one number, or one per state); None: estimated where needed"},
-      {"max_gap", "None", "seconds: a step longer than this restarts the chain; None: 5 x the median step"},
-      {"localize", "False", "regress each jump at its located instant inside (t-dt, t]"},
-      {"second_pass", "False", "re-classify every sample with the final estimates and re-estimate"},
       {"sets", "True", "compute the hulls flow_hull and jump_hull"},
       {"trace", "True", "return alpha_trace and beta_trace (the estimates after every sample)"},
-      {"data_rtol", "0.0", "residual detector: relative accuracy of the data apart from the noise"},
-      {"data_atol", "0.0", "residual detector: absolute accuracy of the data apart from the noise"},
-      {"flow_noise_shape", "None",
-       "gtls/frisch: noise covariance shape C of the flow rows [phi, y] ((p+1) x (p+1), or its p+1 squared "
-       "values row-major) instead of the one derived from sigma and dt"},
-      {"jump_noise_shape", "None", "gtls/frisch: the same for the jump rows"},
-      {"refine", "'ml'",
-       "'ml': maximum-likelihood output-error refinement of the recursive estimate (the dict's `refined`); "
-       "'none': the recursive estimate alone"},
       {"u", "None",
        "a model with inputs: the measured inputs, aligned with y: a (samples, inputs) array, or a dict input "
        "name -> one value per sample (a list of those for runs)"},
-      {"x0_known", "None",
-       "the components of x0 that are known (held at x0 in the refinement): True or 'all' for every one, "
-       "or state names (a list, or comma-separated); one chain only"},
-      {"x0", "None", "with x0_known: the initial state (one value per state; default: the model's)"},
-      {"param_bound", "None", "bounds of unknown parameters in the refinement: {name: (lo, hi)}"},
       {"truth", "None",
        "the truth the report compares with: {'j': the true jump counter per sample (as simulate's j), "
        "optionally 'x0' and 'sigma' (the simulation's: the CRLB at the truth)}"},
@@ -90,9 +69,11 @@ const std::map<std::string, const PluginOptionArgument*>& PluginKeywords() {
   return *by_name;
 }
 
+// Every keyword besides model, y, dt and t: the settings, Python's own, the plugin options.
 std::vector<std::string> AllKeywords() {
   std::vector<std::string> names;
-  for (const Keyword& k : OwnKeywords()) names.push_back(k.name);
+  for (const IdentifySetting& s : IdentifySettings()) names.push_back(Spelled(s.name, Spelling::kKeyword));
+  for (const Keyword& k : PythonKeywords()) names.push_back(k.name);
   for (const auto& [name, a] : PluginKeywords()) names.push_back(name);
   return names;
 }
@@ -129,46 +110,75 @@ Mat NoiseShape(const py::handle& value, const std::string& name) {
   return NoiseShapeOf(std::vector<double>(a.data(), a.data() + a.size()), name, Spelling::kKeyword);
 }
 
+// Reads one keyword's value into the arguments.
+using KeywordReader = std::function<void(IdentifyArgs&, const py::handle&, const std::string&)>;
+
+// The reader of every setting and of Python's own keywords, by keyword; built once, and only when each
+// name of IdentifySettings and PythonKeywords has exactly one reader (an internal error otherwise).
+const std::map<std::string, KeywordReader>& KeywordReaders() {
+  static const auto* readers = [] {
+    using A = IdentifyArgs;
+    using V = const py::handle&;
+    using N = const std::string&;
+    auto* m = new std::map<std::string, KeywordReader>{
+        {"estimator", [](A& a, V v, N n) { a.request.estimator = Text(v, n); }},
+        {"detector", [](A& a, V v, N n) { a.request.detector = Text(v, n); }},
+        {"refine", [](A& a, V v, N n) { a.request.refine = Text(v, n); }},
+        {"u", [](A& a, V v, N) { a.u = py::reinterpret_borrow<py::object>(v); }},
+        {"truth", [](A& a, V v, N) { a.truth = py::reinterpret_borrow<py::object>(v); }},
+        {"x0_known", [](A& a, V v, N) { a.request.x0_known = X0KnownText(v); }},
+        {"x0", [](A& a, V v, N n) { a.request.x0 = Numbers(v, n); }},
+        {"param_bound", [](A& a, V v, N) { a.bounds = BoundTexts(v); }},
+        {"sigma", [](A& a, V v, N n) { a.request.sigma = Numbers(v, n); }},
+        {"max_gap", [](A& a, V v, N n) { a.max_gap = OptionalNumber(v, n); }},
+        {"data_rtol",
+         [](A& a, V v, N n) {
+           a.request.data_rtol = Number(v, n);
+           a.request.data_accuracy_source = "as given";
+         }},
+        {"data_atol",
+         [](A& a, V v, N n) {
+           a.request.data_atol = Number(v, n);
+           a.request.data_accuracy_source = "as given";
+         }},
+        {"flow_noise_shape", [](A& a, V v, N n) { a.request.flow_noise_shape = NoiseShape(v, n); }},
+        {"jump_noise_shape", [](A& a, V v, N n) { a.request.jump_noise_shape = NoiseShape(v, n); }},
+        {"localize", [](A& a, V v, N n) { a.request.localize = Flag(v, n); }},
+        {"second_pass", [](A& a, V v, N n) { a.request.second_pass = Flag(v, n); }},
+        {"sets", [](A& a, V v, N n) { a.request.sets = Flag(v, n); }},
+        {"trace", [](A& a, V v, N n) { a.request.trace = Flag(v, n); }},
+    };
+    std::set<std::string> described;
+    for (const IdentifySetting& s : IdentifySettings()) described.insert(Spelled(s.name, Spelling::kKeyword));
+    for (const Keyword& k : PythonKeywords()) described.insert(k.name);
+    std::set<std::string> read;
+    for (const auto& [name, reader] : *m) read.insert(name);
+    if (read != described) {
+      std::fprintf(stderr,
+                   "hysid: internal error: identify's keyword readers (%s) are not its settings (%s)\n",
+                   fmt::format("{}", fmt::join(read, ", ")).c_str(),
+                   fmt::format("{}", fmt::join(described, ", ")).c_str());
+      std::abort();
+    }
+    return m;
+  }();
+  return *readers;
+}
+
 IdentifyArgs ParseKeywords(const py::kwargs& kwargs, const Model& model) {
   IdentifyArgs a(model);
   IdentifyRequest& r = a.request;
-  const std::vector<std::string> known = AllKeywords();
   for (const auto& [key, value] : kwargs) {
     const std::string name = key.cast<std::string>();
     if (PluginKeywords().contains(name)) {
       if (!value.is_none()) r.plugin_options[name] = OptionText(value, name);
-    } else if (name == "estimator" || name == "detector") {
-      (name == "estimator" ? r.estimator : r.detector) = Text(value, name);
-    } else if (name == "refine") {
-      r.refine = Text(value, name);
-    } else if (name == "u" || name == "truth") {
-      (name == "u" ? a.u : a.truth) = py::reinterpret_borrow<py::object>(value);
-    } else if (name == "x0_known") {
-      r.x0_known = X0KnownText(value);
-    } else if (name == "x0") {
-      r.x0 = Numbers(value, name);
-    } else if (name == "param_bound") {
-      a.bounds = BoundTexts(value);
-    } else if (name == "sigma") {
-      r.sigma = Numbers(value, name);
-    } else if (name == "max_gap") {
-      a.max_gap = OptionalNumber(value, name);
-    } else if (name == "data_rtol" || name == "data_atol") {
-      (name == "data_rtol" ? r.data_rtol : r.data_atol) = Number(value, name);
-      r.data_accuracy_source = "as given";
-    } else if (name == "flow_noise_shape" || name == "jump_noise_shape") {
-      (name == "flow_noise_shape" ? r.flow_noise_shape : r.jump_noise_shape) = NoiseShape(value, name);
-    } else if (name == "localize" || name == "second_pass" || name == "sets" || name == "trace") {
-      const bool v = Flag(value, name);
-      (name == "localize"      ? r.localize
-       : name == "second_pass" ? r.second_pass
-       : name == "sets"        ? r.sets
-                               : r.trace) = v;
+    } else if (const auto reader = KeywordReaders().find(name); reader != KeywordReaders().end()) {
+      reader->second(a, value, name);
     } else {
       throw py::type_error(
           fmt::format("identify() got an unexpected keyword argument '{}'; its keywords are model, "
                       "y, dt, t, {}",
-                      name, fmt::join(known, ", ")));
+                      name, fmt::join(AllKeywords(), ", ")));
     }
   }
   if (const std::string problem = RefineChoiceProblem(r.refine); !problem.empty())
@@ -176,7 +186,6 @@ IdentifyArgs ParseKeywords(const py::kwargs& kwargs, const Model& model) {
   CheckBoundsNeedRefinement(!a.bounds.empty(), r.refine, Spelling::kKeyword);
   return a;
 }
-
 
 py::object FromJson(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
 
@@ -499,9 +508,7 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
   if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
     throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
-  if (args.max_gap && (!(*args.max_gap > 0.0) || !std::isfinite(*args.max_gap))) {
-    throw std::invalid_argument(fmt::format("max_gap = {}: must be a number > 0 (seconds)", *args.max_gap));
-  }
+  if (args.max_gap) CheckMaxGap(*args.max_gap, fmt::format("{}", *args.max_gap), Spelling::kKeyword);
   if (t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
   ApplyBounds(args.bounds, Spelling::kKeyword, &model);
   CheckRequest(request);
@@ -566,8 +573,11 @@ std::string Docstring() {
       "the refinement (run, chain, t, missing, measured, fit_STATE, sd_STATE, residual_STATE, "
       "recursive_STATE, in_fit, mode_fitted), read by hysid_plots.fit.plot_fit(result). Ctrl-C raises "
       "KeyboardInterrupt and stops the refinement.\n\nKeywords:\n";
-  for (const Keyword& k : OwnKeywords())
-    doc += fmt::format("  {} = {}: {}\n", k.name, k.default_text, k.help);
+  for (const IdentifySetting& s : IdentifySettings()) {
+    doc += fmt::format("  {} = {}: {}\n", Spelled(s.name, Spelling::kKeyword), s.keyword.default_text,
+                       SettingHelp(s, Spelling::kKeyword));
+  }
+  for (const Keyword& k : PythonKeywords()) doc += fmt::format("  {} = {}: {}\n", k.name, k.default_text, k.help);
   for (const PluginOptionArgument& a : PluginOptionArguments()) {
     doc += fmt::format("  {} = None (default {}): {}\n", Spelled(a.name, Spelling::kKeyword, a.prefix),
                        a.default_text, a.help);

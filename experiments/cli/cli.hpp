@@ -20,6 +20,7 @@
 #include "core/model/registry.hpp"
 #include "experiments/request/checks.hpp"
 #include "experiments/request/request.hpp"
+#include "experiments/request/settings.hpp"
 #include "sim/model_check/model_check.hpp"
 #include "sim/events/fitted_events.hpp"
 #include "sim/events/fitted_outputs.hpp"
@@ -78,8 +79,8 @@ void AddModelFlags(CLI::App& cmd, ModelFlags& flags, const std::string& param_he
 Model MakeModel(const Environment& env, const ModelFlags& flags, ModelValues values = ModelValues::kTruth,
                 std::string* note = nullptr);
 
-// --param-bound NAME=LO,HI (repeatable) of identify and crlb (not --bound: the paper detector's
-// bound mode has that flag), and the bounds it sets on the model
+// --param-bound NAME=LO,HI (repeatable) of crlb (identify's comes from its settings table; not --bound:
+// the paper detector's bound mode has that flag), and the bounds it sets on the model
 // (Model::SetBounds); errors name --param-bound: malformed text, a name given twice or unknown, a known
 // constant, LO >= HI, or the model's value outside [LO, HI].
 void AddBoundFlag(CLI::App& cmd, std::vector<std::string>& bounds);
@@ -107,8 +108,17 @@ struct X0Known {
   const CLI::Option* option = nullptr;  // set by AddX0KnownOption
   bool given() const { return option != nullptr && option->count() > 0; }
 };
-CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag);
+CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag, const std::string& help);
 std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model);
+// A setting of `hysid identify` registered from its description (experiments/request/settings.hpp): the
+// flag's name, help and shown default come from the table; the overload (by the target's type) must
+// match the setting's type (an internal error otherwise).
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, bool& target);                      // kSwitch
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, double& target);                    // kNumber
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, std::vector<double>& target);       // kNumbers
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, std::string& target);               // kText
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, std::vector<std::string>& target);  // kTexts
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, X0Known& target);                   // kStateNames
 // --mode NAME: the index of a hybrid automaton's initial mode (the model's default_mode when empty);
 // refused (exit 2) for a model without modes and for a name that is not one of them.
 int ModeFlag(const std::string& name, const Model& model);

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -156,13 +157,66 @@ void AddTrajectoryFlags(CLI::App& cmd, TrajectoryFlags& flags) {
   cmd.add_option("--dt", flags.dt, "sample time delta-t in seconds (default: the model's)");
 }
 
-CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag) {
-  CLI::Option* option = cmd.add_option("--x0-known", flag.text,
-                                       "x0 is known (not estimated): alone or 'all' every component, or the "
-                                       "known components by state name, comma-separated (e.g. --x0-known v)")
-                             ->expected(0, 1);
+CLI::Option* AddX0KnownOption(CLI::App& cmd, X0Known& flag, const std::string& help) {
+  CLI::Option* option = cmd.add_option("--x0-known", flag.text, help)->expected(0, 1);
   flag.option = option;
   return option;
+}
+
+namespace {
+
+// The setting `name`, which must be of `type`; its flag's name and help.
+const IdentifySetting& SettingOfType(std::string_view name, SettingType type) {
+  const IdentifySetting& setting = FindIdentifySetting(name);
+  if (setting.type != type) {
+    std::fprintf(stderr, "hysid: internal error: the setting '%s' is registered with another type\n",
+                 setting.name.c_str());
+    std::abort();
+  }
+  return setting;
+}
+
+// The default the command line shows, when the table gives one.
+CLI::Option* ShownDefault(const IdentifySetting& setting, CLI::Option* option) {
+  if (!setting.flag.default_text.empty()) option->default_str(setting.flag.default_text);
+  return option;
+}
+
+}  // namespace
+
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, bool& target) {
+  const IdentifySetting& s = SettingOfType(name, SettingType::kSwitch);
+  return ShownDefault(
+      s, cmd.add_flag(Spelled(s.name, Spelling::kFlag), target, SettingHelp(s, Spelling::kFlag)));
+}
+
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, double& target) {
+  const IdentifySetting& s = SettingOfType(name, SettingType::kNumber);
+  return ShownDefault(
+      s, cmd.add_option(Spelled(s.name, Spelling::kFlag), target, SettingHelp(s, Spelling::kFlag)));
+}
+
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, std::vector<double>& target) {
+  const IdentifySetting& s = SettingOfType(name, SettingType::kNumbers);
+  return ShownDefault(
+      s, AddNumberList(cmd, Spelled(s.name, Spelling::kFlag), target, SettingHelp(s, Spelling::kFlag)));
+}
+
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, std::string& target) {
+  const IdentifySetting& s = SettingOfType(name, SettingType::kText);
+  return ShownDefault(
+      s, cmd.add_option(Spelled(s.name, Spelling::kFlag), target, SettingHelp(s, Spelling::kFlag)));
+}
+
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, std::vector<std::string>& target) {
+  const IdentifySetting& s = SettingOfType(name, SettingType::kTexts);
+  return ShownDefault(
+      s, cmd.add_option(Spelled(s.name, Spelling::kFlag), target, SettingHelp(s, Spelling::kFlag)));
+}
+
+CLI::Option* AddSetting(CLI::App& cmd, std::string_view name, X0Known& target) {
+  const IdentifySetting& s = SettingOfType(name, SettingType::kStateNames);
+  return ShownDefault(s, AddX0KnownOption(cmd, target, SettingHelp(s, Spelling::kFlag)));
 }
 
 std::vector<int> X0KnownFlag(const X0Known& flag, const Model& model) {

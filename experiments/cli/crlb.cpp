@@ -119,7 +119,9 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
   AddTrajectoryFlags(*sub, args->trajectory);
   AddSigmaOption(*sub, args->sigma, "measurement noise sd: one value, or one per measured state")
       ->capture_default_str();
-  AddX0KnownOption(*sub, args->x0_known);
+  AddX0KnownOption(*sub, args->x0_known,
+                   "x0 is known (not estimated): alone or 'all' every component, or the known components by "
+                   "state name, comma-separated (e.g. --x0-known v)");
   sub->add_option("--inputs", args->inputs,
                   "a model with inputs: CSV with a column t and one per input name (default: the model "
                   "file's input_defaults at the sample times)");

@@ -439,7 +439,7 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   auto args = std::make_shared<IdentifyArgs>();
   CLI::App* cmd = app.add_subcommand("identify", "identify alpha, beta, C and D from measured samples");
   AddModelFlags(*cmd, args->model, "NAME=VALUE: the model's true value (for error metrics)");
-  AddBoundFlag(*cmd, args->bounds);
+  AddSetting(*cmd, "param_bound", args->bounds);
   cmd->add_option("--data", args->data,
                   "CSV (RFC 4180): time, then the measured state (the columns named after the model's "
                   "states, else y1..yn, else the first other columns); a column j is taken as ground "
@@ -450,21 +450,14 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   AddTextList(*cmd, "--columns", args->columns,
               "columns by header name: t=NAME (time), the state columns in model order, "
               "optionally run=NAME (run column), e.g. t=time,pos,vel");
-  cmd->add_option("--max-gap", args->max_gap,
-                  "seconds: a step longer than this restarts the chain (no regression or detector "
-                  "statistic across it); default 5 x the median step")
-      ->each([](const std::string& text) {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        if (end == text.c_str() || *end != '\0' || !(v > 0.0) || !std::isfinite(v)) {
-          BadFlag(fmt::format("--max-gap = {}: must be a number > 0 (seconds)", Abbreviated(text, 40)));
-        }
-      });
-  cmd->add_option("--estimator", args->estimator,
-                  PluginHelp("estimator of alpha and beta", AllPlugins<EstimatorKind>()))
-      ->capture_default_str();
-  cmd->add_option("--detector", args->detector, PluginHelp("jump detector", AllPlugins<DetectorKind>()))
-      ->capture_default_str();
+  AddSetting(*cmd, "max_gap", args->max_gap)->each([](const std::string& text) {
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    CheckMaxGap(end == text.c_str() || *end != '\0' ? std::nan("") : v, Abbreviated(text, 40),
+                Spelling::kFlag);
+  });
+  AddSetting(*cmd, "estimator", args->estimator);
+  AddSetting(*cmd, "detector", args->detector);
   std::vector<std::pair<std::string, CLI::Option*>> option_flags;
   for (const PluginOptionArgument& a : PluginOptionArguments()) {
     const std::string keyword = Spelled(a.name, Spelling::kKeyword, a.prefix);
@@ -472,28 +465,13 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
                                                        args->options[keyword], a.help)
                                            ->default_str(a.default_text));
   }
-  AddNumberList(*cmd, "--flow-noise-shape", args->flow_shape,
-                "gtls/frisch: noise covariance shape C of the flow rows [phi, y], row-major, "
-                "instead of the one derived from sigma and dt");
-  AddNumberList(*cmd, "--jump-noise-shape", args->jump_shape, "gtls/frisch: the same for the jump rows");
-  cmd->add_flag("--localize", args->localize,
-                "regress each jump at its located instant inside (t-dt, t] (flows forward and "
-                "backward with the estimated flow until the jump's known rows agree)");
-  cmd->add_flag("--second-pass", args->second_pass,
-                "re-classify every sample with the final estimates, re-estimate, report the changes");
-  AddSigmaOption(*cmd, args->sigma,
-                 "known measurement noise σ > 0 (one, or one per measured state); gtls/frisch estimate it "
-                 "from the data when not given");
-  CLI::Option* rtol_option =
-      cmd->add_option("--data-rtol", args->data_rtol,
-                      "residual detector: relative accuracy of the data apart from the noise (simulated "
-                      "data: the integrator's rtol, e.g. 1e-12 for `hysid simulate`)")
-          ->capture_default_str();
-  CLI::Option* atol_option =
-      cmd->add_option("--data-atol", args->data_atol,
-                      "residual detector: absolute accuracy of the data apart from the noise (simulated "
-                      "data: the integrator's atol)")
-          ->capture_default_str();
+  AddSetting(*cmd, "flow_noise_shape", args->flow_shape);
+  AddSetting(*cmd, "jump_noise_shape", args->jump_shape);
+  AddSetting(*cmd, "localize", args->localize);
+  AddSetting(*cmd, "second_pass", args->second_pass);
+  AddSetting(*cmd, "sigma", args->sigma);
+  CLI::Option* rtol_option = AddSetting(*cmd, "data_rtol", args->data_rtol);
+  CLI::Option* atol_option = AddSetting(*cmd, "data_atol", args->data_atol);
   cmd->add_option("--trace", args->trace,
                   "CSV, one row per data row: run, chain, line, t, missing, the detector's statistic and "
                   "threshold, gamma, estimates; after the refinement the fitted model's run over the record, "

@@ -114,26 +114,15 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
 
 
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
-  AddX0KnownOption(*cmd, args.x0_known);
-  AddNumberList(*cmd, "--x0", args.x0.x0,
-                "with --x0-known: the initial state, comma-separated, one value per state (the known "
-                "components are held at theirs; default: the model's)");
-  cmd->add_option("--refine", args.refine,
-                  "ml: maximum-likelihood output-error refinement of the recursive estimate (with "
-                  "standard errors and a fit status; exit 1 when the fit is not ok), none: the "
-                  "recursive estimate alone")
-      ->check(CLI::Validator([](std::string& text) { return RefineChoiceProblem(text); }, "{ml,none}"))
-      ->capture_default_str();
+  AddSetting(*cmd, "x0_known", args.x0_known);
+  AddSetting(*cmd, "x0", args.x0.x0);
+  AddSetting(*cmd, "refine", args.refine)
+      ->check(CLI::Validator([](std::string& text) { return RefineChoiceProblem(text); }, "{ml,none}"));
   cmd->add_option("--json", args.json,
                   "write everything the report shows as JSON: settings, estimates, standard errors, "
                   "covariance, detections, per-chain counts, truth comparison, the fit's checks "
                   "(docs/outputs.md)");
 }
-
-
-
-
-
 
 std::optional<std::string> X0KnownRequest(const X0Known& flag) {
   return flag.given() ? std::optional<std::string>(flag.text) : std::nullopt;

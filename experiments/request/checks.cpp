@@ -136,6 +136,12 @@ std::string RefineChoiceProblem(const std::string& value) {
   return value == "ml" || value == "none" ? "" : value + " not in {ml,none}";
 }
 
+void CheckMaxGap(double value, std::string_view shown, Spelling spelling) {
+  if (value > 0.0 && std::isfinite(value)) return;
+  throw std::invalid_argument(
+      fmt::format("{} = {}: must be a number > 0 (seconds)", Spelled("max_gap", spelling), shown));
+}
+
 void CheckDataAccuracy(double data_rtol, double data_atol, Spelling spelling) {
   for (const auto& [name, value] : {std::pair{"data_rtol", data_rtol}, std::pair{"data_atol", data_atol}}) {
     if (!(value >= 0.0) || !std::isfinite(value)) {

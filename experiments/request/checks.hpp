@@ -66,6 +66,10 @@ void CheckNoiseShapesUsed(const IdentifierSettings& settings, bool flow_given, b
 // bounds act on the refinement; with --refine none ...".
 void CheckBoundsNeedRefinement(bool bounds_given, const std::string& refine, Spelling spelling);
 
+// max_gap, the longest step inside a chain: a number > 0 (seconds); `shown` is the value as the user gave
+// it: "--max-gap = 0: must be a number > 0 (seconds)".
+void CheckMaxGap(double value, std::string_view shown, Spelling spelling);
+
 // data_rtol and data_atol: finite and >= 0.
 void CheckDataAccuracy(double data_rtol, double data_atol, Spelling spelling);
 

@@ -639,7 +639,7 @@ def test_ctrl_c_while_the_arrays_are_checked():
 
 def test_identify_takes_every_option_of_the_tables():
     """Every detector and estimator option of `hysid identify --help` is a keyword with its help and
-    default, and nothing else is: one table feeds both."""
+    default: one table feeds both."""
     flags = set(re.findall(r"^\s+(--[a-z0-9-]+)", cli("identify", "--help"), re.M))
     options = hysid.identify_options()
     assert {o["flag"] for o in options.values()} <= flags
@@ -648,19 +648,39 @@ def test_identify_takes_every_option_of_the_tables():
     for name, o in options.items():
         assert o["flag"] == "--" + name.replace("_", "-") and o["read_by"]
         assert f"  {name} = None (default {o['default']}): {o['help']}" in hysid.identify.__doc__
-    own = {"--" + k.replace("_", "-") for k in ("estimator", "detector", "sigma", "max_gap", "localize",
-                                                 "second_pass", "data_rtol", "data_atol", "flow_noise_shape",
-                                                 "jump_noise_shape", "refine")}
-    assert own <= flags
-    covered = own | {o["flag"] for o in options.values()}
-    # The flags that are not identify's options in Python: the files (data, columns, outputs, model).
-    # --x0, --x0-known (a known initial state, for measured outputs) and --param-bound (bounds come
-    # from the model file in Python) are not keywords yet, nor the selection of candidate terms
-    # (--chosen-model, --select-bootstrap, --select-seed); --version is every subcommand's; --progress
-    # draws on the terminal.
-    assert flags - covered == {"--model", "--model-file", "--param", "--data", "--columns", "--trace",
-                               "--hulls", "--json", "--x0", "--x0-known", "--param-bound", "--version",
-                               "--progress", "--chosen-model", "--select-bootstrap", "--select-seed"}
+
+
+# The options only one front-end has (docs/architecture.md, "One identification under two front-ends"):
+# the command line's files, outputs, terminal and candidate-term selection; Python's arrays, truth and
+# the parts of its dict. `trace` is in both, with two meanings: a file (--trace) and a switch (trace=).
+CLI_ONLY = {"model_file", "param", "data", "columns", "trace", "hulls", "json", "progress", "chosen_model",
+            "select_bootstrap", "select_seed"}
+PYTHON_ONLY = {"y", "dt", "t", "u", "truth", "sets", "trace"}
+
+
+def identify_keywords():
+    """The keywords hysid.identify takes, as its refusal of an unknown one lists them."""
+    with pytest.raises(TypeError) as refusal:
+        hysid.identify("impact-msd", np.ones((10, 2)), dt=1e-3, no_such_keyword=1)
+    return set(str(refusal.value).split("its keywords are ", 1)[1].split(", "))
+
+
+def test_identify_settings_are_the_same_in_both_front_ends():
+    """Every option of `hysid identify` is a keyword of hysid.identify and the reverse, through their
+    spellings (--max-gap is max_gap), but for the front-end-only ones named in docs/architecture.md."""
+    flags = set(re.findall(r"^\s+(?:-h,)?(--[a-z0-9-]+)", cli("identify", "--help"), re.M))
+    flags -= {"--help", "--version"}  # every subcommand's
+    as_keywords = {f[2:].replace("-", "_") for f in flags}
+    keywords = identify_keywords()
+    assert CLI_ONLY <= as_keywords and PYTHON_ONLY <= keywords
+    assert as_keywords - CLI_ONLY == keywords - PYTHON_ONLY, (
+        f"only on the command line: {sorted(as_keywords - CLI_ONLY - keywords)}; "
+        f"only in Python: {sorted(keywords - PYTHON_ONLY - as_keywords)}")
+    doc = (SOURCE / "docs" / "architecture.md").read_text()
+    for name in sorted(CLI_ONLY):
+        assert "`--" + name.replace("_", "-") + "`" in doc
+    for name in sorted(PYTHON_ONLY - {"y", "dt", "t"}):
+        assert "`" + name + "`" in doc
 
 
 def test_unknown_keywords_are_refused_by_name():

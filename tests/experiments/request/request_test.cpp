@@ -1,9 +1,11 @@
 // The identification request/result layer (experiments/request): a request built in C++ gives the
 // command line's estimates and --json report for the same data, its estimates lie near the simulated
-// truth, and a refusal names the option as the front-end spells it (a flag or a Python keyword).
+// truth, and a refusal names the option as the front-end spells it (a flag or a Python keyword); the
+// settings table (settings.hpp) is what the command line registers and what the request defaults to.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -13,9 +15,11 @@
 
 #include "core/builtin/builtin.hpp"
 #include "core/model/registry.hpp"
+#include "experiments/cli/cli.hpp"
 #include "experiments/cli/entry.hpp"
 #include "experiments/request/outcome_json.hpp"
 #include "experiments/request/request.hpp"
+#include "experiments/request/settings.hpp"
 #include "tests/testing/temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -120,5 +124,79 @@ TEST_CASE("request: a refusal names the option as the front-end spells it", "[re
           (flag ? "--x0-known = v,v: 'v' named twice" : "x0_known = v,v: 'v' named twice"));
     CHECK(Refusal([&] { ApplyBounds({"k=1"}, spelling, &r.model); }) ==
           (flag ? "--param-bound k=1: must be NAME=LO,HI" : "param_bound k=1: must be NAME=LO,HI"));
+  }
+}
+
+TEST_CASE("request: max_gap is one check, named as each front-end spells it", "[request]") {
+  CHECK(Refusal([] { CheckMaxGap(0.0, "0", Spelling::kFlag); }) == "--max-gap = 0: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(-1.5, "-1.5", Spelling::kKeyword); }) ==
+        "max_gap = -1.5: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(std::nan(""), "abc", Spelling::kFlag); }) ==
+        "--max-gap = abc: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(HUGE_VAL, "inf", Spelling::kKeyword); }) ==
+        "max_gap = inf: must be a number > 0 (seconds)");
+  CHECK(Refusal([] { CheckMaxGap(0.25, "0.25", Spelling::kFlag); }).empty());
+}
+
+TEST_CASE("request: a setting's help names other settings as the front-end spells them", "[request]") {
+  for (const IdentifySetting& s : IdentifySettings()) {
+    for (const Spelling spelling : {Spelling::kFlag, Spelling::kKeyword}) {
+      INFO(s.name);
+      CHECK(SettingHelp(s, spelling).find("${") == std::string::npos);
+      CHECK(SettingHelp(s, spelling).find(s.help.substr(0, s.help.find("${"))) != std::string::npos);
+    }
+  }
+  CHECK(SettingHelp(FindIdentifySetting("x0"), Spelling::kFlag).starts_with("with --x0-known: the initial state"));
+  CHECK(SettingHelp(FindIdentifySetting("x0"), Spelling::kKeyword).starts_with("with x0_known: the initial state"));
+  CHECK(SettingHelp(FindIdentifySetting("max_gap"), Spelling::kKeyword).ends_with("; None: 5 x the median step"));
+}
+
+TEST_CASE("request: the defaults the settings table shows are the request's", "[request]") {
+  const IdentifyRequest r = ImpactRequest(Spelling::kKeyword);
+  const auto text = [](const std::string& v) { return std::pair{v, "'" + v + "'"}; };
+  const auto number = [](double v) { return std::pair{fmt::format("{}", v), fmt::format("{:.1f}", v)}; };
+  const auto off = [](bool v) { return std::pair{std::string(), std::string(v ? "True" : "False")}; };
+  const auto none = [](bool empty) { return std::pair{std::string(), std::string(empty ? "None" : "?")}; };
+  // Each setting's (flag default, keyword default) from the request's own defaults.
+  const std::map<std::string, std::pair<std::string, std::string>> expected{
+      {"estimator", text(r.estimator)},
+      {"detector", text(r.detector)},
+      {"refine", text(r.refine)},
+      {"data_rtol", number(r.data_rtol)},
+      {"data_atol", number(r.data_atol)},
+      {"localize", off(r.localize)},
+      {"second_pass", off(r.second_pass)},
+      {"sigma", none(r.sigma.empty())},
+      {"max_gap", none(true)},  // ReadSampleFiles' 0: 5 x the median step
+      {"flow_noise_shape", none(r.flow_noise_shape.size() == 0)},
+      {"jump_noise_shape", none(r.jump_noise_shape.size() == 0)},
+      {"x0_known", none(!r.x0_known)},
+      {"x0", none(r.x0.empty())},
+      {"param_bound", none(true)},  // the model file's bounds
+  };
+  REQUIRE(expected.size() == IdentifySettings().size());
+  for (const IdentifySetting& s : IdentifySettings()) {
+    INFO(s.name);
+    REQUIRE(expected.contains(s.name));
+    CHECK(s.flag.default_text == expected.at(s.name).first);
+    CHECK(s.keyword.default_text == expected.at(s.name).second);
+  }
+}
+
+TEST_CASE("request: hysid identify registers every setting from the table", "[request]") {
+  CLI::App app;
+  cli::Environment env;
+  cli::AddIdentifyCommand(app, env);
+  const CLI::App* identify = app.get_subcommand("identify");
+  std::map<std::string, const CLI::Option*> registered;
+  for (const CLI::Option* o : identify->get_options()) {
+    for (const std::string& name : o->get_lnames()) registered["--" + name] = o;
+  }
+  for (const IdentifySetting& s : IdentifySettings()) {
+    const std::string flag = Spelled(s.name, Spelling::kFlag);
+    INFO(flag);
+    REQUIRE(registered.contains(flag));
+    CHECK(registered.at(flag)->get_description() == SettingHelp(s, Spelling::kFlag));
+    CHECK(registered.at(flag)->get_default_str() == s.flag.default_text);
   }
 }
