@@ -34,7 +34,7 @@ py::object Compare(const py::object& models, const py::object& data, double hold
     throw std::invalid_argument(fmt::format("holdout = {}: must be in [0, 0.9]", holdout));
   const std::string text = RunInterruptible<std::string>([files, paths, settings] {
     const std::vector<Candidate> candidates = CompareModels(files, paths, settings);
-    return ComparisonJson(paths, settings.holdout, candidates).dump();
+    return ComparisonJson(paths, settings, candidates).dump();
   });
   return py::module_::import("json").attr("loads")(text);
 }
