@@ -97,7 +97,7 @@ def case_thermostat(hysid, work):
     for i, x0 in enumerate(("20", "19.7", "20.3"), start=1):
         sim = os.path.join(work, f"sim{i}.csv")
         subprocess.run([hysid, "simulate", "--model-file", truth, "--sigma", "0.05", "--seed", str(i), "--x0", x0,
-                        "--t-end", "450", "--out", sim], check=True, capture_output=True)
+                        "--t-end", "300", "--out", sim], check=True, capture_output=True)
         with open(sim) as f:
             rows = list(csv.DictReader(f))
         data.append(os.path.join(work, f"run{i}.csv"))
