@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
 #include "core/model/registry.hpp"
 
@@ -119,6 +120,11 @@ R RunInterruptible(std::function<R()> work, const std::shared_ptr<std::atomic<bo
     }
   }
 }
+
+// Samples y (and inputs u) at times t or spacing dt, in the forms hysid.identify takes them, as the data
+// of `model` with identify's checks and messages (python/identify.cpp). Needs the GIL.
+SampleData SamplesFromArrays(const Model& model, const py::object& y, const py::object& t, const py::object& dt,
+                             const py::object& u);
 
 // hysid.identify (python/identify.cpp).
 void BindIdentify(py::module_& m);

@@ -481,6 +481,21 @@ SampleData RunsOf(const Model& model, const IdentifyArgs& args, const py::object
   return data;
 }
 
+// y, t, dt (and args.u) as runs with the checks of `hysid identify --data` (sample count and limit, time
+// steps), t and dt agreeing when both are given; one run on the grid k·dt with no sample missing takes
+// the grid's own dt (*grid set).
+SampleData ArrayData(const Model& model, const IdentifyArgs& args, const py::object& y, const py::object& t,
+                     std::optional<double> dt, bool* grid) {
+  SampleData data = RunsOf(model, args, y, t, dt.value_or(0.0));
+  if (dt && !t.is_none() && !(std::abs(data.dt - *dt) <= 1e-6 * *dt)) {
+    throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree",
+                                            *dt, data.uniform ? "the" : "the median", data.dt));
+  }
+  *grid = t.is_none() && !args.max_gap && !IsRuns(y) && static_cast<std::size_t>(data.y.cols()) == py::len(y);
+  if (*grid) data.dt = *dt;
+  return data;
+}
+
 // The truth's x0 and sigma (one value, or one per state) for the CRLB at the truth; none unless both
 // are given and the data are one uniform run (as the command line's sidecar).
 Truth TruthOf(const IdentifyArgs& args, const Model& model, const SampleData& data) {
@@ -512,15 +527,9 @@ py::dict Identify(const py::object& model_arg, const py::object& y, const py::ob
   if (t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
   ApplyBounds(args.bounds, Spelling::kKeyword, &model);
   CheckRequest(request);
-  // The checks of `hysid identify --data` (sample count and limit, time steps), on every path.
-  request.data = RunsOf(model, args, y, t, dt.value_or(0.0));
+  bool grid = false;
+  request.data = ArrayData(model, args, y, t, dt, &grid);
   SampleData& data = request.data;
-  if (dt && !t.is_none() && !(std::abs(data.dt - *dt) <= 1e-6 * *dt)) {
-    throw std::invalid_argument(fmt::format("dt = {}: t has {} step {}; give dt or t, or both that agree",
-                                            *dt, data.uniform ? "the" : "the median", data.dt));
-  }
-  const bool grid = t.is_none() && !args.max_gap && !IsRuns(y) && static_cast<std::size_t>(data.y.cols()) == py::len(y);
-  if (grid) data.dt = *dt;  // one run on the grid k·dt, no sample missing: the grid's own dt
   CheckRequestData(request);
   request.truth = TruthOf(args, model, data);
   const bool refine = request.refine == "ml", chains = !data.uniform;
@@ -607,6 +616,18 @@ py::dict OptionTable() {
 }
 
 }  // namespace
+
+SampleData SamplesFromArrays(const Model& model, const py::object& y, const py::object& t, const py::object& dt_arg,
+                             const py::object& u) {
+  const std::optional<double> dt = OptionalNumber(dt_arg, "dt");
+  if (dt && (!(*dt > 0.0) || !std::isfinite(*dt)))
+    throw std::invalid_argument(fmt::format("dt = {}: must be > 0", *dt));
+  if (t.is_none() && !dt) throw std::invalid_argument("dt: required when t is not given");
+  IdentifyArgs args(model);
+  args.u = u;
+  bool grid = false;
+  return ArrayData(model, args, y, t, dt, &grid);
+}
 
 void BindIdentify(py::module_& m) {
   static const std::string* doc = new std::string(Docstring());  // the docstring must outlive the module

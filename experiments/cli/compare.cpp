@@ -24,6 +24,8 @@ struct CompareArgs {
   std::vector<std::string> models;  // the candidate model files
   std::vector<std::string> data;    // --data, repeatable
   double holdout = 0.25;            // --holdout
+  std::string holdout_by = "tail";  // --holdout-by
+  double chain_head = 0.1;          // --chain-head
   std::string json, csv;            // --json, --csv
 };
 
@@ -150,6 +152,7 @@ void WriteCsv(const std::string& path, const std::vector<Candidate>& candidates)
       {"delta_bic", [&](const Candidate& c) { return c.ranked ? num(c.delta_bic) : ""; }},
       {"bic_weight", [&](const Candidate& c) { return c.ranked ? num(c.bic_weight) : ""; }},
       {"bic_rank", [](const Candidate& c) { return std::to_string(c.bic_rank); }},
+      {"holdout_by", [](const Candidate& c) { return c.holdout.by; }},
       {"holdout_score", [&](const Candidate& c) { return c.holdout.done ? num(c.holdout.score) : ""; }},
       {"holdout_rank", [](const Candidate& c) { return std::to_string(c.holdout_rank); }},
       {"samples_fitted", [](const Candidate& c) { return std::to_string(c.fit.samples_fitted); }},
@@ -167,16 +170,33 @@ void WriteCsv(const std::string& path, const std::vector<Candidate>& candidates)
   WriteFileAtomically(path, out);
 }
 
+ComparisonSettings SettingsOf(const CompareArgs& args) {
+  const ComparisonSettings settings{.holdout = args.holdout,
+                                    .holdout_by = HoldoutByFromString(args.holdout_by, "--holdout-by"),
+                                    .chain_head = args.chain_head};
+  if (std::string error; !settings.IsValid(&error)) {
+    if (!(args.holdout >= 0.0 && args.holdout <= 0.9)) BadFlag(fmt::format("--holdout = {}: must be in [0, 0.9]", args.holdout));
+    BadFlag(fmt::format("--chain-head = {}: must be in (0, 0.5]", args.chain_head));
+  }
+  return settings;
+}
+
+std::string HoldoutLine(const ComparisonSettings& settings) {
+  if (settings.holdout <= 0.0) return "no hold-out";
+  if (settings.holdout_by == HoldoutBy::kTail)
+    return fmt::format("held out: the last {:g} of each chain", settings.holdout);
+  return fmt::format("held out: each chain in turn, its first {:g} setting its initial state", settings.chain_head);
+}
+
 int RunCompare(const CompareArgs& args) {
-  const ComparisonSettings settings{.holdout = args.holdout};
-  if (std::string error; !settings.IsValid(&error)) BadFlag(fmt::format("--holdout = {}: must be in [0, 0.9]", args.holdout));
+  const ComparisonSettings settings = SettingsOf(args);
   CheckCompareOutputs(args);
   auto read = [&](const SampleData& d) {
-    const std::string held = args.holdout > 0.0 ? fmt::format("held out: the last {:g} of each chain", args.holdout)
-                                                : std::string("no hold-out");
+    if (settings.holdout > 0.0 && settings.holdout_by == HoldoutBy::kChain && d.chains() < 2)
+      BadFlag("--holdout-by chain: " + OneChainReason(d));
     std::printf("compare: %zu candidate models on %s: %zu samples, %ld chain(s), outputs %s; %s\n", args.models.size(),
                 d.path.c_str(), d.t.size(), d.chains(), fmt::format("{}", fmt::join(d.state_columns, ",")).c_str(),
-                held.c_str());
+                HoldoutLine(settings).c_str());
   };
   auto fitted = [](const Candidate& c) {
     std::printf("  %s (%s): %s%s%s\n", c.file.c_str(), c.name.c_str(), c.fit.status.c_str(),
@@ -193,7 +213,7 @@ int RunCompare(const CompareArgs& args) {
   PrintTable(candidates, outputs);
   PrintMeaning(candidates);
   if (!args.json.empty()) {
-    WriteFileAtomically(args.json, ComparisonJson(args.data, args.holdout, candidates).dump(2) + "\n");
+    WriteFileAtomically(args.json, ComparisonJson(args.data, settings, candidates).dump(2) + "\n");
     std::printf("wrote %s\n", args.json.c_str());
   }
   if (!args.csv.empty()) {
@@ -218,7 +238,16 @@ void AddCompareCommand(CLI::App& app, Environment&) {
       ->required();
   cmd->add_option("--holdout", args->holdout,
                   "fraction of each chain's last samples held out: each model fitted again without them "
-                  "forecasts them (0: no hold-out)")
+                  "forecasts them (0: no hold-out, by tail or chain)")
+      ->capture_default_str();
+  cmd->add_option("--holdout-by", args->holdout_by,
+                  "tail: hold out each chain's last --holdout fraction; chain: leave each chain (run, or run "
+                  "part between gaps) out in turn, fit on the others and the chain's head, forecast the rest "
+                  "of it (needs 2 chains or more)")
+      ->capture_default_str();
+  cmd->add_option("--chain-head", args->chain_head,
+                  "--holdout-by chain: the fraction of the left-out chain's first samples that set its initial "
+                  "state (fitted with the others, not scored), in (0, 0.5]")
       ->capture_default_str();
   cmd->add_option("--json", args->json, "write the ranking, every fit's criteria, status and estimates as JSON");
   cmd->add_option("--csv", args->csv, "write one row per model: status, k, log L, AIC, BIC, weights, ranks");

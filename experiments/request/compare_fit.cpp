@@ -84,46 +84,6 @@ std::vector<std::pair<long, long>> Chains(const SampleData& data) {
   return out;
 }
 
-// The candidates' files as models (a file's error names it), none with candidate terms.
-std::vector<Model> LoadCandidates(const std::vector<std::string>& files) {
-  if (files.size() < 2) {
-    throw std::invalid_argument(fmt::format("compare: {} model file(s) given: give at least 2 candidate model files", files.size()));
-  }
-  std::vector<Model> models;
-  for (const std::string& file : files) {
-    try {
-      models.push_back(LoadModelFile(file));
-    } catch (const std::invalid_argument& e) {
-      const std::string what = e.what();  // the reader's messages begin with the file's name
-      throw std::invalid_argument(what.rfind(file, 0) == 0 ? what : fmt::format("model file {}: {}", file, what));
-    }
-    if (!models.back().spec().candidates.empty()) {
-      throw std::invalid_argument(fmt::format("model file {}: has candidate terms; compare fits models as written (write the "
-                          "model `hysid identify` chooses with --chosen-model, and compare that)",
-                          file));
-    }
-  }
-  return models;
-}
-
-// The data read for each candidate: the same files, columns and samples for all, else an error naming
-// the candidate that reads them differently.
-std::vector<SampleData> ReadCandidateData(const std::vector<std::string>& files, const std::vector<std::string>& paths,
-                                         const std::vector<Model>& models) {
-  std::vector<SampleData> data;
-  for (std::size_t i = 0; i < models.size(); ++i) {
-    data.push_back(ReadComparisonData(models[i], paths));
-    const SampleData& d = data.back();
-    if (d.state_columns != data.front().state_columns || d.t.size() != data.front().t.size()) {
-      throw std::invalid_argument(fmt::format("model file {}: reads the columns ({}) of the data, {} samples, but {} reads ({}), {} "
-                          "samples: the candidates must measure the same outputs",
-                          files[i], fmt::join(d.state_columns, ","), d.t.size(), files.front(),
-                          fmt::join(data.front().state_columns, ","), data.front().t.size()));
-    }
-  }
-  return data;
-}
-
 nlohmann::json VectorJson(const Vec& v) {
   std::vector<nlohmann::json> out;
   for (Eigen::Index i = 0; i < v.size(); ++i) out.push_back(std::isfinite(v[i]) ? nlohmann::json(v[i]) : nlohmann::json());
@@ -159,6 +119,7 @@ nlohmann::json CandidateJson(const Candidate& c) {
           {"chain_mode", c.fit.chain_mode},
           {"holdout",
            {{"done", c.holdout.done}, {"status", c.holdout.status}, {"reason", c.holdout.reason},
+            {"by", c.holdout.by}, {"fits", c.holdout.fits}, {"chains_held", c.holdout.chains_held},
             {"samples", c.holdout.samples}, {"rmse", VectorJson(c.holdout.rmse)},
             {"score", c.holdout.done ? Finite(c.holdout.score) : nlohmann::json()}, {"rank", c.holdout_rank}}}};
 }
@@ -172,9 +133,56 @@ const Candidate* Best(const std::vector<Candidate>& candidates, int Candidate::*
 }
 
 
+std::vector<Model> LoadCandidates(const std::vector<std::string>& files) {
+  if (files.size() < 2) {
+    throw std::invalid_argument(fmt::format("compare: {} model file(s) given: give at least 2 candidate model files", files.size()));
+  }
+  std::vector<Model> models;
+  for (const std::string& file : files) {
+    try {
+      models.push_back(LoadModelFile(file));
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();  // the reader's messages begin with the file's name
+      throw std::invalid_argument(what.rfind(file, 0) == 0 ? what : fmt::format("model file {}: {}", file, what));
+    }
+    if (!models.back().spec().candidates.empty()) {
+      throw std::invalid_argument(fmt::format("model file {}: has candidate terms; compare fits models as written (write the "
+                          "model `hysid identify` chooses with --chosen-model, and compare that)",
+                          file));
+    }
+  }
+  return models;
+}
+
+std::vector<SampleData> CandidateData(const std::vector<std::string>& files, const std::function<SampleData(const Model&)>& data_for,
+                                      const std::vector<Model>& models) {
+  std::vector<SampleData> data;
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    try {
+      data.push_back(data_for(models[i]));
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      if (i == 0 || what.find(files[i]) != std::string::npos) throw;
+      throw std::invalid_argument(fmt::format("model file {}: {}", files[i], what));
+    }
+    const SampleData& d = data.back();
+    if (d.state_columns != data.front().state_columns || d.t.size() != data.front().t.size()) {
+      throw std::invalid_argument(fmt::format("model file {}: reads the columns ({}) of the data, {} samples, but {} reads ({}), {} "
+                          "samples: the candidates must measure the same outputs",
+                          files[i], fmt::join(d.state_columns, ","), d.t.size(), files.front(),
+                          fmt::join(data.front().state_columns, ","), data.front().t.size()));
+    }
+  }
+  return data;
+}
+
 bool ComparisonSettings::IsValid(std::string* error) const {
   if (!(holdout >= 0.0 && holdout <= 0.9)) {
     if (error != nullptr) *error = fmt::format("ComparisonSettings::holdout = {}: must be in [0, 0.9]", holdout);
+    return false;
+  }
+  if (!(chain_head > 0.0 && chain_head <= 0.5)) {
+    if (error != nullptr) *error = fmt::format("ComparisonSettings::chain_head = {}: must be in (0, 0.5]", chain_head);
     return false;
   }
   if (min_holdout_samples < 1) {
@@ -247,55 +255,146 @@ ComparisonFit FitForComparison(const Model& model, const SampleData& data) {
   return c;
 }
 
-HoldoutPrediction PredictHeldOut(const Model& model, const SampleData& data, const ComparisonSettings& settings) {
-  if (std::string e; !settings.IsValid(&e)) throw std::invalid_argument(e);
-  HoldoutPrediction h;
-  std::vector<long> keep, held;
+namespace {
+
+// One fit on the rest: the samples it is fitted on, the samples its forecast is scored on, and (by
+// chain) the chain left out, 0-based.
+struct HoldoutFold {
+  std::vector<long> keep, scored;
+  int chain = -1;
+};
+
+// By tail: one fold, the last `holdout` fraction of every chain scored (none when none is long enough).
+std::vector<HoldoutFold> TailFolds(const SampleData& data, const ComparisonSettings& settings) {
+  HoldoutFold f;
   for (const auto& [a, b] : Chains(data)) {
     const auto tail = static_cast<long>(std::floor(settings.holdout * static_cast<double>(b - a)));
     const long end = tail >= settings.min_holdout_samples ? b - tail : b;
-    for (long k = a; k < b; ++k) (k < end ? keep : held).push_back(k);
+    for (long k = a; k < b; ++k) (k < end ? f.keep : f.scored).push_back(k);
   }
-  h.samples = static_cast<long>(held.size());
-  if (held.empty()) {
-    h.status = "none";
-    h.reason = fmt::format("no chain has {} samples or more to hold out", settings.min_holdout_samples);
-    return h;
+  if (f.scored.empty()) return {};
+  return {f};
+}
+
+// By chain: one fold per chain long enough (a head and a scored rest of min_holdout_samples each):
+// fitted on the other chains and the chain's head, scored on the rest of the chain.
+std::vector<HoldoutFold> ChainFolds(const SampleData& data, const ComparisonSettings& settings) {
+  const std::vector<std::pair<long, long>> chains = Chains(data);
+  const auto K = static_cast<long>(data.t.size());
+  std::vector<HoldoutFold> folds;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    const auto [a, b] = chains[c];
+    const long head = std::max(static_cast<long>(std::ceil(settings.chain_head * static_cast<double>(b - a))),
+                               settings.min_holdout_samples);
+    if (b - a - head < settings.min_holdout_samples) continue;
+    HoldoutFold f{.chain = static_cast<int>(c)};
+    for (long k = 0; k < K; ++k) (k >= a + head && k < b ? f.scored : f.keep).push_back(k);
+    folds.push_back(std::move(f));
   }
-  const FitRun f = RunPipeline(model, Subset(data, keep));
+  return folds;
+}
+
+std::string FoldName(const SampleData& data, const HoldoutFold& fold) {
+  if (fold.chain < 0) return "";
+  const long first = Chains(data)[std::size_t(fold.chain)].first;
+  const int run = std::size_t(first) < data.run.size() ? data.run[std::size_t(first)] : 0;
+  const std::string name = std::size_t(run) < data.run_names.size() ? data.run_names[std::size_t(run)] : "";
+  return fmt::format("chain {}{}{}: ", fold.chain + 1, name.empty() ? "" : " of ", name);
+}
+
+// The fit on `fold.keep` and its forecast of `fold.scored`, written into `predicted` (measured × K);
+// false, with h->reason, when the fit reports no estimate or its run misses a scored sample.
+bool Forecast(const Model& model, const SampleData& data, const HoldoutFold& fold, Mat* predicted,
+              HoldoutPrediction* h) {
+  const FitRun f = RunPipeline(model, Subset(data, fold.keep));
   const RefineResult& r = f.step.result;
-  h.status = ToString(r.status);
-  h.reason = r.reason;
+  ++h->fits;
+  h->status = ToString(r.status);
+  h->reason = r.reason;
   if (!r.reported) {
-    h.reason = fmt::format("the fit on the rest reported no estimate ({}{}{})", h.status, r.reason.empty() ? "" : ": ",
-                           r.reason);
-    return h;
+    h->reason = fmt::format("{}the fit on the rest reported no estimate ({}{}{})", FoldName(data, fold), h->status,
+                            r.reason.empty() ? "" : ": ", r.reason);
+    return false;
   }
   const std::vector<int> measured = MeasuredIndices(model);
-  const int n = model.state_size(), m = static_cast<int>(measured.size());
-  Mat y = Mat::Zero(n, data.y.cols());  // the hidden rows only start the recursive run, which is not read
-  for (int j = 0; j < m; ++j) y.row(measured[std::size_t(j)]) = data.y.row(j);
+  Mat y = Mat::Zero(model.state_size(), data.y.cols());  // the hidden rows only start the recursive run, not read
+  for (std::size_t j = 0; j < measured.size(); ++j) y.row(measured[j]) = data.y.row(Eigen::Index(j));
+  // The kept samples hold every chain (by chain, chain c by its head), in order: r's chains are data's.
   const FittedOutputs out = RunFittedModel(model, data.t, y, data.chain_start, data.u, IdentifyResult{}, r);
-  h.rmse = Vec::Zero(m);
-  double score = 0.0;
-  for (int j = 0; j < m; ++j) {
-    double sum = 0.0, mean = 0.0, spread = 0.0;
-    for (const long k : held) mean += data.y(j, k) / static_cast<double>(held.size());
-    for (const long k : held) {
-      const double e = data.y(j, k) - out.x(measured[std::size_t(j)], k);
-      if (!std::isfinite(e)) {
-        h.reason = fmt::format("the forecast does not reach every held-out sample{}{}", out.reason.empty() ? "" : ": ",
-                               out.reason);
-        return h;
+  for (const long k : fold.scored) {
+    for (std::size_t j = 0; j < measured.size(); ++j) {
+      const double x = out.x(measured[j], k);
+      if (!std::isfinite(x)) {
+        h->reason = fmt::format("{}the forecast does not reach every held-out sample{}{}", FoldName(data, fold),
+                                out.reason.empty() ? "" : ": ", out.reason);
+        return false;
       }
+      (*predicted)(Eigen::Index(j), k) = x;
+    }
+  }
+  return true;
+}
+
+// rmse_j over the scored samples and the score, RMS over outputs of rmse_j / sd_j.
+void Score(const SampleData& data, const Mat& predicted, const std::vector<long>& scored, HoldoutPrediction* h) {
+  const auto m = data.y.rows();
+  const auto count = static_cast<double>(scored.size());
+  h->rmse = Vec::Zero(m);
+  double score = 0.0;
+  for (Eigen::Index j = 0; j < m; ++j) {
+    double sum = 0.0, mean = 0.0, spread = 0.0;
+    for (const long k : scored) mean += data.y(j, k) / count;
+    for (const long k : scored) {
+      const double e = data.y(j, k) - predicted(j, k);
       sum += e * e;
       spread += (data.y(j, k) - mean) * (data.y(j, k) - mean);
     }
-    h.rmse[j] = std::sqrt(sum / static_cast<double>(held.size()));
+    h->rmse[j] = std::sqrt(sum / count);
     score += spread > 0.0 ? sum / spread : 0.0;  // (rmse_j / sd_j)²
   }
-  h.score = std::sqrt(score / static_cast<double>(m));
-  h.done = true;
+  h->score = std::sqrt(score / static_cast<double>(m));
+  h->done = true;
+}
+
+}  // namespace
+
+std::string ToString(HoldoutBy by) { return by == HoldoutBy::kChain ? "chain" : "tail"; }
+
+HoldoutBy HoldoutByFromString(const std::string& text, const std::string& what) {
+  if (text == "tail") return HoldoutBy::kTail;
+  if (text == "chain") return HoldoutBy::kChain;
+  throw std::invalid_argument(fmt::format("{} = '{}': must be tail or chain", what, text));
+}
+
+std::string OneChainReason(const SampleData& data) {
+  return fmt::format("the data ({}) are {} chain; leaving each chain out in turn needs 2 or more (several data "
+                     "files, a run column, or runs cut at gaps longer than {:g} s); hold out each chain's tail instead",
+                     data.path, data.chains(), data.max_gap);
+}
+
+HoldoutPrediction PredictHeldOut(const Model& model, const SampleData& data, const ComparisonSettings& settings) {
+  if (std::string e; !settings.IsValid(&e)) throw std::invalid_argument(e);
+  const bool by_chain = settings.holdout_by == HoldoutBy::kChain;
+  if (by_chain && data.chains() < 2) throw std::invalid_argument("hold-out by chain: " + OneChainReason(data));
+  HoldoutPrediction h;
+  h.by = ToString(settings.holdout_by);
+  const std::vector<HoldoutFold> folds = by_chain ? ChainFolds(data, settings) : TailFolds(data, settings);
+  if (folds.empty()) {
+    h.status = "none";
+    h.reason = by_chain ? fmt::format("no chain has {} samples or more after a head of {:g} of it",
+                                      settings.min_holdout_samples, settings.chain_head)
+                        : fmt::format("no chain has {} samples or more to hold out", settings.min_holdout_samples);
+    return h;
+  }
+  for (const HoldoutFold& fold : folds) h.samples += static_cast<long>(fold.scored.size());
+  Mat predicted = Mat::Constant(data.y.rows(), data.y.cols(), kNaN);
+  std::vector<long> scored;
+  for (const HoldoutFold& fold : folds) {
+    if (fold.chain >= 0) h.chains_held.push_back(fold.chain + 1);
+    if (!Forecast(model, data, fold, &predicted, &h)) return h;
+    scored.insert(scored.end(), fold.scored.begin(), fold.scored.end());
+  }
+  Score(data, predicted, scored, &h);
   return h;
 }
 
@@ -343,7 +442,7 @@ std::string DeltaMeaning(double delta) {
   return "essentially no support";
 }
 
-nlohmann::json ComparisonJson(const std::vector<std::string>& data, double holdout,
+nlohmann::json ComparisonJson(const std::vector<std::string>& data, const ComparisonSettings& settings,
                               const std::vector<Candidate>& candidates) {
   const std::vector<std::string> outputs = candidates.empty() ? std::vector<std::string>{} : candidates.front().fit.outputs;
   nlohmann::json models = nlohmann::json::array();
@@ -352,7 +451,9 @@ nlohmann::json ComparisonJson(const std::vector<std::string>& data, double holdo
     const Candidate* c = Best(candidates, place);
     return c ? nlohmann::json(c->file) : nlohmann::json();
   };
-  return {{"command", "compare"}, {"data", data}, {"outputs", outputs}, {"holdout_fraction", holdout},
+  const bool by_chain = settings.holdout_by == HoldoutBy::kChain;
+  return {{"command", "compare"}, {"data", data}, {"outputs", outputs}, {"holdout_by", ToString(settings.holdout_by)},
+          {"holdout_fraction", settings.holdout}, {"chain_head", by_chain ? nlohmann::json(settings.chain_head) : nlohmann::json()},
           {"models", models}, {"best", {{"aic", best(&Candidate::aic_rank)}, {"bic", best(&Candidate::bic_rank)},
                                         {"holdout", best(&Candidate::holdout_rank)}}}};
 }
@@ -364,8 +465,23 @@ std::vector<Candidate> CompareModels(const std::vector<std::string>& files, cons
   if (std::string error; !settings.IsValid(&error)) throw std::invalid_argument(error);
   if (data.empty()) throw std::invalid_argument("compare: no data file given");
   const std::vector<Model> models = LoadCandidates(files);
-  const std::vector<SampleData> samples = ReadCandidateData(files, data, models);
+  const std::vector<SampleData> samples =
+      CandidateData(files, [&](const Model& model) { return ReadComparisonData(model, data); }, models);
+  return CompareLoaded(files, models, samples, settings, read, fitted);
+}
+
+std::vector<Candidate> CompareLoaded(const std::vector<std::string>& files, const std::vector<Model>& models,
+                                     const std::vector<SampleData>& samples, const ComparisonSettings& settings,
+                                     const std::function<void(const SampleData&)>& read,
+                                     const std::function<void(const Candidate&)>& fitted) {
+  if (std::string error; !settings.IsValid(&error)) throw std::invalid_argument(error);
+  if (models.size() != files.size() || samples.size() != models.size() || models.empty()) {
+    throw std::invalid_argument(fmt::format("CompareLoaded: {} files, {} models, {} data sets: give one model and one "
+                                            "data set per file", files.size(), models.size(), samples.size()));
+  }
   if (read) read(samples.front());
+  if (settings.holdout > 0.0 && settings.holdout_by == HoldoutBy::kChain && samples.front().chains() < 2)
+    throw std::invalid_argument("hold-out by chain: " + OneChainReason(samples.front()));
   std::vector<Candidate> candidates;
   for (std::size_t i = 0; i < models.size(); ++i) {
     Candidate c;
@@ -376,6 +492,7 @@ std::vector<Candidate> CompareModels(const std::vector<std::string>& files, cons
       c.holdout = PredictHeldOut(models[i], samples[i], settings);
     } else {
       c.holdout.status = "none";
+      c.holdout.by = ToString(settings.holdout_by);
       c.holdout.reason = "no hold-out asked for";
     }
     if (fitted) fitted(c);
@@ -384,6 +501,5 @@ std::vector<Candidate> CompareModels(const std::vector<std::string>& files, cons
   RankCandidates(&candidates);
   return candidates;
 }
-
 
 }  // namespace hysid

@@ -5,6 +5,9 @@ For each system (thermostat, hopper) the 2-mode file is the truth: draw d is
 `hysid simulate --model-file SYSTEM-2.toml --sigma S --seed d`, of which the data keep the time and the
 measured states. `hysid compare SYSTEM-1.toml SYSTEM-2.toml SYSTEM-3.toml --data draw.csv --json ...` then
 ranks the three candidates; a criterion picks the true count when SYSTEM-2 is its best.
+With --chains C (C >= 2) a draw is C runs, one data file each: run i (1-based) simulated from the i-th
+initial state of the system's list below with seed 1000 d + i; --holdout-by chain then leaves each run
+out in turn (--holdout-by tail, the default, holds out each run's tail).
 
     /usr/bin/python3 tests/compare/rates.py --hysid build/bin/hysid --work /tmp/compare-rates --draws 50
 
@@ -25,6 +28,10 @@ SYSTEMS = {  # name: (noise sd of the measured states, measured columns)
     "thermostat": (0.05, ["T"]),
     "hopper": (0.002, ["y"]),
 }
+X0 = {  # name: the initial state of run i of a draw with --chains (the first is the file's default)
+    "thermostat": ["20", "19.7", "20.3", "19.85", "20.15"],
+    "hopper": ["1.3,0", "1.2,0", "1.4,0", "1.25,0", "1.35,0"],
+}
 CRITERIA = ["aic", "bic", "holdout"]
 
 
@@ -32,26 +39,39 @@ def model(system, modes):
     return os.path.join(HERE, f"{system}-{modes}.toml")
 
 
-def run_draw(hysid, work, system, draw, holdout, resume):
+def simulate(hysid, out, system, seed, x0, name):
+    """One run of the true file as a data file of time and the measured columns."""
     sigma, measured = SYSTEMS[system]
-    out = os.path.join(work, system, f"draw{draw:02d}")
-    report = os.path.join(out, "compare.json")
-    if resume and os.path.exists(report):
-        return summarise(system, draw, 0, report)
-    os.makedirs(out, exist_ok=True)
-    sim = os.path.join(out, "sim.csv")
-    subprocess.run([hysid, "simulate", "--model-file", model(system, 2), "--sigma", str(sigma), "--seed", str(draw),
-                    "--out", sim], check=True, capture_output=True)
+    sim = os.path.join(out, f"sim{name}.csv")
+    cmd = [hysid, "simulate", "--model-file", model(system, 2), "--sigma", str(sigma), "--seed", str(seed),
+           "--out", sim]
+    subprocess.run(cmd + (["--x0", x0] if x0 else []), check=True, capture_output=True)
     with open(sim) as f:
         rows = list(csv.DictReader(f))
-    data = os.path.join(out, "data.csv")
+    data = os.path.join(out, f"data{name}.csv")
     with open(data, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["t"] + measured)
         for r in rows:
             w.writerow([r["t"]] + [r[c] for c in measured])
-    cmd = [hysid, "compare"] + [model(system, m) for m in (1, 2, 3)] + ["--data", data, "--holdout", str(holdout),
+    return data
+
+
+def run_draw(hysid, work, system, draw, a):
+    out = os.path.join(work, system, f"draw{draw:02d}")
+    report = os.path.join(out, "compare.json")
+    if a.resume and os.path.exists(report):
+        return summarise(system, draw, 0, report)
+    os.makedirs(out, exist_ok=True)
+    if a.chains <= 1:
+        files = [simulate(hysid, out, system, draw, None, "")]
+    else:
+        files = [simulate(hysid, out, system, 1000 * draw + i, X0[system][i - 1], str(i)) for i in range(1, a.chains + 1)]
+    cmd = [hysid, "compare"] + [model(system, m) for m in (1, 2, 3)] + ["--holdout", str(a.holdout),
+                                                                         "--holdout-by", a.holdout_by,
                                                                          "--json", report]
+    for f in files:
+        cmd += ["--data", f]
     p = subprocess.run(cmd, capture_output=True, text=True)
     with open(os.path.join(out, "compare.txt"), "w") as f:
         f.write(p.stdout + p.stderr)
@@ -74,6 +94,7 @@ def summarise(system, draw, code, report):
         row[f"ranked{n}"] = int(m["ranked"])
         row[f"delta_aic{n}"] = m["delta_aic"]
         row[f"delta_bic{n}"] = m["delta_bic"]
+        row[f"holdout_score{n}"] = m["holdout"]["score"]
     return row
 
 
@@ -85,6 +106,9 @@ def main():
     ap.add_argument("--first", type=int, default=1, help="the first draw's seed")
     ap.add_argument("--systems", default=",".join(SYSTEMS))
     ap.add_argument("--holdout", type=float, default=0.25)
+    ap.add_argument("--holdout-by", default="tail", choices=["tail", "chain"])
+    ap.add_argument("--chains", type=int, default=1, choices=range(1, 6), metavar="1..5",
+                    help="runs per draw (data files), each from its own initial state")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--check", action="store_true")
     ap.add_argument("--resume", action="store_true", help="reuse the draws whose compare.json exists")
@@ -98,7 +122,7 @@ def main():
     systems = a.systems.split(",")
     tasks = [(s, d) for s in systems for d in range(a.first, a.first + a.draws)]
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
-        rows = list(pool.map(lambda t: run_draw(a.hysid, a.work, t[0], t[1], a.holdout, a.resume), tasks))
+        rows = list(pool.map(lambda t: run_draw(a.hysid, a.work, t[0], t[1], a), tasks))
     keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("system", "draw", "exit"), k))
     with open(os.path.join(a.work, "draws.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)

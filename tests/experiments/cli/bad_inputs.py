@@ -513,6 +513,10 @@ COMPARE_CASES = [
     ("compare: a model file that does not load", ["compare", "pump.toml", "pumpguard.toml", "--data", "sim.csv"]),
     ("compare: --holdout 1", ["compare", "pump.toml", "pump.toml", "--data", "sim.csv", "--holdout", "1"]),
     ("compare: --json is a model file", ["compare", "pump.toml", "pump.toml", "--data", "sim.csv", "--json", "pump.toml"]),
+    ("compare: --holdout-by chains", ["compare", "pump.toml", "pump.toml", "--data", "sim.csv", "--holdout-by", "chains"]),
+    ("compare: --holdout-by chain on one chain",
+     ["compare", "pump.toml", "pump.toml", "--data", "sim.csv", "--holdout-by", "chain"]),
+    ("compare: --chain-head 0.7", ["compare", "pump.toml", "pump.toml", "--data", "sim.csv", "--chain-head", "0.7"]),
 ]
 
 # Partial outputs and known initial states (examples/drag-ball).
