@@ -11,6 +11,13 @@ namespace hysid {
 
 long SampleGrid::size() const { return static_cast<long>(std::floor(t_end / dt + 1e-9)) + 1; }
 
+SampleGrid EvenGrid(double t_end, long count) {
+  const auto steps = static_cast<double>(count - 1);
+  double dt = t_end / steps;
+  while (steps * dt > t_end) dt = std::nextafter(dt, 0.0);
+  return SampleGrid{.t_end = t_end, .dt = dt};
+}
+
 bool SampleGrid::IsValid(std::string* error) const {
   auto fail = [&](const std::string& what) {
     if (error) *error = what;

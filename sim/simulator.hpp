@@ -30,6 +30,10 @@ struct SampleGrid {
   bool IsValid(std::string* error) const;
 };
 
+// `count` ≥ 2 samples evenly over [0, t_end]: δt = t_end/(count − 1), lowered by the ulps that keep
+// the last sample (count − 1)·δt from passing t_end (an input given up to t_end covers the run).
+SampleGrid EvenGrid(double t_end, long count);
+
 struct SimOptions {
   double rtol = 1e-12;       // CVODE relative tolerance
   double atol = 1e-12;       // CVODE absolute tolerance (every component)

@@ -167,8 +167,11 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, const Samp
 }
 
 // A chain that starts after a gap in the run of the chain before it (not at a run's start). Without
-// the per-sample runs (released once reported), one run means every chain after the first.
+// the per-sample runs (released once reported), one run means every chain after the first. A model
+// with inputs is not run through a gap: the data do not hold its input there (linear interpolation
+// across the gap would invent it), so each chain keeps its own initial state.
 void MarkGaps(const SampleData& data, std::vector<RefineChain>* chains) {
+  if (data.u.rows() > 0) return;
   std::vector<std::size_t> first;
   for (std::size_t k = 0; k < data.chain_start.size(); ++k) {
     if (k == 0 || data.chain_start[k]) first.push_back(k);

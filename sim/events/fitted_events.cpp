@@ -39,7 +39,7 @@ SensitivityTrajectory RunChain(const Model& model, const RefineResult& r, std::s
   p.initial_mode = c < r.chain_mode.size() ? r.chain_mode[c] : chain.initial_mode >= 0 ? chain.initial_mode : r.initial_mode;
   options.sensitivities = gradients;
   const double t_end = chain.t[std::size_t(used - 1)] - chain.t.front();
-  const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
+  const SampleGrid grid = EvenGrid(t_end, used);
   const InputSignal inputs = UsedInputs(chain, used);
   return SimulateSensitivities(model, p, r.unknowns, grid, options, inputs.empty() ? nullptr : &inputs);
 }

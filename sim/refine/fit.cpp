@@ -520,7 +520,7 @@ SensitivityTrajectory SimulateOnItsOwn(const FitProblem& problem, const ChainFit
   SensitivityOptions o = problem.options;
   o.sensitivities = false;
   const double t_end = f.times().back();
-  const SampleGrid grid{t_end, t_end / static_cast<double>(f.times().size() - 1)};
+  const SampleGrid grid = EvenGrid(t_end, static_cast<long>(f.times().size()));
   return SimulateSensitivities(*problem.model, OnChain(f, p), problem.unknowns, grid, o, InputsOf(f.inputs));
 }
 

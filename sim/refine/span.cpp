@@ -116,7 +116,7 @@ std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, Hyb
   o.sensitivities = false;
   p.x0 = x0;
   const double t_end = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
-  const SampleGrid grid{t_end, t_end / static_cast<double>(used - 1)};
+  const SampleGrid grid = EvenGrid(t_end, used);
   const InputSignal inputs = ChainInputs(chain, used);
   const SensitivityTrajectory plain =
       SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, InputsOf(inputs));

@@ -618,7 +618,7 @@ SampleGrid GridOfTimes(const std::vector<double>& times) {
           fmt::format("times[{}] = {} after {}: must increase", k, times[k], times[k - 1]));
     }
   }
-  return SampleGrid{.t_end = times.back(), .dt = times.back() / static_cast<double>(times.size() - 1)};
+  return EvenGrid(times.back(), static_cast<long>(times.size()));
 }
 
 }  // namespace

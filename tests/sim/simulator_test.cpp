@@ -29,6 +29,22 @@ struct MsdClosedForm {
   }
 };
 
+TEST_CASE("an even grid of count samples ends at or before t_end with count samples", "[sim]") {
+  // 45·(3.700000000000001/45) rounds to 3.7000000000000015: the plain step would pass t_end.
+  const SampleGrid rounded = EvenGrid(3.700000000000001, 46);
+  CHECK(rounded.size() == 46);
+  CHECK(45.0 * rounded.dt <= 3.700000000000001);
+  CHECK(rounded.dt == Approx(3.700000000000001 / 45.0).epsilon(1e-15));
+  for (long count = 2; count < 400; count += 7) {
+    for (double t_end : {0.1, 1.0, 3.700000000000001, 6.3 - 2.6, 10.0 - 6.3, 1234.5678}) {
+      const SampleGrid g = EvenGrid(t_end, count);
+      CHECK(g.size() == count);
+      CHECK(static_cast<double>(count - 1) * g.dt <= t_end);
+      CHECK(static_cast<double>(count - 1) * g.dt >= t_end * (1.0 - 1e-14));
+    }
+  }
+}
+
 TEST_CASE("impact-msd: 14 jumps at the closed-form times, states on the closed form", "[sim]") {
   const Model model{ImpactMsd{}};
   const SampleGrid grid{20.0, 5e-4};

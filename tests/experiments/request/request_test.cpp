@@ -200,3 +200,75 @@ TEST_CASE("request: hysid identify registers every setting from the table", "[re
     CHECK(registered.at(flag)->get_default_str() == s.flag.default_text);
   }
 }
+
+namespace {
+
+// A forced impact oscillator: x' = v, v' = −k x − b v + G u, v⁺ = −λ v at x = 0.5, u measured.
+const char* kDriven = R"toml(name = "driven-wall"
+states = ["x", "v"]
+inputs = ["u"]
+input_defaults = { u = "1.5*sin(1.9*t) + 0.8*sin(3.1*t + 1)" }
+alpha = [
+  { name = "one", value = 1.0, known = true },
+  { name = "k", value = 5.0, bounds = [0.0, 100.0] },
+  { name = "b", value = 0.1, bounds = [0.0, 10.0] },
+  { name = "G", value = 2.0, bounds = [0.0, 50.0] },
+]
+beta = [ { name = "one_x", value = 1.0, known = true }, { name = "lam", value = 0.8, bounds = [0.0, 1.0] } ]
+[flow]
+phi = [["v", 0, 0, 0], [0, "-x", "-v", "u"]]
+rows = ["v"]
+[jump]
+psi = [["x", 0], [0, "-v"]]
+rows = ["v"]
+[[guard]]
+h = "x - 0.5"
+direction = "rising"
+project = { x = "0.5" }
+[sets]
+C = "x < 0.5 || (x == 0.5 && v <= 0)"
+D = "x == 0.5 && v >= 0"
+[defaults]
+x0 = [0.1, 3.0]
+t_end = 10.0
+dt = 0.02
+)toml";
+
+}  // namespace
+
+TEST_CASE("request: a driven model is not run through a gap whose input the data do not hold", "[request]") {
+  const fs::path dir = testing::FreshTempDir("request-driven-gap");
+  const std::string model = (dir / "driven.toml").string(), sim = (dir / "sim.csv").string(),
+                    data = (dir / "data.csv").string(), json = (dir / "fit.json").string();
+  std::ofstream(model) << kDriven;
+  REQUIRE(RunCli({"hysid", "simulate", "--model-file", model, "--sigma", "5e-3", "--seed", "33", "--out", sim}) == 0);
+  // The rows in [4, 5) removed, u with them: the input in the gap is unknown.
+  std::ifstream in(sim);
+  std::ofstream out(data);
+  std::string line;
+  std::getline(in, line);  // t,j,true_x,true_v,x,v,u
+  out << "t,x,v,u\n";
+  while (std::getline(in, line)) {
+    std::vector<std::string> cell;
+    for (std::size_t at = 0, next; at <= line.size(); at = next + 1) {
+      next = std::min(line.find(',', at), line.size());
+      cell.push_back(line.substr(at, next - at));
+    }
+    const double t = std::stod(cell[0]);
+    if (t < 4.0 || t >= 5.0) out << cell[0] << ',' << cell[4] << ',' << cell[5] << ',' << cell[6] << '\n';
+  }
+  out.close();
+  RunCli({"hysid", "identify", "--model-file", model, "--data", data, "--json", json, "--progress", "none"});
+  std::ifstream report_in(json);
+  const nlohmann::json report = nlohmann::json::parse(report_in);
+  CHECK(report["gaps_joined"] == 0);
+  CHECK(report["status"] == "ok");
+  const std::vector<std::string> names = report["names"];
+  const std::vector<double> estimate = report["estimate"], se = report["standard_errors"];
+  const std::vector<std::pair<std::string, double>> truth{{"k", 5.0}, {"b", 0.1}, {"G", 2.0}, {"lam", 0.8}};
+  for (const auto& [name, value] : truth) {
+    const auto i = static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+    REQUIRE(i < names.size());
+    CHECK(std::abs(estimate[i] - value) < 4.0 * se[i]);
+  }
+}

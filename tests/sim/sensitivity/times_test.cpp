@@ -6,6 +6,8 @@
 #include <vector>
 
 #include "core/builtin/impact_msd.hpp"
+#include "core/model_file/model_file.hpp"
+#include "sim/input_signal.hpp"
 #include "sim/sensitivity/sensitivity.hpp"
 
 namespace hysid {
@@ -89,6 +91,47 @@ TEST_CASE("irregular times: the states are the simulator's at those times", "[se
       SimulateSensitivitiesMatched(model, HybridParameters::Of(model, x0), Unknowns::Of(model),
                                    std::vector<double>{0.0, 0.2, 0.1}, std::vector<int>{0, 0, 0}),
       "times[2] = 0.1 after 0.2: must increase");
+}
+
+// x' = a·u, u ≡ 1: x(t) = x0 + a t, ∂x/∂a = t. Times ending at 3.700000000000001 (a chain of
+// data ending where rows were removed), with the input sampled at the same times: the run needs u
+// on [0, times.back()] exactly, though (n − 1)·(times.back()/(n − 1)) rounds to 3.7000000000000015.
+const char* kDriven = R"toml(name = "driven"
+states = ["x"]
+inputs = ["u"]
+alpha = [{ name = "a", value = 2.0 }]
+beta = [{ name = "e", value = 1.0 }]
+[flow]
+phi = [["u"]]
+rows = ["x"]
+[jump]
+psi = [["x"]]
+rows = ["x"]
+[[guard]]
+h = "x - 100"
+direction = "rising"
+[sets]
+C = "x < 100"
+D = "x >= 100"
+[defaults]
+x0 = [1.0]
+)toml";
+
+TEST_CASE("samples at their own times need the input up to the last time and not past it by rounding",
+          "[sensitivity]") {
+  const Model model = ParseModelFile(kDriven, "driven.toml").model;
+  const double last = 3.700000000000001;
+  const long n = 46;
+  REQUIRE(static_cast<double>(n - 1) * (last / static_cast<double>(n - 1)) > last);  // the rounding
+  InputSignal u;
+  u.values = Mat::Ones(1, n);
+  for (long k = 0; k < n; ++k) u.times.push_back(k == n - 1 ? last : last * static_cast<double>(k) / (n - 1));
+  const HybridParameters p = HybridParameters::Of(model, Vec::Ones(1));
+  const SensitivityTrajectory s =
+      SimulateSensitivities(model, p, Unknowns::Of(model), u.times, SensitivityOptions{}, &u);
+  REQUIRE(s.ok());
+  CHECK(s.trajectory.x(0, n - 1) == Approx(1.0 + 2.0 * last).epsilon(1e-10));
+  CHECK(s.sensitivities(0, n - 1) == Approx(last).epsilon(1e-10));  // ∂x/∂a, the first unknown
 }
 
 }  // namespace
