@@ -295,7 +295,7 @@ TEST_CASE("lines and cells are bounded before a line is split - messages never e
   CHECK_THROWS_WITH(ReadCsvStream(word, "w.csv"), Catch::Contains("… (1000 bytes)' is not a number"));
 }
 
-TEST_CASE("bytes echoed in a message are printable: control and invalid UTF-8 bytes as \\xNN", "[csv]") {
+TEST_CASE("bytes echoed in a message are printable: control and invalid UTF-8 bytes as hex escapes", "[csv]") {
   std::istringstream binary(std::string("t,y\n0,1\n\x01\x02", 10) + std::string(1, '\0') + ",\xff\xfe\n");
   CHECK_THROWS_WITH(ReadCsvStream(binary, "b.csv"),
                     "b.csv:3: column 1 ('t'): '\\x01\\x02\\x00' is not a number");
