@@ -287,7 +287,8 @@ std::vector<HoldoutFold> ChainFolds(const SampleData& data, const ComparisonSett
     const long head = std::max(static_cast<long>(std::ceil(settings.chain_head * static_cast<double>(b - a))),
                                settings.min_holdout_samples);
     if (b - a - head < settings.min_holdout_samples) continue;
-    HoldoutFold f{.chain = static_cast<int>(c)};
+    HoldoutFold f;
+    f.chain = static_cast<int>(c);
     for (long k = 0; k < K; ++k) (k >= a + head && k < b ? f.scored : f.keep).push_back(k);
     folds.push_back(std::move(f));
   }
