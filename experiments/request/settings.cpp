@@ -55,8 +55,7 @@ std::vector<IdentifySetting> MakeSettings() {
        Shows("0"), Shows("0.0")},
       {"flow_noise_shape", T::kNumbers,
        "gtls/frisch: noise covariance shape C of the flow rows [phi, y] instead of the one derived from "
-       "sigma "
-       "and dt",
+       "sigma and dt",
        Shows("", "", "; its (p+1)^2 values, row-major"),
        Shows("None", "", "; (p+1) x (p+1), or its (p+1)^2 values row-major")},
       {"jump_noise_shape", T::kNumbers, "gtls/frisch: the same for the jump rows", Shows(""), Shows("None")},
@@ -75,8 +74,7 @@ std::vector<IdentifySetting> MakeSettings() {
        Shows(""), Shows("None")},
       {"param_bound", T::kTexts,
        "bounds of an unknown parameter of alpha, beta or the guard parameters in the refinement (replaces "
-       "the "
-       "model file's bounds; -inf and inf allowed; the value must lie inside)",
+       "the model file's bounds; -inf and inf allowed; the value must lie inside)",
        Shows("", "NAME=LO,HI (repeatable): "), Shows("None", "{name: (lo, hi)}: ")},
   };
 }

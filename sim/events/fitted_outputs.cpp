@@ -159,7 +159,7 @@ FittedOutputs RunFittedModel(const Model& model, const std::vector<double>& t, c
     const Mat* covariance = r.covariance_of_chain(c, n);
     const bool gradients = covariance != nullptr;
     const SensitivityTrajectory run = RunChain(model, p, r.unknowns, t, u, spans[c], gradients);
-    Store(run, a, gradients ? covariance : nullptr, &out.x, &out.sd);
+    Store(run, a, covariance, &out.x, &out.sd);
     const Mat matched = recursive.gamma.size() == std::size_t(K)
                             ? RunMatched(model, p, r.unknowns, t, u, spans[c], recursive.gamma)
                             : Mat();
