@@ -221,9 +221,11 @@ double MadScale(std::vector<double> v) {
   return 1.4826 * *mid;
 }
 
-// The statistic of the intervals of chain [a, b) for row r: z[k + 1] for the interval (t_k, t_{k+1}].
+// The statistic of the intervals of chain [a, b) for row r: z[k + 1 − a] for the interval (t_k, t_{k+1}].
+// `known`: kinks found already (increasing samples), whose chords' statistics are left out of the floor.
 void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, long b, double sigma, long w,
-                        const ReconstructOptions& options, std::vector<double>& z) {
+                        const std::vector<long>& known, const ReconstructOptions& options,
+                        std::vector<double>& z) {
   if (b - a < 2 * w + 2) return;
   auto span = [&](long from, long to) { return t[static_cast<std::size_t>(to)] - t[static_cast<std::size_t>(from)]; };
   auto chord = [&](long from, long to) { return (y[to] - y[from]) / span(from, to); };
@@ -237,12 +239,19 @@ void ChainKinkStatistic(const std::vector<double>& t, const double* y, long a, l
   }
   // Wider than the 2w + 1 statistics a kink raises, so that the median stays the flow's.
   const std::vector<double> median = RunningMedian(ds, std::max<int>(options.median_window, 4 * static_cast<int>(w) + 1));
-  std::vector<double> residual(ds.size());
-  for (std::size_t i = 0; i < ds.size(); ++i) residual[i] = ds[i] - median[i];
-  // Noise-free data: the spread of the flow's own curvature (and rounding) is the scale.
-  const double floor = std::max(MadScale(residual), 1e-12 * scale + 1e-300);
+  std::vector<double> residual(ds.size()), quiet;
   for (std::size_t i = 0; i < ds.size(); ++i) {
-    const auto at = static_cast<std::size_t>(a + w + 1) + i;
+    residual[i] = ds[i] - median[i];
+    const long k = a + w + 1 + static_cast<long>(i);
+    const auto near = std::lower_bound(known.begin(), known.end(), k - w - 1);
+    if (near == known.end() || *near > k + w + 1) quiet.push_back(residual[i]);
+  }
+  // Noise-free data: the spread of the flow's own curvature (and rounding) is the scale, taken
+  // away from the kinks known (their statistics are not the flow's) while a tenth of them remain.
+  const bool enough = quiet.size() >= std::max<std::size_t>(20, ds.size() / 10);
+  const double floor = std::max(MadScale(enough ? quiet : residual), 1e-12 * scale + 1e-300);
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    const auto at = static_cast<std::size_t>(w + 1) + i;
     z[at] = std::max(z[at], std::abs(residual[i]) / std::max(sd[i], floor));
   }
 }
@@ -337,6 +346,56 @@ bool StopRaised(const ReconstructOptions& options) {
 }
 constexpr long kStopPoll = 4096;  // samples between two looks at ReconstructOptions::stop
 
+// The chords a chain's kinks are looked for with, shortest first: the longest (ChordLength) and
+// each half of the one before, down to the shortest.
+std::vector<long> ChordLadder(long longest, long shortest) {
+  std::vector<long> ladder{longest};
+  while (ladder.back() > shortest) ladder.push_back(std::max(shortest, ladder.back() / 2));
+  std::reverse(ladder.begin(), ladder.end());
+  return ladder;
+}
+
+// The kinks of one chain [a, b) seen with chord w: the statistic and the samples where it exceeds
+// the threshold and is the largest within ±w (the chords of the neighbouring intervals share the kink).
+struct ChainKinks {
+  std::vector<double> statistic;  // per sample of the chain
+  std::vector<long> peaks;        // increasing
+  bool stopped = false;
+};
+
+ChainKinks ChainKinksAt(const std::vector<double>& t, const Mat& rows, long a, long b, long w,
+                        const Vec& sigma, const std::vector<long>& known, const ReconstructOptions& options) {
+  ChainKinks c;
+  c.statistic.assign(static_cast<std::size_t>(b - a), 0.0);
+  for (Eigen::Index r = 0; r < rows.cols(); ++r) {
+    if ((c.stopped = StopRaised(options))) return c;
+    ChainKinkStatistic(t, rows.col(r).data(), a, b, sigma[r], w, known, options, c.statistic);
+  }
+  // The first statistic is at a + w + 1, the last at b − w − 1; a peak within w/2 of either is not
+  // taken: its rise (or fall) is out of sight, and the running median's clipped windows there lag
+  // the flow's curvature.
+  for (long k = a + w + 1 + w / 2; k < b - w - 1 - w / 2; ++k) {
+    if ((k - a) % kStopPoll == 0 && (c.stopped = StopRaised(options))) return c;
+    const double z = c.statistic[static_cast<std::size_t>(k - a)];
+    if (!(z > options.kink_threshold)) continue;
+    bool largest = true;
+    for (long l = std::max(a, k - w); l <= std::min(b - 1, k + w) && largest; ++l) {
+      const double other = c.statistic[static_cast<std::size_t>(l - a)];
+      largest = l < k ? z >= other : (l == k || z > other);
+    }
+    if (largest) c.peaks.push_back(k);
+  }
+  return c;
+}
+
+// The distance (samples) from at[i] to its nearest neighbour in at (the chain's length when alone).
+long NearestKink(const std::vector<long>& at, std::size_t i, long length) {
+  long nearest = length;
+  if (i > 0) nearest = std::min(nearest, at[i] - at[i - 1]);
+  if (i + 1 < at.size()) nearest = std::min(nearest, at[i + 1] - at[i]);
+  return nearest;
+}
+
 }  // namespace
 
 KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std::vector<std::uint8_t>& chain_start,
@@ -348,26 +407,40 @@ KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std:
   d.gamma.assign(static_cast<std::size_t>(size), 0);
   const Mat rows = y.transpose();  // each measured component contiguous
   for (const auto& [a, b] : Chains(size, chain_start)) {
-    long w = options.chord;
-    for (Eigen::Index r = 0; r < y.rows(); ++r) w = std::max(w, ChordLength(t, rows.col(r).data(), a, b, d.sigma[r], options));
-    d.chord = std::max(d.chord, w);
+    long longest = options.chord;
     for (Eigen::Index r = 0; r < y.rows(); ++r) {
-      if ((d.stopped = StopRaised(options))) return d;
-      ChainKinkStatistic(t, rows.col(r).data(), a, b, d.sigma[r], w, options, d.statistic);
+      longest = std::max(longest, ChordLength(t, rows.col(r).data(), a, b, d.sigma[r], options));
     }
-    // The largest within ±w samples (the chords of the neighbouring intervals share the kink).
-    for (long k = a + 1; k < b; ++k) {
-      if ((k - a) % kStopPoll == 0 && (d.stopped = StopRaised(options))) return d;
-      const auto u = static_cast<std::size_t>(k);
-      const double z = d.statistic[u];
-      if (!(z > options.kink_threshold)) continue;
-      bool largest = true;
-      for (long l = std::max(a, k - w); l <= std::min(b - 1, k + w) && largest; ++l) {
-        const double other = d.statistic[static_cast<std::size_t>(l)];
-        largest = l < k ? z >= other : (l == k || z > other);
+    // Every chord of the ladder, shortest first: a kink seen with a chord w is new unless one seen
+    // already lies within ±w (the same kink, seen again by the longer chord).
+    const std::vector<long> ladder = ChordLadder(longest, options.chord);
+    std::vector<long> at;
+    for (const long w : ladder) {
+      const ChainKinks kinks = ChainKinksAt(t, rows, a, b, w, d.sigma, at, options);
+      if ((d.stopped = kinks.stopped)) return d;
+      for (std::size_t i = 0; i < kinks.statistic.size(); ++i) {
+        double& z = d.statistic[static_cast<std::size_t>(a) + i];
+        z = std::max(z, kinks.statistic[i]);
       }
-      if (largest) d.gamma[static_cast<std::size_t>(LocateKink(t, rows, a, b, k, w))] = 1;
+      const std::size_t seen = at.size();
+      for (const long k : kinks.peaks) {
+        const bool known = std::any_of(at.begin(), at.begin() + static_cast<long>(seen),
+                                       [&](long s) { return std::abs(s - k) <= w; });
+        if (!known) at.push_back(k);
+      }
+      std::sort(at.begin(), at.end());
     }
+    // Each located with the longest chord whose fit window (±2w) holds no other kink.
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      const long room = NearestKink(at, i, b - a);
+      long w = ladder.front();
+      for (const long c : ladder) {
+        if (2 * c < room) w = c;
+      }
+      d.chord = std::max(d.chord, w);
+      d.gamma[static_cast<std::size_t>(LocateKink(t, rows, a, b, at[i], w))] = 1;
+    }
+    if (at.empty()) d.chord = std::max(d.chord, longest);
   }
   return d;
 }

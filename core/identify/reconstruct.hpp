@@ -13,13 +13,21 @@
 // its running median (the flow's own curvature), over its noise sd σ√(2/T⁻² + 2/T⁺²) (T± the
 // chords' durations) is the statistic; a jump is labelled at sample k+1 where the statistic exceeds
 // the threshold and is the largest within ±w samples (the neighbouring intervals' chords share the
-// kink). Longer chords see smaller kinks (the sd falls as 1/w) but need w samples of flow on either
-// side: w is the shortest chord (`chord`, 4) or, when longer, the one whose statistic's sd 2σ/(wδt) is
-// `kink_precision` (20 %) of the measured row's slope scale (its range over the chain's duration),
-// at most a tenth of the chain (fast sampling: 4 samples at 8 kHz would leave a 10 m/s bounce at
-// 1 mm noise below 3 sd). The running median spans at least 4w + 1 statistics. This works on the samples themselves: a first Savitzky–Golay pass over windows that span a
-// jump smears the velocity's step over a whole window, so a detector on it sees a run of jumps
-// instead of one.
+// kink) and at least w/2 samples in from either end of the statistic (its rise and fall in sight).
+// Longer chords see smaller kinks (the sd falls as 1/w) but need w samples of flow on either side:
+// the longest chord is the shortest one (`chord`, 4) or, when longer, the one whose statistic's sd
+// 2σ/(wδt) is `kink_precision` (20 %) of the measured row's slope scale (its range over the chain's
+// duration), at most a tenth of the chain (fast sampling: 4 samples at 8 kHz would leave a 10 m/s
+// bounce at 1 mm noise below 3 sd). Kinks closer together than that chord (a body between two walls
+// moves much faster than its range over the duration) blur into none, so every chord of a ladder is
+// used, shortest first: the longest and each half of the one before, down to `chord`. A kink is
+// taken from the first chord that sees it (a later, longer chord's within ±w of it is the same
+// kink), then located with the longest chord of the ladder whose fit window (±2w) holds no other
+// kink. The running median spans at least 4w + 1 statistics. The sd has a floor for noise-free data
+// (the flow's own curvature): the MAD of the residuals whose chords hold no kink found with a
+// shorter chord (of all of them when fewer than a tenth are left). This works on the samples
+// themselves: a first Savitzky–Golay pass over windows that span a jump smears the velocity's step
+// over a whole window, so a detector on it sees a run of jumps instead of one.
 //
 // Derivatives: on each flow segment (between detected jumps, within a chain) a local polynomial of
 // degree 2 (Savitzky–Golay on the samples' own times) over a window of m samples, centred on the
@@ -81,7 +89,7 @@ struct KinkDetection {
   std::vector<std::uint8_t> gamma;  // per sample: 1 = a jump in (t_{k−1}, t_k]
   std::vector<double> statistic;    // per sample (of the interval ending there)
   Vec sigma;                        // the noise σ per measured component used
-  long chord = 0;                   // the longest chord used (samples)
+  long chord = 0;  // the longest chord a kink was located with (samples; the ladder's longest when none)
   bool stopped = false;             // ReconstructOptions::stop was raised: partial
 };
 // Kinks in y (m × K measured rows) at times t, chains cut at chain_start (empty: one chain); σ per
@@ -94,7 +102,7 @@ struct Reconstruction {
   std::vector<std::uint8_t> gamma;  // the detected jumps (as KinkDetection)
   std::vector<double> statistic;
   Vec sigma;                        // per measured component (given or estimated)
-  long chord = 0;                   // the kink statistic's chord (samples; the longest over chains)
+  long chord = 0;                   // KinkDetection::chord (samples; the longest over chains)
   long segments = 0;                // flow segments over all chains
   int min_window = 0, max_window = 0;  // over the segments of three samples or more
   bool stopped = false;                // ReconstructOptions::stop was raised: partial

@@ -168,5 +168,108 @@ TEST_CASE("a parabola's flight with 1 mm noise: bounces found, velocity within i
   CHECK(std::sqrt(sum / double(count)) < 2.0 * centre);
 }
 
+// A particle at constant speed between walls at −0.4 and 0.3, its speed times 0.75 at each wall,
+// sampled every 0.02 s for 10 s from x = 0.2 at speed 3.35 towards the lower wall: 9 walls hit,
+// 14 to 104 samples apart. Returns the positions and the samples that end an interval holding a hit.
+std::pair<Mat, std::vector<long>> BetweenWalls(std::vector<double>& t, double sigma, unsigned seed) {
+  const double dt = 0.02, lower = -0.4, upper = 0.3;
+  const long size = 501;
+  std::vector<double> hits;
+  double at = 0.0, x = 0.2, v = -3.35;
+  while (at < 10.0) {
+    const double wall = v < 0 ? lower : upper;
+    at += (wall - x) / v;
+    x = wall;
+    v *= -0.75;
+    hits.push_back(at);
+  }
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  Mat y(1, size);
+  t.resize(size);
+  std::vector<long> samples;
+  double from = 0.0, x_from = 0.2, v_from = -3.35;
+  std::size_t next = 0;
+  for (long k = 0; k < size; ++k) {
+    t[k] = k * dt;
+    while (next < hits.size() && hits[next] <= t[k]) {
+      x_from += v_from * (hits[next] - from);
+      from = hits[next++];
+      v_from *= -0.75;
+      samples.push_back(k);
+    }
+    y(0, k) = x_from + v_from * (t[k] - from) + noise(rng);
+  }
+  return {y, samples};
+}
+
+TEST_CASE("walls hit closer together than the longest chord: every hit found, within a sample",
+          "[reconstruct]") {
+  // The range over the duration (0.07 m/s) calls for a chord of about 40 samples, more than twice
+  // the first hits' spacing (14 samples): the shorter chords of the ladder see those, the longer
+  // ones the last, slow hits (a kink of 0.59 m/s is 12 noise sd with a chord of 10 samples).
+  for (const unsigned seed : {1u, 2u, 3u}) {
+    std::vector<double> t;
+    const auto [y, truth] = BetweenWalls(t, 5e-3, seed);
+    REQUIRE(truth.size() == 9);
+    const KinkDetection d = DetectKinks(t, y, {}, Vec(), ReconstructOptions{});
+    std::vector<long> found;
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      if (d.gamma[k]) found.push_back(long(k));
+    }
+    INFO("seed " << seed << ", chord " << d.chord);
+    REQUIRE(found.size() == truth.size());
+    for (std::size_t i = 0; i < truth.size(); ++i) CHECK(std::abs(found[i] - truth[i]) <= 1);
+  }
+}
+
+TEST_CASE("kinks far apart are located with the longest chord, each found once by the whole ladder",
+          "[reconstruct]") {
+  // A parabola's flight with 5 mm noise: the longest chord is about 20 samples, the bounces are 70
+  // samples apart or more.
+  const Model model{BouncingBall{}};
+  const Trajectory traj = Ball(model);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 5e-3);
+  Mat h = traj.x.topRows(1);
+  for (Eigen::Index k = 0; k < h.cols(); ++k) h(0, k) += noise(rng);
+  ReconstructOptions o;
+  const KinkDetection d = DetectKinks(traj.t, h, {}, Vec(), o);
+  const double range = h.maxCoeff() - h.minCoeff(), duration = traj.t.back() - traj.t.front();
+  const double dt = duration / double(h.cols() - 1);
+  const long longest = long(std::ceil(2.0 * d.sigma[0] / (o.kink_precision * range / duration * dt)));
+  INFO("longest " << longest);
+  CHECK(d.chord == std::clamp<long>(longest, o.chord, h.cols() / 10));
+  CHECK(d.chord > o.chord);
+  long found = 0;
+  for (std::size_t k = 1; k < traj.t.size(); ++k) found += d.gamma[k];
+  CHECK(found == 4);
+}
+
+TEST_CASE("a smooth flow without kinks: no chord of the ladder finds one, noisy or noise-free",
+          "[reconstruct]") {
+  // A damped oscillation x = e^{−0.1t} cos 2.3t, 1 000 samples at 50 Hz: its curvature changes all the
+  // time (the running median's work) and its range over the duration calls for long chords at 5 mm.
+  const long size = 1000;
+  std::vector<double> t(size);
+  Mat clean(1, size);
+  for (long k = 0; k < size; ++k) {
+    t[k] = 0.02 * k;
+    clean(0, k) = std::exp(-0.1 * t[k]) * std::cos(2.3 * t[k]);
+  }
+  const KinkDetection noise_free = DetectKinks(t, clean, {}, Vec(), ReconstructOptions{});
+  CHECK(std::count(noise_free.gamma.begin(), noise_free.gamma.end(), 1) == 0);
+  for (const unsigned seed : {1u, 2u, 3u, 4u, 5u}) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 5e-3);
+    Mat y = clean;
+    for (long k = 0; k < size; ++k) y(0, k) += noise(rng);
+    const KinkDetection d = DetectKinks(t, y, {}, Vec(), ReconstructOptions{});
+    INFO("seed " << seed << ", chord " << d.chord);
+    CHECK(d.chord > 8);  // a ladder of three chords or more was walked
+    CHECK(std::count(d.gamma.begin(), d.gamma.end(), 1) == 0);
+  }
+}
+
 }  // namespace
 }  // namespace hysid
