@@ -132,14 +132,20 @@ TEST_CASE("a raised stop flag: the reconstruction returns marked stopped - a low
   CHECK(std::count(kinks.gamma.begin(), kinks.gamma.end(), 1) == 0);
 }
 
+// The ball's height with Gaussian noise of sd sigma (the generator seeded with 11).
+Mat NoisyHeight(const Trajectory& traj, double sigma) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, sigma);
+  Mat h = traj.x.topRows(1);
+  for (Eigen::Index k = 0; k < h.cols(); ++k) h(0, k) += noise(rng);
+  return h;
+}
+
 TEST_CASE("a parabola's flight with 1 mm noise: bounces found, velocity within its predicted sd",
           "[reconstruct]") {
   const Model model{BouncingBall{}};
   const Trajectory traj = Ball(model);
-  std::mt19937 rng(11);
-  std::normal_distribution<double> noise(0.0, 1e-3);
-  Mat h = traj.x.topRows(1);
-  for (Eigen::Index k = 0; k < h.cols(); ++k) h(0, k) += noise(rng);
+  const Mat h = NoisyHeight(traj, 1e-3);
   const Reconstruction r = ReconstructStates(PlanReconstruction(model, {0}), traj.t, h, {}, Vec());
   CHECK(r.sigma[0] == Approx(1e-3).epsilon(0.15));
   // Each bounce within one sample of its interval (a bounce just after a sample is a kink at that
@@ -229,10 +235,7 @@ TEST_CASE("kinks far apart are located with the longest chord, each found once b
   // samples apart or more.
   const Model model{BouncingBall{}};
   const Trajectory traj = Ball(model);
-  std::mt19937 rng(11);
-  std::normal_distribution<double> noise(0.0, 5e-3);
-  Mat h = traj.x.topRows(1);
-  for (Eigen::Index k = 0; k < h.cols(); ++k) h(0, k) += noise(rng);
+  const Mat h = NoisyHeight(traj, 5e-3);
   ReconstructOptions o;
   const KinkDetection d = DetectKinks(traj.t, h, {}, Vec(), o);
   const double range = h.maxCoeff() - h.minCoeff(), duration = traj.t.back() - traj.t.front();
