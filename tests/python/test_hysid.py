@@ -518,19 +518,20 @@ def test_models_cross_process_boundaries():
 def interrupted(setup, call, env=None, wait=False):
     """Runs `setup`, then the long `call` in a child Python; SIGINT 0.5 s into the call. Returns the seconds
     from the signal to the KeyboardInterrupt reaching the script, the exit code and stderr; with `wait`,
-    also the seconds until the process is back to the threads it had before the call (the computation
-    has stopped; None when it still runs 30 s later)."""
+    also the seconds until the process has no thread but those it had before the call (the computation
+    has stopped; None when it still runs 30 s later). Threads are told apart by id, not counted: a thread
+    of the setup's last call may still be ending when the call starts."""
     import signal
     import sys
     import time
     script = (f"import os, time, numpy as np, hysid\n{setup}\n"
-              "threads = lambda: len(os.listdir('/proc/self/task'))\nbefore = threads()\n"
+              "tasks = lambda: set(os.listdir('/proc/self/task'))\nbefore = tasks()\n"
               f"print('started', flush=True)\ntry:\n    {call}\n"
               "    print('finished', flush=True)\nexcept KeyboardInterrupt:\n"
               "    at = time.monotonic()\n    print('interrupted', at, flush=True)\n")
     if wait:
-        script += ("    while threads() > before and time.monotonic() - at < 30.0:\n        time.sleep(0.01)\n"
-                   "    print('stopped', time.monotonic() - at if threads() <= before else None, flush=True)\n")
+        script += ("    while not tasks() <= before and time.monotonic() - at < 30.0:\n        time.sleep(0.01)\n"
+                   "    print('stopped', time.monotonic() - at if tasks() <= before else None, flush=True)\n")
     p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          env={**os.environ, **(env or {})})
     assert p.stdout.readline().strip() == "started", p.stderr.read()
@@ -586,34 +587,110 @@ def test_ctrl_c_interrupts_a_long_call(name):
     assert code == 130 and "an interrupted computation is still running" in err, err
 
 
+# A child Python's script for test_ctrl_c_stops_the_recursive_pass: one identify timed uninterrupted, then the
+# same with SIGINT sent once the thread running its recursive pass has used a quarter of the CPU time the
+# uninterrupted pass used (the threads' CPU times read from /proc every 2 ms). Prints one JSON line.
+RECURSIVE_PASS_SCRIPT = """\
+import json, os, signal, threading, time, numpy as np, hysid
+tr = hysid.simulate('impact-msd', t_end=20.0, dt=5e-4, sigma=0.01)
+y = np.tile(tr['y'], (25, 1))  # 1 000 025 samples, 25 copies of the run
+kw = dict(dt=5e-4, refine='none', trace=False, estimator='frisch', window=0, second_pass=True)
+tasks = lambda: set(os.listdir('/proc/self/task'))
+ticks = os.sysconf('SC_CLK_TCK')
+
+
+def cpu(task):
+    \"\"\"The CPU seconds a thread of this process has used; None once it has ended.\"\"\"
+    try:
+        with open(f'/proc/self/task/{task}/stat') as f:
+            fields = f.read().rsplit(')', 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / ticks
+
+
+class Watch(threading.Thread):
+    \"\"\"While a call runs: the CPU seconds of each thread it starts (`used`); with `at`, SIGINT once one of
+    them has used `at` s (the wall time kept in `sent`), then that thread's CPU seconds from the signal to
+    its end (`after`).\"\"\"
+
+    def __init__(self, at=None):
+        super().__init__()
+        self.before, self.at, self.used, self.sent, self.after, self.done = tasks(), at, {}, None, None, False
+
+    def run(self):
+        me = str(threading.get_native_id())
+        while not self.done:
+            for task in tasks() - self.before - {me}:
+                self.used[task] = max(self.used.get(task, 0.0), cpu(task) or 0.0)
+                if self.at is not None and self.used[task] >= self.at:
+                    self.sent = time.monotonic()
+                    os.kill(os.getpid(), signal.SIGINT)
+                    self.follow(task)
+                    return
+            time.sleep(0.002)
+
+    def follow(self, task):
+        start = last = self.used[task]
+        while (used := cpu(task)) is not None:
+            last = used
+            time.sleep(0.002)
+        self.after = last - start
+
+
+before = tasks()
+watch = Watch()
+watch.start()
+cpu0 = time.process_time()
+r = hysid.identify('impact-msd', y, **kw)
+out = {'status': r['flow_status'], 'full_cpu': time.process_time() - cpu0}
+watch.done = True
+watch.join()
+used = sorted(watch.used.values())  # the array checks' thread (when seen), the identification's
+out['pass_cpu'], out['other_cpu'] = used[-1], used[:-1]
+watch = Watch(at=used[-1] / 4)
+watch.start()
+cpu0 = time.process_time()
+try:
+    hysid.identify('impact-msd', y, **kw)
+    out['outcome'] = 'finished'
+    watch.done = True
+except KeyboardInterrupt:
+    raised = time.monotonic()
+    kept = before | {str(watch.native_id)}  # the threads before the call and the watch (it ends with the pass)
+    while not tasks() <= kept and time.monotonic() - raised < 30.0:
+        time.sleep(0.01)
+    out.update(outcome='interrupted', delay=raised - watch.sent, stopped=tasks() <= kept,
+               cpu=time.process_time() - cpu0)
+    watch.join()
+    out['cpu_after_signal'] = watch.after
+print(json.dumps(out), flush=True)
+"""
+
+
 def test_ctrl_c_stops_the_recursive_pass():
-    """SIGINT 0.3 s into an identify without refinement whose recursive pass alone lasts seconds: the
-    KeyboardInterrupt arrives and the abandoned pass stops (it looks at the stop flag every 4096
-    samples), well before the uninterrupted call, timed first in the same process, ends."""
+    """SIGINT while the recursive pass of an identify without refinement runs (its thread has used a quarter
+    of the uninterrupted pass's CPU time, which the array checks before it never reach): KeyboardInterrupt
+    within 0.5 s, and the abandoned pass stops (it looks at the stop flag every 4096 samples), leaving no
+    thread of the call and no computation for the interpreter's exit to wait on, long before it would end:
+    its thread uses under half the pass's CPU time after the signal (it had three quarters left), the
+    interrupted call less than the whole call. CPU times, not wall times, place the signal and bound the
+    work, so the machine's load does not change what is tested."""
+    import json
     import sys
-    script = (
-        "import os, signal, threading, time, numpy as np, hysid\n"
-        "tr = hysid.simulate('impact-msd', t_end=20.0, dt=5e-4, sigma=0.01)\n"
-        "y = np.tile(tr['y'], (25, 1))\n"  # 1 000 025 samples, 25 copies of the run
-        "kw = dict(dt=5e-4, refine='none', trace=False, estimator='frisch', window=0, second_pass=True)\n"
-        "threads = lambda: len(os.listdir('/proc/self/task'))\nbefore = threads()\n"
-        "start = time.monotonic()\nr = hysid.identify('impact-msd', y, **kw)\n"
-        "print('full', time.monotonic() - start, r['flow_status'], flush=True)\n"
-        "start = time.monotonic()\n"
-        "try:\n    threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
-        "    hysid.identify('impact-msd', y, **kw)\n    print('finished', flush=True)\n"
-        "except KeyboardInterrupt:\n    at = time.monotonic()\n"
-        "    while threads() > before and time.monotonic() - at < 30.0:\n        time.sleep(0.01)\n"
-        "    print('interrupted', at - start, time.monotonic() - start, flush=True)\n")
-    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
-    words = p.stdout.split()
-    assert words[0] == "full" and words[2] == "ok" and words[3] == "interrupted", (p.stdout, p.stderr)
-    full, raised, stopped = float(words[1]), float(words[4]), float(words[5])
-    print(f"recursive pass: {full:.2f} s uninterrupted; SIGINT at 0.3 s, KeyboardInterrupt at {raised:.3f} s, "
-          f"computation stopped at {stopped:.3f} s")
-    assert 0.3 <= raised < 0.3 + 0.5
-    assert stopped < full
-    assert p.returncode == 0 and "still running" not in p.stderr, p.stderr
+    p = subprocess.run([sys.executable, "-c", RECURSIVE_PASS_SCRIPT], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0 and "still running" not in p.stderr, (p.stdout, p.stderr)
+    r = json.loads(p.stdout.splitlines()[-1])
+    print(f"recursive pass: {r['pass_cpu']:.2f} s CPU uninterrupted (the call {r['full_cpu']:.2f} s, the array "
+          f"checks {r['other_cpu']} s); SIGINT at {r['pass_cpu'] / 4:.2f} s of it: KeyboardInterrupt "
+          f"{r.get('delay', 0):.3f} s later, {r.get('cpu_after_signal', 0):.3f} s CPU after the signal, "
+          f"the call {r.get('cpu', 0):.2f} s CPU")
+    assert r["status"] == "ok" and r["outcome"] == "interrupted", r
+    assert all(other < r["pass_cpu"] / 4 for other in r["other_cpu"]), r  # the signal fell in the pass
+    assert 0.0 <= r["delay"] < 0.5
+    assert r["stopped"]
+    assert r["cpu_after_signal"] < r["pass_cpu"] / 2
+    assert r["cpu"] < r["full_cpu"]
 
 
 def test_ctrl_c_while_the_arrays_are_checked():
