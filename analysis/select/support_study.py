@@ -3,8 +3,9 @@
 
 For each system (the paper's Sec. 5 system, a ball with quadratic drag; analysis/select/*.toml) and
 each sigma: `hysid simulate` of the truth with seeds 1..N, then on each record
-  hysid:  `hysid identify --model-file LIBRARY --refine none --select-bootstrap 0 --json` (the whole
-          pipeline: its own jump detection, the selection on the integral rows),
+  hysid:  `hysid identify --model-file LIBRARY --refine none --json` (the whole pipeline: its own jump
+          detection, the selection on the integral rows with its bootstrap, which drops the chosen
+          terms fewer than half of its draws chose),
   SINDy:  sindy_reference.identify_row on the same samples with the true jump times (column j),
 and whether each chose exactly the true support. Prints one line per (system, sigma) and writes the
 rows to --out (CSV).
@@ -43,7 +44,7 @@ def library_terms(path):
 
 def run_hysid(hysid, library, data, out_json):
     p = subprocess.run([hysid, "identify", "--model-file", library, "--data", data, "--refine", "none",
-                        "--select-bootstrap", "0", "--json", out_json], capture_output=True, text=True)
+                        "--json", out_json], capture_output=True, text=True)
     if p.returncode not in (0, 1):
         raise RuntimeError(f"hysid identify failed ({p.returncode}): {p.stderr.strip()}")
     with open(out_json) as f:

@@ -87,6 +87,8 @@ bool SelectOptions::IsValid(std::string* error) const {
   if (iterations < 1) return fail(fmt::format("SelectOptions::iterations = {}: must be >= 1", iterations));
   if (min_segment < 2) return fail(fmt::format("SelectOptions::min_segment = {}: must be >= 2", min_segment));
   if (folds < 2) return fail(fmt::format("SelectOptions::folds = {}: must be >= 2", folds));
+  if (!(min_share >= 0.0 && min_share <= 1.0))
+    return fail(fmt::format("SelectOptions::min_share = {}: must be in [0, 1]", min_share));
   return true;
 }
 
@@ -455,6 +457,43 @@ BootstrapResult BootstrapSelection(const FlowSums& sums, const std::vector<bool>
     if (s.chosen == reference) ++out.support_matches;
   }
   out.frequency /= double(draws);
+  return out;
+}
+
+Selection KeepStable(const FlowSums& sums, const std::vector<bool>& selectable, const Selection& selection,
+                     const BootstrapResult& bootstrap, const SelectOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument(error);
+  const std::size_t p = sums.columns.size();
+  if (selectable.size() != p || (selection.ok && selection.chosen.size() != p) ||
+      (bootstrap.draws > 0 && static_cast<std::size_t>(bootstrap.frequency.size()) != p)) {
+    throw std::invalid_argument(fmt::format("KeepStable: {} columns, {} selectable flags, {} chosen, {} frequencies",
+                                            p, selectable.size(), selection.chosen.size(),
+                                            bootstrap.frequency.size()));
+  }
+  if (!selection.ok || bootstrap.draws == 0) return selection;
+  std::vector<bool> kept = selection.chosen;
+  for (std::size_t j = 0; j < p; ++j) {
+    if (selectable[j] && kept[j] && bootstrap.frequency[Eigen::Index(j)] < options.min_share) kept[j] = false;
+  }
+  if (kept == selection.chosen) return selection;
+  const std::vector<Normal> rows = RowTotals(sums, {}, options.min_segment);
+  const std::vector<double> weights = RowWeights(rows, std::vector<bool>(p, true));
+  const Normal ne = Combined(rows, weights);
+  const std::vector<int> idx = Indices(kept);
+  const Fit fit = Solve(ne, idx);
+  if (!fit.ok) return selection;
+  Selection out = selection;
+  out.chosen = kept;
+  out.estimate = Vec::Zero(Eigen::Index(p));
+  for (std::size_t i = 0; i < idx.size(); ++i) out.estimate[idx[i]] = fit.alpha[Eigen::Index(i)];
+  const double N = ne.rows - ne.offsets;
+  out.bic = N * std::log(fit.rss / N) + double(idx.size()) * std::log(N);
+  out.runner_up = selection.chosen;  // the other support named beside it: the cross-validated one
+  out.runner_up_bic = selection.bic;
+  if (options.rule == SelectionRule::kCrossValidation) {
+    out.cv = MakeFolds(sums, {}, options, weights, ne).Score(idx).first;
+  }
   return out;
 }
 

@@ -76,6 +76,7 @@ struct SelectOptions {
   int thresholds = 40;   // λ values on the STLSQ path (log-spaced over the relative coefficients)
   int iterations = 20;   // at most per STLSQ run
   int min_segment = 3;   // segments with fewer samples are left out
+  double min_share = 0.5;  // [0, 1]: KeepStable drops a chosen candidate the bootstrap chose less often
   bool IsValid(std::string* error) const;
 };
 
@@ -107,5 +108,15 @@ struct BootstrapResult {
 BootstrapResult BootstrapSelection(const FlowSums& sums, const std::vector<bool>& selectable,
                                    const SelectOptions& options, int draws, std::uint64_t seed,
                                    const std::vector<bool>& reference);
+
+// The chosen support less its unstable candidates (stability selection, Meinshausen and Bühlmann
+// 2010, on the bootstrap of the segments): a selectable column that `selection` chose but fewer than
+// options.min_share of the bootstrap's draws did is dropped, and the kept columns refitted (their
+// least squares, BIC and held-out mean square; the runner-up becomes the cross-validated support).
+// `selection` as it is when nothing is dropped, when it
+// is not ok, when the bootstrap has no draws, or when the kept columns are dependent. Throws
+// std::invalid_argument on sizes that disagree and invalid options.
+Selection KeepStable(const FlowSums& sums, const std::vector<bool>& selectable, const Selection& selection,
+                     const BootstrapResult& bootstrap, const SelectOptions& options);
 
 }  // namespace hysid

@@ -54,8 +54,15 @@ void PrintSelection(const Model& model, const SelectStep& step) {
     std::printf("%s\n", line.c_str());
   }
   if (step.bootstrap.draws > 0) {
-    std::printf("  bootstrap: %d draws of the flow segments with replacement; the chosen support exactly in %d\n",
+    std::printf("  bootstrap: %d draws of the flow segments with replacement; the cross-validated support "
+                "exactly in %d\n",
                 step.bootstrap.draws, step.bootstrap.support_matches);
+  }
+  for (const int j : step.unstable) {
+    std::printf("  dropped as unstable: %s (chosen by cross-validation, by %.1f%% of the bootstrap draws, "
+                "fewer than %.0f%%)\n",
+                step.names[std::size_t(j)].c_str(), 100.0 * step.bootstrap.frequency[Eigen::Index(j)],
+                100.0 * SelectOptions{}.min_share);
   }
 }
 
@@ -75,7 +82,8 @@ void AddSelectOptions(CLI::App& cmd, SelectArgs& args) {
                  "entries, the estimates as values) to this file");
   cmd.add_option("--select-bootstrap", args.bootstrap,
                  "a model file with candidate terms: bootstrap draws of the flow segments for how often each "
-                 "term is chosen (0: none)")
+                 "term is chosen; a term chosen by fewer than half of them is dropped (0: no bootstrap, "
+                 "nothing dropped)")
       ->capture_default_str();
   cmd.add_option("--select-seed", args.seed, "seed of the selection's bootstrap")->capture_default_str()
       ->transform(NonNegativeInteger);
@@ -115,9 +123,15 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
   }
   step.selection = SelectTerms(sums, step.selectable, SelectOptions{});
   if (!step.selection.ok) throw RunFailed(fmt::format("identify: no terms selected: {}", step.selection.reason));
-  if (bootstrap && args.bootstrap > 0)
+  if (bootstrap && args.bootstrap > 0) {
     step.bootstrap = BootstrapSelection(sums, step.selectable, SelectOptions{}, args.bootstrap, args.seed,
                                         step.selection.chosen);
+    Selection stable = KeepStable(sums, step.selectable, step.selection, step.bootstrap, SelectOptions{});
+    for (std::size_t j = 0; j < step.columns.size(); ++j) {
+      if (step.selection.chosen[j] && !stable.chosen[j]) step.unstable.push_back(static_cast<int>(j));
+    }
+    step.selection = std::move(stable);
+  }
   std::map<std::string, double> values;
   for (std::size_t j = 0; j < step.columns.size(); ++j) {
     const std::string& name = model.spec().alpha[std::size_t(step.columns[j])].name;
@@ -130,6 +144,16 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
   step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return step;
 }
+
+namespace {
+
+std::vector<std::string> Names(const SelectStep& step, const std::vector<int>& columns) {
+  std::vector<std::string> out;
+  for (const int j : columns) out.push_back(step.names[std::size_t(j)]);
+  return out;
+}
+
+}  // namespace
 
 nlohmann::json SelectionJson(const SelectStep& step) {
   nlohmann::json terms = nlohmann::json::array();
@@ -154,6 +178,7 @@ nlohmann::json SelectionJson(const SelectStep& step) {
           {"supports", step.selection.supports},
           {"bootstrap_draws", step.bootstrap.draws},
           {"bootstrap_support_matches", step.bootstrap.support_matches},
+          {"unstable", Names(step, step.unstable)},
           {"seconds", step.seconds}};
 }
 

@@ -38,6 +38,7 @@ struct SelectStep {
   Selection selection;
   BootstrapResult bootstrap;
   std::vector<std::string> kept;        // names of the chosen candidates
+  std::vector<int> unstable;            // columns cross-validation chose and KeepStable dropped
   int segments = 0;                     // flow segments summed
   int round = 1;                        // 1: on the pass with every candidate; then on the chosen model's
   double seconds = 0.0;                 // the selection and its bootstrap

@@ -6,8 +6,11 @@
 
 #include <cmath>
 #include <cstdint>
+#include <random>
 #include <string>
 #include <vector>
+
+#include <Eigen/Cholesky>
 
 #include "core/model_file/model_file.hpp"
 #include "core/select/select.hpp"
@@ -234,6 +237,76 @@ TEST_CASE("terms that are not selectable are always kept - bad options and sizes
   const std::vector<std::uint8_t> gamma(10, 0);
   CHECK_THROWS_WITH(SumFlowSegments(library, FlowSamples{.y = &y, .gamma = &gamma, .dt = 1e-3}),
                     Catch::Contains("sizes disagree"));
+}
+
+// Integral sums of one row over 12 segments of 40 samples: z = I·(1, 2, 0) + noise, I three columns
+// drawn at random (a fixed generator), centred per segment as SumFlowSegments centres them.
+FlowSums HandSums() {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  FlowSums sums;
+  sums.columns = {0, 1, 2};
+  for (int s = 0; s < 12; ++s) {
+    Mat x(40, 3);
+    Vec z(40);
+    for (int k = 0; k < 40; ++k) {
+      for (int c = 0; c < 3; ++c) x(k, c) = unit(rng);
+      z[k] = x(k, 0) + 2.0 * x(k, 1) + 0.1 * unit(rng);
+    }
+    const Mat xc = x.rowwise() - x.colwise().mean();
+    const Vec zc = z.array() - z.mean();
+    sums.segments.push_back({.chain = 0,
+                             .rows = {RowSums{.gram = xc.transpose() * xc, .cross = xc.transpose() * zc,
+                                              .square = zc.squaredNorm(), .count = 40}}});
+  }
+  return sums;
+}
+
+TEST_CASE("a chosen candidate the bootstrap seldom chose is dropped and the rest refitted by least squares",
+          "[select]") {
+  const FlowSums sums = HandSums();
+  const std::vector<bool> selectable{false, true, true};
+  Selection chosen;
+  chosen.ok = true;
+  chosen.chosen = {true, true, true};
+  chosen.estimate = V(1.0, 2.0, 0.0);
+  chosen.bic = -1.0;
+  BootstrapResult b;
+  b.draws = 100;
+  b.frequency = V(0.2, 0.9, 0.3);  // column 0 is no candidate: kept whatever its share
+  const Selection s = KeepStable(sums, selectable, chosen, b, SelectOptions{});
+  REQUIRE(s.ok);
+  CHECK(s.chosen == std::vector<bool>{true, true, false});
+  // The least squares on columns 0 and 1 from the summed normal equations, computed here.
+  Mat gram = Mat::Zero(2, 2);
+  Vec cross = Vec::Zero(2);
+  double square = 0.0;
+  for (const SegmentSums& seg : sums.segments) {
+    gram += seg.rows[0].gram.topLeftCorner(2, 2);
+    cross += seg.rows[0].cross.head(2);
+    square += seg.rows[0].square;
+  }
+  const Vec alpha = gram.ldlt().solve(cross);
+  CHECK(s.estimate[0] == Approx(alpha[0]).epsilon(1e-10));
+  CHECK(s.estimate[1] == Approx(alpha[1]).epsilon(1e-10));
+  CHECK(s.estimate[2] == 0.0);
+  CHECK(std::abs(alpha[1] - 2.0) < 0.05);
+  const double n = 12.0 * 40.0 - 12.0, rss = square - alpha.dot(cross);
+  CHECK(s.bic == Approx(n * std::log(rss / n) + 2.0 * std::log(n)).epsilon(1e-9));
+  CHECK(s.runner_up == chosen.chosen);
+  CHECK(s.runner_up_bic == -1.0);
+  // Every candidate at half its draws or more: the selection as it was.
+  b.frequency = V(0.2, 0.9, 0.5);
+  const Selection same = KeepStable(sums, selectable, chosen, b, SelectOptions{});
+  CHECK(same.chosen == chosen.chosen);
+  CHECK(same.estimate == chosen.estimate);
+  // No bootstrap draws: nothing to judge by.
+  CHECK(KeepStable(sums, selectable, chosen, BootstrapResult{.frequency = V(0.0, 0.0, 0.0)}, SelectOptions{})
+            .chosen == chosen.chosen);
+  CHECK_THROWS_WITH(KeepStable(sums, selectable, chosen, b, SelectOptions{.min_share = 1.5}),
+                    Catch::Contains("SelectOptions::min_share = 1.5: must be in [0, 1]"));
+  CHECK_THROWS_WITH(KeepStable(sums, {true}, chosen, b, SelectOptions{}),
+                    Catch::Contains("KeepStable: 3 columns, 1 selectable flags"));
 }
 
 }  // namespace hysid
