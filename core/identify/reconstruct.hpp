@@ -87,7 +87,7 @@ void SavitzkyGolaySlope(const std::vector<double>& t, const double* y, long begi
 
 struct KinkDetection {
   std::vector<std::uint8_t> gamma;  // per sample: 1 = a jump in (t_{k−1}, t_k]
-  std::vector<double> statistic;    // per sample (of the interval ending there)
+  std::vector<double> statistic;    // per sample (of the interval ending there), the largest over the chords
   Vec sigma;                        // the noise σ per measured component used
   long chord = 0;  // the longest chord a kink was located with (samples; the ladder's longest when none)
   bool stopped = false;             // ReconstructOptions::stop was raised: partial
