@@ -162,12 +162,16 @@ py::dict RunSweepFile(const std::filesystem::path& file, const std::string& out,
   options.progress = Progress::Mode::kNone;
   auto stop = std::make_shared<std::atomic<bool>>(false);
   SweepOutcome o;
+  // Read before the call: an abandoned call may end (and release the lock) between this call's
+  // refusal and the message's rewrite.
+  const bool abandoned = AbandonedWork().load() > 0;
   try {
     o = RunInterruptible<SweepOutcome>(
         [config, options, stop] { return RunSweep(config, Builtins(), options, stop.get()); }, stop);
   } catch (const std::invalid_argument& e) {
     std::string message = e.what();  // the directory's lock: perhaps held by this process's interrupted call
-    if (message.ends_with("is locked); wait for it or use another --out") && AbandonedWork().load() > 0) {
+    if (message.ends_with("is locked); wait for it or use another --out") &&
+        (abandoned || AbandonedWork().load() > 0)) {
       message.replace(message.size() - 5, 5,
                       "out (an interrupted run_sweep of this process is finishing "
                       "the units it was running)");
