@@ -422,11 +422,10 @@ KinkDetection DetectKinks(const std::vector<double>& t, const Mat& y, const std:
         double& z = d.statistic[static_cast<std::size_t>(a) + i];
         z = std::max(z, kinks.statistic[i]);
       }
-      const std::size_t seen = at.size();
+      const auto seen = static_cast<long>(at.size());  // at[0, seen) is sorted
       for (const long k : kinks.peaks) {
-        const bool known = std::any_of(at.begin(), at.begin() + static_cast<long>(seen),
-                                       [&](long s) { return std::abs(s - k) <= w; });
-        if (!known) at.push_back(k);
+        const auto near = std::lower_bound(at.begin(), at.begin() + seen, k - w);
+        if (near == at.begin() + seen || *near > k + w) at.push_back(k);
       }
       std::sort(at.begin(), at.end());
     }
