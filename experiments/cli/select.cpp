@@ -38,7 +38,7 @@ std::string TermText(const ModelSpec& spec, int alpha) {
 namespace {
 
 // One block's report: its selection, its candidates with their estimates and bootstrap shares.
-void PrintBlock(const Model& model, const SelectStep& step, const SelectBlock& block) {
+void PrintBlock(const SelectStep& step, const SelectBlock& block) {
   const Selection& s = block.selection;
   std::size_t candidates = 0;
   std::vector<std::string> kept;
@@ -49,13 +49,13 @@ void PrintBlock(const Model& model, const SelectStep& step, const SelectBlock& b
     if (s.chosen[i]) kept.push_back(step.names[j]);
   }
   std::printf("selection%s: %zu candidate terms, %d flow segments (%s), %ld integral "
-              "rows; %d supports from thresholded least squares and backward elimination, chosen by "
-              "cross-validation over the segments\n",
+              "rows; %d supports from thresholded least squares, backward and forward selection and every "
+              "support of at most %d candidates, chosen by cross-validation over the segments\n",
               block.mode_name.empty() ? "" : fmt::format(" in mode {}", block.mode_name).c_str(), candidates,
               block.segments,
               step.round == 1 ? "the detections of the pass with every candidate"
                               : fmt::format("the detections of the chosen model, round {}", step.round).c_str(),
-              s.rows, s.supports);
+              s.rows, s.supports, SelectOptions{}.exhaustive);
   std::printf("  chosen: %s (held-out mean square %.6g; BIC %.2f, the least BIC of another support %s)\n",
               kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(kept, ", ")).c_str(), s.cv, s.bic,
               std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
@@ -74,13 +74,12 @@ void PrintBlock(const Model& model, const SelectStep& step, const SelectBlock& b
                 "exactly in %d\n",
                 block.bootstrap.draws, block.bootstrap.support_matches);
   }
-  (void)model;
 }
 
 }  // namespace
 
-void PrintSelection(const Model& model, const SelectStep& step) {
-  for (const SelectBlock& block : step.blocks) PrintBlock(model, step, block);
+void PrintSelection(const SelectStep& step) {
+  for (const SelectBlock& block : step.blocks) PrintBlock(step, block);
   for (const int j : step.unstable) {
     std::printf("  dropped as unstable: %s (chosen by cross-validation, by %.1f%% of the bootstrap draws, "
                 "fewer than %.0f%%)\n",

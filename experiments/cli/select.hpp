@@ -66,7 +66,7 @@ struct SelectStep {
 // no support can be chosen.
 SelectStep SelectCandidates(const Model& model, const std::string& file, const SampleData& data,
                             const IdentifyResult& detected, const SelectArgs& args, bool bootstrap);
-void PrintSelection(const Model& model, const SelectStep& step);
+void PrintSelection(const SelectStep& step);
 nlohmann::json SelectionJson(const SelectStep& step);
 // After the chosen model's refinement (`refined`, null: none ran) or recursive pass: the chosen terms
 // with their estimates and bootstrap frequencies; --chosen-model written with the estimates.
