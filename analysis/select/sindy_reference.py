@@ -7,17 +7,21 @@ from the samples, a library Θ(X) of candidate functions is evaluated at the sam
 Ẋ ≈ Θ(X) Ξ is solved by `sparsify_dynamics` (least squares, zero the coefficients below λ, re-solve
 on the rest, repeat). Here the derivative is the central difference inside each flow segment (the
 samples between jumps; the reference is given the true jump times), the library columns are
-normalised to unit RMS before thresholding, and λ is chosen on a path by the same rule as hysid's
-(K-fold cross-validation over the segments, the fewest terms within one standard error of the least
-held-out mean square) or by BIC, so that the comparison measures the regression, not the rule.
+normalised to unit RMS before thresholding, the supports are those of the λ path, of forward
+selection and every support of at most two terms (as hysid adds them), and one is chosen by the same
+rule as hysid's (K-fold cross-validation over the segments, the fewest terms within one standard
+error of the least held-out mean square) or by BIC, so that the comparison measures the regression,
+not the rule.
 """
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 
 # muParser's functions as numpy ones (the library's terms are written as in a model file).
 _NAMES = {"abs": np.abs, "sign": np.sign, "sin": np.sin, "cos": np.cos, "exp": np.exp, "sqrt": np.sqrt,
-          "tanh": np.tanh, "ln": np.log, "log": np.log}
+          "tanh": np.tanh, "atan": np.arctan, "ln": np.log, "log": np.log}
 
 
 def evaluate_terms(terms, variables):
@@ -81,8 +85,39 @@ def _cv_score(folds, support):
     return rss / rows, float(np.std(errors, ddof=1) / np.sqrt(len(errors)))
 
 
-def select(theta, dxdt, seg, thresholds=40, rule="cv", folds=5):
-    """The support (boolean per column) and coefficients chosen on the λ path by `rule` ("cv" or "bic")."""
+def _small_and_forward(gram, cross, square, exhaustive):
+    """Every support of at most `exhaustive` columns, and forward selection's (add the column whose
+    fit leaves the least residual sum of squares), as hysid's selection adds them to its path."""
+    p = len(cross)
+    out = []
+    for k in range(1, exhaustive + 1):
+        for cols in itertools.combinations(range(p), k):
+            s = np.zeros(p, dtype=bool)
+            s[list(cols)] = True
+            out.append(s)
+    s = np.zeros(p, dtype=bool)
+    for _ in range(p):
+        best, least = -1, np.inf
+        for j in np.flatnonzero(~s):
+            t = s.copy()
+            t[j] = True
+            g = gram[np.ix_(t, t)]
+            if np.linalg.cond(g) > 1e13:
+                continue
+            rss = square - cross[t] @ np.linalg.solve(g, cross[t])
+            if rss < least:
+                best, least = j, rss
+        if best < 0:
+            break
+        s = s.copy()
+        s[best] = True
+        out.append(s)
+    return out
+
+
+def select(theta, dxdt, seg, thresholds=40, rule="cv", folds=5, exhaustive=2):
+    """The support (boolean per column) and coefficients chosen by `rule` ("cv" or "bic") among those of
+    the λ path, forward selection and every support of at most `exhaustive` columns."""
     scale = np.sqrt(np.mean(theta * theta, axis=0))
     scale[scale == 0] = 1.0
     normal = theta / scale
@@ -93,6 +128,8 @@ def select(theta, dxdt, seg, thresholds=40, rule="cv", folds=5):
         s = sparsify_dynamics(normal, dxdt, lam) != 0
         supports.setdefault(s.tobytes(), s)
     gram, cross, n = normal.T @ normal, normal.T @ dxdt, len(dxdt)
+    for s in _small_and_forward(gram, cross, float(dxdt @ dxdt), exhaustive):
+        supports.setdefault(s.tobytes(), s)
     fold_sums = []
     for f in range(folds):
         test = seg % folds == f

@@ -1,14 +1,16 @@
 #!/usr/bin/python3
 """Support recovery of hysid's candidate-term selection and of the SINDy reference, over noise draws.
 
-For each system (the paper's Sec. 5 system, a ball with quadratic drag; analysis/select/*.toml) and
-each sigma: `hysid simulate` of the truth with seeds 1..N, then on each record
+For each system (the paper's Sec. 5 system, a ball with quadratic drag, a spring-mass hopper with
+flight and stance modes, a thermostat with heater off and on; analysis/select/*.toml) and each sigma:
+`hysid simulate` of the truth with seeds 1..N, then on each record
   hysid:  `hysid identify --model-file LIBRARY --refine none --json` (the whole pipeline: its own jump
-          detection, the selection on the integral rows with its bootstrap, which drops the chosen
-          terms fewer than half of its draws chose),
-  SINDy:  sindy_reference.identify_row on the same samples with the true jump times (column j),
-and whether each chose exactly the true support. Prints one line per (system, sigma) and writes the
-rows to --out (CSV).
+          and switch detection, the selection on the integral rows of each mode with its bootstrap,
+          which drops the chosen terms fewer than half of its draws chose),
+  SINDy:  sindy_reference.select on the same samples with the true jump times and modes (columns j
+          and q), per mode on the central differences inside that mode's flow segments,
+and whether each chose exactly the true support (of every mode). Prints one line per (system, sigma)
+and writes the rows to --out (CSV); `chosen` lists MODE:TERM for the systems with modes.
 
 Usage: support_study.py --hysid build/bin/hysid [--draws 50] [--sigmas 0.01,0.1] [--systems s5,ball]
                         [--out results/select/support.csv]
@@ -29,17 +31,28 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import sindy_reference as sindy  # noqa: E402
 
+# The true support per mode (None: a model without modes).
 SYSTEMS = {
-    "s5": {"truth": "s5_truth.toml", "library": "s5_library.toml", "support": ["x", "v"]},
-    "ball": {"truth": "ball_truth.toml", "library": "ball_library.toml", "support": ["1", "abs(v)*v"]},
+    "s5": {"truth": "s5_truth.toml", "library": "s5_library.toml", "support": {None: ["x", "v"]}},
+    "ball": {"truth": "ball_truth.toml", "library": "ball_library.toml", "support": {None: ["1", "abs(v)*v"]}},
+    "hopper": {"truth": "hopper_truth.toml", "library": "hopper_library.toml",
+               "support": {"flight": ["1", "abs(v)*v"], "stance": ["1", "y"]}},
+    "thermostat": {"truth": "thermostat_truth.toml", "library": "thermostat_library.toml",
+                   "support": {"off": ["1", "T - 20"], "on": ["1", "T - 20"]}},
 }
 
 
 def library_terms(path):
+    """The states, the modes (empty: none) and per mode (None without modes) its row and terms."""
     with open(path, "rb") as f:
         spec = tomllib.load(f)
-    (row, terms), = spec["flow"]["candidates"].items()
-    return spec["states"], row, terms
+    flows = spec["flow"] if isinstance(spec["flow"], list) else [spec["flow"]]
+    per_mode = {}
+    for flow in flows:
+        if "candidates" in flow:
+            (row, terms), = flow["candidates"].items()
+            per_mode[flow.get("mode")] = (row, terms)
+    return spec["states"], spec.get("modes", []), per_mode
 
 
 def run_hysid(hysid, library, data, out_json):
@@ -49,16 +62,30 @@ def run_hysid(hysid, library, data, out_json):
         raise RuntimeError(f"hysid identify failed ({p.returncode}): {p.stderr.strip()}")
     with open(out_json) as f:
         selection = json.load(f)["selection"]
-    return [t["term"] for t in selection["terms"] if t["chosen"]], selection["seconds"]
+    return [(t.get("mode"), t["term"]) for t in selection["terms"] if t["chosen"]], selection["seconds"]
 
 
-def run_reference(data, states, row, terms):
+def run_reference(data, states, modes, per_mode):
+    """SINDy per mode on the true flow segments of that mode (split at every jump and mode change)."""
     table = np.genfromtxt(data, delimiter=",", names=True)
     columns = {name: table[f"{name}_noisy"] if f"{name}_noisy" in table.dtype.names else table[name]
                for name in states}
+    q = table["q"].astype(int) if modes else np.zeros(len(table["t"]), dtype=int)
+    pieces = np.concatenate([[0], np.cumsum((np.diff(table["j"]) != 0) | (np.diff(q) != 0))])
     start = time.perf_counter()
-    support, _ = sindy.identify_row(table["t"], columns, table["j"].astype(int), row, terms)
-    return [term for term, chosen in zip(terms, support) if chosen], time.perf_counter() - start
+    chosen = []
+    for mode, (row, terms) in per_mode.items():
+        index = modes.index(mode) if mode is not None else 0
+        segments = [s for s in sindy.flow_segments(pieces) if q[s[0]] == index]
+        idx, dxdt, seg = sindy.central_differences(table["t"], columns[row], segments)
+        theta = sindy.evaluate_terms(terms, {name: x[idx] for name, x in columns.items()})
+        support, _ = sindy.select(theta, dxdt, seg)
+        chosen += [(mode, term) for term, c in zip(terms, support) if c]
+    return chosen, time.perf_counter() - start
+
+
+def exact(chosen, support):
+    return sorted((m or "", t) for m, t in chosen) == sorted((m or "", t) for m, ts in support.items() for t in ts)
 
 
 def main():
@@ -74,7 +101,7 @@ def main():
         for name in args.systems.split(","):
             system = SYSTEMS[name]
             truth, library = (os.path.join(HERE, system[k]) for k in ("truth", "library"))
-            states, row, terms = library_terms(library)
+            states, modes, per_mode = library_terms(library)
             for sigma in (float(s) for s in args.sigmas.split(",")):
                 hits = {"hysid": 0, "sindy": 0}
                 seconds = {"hysid": 0.0, "sindy": 0.0}
@@ -83,13 +110,14 @@ def main():
                     subprocess.run([args.hysid, "simulate", "--model-file", truth, "--sigma", str(sigma),
                                     "--seed", str(seed), "--out", data], check=True, capture_output=True)
                     chosen_h, sec_h = run_hysid(args.hysid, library, data, os.path.join(tmp, "id.json"))
-                    chosen_s, sec_s = run_reference(data, states, row, terms)
+                    chosen_s, sec_s = run_reference(data, states, modes, per_mode)
                     for who, chosen, sec in (("hysid", chosen_h, sec_h), ("sindy", chosen_s, sec_s)):
-                        exact = sorted(chosen) == sorted(system["support"])
-                        hits[who] += exact
+                        hit = exact(chosen, system["support"])
+                        hits[who] += hit
                         seconds[who] += sec
+                        text = " ".join(f"{m}:{t}" if m else t for m, t in chosen)
                         rows.append({"system": name, "sigma": sigma, "seed": seed, "method": who,
-                                     "exact": int(exact), "chosen": " ".join(chosen), "seconds": f"{sec:.3f}"})
+                                     "exact": int(hit), "chosen": text, "seconds": f"{sec:.3f}"})
                 print(f"{name} sigma {sigma:g}: exact support hysid {hits['hysid']}/{args.draws}, "
                       f"SINDy {hits['sindy']}/{args.draws} (mean selection time hysid "
                       f"{seconds['hysid'] / args.draws:.2f} s, SINDy {seconds['sindy'] / args.draws:.2f} s)",

@@ -398,11 +398,42 @@ std::string EventsReason(const std::vector<AutomatonEvent>& events) {
                      none, unarmed, first);
 }
 
+// The switches among `events` whose guard moved against its direction as the switch approached: h at
+// the sample before the switch less h at the sample `window` before that (within its flow segment),
+// positive for a falling guard or negative for a rising one. Jumps and guards of either direction count
+// never.
+int AgainstDirection(const Model& model, const Mat& y, const std::vector<double>& t, const Mat& inputs,
+                     const Vec& alpha, const std::vector<std::uint8_t>& breaks, const std::vector<AutomatonEvent>& events,
+                     int window) {
+  const long K = static_cast<long>(y.cols());
+  Vec h(model.guard_count());
+  const auto guard_at = [&](long k, int g) {
+    const Context ctx{.t = t[std::size_t(k)], .u = inputs.rows() > 0 ? inputs.col(k).data() : nullptr,
+                      .alpha = alpha.data()};
+    model.Guards(y.col(k), h, ctx);
+    return h[g];
+  };
+  int against = 0;
+  for (const AutomatonEvent& e : events) {
+    if (e.jump || e.map < 0 || e.guard < 0) continue;
+    const Crossing c = model.spec().guards[std::size_t(e.guard)].direction;
+    if (c == Crossing::kBoth) continue;
+    const long b = e.sample - 1;
+    long a = b;
+    while (a > 0 && b - a < window && breaks[std::size_t(a)] == 0) --a;
+    if (a == b || b >= K || !y.col(a).allFinite() || !y.col(b).allFinite()) continue;
+    const double change = guard_at(b, e.guard) - guard_at(a, e.guard);
+    if ((c == Crossing::kFalling && change > 0.0) || (c == Crossing::kRising && change < 0.0)) ++against;
+  }
+  return against;
+}
+
 // The events of one set of jump labels, assigned from the best initial mode (the rule in events.hpp).
 struct Assignment {
   std::vector<AutomatonEvent> events;
   std::vector<int> modes, maps;  // per sample
   std::vector<double> rss;       // per candidate initial mode (NaN: not tried)
+  std::vector<int> against;      // per candidate initial mode: switches against their guard's direction
   int initial_mode = 0;
   bool inferred = false;
 };
@@ -435,13 +466,18 @@ Assignment AssignAll(const Model& model, const Mat& y, const std::vector<double>
   }
   Assignment out;
   out.rss.assign(std::size_t(ModeCount(spec)), kNaN);
+  out.against.assign(std::size_t(ModeCount(spec)), 0);
   out.initial_mode = candidates.front();
   out.inferred = candidates.size() > 1;
   for (int q0 : candidates) {
     std::vector<int> modes, per_map;
     std::vector<AutomatonEvent> e = AssignEvents(model, y, t, options.inputs, alpha, q0, jumps, kinks, &modes, &per_map);
     out.rss[std::size_t(q0)] = out.inferred ? ModeResidual(model, y, t, options.inputs, breaks, modes) : kNaN;
-    if (q0 == candidates.front() || out.rss[std::size_t(q0)] < out.rss[std::size_t(out.initial_mode)]) {
+    const int against = out.inferred ? AgainstDirection(model, y, t, options.inputs, alpha, breaks, e, options.kinks.window) : 0;
+    out.against[std::size_t(q0)] = against;
+    const int best = out.against[std::size_t(out.initial_mode)];
+    if (q0 == candidates.front() || against < best ||
+        (against == best && out.rss[std::size_t(q0)] < out.rss[std::size_t(out.initial_mode)])) {
       out.initial_mode = q0;
       out.events = std::move(e);
       out.modes = std::move(modes);

@@ -15,9 +15,13 @@
 //              kind (identity for a switch, ψ for a jump) armed in q; of several, the one whose guard
 //              is nearest zero, |h|/‖∇ₓh‖ least over the flow step from the pre-event sample (γ the
 //              model's: its start). Then q = the map's `to`.
-//   Initial q  given (IdentifyOptions::initial_mode), else every mode is tried and the one whose flow
-//              regression (least squares over all flow pairs, with each sample's mode) leaves the
-//              least residual sum of squares is kept.
+//   Initial q  given (IdentifyOptions::initial_mode), else every mode is tried and the one whose
+//              switches cross their guards in the guards' directions most often (h from the sample a
+//              kink window before the switch's pre-switch sample to that sample, within its flow
+//              segment) is
+//              kept; of those, the one whose flow regression (least squares over all flow pairs, with
+//              each sample's mode) leaves the least residual sum of squares. The directions tell the
+//              modes apart when their φ have the same form (a library of candidate terms per mode).
 #pragma once
 
 #include <cstdint>

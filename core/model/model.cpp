@@ -47,8 +47,8 @@ void Model::CheckSpec() const {
   const int n = state_size();
   Require(!name.empty(), "?", "ModelSpec::name is empty");
   Require(n >= 1 && n <= kMaxStates, name, fmt::format("state size {} outside [1, {}]", n, kMaxStates));
-  Require(!spec_.alpha.empty() && static_cast<int>(spec_.alpha.size()) <= kMaxParameters, name,
-          "alpha must have between 1 and 32 entries");
+  Require(!spec_.alpha.empty() && static_cast<int>(spec_.alpha.size()) <= kMaxAlpha, name,
+          fmt::format("alpha must have between 1 and {} entries", kMaxAlpha));
   const bool all_identity = !spec_.jumps.empty() && std::all_of(spec_.jumps.begin(), spec_.jumps.end(),
                                                                   [](const JumpMap& m) { return m.identity; });
   Require((all_identity || !spec_.beta.empty()) && static_cast<int>(spec_.beta.size()) <= kMaxParameters, name,
@@ -260,8 +260,8 @@ void Model::GuardParameterJacobian(const ConstVecRef& x, const Context& ctx, Par
                          : block == ParameterBlock::kBeta ? beta_.size()
                                                            : gamma_.size();
   const double* value = base.*field;
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> vp = Eigen::Map<const Vec>(value, m);
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1> vm = vp;
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxAlpha, 1> vp = Eigen::Map<const Vec>(value, m);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxAlpha, 1> vm = vp;
   const Eigen::Index g = guard_count();
   Vec hp(g), hm(g);
   Context cp = base, cm = base;

@@ -57,12 +57,14 @@ struct Parameter {
   double upper = std::numeric_limits<double>::infinity();
 };
 
-// A candidate term of a flow row (a model file's [flow] candidates): the α entry whose φ column is
-// the expression `term` in row `row` and 0 elsewhere, its coefficient to be selected from the data.
+// A candidate term of a flow row (a model file's [flow] or [[flow]] candidates): the α entry whose φ
+// column is the expression `term` in row `row` of mode `mode`'s φ and 0 elsewhere (every other mode's φ
+// included), its coefficient to be selected from the data of that mode.
 struct CandidateTerm {
   int alpha = 0;
   int row = 0;
   std::string term;
+  int mode = 0;
 };
 
 struct ModelSpec {
@@ -302,10 +304,12 @@ class Model {
   // Largest number of states and parameters (and inputs) the fixed-capacity scratch buffers allow.
   static constexpr int kMaxStates = 16;
   static constexpr int kMaxParameters = 32;
+  // α alone may be longer: a model file's candidate terms, per mode of an automaton, are α entries.
+  static constexpr int kMaxAlpha = 64;
 
  private:
   using ScratchMat =
-      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxStates, kMaxParameters>;
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxStates, kMaxAlpha>;
 
   struct Concept {
     virtual ~Concept() = default;

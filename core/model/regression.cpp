@@ -62,7 +62,7 @@ RegressionBuilder::RegressionBuilder(const Model& model)
 void RegressionBuilder::Flow(const ConstVecRef& prev, const ConstVecRef& cur, double dt, MatRef phi,
                              VecRef y) {
   if (flow_.rows.size() == 1) {
-    double row[Model::kMaxParameters];
+    double row[Model::kMaxAlpha];
     FlowRow(prev.data(), cur.data(), dt, row, y.data());
     for (std::size_t j = 0; j < flow_.unknown.size(); ++j) phi(0, Eigen::Index(j)) = row[j];
     return;
@@ -127,7 +127,7 @@ void RegressionBuilder::FlowRowsFor(const double* prev, const double* xs, Eigen:
     for (std::size_t c = 0; c < k; ++c) out[u + c] = phi_nm[known[c]];
   };
   const int r = flow_.rows[0];
-  double row_prev[Model::kMaxParameters], row_cur[Model::kMaxParameters];
+  double row_prev[Model::kMaxAlpha], row_cur[Model::kMaxAlpha];
   if (consecutive) {
     for (std::size_t j = 0; j < u + k; ++j) row_prev[j] = row_last_[j];
   } else {

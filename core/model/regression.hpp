@@ -79,7 +79,7 @@ class RegressionBuilder {
   // known columns c, and the known α_c.
   std::vector<Eigen::Index> row_unknown_, row_known_;
   std::vector<double> row_known_alpha_;
-  double row_last_[Model::kMaxParameters] = {};  // row r of φ at last_cur_ (one-row layouts)
+  double row_last_[Model::kMaxAlpha] = {};  // row r of φ at last_cur_ (one-row layouts)
   std::vector<double> phi_block_;                // φ of up to kBlock states
 };
 

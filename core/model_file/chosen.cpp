@@ -34,46 +34,78 @@ void SetValues(toml::table& root, const std::map<std::string, double>& values) {
 
 }  // namespace
 
+namespace {
+
+// The flow tables of the file ([flow], or each [[flow]]) and the prefix of their candidates' names
+// ("" for [flow], "MODE_" for a [[flow]]).
+std::vector<std::pair<toml::table*, std::string>> FlowTables(toml::table& root) {
+  std::vector<std::pair<toml::table*, std::string>> out;
+  if (toml::table* flow = root["flow"].as_table()) out.emplace_back(flow, "");
+  if (toml::array* flows = root["flow"].as_array()) {
+    for (toml::node& node : *flows) {
+      toml::table* t = node.as_table();
+      if (t == nullptr) continue;
+      out.emplace_back(t, (*t)["mode"].value<std::string>().value_or("") + "_");
+    }
+  }
+  return out;
+}
+
+// Appends one column to every flow table's phi: `term` in state `row` of `owner`, 0 elsewhere.
+void AppendColumn(const std::vector<std::pair<toml::table*, std::string>>& flows, const toml::table* owner,
+                  const toml::array& states, std::string_view row, const toml::node& term) {
+  for (const auto& [table, prefix] : flows) {
+    toml::array* phi = (*table)["phi"].as_array();
+    for (std::size_t s = 0; phi != nullptr && s < states.size() && s < phi->size(); ++s) {
+      toml::array* phi_row = phi->get(s)->as_array();
+      if (phi_row == nullptr) continue;
+      if (table == owner && states.get(s)->value<std::string>() == std::string(row)) {
+        if (term.is_string()) phi_row->push_back(*term.value<std::string>());
+        else phi_row->push_back(term.value<double>().value_or(0.0));
+      } else {
+        phi_row->push_back(0);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 std::string ChosenModelText(std::string_view text, const std::string& name, const std::vector<std::string>& kept,
                             const std::map<std::string, double>& values, const std::vector<std::string>& header) {
   toml::table root = ParseToml(text, name);
-  toml::table* flow = root["flow"].as_table();
-  toml::table* candidates = flow != nullptr ? (*flow)["candidates"].as_table() : nullptr;
+  const std::vector<std::pair<toml::table*, std::string>> flows = FlowTables(root);
   toml::array* states = root["states"].as_array();
-  toml::array* phi = flow != nullptr ? (*flow)["phi"].as_array() : nullptr;
   toml::array* alpha = root["alpha"].as_array();
-  if (candidates == nullptr || states == nullptr || phi == nullptr || alpha == nullptr)
-    throw std::invalid_argument(fmt::format("{}: [flow] has no candidates", name));
+  const bool any = std::any_of(flows.begin(), flows.end(), [](const auto& f) { return f.first->contains("candidates"); });
+  if (!any || states == nullptr || alpha == nullptr)
+    throw std::invalid_argument(fmt::format("{}: no [flow] or [[flow]] table has candidates", name));
   std::vector<std::string> found;
-  for (auto&& [row, list] : *candidates) {
-    const toml::array* terms = list.as_array();
-    for (std::size_t i = 0; terms != nullptr && i < terms->size(); ++i) {
-      const std::string candidate = fmt::format("{}_{}", row.str(), i + 1);
-      if (std::find(kept.begin(), kept.end(), candidate) == kept.end()) continue;
-      found.push_back(candidate);
-      const toml::node& term = *terms->get(i);
-      toml::table entry{{"name", candidate}, {"value", 0.0}};
-      entry.insert("description", fmt::format("chosen candidate term {}", term.value<std::string>().value_or(
-                                                                              fmt::format("{}", term.value<double>().value_or(0.0)))));
-      entry.is_inline(true);
-      alpha->push_back(std::move(entry));
-      for (std::size_t s = 0; s < states->size() && s < phi->size(); ++s) {
-        toml::array* phi_row = phi->get(s)->as_array();
-        if (phi_row == nullptr) continue;
-        if (states->get(s)->value<std::string>() == std::string(row.str())) {
-          if (term.is_string()) phi_row->push_back(*term.value<std::string>());
-          else phi_row->push_back(term.value<double>().value_or(0.0));
-        } else {
-          phi_row->push_back(0);
-        }
+  for (const auto& [table, prefix] : flows) {
+    const toml::table* candidates = (*table)["candidates"].as_table();
+    if (candidates == nullptr) continue;
+    for (auto&& [row, list] : *candidates) {
+      const toml::array* terms = list.as_array();
+      for (std::size_t i = 0; terms != nullptr && i < terms->size(); ++i) {
+        const std::string candidate = fmt::format("{}{}_{}", prefix, row.str(), i + 1);
+        if (std::find(kept.begin(), kept.end(), candidate) == kept.end()) continue;
+        found.push_back(candidate);
+        const toml::node& term = *terms->get(i);
+        toml::table entry{{"name", candidate}, {"value", 0.0}};
+        entry.insert("description",
+                     fmt::format("chosen candidate term {}", term.value<std::string>().value_or(
+                                                                 fmt::format("{}", term.value<double>().value_or(0.0)))));
+        entry.is_inline(true);
+        alpha->push_back(std::move(entry));
+        AppendColumn(flows, table, *states, row.str(), term);
       }
     }
   }
   for (const std::string& k : kept) {
     if (std::find(found.begin(), found.end(), k) == found.end())
-      throw std::invalid_argument(fmt::format("{}: '{}' is no candidate term of [flow]", name, k));
+      throw std::invalid_argument(fmt::format("{}: '{}' is no candidate term of [flow] or [[flow]]", name, k));
   }
-  flow->erase("candidates");
+  for (const auto& [table, prefix] : flows) table->erase("candidates");
   SetValues(root, values);
   std::ostringstream out;
   for (const std::string& line : header) out << "# " << line << "\n";

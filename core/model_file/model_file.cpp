@@ -49,7 +49,7 @@ constexpr std::size_t kInputSlot = Model::kMaxStates;
 constexpr std::size_t kGammaSlot = kInputSlot + Model::kMaxParameters;
 constexpr std::size_t kTimeSlot = kGammaSlot + Model::kMaxParameters;
 constexpr std::size_t kAlphaSlot = kTimeSlot + 1;
-constexpr std::size_t kBetaSlot = kAlphaSlot + Model::kMaxParameters;
+constexpr std::size_t kBetaSlot = kAlphaSlot + Model::kMaxAlpha;
 constexpr std::size_t kSlots = kBetaSlot + Model::kMaxParameters;
 
 // The parsed file, shared (immutable) by every copy of the model.
@@ -785,7 +785,7 @@ std::vector<int> ParseCheckedRows(const TomlReader& rd, const toml::table& t, co
 std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::table& t, const std::string& key,
                                            Definition& def, Symbols& sym, std::set<int>& rows) {
   ModelSpec& spec = def.spec;
-  rd.OnlyKeys(t, key, {"mode", "phi", "rows", "jacobian_constant"});
+  rd.OnlyKeys(t, key, {"mode", "phi", "rows", "jacobian_constant", "candidates"});
   const toml::node& mode = rd.Require(t, key, "mode");
   const std::string mkey = TomlReader::Join(key, "mode");
   const std::string name = rd.String(mode, mkey);
@@ -803,41 +803,57 @@ std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::tab
 
 std::vector<std::string> TakenNames(const ModelSpec& spec);
 
-// One candidate term `text` of row r: an unknown α entry ROW_K (value 0) and its φ column, the term in
-// row r and 0 elsewhere, appended to φ as ParseMatrix writes an entry.
-void AppendCandidate(const TomlReader& rd, const toml::node& node, const std::string& key, int r,
+// One candidate term `text` of row r in mode q: an unknown α entry `name` (value 0) and its φ column,
+// the term in row r of φ_q and 0 elsewhere (every other mode's φ gets a zero column), appended to φ as
+// ParseMatrix writes an entry.
+void AppendCandidate(const TomlReader& rd, const toml::node& node, const std::string& key, int r, std::size_t q,
                      const std::string& text, Definition& def, Symbols& sym, const std::string& name) {
   ModelSpec& spec = def.spec;
-  ExprMatrix& m = def.phi[0];
   const auto [value, uses_variable, varies] = CheckExpression(rd, &node, key, text, sym);
-  for (Eigen::Index i = 0; i < m.rows; ++i) {
-    const Eigen::Index at = m.cols * m.rows + i;
-    const bool here = i == r;
-    m.constant.push_back(here && !uses_variable ? value : 0.0);
-    m.text.push_back(here ? text : "0");
-    if (here && uses_variable) {
-      m.index.push_back(at);
-      m.joined += (m.joined.empty() ? "(" : ",(") + text + ")";
+  for (std::size_t p = 0; p < def.phi.size(); ++p) {
+    ExprMatrix& m = def.phi[p];
+    for (Eigen::Index i = 0; i < m.rows; ++i) {
+      const Eigen::Index at = m.cols * m.rows + i;
+      const bool here = p == q && i == r;
+      m.constant.push_back(here && !uses_variable ? value : 0.0);
+      m.text.push_back(here ? text : "0");
+      if (here && uses_variable) {
+        m.index.push_back(at);
+        m.joined += (m.joined.empty() ? "(" : ",(") + text + ")";
+      }
     }
+    ++m.cols;
   }
-  ++m.cols;
-  spec.candidates.push_back({static_cast<int>(spec.alpha.size()), r, text});
+  spec.candidates.push_back({static_cast<int>(spec.alpha.size()), r, text, static_cast<int>(q)});
   spec.alpha.push_back(Parameter{.name = name, .value = 0.0, .description = "candidate term " + text});
 }
 
-// [flow] candidates = { ROW = ["TERM", ...] }: per identified row its candidate terms, each appended
-// to α (named ROW_K) and φ. The flow Jacobian of a model with candidates is not declared constant.
-void ParseCandidates(const TomlReader& rd, const toml::node& node, Definition& def, Symbols& sym) {
+// Where a table's candidates go: its key (flow, flow[i]), its mode q (0 for [flow]), the prefix of
+// their names ("" for [flow], "MODE_" for a [[flow]]) and the table's identified rows.
+struct CandidateTable {
+  std::string key;
+  std::size_t mode = 0;
+  std::string prefix;
+  std::vector<int> rows;
+};
+
+// KEY.candidates = { ROW = ["TERM", ...] }: per identified row of the table its candidate terms, each
+// appended to α (named PREFIX + ROW_K) and φ. The flow Jacobian of a model with candidates is not
+// declared constant.
+void ParseCandidates(const TomlReader& rd, const toml::node& node, const CandidateTable& table, Definition& def,
+                     Symbols& sym) {
   ModelSpec& spec = def.spec;
   std::vector<std::string> taken = TakenNames(spec);
   taken.insert(taken.end(), spec.inputs.begin(), spec.inputs.end());
   for (const Parameter& p : spec.guard_params) taken.push_back(p.name);
-  for (auto&& [k, v] : rd.Table(node, "flow.candidates")) {
+  const std::string ckey = TomlReader::Join(table.key, "candidates");
+  for (auto&& [k, v] : rd.Table(node, ckey)) {
     const std::string row_name(k.str());
-    const std::string key = TomlReader::Join("flow.candidates", row_name);
+    const std::string key = TomlReader::Join(ckey, row_name);
     const int r = static_cast<int>(rd.Choice(&v, key, "state", row_name, spec.state_names));
-    if (std::find(spec.flow_rows.begin(), spec.flow_rows.end(), r) == spec.flow_rows.end()) {
-      rd.Fail(&v, key, fmt::format("'{}' is not one of flow.rows: candidate terms are in identified rows", row_name));
+    if (std::find(table.rows.begin(), table.rows.end(), r) == table.rows.end()) {
+      rd.Fail(&v, key, fmt::format("'{}' is not one of {}.rows: candidate terms are in identified rows", row_name,
+                                   table.key));
     }
     const toml::array& terms = rd.Array(v, key);
     rd.NotEmpty(&terms, key, terms.size(), "candidate term");
@@ -847,22 +863,44 @@ void ParseCandidates(const TomlReader& rd, const toml::node& node, Definition& d
       const std::string text = EntryText(rd, terms[i], ikey);
       if (std::find(seen.begin(), seen.end(), text) != seen.end()) rd.Twice(&terms[i], ikey, fmt::format("\"{}\"", text));
       seen.push_back(text);
-      const std::string name = fmt::format("{}_{}", row_name, i + 1);
+      const std::string name = fmt::format("{}{}_{}", table.prefix, row_name, i + 1);
       if (std::find(taken.begin(), taken.end(), name) != taken.end()) {
         rd.Fail(&terms[i], ikey, fmt::format("the candidate's name '{}' is already taken (a state, parameter or input)", name));
       }
-      if (spec.alpha.size() >= std::size_t(Model::kMaxParameters)) {
-        rd.Fail(&terms[i], ikey, fmt::format("alpha with the candidates would have more than {} entries", Model::kMaxParameters));
+      if (spec.alpha.size() >= std::size_t(Model::kMaxAlpha)) {
+        rd.Fail(&terms[i], ikey, fmt::format("alpha with the candidates would have more than {} entries", Model::kMaxAlpha));
       }
-      AppendCandidate(rd, terms[i], ikey, r, text, def, sym, name);
+      AppendCandidate(rd, terms[i], ikey, r, table.mode, text, def, sym, name);
       taken.push_back(name);
     }
   }
   spec.flow_jacobian_constant = false;
 }
 
+// The candidates of a [[flow]] table: it must give its rows, and its mode's name must make parameter
+// names (MODE_ROW_K).
+CandidateTable ModeCandidateTable(const TomlReader& rd, const toml::table& t, const std::string& key, std::size_t q,
+                                  const ModelSpec& spec) {
+  const toml::node* c = t.get("candidates");
+  if (!t.contains("rows")) {
+    rd.Fail(c, TomlReader::Join(key, "candidates"),
+            fmt::format("candidate terms need the table's identified rows: give {}.rows", key));
+  }
+  const std::string& mode = spec.modes[q];
+  const auto word = [](char ch) { return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_'; };
+  if (!(std::isalpha(static_cast<unsigned char>(mode[0])) != 0 || mode[0] == '_') ||
+      !std::all_of(mode.begin(), mode.end(), word)) {
+    rd.Fail(c, TomlReader::Join(key, "candidates"),
+            fmt::format("mode '{}' does not make candidate names MODE_ROW_K: candidate terms need a mode name that "
+                        "is an identifier (a letter or _, then letters, digits or _)",
+                        Abbreviated(mode, 40)));
+  }
+  return {key, q, mode + "_", ParseRows(rd, t, key, spec.state_names)};
+}
+
 // [flow] (one mode) or, with modes, one [[flow]] per mode: φ_q over the one α. flow_rows is the union
-// of the modes' rows; jacobian_constant holds when every mode declares it.
+// of the modes' rows; jacobian_constant holds when every mode declares it. Candidate terms are
+// appended after every φ_q is read (each adds a column to every mode's φ).
 void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, Symbols& sym) {
   ModelSpec& spec = def.spec;
   const toml::node& node = rd.Require(root, "", "flow");
@@ -878,7 +916,7 @@ void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, 
     spec.flow_rows = ParseCheckedRows(rd, t, "flow", def.phi[0], spec.alpha, spec.state_names);
     if (const toml::node* jc = t.get("jacobian_constant"))
       spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
-    if (const toml::node* c = t.get("candidates")) ParseCandidates(rd, *c, def, sym);
+    if (const toml::node* c = t.get("candidates")) ParseCandidates(rd, *c, {"flow", 0, "", spec.flow_rows}, def, sym);
     return;
   }
   const toml::array& arr = *node.as_array();
@@ -888,9 +926,13 @@ void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, 
   def.phi.assign(spec.modes.size(), ExprMatrix{});
   std::set<int> rows;
   bool constant = true;
+  std::vector<std::pair<const toml::node*, CandidateTable>> candidates;
   for (std::size_t i = 0; i < arr.size(); ++i) {
     const std::string key = TomlReader::Index("flow", i);
-    constant = ParseModeFlow(rd, rd.Table(arr[i], key), key, def, sym, rows).second && constant;
+    const toml::table& t = rd.Table(arr[i], key);
+    const auto [q, jc] = ParseModeFlow(rd, t, key, def, sym, rows);
+    constant = jc && constant;
+    if (const toml::node* c = t.get("candidates")) candidates.emplace_back(c, ModeCandidateTable(rd, t, key, q, spec));
   }
   for (std::size_t q = 0; q < spec.modes.size(); ++q) {
     if (def.phi[q].rows == 0)
@@ -899,6 +941,7 @@ void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, 
   if (rows.empty()) rd.Fail(&arr, "flow", "no mode's phi has an unknown alpha: give rows");
   spec.flow_rows.assign(rows.begin(), rows.end());
   spec.flow_jacobian_constant = constant;
+  for (const auto& [c, table] : candidates) ParseCandidates(rd, *c, table, def, sym);
 }
 
 // The names a map's β may not take: α, β so far, γ, inputs.

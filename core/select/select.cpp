@@ -10,6 +10,7 @@
 #include <Eigen/Cholesky>
 #include <fmt/format.h>
 
+#include "core/model/automaton.hpp"
 #include "core/model/regression.hpp"
 
 namespace hysid {
@@ -74,6 +75,12 @@ void CheckSamples(const Model& model, const FlowSamples& s) {
   }
   if ((s.times == nullptr || s.times->empty()) && !(s.dt > 0.0))
     throw std::invalid_argument(fmt::format("FlowSamples::dt = {}: must be > 0 without times", s.dt));
+  if (s.modes != nullptr && !s.modes->empty() && !sized(s.modes->size()))
+    throw std::invalid_argument(fmt::format("FlowSamples: {} modes for {} samples", s.modes->size(), K));
+  if (s.margin < 0) throw std::invalid_argument(fmt::format("FlowSamples::margin = {}: must be >= 0", s.margin));
+  if (s.mode < 0 || s.mode >= ModeCount(model.spec()))
+    throw std::invalid_argument(fmt::format("FlowSamples::mode = {}: model '{}' has {} mode(s)", s.mode, model.name(),
+                                            ModeCount(model.spec())));
 }
 
 }  // namespace
@@ -87,6 +94,8 @@ bool SelectOptions::IsValid(std::string* error) const {
   if (iterations < 1) return fail(fmt::format("SelectOptions::iterations = {}: must be >= 1", iterations));
   if (min_segment < 2) return fail(fmt::format("SelectOptions::min_segment = {}: must be >= 2", min_segment));
   if (folds < 2) return fail(fmt::format("SelectOptions::folds = {}: must be >= 2", folds));
+  if (exhaustive < 0 || exhaustive > 3)
+    return fail(fmt::format("SelectOptions::exhaustive = {}: must be in [0, 3]", exhaustive));
   if (!(min_share >= 0.0 && min_share <= 1.0))
     return fail(fmt::format("SelectOptions::min_share = {}: must be in [0, 1]", min_share));
   return true;
@@ -103,20 +112,34 @@ FlowSums SumFlowSegments(const Model& model, const FlowSamples& s) {
   const Mat& y = *s.y;
   const bool timed = s.times != nullptr && !s.times->empty();
   const bool chained = s.chain_start != nullptr && !s.chain_start->empty();
+  const bool moded = s.modes != nullptr && !s.modes->empty();
+  // Per sample: within `margin` samples of a mode change (between samples i − 1 and i: i − margin ≤ k < i + margin).
+  std::vector<std::uint8_t> near(std::size_t(y.cols()), 0);
+  for (Eigen::Index i = 1; moded && s.margin > 0 && i < y.cols(); ++i) {
+    if ((*s.modes)[std::size_t(i)] == (*s.modes)[std::size_t(i - 1)]) continue;
+    for (Eigen::Index k = std::max<Eigen::Index>(0, i - s.margin); k < std::min<Eigen::Index>(y.cols(), i + s.margin); ++k)
+      near[std::size_t(k)] = 1;
+  }
+  const auto in_mode = [&](Eigen::Index k) {
+    return (moded ? (*s.modes)[std::size_t(k)] : 0) == s.mode && near[std::size_t(k)] == 0;
+  };
   Mat phi(R, p);
   Vec row(R);
   for (Eigen::Index k = 1; k < y.cols(); ++k) {
     const bool finite = y.col(k).allFinite() && y.col(k - 1).allFinite();
-    if ((chained && (*s.chain_start)[std::size_t(k)] != 0) || (*s.gamma)[std::size_t(k)] != 0 || !finite) {
+    if ((chained && (*s.chain_start)[std::size_t(k)] != 0) || (*s.gamma)[std::size_t(k)] != 0 || !finite ||
+        !in_mode(k - 1) || !in_mode(k)) {
       if (chained && (*s.chain_start)[std::size_t(k)] != 0) seg.chain += 1;
       seg.Restart();
       continue;
     }
     const double h = timed ? (*s.times)[std::size_t(k)] - (*s.times)[std::size_t(k - 1)] : s.dt;
-    if (model.input_size() > 0) {
+    if (model.input_size() > 0 || moded || s.mode != 0) {
       const double t0 = timed ? (*s.times)[std::size_t(k - 1)] : double(k - 1) * s.dt;
-      const Context prev{.t = t0, .u = s.inputs->col(k - 1).data()};
-      const Context cur{.t = t0 + h, .u = s.inputs->col(k).data()};
+      const double* u0 = model.input_size() > 0 ? s.inputs->col(k - 1).data() : nullptr;
+      const double* u1 = model.input_size() > 0 ? s.inputs->col(k).data() : nullptr;
+      const Context prev{.t = t0, .u = u0, .mode = s.mode};
+      const Context cur{.t = t0 + h, .u = u1, .mode = s.mode};
       builder.Flow(y.col(k - 1), y.col(k), h, phi, row, prev, cur);
     } else {
       builder.Flow(y.col(k - 1), y.col(k), h, phi, row);
@@ -129,6 +152,51 @@ FlowSums SumFlowSegments(const Model& model, const FlowSamples& s) {
     }
   }
   seg.Close();
+  return out;
+}
+
+std::vector<int> ColumnsInUse(const FlowSums& sums) {
+  std::vector<int> out;
+  for (std::size_t j = 0; j < sums.columns.size(); ++j) {
+    bool used = false;
+    for (const SegmentSums& seg : sums.segments) {
+      for (const RowSums& r : seg.rows) used = used || r.gram(Eigen::Index(j), Eigen::Index(j)) != 0.0;
+    }
+    if (used) out.push_back(static_cast<int>(j));
+  }
+  return out;
+}
+
+FlowSums KeepColumns(const FlowSums& sums, const std::vector<int>& keep) {
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    if (keep[i] < 0 || std::size_t(keep[i]) >= sums.columns.size() || (i > 0 && keep[i] <= keep[i - 1]))
+      throw std::invalid_argument(fmt::format("KeepColumns: position {} of {} columns (ascending required)", keep[i],
+                                              sums.columns.size()));
+  }
+  const auto k = static_cast<Eigen::Index>(keep.size());
+  const std::size_t R = sums.segments.empty() ? 0 : sums.segments.front().rows.size();
+  std::vector<bool> row_used(R, false);
+  for (const SegmentSums& seg : sums.segments) {
+    for (std::size_t r = 0; r < R; ++r) {
+      for (int j : keep) row_used[r] = row_used[r] || seg.rows[r].gram(j, j) != 0.0;
+    }
+  }
+  FlowSums out;
+  for (int j : keep) out.columns.push_back(sums.columns[std::size_t(j)]);
+  for (const SegmentSums& seg : sums.segments) {
+    SegmentSums s{seg.chain, {}};
+    for (std::size_t r = 0; r < R; ++r) {
+      if (!row_used[r]) continue;
+      const RowSums& in = seg.rows[r];
+      RowSums rs{Mat(k, k), Vec(k), in.square, in.count};
+      for (Eigen::Index a = 0; a < k; ++a) {
+        rs.cross[a] = in.cross[keep[std::size_t(a)]];
+        for (Eigen::Index b = 0; b < k; ++b) rs.gram(a, b) = in.gram(keep[std::size_t(a)], keep[std::size_t(b)]);
+      }
+      s.rows.push_back(std::move(rs));
+    }
+    out.segments.push_back(std::move(s));
+  }
   return out;
 }
 
@@ -258,6 +326,60 @@ std::vector<std::vector<bool>> Backward(const Normal& ne, const std::vector<bool
   return out;
 }
 
+// Forward selection: from the columns that are not selectable, every support that adds the
+// selectable column whose fit leaves the least residual sum of squares, up to every column (or until
+// no column can be added with independent columns). Unlike the two paths above it does not start
+// from the full fit, whose coefficients on nearly dependent columns are large and arbitrary.
+std::vector<std::vector<bool>> Forward(const Normal& ne, const std::vector<bool>& selectable) {
+  std::vector<std::vector<bool>> out;
+  std::vector<bool> support(selectable.size());
+  for (std::size_t j = 0; j < selectable.size(); ++j) support[j] = !selectable[j];
+  for (;;) {
+    int add = -1;
+    double least = std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < selectable.size(); ++j) {
+      if (support[j]) continue;
+      support[j] = true;
+      const Fit fit = Solve(ne, Indices(support));
+      support[j] = false;
+      if (fit.ok && fit.rss < least) {
+        least = fit.rss;
+        add = static_cast<int>(j);
+      }
+    }
+    if (add < 0) break;
+    support[std::size_t(add)] = true;
+    out.push_back(support);
+  }
+  return out;
+}
+
+// Every support of at most `size` selectable columns (and the columns that are not selectable).
+std::vector<std::vector<bool>> Small(const std::vector<bool>& selectable, int size) {
+  std::vector<std::vector<bool>> out;
+  std::vector<bool> base(selectable.size());
+  for (std::size_t j = 0; j < selectable.size(); ++j) base[j] = !selectable[j];
+  const std::vector<int> free = Indices(selectable);
+  std::vector<std::vector<bool>> level = {base};
+  for (int k = 1; k <= size; ++k) {
+    std::vector<std::vector<bool>> next;
+    for (const std::vector<bool>& s : level) {
+      // Add only columns after the last added, so that each support is made once.
+      int last = -1;
+      for (int j : free) if (s[std::size_t(j)]) last = j;
+      for (int j : free) {
+        if (j <= last) continue;
+        std::vector<bool> t = s;
+        t[std::size_t(j)] = true;
+        next.push_back(std::move(t));
+      }
+    }
+    out.insert(out.end(), next.begin(), next.end());
+    level = std::move(next);
+  }
+  return out;
+}
+
 // w_r = 1/σ̂_r² from the full support's residuals per row (one row: 1).
 std::vector<double> RowWeights(const std::vector<Normal>& rows, const std::vector<bool>& all) {
   std::vector<double> w(rows.size(), 1.0);
@@ -365,6 +487,8 @@ Selection SelectTerms(const FlowSums& sums, const std::vector<bool>& selectable,
     return out;
   }
   std::vector<std::vector<bool>> supports = Backward(ne, selectable);
+  for (std::vector<bool>& f : Forward(ne, selectable)) supports.push_back(std::move(f));
+  for (std::vector<bool>& f : Small(selectable, options.exhaustive)) supports.push_back(std::move(f));
   const Fit full = Solve(ne, Indices(all));
   if (full.ok) {
     double lo = std::numeric_limits<double>::infinity(), hi = 0.0;

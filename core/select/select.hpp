@@ -12,8 +12,11 @@
 //
 // Selection. Over the selectable columns (the candidates; the other unknowns are always kept):
 // sequentially thresholded least squares (solve, zero the coefficients whose relative size
-// |α_j|·√G_jj/√s is below λ, re-solve, until nothing changes) for a path of λ, and backward
-// elimination (drop the column of least |t|, re-solve) give supports. The rule that picks one
+// |α_j|·√G_jj/√s is below λ, re-solve, until nothing changes) for a path of λ, backward
+// elimination (drop the column of least |t|, re-solve), forward selection (add the column that
+// leaves the least residual) and every support of at most SelectOptions::exhaustive candidates give
+// supports; the first two start from the full fit, which on nearly dependent columns (polynomials of
+// a state over a narrow range) puts large, arbitrary coefficients on them. The rule that picks one
 // (SelectionRule): by default K-fold cross-validation over the segments, the fewest columns within one
 // standard error of the least held-out mean square; or the least BIC = N log(RSS/N) + k log N (N the
 // rows less the offsets, k the columns kept), which counts every row as independent: the noise of
@@ -50,8 +53,11 @@ struct FlowSums {
 
 // Samples on the detected hybrid time domain. y: n × K states; gamma[k] = 1 where the pair (k−1, k)
 // is a jump (IdentifyResult::gamma); times: per sample (empty: uniform with step dt); chain_start:
-// 1 where a chain starts (empty: one chain); inputs: m × K (empty: none). A non-finite sample ends a
-// segment.
+// 1 where a chain starts (empty: one chain); inputs: m × K (empty: none); modes: per sample its mode
+// (IdentifyResult::mode; empty: every sample in mode 0). Only the pairs with both samples in `mode`
+// are summed, φ of that mode; a pair of another mode, like a non-finite sample, ends a segment. A
+// switch's detected place is uncertain (a kink is located by fits to windows of samples on either
+// side): the samples within `margin` samples of a mode change are left out (a segment ends there).
 struct FlowSamples {
   const Mat* y = nullptr;
   const std::vector<std::uint8_t>* gamma = nullptr;
@@ -59,10 +65,20 @@ struct FlowSamples {
   const std::vector<double>* times = nullptr;
   const std::vector<std::uint8_t>* chain_start = nullptr;
   const Mat* inputs = nullptr;
+  const std::vector<int>* modes = nullptr;
+  int mode = 0;
+  int margin = 0;
 };
 
 // Throws std::invalid_argument on sizes that disagree.
 FlowSums SumFlowSegments(const Model& model, const FlowSamples& samples);
+
+// The sums on the columns `keep` (positions in sums.columns, ascending) only, less the rows in which
+// none of them is nonzero (a mode's columns: those whose sums are not all zero, ColumnsInUse).
+FlowSums KeepColumns(const FlowSums& sums, const std::vector<int>& keep);
+// The positions of the columns with a nonzero Gram diagonal in some segment and row: φ of the summed
+// mode has them (the other modes' candidates are exactly 0 there).
+std::vector<int> ColumnsInUse(const FlowSums& sums);
 
 // How the support is chosen among those of the path.
 enum class SelectionRule {
@@ -77,6 +93,7 @@ struct SelectOptions {
   int iterations = 20;   // at most per STLSQ run
   int min_segment = 3;   // segments with fewer samples are left out
   double min_share = 0.5;  // [0, 1]: KeepStable drops a chosen candidate the bootstrap chose less often
+  int exhaustive = 2;      // [0, 3]: every support of at most this many candidates is compared too
   bool IsValid(std::string* error) const;
 };
 

@@ -371,7 +371,7 @@ SelectStep SelectTerms(const IdentifyArgs& args, const IdentifyRequest& request,
     select = std::move(again);
     if (held) break;
   }
-  PrintSelection(full, select);
+  PrintSelection(select);
   return select;
 }
 

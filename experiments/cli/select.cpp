@@ -3,13 +3,17 @@
 
 #include <chrono>
 #include <cstdio>
+#include <limits>
 #include <map>
+#include <set>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "core/io/files.hpp"
+#include "core/model/automaton.hpp"
+#include "core/model/regression.hpp"
 #include "core/model_file/chosen.hpp"
 #include "core/model_file/model_file.hpp"
 #include "experiments/cli/cli.hpp"
@@ -31,39 +35,58 @@ std::string TermText(const ModelSpec& spec, int alpha) {
 
 }  // namespace
 
-void PrintSelection(const Model& model, const SelectStep& step) {
-  const ModelSpec& spec = model.spec();
-  const Selection& s = step.selection;
-  std::printf("selection: %zu candidate terms, %d flow segments (%s), %ld integral "
-              "rows; %d supports from thresholded least squares and backward elimination, chosen by "
-              "cross-validation over the segments (%.2f s)\n",
-              spec.candidates.size(), step.segments,
+namespace {
+
+// One block's report: its selection, its candidates with their estimates and bootstrap shares.
+void PrintBlock(const SelectStep& step, const SelectBlock& block) {
+  const Selection& s = block.selection;
+  std::size_t candidates = 0;
+  std::vector<std::string> kept;
+  for (std::size_t i = 0; i < block.positions.size(); ++i) {
+    const std::size_t j = std::size_t(block.positions[i]);
+    if (!step.selectable[j]) continue;
+    ++candidates;
+    if (s.chosen[i]) kept.push_back(step.names[j]);
+  }
+  std::printf("selection%s: %zu candidate terms, %d flow segments (%s), %ld integral "
+              "rows; %d supports from thresholded least squares, backward and forward selection and every "
+              "support of at most %d candidates, chosen by cross-validation over the segments\n",
+              block.mode_name.empty() ? "" : fmt::format(" in mode {}", block.mode_name).c_str(), candidates,
+              block.segments,
               step.round == 1 ? "the detections of the pass with every candidate"
                               : fmt::format("the detections of the chosen model, round {}", step.round).c_str(),
-              s.rows, s.supports, step.seconds);
+              s.rows, s.supports, SelectOptions{}.exhaustive);
   std::printf("  chosen: %s (held-out mean square %.6g; BIC %.2f, the least BIC of another support %s)\n",
-              step.kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(step.kept, ", ")).c_str(), s.cv, s.bic,
+              kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(kept, ", ")).c_str(), s.cv, s.bic,
               std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
-  for (std::size_t j = 0; j < step.columns.size(); ++j) {
+  for (std::size_t i = 0; i < block.positions.size(); ++i) {
+    const std::size_t j = std::size_t(block.positions[i]);
     if (!step.selectable[j]) continue;
-    std::string line = fmt::format("  {:<8} {:<22} {:<6}", step.names[j], step.terms[j], s.chosen[j] ? "chosen" : "-");
-    if (s.chosen[j]) line += fmt::format(" {:<14.8g}", s.estimate[Eigen::Index(j)]);
+    std::string line = fmt::format("  {:<8} {:<22} {:<6}", step.names[j], step.terms[j], s.chosen[i] ? "chosen" : "-");
+    if (s.chosen[i]) line += fmt::format(" {:<14.8g}", s.estimate[Eigen::Index(i)]);
     else line += fmt::format(" {:<14}", "");
-    if (step.bootstrap.draws > 0)
-      line += fmt::format(" chosen in {:5.1f}% of bootstrap draws", 100.0 * step.bootstrap.frequency[Eigen::Index(j)]);
+    if (block.bootstrap.draws > 0)
+      line += fmt::format(" chosen in {:5.1f}% of bootstrap draws", 100.0 * block.bootstrap.frequency[Eigen::Index(i)]);
     std::printf("%s\n", line.c_str());
   }
-  if (step.bootstrap.draws > 0) {
+  if (block.bootstrap.draws > 0) {
     std::printf("  bootstrap: %d draws of the flow segments with replacement; the cross-validated support "
                 "exactly in %d\n",
-                step.bootstrap.draws, step.bootstrap.support_matches);
+                block.bootstrap.draws, block.bootstrap.support_matches);
   }
+}
+
+}  // namespace
+
+void PrintSelection(const SelectStep& step) {
+  for (const SelectBlock& block : step.blocks) PrintBlock(step, block);
   for (const int j : step.unstable) {
     std::printf("  dropped as unstable: %s (chosen by cross-validation, by %.1f%% of the bootstrap draws, "
                 "fewer than %.0f%%)\n",
                 step.names[std::size_t(j)].c_str(), 100.0 * step.bootstrap.frequency[Eigen::Index(j)],
                 100.0 * SelectOptions{}.min_share);
   }
+  std::printf("selection time: %.2f s\n", step.seconds);
 }
 
 namespace {
@@ -91,12 +114,107 @@ void AddSelectOptions(CLI::App& cmd, SelectArgs& args) {
 
 void CheckSelectArgs(const SelectArgs& args, const Model& model) {
   if (!args.chosen_model.empty() && model.spec().candidates.empty()) {
-    BadFlag(fmt::format("--chosen-model: model '{}' has no candidate terms ([flow] candidates) to choose from",
+    BadFlag(fmt::format("--chosen-model: model '{}' has no candidate terms ([flow] or [[flow]] candidates) to choose from",
                         model.name()));
   }
   if (args.bootstrap < 0 || args.bootstrap > 100000)
     BadFlag(fmt::format("--select-bootstrap = {}: must be in [0, 100000]", args.bootstrap));
 }
+
+namespace {
+
+// The full model's unknown α columns and, per column, whether it is a candidate, its name and term.
+void DescribeColumns(const Model& model, SelectStep* step) {
+  step->columns = RegressionLayout::Flow(model).unknown;
+  for (int a : step->columns) {
+    const CandidateTerm* c = CandidateOf(model.spec(), a);
+    step->selectable.push_back(c != nullptr);
+    step->names.push_back(model.spec().alpha[std::size_t(a)].name);
+    step->terms.push_back(c ? TermText(model.spec(), a) : "");
+    step->rows.push_back(c ? model.spec().state_names[std::size_t(c->row)] : "");
+    step->raw_terms.push_back(c ? c->term : "");
+    step->term_modes.push_back(c && ModeCount(model.spec()) > 1 ? model.spec().modes[std::size_t(c->mode)] : "");
+  }
+}
+
+// The selection of mode q's candidates on the pairs of the detected hybrid time domain in mode q,
+// over the columns φ_q has; the bootstrap and the stability rule when `bootstrap`.
+// `cross_validated`: the selection before the stability rule.
+SelectBlock SelectMode(const Model& model, const SampleData& data, const IdentifyResult& detected,
+                       const SelectArgs& args, bool bootstrap, const SelectStep& step, int q,
+                       Selection* cross_validated) {
+  const bool moded = ModeCount(model.spec()) > 1;
+  const FlowSamples samples{.y = &data.y,
+                            .gamma = &detected.gamma,
+                            .dt = data.dt,
+                            .times = data.uniform ? nullptr : &data.t,
+                            .chain_start = data.uniform ? nullptr : &data.chain_start,
+                            .inputs = data.u.rows() > 0 ? &data.u : nullptr,
+                            .modes = moded ? &detected.mode : nullptr,
+                            .mode = q,
+                            .margin = moded ? KinkSettings{}.window : 0};
+  const FlowSums all = SumFlowSegments(model, samples);
+  SelectBlock block;
+  block.mode = q;
+  block.mode_name = moded ? model.spec().modes[std::size_t(q)] : "";
+  block.positions = ColumnsInUse(all);
+  const FlowSums sums = KeepColumns(all, block.positions);
+  block.segments = static_cast<int>(sums.segments.size());
+  std::vector<bool> selectable;
+  for (int j : block.positions) selectable.push_back(step.selectable[std::size_t(j)]);
+  block.selection = SelectTerms(sums, selectable, SelectOptions{});
+  if (!block.selection.ok) {
+    throw RunFailed(fmt::format("identify: no terms selected{}: {}",
+                                moded ? fmt::format(" in mode {}", block.mode_name) : "", block.selection.reason));
+  }
+  *cross_validated = block.selection;
+  if (bootstrap && args.bootstrap > 0) {
+    block.bootstrap = BootstrapSelection(sums, selectable, SelectOptions{}, args.bootstrap,
+                                         args.seed + std::uint64_t(q), block.selection.chosen);
+    block.selection = KeepStable(sums, selectable, block.selection, block.bootstrap, SelectOptions{});
+  }
+  return block;
+}
+
+// The blocks' selections per column of the step (the struct's comment).
+void MergeBlocks(SelectStep* step, const std::vector<Selection>& before_stability) {
+  const std::size_t p = step->columns.size();
+  Selection& m = step->selection;
+  m.ok = true;
+  m.chosen.assign(p, false);
+  m.estimate = Vec::Zero(Eigen::Index(p));
+  m.runner_up_bic = std::numeric_limits<double>::infinity();
+  step->bootstrap.frequency = Vec::Zero(Eigen::Index(p));
+  std::vector<bool> seen(p, false);
+  for (std::size_t j = 0; j < p; ++j) m.chosen[j] = !step->selectable[j];
+  for (std::size_t b = 0; b < step->blocks.size(); ++b) {
+    const SelectBlock& block = step->blocks[b];
+    for (std::size_t i = 0; i < block.positions.size(); ++i) {
+      const std::size_t j = std::size_t(block.positions[i]);
+      if (step->selectable[j]) m.chosen[j] = block.selection.chosen[i];
+      if (!seen[j]) m.estimate[Eigen::Index(j)] = block.selection.estimate[Eigen::Index(i)];
+      if (block.bootstrap.draws > 0 && step->selectable[j])
+        step->bootstrap.frequency[Eigen::Index(j)] = block.bootstrap.frequency[Eigen::Index(i)];
+      if (step->selectable[j] && before_stability[b].chosen[i] && !block.selection.chosen[i])
+        step->unstable.push_back(static_cast<int>(j));
+      seen[j] = true;
+    }
+    m.bic += block.selection.bic;
+    m.cv += block.selection.cv;
+    m.rows += block.selection.rows;
+    m.supports += block.selection.supports;
+    step->segments += block.segments;
+    step->bootstrap.draws = b == 0 ? block.bootstrap.draws : std::min(step->bootstrap.draws, block.bootstrap.draws);
+    step->bootstrap.support_matches = b == 0 ? block.bootstrap.support_matches
+                                             : std::min(step->bootstrap.support_matches, block.bootstrap.support_matches);
+  }
+  if (step->blocks.size() == 1) {
+    m.runner_up_bic = step->blocks.front().selection.runner_up_bic;
+    m.runner_up.clear();
+  }
+}
+
+}  // namespace
 
 SelectStep SelectCandidates(const Model& model, const std::string& file, const SampleData& data,
                             const IdentifyResult& detected, const SelectArgs& args, bool bootstrap) {
@@ -104,39 +222,22 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
   SelectStep step;
   step.file = file;
   step.text = ReadWholeFile(file, "model file");
-  const FlowSamples samples{.y = &data.y,
-                            .gamma = &detected.gamma,
-                            .dt = data.dt,
-                            .times = data.uniform ? nullptr : &data.t,
-                            .chain_start = data.uniform ? nullptr : &data.chain_start,
-                            .inputs = data.u.rows() > 0 ? &data.u : nullptr};
-  const FlowSums sums = SumFlowSegments(model, samples);
-  step.columns = sums.columns;
-  step.segments = static_cast<int>(sums.segments.size());
-  for (int a : sums.columns) {
-    step.selectable.push_back(CandidateOf(model.spec(), a) != nullptr);
-    step.names.push_back(model.spec().alpha[std::size_t(a)].name);
-    const CandidateTerm* c = CandidateOf(model.spec(), a);
-    step.terms.push_back(c ? TermText(model.spec(), a) : "");
-    step.rows.push_back(c ? model.spec().state_names[std::size_t(c->row)] : "");
-    step.raw_terms.push_back(c ? c->term : "");
+  DescribeColumns(model, &step);
+  std::set<int> modes;
+  for (const CandidateTerm& c : model.spec().candidates) modes.insert(c.mode);
+  step.per_mode = ModeCount(model.spec()) > 1;
+  std::vector<Selection> before;
+  for (const int q : modes) {
+    before.emplace_back();
+    step.blocks.push_back(SelectMode(model, data, detected, args, bootstrap, step, q, &before.back()));
   }
-  step.selection = SelectTerms(sums, step.selectable, SelectOptions{});
-  if (!step.selection.ok) throw RunFailed(fmt::format("identify: no terms selected: {}", step.selection.reason));
-  if (bootstrap && args.bootstrap > 0) {
-    step.bootstrap = BootstrapSelection(sums, step.selectable, SelectOptions{}, args.bootstrap, args.seed,
-                                        step.selection.chosen);
-    Selection stable = KeepStable(sums, step.selectable, step.selection, step.bootstrap, SelectOptions{});
-    for (std::size_t j = 0; j < step.columns.size(); ++j) {
-      if (step.selection.chosen[j] && !stable.chosen[j]) step.unstable.push_back(static_cast<int>(j));
-    }
-    step.selection = std::move(stable);
-  }
+  MergeBlocks(&step, before);
   std::map<std::string, double> values;
   for (std::size_t j = 0; j < step.columns.size(); ++j) {
     const std::string& name = model.spec().alpha[std::size_t(step.columns[j])].name;
     if (step.selectable[j] && step.selection.chosen[j]) step.kept.push_back(name);
-    if (step.selection.chosen[j]) values[name] = step.selection.estimate[Eigen::Index(j)];
+    if (step.selection.chosen[j] && step.selection.estimate[Eigen::Index(j)] != 0.0)
+      values[name] = step.selection.estimate[Eigen::Index(j)];
   }
   // Not required to reach its guards on the default trajectory (ParseModelFile, not ParseModelText):
   // with the least-squares values of a first round it may not.
@@ -162,13 +263,33 @@ nlohmann::json SelectionJson(const SelectStep& step) {
     terms.push_back({{"name", step.names[j]},
                      {"row", step.rows[j]},
                      {"term", step.raw_terms[j]},
+                     {"mode", step.term_modes[j].empty() ? nlohmann::json() : nlohmann::json(step.term_modes[j])},
                      {"chosen", bool(step.selection.chosen[j])},
                      {"estimate", step.selection.estimate[Eigen::Index(j)]},
                      {"bootstrap_frequency", step.bootstrap.draws > 0
                                                  ? nlohmann::json(step.bootstrap.frequency[Eigen::Index(j)])
                                                  : nlohmann::json()}});
   }
+  nlohmann::json modes = nlohmann::json::array();
+  for (const SelectBlock& b : step.blocks) {
+    std::vector<std::string> chosen;
+    for (std::size_t i = 0; i < b.positions.size(); ++i) {
+      if (step.selectable[std::size_t(b.positions[i])] && b.selection.chosen[i])
+        chosen.push_back(step.names[std::size_t(b.positions[i])]);
+    }
+    modes.push_back({{"mode", b.mode_name},
+                     {"chosen", chosen},
+                     {"bic", b.selection.bic},
+                     {"runner_up_bic", std::isfinite(b.selection.runner_up_bic) ? nlohmann::json(b.selection.runner_up_bic)
+                                                                              : nlohmann::json()},
+                     {"rows", b.selection.rows},
+                     {"segments", b.segments},
+                     {"supports", b.selection.supports},
+                     {"bootstrap_draws", b.bootstrap.draws},
+                     {"bootstrap_support_matches", b.bootstrap.support_matches}});
+  }
   return {{"terms", terms},
+          {"modes", step.per_mode ? modes : nlohmann::json()},
           {"chosen", step.kept},
           {"bic", step.selection.bic},
           {"runner_up_bic", std::isfinite(step.selection.runner_up_bic) ? nlohmann::json(step.selection.runner_up_bic)

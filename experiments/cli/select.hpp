@@ -28,18 +28,35 @@ void AddSelectOptions(CLI::App& cmd, SelectArgs& args);
 // --chosen-model given for a model without candidates, or --select-* out of range: BadFlag.
 void CheckSelectArgs(const SelectArgs& args, const Model& model);
 
+// The selection of one mode's candidates (a [flow]'s: mode 0) on that mode's flow samples.
+struct SelectBlock {
+  int mode = 0;
+  std::string mode_name;                // "" for [flow]
+  std::vector<int> positions;           // its columns: positions in SelectStep::columns
+  Selection selection;                  // over `positions`
+  BootstrapResult bootstrap;            // over `positions`
+  int segments = 0;                     // flow segments of the mode summed
+};
+
 struct SelectStep {
   std::optional<Model> chosen;          // the chosen model, values from the selection's fit
+  std::vector<SelectBlock> blocks;      // one per mode with candidates, in mode order
+  bool per_mode = false;                // the candidates are in [[flow]] tables
   std::string text, file;               // the model file with candidates (its text, its path)
   std::vector<int> columns;             // unknown α indices of the full model (FlowSums::columns)
   std::vector<bool> selectable;         // per column: a candidate
   // Per column: the α name and, for a candidate, "ROW' term TERM", its row's state and its term.
   std::vector<std::string> names, terms, rows, raw_terms;
+  std::vector<std::string> term_modes;  // per column: a [[flow]] candidate's mode, else ""
+
+  // The blocks' selections and bootstraps per column of `columns` (a column of no block: chosen when no
+  // candidate, estimate 0, frequency 0); with several blocks bic, rows and supports are the blocks'
+  // sums, the runner-up BIC is infinite and the bootstrap's draws and exact supports the least over them.
   Selection selection;
   BootstrapResult bootstrap;
   std::vector<std::string> kept;        // names of the chosen candidates
   std::vector<int> unstable;            // columns cross-validation chose and KeepStable dropped
-  int segments = 0;                     // flow segments summed
+  int segments = 0;                     // flow segments summed (over the blocks)
   int round = 1;                        // 1: on the pass with every candidate; then on the chosen model's
   double seconds = 0.0;                 // the selection and its bootstrap
 };
@@ -49,7 +66,7 @@ struct SelectStep {
 // no support can be chosen.
 SelectStep SelectCandidates(const Model& model, const std::string& file, const SampleData& data,
                             const IdentifyResult& detected, const SelectArgs& args, bool bootstrap);
-void PrintSelection(const Model& model, const SelectStep& step);
+void PrintSelection(const SelectStep& step);
 nlohmann::json SelectionJson(const SelectStep& step);
 // After the chosen model's refinement (`refined`, null: none ran) or recursive pass: the chosen terms
 // with their estimates and bootstrap frequencies; --chosen-model written with the estimates.

@@ -1,11 +1,14 @@
-// Candidate terms in a model file ([flow] candidates) and the chosen model written from them
-// (core/model_file/chosen.hpp): each candidate is an unknown α entry ROW_K whose φ column is its term
-// in its row; the chosen model keeps the kept candidates as plain entries, with the values given, and
-// evaluates as the library's columns do.
+// Candidate terms in a model file ([flow] and per mode [[flow]] candidates) and the chosen model written
+// from them (core/model_file/chosen.hpp): each candidate is an unknown α entry ROW_K (MODE_ROW_K in a
+// [[flow]]) whose φ column is its term in its row (of its mode's φ; 0 in every other mode); the chosen
+// model keeps the kept candidates as plain entries, with the values given, and evaluates as the
+// library's columns do.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <string>
 
+#include "core/model/context.hpp"
 #include "core/model_file/chosen.hpp"
 #include "core/model_file/model_file.hpp"
 #include "sim/model_check/model_check.hpp"
@@ -48,7 +51,130 @@ rows = ["v"]
 candidates = { v = ["v", "abs(v)*v", 1] }
 )toml";
 
+// A pump tank with two modes; each [[flow]] is given by `off` and `on` (its phi, rows, candidates).
+std::string Automaton(const std::string& off, const std::string& on, const std::string& modes = R"(["off", "on"])") {
+  const std::string first = modes == R"(["off", "on"])" ? "off" : "heat-off";
+  return std::string(R"toml(
+name = "tank-lib"
+states = ["h"]
+modes = )toml") + modes + R"toml(
+alpha = [ { name = "a", value = 0.5 } ]
+[[flow]]
+mode = ")toml" + first + "\"\n" + off + R"toml(
+[[flow]]
+mode = "on"
+)toml" + on + R"toml(
+[[jump]]
+name = "pump-on"
+guard = "low"
+from = ")toml" + first + R"toml("
+to = "on"
+[[jump]]
+name = "pump-off"
+guard = "high"
+from = "on"
+to = ")toml" + first + R"toml("
+[[guard]]
+name = "low"
+h = "h - 1"
+direction = "falling"
+[[guard]]
+name = "high"
+h = "h - 2"
+direction = "rising"
+[defaults]
+x0 = [1.5]
+mode = "on"
+t_end = 5.0
+dt = 1e-2
+)toml";
+}
+
+const std::string kOff = "phi = [[\"-sqrt(h)\"]]\nrows = [\"h\"]\ncandidates = { h = [\"h\", \"1\"] }\n";
+const std::string kOn = "phi = [[\"-sqrt(h)\"]]\nrows = [\"h\"]\ncandidates = { h = [\"1\", \"h^2\", \"sin(h)\"] }\n";
+
 }  // namespace
+
+TEST_CASE("candidates per mode: MODE_ROW_K entries whose column is the term in its mode's phi, 0 in the others",
+          "[model_file][select]") {
+  const Model m = ParseModelFile(Automaton(kOff, kOn), "tank.toml").model;
+  const ModelSpec& s = m.spec();
+  REQUIRE(s.alpha.size() == 6);
+  CHECK(s.alpha[1].name == "off_h_1");
+  CHECK(s.alpha[2].name == "off_h_2");
+  CHECK(s.alpha[3].name == "on_h_1");
+  CHECK(s.alpha[5].name == "on_h_3");
+  REQUIRE(s.candidates.size() == 5);
+  CHECK(s.candidates[0].mode == 0);
+  CHECK(s.candidates[3].mode == 1);
+  CHECK(s.candidates[4].term == "sin(h)");
+  CHECK(s.flow_rows == std::vector<int>{0});
+  CHECK_FALSE(s.flow_jacobian_constant);
+  Mat phi(1, 6);
+  m.Phi(V(1.44), phi, Context{.mode = 0});
+  CHECK(phi(0, 0) == -1.2);
+  CHECK(phi(0, 1) == 1.44);
+  CHECK(phi(0, 2) == 1.0);
+  CHECK(phi(0, 3) == 0.0);
+  CHECK(phi(0, 5) == 0.0);
+  m.Phi(V(1.44), phi, Context{.mode = 1});
+  CHECK(phi(0, 0) == -1.2);
+  CHECK(phi(0, 1) == 0.0);
+  CHECK(phi(0, 2) == 0.0);
+  CHECK(phi(0, 3) == 1.0);
+  CHECK(phi(0, 4) == 1.44 * 1.44);
+  CHECK(phi(0, 5) == std::sin(1.44));
+}
+
+TEST_CASE("candidates per mode: no rows, a row not the table's, a mode name that makes no name, a repeated term and a "
+          "taken name are refused by key",
+          "[model_file][select]") {
+  auto refused = [](const std::string& text, const std::string& what) {
+    CHECK_THROWS_WITH(ParseModelFile(text, "tank.toml"), Catch::Contains(what));
+  };
+  refused(Automaton("phi = [[\"-sqrt(h)\"]]\ncandidates = { h = [\"h\"] }\n", kOn),
+          "tank.toml:9: flow[0].candidates: candidate terms need the table's identified rows: give flow[0].rows");
+  refused(Automaton(kOff, "phi = [[\"-sqrt(h)\"]]\nrows = [\"h\"]\ncandidates = { x = [\"h\"] }\n"),
+          "flow[1].candidates.x: unknown state 'x' (known: h)");
+  refused(Automaton(kOff, "phi = [[\"-sqrt(h)\"]]\nrows = [\"h\"]\ncandidates = { h = [\"h\", \"h\"] }\n"),
+          "flow[1].candidates.h[1]");
+  refused(Automaton(kOff, "phi = [[\"-sqrt(h)\"]]\nrows = [\"h\"]\ncandidates = { h = [\"q\"] }\n"),
+          "flow[1].candidates.h[0]");
+  refused(Automaton(kOff, kOn, R"(["heat-off", "on"])"),
+          "flow[0].candidates: mode 'heat-off' does not make candidate names MODE_ROW_K");
+  std::string taken = Automaton(kOff, kOn);
+  taken.replace(taken.find("\"a\""), 3, "\"on_h_2\"");
+  refused(taken, "flow[1].candidates.h[1]: the candidate's name 'on_h_2' is already taken");
+}
+
+TEST_CASE("the chosen model per mode: kept candidates in their own mode's phi, accepted as a model file",
+          "[model_file][select]") {
+  const std::string text = Automaton(kOff, kOn);
+  const Model lib = ParseModelFile(text, "tank.toml").model;
+  const std::string chosen_text =
+      ChosenModelText(text, "tank.toml", {"off_h_2", "on_h_1", "on_h_3"}, {{"a", 0.4}, {"off_h_2", -0.25}, {"on_h_1", 1.5}});
+  INFO(chosen_text);
+  const Model chosen = ParseModelText(chosen_text, "chosen.toml");
+  const ModelSpec& s = chosen.spec();
+  CHECK(s.candidates.empty());
+  REQUIRE(s.alpha.size() == 4);
+  CHECK(s.alpha[1].name == "off_h_2");
+  CHECK(s.alpha[2].name == "on_h_1");
+  CHECK(s.alpha[3].name == "on_h_3");
+  CHECK(chosen.alpha()[0] == 0.4);
+  CHECK(chosen.alpha()[1] == -0.25);
+  CHECK(chosen.alpha()[2] == 1.5);
+  Mat full(1, 6), mine(1, 4);
+  for (int q = 0; q < 2; ++q) {
+    lib.Phi(V(1.7), full, Context{.mode = q});
+    chosen.Phi(V(1.7), mine, Context{.mode = q});
+    CHECK(mine(0, 0) == full(0, 0));
+    CHECK(mine(0, 1) == full(0, 2));
+    CHECK(mine(0, 2) == full(0, 3));
+    CHECK(mine(0, 3) == full(0, 5));
+  }
+  CHECK_THROWS_WITH(ChosenModelText(text, "tank.toml", {"off_h_3"}, {}), Catch::Contains("'off_h_3' is no candidate"));
+}
 
 TEST_CASE("candidates: unknown alpha entries v_1..v_3 with their terms as phi columns in row v", "[model_file][select]") {
   const Model m = ParseModelFile(File(kFlow), "lib.toml").model;
@@ -88,8 +214,8 @@ TEST_CASE("candidates: a row not identified, a repeated term, a taken name and t
           "unknown symbol \"y\"");
   refused("[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { w = [\"x\"] }\n", "flow.candidates.w");
   std::string many = "[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { v = [";
-  for (int i = 0; i < 31; ++i) many += "\"x^" + std::to_string(i + 1) + "\", ";
-  refused(many + "] }\n", "more than 32 entries");
+  for (int i = 0; i < 63; ++i) many += "\"x^" + std::to_string(i + 1) + "\", ";
+  refused(many + "] }\n", "alpha with the candidates would have more than 64 entries");
   const std::string taken = std::string(kHead).replace(std::string(kHead).find("\"k\""), 3, "\"v_1\"");
   CHECK_THROWS_WITH(ParseModelFile(taken + kFlow + kTail, "lib.toml"), Catch::Contains("'v_1' is already taken"));
 }
