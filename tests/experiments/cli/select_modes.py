@@ -14,17 +14,11 @@ Usage: select_modes.py HYSID SOURCE_DIR WORK_DIR
 """
 import json
 import os
-import subprocess
 import sys
 
+from hysid_run import run
+
 TRUTH = {"flight_v_1": -9.81, "flight_v_11": -0.1, "stance_v_1": 390.19, "stance_v_2": -400.0}
-
-
-def run(*args, code=0):
-    p = subprocess.run(list(args), capture_output=True, text=True)
-    if p.returncode != code:
-        sys.exit(f"{' '.join(args)}: exit {p.returncode}, expected {code}\n{p.stdout}\n{p.stderr}")
-    return p.stdout
 
 
 def main():

@@ -12,15 +12,9 @@ Usage: select_roundtrip.py HYSID SOURCE_DIR WORK_DIR
 """
 import json
 import os
-import subprocess
 import sys
 
-
-def run(*args, code=0):
-    p = subprocess.run(list(args), capture_output=True, text=True)
-    if p.returncode != code:
-        sys.exit(f"{' '.join(args)}: exit {p.returncode}, expected {code}\n{p.stdout}\n{p.stderr}")
-    return p.stdout
+from hysid_run import run
 
 
 def main():

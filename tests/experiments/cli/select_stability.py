@@ -14,15 +14,13 @@ Usage: select_stability.py HYSID SOURCE_DIR WORK_DIR
 """
 import json
 import os
-import subprocess
 import sys
+
+from hysid_run import run as run_any
 
 
 def run(*args):
-    p = subprocess.run(list(args), capture_output=True, text=True)
-    if p.returncode not in (0, 1):
-        sys.exit(f"{' '.join(args)}: exit {p.returncode}\n{p.stdout}\n{p.stderr}")
-    return p.stdout
+    return run_any(*args, codes=(0, 1))
 
 
 def main():
