@@ -400,18 +400,30 @@ std::string EventsReason(const std::vector<AutomatonEvent>& events) {
 
 // The switches among `events` whose guard moved against its direction as the switch approached: h at
 // the sample before the switch less h at the sample `window` before that (within its flow segment),
-// positive for a falling guard or negative for a rising one. Jumps and guards of either direction count
-// never.
+// positive for a falling guard or negative for a rising one. Jumps, guards of either direction and
+// guards that read a state the model does not measure (its rows of y are a reconstruction, a start
+// only: h changes when one of them does) count never.
 int AgainstDirection(const Model& model, const Mat& y, const std::vector<double>& t, const Mat& inputs,
                      const Vec& alpha, const std::vector<std::uint8_t>& breaks, const std::vector<AutomatonEvent>& events,
                      int window) {
   const long K = static_cast<long>(y.cols());
+  const std::vector<int>& measured = model.spec().measured;
   Vec h(model.guard_count());
-  const auto guard_at = [&](long k, int g) {
+  const auto guard_at = [&](const ConstVecRef& x, long k, int g) {
     const Context ctx{.t = t[std::size_t(k)], .u = inputs.rows() > 0 ? inputs.col(k).data() : nullptr,
                       .alpha = alpha.data()};
-    model.Guards(y.col(k), h, ctx);
+    model.Guards(x, h, ctx);
     return h[g];
+  };
+  const auto reads_hidden = [&](long k, int g) {
+    const double at = guard_at(y.col(k), k, g);
+    for (int i = 0; i < y.rows(); ++i) {
+      if (measured.empty() || std::find(measured.begin(), measured.end(), i) != measured.end()) continue;
+      Vec moved = y.col(k);
+      moved[i] += 1e-6 * std::max(1.0, std::abs(moved[i]));
+      if (guard_at(moved, k, g) != at) return true;
+    }
+    return false;
   };
   int against = 0;
   for (const AutomatonEvent& e : events) {
@@ -421,12 +433,16 @@ int AgainstDirection(const Model& model, const Mat& y, const std::vector<double>
     const long b = e.sample - 1;
     long a = b;
     while (a > 0 && b - a < window && breaks[std::size_t(a)] == 0) --a;
-    if (a == b || b >= K || !y.col(a).allFinite() || !y.col(b).allFinite()) continue;
-    const double change = guard_at(b, e.guard) - guard_at(a, e.guard);
+    if (a == b || b >= K || !y.col(a).allFinite() || !y.col(b).allFinite() || reads_hidden(b, e.guard)) continue;
+    const double change = guard_at(y.col(b), b, e.guard) - guard_at(y.col(a), a, e.guard);
     if ((c == Crossing::kFalling && change > 0.0) || (c == Crossing::kRising && change < 0.0)) ++against;
   }
   return against;
 }
+
+// Residual sums of squares within this relative difference are the same: the modes' φ have one form
+// (a library of candidate terms in every mode), so either labelling fits alike to rounding.
+constexpr double kSameResidual = 1e-6;
 
 // The events of one set of jump labels, assigned from the best initial mode (the rule in events.hpp).
 struct Assignment {
@@ -437,6 +453,14 @@ struct Assignment {
   int initial_mode = 0;
   bool inferred = false;
 };
+
+// Whether initial mode q beats `than` (the rule in events.hpp): the smaller flow residual, or when the
+// two are the same (kSameResidual), fewer switches against their guards' directions.
+bool BetterInitialMode(const Assignment& a, int q, int than) {
+  const double rq = a.rss[std::size_t(q)], rt = a.rss[std::size_t(than)];
+  if (std::abs(rq - rt) > kSameResidual * std::max(rq, rt)) return rq < rt;
+  return a.against[std::size_t(q)] < a.against[std::size_t(than)];
+}
 
 // breaks[k] = 1: no flow between samples k − 1 and k (a jump, a chain start; sample 0).
 std::vector<std::uint8_t> Breaks(const std::vector<std::uint8_t>& jumps, const IdentifyOptions& options) {
@@ -475,9 +499,7 @@ Assignment AssignAll(const Model& model, const Mat& y, const std::vector<double>
     out.rss[std::size_t(q0)] = out.inferred ? ModeResidual(model, y, t, options.inputs, breaks, modes) : kNaN;
     const int against = out.inferred ? AgainstDirection(model, y, t, options.inputs, alpha, breaks, e, options.kinks.window) : 0;
     out.against[std::size_t(q0)] = against;
-    const int best = out.against[std::size_t(out.initial_mode)];
-    if (q0 == candidates.front() || against < best ||
-        (against == best && out.rss[std::size_t(q0)] < out.rss[std::size_t(out.initial_mode)])) {
+    if (q0 == candidates.front() || BetterInitialMode(out, q0, out.initial_mode)) {
       out.initial_mode = q0;
       out.events = std::move(e);
       out.modes = std::move(modes);

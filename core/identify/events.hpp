@@ -15,13 +15,14 @@
 //              kind (identity for a switch, ψ for a jump) armed in q; of several, the one whose guard
 //              is nearest zero, |h|/‖∇ₓh‖ least over the flow step from the pre-event sample (γ the
 //              model's: its start). Then q = the map's `to`.
-//   Initial q  given (IdentifyOptions::initial_mode), else every mode is tried and the one whose
-//              switches cross their guards in the guards' directions most often (h from the sample a
-//              kink window before the switch's pre-switch sample to that sample, within its flow
-//              segment) is
-//              kept; of those, the one whose flow regression (least squares over all flow pairs, with
-//              each sample's mode) leaves the least residual sum of squares. The directions tell the
-//              modes apart when their φ have the same form (a library of candidate terms per mode).
+//   Initial q  given (IdentifyOptions::initial_mode), else every mode is tried and the one whose flow
+//              regression (least squares over all flow pairs, with each sample's mode) leaves the
+//              least residual sum of squares is kept; when two modes' sums agree to a relative 1e-6
+//              (their φ have one form, as with a library of candidate terms in every mode: either
+//              labelling fits alike), the one under which fewer switches cross their guards against
+//              the guards' directions (h from the sample a kink window before the switch's pre-switch
+//              sample to that sample, within its flow segment; a guard that reads an unmeasured state
+//              does not count: those rows are a reconstruction).
 #pragma once
 
 #include <cstdint>
