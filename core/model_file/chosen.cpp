@@ -32,10 +32,6 @@ void SetValues(toml::table& root, const std::map<std::string, double>& values) {
   }
 }
 
-}  // namespace
-
-namespace {
-
 // The flow tables of the file ([flow], or each [[flow]]) and the prefix of their candidates' names
 // ("" for [flow], "MODE_" for a [[flow]]).
 std::vector<std::pair<toml::table*, std::string>> FlowTables(toml::table& root) {

@@ -236,6 +236,7 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
   for (std::size_t j = 0; j < step.columns.size(); ++j) {
     const std::string& name = model.spec().alpha[std::size_t(step.columns[j])].name;
     if (step.selectable[j] && step.selection.chosen[j]) step.kept.push_back(name);
+    // A column no mode's selection summed (its estimate left at 0) keeps the file's value.
     if (step.selection.chosen[j] && step.selection.estimate[Eigen::Index(j)] != 0.0)
       values[name] = step.selection.estimate[Eigen::Index(j)];
   }
