@@ -637,18 +637,27 @@ bool Better(const RefineResult& a, const RefineResult& b) {
   return a.reported && a.final_cost < b.final_cost;
 }
 
-// Multiple shooting by time from the recursive start and from the model's own values (a model file's
-// start values), and while neither is ok, for an automaton with a hidden mode, from α of the modes the
-// data show (ModeClusteredAlpha, with the model's own β and γ): the best of the fits (Better).
+// The starts of multiple shooting by time, in order: the recursive estimate; the model's own values
+// (a model file's start values); while no fit is ok, for an automaton with a hidden mode, α of the
+// modes the data show (ModeClusteredAlpha, with the model's own β and γ); with `search` (the labelled
+// routes reported nothing) while no fit can be reported (every one singular, unconverged or failed: a
+// start in another basin, or whose guards the model never reaches), the model's values with γ where the guards are reached (GammaReachingGuards),
+// then the points of a Halton design over the box the model's values span (DesignStarts), each with
+// γ where its guards are reached, until one is ok. The best of the fits (Better); `mended` names the
+// start of the one kept.
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
-                                    const HybridParameters& recursive, const RefineOptions& options) {
-  RefineResult best = FitByTimeShooting(model, chains, recursive, options);
+                                    const HybridParameters& recursive, const RefineOptions& options, bool search) {
+  auto named = [](RefineResult fit, const std::string& start) {
+    if (!fit.mended.empty()) fit.mended += " from " + start;
+    return fit;
+  };
+  RefineResult best = named(FitByTimeShooting(model, chains, recursive, options), "the recursive estimate");
   HybridParameters own = recursive;
   own.alpha = model.alpha();
   own.beta = model.beta();
   own.gamma = model.gamma();
-  auto consider = [&](const HybridParameters& from) {
-    RefineResult other = FitByTimeShooting(model, chains, from, options);
+  auto consider = [&](const HybridParameters& from, const std::string& what) {
+    RefineResult other = named(FitByTimeShooting(model, chains, from, options), what);
     if (Better(other, best)) {
       other.start = recursive;
       best = std::move(other);
@@ -656,7 +665,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   };
   if (!options.stopped() && (own.alpha != recursive.alpha || own.beta != recursive.beta ||
                              own.gamma != recursive.GammaOr(model))) {
-    consider(own);
+    consider(own, "the model's values");
   }
   if (best.ok() || options.stopped()) return best;
   const int n = model.state_size();
@@ -667,7 +676,19 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
           ModeClusteredAlpha(model, chains, MeasuredRows(options, n), own, Unknowns::Of(model), window)) {
     HybridParameters clustered = own;
     clustered.alpha = *alpha;
-    consider(clustered);
+    consider(clustered, "the modes the data show");
+  }
+  if (!search || best.reported || options.stopped()) return best;
+  if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, own, options)) {
+    HybridParameters reaching = own;
+    reaching.gamma = *gamma;
+    consider(reaching, "the model's values with its guards reached");
+  }
+  const std::vector<HybridParameters> design = DesignStarts(model, own, kDesignStarts, kDesignFactor);
+  for (std::size_t k = 0; k < design.size() && !best.ok() && !options.stopped(); ++k) {
+    HybridParameters from = design[k];
+    if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, from, options)) from.gamma = *gamma;
+    consider(from, fmt::format("design point {} of {}", k + 1, design.size()));
   }
   return best;
 }
@@ -826,7 +847,7 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   if (options.tries(RefineRoute::kTimeShooting) && options.x0_known.empty() && (!r.ok() || r.samples_used < samples) &&
       !data_fault &&
       !options.stopped()) {
-    AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options));
+    AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options, !r.reported));
     if (r.reported) r.estimate = r.refined;
   }
   return r;

@@ -94,10 +94,12 @@ enum class RefineRoute {
   // all samples (`mended` then begins "multiple shooting over S segments").
   kSegmentShooting,
   // Multiple shooting with nodes placed by time, the model finding its own events
-  // (sim/refine/time_shooting.hpp), from the recursive start, from the model's own values and, for a
-  // hidden mode, from α of the modes the data show; tried once after the best initial mode's routes,
-  // and adopted when ok, or when it converged and nothing else did (its residual tests then refuse
-  // it, the estimates stand with sandwich standard errors).
+  // (sim/refine/time_shooting.hpp), from the recursive start, from the model's own values, for a
+  // hidden mode from α of the modes the data show, and while no fit of any route can be reported,
+  // from the model's values with its guards reached and from a design over their box
+  // (TimeShootingFromStarts in refine.cpp); tried once after the best initial mode's routes, and
+  // adopted when ok, or when it converged and nothing else did (its residual tests then refuse it,
+  // the estimates stand with sandwich standard errors).
   kTimeShooting,
 };
 // "single shooting on the detected labels", "repaired start", "grown from a short span",

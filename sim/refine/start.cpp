@@ -432,4 +432,45 @@ Vec SolveGuardRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, co
   return out;
 }
 
+namespace {
+
+// The radical inverse of k in base b: k's digits in base b mirrored about the point.
+double RadicalInverse(int k, int base) {
+  double x = 0.0, scale = 1.0;
+  for (int m = k; m > 0; m /= base) {
+    scale /= base;
+    x += (m % base) * scale;
+  }
+  return x;
+}
+
+std::vector<int> FirstPrimes(std::size_t count) {
+  std::vector<int> primes;
+  for (int p = 2; primes.size() < count; ++p) {
+    if (std::none_of(primes.begin(), primes.end(), [p](int q) { return p % q == 0; })) primes.push_back(p);
+  }
+  return primes;
+}
+
+}  // namespace
+
+std::vector<HybridParameters> DesignStarts(const Model& model, const HybridParameters& center, int count,
+                                           double factor) {
+  const Unknowns unknowns = Unknowns::Of(model);
+  const std::vector<int> primes = FirstPrimes(unknowns.alpha.size() + unknowns.beta.size());
+  std::vector<HybridParameters> out;
+  for (int k = 1; k <= count; ++k) {
+    HybridParameters p = center;
+    std::size_t dim = 0;
+    auto move = [&](Vec& values, int j, const Parameter& param) {
+      const double h = RadicalInverse(k, primes[dim++]);
+      values[j] = std::clamp(values[j] * std::pow(factor, 2.0 * h - 1.0), param.lower, param.upper);
+    };
+    for (const int j : unknowns.alpha) move(p.alpha, j, model.spec().alpha[std::size_t(j)]);
+    for (const int j : unknowns.beta) move(p.beta, j, model.spec().beta[std::size_t(j)]);
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
 }  // namespace hysid

@@ -80,4 +80,12 @@ Vec SolveGuardRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, co
 // several stacked); `beta` unchanged when the rows are fewer than the unknowns or rank-deficient.
 Vec SolveJumpRows(const Unknowns& unknowns, const Mat& rows, const Vec& rhs, const Vec& beta);
 
+// Starts spread over the box a far start spans: `count` points of the Halton sequence (bases the first
+// primes, its point k = 1 … count) in the unknown α and β entries, entry i of point k at
+// center_i · factor^(2 h_ki − 1) (h_ki the radical inverse of k in the i-th prime base), so within a
+// factor `factor` of the center either way; clamped into the entries' bounds. An entry whose center
+// is 0 stays 0. The other entries (known ones, γ, x0) are the center's.
+std::vector<HybridParameters> DesignStarts(const Model& model, const HybridParameters& center, int count,
+                                           double factor);
+
 }  // namespace hysid

@@ -931,7 +931,114 @@ RefineChain Joined(const std::vector<RefineChain>& chains, std::size_t first, st
   return out;
 }
 
+ShootingProblem ProblemOf(const Model& model, const HybridParameters& start, const RefineOptions& options) {
+  ShootingProblem pr;
+  pr.model = &model;
+  pr.n = model.state_size();
+  pr.unknowns = Unknowns::Of(model);
+  pr.shared = pr.unknowns.shared();
+  pr.base = start;
+  if (pr.base.gamma.size() == 0) pr.base.gamma = model.gamma();
+  pr.rows = MeasuredRows(options, pr.n);
+  return pr;
+}
+
+// The value of γ entry `entry` that puts x on guard g (Newton on h_g(x, γ) = 0 from γ), or NaN.
+double GammaOnGuard(const Model& model, const Vec& x, Context ctx, Vec gamma, int g, int entry) {
+  Vec h(model.guard_count());
+  Mat dh(model.guard_count(), model.gamma_size());
+  for (int step = 0; step < 20; ++step) {
+    ctx.gamma = gamma.data();
+    model.Guards(x, h, ctx);
+    model.GuardGammaJacobian(x, ctx, dh);
+    const double slope = dh(g, entry);
+    if (!std::isfinite(h[g]) || !std::isfinite(slope) || slope == 0.0) return std::numeric_limits<double>::quiet_NaN();
+    const double move = h[g] / slope;
+    gamma[entry] -= move;
+    if (std::abs(move) <= 1e-10 * (1.0 + std::abs(gamma[entry]))) return gamma[entry];
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// Per jump map, over the segments' runs: whether one switches by it, and the values of the one unknown
+// γ entry its guard reads that put each run sample in the map's mode on the guard.
+struct GuardReach {
+  std::vector<std::uint8_t> switched;
+  std::vector<std::vector<double>> on_guard;
+  std::vector<int> entry;  // the γ entry (−1: none, or the guard reads several)
+};
+
+GuardReach ReachOfRuns(const ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
+                       const std::vector<Vec>& s) {
+  const Model& model = *pr.model;
+  const std::vector<JumpMap> maps = JumpMaps(model.spec());
+  const HybridParameters at0 = pr.At(theta.data(), s.front().data(), 0);
+  const Vec gamma = at0.GammaOr(model);
+  GuardReach reach{std::vector<std::uint8_t>(maps.size(), 0), std::vector<std::vector<double>>(maps.size()),
+                   std::vector<int>(maps.size(), -1)};
+  Mat dh(model.guard_count(), model.gamma_size());
+  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
+    const Segment& seg = pr.segments[i];
+    SensitivityTrajectory tr;
+    if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), false, &tr, Reading::kOwn)) continue;
+    const Trajectory& run = tr.trajectory;
+    const RefineChain& ch = chains[seg.chain];
+    for (long k = 0; k < std::min<long>(seg.samples(), run.size()); ++k) {
+      const int q = run.q.empty() ? std::max(seg.mode, 0) : run.q[std::size_t(k)];
+      const int before = k > 0 && !run.q.empty() ? run.q[std::size_t(k - 1)] : q;
+      const auto col = static_cast<Eigen::Index>(seg.first + k);
+      const Context ctx{.t = ch.t[std::size_t(col)], .u = ch.u.cols() ? ch.u.col(col).data() : nullptr,
+                        .gamma = gamma.data(), .alpha = at0.alpha.data(), .mode = q};
+      const Vec x = run.x.col(k);
+      model.GuardGammaJacobian(x, ctx, dh);
+      for (std::size_t m = 0; m < maps.size(); ++m) {
+        if (before != q && (maps[m].from == before || maps[m].from < 0) && maps[m].to == q) reach.switched[m] = 1;
+        if (maps[m].guard < 0 || (maps[m].from >= 0 && maps[m].from != q)) continue;
+        int entry = -1, depends = 0;
+        for (const int j : pr.unknowns.gamma) {
+          if (dh(maps[m].guard, j) != 0.0) entry = j, ++depends;
+        }
+        if (depends != 1) continue;
+        const double value = GammaOnGuard(model, x, ctx, gamma, maps[m].guard, entry);
+        if (std::isfinite(value)) reach.on_guard[m].push_back(value), reach.entry[m] = entry;
+      }
+    }
+  }
+  return reach;
+}
+
 }  // namespace
+
+std::optional<Vec> GammaReachingGuards(const Model& model, const std::vector<RefineChain>& chains,
+                                       const HybridParameters& start, const RefineOptions& options) {
+  if (!IsAutomaton(model.spec()) || chains.empty()) return std::nullopt;
+  ShootingProblem pr = ProblemOf(model, start, options);
+  if (pr.unknowns.gamma.empty()) return std::nullopt;
+  Weigh(chains, options, pr);
+  long total = 0;
+  for (const RefineChain& c : chains) total += static_cast<long>(c.t.size());
+  pr.segments = CutSegments(chains, pr.rows, TimeShootingNodeSpacing(total, pr.n));
+  Vec theta = start.Theta(Unknowns{pr.unknowns.alpha, pr.unknowns.beta, pr.unknowns.gamma, false});
+  const std::vector<const Parameter*> params = pr.unknowns.Parameters(model);
+  for (int i = 0; i < pr.shared; ++i) theta[i] = std::clamp(theta[i], params[std::size_t(i)]->lower, params[std::size_t(i)]->upper);
+  const std::vector<Vec> s = StartNodes(pr, chains, theta, pr.segments);
+  GuardReach reach = ReachOfRuns(pr, chains, theta, s);
+  // Each γ entry of a guard no run reaches: the quantile kGuardReach, from the side of its start, of
+  // the values that put the runs' samples on the guard.
+  const Vec gamma = pr.At(theta.data(), s.front().data(), 0).GammaOr(model);
+  Vec out = gamma;
+  for (std::size_t m = 0; m < reach.switched.size(); ++m) {
+    std::vector<double>& v = reach.on_guard[m];
+    const int j = reach.entry[m];
+    if (reach.switched[m] || v.empty() || j < 0) continue;
+    std::sort(v.begin(), v.end());
+    const double q = gamma[j] > v[v.size() / 2] ? 1.0 - kGuardReach : kGuardReach;
+    const Parameter& p = model.spec().guard_params[std::size_t(j)];
+    out[j] = std::clamp(v[std::size_t(q * double(v.size() - 1))], p.lower, p.upper);
+  }
+  if (out == gamma) return std::nullopt;
+  return out;
+}
 
 RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain>& chains,
                                const HybridParameters& start, const RefineOptions& options) {
@@ -940,14 +1047,7 @@ RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain
   r.unknowns = Unknowns::Of(model);
   r.names = r.unknowns.Names(model);
   r.start = r.refined = r.estimate = start;
-  ShootingProblem pr;
-  pr.model = &model;
-  pr.n = model.state_size();
-  pr.unknowns = r.unknowns;
-  pr.shared = r.unknowns.shared();
-  pr.base = start;
-  if (pr.base.gamma.size() == 0) pr.base.gamma = model.gamma();
-  pr.rows = MeasuredRows(options, pr.n);
+  ShootingProblem pr = ProblemOf(model, start, options);
   // The chains of a run joined through their gaps; joined chains of fewer than 2n + 2 samples are
   // left out (as by the labelled routes). Per caller's chain: its joined chain and first sample there.
   std::vector<RefineChain> fit;

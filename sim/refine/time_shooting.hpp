@@ -31,6 +31,7 @@
 // refused).
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "sim/refine/fit.hpp"
@@ -46,6 +47,13 @@ constexpr int kModeRounds = 4;
 constexpr double kTrim = 6.0;
 // The route's iteration budget: this many times RefineOptions::max_iterations over all its solves.
 constexpr int kIterationBudget = 12;
+// A guard no run of a start reaches: its γ entry moves to where the guard is reached on this share
+// of the run's samples in the guard's mode (GammaReachingGuards).
+constexpr double kGuardReach = 0.1;
+// While no fit can be reported: this many starts of a Halton design over the box within this factor
+// of the model's values either way (DesignStarts), the factor a user's start values may be off by.
+constexpr int kDesignStarts = 16;
+constexpr double kDesignFactor = 2.5;
 
 // Samples per segment for chains of `samples` samples in all (at least 4n + 4, about 1/48 of the data,
 // at most 2 000).
@@ -55,5 +63,14 @@ long TimeShootingNodeSpacing(long samples, int n);
 // residual statistics and `route` in the result; `chain_x0` the chains' first node states.
 RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain>& chains,
                                const HybridParameters& start, const RefineOptions& options);
+
+// γ for a start whose guards the model never reaches (an automaton with unknown guard parameters):
+// the nodes are started as FitByTimeShooting starts them from `start` and each segment is run; a jump
+// map by which no run switches, whose guard reads one unknown γ entry, moves that entry to a quantile
+// over the runs' samples in the map's mode of the value that puts the sample on the guard, the
+// quantile kGuardReach from the side of its start (the least move that has the guard reached on that
+// share of the samples; within its bounds). nullopt when nothing moves.
+std::optional<Vec> GammaReachingGuards(const Model& model, const std::vector<RefineChain>& chains,
+                                       const HybridParameters& start, const RefineOptions& options);
 
 }  // namespace hysid

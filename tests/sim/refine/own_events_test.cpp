@@ -5,8 +5,10 @@
 // rim put on it), and the past-zero projection's sensitivities against finite differences.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
+#include <string>
 #include <utility>
 
 #include <Eigen/Dense>
@@ -15,6 +17,7 @@
 #include "sim/measurement.hpp"
 #include "tests/sim/refine/at_the_bound.hpp"
 #include "sim/refine/mode_start.hpp"
+#include "sim/refine/start.hpp"
 #include "sim/refine/time_shooting.hpp"
 #include "sim/sensitivity/crlb.hpp"
 
@@ -343,6 +346,68 @@ TEST_CASE("a start past the rim is put on it, with sensitivities that match fini
       CHECK(s.S(k)(j, c) == Approx(fd).margin(1e-5).epsilon(1e-3));
     }
   }
+}
+
+
+// A heater on from 21 °C for 300 s whose thresholds are set far beyond the band (T_hi = 40): the model
+// never switches, and the guard "hot" moves to where the run reaches it on kGuardReach of its samples.
+// Noise-free data of the same α: each segment's run from its node is the trajectory itself, so the
+// value is its quantile, computed here from one simulation.
+TEST_CASE("a guard the runs never reach moves to where they reach it", "[time_shooting]") {
+  Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
+  model.SetParameter("T_lo", 12.0);
+  model.SetParameter("T_hi", 40.0);
+  Exogenous exo;
+  exo.initial_mode = 1;
+  const Trajectory run = Simulate(model, Vec::Constant(1, 21.0), SampleGrid{300.0, 1.0}, {}, exo);
+  REQUIRE(run.jumps.empty());
+  RefineChain chain = RefineChain::Uniform(run.x, 1.0, std::vector<std::uint8_t>(run.t.size(), 0));
+  chain.initial_mode = 1;
+  HybridParameters start = HybridParameters::Of(model, Vec::Constant(1, 21.0));
+  start.initial_mode = 1;
+  RefineOptions options;
+  options.sigma = Vec::Constant(1, 0.05);
+  const std::optional<Vec> gamma = GammaReachingGuards(model, {chain}, start, options);
+  REQUIRE(gamma.has_value());
+  std::vector<double> t_values(run.x.data(), run.x.data() + run.x.cols());
+  std::sort(t_values.begin(), t_values.end());
+  const double expected = t_values[std::size_t((1.0 - kGuardReach) * double(t_values.size() - 1))];
+  CHECK((*gamma)[1] == Approx(expected).margin(1e-5));
+  CHECK((*gamma)[0] == 12.0);  // "cold" leaves the mode "off", which no run is in
+  // Thresholds the data cross: the runs switch, nothing moves.
+  const Model crossing = ParseModelFile(kThermostat, "thermostat.toml").model;
+  const Mat y = ThermostatData(crossing, 2, nullptr);
+  RefineChain switching = RefineChain::Uniform(y, 1.0, std::vector<std::uint8_t>(std::size_t(y.cols()), 0));
+  switching.initial_mode = 1;
+  CHECK_FALSE(GammaReachingGuards(crossing, {switching}, HybridParameters::Of(crossing, Vec::Constant(1, 21.0)),
+                                  options).has_value());
+}
+
+// The design's point k: each unknown entry times factor^(2 h − 1), h the radical inverse of k in the
+// entry's prime base (k = 1: 1/2, 1/3; k = 5: 0.101₂ = 5/8, 12₃ = 7/9); known entries and γ kept;
+// bounds hold.
+TEST_CASE("design starts: a Halton sequence over the box within the factor", "[time_shooting]") {
+  const Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
+  const HybridParameters center = HybridParameters::Of(model, Vec::Constant(1, 21.0));
+  const std::vector<HybridParameters> design = DesignStarts(model, center, 16, 2.5);
+  REQUIRE(design.size() == 16);
+  CHECK(design[0].alpha[0] == Approx(0.001 * std::pow(2.5, 0.0)));
+  CHECK(design[0].alpha[1] == Approx(0.022 * std::pow(2.5, 2.0 / 3.0 - 1.0)));
+  CHECK(design[4].alpha[0] == Approx(0.001 * std::pow(2.5, 2.0 * 5.0 / 8.0 - 1.0)));
+  CHECK(design[4].alpha[1] == Approx(0.022 * std::pow(2.5, 2.0 * 7.0 / 9.0 - 1.0)));
+  for (const HybridParameters& p : design) {
+    CHECK(p.gamma == center.gamma);
+    for (int i = 0; i < 2; ++i) {
+      CHECK(p.alpha[i] >= center.alpha[i] / 2.5);
+      CHECK(p.alpha[i] <= center.alpha[i] * 2.5);
+    }
+  }
+  // An upper bound within the box clamps its entry.
+  std::string text = kThermostat;
+  const std::string p_entry = "value = 0.022, bounds = [0.0, 10.0]";
+  text.replace(text.find(p_entry), p_entry.size(), "value = 0.022, bounds = [0.0, 0.023]");
+  const Model bounded = ParseModelFile(text, "thermostat.toml").model;
+  for (const HybridParameters& p : DesignStarts(bounded, center, 16, 2.5)) CHECK(p.alpha[1] <= 0.023);
 }
 
 }  // namespace
