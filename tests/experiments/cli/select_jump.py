@@ -9,7 +9,8 @@ refined coefficient must lie within 5 standard errors of -0.95; the model writte
 no candidates and keeps jump_v_1 as a plain beta entry, and `identify` on it gives the same refined
 estimates (relative 1e-6), `simulate` and `crlb` accept it. Then the ball whose map is
 v+ = -0.95 v + 0.02 v|v| (bounce_quadratic_truth.toml, 26 impacts): v and v|v| are chosen
-(jump_v_1, jump_v_2), each within 5 standard errors of its truth after the refinement.
+(jump_v_1, jump_v_2), each within 5 standard errors of its truth after the refinement. Last, a file
+with candidates of v' (1, v, |v|v, h) and of v+: 1 and v are chosen (v_1, jump_v_1).
 
 Usage: select_jump.py HYSID SOURCE_DIR WORK_DIR
 """
@@ -77,6 +78,18 @@ def main():
         bad.append(f"quadratic: chosen {report['selection']['jump']['chosen']}, expected v and v*abs(v)")
     else:
         within(report, {"jump_v_1": -0.95, "jump_v_2": 0.02}, "quadratic", bad)
+    # Candidates of the flow's v' and of v+ in one file: each chosen on its own rows.
+    library = open(os.path.join(select, "bounce_library.toml")).read()
+    both = os.path.join(work, "both.toml")
+    with open(both, "w") as f:
+        f.write(library.replace('{ name = "g", value = 9.81 } ]', "]").replace(
+            'phi = [["v", 0], [0, -1]]', 'phi = [["v"], [0]]\ncandidates = { v = ["1", "v", "abs(v)*v", "h"] }'))
+    out = os.path.join(work, "both.report.json")
+    run(hysid, "identify", "--model-file", both, "--data", data, "--refine", "none", "--json", out,
+        "--select-bootstrap", "20")
+    if json.load(open(out))["selection"]["chosen"] != ["v_1", "jump_v_1"]:
+        bad.append(f"flow and jump candidates: chosen {json.load(open(out))['selection']['chosen']}, expected "
+                   "['v_1', 'jump_v_1'] (1 in v', v in v+)")
     if bad:
         sys.exit("\n".join(bad))
     print("ok: chosen", jump["chosen"], "then", report["selection"]["jump"]["chosen"])
