@@ -1,5 +1,6 @@
 // Which terms of a flow row do the data support: sparse selection among a model's candidate terms on
-// the flow regression's integral rows (docs/method.md#which-model-candidate-terms).
+// the flow regression's integral rows (docs/method.md#which-model-candidate-terms), and of a jump row
+// on the jump regression's rows of the detected jumps (SumJumps; #which-model-candidate-terms-of-a-jump).
 //
 // Rows. RegressionBuilder gives, per pair the recursive pass took for flow, the trapezoid row
 // y_k = Δξ_r − Φ_{r,known} α_known, Φ_k = Φ_{r,unknown} (eq. 7). Within one flow segment (consecutive
@@ -110,7 +111,7 @@ struct SelectOptions {
   int folds = 5;         // cross-validation: segment i is held out in fold i mod folds (0: one per segment, leave-one-out)
   int thresholds = 40;   // λ values on the STLSQ path (log-spaced over the relative coefficients)
   int iterations = 20;   // at most per STLSQ run
-  int min_segment = 3;   // segments with fewer samples are left out
+  int min_segment = 3;   // segments with fewer samples are left out (centred sums only)
   double min_share = 0.5;  // [0, 1]: KeepStable drops a chosen candidate the bootstrap chose less often
   int exhaustive = 2;      // [0, 3]: every support of at most this many candidates is compared too
   bool IsValid(std::string* error) const;
