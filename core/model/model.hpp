@@ -67,6 +67,15 @@ struct CandidateTerm {
   int mode = 0;
 };
 
+// A candidate term of a jump row (a model file's [jump] candidates): the β entry whose ψ column is the
+// expression `term` (of the pre-jump state) in row `row` and 0 elsewhere, its coefficient to be
+// selected from the detected jumps.
+struct JumpCandidateTerm {
+  int beta = 0;
+  int row = 0;
+  std::string term;
+};
+
 struct ModelSpec {
   std::string name;
   std::string description;
@@ -102,6 +111,8 @@ struct ModelSpec {
   int default_mode = 0;  // q0 when none is given
   // Candidate terms among α (empty: none); each is an unknown α entry.
   std::vector<CandidateTerm> candidates = {};
+  // Candidate terms among β (empty: none); each is an unknown β entry.
+  std::vector<JumpCandidateTerm> jump_candidates = {};
 };
 
 // Which member functions a model struct must provide. ξ has size n = spec.state_names.size().

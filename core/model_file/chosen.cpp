@@ -32,6 +32,11 @@ void SetValues(toml::table& root, const std::map<std::string, double>& values) {
   }
 }
 
+// A candidate's term as written (a string, or a number).
+std::string TermText(const toml::node& term) {
+  return term.value<std::string>().value_or(fmt::format("{}", term.value<double>().value_or(0.0)));
+}
+
 // The flow tables of the file ([flow], or each [[flow]]) and the prefix of their candidates' names
 // ("" for [flow], "MODE_" for a [[flow]]).
 std::vector<std::pair<toml::table*, std::string>> FlowTables(toml::table& root) {
@@ -47,11 +52,12 @@ std::vector<std::pair<toml::table*, std::string>> FlowTables(toml::table& root) 
   return out;
 }
 
-// Appends one column to every flow table's phi: `term` in state `row` of `owner`, 0 elsewhere.
+// Appends one column to every table's `matrix` (the flows' phi, the [jump]'s psi): `term` in state `row`
+// of `owner`, 0 elsewhere.
 void AppendColumn(const std::vector<std::pair<toml::table*, std::string>>& flows, const toml::table* owner,
-                  const toml::array& states, std::string_view row, const toml::node& term) {
+                  const toml::array& states, std::string_view row, const toml::node& term, const char* matrix = "phi") {
   for (const auto& [table, prefix] : flows) {
-    toml::array* phi = (*table)["phi"].as_array();
+    toml::array* phi = (*table)[matrix].as_array();
     for (std::size_t s = 0; phi != nullptr && s < states.size() && s < phi->size(); ++s) {
       toml::array* phi_row = phi->get(s)->as_array();
       if (phi_row == nullptr) continue;
@@ -65,6 +71,32 @@ void AppendColumn(const std::vector<std::pair<toml::table*, std::string>>& flows
   }
 }
 
+// The [jump] table's candidates kept (`kept`, names jump_ROW_K) as β entries (value 0) with their ψ
+// columns (the term in its row, 0 elsewhere); their names go to `found`. The candidates are erased.
+void KeepJumpCandidates(toml::table& root, const std::vector<std::string>& kept, std::vector<std::string>* found) {
+  toml::table* jump = root["jump"].as_table();
+  const toml::table* candidates = jump != nullptr ? (*jump)["candidates"].as_table() : nullptr;
+  toml::array* beta = root["beta"].as_array();
+  toml::array* states = root["states"].as_array();
+  if (candidates == nullptr || beta == nullptr || states == nullptr) return;
+  const std::vector<std::pair<toml::table*, std::string>> table = {{jump, ""}};
+  for (auto&& [row, list] : *candidates) {
+    const toml::array* terms = list.as_array();
+    for (std::size_t i = 0; terms != nullptr && i < terms->size(); ++i) {
+      const std::string candidate = fmt::format("jump_{}_{}", row.str(), i + 1);
+      if (std::find(kept.begin(), kept.end(), candidate) == kept.end()) continue;
+      found->push_back(candidate);
+      const toml::node& term = *terms->get(i);
+      toml::table entry{{"name", candidate}, {"value", 0.0}};
+      entry.insert("description", fmt::format("chosen candidate jump term {}", TermText(term)));
+      entry.is_inline(true);
+      beta->push_back(std::move(entry));
+      AppendColumn(table, jump, *states, row.str(), term, "psi");
+    }
+  }
+  jump->erase("candidates");
+}
+
 }  // namespace
 
 std::string ChosenModelText(std::string_view text, const std::string& name, const std::vector<std::string>& kept,
@@ -73,10 +105,12 @@ std::string ChosenModelText(std::string_view text, const std::string& name, cons
   const std::vector<std::pair<toml::table*, std::string>> flows = FlowTables(root);
   toml::array* states = root["states"].as_array();
   toml::array* alpha = root["alpha"].as_array();
-  const bool any = std::any_of(flows.begin(), flows.end(), [](const auto& f) { return f.first->contains("candidates"); });
+  const bool any = std::any_of(flows.begin(), flows.end(), [](const auto& f) { return f.first->contains("candidates"); }) ||
+                   (root["jump"].as_table() != nullptr && root["jump"].as_table()->contains("candidates"));
   if (!any || states == nullptr || alpha == nullptr)
-    throw std::invalid_argument(fmt::format("{}: no [flow] or [[flow]] table has candidates", name));
+    throw std::invalid_argument(fmt::format("{}: no [flow], [[flow]] or [jump] table has candidates", name));
   std::vector<std::string> found;
+  KeepJumpCandidates(root, kept, &found);
   for (const auto& [table, prefix] : flows) {
     const toml::table* candidates = (*table)["candidates"].as_table();
     if (candidates == nullptr) continue;
@@ -88,9 +122,7 @@ std::string ChosenModelText(std::string_view text, const std::string& name, cons
         found.push_back(candidate);
         const toml::node& term = *terms->get(i);
         toml::table entry{{"name", candidate}, {"value", 0.0}};
-        entry.insert("description",
-                     fmt::format("chosen candidate term {}", term.value<std::string>().value_or(
-                                                                 fmt::format("{}", term.value<double>().value_or(0.0)))));
+        entry.insert("description", fmt::format("chosen candidate term {}", TermText(term)));
         entry.is_inline(true);
         alpha->push_back(std::move(entry));
         AppendColumn(flows, table, *states, row.str(), term);
@@ -99,7 +131,7 @@ std::string ChosenModelText(std::string_view text, const std::string& name, cons
   }
   for (const std::string& k : kept) {
     if (std::find(found.begin(), found.end(), k) == found.end())
-      throw std::invalid_argument(fmt::format("{}: '{}' is no candidate term of [flow] or [[flow]]", name, k));
+      throw std::invalid_argument(fmt::format("{}: '{}' is no candidate term of [flow], [[flow]] or [jump]", name, k));
   }
   for (const auto& [table, prefix] : flows) table->erase("candidates");
   SetValues(root, values);

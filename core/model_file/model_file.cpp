@@ -803,15 +803,13 @@ std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::tab
 
 std::vector<std::string> TakenNames(const ModelSpec& spec);
 
-// One candidate term `text` of row r in mode q: an unknown α entry `name` (value 0) and its φ column,
-// the term in row r of φ_q and 0 elsewhere (every other mode's φ gets a zero column), appended to φ as
-// ParseMatrix writes an entry.
-void AppendCandidate(const TomlReader& rd, const toml::node& node, const std::string& key, int r, std::size_t q,
-                     const std::string& text, Definition& def, Symbols& sym, const std::string& name) {
-  ModelSpec& spec = def.spec;
+// A column appended to each of `mats` (φ of every mode, or the one ψ), as ParseMatrix writes an entry:
+// `text` in row r of mats[q], 0 elsewhere (every other matrix gets a zero column).
+void AppendColumn(const TomlReader& rd, const toml::node& node, const std::string& key, int r, std::size_t q,
+                  const std::string& text, std::vector<ExprMatrix>& mats, Symbols& sym) {
   const auto [value, uses_variable, varies] = CheckExpression(rd, &node, key, text, sym);
-  for (std::size_t p = 0; p < def.phi.size(); ++p) {
-    ExprMatrix& m = def.phi[p];
+  for (std::size_t p = 0; p < mats.size(); ++p) {
+    ExprMatrix& m = mats[p];
     for (Eigen::Index i = 0; i < m.rows; ++i) {
       const Eigen::Index at = m.cols * m.rows + i;
       const bool here = p == q && i == r;
@@ -824,22 +822,33 @@ void AppendCandidate(const TomlReader& rd, const toml::node& node, const std::st
     }
     ++m.cols;
   }
+}
+
+// One candidate term `text` of row r in mode q: an unknown α entry `name` (value 0) and its φ column,
+// the term in row r of φ_q and 0 elsewhere (every other mode's φ gets a zero column).
+void AppendCandidate(const TomlReader& rd, const toml::node& node, const std::string& key, int r, std::size_t q,
+                     const std::string& text, Definition& def, Symbols& sym, const std::string& name) {
+  ModelSpec& spec = def.spec;
+  AppendColumn(rd, node, key, r, q, text, def.phi, sym);
   spec.candidates.push_back({static_cast<int>(spec.alpha.size()), r, text, static_cast<int>(q)});
   spec.alpha.push_back(Parameter{.name = name, .value = 0.0, .description = "candidate term " + text});
 }
 
-// Where a table's candidates go: its key (flow, flow[i]), its mode q (0 for [flow]), the prefix of
-// their names ("" for [flow], "MODE_" for a [[flow]]) and the table's identified rows.
+// Where a table's candidates go: its key (flow, flow[i], jump), its mode q (0 for [flow] and [jump]),
+// the prefix of their names ("" for [flow], "MODE_" for a [[flow]], "jump_" for [jump]) and the
+// table's identified rows.
 struct CandidateTable {
   std::string key;
   std::size_t mode = 0;
   std::string prefix;
   std::vector<int> rows;
+  bool jump = false;  // [jump]: β entries and ψ columns
 };
 
 // KEY.candidates = { ROW = ["TERM", ...] }: per identified row of the table its candidate terms, each
-// appended to α (named PREFIX + ROW_K) and φ. The flow Jacobian of a model with candidates is not
-// declared constant.
+// appended to α and φ (a flow's) or to β and ψ (the [jump]'s), named PREFIX + ROW_K; the name may be
+// no state's, parameter's (α, β, γ, the flow candidates' included) or input's. The flow Jacobian of a
+// model with flow candidates is not declared constant.
 void ParseCandidates(const TomlReader& rd, const toml::node& node, const CandidateTable& table, Definition& def,
                      Symbols& sym) {
   ModelSpec& spec = def.spec;
@@ -847,6 +856,8 @@ void ParseCandidates(const TomlReader& rd, const toml::node& node, const Candida
   taken.insert(taken.end(), spec.inputs.begin(), spec.inputs.end());
   for (const Parameter& p : spec.guard_params) taken.push_back(p.name);
   const std::string ckey = TomlReader::Join(table.key, "candidates");
+  const char* vector = table.jump ? "beta" : "alpha";
+  const std::size_t limit = std::size_t(table.jump ? Model::kMaxParameters : Model::kMaxAlpha);
   for (auto&& [k, v] : rd.Table(node, ckey)) {
     const std::string row_name(k.str());
     const std::string key = TomlReader::Join(ckey, row_name);
@@ -867,14 +878,20 @@ void ParseCandidates(const TomlReader& rd, const toml::node& node, const Candida
       if (std::find(taken.begin(), taken.end(), name) != taken.end()) {
         rd.Fail(&terms[i], ikey, fmt::format("the candidate's name '{}' is already taken (a state, parameter or input)", name));
       }
-      if (spec.alpha.size() >= std::size_t(Model::kMaxAlpha)) {
-        rd.Fail(&terms[i], ikey, fmt::format("alpha with the candidates would have more than {} entries", Model::kMaxAlpha));
+      if ((table.jump ? spec.beta.size() : spec.alpha.size()) >= limit) {
+        rd.Fail(&terms[i], ikey, fmt::format("{} with the candidates would have more than {} entries", vector, limit));
       }
-      AppendCandidate(rd, terms[i], ikey, r, table.mode, text, def, sym, name);
+      if (table.jump) {
+        AppendColumn(rd, terms[i], ikey, r, 0, text, def.psi, sym);
+        spec.jump_candidates.push_back({static_cast<int>(spec.beta.size()), r, text});
+        spec.beta.push_back(Parameter{.name = name, .value = 0.0, .description = "candidate jump term " + text});
+      } else {
+        AppendCandidate(rd, terms[i], ikey, r, table.mode, text, def, sym, name);
+      }
       taken.push_back(name);
     }
   }
-  spec.flow_jacobian_constant = false;
+  if (!table.jump) spec.flow_jacobian_constant = false;
 }
 
 // The candidates of a [[flow]] table: it must give its rows, and its mode's name must make parameter
@@ -1068,11 +1085,13 @@ void ParseJumps(const TomlReader& rd, const toml::table& root, Definition& def, 
       rd.Fail(&node, "jump", "several modes switch by [[jump]] maps with from/to: one [jump] table has no modes");
     }
     const toml::table& t = rd.Table(node, "jump");
-    rd.OnlyKeys(t, "jump", {"psi", "rows"});
+    rd.OnlyKeys(t, "jump", {"psi", "rows", "candidates"});
     def.psi = {ParseMatrix(rd, rd.Require(t, "jump", "psi"), "jump.psi",
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.beta.size()), sym)};
     spec.jump_rows = ParseCheckedRows(rd, t, "jump", def.psi[0], spec.beta, spec.state_names);
+    if (const toml::node* c = t.get("candidates"))
+      ParseCandidates(rd, *c, {"jump", 0, "jump_", spec.jump_rows, true}, def, sym);
     return;
   }
   const toml::array& arr = *node.as_array();

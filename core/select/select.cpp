@@ -93,7 +93,8 @@ bool SelectOptions::IsValid(std::string* error) const {
   if (thresholds < 1) return fail(fmt::format("SelectOptions::thresholds = {}: must be >= 1", thresholds));
   if (iterations < 1) return fail(fmt::format("SelectOptions::iterations = {}: must be >= 1", iterations));
   if (min_segment < 2) return fail(fmt::format("SelectOptions::min_segment = {}: must be >= 2", min_segment));
-  if (folds < 2) return fail(fmt::format("SelectOptions::folds = {}: must be >= 2", folds));
+  if (folds < 2 && folds != 0)
+    return fail(fmt::format("SelectOptions::folds = {}: must be >= 2, or 0 (leave one segment out)", folds));
   if (exhaustive < 0 || exhaustive > 3)
     return fail(fmt::format("SelectOptions::exhaustive = {}: must be in [0, 3]", exhaustive));
   if (!(min_share >= 0.0 && min_share <= 1.0))
@@ -155,6 +156,41 @@ FlowSums SumFlowSegments(const Model& model, const FlowSamples& s) {
   return out;
 }
 
+FlowSums SumJumps(const Model& model, const JumpSamples& s) {
+  CheckSamples(model, FlowSamples{.y = s.y, .gamma = s.gamma, .dt = s.dt, .times = s.times,
+                                  .chain_start = s.chain_start, .inputs = s.inputs});
+  if (!model.spec().jumps.empty())
+    throw std::invalid_argument(fmt::format("SumJumps: model '{}' has [[jump]] maps (one [jump] only)", model.name()));
+  RegressionBuilder builder(model);
+  const RegressionLayout& layout = builder.jump_layout();
+  const auto p = static_cast<Eigen::Index>(layout.unknown.size());
+  const auto R = static_cast<Eigen::Index>(layout.rows.size());
+  FlowSums out{layout.unknown, {}, false};
+  const Mat& y = *s.y;
+  const bool timed = s.times != nullptr && !s.times->empty();
+  const bool chained = s.chain_start != nullptr && !s.chain_start->empty();
+  int chain = 0;
+  Mat psi(R, p);
+  Vec row(R);
+  for (Eigen::Index k = 1; k < y.cols(); ++k) {
+    if (chained && (*s.chain_start)[std::size_t(k)] != 0) {
+      ++chain;
+      continue;
+    }
+    if ((*s.gamma)[std::size_t(k)] == 0 || !y.col(k).allFinite() || !y.col(k - 1).allFinite()) continue;
+    const Context prev{.t = timed ? (*s.times)[std::size_t(k - 1)] : double(k - 1) * s.dt,
+                       .u = model.input_size() > 0 ? s.inputs->col(k - 1).data() : nullptr};
+    builder.Jump(y.col(k - 1), y.col(k), psi, row, prev);
+    SegmentSums group{chain, {}};
+    for (Eigen::Index r = 0; r < R; ++r) {
+      const Vec a = psi.row(r).transpose();
+      group.rows.push_back({a * a.transpose(), a * row[r], row[r] * row[r], 1});
+    }
+    out.segments.push_back(std::move(group));
+  }
+  return out;
+}
+
 std::vector<int> ColumnsInUse(const FlowSums& sums) {
   std::vector<int> out;
   for (std::size_t j = 0; j < sums.columns.size(); ++j) {
@@ -182,6 +218,7 @@ FlowSums KeepColumns(const FlowSums& sums, const std::vector<int>& keep) {
     }
   }
   FlowSums out;
+  out.centred = sums.centred;
   for (int j : keep) out.columns.push_back(sums.columns[std::size_t(j)]);
   for (const SegmentSums& seg : sums.segments) {
     SegmentSums s{seg.chain, {}};
@@ -210,7 +247,8 @@ struct Normal {
   double rows = 0.0, offsets = 0.0;
 };
 
-// fold >= 0: only the segments i with i % folds == fold.
+// fold >= 0: only the segments i with i % folds == fold. Centred sums: one offset per segment and row,
+// segments of fewer than min_segment samples left out.
 std::vector<Normal> RowTotals(const FlowSums& sums, const std::vector<int>& multiplicity, int min_segment,
                               int fold = -1, int folds = 1) {
   const auto p = static_cast<Eigen::Index>(sums.columns.size());
@@ -221,12 +259,12 @@ std::vector<Normal> RowTotals(const FlowSums& sums, const std::vector<int>& mult
     if (m == 0.0 || (fold >= 0 && int(i % std::size_t(folds)) != fold)) continue;
     for (std::size_t r = 0; r < R; ++r) {
       const RowSums& rs = sums.segments[i].rows[r];
-      if (rs.count < min_segment) continue;
+      if (sums.centred && rs.count < min_segment) continue;
       out[r].gram += m * rs.gram;
       out[r].cross += m * rs.cross;
       out[r].square += m * rs.square;
       out[r].rows += m * double(rs.count);
-      out[r].offsets += m;
+      out[r].offsets += sums.centred ? m : 0.0;
     }
   }
   return out;
@@ -443,8 +481,9 @@ struct CrossValidation {
 CrossValidation MakeFolds(const FlowSums& sums, const std::vector<int>& multiplicity, const SelectOptions& o,
                           const std::vector<double>& w, const Normal& total) {
   CrossValidation cv;
-  for (int f = 0; f < o.folds; ++f) {
-    Normal test = Combined(RowTotals(sums, multiplicity, o.min_segment, f, o.folds), w);
+  const int folds = o.folds > 0 ? o.folds : static_cast<int>(sums.segments.size());
+  for (int f = 0; f < folds; ++f) {
+    Normal test = Combined(RowTotals(sums, multiplicity, o.min_segment, f, folds), w);
     Normal train = total;
     train.gram -= test.gram;
     train.cross -= test.cross;
@@ -474,7 +513,7 @@ Selection SelectTerms(const FlowSums& sums, const std::vector<bool>& selectable,
   out.estimate = Vec::Zero(Eigen::Index(p));
   const std::vector<Normal> rows = RowTotals(sums, multiplicity, options.min_segment);
   if (rows.empty()) {
-    out.reason = "no flow segment";
+    out.reason = sums.centred ? "no flow segment" : "no jump";
     return out;
   }
   const std::vector<bool> all(p, true);
@@ -483,7 +522,8 @@ Selection SelectTerms(const FlowSums& sums, const std::vector<bool>& selectable,
   const double N = ne.rows - ne.offsets;
   out.rows = static_cast<long>(N);
   if (!(N > double(p) + 1.0) || !(ne.square > 0.0)) {
-    out.reason = fmt::format("{} integral rows (less one offset per segment) for {} unknowns", N, p);
+    out.reason = sums.centred ? fmt::format("{} integral rows (less one offset per segment) for {} unknowns", N, p)
+                              : fmt::format("{} jump rows for {} unknowns", N, p);
     return out;
   }
   std::vector<std::vector<bool>> supports = Backward(ne, selectable);

@@ -1,5 +1,6 @@
 // Which terms of a flow row do the data support: sparse selection among a model's candidate terms on
-// the flow regression's integral rows (docs/method.md#which-model-candidate-terms).
+// the flow regression's integral rows (docs/method.md#which-model-candidate-terms), and of a jump row
+// on the jump regression's rows of the detected jumps (SumJumps; #which-model-candidate-terms-of-a-jump).
 //
 // Rows. RegressionBuilder gives, per pair the recursive pass took for flow, the trapezoid row
 // y_k = Δξ_r − Φ_{r,known} α_known, Φ_k = Φ_{r,unknown} (eq. 7). Within one flow segment (consecutive
@@ -45,10 +46,13 @@ struct SegmentSums {
 };
 
 // The flow regression's integral sums per segment; `columns` are the unknown α indices, in the order
-// of the sums' entries.
+// of the sums' entries. The same form holds the jump regression's rows (SumJumps): one group per
+// detected jump, its rows' sums not centred (a jump's rows have no offset to eliminate), `columns` the
+// unknown β indices.
 struct FlowSums {
   std::vector<int> columns;
   std::vector<SegmentSums> segments;
+  bool centred = true;  // false: raw sums, no offset per group, no least group size (the jumps)
 };
 
 // Samples on the detected hybrid time domain. y: n × K states; gamma[k] = 1 where the pair (k−1, k)
@@ -73,6 +77,22 @@ struct FlowSamples {
 // Throws std::invalid_argument on sizes that disagree.
 FlowSums SumFlowSegments(const Model& model, const FlowSamples& samples);
 
+// The jumps on the detected hybrid time domain: the pairs (k − 1, k) with gamma[k] = 1 within a chain
+// and both samples finite. Fields as FlowSamples'; ψ at the pre-jump sample's context (its time and
+// inputs). A model with [[jump]] maps is refused (std::invalid_argument).
+struct JumpSamples {
+  const Mat* y = nullptr;
+  const std::vector<std::uint8_t>* gamma = nullptr;
+  double dt = 0.0;
+  const std::vector<double>* times = nullptr;
+  const std::vector<std::uint8_t>* chain_start = nullptr;
+  const Mat* inputs = nullptr;
+};
+
+// The jump regression's rows (RegressionBuilder::Jump: y = ξ_r⁺ − Ψ_{r,known}(ξ⁻) β_known on
+// Ψ_{r,unknown}(ξ⁻)), one group per jump with one row per identified jump row, not centred.
+FlowSums SumJumps(const Model& model, const JumpSamples& samples);
+
 // The sums on the columns `keep` (positions in sums.columns, ascending) only, less the rows in which
 // none of them is nonzero (a mode's columns: those whose sums are not all zero, ColumnsInUse).
 FlowSums KeepColumns(const FlowSums& sums, const std::vector<int>& keep);
@@ -88,10 +108,10 @@ enum class SelectionRule {
 
 struct SelectOptions {
   SelectionRule rule = SelectionRule::kCrossValidation;
-  int folds = 5;         // cross-validation: segment i is held out in fold i mod folds
+  int folds = 5;         // cross-validation: segment i is held out in fold i mod folds (0: one per segment, leave-one-out)
   int thresholds = 40;   // λ values on the STLSQ path (log-spaced over the relative coefficients)
   int iterations = 20;   // at most per STLSQ run
-  int min_segment = 3;   // segments with fewer samples are left out
+  int min_segment = 3;   // segments with fewer samples are left out (centred sums only)
   double min_share = 0.5;  // [0, 1]: KeepStable drops a chosen candidate the bootstrap chose less often
   int exhaustive = 2;      // [0, 3]: every support of at most this many candidates is compared too
   bool IsValid(std::string* error) const;

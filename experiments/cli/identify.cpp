@@ -415,7 +415,7 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   IdentifyOutcome outcome = RunRecursivePass(request);
   progress.Clear();
   std::optional<SelectStep> select;
-  if (!model.spec().candidates.empty()) {
+  if (!model.spec().candidates.empty() || !model.spec().jump_candidates.empty()) {
     select = SelectTerms(args, request, &outcome);
     truth_source = "the selection's least-squares values (the chosen model has no truth)";
   }

@@ -37,6 +37,18 @@ std::string TermText(const ModelSpec& spec, int alpha) {
 
 namespace {
 
+// One candidate's line: its name, term, whether chosen, its estimate and its bootstrap share (column i
+// of `s` and `bootstrap`).
+void PrintTerm(const std::string& name, const std::string& term, const Selection& s, const BootstrapResult& bootstrap,
+               std::size_t i) {
+  std::string line = fmt::format("  {:<8} {:<22} {:<6}", name, term, s.chosen[i] ? "chosen" : "-");
+  if (s.chosen[i]) line += fmt::format(" {:<14.8g}", s.estimate[Eigen::Index(i)]);
+  else line += fmt::format(" {:<14}", "");
+  if (bootstrap.draws > 0)
+    line += fmt::format(" chosen in {:5.1f}% of bootstrap draws", 100.0 * bootstrap.frequency[Eigen::Index(i)]);
+  std::printf("%s\n", line.c_str());
+}
+
 // One block's report: its selection, its candidates with their estimates and bootstrap shares.
 void PrintBlock(const SelectStep& step, const SelectBlock& block) {
   const Selection& s = block.selection;
@@ -61,13 +73,7 @@ void PrintBlock(const SelectStep& step, const SelectBlock& block) {
               std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
   for (std::size_t i = 0; i < block.positions.size(); ++i) {
     const std::size_t j = std::size_t(block.positions[i]);
-    if (!step.selectable[j]) continue;
-    std::string line = fmt::format("  {:<8} {:<22} {:<6}", step.names[j], step.terms[j], s.chosen[i] ? "chosen" : "-");
-    if (s.chosen[i]) line += fmt::format(" {:<14.8g}", s.estimate[Eigen::Index(i)]);
-    else line += fmt::format(" {:<14}", "");
-    if (block.bootstrap.draws > 0)
-      line += fmt::format(" chosen in {:5.1f}% of bootstrap draws", 100.0 * block.bootstrap.frequency[Eigen::Index(i)]);
-    std::printf("%s\n", line.c_str());
+    if (step.selectable[j]) PrintTerm(step.names[j], step.terms[j], s, block.bootstrap, i);
   }
   if (block.bootstrap.draws > 0) {
     std::printf("  bootstrap: %d draws of the flow segments with replacement; the cross-validated support "
@@ -76,10 +82,46 @@ void PrintBlock(const SelectStep& step, const SelectBlock& block) {
   }
 }
 
+// The jump selection's report, as a block's.
+void PrintJumps(const SelectStep& step, const JumpSelect& jump) {
+  const Selection& s = jump.selection;
+  std::vector<std::string> kept;
+  std::size_t candidates = 0;
+  for (std::size_t j = 0; j < jump.columns.size(); ++j) {
+    if (!jump.selectable[j]) continue;
+    ++candidates;
+    if (s.chosen[j]) kept.push_back(jump.names[j]);
+  }
+  std::printf("selection of jump terms: %zu candidate terms, %d jumps (%s), %ld jump rows; %d supports from "
+              "thresholded least squares, backward and forward selection and every support of at most %d "
+              "candidates, chosen by leave-one-jump-out cross-validation\n",
+              candidates, jump.jumps,
+              step.round == 1 ? "the detections of the pass with every candidate"
+                              : fmt::format("the detections of the chosen model, round {}", step.round).c_str(),
+              s.rows, s.supports, SelectOptions{}.exhaustive);
+  std::printf("  chosen: %s (held-out mean square %.6g; BIC %.2f, the least BIC of another support %s)\n",
+              kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(kept, ", ")).c_str(), s.cv, s.bic,
+              std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
+  for (std::size_t j = 0; j < jump.columns.size(); ++j) {
+    if (jump.selectable[j]) PrintTerm(jump.names[j], jump.terms[j], s, jump.bootstrap, j);
+  }
+  if (jump.bootstrap.draws > 0) {
+    std::printf("  bootstrap: %d draws of the jumps with replacement; the cross-validated support exactly in %d\n",
+                jump.bootstrap.draws, jump.bootstrap.support_matches);
+  }
+  for (const int j : jump.unstable) {
+    std::printf("  dropped as unstable: %s (chosen by cross-validation, by %.1f%% of the bootstrap draws, "
+                "fewer than %.0f%%)\n",
+                jump.names[std::size_t(j)].c_str(), 100.0 * jump.bootstrap.frequency[Eigen::Index(j)],
+                100.0 * SelectOptions{}.min_share);
+  }
+}
+
 }  // namespace
 
 void PrintSelection(const SelectStep& step) {
   for (const SelectBlock& block : step.blocks) PrintBlock(step, block);
+  if (step.jump) PrintJumps(step, *step.jump);
   for (const int j : step.unstable) {
     std::printf("  dropped as unstable: %s (chosen by cross-validation, by %.1f%% of the bootstrap draws, "
                 "fewer than %.0f%%)\n",
@@ -102,9 +144,9 @@ std::string ChosenText(const SelectStep& step, const std::map<std::string, doubl
 void AddSelectOptions(CLI::App& cmd, SelectArgs& args) {
   cmd.add_option("--chosen-model", args.chosen_model,
                  "a model file with candidate terms: write the chosen model (the chosen terms as plain alpha "
-                 "entries, the estimates as values) to this file");
+                 "entries, or beta entries for the jump's, the estimates as values) to this file");
   cmd.add_option("--select-bootstrap", args.bootstrap,
-                 "a model file with candidate terms: bootstrap draws of the flow segments for how often each "
+                 "a model file with candidate terms: bootstrap draws of the flow segments (of the jumps) for how often each "
                  "term is chosen; a term chosen by fewer than half of them is dropped (0: no bootstrap, "
                  "nothing dropped)")
       ->capture_default_str();
@@ -113,9 +155,10 @@ void AddSelectOptions(CLI::App& cmd, SelectArgs& args) {
 }
 
 void CheckSelectArgs(const SelectArgs& args, const Model& model) {
-  if (!args.chosen_model.empty() && model.spec().candidates.empty()) {
-    BadFlag(fmt::format("--chosen-model: model '{}' has no candidate terms ([flow] or [[flow]] candidates) to choose from",
-                        model.name()));
+  if (!args.chosen_model.empty() && model.spec().candidates.empty() && model.spec().jump_candidates.empty()) {
+    BadFlag(fmt::format(
+        "--chosen-model: model '{}' has no candidate terms ([flow], [[flow]] or [jump] candidates) to choose from",
+        model.name()));
   }
   if (args.bootstrap < 0 || args.bootstrap > 100000)
     BadFlag(fmt::format("--select-bootstrap = {}: must be in [0, 100000]", args.bootstrap));
@@ -214,6 +257,51 @@ void MergeBlocks(SelectStep* step, const std::vector<Selection>& before_stabilit
   }
 }
 
+// The [jump]'s unknown β columns and, per column, whether it is a candidate, its name and term.
+void DescribeJumpColumns(const ModelSpec& spec, const std::vector<int>& columns, JumpSelect* jump) {
+  jump->columns = columns;
+  for (int b : columns) {
+    const JumpCandidateTerm* c = nullptr;
+    for (const JumpCandidateTerm& t : spec.jump_candidates)
+      if (t.beta == b) c = &t;
+    jump->selectable.push_back(c != nullptr);
+    jump->names.push_back(spec.beta[std::size_t(b)].name);
+    jump->rows.push_back(c ? spec.state_names[std::size_t(c->row)] : "");
+    jump->terms.push_back(c ? fmt::format("{}+ term {}", jump->rows.back(), c->term) : "");
+    jump->raw_terms.push_back(c ? c->term : "");
+  }
+}
+
+// The selection of the [jump]'s candidates on the detected jumps, by leave-one-jump-out
+// cross-validation (SelectOptions::folds = 0); the bootstrap (seed --select-seed + the mode count) and
+// the stability rule when `bootstrap`.
+JumpSelect SelectJumps(const Model& model, const SampleData& data, const IdentifyResult& detected,
+                       const SelectArgs& args, bool bootstrap) {
+  const JumpSamples samples{.y = &data.y,
+                            .gamma = &detected.gamma,
+                            .dt = data.dt,
+                            .times = data.uniform ? nullptr : &data.t,
+                            .chain_start = data.uniform ? nullptr : &data.chain_start,
+                            .inputs = data.u.rows() > 0 ? &data.u : nullptr};
+  const FlowSums sums = SumJumps(model, samples);
+  JumpSelect jump;
+  DescribeJumpColumns(model.spec(), sums.columns, &jump);
+  jump.jumps = static_cast<int>(sums.segments.size());
+  const SelectOptions options{.folds = 0};
+  jump.selection = SelectTerms(sums, jump.selectable, options);
+  if (!jump.selection.ok) throw RunFailed(fmt::format("identify: no jump terms selected: {}", jump.selection.reason));
+  if (!bootstrap || args.bootstrap == 0) return jump;
+  const Selection cross_validated = jump.selection;
+  jump.bootstrap = BootstrapSelection(sums, jump.selectable, options, args.bootstrap,
+                                      args.seed + std::uint64_t(ModeCount(model.spec())), cross_validated.chosen);
+  jump.selection = KeepStable(sums, jump.selectable, cross_validated, jump.bootstrap, options);
+  for (std::size_t j = 0; j < jump.columns.size(); ++j) {
+    if (jump.selectable[j] && cross_validated.chosen[j] && !jump.selection.chosen[j])
+      jump.unstable.push_back(static_cast<int>(j));
+  }
+  return jump;
+}
+
 }  // namespace
 
 SelectStep SelectCandidates(const Model& model, const std::string& file, const SampleData& data,
@@ -240,6 +328,14 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
     if (step.selection.chosen[j] && step.selection.estimate[Eigen::Index(j)] != 0.0)
       values[name] = step.selection.estimate[Eigen::Index(j)];
   }
+  if (!model.spec().jump_candidates.empty()) {
+    step.jump = SelectJumps(model, data, detected, args, bootstrap);
+    const Selection& s = step.jump->selection;
+    for (std::size_t j = 0; j < step.jump->columns.size(); ++j) {
+      if (step.jump->selectable[j] && s.chosen[j]) step.kept.push_back(step.jump->names[j]);
+      if (s.chosen[j] && s.estimate[Eigen::Index(j)] != 0.0) values[step.jump->names[j]] = s.estimate[Eigen::Index(j)];
+    }
+  }
   // Not required to reach its guards on the default trajectory (ParseModelFile, not ParseModelText):
   // with the least-squares values of a first round it may not.
   step.chosen = ParseModelFile(ChosenText(step, values, "the selection's least-squares values"), file + " (chosen)").model;
@@ -253,6 +349,36 @@ std::vector<std::string> Names(const SelectStep& step, const std::vector<int>& c
   std::vector<std::string> out;
   for (const int j : columns) out.push_back(step.names[std::size_t(j)]);
   return out;
+}
+
+// The jump selection as JSON: its terms as the flow's, its support, counts and bootstrap.
+nlohmann::json JumpJson(const JumpSelect& jump) {
+  const Selection& s = jump.selection;
+  nlohmann::json terms = nlohmann::json::array();
+  std::vector<std::string> chosen, unstable;
+  for (std::size_t j = 0; j < jump.columns.size(); ++j) {
+    if (!jump.selectable[j]) continue;
+    if (s.chosen[j]) chosen.push_back(jump.names[j]);
+    terms.push_back({{"name", jump.names[j]},
+                     {"row", jump.rows[j]},
+                     {"term", jump.raw_terms[j]},
+                     {"chosen", bool(s.chosen[j])},
+                     {"estimate", s.estimate[Eigen::Index(j)]},
+                     {"bootstrap_frequency", jump.bootstrap.draws > 0
+                                                 ? nlohmann::json(jump.bootstrap.frequency[Eigen::Index(j)])
+                                                 : nlohmann::json()}});
+  }
+  for (const int j : jump.unstable) unstable.push_back(jump.names[std::size_t(j)]);
+  return {{"terms", terms},
+          {"chosen", chosen},
+          {"bic", s.bic},
+          {"runner_up_bic", std::isfinite(s.runner_up_bic) ? nlohmann::json(s.runner_up_bic) : nlohmann::json()},
+          {"rows", s.rows},
+          {"jumps", jump.jumps},
+          {"supports", s.supports},
+          {"bootstrap_draws", jump.bootstrap.draws},
+          {"bootstrap_support_matches", jump.bootstrap.support_matches},
+          {"unstable", unstable}};
 }
 
 }  // namespace
@@ -301,6 +427,7 @@ nlohmann::json SelectionJson(const SelectStep& step) {
           {"bootstrap_draws", step.bootstrap.draws},
           {"bootstrap_support_matches", step.bootstrap.support_matches},
           {"unstable", Names(step, step.unstable)},
+          {"jump", step.jump ? JumpJson(*step.jump) : nlohmann::json()},
           {"seconds", step.seconds}};
 }
 
@@ -319,21 +446,27 @@ void FinishSelection(const SelectStep& step, const Model& chosen, const Identify
     for (std::size_t i = 0; i < spec.guard_params.size(); ++i)
       if (!spec.guard_params[i].known) values[spec.guard_params[i].name] = refined->estimate.gamma[Eigen::Index(i)];
   }
+  const bool shares = step.bootstrap.draws > 0 || (step.jump && step.jump->bootstrap.draws > 0);
   std::printf("chosen terms (%s estimates%s):\n", fitted ? "refined" : "recursive",
-              step.bootstrap.draws > 0 ? ", how often the bootstrap chose each" : "");
-  for (std::size_t j = 0; j < step.columns.size(); ++j) {
-    if (!step.selectable[j] || !step.selection.chosen[j]) continue;
-    const std::string& name = step.names[j];
+              shares ? ", how often the bootstrap chose each" : "");
+  // One chosen term's line: its estimate, its standard error after a refinement, its bootstrap share.
+  const auto print = [&](const std::string& name, const std::string& term, const BootstrapResult& b, std::size_t j) {
     double se = std::nan("");
     for (std::size_t k = 0; fitted && k < refined->names.size(); ++k) {
       if (refined->names[k] == name && refined->standard_errors.size() > Eigen::Index(k))
         se = refined->standard_errors[Eigen::Index(k)];
     }
-    std::string line = fmt::format("  {:<8} {:<22} = {:<14.10g}", name, step.terms[j], values.at(name));
+    std::string line = fmt::format("  {:<8} {:<22} = {:<14.10g}", name, term, values.at(name));
     line += std::isfinite(se) ? fmt::format(" ± {:<10.4g}", se) : fmt::format(" {:<12}", "");
-    if (step.bootstrap.draws > 0)
-      line += fmt::format(" chosen in {:.1f}%", 100.0 * step.bootstrap.frequency[Eigen::Index(j)]);
+    if (b.draws > 0) line += fmt::format(" chosen in {:.1f}%", 100.0 * b.frequency[Eigen::Index(j)]);
     std::printf("%s\n", line.c_str());
+  };
+  for (std::size_t j = 0; j < step.columns.size(); ++j) {
+    if (step.selectable[j] && step.selection.chosen[j]) print(step.names[j], step.terms[j], step.bootstrap, j);
+  }
+  for (std::size_t j = 0; step.jump && j < step.jump->columns.size(); ++j) {
+    if (step.jump->selectable[j] && step.jump->selection.chosen[j])
+      print(step.jump->names[j], step.jump->terms[j], step.jump->bootstrap, j);
   }
   if (args.chosen_model.empty()) return;
   WriteFileAtomically(args.chosen_model,

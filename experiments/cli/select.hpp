@@ -1,6 +1,6 @@
-// hysid identify on a model file with candidate terms: the selection of the terms the data support
-// (core/select), its bootstrap, the chosen model (core/model_file/chosen.hpp) that the rest of
-// identify refines, and --chosen-model.
+// hysid identify on a model file with candidate terms (of flow rows and of the [jump]'s rows): the
+// selection of the terms the data support (core/select), its bootstrap, the chosen model
+// (core/model_file/chosen.hpp) that the rest of identify refines, and --chosen-model.
 #pragma once
 
 #include <cstdint>
@@ -38,6 +38,19 @@ struct SelectBlock {
   int segments = 0;                     // flow segments of the mode summed
 };
 
+// The selection of the [jump]'s candidates on the detected jumps (core/select SumJumps: one group of
+// rows per jump), by leave-one-jump-out cross-validation; its bootstrap redraws the jumps.
+struct JumpSelect {
+  std::vector<int> columns;             // unknown β indices (SumJumps' columns)
+  std::vector<bool> selectable;         // per column: a candidate
+  // Per column: the β name and, for a candidate, "ROW+ term TERM", its row's state and its term.
+  std::vector<std::string> names, terms, rows, raw_terms;
+  Selection selection;                  // per column, after the stability rule
+  BootstrapResult bootstrap;
+  std::vector<int> unstable;            // columns cross-validation chose and KeepStable dropped
+  int jumps = 0;                        // detected jumps summed
+};
+
 struct SelectStep {
   std::optional<Model> chosen;          // the chosen model, values from the selection's fit
   std::vector<SelectBlock> blocks;      // one per mode with candidates, in mode order
@@ -54,7 +67,8 @@ struct SelectStep {
   // sums, the runner-up BIC is infinite and the bootstrap's draws and exact supports the least over them.
   Selection selection;
   BootstrapResult bootstrap;
-  std::vector<std::string> kept;        // names of the chosen candidates
+  std::optional<JumpSelect> jump;       // with [jump] candidates
+  std::vector<std::string> kept;        // names of the chosen candidates (flow and jump)
   std::vector<int> unstable;            // columns cross-validation chose and KeepStable dropped
   int segments = 0;                     // flow segments summed (over the blocks)
   int round = 1;                        // 1: on the pass with every candidate; then on the chosen model's

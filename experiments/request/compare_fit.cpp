@@ -145,7 +145,7 @@ std::vector<Model> LoadCandidates(const std::vector<std::string>& files) {
       const std::string what = e.what();  // the reader's messages begin with the file's name
       throw std::invalid_argument(what.rfind(file, 0) == 0 ? what : fmt::format("model file {}: {}", file, what));
     }
-    if (!models.back().spec().candidates.empty()) {
+    if (!models.back().spec().candidates.empty() || !models.back().spec().jump_candidates.empty()) {
       throw std::invalid_argument(fmt::format("model file {}: has candidate terms; compare fits models as written (write the "
                           "model `hysid identify` chooses with --chosen-model, and compare that)",
                           file));

@@ -36,12 +36,12 @@ void CheckPhiFiniteAtStart(const ModelFile& file, const std::string& name, const
 
 // Every guard of the file's model reaches D at least once on the default trajectory (kStart: the first
 // that does not is put in `note`). A model with inputs is not simulated here (its u(t) comes with each
-// run), nor one with candidate terms (its flow is what the data will choose).
+// run), nor one with candidate terms (its flow or jump map is what the data will choose).
 Model CheckGuardsFire(ModelFile file, const std::string& name, ModelValues values, std::string* note) {
   if (note != nullptr) note->clear();
   const Model& model = file.model;
   const ModelSpec& s = model.spec();
-  if (!s.inputs.empty() || !s.candidates.empty()) return std::move(file.model);
+  if (!s.inputs.empty() || !s.candidates.empty() || !s.jump_candidates.empty()) return std::move(file.model);
   const Vec x0 = Eigen::Map<const Vec>(s.default_x0.data(), model.state_size());
   CheckPhiFiniteAtStart(file, name, x0);
   const Trajectory traj = Simulate(model, x0, SampleGrid{.t_end = s.default_t_end, .dt = s.default_dt});

@@ -1,8 +1,8 @@
-// Candidate terms in a model file ([flow] and per mode [[flow]] candidates) and the chosen model written
-// from them (core/model_file/chosen.hpp): each candidate is an unknown α entry ROW_K (MODE_ROW_K in a
-// [[flow]]) whose φ column is its term in its row (of its mode's φ; 0 in every other mode); the chosen
-// model keeps the kept candidates as plain entries, with the values given, and evaluates as the
-// library's columns do.
+// Candidate terms in a model file ([flow], per mode [[flow]] and [jump] candidates) and the chosen model
+// written from them (core/model_file/chosen.hpp): each candidate is an unknown α entry ROW_K (MODE_ROW_K
+// in a [[flow]]) whose φ column is its term in its row (of its mode's φ; 0 in every other mode), or in
+// [jump] an unknown β entry jump_ROW_K whose ψ column is its term in its row; the chosen model keeps the
+// kept candidates as plain entries, with the values given, and evaluates as the library's columns do.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -251,6 +251,106 @@ TEST_CASE("the chosen model: kept candidates as plain entries with the given val
   }
   CHECK(s.flow_rows == lib.spec().flow_rows);
   CHECK_THROWS_WITH(ChosenModelText(File(kFlow), "lib.toml", {"v_9"}, {}), Catch::Contains("'v_9' is no candidate"));
+}
+
+// A [jump] whose v+ comes from three candidate terms of the pre-jump state besides -e v.
+std::string JumpFile(const std::string& candidates) {
+  return std::string(kHead) + "[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\n" +
+         "[jump]\npsi = [[\"x\", 0], [0, \"-v\"]]\nrows = [\"v\"]\n" + candidates +
+         std::string(kTail).substr(std::string(kTail).find("[[guard]]"));
+}
+
+const std::string kJumpCandidates = "candidates = { v = [\"v*abs(v)\", 1, \"x\"] }\n";
+
+TEST_CASE("jump candidates: unknown beta entries jump_v_1..jump_v_3 with their terms as psi columns in row v",
+          "[model_file][select]") {
+  const Model m = ParseModelFile(JumpFile(kJumpCandidates), "lib.toml").model;
+  const ModelSpec& s = m.spec();
+  REQUIRE(s.beta.size() == 5);
+  CHECK(s.beta[2].name == "jump_v_1");
+  CHECK(s.beta[4].name == "jump_v_3");
+  CHECK_FALSE(s.beta[3].known);
+  CHECK(s.beta[3].value == 0.0);
+  CHECK(s.candidates.empty());
+  REQUIRE(s.jump_candidates.size() == 3);
+  CHECK(s.jump_candidates[0].beta == 2);
+  CHECK(s.jump_candidates[0].row == 1);
+  CHECK(s.jump_candidates[0].term == "v*abs(v)");
+  CHECK(s.jump_candidates[1].term == "1");
+  Mat psi(2, 5);
+  m.Psi(V(0.25, -3.0), psi);
+  CHECK(psi(0, 0) == 0.25);
+  CHECK(psi(1, 1) == 3.0);
+  CHECK(psi(1, 2) == -9.0);
+  CHECK(psi(1, 3) == 1.0);
+  CHECK(psi(1, 4) == 0.25);
+  for (int c = 2; c < 5; ++c) CHECK(psi(0, c) == 0.0);
+  CHECK(s.alpha.size() == 2);  // the flow is as written
+  CHECK_NOTHROW(ParseModelText(JumpFile(kJumpCandidates), "lib.toml"));
+}
+
+TEST_CASE("jump candidates: a row not identified, a repeated term, a taken name, too many entries and [[jump]] "
+          "candidates are refused with the key",
+          "[model_file][select]") {
+  auto refused = [](const std::string& text, const std::string& what) {
+    CHECK_THROWS_WITH(ParseModelFile(text, "lib.toml"), Catch::Contains(what));
+  };
+  refused(JumpFile("candidates = { x = [\"x\"] }\n"), "jump.candidates.x: 'x' is not one of jump.rows");
+  refused(JumpFile("candidates = { v = [\"x\", \"x\"] }\n"), "jump.candidates.v[1]");
+  refused(JumpFile("candidates = { v = [\"y\"] }\n"), "jump.candidates.v[0]: \"y\": unknown symbol");
+  refused(JumpFile("candidates = { v = [] }\n"), "jump.candidates.v");
+  std::string many = "candidates = { v = [";
+  for (int i = 0; i < 31; ++i) many += "\"x^" + std::to_string(i + 1) + "\", ";
+  refused(JumpFile(many + "] }\n"), "jump.candidates.v[30]: beta with the candidates would have more than 32 entries");
+  // A β entry, and a flow candidate, already named jump_v_1.
+  const std::string beta_taken = std::string(kHead).replace(std::string(kHead).find("\"e\""), 3, "\"jump_v_1\"");
+  refused(beta_taken + JumpFile(kJumpCandidates).substr(std::string(kHead).size()), "'jump_v_1' is already taken");
+  const std::string modes = R"toml(
+name = "one-mode"
+states = ["x", "v"]
+modes = ["jump"]
+alpha = [ { name = "one", value = 1.0, known = true } ]
+beta = [ { name = "one_x", value = 1.0, known = true } ]
+[[flow]]
+mode = "jump"
+phi = [["v"], [0]]
+rows = ["v"]
+candidates = { v = ["x"] }
+[jump]
+psi = [["x"], [0]]
+rows = ["v"]
+candidates = { v = ["v"] }
+)toml" + std::string(kTail).substr(std::string(kTail).find("[[guard]]"));
+  refused(modes, "jump.candidates.v[0]: the candidate's name 'jump_v_1' is already taken");
+}
+
+TEST_CASE("the chosen model with jump candidates: kept ones as plain beta entries, evaluating as the library",
+          "[model_file][select]") {
+  const std::string file = JumpFile(kJumpCandidates);
+  const Model lib = ParseModelFile(file, "lib.toml").model;
+  const double c = -0.0123456789012345678;
+  const std::string text = ChosenModelText(file, "lib.toml", {"jump_v_1", "jump_v_3"},
+                                           {{"e", 0.8}, {"jump_v_1", c}, {"jump_v_3", 2.5}});
+  INFO(text);
+  const Model chosen = ParseModelText(text, "chosen.toml");
+  const ModelSpec& s = chosen.spec();
+  CHECK(s.jump_candidates.empty());
+  REQUIRE(s.beta.size() == 4);
+  CHECK(s.beta[2].name == "jump_v_1");
+  CHECK(s.beta[3].name == "jump_v_3");
+  CHECK(chosen.beta()[1] == 0.8);
+  CHECK(chosen.beta()[2] == c);
+  CHECK(chosen.beta()[3] == 2.5);
+  Mat full(2, 5), mine(2, 4);
+  for (const Vec& x : {V(0.25, -3.0), V(0.0, -0.5)}) {
+    lib.Psi(x, full);
+    chosen.Psi(x, mine);
+    CHECK(mine.col(1) == full.col(1));
+    CHECK(mine.col(2) == full.col(2));
+    CHECK(mine.col(3) == full.col(4));
+  }
+  CHECK(s.jump_rows == lib.spec().jump_rows);
+  CHECK_THROWS_WITH(ChosenModelText(file, "lib.toml", {"jump_v_4"}, {}), Catch::Contains("'jump_v_4' is no candidate"));
 }
 
 }  // namespace hysid

@@ -130,6 +130,9 @@ def safety_files():
         "bounds.toml": WALL.replace('value = 4.0,', 'value = 4.0, bounds = [5.0, 9.0],'),
         "flowrows.toml": WALL.replace('name = "alpha_x", value = 1.0, known = true,', 'name = "alpha_x", value = 1.0,'),
         "jumprows.toml": WALL.replace('name = "beta_x", value = 1.0, known = true,', 'name = "beta_x", value = 1.0,'),
+        "jumpcandrow.toml": WALL.replace('rows = ["v"]\n\n[[guard]]', 'rows = ["v"]\ncandidates = { x = ["x"] }\n\n[[guard]]'),
+        "jumpcandmany.toml": WALL.replace('rows = ["v"]\n\n[[guard]]', 'rows = ["v"]\ncandidates = { v = ['
+                                          + ", ".join(f'"v^{i + 1}"' for i in range(30)) + "] }\n\n[[guard]]"),
     }
 
 
@@ -202,6 +205,8 @@ SAFETY_SUBJECTS = {
     "model file: bounds that exclude the value": "bounds.toml:11: alpha[1].bounds",
     "model file: an unknown α outside the flow's rows": "flowrows.toml:23: flow.rows",
     "model file: an unknown β outside the jump's rows": "jumprows.toml:29: jump.rows",
+    "model file: jump candidates in a row the jump does not identify": "jumpcandrow.toml:30: jump.candidates.x",
+    "model file: jump candidates beyond β's 32 entries": "jumpcandmany.toml:30: jump.candidates.v[29]",
 }
 
 
@@ -328,6 +333,8 @@ PROBE_CASES = [
     ("reproduce paper: beyond HYSID_MAX_SAMPLES", ["env:HYSID_MAX_SAMPLES=1000", "reproduce", "paper", "--out", "rp"]),
     ("model file: an unknown α outside the flow's rows", ["models", "--show", "flowrows.toml"]),
     ("model file: an unknown β outside the jump's rows", ["models", "--show", "jumprows.toml"]),
+    ("model file: jump candidates in a row the jump does not identify", ["models", "--show", "jumpcandrow.toml"]),
+    ("model file: jump candidates beyond β's 32 entries", ["models", "--show", "jumpcandmany.toml"]),
 ]
 
 
