@@ -643,8 +643,8 @@ bool Better(const RefineResult& a, const RefineResult& b) {
 // routes reported nothing) while no fit can be reported (every one singular, unconverged or failed: a
 // start in another basin, or whose guards the model never reaches), the model's values with γ where the guards are reached (GammaReachingGuards),
 // then the points of a Halton design over the box the model's values span (DesignStarts), each with
-// γ where its guards are reached, until one is ok. The best of the fits (Better); `mended` names the
-// start of the one kept.
+// γ where its guards are reached, until one is ok (their fits are kept only when ok). The best of the
+// fits (Better); `mended` names the start of the one kept.
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
                                     const HybridParameters& recursive, const RefineOptions& options, bool search) {
   auto named = [](RefineResult fit, const std::string& start) {
@@ -656,9 +656,11 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   own.alpha = model.alpha();
   own.beta = model.beta();
   own.gamma = model.gamma();
-  auto consider = [&](const HybridParameters& from, const std::string& what) {
+  // A searching start (guards reached, the design) is kept only when ok: a refused fit from a point
+  // of the box says nothing the first starts' fits did not.
+  auto consider = [&](const HybridParameters& from, const std::string& what, bool only_ok = false) {
     RefineResult other = named(FitByTimeShooting(model, chains, from, options), what);
-    if (Better(other, best)) {
+    if ((!only_ok || other.ok()) && Better(other, best)) {
       other.start = recursive;
       best = std::move(other);
     }
@@ -682,13 +684,13 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, own, options)) {
     HybridParameters reaching = own;
     reaching.gamma = *gamma;
-    consider(reaching, "the model's values with its guards reached");
+    consider(reaching, "the model's values with its guards reached", true);
   }
   const std::vector<HybridParameters> design = DesignStarts(model, own, kDesignStarts, kDesignFactor);
   for (std::size_t k = 0; k < design.size() && !best.ok() && !options.stopped(); ++k) {
     HybridParameters from = design[k];
     if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, from, options)) from.gamma = *gamma;
-    consider(from, fmt::format("design point {} of {}", k + 1, design.size()));
+    consider(from, fmt::format("design point {} of {}", k + 1, design.size()), true);
   }
   return best;
 }
