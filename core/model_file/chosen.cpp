@@ -126,6 +126,8 @@ std::string ChosenModelText(std::string_view text, const std::string& name, cons
         entry.is_inline(true);
         alpha->push_back(std::move(entry));
         AppendColumn(flows, table, *states, row.str(), term);
+        // The file's declaration was made without the term (the library's model is not declared constant).
+        table->erase("jacobian_constant");
       }
     }
   }

@@ -353,4 +353,27 @@ TEST_CASE("the chosen model with jump candidates: kept ones as plain beta entrie
   CHECK_THROWS_WITH(ChosenModelText(file, "lib.toml", {"jump_v_4"}, {}), Catch::Contains("'jump_v_4' is no candidate"));
 }
 
+TEST_CASE("the chosen model: a flow table with a kept term is not declared jacobian_constant, one without keeps it",
+          "[model_file][select]") {
+  const std::string flow = "[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\njacobian_constant = true\n"
+                           "candidates = { v = [\"v^2\", \"x\"] }\n";
+  const Model lib = ParseModelFile(File(flow), "lib.toml").model;
+  CHECK_FALSE(lib.spec().flow_jacobian_constant);
+  // v^2 kept: d(phi alpha)/dv depends on v, so the chosen model may not declare it constant.
+  const std::string kept = ChosenModelText(File(flow), "lib.toml", {"v_1"}, {{"v_1", -0.5}});
+  INFO(kept);
+  const Model chosen = ParseModelText(kept, "chosen.toml");
+  CHECK_FALSE(chosen.spec().flow_jacobian_constant);
+  Mat jac(2, 2);
+  chosen.FlowJacobian(V(0.0, 2.0), chosen.alpha(), jac);
+  CHECK(jac(1, 1) == Approx(-2.0).margin(1e-6));  // d(-0.5 v^2)/dv at v = 2 (central differences)
+  // Only jump candidates: the flow is as written, and so is its declaration.
+  std::string jump_only = JumpFile(kJumpCandidates);
+  jump_only.insert(jump_only.find("[jump]"), "jacobian_constant = true\n");
+  REQUIRE(ParseModelFile(jump_only, "lib.toml").model.spec().flow_jacobian_constant);
+  CHECK(ParseModelText(ChosenModelText(jump_only, "lib.toml", {"jump_v_1"}, {}), "chosen.toml")
+            .spec()
+            .flow_jacobian_constant);
+}
+
 }  // namespace hysid
