@@ -213,6 +213,8 @@ TEST_CASE("candidates: a row not identified, a repeated term, a taken name and t
   refused("[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { v = [\"y\"] }\n",
           "unknown symbol \"y\"");
   refused("[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { w = [\"x\"] }\n", "flow.candidates.w");
+  refused("[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = {}\n",
+          "lib.toml:9: flow.candidates: empty: give at least one row of candidate terms");
   std::string many = "[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { v = [";
   for (int i = 0; i < 63; ++i) many += "\"x^" + std::to_string(i + 1) + "\", ";
   refused(many + "] }\n", "alpha with the candidates would have more than 64 entries");
@@ -299,6 +301,7 @@ TEST_CASE("jump candidates: a row not identified, a repeated term, a taken name,
   refused(JumpFile("candidates = { v = [\"x\", \"x\"] }\n"), "jump.candidates.v[1]");
   refused(JumpFile("candidates = { v = [\"y\"] }\n"), "jump.candidates.v[0]: \"y\": unknown symbol");
   refused(JumpFile("candidates = { v = [] }\n"), "jump.candidates.v");
+  refused(JumpFile("candidates = {}\n"), "lib.toml:12: jump.candidates: empty: give at least one row of candidate terms");
   std::string many = "candidates = { v = [";
   for (int i = 0; i < 31; ++i) many += "\"x^" + std::to_string(i + 1) + "\", ";
   refused(JumpFile(many + "] }\n"), "jump.candidates.v[30]: beta with the candidates would have more than 32 entries");
