@@ -379,4 +379,19 @@ TEST_CASE("the chosen model: a flow table with a kept term is not declared jacob
             .flow_jacobian_constant);
 }
 
+TEST_CASE("the chosen model: a number term beyond 2^53 keeps its value (the library's column)", "[model_file][select]") {
+  const std::string file = JumpFile("candidates = { v = [123456789012345678, 0.1, \"v\"] }\n");
+  const Model lib = ParseModelFile(file, "lib.toml").model;
+  const std::string text = ChosenModelText(file, "lib.toml", {"jump_v_1", "jump_v_2"}, {});
+  INFO(text);
+  CHECK(text.find("chosen candidate jump term 123456789012345678") != std::string::npos);
+  const Model chosen = ParseModelText(text, "chosen.toml");
+  Mat full(2, 5), mine(2, 4);
+  lib.Psi(V(0.25, -3.0), full);
+  chosen.Psi(V(0.25, -3.0), mine);
+  CHECK(full(1, 2) == 123456789012345680.0);  // the integer's nearest double
+  CHECK(mine(1, 2) == full(1, 2));
+  CHECK(mine(1, 3) == 0.1);
+}
+
 }  // namespace hysid
