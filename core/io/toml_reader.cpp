@@ -73,7 +73,8 @@ std::string TomlReader::String(const toml::node& node, std::string_view key) con
 
 double TomlReader::Number(const toml::node& node, std::string_view key) const {
   if (!node.is_number()) WrongType(node, key, "a number");
-  const double v = *node.value<double>();
+  // An integer beyond ±2^53 has no exact double (toml++'s value<double>() gives none): its nearest one.
+  const double v = node.is_integer() ? static_cast<double>(*node.value_exact<std::int64_t>()) : *node.value_exact<double>();
   if (!std::isfinite(v)) Fail(&node, key, fmt::format("{} must be finite", v));
   return v;
 }

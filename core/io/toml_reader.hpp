@@ -55,7 +55,7 @@ class TomlReader {
 
   // Typed values (inline tables are tables).
   std::string String(const toml::node& node, std::string_view key) const;
-  double Number(const toml::node& node, std::string_view key) const;  // an integer or a float, finite
+  double Number(const toml::node& node, std::string_view key) const;  // an integer (its nearest double) or a float, finite
   std::int64_t Integer(const toml::node& node, std::string_view key,
                        std::int64_t lo = std::numeric_limits<std::int64_t>::min(),
                        std::int64_t hi = std::numeric_limits<std::int64_t>::max()) const;

@@ -1,6 +1,8 @@
 #include "core/model_file/chosen.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -32,9 +34,17 @@ void SetValues(toml::table& root, const std::map<std::string, double>& values) {
   }
 }
 
-// A candidate's term as written (a string, or a number).
+// A candidate's term as written (a string, an integer or a float).
 std::string TermText(const toml::node& term) {
-  return term.value<std::string>().value_or(fmt::format("{}", term.value<double>().value_or(0.0)));
+  if (const std::optional<std::int64_t> i = term.value_exact<std::int64_t>()) return fmt::format("{}", *i);
+  return term.value<std::string>().value_or(fmt::format("{}", term.value_exact<double>().value_or(0.0)));
+}
+
+// Appends a candidate's term to a row of phi or psi as written (an integer beyond ±2^53 has no exact double).
+void PushTerm(toml::array& row, const toml::node& term) {
+  if (const std::optional<std::int64_t> i = term.value_exact<std::int64_t>()) row.push_back(*i);
+  else if (term.is_string()) row.push_back(*term.value<std::string>());
+  else row.push_back(term.value_exact<double>().value_or(0.0));
 }
 
 // The flow tables of the file ([flow], or each [[flow]]) and the prefix of their candidates' names
@@ -62,8 +72,7 @@ void AppendColumn(const std::vector<std::pair<toml::table*, std::string>>& flows
       toml::array* phi_row = phi->get(s)->as_array();
       if (phi_row == nullptr) continue;
       if (table == owner && states.get(s)->value<std::string>() == std::string(row)) {
-        if (term.is_string()) phi_row->push_back(*term.value<std::string>());
-        else phi_row->push_back(term.value<double>().value_or(0.0));
+        PushTerm(*phi_row, term);
       } else {
         phi_row->push_back(0);
       }
@@ -126,6 +135,8 @@ std::string ChosenModelText(std::string_view text, const std::string& name, cons
         entry.is_inline(true);
         alpha->push_back(std::move(entry));
         AppendColumn(flows, table, *states, row.str(), term);
+        // The file's declaration was made without the term (the library's model is not declared constant).
+        table->erase("jacobian_constant");
       }
     }
   }

@@ -1,6 +1,7 @@
 // A model file with candidate terms ([flow], [[flow]] or [jump] candidates) turned into the chosen model: the
 // candidates kept become ordinary α entries with their φ columns (β entries with their ψ columns), the others are
-// dropped, and the values given replace the entries' values. The result is a model file without candidates (docs/model-files.md).
+// dropped, and the values given replace the entries' values; a flow table with a kept term loses its jacobian_constant
+// (the model with candidates is not declared constant either). The result is a model file without candidates (docs/model-files.md).
 #pragma once
 
 #include <map>

@@ -845,7 +845,7 @@ struct CandidateTable {
   bool jump = false;  // [jump]: β entries and ψ columns
 };
 
-// KEY.candidates = { ROW = ["TERM", ...] }: per identified row of the table its candidate terms, each
+// KEY.candidates = { ROW = ["TERM", ...] } (at least one row): per identified row of the table its candidate terms, each
 // appended to α and φ (a flow's) or to β and ψ (the [jump]'s), named PREFIX + ROW_K; the name may be
 // no state's, parameter's (α, β, γ, the flow candidates' included) or input's. The flow Jacobian of a
 // model with flow candidates is not declared constant.
@@ -858,7 +858,9 @@ void ParseCandidates(const TomlReader& rd, const toml::node& node, const Candida
   const std::string ckey = TomlReader::Join(table.key, "candidates");
   const char* vector = table.jump ? "beta" : "alpha";
   const std::size_t limit = std::size_t(table.jump ? Model::kMaxParameters : Model::kMaxAlpha);
-  for (auto&& [k, v] : rd.Table(node, ckey)) {
+  const toml::table& rows = rd.Table(node, ckey);
+  rd.NotEmpty(&node, ckey, rows.size(), "row of candidate terms (ROW = [\"TERM\", ...])");
+  for (auto&& [k, v] : rows) {
     const std::string row_name(k.str());
     const std::string key = TomlReader::Join(ckey, row_name);
     const int r = static_cast<int>(rd.Choice(&v, key, "state", row_name, spec.state_names));

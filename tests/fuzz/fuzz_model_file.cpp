@@ -3,15 +3,20 @@
 // input stays cheap. A model that loads is evaluated (φ, ψ, guards, sets, the jump-set distance, the
 // flow Jacobian, the guard projections) at a few states, finite and not: values may be anything, but
 // the shapes must be the spec's, the block evaluators (PhiColumns, PhiRowColumns) must agree with
-// Phi, and nothing may crash.
+// Phi, and nothing may crash. A model with candidate terms is written as its chosen model with every
+// candidate kept (ChosenModelText), which must load with the same α, β, φ, ψ and flow-Jacobian
+// declaration and no candidates.
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <stdexcept>
+#include <string>
 #include <string_view>
 #include <vector>
 
 #include "core/model/model.hpp"
+#include "core/model_file/chosen.hpp"
 #include "core/model_file/model_file.hpp"
 
 namespace {
@@ -80,6 +85,45 @@ void Evaluate(const hysid::Model& model) {
   }
 }
 
+// Equal entries, NaN where either is NaN.
+bool Same(const hysid::Mat& p, const hysid::Mat& q) {
+  for (Eigen::Index i = 0; i < p.size(); ++i) {
+    const double a = p.data()[i], b = q.data()[i];
+    if (!(a == b || (a != a && b != b))) return false;
+  }
+  return true;
+}
+
+// The chosen model with every candidate kept, at the library's values, evaluates as the library.
+void RoundTrip(std::string_view text, const hysid::Model& model) {
+  const hysid::ModelSpec& spec = model.spec();
+  if (spec.candidates.empty() && spec.jump_candidates.empty()) return;
+  std::vector<std::string> kept;
+  for (const hysid::CandidateTerm& c : spec.candidates) kept.push_back(spec.alpha[std::size_t(c.alpha)].name);
+  for (const hysid::JumpCandidateTerm& c : spec.jump_candidates) kept.push_back(spec.beta[std::size_t(c.beta)].name);
+  std::optional<hysid::ModelFile> chosen;
+  try {
+    chosen.emplace(hysid::ParseModelFile(hysid::ChosenModelText(text, "fuzz.toml", kept, {}), "chosen.toml"));
+  } catch (const std::invalid_argument&) {
+    __builtin_trap();
+  }
+  const hysid::Model& m = chosen->model;
+  if (m.alpha_size() != model.alpha_size() || m.beta_size() != model.beta_size() || !m.spec().candidates.empty() ||
+      !m.spec().jump_candidates.empty() || m.spec().flow_jacobian_constant != spec.flow_jacobian_constant) {
+    __builtin_trap();
+  }
+  const int n = model.state_size();
+  hysid::Mat phi(n, model.alpha_size()), phi_chosen(n, model.alpha_size());
+  hysid::Mat psi(n, model.beta_size()), psi_chosen(n, model.beta_size());
+  for (const hysid::Vec& x : ProbeStates(model)) {
+    model.Phi(x, phi);
+    m.Phi(x, phi_chosen);
+    model.Psi(x, psi);
+    m.Psi(x, psi_chosen);
+    if (!Same(phi, phi_chosen) || !Same(psi, psi_chosen)) __builtin_trap();
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -88,6 +132,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         hysid::ParseModelFile(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.toml");
     if (static_cast<int>(file.guard_where.size()) != file.model.guard_count()) __builtin_trap();
     Evaluate(file.model);
+    RoundTrip(std::string_view(reinterpret_cast<const char*>(data), size), file.model);
   } catch (const std::invalid_argument&) {
   }
   return 0;

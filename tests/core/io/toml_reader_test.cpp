@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/io/toml_reader.hpp"
 
@@ -58,6 +59,16 @@ TEST_CASE("typed values read back, and each wrong type names what it got", "[tom
           "f.toml:9: t.inline: expected a list, got a table");
   REQUIRE(ErrorOf([&] { rd.Numbers(*t.get("list"), "t.list"); }) ==
           "f.toml:8: t.list[2]: expected a number, got a string");
+}
+
+TEST_CASE("an integer as a number: its nearest double, beyond 2^53 too", "[toml]") {
+  const toml::table root = ParseToml("a = 9007199254740993\nb = 123456789012345678\nc = -9223372036854775808\n", "f.toml");
+  const TomlReader rd("f.toml");
+  CHECK(rd.Number(*root.get("a"), "a") == 9007199254740992.0);  // 2^53 + 1: a tie, to the even 2^53
+  CHECK(rd.Number(*root.get("b"), "b") == 123456789012345680.0);
+  CHECK(rd.Number(*root.get("c"), "c") == -9223372036854775808.0);  // -2^63
+  const toml::table list = ParseToml("l = [9007199254740995]", "g.toml");
+  CHECK(rd.Numbers(*list.get("l"), "l") == std::vector<double>{9007199254740996.0});  // 2^53 + 3: a tie, to even
 }
 
 TEST_CASE("keys: unknown, missing (with and without a line), exclusive", "[toml]") {

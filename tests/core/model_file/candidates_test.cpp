@@ -213,6 +213,8 @@ TEST_CASE("candidates: a row not identified, a repeated term, a taken name and t
   refused("[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { v = [\"y\"] }\n",
           "unknown symbol \"y\"");
   refused("[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { w = [\"x\"] }\n", "flow.candidates.w");
+  refused("[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = {}\n",
+          "lib.toml:9: flow.candidates: empty: give at least one row of candidate terms");
   std::string many = "[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\ncandidates = { v = [";
   for (int i = 0; i < 63; ++i) many += "\"x^" + std::to_string(i + 1) + "\", ";
   refused(many + "] }\n", "alpha with the candidates would have more than 64 entries");
@@ -299,6 +301,7 @@ TEST_CASE("jump candidates: a row not identified, a repeated term, a taken name,
   refused(JumpFile("candidates = { v = [\"x\", \"x\"] }\n"), "jump.candidates.v[1]");
   refused(JumpFile("candidates = { v = [\"y\"] }\n"), "jump.candidates.v[0]: \"y\": unknown symbol");
   refused(JumpFile("candidates = { v = [] }\n"), "jump.candidates.v");
+  refused(JumpFile("candidates = {}\n"), "lib.toml:12: jump.candidates: empty: give at least one row of candidate terms");
   std::string many = "candidates = { v = [";
   for (int i = 0; i < 31; ++i) many += "\"x^" + std::to_string(i + 1) + "\", ";
   refused(JumpFile(many + "] }\n"), "jump.candidates.v[30]: beta with the candidates would have more than 32 entries");
@@ -351,6 +354,44 @@ TEST_CASE("the chosen model with jump candidates: kept ones as plain beta entrie
   }
   CHECK(s.jump_rows == lib.spec().jump_rows);
   CHECK_THROWS_WITH(ChosenModelText(file, "lib.toml", {"jump_v_4"}, {}), Catch::Contains("'jump_v_4' is no candidate"));
+}
+
+TEST_CASE("the chosen model: a flow table with a kept term is not declared jacobian_constant, one without keeps it",
+          "[model_file][select]") {
+  const std::string flow = "[flow]\nphi = [[\"v\", 0], [0, \"-x\"]]\nrows = [\"v\"]\njacobian_constant = true\n"
+                           "candidates = { v = [\"v^2\", \"x\"] }\n";
+  const Model lib = ParseModelFile(File(flow), "lib.toml").model;
+  CHECK_FALSE(lib.spec().flow_jacobian_constant);
+  // v^2 kept: d(phi alpha)/dv depends on v, so the chosen model may not declare it constant.
+  const std::string kept = ChosenModelText(File(flow), "lib.toml", {"v_1"}, {{"v_1", -0.5}});
+  INFO(kept);
+  const Model chosen = ParseModelText(kept, "chosen.toml");
+  CHECK_FALSE(chosen.spec().flow_jacobian_constant);
+  Mat jac(2, 2);
+  chosen.FlowJacobian(V(0.0, 2.0), chosen.alpha(), jac);
+  CHECK(jac(1, 1) == Approx(-2.0).margin(1e-6));  // d(-0.5 v^2)/dv at v = 2 (central differences)
+  // Only jump candidates: the flow is as written, and so is its declaration.
+  std::string jump_only = JumpFile(kJumpCandidates);
+  jump_only.insert(jump_only.find("[jump]"), "jacobian_constant = true\n");
+  REQUIRE(ParseModelFile(jump_only, "lib.toml").model.spec().flow_jacobian_constant);
+  CHECK(ParseModelText(ChosenModelText(jump_only, "lib.toml", {"jump_v_1"}, {}), "chosen.toml")
+            .spec()
+            .flow_jacobian_constant);
+}
+
+TEST_CASE("the chosen model: a number term beyond 2^53 keeps its value (the library's column)", "[model_file][select]") {
+  const std::string file = JumpFile("candidates = { v = [123456789012345678, 0.1, \"v\"] }\n");
+  const Model lib = ParseModelFile(file, "lib.toml").model;
+  const std::string text = ChosenModelText(file, "lib.toml", {"jump_v_1", "jump_v_2"}, {});
+  INFO(text);
+  CHECK(text.find("chosen candidate jump term 123456789012345678") != std::string::npos);
+  const Model chosen = ParseModelText(text, "chosen.toml");
+  Mat full(2, 5), mine(2, 4);
+  lib.Psi(V(0.25, -3.0), full);
+  chosen.Psi(V(0.25, -3.0), mine);
+  CHECK(full(1, 2) == 123456789012345680.0);  // the integer's nearest double
+  CHECK(mine(1, 2) == full(1, 2));
+  CHECK(mine(1, 3) == 0.1);
 }
 
 }  // namespace hysid
