@@ -49,6 +49,19 @@ void PrintTerm(const std::string& name, const std::string& term, const Selection
   std::printf("%s\n", line.c_str());
 }
 
+// Whose detections a selection step summed.
+std::string Detections(const SelectStep& step) {
+  return step.round == 1 ? "the detections of the pass with every candidate"
+                         : fmt::format("the detections of the chosen model, round {}", step.round);
+}
+
+// A selection's chosen terms with its held-out mean square and BIC against the runner-up's.
+void PrintChosen(const std::vector<std::string>& kept, const Selection& s) {
+  std::printf("  chosen: %s (held-out mean square %.6g; BIC %.2f, the least BIC of another support %s)\n",
+              kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(kept, ", ")).c_str(), s.cv, s.bic,
+              std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
+}
+
 // One block's report: its selection, its candidates with their estimates and bootstrap shares.
 void PrintBlock(const SelectStep& step, const SelectBlock& block) {
   const Selection& s = block.selection;
@@ -65,12 +78,9 @@ void PrintBlock(const SelectStep& step, const SelectBlock& block) {
               "support of at most %d candidates, chosen by cross-validation over the segments\n",
               block.mode_name.empty() ? "" : fmt::format(" in mode {}", block.mode_name).c_str(), candidates,
               block.segments,
-              step.round == 1 ? "the detections of the pass with every candidate"
-                              : fmt::format("the detections of the chosen model, round {}", step.round).c_str(),
+              Detections(step).c_str(),
               s.rows, s.supports, SelectOptions{}.exhaustive);
-  std::printf("  chosen: %s (held-out mean square %.6g; BIC %.2f, the least BIC of another support %s)\n",
-              kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(kept, ", ")).c_str(), s.cv, s.bic,
-              std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
+  PrintChosen(kept, s);
   for (std::size_t i = 0; i < block.positions.size(); ++i) {
     const std::size_t j = std::size_t(block.positions[i]);
     if (step.selectable[j]) PrintTerm(step.names[j], step.terms[j], s, block.bootstrap, i);
@@ -96,12 +106,9 @@ void PrintJumps(const SelectStep& step, const JumpSelect& jump) {
               "thresholded least squares, backward and forward selection and every support of at most %d "
               "candidates, chosen by leave-one-jump-out cross-validation\n",
               candidates, jump.jumps,
-              step.round == 1 ? "the detections of the pass with every candidate"
-                              : fmt::format("the detections of the chosen model, round {}", step.round).c_str(),
+              Detections(step).c_str(),
               s.rows, s.supports, SelectOptions{}.exhaustive);
-  std::printf("  chosen: %s (held-out mean square %.6g; BIC %.2f, the least BIC of another support %s)\n",
-              kept.empty() ? "no candidate" : fmt::format("{}", fmt::join(kept, ", ")).c_str(), s.cv, s.bic,
-              std::isfinite(s.runner_up_bic) ? fmt::format("{:+.2f}", s.runner_up_bic - s.bic).c_str() : "none");
+  PrintChosen(kept, s);
   for (std::size_t j = 0; j < jump.columns.size(); ++j) {
     if (jump.selectable[j]) PrintTerm(jump.names[j], jump.terms[j], s, jump.bootstrap, j);
   }
