@@ -10,6 +10,9 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_arena.h>
 
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
@@ -651,24 +654,32 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
     if (!fit.mended.empty()) fit.mended += " from " + start;
     return fit;
   };
-  RefineResult best = named(FitByTimeShooting(model, chains, recursive, options), "the recursive estimate");
   HybridParameters own = recursive;
   own.alpha = model.alpha();
   own.beta = model.beta();
   own.gamma = model.gamma();
   // A searching start (guards reached, the design) is kept only when ok: a refused fit from a point
   // of the box says nothing the first starts' fits did not.
-  auto consider = [&](const HybridParameters& from, const std::string& what, bool only_ok = false) {
-    RefineResult other = named(FitByTimeShooting(model, chains, from, options), what);
+  RefineResult best;
+  auto consider = [&](RefineResult other, bool only_ok = false) {
     if ((!only_ok || other.ok()) && Better(other, best)) {
       other.start = recursive;
       best = std::move(other);
     }
   };
-  if (!options.stopped() && (own.alpha != recursive.alpha || own.beta != recursive.beta ||
-                             own.gamma != recursive.GammaOr(model))) {
-    consider(own, "the model's values");
-  }
+  auto fit = [&](const HybridParameters& from, const std::string& what) {
+    return named(FitByTimeShooting(model, chains, from, options), what);
+  };
+  // The first two starts are always both fit: side by side (each fit is deterministic and the
+  // better is kept by Better, in this order, so the result does not depend on the threads).
+  const bool own_differs = own.alpha != recursive.alpha || own.beta != recursive.beta ||
+                           own.gamma != recursive.GammaOr(model);
+  RefineResult from_own;
+  tbb::parallel_invoke([&] { best = fit(recursive, "the recursive estimate"); },
+                       [&] {
+                         if (own_differs && !options.stopped()) from_own = fit(own, "the model's values");
+                       });
+  if (own_differs && !options.stopped()) consider(std::move(from_own));
   if (best.ok() || options.stopped()) return best;
   const int n = model.state_size();
   long samples = 0;
@@ -678,19 +689,35 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
           ModeClusteredAlpha(model, chains, MeasuredRows(options, n), own, Unknowns::Of(model), window)) {
     HybridParameters clustered = own;
     clustered.alpha = *alpha;
-    consider(clustered, "the modes the data show");
+    consider(fit(clustered, "the modes the data show"));
   }
   if (!search || best.reported || options.stopped()) return best;
+  // The searching starts in order, a batch side by side; the first ok one is kept, so the result is
+  // the same whatever the batch (a batch's later fits are then work spent for nothing).
+  struct Searching {
+    HybridParameters from;
+    std::string name;
+  };
+  std::vector<Searching> searching;
   if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, own, options)) {
-    HybridParameters reaching = own;
-    reaching.gamma = *gamma;
-    consider(reaching, "the model's values with its guards reached", true);
+    searching.push_back({own, "the model's values with its guards reached"});
+    searching.back().from.gamma = *gamma;
   }
   const std::vector<HybridParameters> design = DesignStarts(model, own, kDesignStarts, kDesignFactor);
-  for (std::size_t k = 0; k < design.size() && !best.ok() && !options.stopped(); ++k) {
-    HybridParameters from = design[k];
-    if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, from, options)) from.gamma = *gamma;
-    consider(from, fmt::format("design point {} of {}", k + 1, design.size()), true);
+  for (std::size_t k = 0; k < design.size(); ++k) {
+    searching.push_back({design[k], fmt::format("design point {} of {}", k + 1, design.size())});
+  }
+  const auto batch = static_cast<std::size_t>(std::clamp(tbb::this_task_arena::max_concurrency(), 1, kSearchBatch));
+  for (std::size_t first = 0; first < searching.size() && !best.ok() && !options.stopped(); first += batch) {
+    std::vector<RefineResult> fits(std::min(batch, searching.size() - first));
+    tbb::parallel_for(std::size_t{0}, fits.size(), [&](std::size_t k) {
+      Searching& at = searching[first + k];
+      if (first + k >= (searching.size() - design.size())) {  // a design point: its guards reached
+        if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, at.from, options)) at.from.gamma = *gamma;
+      }
+      fits[k] = fit(at.from, at.name);
+    });
+    for (std::size_t k = 0; k < fits.size() && !best.ok(); ++k) consider(std::move(fits[k]), true);
   }
   return best;
 }

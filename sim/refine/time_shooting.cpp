@@ -7,11 +7,13 @@
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <utility>
 
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
@@ -94,16 +96,17 @@ class SegmentCost final : public ceres::CostFunction {
     if (seg_.continues) mutable_parameter_block_sizes()->push_back(pr.n);
   }
 
+  // The run at (θ, node) made ahead of Ceres' call (SegmentRuns: every segment's on its own thread).
+  void Prepare(const double* theta, const double* node) const { Run(pr_.shared > 0 ? theta : &kNone, node); }
+
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    static const double kNone = 0.0;
     const double* theta = pr_.shared > 0 ? parameters[0] : &kNone;
     const int b_s = pr_.shared > 0 ? 1 : 0;
-    const HybridParameters at = pr_.At(theta, parameters[b_s], seg_.mode);
-    SensitivityTrajectory tr;
     // With sensitivities whether or not Ceres asks for the Jacobian: the sensitivities take part in
     // CVODE's error test, so residuals from runs with and without them differ by the integration
     // error, and the costs Ceres compares must come from one integrator.
-    if (!SimulateSegment(pr_, seg_, at, true, &tr)) return false;
+    if (!Run(theta, parameters[b_s])) return false;
+    const SensitivityTrajectory& tr = run_;
     const auto m = static_cast<int>(pr_.rows.size());
     const int n = pr_.n, p = pr_.shared;
     const Mat& x = tr.trajectory.x;
@@ -142,9 +145,26 @@ class SegmentCost final : public ceres::CostFunction {
   }
 
  private:
+  // The segment's run at (θ, node), kept for the next call at the same point: Ceres evaluates a
+  // bounded problem's accepted point up to three times (its projected line search with the gradient,
+  // the candidate's cost, the Jacobian of the step taken), and a run is deterministic.
+  bool Run(const double* theta, const double* node) const {
+    const auto p = static_cast<std::size_t>(pr_.shared), n = static_cast<std::size_t>(pr_.n);
+    point_.resize(p + n);
+    std::copy(theta, theta + p, point_.begin());
+    std::copy(node, node + n, point_.begin() + static_cast<std::ptrdiff_t>(p));
+    if (point_ == run_at_) return run_ok_;
+    run_at_ = point_;
+    run_ok_ = SimulateSegment(pr_, seg_, pr_.At(theta, node, seg_.mode), true, &run_);
+    return run_ok_;
+  }
   double Weight(int r, long k) const { return seg_.keep.size() ? pr_.weight[r] * seg_.keep(r, k) : pr_.weight[r]; }
   const ShootingProblem& pr_;
   const Segment& seg_;
+  static constexpr double kNone = 0.0;
+  mutable std::vector<double> point_, run_at_;
+  mutable SensitivityTrajectory run_;
+  mutable bool run_ok_ = false;
 };
 
 // A segment of chain `c` over samples [a, b): times from the node, measured rows and inputs copied;
@@ -602,10 +622,31 @@ int SetNodesFromData(ShootingProblem& pr, const Vec& theta, std::vector<Vec>& s)
   return changed;
 }
 
+// Before each of Ceres' evaluations (the point is then in theta and s), every segment's run, the
+// segments side by side: each run is its own, so the residuals and the cost Ceres sums in its order
+// do not depend on the threads.
+class SegmentRuns final : public ceres::EvaluationCallback {
+ public:
+  SegmentRuns(const Vec& theta, const std::vector<Vec>& s) : theta_(theta), s_(s) {}
+  void Add(std::size_t segment, const SegmentCost* cost) { costs_.emplace_back(segment, cost); }
+  void PrepareForEvaluation(bool /*evaluate_jacobians*/, bool /*new_evaluation_point*/) override {
+    tbb::parallel_for(std::size_t{0}, costs_.size(), [&](std::size_t k) {
+      costs_[k].second->Prepare(theta_.data(), s_[costs_[k].first].data());
+    });
+  }
+
+ private:
+  const Vec& theta_;
+  const std::vector<Vec>& s_;
+  std::vector<std::pair<std::size_t, const SegmentCost*>> costs_;
+};
+
 ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& options, Vec& theta,
                              std::vector<Vec>& s) {
+  SegmentRuns runs(theta, s);
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.evaluation_callback = &runs;
   ceres::Problem cp(po);
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
     if (pr.segments[i].off) continue;
@@ -613,7 +654,9 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
     if (pr.shared > 0) blocks.push_back(theta.data());
     blocks.push_back(s[i].data());
     if (pr.segments[i].continues) blocks.push_back(s[i + 1].data());
-    cp.AddResidualBlock(new SegmentCost(pr, i), nullptr, blocks);
+    auto* cost = new SegmentCost(pr, i);
+    runs.Add(i, cost);
+    cp.AddResidualBlock(cost, nullptr, blocks);
   }
   const std::vector<const Parameter*> params = pr.unknowns.Parameters(*pr.model);
   for (int i = 0; i < pr.shared; ++i) {

@@ -54,6 +54,8 @@ constexpr double kGuardReach = 0.1;
 // of the model's values either way (DesignStarts), the factor a user's start values may be off by.
 constexpr int kDesignStarts = 16;
 constexpr double kDesignFactor = 2.5;
+// The searching starts (guards reached, the design) fit side by side, up to this many at a time.
+constexpr int kSearchBatch = 4;
 
 // Samples per segment for chains of `samples` samples in all (at least 4n + 4, about 1/48 of the data,
 // at most 2 000).

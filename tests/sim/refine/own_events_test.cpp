@@ -12,6 +12,7 @@
 #include <utility>
 
 #include <Eigen/Dense>
+#include <tbb/global_control.h>
 
 #include "core/model_file/model_file.hpp"
 #include "sim/measurement.hpp"
@@ -220,6 +221,33 @@ TEST_CASE("a thermostat from a start whose heater cools: the refinement at the b
   RequireAtTheBound(r, truth.Theta(u),
                     ComputeCrlb(ParseModelFile(kThermostat, "thermostat.toml").model, truth, SampleGrid{1800.0, 1.0},
                                 Vec::Constant(1, 0.05), u, {}, {}, nullptr));
+}
+
+// The starts fit side by side and every segment's run made on its own thread: the same estimate,
+// standard errors, cost and iterations, bit for bit, as on one thread.
+TEST_CASE("a refinement by time on one thread and on several: the same numbers, bit for bit", "[time_shooting]") {
+  Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
+  const Mat y = ThermostatData(model, 5, nullptr);
+  for (const auto& [name, value] : {std::pair{"k", 0.0020752}, {"P", 0.0202873}, {"T_lo", 20.355}, {"T_hi", 20.851}}) {
+    model.SetParameter(name, value);
+  }
+  RefineOptions options;
+  options.sigma = Vec::Constant(1, 0.05);
+  const RefineChain chain = RefineChain::Uniform(y, 1.0, std::vector<std::uint8_t>(std::size_t(y.cols()), 0));
+  auto refine = [&](std::size_t threads) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    return Refine(model, {chain}, model.alpha(), model.beta(), options);
+  };
+  const RefineResult one = refine(1);
+  const RefineResult several = refine(4);
+  REQUIRE(one.ok());
+  REQUIRE(one.route == several.route);
+  CHECK(one.mended == several.mended);
+  CHECK(one.iterations == several.iterations);
+  CHECK(one.final_cost == several.final_cost);
+  const Unknowns u = Unknowns::Of(model);
+  CHECK(one.refined.Theta(u) == several.refined.Theta(u));
+  CHECK(one.standard_errors == several.standard_errors);
 }
 
 // A 60 s dropout in a run (two chains, the second after the gap): the model runs through it, one
