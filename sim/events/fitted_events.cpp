@@ -83,32 +83,44 @@ FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, con
     for (const JumpRecord& j : jumps) {
       out.crossings.push_back({.time = chain.t.front() + j.t, .map = j.map, .chain = static_cast<int>(c)});
     }
-    // The chain's events in order against the crossings in order, while their maps agree.
+    // Each detected event of the chain against the crossing nearest its time: paired when that
+    // crossing applies the event's map and no other event of the chain is nearer to it (a crossing
+    // the detector missed pairs with no event; a detection with no crossing of its map there, none).
     const long begin = first[c], end = c + 1 < first.size() ? first[c + 1] : y.cols();
-    std::size_t next = 0;
-    for (std::size_t i = 0; i < recursive.events.size(); ++i) {
+    constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+    std::vector<std::size_t> paired(jumps.size(), kNone);  // per crossing: the event it is paired with
+    auto distance = [&](std::size_t j, std::size_t i) {
+      return std::abs(chain.t.front() + jumps[j].t - recursive.events[i].time);
+    };
+    for (std::size_t i = 0; i < recursive.events.size() && !jumps.empty(); ++i) {
       const AutomatonEvent& e = recursive.events[i];
       if (e.sample <= begin || e.sample >= end) continue;
-      if (next >= jumps.size() || jumps[next].map != e.map) {
+      std::size_t j = 0;
+      for (std::size_t k = 1; k < jumps.size(); ++k) j = distance(k, i) < distance(j, i) ? k : j;
+      if (jumps[j].map != e.map) {
         if (out.reason.empty()) {
-          out.reason = fmt::format("chain {}: the fitted model's crossing {} does not apply the map of the event "
-                                   "at sample {}", c + 1, next + 1, e.sample);
+          out.reason = fmt::format("chain {}: the fitted model's crossing nearest the event at sample {} (t = {:.6g}) "
+                                   "applies another map", c + 1, e.sample, chain.t.front() + jumps[j].t);
         }
-        next = jumps.size();  // the sequences parted: no later pairing is trusted
         continue;
       }
-      out.time[i] = chain.t.front() + jumps[next].t;
-      if (gradients && static_cast<Eigen::Index>(next) < run.jump_time_gradients.cols()) {
-        const Vec g = run.jump_time_gradients.col(static_cast<Eigen::Index>(next));
-        out.se[i] = std::sqrt(std::max(0.0, g.dot(*covariance * g)));
+      if (paired[j] == kNone || distance(j, i) < distance(j, paired[j])) paired[j] = i;
+    }
+    for (std::size_t j = 0; j < jumps.size(); ++j) {
+      if (paired[j] == kNone) continue;
+      out.time[paired[j]] = chain.t.front() + jumps[j].t;
+      if (gradients && static_cast<Eigen::Index>(j) < run.jump_time_gradients.cols()) {
+        const Vec g = run.jump_time_gradients.col(static_cast<Eigen::Index>(j));
+        out.se[paired[j]] = std::sqrt(std::max(0.0, g.dot(*covariance * g)));
       }
-      ++next;
     }
   }
   if (out.reason.empty()) {
     for (std::size_t i = 0; i < out.time.size(); ++i) {
       if (std::isnan(out.time[i])) {
-        out.reason = fmt::format("the event at sample {} lies in a chain not fitted", recursive.events[i].sample);
+        out.reason = fmt::format("the event at sample {} has no crossing of its own: another event of its chain "
+                                 "is nearer to the crossing nearest it",
+                                 recursive.events[i].sample);
         break;
       }
     }

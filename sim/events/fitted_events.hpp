@@ -2,9 +2,9 @@
 // times from the fitted model): the fitted model's own guard crossings, run from the refined α, β, γ
 // and each chain's refined ξ0 over the whole chain, so each time uses all the data rather than the
 // samples around one event (past a span the refinement cut, RefineResult::chain_samples_used, they
-// are the fitted model's prediction; `beyond` says where). A detected event (IdentifyResult::events) gets the crossing of
-// its chain in the same place of the sequence when the fitted model applies the same map there (the
-// refinement's jump check makes the sequences agree when it is ok).
+// are the fitted model's prediction; `beyond` says where). A detected event (IdentifyResult::events)
+// gets the crossing of its chain nearest its time when that crossing applies the event's map and no
+// other event of the chain is nearer to it; crossings the detector missed pair with no event.
 //
 // Standard error: the run's ∂t_j/∂θ (saltation, sim/sensitivity/sensitivity.hpp:
 // ∂t_j/∂θ = −(∇ₓh·S⁻ + ∂h/∂θ)/(∇ₓh·f⁻)) with the refinement's covariance C of θ and the chain's

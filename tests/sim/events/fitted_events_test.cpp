@@ -9,7 +9,10 @@
 #include <limits>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "core/identify/identifier.hpp"
+#include "core/model/automaton.hpp"
 #include "core/model_file/model_file.hpp"
 #include "sim/events/fitted_events.hpp"
 #include "sim/measurement.hpp"
@@ -107,6 +110,40 @@ TEST_CASE("floor-ceiling: fitted impact times within a sample, standard errors a
 
 TEST_CASE("pump-tank: fitted switch times within a sample, standard errors at the bound", "[events]") {
   CheckExample("pump-tank", 1e-2);
+}
+
+// The detector's events thinned (every other one dropped, as a detector that misses events) and one
+// given the wrong map: each kept event still gets the crossing of its own true event, the mislabelled
+// one none, with the reason naming its sample.
+TEST_CASE("events the detector missed or mislabelled: each kept event beside its own crossing", "[events]") {
+  const Example e("pump-tank");
+  const Fit f = IdentifyAndRefine(e, 1e-2, 1);
+  REQUIRE(f.refined.ok());
+  REQUIRE(f.recursive.events.size() == e.truth.jumps.size());
+  REQUIRE(e.truth.jumps.size() >= 6);
+  IdentifyResult thinned = f.recursive;
+  thinned.events.clear();
+  std::vector<std::size_t> truth_of;  // per kept event: its true event
+  for (std::size_t i = 1; i < f.recursive.events.size(); i += 2) {
+    thinned.events.push_back(f.recursive.events[i]);
+    truth_of.push_back(i);
+  }
+  const std::size_t wrong = 1;
+  const int maps = static_cast<int>(JumpMaps(e.model.spec()).size());
+  REQUIRE(maps >= 2);
+  thinned.events[wrong].map = (thinned.events[wrong].map + 1) % maps;
+  const FittedEvents fe = FitEventTimes(e.model, e.truth.t, e.truth.x, {}, Mat(), thinned, f.refined);
+  REQUIRE(fe.crossings.size() == e.truth.jumps.size());
+  for (std::size_t k = 0; k < thinned.events.size(); ++k) {
+    CAPTURE(k, thinned.events[k].sample);
+    if (k == wrong) {
+      CHECK(std::isnan(fe.time[k]));
+      continue;
+    }
+    CHECK(fe.time[k] == fe.crossings[truth_of[k]].time);
+    CHECK(std::abs(fe.time[k] - e.truth.jumps[truth_of[k]].t) < e.grid.dt);
+  }
+  CHECK(fe.reason.find(fmt::format("sample {}", thinned.events[wrong].sample)) != std::string::npos);
 }
 
 TEST_CASE("a refinement that is not ok gives no event times, and says why", "[events]") {
