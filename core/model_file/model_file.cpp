@@ -772,9 +772,19 @@ void CheckRowsCarryUnknowns(const TomlReader& rd, const toml::table& t, const st
 // KEY.rows of a table whose matrix is `m` over `params`: [flow], [jump], a [[flow]] that gives rows and
 // a [[jump]] map with psi all read their rows here, so every form has the same checks (states
 // named, each once, every unknown parameter of `m` in a row).
+// What a missing `rows` should hold: the rows that the matrix's unknown parameters enter.
+std::string RowsHint(const ExprMatrix& m, const std::vector<Parameter>& params, const std::vector<std::string>& states) {
+  std::vector<std::string> names;
+  for (int r : RowsWithUnknowns(m, params)) names.push_back(fmt::format("\"{}\"", states[std::size_t(r)]));
+  if (names.empty()) return "give the identified rows (no row of the matrix has an unknown parameter)";
+  return fmt::format("give the identified rows; the rows the unknown parameters enter are rows = [{}]",
+                     fmt::join(names, ", "));
+}
+
 std::vector<int> ParseCheckedRows(const TomlReader& rd, const toml::table& t, const std::string& key,
                                   const ExprMatrix& m, const std::vector<Parameter>& params,
                                   const std::vector<std::string>& states) {
+  if (!t.contains("rows")) rd.Require(t, key, "rows", RowsHint(m, params, states));
   std::vector<int> rows = ParseRows(rd, t, key, states);
   CheckRowsCarryUnknowns(rd, t, key, m, params, rows, states);
   return rows;
@@ -932,7 +942,10 @@ void ParseFlows(const TomlReader& rd, const toml::table& root, Definition& def, 
     def.phi = {ParseMatrix(rd, rd.Require(t, "flow", "phi"), "flow.phi",
                            static_cast<Eigen::Index>(spec.state_names.size()),
                            static_cast<Eigen::Index>(spec.alpha.size()), sym)};
-    spec.flow_rows = ParseCheckedRows(rd, t, "flow", def.phi[0], spec.alpha, spec.state_names);
+    // Without rows: the rows of φ with an unknown α entry (as a [[flow]] table's).
+    spec.flow_rows = t.contains("rows") || RowsWithUnknowns(def.phi[0], spec.alpha).empty()
+                         ? ParseCheckedRows(rd, t, "flow", def.phi[0], spec.alpha, spec.state_names)
+                         : RowsWithUnknowns(def.phi[0], spec.alpha);
     if (const toml::node* jc = t.get("jacobian_constant"))
       spec.flow_jacobian_constant = rd.Boolean(*jc, "flow.jacobian_constant");
     if (const toml::node* c = t.get("candidates")) ParseCandidates(rd, *c, {"flow", 0, "", spec.flow_rows}, def, sym);
@@ -1115,7 +1128,12 @@ void ParseSets(const TomlReader& rd, const toml::table& root, Definition& def, S
     def.has_sets = false;  // C every state, D empty: an automaton jumps at its armed guards' crossings
     return;
   }
-  const toml::table& t = rd.Table(rd.Require(root, "", "sets"), "sets");
+  const toml::table& t = rd.Table(
+      rd.Require(root, "", "sets",
+                 "one [flow] and one [jump] need the flow set C and the jump set D ([sets] C = \"...\", D = \"...\"); "
+                 "to jump exactly where the guards are crossed, write the jump as a [[jump]] map (name, guard, its own beta), "
+                 "where [sets] is optional"),
+      "sets");
   rd.OnlyKeys(t, "sets", {"C", "D", "distance_to_D"});
   auto one = [&](const char* k) -> std::string {
     const std::string key = TomlReader::Join("sets", k);
