@@ -205,7 +205,10 @@ TEST_CASE("a thermostat whose start heater cools: α from the modes the data sho
 // The whole refinement (Refine: the labelled routes, then multiple shooting by time from each start)
 // from the model's own start values, with no detected label: at the bound. Measured: without α from
 // the modes (ModeClusteredAlpha returning nothing) the residual tests refuse this fit (residual-rms).
-TEST_CASE("a thermostat from a start whose heater cools: the refinement at the bound", "[time_shooting]") {
+// Its starts fit side by side and every segment's run made on its own thread, it gives the same
+// estimate, standard errors, cost and iterations, bit for bit, on one thread.
+TEST_CASE("a thermostat from a start whose heater cools: at the bound, bit for bit the same on one thread",
+          "[time_shooting]") {
   Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
   const Vec x0 = Vec::Constant(1, 21.0);
   const HybridParameters truth = HybridParameters::Of(model, x0);
@@ -221,33 +224,16 @@ TEST_CASE("a thermostat from a start whose heater cools: the refinement at the b
   RequireAtTheBound(r, truth.Theta(u),
                     ComputeCrlb(ParseModelFile(kThermostat, "thermostat.toml").model, truth, SampleGrid{1800.0, 1.0},
                                 Vec::Constant(1, 0.05), u, {}, {}, nullptr));
-}
-
-// The starts fit side by side and every segment's run made on its own thread: the same estimate,
-// standard errors, cost and iterations, bit for bit, as on one thread.
-TEST_CASE("a refinement by time on one thread and on several: the same numbers, bit for bit", "[time_shooting]") {
-  Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
-  const Mat y = ThermostatData(model, 5, nullptr);
-  for (const auto& [name, value] : {std::pair{"k", 0.0020752}, {"P", 0.0202873}, {"T_lo", 20.355}, {"T_hi", 20.851}}) {
-    model.SetParameter(name, value);
-  }
-  RefineOptions options;
-  options.sigma = Vec::Constant(1, 0.05);
-  const RefineChain chain = RefineChain::Uniform(y, 1.0, std::vector<std::uint8_t>(std::size_t(y.cols()), 0));
-  auto refine = [&](std::size_t threads) {
-    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  const RefineResult one = [&] {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
     return Refine(model, {chain}, model.alpha(), model.beta(), options);
-  };
-  const RefineResult one = refine(1);
-  const RefineResult several = refine(4);
-  REQUIRE(one.ok());
-  REQUIRE(one.route == several.route);
-  CHECK(one.mended == several.mended);
-  CHECK(one.iterations == several.iterations);
-  CHECK(one.final_cost == several.final_cost);
-  const Unknowns u = Unknowns::Of(model);
-  CHECK(one.refined.Theta(u) == several.refined.Theta(u));
-  CHECK(one.standard_errors == several.standard_errors);
+  }();
+  REQUIRE(one.route == r.route);
+  CHECK(one.mended == r.mended);
+  CHECK(one.iterations == r.iterations);
+  CHECK(one.final_cost == r.final_cost);
+  CHECK(one.refined.Theta(u) == r.refined.Theta(u));
+  CHECK(one.standard_errors == r.standard_errors);
 }
 
 // A 60 s dropout in a run (two chains, the second after the gap): the model runs through it, one
