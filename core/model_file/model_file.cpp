@@ -769,11 +769,9 @@ void CheckRowsCarryUnknowns(const TomlReader& rd, const toml::table& t, const st
   }
 }
 
-// KEY.rows of a table whose matrix is `m` over `params`: [flow], [jump], a [[flow]] that gives rows and
-// a [[jump]] map with psi all read their rows here, so every form has the same checks (states
-// named, each once, every unknown parameter of `m` in a row).
 // What a missing `rows` should hold: the rows that the matrix's unknown parameters enter.
-std::string RowsHint(const ExprMatrix& m, const std::vector<Parameter>& params, const std::vector<std::string>& states) {
+std::string RowsHint(const ExprMatrix& m, const std::vector<Parameter>& params,
+                     const std::vector<std::string>& states) {
   std::vector<std::string> names;
   for (int r : RowsWithUnknowns(m, params)) names.push_back(fmt::format("\"{}\"", states[std::size_t(r)]));
   if (names.empty()) return "give the identified rows (no row of the matrix has an unknown parameter)";
@@ -781,6 +779,9 @@ std::string RowsHint(const ExprMatrix& m, const std::vector<Parameter>& params, 
                      fmt::join(names, ", "));
 }
 
+// KEY.rows of a table whose matrix is `m` over `params`: [flow], [jump], a [[flow]] that gives rows and
+// a [[jump]] map with psi all read their rows here, so every form has the same checks (states
+// named, each once, every unknown parameter of `m` in a row); missing, they are refused with RowsHint.
 std::vector<int> ParseCheckedRows(const TomlReader& rd, const toml::table& t, const std::string& key,
                                   const ExprMatrix& m, const std::vector<Parameter>& params,
                                   const std::vector<std::string>& states) {
@@ -1128,12 +1129,11 @@ void ParseSets(const TomlReader& rd, const toml::table& root, Definition& def, S
     def.has_sets = false;  // C every state, D empty: an automaton jumps at its armed guards' crossings
     return;
   }
-  const toml::table& t = rd.Table(
-      rd.Require(root, "", "sets",
-                 "one [flow] and one [jump] need the flow set C and the jump set D ([sets] C = \"...\", D = \"...\"); "
-                 "to jump exactly where the guards are crossed, write the jump as a [[jump]] map (name, guard, its own beta), "
-                 "where [sets] is optional"),
-      "sets");
+  constexpr const char* kMissing =
+      "one [flow] and one [jump] need the flow set C and the jump set D "
+      "([sets] C = \"...\", D = \"...\"); to jump exactly where the guards are crossed, write the jump "
+      "as a [[jump]] map (name, guard, its own beta), where [sets] is optional";
+  const toml::table& t = rd.Table(rd.Require(root, "", "sets", kMissing), "sets");
   rd.OnlyKeys(t, "sets", {"C", "D", "distance_to_D"});
   auto one = [&](const char* k) -> std::string {
     const std::string key = TomlReader::Join("sets", k);

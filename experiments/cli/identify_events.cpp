@@ -70,9 +70,10 @@ void PrintFittedEvents(const Model& model, const IdentifyResult& r, const Fitted
   const std::vector<JumpMap> maps = JumpMaps(model.spec());
   std::printf("event times from the fitted model (its guard crossings; se from the covariance):\n");
   if (fitted.crossings.size() != r.events.size()) {
-    std::printf("  the fitted model crosses its guards %zu times, the detector found %zu events: each detected event "
-                "beside the crossing nearest it (every crossing in --json)\n",
-                fitted.crossings.size(), r.events.size());
+    std::printf(
+        "  the fitted model crosses its guards %zu times, the detector found %zu events: each detected event "
+        "beside the crossing nearest it (every crossing in --json)\n",
+        fitted.crossings.size(), r.events.size());
   }
   if (!fitted.reason.empty()) std::printf("  not every event has one: %s\n", fitted.reason.c_str());
   if (!fitted.beyond.empty()) std::printf("  %s\n", fitted.beyond.c_str());

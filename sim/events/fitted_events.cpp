@@ -99,8 +99,10 @@ FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, con
       for (std::size_t k = 1; k < jumps.size(); ++k) j = distance(k, i) < distance(j, i) ? k : j;
       if (jumps[j].map != e.map) {
         if (out.reason.empty()) {
-          out.reason = fmt::format("chain {}: the fitted model's crossing nearest the event at sample {} (t = {:.6g}) "
-                                   "applies another map", c + 1, e.sample, chain.t.front() + jumps[j].t);
+          out.reason = fmt::format(
+              "chain {}: the fitted model's crossing nearest the event at sample {} (t = {:.6g}) "
+              "applies another map",
+              c + 1, e.sample, chain.t.front() + jumps[j].t);
         }
         continue;
       }
@@ -118,9 +120,10 @@ FittedEvents FitEventTimes(const Model& model, const std::vector<double>& t, con
   if (out.reason.empty()) {
     for (std::size_t i = 0; i < out.time.size(); ++i) {
       if (std::isnan(out.time[i])) {
-        out.reason = fmt::format("the event at sample {} has no crossing of its own: another event of its chain "
-                                 "is nearer to the crossing nearest it",
-                                 recursive.events[i].sample);
+        out.reason = fmt::format(
+            "the event at sample {} has no crossing of its own: another event of its chain "
+            "is nearer to the crossing nearest it",
+            recursive.events[i].sample);
         break;
       }
     }

@@ -672,8 +672,8 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   };
   // The first two starts are always both fit: side by side (each fit is deterministic and the
   // better is kept by Better, in this order, so the result does not depend on the threads).
-  const bool own_differs = own.alpha != recursive.alpha || own.beta != recursive.beta ||
-                           own.gamma != recursive.GammaOr(model);
+  const bool own_differs =
+      own.alpha != recursive.alpha || own.beta != recursive.beta || own.gamma != recursive.GammaOr(model);
   RefineResult from_own;
   tbb::parallel_invoke([&] { best = fit(recursive, "the recursive estimate"); },
                        [&] {
@@ -707,13 +707,15 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   for (std::size_t k = 0; k < design.size(); ++k) {
     searching.push_back({design[k], fmt::format("design point {} of {}", k + 1, design.size())});
   }
-  const auto batch = static_cast<std::size_t>(std::clamp(tbb::this_task_arena::max_concurrency(), 1, kSearchBatch));
+  const auto batch =
+      static_cast<std::size_t>(std::clamp(tbb::this_task_arena::max_concurrency(), 1, kSearchBatch));
   for (std::size_t first = 0; first < searching.size() && !best.ok() && !options.stopped(); first += batch) {
     std::vector<RefineResult> fits(std::min(batch, searching.size() - first));
     tbb::parallel_for(std::size_t{0}, fits.size(), [&](std::size_t k) {
       Searching& at = searching[first + k];
       if (first + k >= (searching.size() - design.size())) {  // a design point: its guards reached
-        if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, at.from, options)) at.from.gamma = *gamma;
+        if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, at.from, options))
+          at.from.gamma = *gamma;
       }
       fits[k] = fit(at.from, at.name);
     });

@@ -336,22 +336,24 @@ TEST_CASE("bad model files are refused naming file, line, key and expression", "
 
 // [flow] without rows: the rows of φ with an unknown α entry, as for a [[flow]] table (here v: the known
 // α "one" enters row x). A missing [jump] rows or [sets] says what to write.
-TEST_CASE("rows left out of [flow] are the rows with unknowns, and a missing jump rows or sets says what to write",
-          "[model_file]") {
+TEST_CASE(
+    "rows left out of [flow] are the rows with unknowns, and a missing jump rows or sets says what to write",
+    "[model_file]") {
   using Catch::Matchers::Contains;
   const Model given = ParseModelText(kGood, "m.toml");
   const Model defaulted = ParseModelText(Replace(kGood, "rows = [\"v\"]\n[jump]", "[jump]"), "m.toml");
   CHECK(defaulted.spec().flow_rows == given.spec().flow_rows);
   CHECK(defaulted.spec().flow_rows == std::vector<int>{1});
   // "one" unknown too: both rows carry an unknown, both are the default.
-  const Model both = ParseModelText(
-      Replace(Replace(kGood, "rows = [\"v\"]\n[jump]", "[jump]"), "value = 1.0, known = true }, { name = \"a\"",
-              "value = 1.0 }, { name = \"a\""),
-      "m.toml");
+  const Model both =
+      ParseModelText(Replace(Replace(kGood, "rows = [\"v\"]\n[jump]", "[jump]"),
+                             "value = 1.0, known = true }, { name = \"a\"", "value = 1.0 }, { name = \"a\""),
+                     "m.toml");
   CHECK(both.spec().flow_rows == std::vector<int>{0, 1});
-  REQUIRE_THAT(ErrorOf(Replace(kGood, "rows = [\"v\"]\n[[guard]]", "[[guard]]")),
-               Contains("m.toml:8: jump.rows: missing: give the identified rows; the rows the unknown parameters "
-                        "enter are rows = [\"v\"]"));
+  REQUIRE_THAT(
+      ErrorOf(Replace(kGood, "rows = [\"v\"]\n[[guard]]", "[[guard]]")),
+      Contains("m.toml:8: jump.rows: missing: give the identified rows; the rows the unknown parameters "
+               "enter are rows = [\"v\"]"));
   REQUIRE_THAT(ErrorOf(Replace(kGood, "[sets]\nC = \"x >= 0\"\nD = \"x == 0 && v <= 0\"\n", "")),
                Contains("sets: missing: one [flow] and one [jump] need the flow set C and the jump set D"));
 }
