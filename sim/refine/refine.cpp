@@ -674,12 +674,12 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   // better is kept by Better, in this order, so the result does not depend on the threads).
   const bool own_differs =
       own.alpha != recursive.alpha || own.beta != recursive.beta || own.gamma != recursive.GammaOr(model);
-  RefineResult from_own;
+  std::optional<RefineResult> from_own;
   tbb::parallel_invoke([&] { best = fit(recursive, "the recursive estimate"); },
                        [&] {
                          if (own_differs && !options.stopped()) from_own = fit(own, "the model's values");
                        });
-  if (own_differs && !options.stopped()) consider(std::move(from_own));
+  if (from_own) consider(std::move(*from_own));
   if (best.ok() || options.stopped()) return best;
   const int n = model.state_size();
   long samples = 0;
@@ -697,6 +697,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   struct Searching {
     HybridParameters from;
     std::string name;
+    bool reach = false;  // its guards reached (GammaReachingGuards) before its fit
   };
   std::vector<Searching> searching;
   if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, own, options)) {
@@ -705,7 +706,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   }
   const std::vector<HybridParameters> design = DesignStarts(model, own, kDesignStarts, kDesignFactor);
   for (std::size_t k = 0; k < design.size(); ++k) {
-    searching.push_back({design[k], fmt::format("design point {} of {}", k + 1, design.size())});
+    searching.push_back({design[k], fmt::format("design point {} of {}", k + 1, design.size()), true});
   }
   const auto batch =
       static_cast<std::size_t>(std::clamp(tbb::this_task_arena::max_concurrency(), 1, kSearchBatch));
@@ -713,10 +714,9 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
     std::vector<RefineResult> fits(std::min(batch, searching.size() - first));
     tbb::parallel_for(std::size_t{0}, fits.size(), [&](std::size_t k) {
       Searching& at = searching[first + k];
-      if (first + k >= (searching.size() - design.size())) {  // a design point: its guards reached
-        if (const std::optional<Vec> gamma = GammaReachingGuards(model, chains, at.from, options))
-          at.from.gamma = *gamma;
-      }
+      const std::optional<Vec> gamma =
+          at.reach ? GammaReachingGuards(model, chains, at.from, options) : std::nullopt;
+      if (gamma) at.from.gamma = *gamma;
       fits[k] = fit(at.from, at.name);
     });
     for (std::size_t k = 0; k < fits.size() && !best.ok(); ++k) consider(std::move(fits[k]), true);
