@@ -1165,7 +1165,15 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   ceres::Solver::Summary summary;
   // The route's budget: kIterationBudget solves' worth of iterations in all.
   const int budget = kIterationBudget * options.max_iterations;
-  for (const double width : kContinuationWidths) {
+  // A stage that fit the data to the noise (its cost at most twice the expected ½mN) whose next
+  // width costs more than kWidthCostGrowth times as much has left its basin: that stage is solved
+  // again from the point before, at a width a shorter step away (the step's square root).
+  const double noise_level_cost = static_cast<double>(total) * static_cast<double>(pr.rows.size());
+  double width = kFirstWidth, step = kWidthStep, width_before = width, cost_before = 0.0;
+  Vec theta_before = theta;
+  std::vector<Vec> s_before = s;
+  std::vector<Segment> segments_before = pr.segments;
+  for (bool first = true;; first = false) {
     pr.link_weight = (width * pr.scale).cwiseInverse();
     for (int round = 0; round < kModeRounds && r.iterations < budget; ++round) {
       RepairNodes(pr, theta, s);
@@ -1173,7 +1181,7 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
       r.iterations += static_cast<int>(summary.iterations.size());
       if (r.initial_cost == 0.0) r.initial_cost = summary.initial_cost;
       if (options.stopped() || !summary.IsSolutionUsable()) break;
-      if (width == kContinuationWidths[0] && round == 0) {  // α fit to the segments: the data's switches
+      if (first && round == 0) {  // α fit to the segments: the data's switches
         const Vec before = theta;
         const std::vector<Segment> segments = pr.segments;
         BestModes(pr, theta, s);
@@ -1188,6 +1196,22 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
       if (MoveNodesOffEvents(pr, chains, theta, s, spacing) + settled == 0) break;
     }
     if (options.stopped() || !summary.IsSolutionUsable()) break;
+    if (!first && cost_before <= noise_level_cost && summary.final_cost > kWidthCostGrowth * cost_before &&
+        step > kShortestWidthStep && r.iterations < budget) {
+      theta = theta_before;
+      s = s_before;
+      pr.segments = segments_before;
+      step = std::sqrt(step);
+      width = width_before / step;
+      continue;
+    }
+    if (width <= kLastWidth) break;
+    theta_before = theta;
+    s_before = s;
+    segments_before = pr.segments;
+    cost_before = summary.final_cost;
+    width_before = width;
+    width = width / step > kLastWidth * kWidthRounding ? width / step : kLastWidth;
   }
   // The nodes against the data at the point reached (SetNodesFromData), and the last width solved
   // again; kept when its cost is lower.

@@ -12,9 +12,10 @@
 // normal matrix is block-banded). No detected label enters: the detector gives only θ's start.
 //
 // Start: node states from the data (measured rows), hidden rows from the segment before simulated
-// at the start (a chain's first node: its reconstruction where finite, else the default state); modes, for an automaton, the
-// one whose segment fits the node's samples best. Continuation: ε = 1, 0.1, 0.01, 0.001
-// (kContinuationWidths): nearly free segments first, so that θ is fit to each segment's own data
+// at the start (a chain's first node: its reconstruction where finite, else the default state); modes, for an
+// automaton, the one whose segment fits the node's samples best. Continuation: ε = 1, 0.1, 0.01, 0.001
+// (kFirstWidth, kWidthStep, kLastWidth), a step shortened where it leaves the basin of a stage that
+// fit the data to the noise: nearly free segments first, so that θ is fit to each segment's own data
 // before a far start can lead the whole record astray; at each width the nodes' modes are settled
 // from the segment before (at most kModeRounds solves), and samples more than kTrim robust standard
 // deviations off on the model's own run are left out (a sample on the wrong side of a jump in a
@@ -38,10 +39,18 @@
 
 namespace hysid {
 
-// The continuity widths ε of the continuation, the last one the fit's: a defect of ε · c_j costs as
-// much as one sample's residual of one σ. At each width the nodes' modes are settled in at most
-// kModeRounds solves.
-constexpr double kContinuationWidths[] = {1.0, 0.1, 1e-2, 1e-3};
+// The continuity widths ε of the continuation, from kFirstWidth by steps of kWidthStep to kLastWidth,
+// the fit's: a defect of ε · c_j costs as much as one sample's residual of one σ. A stage at the
+// noise's level whose next width costs more than kWidthCostGrowth times as much is solved again a
+// step's square root away, down to steps of kShortestWidthStep (each later step as short). At each
+// width the nodes' modes are settled in at most kModeRounds solves.
+constexpr double kFirstWidth = 1.0;
+constexpr double kLastWidth = 1e-3;
+constexpr double kWidthStep = 10.0;
+constexpr double kWidthCostGrowth = 5.0;
+constexpr double kShortestWidthStep = 1.5;
+// A width within this factor of kLastWidth is kLastWidth (the steps' rounding).
+constexpr double kWidthRounding = 1.0 + 1e-9;
 constexpr int kModeRounds = 4;
 // Samples beyond this many robust standard deviations are left out of the continuation's solves.
 constexpr double kTrim = 6.0;
