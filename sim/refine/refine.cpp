@@ -644,10 +644,13 @@ bool Better(const RefineResult& a, const RefineResult& b) {
 // (a model file's start values); while no fit is ok, for an automaton with a hidden mode, α of the
 // modes the data show (ModeClusteredAlpha, with the model's own β and γ); with `search` (the labelled
 // routes reported nothing) while no fit can be reported (every one singular, unconverged or failed: a
-// start in another basin, or whose guards the model never reaches), the model's values with γ where the guards are reached (GammaReachingGuards),
-// then the points of a Halton design over the box the model's values span (DesignStarts), each with
-// γ where its guards are reached, until one is ok (their fits are kept only when ok). The best of the
-// fits (Better); `mended` names the start of the one kept.
+// start in another basin, or whose guards the model never reaches), the model's values with γ where the
+// guards are reached (GammaReachingGuards), then the points of a Halton design over the box the model's
+// values span (DesignStarts), each with γ where its guards are reached, until one is ok (their fits are kept
+// only when ok); the same search when the best fit is refused by its residual tests although some start's
+// nearly free segments fit the data to the noise (RefineResult::segments_fit_noise: a local minimum, not
+// model error), a fit kept only when ok at a lower cost. The best of the fits (Better); `mended` names the
+// start of the one kept.
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
                                     const HybridParameters& recursive, const RefineOptions& options, bool search) {
   auto named = [](RefineResult fit, const std::string& start) {
@@ -679,6 +682,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
                        [&] {
                          if (own_differs && !options.stopped()) from_own = fit(own, "the model's values");
                        });
+  bool segments_fit_noise = best.segments_fit_noise || (from_own && from_own->segments_fit_noise);
   if (from_own) consider(std::move(*from_own));
   if (best.ok() || options.stopped()) return best;
   const int n = model.state_size();
@@ -689,9 +693,14 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
           ModeClusteredAlpha(model, chains, MeasuredRows(options, n), own, Unknowns::Of(model), window)) {
     HybridParameters clustered = own;
     clustered.alpha = *alpha;
-    consider(fit(clustered, "the modes the data show"));
+    RefineResult other = fit(clustered, "the modes the data show");
+    segments_fit_noise = segments_fit_noise || other.segments_fit_noise;
+    consider(std::move(other));
   }
-  if (!search || best.reported || options.stopped()) return best;
+  // A refused fit although some start's free segments fit the data to the noise: a local minimum,
+  // searched like a start that reports nothing.
+  const bool local_minimum = best.reported && !best.ok() && segments_fit_noise;
+  if (!(local_minimum || (search && !best.reported)) || options.stopped()) return best;
   // The searching starts in order, a batch side by side; the first ok one is kept, so the result is
   // the same whatever the batch (a batch's later fits are then work spent for nothing).
   struct Searching {
@@ -719,7 +728,10 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
       if (gamma) at.from.gamma = *gamma;
       fits[k] = fit(at.from, at.name);
     });
-    for (std::size_t k = 0; k < fits.size() && !best.ok(); ++k) consider(std::move(fits[k]), true);
+    for (std::size_t k = 0; k < fits.size() && !best.ok(); ++k) {
+      // Out of a local minimum: to a lower cost (the same data and weights, a higher likelihood).
+      if (!local_minimum || fits[k].final_cost < best.final_cost) consider(std::move(fits[k]), true);
+    }
   }
   return best;
 }

@@ -95,8 +95,9 @@ enum class RefineRoute {
   kSegmentShooting,
   // Multiple shooting with nodes placed by time, the model finding its own events
   // (sim/refine/time_shooting.hpp), from the recursive start, from the model's own values, for a
-  // hidden mode from α of the modes the data show, and while no fit of any route can be reported,
-  // from the model's values with its guards reached and from a design over their box
+  // hidden mode from α of the modes the data show, and while no fit of any route can be reported (or
+  // the one reported is refused although its free segments fit the data to the noise), from the
+  // model's values with its guards reached and from a design over their box
   // (TimeShootingFromStarts in refine.cpp); tried once after the best initial mode's routes, and
   // adopted when ok, or when it converged and nothing else did (its residual tests then refuse it,
   // the estimates stand with sandwich standard errors).
@@ -177,6 +178,10 @@ struct RefineResult {
   // residuals the tests refuse (model error: the covariance is then the sandwich's).
   bool reported = false;
   std::string route;  // the route whose fit this is
+  // Multiple shooting by time: its nearly free first stage fit the data to the noise (cost at most
+  // mN, twice the expected ½mN), so the model can follow the data segment by segment; a fit that
+  // ends refused after that sits in a local minimum rather than showing model error.
+  bool segments_fit_noise = false;
   // Every route tried, in order, with its outcome ("single shooting on the detected labels: ok on 257
   // of 365 samples", "multiple shooting by time: residual-correlation").
   std::vector<std::string> routes_tried;

@@ -1196,6 +1196,7 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
       if (MoveNodesOffEvents(pr, chains, theta, s, spacing) + settled == 0) break;
     }
     if (options.stopped() || !summary.IsSolutionUsable()) break;
+    if (first) r.segments_fit_noise = summary.final_cost <= noise_level_cost;
     if (!first && cost_before <= noise_level_cost && summary.final_cost > kWidthCostGrowth * cost_before &&
         step > kShortestWidthStep && r.iterations < budget) {
       theta = theta_before;
