@@ -1166,8 +1166,9 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   // The route's budget: kIterationBudget solves' worth of iterations in all.
   const int budget = kIterationBudget * options.max_iterations;
   // A stage that fit the data to the noise (its cost at most twice the expected ½mN) whose next
-  // width costs more than kWidthCostGrowth times as much has left its basin: that stage is solved
-  // again from the point before, at a width a shorter step away (the step's square root).
+  // width costs more than kWidthCostGrowth times as much has left its basin: that width's solve is
+  // dropped, and the fit goes on from the stage's point at a width a shorter step away (the step's
+  // square root).
   const double noise_level_cost = static_cast<double>(total) * static_cast<double>(pr.rows.size());
   double width = kFirstWidth, step = kWidthStep, width_before = width, cost_before = 0.0;
   Vec theta_before = theta;

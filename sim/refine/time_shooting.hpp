@@ -40,10 +40,11 @@
 namespace hysid {
 
 // The continuity widths ε of the continuation, from kFirstWidth by steps of kWidthStep to kLastWidth,
-// the fit's: a defect of ε · c_j costs as much as one sample's residual of one σ. A stage at the
-// noise's level whose next width costs more than kWidthCostGrowth times as much is solved again a
-// step's square root away, down to steps of kShortestWidthStep (each later step as short). At each
-// width the nodes' modes are settled in at most kModeRounds solves.
+// the fit's: a defect of ε · c_j costs as much as one sample's residual of one σ. After a stage at
+// the noise's level whose next width costs more than kWidthCostGrowth times as much, that width's
+// solve is dropped and the fit goes on from the stage's point a step's square root away, down to
+// steps of kShortestWidthStep (each later step as short). At each width the nodes' modes are
+// settled in at most kModeRounds solves.
 constexpr double kFirstWidth = 1.0;
 constexpr double kLastWidth = 1e-3;
 constexpr double kWidthStep = 10.0;
