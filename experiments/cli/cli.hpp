@@ -136,8 +136,6 @@ struct RefineArgs {
   TrajectoryFlags x0;        // --x0 (the known values; default: the model's)
 };
 void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
-// --x0-known's text for the request: nullopt when the flag is not given.
-std::optional<std::string> X0KnownRequest(const X0Known& flag);
 // After RunRecursivePass and the recursive report: the refinement (RunRefinement), the estimates with
 // standard errors (and CRLB ratios when the data carry the truth), the trace's fitted columns (`trace`),
 // --json (with `selection` added when not null). Returns the exit code: 1 when the refinement ran and

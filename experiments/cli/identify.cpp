@@ -348,7 +348,8 @@ IdentifyRequest MakeRequest(const IdentifyArgs& args, const Model& model) {
   r.data_rtol = args.data_rtol;
   r.data_atol = args.data_atol;
   r.refine = args.refine.refine;
-  r.x0_known = X0KnownRequest(args.refine.x0_known);
+  const X0Known& x0_known = args.refine.x0_known;
+  r.x0_known = x0_known.given() ? std::optional<std::string>(x0_known.text) : std::nullopt;
   r.x0 = args.refine.x0.x0;
   r.release_per_sample = true;
   r.spelling = Spelling::kFlag;

@@ -124,10 +124,6 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
                   "(docs/outputs.md)");
 }
 
-std::optional<std::string> X0KnownRequest(const X0Known& flag) {
-  return flag.given() ? std::optional<std::string>(flag.text) : std::nullopt;
-}
-
 int RefineAndReport(const IdentifyRequest& request, IdentifyOutcome& outcome, const RefineArgs& args,
                     const std::string& trace, const nlohmann::json& selection) {
   // The recursive report is out before the refinement, which may take long: a signal that ends hysid
