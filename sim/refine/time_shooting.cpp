@@ -751,12 +751,18 @@ Mat NeweyWest(const std::vector<std::vector<Vec>>& scores, Eigen::Index P) {
   Mat meat = Mat::Zero(P, P);
   for (const auto& g : scores) {
     const auto K = static_cast<Eigen::Index>(g.size());
-    Mat G(P, K);
-    for (Eigen::Index k = 0; k < K; ++k) G.col(k) = g[std::size_t(k)];
-    meat.noalias() += G * G.transpose();
+    // A chain's scores are zero outside θ and its own nodes: its terms are added on those rows only
+    // (the others add exact zeros), each in the same order as on the whole matrix.
+    std::vector<Eigen::Index> rows;
+    for (Eigen::Index i = 0; i < P; ++i) {
+      if (std::any_of(g.begin(), g.end(), [i](const Vec& v) { return v[i] != 0.0; })) rows.push_back(i);
+    }
+    Mat G(static_cast<Eigen::Index>(rows.size()), K);
+    for (Eigen::Index k = 0; k < K; ++k) G.col(k) = g[std::size_t(k)](rows);
+    meat(rows, rows) += Mat(G * G.transpose());
     for (int l = 1; l <= L && l < K; ++l) {
       const Mat cross = G.rightCols(K - l) * G.leftCols(K - l).transpose();
-      meat.noalias() += (1.0 - l / (L + 1.0)) * (cross + cross.transpose());
+      meat(rows, rows) += (1.0 - l / (L + 1.0)) * (cross + cross.transpose());
     }
   }
   return meat;
