@@ -26,8 +26,8 @@ prefix_map="-ffile-prefix-map=$PWD/="
 # hard_rss_limit_mb makes each process stop itself at 3 GB resident instead.
 export ASAN_OPTIONS="detect_leaks=0:abort_on_error=1:strict_string_checks=1:hard_rss_limit_mb=3072"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
-# A sanitized test runs 2-5 times slower than in the Release build: a test without a TIMEOUT of its own
-# gets 4500 s instead of ctest's 1500.
+# A sanitized test runs slower than in the Release build: a test without a TIMEOUT of its own gets
+# 4500 s instead of ctest's 1500.
 timeout=4500
 
 for step in "${steps[@]}"; do
