@@ -61,4 +61,28 @@ ResidualTestResult ResidualTests(const std::vector<Mat>& residuals, const Vec& s
   return t;
 }
 
+Mat NeweyWestMeat(const std::vector<std::vector<Vec>>& scores, Eigen::Index P) {
+  long N = 0;
+  for (const auto& c : scores) N += static_cast<long>(c.size());
+  const int L = static_cast<int>(std::floor(4.0 * std::pow(static_cast<double>(N) / 100.0, 2.0 / 9.0)));
+  Mat meat = Mat::Zero(P, P);
+  for (const auto& g : scores) {
+    const auto K = static_cast<Eigen::Index>(g.size());
+    // A chain's scores are zero outside θ and its own nodes: its terms are added on the rows where
+    // they are not (the others add exact zeros), each in the same order as on the whole matrix.
+    std::vector<Eigen::Index> rows;
+    for (Eigen::Index i = 0; i < P; ++i) {
+      if (std::any_of(g.begin(), g.end(), [i](const Vec& v) { return v[i] != 0.0; })) rows.push_back(i);
+    }
+    Mat G(static_cast<Eigen::Index>(rows.size()), K);
+    for (Eigen::Index k = 0; k < K; ++k) G.col(k) = g[std::size_t(k)](rows);
+    meat(rows, rows) += Mat(G * G.transpose());
+    for (int l = 1; l <= L && l < K; ++l) {
+      const Mat cross = G.rightCols(K - l) * G.leftCols(K - l).transpose();
+      meat(rows, rows) += (1.0 - l / (L + 1.0)) * (cross + cross.transpose());
+    }
+  }
+  return meat;
+}
+
 }  // namespace hysid

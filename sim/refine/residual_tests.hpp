@@ -33,4 +33,10 @@ struct ResidualTestResult {
 ResidualTestResult ResidualTests(const std::vector<Mat>& residuals, const Vec& sigma, bool given, double parameters,
                                  double alpha);
 
+// The meat of the sandwich covariance when the residuals are not white: the Newey–West (Bartlett)
+// estimate Σ_k g_k g_kᵀ + Σ_{l=1}^{L} (1 − l/(L+1)) Σ_k (g_k g_{k−l}ᵀ + g_{k−l} g_kᵀ) of the scores'
+// autocovariance, within chains, L = ⌊4 (N/100)^{2/9}⌋ for N scores in all. `scores` per chain: one
+// score g_k ∈ ℝ^P per sample.
+Mat NeweyWestMeat(const std::vector<std::vector<Vec>>& scores, Eigen::Index P);
+
 }  // namespace hysid

@@ -742,32 +742,6 @@ bool NormalMatrix(const ShootingProblem& pr, const Vec& theta, const std::vector
   return true;
 }
 
-// The Newey–West meat Σ_k g_k g_kᵀ + Σ_{l=1}^{L} (1 − l/(L+1)) Σ_k (g_k g_{k−l}ᵀ + g_{k−l} g_kᵀ) within
-// chains, L = ⌊4 (N/100)^{2/9}⌋.
-Mat NeweyWest(const std::vector<std::vector<Vec>>& scores, Eigen::Index P) {
-  long N = 0;
-  for (const auto& c : scores) N += static_cast<long>(c.size());
-  const int L = static_cast<int>(std::floor(4.0 * std::pow(static_cast<double>(N) / 100.0, 2.0 / 9.0)));
-  Mat meat = Mat::Zero(P, P);
-  for (const auto& g : scores) {
-    const auto K = static_cast<Eigen::Index>(g.size());
-    // A chain's scores are zero outside θ and its own nodes: its terms are added on those rows only
-    // (the others add exact zeros), each in the same order as on the whole matrix.
-    std::vector<Eigen::Index> rows;
-    for (Eigen::Index i = 0; i < P; ++i) {
-      if (std::any_of(g.begin(), g.end(), [i](const Vec& v) { return v[i] != 0.0; })) rows.push_back(i);
-    }
-    Mat G(static_cast<Eigen::Index>(rows.size()), K);
-    for (Eigen::Index k = 0; k < K; ++k) G.col(k) = g[std::size_t(k)](rows);
-    meat(rows, rows) += Mat(G * G.transpose());
-    for (int l = 1; l <= L && l < K; ++l) {
-      const Mat cross = G.rightCols(K - l) * G.leftCols(K - l).transpose();
-      meat(rows, rows) += (1.0 - l / (L + 1.0)) * (cross + cross.transpose());
-    }
-  }
-  return meat;
-}
-
 }  // namespace
 
 long TimeShootingNodeSpacing(long samples, int n) {
@@ -896,7 +870,7 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
     return;
   }
   const Mat Hinv = scale.asDiagonal() * ldlt.solve(Mat::Identity(H.rows(), H.cols())) * scale.asDiagonal();
-  const Mat cov = tests.white ? Hinv : Mat(Hinv * NeweyWest(scores, H.rows()) * Hinv);
+  const Mat cov = tests.white ? Hinv : Mat(Hinv * NeweyWestMeat(scores, H.rows()) * Hinv);
   std::vector<Eigen::Index> idx;  // θ, then the first chain's first node state
   for (int i = 0; i < pr.shared + pr.n; ++i) idx.push_back(i);
   r.covariance = cov(idx, idx);

@@ -116,5 +116,64 @@ TEST_CASE("the residual tests refuse coloured residuals and a wrong σ", "[time_
   CHECK(ResidualTests({a, b}, one, false, 2, RefineOptions{}.residual_test_size).white);
 }
 
+TEST_CASE("the Newey-West meat equals its definition summed term by term, chains scored on their own rows",
+          "[time_shooting]") {
+  // Rows 0-1 are shared (θ); each chain scores its own rows too; row 7 is no chain's; one chain is empty,
+  // one has a single sample.
+  const Eigen::Index P = 8;
+  const std::vector<std::vector<Eigen::Index>> own = {{0, 1, 2, 3}, {0, 1, 4, 5}, {}, {0, 1, 6}, {0, 1, 2}};
+  const std::vector<long> length = {30, 24, 0, 1, 21};
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal;
+  std::vector<std::vector<Vec>> scores(own.size());
+  for (std::size_t c = 0; c < own.size(); ++c) {
+    for (long k = 0; k < length[c]; ++k) {
+      Vec g = Vec::Zero(P);
+      for (const Eigen::Index i : own[c]) g[i] = normal(rng);
+      scores[c].push_back(g);
+    }
+  }
+  const Mat meat = NeweyWestMeat(scores, P);
+  // The definition: N = 76 scores, L = ⌊4 · 0.76^{2/9}⌋ = 3.
+  const int L = 3;
+  Mat reference = Mat::Zero(P, P);
+  for (const auto& g : scores) {
+    const auto K = static_cast<long>(g.size());
+    for (long k = 0; k < K; ++k) {
+      reference += g[std::size_t(k)] * g[std::size_t(k)].transpose();
+      for (long l = 1; l <= L && l <= k; ++l) {
+        const Vec& a = g[std::size_t(k)];
+        const Vec& b = g[std::size_t(k - l)];
+        reference += (1.0 - l / (L + 1.0)) * (a * b.transpose() + b * a.transpose());
+      }
+    }
+  }
+  CHECK((meat - reference).cwiseAbs().maxCoeff() <= 1e-12 * reference.cwiseAbs().maxCoeff());
+  CHECK(meat == meat.transpose());
+  CHECK(meat.row(7).isZero(0.0));
+  CHECK(meat(2, 4) == 0.0);  // rows of two chains that share none but θ
+  CHECK(meat(2, 3) != 0.0);
+}
+
+TEST_CASE("the Newey-West meat over N estimates the long-run variance of MA(1) scores", "[time_shooting]") {
+  // g_k = e_k + e_{k−1}, e white of variance 1: long-run variance (1 + 1)² = 4; Bartlett's weight on lag 1
+  // with L = ⌊4 · 200^{2/9}⌋ = 12 makes the expectation 2 + 2 · (12/13) ≈ 3.85 (sd ≈ 0.1 at N = 20 000).
+  std::mt19937_64 rng(6);
+  std::normal_distribution<double> normal;
+  std::vector<std::vector<Vec>> scores(1);
+  double previous = normal(rng);
+  for (int k = 0; k < 20000; ++k) {
+    const double e = normal(rng);
+    scores[0].push_back(Vec::Constant(1, e + previous));
+    previous = e;
+  }
+  double white = 0.0;  // Σ g² / N ≈ 2, the meat of white scores
+  for (const Vec& g : scores[0]) white += g[0] * g[0] / 20000.0;
+  const double lrv = NeweyWestMeat(scores, 1)(0, 0) / 20000.0;
+  CHECK(lrv > 3.5);
+  CHECK(lrv < 4.2);
+  CHECK(white < 2.2);
+}
+
 }  // namespace
 }  // namespace hysid
