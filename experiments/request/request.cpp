@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <stdexcept>
+#include <tuple>
 #include <utility>
 
 #include <fmt/format.h>
@@ -237,12 +238,12 @@ RefineStep RunRefineStep(const IdentifyRequest& request, const IdentifyOutcome& 
   const bool ml = request.refine == "ml";
   RefineStep s;
   s.options.stop = request.stop;
-  s.known = KnownX0(request.x0_known, model, request.spelling);
+  s.known = o.x0_known;
   RefineResult& r = s.result;
   s.options.sigma = o.sigma;
   if (!partial.reconstructed.empty()) s.options.measured = partial.measured;
-  s.options.x0_known = s.known;
-  if (!s.known.empty()) s.options.x0 = CheckedX0(request.x0, model, FirstSample(data), request.spelling);
+  s.options.x0_known = o.x0_known;
+  s.options.x0 = o.x0;
   if (ml) {
     if (progress != nullptr) progress->Stage("refinement");
     const ScopedSolverProgress watch([progress](int fit, int iteration, double cost) {
@@ -346,15 +347,18 @@ void CheckRequest(const IdentifyRequest& request) {
   MeasuredSigma(request);
 }
 
-void CheckRequestData(const IdentifyRequest& request) {
-  const Model& model = request.model;
-  const SampleData& data = request.data;
+namespace {
+
+// x0_known and x0 checked against `model` and the samples: the components held and ξ0 (its size and
+// C ∪ D), or nothing when x0_known is not given.
+std::pair<std::vector<int>, Vec> CheckedKnownX0(const IdentifyRequest& request, const Model& model,
+                                                const SampleData& data) {
   const Spelling spelling = request.spelling;
-  const std::vector<int> known = KnownX0(request.x0_known, model, spelling);
+  std::vector<int> known = KnownX0(request.x0_known, model, spelling);
   const std::string x0 = Spelled("x0", spelling), x0_known = Spelled("x0_known", spelling);
   if (known.empty() && !request.x0.empty())
     throw std::invalid_argument(fmt::format("{}: the known initial state's values; give {} too", x0, x0_known));
-  if (known.empty()) return;
+  if (known.empty()) return {};
   if (request.refine != "ml") {
     throw std::invalid_argument(
         fmt::format("{}: acts on the refinement; {} none has none", x0_known, Spelled("refine", spelling)));
@@ -364,7 +368,13 @@ void CheckRequestData(const IdentifyRequest& request) {
         "{}: the data have {} chains (runs, gaps or missing rows); a known initial state is one chain's", x0_known,
         data.chains()));
   }
-  CheckedX0(request.x0, model, FirstSample(data), spelling);  // its size and C ∪ D
+  return {std::move(known), CheckedX0(request.x0, model, FirstSample(data), spelling)};
+}
+
+}  // namespace
+
+void CheckRequestData(const IdentifyRequest& request) {
+  CheckedKnownX0(request, request.model, request.data);
 }
 
 bool IdentifyOutcome::ok() const {
@@ -374,8 +384,8 @@ bool IdentifyOutcome::ok() const {
 
 IdentifyOutcome RunRecursivePass(IdentifyRequest& request) {
   CheckRequest(request);
-  CheckRequestData(request);
   IdentifyOutcome o(request.model);
+  std::tie(o.x0_known, o.x0) = CheckedKnownX0(request, request.model, request.data);
   o.settings = CheckedSettings(request);
   o.data = std::move(request.data);
   o.options.trace = request.trace;
@@ -394,6 +404,7 @@ void RunRecursivePassAgain(const IdentifyRequest& request, const Model& model, I
   again.model = model;
   o->model = model;
   o->settings = CheckedSettings(again);
+  std::tie(o->x0_known, o->x0) = CheckedKnownX0(request, model, o->data);
   o->recursive = IdentifyData(model, o->settings, o->data, o->options);
   UseKinks(o);
 }

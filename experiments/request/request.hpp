@@ -94,6 +94,8 @@ struct IdentifyOutcome {
   IdentifyResult recursive;
   PartialOutputs partial;
   Vec sigma;                // per measured state, or empty
+  std::vector<int> x0_known;  // the components of ξ0 held at x0 (checked), or empty
+  Vec x0;                     // their values, the whole ξ0 (checked), when x0_known is not empty
   std::vector<double> kinks;  // unmeasured states reconstructed: the kink statistic, the detector's in the report
   std::string refine;       // the request's
   nlohmann::json recursive_report;  // RecursiveJson (outcome_json.hpp), set by RunRefinement
