@@ -722,8 +722,15 @@ void CheckResiduals(const FitProblem& problem, const Vec& mad_sigma, const Refin
   const Vec sigma = (r.sigma_estimated ? sigma_hat : options.sigma).cwiseMax(1e-3 * floor);
   r.sigma = Vec::Zero(n);
   r.sigma(problem.rows) = sigma;
-  if (!Covariance(problem, sigma, r)) return;
+  if (!Covariance(problem, sigma, r)) {
+    RefineResult tests;  // the residual tests alone: r keeps singular-fisher
+    tests.sigma_estimated = r.sigma_estimated;
+    JudgeResiduals(squares, lags, samples, p, sigma, sigma_hat, mad_sigma, floor, options, tests);
+    r.at_the_noise = tests.ok();
+    return;
+  }
   JudgeResiduals(squares, lags, samples, p, sigma, sigma_hat, mad_sigma, floor, options, r);
+  r.at_the_noise = r.ok();
 }
 
 // Each chain simulated at (theta, x0), the runs' sums left in problem.cached; -1, or the first chain

@@ -443,11 +443,17 @@ void AdoptRoute(RefineResult& r, RefineResult other, RefineRoute route) {
   }
 }
 
+// A fit at the noise on `samples` (every sample it could fit) whose information is singular: a
+// direction of the unknowns the data do not determine at that point, which no other start changes.
+bool SingularAtTheNoise(const RefineResult& r, long samples) {
+  return r.status == RefineStatus::kSingularFisher && r.at_the_noise && r.samples_used >= samples;
+}
+
 // Whether the fit r, not ok or ok only on cut spans (`first_used` samples before the cuts), may be
 // bettered by a fit from another start.
 bool MayBetter(const RefineResult& r, long first_used, const RefineOptions& options) {
   return (!r.ok() || r.samples_used < first_used) && !options.stopped() &&
-         r.status != RefineStatus::kTooFewSamples;
+         r.status != RefineStatus::kTooFewSamples && !SingularAtTheNoise(r, first_used);
 }
 
 // γ's start: one Newton step from the model's γ over the detected jumps of every chain
@@ -778,8 +784,7 @@ struct LabelledRoutes {
   void RepairedStart(RefineResult& r) {
     FitStart repaired;
     std::string summary;
-    if ((!r.ok() || r.samples_used < first_used) && model.input_size() == 0 && !options.stopped() &&
-        r.status != RefineStatus::kTooFewSamples &&
+    if (MayBetter(r, first_used, options) && model.input_size() == 0 &&
         RepairChains(model, chains, recursive, options, &repaired, &summary)) {
       AdoptRepaired(r, FitWithRetries(model, chains, repaired, options, &first_used), summary);
     }
@@ -887,8 +892,8 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   long samples = 0;
   for (const RefineChain& c : chains) samples += static_cast<long>(c.t.size());
   // Not ok, or ok on spans that leave samples out: multiple shooting by time fits every sample.
-  if (options.tries(RefineRoute::kTimeShooting) && options.x0_known.empty() && (!r.ok() || r.samples_used < samples) &&
-      !data_fault &&
+  if (options.tries(RefineRoute::kTimeShooting) && options.x0_known.empty() &&
+      (!r.ok() || r.samples_used < samples) && !data_fault && !SingularAtTheNoise(r, samples) &&
       !options.stopped()) {
     AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options, !r.reported));
     if (r.reported) r.estimate = r.refined;

@@ -182,6 +182,9 @@ struct RefineResult {
   // mN, twice the expected ½mN), so the model can follow the data segment by segment; a fit that
   // ends refused after that sits in a local minimum rather than showing model error.
   bool segments_fit_noise = false;
+  // The fit's residual tests pass, also when its information is singular (singular-fisher): a fit
+  // at the noise on every sample whose information is singular is not bettered by another start.
+  bool at_the_noise = false;
   // Every route tried, in order, with its outcome ("single shooting on the detected labels: ok on 257
   // of 365 samples", "multiple shooting by time: residual-correlation").
   std::vector<std::string> routes_tried;

@@ -123,5 +123,83 @@ TEST_CASE("wall: bounds hold the fit, a start outside them is moved inside", "[r
   CHECK(clamped.refined.beta[1] <= 1.0);
 }
 
+// A leaky integrate-and-fire neuron, v' = a − b v, firing at v = θ and reset to c. Its flow is
+// autonomous and one-dimensional, so every post-reset value c lies on the orbit: a reset raised by
+// (f⁺/f⁻) δθ (f± = a − b c, a − b θ) with the threshold raised by δθ leaves the interspike interval
+// and the trajectory the same but for the instants between the two jump times. The samples do not
+// tell the two apart to first order: the information is singular, and another start cannot change
+// that.
+constexpr const char* kNeuron = R"toml(
+name = "lif"
+states = ["v"]
+alpha = [{ name = "a", value = 4.0 }, { name = "b", value = 1.0 }]
+beta = [{ name = "c", value = 0.4 }]
+guard_params = [{ name = "theta", value = 1.5, bounds = [0.5, 10.0] }]
+[flow]
+phi = [[1, "-v"]]
+rows = ["v"]
+[jump]
+psi = [[1]]
+rows = ["v"]
+[[guard]]
+name = "fire"
+h = "v - theta"
+direction = "rising"
+project = { v = "theta" }
+[sets]
+C = "v <= theta"
+D = "v >= theta"
+[defaults]
+x0 = [0.5]
+t_end = 30.0
+dt = 0.01
+)toml";
+
+TEST_CASE("a neuron's threshold and reset are one direction to first order: singular-fisher, no other route",
+          "[refine]") {
+  const Model start = ParseModelFile(kNeuron, "lif.toml").model;  // every value 2x off
+  Model truth = start;
+  truth.SetParameter("a", 2.0);
+  truth.SetParameter("b", 0.5);
+  truth.SetParameter("c", 0.2);
+  truth.SetParameter("theta", 3.0);
+  const SampleGrid grid{30.0, 0.01};
+  const Vec x0 = Vec::Constant(1, 0.5);
+  const Trajectory run = Simulate(truth, x0, grid);
+  REQUIRE(run.status.completed());
+  REQUIRE(run.jumps.size() == 11);
+  // The direction: (δc, δθ) = (3.8, 1) ε moves no sample but those within 2ε s after a jump.
+  const double eps = 1e-5, ratio = (2.0 - 0.5 * 0.2) / (2.0 - 0.5 * 3.0);
+  Model moved = truth;
+  moved.SetParameter("c", 0.2 + ratio * eps);
+  moved.SetParameter("theta", 3.0 + eps);
+  const Trajectory other = Simulate(moved, x0, grid);
+  Model across = truth;  // the threshold alone
+  across.SetParameter("theta", 3.0 + eps);
+  const Trajectory alone = Simulate(across, x0, grid);
+  double along = 0.0, off = 0.0;
+  for (Eigen::Index k = 0; k < run.x.cols(); ++k) {
+    along = std::max(along, std::abs(other.x(0, k) - run.x(0, k)));
+    off = std::max(off, std::abs(alone.x(0, k) - run.x(0, k)));
+  }
+  CHECK(along < 1e-8);  // O(ε²)
+  CHECK(off > 1e-5);    // O(ε): the threshold alone moves every later sample
+  const Mat y = AddMeasurementNoise(run.x, Vec::Constant(1, 0.02), NoiseKey{.seed = 7, .stream = 0});
+  IdentifierSettings settings;
+  settings.detector.kind = DetectorKind::kResidual;
+  const IdentifyResult recursive = Identify(start, y, grid.dt, settings);
+  const RefineResult r = RefineIdentification(start, run.t, y, {}, RefinementStart(recursive));
+  INFO(ToString(r.status) << ": " << r.reason);
+  CHECK(r.status == RefineStatus::kSingularFisher);
+  CHECK(r.at_the_noise);
+  CHECK(r.samples_used == grid.size());
+  CHECK(r.standard_errors.size() == 0);
+  for (const std::string& tried : r.routes_tried) {
+    INFO(tried);
+    CHECK(tried.find("multiple shooting") == std::string::npos);
+  }
+  CHECK(std::abs(r.estimate.gamma[0] - 3.0) < 0.05);
+}
+
 }  // namespace
 }  // namespace hysid
