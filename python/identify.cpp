@@ -145,6 +145,7 @@ const std::map<std::string, KeywordReader>& KeywordReaders() {
         {"jump_noise_shape", [](A& a, V v, N n) { a.request.jump_noise_shape = NoiseShape(v, n); }},
         {"localize", [](A& a, V v, N n) { a.request.localize = Flag(v, n); }},
         {"second_pass", [](A& a, V v, N n) { a.request.second_pass = Flag(v, n); }},
+        {"keep_outliers", [](A& a, V v, N n) { a.request.keep_outliers = Flag(v, n); }},
         {"sets", [](A& a, V v, N n) { a.request.sets = Flag(v, n); }},
         {"trace", [](A& a, V v, N n) { a.request.trace = Flag(v, n); }},
     };

@@ -583,4 +583,95 @@ SampleData ReadSampleData(const std::string& path, int state_size) {
   return ReadSampleData(std::vector<std::string>{path}, state_size, {});
 }
 
+namespace {
+
+// 1.4826 × the median |d| (the robust sd of second differences that scatter about 0).
+double RobustSd(std::vector<double> d) {
+  for (double& v : d) v = std::abs(v);
+  const auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  return 1.4826 * *mid;
+}
+
+bool EqualSteps(const std::vector<double>& t, std::size_t k) {
+  const double step = t[k] - t[k - 1];
+  for (std::size_t i = k - 1; i <= k + 2; ++i) {
+    if (std::abs((t[i] - t[i - 1]) - step) > 1e-3 * step) return false;
+  }
+  return true;
+}
+
+// Keeps the samples whose `keep` is 1 in every per-sample array.
+template <class T>
+void KeepSamples(const std::vector<std::uint8_t>& keep, std::vector<T>* v) {
+  std::size_t to = 0;
+  for (std::size_t k = 0; k < v->size(); ++k) {
+    if (keep[k]) (*v)[to++] = (*v)[k];
+  }
+  v->resize(to);
+}
+
+Mat KeepColumns(const std::vector<std::uint8_t>& keep, const Mat& m) {
+  if (m.cols() == 0) return m;
+  std::vector<Eigen::Index> cols;
+  for (std::size_t k = 0; k < keep.size(); ++k) {
+    if (keep[k]) cols.push_back(static_cast<Eigen::Index>(k));
+  }
+  return m(Eigen::all, cols);
+}
+
+}  // namespace
+
+void LeaveOutOutliers(SampleData* data) {
+  SampleData& d = *data;
+  const auto K = static_cast<std::size_t>(d.y.cols());
+  std::vector<std::uint8_t> keep(K, 1);
+  std::vector<OutlierSample> found;
+  for (std::size_t begin = 0; begin < K;) {
+    std::size_t end = begin + 1;
+    while (end < K && !d.chain_start[end]) ++end;
+    for (Eigen::Index r = 0; r < d.y.rows() && end - begin >= 12; ++r) {
+      std::vector<double> dd(end - begin - 2);  // dd[i]: d at sample begin + 1 + i
+      for (std::size_t k = begin + 1; k + 1 < end; ++k) {
+        dd[k - begin - 1] =
+            d.y(r, Eigen::Index(k + 1)) - 2.0 * d.y(r, Eigen::Index(k)) + d.y(r, Eigen::Index(k - 1));
+      }
+      const double sd = RobustSd(dd);
+      if (!(sd > 0.0)) continue;
+      for (std::size_t k = begin + 2; k + 3 <= end; ++k) {
+        const double c = dd[k - begin - 1], before = dd[k - begin - 2], after = dd[k - begin];
+        const auto half = [c](double v) {
+          return v * c < 0.0 && std::abs(v) >= 0.25 * std::abs(c) && std::abs(v) <= 0.75 * std::abs(c);
+        };
+        if (std::abs(c) <= kOutlierSds * sd || !half(before) || !half(after) || !EqualSteps(d.t, k) ||
+            !keep[k])
+          continue;
+        keep[k] = 0;
+        found.push_back({.run = d.run[k],
+                         .line = d.line[k],
+                         .t = d.t[k],
+                         .row = static_cast<int>(r),
+                         .value = d.y(r, Eigen::Index(k)),
+                         .sds = std::abs(c) / sd});
+      }
+    }
+    begin = end;
+  }
+  if (found.empty()) return;
+  std::sort(found.begin(), found.end(), [](const OutlierSample& a, const OutlierSample& b) {
+    return std::pair(a.run, a.line) < std::pair(b.run, b.line);
+  });
+  d.y = KeepColumns(keep, d.y);
+  d.u = KeepColumns(keep, d.u);
+  KeepSamples(keep, &d.t);
+  for (auto* v : {&d.j, &d.map, &d.q}) {
+    if (*v) KeepSamples(keep, &**v);
+  }
+  KeepSamples(keep, &d.run);
+  KeepSamples(keep, &d.chain_start);
+  KeepSamples(keep, &d.line);
+  d.uniform = false;
+  d.outliers = std::move(found);
+}
+
 }  // namespace hysid

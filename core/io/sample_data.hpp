@@ -71,6 +71,17 @@ struct MissingRow {
   double t = 0.0;  // its time
 };
 
+// A sample left out as an outlier (LeaveOutOutliers): where it was, the measured state (its row of
+// y) that stood off its neighbours, its value, and its second difference in robust sd.
+struct OutlierSample {
+  int run = 0;
+  long line = 0;
+  double t = 0.0;
+  int row = 0;
+  double value = 0.0;
+  double sds = 0.0;
+};
+
 struct SampleData {
   std::string path;                   // the file, or the files joined with ", "
   std::vector<double> t;              // per sample: its time (the run's own clock)
@@ -93,11 +104,22 @@ struct SampleData {
   std::vector<MissingRow> missing;         // those rows, in file order
   long first_missing_line = 0;             // the first such row's line (0: none)
   long gaps = 0;                           // chain breaks at a step longer than max_gap
+  std::vector<OutlierSample> outliers;     // samples left out as outliers (LeaveOutOutliers), in order
   long chains() const;
   // Bytes held by the per-sample arrays (t, y, u, j, run, chain_start, line; by capacity): with n
   // states, m inputs and a j column, (8 + 8n + 8m + 4 + 4 + 1 + 8) per sample once read.
   std::size_t HeldBytes() const;
 };
+
+// A sample that stands alone off its neighbours in one measured state is left out (the chain goes
+// on across it, as across a row with a missing cell) and listed in `outliers`: its second difference
+// d_k = y_{k+1} − 2y_k + y_{k−1} beyond kOutlierSds robust sd (1.4826 × the median |d| of that state
+// over the chain), and each neighbour's d_{k±1} of the other sign and 0.25–0.75 of |d_k|: the
+// (1, −2, 1) pattern of one displaced sample. A kink bends one or two samples' d the same way, a step
+// in the state gives (1, −1), noise never reaches it. Samples 2 to K−3 of chains of at least 12
+// samples, on equal steps (within 1e-3 relative from k−2 to k+2).
+inline constexpr double kOutlierSds = 10.0;
+void LeaveOutOutliers(SampleData* data);
 
 // Throws std::invalid_argument with "FILE:LINE: column C ('name'): ..." or "FILE: ..." messages.
 // The files are read one at a time, each streamed row by row into the samples (ReadCsvRows; memory:

@@ -48,6 +48,7 @@ struct IdentifyArgs {
   std::vector<double> flow_shape, jump_shape;  // user noise shapes C, row-major
   bool localize = false;
   bool second_pass = false;
+  bool keep_outliers = false;
   std::vector<double> sigma;
   double data_rtol = 0.0, data_atol = 0.0;
   bool data_accuracy_given = false;  // --data-rtol or --data-atol on the command line
@@ -191,6 +192,13 @@ void PrintSettings(const IdentifyArgs& args, const ModelSpec& spec, const Sample
         "each sample pair uses its own step\n",
         data.run_names.size(), data.chains(), data.max_gap, data.gaps, data.missing_rows,
         data.missing_rows ? fmt::format(", the first on line {}", data.first_missing_line).c_str() : "");
+  }
+  for (const OutlierSample& o : data.outliers) {
+    std::printf(
+        "outlier left out: %s line %ld, t = %.6g: %s = %.6g, its second difference %.3g robust sd off "
+        "both neighbours (--keep-outliers keeps it)\n",
+        data.run_names[std::size_t(o.run)].c_str(), o.line, o.t,
+        data.state_columns[std::size_t(o.row)].c_str(), o.value, o.sds);
   }
   const std::string beta = settings.jump_estimator.kind == settings.flow_estimator.kind
                                ? ""
@@ -342,6 +350,7 @@ IdentifyRequest MakeRequest(const IdentifyArgs& args, const Model& model) {
   r.jump_noise_shape = NoiseShapeOf(args.jump_shape, "jump_noise_shape", Spelling::kFlag);
   r.localize = args.localize;
   r.second_pass = args.second_pass;
+  r.keep_outliers = args.keep_outliers;
   r.trace = !args.trace.empty();
   r.statistics = r.trace;  // the detector's statistic and threshold: only the trace shows them
   r.sigma = args.sigma;
@@ -470,6 +479,7 @@ void AddIdentifyCommand(CLI::App& app, Environment& env) {
   AddSetting(*cmd, "jump_noise_shape", args->jump_shape);
   AddSetting(*cmd, "localize", args->localize);
   AddSetting(*cmd, "second_pass", args->second_pass);
+  AddSetting(*cmd, "keep_outliers", args->keep_outliers);
   AddSetting(*cmd, "sigma", args->sigma);
   CLI::Option* rtol_option = AddSetting(*cmd, "data_rtol", args->data_rtol);
   CLI::Option* atol_option = AddSetting(*cmd, "data_atol", args->data_atol);

@@ -38,10 +38,29 @@ nlohmann::json DetectorOptionsJson(const DetectorSettings& s) {
   return out;
 }
 
+namespace {
+
+// The samples left out as outliers: run (from 1), line, t, the state's column, its value, and its
+// second difference in robust sd.
+nlohmann::json OutliersJson(const SampleData& data) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const OutlierSample& o : data.outliers) {
+    out.push_back({{"run", o.run + 1},
+                   {"line", o.line},
+                   {"t", o.t},
+                   {"column", data.state_columns[std::size_t(o.row)]},
+                   {"value", o.value},
+                   {"sds", o.sds}});
+  }
+  return out;
+}
+
+}  // namespace
+
 nlohmann::json DataJson(const SampleData& data) {
   return {{"path", data.path},
           {"state_columns", data.state_columns},
-          {"rows", data.t.size() + data.missing.size()},
+          {"rows", data.t.size() + data.missing.size() + data.outliers.size()},
           {"samples", data.t.size()},
           {"dt", data.dt},
           {"uniform", data.uniform},
@@ -50,7 +69,8 @@ nlohmann::json DataJson(const SampleData& data) {
           {"max_gap", data.max_gap},
           {"gaps", data.gaps},
           {"missing_rows", data.missing_rows},
-          {"first_missing_line", data.first_missing_line}};
+          {"first_missing_line", data.first_missing_line},
+          {"outliers", OutliersJson(data)}};
 }
 
 nlohmann::json SettingsJson(const IdentifierSettings& settings, const std::string& accuracy_source) {

@@ -388,6 +388,7 @@ IdentifyOutcome RunRecursivePass(IdentifyRequest& request) {
   std::tie(o.x0_known, o.x0) = CheckedKnownX0(request, request.model, request.data);
   o.settings = CheckedSettings(request);
   o.data = std::move(request.data);
+  if (!request.keep_outliers) LeaveOutOutliers(&o.data);
   o.options.trace = request.trace;
   o.options.statistics = request.statistics;
   o.options.stop = request.stop;

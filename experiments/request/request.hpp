@@ -43,6 +43,7 @@ struct IdentifyRequest {
   Mat flow_noise_shape, jump_noise_shape;  // gtls/frisch: the noise shapes C (empty: from σ and δt)
   bool localize = false;
   bool second_pass = false;
+  bool keep_outliers = false;  // else LeaveOutOutliers (core/io/sample_data.hpp) before the recursive pass
   bool sets = true;        // compute the hulls C^ and D^
   bool trace = false;      // keep the per-sample estimates (α̂, β̂ after every sample)
   bool statistics = true;  // keep the detector's per-sample statistic and threshold

@@ -45,6 +45,10 @@ std::vector<IdentifySetting> MakeSettings() {
       {"second_pass", T::kSwitch,
        "re-classify every sample with the final estimates, re-estimate, report the changes", Shows(""),
        Shows("False")},
+      {"keep_outliers", T::kSwitch,
+       "keep every sample (else a sample that stands alone off both neighbours in a measured state, its "
+       "second difference beyond 10 robust sd in the pattern (1, -2, 1), is left out and listed)",
+       Shows(""), Shows("False")},
       {"data_rtol", T::kNumber,
        "residual detector: relative accuracy of the data apart from the noise (simulated data: the "
        "integrator's rtol, e.g. 1e-12 for `hysid simulate`)",

@@ -944,3 +944,31 @@ def test_bounds_note_on_a_recursive_estimate_outside_them(tmp_path):
     refined = hysid.identify(model, traj["y"], dt=traj["dt"])
     assert refined["refined"]["status"] == "ok" and -0.01 <= refined["refined"]["estimates"]["mu"] <= 0.01
     assert not any("outside its bounds" in n for n in refined["notes"]), refined["notes"]
+
+
+def test_outliers_left_out_unless_kept(tmp_path):
+    """A ball measured by its height alone, start values 2x off, three samples displaced by 0.25-0.4 m:
+    left out and listed, the fit ok within 4 SE of the truth; kept, the fit is not ok."""
+    text = (MODELS / "bouncing-ball.toml").read_text().replace('states = ["h", "v"]',
+                                                             'states = ["h", "v"]\nmeasured = ["h"]')
+    truth = text.replace("value = 0.8, desc", "value = 0.85, desc").replace("value = 0.0, desc", "value = 0.5, desc")
+    start = text.replace("value = 9.81, desc", "value = 5.0, desc").replace("value = 0.8, desc", "value = 0.5, desc")
+    start = start.replace("value = 0.0, desc", "value = 1.0, desc")
+    (tmp_path / "truth.toml").write_text(truth)
+    (tmp_path / "start.toml").write_text(start)
+    traj = hysid.simulate(hysid.Model.from_file(tmp_path / "truth.toml"), sigma=0.002, seed=3, t_end=8.0, dt=0.01)
+    y = np.array(traj["y"])[:, :1]
+    for k, size in [(150, 0.3), (402, -0.25), (611, 0.4)]:
+        y[k, 0] += size
+    model = hysid.Model.from_file(tmp_path / "start.toml")
+    fit = hysid.identify(model, y, dt=0.01)
+    outliers = fit["report"]["data"]["outliers"]
+    assert [o["t"] for o in outliers] == pytest.approx([1.5, 4.02, 6.11])
+    assert all(o["column"] == "y1" or o["column"] == "h" for o in outliers)
+    refined = fit["refined"]
+    assert refined["status"] == "ok"
+    for name, true in [("g", 9.81), ("lambda", 0.85), ("mu", 0.5)]:
+        assert abs(refined["estimates"][name] - true) < 4 * refined["standard_errors"][name]
+    kept = hysid.identify(model, y, dt=0.01, keep_outliers=True)
+    assert kept["report"]["data"]["outliers"] == []
+    assert kept["refined"]["status"] != "ok"

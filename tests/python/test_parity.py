@@ -72,6 +72,7 @@ def cases():
             ("sigma per state", {"sigma": [0.02, 0.03]}, ["--sigma", "0.02,0.03"]),
             ("localize", {"localize": True}, ["--localize"]),
             ("second_pass", {"second_pass": True}, ["--second-pass"]),
+            ("keep_outliers", {"keep_outliers": True}, ["--keep-outliers"]),
             ("data_rtol", {"data_rtol": 1e-9}, ["--data-rtol", "1e-09"]),
             ("data_atol", {"data_atol": 1e-9}, ["--data-atol", "1e-09"]),
             ("max_gap", {"max_gap": 0.25}, ["--max-gap", "0.25"]),

@@ -2,9 +2,12 @@
 // name file, line and column.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <random>
 #include <sstream>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -307,6 +310,52 @@ TEST_CASE("an input missing from the data, or also named a state, is refused by 
   CHECK_THROWS_WITH(SampleDataFromTables({Table("t,x,v,u\n0,1,2,3\n0.1,1,2,1e200\n0.2,1,2,3\n", "in.csv")}, 2,
                                          {.inputs = {"u"}}),
                     Catch::Contains("in.csv:3: column 4 ('u'): 1e+200 is out of range"));
+}
+
+// A two-state record (x smooth with a kink at t = 3 and noise, v with a step at t = 6 and noise) as
+// CSV text, with `spikes` (sample, row, size) added.
+std::string KinkStepRecord(const std::vector<std::tuple<int, int, double>>& spikes) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::string text = "t,x,v\n";
+  for (int k = 0; k < 1000; ++k) {
+    const double t = 0.01 * k;
+    double x = std::sin(t) + 2.0 * std::abs(t - 3.0) + noise(rng);  // a kink: slope −2 → +2
+    double v = std::cos(t) + (t > 6.0 ? 1.0 : 0.0) + noise(rng);    // a step of 100 σ
+    for (const auto& [at, row, size] : spikes) {
+      if (at == k) (row == 0 ? x : v) += size;
+    }
+    text += fmt::format("{},{},{}\n", t, x, v);
+  }
+  return text;
+}
+
+TEST_CASE("an outlier off both neighbours is left out, the chain going on - noise, a kink and a step stay",
+          "[sample_data]") {
+  SampleData clean = SampleDataFromTable(Table(KinkStepRecord({})), 2);
+  LeaveOutOutliers(&clean);
+  CHECK(clean.outliers.empty());
+  CHECK(clean.t.size() == 1000);
+  CHECK(clean.uniform);
+  // 0.15 at σ = 0.01 (the second difference's robust sd ≈ √6 σ): 2·0.15/0.0245 ≈ 12 sd; 0.08 ≈ 6.5 sd.
+  SampleData d = SampleDataFromTable(
+      Table(KinkStepRecord({{250, 0, 0.15}, {700, 1, -0.3}, {400, 0, 0.08}, {1, 0, 5.0}, {998, 1, 5.0}})), 2);
+  LeaveOutOutliers(&d);
+  REQUIRE(d.outliers.size() == 2);
+  CHECK(d.outliers[0].line == 252);  // the header is line 1, sample k line k + 2
+  CHECK(d.outliers[0].t == Approx(2.5));
+  CHECK(d.outliers[0].row == 0);
+  CHECK(d.outliers[0].sds > 10.0);
+  CHECK(d.outliers[1].line == 702);
+  CHECK(d.outliers[1].row == 1);
+  CHECK(d.t.size() == 998);
+  CHECK(d.y.cols() == 998);
+  CHECK(d.line.size() == 998);
+  CHECK(d.chains() == 1);
+  CHECK_FALSE(d.uniform);
+  CHECK(d.line[250] == 253);  // the sample after the one left out
+  CHECK(d.t[250] == Approx(2.51));
+  CHECK(d.y(0, 250) == clean.y(0, 251));
 }
 
 }  // namespace

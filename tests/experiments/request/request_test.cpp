@@ -166,6 +166,7 @@ TEST_CASE("request: the defaults the settings table shows are the request's", "[
       {"data_atol", number(r.data_atol)},
       {"localize", off(r.localize)},
       {"second_pass", off(r.second_pass)},
+      {"keep_outliers", off(r.keep_outliers)},
       {"sigma", none(r.sigma.empty())},
       {"max_gap", none(true)},  // ReadSampleFiles' 0: 5 x the median step
       {"flow_noise_shape", none(r.flow_noise_shape.size() == 0)},
