@@ -22,7 +22,8 @@ constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 // One row of the trace: sample k, or (missing set) a row left out, with the chain it sits in.
 struct TraceRow {
   std::size_t k = 0;
-  const MissingRow* missing = nullptr;
+  const MissingRow* missing = nullptr;  // a row left out: for a missing cell (kind 1) or as an outlier (2)
+  double kind = 0.0;
   double chain = kNan;
 };
 
@@ -47,7 +48,7 @@ std::vector<TraceColumn> TraceColumns(const ModelSpec& spec, const DetectorDescr
       {"chain", [](const TraceRow& row) { return row.chain; }},
       {"line", [d](const TraceRow& row) { return double(row.missing ? row.missing->line : d->line[row.k]); }},
       {"t", [d](const TraceRow& row) { return row.missing ? row.missing->t : d->t[row.k]; }},
-      {"missing", [](const TraceRow& row) { return row.missing ? 1.0 : 0.0; }},
+      {"missing", [](const TraceRow& row) { return row.kind; }},
       {std::string(detector.traits.statistic), of_sample([r](std::size_t k) { return r->statistic[k]; })},
       {std::string(detector.traits.threshold), of_sample([r](std::size_t k) { return r->threshold[k]; })},
       {"gamma", of_sample([r](std::size_t k) { return double(r->gamma[k]); })}};
@@ -86,24 +87,33 @@ void WriteTrace(const std::string& path, const ModelSpec& spec, const DetectorDe
   };
   const std::vector<long> chain = ChainNumbers(data);
   const std::size_t samples = data.t.size();
+  // The rows left out, in file order: for a missing cell, or as an outlier.
+  std::vector<std::pair<MissingRow, double>> left;
+  for (const MissingRow& row : data.missing) left.emplace_back(row, 1.0);
+  for (const OutlierSample& o : data.outliers)
+    left.push_back({{.run = o.run, .line = o.line, .t = o.t}, 2.0});
+  std::stable_sort(left.begin(), left.end(), [](const auto& a, const auto& b) {
+    return std::pair(a.first.run, a.first.line) < std::pair(b.first.run, b.first.line);
+  });
   // A row left out goes before the first sample after it (a later run, or a later line in its run),
   // in the chain of the sample before it in its run (the chain goes on across it), else of the one after.
   std::size_t m = 0;
   for (std::size_t k = 0; k <= samples; ++k) {
-    for (; m < data.missing.size(); ++m) {
-      const MissingRow& row = data.missing[m];
+    for (; m < left.size(); ++m) {
+      const MissingRow& row = left[m].first;
       if (k < samples && (row.run > data.run[k] || (row.run == data.run[k] && row.line > data.line[k])))
         break;
       const double chain_of = k > 0 && data.run[k - 1] == row.run     ? double(chain[k - 1])
                               : k < samples && data.run[k] == row.run ? double(chain[k])
                                                                       : kNan;
-      write({.missing = &row, .chain = chain_of});
+      write({.missing = &row, .kind = left[m].second, .chain = chain_of});
     }
     if (k < samples) write({.k = k, .chain = double(chain[k])});
   }
   csv.Commit();
-  std::printf("wrote %s (%zu rows: %zu samples, %zu rows with a missing value)\n", path.c_str(),
-              samples + data.missing.size(), samples, data.missing.size());
+  std::printf("wrote %s (%zu rows: %zu samples, %zu rows with a missing value%s)\n", path.c_str(),
+              samples + left.size(), samples, data.missing.size(),
+              data.outliers.empty() ? "" : fmt::format(", {} outliers", data.outliers.size()).c_str());
 }
 
 void AppendFitColumns(const std::string& path, const ModelSpec& spec, const std::vector<int>& measured,
@@ -125,7 +135,7 @@ void AppendFitColumns(const std::string& path, const ModelSpec& spec, const std:
     const std::vector<std::string> cells_in = SplitCsvLine(line, path, ++line_no);
     row.clear();
     for (const std::string& c : cells_in) row.push_back(std::strtod(c.c_str(), nullptr));
-    const bool left_out = missing < cells_in.size() && cells_in[missing] == "1";
+    const bool left_out = missing < cells_in.size() && cells_in[missing] != "0";
     for (const FitColumn& c : cols) row.push_back(left_out || k >= f.x.cols() ? kNan : c.cell(k));
     if (!left_out) ++k;
     csv.Row(row);

@@ -972,3 +972,12 @@ def test_outliers_left_out_unless_kept(tmp_path):
     kept = hysid.identify(model, y, dt=0.01, keep_outliers=True)
     assert kept["report"]["data"]["outliers"] == []
     assert kept["refined"]["status"] != "ok"
+    # The command line's trace keeps their rows, marked 2 in `missing`, the fit's cells nan.
+    data = tmp_path / "ball.csv"
+    np.savetxt(data, np.column_stack([traj["t"], y[:, 0]]), delimiter=",", header="t,h", comments="")
+    cli("identify", "--model-file", tmp_path / "start.toml", "--data", data, "--trace", tmp_path / "trace.csv")
+    trace = np.genfromtxt(tmp_path / "trace.csv", delimiter=",", names=True)
+    assert len(trace) == len(y)
+    assert list(trace["line"][trace["missing"] == 2]) == [152, 404, 613]
+    assert np.isnan(trace["fit_h"][trace["missing"] == 2]).all()
+    assert np.isfinite(trace["fit_h"][trace["missing"] == 0]).all()
