@@ -212,9 +212,8 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol, inputs);
   const std::vector<int> measured = MeasuredIndices(model);
   const bool all = static_cast<int>(measured.size()) == n;
-  const Vec s = CheckedSigma(Numbers(sigma, "sigma"), static_cast<int>(measured.size()), /*allow_zero=*/false,
-                             Spelling::kKeyword);
-  CheckSigmaRange(s, Spelling::kKeyword);
+  const Vec s =
+      CheckedNoiseSigma(Numbers(sigma, "sigma"), static_cast<int>(measured.size()), Spelling::kKeyword);
   CheckBoundGrid(run.grid, Spelling::kKeyword);
   const std::vector<int> known = KnownX0(X0KnownText(x0_known_arg), model, Spelling::kKeyword);
   auto stop = std::make_shared<std::atomic<bool>>(false);

@@ -73,6 +73,12 @@ void CheckSigmaRange(const Vec& sigma, Spelling spelling) {
   }
 }
 
+Vec CheckedNoiseSigma(const std::vector<double>& values, int states, Spelling spelling) {
+  Vec sigma = CheckedSigma(values, states, /*allow_zero=*/false, spelling);
+  CheckSigmaRange(sigma, spelling);
+  return sigma;
+}
+
 void CheckBoundGrid(const SampleGrid& grid, Spelling spelling) {
   if (grid.t_end >= grid.dt) return;
   throw std::invalid_argument(fmt::format(

@@ -284,6 +284,17 @@ Mat NoiseShapeOf(const std::vector<double>& v, const std::string& option, Spelli
       v.data(), m, m));
 }
 
+namespace {
+
+// σ per measured state (empty when not given), checked.
+Vec MeasuredSigma(const IdentifyRequest& request) {
+  if (request.sigma.empty()) return Vec();
+  return CheckedNoiseSigma(request.sigma, static_cast<int>(MeasuredIndices(request.model).size()),
+                           request.spelling);
+}
+
+}  // namespace
+
 IdentifierSettings CheckedSettings(const IdentifyRequest& request) {
   const Model& model = request.model;
   const Spelling spelling = request.spelling;
@@ -306,9 +317,8 @@ IdentifierSettings CheckedSettings(const IdentifyRequest& request) {
   CheckDataAccuracy(request.data_rtol, request.data_atol, spelling);
   settings.data_rtol = request.data_rtol;
   settings.data_atol = request.data_atol;
-  if (!request.sigma.empty() && static_cast<int>(MeasuredIndices(model).size()) == model.state_size()) {
-    settings.sigma = CheckedSigma(request.sigma, model.state_size(), /*allow_zero=*/false, spelling);
-  }
+  if (static_cast<int>(MeasuredIndices(model).size()) == model.state_size())
+    settings.sigma = MeasuredSigma(request);
   try {  // settings errors (noise shape sizes, ...) before the data is read
     Identifier check(model, 1.0, settings);
   } catch (const std::invalid_argument& e) {
@@ -326,16 +336,6 @@ void UseKinks(IdentifyOutcome* o) {
   if (o->partial.reconstructed.empty() || !o->options.statistics) return;
   o->recursive.statistic = o->kinks;
   o->recursive.threshold.assign(o->kinks.size(), ReconstructOptions{}.kink_threshold);
-}
-
-// σ per measured state (empty when not given), checked.
-Vec MeasuredSigma(const IdentifyRequest& request) {
-  const int measured = static_cast<int>(MeasuredIndices(request.model).size());
-  const Vec sigma = request.sigma.empty()
-                        ? Vec()
-                        : CheckedSigma(request.sigma, measured, /*allow_zero=*/false, request.spelling);
-  CheckSigmaRange(sigma, request.spelling);
-  return sigma;
 }
 
 }  // namespace
