@@ -15,6 +15,7 @@
 #include "core/io/block_array.hpp"
 #include "core/io/csv.hpp"
 #include "core/io/limits.hpp"
+#include "core/model/noise_shape.hpp"
 
 namespace hysid {
 
@@ -585,14 +586,6 @@ SampleData ReadSampleData(const std::string& path, int state_size) {
 
 namespace {
 
-// 1.4826 × the median |d| (the robust sd of second differences that scatter about 0).
-double RobustSd(std::vector<double> d) {
-  for (double& v : d) v = std::abs(v);
-  const auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
-  std::nth_element(d.begin(), mid, d.end());
-  return 1.4826 * *mid;
-}
-
 bool EqualSteps(const std::vector<double>& t, std::size_t k) {
   const double step = t[k] - t[k - 1];
   for (std::size_t i = k - 1; i <= k + 2; ++i) {
@@ -636,7 +629,8 @@ void LeaveOutOutliers(SampleData* data) {
         dd[k - begin - 1] =
             d.y(r, Eigen::Index(k + 1)) - 2.0 * d.y(r, Eigen::Index(k)) + d.y(r, Eigen::Index(k - 1));
       }
-      const double sd = RobustSd(dd);
+      std::vector<double> scratch = dd;                                             // reordered in place
+      const double sd = std::sqrt(6.0) * NoiseSigmaFromSecondDifferences(scratch);  // d's robust sd
       if (!(sd > 0.0)) continue;
       for (std::size_t k = begin + 2; k + 3 <= end; ++k) {
         const double c = dd[k - begin - 1], before = dd[k - begin - 2], after = dd[k - begin];
