@@ -22,8 +22,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// One run of identify's pipeline with its defaults: the data as the refinement saw them (the hidden
-// states reconstructed: n × K), the measured rows as read, the recursive result and the refinement.
+// One run of identify's pipeline with its defaults: the data as the refinement saw them (outliers left
+// out, the hidden states reconstructed: n × K), their measured rows, the recursive result and the
+// refinement.
 struct FitRun {
   SampleData data;
   Mat measured_y;
@@ -33,13 +34,15 @@ struct FitRun {
 
 FitRun RunPipeline(const Model& model, SampleData data) {
   FitRun f;
-  f.measured_y = data.y;
   IdentifyRequest request(model);  // identify's defaults: rls, residual, refine ml, nothing known
   request.data = std::move(data);
   IdentifyOutcome outcome = RunIdentification(std::move(request));
   f.recursive = std::move(outcome.recursive);
   f.step = std::move(outcome.refinement);
   f.data = std::move(outcome.data);
+  const std::vector<int> measured = MeasuredIndices(model);
+  f.measured_y = f.data.y.rows() == static_cast<Eigen::Index>(measured.size()) ? f.data.y
+                                                                                : Mat(f.data.y(measured, Eigen::all));
   return f;
 }
 
