@@ -620,17 +620,32 @@ void LeaveOutOutliers(SampleData* data) {
   const auto K = static_cast<std::size_t>(d.y.cols());
   std::vector<std::uint8_t> keep(K, 1);
   std::vector<OutlierSample> found;
+  // The chains [begin, end) in order.
+  std::vector<std::pair<std::size_t, std::size_t>> chains;
   for (std::size_t begin = 0; begin < K;) {
     std::size_t end = begin + 1;
     while (end < K && !d.chain_start[end]) ++end;
+    chains.emplace_back(begin, end);
+    begin = end;
+  }
+  // d of state r at sample k (1 ≤ k − begin, k + 1 < end).
+  const auto second = [&](Eigen::Index r, std::size_t k) {
+    return d.y(r, Eigen::Index(k + 1)) - 2.0 * d.y(r, Eigen::Index(k)) + d.y(r, Eigen::Index(k - 1));
+  };
+  // d's robust sd per state, over every chain (one noise level per measured state, as the fit has).
+  Vec sds(d.y.rows());
+  for (Eigen::Index r = 0; r < d.y.rows(); ++r) {
+    std::vector<double> all;
+    for (const auto& [begin, end] : chains) {
+      for (std::size_t k = begin + 1; k + 1 < end; ++k) all.push_back(second(r, k));
+    }
+    sds[r] = all.size() >= 2 ? std::sqrt(6.0) * NoiseSigmaFromSecondDifferences(all) : 0.0;
+  }
+  for (const auto& [begin, end] : chains) {
     for (Eigen::Index r = 0; r < d.y.rows() && end - begin >= 12; ++r) {
       std::vector<double> dd(end - begin - 2);  // dd[i]: d at sample begin + 1 + i
-      for (std::size_t k = begin + 1; k + 1 < end; ++k) {
-        dd[k - begin - 1] =
-            d.y(r, Eigen::Index(k + 1)) - 2.0 * d.y(r, Eigen::Index(k)) + d.y(r, Eigen::Index(k - 1));
-      }
-      std::vector<double> scratch = dd;                                             // reordered in place
-      const double sd = std::sqrt(6.0) * NoiseSigmaFromSecondDifferences(scratch);  // d's robust sd
+      for (std::size_t k = begin + 1; k + 1 < end; ++k) dd[k - begin - 1] = second(r, k);
+      const double sd = sds[r];
       if (!(sd > 0.0)) continue;
       for (std::size_t k = begin + 2; k + 3 <= end; ++k) {
         const double c = dd[k - begin - 1], before = dd[k - begin - 2], after = dd[k - begin];
@@ -649,7 +664,6 @@ void LeaveOutOutliers(SampleData* data) {
                          .sds = std::abs(c) / sd});
       }
     }
-    begin = end;
   }
   if (found.empty()) return;
   std::sort(found.begin(), found.end(), [](const OutlierSample& a, const OutlierSample& b) {

@@ -358,5 +358,29 @@ TEST_CASE("an outlier off both neighbours is left out, the chain going on - nois
   CHECK(d.y(0, 250) == clean.y(0, 251));
 }
 
+TEST_CASE("the outlier screen's noise level is one per state, over every chain", "[sample_data]") {
+  // 40 chains of 13 samples (a gap of 1 s between them), σ = 0.01; chain 5's noise 20 times smaller,
+  // and in it sample 6 displaced by 0.03 (3 σ: 2.4 robust sd of d over all chains, about 50 of
+  // chain 5's own); chain 20's sample 6 by 0.15 (12 robust sd of d).
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::string text = "t,x\n";
+  for (int c = 0; c < 40; ++c) {
+    for (int k = 0; k < 13; ++k) {
+      const double t = 2.0 * c + 0.01 * k;
+      double x = std::sin(t) + (c == 5 ? 0.05 : 1.0) * noise(rng);
+      if (k == 6 && c == 5) x += 0.03;
+      if (k == 6 && c == 20) x += 0.15;
+      text += fmt::format("{},{}\n", t, x);
+    }
+  }
+  SampleData d = SampleDataFromTable(Table(text), 1);
+  REQUIRE(d.chains() == 40);
+  LeaveOutOutliers(&d);
+  REQUIRE(d.outliers.size() == 1);
+  CHECK(d.outliers[0].line == 2 + 20 * 13 + 6);
+  CHECK(d.outliers[0].sds == Approx(2.0 * 0.15 / (std::sqrt(6.0) * 0.01)).epsilon(0.25));
+}
+
 }  // namespace
 }  // namespace hysid
