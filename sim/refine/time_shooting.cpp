@@ -43,6 +43,7 @@ struct ShootingProblem {
   HybridParameters base;    // full vectors: the known entries
   std::vector<int> rows;    // measured rows
   Vec weight;               // per measured row: 1/σ
+  Vec mad;                  // per measured row: σ's MAD estimate from the data's second differences
   Vec scale;                // per state: c_j (σ_j for a measured state)
   Vec link_weight;          // per state: 1/(ε c_j) at the current stage's ε
   SensitivityOptions sens;
@@ -771,6 +772,7 @@ void Weigh(const std::vector<RefineChain>& chains, const RefineOptions& options,
   RefineOptions o = options;
   if (o.sigma.size() == pr.n && m < pr.n) o.sigma = Vec(options.sigma(pr.rows));
   FitWeighting(largest, samples, o, mad, &pr.sens, &pr.weight);
+  pr.mad = mad;
   pr.scale = Vec::Constant(pr.n, 1.0 / pr.weight.maxCoeff());
   for (Eigen::Index r = 0; r < m; ++r) pr.scale[pr.rows[std::size_t(r)]] = 1.0 / pr.weight[r];
 }
@@ -853,6 +855,13 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   if (numerical) tests.level_ok = tests.white = true;
   r.normalized_rms = std::sqrt(tests.level_statistic);
   r.lag1 = tests.lag1;
+  // σ estimated: σ̂ against the data's own noise, as on the labelled routes (JudgeResiduals), the
+  // normalised RMS reported.
+  double over_mad = 0.0;
+  for (Eigen::Index j = 0; j < m && r.sigma_estimated && !numerical; ++j) {
+    if (pr.mad[j] > floor[j]) over_mad = std::max(over_mad, sigma_hat[j] / pr.mad[j]);
+  }
+  if (over_mad > 0.0) r.normalized_rms = over_mad;
   Mat H;
   std::vector<std::vector<Vec>> scores;
   if (!NormalMatrix(pr, theta, s, sigma.cwiseInverse(), residuals, &H, tests.white ? nullptr : &scores)) {
@@ -882,6 +891,12 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
          fmt::format("the residuals are not at the given noise: Σ(r/σ)²/(N − p) = {:.4g} (a χ² test of size {:g} "
                      "refuses it); the estimates are reported",
                      tests.level_statistic, options.residual_test_size / 2));
+  } else if (over_mad > options.rms_high) {
+    Fail(r, RefineStatus::kResidualRms,
+         fmt::format(
+             "residual sigma over the MAD estimate {:.4g} > {:g}: the residuals are not at the data's own "
+             "noise (outliers, or model error); the estimates are reported",
+             over_mad, options.rms_high));
   } else if (!tests.white) {
     Fail(r, RefineStatus::kResidualCorrelation,
          fmt::format("the residuals are not white: lag-1 autocorrelation {:.3g}, √N·ρ₁ = {:.3g} (a test of size {:g} "

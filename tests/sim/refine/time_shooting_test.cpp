@@ -79,6 +79,31 @@ TEST_CASE("time shooting fits a ball measured by its height alone, over a gap", 
   for (Eigen::Index i = 0; i < u.shared(); ++i) CHECK(std::abs(theta[i] - truth[i]) < 4 * r.standard_errors[i]);
 }
 
+TEST_CASE("with sigma estimated, residuals far above the data's own noise refuse the fit: outliers left in",
+          "[time_shooting]") {
+  const double sigma = 0.05;
+  const Data d(Model(ImpactMsd{}), SampleGrid{6.0, 2e-3}, (Vec(2) << 20.0, 0.0).finished(), sigma, 11);
+  const std::vector<std::uint8_t> no_labels(d.truth.t.size(), 0);
+  const HybridParameters start = HybridParameters::Of(d.model, d.x0);
+  const RefineOptions options;  // σ estimated
+  const RefineResult clean =
+      FitByTimeShooting(d.model, {RefineChain::Uniform(d.y, d.grid.dt, no_labels)}, start, options);
+  INFO(clean.reason);
+  REQUIRE(clean.ok());
+  // σ̂ over the MAD estimate of the second differences: about 1 at the noise.
+  CHECK(clean.normalized_rms == Approx(1.0).margin(0.1));
+  // Every 100th sample of x 50 σ off: σ̂ about 5 σ, the second differences' MAD still about σ.
+  Mat y = d.y;
+  for (Eigen::Index k = 50; k < y.cols(); k += 100) y(0, k) += (k / 100) % 2 == 0 ? 50 * sigma : -50 * sigma;
+  const RefineResult r =
+      FitByTimeShooting(d.model, {RefineChain::Uniform(y, d.grid.dt, no_labels)}, start, options);
+  INFO(r.reason);
+  CHECK(r.status == RefineStatus::kResidualRms);
+  CHECK(r.reported);
+  CHECK(r.normalized_rms > 3.0);
+  CHECK(r.reason.find("MAD estimate") != std::string::npos);
+}
+
 // N white residuals per draw: the tests refuse about `alpha` of the draws (σ given: level and whiteness).
 TEST_CASE("the residual tests refuse white residuals at their stated size", "[time_shooting]") {
   std::mt19937_64 rng(3);
