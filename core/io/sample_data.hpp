@@ -114,10 +114,11 @@ struct SampleData {
 // A sample that stands alone off its neighbours in one measured state is left out (the chain goes
 // on across it, as across a row with a missing cell) and listed in `outliers`: its second difference
 // d_k = y_{k+1} − 2y_k + y_{k−1} beyond kOutlierSds robust sd (1.4826 × the median absolute deviation
-// of that state's d over every chain: one noise level per state, as the fit has it), and each neighbour's d_{k±1} of the other sign and 0.25–0.75 of |d_k|:
-// the (1, −2, 1) pattern of one displaced sample. A kink bends one or two samples' d the same way, a step in
-// the state gives (1, −1), noise never reaches it. Samples 2 to K−3 of chains of at least 12 samples, on
-// equal steps (within 1e-3 relative from k−2 to k+2).
+// of that state's d over every chain: one noise level per state, as the fit has it), and each
+// neighbour's d_{k±1} of the other sign and 0.25–0.75 of |d_k|: the (1, −2, 1) pattern of one
+// displaced sample. A kink bends one or two samples' d the same way, a step in the state gives
+// (1, −1), noise never reaches it. Samples 2 to K−3 of chains of at least 12 samples, on equal steps
+// (within 1e-3 relative from k−2 to k+2).
 inline constexpr double kOutlierSds = 10.0;
 void LeaveOutOutliers(SampleData* data);
 
