@@ -618,14 +618,8 @@ void JudgeResiduals(const Vec& squares, const Vec& lags, long samples, double pa
   const double z2 = w2.dot(squares), lag = w2.dot(lags);
   const long residuals = samples * squares.size();
   const ResidualLimits limits = ResidualLimitsFor(residuals, parameters, options.residual_test_size);
-  r.normalized_rms = 0.0;
-  if (r.sigma_estimated) {
-    for (Eigen::Index i = 0; i < sigma_hat.size(); ++i) {
-      if (mad_sigma[i] > floor[i]) r.normalized_rms = std::max(r.normalized_rms, sigma_hat[i] / mad_sigma[i]);
-    }
-  } else {
-    r.normalized_rms = std::sqrt(z2 / static_cast<double>(residuals));
-  }
+  r.normalized_rms = r.sigma_estimated ? SigmaOverMad(sigma_hat, mad_sigma, floor)
+                                       : std::sqrt(z2 / static_cast<double>(residuals));
   r.lag1 = z2 > 0.0 ? lag / z2 : 0.0;
   const bool above_floor = (sigma_hat.array() > floor.array()).all();
   if (r.sigma_estimated ? r.normalized_rms > options.rms_high

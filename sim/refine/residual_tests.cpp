@@ -61,6 +61,14 @@ ResidualTestResult ResidualTests(const std::vector<Mat>& residuals, const Vec& s
   return t;
 }
 
+double SigmaOverMad(const Vec& sigma_hat, const Vec& mad_sigma, const Vec& floor) {
+  double ratio = 0.0;
+  for (Eigen::Index i = 0; i < sigma_hat.size(); ++i) {
+    if (mad_sigma[i] > floor[i]) ratio = std::max(ratio, sigma_hat[i] / mad_sigma[i]);
+  }
+  return ratio;
+}
+
 Mat NeweyWestMeat(const std::vector<std::vector<Vec>>& scores, Eigen::Index P) {
   long N = 0;
   for (const auto& c : scores) N += static_cast<long>(c.size());

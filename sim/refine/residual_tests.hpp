@@ -33,6 +33,11 @@ struct ResidualTestResult {
 ResidualTestResult ResidualTests(const std::vector<Mat>& residuals, const Vec& sigma, bool given, double parameters,
                                  double alpha);
 
+// The level with σ estimated: the largest σ̂_i / MAD σ̂_i (core/model/noise_shape: the data's own
+// noise from their second differences) over the measured rows whose MAD estimate is above their
+// numerical floor; 0 when none is. Above RefineOptions::rms_high the residuals are not at the noise.
+double SigmaOverMad(const Vec& sigma_hat, const Vec& mad_sigma, const Vec& floor);
+
 // The meat of the sandwich covariance when the residuals are not white: the Newey–West (Bartlett)
 // estimate Σ_k g_k g_kᵀ + Σ_{l=1}^{L} (1 − l/(L+1)) Σ_k (g_k g_{k−l}ᵀ + g_{k−l} g_kᵀ) of the scores'
 // autocovariance, within chains, L = ⌊4 (N/100)^{2/9}⌋ for N scores in all. `scores` per chain: one

@@ -857,10 +857,7 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   r.lag1 = tests.lag1;
   // σ estimated: σ̂ against the data's own noise, as on the labelled routes (JudgeResiduals), the
   // normalised RMS reported.
-  double over_mad = 0.0;
-  for (Eigen::Index j = 0; j < m && r.sigma_estimated && !numerical; ++j) {
-    if (pr.mad[j] > floor[j]) over_mad = std::max(over_mad, sigma_hat[j] / pr.mad[j]);
-  }
+  const double over_mad = r.sigma_estimated && !numerical ? SigmaOverMad(sigma_hat, pr.mad, floor) : 0.0;
   if (over_mad > 0.0) r.normalized_rms = over_mad;
   Mat H;
   std::vector<std::vector<Vec>> scores;
