@@ -26,9 +26,9 @@
 //
 // At the fit: the covariance of θ and each chain's first node state from the Gauss–Newton normal
 // matrix at the fitted σ (the continuity rows make it the single-shooting covariance to within ε²),
-// the residual tests of sim/refine/residual_tests.hpp (with σ estimated, σ̂ over the data's MAD
-// estimate at most RefineOptions::rms_high, as on the labelled routes), and when they refuse whiteness (model
-// error), the sandwich covariance with a Newey–West (Bartlett) estimate of the scores' autocovariance within
+// the residual tests of sim/refine/residual_tests.hpp (with σ estimated, SigmaOverMad at most
+// RefineOptions::rms_high, as on the labelled routes), and when they refuse whiteness (model error),
+// the sandwich covariance with a Newey–West (Bartlett) estimate of the scores' autocovariance within
 // chains (the estimate is then reported, `reported`, with a status that says the residuals are
 // refused).
 #pragma once
