@@ -236,6 +236,7 @@ py::dict RefinedDict(const nlohmann::json& report, bool chains) {
   out["recursive_estimates"] = ByName(names, report.at("recursive_estimate"));
   out["standard_errors"] = ByName(names, report.at("standard_errors"));  // empty unless reported
   out["covariance"] = TransposedMatrix(report.at("covariance"));
+  out["determined"] = FromJson(report.at("determined"));  // singular-fisher at the noise, else None
   for (const char* key : {"alpha", "beta", "sigma"}) out[key] = Array(report.at(key));
   nlohmann::json x0 = nlohmann::json::array();
   for (std::size_t i = 0; i < names.size(); ++i) {

@@ -65,9 +65,25 @@ void PrintEstimates(const RefineResult& r, const HybridParameters& truth_params,
   }
 }
 
-
-
-
+// singular-fisher at the noise: the refined values the data determine, with their standard errors,
+// and the unknowns they do not.
+void PrintDetermined(const RefineResult& r) {
+  const Vec& se = r.determined_standard_errors;
+  if (se.size() != static_cast<Eigen::Index>(r.names.size())) return;
+  const Vec theta = r.refined.Theta(r.unknowns);
+  std::vector<std::string> undetermined;
+  std::printf("  the refined point fits the data to the noise; at it the data determine:\n");
+  for (std::size_t i = 0; i < r.names.size(); ++i) {
+    const auto ii = static_cast<Eigen::Index>(i);
+    if (std::isnan(se[ii])) {
+      undetermined.push_back(r.names[i]);
+    } else {
+      std::printf("    %-10s = %-14.10g ± %.4g\n", r.names[i].c_str(), theta[ii], se[ii]);
+    }
+  }
+  std::printf("  and not %s (only a combination of them)\n",
+              fmt::format("{}", fmt::join(undetermined, ", ")).c_str());
+}
 
 // The refinement's status, the chains and samples it fit, and how the fit was reached (--refine ml).
 void PrintRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
@@ -104,6 +120,7 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
   }
   if (!r.reported) {
     std::printf("  the recursive estimate is kept\n");
+    PrintDetermined(r);
   } else if (!r.ok()) {
     std::printf("  the refined estimate is reported: the fit converged, its residual tests refuse it\n");
   }

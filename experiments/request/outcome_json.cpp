@@ -215,6 +215,20 @@ nlohmann::json CrlbJson(const RefineResult& r, const HybridParameters& truth_par
       {"mean_e_beta", bound.mean_e_beta}};
 }
 
+// singular-fisher at the noise: {name: {value, standard_error}} at the refined point for each unknown
+// the data determine (RefineResult::determined_standard_errors); null otherwise.
+nlohmann::json DeterminedJson(const RefineResult& r) {
+  const Vec& se = r.determined_standard_errors;
+  if (se.size() != static_cast<Eigen::Index>(r.names.size())) return nullptr;
+  const Vec theta = r.refined.Theta(r.unknowns);
+  nlohmann::json out = nlohmann::json::object();
+  for (std::size_t i = 0; i < r.names.size(); ++i) {
+    const auto ii = static_cast<Eigen::Index>(i);
+    if (!std::isnan(se[ii])) out[r.names[i]] = {{"value", theta[ii]}, {"standard_error", se[ii]}};
+  }
+  return out;
+}
+
 // The refinement's part of the report, added to the recursive run's `report` (RecursiveJson).
 nlohmann::json RefinementJson(nlohmann::json j, const RefineResult& r, const IdentifyResult& recursive,
                       const std::string& refine, const RefineOptions& options) {
@@ -232,6 +246,7 @@ nlohmann::json RefinementJson(nlohmann::json j, const RefineResult& r, const Ide
   j["beta"] = vec(r.estimate.beta);
   j["gamma"] = vec(r.estimate.gamma);
   j["standard_errors"] = vec(r.standard_errors);
+  j["determined"] = DeterminedJson(r);
   nlohmann::json cov = nlohmann::json::array();
   for (Eigen::Index i = 0; i < r.covariance.rows(); ++i) cov.push_back(vec(r.covariance.row(i).transpose()));
   j["covariance"] = cov;

@@ -663,6 +663,22 @@ Vec PooledFloor(const FitProblem& problem) {
   return NumericalFloor(largest, problem.options.sim);
 }
 
+// DeterminedSd of the joint information without the held entries (known: sd 0), its first
+// `reported` entries (the shared unknowns and the first fitted chain's ξ0); empty above
+// RefineResult::kMaxDeterminedSize rows.
+Vec DeterminedReported(const Mat& fisher, const std::vector<int>& held, int reported) {
+  if (fisher.rows() > RefineResult::kMaxDeterminedSize) return {};
+  std::vector<Eigen::Index> free;
+  for (Eigen::Index i = 0; i < fisher.rows(); ++i) {
+    if (std::find(held.begin(), held.end(), static_cast<int>(i)) == held.end()) free.push_back(i);
+  }
+  const Vec sd = DeterminedSd(fisher(free, free));
+  if (sd.size() == 0) return {};
+  Vec out = Vec::Zero(fisher.rows());
+  out(free) = sd;
+  return out.head(reported);
+}
+
 // The covariance of the reported unknowns (the shared ones and the first fitted chain's ξ0) at σ:
 // the block of the joint Fisher information's inverse; the same block with each fitted chain's ξ0 in
 // r.chain_covariance. Several chains (no ξ0 held): each chain's ξ0 eliminated (ChainInformation),
@@ -683,10 +699,12 @@ bool Covariance(const FitProblem& problem, const Vec& sigma, RefineResult& r) {
     }
     r.chain_covariance.assign(r.chain_x0.size(), Mat());
   }
-  const Crlb bound = CrlbFromFisher(joint.Joint(), problem.unknowns, JointNames(problem), problem.held);
+  const Mat fisher = joint.Joint();
+  const Crlb bound = CrlbFromFisher(fisher, problem.unknowns, JointNames(problem), problem.held);
   if (!bound.ok()) {
     r.covariance.resize(0, 0);
     Fail(r, RefineStatus::kSingularFisher, bound.message);
+    r.determined_standard_errors = DeterminedReported(fisher, problem.held, shared + n);
     return false;
   }
   // The joint order: the shared entries, then each chain's ξ0 in problem.fits' order.
@@ -721,6 +739,7 @@ void CheckResiduals(const FitProblem& problem, const Vec& mad_sigma, const Refin
     tests.sigma_estimated = r.sigma_estimated;
     JudgeResiduals(squares, lags, samples, p, sigma, sigma_hat, mad_sigma, floor, options, tests);
     r.at_the_noise = tests.ok();
+    if (!r.at_the_noise) r.determined_standard_errors.resize(0);
     return;
   }
   JudgeResiduals(squares, lags, samples, p, sigma, sigma_hat, mad_sigma, floor, options, r);
@@ -969,6 +988,7 @@ void MoveTo(const RefineResult& r, FitStart& s) {
 void Fail(RefineResult& r, RefineStatus status, std::string reason) {
   r.status = status;
   r.reason = std::move(reason);
+  r.determined_standard_errors.resize(0);
 }
 
 RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chains, const FitStart& s,

@@ -200,6 +200,12 @@ struct RefineResult {
   // its square-rooted diagonal.
   Mat covariance;
   Vec standard_errors;
+  // singular-fisher at the noise (at_the_noise): the refined point fits the data, one direction of θ
+  // is not determined. Per entry of `names`, the standard error at `refined` of each one the data
+  // determine (DeterminedSd of the information with σ), NaN for the others; empty otherwise, and
+  // when the information has more than kMaxDeterminedSize rows.
+  Vec determined_standard_errors;
+  static constexpr int kMaxDeterminedSize = 500;
   Vec sigma;  // σ used for the covariance (n; 0 for an unmeasured state)
   bool sigma_estimated = false;
   double normalized_rms = 0.0;  // σ given: RMS of r/σ; estimated: max_i σ̂_i / MAD σ̂_i

@@ -4,6 +4,7 @@
 #include "sim/refine/residual_tests.hpp"
 #include "sim/refine/solver.hpp"
 #include "sim/refine/start.hpp"
+#include "sim/sensitivity/crlb.hpp"
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
@@ -873,6 +874,11 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   const double largest = ldlt.vectorD().cwiseAbs().maxCoeff();
   if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 1e-13 * largest).all()) {
     Fail(r, RefineStatus::kSingularFisher, "the information matrix of the fit is singular");
+    const bool at_the_noise = tests.level_ok && tests.white && !(over_mad > options.rms_high);
+    if (at_the_noise && H.rows() <= RefineResult::kMaxDeterminedSize) {
+      const Vec sd = DeterminedSd(H);
+      if (sd.size() != 0) r.determined_standard_errors = sd.head(pr.shared + pr.n);
+    }
     return;
   }
   const Mat Hinv = scale.asDiagonal() * ldlt.solve(Mat::Identity(H.rows(), H.cols())) * scale.asDiagonal();

@@ -177,6 +177,32 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
   return out;
 }
 
+Vec DeterminedSd(const Mat& fisher) {
+  if (fisher.rows() != fisher.cols() || fisher.size() == 0 || !fisher.allFinite()) return {};
+  const Vec diag = fisher.diagonal();
+  const Vec d =
+      (diag.array() > 0.0)
+          .select(diag.cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse(), 1.0);
+  const Eigen::SelfAdjointEigenSolver<Mat> eigen(d.asDiagonal() * fisher * d.asDiagonal());
+  if (eigen.info() != Eigen::Success) return {};
+  const Vec& lambda = eigen.eigenvalues();  // increasing
+  const Mat& v = eigen.eigenvectors();
+  const double cut = 1e-10 * std::max(lambda.tail(1)[0], 0.0);
+  Eigen::Index null = 0;
+  while (null < lambda.size() && lambda[null] <= cut) ++null;
+  Vec sd(fisher.rows());
+  for (Eigen::Index i = 0; i < sd.size(); ++i) {
+    if (v.row(i).head(null).squaredNorm() >= 1e-6) {
+      sd[i] = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
+    double var = 0.0;
+    for (Eigen::Index j = null; j < lambda.size(); ++j) var += v(i, j) * v(i, j) / lambda[j];
+    sd[i] = d[i] * std::sqrt(var);
+  }
+  return sd;
+}
+
 Crlb HoldKnownX0(Crlb c, const Unknowns& unknowns, const std::vector<int>& known, int n) {
   if (known.empty() || !unknowns.x0 || c.status == CrlbStatus::kSimulationFailed) return c;
   std::vector<int> held;

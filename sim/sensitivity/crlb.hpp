@@ -55,6 +55,16 @@ std::vector<double> MeanEBetaPerMap(const ModelSpec& spec, const Unknowns& unkno
 Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
                     const std::vector<int>& held = {});
 
+// √(e_iᵀF⁻e_i) for each entry i of θ the information determines, NaN for the others. F⁻ = D·G⁺·D
+// with G = D·F·D (D = diag(F)^(−1/2), 1 where that entry is not > 0) and G⁺ its pseudo-inverse over
+// the eigenvalues above 1e-10 times the largest; the rest span the null space (CrlbFromFisher's test
+// finds F singular only when there is one), and entry i is determined when e_i's squared component
+// in it is below 1e-6 (a null direction names every entry it moves with a component of 0.1 or more).
+// For such an entry e_iᵀF⁻e_i is the same for every generalised inverse of F: holding one entry of
+// the null direction known and inverting the rest gives it too; a nonsingular F gives √diag F⁻¹.
+// Empty when F is not finite or square.
+Vec DeterminedSd(const Mat& fisher);
+
 // The bound `c` (computed for `unknowns` over n states, ξ0 last in θ) with the components `known` of ξ0
 // (state indices) known: held, sd 0, left out of the inverse (CrlbFromFisher), its samples and jumps
 // kept. `c` itself when none is known, ξ0 is not in θ or the simulation failed.

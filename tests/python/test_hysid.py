@@ -981,3 +981,54 @@ def test_outliers_left_out_unless_kept(tmp_path):
     assert list(trace["line"][trace["missing"] == 2]) == [152, 404, 613]
     assert np.isnan(trace["fit_h"][trace["missing"] == 2]).all()
     assert np.isfinite(trace["fit_h"][trace["missing"] == 0]).all()
+
+
+def test_singular_fit_reports_what_the_data_determine(tmp_path):
+    """An integrate-and-fire neuron (threshold and reset one direction): singular-fisher at the noise,
+    `determined` gives a, b and x0[v] with standard errors (truth within 4 of them), not c or theta;
+    the same numbers as the command line's --json."""
+    text = """name = "lif"
+states = ["v"]
+alpha = [{ name = "a", value = 2.0 }, { name = "b", value = 0.5 }]
+beta = [{ name = "c", value = 0.2 }]
+guard_params = [{ name = "theta", value = 3.0, bounds = [0.5, 10.0] }]
+[flow]
+phi = [[1, "-v"]]
+rows = ["v"]
+[jump]
+psi = [[1]]
+rows = ["v"]
+[[guard]]
+name = "fire"
+h = "v - theta"
+direction = "rising"
+project = { v = "theta" }
+[sets]
+C = "v <= theta"
+D = "v >= theta"
+[defaults]
+x0 = [0.5]
+t_end = 30.0
+dt = 0.01
+"""
+    (tmp_path / "lif.toml").write_text(text)
+    start = (text.replace("value = 2.0", "value = 4.0").replace("value = 0.5 }", "value = 1.0 }")
+             .replace("value = 0.2", "value = 0.4").replace("value = 3.0,", "value = 1.5,"))
+    (tmp_path / "start.toml").write_text(start)
+    traj = hysid.simulate(hysid.Model.from_file(tmp_path / "lif.toml"), sigma=0.02, seed=7)
+    fit = hysid.identify(hysid.Model.from_file(tmp_path / "start.toml"), np.array(traj["y"]), dt=0.01)["refined"]
+    assert fit["status"] == "singular-fisher"
+    assert fit["standard_errors"] == {}
+    determined = fit["determined"]
+    assert sorted(determined) == ["a", "b", "x0[v]"]
+    for name, true in [("a", 2.0), ("b", 0.5), ("x0[v]", 0.5)]:
+        assert abs(determined[name]["value"] - true) < 4 * determined[name]["standard_error"]
+    data = tmp_path / "lif.csv"
+    np.savetxt(data, np.column_stack([traj["t"], np.array(traj["y"])[:, 0]]), delimiter=",", header="t,v",
+               comments="")
+    run = subprocess.run([BIN, "identify", "--model-file", tmp_path / "start.toml", "--data", data, "--json",
+                          tmp_path / "fit.json"], capture_output=True, text=True)
+    assert run.returncode == 1  # not ok
+    import json
+    cli_fit = json.loads((tmp_path / "fit.json").read_text())
+    assert cli_fit["determined"] == determined

@@ -191,6 +191,47 @@ TEST_CASE("x0 known: every component held is the bound without x0 in theta", "[s
   CHECK((HoldKnownX0(c, with_x0, {}, 2).sd.array() == c.sd.array()).all());
 }
 
+TEST_CASE(
+    "determined sd: a singular F gives each entry off its null direction the sd of any generalised inverse",
+    "[sensitivity]") {
+  // θ = (a, b, c, d) with d's column 2.5 times c's: (0, 0, 2.5, −1) spans the null space. b in units
+  // 1e6 times larger: equilibration, not the raw scale, decides.
+  Mat J(40, 4);
+  for (int k = 0; k < 40; ++k) {
+    const double t = 0.1 * k;
+    J(k, 0) = std::sin(t) + 0.3;
+    J(k, 1) = 1e6 * std::cos(1.7 * t) * t;
+    J(k, 2) = std::exp(-0.4 * t) + 0.5 * std::sin(t);
+    J(k, 3) = 2.5 * J(k, 2);
+  }
+  const Mat F = J.transpose() * J;
+  const Vec sd = DeterminedSd(F);
+  REQUIRE(sd.size() == 4);
+  CHECK(std::isnan(sd[2]));
+  CHECK(std::isnan(sd[3]));
+  // Holding c or d known (either one removes the null direction) gives a and b the same sd.
+  for (const int known : {2, 3}) {
+    const Crlb held = CrlbFromFisher(F, Unknowns{.alpha = {0, 1, 2, 3}, .beta = {}, .gamma = {}, .x0 = false},
+                                     {"a", "b", "c", "d"}, {known});
+    REQUIRE(held.ok());
+    CHECK(sd[0] == Approx(held.sd[0]).epsilon(1e-7));
+    CHECK(sd[1] == Approx(held.sd[1]).epsilon(1e-7));
+  }
+  // Full rank: the inverse's sd.
+  const Mat full = J.leftCols(3).transpose() * J.leftCols(3);
+  const Crlb bound = CrlbFromFisher(full, Unknowns{.alpha = {0, 1, 2}, .beta = {}, .gamma = {}, .x0 = false},
+                                    {"a", "b", "c"});
+  REQUIRE(bound.ok());
+  const Vec all = DeterminedSd(full);
+  for (int i = 0; i < 3; ++i) CHECK(all[i] == Approx(bound.sd[i]).epsilon(1e-7));
+  // A null direction through every entry: none is determined.
+  Mat K = J.leftCols(3);
+  K.col(2) = J.col(0) - 1e-6 * J.col(1);
+  const Vec none = DeterminedSd(K.transpose() * K);
+  for (int i = 0; i < 3; ++i) CHECK(std::isnan(none[i]));
+  CHECK(DeterminedSd(Mat()).size() == 0);
+}
+
 TEST_CASE("mean Gaussian norm: closed forms in 1, 2 and 3 dimensions", "[sensitivity]") {
   const double s = 0.3;
   CHECK(MeanGaussianNorm(Mat::Identity(1, 1) * s * s) ==
