@@ -638,11 +638,16 @@ std::vector<RefineChain> SplitChains(const std::vector<double>& t, const Mat& y,
 
 namespace {
 
-// Whether fit a is better than fit b: ok before not ok, then reported before not, then the lower
-// final cost (the same data and weights, so the higher likelihood).
+// singular-fisher at the noise with what the data determine (RefineResult::determined_standard_errors):
+// no other start changes that.
+bool Determines(const RefineResult& r) { return r.determined_standard_errors.size() != 0; }
+
+// Whether fit a is better than fit b: ok before not ok, then reported before not, then one that
+// Determines, then the lower final cost (the same data and weights, so the higher likelihood).
 bool Better(const RefineResult& a, const RefineResult& b) {
   if (a.ok() != b.ok()) return a.ok();
   if (a.reported != b.reported) return a.reported;
+  if (Determines(a) != Determines(b)) return Determines(a);
   return a.reported && a.final_cost < b.final_cost;
 }
 
@@ -655,7 +660,8 @@ bool Better(const RefineResult& a, const RefineResult& b) {
 // values span (DesignStarts), each with γ where its guards are reached, until one is ok (their fits are kept
 // only when ok); the same search when the best fit is refused by its residual tests although some start's
 // nearly free segments fit the data to the noise (RefineResult::segments_fit_noise: a local minimum, not
-// model error), a fit kept only when ok at a lower cost. The best of the fits (Better); `mended` names the
+// model error), a fit kept only when ok at a lower cost. A fit that Determines ends the starts (and a
+// searching start's is kept) as an ok one does. The best of the fits (Better); `mended` names the
 // start of the one kept.
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
                                     const HybridParameters& recursive, const RefineOptions& options, bool search) {
@@ -671,7 +677,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   // of the box says nothing the first starts' fits did not.
   RefineResult best;
   auto consider = [&](RefineResult other, bool only_ok = false) {
-    if ((!only_ok || other.ok()) && Better(other, best)) {
+    if ((!only_ok || other.ok() || Determines(other)) && Better(other, best)) {
       other.start = recursive;
       best = std::move(other);
     }
@@ -690,7 +696,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
                        });
   bool segments_fit_noise = best.segments_fit_noise || (from_own && from_own->segments_fit_noise);
   if (from_own) consider(std::move(*from_own));
-  if (best.ok() || options.stopped()) return best;
+  if (best.ok() || Determines(best) || options.stopped()) return best;
   const int n = model.state_size();
   long samples = 0;
   for (const RefineChain& c : chains) samples += static_cast<long>(c.t.size());
@@ -725,7 +731,8 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   }
   const auto batch =
       static_cast<std::size_t>(std::clamp(tbb::this_task_arena::max_concurrency(), 1, kSearchBatch));
-  for (std::size_t first = 0; first < searching.size() && !best.ok() && !options.stopped(); first += batch) {
+  for (std::size_t first = 0;
+       first < searching.size() && !best.ok() && !Determines(best) && !options.stopped(); first += batch) {
     std::vector<RefineResult> fits(std::min(batch, searching.size() - first));
     tbb::parallel_for(std::size_t{0}, fits.size(), [&](std::size_t k) {
       Searching& at = searching[first + k];
@@ -734,7 +741,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
       if (gamma) at.from.gamma = *gamma;
       fits[k] = fit(at.from, at.name);
     });
-    for (std::size_t k = 0; k < fits.size() && !best.ok(); ++k) {
+    for (std::size_t k = 0; k < fits.size() && !best.ok() && !Determines(best); ++k) {
       // Out of a local minimum: to a lower cost (the same data and weights, a higher likelihood).
       if (!local_minimum || fits[k].final_cost < best.final_cost) consider(std::move(fits[k]), true);
     }
@@ -742,8 +749,9 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   return best;
 }
 
-// The time-shooting fit replaces r when it is ok and r is not, or is ok on fewer samples; or when r
-// is not reported and it is; else r's reason (when r is not ok) says how that route ended.
+// The time-shooting fit replaces r when it is ok and r is not, or is ok on fewer samples; when r is
+// not reported and it is; or when neither is and it Determines and r does not; else r's reason (when
+// r is not ok) says how that route ended.
 void AdoptTimeShooting(RefineResult& r, RefineResult other) {
   auto outcome = [](const RefineResult& f) {
     return fmt::format("{}: {} on {} samples{}{}", f.route.empty() ? "the detected labels' routes" : f.route,
@@ -757,7 +765,8 @@ void AdoptTimeShooting(RefineResult& r, RefineResult other) {
       !r.ok() || (other.standard_errors.size() >= shared && r.standard_errors.size() >= shared &&
                   (other.standard_errors.head(shared).array() <= r.standard_errors.head(shared).array()).all());
   if ((other.ok() && (!r.ok() || other.samples_used > r.samples_used) && more_informative) ||
-      (other.reported && !r.reported)) {
+      (other.reported && !r.reported) ||
+      (!r.reported && !other.reported && Determines(other) && !Determines(r))) {
     other.start = r.start;
     other.mode_search = r.mode_search;
     if (!r.ok() && !r.reason.empty() && !other.ok()) other.reason += "; the detected labels' fit: " + r.reason;

@@ -233,5 +233,71 @@ TEST_CASE("a neuron's threshold and reset are one direction to first order: sing
   determined(shot, 0.02);
 }
 
+// A tank drained through an orifice, h' = −k√h, refilled by δ when it falls to the mark h_low. Between
+// samples 0.5 s apart the data see each refill's level only through √(h_low + δ) − √h_low (the drain
+// from the mark is the same curve as from any level above it): h_low and δ are one direction, k and
+// h(0) are determined. The residual detector finds 1 of the 9 refills, so the labelled routes fail;
+// multiple shooting by time fits the data to the noise with a singular information, and that fit is
+// the result, with what the data determine.
+constexpr const char* kRefill = R"toml(
+name = "refill"
+states = ["h"]
+alpha = [{ name = "k", value = 0.3 }]
+beta = [{ name = "keep", value = 1.0, known = true }, { name = "delta", value = 1.5 }]
+guard_params = [{ name = "h_low", value = 0.8, bounds = [0.05, 5.0] }]
+[flow]
+phi = [["-sqrt(max(h, 0))"]]
+rows = ["h"]
+[jump]
+psi = [["h", 1]]
+rows = ["h"]
+[[guard]]
+name = "low"
+h = "h - h_low"
+direction = "falling"
+project = { h = "h_low" }
+[sets]
+C = "h >= h_low"
+D = "h <= h_low"
+[defaults]
+x0 = [2.0]
+t_end = 40.0
+dt = 0.5
+)toml";
+
+TEST_CASE(
+    "a refill tank's mark and refill are one direction: the time-shooting fit at the noise is the result",
+    "[refine]") {
+  const Model model = ParseModelFile(kRefill, "refill.toml").model;
+  const SampleGrid grid{40.0, 0.5};
+  const Vec x0 = Vec::Constant(1, 2.0);
+  const Trajectory run = Simulate(model, x0, grid);
+  REQUIRE(run.status.completed());
+  REQUIRE(run.jumps.size() == 9);
+  const Mat y = AddMeasurementNoise(run.x, Vec::Constant(1, 0.01), NoiseKey{.seed = 4, .stream = 0});
+  IdentifierSettings settings;
+  settings.detector.kind = DetectorKind::kResidual;
+  const IdentifyResult recursive = Identify(model, y, grid.dt, settings);
+  CHECK(recursive.jumps_detected < 9);
+  const RefineResult r = RefineIdentification(model, run.t, y, {}, RefinementStart(recursive));
+  INFO(ToString(r.status) << ": " << r.reason);
+  CHECK(r.status == RefineStatus::kSingularFisher);
+  CHECK(r.route == "multiple shooting by time");
+  REQUIRE(r.names == std::vector<std::string>{"k", "delta", "h_low", "x0[h]"});
+  const Vec& se = r.determined_standard_errors;
+  REQUIRE(se.size() == 4);
+  CHECK(std::isnan(se[1]));
+  CHECK(std::isnan(se[2]));
+  const Vec theta = r.refined.Theta(r.unknowns);
+  CHECK(std::abs(theta[0] - 0.3) < 4.0 * se[0]);
+  CHECK(std::abs(theta[3] - 2.0) < 4.0 * se[3]);
+  // At the bound with h_low held known (the data's information at the refined point).
+  const Crlb at = ComputeCrlb(model, r.refined, grid, r.sigma, r.unknowns);
+  const Crlb held = CrlbFromFisher(at.fisher, r.unknowns, r.names, {2});
+  REQUIRE(held.ok());
+  CHECK(se[0] == Approx(held.sd[0]).epsilon(0.25));
+  CHECK(se[3] == Approx(held.sd[3]).epsilon(0.25));
+}
+
 }  // namespace
 }  // namespace hysid
