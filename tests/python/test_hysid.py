@@ -987,36 +987,12 @@ def test_singular_fit_reports_what_the_data_determine(tmp_path):
     """An integrate-and-fire neuron (threshold and reset one direction): singular-fisher at the noise,
     `determined` gives a, b and x0[v] with standard errors (truth within 4 of them), not c or theta;
     the same numbers as the command line's --json."""
-    text = """name = "lif"
-states = ["v"]
-alpha = [{ name = "a", value = 2.0 }, { name = "b", value = 0.5 }]
-beta = [{ name = "c", value = 0.2 }]
-guard_params = [{ name = "theta", value = 3.0, bounds = [0.5, 10.0] }]
-[flow]
-phi = [[1, "-v"]]
-rows = ["v"]
-[jump]
-psi = [[1]]
-rows = ["v"]
-[[guard]]
-name = "fire"
-h = "v - theta"
-direction = "rising"
-project = { v = "theta" }
-[sets]
-C = "v <= theta"
-D = "v >= theta"
-[defaults]
-x0 = [0.5]
-t_end = 30.0
-dt = 0.01
-"""
-    (tmp_path / "lif.toml").write_text(text)
-    start = (text.replace("value = 2.0", "value = 4.0").replace("value = 0.5 }", "value = 1.0 }")
-             .replace("value = 0.2", "value = 0.4").replace("value = 3.0,", "value = 1.5,"))
-    (tmp_path / "start.toml").write_text(start)
+    start = SOURCE / "tests" / "data" / "lif.toml"  # every value 2x off
+    truth = (start.read_text().replace("value = 4.0", "value = 2.0").replace("value = 1.0 }", "value = 0.5 }")
+             .replace("value = 0.4", "value = 0.2").replace("value = 1.5,", "value = 3.0,"))
+    (tmp_path / "lif.toml").write_text(truth)
     traj = hysid.simulate(hysid.Model.from_file(tmp_path / "lif.toml"), sigma=0.02, seed=7)
-    fit = hysid.identify(hysid.Model.from_file(tmp_path / "start.toml"), np.array(traj["y"]), dt=0.01)["refined"]
+    fit = hysid.identify(hysid.Model.from_file(start), np.array(traj["y"]), dt=0.01)["refined"]
     assert fit["status"] == "singular-fisher"
     assert fit["standard_errors"] == {}
     determined = fit["determined"]
@@ -1026,7 +1002,7 @@ dt = 0.01
     data = tmp_path / "lif.csv"
     np.savetxt(data, np.column_stack([traj["t"], np.array(traj["y"])[:, 0]]), delimiter=",", header="t,v",
                comments="")
-    run = subprocess.run([BIN, "identify", "--model-file", tmp_path / "start.toml", "--data", data, "--json",
+    run = subprocess.run([BIN, "identify", "--model-file", start, "--data", data, "--json",
                           tmp_path / "fit.json"], capture_output=True, text=True)
     assert run.returncode == 1  # not ok
     import json

@@ -125,41 +125,34 @@ TEST_CASE("wall: bounds hold the fit, a start outside them is moved inside", "[r
   CHECK(clamped.refined.beta[1] <= 1.0);
 }
 
+// `run` measured with noise σ (noise key (seed, 0)) and refined from the residual detector's
+// recursive estimate by the model `start`, as `identify` does.
+struct NoisyFit {
+  Mat y;
+  IdentifyResult recursive;
+  RefineResult r;
+};
+NoisyFit FitNoisy(const Model& start, const Trajectory& run, double sigma, std::uint64_t seed) {
+  NoisyFit f;
+  f.y = AddMeasurementNoise(run.x, Vec::Constant(run.x.rows(), sigma), NoiseKey{.seed = seed, .stream = 0});
+  IdentifierSettings settings;
+  settings.detector.kind = DetectorKind::kResidual;
+  f.recursive = Identify(start, f.y, run.dt, settings);
+  f.r = RefineIdentification(start, run.t, f.y, {}, RefinementStart(f.recursive));
+  return f;
+}
+
 // A leaky integrate-and-fire neuron, v' = a − b v, firing at v = θ and reset to c. Its flow is
 // autonomous and one-dimensional, so every post-reset value c lies on the orbit: a reset raised by
 // (f⁺/f⁻) δθ (f± = a − b c, a − b θ) with the threshold raised by δθ leaves the interspike interval
 // and the trajectory the same but for the instants between the two jump times. The samples do not
 // tell the two apart to first order: the information is singular, and another start cannot change
 // that.
-constexpr const char* kNeuron = R"toml(
-name = "lif"
-states = ["v"]
-alpha = [{ name = "a", value = 4.0 }, { name = "b", value = 1.0 }]
-beta = [{ name = "c", value = 0.4 }]
-guard_params = [{ name = "theta", value = 1.5, bounds = [0.5, 10.0] }]
-[flow]
-phi = [[1, "-v"]]
-rows = ["v"]
-[jump]
-psi = [[1]]
-rows = ["v"]
-[[guard]]
-name = "fire"
-h = "v - theta"
-direction = "rising"
-project = { v = "theta" }
-[sets]
-C = "v <= theta"
-D = "v >= theta"
-[defaults]
-x0 = [0.5]
-t_end = 30.0
-dt = 0.01
-)toml";
+constexpr const char* kNeuron = "tests/data/lif.toml";
 
 TEST_CASE("a neuron's threshold and reset are one direction to first order: singular-fisher, no other route",
           "[refine]") {
-  const Model start = ParseModelFile(kNeuron, "lif.toml").model;  // every value 2x off
+  const Model start = ReadModelFile(kNeuron).model;  // every value 2x off
   Model truth = start;
   truth.SetParameter("a", 2.0);
   truth.SetParameter("b", 0.5);
@@ -186,11 +179,9 @@ TEST_CASE("a neuron's threshold and reset are one direction to first order: sing
   }
   CHECK(along < 1e-8);  // O(ε²)
   CHECK(off > 1e-5);    // O(ε): the threshold alone moves every later sample
-  const Mat y = AddMeasurementNoise(run.x, Vec::Constant(1, 0.02), NoiseKey{.seed = 7, .stream = 0});
-  IdentifierSettings settings;
-  settings.detector.kind = DetectorKind::kResidual;
-  const IdentifyResult recursive = Identify(start, y, grid.dt, settings);
-  const RefineResult r = RefineIdentification(start, run.t, y, {}, RefinementStart(recursive));
+  const NoisyFit fit = FitNoisy(start, run, 0.02, 7);
+  const Mat& y = fit.y;
+  const RefineResult& r = fit.r;
   INFO(ToString(r.status) << ": " << r.reason);
   CHECK(r.status == RefineStatus::kSingularFisher);
   CHECK(r.at_the_noise);
@@ -274,12 +265,9 @@ TEST_CASE(
   const Trajectory run = Simulate(model, x0, grid);
   REQUIRE(run.status.completed());
   REQUIRE(run.jumps.size() == 9);
-  const Mat y = AddMeasurementNoise(run.x, Vec::Constant(1, 0.01), NoiseKey{.seed = 4, .stream = 0});
-  IdentifierSettings settings;
-  settings.detector.kind = DetectorKind::kResidual;
-  const IdentifyResult recursive = Identify(model, y, grid.dt, settings);
-  CHECK(recursive.jumps_detected < 9);
-  const RefineResult r = RefineIdentification(model, run.t, y, {}, RefinementStart(recursive));
+  const NoisyFit fit = FitNoisy(model, run, 0.01, 4);
+  CHECK(fit.recursive.jumps_detected < 9);
+  const RefineResult& r = fit.r;
   INFO(ToString(r.status) << ": " << r.reason);
   CHECK(r.status == RefineStatus::kSingularFisher);
   CHECK(r.route == "multiple shooting by time");
