@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=
 
-.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-usersys check-matrix check-compare-rates example-figures check-bench
+.PHONY: run test build deps configure clean check-sanitize deps-sanitize check-long check-usersys check-matrix check-compare-rates example-figures check-bench
 
 deps:
 	./scripts/install-deps.sh
@@ -19,8 +19,14 @@ build: configure
 run: build
 	./scripts/run-default.sh $(BUILD_DIR)
 
+# Every test but those labelled `long` (check-long), which keep `make test` short on 2 cores.
 test: build
-	ctest --test-dir $(BUILD_DIR) --no-tests=error --output-on-failure -j $(JOBS)
+	ctest --test-dir $(BUILD_DIR) --no-tests=error --output-on-failure -j $(JOBS) -LE long
+
+# The long tests: the cube's free flight, two compare checks, the scipy reference fit of Cascaded
+# Tanks, the small late impacts at 10 % noise.
+check-long: build
+	ctest --test-dir $(BUILD_DIR) --no-tests=error --output-on-failure -j $(JOBS) -L long
 
 clean:
 	rm -rf $(BUILD_DIR)
