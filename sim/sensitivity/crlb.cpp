@@ -121,8 +121,18 @@ Crlb CrlbHolding(const Mat& fisher, const Unknowns& unknowns, std::vector<std::s
     free.push_back(i);
     if (static_cast<std::size_t>(i) < names.size()) free_names.push_back(names[static_cast<std::size_t>(i)]);
   }
-  Unknowns shared = unknowns;  // the α and β blocks are never held
+  // The unknowns left: each of the α, β and γ blocks without its held entries (θ's order), no ξ0.
+  Unknowns shared;
   shared.x0 = false;
+  int at = 0;
+  auto keep = [&](const std::vector<int>& block, std::vector<int>& kept) {
+    for (const int entry : block) {
+      if (std::find(held.begin(), held.end(), at++) == held.end()) kept.push_back(entry);
+    }
+  };
+  keep(unknowns.alpha, shared.alpha);
+  keep(unknowns.beta, shared.beta);
+  keep(unknowns.gamma, shared.gamma);
   Crlb reduced = CrlbFromFisher(fisher(free, free), shared, std::move(free_names));
   Crlb out = reduced;
   out.names = std::move(names);

@@ -50,8 +50,9 @@ double MeanGaussianNorm(const Mat& covariance);
 std::vector<double> MeanEBetaPerMap(const ModelSpec& spec, const Unknowns& unknowns, const Crlb& c);
 
 // The bound from F: covariance, sd, and the mean errors of the α and β blocks. The entries `held`
-// (indices into θ, increasing) are known: F without their rows and columns is inverted, and their
-// rows and columns of the covariance (and their sd) are 0.
+// (indices into θ, increasing; in any block) are known: F without their rows and columns is inverted,
+// their rows and columns of the covariance (and their sd) are 0, and the mean errors are those of
+// the blocks' other entries.
 Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
                     const std::vector<int>& held = {});
 

@@ -216,6 +216,10 @@ TEST_CASE(
     REQUIRE(held.ok());
     CHECK(sd[0] == Approx(held.sd[0]).epsilon(1e-7));
     CHECK(sd[1] == Approx(held.sd[1]).epsilon(1e-7));
+    // A held α entry leaves the α block's mean error to the other three.
+    const std::vector<Eigen::Index> kept =
+        known == 2 ? std::vector<Eigen::Index>{0, 1, 3} : std::vector<Eigen::Index>{0, 1, 2};
+    CHECK(held.mean_e_alpha == Approx(MeanGaussianNorm(held.covariance(kept, kept))).epsilon(1e-12));
   }
   // Full rank: the inverse's sd.
   const Mat full = J.leftCols(3).transpose() * J.leftCols(3);
