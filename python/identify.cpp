@@ -237,6 +237,8 @@ py::dict RefinedDict(const nlohmann::json& report, bool chains) {
   out["standard_errors"] = ByName(names, report.at("standard_errors"));  // empty unless reported
   out["covariance"] = TransposedMatrix(report.at("covariance"));
   out["determined"] = FromJson(report.at("determined"));  // singular-fisher at the noise, else None
+  // Samples the fit left out as outliers (RefitWithoutOutliers): [] when none.
+  out["outliers"] = FromJson(report.value("fit_outliers", nlohmann::json::array()));
   for (const char* key : {"alpha", "beta", "sigma"}) out[key] = Array(report.at(key));
   nlohmann::json x0 = nlohmann::json::array();
   for (std::size_t i = 0; i < names.size(); ++i) {

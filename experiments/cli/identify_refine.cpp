@@ -87,11 +87,21 @@ void PrintDetermined(const RefineResult& r) {
 
 // The refinement's status, the chains and samples it fit, and how the fit was reached (--refine ml).
 void PrintRefinement(const Model& model, const SampleData& data, const IdentifyResult& recursive,
-                     const RefineResult& r) {
+                     const RefineStep& step) {
+  const RefineResult& r = step.result;
   std::printf("refinement (maximum likelihood, output error): %s%s%s\n", ToString(r.status), r.ok() ? "" : ": ",
               r.reason.c_str());
   if (!r.route.empty()) std::printf("  route: %s\n", r.route.c_str());
   for (const std::string& tried : r.routes_tried) std::printf("  tried: %s\n", tried.c_str());
+  for (const OutlierSample& o : step.fit_outliers) {
+    std::printf(
+        "  outlier left out by the fit: %s line %ld, t = %.6g: %s = %.6g, its residual %.3g robust sd off "
+        "the "
+        "first fit, alone there (--keep-outliers keeps it)\n",
+        o.run < static_cast<int>(data.run_names.size()) ? data.run_names[std::size_t(o.run)].c_str()
+                                                        : data.path.c_str(),
+        o.line, o.t, data.state_columns[std::size_t(o.row)].c_str(), o.value, o.sds);
+  }
   if (!data.uniform) {
     const std::string each =
         r.gaps_joined > 0 ? fmt::format("as {} trajector{}, the model run through {} gap{}; one initial state per "
@@ -105,9 +115,10 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
         r.chains_used, each.c_str(), r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
         static_cast<long>(data.y.cols()));
     if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
-  } else if (r.samples_used < data.y.cols()) {
-    std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", r.samples_used,
-                static_cast<long>(data.y.cols()), static_cast<double>(r.samples_used - 1) * data.dt,
+  } else if (const long span = r.samples_used + static_cast<long>(step.fit_outliers.size());
+             span < data.y.cols()) {
+    std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", span,
+                static_cast<long>(data.y.cols()), static_cast<double>(span - 1) * data.dt,
                 r.span_reason.c_str());
   }
   if (!r.mended.empty()) std::printf("  mended or reached by: %s\n", r.mended.c_str());
@@ -125,7 +136,6 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
     std::printf("  the refined estimate is reported: the fit converged, its residual tests refuse it\n");
   }
 }
-
 
 }  // namespace
 
@@ -151,7 +161,7 @@ int RefineAndReport(const IdentifyRequest& request, IdentifyOutcome& outcome, co
   const SampleData& data = outcome.data;
   const RefineStep& step = outcome.refinement;
   const RefineResult& r = step.result;
-  if (args.refine == "ml") PrintRefinement(model, data, outcome.recursive, r);
+  if (args.refine == "ml") PrintRefinement(model, data, outcome.recursive, outcome.refinement);
   PrintEstimates(r, step.truth, step.bound);
   for (const std::string& note : step.notes) std::printf("note: %s\n", note.c_str());
   if (step.bound.ok()) {

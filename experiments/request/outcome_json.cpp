@@ -40,11 +40,11 @@ nlohmann::json DetectorOptionsJson(const DetectorSettings& s) {
 
 namespace {
 
-// The samples left out as outliers: run (from 1), line, t, the state's column, its value, and its
-// second difference in robust sd.
-nlohmann::json OutliersJson(const SampleData& data) {
+// Samples left out as outliers: run (from 1), line, t, the state's column, its value, and how far
+// off in robust sd (data.outliers: the second difference; fit_outliers: the residual off the fit).
+nlohmann::json OutliersJson(const SampleData& data, const std::vector<OutlierSample>& outliers) {
   nlohmann::json out = nlohmann::json::array();
-  for (const OutlierSample& o : data.outliers) {
+  for (const OutlierSample& o : outliers) {
     out.push_back({{"run", o.run + 1},
                    {"line", o.line},
                    {"t", o.t},
@@ -70,7 +70,7 @@ nlohmann::json DataJson(const SampleData& data) {
           {"gaps", data.gaps},
           {"missing_rows", data.missing_rows},
           {"first_missing_line", data.first_missing_line},
-          {"outliers", OutliersJson(data)}};
+          {"outliers", OutliersJson(data, data.outliers)}};
 }
 
 nlohmann::json SettingsJson(const IdentifierSettings& settings, const std::string& accuracy_source) {
@@ -378,8 +378,9 @@ nlohmann::json OutcomeJson(const IdentifyOutcome& outcome) {
   nlohmann::json j = RefinementJson(outcome.recursive_report, r, outcome.recursive, outcome.refine, step.options);
   j["samples"] = data.y.cols();
   j["min_chain_samples"] = 2 * model.state_size() + 2;
+  const long span = r.samples_used + static_cast<long>(step.fit_outliers.size());  // outliers inside it
   j["fit_t_end"] = data.uniform && r.samples_used > 0
-                       ? nlohmann::json(static_cast<double>(r.samples_used - 1) * data.dt)
+                       ? nlohmann::json(static_cast<double>(span - 1) * data.dt)
                        : nlohmann::json();
   if (outcome.refine == "ml" && IsAutomaton(model.spec()) && j.contains("automaton")) {
     AddFittedEventsJson(step.fitted, &j["automaton"]);
@@ -398,6 +399,7 @@ nlohmann::json OutcomeJson(const IdentifyOutcome& outcome) {
   j["reconstructed"] = named(partial.reconstructed);
   if (!partial.reconstruction.empty()) j["reconstruction"] = partial.reconstruction;
   j["x0_known"] = named(step.known);
+  j["fit_outliers"] = OutliersJson(data, step.fit_outliers);
   j["notes"] = step.notes;
   return j;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <tuple>
 #include <utility>
@@ -123,11 +124,10 @@ IdentifyResult IdentifyData(const Model& model, const IdentifierSettings& settin
 }
 
 // What only the recursive part of the report reads (printed, --trace and --json's `report` built by
-// then): each sample's run and line, the detector's statistic and threshold and the estimates'
-// traces. Freed, so that the refinement's peak does not hold them.
-void ReleaseReported(SampleData& data, IdentifyResult& result) {
-  std::vector<int>().swap(data.run);
-  std::vector<long>().swap(data.line);
+// then): the detector's statistic and threshold and the estimates' traces. Freed, so that the
+// refinement's peak does not hold them (each sample's run and line stay: the fit names the samples
+// it leaves out).
+void ReleaseReported(IdentifyResult& result) {
   std::vector<double>().swap(result.statistic);
   std::vector<double>().swap(result.threshold);
   result.alpha_trace = Mat();
@@ -168,7 +168,7 @@ Crlb TruthBound(const Model& model, const Truth& truth, long samples, const Samp
 }
 
 // A chain that starts after a gap in the run of the chain before it (not at a run's start). Without
-// the per-sample runs (released once reported), one run means every chain after the first. A model
+// the per-sample runs, one run means every chain after the first. A model
 // with inputs is not run through a gap: the data do not hold its input there (linear interpolation
 // across the gap would invent it), so each chain keeps its own initial state.
 void MarkGaps(const SampleData& data, std::vector<RefineChain>* chains) {
@@ -228,6 +228,105 @@ FittedEvents FittedEventsOf(const Model& model, const SampleData& data, const Id
   return FitEventTimes(model, data.t, data.y, data.chain_start, data.u, r, refined);
 }
 
+// The measured states' indices among the model's states.
+std::vector<int> MeasuredOf(const IdentifyOutcome& o) {
+  return o.partial.measured.empty() ? MeasuredIndices(o.model) : o.partial.measured;
+}
+
+// A sample is off the fit when its residual y − matched in some measured state exceeds kOutlierSds
+// robust sd of that state's residuals (1.4826 × their median absolute value over the samples the
+// fitted model reaches: past a span the fit cut, its prediction).
+// Off the fit alone: in a run of at most kFitOutlierRun such samples in its chain, the samples beside
+// the run (where the chain has them) within kFitOutlierNeighbour robust sd, or kFitOutlierFraction of
+// the run's least, in every measured state. A model that misses an event or a kink leaves residuals
+// that rise and fall over several samples. More than kFitOutlierShare of the samples: none (a model
+// error, not a few bad samples). The samples off the fit alone, in order, and their indices (columns
+// of data.y) in `at`.
+std::vector<OutlierSample> FitOutliers(const SampleData& data, const std::vector<int>& measured,
+                                       const FittedOutputs& fit, std::vector<Eigen::Index>* at) {
+  const Eigen::Index K = data.y.cols();
+  const bool full = data.y.rows() == fit.matched.rows();
+  const auto m = static_cast<Eigen::Index>(measured.size());
+  Mat z = Mat::Constant(m, K, std::numeric_limits<double>::quiet_NaN());  // |residual| in robust sd
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const Eigen::Index row = full ? measured[std::size_t(r)] : r;
+    std::vector<double> a;
+    for (Eigen::Index k = 0; k < K; ++k) {
+      const double e = data.y(row, k) - fit.matched(measured[std::size_t(r)], k);
+      if (std::isfinite(e)) {
+        z(r, k) = std::abs(e);
+        a.push_back(std::abs(e));
+      }
+    }
+    if (a.size() < 12) return {};
+    std::nth_element(a.begin(), a.begin() + std::ptrdiff_t(a.size() / 2), a.end());
+    const double sd = 1.4826 * a[a.size() / 2];
+    if (!(sd > 0.0)) return {};
+    z.row(r) /= sd;
+  }
+  auto worst = [&](Eigen::Index k) { return z.col(k).maxCoeff(); };  // NaN-free columns only
+  auto scored = [&](Eigen::Index k) { return z.col(k).allFinite(); };
+  auto chain_starts = [&](Eigen::Index k) {
+    return k == 0 || (!data.chain_start.empty() && data.chain_start[std::size_t(k)]);
+  };
+  std::vector<OutlierSample> out;
+  for (Eigen::Index k = 0; k < K;) {
+    if (!scored(k) || !(worst(k) > kOutlierSds)) {
+      ++k;
+      continue;
+    }
+    Eigen::Index end = k + 1;  // the run [k, end) within the chain
+    while (end < K && !chain_starts(end) && scored(end) && worst(end) > kOutlierSds) ++end;
+    const bool short_run = end - k <= kFitOutlierRun;
+    double least = worst(k);
+    for (Eigen::Index i = k + 1; i < end; ++i) least = std::min(least, worst(i));
+    const double beside = std::max(kFitOutlierNeighbour, kFitOutlierFraction * least);
+    const bool clean_before = chain_starts(k) || (scored(k - 1) && worst(k - 1) <= beside);
+    const bool clean_after = end == K || chain_starts(end) || (scored(end) && worst(end) <= beside);
+    if (short_run && clean_before && clean_after) {
+      for (Eigen::Index i = k; i < end; ++i) {
+        Eigen::Index r = 0;
+        z.col(i).maxCoeff(&r);
+        const Eigen::Index row = full ? measured[std::size_t(r)] : r;
+        at->push_back(i);
+        out.push_back({.run = data.run.empty() ? 0 : data.run[std::size_t(i)],
+                       .line = data.line.empty() ? 0 : data.line[std::size_t(i)],
+                       .t = data.t[std::size_t(i)],
+                       .row = static_cast<int>(r),
+                       .value = data.y(row, i),
+                       .sds = z(r, i)});
+      }
+    }
+    k = end;
+  }
+  if (static_cast<double>(out.size()) > kFitOutlierShare * static_cast<double>(K)) {
+    out.clear();
+    at->clear();
+  }
+  return out;
+}
+
+// A fit refused as residual-rms, or one ok on a span it cut short, with a few samples that stand off
+// it alone (FitOutliers): fitted again from the recursive estimate without them, and that fit kept
+// when its residuals pass every test (status ok) and, if the first was ok, it fits more samples; the
+// samples are then listed in fit_outliers. Anything else keeps the first fit.
+void RefitWithoutOutliers(const IdentifyOutcome& o, const std::vector<int>& measured, RefineStep& s) {
+  RefineResult& r = s.result;
+  const bool cut = r.ok() && r.samples_used < o.data.y.cols();
+  if (!(r.status == RefineStatus::kResidualRms && r.reported) && !cut) return;
+  const SampleData& data = o.data;
+  const FittedOutputs fit = RunFittedModel(o.model, data.t, data.y, data.chain_start, data.u, o.recursive, r);
+  std::vector<Eigen::Index> at;
+  std::vector<OutlierSample> found = FitOutliers(data, measured, fit, &at);
+  if (found.empty()) return;
+  SampleData without = data;
+  for (const Eigen::Index k : at) without.y.col(k).setConstant(std::numeric_limits<double>::quiet_NaN());
+  RefineResult again = RefineOnChains(o.model, without, o.recursive, s.options);
+  if (!again.ok() || (r.ok() && again.samples_used <= r.samples_used)) return;
+  r = std::move(again);
+  s.fit_outliers = std::move(found);
+}
+
 // The refinement (refine "ml") or the recursive estimate (none), and the bound at the truth.
 RefineStep RunRefineStep(const IdentifyRequest& request, const IdentifyOutcome& o) {
   const Model& model = o.model;
@@ -250,15 +349,16 @@ RefineStep RunRefineStep(const IdentifyRequest& request, const IdentifyOutcome& 
       if (progress != nullptr) progress->Iteration(fit, iteration, cost);
     });
     r = RefineOnChains(model, data, recursive, s.options);
+    if (!request.keep_outliers) RefitWithoutOutliers(o, MeasuredOf(o), s);
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
     r.start = r.estimate =
         HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
   }
-  const long used = ml ? r.samples_used : data.y.cols();
-  s.bound = TruthBound(model, request.truth, used, data,
-                       partial.measured.empty() ? MeasuredIndices(model) : partial.measured, s.known);
+  // The span fitted: the samples used and those the fit left out inside it.
+  const long used = ml ? r.samples_used + static_cast<long>(s.fit_outliers.size()) : data.y.cols();
+  s.bound = TruthBound(model, request.truth, used, data, MeasuredOf(o), s.known);
   s.truth = HybridParameters::Of(model, request.truth.x0);
   if (progress != nullptr) progress->Stage("the fitted model over the record");
   if (ml && IsAutomaton(model.spec())) s.fitted = FittedEventsOf(model, data, recursive, r);
@@ -413,7 +513,7 @@ void RunRecursivePassAgain(const IdentifyRequest& request, const Model& model, I
 void RunRefinement(const IdentifyRequest& request, IdentifyOutcome* o) {
   if (o->recursive_report.is_null())
     o->recursive_report = RecursiveJson(o->model, o->data, o->settings, request.data_accuracy_source, o->recursive);
-  if (request.release_per_sample) ReleaseReported(o->data, o->recursive);
+  if (request.release_per_sample) ReleaseReported(o->recursive);
   o->refinement = RunRefineStep(request, *o);
 }
 

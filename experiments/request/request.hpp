@@ -54,7 +54,7 @@ struct IdentifyRequest {
   std::optional<std::string> x0_known;              // KnownX0's text; nullopt: not given
   std::vector<double> x0;                           // with x0_known: the initial state (default: the model's)
   Truth truth;
-  // After the recursive report is described: drop the per-sample arrays only it reads (run, line, the
+  // After the recursive report is described: drop the per-sample arrays only it reads (the detector's
   // statistic and the estimate traces), so that the refinement's peak does not hold them.
   bool release_per_sample = false;
   Spelling spelling = Spelling::kKeyword;  // how refusals name the options
@@ -80,11 +80,21 @@ struct RefineStep {
   HybridParameters truth;
   FittedEvents fitted;     // a hybrid automaton refined: its events' times from the fit
   FittedOutputs outputs;   // the fitted and the recursive model run over the whole record
+  // Samples left out by the fit (RefitWithoutOutliers in request.cpp): `sds` their residual off the
+  // first fit in robust sd, `row` the measured state's index in SampleData::state_columns.
+  std::vector<OutlierSample> fit_outliers;
   // Notes, not refusals: an estimate kUnitsFactor times or more larger or smaller in magnitude than its
   // start value (the model's value) says "check the units"; a recursive estimate outside its bounds.
   std::vector<std::string> notes;
 };
 inline constexpr double kUnitsFactor = 100.0;
+// RefitWithoutOutliers: a run of at most kFitOutlierRun samples beyond kOutlierSds robust sd off the
+// fit, the samples beside it within kFitOutlierNeighbour robust sd or kFitOutlierFraction of the run's
+// least; at most kFitOutlierShare of the samples.
+inline constexpr int kFitOutlierRun = 2;
+inline constexpr double kFitOutlierNeighbour = 3.0;
+inline constexpr double kFitOutlierFraction = 0.1;
+inline constexpr double kFitOutlierShare = 0.01;
 
 struct IdentifyOutcome {
   explicit IdentifyOutcome(Model m) : model(std::move(m)) {}

@@ -983,6 +983,45 @@ def test_outliers_left_out_unless_kept(tmp_path):
     assert np.isfinite(trace["fit_h"][trace["missing"] == 0]).all()
 
 
+def test_outliers_off_the_fit_left_out_by_the_fit(tmp_path):
+    """The same ball with a pair of samples displaced together by 0.3 m and the last sample by -0.25 m:
+    the data's rule keeps them (it judges samples alone, inside a chain); the first fit ends residual-rms,
+    the three stand alone off it and are left out by the fit, which is then ok on all the others within
+    4 SE of the truth. Kept, the fit is ok only before the pair, or not ok. A model that is wrong leaves none out: its residuals are not alone."""
+    text = (MODELS / "bouncing-ball.toml").read_text().replace('states = ["h", "v"]',
+                                                             'states = ["h", "v"]\nmeasured = ["h"]')
+    truth = text.replace("value = 0.8, desc", "value = 0.85, desc").replace("value = 0.0, desc", "value = 0.5, desc")
+    start = text.replace("value = 9.81, desc", "value = 5.0, desc").replace("value = 0.8, desc", "value = 0.5, desc")
+    start = start.replace("value = 0.0, desc", "value = 1.0, desc")
+    (tmp_path / "truth.toml").write_text(truth)
+    (tmp_path / "start.toml").write_text(start)
+    traj = hysid.simulate(hysid.Model.from_file(tmp_path / "truth.toml"), sigma=0.002, seed=3, t_end=8.0, dt=0.01)
+    y = np.array(traj["y"])[:, :1]
+    for k, size in [(300, 0.3), (301, 0.3), (len(y) - 1, -0.25)]:
+        y[k, 0] += size
+    model = hysid.Model.from_file(tmp_path / "start.toml")
+    fit = hysid.identify(model, y, dt=0.01)
+    assert fit["report"]["data"]["outliers"] == []
+    refined = fit["refined"]
+    assert refined["status"] == "ok", refined["reason"]
+    assert [o["t"] for o in refined["outliers"]] == pytest.approx([3.0, 3.01, 8.0])
+    assert all(o["sds"] > 10 for o in refined["outliers"])
+    assert refined["samples_used"] == len(y) - 3
+    for name, true in [("g", 9.81), ("lambda", 0.85), ("mu", 0.5)]:
+        assert abs(refined["estimates"][name] - true) < 4 * refined["standard_errors"][name]
+    kept = hysid.identify(model, y, dt=0.01, keep_outliers=True)["refined"]
+    assert kept["outliers"] == []
+    # Kept: ok only on the span before the pair (the detector takes it for jumps), or not ok.
+    assert kept["status"] != "ok" or kept["samples_used"] < 300
+    # The clean samples and a model with the impact term mu held at 0 (the truth's is 0.5): not ok, and
+    # none left out.
+    clean = np.array(traj["y"])[:, :1]
+    no_mu = start.replace("value = 1.0, desc", "value = 0.0, known = true, desc")
+    (tmp_path / "no_mu.toml").write_text(no_mu)
+    misfit = hysid.identify(hysid.Model.from_file(tmp_path / "no_mu.toml"), clean, dt=0.01)["refined"]
+    assert misfit["status"] != "ok" and misfit["outliers"] == []
+
+
 def test_singular_fit_reports_what_the_data_determine(tmp_path):
     """An integrate-and-fire neuron (threshold and reset one direction): singular-fisher at the noise,
     `determined` gives a, b and x0[v] with standard errors (truth within 4 of them), not c or theta;
