@@ -946,9 +946,10 @@ def test_bounds_note_on_a_recursive_estimate_outside_them(tmp_path):
     assert not any("outside its bounds" in n for n in refined["notes"]), refined["notes"]
 
 
-def test_outliers_left_out_unless_kept(tmp_path):
-    """A ball measured by its height alone, start values 2x off, three samples displaced by 0.25-0.4 m:
-    left out and listed, the fit ok within 4 SE of the truth; kept, the fit is not ok."""
+def _measured_ball(tmp_path):
+    """A ball measured by its height alone (g = 9.81, lambda = 0.85, mu = 0.5), 801 samples at 100 Hz,
+    sigma = 2 mm: the start model file's text (start values about 2x off, also written to start.toml)
+    and the simulation."""
     text = (MODELS / "bouncing-ball.toml").read_text().replace('states = ["h", "v"]',
                                                              'states = ["h", "v"]\nmeasured = ["h"]')
     truth = text.replace("value = 0.8, desc", "value = 0.85, desc").replace("value = 0.0, desc", "value = 0.5, desc")
@@ -957,6 +958,13 @@ def test_outliers_left_out_unless_kept(tmp_path):
     (tmp_path / "truth.toml").write_text(truth)
     (tmp_path / "start.toml").write_text(start)
     traj = hysid.simulate(hysid.Model.from_file(tmp_path / "truth.toml"), sigma=0.002, seed=3, t_end=8.0, dt=0.01)
+    return start, traj
+
+
+def test_outliers_left_out_unless_kept(tmp_path):
+    """A ball measured by its height alone, start values 2x off, three samples displaced by 0.25-0.4 m:
+    left out and listed, the fit ok within 4 SE of the truth; kept, the fit is not ok."""
+    _, traj = _measured_ball(tmp_path)
     y = np.array(traj["y"])[:, :1]
     for k, size in [(150, 0.3), (402, -0.25), (611, 0.4)]:
         y[k, 0] += size
@@ -987,15 +995,9 @@ def test_outliers_off_the_fit_left_out_by_the_fit(tmp_path):
     """The same ball with a pair of samples displaced together by 0.3 m and the last sample by -0.25 m:
     the data's rule keeps them (it judges samples alone, inside a chain); the first fit ends residual-rms,
     the three stand alone off it and are left out by the fit, which is then ok on all the others within
-    4 SE of the truth. Kept, the fit is ok only before the pair, or not ok. A model that is wrong leaves none out: its residuals are not alone."""
-    text = (MODELS / "bouncing-ball.toml").read_text().replace('states = ["h", "v"]',
-                                                             'states = ["h", "v"]\nmeasured = ["h"]')
-    truth = text.replace("value = 0.8, desc", "value = 0.85, desc").replace("value = 0.0, desc", "value = 0.5, desc")
-    start = text.replace("value = 9.81, desc", "value = 5.0, desc").replace("value = 0.8, desc", "value = 0.5, desc")
-    start = start.replace("value = 0.0, desc", "value = 1.0, desc")
-    (tmp_path / "truth.toml").write_text(truth)
-    (tmp_path / "start.toml").write_text(start)
-    traj = hysid.simulate(hysid.Model.from_file(tmp_path / "truth.toml"), sigma=0.002, seed=3, t_end=8.0, dt=0.01)
+    4 SE of the truth. Kept, the fit is ok only before the pair, or not ok. A model that is wrong leaves
+    none out: its residuals are not alone."""
+    start, traj = _measured_ball(tmp_path)
     y = np.array(traj["y"])[:, :1]
     for k, size in [(300, 0.3), (301, 0.3), (len(y) - 1, -0.25)]:
         y[k, 0] += size
