@@ -309,22 +309,24 @@ std::vector<OutlierSample> FitOutliers(const SampleData& data, const std::vector
 // A fit refused as residual-rms, or one ok on a span it cut short, with a few samples that stand off
 // it alone (FitOutliers): fitted again from the recursive estimate without them, and that fit kept
 // when its residuals pass every test (status ok) and, if the first was ok, it fits more samples; the
-// samples are then listed in fit_outliers. Anything else keeps the first fit.
-void RefitWithoutOutliers(const IdentifyOutcome& o, const std::vector<int>& measured, RefineStep& s) {
+// samples are then listed in fit_outliers. Anything else keeps the first fit. True when s.outputs
+// holds the fitted model's run for the fit kept.
+bool RefitWithoutOutliers(const IdentifyOutcome& o, const std::vector<int>& measured, RefineStep& s) {
   RefineResult& r = s.result;
   const bool cut = r.ok() && r.samples_used < o.data.y.cols();
-  if (!(r.status == RefineStatus::kResidualRms && r.reported) && !cut) return;
+  if (!(r.status == RefineStatus::kResidualRms && r.reported) && !cut) return false;
   const SampleData& data = o.data;
-  const FittedOutputs fit = RunFittedModel(o.model, data.t, data.y, data.chain_start, data.u, o.recursive, r);
+  s.outputs = RunFittedModel(o.model, data.t, data.y, data.chain_start, data.u, o.recursive, r);
   std::vector<Eigen::Index> at;
-  std::vector<OutlierSample> found = FitOutliers(data, measured, fit, &at);
-  if (found.empty()) return;
+  std::vector<OutlierSample> found = FitOutliers(data, measured, s.outputs, &at);
+  if (found.empty()) return true;
   SampleData without = data;
   for (const Eigen::Index k : at) without.y.col(k).setConstant(std::numeric_limits<double>::quiet_NaN());
   RefineResult again = RefineOnChains(o.model, without, o.recursive, s.options);
-  if (!again.ok() || (r.ok() && again.samples_used <= r.samples_used)) return;
+  if (!again.ok() || (r.ok() && again.samples_used <= r.samples_used)) return true;
   r = std::move(again);
   s.fit_outliers = std::move(found);
+  return false;
 }
 
 // The refinement (refine "ml") or the recursive estimate (none), and the bound at the truth.
@@ -343,13 +345,14 @@ RefineStep RunRefineStep(const IdentifyRequest& request, const IdentifyOutcome& 
   if (!partial.reconstructed.empty()) s.options.measured = partial.measured;
   s.options.x0_known = o.x0_known;
   s.options.x0 = o.x0;
+  bool have_outputs = false;  // s.outputs already run for the fit kept
   if (ml) {
     if (progress != nullptr) progress->Stage("refinement");
     const ScopedSolverProgress watch([progress](int fit, int iteration, double cost) {
       if (progress != nullptr) progress->Iteration(fit, iteration, cost);
     });
     r = RefineOnChains(model, data, recursive, s.options);
-    if (!request.keep_outliers) RefitWithoutOutliers(o, MeasuredOf(o), s);
+    have_outputs = !request.keep_outliers && RefitWithoutOutliers(o, MeasuredOf(o), s);
   } else {
     r.unknowns = Unknowns::Of(model);
     r.names = r.unknowns.Names(model);
@@ -362,7 +365,8 @@ RefineStep RunRefineStep(const IdentifyRequest& request, const IdentifyOutcome& 
   s.truth = HybridParameters::Of(model, request.truth.x0);
   if (progress != nullptr) progress->Stage("the fitted model over the record");
   if (ml && IsAutomaton(model.spec())) s.fitted = FittedEventsOf(model, data, recursive, r);
-  s.outputs = RunFittedModel(model, data.t, data.y, data.chain_start, data.u, recursive, r);
+  if (!have_outputs)
+    s.outputs = RunFittedModel(model, data.t, data.y, data.chain_start, data.u, recursive, r);
   if (progress != nullptr) progress->Clear();
   s.notes = UnitNotes(model, r.estimate);
   for (std::string& note : BoundNotes(model, r.estimate)) s.notes.push_back(std::move(note));
