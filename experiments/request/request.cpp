@@ -233,79 +233,6 @@ std::vector<int> MeasuredOf(const IdentifyOutcome& o) {
   return o.partial.measured.empty() ? MeasuredIndices(o.model) : o.partial.measured;
 }
 
-// A sample is off the fit when its residual y − matched in some measured state exceeds kOutlierSds
-// robust sd of that state's residuals (1.4826 × their median absolute value over the samples the
-// fitted model reaches: past a span the fit cut, its prediction).
-// Off the fit alone: in a run of at most kFitOutlierRun such samples in its chain, the samples beside
-// the run (where the chain has them) within kFitOutlierNeighbour robust sd, or kFitOutlierFraction of
-// the run's least, in every measured state. A model that misses an event or a kink leaves residuals
-// that rise and fall over several samples. More than kFitOutlierShare of the samples: none (a model
-// error, not a few bad samples). The samples off the fit alone, in order, and their indices (columns
-// of data.y) in `at`.
-std::vector<OutlierSample> FitOutliers(const SampleData& data, const std::vector<int>& measured,
-                                       const FittedOutputs& fit, std::vector<Eigen::Index>* at) {
-  const Eigen::Index K = data.y.cols();
-  const bool full = data.y.rows() == fit.matched.rows();
-  const auto m = static_cast<Eigen::Index>(measured.size());
-  Mat z = Mat::Constant(m, K, std::numeric_limits<double>::quiet_NaN());  // |residual| in robust sd
-  for (Eigen::Index r = 0; r < m; ++r) {
-    const Eigen::Index row = full ? measured[std::size_t(r)] : r;
-    std::vector<double> a;
-    for (Eigen::Index k = 0; k < K; ++k) {
-      const double e = data.y(row, k) - fit.matched(measured[std::size_t(r)], k);
-      if (std::isfinite(e)) {
-        z(r, k) = std::abs(e);
-        a.push_back(std::abs(e));
-      }
-    }
-    if (a.size() < 12) return {};
-    std::nth_element(a.begin(), a.begin() + std::ptrdiff_t(a.size() / 2), a.end());
-    const double sd = 1.4826 * a[a.size() / 2];
-    if (!(sd > 0.0)) return {};
-    z.row(r) /= sd;
-  }
-  auto worst = [&](Eigen::Index k) { return z.col(k).maxCoeff(); };  // NaN-free columns only
-  auto scored = [&](Eigen::Index k) { return z.col(k).allFinite(); };
-  auto chain_starts = [&](Eigen::Index k) {
-    return k == 0 || (!data.chain_start.empty() && data.chain_start[std::size_t(k)]);
-  };
-  std::vector<OutlierSample> out;
-  for (Eigen::Index k = 0; k < K;) {
-    if (!scored(k) || !(worst(k) > kOutlierSds)) {
-      ++k;
-      continue;
-    }
-    Eigen::Index end = k + 1;  // the run [k, end) within the chain
-    while (end < K && !chain_starts(end) && scored(end) && worst(end) > kOutlierSds) ++end;
-    const bool short_run = end - k <= kFitOutlierRun;
-    double least = worst(k);
-    for (Eigen::Index i = k + 1; i < end; ++i) least = std::min(least, worst(i));
-    const double beside = std::max(kFitOutlierNeighbour, kFitOutlierFraction * least);
-    const bool clean_before = chain_starts(k) || (scored(k - 1) && worst(k - 1) <= beside);
-    const bool clean_after = end == K || chain_starts(end) || (scored(end) && worst(end) <= beside);
-    if (short_run && clean_before && clean_after) {
-      for (Eigen::Index i = k; i < end; ++i) {
-        Eigen::Index r = 0;
-        z.col(i).maxCoeff(&r);
-        const Eigen::Index row = full ? measured[std::size_t(r)] : r;
-        at->push_back(i);
-        out.push_back({.run = data.run.empty() ? 0 : data.run[std::size_t(i)],
-                       .line = data.line.empty() ? 0 : data.line[std::size_t(i)],
-                       .t = data.t[std::size_t(i)],
-                       .row = static_cast<int>(r),
-                       .value = data.y(row, i),
-                       .sds = z(r, i)});
-      }
-    }
-    k = end;
-  }
-  if (static_cast<double>(out.size()) > kFitOutlierShare * static_cast<double>(K)) {
-    out.clear();
-    at->clear();
-  }
-  return out;
-}
-
 // A fit refused as residual-rms, or one ok on a span it cut short, with a few samples that stand off
 // it alone (FitOutliers): fitted again from the recursive estimate without them, and that fit kept
 // when its residuals pass every test (status ok) and, if the first was ok, it fits more samples; the
@@ -374,6 +301,74 @@ RefineStep RunRefineStep(const IdentifyRequest& request, const IdentifyOutcome& 
 }
 
 }  // namespace
+
+// Robust sd: 1.4826 × the median |residual| (past a span the fit cut, the residuals off its
+// prediction). A model that misses an event or a kink leaves residuals that rise and fall over several
+// samples, which the run length and the samples beside it refuse; more than kFitOutlierShare of the
+// samples is a model error, not a few bad samples.
+std::vector<OutlierSample> FitOutliers(const SampleData& data, const std::vector<int>& measured,
+                                       const FittedOutputs& fit, std::vector<Eigen::Index>* at) {
+  const Eigen::Index K = data.y.cols();
+  const bool full = data.y.rows() == fit.matched.rows();
+  const auto m = static_cast<Eigen::Index>(measured.size());
+  Mat z = Mat::Constant(m, K, std::numeric_limits<double>::quiet_NaN());  // |residual| in robust sd
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const Eigen::Index row = full ? measured[std::size_t(r)] : r;
+    std::vector<double> a;
+    for (Eigen::Index k = 0; k < K; ++k) {
+      const double e = data.y(row, k) - fit.matched(measured[std::size_t(r)], k);
+      if (std::isfinite(e)) {
+        z(r, k) = std::abs(e);
+        a.push_back(std::abs(e));
+      }
+    }
+    if (a.size() < 12) return {};
+    std::nth_element(a.begin(), a.begin() + std::ptrdiff_t(a.size() / 2), a.end());
+    const double sd = 1.4826 * a[a.size() / 2];
+    if (!(sd > 0.0)) return {};
+    z.row(r) /= sd;
+  }
+  auto worst = [&](Eigen::Index k) { return z.col(k).maxCoeff(); };  // NaN-free columns only
+  auto scored = [&](Eigen::Index k) { return z.col(k).allFinite(); };
+  auto chain_starts = [&](Eigen::Index k) {
+    return k == 0 || (!data.chain_start.empty() && data.chain_start[std::size_t(k)]);
+  };
+  std::vector<OutlierSample> out;
+  for (Eigen::Index k = 0; k < K;) {
+    if (!scored(k) || !(worst(k) > kOutlierSds)) {
+      ++k;
+      continue;
+    }
+    Eigen::Index end = k + 1;  // the run [k, end) within the chain
+    while (end < K && !chain_starts(end) && scored(end) && worst(end) > kOutlierSds) ++end;
+    const bool short_run = end - k <= kFitOutlierRun;
+    double least = worst(k);
+    for (Eigen::Index i = k + 1; i < end; ++i) least = std::min(least, worst(i));
+    const double beside = std::max(kFitOutlierNeighbour, kFitOutlierFraction * least);
+    const bool clean_before = chain_starts(k) || (scored(k - 1) && worst(k - 1) <= beside);
+    const bool clean_after = end == K || chain_starts(end) || (scored(end) && worst(end) <= beside);
+    if (short_run && clean_before && clean_after) {
+      for (Eigen::Index i = k; i < end; ++i) {
+        Eigen::Index r = 0;
+        z.col(i).maxCoeff(&r);
+        const Eigen::Index row = full ? measured[std::size_t(r)] : r;
+        at->push_back(i);
+        out.push_back({.run = data.run.empty() ? 0 : data.run[std::size_t(i)],
+                       .line = data.line.empty() ? 0 : data.line[std::size_t(i)],
+                       .t = data.t[std::size_t(i)],
+                       .row = static_cast<int>(r),
+                       .value = data.y(row, i),
+                       .sds = z(r, i)});
+      }
+    }
+    k = end;
+  }
+  if (static_cast<double>(out.size()) > kFitOutlierShare * static_cast<double>(K)) {
+    out.clear();
+    at->clear();
+  }
+  return out;
+}
 
 Mat NoiseShapeOf(const std::vector<double>& v, const std::string& option, Spelling spelling) {
   if (v.empty()) return Mat();

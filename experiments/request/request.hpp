@@ -96,6 +96,16 @@ inline constexpr double kFitOutlierNeighbour = 3.0;
 inline constexpr double kFitOutlierFraction = 0.1;
 inline constexpr double kFitOutlierShare = 0.01;
 
+// The samples that stand alone off a fit (RefitWithoutOutliers): per measured state (`measured`: the
+// model's state indices; data.y holds those rows, or every state's), |y − fit.matched| in robust sd of
+// that state's residuals over the samples where it is finite; a sample beyond kOutlierSds in some state,
+// in a run of at most kFitOutlierRun such samples inside its chain, the samples beside the run within
+// kFitOutlierNeighbour robust sd or kFitOutlierFraction of the run's least; none when they are more than
+// kFitOutlierShare of the samples. In order, with their columns of data.y in `at`; `sds` the residual,
+// `row` the measured state's index among `measured`.
+std::vector<OutlierSample> FitOutliers(const SampleData& data, const std::vector<int>& measured,
+                                       const FittedOutputs& fit, std::vector<Eigen::Index>* at);
+
 struct IdentifyOutcome {
   explicit IdentifyOutcome(Model m) : model(std::move(m)) {}
   Model model;  // the model identified

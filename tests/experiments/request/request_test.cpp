@@ -273,3 +273,54 @@ TEST_CASE("request: a driven model is not run through a gap whose input the data
     CHECK(std::abs(estimate[i] - value) < 4.0 * se[i]);
   }
 }
+
+TEST_CASE("request: FitOutliers takes samples and pairs alone off the fit, not runs or samples beside others",
+          "[request][outliers]") {
+  // One measured state, 1000 samples in two chains (the second from sample 60); residuals
+  // 1e-3 sin(1.7 k): robust sd 1.4826 × median |sin| × 1e-3, about 1.05e-3.
+  const Eigen::Index K = 1000;
+  SampleData data;
+  data.y = Mat::Zero(1, K);
+  data.chain_start.assign(std::size_t(K), 0);
+  data.chain_start[60] = 1;
+  FittedOutputs fit;
+  fit.matched = Mat::Zero(1, K);
+  for (Eigen::Index k = 0; k < K; ++k) {
+    data.t.push_back(0.1 * double(k));
+    data.run.push_back(0);
+    data.line.push_back(long(k) + 2);
+    fit.matched(0, k) = std::cos(0.05 * double(k));
+    data.y(0, k) = fit.matched(0, k) + 1e-3 * std::sin(1.7 * double(k));
+  }
+  auto off = [&](Eigen::Index k, double by) { data.y(0, k) = fit.matched(0, k) + by; };
+  off(30, 0.05);                                   // alone: taken
+  off(60, -0.04);                                  // a chain's first sample, its neighbour clean: taken
+  off(100, 0.03), off(101, 0.03);                  // a pair: taken
+  off(140, 0.03), off(141, 0.03), off(142, 0.03);  // three in a row: kept
+  off(170, 0.02), off(171, 0.0055);  // beside a sample at about 5 sd (more than 3 and a tenth): kept
+  off(K - 1, 0.05);                  // the last sample: taken
+  std::vector<Eigen::Index> at;
+  const std::vector<OutlierSample> found = FitOutliers(data, {0}, fit, &at);
+  CHECK(at == std::vector<Eigen::Index>{30, 60, 100, 101, K - 1});
+  REQUIRE(found.size() == at.size());
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    CHECK(found[i].line == long(at[i]) + 2);
+    CHECK(found[i].t == Approx(0.1 * double(at[i])));
+    CHECK(found[i].row == 0);
+    CHECK(found[i].value == data.y(0, at[i]));
+    CHECK(found[i].sds > kOutlierSds);
+  }
+  CHECK(found[0].sds == Approx(0.05 / (1.4826 * 1e-3 * std::sqrt(0.5))).epsilon(0.1));
+  // A sample at a chain's end (59, before the chain at 60 starts) is judged within its chain: its
+  // neighbour 58 clean, 60 in another chain.
+  off(60, 0.0);
+  off(59, 0.05);
+  at.clear();
+  CHECK(FitOutliers(data, {0}, fit, &at).size() == 5);
+  CHECK(at[1] == 59);
+  // More than 1 % of the samples off alone: a model error, none taken.
+  for (const Eigen::Index k : {200, 210, 220, 230, 240, 250}) off(k, 0.05);
+  at.clear();
+  CHECK(FitOutliers(data, {0}, fit, &at).empty());
+  CHECK(at.empty());
+}
