@@ -94,13 +94,12 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
   if (!r.route.empty()) std::printf("  route: %s\n", r.route.c_str());
   for (const std::string& tried : r.routes_tried) std::printf("  tried: %s\n", tried.c_str());
   for (const OutlierSample& o : step.fit_outliers) {
+    const std::string& file =
+        o.run < static_cast<int>(data.run_names.size()) ? data.run_names[std::size_t(o.run)] : data.path;
     std::printf(
-        "  outlier left out by the fit: %s line %ld, t = %.6g: %s = %.6g, its residual %.3g robust sd off "
-        "the "
-        "first fit, alone there (--keep-outliers keeps it)\n",
-        o.run < static_cast<int>(data.run_names.size()) ? data.run_names[std::size_t(o.run)].c_str()
-                                                        : data.path.c_str(),
-        o.line, o.t, data.state_columns[std::size_t(o.row)].c_str(), o.value, o.sds);
+        "  outlier left out by the fit: %s line %ld, t = %.6g: %s = %.6g, its residual %.3g robust sd "
+        "off the first fit, alone there (--keep-outliers keeps it)\n",
+        file.c_str(), o.line, o.t, data.state_columns[std::size_t(o.row)].c_str(), o.value, o.sds);
   }
   if (!data.uniform) {
     const std::string each =
@@ -115,8 +114,7 @@ void PrintRefinement(const Model& model, const SampleData& data, const IdentifyR
         r.chains_used, each.c_str(), r.chains_skipped, 2 * model.state_size() + 2, r.samples_used,
         static_cast<long>(data.y.cols()));
     if (!r.span_reason.empty()) std::printf("  %s\n", r.span_reason.c_str());
-  } else if (const long span = r.samples_used + static_cast<long>(step.fit_outliers.size());
-             span < data.y.cols()) {
+  } else if (const long span = step.span(); span < data.y.cols()) {
     std::printf("  fitted the first %ld of %ld samples (t <= %.6g): %s\n", span,
                 static_cast<long>(data.y.cols()), static_cast<double>(span - 1) * data.dt,
                 r.span_reason.c_str());
@@ -161,7 +159,7 @@ int RefineAndReport(const IdentifyRequest& request, IdentifyOutcome& outcome, co
   const SampleData& data = outcome.data;
   const RefineStep& step = outcome.refinement;
   const RefineResult& r = step.result;
-  if (args.refine == "ml") PrintRefinement(model, data, outcome.recursive, outcome.refinement);
+  if (args.refine == "ml") PrintRefinement(model, data, outcome.recursive, step);
   PrintEstimates(r, step.truth, step.bound);
   for (const std::string& note : step.notes) std::printf("note: %s\n", note.c_str());
   if (step.bound.ok()) {

@@ -378,9 +378,8 @@ nlohmann::json OutcomeJson(const IdentifyOutcome& outcome) {
   nlohmann::json j = RefinementJson(outcome.recursive_report, r, outcome.recursive, outcome.refine, step.options);
   j["samples"] = data.y.cols();
   j["min_chain_samples"] = 2 * model.state_size() + 2;
-  const long span = r.samples_used + static_cast<long>(step.fit_outliers.size());  // outliers inside it
   j["fit_t_end"] = data.uniform && r.samples_used > 0
-                       ? nlohmann::json(static_cast<double>(span - 1) * data.dt)
+                       ? nlohmann::json(static_cast<double>(step.span() - 1) * data.dt)
                        : nlohmann::json();
   if (outcome.refine == "ml" && IsAutomaton(model.spec()) && j.contains("automaton")) {
     AddFittedEventsJson(step.fitted, &j["automaton"]);

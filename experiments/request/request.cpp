@@ -286,8 +286,7 @@ RefineStep RunRefineStep(const IdentifyRequest& request, const IdentifyOutcome& 
     r.start = r.estimate =
         HybridParameters{recursive.alpha_hat, recursive.beta_hat, data.y.col(0), model.gamma()};
   }
-  // The span fitted: the samples used and those the fit left out inside it.
-  const long used = ml ? r.samples_used + static_cast<long>(s.fit_outliers.size()) : data.y.cols();
+  const long used = ml ? s.span() : data.y.cols();
   s.bound = TruthBound(model, request.truth, used, data, MeasuredOf(o), s.known);
   s.truth = HybridParameters::Of(model, request.truth.x0);
   if (progress != nullptr) progress->Stage("the fitted model over the record");

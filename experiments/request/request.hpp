@@ -83,6 +83,8 @@ struct RefineStep {
   // Samples left out by the fit (RefitWithoutOutliers in request.cpp): `sds` their residual off the
   // first fit in robust sd, `row` the measured state's index in SampleData::state_columns.
   std::vector<OutlierSample> fit_outliers;
+  // The samples of the span fitted: those used and those the fit left out inside it.
+  long span() const { return result.samples_used + static_cast<long>(fit_outliers.size()); }
   // Notes, not refusals: an estimate kUnitsFactor times or more larger or smaller in magnitude than its
   // start value (the model's value) says "check the units"; a recursive estimate outside its bounds.
   std::vector<std::string> notes;
