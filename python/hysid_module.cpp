@@ -116,7 +116,8 @@ py::dict SimulateDict(const py::object& model_arg, const py::object& x0, const p
   const std::uint64_t seed = Count(seed_arg, "seed"), trial = Count(trial_arg, "trial");
   const int n = model.state_size();
   const Run run = CheckedRun(model, x0, t_end, dt, rtol, atol, inputs);
-  const Vec s = CheckedSigma(Numbers(sigma, "sigma"), n, /*allow_zero=*/true, Spelling::kKeyword);
+  const Vec s = CheckedSigma(Numbers(sigma, "sigma"), n, /*allow_zero=*/true, Spelling::kKeyword,
+                             MeasuredIndices(model));
   auto stop = std::make_shared<std::atomic<bool>>(false);
   const auto [traj, y] = RunInterruptible<std::pair<Trajectory, Mat>>([model, run, s, seed, trial, stop] {
     Exogenous exo;

@@ -245,7 +245,8 @@ void RunSimulate(const SimulateArgs& args, const Environment& env) {
   const Model model = MakeModel(env, args.model);
   const ModelSpec& spec = model.spec();
   const SampleGrid grid = GridFlag(args.trajectory, model);
-  const Vec sigma = SigmaFlag(args.sigma, model.state_size());
+  const Vec sigma = CheckedSigma(args.sigma, model.state_size(), /*allow_zero=*/true, Spelling::kFlag,
+                                 MeasuredIndices(model));
   CheckSimOptions(args.sim, Spelling::kFlag);
   // Outputs checked before the run; written as one set below.
   // The trajectory, its sidecar and the jumps file are three files, none of them the model file.
@@ -304,7 +305,9 @@ void AddSimulateCommand(CLI::App& app, Environment& env) {
   CLI::App* sub = app.add_subcommand("simulate", "simulate one trajectory of a model, measured with noise");
   AddModelFlags(*sub, args->model, "set a parameter, name=value (repeatable)");
   AddTrajectoryFlags(*sub, args->trajectory);
-  AddSigmaOption(*sub, args->sigma, "measurement noise standard deviation: one value, or one per state")
+  AddSigmaOption(*sub, args->sigma,
+                 "measurement noise standard deviation: one value, one per state, or one per measured "
+                 "state (the model's `measured`; the others noise-free)")
       ->capture_default_str();
   sub->add_option("--seed", args->seed, "noise seed (0 to 2^64-1)")
       ->capture_default_str()

@@ -44,17 +44,27 @@ SampleGrid CheckedGrid(double t_end, double dt, Spelling spelling) {
   return grid;
 }
 
-Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling) {
+Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling,
+                 const std::vector<int>& measured) {
   const std::string name = Spelled("sigma", spelling);
   CheckFinite(name, values);
-  Vec sigma(states);
-  if (values.size() == 1) {
+  const auto given = static_cast<int>(values.size()), m = static_cast<int>(measured.size());
+  const bool some_measured = m > 0 && m < states;
+  Vec sigma = Vec::Zero(states);
+  if (given == 1) {
     sigma.setConstant(values[0]);
-  } else if (static_cast<int>(values.size()) == states) {
+  } else if (given == states) {
     sigma = Eigen::Map<const Vec>(values.data(), states);
+  } else if (some_measured && given == m) {
+    for (int i = 0; i < m; ++i) sigma[measured[std::size_t(i)]] = values[std::size_t(i)];
+  } else if (some_measured) {
+    throw std::invalid_argument(
+        fmt::format("{} has {} values; give one, one per state ({}) or one per measured "
+                    "state ({})",
+                    name, given, states, m));
   } else {
     throw std::invalid_argument(
-        fmt::format("{} has {} values; give one, or one per state ({})", name, values.size(), states));
+        fmt::format("{} has {} values; give one, or one per state ({})", name, given, states));
   }
   if (allow_zero ? (sigma.array() < 0.0).any() : (sigma.array() <= 0.0).any()) {
     throw std::invalid_argument(

@@ -31,8 +31,11 @@ void CheckFinite(const std::string& name, const std::vector<double>& values);
 // The sample grid of t_end and dt: each finite and > 0, and within the samples limit (kMaxSamples).
 SampleGrid CheckedGrid(double t_end, double dt, Spelling spelling);
 
-// σ: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
-Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling);
+// σ: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero); with
+// `measured` (the indices of the states the data measure, when not all) also one per measured state,
+// the others then 0.
+Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero, Spelling spelling,
+                 const std::vector<int>& measured = {});
 
 // The range in which σ (for the CRLB and a known σ of the refinement) keeps 1/σ² and the residuals
 // r/σ finite and normal: "--sigma = 1e-300: out of range (1e-150 <= sigma <= 1e+150 ...)".

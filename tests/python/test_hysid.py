@@ -251,6 +251,52 @@ def test_simulate_refuses_what_the_cli_refuses(tmp_path, args, kwargs):
     assert str(e.value) == keyword(message)
 
 
+# A ball thrown sideways onto a floor, its position measured, its velocity not.
+PARTLY_MEASURED = """name = "ball-2d"
+states = ["x", "z", "vx", "vz"]
+measured = ["x", "z"]
+alpha = [{ name = "one", value = 1.0, known = true }, { name = "g", value = 9.81 }]
+beta = [{ name = "one_b", value = 1.0, known = true }, { name = "e", value = 0.8 }]
+[flow]
+phi = [["vx", 0], ["vz", 0], [0, 0], [0, -1]]
+rows = ["vz"]
+[jump]
+psi = [["x", 0], ["z", 0], ["vx", 0], [0, "-vz"]]
+rows = ["vz"]
+[[guard]]
+h = "z"
+direction = "falling"
+project = { z = "0" }
+[sets]
+C = "z > 0 || (z == 0 && vz >= 0)"
+D = "z == 0 && vz <= 0"
+[defaults]
+x0 = [0.0, 1.0, 1.0, 0.0]
+t_end = 1.0
+dt = 0.1
+"""
+
+
+def test_simulate_sigma_one_per_measured_state(tmp_path):
+    model = tmp_path / "partly.toml"
+    model.write_text(PARTLY_MEASURED)
+    cli("simulate", "--model-file", model, "--sigma", "0.1,0.2,0,0", "--seed", 5, "--out", tmp_path / "all.csv")
+    cli("simulate", "--model-file", model, "--sigma", "0.1,0.2", "--seed", 5, "--out", tmp_path / "measured.csv")
+    # One per measured state: the same draws as one per state with the unmeasured state's sigma 0.
+    assert (tmp_path / "measured.csv").read_bytes() == (tmp_path / "all.csv").read_bytes()
+    table = np.loadtxt(tmp_path / "measured.csv", delimiter=",", skiprows=1)
+    truth, noisy = table[:, 2:6], table[:, 6:10]
+    assert np.all(noisy[:, :2] != truth[:, :2])
+    np.testing.assert_array_equal(noisy[:, 2:], truth[:, 2:])
+    traj = hysid.simulate(str(model), sigma=[0.1, 0.2], seed=5)
+    np.testing.assert_array_equal(traj["y"], noisy)
+    message = cli_refusal("simulate", "--model-file", model, "--sigma", "1,2,3", "--out", tmp_path / "t.csv")
+    assert message == "--sigma has 3 values; give one, one per state (4) or one per measured state (2)"
+    with pytest.raises(ValueError) as e:
+        hysid.simulate(str(model), sigma=[1.0, 2.0, 3.0])
+    assert str(e.value) == keyword(message)
+
+
 @pytest.mark.parametrize("args,kwargs", CRLB_REFUSED)
 def test_crlb_refuses_what_the_cli_refuses(args, kwargs):
     message = cli_refusal("crlb", *args)
