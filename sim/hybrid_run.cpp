@@ -245,7 +245,7 @@ bool Engine::DisableRoots() {
 }
 
 int Engine::Step(double tstop, double* tret) {
-  if (options_.stop != nullptr && options_.stop->load()) {
+  if (options_.stopped()) {
     Fail(SimStop::kSolverFailure, fmt::format("stopped at t = {:.17g} (SimOptions::stop)", t_));
     return -1;
   }

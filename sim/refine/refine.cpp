@@ -651,18 +651,18 @@ bool Better(const RefineResult& a, const RefineResult& b) {
   return a.reported && a.final_cost < b.final_cost;
 }
 
-// The starts of multiple shooting by time, in order: the recursive estimate; the model's own values
-// (a model file's start values); while no fit is ok, for an automaton with a hidden mode, α of the
-// modes the data show (ModeClusteredAlpha, with the model's own β and γ); with `search` (the labelled
-// routes reported nothing) while no fit can be reported (every one singular, unconverged or failed: a
-// start in another basin, or whose guards the model never reaches), the model's values with γ where the
-// guards are reached (GammaReachingGuards), then the points of a Halton design over the box the model's
-// values span (DesignStarts), each with γ where its guards are reached, until one is ok (their fits are kept
-// only when ok); the same search when the best fit is refused by its residual tests although some start's
-// nearly free segments fit the data to the noise (RefineResult::segments_fit_noise: a local minimum, not
-// model error), a fit kept only when ok at a lower cost. A fit that Determines ends the starts (and a
-// searching start's is kept) as an ok one does. The best of the fits (Better); `mended` names the
-// start of the one kept.
+// The starts of multiple shooting by time, in order: the recursive estimate and the model's own values (a
+// model file's start values), side by side, the latter's fit kept at once when ok; while no fit is ok, for
+// an automaton with a hidden mode, α of the modes the data show (ModeClusteredAlpha, with the model's own β
+// and γ); with `search` (the labelled routes reported nothing) while no fit can be reported (every one
+// singular, unconverged or failed: a start in another basin, or whose guards the model never reaches), the
+// model's values with γ where the guards are reached (GammaReachingGuards), then the points of a Halton
+// design over the box the model's values span (DesignStarts), each with γ where its guards are reached,
+// until one is ok (their fits are kept only when ok); the same search when the best fit is refused by its
+// residual tests although some start's nearly free segments fit the data to the noise
+// (RefineResult::segments_fit_noise: a local minimum, not model error), a fit kept only when ok at a lower
+// cost. A fit that Determines ends the starts (and a searching start's is kept) as an ok one does. The best
+// of the fits (Better); `mended` names the start of the one kept.
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
                                     const HybridParameters& recursive, const RefineOptions& options, bool search) {
   auto named = [](RefineResult fit, const std::string& start) {
@@ -685,15 +685,27 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   auto fit = [&](const HybridParameters& from, const std::string& what) {
     return named(FitByTimeShooting(model, chains, from, options), what);
   };
-  // The first two starts are always both fit: side by side (each fit is deterministic and the
-  // better is kept by Better, in this order, so the result does not depend on the threads).
+  // The first two starts are fit side by side: the model's values' fit, when ok, is kept and the
+  // recursive estimate's is then stopped; else both run to their end and the better is kept (Better, in
+  // this order). Each fit is deterministic, so the result does not depend on the threads.
   const bool own_differs =
       own.alpha != recursive.alpha || own.beta != recursive.beta || own.gamma != recursive.GammaOr(model);
   std::optional<RefineResult> from_own;
-  tbb::parallel_invoke([&] { best = fit(recursive, "the recursive estimate"); },
-                       [&] {
-                         if (own_differs && !options.stopped()) from_own = fit(own, "the model's values");
-                       });
+  std::atomic<bool> own_ok{false};
+  RefineOptions beside = options;
+  beside.cancel = beside.sensitivity.sim.cancel = &own_ok;
+  tbb::parallel_invoke(
+      [&] { best = named(FitByTimeShooting(model, chains, recursive, beside), "the recursive estimate"); },
+      [&] {
+        if (!own_differs || options.stopped()) return;
+        from_own = fit(own, "the model's values");
+        if (from_own->ok()) own_ok = true;
+      });
+  if (own_ok) {
+    best = RefineResult{};
+    consider(std::move(*from_own));
+    return best;
+  }
   bool segments_fit_noise = best.segments_fit_noise || (from_own && from_own->segments_fit_noise);
   if (from_own) consider(std::move(*from_own));
   if (best.ok() || Determines(best) || options.stopped()) return best;

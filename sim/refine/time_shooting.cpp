@@ -660,6 +660,9 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
     runs.Add(i, cost);
     cp.AddResidualBlock(cost, nullptr, blocks);
   }
+  // Every segment off (none simulates at the point, or its runs were stopped): nothing to solve, and
+  // the default summary's FAILURE says so.
+  if (cp.NumResidualBlocks() == 0) return {};
   const std::vector<const Parameter*> params = pr.unknowns.Parameters(*pr.model);
   for (int i = 0; i < pr.shared; ++i) {
     if (std::isfinite(params[std::size_t(i)]->lower)) cp.SetParameterLowerBound(theta.data(), i, params[std::size_t(i)]->lower);
