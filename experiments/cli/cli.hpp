@@ -181,9 +181,7 @@ std::string PluginHelp(const char* what, const std::vector<Descriptor>& descript
 // --estimator and --detector by name into both estimators' and the detector's kind; errors name the flag.
 void SetPluginKinds(const std::string& estimator, const std::string& detector, IdentifierSettings* settings);
 
-// --sigma: one value for every state or one per state, each finite and >= 0 (> 0 without allow_zero).
-Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero = true);
-// Adds --sigma (comma-separated) with the given help; read it with SigmaFlag.
+// Adds --sigma (comma-separated) with the given help; read it with CheckedSigma or CheckedNoiseSigma.
 CLI::Option* AddSigmaOption(CLI::App& cmd, std::vector<double>& sigma, const std::string& help);
 // Adds --rtol and --atol, the integrator's tolerances; `covers` ends their help (may be empty).
 void AddToleranceOptions(CLI::App& cmd, SimOptions& sim, const std::string& covers);

@@ -269,10 +269,6 @@ void AddToleranceOptions(CLI::App& cmd, SimOptions& sim, const std::string& cove
   cmd.add_option("--atol", sim.atol, "CVODE absolute tolerance" + suffix)->capture_default_str();
 }
 
-Vec SigmaFlag(const std::vector<double>& values, int states, bool allow_zero) {
-  return CheckedSigma(values, states, allow_zero, Spelling::kFlag);
-}
-
 Progress::Mode ProgressFlag(const std::string& text) {
   if (text == "auto") return Progress::Mode::kAuto;
   if (text == "bar") return Progress::Mode::kBar;

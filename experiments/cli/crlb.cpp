@@ -51,8 +51,7 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
       InitialStateFlag(args.trajectory, model, {.t = 0.0, .u = inputs.empty() ? nullptr : u0.data()});
   const std::vector<int> measured = MeasuredIndices(model);
   const bool all = static_cast<int>(measured.size()) == n;
-  const Vec sigma = SigmaFlag(args.sigma, static_cast<int>(measured.size()), /*allow_zero=*/false);
-  CheckSigmaRange(sigma, Spelling::kFlag);
+  const Vec sigma = CheckedNoiseSigma(args.sigma, static_cast<int>(measured.size()), Spelling::kFlag);
   CheckBoundGrid(grid, Spelling::kFlag);
   const std::vector<int> known = X0KnownFlag(args.x0_known, model);
   // Every component known: ξ0 is not in θ; some: in θ, held (sd 0, left out of the inverse).

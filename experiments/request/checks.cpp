@@ -83,8 +83,14 @@ void CheckSigmaRange(const Vec& sigma, Spelling spelling) {
   }
 }
 
-Vec CheckedNoiseSigma(const std::vector<double>& values, int states, Spelling spelling) {
-  Vec sigma = CheckedSigma(values, states, /*allow_zero=*/false, spelling);
+Vec CheckedNoiseSigma(const std::vector<double>& values, int measured, Spelling spelling) {
+  const std::string name = Spelled("sigma", spelling);
+  CheckFinite(name, values);
+  if (values.size() != 1 && static_cast<int>(values.size()) != measured) {
+    throw std::invalid_argument(fmt::format("{} has {} values; give one, or one per measured state ({})",
+                                            name, values.size(), measured));
+  }
+  Vec sigma = CheckedSigma(values, measured, /*allow_zero=*/false, spelling);
   CheckSigmaRange(sigma, spelling);
   return sigma;
 }

@@ -41,8 +41,9 @@ Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero,
 // r/σ finite and normal: "--sigma = 1e-300: out of range (1e-150 <= sigma <= 1e+150 ...)".
 inline constexpr double kMinSigma = 1e-150, kMaxSigma = 1e150;
 void CheckSigmaRange(const Vec& sigma, Spelling spelling);
-// The noise σ of a fit or a bound: CheckedSigma (> 0), then CheckSigmaRange.
-Vec CheckedNoiseSigma(const std::vector<double>& values, int states, Spelling spelling);
+// The noise σ of a fit or a bound, one value or one per measured state: CheckedSigma (> 0), then
+// CheckSigmaRange.
+Vec CheckedNoiseSigma(const std::vector<double>& values, int measured, Spelling spelling);
 
 // The CRLB's grid: at least two samples ("--t-end = 1e-300: out of range: ... t_end >= dt").
 void CheckBoundGrid(const SampleGrid& grid, Spelling spelling);
