@@ -59,9 +59,8 @@ Vec CheckedSigma(const std::vector<double>& values, int states, bool allow_zero,
     for (int i = 0; i < m; ++i) sigma[measured[std::size_t(i)]] = values[std::size_t(i)];
   } else if (some_measured) {
     throw std::invalid_argument(
-        fmt::format("{} has {} values; give one, one per state ({}) or one per measured "
-                    "state ({})",
-                    name, given, states, m));
+        fmt::format("{} has {} values; give one, one per state ({}) or one per measured state ({})", name,
+                    given, states, m));
   } else {
     throw std::invalid_argument(
         fmt::format("{} has {} values; give one, or one per state ({})", name, given, states));
