@@ -204,7 +204,7 @@ py::dict Parameters(const Model& m) {
 py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::object& t_end,
                   const py::object& dt, const py::object& sigma, const py::object& x0_known_arg,
                   const py::object& rtol, const py::object& atol, const py::object& inputs,
-                  const py::object& param_bound, const py::object& mode_arg) {
+                  const py::object& param_bound, const py::object& mode_arg, const py::object& times) {
   Model model = ModelArgument(model_arg).model;
   ApplyBounds(BoundTexts(param_bound), Spelling::kKeyword, &model);
   const std::string mode_name = mode_arg.is_none() ? std::string() : py::cast<std::string>(py::str(mode_arg));
@@ -216,21 +216,27 @@ py::dict CrlbDict(const py::object& model_arg, const py::object& x0, const py::o
   const Vec s =
       CheckedNoiseSigma(Numbers(sigma, "sigma"), static_cast<int>(measured.size()), Spelling::kKeyword);
   CheckBoundGrid(run.grid, Spelling::kKeyword);
+  const std::vector<std::uint8_t> present =
+      times.is_none() ? std::vector<std::uint8_t>{}
+                      : SamplesAtTimes(Numbers(times, "times"), run.grid, "times",
+                                       [](std::size_t i) { return fmt::format("times[{}]", i); });
   const std::vector<int> known = KnownX0(X0KnownText(x0_known_arg), model, Spelling::kKeyword);
   auto stop = std::make_shared<std::atomic<bool>>(false);
-  const Crlb c = RunInterruptible<Crlb>([model, run, s, known, measured, all, n, mode, stop] {
-    SensitivityOptions options;
-    options.sim = run.sim;
-    options.sim.stop = stop.get();
-    // As `hysid crlb`: every component known, ξ0 is not in θ; some: in θ, held (sd 0).
-    const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
-    HybridParameters at = HybridParameters::Of(model, run.x0);
-    at.initial_mode = mode;
-    return HoldKnownX0(
-        ComputeCrlb(model, at, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
-                    run.inputs.empty() ? nullptr : &run.inputs),
-        unknowns, known, n);
-  }, stop);
+  const Crlb c = RunInterruptible<Crlb>(
+      [model, run, s, known, measured, all, n, mode, present, stop] {
+        SensitivityOptions options;
+        options.sim = run.sim;
+        options.sim.stop = stop.get();
+        // As `hysid crlb`: every component known, ξ0 is not in θ; some: in θ, held (sd 0).
+        const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
+        HybridParameters at = HybridParameters::Of(model, run.x0);
+        at.initial_mode = mode;
+        return HoldKnownX0(
+            ComputeCrlb(model, at, run.grid, s, unknowns, options, all ? std::vector<int>{} : measured,
+                        run.inputs.empty() ? nullptr : &run.inputs, present),
+            unknowns, known, n);
+      },
+      stop);
   py::dict sd;
   for (std::size_t i = 0; i < c.names.size() && c.ok(); ++i) sd[py::str(c.names[i])] = c.sd[Eigen::Index(i)];
   py::dict out;
@@ -361,10 +367,12 @@ PYBIND11_MODULE(hysid, m) {
         py::arg("dt") = py::none(), py::arg("sigma") = 1.0, py::arg("x0_known") = false,
         py::arg("rtol") = hysid::SimOptions{}.rtol, py::arg("atol") = hysid::SimOptions{}.atol,
         py::arg("inputs") = py::none(), py::arg("param_bound") = py::none(), py::arg("mode") = py::none(),
+        py::arg("times") = py::none(),
         "The Cramér–Rao lower bound as `hysid crlb`: dict with status, message, names, sd (by name), "
         "covariance, fisher, mean_e_alpha, mean_e_beta, mean_e_gamma, jumps, samples. sigma: per measured "
         "state; x0_known: True/'all' or state names (held: sd 0); inputs as simulate's; param_bound "
-        "{name: (lo, hi)}; mode: a hybrid automaton's initial mode by name (None: the model's default)");
+        "{name: (lo, hi)}; mode: a hybrid automaton's initial mode by name (None: the model's default); "
+        "times: the bound on these sample times only (grid times k*dt, as `--times`; None: every sample)");
   m.def("run_sweep", &RunSweepFile, py::arg("file"), py::arg("out") = "", py::arg("threads") = 0,
         "Runs a sweep file as `hysid sweep` (resumes from the run directory's journal); returns the counts. "
         "Ctrl-C stops it between units (the journal keeps the finished ones) and raises KeyboardInterrupt");

@@ -24,6 +24,7 @@ struct CrlbArgs {
   SensitivityOptions options;
   std::string inputs;  // --inputs FILE (empty: the model file's defaults)
   std::string mode;    // --mode NAME: the initial mode of a model with modes (empty: its default)
+  std::string times;   // --times FILE: the bound on the sample times of a data file (empty: every sample)
 };
 
 
@@ -53,22 +54,29 @@ int RunCrlb(const CrlbArgs& args, const Environment& env) {
   const bool all = static_cast<int>(measured.size()) == n;
   const Vec sigma = CheckedNoiseSigma(args.sigma, static_cast<int>(measured.size()), Spelling::kFlag);
   CheckBoundGrid(grid, Spelling::kFlag);
+  const std::vector<std::uint8_t> present = args.times.empty()
+                                                ? std::vector<std::uint8_t>{}
+                                                : CheckedSampleTimes(args.times, grid, Spelling::kFlag);
   const std::vector<int> known = X0KnownFlag(args.x0_known, model);
   // Every component known: ξ0 is not in θ; some: in θ, held (sd 0, left out of the inverse).
   const Unknowns unknowns = Unknowns::Of(model, static_cast<int>(known.size()) != n);
   const int mode = ModeFlag(args.mode, model);
   HybridParameters at = HybridParameters::Of(model, x0);
   at.initial_mode = mode;
-  const Crlb c =
-      HoldKnownX0(ComputeCrlb(model, at, grid, sigma, unknowns, args.options,
-                              all ? std::vector<int>{} : measured, inputs.empty() ? nullptr : &inputs),
-                  unknowns, known, n);
+  const Crlb c = HoldKnownX0(
+      ComputeCrlb(model, at, grid, sigma, unknowns, args.options, all ? std::vector<int>{} : measured,
+                  inputs.empty() ? nullptr : &inputs, present),
+      unknowns, known, n);
   std::vector<std::string> measured_names;
   for (const int i : measured) measured_names.push_back(spec.state_names[static_cast<std::size_t>(i)]);
-  std::printf("model %s, x0 = (%s)%s, t_end = %g, dt = %g (%ld samples), sigma = (%s), %s%s\n", spec.name.c_str(),
+  const std::string samples =
+      present.empty() ? fmt::format("{} samples", grid.size())
+                      : fmt::format("{} of {} samples: the times of {}",
+                                    std::count(present.begin(), present.end(), 1), grid.size(), args.times);
+  std::printf("model %s, x0 = (%s)%s, t_end = %g, dt = %g (%s), sigma = (%s), %s%s\n", spec.name.c_str(),
               fmt::format("{:g}", fmt::join(x0, ", ")).c_str(),
-              spec.modes.empty() ? "" : fmt::format(" in mode {}", spec.modes[std::size_t(mode)]).c_str(), grid.t_end,
-              grid.dt, grid.size(), fmt::format("{:g}", fmt::join(sigma, ", ")).c_str(),
+              spec.modes.empty() ? "" : fmt::format(" in mode {}", spec.modes[std::size_t(mode)]).c_str(),
+              grid.t_end, grid.dt, samples.c_str(), fmt::format("{:g}", fmt::join(sigma, ", ")).c_str(),
               X0KnownText(known, model).c_str(),
               all ? "" : fmt::format(", measured {} only", fmt::join(measured_names, ", ")).c_str());
   if (!c.ok()) {
@@ -124,6 +132,9 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
   sub->add_option("--inputs", args->inputs,
                   "a model with inputs: CSV with a column t and one per input name (default: the model "
                   "file's input_defaults at the sample times)");
+  sub->add_option("--times", args->times,
+                  "the bound on the samples a data file holds: a CSV with a column t (e.g. the data given to "
+                  "identify, with its missing rows and gaps); each time a sample time k*dt of the grid");
   sub->add_option("--mode", args->mode,
                   "a hybrid automaton with modes: the initial mode, by name (default: the model's default "
                   "mode)");

@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <cstdlib>
-#include <map>
 #include <cstdint>
+#include <cstdlib>
+#include <functional>
+#include <map>
 #include <stdexcept>
 #include <system_error>
 #include <tuple>
@@ -14,6 +15,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/io/csv.hpp"
 #include "core/io/limits.hpp"
 #include "core/model_file/input_defaults.hpp"
 
@@ -398,6 +400,48 @@ InputSignal CheckedInputs(const std::string& path, const ModelSpec& spec, const 
     throw std::invalid_argument(fmt::format("{} {}: {}", flag, path, e));
   }
   return s;
+}
+
+std::vector<std::uint8_t> SamplesAtTimes(const std::vector<double>& times, const SampleGrid& grid,
+                                         const std::string& name,
+                                         const std::function<std::string(std::size_t)>& where) {
+  std::vector<std::uint8_t> present(static_cast<std::size_t>(grid.size()), 0);
+  std::vector<std::size_t> given_at(present.size(), 0);
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const double t = times[i], k = std::round(t / grid.dt);
+    if (!std::isfinite(t) || k < 0.0 || k >= static_cast<double>(grid.size()) ||
+        std::abs(t - k * grid.dt) > 1e-6 * grid.dt) {
+      throw std::invalid_argument(
+          fmt::format("{}: t = {}: not a sample time of the grid (k·dt, dt = {:g}, from 0 to {:g})", where(i),
+                      t, grid.dt, static_cast<double>(grid.size() - 1) * grid.dt));
+    }
+    const auto at = static_cast<std::size_t>(k);
+    if (present[at] != 0) {
+      throw std::invalid_argument(
+          fmt::format("{}: t = {}: the same sample as {}", where(i), t, where(given_at[at])));
+    }
+    present[at] = 1;
+    given_at[at] = i;
+  }
+  if (std::count(present.begin(), present.end(), 1) < 2) {
+    throw std::invalid_argument(fmt::format("{}: fewer than two sample times", name));
+  }
+  return present;
+}
+
+std::vector<std::uint8_t> CheckedSampleTimes(const std::string& path, const SampleGrid& grid,
+                                             Spelling spelling) {
+  const std::string name = fmt::format("{} {}", Spelled("times", spelling), path);
+  CsvTable table;
+  try {
+    table = ReadCsv(path);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(fmt::format("{} {}", Spelled("times", spelling), e.what()));
+  }
+  const int column = table.Find("t");
+  if (column < 0) throw std::invalid_argument(fmt::format("{}: no column t", name));
+  return SamplesAtTimes(table.columns[std::size_t(column)], grid, name,
+                        [&](std::size_t i) { return fmt::format("{}:{}", name, table.line_of_row[i]); });
 }
 
 }  // namespace hysid

@@ -129,4 +129,14 @@ int ModeIndex(const std::string& name, const Model& model, Spelling spelling);
 InputSignal CheckedInputs(const std::string& path, const ModelSpec& spec, const SampleGrid& grid,
                           Spelling spelling);
 
+// The samples of `grid` at `times` (a record with missing rows and gaps), one entry per grid sample
+// (1: present). Each time must be a grid time k·dt (within 1e-6 dt), once; at least two. `where(i)`
+// names time i in a message, `name` the whole.
+std::vector<std::uint8_t> SamplesAtTimes(const std::vector<double>& times, const SampleGrid& grid,
+                                         const std::string& name,
+                                         const std::function<std::string(std::size_t)>& where);
+// SamplesAtTimes of the column t of the CSV file `path`; errors name the flag, the file and the line.
+std::vector<std::uint8_t> CheckedSampleTimes(const std::string& path, const SampleGrid& grid,
+                                             Spelling spelling);
+
 }  // namespace hysid

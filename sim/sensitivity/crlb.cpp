@@ -20,7 +20,8 @@ const char* ToString(CrlbStatus status) {
   return "unknown";
 }
 
-Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const std::vector<int>& measured) {
+Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const std::vector<int>& measured,
+                      const std::vector<std::uint8_t>& present) {
   const Eigen::Index n = s.trajectory.x.rows();
   std::vector<int> rows = measured;
   if (rows.empty()) {
@@ -35,16 +36,21 @@ Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const st
   }
   const Eigen::Index p = s.parameters;
   const Eigen::Index k_count = s.sensitivities.cols();
+  if (!present.empty() && static_cast<Eigen::Index>(present.size()) != k_count) {
+    throw std::invalid_argument(
+        fmt::format("FisherInformation: present has {} entries for {} samples", present.size(), k_count));
+  }
   // Rows of all H S_k scaled by 1/σ_i, stacked: F = WᵀW, accumulated in blocks.
   Mat fisher = Mat::Zero(p, p);
   constexpr Eigen::Index kBlock = 1024;
   Mat w(kBlock * m, p);
   const Vec inverse = sigma.cwiseInverse();
   for (Eigen::Index k0 = 0; k0 < k_count; k0 += kBlock) {
-    const Eigen::Index count = std::min(kBlock, k_count - k0);
-    for (Eigen::Index k = 0; k < count; ++k) {
-      const Eigen::Map<const Mat> sk(s.sensitivities.col(k0 + k).data(), n, p);
-      w.middleRows(k * m, m) = inverse.asDiagonal() * sk(rows, Eigen::all);
+    Eigen::Index count = 0;
+    for (Eigen::Index k = k0; k < std::min(k0 + kBlock, k_count); ++k) {
+      if (!present.empty() && present[std::size_t(k)] == 0) continue;
+      const Eigen::Map<const Mat> sk(s.sensitivities.col(k).data(), n, p);
+      w.middleRows(count++ * m, m) = inverse.asDiagonal() * sk(rows, Eigen::all);
     }
     fisher.selfadjointView<Eigen::Lower>().rankUpdate(w.topRows(count * m).transpose());
   }
@@ -224,14 +230,17 @@ Crlb HoldKnownX0(Crlb c, const Unknowns& unknowns, const std::vector<int>& known
 }
 
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured,
-                 const InputSignal* inputs) {
-  return ComputeCrlb(model, HybridParameters::Of(model, x0), grid, sigma, unknowns, options, measured, inputs);
+                 const Unknowns& unknowns, const SensitivityOptions& options,
+                 const std::vector<int>& measured, const InputSignal* inputs,
+                 const std::vector<std::uint8_t>& present) {
+  return ComputeCrlb(model, HybridParameters::Of(model, x0), grid, sigma, unknowns, options, measured, inputs,
+                     present);
 }
 
 Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
-                 const Unknowns& unknowns, const SensitivityOptions& options, const std::vector<int>& measured,
-                 const InputSignal* inputs) {
+                 const Unknowns& unknowns, const SensitivityOptions& options,
+                 const std::vector<int>& measured, const InputSignal* inputs,
+                 const std::vector<std::uint8_t>& present) {
   const auto m = measured.empty() ? model.state_size() : static_cast<int>(measured.size());
   if (sigma.size() != m || !sigma.allFinite() || !(sigma.array() > 0.0).all()) {
     throw std::invalid_argument(fmt::format("sigma must have {} finite entries > 0", m));
@@ -253,8 +262,12 @@ Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGri
     out.names = unknowns.Names(model);
     return out;
   }
-  Crlb out = CrlbFromFisher(FisherInformation(s, sigma, measured), unknowns, unknowns.Names(model));
-  out.samples = s.trajectory.size();
+  if (!present.empty() && static_cast<long>(present.size()) != s.trajectory.size()) {
+    throw std::invalid_argument(
+        fmt::format("present has {} entries for {} samples", present.size(), s.trajectory.size()));
+  }
+  Crlb out = CrlbFromFisher(FisherInformation(s, sigma, measured, present), unknowns, unknowns.Names(model));
+  out.samples = present.empty() ? s.trajectory.size() : std::count(present.begin(), present.end(), 1);
   out.jumps = static_cast<int>(s.trajectory.jumps.size());
   return out;
 }

@@ -5,6 +5,7 @@
 // themselves is left out (S_k is the derivative at a fixed jump count).
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -35,9 +36,11 @@ struct Crlb {
   bool ok() const { return status == CrlbStatus::kOk; }
 };
 
-// Σ_k S_kᵀ Hᵀ diag(σ)⁻² H S_k over the samples of `s`, H the rows `measured` of the identity (empty:
-// all n). σ: one entry per measured state, all > 0; else std::invalid_argument.
-Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const std::vector<int>& measured = {});
+// Σ_k S_kᵀ Hᵀ diag(σ)⁻² H S_k over the samples of `s` (those with present[k] = 1 when `present` is
+// given, one entry per sample), H the rows `measured` of the identity (empty: all n). σ: one entry per
+// measured state, all > 0; else std::invalid_argument.
+Mat FisherInformation(const SensitivityTrajectory& s, const Vec& sigma, const std::vector<int>& measured = {},
+                      const std::vector<std::uint8_t>& present = {});
 
 // E‖z‖ for z ~ N(0, covariance) (symmetric PSD), deterministic: E√X = (2√π)⁻¹ ∫₀^∞ (1 − Π_i (1 +
 // 2λ_i s)^{−1/2}) s^{−3/2} ds over the eigenvalues λ_i, by the trapezoid rule in log s (relative
@@ -73,14 +76,17 @@ Crlb HoldKnownX0(Crlb c, const Unknowns& unknowns, const std::vector<int>& known
 
 // The bound at the model's true α, β and the given ξ0 over `grid` with noise σ (one entry > 0 per
 // measured state) on the states `measured` (indices, increasing; empty: all), with the measured
-// inputs `inputs` for a model with inputs (else nullptr).
+// inputs `inputs` for a model with inputs (else nullptr), on the grid's samples k with present[k] = 1
+// when `present` is given (one entry per sample: a record with missing samples and gaps).
 // Throws std::invalid_argument for bad inputs (as SimulateSensitivities, plus σ and measured).
 Crlb ComputeCrlb(const Model& model, const Vec& x0, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options = {},
-                 const std::vector<int>& measured = {}, const InputSignal* inputs = nullptr);
+                 const std::vector<int>& measured = {}, const InputSignal* inputs = nullptr,
+                 const std::vector<std::uint8_t>& present = {});
 // The same at the given α, β, γ and ξ0 (γ empty: the model's).
 Crlb ComputeCrlb(const Model& model, const HybridParameters& at, const SampleGrid& grid, const Vec& sigma,
                  const Unknowns& unknowns, const SensitivityOptions& options = {},
-                 const std::vector<int>& measured = {}, const InputSignal* inputs = nullptr);
+                 const std::vector<int>& measured = {}, const InputSignal* inputs = nullptr,
+                 const std::vector<std::uint8_t>& present = {});
 
 }  // namespace hysid

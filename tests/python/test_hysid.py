@@ -297,6 +297,37 @@ def test_simulate_sigma_one_per_measured_state(tmp_path):
     assert str(e.value) == keyword(message)
 
 
+def test_crlb_on_the_sample_times_of_a_data_file(tmp_path):
+    def sd_lines(text):
+        return [line for line in text.splitlines() if " sd " in line]
+
+    grid = np.arange(1601) * 5e-3  # --t-end 8 --dt 5e-3
+    every = tmp_path / "every.csv"
+    np.savetxt(every, np.column_stack([grid, np.zeros_like(grid)]), delimiter=",", header="t,x", comments="")
+    flags = ["crlb", "--t-end", 8, "--dt", 5e-3, "--sigma", 0.25]
+    plain = cli(*flags)
+    assert sd_lines(cli(*flags, "--times", every)) == sd_lines(plain)
+    # Half the samples (the first 4 s): each bound wider, the count said.
+    half = tmp_path / "half.csv"
+    np.savetxt(half, np.column_stack([grid[:801], grid[:801]]), delimiter=",", header="t,x", comments="")
+    cut = cli(*flags, "--times", half)
+    assert f"(801 of 1601 samples: the times of {half})" in cut
+    sd = lambda text: [float(line.split(" sd ")[1].split()[0]) for line in sd_lines(text)]
+    assert all(c > p for c, p in zip(sd(cut), sd(plain)))
+    # Python: the same bound from the times themselves (the CLI prints 6 significant digits).
+    bound = hysid.crlb("impact-msd", t_end=8.0, dt=5e-3, sigma=0.25, times=grid[:801])
+    assert bound["samples"] == 801
+    np.testing.assert_allclose(list(bound["sd"].values()), sd(cut), rtol=1e-5)
+    off = tmp_path / "off.csv"
+    off.write_text("t,x\n0,0\n0.0075,0\n")
+    assert cli_refusal(*flags, "--times", off) == (
+        f"--times {off}:3: t = 0.0075: not a sample time of the grid (k·dt, dt = 0.005, from 0 to 8)")
+    with pytest.raises(ValueError, match=r"^times\[1\]: t = 0.0075: not a sample time of the grid"):
+        hysid.crlb("impact-msd", t_end=8.0, dt=5e-3, sigma=0.25, times=[0.0, 0.0075])
+    with pytest.raises(ValueError, match=r"^times\[2\]: t = 0.005: the same sample as times\[1\]"):
+        hysid.crlb("impact-msd", t_end=8.0, dt=5e-3, sigma=0.25, times=[0.0, 0.005, 0.005])
+
+
 @pytest.mark.parametrize("args,kwargs", CRLB_REFUSED)
 def test_crlb_refuses_what_the_cli_refuses(args, kwargs):
     message = cli_refusal("crlb", *args)

@@ -389,6 +389,9 @@ INPUTS_FILES = {
     "driven.toml": DRIVEN,
     "driven-nodefault.toml": re.sub(r"\ninput_defaults = [^\n]*", "", DRIVEN, count=1),
     "u-short.csv": "t,u\n0,0\n1,1\n2,0\n",
+    "times-off.csv": "t,x\n0,20\n0.00075,20\n",
+    "times-twice.csv": "t,x\n0,20\n0.0005,20\n0.0005,20\n",
+    "u-nocol-t.csv": "time,x\n0,20\n0.0005,20\n",
     "u-nocol.csv": "t,w\n0,0\n50,1\n",
     "u-missing.csv": "t,u\n0,0\n1,\n50,1\n",
     "nou.csv": "t,y1,y2\n0,0,0\n0.001,0,0\n0.002,0,0\n",
@@ -534,6 +537,9 @@ MEASURED_CASES = [
     ("identify: --x0-known with --refine none", ["identify", "--data", "sim.csv", "--x0-known", "--refine", "none"]),
     ("crlb: --x0-known names a state twice", ["crlb", "--x0-known", "x,x"]),
     ("crlb: --sigma of the wrong length", ["crlb", "--sigma", "1,2,3"]),
+    ("crlb: --times off the grid", ["crlb", "--times", "times-off.csv"]),
+    ("crlb: --times twice the same", ["crlb", "--times", "times-twice.csv"]),
+    ("crlb: --times without a column t", ["crlb", "--times", "u-nocol-t.csv"]),
 ]
 
 # Cases whose message names something the command line does not show as its last flag or file.

@@ -167,6 +167,39 @@ TEST_CASE("CRLB of the §5 system (x0 unknown) within 2 % of the independent fig
   for (int i = 0; i < 4; ++i) CHECK(known.sd[i] == Approx(0.25 * expected_known[i]).epsilon(0.02));
 }
 
+TEST_CASE("the bound on the samples present: the information of those samples alone", "[sensitivity]") {
+  const Model model{ImpactMsd{}};
+  const Unknowns u = Unknowns::Of(model);
+  const SampleGrid grid{20.0, 5e-4};
+  const SensitivityTrajectory s =
+      SimulateSensitivities(model, HybridParameters::Of(model, DefaultX0(model)), u, grid);
+  REQUIRE(s.ok());
+  const auto k_count = static_cast<std::size_t>(s.trajectory.size());
+  // Every other sample of the first half, and a gap of the second: the two sets and their complement.
+  std::vector<std::uint8_t> some(k_count, 0), rest(k_count, 1), all(k_count, 1);
+  for (std::size_t k = 0; k < k_count; ++k) {
+    some[k] = (k < k_count / 2 && k % 2 == 0) || k > 3 * k_count / 4 ? 1 : 0;
+    rest[k] = 1 - some[k];
+  }
+  const Mat whole = FisherInformation(s, Vec::Ones(2));
+  CHECK((FisherInformation(s, Vec::Ones(2), {}, all) - whole).norm() == 0.0);
+  const Mat parts =
+      FisherInformation(s, Vec::Ones(2), {}, some) + FisherInformation(s, Vec::Ones(2), {}, rest);
+  CHECK((parts - whole).norm() <= 1e-12 * whole.norm());
+  // The first 10 s alone: the bound of the grid that ends there.
+  std::vector<std::uint8_t> first(k_count, 0);
+  const SampleGrid half{10.0, 5e-4};
+  std::fill(first.begin(), first.begin() + half.size(), 1);
+  const Crlb cut = ComputeCrlb(model, DefaultX0(model), grid, Vec::Ones(2), u, {}, {}, nullptr, first);
+  const Crlb shorter = ComputeCrlb(model, DefaultX0(model), half, Vec::Ones(2), u);
+  REQUIRE(cut.ok());
+  REQUIRE(shorter.ok());
+  CHECK(cut.samples == half.size());
+  for (Eigen::Index i = 0; i < cut.sd.size(); ++i) CHECK(cut.sd[i] == Approx(shorter.sd[i]).epsilon(1e-6));
+  CHECK_THROWS_WITH(FisherInformation(s, Vec::Ones(2), {}, std::vector<std::uint8_t>(3, 1)),
+                    Catch::Contains("present has 3 entries for"));
+}
+
 TEST_CASE("x0 known: every component held is the bound without x0 in theta", "[sensitivity]") {
   const Model model{ImpactMsd{}};
   const SampleGrid grid{20.0, 5e-4};
