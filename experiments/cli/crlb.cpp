@@ -132,9 +132,11 @@ void AddCrlbCommand(CLI::App& app, Environment& env) {
   sub->add_option("--inputs", args->inputs,
                   "a model with inputs: CSV with a column t and one per input name (default: the model "
                   "file's input_defaults at the sample times)");
-  sub->add_option("--times", args->times,
-                  "the bound on the samples a data file holds: a CSV with a column t (e.g. the data given to "
-                  "identify, with its missing rows and gaps); each time a sample time k*dt of the grid");
+  sub->add_option(
+      "--times", args->times,
+      "the bound on the samples a data file holds: a CSV with a column t (e.g. the data given to "
+      "identify, with its missing rows and gaps; a row with a missing cell left out); each time a "
+      "sample time k*dt of the grid");
   sub->add_option("--mode", args->mode,
                   "a hybrid automaton with modes: the initial mode, by name (default: the model's default "
                   "mode)");

@@ -440,8 +440,20 @@ std::vector<std::uint8_t> CheckedSampleTimes(const std::string& path, const Samp
   }
   const int column = table.Find("t");
   if (column < 0) throw std::invalid_argument(fmt::format("{}: no column t", name));
-  return SamplesAtTimes(table.columns[std::size_t(column)], grid, name,
-                        [&](std::size_t i) { return fmt::format("{}:{}", name, table.line_of_row[i]); });
+  // A row with a missing cell is not a sample (identify leaves it out too).
+  std::vector<double> times;
+  std::vector<long> lines;
+  for (long r = 0; r < table.rows(); ++r) {
+    const auto row = static_cast<std::size_t>(r);
+    if (std::any_of(table.columns.begin(), table.columns.end(),
+                    [&](const std::vector<double>& c) { return std::isnan(c[row]); })) {
+      continue;
+    }
+    times.push_back(table.columns[std::size_t(column)][row]);
+    lines.push_back(table.line_of_row[row]);
+  }
+  return SamplesAtTimes(times, grid, name,
+                        [&](std::size_t i) { return fmt::format("{}:{}", name, lines[i]); });
 }
 
 }  // namespace hysid

@@ -135,7 +135,8 @@ InputSignal CheckedInputs(const std::string& path, const ModelSpec& spec, const 
 std::vector<std::uint8_t> SamplesAtTimes(const std::vector<double>& times, const SampleGrid& grid,
                                          const std::string& name,
                                          const std::function<std::string(std::size_t)>& where);
-// SamplesAtTimes of the column t of the CSV file `path`; errors name the flag, the file and the line.
+// SamplesAtTimes of the column t of the CSV file `path`, its rows with a missing cell left out (as
+// identify leaves them out); errors name the flag, the file and the line.
 std::vector<std::uint8_t> CheckedSampleTimes(const std::string& path, const SampleGrid& grid,
                                              Spelling spelling);
 

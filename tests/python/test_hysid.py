@@ -314,6 +314,12 @@ def test_crlb_on_the_sample_times_of_a_data_file(tmp_path):
     assert f"(801 of 1601 samples: the times of {half})" in cut
     sd = lambda text: [float(line.split(" sd ")[1].split()[0]) for line in sd_lines(text)]
     assert all(c > p for c, p in zip(sd(cut), sd(plain)))
+    # A row with a missing cell is not a sample, as identify leaves it out.
+    gappy = tmp_path / "gappy.csv"
+    lines = half.read_text().splitlines()
+    lines[3] = lines[3].split(",")[0] + ",nan"
+    gappy.write_text("\n".join(lines) + "\n")
+    assert f"(800 of 1601 samples: the times of {gappy})" in cli(*flags, "--times", gappy)
     # Python: the same bound from the times themselves (the CLI prints 6 significant digits).
     bound = hysid.crlb("impact-msd", t_end=8.0, dt=5e-3, sigma=0.25, times=grid[:801])
     assert bound["samples"] == 801
