@@ -275,6 +275,9 @@ class Model {
   }
   // Euclidean distance from x to D when the struct provides DistanceToJumpSet, else NaN.
   bool has_jump_set_distance() const { return impl_->ProvidesJumpSetDistance(); }
+  // Whether a flow φ_q may read guard parameter γ_i: false only when the struct says so
+  // (FlowReadsGamma; a model file's flows that do not name it), so ∂(φα)/∂γ_i is zero, bit for bit.
+  bool flow_reads_gamma(int i) const { return impl_->FlowReadsGamma(i); }
   double DistanceToJumpSet(const ConstVecRef& x) const { return impl_->DistanceToJumpSet(x, Resolve({})); }
   double DistanceToJumpSet(const ConstVecRef& x, const Context& ctx) const {
     return impl_->DistanceToJumpSet(x, Resolve(ctx));
@@ -337,6 +340,7 @@ class Model {
     virtual bool InJumpSet(const ConstVecRef& x) const = 0;
     virtual void ProjectOntoGuard(int i, VecRef x) const = 0;
     virtual bool ProvidesJumpSetDistance() const = 0;
+    virtual bool FlowReadsGamma(int i) const = 0;
     virtual double DistanceToJumpSet(const ConstVecRef& x) const = 0;
     virtual void Flow(const ConstVecRef& x, const ConstVecRef& alpha, VecRef dxdt) const = 0;
     virtual void Jump(const ConstVecRef& x, const ConstVecRef& beta, VecRef xplus) const = 0;
@@ -454,6 +458,15 @@ class Model {
         return m_.ProvidesJumpSetDistance();  // a struct whose distance is optional at run time
       } else {
         return kContext ? HasContextJumpSetDistance<M> : HasJumpSetDistance<M>;
+      }
+    }
+    bool FlowReadsGamma(int i) const override {
+      if constexpr (requires {
+                      { m_.FlowReadsGamma(i) } -> std::convertible_to<bool>;
+                    }) {
+        return m_.FlowReadsGamma(i);
+      } else {
+        return kContext;  // an x-only model reads no γ
       }
     }
     double DistanceToJumpSet(const ConstVecRef& x) const override { return DistanceToJumpSet(x, kNoContext); }

@@ -58,6 +58,7 @@ struct Definition {
   bool contextual = false;  // inputs or γ: every evaluation loads them (and t) from the context
   bool binds_time = false;  // `t` is a variable (a model with inputs and no state named t)
   bool reads_parameters = false;  // a guard or set reads an α or β name: Load loads them
+  std::vector<bool> flow_reads_gamma;  // per guard parameter: some φ_q names it
   ModelSpec spec;
   std::vector<ExprMatrix> phi;  // per mode q: φ_q, n × |α|
   std::vector<std::vector<ExprMatrix>> phi_rows;  // per mode q and row r: row r of φ_q alone
@@ -268,6 +269,7 @@ struct FileModel {
     return def->has_sets && Loaded(x, ctx).in_d.Eval() != 0.0;
   }
   bool ProvidesJumpSetDistance() const { return !def->distance.empty(); }
+  bool FlowReadsGamma(int i) const { return def->flow_reads_gamma.at(std::size_t(i)); }
   double DistanceToJumpSet(ConstVecRef x, const Context& ctx) const {
     if (def->distance.empty()) return std::numeric_limits<double>::quiet_NaN();
     return Loaded(x, ctx).distance.Eval();
@@ -1373,6 +1375,7 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
                     std::find(spec.state_names.begin(), spec.state_names.end(), "t") == spec.state_names.end();
   Symbols sym = MakeSymbols(*def);
   ParseFlows(rd, root, *def, sym);
+  for (const Parameter& g : spec.guard_params) def->flow_reads_gamma.push_back(sym.used.contains(g.name));
   for (const ExprMatrix& phi : def->phi) {
     def->phi_rows.emplace_back();
     for (Eigen::Index r = 0; r < phi.rows; ++r) def->phi_rows.back().push_back(RowOf(phi, r));

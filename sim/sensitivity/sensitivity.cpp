@@ -211,7 +211,8 @@ class SensitivityPayload final : public hybrid::Payload {
   };
 
   // out = (∂f/∂ξ) S + ∂f/∂θ: column i of ∂f/∂θ is column i of φ for α's unknowns, ∂(φα)/∂γ_i by
-  // central differences for γ's (zero unless φ uses γ), zero for β's and ξ0's.
+  // central differences for the γ's a flow reads (Model::flow_reads_gamma), zero for the other γ's,
+  // β's and ξ0's.
   void Derivative(const ConstVecRef& x, const Eigen::Ref<const Mat>& s, const Context& ctx, Eigen::Ref<Mat> out) {
     model_.FlowJacobian(x, params_.alpha, jac_, ctx);
     model_.Phi(x, phi_, ctx);
@@ -219,6 +220,7 @@ class SensitivityPayload final : public hybrid::Payload {
     const auto& au = unknowns_.alpha;
     for (std::size_t i = 0; i < au.size(); ++i) out.col(static_cast<Eigen::Index>(i)) += phi_.col(au[i]);
     for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+      if (!model_.flow_reads_gamma(unknowns_.gamma[c])) continue;
       GammaDifference(
           unknowns_.gamma[c], ctx, [&](const Context& at, VecRef f) { model_.Flow(x, params_.alpha, f, at); },
           f_plus_, f_minus_);

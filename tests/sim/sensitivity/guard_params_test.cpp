@@ -189,5 +189,46 @@ dt = 5e-4
   CHECK(a.jump_times < 1e-5);
 }
 
+TEST_CASE("a guard parameter no flow reads: its flow term is skipped and S still matches differences",
+          "[sensitivity]") {
+  // w in the flow and the guard, d in the guard alone (the wall at w·d): only w's ∂f/∂γ is computed.
+  const std::string text = R"toml(
+name = "wall-scaled"
+states = ["x", "v"]
+alpha = [
+  { name = "alpha_x", value = 1.0, known = true },
+  { name = "k", value = 16.0 },
+]
+beta = [
+  { name = "beta_x", value = 1.0, known = true },
+  { name = "lambda", value = 0.9 },
+]
+guard_params = [ { name = "w", value = 1.0 }, { name = "d", value = 0.9 } ]
+[flow]
+phi = [["v", 0], [0, "-(x - 0.2*w)"]]
+rows = ["v"]
+[jump]
+psi = [["x", 0], [0, "-v"]]
+rows = ["v"]
+[[guard]]
+name = "wall"
+h = "x - w*d"
+direction = "rising"
+[sets]
+C = "x <= w*d"
+D = "x >= w*d && v >= 0"
+[defaults]
+x0 = [0.0, 4.0]
+t_end = 4.0
+dt = 5e-4
+)toml";
+  const Model model = ParseModelFile(text, "wall-scaled.toml").model;
+  CHECK(model.flow_reads_gamma(0));
+  CHECK_FALSE(model.flow_reads_gamma(1));
+  const Agreement a = CompareWithDifferences(model, SampleGrid{4.0, 5e-4}, {});
+  CHECK(a.states < 1e-5);
+  CHECK(a.jump_times < 1e-5);
+}
+
 }  // namespace
 }  // namespace hysid
