@@ -643,6 +643,14 @@ class SegmentRuns final : public ceres::EvaluationCallback {
   std::vector<std::pair<std::size_t, const SegmentCost*>> costs_;
 };
 
+// The cost ½·m·N of m measured rows over N samples at the noise: the scale of Ceres' relative
+// function tolerance.
+double ExpectedCost(const ShootingProblem& pr) {
+  long samples = 0;
+  for (const Segment& seg : pr.segments) samples += seg.samples();
+  return std::max(1.0, 0.5 * static_cast<double>(pr.rows.size()) * static_cast<double>(samples));
+}
+
 ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& options, Vec& theta,
                              std::vector<Vec>& s) {
   SegmentRuns runs(theta, s);
@@ -669,6 +677,7 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
     if (std::isfinite(params[std::size_t(i)]->upper)) cp.SetParameterUpperBound(theta.data(), i, params[std::size_t(i)]->upper);
   }
   ceres::Solver::Options so = LevenbergMarquardt(options);
+  so.function_tolerance = std::max(so.function_tolerance, kCostResolution / ExpectedCost(pr));
   so.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)
                               ? ceres::SPARSE_NORMAL_CHOLESKY
                               : ceres::DENSE_QR;

@@ -17,8 +17,9 @@ spec.loader.exec_module(rc)
 
 def test_refit_reproduces_hysids_free_flight_fit():
     f = rc.fit(rc.read(os.path.join(CUBE, "data", "free_flight.csv")), True)
-    # `hysid identify ... --sigma 3.75e-5 0.00614`: g = 9.642912011 ± 0.001046, lag-1 0.144.
-    assert abs(f["g"] - 9.642912011) < 1e-6 and abs(f["se_white"] / 0.001046 - 1) < 1e-3
+    # `hysid identify ... --sigma 3.75e-5 0.00614`: g = 9.642935873 ± 0.001046, lag-1 0.144. Its solves
+    # end at a cost change of 1e-3, a move of at most 0.045 standard errors (kCostResolution).
+    assert abs(f["g"] - 9.642935873) < 0.045 * 0.001046 and abs(f["se_white"] / 0.001046 - 1) < 1e-3
     assert round(f["lag1_pooled"], 3) == 0.144 and f["tosses"] == 533
 
 
