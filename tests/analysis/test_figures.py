@@ -470,14 +470,14 @@ def test_efficiency_divides_by_the_bound_of_the_samples_used(tmp_path, captured)
 
 
 def test_efficiency_of_a_cut_record_uses_the_bound_of_the_fitted_samples(tmp_path, captured):
-    # The drag ball's fits leave out its last bounces: e_β over the whole record's bound is 1.24, over
-    # the bound of the samples fit about 1.
+    # 27 of the drag ball's 100 fits leave out its last bounces (the fit on the detected labels over
+    # 680 of 751 samples): the mean bound of the samples fit exceeds the whole record's by 6 % for e_β.
     from conftest import committed_copy
     run_dir = committed_copy(str(tmp_path), "results/drag-ball")
     render(["efficiency", run_dir, "--format", "pdf", "--out", str(tmp_path / "f")])
     (fig, stem, caption), = captured.figs
     (r,) = data.Summary(os.path.join(run_dir, "summary.csv")).rows
-    assert r["crlb_fit_e_beta"] > 1.1 * r["crlb_e_beta"]
+    assert r["crlb_fit_e_beta"] > 1.05 * r["crlb_e_beta"]
     for ax, metric in zip(data_axes(fig), ["e_alpha", "e_beta"]):
         y = ax.get_lines()[0].get_ydata()
         assert list(y) == [pytest.approx(r[f"{metric}_mean"] / r[f"crlb_fit_{metric}"], rel=1e-12)]
