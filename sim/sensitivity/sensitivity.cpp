@@ -165,6 +165,9 @@ class SensitivityPayload final : public hybrid::Payload {
       sensitivities_.resize(static_cast<Eigen::Index>(n_) * p_, sample_count);
     }
     jump_time_gradients_.resize(p_, 0);
+    for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
+      if (model_.flow_reads_gamma(unknowns_.gamma[c])) flow_gamma_.push_back(c);
+    }
   }
 
   long size() const override { return static_cast<long>(n_) * p_; }
@@ -219,8 +222,7 @@ class SensitivityPayload final : public hybrid::Payload {
     out.noalias() = jac_ * s;
     const auto& au = unknowns_.alpha;
     for (std::size_t i = 0; i < au.size(); ++i) out.col(static_cast<Eigen::Index>(i)) += phi_.col(au[i]);
-    for (std::size_t c = 0; c < unknowns_.gamma.size(); ++c) {
-      if (!model_.flow_reads_gamma(unknowns_.gamma[c])) continue;
+    for (const std::size_t c : flow_gamma_) {
       GammaDifference(
           unknowns_.gamma[c], ctx, [&](const Context& at, VecRef f) { model_.Flow(x, params_.alpha, f, at); },
           f_plus_, f_minus_);
@@ -282,6 +284,7 @@ class SensitivityPayload final : public hybrid::Payload {
   int n_ = 0, p_ = 0;
   Eigen::Index gamma_offset_ = 0;  // of γ_u's columns in θ
   Vec gamma_, gamma_scratch_;      // the run's γ; γ ± a step
+  std::vector<std::size_t> flow_gamma_;  // the γ_u entries a flow reads (Model::flow_reads_gamma)
   int guard_ = -1, chain_ = 0;     // the guard that fired, and the jumps applied, in the chain under way
   int projected_ = -1;             // a guard crossed past zero whose projection the state went through
   Mat jac_, phi_;                 // scratch, n × n and n × |α|
