@@ -180,9 +180,10 @@ struct RefineResult {
   // residuals the tests refuse (model error: the covariance is then the sandwich's).
   bool reported = false;
   std::string route;  // the route whose fit this is
-  // Multiple shooting by time: its nearly free first stage fit the data to the noise (cost at most
-  // mN, twice the expected ½mN), so the model can follow the data segment by segment; a fit that
-  // ends refused after that sits in a local minimum rather than showing model error.
+  // Multiple shooting by time: its nearly free first stage fit the data to the noise on most segments
+  // (the median segment's mean squared weighted residual at most kSegmentNoiseRatio = 2), so the model
+  // can follow the data segment by segment; a fit that ends refused after that sits in a local minimum
+  // rather than showing model error.
   bool segments_fit_noise = false;
   // The fit's residual tests pass, also when its information is singular (singular-fisher): a fit
   // at the noise on every sample whose information is singular is not bettered by another start.

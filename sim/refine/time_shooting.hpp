@@ -12,7 +12,8 @@
 // normal matrix is block-banded). No detected label enters: the detector gives only θ's start.
 //
 // Start: node states from the data (measured rows), hidden rows from the segment before simulated
-// at the start (a chain's first node: its reconstruction where finite, else the default state); modes, for an
+// at the start or their reconstruction, whichever fits the node's segment better (a chain's first
+// node: its reconstruction where finite, else the default state); modes, for an
 // automaton, the one whose segment fits the node's samples best. Continuation: ε = 1, 0.1, 0.01, 0.001
 // (kFirstWidth, kWidthStep, kLastWidth), a step shortened where it leaves the basin of a stage that
 // fit the data to the noise: nearly free segments first, so that θ is fit to each segment's own data
@@ -54,6 +55,9 @@ constexpr double kShortestWidthStep = 1.5;
 // A width within this factor of kLastWidth is kLastWidth (the steps' rounding).
 constexpr double kWidthRounding = 1.0 + 1e-9;
 constexpr int kModeRounds = 4;
+// The first stage follows the data segment by segment when the median segment's mean squared
+// weighted residual is at most this (twice the noise's variance; RefineResult::segments_fit_noise).
+constexpr double kSegmentNoiseRatio = 2.0;
 // Samples beyond this many robust standard deviations are left out of the continuation's solves.
 constexpr double kTrim = 6.0;
 // The route's iteration budget: this many times RefineOptions::max_iterations over all its solves.
