@@ -615,13 +615,8 @@ void BestModes(ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s)
 bool MostSegmentsAtNoise(const ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s) {
   std::vector<double> ratio;
   for (std::size_t i = 0; i < pr.segments.size(); ++i) {
-    const Segment& seg = pr.segments[i];
-    long cells = 0;
-    for (long k = 0; k < seg.samples(); ++k) {
-      for (std::size_t r = 0; r < pr.rows.size(); ++r)
-        cells += std::isfinite(seg.y(Eigen::Index(r), k)) ? 1 : 0;
-    }
-    if (cells > 0) ratio.push_back(SegmentFit(pr, i, theta, s[i], seg.mode) / static_cast<double>(cells));
+    const auto cells = pr.segments[i].y.array().isFinite().count();
+    if (cells > 0) ratio.push_back(SegmentFit(pr, i, theta, s[i], pr.segments[i].mode) / static_cast<double>(cells));
   }
   if (ratio.empty()) return false;
   const auto middle = ratio.begin() + static_cast<std::ptrdiff_t>(ratio.size() / 2);
