@@ -54,9 +54,7 @@ struct SimOptions {
   // Raised (by another thread: Ctrl-C in the Python module): the run stops before its next CVODE step
   // (status kSolverFailure, "stopped"). Null: never.
   const std::atomic<bool>* stop = nullptr;
-  // Raised by the caller that runs several fits side by side and drops this one: as stop.
-  const std::atomic<bool>* cancel = nullptr;
-  bool stopped() const { return (stop != nullptr && stop->load()) || (cancel != nullptr && cancel->load()); }
+  bool stopped() const { return stop != nullptr && stop->load(); }
   // Field-naming message "SimOptions::rtol = -1. Violated constraint: rtol > 0".
   bool IsValid(std::string* error) const;
 };

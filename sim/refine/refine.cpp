@@ -11,7 +11,6 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include "core/model/automaton.hpp"
@@ -651,8 +650,8 @@ bool Better(const RefineResult& a, const RefineResult& b) {
   return a.reported && a.final_cost < b.final_cost;
 }
 
-// The starts of multiple shooting by time, in order: the recursive estimate and the model's own values (a
-// model file's start values), side by side, the latter's fit kept at once when ok; while no fit is ok, for
+// The starts of multiple shooting by time, in order: the model's own values (a model file's start values),
+// its fit kept at once when ok, then the recursive estimate; while no fit is ok, for
 // an automaton with a hidden mode, α of the modes the data show (ModeClusteredAlpha, with the model's own β
 // and γ); with `search` (the labelled routes reported nothing) while no fit can be reported (every one
 // singular, unconverged or failed: a start in another basin, or whose guards the model never reaches), the
@@ -685,27 +684,20 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   auto fit = [&](const HybridParameters& from, const std::string& what) {
     return named(FitByTimeShooting(model, chains, from, options), what);
   };
-  // The first two starts are fit side by side: the model's values' fit, when ok, is kept and the
-  // recursive estimate's is then stopped; else both run to their end and the better is kept (Better, in
-  // this order). Each fit is deterministic, so the result does not depend on the threads.
+  // The model's values first, each fit with every thread on its segments: its fit, when ok, is kept;
+  // else the recursive estimate's is fit and the better of the two kept (Better, in this order). Each
+  // fit is deterministic, so the result does not depend on the threads.
   const bool own_differs =
       own.alpha != recursive.alpha || own.beta != recursive.beta || own.gamma != recursive.GammaOr(model);
   std::optional<RefineResult> from_own;
-  std::atomic<bool> own_ok{false};
-  RefineOptions beside = options;
-  beside.cancel = beside.sensitivity.sim.cancel = &own_ok;
-  tbb::parallel_invoke(
-      [&] { best = named(FitByTimeShooting(model, chains, recursive, beside), "the recursive estimate"); },
-      [&] {
-        if (!own_differs || options.stopped()) return;
-        from_own = fit(own, "the model's values");
-        if (from_own->ok()) own_ok = true;
-      });
-  if (own_ok) {
-    best = RefineResult{};
-    consider(std::move(*from_own));
-    return best;
+  if (own_differs && !options.stopped()) {
+    from_own = fit(own, "the model's values");
+    if (from_own->ok()) {
+      consider(std::move(*from_own));
+      return best;
+    }
   }
+  best = fit(recursive, "the recursive estimate");
   bool segments_fit_noise = best.segments_fit_noise || (from_own && from_own->segments_fit_noise);
   if (from_own) consider(std::move(*from_own));
   if (best.ok() || Determines(best) || options.stopped()) return best;

@@ -165,9 +165,7 @@ struct RefineOptions {
   // Raised (by another thread: Ctrl-C in the Python module): the solve ends at its next iteration and
   // nothing more is tried (the result is then not ok). Null: never.
   const std::atomic<bool>* stop = nullptr;
-  // Raised by the caller that runs several fits side by side and drops this one: as stop.
-  const std::atomic<bool>* cancel = nullptr;
-  bool stopped() const { return (stop != nullptr && stop->load()) || (cancel != nullptr && cancel->load()); }
+  bool stopped() const { return stop != nullptr && stop->load(); }
   // Field-naming message, e.g. "RefineOptions::residual_test_size = 2: must be in (0, 0.5)".
   bool IsValid(std::string* error) const;
 };
