@@ -43,12 +43,12 @@ def main(argv=None):
                 if not (draw / "start.toml").exists():
                     print(f"compare_times.py: {draw}/start.toml: no such draw (run generate.py)", file=sys.stderr)
                     return 2
+                # identify writes its report beside the data; a copy of the data keeps the
+                # evaluation's own reports untouched.
+                here = Path(scratch) / f"{s.name}-{d}"
+                here.mkdir()
+                (here / "data.csv").write_bytes((draw / "data.csv").read_bytes())
                 for tag, hysid in binaries.items():
-                    # identify writes its report beside the draw; a copy of the draw keeps the
-                    # evaluation's own reports untouched.
-                    here = Path(scratch) / f"{s.name}-{d}"
-                    here.mkdir(exist_ok=True)
-                    (here / "data.csv").write_bytes((draw / "data.csv").read_bytes())
                     r = identify(hysid, here, draw / "start.toml", tag)
                     wall[tag].append(r["wall"])
                     fits[tag].append((r["status"], r.get("estimate")))

@@ -205,8 +205,8 @@ TEST_CASE("a thermostat whose start heater cools: α from the modes the data sho
 // The whole refinement (Refine: the labelled routes, then multiple shooting by time from each start)
 // from the model's own start values, with no detected label: at the bound. Measured: without α from
 // the modes (ModeClusteredAlpha returning nothing) the residual tests refuse this fit (residual-rms).
-// With every segment's run made on its own thread, it gives the same
-// estimate, standard errors, cost and iterations, bit for bit, on one thread.
+// With every segment's run made on its own thread, it gives the same estimate, standard errors,
+// cost and iterations, bit for bit, on one thread.
 TEST_CASE("a thermostat from a start whose heater cools: at the bound, bit for bit the same on one thread",
           "[time_shooting]") {
   Model model = ParseModelFile(kThermostat, "thermostat.toml").model;
