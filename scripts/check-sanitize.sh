@@ -18,8 +18,8 @@ launcher=()
 command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 # No Python module: a library built with ASan cannot be loaded into the system's python3.
 common=(-G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHYSID_BUILD_BENCH=OFF -DHYSID_BUILD_PYTHON=OFF "${launcher[@]}")
-# Debug information records the build directory; the install test checks that no installed file
-# names it, so paths below the source tree are recorded relative to it.
+# Debug information records paths below the source tree relative to it (the sanitizers' own records
+# of each source stay absolute: the install test leaves a sanitized build's binaries out).
 prefix_map="-ffile-prefix-map=$PWD/="
 # TBB's worker threads are still alive at exit; LeakSanitizer would report their stacks.
 # ASan reserves terabytes of address space for its shadow memory, so `ulimit -v` cannot bound it;
