@@ -904,10 +904,19 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   const bool data_fault = r.status == RefineStatus::kNonFiniteData;
   long samples = 0;
   for (const RefineChain& c : chains) samples += static_cast<long>(c.t.size());
-  // Not ok, or ok on spans that leave samples out: multiple shooting by time fits every sample.
-  if (options.tries(RefineRoute::kTimeShooting) && options.x0_known.empty() &&
-      (!r.ok() || r.samples_used < samples) && !data_fault && !SingularAtTheNoise(r, samples) &&
-      !options.stopped()) {
+  // Not ok, or ok on spans that leave samples out: multiple shooting by time fits every sample, unless
+  // the samples left out hold jumps the sample rate does not resolve by the fitted model's account.
+  const bool tries = options.tries(RefineRoute::kTimeShooting) && options.x0_known.empty() &&
+                     (!r.ok() || r.samples_used < samples) && !data_fault &&
+                     !SingularAtTheNoise(r, samples) && !options.stopped();
+  double unresolved_at = 0.0;
+  if (tries && ModelJumpsUnresolved(model, chains, r, options, &unresolved_at)) {
+    r.routes_tried = {
+        fmt::format("{}: ok on {} samples", r.route, r.samples_used),
+        fmt::format("{}: not tried: the fitted model's own jumps from t = {:.6g} on the samples left "
+                    "out are less than two samples apart",
+                    ToString(RefineRoute::kTimeShooting), unresolved_at)};
+  } else if (tries) {
     AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options, !r.reported));
     if (r.reported) r.estimate = r.refined;
   }

@@ -126,4 +126,41 @@ std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, Hyb
   return jumps;
 }
 
+bool ModelJumpsUnresolved(const Model& model, const std::vector<RefineChain>& chains, const RefineResult& r,
+                          const RefineOptions& options, double* at) {
+  if (!r.ok() || r.chain_samples_used.size() != chains.size() || r.chain_x0.size() != chains.size())
+    return false;
+  bool cut = false;
+  *at = 0.0;
+  for (std::size_t c = 0; c < chains.size(); ++c) {
+    const RefineChain& chain = chains[c];
+    const long used = r.chain_samples_used[c], k_count = chain.y.cols();
+    if (used == k_count) continue;
+    if (used == 0 || r.chain_span_reason[c] != CloseJumpsReason(options) || r.chain_x0[c].size() == 0)
+      return false;
+    cut = true;
+    SensitivityOptions o = options.sensitivity;
+    o.sensitivities = false;
+    HybridParameters p = r.refined;
+    p.x0 = r.chain_x0[c];
+    if (chain.initial_mode >= 0) p.initial_mode = chain.initial_mode;
+    const double t_end = chain.t.back() - chain.t.front();
+    const double t_fitted = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
+    const double two_steps = 2.0 * t_end / static_cast<double>(k_count - 1);
+    const InputSignal inputs = ChainInputs(chain, k_count);
+    const SensitivityTrajectory plain =
+        SimulateSensitivities(model, p, Unknowns::Of(model), EvenGrid(t_end, k_count), o, InputsOf(inputs));
+    const SimStatus& status = plain.trajectory.status;
+    const std::vector<JumpRecord>& jumps = plain.trajectory.jumps;
+    double first = -1.0;
+    for (std::size_t j = 1; j < jumps.size() && first < 0.0; ++j) {
+      if (jumps[j].t > t_fitted && jumps[j].t - jumps[j - 1].t < two_steps) first = jumps[j - 1].t;
+    }
+    if (first < 0.0 && status.stop == SimStop::kZeno && status.zeno_time > t_fitted) first = status.zeno_time;
+    if (first < 0.0 || (!status.completed() && status.stop != SimStop::kZeno)) return false;
+    *at = std::max(*at, chain.t.front() + first);
+  }
+  return cut;
+}
+
 }  // namespace hysid

@@ -52,6 +52,15 @@ bool MendFromModel(const RefineChain& chain, const std::string& label, long used
 std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
                                const Vec& x0, long used, const RefineOptions& options);
 
+// Whether the samples the span rule (RefineOptions::min_jump_interval) left out of the ok fit r hold
+// jumps the sample rate does not resolve: every chain it cut (and no chain cut otherwise or left out)
+// has, on the model at r.refined run on its own over all its samples, two jumps after its last fitted
+// sample less than two mean steps apart (at most one sample between them), or its jumps accumulating
+// (Zeno) before its last sample. *at: the earlier of the first such two jumps' time, the latest over
+// the chains.
+bool ModelJumpsUnresolved(const Model& model, const std::vector<RefineChain>& chains, const RefineResult& r,
+                          const RefineOptions& options, double* at);
+
 // The fit from a repaired start (`repaired`, the repair described by `summary`) against the fit from
 // the recursive estimate (r): it replaces r when it is ok and r is not, or fits more samples (its
 // start then the recursive estimate, start_repair the summary); else r is kept, and when r is not ok

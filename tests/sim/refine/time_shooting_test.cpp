@@ -3,17 +3,22 @@
 // refuse at their stated size.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "core/builtin/bouncing_ball.hpp"
 #include "core/builtin/impact_msd.hpp"
 #include "sim/measurement.hpp"
-#include "tests/sim/refine/at_the_bound.hpp"
 #include "sim/refine/refine.hpp"
 #include "sim/refine/residual_tests.hpp"
+#include "sim/refine/span.hpp"
 #include "sim/refine/time_shooting.hpp"
 #include "sim/sensitivity/crlb.hpp"
+#include "tests/sim/refine/at_the_bound.hpp"
 
 namespace hysid {
 namespace {
@@ -77,6 +82,78 @@ TEST_CASE("time shooting fits a ball measured by its height alone, over a gap", 
   REQUIRE(r.ok());
   const Vec theta = r.estimate.Theta(r.unknowns), truth = HybridParameters::Of(d.model, d.x0).Theta(r.unknowns);
   for (Eigen::Index i = 0; i < u.shared(); ++i) CHECK(std::abs(theta[i] - truth[i]) < 4 * r.standard_errors[i]);
+}
+
+// The detected labels of a simulated run: 1 at each sample whose interval holds a true jump, plus `extra`.
+std::vector<std::uint8_t> TrueLabels(const Trajectory& truth, const std::vector<long>& extra = {}) {
+  std::vector<std::uint8_t> gamma(truth.t.size(), 0);
+  for (std::size_t k = 1; k < gamma.size(); ++k) gamma[k] = truth.j[k] != truth.j[k - 1];
+  for (long k : extra) gamma[std::size_t(k)] = 1;
+  return gamma;
+}
+
+TEST_CASE(
+    "a ball bouncing to rest: time shooting is left out where the fitted model's jumps are less than two "
+    "samples apart, and tried after a false detection",
+    "[time_shooting]") {
+  const double sigma = 0.01;
+  RefineOptions options;
+  options.sigma = Vec::Constant(2, sigma);
+  {
+    // The bounces accumulate at 4.07 s: the samples end there (as `hysid simulate`'s), the last
+    // bounces a millisecond apart.
+    const Data d(Model(BouncingBall{}), SampleGrid{4.2, 1e-3}, (Vec(2) << 1.0, 0.0).finished(), sigma, 1);
+    REQUIRE(d.truth.status.stop == SimStop::kZeno);
+    REQUIRE(d.truth.size() > 4000);
+    const std::vector<RefineChain> chains = {RefineChain::Uniform(d.y, d.grid.dt, TrueLabels(d.truth))};
+    const RefineResult r = Refine(d.model, chains, d.model.alpha(), d.model.beta(), options);
+    INFO(r.reason << "; route " << r.route << "; " << r.samples_used << " samples; " << r.span_reason);
+    REQUIRE(r.ok());
+    REQUIRE(r.chain_span_reason.size() == 1);
+    CHECK(r.chain_span_reason[0] == CloseJumpsReason(options));
+    const long used = r.samples_used;
+    REQUIRE(used < d.truth.size());
+    // The truth's own jumps after the last fitted sample come less than two samples apart.
+    bool unresolved = false;
+    for (std::size_t j = 1; j < d.truth.jumps.size(); ++j) {
+      unresolved = unresolved || (d.truth.jumps[j].t > d.truth.t[std::size_t(used - 1)] &&
+                                  d.truth.jumps[j].t - d.truth.jumps[j - 1].t < 2 * d.grid.dt);
+    }
+    CHECK(unresolved);
+    REQUIRE(r.routes_tried.size() == 2);
+    CHECK(r.routes_tried[1].starts_with("multiple shooting by time: not tried"));
+    const Vec theta = r.estimate.Theta(r.unknowns),
+              truth = HybridParameters::Of(d.model, d.x0).Theta(r.unknowns);
+    for (Eigen::Index i = 0; i < r.unknowns.shared(); ++i)
+      CHECK(std::abs(theta[i] - truth[i]) < 4 * r.standard_errors[i]);
+  }
+  {
+    // A false detection 6 samples after the fourth bounce: the span rule cuts there, the fitted model's
+    // next jumps are far apart, and time shooting fits every sample.
+    const Data d(Model(BouncingBall{}), SampleGrid{3.0, 1e-3}, (Vec(2) << 1.0, 0.0).finished(), sigma, 2);
+    REQUIRE(d.truth.jumps.size() >= 5);
+    const long fourth = static_cast<long>(std::ceil(d.truth.jumps[3].t / d.grid.dt));
+    const std::vector<RefineChain> chains = {
+        RefineChain::Uniform(d.y, d.grid.dt, TrueLabels(d.truth, {fourth + 6}))};
+    RefineOptions labels_only = options;
+    labels_only.routes = {RefineRoute::kLabels};
+    labels_only.mend_detections = false;
+    const RefineResult labelled = Refine(d.model, chains, d.model.alpha(), d.model.beta(), labels_only);
+    INFO(labelled.reason);
+    REQUIRE(labelled.ok());
+    REQUIRE(labelled.chain_span_reason.size() == 1);
+    CHECK(labelled.chain_span_reason[0] == CloseJumpsReason(options));
+    double at = 0.0;
+    CHECK_FALSE(ModelJumpsUnresolved(d.model, chains, labelled, options, &at));
+    RefineOptions then_by_time = labels_only;
+    then_by_time.routes = {RefineRoute::kLabels, RefineRoute::kTimeShooting};
+    const RefineResult r = Refine(d.model, chains, d.model.alpha(), d.model.beta(), then_by_time);
+    INFO(r.reason);
+    REQUIRE(r.routes_tried.size() == 2);
+    CHECK(r.routes_tried[1].starts_with("multiple shooting by time: ok on"));
+    CHECK(r.ok());
+    CHECK(r.samples_used == d.truth.size());
+  }
 }
 
 TEST_CASE("with sigma estimated, residuals far above the data's own noise refuse the fit: outliers left in",
