@@ -37,9 +37,8 @@
 // the others moved to where the flows meet, missed jumps added, ξ0_c re-estimated; β from all
 // chains' jump regressions pooled), a span grown from a short one, multiple shooting between detected
 // jumps (a route to the same single-shooting fit: same cost, checks and covariance), then multiple
-// shooting by time (not after a fit ok on spans the span rule cut whose model makes jumps less than two
-// samples apart on the samples left out: ModelJumpsUnresolved, sim/refine/span.hpp); each route's fit
-// is adopted by its own rule, and RefineResult::route names the route of the fit reported.
+// shooting by time (not when ModelJumpsUnresolved, sim/refine/span.hpp, after a fit ok on cut spans);
+// each route's fit is adopted by its own rule, and RefineResult::route names the route of the fit reported.
 #pragma once
 
 #include <algorithm>
