@@ -20,6 +20,7 @@ import math
 import os
 import resource
 import shutil
+import statistics
 import subprocess
 import sys
 import time
@@ -127,8 +128,8 @@ def summarize(rows):
             "ok_beyond_4se": sum(r["ok_beyond_4se"] for r in rows),
             "se_within_25pc": sum(r["se_within_25pc"] for r in ok),
             "se_over_crlb": f"{min(lo):.3g}-{max(hi):.3g}" if lo else "-",
-            "wall_median_s": walls[len(walls) // 2], "wall_max_s": walls[-1],
-            "cpu_median_s": cpus[len(cpus) // 2], "cpu_max_s": cpus[-1],
+            "wall_median_s": statistics.median(walls), "wall_max_s": walls[-1],
+            "cpu_median_s": statistics.median(cpus), "cpu_max_s": cpus[-1],
             "statuses": "; ".join(f"{k} x{v}" for k, v in sorted(statuses.items()))}
 
 

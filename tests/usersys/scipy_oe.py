@@ -20,6 +20,7 @@ of evaluate.py).
 import argparse
 import json
 import math
+import statistics
 import sys
 import time
 import tomllib
@@ -249,7 +250,7 @@ def summarize(rows):
             "confident_wrong": sum(not r["within_4se"] for r in fits),
             "se_over_crlb": "-" if not good else f"{min(r['se_over_crlb_min'] for r in good):.3g}-"
                                                  f"{max(r['se_over_crlb_max'] for r in good):.3g}",
-            "wall_median_s": walls[len(walls) // 2], "wall_max_s": walls[-1]}
+            "wall_median_s": statistics.median(walls), "wall_max_s": walls[-1]}
 
 
 def print_table(summaries, out=sys.stdout):
