@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -108,18 +109,27 @@ bool MendFromModel(const RefineChain& chain, const std::string& label, long used
   return true;
 }
 
-// The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
-// chain's first `used` samples (plain mode, states only); empty when it does not complete.
-std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
+namespace {
+
+// The model at p, from x0, on its own over the chain's first `used` samples (plain mode, states only;
+// times from the chain's first sample).
+SensitivityTrajectory OnItsOwn(const Model& model, const RefineChain& chain, HybridParameters p,
                                const Vec& x0, long used, const RefineOptions& options) {
   SensitivityOptions o = options.sensitivity;
   o.sensitivities = false;
   p.x0 = x0;
   const double t_end = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
-  const SampleGrid grid = EvenGrid(t_end, used);
   const InputSignal inputs = ChainInputs(chain, used);
-  const SensitivityTrajectory plain =
-      SimulateSensitivities(model, p, Unknowns::Of(model), grid, o, InputsOf(inputs));
+  return SimulateSensitivities(model, p, Unknowns::Of(model), EvenGrid(t_end, used), o, InputsOf(inputs));
+}
+
+}  // namespace
+
+// The jump times (from the chain's first sample) of the model at p, from x0, on its own over the
+// chain's first `used` samples (plain mode, states only); empty when it does not complete.
+std::vector<double> ModelJumps(const Model& model, const RefineChain& chain, HybridParameters p,
+                               const Vec& x0, long used, const RefineOptions& options) {
+  const SensitivityTrajectory plain = OnItsOwn(model, chain, std::move(p), x0, used, options);
   std::vector<double> jumps;
   if (!plain.trajectory.status.completed()) return jumps;
   for (const JumpRecord& jump : plain.trajectory.jumps) jumps.push_back(jump.t);
@@ -139,17 +149,11 @@ bool ModelJumpsUnresolved(const Model& model, const std::vector<RefineChain>& ch
     if (used == 0 || r.chain_span_reason[c] != CloseJumpsReason(options) || r.chain_x0[c].size() == 0)
       return false;
     cut = true;
-    SensitivityOptions o = options.sensitivity;
-    o.sensitivities = false;
     HybridParameters p = r.refined;
-    p.x0 = r.chain_x0[c];
     if (chain.initial_mode >= 0) p.initial_mode = chain.initial_mode;
-    const double t_end = chain.t.back() - chain.t.front();
     const double t_fitted = chain.t[static_cast<std::size_t>(used - 1)] - chain.t.front();
-    const double two_steps = 2.0 * t_end / static_cast<double>(k_count - 1);
-    const InputSignal inputs = ChainInputs(chain, k_count);
-    const SensitivityTrajectory plain =
-        SimulateSensitivities(model, p, Unknowns::Of(model), EvenGrid(t_end, k_count), o, InputsOf(inputs));
+    const double two_steps = 2.0 * (chain.t.back() - chain.t.front()) / static_cast<double>(k_count - 1);
+    const SensitivityTrajectory plain = OnItsOwn(model, chain, std::move(p), r.chain_x0[c], k_count, options);
     const SimStatus& status = plain.trajectory.status;
     const std::vector<JumpRecord>& jumps = plain.trajectory.jumps;
     double first = -1.0;
