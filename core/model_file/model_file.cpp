@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -52,6 +53,13 @@ constexpr std::size_t kAlphaSlot = kTimeSlot + 1;
 constexpr std::size_t kBetaSlot = kAlphaSlot + Model::kMaxAlpha;
 constexpr std::size_t kSlots = kBetaSlot + Model::kMaxParameters;
 
+// The entries of a matrix that read one variable slot (Compiled::var) of the expressions: a part of
+// the matrix with those expressions alone.
+struct SlotPart {
+  std::size_t slot = 0;
+  ExprMatrix part;
+};
+
 // The parsed file, shared (immutable) by every copy of the model.
 struct Definition {
   std::uint64_t id = 0;
@@ -62,6 +70,7 @@ struct Definition {
   ModelSpec spec;
   std::vector<ExprMatrix> phi;  // per mode q: φ_q, n × |α|
   std::vector<std::vector<ExprMatrix>> phi_rows;  // per mode q and row r: row r of φ_q alone
+  std::vector<std::vector<SlotPart>> phi_reading;  // per mode q: per slot φ_q reads, its entries that read it
   // The single [jump]: one n × |β| matrix. [[jump]] maps (`sliced`): per map its n × |β_m| slice
   // (0 columns for an identity map), written into columns [beta_first, beta_first + beta_count).
   std::vector<ExprMatrix> psi;
@@ -81,8 +90,14 @@ struct Compiled {
   std::vector<mu::Parser> phi, psi;  // as Definition::phi, ::psi
   // Per mode q and row r, at q·n + r: row r of φ_q's expressions, compiled when first asked for.
   std::vector<std::unique_ptr<mu::Parser>> phi_rows;
+  std::vector<std::vector<mu::Parser>> phi_reading;  // as Definition::phi_reading
   mu::Parser guards, in_c, in_d, distance;
   std::vector<mu::Parser> project;
+  // The last φ Phi evaluated (EvaluatePhi): its mode (−1: none yet), the variables it was evaluated
+  // at (the slots its mode reads) and its entries.
+  int phi_mode = -1;
+  std::array<double, kSlots> phi_var{};
+  std::vector<double> phi_last;
 };
 
 // Whether α or β entry `p` is a variable of the guards and sets: its name a valid variable name (α and
@@ -123,6 +138,12 @@ std::unique_ptr<Compiled> Compile(const Definition& def) {
   c->phi.resize(def.phi.size());
   for (std::size_t q = 0; q < def.phi.size(); ++q) Bind(c->phi[q], def, *c, def.phi[q].joined);
   c->phi_rows.resize(def.phi.size() * def.spec.state_names.size());
+  c->phi_reading.resize(def.phi.size());
+  for (std::size_t q = 0; q < def.phi.size(); ++q) {
+    c->phi_reading[q].resize(def.phi_reading[q].size());
+    for (std::size_t k = 0; k < def.phi_reading[q].size(); ++k)
+      Bind(c->phi_reading[q][k], def, *c, def.phi_reading[q][k].part.joined);
+  }
   c->psi.resize(def.psi.size());
   for (std::size_t m = 0; m < def.psi.size(); ++m) Bind(c->psi[m], def, *c, def.psi[m].joined);
   Bind(c->guards, def, *c, def.guards.joined, true);
@@ -197,6 +218,38 @@ void Evaluate(const ExprMatrix& m, const mu::Parser& p, double* out) {
   for (std::size_t k = 0; k < m.index.size(); ++k) out[m.index[k]] = v[k];
 }
 
+// φ_q at the loaded variables into out (column-major). Each entry is a function of the slots it
+// reads, and a part's entries are the whole matrix's bit for bit (PartOf), so when the last φ was of
+// the same mode, only the entries that read a slot moved since (compared bit for bit) are evaluated
+// again, when they are fewer than all: a central difference in one state or γ, and Phi after Flow at
+// the same state, evaluate a few entries instead of the matrix.
+void EvaluatePhi(const Definition& def, Compiled& c, std::size_t q, double* out) {
+  const ExprMatrix& m = def.phi[q];
+  const std::vector<SlotPart>& parts = def.phi_reading[q];
+  const auto size = static_cast<std::size_t>(m.rows * m.cols);
+  const auto moved = [&](const SlotPart& p) {
+    return std::bit_cast<std::uint64_t>(c.var[p.slot]) != std::bit_cast<std::uint64_t>(c.phi_var[p.slot]);
+  };
+  if (c.phi_mode == static_cast<int>(q)) {
+    std::size_t again = 0;
+    for (const SlotPart& p : parts) again += moved(p) ? p.part.index.size() : 0;
+    if (again < m.index.size()) {
+      CopySmall(c.phi_last.data(), size, out);
+      for (std::size_t k = 0; k < parts.size(); ++k) {
+        if (moved(parts[k])) Evaluate(parts[k].part, c.phi_reading[q][k], out);
+      }
+      for (const SlotPart& p : parts) c.phi_var[p.slot] = c.var[p.slot];
+      CopySmall(out, size, c.phi_last.data());
+      return;
+    }
+  }
+  Evaluate(m, c.phi[q], out);
+  c.phi_mode = static_cast<int>(q);
+  for (const SlotPart& p : parts) c.phi_var[p.slot] = c.var[p.slot];
+  c.phi_last.resize(size);
+  CopySmall(out, size, c.phi_last.data());
+}
+
 // φ (the matrix m, or a part of it, evaluated by p) at `count` states x_k = x[k·n .. k·n + n) of a
 // model without inputs or γ, to phi + k·|m| (Load and Evaluate for each): N = n when fixed at
 // compile time (else 0). What the loop holds is read once: the expression list's positions and the
@@ -236,7 +289,7 @@ struct FileModel {
   ModelSpec Spec() const { return def->spec; }
   void Phi(ConstVecRef x, const Context& ctx, MatRef phi) const {
     const std::size_t q = Index(ctx.mode, def->phi.size(), "mode");
-    Evaluate(def->phi[q], Loaded(x, ctx).phi[q], phi.data());
+    EvaluatePhi(*def, Loaded(x, ctx), q, phi.data());
   }
   void PhiColumns(const double* x, Eigen::Index count, const Context& ctx, double* phi) const {
     Compiled& c = Local(def);
@@ -488,23 +541,47 @@ ExprMatrix ParseMatrix(const TomlReader& rd, const toml::node& node, const std::
   return m;
 }
 
-// Row r of φ alone: its expressions in one list as ParseMatrix writes them (muParser evaluates each
-// entry of a list on its own, so the values are the whole matrix's bit for bit) and its constants.
-ExprMatrix RowOf(const ExprMatrix& m, Eigen::Index r) {
-  ExprMatrix row{.rows = m.rows, .cols = m.cols, .part = true};
+// The entries of m at the column-major positions `at` alone: their expressions in one list as
+// ParseMatrix writes them (muParser evaluates each entry of a list on its own, so the values are the
+// whole matrix's bit for bit) and their constants.
+ExprMatrix PartOf(const ExprMatrix& m, const std::vector<Eigen::Index>& at) {
+  ExprMatrix part{.rows = m.rows, .cols = m.cols, .part = true};
   std::vector<std::string> exprs;
-  for (Eigen::Index j = 0; j < m.cols; ++j) {
-    const Eigen::Index at = j * m.rows + r;
-    if (std::find(m.index.begin(), m.index.end(), at) != m.index.end()) {
-      row.index.push_back(at);
-      exprs.push_back("(" + m.text[std::size_t(at)] + ")");
+  for (const Eigen::Index k : at) {
+    if (std::find(m.index.begin(), m.index.end(), k) != m.index.end()) {
+      part.index.push_back(k);
+      exprs.push_back("(" + m.text[std::size_t(k)] + ")");
     } else {
-      row.constant_at.push_back(at);
-      row.constant.push_back(m.constant[std::size_t(at)]);
+      part.constant_at.push_back(k);
+      part.constant.push_back(m.constant[std::size_t(k)]);
     }
   }
-  row.joined = fmt::format("{}", fmt::join(exprs, ","));
-  return row;
+  part.joined = fmt::format("{}", fmt::join(exprs, ","));
+  return part;
+}
+
+// Row r of φ alone (PartOf).
+ExprMatrix RowOf(const ExprMatrix& m, Eigen::Index r) {
+  std::vector<Eigen::Index> at;
+  for (Eigen::Index j = 0; j < m.cols; ++j) at.push_back(j * m.rows + r);
+  return PartOf(m, at);
+}
+
+// Per variable slot m's expressions read (a state, an input, γ or t), the part of m with the entries
+// that read it (PartOf), in the order of the slots.
+std::vector<SlotPart> PartsReading(const Definition& def, const ExprMatrix& m) {
+  std::map<std::size_t, std::vector<Eigen::Index>> reading;
+  Compiled probe;
+  for (const Eigen::Index at : m.index) {
+    mu::Parser p;
+    Bind(p, def, probe, m.text[std::size_t(at)]);
+    for (const auto& [name, ptr] : p.GetUsedVar()) {
+      reading[static_cast<std::size_t>(ptr - probe.var.data())].push_back(at);
+    }
+  }
+  std::vector<SlotPart> parts;
+  for (const auto& [slot, at] : reading) parts.push_back({slot, PartOf(m, at)});
+  return parts;
 }
 
 // PARAM.name: an identifier (a letter or _, then letters, digits and _), as the flags (--param
@@ -1379,6 +1456,7 @@ std::shared_ptr<Definition> ParseDefinition(const TomlReader& rd, const toml::ta
   for (const ExprMatrix& phi : def->phi) {
     def->phi_rows.emplace_back();
     for (Eigen::Index r = 0; r < phi.rows; ++r) def->phi_rows.back().push_back(RowOf(phi, r));
+    def->phi_reading.push_back(PartsReading(*def, phi));
   }
   ParseGuardHeads(rd, root, *def);
   ParseJumps(rd, root, *def, sym);

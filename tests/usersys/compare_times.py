@@ -38,7 +38,7 @@ def main(argv=None):
         for s in (s for s in systems.SYSTEMS if s.name in names):
             wall = {tag: [] for tag in binaries}
             fits = {tag: [] for tag in binaries}
-            for d in range(1, args.draws + 1):
+            for d in range(args.draws):  # draw_dir's index: 0 for draw01
                 draw = systems.draw_dir(args.work, s, d)
                 if not (draw / "start.toml").exists():
                     print(f"compare_times.py: {draw}/start.toml: no such draw (run generate.py)", file=sys.stderr)
