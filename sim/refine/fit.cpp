@@ -136,6 +136,7 @@ struct FitProblem {
     ChainSummer summer(fits[c].y(), rows, model->state_size(), unknowns.size(model->state_size()));
     SensitivityOptions o = options;
     o.sensitivities = sensitivities;
+    BudgetRun(o, static_cast<long>(fits[c].times().size()));
     const SensitivityTrajectory s =
         Admissible(*model, p, fits[c].inputs)
             ? SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times(), fits[c].segments, o,

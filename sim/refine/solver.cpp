@@ -1,6 +1,8 @@
 // The refinement's shared Ceres options (sim/refine/solver.hpp).
 #include "sim/refine/solver.hpp"
 
+#include <algorithm>
+
 #include <glog/logging.h>
 
 #include "sim/refine/solver_progress.hpp"
@@ -54,6 +56,11 @@ ceres::Solver::Options LevenbergMarquardt(const RefineOptions& options) {
   so.num_threads = 1;
   if (watching != nullptr) so.callbacks.push_back(&forward);
   return so;
+}
+
+void BudgetRun(SensitivityOptions& o, long samples) {
+  o.sim.max_jumps = static_cast<int>(std::min<long>(o.sim.max_jumps, 2 * samples + 10));
+  o.sim.max_steps = std::min(o.sim.max_steps, 200 * samples + 1000);
 }
 
 }  // namespace hysid

@@ -72,11 +72,7 @@ bool SimulateSegment(const ShootingProblem& pr, const Segment& seg, const Hybrid
   if (!Admissible(*pr.model, at, seg.inputs)) return false;
   SensitivityOptions o = pr.sens;
   o.sensitivities = sensitivities;
-  // A segment's budget: a model that jumps more often than its samples, or steps hundreds of times
-  // per sample, chatters there (a ball coming to rest) and cannot be read on the samples.
-  const auto samples = static_cast<long>(seg.times.size());
-  o.sim.max_jumps = static_cast<int>(std::min<long>(o.sim.max_jumps, 2 * samples + 10));
-  o.sim.max_steps = std::min(o.sim.max_steps, 200 * samples + 1000);
+  BudgetRun(o, static_cast<long>(seg.times.size()));
   try {
     *out = reading == Reading::kOwn || seg.labels.empty()
                ? SimulateSensitivities(*pr.model, at, pr.unknowns, seg.times, o, InputsOf(seg.inputs))
