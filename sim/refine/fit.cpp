@@ -12,6 +12,7 @@
 
 #include "core/model/automaton.hpp"
 #include "core/model/noise_shape.hpp"
+#include "sim/refine/budget.hpp"
 #include "sim/refine/chain_sums.hpp"
 #include "sim/refine/residual_tests.hpp"
 #include "sim/refine/solver.hpp"
@@ -112,6 +113,8 @@ struct FitProblem {
   // across trial points is that of one integrator). Only the run's sums are kept.
   mutable std::vector<Vec> cached_at;
   mutable std::vector<ChainEval> cached;
+  // Per fit: the CVODE steps of its last completed run (BudgetRun).
+  mutable std::vector<long> completed_steps;
 
   HybridParameters At(const double* theta, const double* x0) const {
     Vec full(shared + model->state_size());
@@ -136,12 +139,13 @@ struct FitProblem {
     ChainSummer summer(fits[c].y(), rows, model->state_size(), unknowns.size(model->state_size()));
     SensitivityOptions o = options;
     o.sensitivities = sensitivities;
-    BudgetRun(o, static_cast<long>(fits[c].times().size()));
+    BudgetRun(o, static_cast<long>(fits[c].times().size()), completed_steps[c]);
     const SensitivityTrajectory s =
         Admissible(*model, p, fits[c].inputs)
             ? SimulateSensitivitiesMatched(*model, p, unknowns, fits[c].times(), fits[c].segments, o,
                                            InputsOf(fits[c].inputs), sensitivities ? &summer : nullptr)
             : LeftDomain();
+    if (s.trajectory.status.completed()) completed_steps[c] = s.trajectory.stats.steps;
     ChainEval& e = cached[c];
     e.ok = s.ok();
     e.sensitivities = sensitivities;
@@ -886,6 +890,8 @@ void RunFit(FitProblem& problem, const RefineOptions& options, const Vec& mad_si
   if (options.polish_tolerance < problem.options.sim.rtol && AtIntegrationAccuracy(problem)) {
     problem.options.sim.rtol = problem.options.sim.atol = options.polish_tolerance;
     for (Vec& at : problem.cached_at) at.resize(0);  // integrated at the looser tolerances
+    // More steps at the tighter tolerances: the budget starts afresh.
+    std::fill(problem.completed_steps.begin(), problem.completed_steps.end(), 0);
     if (!SolveAndSimulate(problem, options, "Ceres (polish)", theta, x0, r)) return;
   }
   r.refined = problem.At(theta.data(), x0.front().data());
@@ -1042,6 +1048,7 @@ RefineResult FitChains(const Model& model, const std::vector<RefineChain>& chain
   problem.start = r.start;
   problem.cached_at.resize(problem.fits.size());
   problem.cached.resize(problem.fits.size());
+  problem.completed_steps.assign(problem.fits.size(), 0);
   LinkShootingSegments(chains, s, r, problem);
   problem.options.sensitivities = true;  // every evaluation (FitProblem::Evaluate)
   RunFit(problem, options, mad_sigma, r);

@@ -58,9 +58,4 @@ ceres::Solver::Options LevenbergMarquardt(const RefineOptions& options) {
   return so;
 }
 
-void BudgetRun(SensitivityOptions& o, long samples) {
-  o.sim.max_jumps = static_cast<int>(std::min<long>(o.sim.max_jumps, 2 * samples + 10));
-  o.sim.max_steps = std::min(o.sim.max_steps, 200 * samples + 1000);
-}
-
 }  // namespace hysid

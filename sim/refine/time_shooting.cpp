@@ -1,6 +1,7 @@
 // Hybrid multiple shooting with nodes placed by time (sim/refine/time_shooting.hpp).
 #include "sim/refine/time_shooting.hpp"
 
+#include "sim/refine/budget.hpp"
 #include "sim/refine/residual_tests.hpp"
 #include "sim/refine/solver.hpp"
 #include "sim/refine/start.hpp"
@@ -67,12 +68,14 @@ struct ShootingProblem {
 enum class Reading { kLabelled, kOwn };
 
 // A segment simulated from its node at `at` with or without sensitivities; false when it cannot be.
-bool SimulateSegment(const ShootingProblem& pr, const Segment& seg, const HybridParameters& at, bool sensitivities,
-                     SensitivityTrajectory* out, Reading reading = Reading::kLabelled) {
+// last_steps: BudgetRun's.
+bool SimulateSegment(const ShootingProblem& pr, const Segment& seg, const HybridParameters& at,
+                     bool sensitivities, SensitivityTrajectory* out, Reading reading = Reading::kLabelled,
+                     long last_steps = 0) {
   if (!Admissible(*pr.model, at, seg.inputs)) return false;
   SensitivityOptions o = pr.sens;
   o.sensitivities = sensitivities;
-  BudgetRun(o, static_cast<long>(seg.times.size()));
+  BudgetRun(o, static_cast<long>(seg.times.size()), last_steps);
   try {
     *out = reading == Reading::kOwn || seg.labels.empty()
                ? SimulateSensitivities(*pr.model, at, pr.unknowns, seg.times, o, InputsOf(seg.inputs))
@@ -153,7 +156,9 @@ class SegmentCost final : public ceres::CostFunction {
     std::copy(node, node + n, point_.begin() + static_cast<std::ptrdiff_t>(p));
     if (point_ == run_at_) return run_ok_;
     run_at_ = point_;
-    run_ok_ = SimulateSegment(pr_, seg_, pr_.At(theta, node, seg_.mode), true, &run_);
+    run_ok_ = SimulateSegment(pr_, seg_, pr_.At(theta, node, seg_.mode), true, &run_, Reading::kLabelled,
+                              completed_steps_);
+    if (run_.trajectory.status.completed()) completed_steps_ = run_.trajectory.stats.steps;
     return run_ok_;
   }
   double Weight(int r, long k) const { return seg_.keep.size() ? pr_.weight[r] * seg_.keep(r, k) : pr_.weight[r]; }
@@ -163,6 +168,7 @@ class SegmentCost final : public ceres::CostFunction {
   mutable std::vector<double> point_, run_at_;
   mutable SensitivityTrajectory run_;
   mutable bool run_ok_ = false;
+  mutable long completed_steps_ = 0;  // the CVODE steps of the last completed run (BudgetRun)
 };
 
 // A segment of chain `c` over samples [a, b): times from the node, measured rows and inputs copied;
