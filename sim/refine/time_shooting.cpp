@@ -860,25 +860,6 @@ double SmallestEigenvalue(const Mat& a, const Eigen::LDLT<Mat>& ldlt, Vec* v) {
   return v->dot(a * *v);
 }
 
-// Direction v's largest entries among the named unknowns: "direction 0.7 K1 - 0.46 b + 0.45 K2"
-// (up to three entries above 0.1).
-std::string Direction(const Vec& v, const std::vector<std::string>& names) {
-  const auto named = std::min<Eigen::Index>(v.size(), static_cast<Eigen::Index>(names.size()));
-  std::vector<Eigen::Index> order;
-  for (Eigen::Index i = 0; i < named; ++i) order.push_back(i);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](auto a, auto b) { return std::abs(v[a]) > std::abs(v[b]); });
-  std::string text = "direction";
-  for (std::size_t k = 0; k < std::min<std::size_t>(3, order.size()); ++k) {
-    const Eigen::Index i = order[k];
-    if (k > 0 && std::abs(v[i]) < 0.1) break;
-    const double sign = v[i] * v[order.front()] < 0.0 ? -1.0 : 1.0;
-    text += fmt::format(" {}{:.2g} {}", k == 0 ? "" : (sign < 0.0 ? "- " : "+ "), std::abs(v[i]),
-                        names[std::size_t(i)]);
-  }
-  return text + " of the scaled parameters";
-}
-
 // Covariance, residual statistics and tests at the fit; the status. `full`: the covariance of θ and
 // every node state (pr.segments' order), when reported.
 void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
@@ -957,7 +938,10 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   if (SmallestEigenvalue(scaled, ldlt, &weakest) <= 1e-13 * largest || !pivots) {
     Fail(r, RefineStatus::kSingularFisher,
          weakest.allFinite()
-             ? fmt::format("the information matrix of the fit is singular ({})", Direction(weakest, r.names))
+             ? fmt::format("the information matrix of the fit is singular ({} of the scaled parameters)",
+                           Direction(weakest.head(std::min<Eigen::Index>(weakest.size(),
+                                                                         Eigen::Index(r.names.size()))),
+                                     r.names))
              : std::string("the information matrix of the fit is singular"));
     const bool at_the_noise = tests.level_ok && tests.white && !(over_mad > options.rms_high);
     if (at_the_noise && H.rows() <= RefineResult::kMaxDeterminedSize) {

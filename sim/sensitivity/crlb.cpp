@@ -94,27 +94,14 @@ std::vector<double> MeanEBetaPerMap(const ModelSpec& spec, const Unknowns& unkno
 
 namespace {
 
-// The eigenvector of the smallest eigenvalue of the equilibrated F, its largest entries named:
-// "direction 0.71 x0[v] - 0.70 g" (up to three entries above 0.1; "no finite direction" when F is
-// not finite).
+// The eigenvector of the smallest eigenvalue of the equilibrated F, its largest entries named
+// (Direction): "direction 0.71 x0[v] - 0.70 g; smallest eigenvalue ..." ("F is not finite" when it
+// is not).
 std::string WeakestDirection(const Mat& equilibrated, const std::vector<std::string>& names) {
   if (!equilibrated.allFinite() || equilibrated.size() == 0) return "F is not finite";
   const Eigen::SelfAdjointEigenSolver<Mat> eigen(equilibrated);
-  const Vec v = eigen.eigenvectors().col(0);
-  std::vector<Eigen::Index> order(static_cast<std::size_t>(v.size()));
-  for (Eigen::Index i = 0; i < v.size(); ++i) order[static_cast<std::size_t>(i)] = i;
-  std::stable_sort(order.begin(), order.end(), [&](auto a, auto b) { return std::abs(v[a]) > std::abs(v[b]); });
-  const double sign = v[order.front()] < 0.0 ? -1.0 : 1.0;
-  std::string text = "direction";
-  for (std::size_t r = 0; r < std::min<std::size_t>(3, order.size()); ++r) {
-    const Eigen::Index i = order[r];
-    if (r > 0 && std::abs(v[i]) < 0.1) break;
-    const std::string name = static_cast<std::size_t>(i) < names.size() ? names[static_cast<std::size_t>(i)]
-                                                                          : fmt::format("theta[{}]", i);
-    text += fmt::format(" {}{:.2g} {}", r == 0 ? "" : (sign * v[i] < 0.0 ? "- " : "+ "),
-                        r == 0 ? std::abs(v[i]) : std::abs(v[i]), name);
-  }
-  return fmt::format("{}; smallest eigenvalue {:.3g} of the equilibrated F", text, eigen.eigenvalues()[0]);
+  return fmt::format("{}; smallest eigenvalue {:.3g} of the equilibrated F",
+                     Direction(eigen.eigenvectors().col(0), names), eigen.eigenvalues()[0]);
 }
 
 // CrlbFromFisher with `held` entries known: the bound of the others, scattered back.
@@ -157,6 +144,24 @@ Crlb CrlbHolding(const Mat& fisher, const Unknowns& unknowns, std::vector<std::s
 }
 
 }  // namespace
+
+std::string Direction(const Vec& v, const std::vector<std::string>& names) {
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(v.size()));
+  for (Eigen::Index i = 0; i < v.size(); ++i) order[static_cast<std::size_t>(i)] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](auto a, auto b) { return std::abs(v[a]) > std::abs(v[b]); });
+  const double sign = v.size() > 0 && v[order.front()] < 0.0 ? -1.0 : 1.0;
+  std::string text = "direction";
+  for (std::size_t r = 0; r < std::min<std::size_t>(3, order.size()); ++r) {
+    const Eigen::Index i = order[r];
+    if (r > 0 && std::abs(v[i]) < 0.1) break;
+    const std::string name = static_cast<std::size_t>(i) < names.size() ? names[static_cast<std::size_t>(i)]
+                                                                        : fmt::format("theta[{}]", i);
+    text +=
+        fmt::format(" {}{:.2g} {}", r == 0 ? "" : (sign * v[i] < 0.0 ? "- " : "+ "), std::abs(v[i]), name);
+  }
+  return text;
+}
 
 Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std::string> names,
                     const std::vector<int>& held) {

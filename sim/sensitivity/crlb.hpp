@@ -69,6 +69,11 @@ Crlb CrlbFromFisher(const Mat& fisher, const Unknowns& unknowns, std::vector<std
 // Empty when F is not finite or square.
 Vec DeterminedSd(const Mat& fisher);
 
+// A direction v of the parameters by its largest entries, named (`theta[i]` beyond `names`):
+// "direction 0.71 x0[v] - 0.7 g" (up to three entries, each after the first at least 0.1 in size;
+// signs relative to the first).
+std::string Direction(const Vec& v, const std::vector<std::string>& names);
+
 // The bound `c` (computed for `unknowns` over n states, ξ0 last in θ) with the components `known` of ξ0
 // (state indices) known: held, sd 0, left out of the inverse (CrlbFromFisher), its samples and jumps
 // kept. `c` itself when none is known, ξ0 is not in θ or the simulation failed.
