@@ -825,8 +825,36 @@ void Weigh(const std::vector<RefineChain>& chains, const RefineOptions& options,
   for (Eigen::Index r = 0; r < m; ++r) pr.scale[pr.rows[std::size_t(r)]] = 1.0 / pr.weight[r];
 }
 
-// Hidden states' continuity weights from their own range over the node starts.
-void WeighHidden(const std::vector<Vec>& s, ShootingProblem& pr) {
+// A hidden state's continuity scale from what it does to the measured rows: c_j with
+// 1/c_j² the mean over the segments' samples of Σ_r (S_rj(t_k)/σ_r)², S_rj the measured row r's
+// sensitivity to the node's state j, run from the node starts at θ. A mismatch of c_j at a node then
+// moves the measured rows by about one noise sd per sample, as a measured state's σ_j does. 0 when
+// no segment simulates or the state does not reach the measured rows.
+double HiddenScaleFromSensitivities(const ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s, int j) {
+  double sum = 0.0;
+  long samples = 0;
+  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
+    const Segment& seg = pr.segments[i];
+    SensitivityTrajectory tr;
+    if (!SimulateSegment(pr, seg, pr.At(theta.data(), s[i].data(), seg.mode), true, &tr, Reading::kOwn)) {
+      continue;
+    }
+    for (long k = 0; k < seg.samples(); ++k) {
+      const auto S = tr.S(k);
+      for (std::size_t r = 0; r < pr.rows.size(); ++r) {
+        const double e = pr.weight[Eigen::Index(r)] * S(pr.rows[r], pr.shared + j);
+        if (std::isfinite(e)) sum += e * e;
+      }
+      ++samples;
+    }
+  }
+  return sum > 0.0 ? std::sqrt(static_cast<double>(samples) / sum) : 0.0;
+}
+
+// Hidden states' continuity weights from their own range over the node starts, against the measured
+// state's of the widest range; a hidden state whose node starts do not vary (a constant, or a start
+// that leaves it so) from its sensitivities (HiddenScaleFromSensitivities).
+void WeighHidden(const Vec& theta, const std::vector<Vec>& s, ShootingProblem& pr) {
   if (s.empty()) return;
   double measured_range = 0.0, measured_sigma = 0.0;
   for (std::size_t r = 0; r < pr.rows.size(); ++r) {
@@ -841,7 +869,10 @@ void WeighHidden(const std::vector<Vec>& s, ShootingProblem& pr) {
     if (std::find(pr.rows.begin(), pr.rows.end(), j) != pr.rows.end()) continue;
     double lo = s[0][j], hi = lo;
     for (const Vec& x : s) lo = std::min(lo, x[j]), hi = std::max(hi, x[j]);
-    const double scale = measured_range > 0.0 ? measured_sigma * std::max(hi - lo, 1e-12) / measured_range : 1.0;
+    double scale = measured_range > 0.0 ? measured_sigma * std::max(hi - lo, kFlatRange) / measured_range : 1.0;
+    if (hi - lo < kFlatRange) {
+      if (const double c = HiddenScaleFromSensitivities(pr, theta, s, j); c > 0.0) scale = c;
+    }
     pr.scale[j] = scale;
   }
 }
@@ -1224,7 +1255,7 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   const std::vector<const Parameter*> params = r.unknowns.Parameters(model);
   for (int i = 0; i < pr.shared; ++i) theta[i] = std::clamp(theta[i], params[std::size_t(i)]->lower, params[std::size_t(i)]->upper);
   std::vector<Vec> s = StartNodes(pr, chains, theta, pr.segments);
-  WeighHidden(s, pr);
+  WeighHidden(theta, s, pr);
   BestModes(pr, theta, s);
   MoveNodesOffEvents(pr, chains, theta, s, spacing);
   // Continuation in the continuity's width: nearly free segments first (θ fit to each segment's own

@@ -60,6 +60,9 @@ constexpr int kModeRounds = 4;
 constexpr double kSegmentNoiseRatio = 2.0;
 // Samples beyond this many robust standard deviations are left out of the continuation's solves.
 constexpr double kTrim = 6.0;
+// A hidden state whose node starts vary by less than this takes its continuity scale from its
+// sensitivities instead of its range (WeighHidden).
+constexpr double kFlatRange = 1e-12;
 // The route's iteration budget: this many times RefineOptions::max_iterations over all its solves.
 constexpr int kIterationBudget = 12;
 // Each solve ends once a step changes the cost (½ Σ r² in units of σ) by less than this at the
