@@ -8,56 +8,25 @@ for seed 3), the rows in [12, 12.6) s removed (a 0.6 s gap: two chains), the dat
 (t, x, v, u); then `hysid identify --model-file start.toml` on them, timed. Prints the wall time, the
 status, the route and the largest |estimate − truth| / SE over the 7 unknowns.
 """
-import argparse
-import csv
-import json
-import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from own_system import identify, max_z, run_seeds, user_data  # noqa: E402
+
 TRUTH = {"k": 6.0, "b": 0.4, "G": 2.0, "q": 0.3, "lambda": 0.75, "w": 0.35, "xe": 0.05}
 
 
-def one(hysid, work, seed):
-    sim = work / f"sim{seed}.csv"
-    subprocess.run([hysid, "simulate", "--model-file", str(HERE / "truth.toml"), "--sigma", "0.002",
-                    "--seed", str(seed), "--out", str(sim)], check=True, capture_output=True)
-    data = work / f"data{seed}.csv"
-    with open(sim) as f, open(data, "w", newline="") as g:
-        out = csv.writer(g)
-        out.writerow(["t", "x", "v", "u"])
-        for row in csv.DictReader(f):
-            if not 12.0 <= float(row["t"]) < 12.6 - 1e-9:
-                out.writerow([row["t"], row["x"], row["v"], row["u"]])
-    result = work / f"identify{seed}.json"
-    t0 = time.perf_counter()
-    run = subprocess.run([hysid, "identify", "--model-file", str(HERE / "start.toml"), "--data", str(data),
-                          "--json", str(result), "--progress", "none"], capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    if not result.exists():
-        return f"seed {seed}: exit {run.returncode} without an estimate: {run.stderr.strip()[-200:]}"
-    d = json.loads(result.read_text())
-    z = max(abs(e - TRUTH[n]) / s for n, e, s in zip(d["names"], d["estimate"], d["standard_errors"])
-            if n in TRUTH and s)
-    return f"seed {seed}: {wall:.2f} s wall, status {d['status']}, route {d['route']}, max |z| {z:.2f}"
-
-
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--hysid", required=True)
-    ap.add_argument("--seeds", type=int, default=3, help="seeds 3, 4, ... (this many)")
-    ap.add_argument("--work", help="keep the files here (default: a temporary directory)")
-    args = ap.parse_args(argv)
-    with tempfile.TemporaryDirectory() as scratch:
-        work = Path(args.work or scratch)
-        work.mkdir(parents=True, exist_ok=True)
-        for seed in range(3, 3 + args.seeds):
-            print(one(args.hysid, work, seed), flush=True)
-    return 0
+def each(hysid, work, seed, args):
+    data = user_data(hysid, HERE / "truth.toml", 0.002, seed, ["t", "x", "v", "u"], work,
+                     keep=lambda row: not 12.0 <= float(row["t"]) < 12.6 - 1e-9)
+    wall, d, error = identify(hysid, HERE / "start.toml", data, work / f"identify{seed}.json")
+    if d is None:
+        yield f"seed {seed}: {error}"
+        return
+    yield f"seed {seed}: {wall:.2f} s wall, status {d['status']}, route {d['route']}, max |z| {max_z(d, TRUTH):.2f}"
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_seeds(__doc__, 3, 3, each))

@@ -8,17 +8,14 @@ the data as a user has them (t, x, v, r); then, per factor f, `hysid identify` w
 a start file with a = 2x, K1 = 2x, K2 = 0.5x the truth and T = f x the truth, timed. Prints the wall
 time, the status, T's estimate and SE, and the largest |estimate - truth| / SE over a, K1, K2, T.
 """
-import argparse
-import csv
-import json
 import re
-import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from own_system import identify, max_z, run_seeds, user_data  # noqa: E402
+
 TRUTH = {"a": 0.8, "K1": 1.5, "K2": 0.6, "T": 0.25}
 START = {"a": 2.0, "K1": 2.0, "K2": 0.5}
 
@@ -32,50 +29,20 @@ def start_file(path, factor):
     path.write_text(text)
 
 
-def one(hysid, work, seed, factor):
-    sim = work / f"sim{seed}.csv"
-    if not sim.exists():
-        subprocess.run([hysid, "simulate", "--model-file", str(HERE / "truth.toml"), "--sigma", "0.01",
-                        "--seed", str(seed), "--out", str(sim)], check=True, capture_output=True)
-    data = work / f"data{seed}.csv"
-    with open(sim) as f, open(data, "w", newline="") as g:
-        out = csv.writer(g)
-        out.writerow(["t", "x", "v", "r"])
-        for row in csv.DictReader(f):
-            out.writerow([row["t"], row["x"], row["v"], row["r"]])
-    start = work / f"start{factor}.toml"
-    start_file(start, factor)
-    result = work / f"identify{seed}-{factor}.json"
-    t0 = time.perf_counter()
-    run = subprocess.run([hysid, "identify", "--model-file", str(start), "--data", str(data),
-                          "--json", str(result), "--progress", "none"], capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    if not result.exists():
-        return f"seed {seed}, T x{factor}: exit {run.returncode} without an estimate: {run.stderr.strip()[-200:]}"
-    d = json.loads(result.read_text())
-    est = dict(zip(d["names"], d["estimate"]))
-    se = dict(zip(d["names"], d["standard_errors"] or [float("nan")] * len(d["names"])))
-    z = max(abs(est[n] - TRUTH[n]) / se[n] for n in TRUTH if se.get(n))
-    return (f"seed {seed}, T x{factor}: {wall:.2f} s wall, status {d['status']}, T = {est['T']:.5f} "
-            f"± {se['T']:.2g}, max |z| {z:.3g}")
-
-
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--hysid", required=True)
-    ap.add_argument("--seeds", type=int, default=2, help="seeds 1, 2, ... (this many)")
-    ap.add_argument("--period-factors", default="1,1.02,1.05,1.08,1.2")
-    ap.add_argument("--work", help="keep the files here (default: a temporary directory)")
-    args = ap.parse_args(argv)
-    factors = [float(f) for f in args.period_factors.split(",")]
-    with tempfile.TemporaryDirectory() as scratch:
-        work = Path(args.work or scratch)
-        work.mkdir(parents=True, exist_ok=True)
-        for seed in range(1, 1 + args.seeds):
-            for factor in factors:
-                print(one(args.hysid, work, seed, factor), flush=True)
-    return 0
+def each(hysid, work, seed, args):
+    data = user_data(hysid, HERE / "truth.toml", 0.01, seed, ["t", "x", "v", "r"], work)
+    for factor in (float(f) for f in args.period_factors.split(",")):
+        start = work / f"start{factor}.toml"
+        start_file(start, factor)
+        wall, d, error = identify(hysid, start, data, work / f"identify{seed}-{factor}.json")
+        if d is None:
+            yield f"seed {seed}, T x{factor}: {error}"
+            continue
+        est = dict(zip(d["names"], d["estimate"]))
+        se = dict(zip(d["names"], d["standard_errors"] or [float("nan")] * len(d["names"])))
+        yield (f"seed {seed}, T x{factor}: {wall:.2f} s wall, status {d['status']}, T = {est['T']:.5f} "
+               f"± {se['T']:.2g}, max |z| {max_z(d, TRUTH):.3g}")
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_seeds(__doc__, 1, 2, each, [("--period-factors", "1,1.02,1.05,1.08,1.2", "factors of T's start")]))
