@@ -7,9 +7,11 @@
 // crossings and resets, and gives the residuals w_r·(x_r(t_k) − y_rk) of every measured row r at each
 // of its samples (a missing sample has none) and, when the chain goes on, the continuity residuals
 // (x(τ_{i+1}⁻) − s_{i+1})/(ε·c_j) (c_j the state's scale: σ_j for a measured state, for a hidden one
-// σ scaled by its range against the measured one's). The unknowns are θ (the unknown α, β, guard
-// parameters) and every s_i; Ceres' Levenberg–Marquardt with a sparse Cholesky factorisation (the
-// normal matrix is block-banded). No detected label enters: the detector gives only θ's start.
+// σ scaled by its range over the node starts against the measured one's, or, when its node starts do
+// not vary, from its sensitivities: the mismatch that moves the measured rows by about one σ per
+// sample). The unknowns are θ (the unknown α, β, guard parameters) and every s_i; Ceres'
+// Levenberg–Marquardt with a sparse Cholesky factorisation (the normal matrix is block-banded). No
+// detected label enters: the detector gives only θ's start.
 //
 // Start: node states from the data (measured rows), hidden rows from the segment before simulated
 // at the start or their reconstruction, whichever fits the node's segment better (a chain's first
