@@ -49,9 +49,10 @@ def max_z(d, truth):
     return max(abs(est[n] - v) / se[n] for n, v in truth.items() if se.get(n))
 
 
-def run_seeds(doc, first_seed, default_seeds, each, options=()):
+def run_seeds(doc, first_seed, default_seeds, each, options=(), after=None):
     """The benches' command line: --hysid, --seeds, --work and `options` ((flag, default, help)
-    triples); each(hysid, work, seed, args) yields the lines printed per seed."""
+    triples); each(hysid, work, seed, args) yields the lines printed per seed; after(args), when
+    given, runs once all seeds have."""
     ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--hysid", required=True)
     ap.add_argument("--seeds", type=int, default=default_seeds,
@@ -66,4 +67,6 @@ def run_seeds(doc, first_seed, default_seeds, each, options=()):
         for seed in range(first_seed, first_seed + args.seeds):
             for line in each(args.hysid, work, seed, args):
                 print(line, flush=True)
+    if after:
+        after(args)
     return 0

@@ -744,51 +744,64 @@ bool Residuals(const ShootingProblem& pr, const std::vector<RefineChain>& chains
   return true;
 }
 
-// The Gauss–Newton normal matrix H = JᵀJ over (θ, s_0, s_1, …) at the fit, the data rows weighted by
-// `weight` (1/σ per measured row), and when `scores` is given, per chain and sample the score
-// g_k = Σ_r J_rkᵀ w_r r_rk of the raw residuals `residuals` (for the Newey–West meat).
-bool NormalMatrix(const ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s, const Vec& weight,
-                  const std::vector<Mat>& residuals, Mat* H, std::vector<std::vector<Vec>>* scores) {
+// The information of the fit with its continuity exact: the fit's point as a function of θ and the
+// states of the free nodes (each chain's first), every later node the run from the one before,
+// linearised there. Over r = (θ, the free nodes' states), with the data rows weighted by `weight`
+// (1/σ per measured row): the Gauss–Newton information M = Σ_k J_kᵀ J_k of the data alone, the map
+// T from r to (θ, s_0, s_1, …) (s_{i+1} = ∂x(τ_{i+1})/∂(θ, s_i) · T_i r), and when `scores` is
+// given, per chain and sample the score g_k = Σ_r J_rkᵀ w_r r_rk of the raw residuals `residuals`
+// (for the Newey–West meat). The continuity rows do not enter: soft at any width ε, they would let
+// each node move by about ε·c_j as if the state were kicked there, and a parameter told by its effect
+// accumulated over many segments would get a larger standard error than the bound's (the hopper's
+// drag, cli.identify.accumulated_drag).
+struct Information {
+  Mat M, T;
+  std::vector<std::vector<Vec>> scores;
+};
+
+bool ExactInformation(const ShootingProblem& pr, const Vec& theta, const std::vector<Vec>& s, const Vec& weight,
+                      const std::vector<Mat>& residuals, Information* out, bool scores) {
   const int p = pr.shared, n = pr.n;
-  const auto P = static_cast<Eigen::Index>(p + n * static_cast<int>(pr.segments.size()));
+  const auto segments = static_cast<Eigen::Index>(pr.segments.size());
   const auto m = static_cast<Eigen::Index>(pr.rows.size());
-  *H = Mat::Zero(P, P);
-  if (scores) scores->assign(residuals.size(), {});
-  Vec row(P);
-  for (std::size_t i = 0; i < pr.segments.size(); ++i) {
-    const Segment& seg = pr.segments[i];
+  Eigen::Index free_nodes = 0;
+  for (Eigen::Index i = 0; i < segments; ++i) free_nodes += i == 0 || !pr.segments[std::size_t(i - 1)].continues;
+  const Eigen::Index R = p + n * free_nodes;
+  out->T = Mat::Zero(p + n * segments, R);
+  out->T.topLeftCorner(p, p).setIdentity();
+  out->M = Mat::Zero(R, R);
+  out->scores.assign(residuals.size(), {});
+  Mat local(p + n, p + n), at_node(p + n, R);
+  Vec row(p + n);
+  Eigen::Index next_free = p;
+  for (Eigen::Index i = 0; i < segments; ++i) {
+    const Segment& seg = pr.segments[std::size_t(i)];
     SensitivityTrajectory tr;
-    const HybridParameters at = pr.At(theta.data(), s[i].data(), seg.mode);
+    const HybridParameters at = pr.At(theta.data(), s[std::size_t(i)].data(), seg.mode);
     if (!SimulateSegment(pr, seg, at, true, &tr) && !SimulateSegment(pr, seg, at, true, &tr, Reading::kOwn)) {
       return false;
     }
-    const auto node = static_cast<Eigen::Index>(p + n * static_cast<int>(i));
-    auto fill = [&](long k, int state, double w) {
-      row.setZero();
-      const auto S = tr.S(k);
-      for (int c = 0; c < p; ++c) row[c] = w * S(state, c);
-      for (int c = 0; c < n; ++c) row[node + c] = w * S(state, p + c);
-    };
+    const Eigen::Index node = p + n * i;
+    if (i == 0 || !pr.segments[std::size_t(i - 1)].continues) {
+      out->T.block(node, next_free, n, n).setIdentity();
+      next_free += n;
+    }
+    at_node << out->T.topRows(p), out->T.middleRows(node, n);
+    local.setZero();
     for (long k = 0; k < seg.samples(); ++k) {
-      Vec score = scores ? Vec::Zero(P) : Vec();
+      Vec score = scores ? Vec::Zero(p + n) : Vec();
       for (Eigen::Index r = 0; r < m; ++r) {
         if (seg.keep.size() && seg.keep(r, k) == 0.0) continue;  // left out of the final solve
-        fill(k, pr.rows[std::size_t(r)], weight[r]);
-        H->selfadjointView<Eigen::Lower>().rankUpdate(row);
+        row = weight[r] * tr.S(k).row(pr.rows[std::size_t(r)]).transpose();
+        local.selfadjointView<Eigen::Lower>().rankUpdate(row);
         if (scores) score += weight[r] * residuals[seg.chain](r, seg.first + k) * row;
       }
-      if (scores) (*scores)[seg.chain].push_back(std::move(score));
+      if (scores) out->scores[seg.chain].push_back(at_node.transpose() * score);
     }
-    if (seg.continues) {
-      for (int j = 0; j < n; ++j) {
-        fill(seg.samples(), j, pr.link_weight[j]);
-        row[node + n + j] = -pr.link_weight[j];
-        H->selfadjointView<Eigen::Lower>().rankUpdate(row);
-      }
-    }
+    out->M += at_node.transpose() * Mat(local.selfadjointView<Eigen::Lower>()) * at_node;
+    if (seg.continues) out->T.middleRows(node + n, n) = tr.S(seg.samples()) * at_node;
   }
-  *H = H->selfadjointView<Eigen::Lower>();
-  return true;
+  return out->M.allFinite() && out->T.allFinite();
 }
 
 }  // namespace
@@ -952,12 +965,12 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
   // normalised RMS reported.
   const double over_mad = r.sigma_estimated && !numerical ? SigmaOverMad(sigma_hat, pr.mad, floor) : 0.0;
   if (over_mad > 0.0) r.normalized_rms = over_mad;
-  Mat H;
-  std::vector<std::vector<Vec>> scores;
-  if (!NormalMatrix(pr, theta, s, sigma.cwiseInverse(), residuals, &H, tests.white ? nullptr : &scores)) {
+  Information info;
+  if (!ExactInformation(pr, theta, s, sigma.cwiseInverse(), residuals, &info, !tests.white)) {
     Fail(r, RefineStatus::kNotConverged, "the fit does not simulate with sensitivities");
     return;
   }
+  const Mat& H = info.M;
   // The singularity test on the Jacobi-scaled matrix S H S (S = diag(H_ii^−½)): the units a parameter
   // is written in scale its row and column, not its information.
   const Vec scale = H.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
@@ -982,11 +995,10 @@ void Judge(const ShootingProblem& pr, const std::vector<RefineChain>& chains, co
     return;
   }
   const Mat Hinv = scale.asDiagonal() * ldlt.solve(Mat::Identity(H.rows(), H.cols())) * scale.asDiagonal();
-  const Mat cov = tests.white ? Hinv : Mat(Hinv * NeweyWestMeat(scores, H.rows()) * Hinv);
-  std::vector<Eigen::Index> idx;  // θ, then the first chain's first node state
-  for (int i = 0; i < pr.shared + pr.n; ++i) idx.push_back(i);
-  r.covariance = cov(idx, idx);
-  *full = cov;
+  const Mat cov = tests.white ? Hinv : Mat(Hinv * NeweyWestMeat(info.scores, H.rows()) * Hinv);
+  // θ, then the first chain's first node state (the first free node).
+  r.covariance = cov.topLeftCorner(pr.shared + pr.n, pr.shared + pr.n);
+  *full = info.T * cov * info.T.transpose();
   r.standard_errors = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   r.reported = true;
   if (!tests.level_ok) {
@@ -1231,6 +1243,7 @@ RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain
   r.chain_covariance = std::move(covariance);
   r.chain_x0 = std::move(x0);
   r.chain_samples_used = std::move(used);
+  r.chain_span_reason.assign(chains.size(), "");  // no span is cut
   r.chain_mode = std::move(mode);
   r.chains_skipped = static_cast<long>(chains.size() - index.size());
   r.chains_used = static_cast<long>(index.size());
@@ -1333,8 +1346,9 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
     }
   }
   // The final solve on every sample, read on the model's own events at the point reached (labels),
-  // so that the cost is smooth there; again while the labels move. A solve that fails leaves the
-  // point of the one before.
+  // so that the cost is smooth there; again while the labels move; its continuity at kFinalWidth. A
+  // solve that fails leaves the point of the one before.
+  pr.link_weight = (kFinalWidth * pr.scale).cwiseInverse();
   for (int round = 0; round < kModeRounds && summary.IsSolutionUsable() && !options.stopped() && r.iterations < budget;
        ++round) {
     Trim(pr, theta, s, /*at_events_only=*/true);

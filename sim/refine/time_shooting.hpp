@@ -25,10 +25,12 @@
 // measured state has a residual the jump's size, which no sensitivity can explain). Final solve: every
 // sample but those beside a jump of the model that are that far off, read on the model's own jump
 // counts at the point reached (matched: each flow continued past the model's jump, so the cost is
-// smooth there), again while those counts move.
+// smooth there), again while those counts move, with the continuity nearly exact (kFinalWidth).
 //
-// At the fit: the covariance of θ and each chain's first node state from the Gauss–Newton normal
-// matrix at the fitted σ (the continuity rows make it the single-shooting covariance to within ε²),
+// At the fit: the covariance of θ and each chain's first node state from the Gauss–Newton information
+// of the data rows at the fitted σ with the continuity exact (every later node the run from the one
+// before, linearised at the fit: the single-shooting information; the continuity rows, soft at any
+// width, would let each node move by about ε·c_j as if the state were kicked there),
 // the residual tests of sim/refine/residual_tests.hpp (with σ estimated, SigmaOverMad at most
 // RefineOptions::rms_high, as on the labelled routes), and when they refuse whiteness (model error),
 // the sandwich covariance with a Newey–West (Bartlett) estimate of the scores' autocovariance within
@@ -56,6 +58,10 @@ constexpr double kWidthCostGrowth = 5.0;
 constexpr double kShortestWidthStep = 1.5;
 // A width within this factor of kLastWidth is kLastWidth (the steps' rounding).
 constexpr double kWidthRounding = 1.0 + 1e-9;
+// The final solve's width: the continuity nearly exact, so that the estimate is the output-error
+// one of a single shooting (a node that may move by ε·c_j lets a parameter told over many segments
+// wander off it, and the estimate spreads wider than the bound; bench/hopper-drag).
+constexpr double kFinalWidth = 1e-4;
 constexpr int kModeRounds = 4;
 // The first stage follows the data segment by segment when the median segment's mean squared
 // weighted residual is at most this (twice the noise's variance; RefineResult::segments_fit_noise).

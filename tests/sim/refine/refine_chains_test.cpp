@@ -175,7 +175,10 @@ TEST_CASE("a chain whose detector missed its last jump, near its end: that chain
   CHECK_THAT(kept.reason, Catch::Contains("chain 2"));
   CHECK(kept.standard_errors.size() == 0);
   CHECK(kept.estimate.alpha == kept.start.alpha);
-  const RefineResult r = runs.Fit();
+  // The labelled routes alone cut the span.
+  RefineOptions labelled;
+  labelled.routes = RefineRoutesWithout({RefineRoute::kTimeShooting});
+  const RefineResult r = runs.Fit(labelled);
   INFO(ToString(r.status) << ": " << r.reason << " | " << r.span_reason << " | " << r.start_repair);
   REQUIRE(r.ok());
   CHECK(r.start_repair.empty());
@@ -190,6 +193,17 @@ TEST_CASE("a chain whose detector missed its last jump, near its end: that chain
   CHECK_THAT(r.span_reason, Catch::StartsWith("chain 2: "));
   CHECK(r.model_jumps == r.detected_jumps);
   RequireNearTruth(runs.a.model, r, 4.0);
+  // Every route: the fit by time (the model's own events) is ok on every sample of both chains, each
+  // standard error at most the cut span's, so it is kept.
+  const RefineResult all = runs.Fit();
+  INFO(ToString(all.status) << ": " << all.reason);
+  REQUIRE(all.ok());
+  CHECK(all.route == "multiple shooting by time");
+  CHECK(all.samples_used == runs.a.truth.size() + static_cast<long>(runs.second.t.size()));
+  CHECK(all.chain_span_reason == std::vector<std::string>(2));
+  const auto shared = static_cast<Eigen::Index>(r.unknowns.shared());
+  CHECK((all.standard_errors.head(shared).array() <= r.standard_errors.head(shared).array()).all());
+  RequireNearTruth(runs.a.model, all, 4.0);
 }
 
 TEST_CASE("a chain whose detector missed its first jump: the span cannot help - the repaired start adds it",
