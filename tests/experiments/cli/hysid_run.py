@@ -1,7 +1,10 @@
-"""The one helper the selection tests here share: run a command, stop the test when it exits with a
-code it does not expect."""
+"""What the tests here share: run a command, stopping the test when it exits with a code it does not
+expect; the sd `hysid crlb` prints; an identify report held against the truth and the bound."""
+import re
 import subprocess
 import sys
+
+CRLB_LINE = re.compile(r"^\s+(\S+)\s+=\s+\S+\s+sd\s+(\S+)")
 
 
 def run(*args, codes=(0,)):
@@ -11,3 +14,25 @@ def run(*args, codes=(0,)):
         sys.exit(f"{' '.join(args)}: exit {p.returncode}, expected {' or '.join(map(str, codes))}\n"
                  f"{p.stdout}\n{p.stderr}")
     return p.stdout
+
+
+def crlb_sd(*args):
+    """`hysid crlb` run with args: {name: sd}."""
+    return {m.group(1): float(m.group(2)) for m in map(CRLB_LINE.match, run(*args).splitlines()) if m}
+
+
+def at_the_bound(label, report, truth, crlb):
+    """The failures of an identify report (its JSON as a dict) against the truth and the bound: status
+    not ok, an unknown beyond 4 reported SE of the truth, an SE off the CRLB sd by more than 25 %."""
+    if report["status"] != "ok":
+        return [f"{label}: status {report['status']}: {report['reason']}"]
+    failures = []
+    for name, value, se in zip(report["names"], report["estimate"], report["standard_errors"]):
+        z = abs(value - truth[name]) / se
+        ratio = se / crlb[name]
+        print(f"{label}: {name} = {value:.9g} +- {se:.3g} (|z| {z:.2f}, se/crlb {ratio:.3f})")
+        if z > 4.0:
+            failures.append(f"{label}: {name} = {value} is {z:.2f} SE from {truth[name]}")
+        if not 0.75 <= ratio <= 1.25:
+            failures.append(f"{label}: {name}: se {se:.4g} is {ratio:.3f} x the CRLB sd {crlb[name]:.4g}")
+    return failures
