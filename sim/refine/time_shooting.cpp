@@ -686,6 +686,26 @@ double ExpectedCost(const ShootingProblem& pr) {
   return std::max(1.0, 0.5 * static_cast<double>(pr.rows.size()) * static_cast<double>(samples));
 }
 
+// Ends a solve at its best point after kStalledSteps rejected steps in a row at a cost of at most
+// `near` (kStallCostRatio).
+class StallStop final : public ceres::IterationCallback {
+ public:
+  explicit StallStop(double near) : near_(near) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& it) override {
+    if (it.iteration == 0 || it.step_is_successful) {
+      cost_ = it.cost;  // a rejected step's summary holds the cost of the point it tried
+      rejected_ = 0;
+      return ceres::SOLVER_CONTINUE;
+    }
+    return ++rejected_ >= kStalledSteps && cost_ <= near_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                          : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  double near_, cost_ = 0.0;
+  int rejected_ = 0;
+};
+
 ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& options, Vec& theta,
                              std::vector<Vec>& s) {
   SegmentRuns runs(theta, s);
@@ -716,6 +736,8 @@ ceres::Solver::Summary Solve(const ShootingProblem& pr, const RefineOptions& opt
   so.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)
                               ? ceres::SPARSE_NORMAL_CHOLESKY
                               : ceres::DENSE_QR;
+  StallStop stall(kStallCostRatio * ExpectedCost(pr));
+  so.callbacks.push_back(&stall);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &cp, &summary);
   return summary;
