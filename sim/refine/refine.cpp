@@ -660,8 +660,11 @@ bool Better(const RefineResult& a, const RefineResult& b) {
 // until one is ok (their fits are kept only when ok); the same search when the best fit is refused by its
 // residual tests although some start's nearly free segments fit the data to the noise
 // (RefineResult::segments_fit_noise: a local minimum, not model error), a fit kept only when ok at a lower
-// cost. A fit that Determines ends the starts (and a searching start's is kept) as an ok one does. The best
-// of the fits (Better); `mended` names the start of the one kept.
+// cost. The searching starts hold a hidden state whose node starts all take one value (a constant the
+// data do not reconstruct) continuous from the first width on (FitByTimeShooting's tie_flat_hidden):
+// free per segment, it trades for the parameters it enters with. A fit that Determines ends the starts
+// (and a searching start's is kept) as an ok one does. The best of the fits (Better); `mended` names
+// the start of the one kept.
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
                                     const HybridParameters& recursive, const RefineOptions& options, bool search) {
   auto named = [](RefineResult fit, const std::string& start) {
@@ -681,8 +684,8 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
       best = std::move(other);
     }
   };
-  auto fit = [&](const HybridParameters& from, const std::string& what) {
-    return named(FitByTimeShooting(model, chains, from, options), what);
+  auto fit = [&](const HybridParameters& from, const std::string& what, bool tie_flat_hidden = false) {
+    return named(FitByTimeShooting(model, chains, from, options, tie_flat_hidden), what);
   };
   // The model's values first, each fit with every thread on its segments: its fit, when ok, is kept;
   // else the recursive estimate's is fit and the better of the two kept (Better, in this order). Each
@@ -743,7 +746,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
       const std::optional<Vec> gamma =
           at.reach ? GammaReachingGuards(model, chains, at.from, options) : std::nullopt;
       if (gamma) at.from.gamma = *gamma;
-      fits[k] = fit(at.from, at.name);
+      fits[k] = fit(at.from, at.name, /*tie_flat_hidden=*/true);
     });
     for (std::size_t k = 0; k < fits.size() && !best.ok() && !Determines(best); ++k) {
       // Out of a local minimum: to a lower cost (the same data and weights, a higher likelihood).

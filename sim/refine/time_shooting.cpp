@@ -48,6 +48,8 @@ struct ShootingProblem {
   Vec mad;                  // per measured row: σ's MAD estimate from the data's second differences
   Vec scale;                // per state: c_j (σ_j for a measured state)
   Vec link_weight;          // per state: 1/(ε c_j) at the current stage's ε
+  bool tie_flat = false;    // FitByTimeShooting's tie_flat_hidden
+  std::vector<bool> flat;   // per state: hidden, its node starts all equal (WeighHidden), tied at kFinalWidth
   SensitivityOptions sens;
   std::vector<Segment> segments;
   int shared = 0;
@@ -888,8 +890,10 @@ double HiddenScaleFromSensitivities(const ShootingProblem& pr, const Vec& theta,
 
 // Hidden states' continuity weights from their own range over the node starts, against the measured
 // state's of the widest range; a hidden state whose node starts do not vary (a constant, or a start
-// that leaves it so) from its sensitivities (HiddenScaleFromSensitivities).
+// that leaves it so) from its sensitivities (HiddenScaleFromSensitivities), and with tie_flat `flat`:
+// tied at kFinalWidth from the first width on.
 void WeighHidden(const Vec& theta, const std::vector<Vec>& s, ShootingProblem& pr) {
+  pr.flat.assign(std::size_t(pr.n), false);
   if (s.empty()) return;
   double measured_range = 0.0, measured_sigma = 0.0;
   for (std::size_t r = 0; r < pr.rows.size(); ++r) {
@@ -907,6 +911,7 @@ void WeighHidden(const Vec& theta, const std::vector<Vec>& s, ShootingProblem& p
     double scale = measured_range > 0.0 ? measured_sigma * std::max(hi - lo, kFlatRange) / measured_range : 1.0;
     if (hi - lo < kFlatRange) {
       if (const double c = HiddenScaleFromSensitivities(pr, theta, s, j); c > 0.0) scale = c;
+      pr.flat[std::size_t(j)] = pr.tie_flat;
     }
     pr.scale[j] = scale;
   }
@@ -1216,13 +1221,14 @@ std::optional<Vec> GammaReachingGuards(const Model& model, const std::vector<Ref
 }
 
 RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain>& chains,
-                               const HybridParameters& start, const RefineOptions& options) {
+                               const HybridParameters& start, const RefineOptions& options, bool tie_flat_hidden) {
   RefineResult r;
   r.route = "multiple shooting by time";
   r.unknowns = Unknowns::Of(model);
   r.names = r.unknowns.Names(model);
   r.start = r.refined = r.estimate = start;
   ShootingProblem pr = ProblemOf(model, start, options);
+  pr.tie_flat = tie_flat_hidden;
   // The chains of a run joined through their gaps; joined chains of fewer than 2n + 2 samples are
   // left out (as by the labelled routes). Per caller's chain: its joined chain and first sample there.
   std::vector<RefineChain> fit;
@@ -1309,6 +1315,9 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   std::vector<Segment> segments_before = pr.segments;
   for (bool first = true;; first = false) {
     pr.link_weight = (width * pr.scale).cwiseInverse();
+    for (int j = 0; j < pr.n; ++j) {  // a flat hidden state tied at every width (kFinalWidth)
+      if (pr.flat[std::size_t(j)]) pr.link_weight[j] = 1.0 / (kFinalWidth * pr.scale[j]);
+    }
     for (int round = 0; round < kModeRounds && r.iterations < budget; ++round) {
       RepairNodes(pr, theta, s);
       summary = Solve(pr, options, theta, s);
@@ -1432,6 +1441,9 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   Judge(pr, chains, theta, s, options, r, &full);
   if (r.reported) r.chain_covariance = ChainCovariances(pr, reach, full);
   r.mended = fmt::format("multiple shooting by time over {} segments", pr.segments.size());
+  for (int j = 0; j < pr.n; ++j) {
+    if (pr.flat[std::size_t(j)]) r.mended += fmt::format(" ({} held continuous)", model.spec().state_names[std::size_t(j)]);
+  }
   r.estimate = r.reported ? r.refined : r.start;
   return r;
 }

@@ -106,9 +106,12 @@ constexpr int kSearchBatch = 4;
 long TimeShootingNodeSpacing(long samples, int n);
 
 // The fit of the chains from `start` (full α, β, γ; its x0 unused). Status, estimates, covariance,
-// residual statistics and `route` in the result; `chain_x0` the chains' first node states.
+// residual statistics and `route` in the result; `chain_x0` the chains' first node states. With
+// tie_flat_hidden, a hidden state whose node starts all take one value is held continuous
+// (kFinalWidth) from the first width on, and `mended` names it.
 RefineResult FitByTimeShooting(const Model& model, const std::vector<RefineChain>& chains,
-                               const HybridParameters& start, const RefineOptions& options);
+                               const HybridParameters& start, const RefineOptions& options,
+                               bool tie_flat_hidden = false);
 
 // γ for a start whose guards the model never reaches (an automaton with unknown guard parameters):
 // the nodes are started as FitByTimeShooting starts them from `start` and each segment is run; a jump
