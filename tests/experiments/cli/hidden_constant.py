@@ -10,29 +10,20 @@ the truth.
 
 Usage: hidden_constant.py HYSID MODEL_FILE
 """
-import csv
 import json
 import os
 import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from hysid_run import at_the_bound, crlb_sd, run  # noqa: E402
+from hysid_run import at_the_bound, crlb_sd, run, start_file, user_data  # noqa: E402
 
 HYSID, TRUTH_FILE = sys.argv[1], sys.argv[2]
 SIGMA = 0.01
 TRUTH = {"g": 0.5, "th": 1.0, "x0[v]": 0.0, "x0[I]": 0.8}
-
-
-def start_file(path):
-    text = open(TRUTH_FILE).read()
-    for old, new in (('name = "g", value = 0.5', 'name = "g", value = 1.1'),
-                     ('name = "th", value = 1.0', 'name = "th", value = 1.3'),
-                     ("x0 = [0.0, 0.8]", "x0 = [0.0, 0.4]")):
-        assert old in text, old
-        text = text.replace(old, new)
-    with open(path, "w") as f:
-        f.write(text)
+START = (('name = "g", value = 0.5', 'name = "g", value = 1.1'),
+         ('name = "th", value = 1.0', 'name = "th", value = 1.3'),
+         ("x0 = [0.0, 0.8]", "x0 = [0.0, 0.4]"))
 
 
 def main():
@@ -42,17 +33,11 @@ def main():
         sys.exit(f"hysid crlb gave sd for {sorted(crlb)}, expected {sorted(TRUTH)}")
     with tempfile.TemporaryDirectory() as d:
         start = os.path.join(d, "start.toml")
-        start_file(start)
+        start_file(TRUTH_FILE, START, start)
         for seed in (1, 2):
             sim, data, out = (os.path.join(d, f"{name}{seed}.{ext}")
                               for name, ext in (("sim", "csv"), ("data", "csv"), ("id", "json")))
-            run(HYSID, "simulate", "--model-file", TRUTH_FILE, "--sigma", str(SIGMA), "--seed", str(seed),
-                "--out", sim)
-            with open(sim) as f, open(data, "w", newline="") as g:
-                rows = csv.writer(g)
-                rows.writerow(["t", "v"])
-                for row in csv.DictReader(f):
-                    rows.writerow([row["t"], row["v"]])
+            user_data(HYSID, TRUTH_FILE, SIGMA, seed, ["t", "v"], sim, data)
             run(HYSID, "identify", "--model-file", start, "--data", data, "--json", out, "--progress", "none",
                 codes=(0, 1))
             with open(out) as f:

@@ -12,43 +12,29 @@ unknown within 4 reported standard errors of the truth and every standard error 
 
 Usage: hidden_force.py HYSID MODEL_FILE
 """
-import csv
 import json
 import os
 import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from hysid_run import at_the_bound, crlb_sd, run  # noqa: E402
+from hysid_run import at_the_bound, crlb_sd, run, start_file, user_data  # noqa: E402
 
 HYSID, TRUTH_FILE = sys.argv[1], sys.argv[2]
 SIGMA = 0.005
 TRUTH = {"k": 4.0, "c": 0.3, "e": 0.7, "x0[x]": -0.5, "x0[v]": 1.5, "x0[F]": 1.0}
-
-
-def start_file(path):
-    text = open(TRUTH_FILE).read()
-    for old, new in (('name = "k", value = 4.0', 'name = "k", value = 7.0'),
-                     ('name = "c", value = 0.3', 'name = "c", value = 0.15'),
-                     ('name = "e", value = 0.7', 'name = "e", value = 0.9'),
-                     ("x0 = [-0.5, 1.5, 1.0]", "x0 = [-0.5, 0.0, 0.7]")):
-        assert old in text, old
-        text = text.replace(old, new)
-    with open(path, "w") as f:
-        f.write(text)
+START = (('name = "k", value = 4.0', 'name = "k", value = 7.0'),
+         ('name = "c", value = 0.3', 'name = "c", value = 0.15'),
+         ('name = "e", value = 0.7', 'name = "e", value = 0.9'),
+         ("x0 = [-0.5, 1.5, 1.0]", "x0 = [-0.5, 0.0, 0.7]"))
 
 
 def main():
     crlb = crlb_sd(HYSID, "crlb", "--model-file", TRUTH_FILE, "--sigma", str(SIGMA))
     with tempfile.TemporaryDirectory() as d:
         start, sim, data, out = (os.path.join(d, name) for name in ("start.toml", "sim.csv", "data.csv", "id.json"))
-        start_file(start)
-        run(HYSID, "simulate", "--model-file", TRUTH_FILE, "--sigma", str(SIGMA), "--seed", "1", "--out", sim)
-        with open(sim) as f, open(data, "w", newline="") as g:
-            rows = csv.writer(g)
-            rows.writerow(["t", "x"])
-            for row in csv.DictReader(f):
-                rows.writerow([row["t"], row["x"]])
+        start_file(TRUTH_FILE, START, start)
+        user_data(HYSID, TRUTH_FILE, SIGMA, 1, ["t", "x"], sim, data)
         run(HYSID, "identify", "--model-file", start, "--data", data, "--json", out, "--progress", "none",
             codes=(0, 1))
         with open(out) as f:

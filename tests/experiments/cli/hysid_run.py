@@ -1,5 +1,7 @@
 """What the tests here share: run a command, stopping the test when it exits with a code it does not
-expect; the sd `hysid crlb` prints; an identify report held against the truth and the bound."""
+expect; the sd `hysid crlb` prints; a start file and a user's data from a true model file; an
+identify report held against the truth and the bound."""
+import csv
 import re
 import subprocess
 import sys
@@ -14,6 +16,27 @@ def run(*args, codes=(0,)):
         sys.exit(f"{' '.join(args)}: exit {p.returncode}, expected {' or '.join(map(str, codes))}\n"
                  f"{p.stdout}\n{p.stderr}")
     return p.stdout
+
+
+def start_file(truth_file, replacements, path):
+    """Writes truth_file's text with each (old, new) of replacements made (each old must occur)."""
+    with open(truth_file) as f:
+        text = f.read()
+    for old, new in replacements:
+        assert old in text, old
+        text = text.replace(old, new)
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def user_data(hysid, truth_file, sigma, seed, columns, sim, data):
+    """`hysid simulate` of truth_file into sim, and its columns alone (what a user has) into data."""
+    run(hysid, "simulate", "--model-file", truth_file, "--sigma", str(sigma), "--seed", str(seed), "--out", sim)
+    with open(sim) as f, open(data, "w", newline="") as g:
+        rows = csv.writer(g)
+        rows.writerow(columns)
+        for row in csv.DictReader(f):
+            rows.writerow([row[c] for c in columns])
 
 
 def crlb_sd(*args):
