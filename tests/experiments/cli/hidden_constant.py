@@ -15,8 +15,10 @@ import os
 import sys
 import tempfile
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from hysid_run import at_the_bound, crlb_sd, run, start_file, user_data  # noqa: E402
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "..", "bench")]
+from hysid_run import at_the_bound, crlb_sd, run, start_file  # noqa: E402
+from own_system import user_data  # noqa: E402
 
 HYSID, TRUTH_FILE = sys.argv[1], sys.argv[2]
 SIGMA = 0.01
@@ -35,9 +37,8 @@ def main():
         start = os.path.join(d, "start.toml")
         start_file(TRUTH_FILE, START, start)
         for seed in (1, 2):
-            sim, data, out = (os.path.join(d, f"{name}{seed}.{ext}")
-                              for name, ext in (("sim", "csv"), ("data", "csv"), ("id", "json")))
-            user_data(HYSID, TRUTH_FILE, SIGMA, seed, ["t", "v"], sim, data)
+            data = str(user_data(HYSID, TRUTH_FILE, SIGMA, seed, ["t", "v"], d))
+            out = os.path.join(d, f"id{seed}.json")
             run(HYSID, "identify", "--model-file", start, "--data", data, "--json", out, "--progress", "none",
                 codes=(0, 1))
             with open(out) as f:

@@ -17,8 +17,10 @@ import os
 import sys
 import tempfile
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from hysid_run import at_the_bound, crlb_sd, run, start_file, user_data  # noqa: E402
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "..", "bench")]
+from hysid_run import at_the_bound, crlb_sd, run, start_file  # noqa: E402
+from own_system import user_data  # noqa: E402
 
 HYSID, TRUTH_FILE = sys.argv[1], sys.argv[2]
 SIGMA = 0.005
@@ -32,9 +34,9 @@ START = (('name = "k", value = 4.0', 'name = "k", value = 7.0'),
 def main():
     crlb = crlb_sd(HYSID, "crlb", "--model-file", TRUTH_FILE, "--sigma", str(SIGMA))
     with tempfile.TemporaryDirectory() as d:
-        start, sim, data, out = (os.path.join(d, name) for name in ("start.toml", "sim.csv", "data.csv", "id.json"))
+        start, out = os.path.join(d, "start.toml"), os.path.join(d, "id.json")
         start_file(TRUTH_FILE, START, start)
-        user_data(HYSID, TRUTH_FILE, SIGMA, 1, ["t", "x"], sim, data)
+        data = str(user_data(HYSID, TRUTH_FILE, SIGMA, 1, ["t", "x"], d))
         run(HYSID, "identify", "--model-file", start, "--data", data, "--json", out, "--progress", "none",
             codes=(0, 1))
         with open(out) as f:

@@ -1,7 +1,6 @@
 """What the tests here share: run a command, stopping the test when it exits with a code it does not
-expect; the sd `hysid crlb` prints; a start file and a user's data from a true model file; an
-identify report held against the truth and the bound."""
-import csv
+expect; the sd `hysid crlb` prints; a start file from a true model file; an identify report held
+against the truth and the bound (the data as a user has them: bench/own_system.py's user_data)."""
 import re
 import subprocess
 import sys
@@ -27,16 +26,6 @@ def start_file(truth_file, replacements, path):
         text = text.replace(old, new)
     with open(path, "w") as f:
         f.write(text)
-
-
-def user_data(hysid, truth_file, sigma, seed, columns, sim, data):
-    """`hysid simulate` of truth_file into sim, and its columns alone (what a user has) into data."""
-    run(hysid, "simulate", "--model-file", truth_file, "--sigma", str(sigma), "--seed", str(seed), "--out", sim)
-    with open(sim) as f, open(data, "w", newline="") as g:
-        rows = csv.writer(g)
-        rows.writerow(columns)
-        for row in csv.DictReader(f):
-            rows.writerow([row[c] for c in columns])
 
 
 def crlb_sd(*args):
