@@ -67,13 +67,14 @@ struct CandidateTerm {
   int mode = 0;
 };
 
-// A candidate term of a jump row (a model file's [jump] candidates): the β entry whose ψ column is the
-// expression `term` (of the pre-jump state) in row `row` and 0 elsewhere, its coefficient to be
-// selected from the detected jumps.
+// A candidate term of a jump row (a model file's [jump] or [[jump]] candidates): the β entry whose ψ
+// column is the expression `term` (of the pre-jump state) in row `row` and 0 elsewhere, its
+// coefficient to be selected from the detected jumps (of map `map`'s, within its β slice).
 struct JumpCandidateTerm {
   int beta = 0;
   int row = 0;
   std::string term;
+  int map = -1;  // index into ModelSpec::jumps; −1: the one [jump]
 };
 
 struct ModelSpec {

@@ -80,30 +80,49 @@ void AppendColumn(const std::vector<std::pair<toml::table*, std::string>>& flows
   }
 }
 
-// The [jump] table's candidates kept (`kept`, names jump_ROW_K) as β entries (value 0) with their ψ
+// The jump tables with candidates: the [jump] (prefix "jump_", its β the file's `beta`) or each
+// [[jump]] map (prefix "MAP_", its β the map's own `beta`), with the β list their kept candidates join.
+struct JumpTable {
+  toml::table* table;
+  std::string prefix;
+  toml::array* beta;
+};
+std::vector<JumpTable> JumpTables(toml::table& root) {
+  std::vector<JumpTable> out;
+  const auto add = [&](toml::table* t, std::string prefix, toml::array* beta) {
+    if (t != nullptr && t->contains("candidates") && beta != nullptr) out.push_back({t, std::move(prefix), beta});
+  };
+  add(root["jump"].as_table(), "jump_", root["beta"].as_array());
+  if (toml::array* maps = root["jump"].as_array()) {
+    for (toml::node& node : *maps) {
+      toml::table* t = node.as_table();
+      if (t != nullptr) add(t, (*t)["name"].value<std::string>().value_or("") + "_", (*t)["beta"].as_array());
+    }
+  }
+  return out;
+}
+
+// A jump table's candidates kept (`kept`, names PREFIX_ROW_K) as β entries (value 0) with their ψ
 // columns (the term in its row, 0 elsewhere); their names go to `found`. The candidates are erased.
-void KeepJumpCandidates(toml::table& root, const std::vector<std::string>& kept, std::vector<std::string>* found) {
-  toml::table* jump = root["jump"].as_table();
-  const toml::table* candidates = jump != nullptr ? (*jump)["candidates"].as_table() : nullptr;
-  toml::array* beta = root["beta"].as_array();
-  toml::array* states = root["states"].as_array();
-  if (candidates == nullptr || beta == nullptr || states == nullptr) return;
-  const std::vector<std::pair<toml::table*, std::string>> table = {{jump, ""}};
+void KeepJumpCandidates(const JumpTable& jump, const toml::array& states, const std::vector<std::string>& kept,
+                        std::vector<std::string>* found) {
+  const toml::table* candidates = (*jump.table)["candidates"].as_table();
+  const std::vector<std::pair<toml::table*, std::string>> table = {{jump.table, ""}};
   for (auto&& [row, list] : *candidates) {
     const toml::array* terms = list.as_array();
     for (std::size_t i = 0; terms != nullptr && i < terms->size(); ++i) {
-      const std::string candidate = fmt::format("jump_{}_{}", row.str(), i + 1);
+      const std::string candidate = fmt::format("{}{}_{}", jump.prefix, row.str(), i + 1);
       if (std::find(kept.begin(), kept.end(), candidate) == kept.end()) continue;
       found->push_back(candidate);
       const toml::node& term = *terms->get(i);
       toml::table entry{{"name", candidate}, {"value", 0.0}};
       entry.insert("description", fmt::format("chosen candidate jump term {}", TermText(term)));
       entry.is_inline(true);
-      beta->push_back(std::move(entry));
-      AppendColumn(table, jump, *states, row.str(), term, "psi");
+      jump.beta->push_back(std::move(entry));
+      AppendColumn(table, jump.table, states, row.str(), term, "psi");
     }
   }
-  jump->erase("candidates");
+  jump.table->erase("candidates");
 }
 
 }  // namespace
@@ -114,12 +133,14 @@ std::string ChosenModelText(std::string_view text, const std::string& name, cons
   const std::vector<std::pair<toml::table*, std::string>> flows = FlowTables(root);
   toml::array* states = root["states"].as_array();
   toml::array* alpha = root["alpha"].as_array();
-  const bool any = std::any_of(flows.begin(), flows.end(), [](const auto& f) { return f.first->contains("candidates"); }) ||
-                   (root["jump"].as_table() != nullptr && root["jump"].as_table()->contains("candidates"));
+  const std::vector<JumpTable> jumps = JumpTables(root);
+  const bool any =
+      std::any_of(flows.begin(), flows.end(), [](const auto& f) { return f.first->contains("candidates"); }) ||
+      !jumps.empty();
   if (!any || states == nullptr || alpha == nullptr)
-    throw std::invalid_argument(fmt::format("{}: no [flow], [[flow]] or [jump] table has candidates", name));
+    throw std::invalid_argument(fmt::format("{}: no [flow], [[flow]], [jump] or [[jump]] table has candidates", name));
   std::vector<std::string> found;
-  KeepJumpCandidates(root, kept, &found);
+  for (const JumpTable& jump : jumps) KeepJumpCandidates(jump, *states, kept, &found);
   for (const auto& [table, prefix] : flows) {
     const toml::table* candidates = (*table)["candidates"].as_table();
     if (candidates == nullptr) continue;
@@ -142,7 +163,8 @@ std::string ChosenModelText(std::string_view text, const std::string& name, cons
   }
   for (const std::string& k : kept) {
     if (std::find(found.begin(), found.end(), k) == found.end())
-      throw std::invalid_argument(fmt::format("{}: '{}' is no candidate term of [flow], [[flow]] or [jump]", name, k));
+      throw std::invalid_argument(
+          fmt::format("{}: '{}' is no candidate term of [flow], [[flow]], [jump] or [[jump]]", name, k));
   }
   for (const auto& [table, prefix] : flows) table->erase("candidates");
   SetValues(root, values);

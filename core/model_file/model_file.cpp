@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -893,10 +894,11 @@ std::pair<std::size_t, bool> ParseModeFlow(const TomlReader& rd, const toml::tab
 
 std::vector<std::string> TakenNames(const ModelSpec& spec);
 
-// A column appended to each of `mats` (φ of every mode, or the one ψ), as ParseMatrix writes an entry:
-// `text` in row r of mats[q], 0 elsewhere (every other matrix gets a zero column).
+// A column appended to each of `mats` (φ of every mode, the one ψ, or a [[jump]] map's ψ), as
+// ParseMatrix writes an entry: `text` in row r of mats[q], 0 elsewhere (every other matrix gets a zero
+// column).
 void AppendColumn(const TomlReader& rd, const toml::node& node, const std::string& key, int r, std::size_t q,
-                  const std::string& text, std::vector<ExprMatrix>& mats, Symbols& sym) {
+                  const std::string& text, std::span<ExprMatrix> mats, Symbols& sym) {
   const auto [value, uses_variable, varies] = CheckExpression(rd, &node, key, text, sym);
   for (std::size_t p = 0; p < mats.size(); ++p) {
     ExprMatrix& m = mats[p];
@@ -924,19 +926,22 @@ void AppendCandidate(const TomlReader& rd, const toml::node& node, const std::st
   spec.alpha.push_back(Parameter{.name = name, .value = 0.0, .description = "candidate term " + text});
 }
 
-// Where a table's candidates go: its key (flow, flow[i], jump), its mode q (0 for [flow] and [jump]),
-// the prefix of their names ("" for [flow], "MODE_" for a [[flow]], "jump_" for [jump]) and the
-// table's identified rows.
+// Where a table's candidates go: its key (flow, flow[i], jump, jump[m]), its mode q (0 for [flow] and
+// the jumps), the prefix of their names ("" for [flow], "MODE_" for a [[flow]], "jump_" for [jump],
+// "MAP_" for a [[jump]] map) and the table's identified rows.
 struct CandidateTable {
   std::string key;
   std::size_t mode = 0;
   std::string prefix;
   std::vector<int> rows;
-  bool jump = false;  // [jump]: β entries and ψ columns
+  bool jump = false;  // [jump] or a [[jump]] map: β entries and ψ columns
+  // A [[jump]] map (being parsed: its ψ is def.psi.back() and its β slice ends β): the candidates
+  // extend its slice. Null for [jump] and the flows.
+  JumpMap* map = nullptr;
 };
 
 // KEY.candidates = { ROW = ["TERM", ...] } (at least one row): per identified row of the table its candidate terms, each
-// appended to α and φ (a flow's) or to β and ψ (the [jump]'s), named PREFIX + ROW_K; the name may be
+// appended to α and φ (a flow's) or to β and ψ (the [jump]'s, a [[jump]] map's), named PREFIX + ROW_K; the name may be
 // no state's, parameter's (α, β, γ, the flow candidates' included) or input's. The flow Jacobian of a
 // model with flow candidates is not declared constant.
 void ParseCandidates(const TomlReader& rd, const toml::node& node, const CandidateTable& table, Definition& def,
@@ -974,9 +979,12 @@ void ParseCandidates(const TomlReader& rd, const toml::node& node, const Candida
         rd.Fail(&terms[i], ikey, fmt::format("{} with the candidates would have more than {} entries", vector, limit));
       }
       if (table.jump) {
-        AppendColumn(rd, terms[i], ikey, r, 0, text, def.psi, sym);
-        spec.jump_candidates.push_back({static_cast<int>(spec.beta.size()), r, text});
+        AppendColumn(rd, terms[i], ikey, r, 0, text,
+                     table.map ? std::span<ExprMatrix>(&def.psi.back(), 1) : std::span<ExprMatrix>(def.psi), sym);
+        const int map = table.map ? static_cast<int>(spec.jumps.size()) : -1;
+        spec.jump_candidates.push_back({static_cast<int>(spec.beta.size()), r, text, map});
         spec.beta.push_back(Parameter{.name = name, .value = 0.0, .description = "candidate jump term " + text});
+        if (table.map) ++table.map->beta_count;
       } else {
         AppendCandidate(rd, terms[i], ikey, r, table.mode, text, def, sym, name);
       }
@@ -986,25 +994,30 @@ void ParseCandidates(const TomlReader& rd, const toml::node& node, const Candida
   if (!table.jump) spec.flow_jacobian_constant = false;
 }
 
-// The candidates of a [[flow]] table: it must give its rows, and its mode's name must make parameter
-// names (MODE_ROW_K).
-CandidateTable ModeCandidateTable(const TomlReader& rd, const toml::table& t, const std::string& key, std::size_t q,
-                                  const ModelSpec& spec) {
+// A table with candidates (a [[flow]] or a [[jump]] map) must give its rows, and its mode's or map's
+// name (`what`: "mode" or "map") must make parameter names (NAME_ROW_K).
+void CheckCandidateTable(const TomlReader& rd, const toml::table& t, const std::string& key, const char* what,
+                         const std::string& name) {
   const toml::node* c = t.get("candidates");
   if (!t.contains("rows")) {
     rd.Fail(c, TomlReader::Join(key, "candidates"),
             fmt::format("candidate terms need the table's identified rows: give {}.rows", key));
   }
-  const std::string& mode = spec.modes[q];
   const auto word = [](char ch) { return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_'; };
-  if (!(std::isalpha(static_cast<unsigned char>(mode[0])) != 0 || mode[0] == '_') ||
-      !std::all_of(mode.begin(), mode.end(), word)) {
+  if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name[0])) != 0 || name[0] == '_') ||
+      !std::all_of(name.begin(), name.end(), word)) {
     rd.Fail(c, TomlReader::Join(key, "candidates"),
-            fmt::format("mode '{}' does not make candidate names MODE_ROW_K: candidate terms need a mode name that "
+            fmt::format("{} '{}' does not make candidate names {}_ROW_K: candidate terms need a {} name that "
                         "is an identifier (a letter or _, then letters, digits or _)",
-                        Abbreviated(mode, 40)));
+                        what, Abbreviated(name, 40), what == std::string_view("mode") ? "MODE" : "MAP", what));
   }
-  return {key, q, mode + "_", ParseRows(rd, t, key, spec.state_names)};
+}
+
+// The candidates of a [[flow]] table, named MODE_ROW_K.
+CandidateTable ModeCandidateTable(const TomlReader& rd, const toml::table& t, const std::string& key, std::size_t q,
+                                  const ModelSpec& spec) {
+  CheckCandidateTable(rd, t, key, "mode", spec.modes[q]);
+  return {key, q, spec.modes[q] + "_", ParseRows(rd, t, key, spec.state_names)};
 }
 
 // [flow] (one mode) or, with modes, one [[flow]] per mode: φ_q over the one α. flow_rows is the union
@@ -1094,11 +1107,12 @@ void ParseMapPsi(const TomlReader& rd, const toml::table& t, const std::string& 
   map.rows = ParseCheckedRows(rd, t, key, def.psi.back(), params, spec.state_names);
 }
 
-// One [[jump]] table: name, guard, from/to modes, and β, ψ, rows (none of the three: the identity).
+// One [[jump]] table: name, guard, from/to modes, and β, ψ, rows (none of the three: the identity),
+// and candidates of its rows (named MAP_ROW_K, extending its β slice).
 void ParseJumpMap(const TomlReader& rd, const toml::table& t, const std::string& key, Definition& def, Symbols& sym,
                   const std::vector<std::string>& guards) {
   ModelSpec& spec = def.spec;
-  rd.OnlyKeys(t, key, {"name", "guard", "from", "to", "beta", "psi", "rows"});
+  rd.OnlyKeys(t, key, {"name", "guard", "from", "to", "beta", "psi", "rows", "candidates"});
   JumpMap map;
   const std::string nkey = TomlReader::Join(key, "name");
   map.name = rd.String(rd.Require(t, key, "name"), nkey);
@@ -1117,12 +1131,16 @@ void ParseJumpMap(const TomlReader& rd, const toml::table& t, const std::string&
   }
   if (t.contains("psi")) {
     ParseMapPsi(rd, t, key, def, sym, map);
+    if (const toml::node* c = t.get("candidates")) {
+      CheckCandidateTable(rd, t, key, "map", map.name);
+      ParseCandidates(rd, *c, {key, 0, map.name + "_", map.rows, true, &map}, def, sym);
+    }
   } else {
-    for (const char* k : {"beta", "rows"}) {
+    for (const char* k : {"beta", "rows", "candidates"}) {
       if (t.contains(k)) {
         rd.Fail(t.get(k), TomlReader::Join(key, k),
                 fmt::format("an identity map (no psi: a mode switch, ξ+ = ξ) has no {}: give psi or drop {}",
-                            std::string_view(k) == "beta" ? "parameters" : "rows", k));
+                            std::string_view(k) == "beta" ? "parameters" : std::string_view(k) == "rows" ? "rows" : "candidate terms", k));
       }
     }
     map.identity = true;

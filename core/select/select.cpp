@@ -159,8 +159,14 @@ FlowSums SumFlowSegments(const Model& model, const FlowSamples& s) {
 FlowSums SumJumps(const Model& model, const JumpSamples& s) {
   CheckSamples(model, FlowSamples{.y = s.y, .gamma = s.gamma, .dt = s.dt, .times = s.times,
                                   .chain_start = s.chain_start, .inputs = s.inputs});
-  if (!model.spec().jumps.empty())
-    throw std::invalid_argument(fmt::format("SumJumps: model '{}' has [[jump]] maps (one [jump] only)", model.name()));
+  const bool sliced = !model.spec().jumps.empty();
+  if (sliced && (s.maps == nullptr || s.maps->size() != std::size_t(s.y->cols()) || s.map < 0 ||
+                 s.map >= int(model.spec().jumps.size()))) {
+    throw std::invalid_argument(fmt::format("JumpSamples: model '{}' has {} [[jump]] maps: give each sample's map "
+                                            "({} entries) and a map in [0, {}), not {}",
+                                            model.name(), model.spec().jumps.size(), s.y->cols(),
+                                            model.spec().jumps.size(), s.map));
+  }
   RegressionBuilder builder(model);
   const RegressionLayout& layout = builder.jump_layout();
   const auto p = static_cast<Eigen::Index>(layout.unknown.size());
@@ -178,8 +184,10 @@ FlowSums SumJumps(const Model& model, const JumpSamples& s) {
       continue;
     }
     if ((*s.gamma)[std::size_t(k)] == 0 || !y.col(k).allFinite() || !y.col(k - 1).allFinite()) continue;
+    if (sliced && (*s.maps)[std::size_t(k)] != s.map) continue;
     const Context prev{.t = timed ? (*s.times)[std::size_t(k - 1)] : double(k - 1) * s.dt,
-                       .u = model.input_size() > 0 ? s.inputs->col(k - 1).data() : nullptr};
+                       .u = model.input_size() > 0 ? s.inputs->col(k - 1).data() : nullptr,
+                       .map = sliced ? s.map : 0};
     builder.Jump(y.col(k - 1), y.col(k), psi, row, prev);
     SegmentSums group{chain, {}};
     for (Eigen::Index r = 0; r < R; ++r) {

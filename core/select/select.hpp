@@ -79,7 +79,9 @@ FlowSums SumFlowSegments(const Model& model, const FlowSamples& samples);
 
 // The jumps on the detected hybrid time domain: the pairs (k − 1, k) with gamma[k] = 1 within a chain
 // and both samples finite. Fields as FlowSamples'; ψ at the pre-jump sample's context (its time and
-// inputs). A model with [[jump]] maps is refused (std::invalid_argument).
+// inputs). A model with [[jump]] maps needs `maps`: per sample k the map of the jump between k − 1 and
+// k (−1: none; IdentifyResult::events' assignments), and sums only the jumps of map `map`, ψ_map at
+// the pre-jump sample (std::invalid_argument without them).
 struct JumpSamples {
   const Mat* y = nullptr;
   const std::vector<std::uint8_t>* gamma = nullptr;
@@ -87,6 +89,8 @@ struct JumpSamples {
   const std::vector<double>* times = nullptr;
   const std::vector<std::uint8_t>* chain_start = nullptr;
   const Mat* inputs = nullptr;
+  const std::vector<int>* maps = nullptr;
+  int map = 0;
 };
 
 // The jump regression's rows (RegressionBuilder::Jump: y = ξ_r⁺ − Ψ_{r,known}(ξ⁻) β_known on

@@ -1,6 +1,7 @@
 // hysid identify with candidate terms: select, bootstrap, write the chosen model.
 #include "experiments/cli/select.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <limits>
@@ -102,10 +103,10 @@ void PrintJumps(const SelectStep& step, const JumpSelect& jump) {
     ++candidates;
     if (s.chosen[j]) kept.push_back(jump.names[j]);
   }
-  std::printf("selection of jump terms: %zu candidate terms, %d jumps (%s), %ld jump rows; %d supports from "
+  std::printf("selection of jump terms%s: %zu candidate terms, %d jumps (%s), %ld jump rows; %d supports from "
               "thresholded least squares, backward and forward selection and every support of at most %d "
               "candidates, chosen by leave-one-jump-out cross-validation\n",
-              candidates, jump.jumps,
+              jump.map.empty() ? "" : fmt::format(" of map {}", jump.map).c_str(), candidates, jump.jumps,
               Detections(step).c_str(),
               s.rows, s.supports, SelectOptions{}.exhaustive);
   PrintChosen(kept, s);
@@ -128,7 +129,7 @@ void PrintJumps(const SelectStep& step, const JumpSelect& jump) {
 
 void PrintSelection(const SelectStep& step) {
   for (const SelectBlock& block : step.blocks) PrintBlock(step, block);
-  if (step.jump) PrintJumps(step, *step.jump);
+  for (const JumpSelect& jump : step.jumps) PrintJumps(step, jump);
   for (const int j : step.unstable) {
     std::printf("  dropped as unstable: %s (chosen by cross-validation, by %.1f%% of the bootstrap draws, "
                 "fewer than %.0f%%)\n",
@@ -164,7 +165,7 @@ void AddSelectOptions(CLI::App& cmd, SelectArgs& args) {
 void CheckSelectArgs(const SelectArgs& args, const Model& model) {
   if (!args.chosen_model.empty() && model.spec().candidates.empty() && model.spec().jump_candidates.empty()) {
     BadFlag(fmt::format(
-        "--chosen-model: model '{}' has no candidate terms ([flow], [[flow]] or [jump] candidates) to choose from",
+        "--chosen-model: model '{}' has no candidate terms ([flow], [[flow]], [jump] or [[jump]] candidates) to choose from",
         model.name()));
   }
   if (args.bootstrap < 0 || args.bootstrap > 100000)
@@ -264,7 +265,7 @@ void MergeBlocks(SelectStep* step, const std::vector<Selection>& before_stabilit
   }
 }
 
-// The [jump]'s unknown β columns and, per column, whether it is a candidate, its name and term.
+// The unknown β columns of the [jump] (of a map) and, per column, whether it is a candidate, its name and term.
 void DescribeJumpColumns(const ModelSpec& spec, const std::vector<int>& columns, JumpSelect* jump) {
   jump->columns = columns;
   for (int b : columns) {
@@ -279,28 +280,54 @@ void DescribeJumpColumns(const ModelSpec& spec, const std::vector<int>& columns,
   }
 }
 
-// The selection of the [jump]'s candidates on the detected jumps, by leave-one-jump-out
-// cross-validation (SelectOptions::folds = 0); the bootstrap (seed --select-seed + the mode count) and
-// the stability rule when `bootstrap`.
+// Per sample k, the map of the detected jump between k − 1 and k (−1: none), from the events' assignments.
+std::vector<int> JumpMapsPerSample(const IdentifyResult& detected, Eigen::Index samples) {
+  std::vector<int> maps(std::size_t(samples), -1);
+  for (const AutomatonEvent& e : detected.events) {
+    if (e.jump && e.map >= 0 && e.sample > 0 && e.sample < samples) maps[std::size_t(e.sample)] = e.map;
+  }
+  return maps;
+}
+
+// The selection of the [jump]'s candidates (map −1) or of map `map`'s on its detected jumps, over the
+// map's β slice, by leave-one-jump-out cross-validation (SelectOptions::folds = 0); the bootstrap (seed
+// --select-seed + the mode count + the map's index + 1) and the stability rule when `bootstrap`.
 JumpSelect SelectJumps(const Model& model, const SampleData& data, const IdentifyResult& detected,
-                       const SelectArgs& args, bool bootstrap) {
+                       const SelectArgs& args, bool bootstrap, int map) {
+  const std::vector<int> maps = map >= 0 ? JumpMapsPerSample(detected, data.y.cols()) : std::vector<int>{};
   const JumpSamples samples{.y = &data.y,
                             .gamma = &detected.gamma,
                             .dt = data.dt,
                             .times = data.uniform ? nullptr : &data.t,
                             .chain_start = data.uniform ? nullptr : &data.chain_start,
-                            .inputs = data.u.rows() > 0 ? &data.u : nullptr};
-  const FlowSums sums = SumJumps(model, samples);
+                            .inputs = data.u.rows() > 0 ? &data.u : nullptr,
+                            .maps = map >= 0 ? &maps : nullptr,
+                            .map = std::max(map, 0)};
+  FlowSums sums = SumJumps(model, samples);
+  if (map >= 0) {
+    const JumpMap& m = model.spec().jumps[std::size_t(map)];
+    std::vector<int> slice;
+    for (std::size_t j = 0; j < sums.columns.size(); ++j) {
+      if (sums.columns[j] >= m.beta_first && sums.columns[j] < m.beta_first + m.beta_count)
+        slice.push_back(static_cast<int>(j));
+    }
+    sums = KeepColumns(sums, slice);
+  }
   JumpSelect jump;
+  jump.map = map >= 0 ? model.spec().jumps[std::size_t(map)].name : "";
   DescribeJumpColumns(model.spec(), sums.columns, &jump);
   jump.jumps = static_cast<int>(sums.segments.size());
   const SelectOptions options{.folds = 0};
   jump.selection = SelectTerms(sums, jump.selectable, options);
-  if (!jump.selection.ok) throw RunFailed(fmt::format("identify: no jump terms selected: {}", jump.selection.reason));
+  if (!jump.selection.ok) {
+    throw RunFailed(fmt::format("identify: no jump terms selected{}: {}",
+                                jump.map.empty() ? "" : fmt::format(" in map {}", jump.map), jump.selection.reason));
+  }
   if (!bootstrap || args.bootstrap == 0) return jump;
   const Selection cross_validated = jump.selection;
   jump.bootstrap = BootstrapSelection(sums, jump.selectable, options, args.bootstrap,
-                                      args.seed + std::uint64_t(ModeCount(model.spec())), cross_validated.chosen);
+                                      args.seed + std::uint64_t(ModeCount(model.spec())) + std::uint64_t(map + 1),
+                                      cross_validated.chosen);
   jump.selection = KeepStable(sums, jump.selectable, cross_validated, jump.bootstrap, options);
   for (std::size_t j = 0; j < jump.columns.size(); ++j) {
     if (jump.selectable[j] && cross_validated.chosen[j] && !jump.selection.chosen[j])
@@ -335,12 +362,15 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
     if (step.selection.chosen[j] && step.selection.estimate[Eigen::Index(j)] != 0.0)
       values[name] = step.selection.estimate[Eigen::Index(j)];
   }
-  if (!model.spec().jump_candidates.empty()) {
-    step.jump = SelectJumps(model, data, detected, args, bootstrap);
-    const Selection& s = step.jump->selection;
-    for (std::size_t j = 0; j < step.jump->columns.size(); ++j) {
-      if (step.jump->selectable[j] && s.chosen[j]) step.kept.push_back(step.jump->names[j]);
-      if (s.chosen[j] && s.estimate[Eigen::Index(j)] != 0.0) values[step.jump->names[j]] = s.estimate[Eigen::Index(j)];
+  std::set<int> maps;
+  for (const JumpCandidateTerm& c : model.spec().jump_candidates) maps.insert(c.map);
+  for (const int map : maps) {
+    step.jumps.push_back(SelectJumps(model, data, detected, args, bootstrap, map));
+    const JumpSelect& jump = step.jumps.back();
+    const Selection& s = jump.selection;
+    for (std::size_t j = 0; j < jump.columns.size(); ++j) {
+      if (jump.selectable[j] && s.chosen[j]) step.kept.push_back(jump.names[j]);
+      if (s.chosen[j] && s.estimate[Eigen::Index(j)] != 0.0) values[jump.names[j]] = s.estimate[Eigen::Index(j)];
     }
   }
   // Not required to reach its guards on the default trajectory (ParseModelFile, not ParseModelText):
@@ -386,6 +416,20 @@ nlohmann::json JumpJson(const JumpSelect& jump) {
           {"bootstrap_draws", jump.bootstrap.draws},
           {"bootstrap_support_matches", jump.bootstrap.support_matches},
           {"unstable", unstable}};
+}
+
+// The jump selections as JSON, shaped as the file: one object for [jump]; for [[jump]] maps an array,
+// one object per map with candidates with its name under "map"; null without jump candidates.
+nlohmann::json JumpsJson(const std::vector<JumpSelect>& jumps) {
+  if (jumps.empty()) return nlohmann::json();
+  if (jumps.size() == 1 && jumps.front().map.empty()) return JumpJson(jumps.front());
+  nlohmann::json out = nlohmann::json::array();
+  for (const JumpSelect& jump : jumps) {
+    nlohmann::json j = JumpJson(jump);
+    j["map"] = jump.map;
+    out.push_back(std::move(j));
+  }
+  return out;
 }
 
 }  // namespace
@@ -434,7 +478,7 @@ nlohmann::json SelectionJson(const SelectStep& step) {
           {"bootstrap_draws", step.bootstrap.draws},
           {"bootstrap_support_matches", step.bootstrap.support_matches},
           {"unstable", Names(step, step.unstable)},
-          {"jump", step.jump ? JumpJson(*step.jump) : nlohmann::json()},
+          {"jump", JumpsJson(step.jumps)},
           {"seconds", step.seconds}};
 }
 
@@ -453,7 +497,8 @@ void FinishSelection(const SelectStep& step, const Model& chosen, const Identify
     for (std::size_t i = 0; i < spec.guard_params.size(); ++i)
       if (!spec.guard_params[i].known) values[spec.guard_params[i].name] = refined->estimate.gamma[Eigen::Index(i)];
   }
-  const bool shares = step.bootstrap.draws > 0 || (step.jump && step.jump->bootstrap.draws > 0);
+  const bool shares = step.bootstrap.draws > 0 || std::any_of(step.jumps.begin(), step.jumps.end(),
+                                                               [](const JumpSelect& j) { return j.bootstrap.draws > 0; });
   std::printf("chosen terms (%s estimates%s):\n", fitted ? "refined" : "recursive",
               shares ? ", how often the bootstrap chose each" : "");
   // One chosen term's line: its estimate, its standard error after a refinement, its bootstrap share.
@@ -471,9 +516,10 @@ void FinishSelection(const SelectStep& step, const Model& chosen, const Identify
   for (std::size_t j = 0; j < step.columns.size(); ++j) {
     if (step.selectable[j] && step.selection.chosen[j]) print(step.names[j], step.terms[j], step.bootstrap, j);
   }
-  for (std::size_t j = 0; step.jump && j < step.jump->columns.size(); ++j) {
-    if (step.jump->selectable[j] && step.jump->selection.chosen[j])
-      print(step.jump->names[j], step.jump->terms[j], step.jump->bootstrap, j);
+  for (const JumpSelect& jump : step.jumps) {
+    for (std::size_t j = 0; j < jump.columns.size(); ++j) {
+      if (jump.selectable[j] && jump.selection.chosen[j]) print(jump.names[j], jump.terms[j], jump.bootstrap, j);
+    }
   }
   if (args.chosen_model.empty()) return;
   WriteFileAtomically(args.chosen_model,

@@ -38,10 +38,12 @@ struct SelectBlock {
   int segments = 0;                     // flow segments of the mode summed
 };
 
-// The selection of the [jump]'s candidates on the detected jumps (core/select SumJumps: one group of
-// rows per jump), by leave-one-jump-out cross-validation; its bootstrap redraws the jumps.
+// The selection of the [jump]'s candidates, or of one [[jump]] map's, on the detected jumps (of that
+// map: core/select SumJumps, one group of rows per jump), by leave-one-jump-out cross-validation; its
+// bootstrap redraws the jumps.
 struct JumpSelect {
-  std::vector<int> columns;             // unknown β indices (SumJumps' columns)
+  std::string map;                      // the [[jump]] map's name; "" for [jump]
+  std::vector<int> columns;             // unknown β indices (SumJumps' columns; a map's: its slice's)
   std::vector<bool> selectable;         // per column: a candidate
   // Per column: the β name and, for a candidate, "ROW+ term TERM", its row's state and its term.
   std::vector<std::string> names, terms, rows, raw_terms;
@@ -67,7 +69,7 @@ struct SelectStep {
   // sums, the runner-up BIC is infinite and the bootstrap's draws and exact supports the least over them.
   Selection selection;
   BootstrapResult bootstrap;
-  std::optional<JumpSelect> jump;       // with [jump] candidates
+  std::vector<JumpSelect> jumps;        // [jump] candidates: one; [[jump]] candidates: one per map with them
   std::vector<std::string> kept;        // names of the chosen candidates (flow and jump)
   std::vector<int> unstable;            // columns cross-validation chose and KeepStable dropped
   int segments = 0;                     // flow segments summed (over the blocks)

@@ -1,4 +1,4 @@
-// Candidate terms in a model file ([flow], per mode [[flow]] and [jump] candidates) and the chosen model
+// Candidate terms in a model file ([flow], per mode [[flow]], [jump] and per map [[jump]] candidates) and the chosen model
 // written from them (core/model_file/chosen.hpp): each candidate is an unknown α entry ROW_K (MODE_ROW_K
 // in a [[flow]]) whose φ column is its term in its row (of its mode's φ; 0 in every other mode), or in
 // [jump] an unknown β entry jump_ROW_K whose ψ column is its term in its row; the chosen model keeps the
@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "core/model/context.hpp"
 #include "core/model_file/chosen.hpp"
@@ -291,8 +292,8 @@ TEST_CASE("jump candidates: unknown beta entries jump_v_1..jump_v_3 with their t
   CHECK_NOTHROW(ParseModelText(JumpFile(kJumpCandidates), "lib.toml"));
 }
 
-TEST_CASE("jump candidates: a row not identified, a repeated term, a taken name, too many entries and [[jump]] "
-          "candidates are refused with the key",
+TEST_CASE("jump candidates: a row not identified, a repeated term, a taken name and too many entries are refused "
+          "with the key",
           "[model_file][select]") {
   auto refused = [](const std::string& text, const std::string& what) {
     CHECK_THROWS_WITH(ParseModelFile(text, "lib.toml"), Catch::Contains(what));
@@ -354,6 +355,137 @@ TEST_CASE("the chosen model with jump candidates: kept ones as plain beta entrie
   }
   CHECK(s.jump_rows == lib.spec().jump_rows);
   CHECK_THROWS_WITH(ChosenModelText(file, "lib.toml", {"jump_v_4"}, {}), Catch::Contains("'jump_v_4' is no candidate"));
+}
+
+// A ball between a floor and a ceiling, one [[jump]] map each, with candidate terms of v+ in both maps
+// (`floor` and `ceiling`: extra keys of each map's table).
+std::string TwoMaps(const std::string& floor, const std::string& ceiling) {
+  return R"toml(
+name = "two-maps-lib"
+states = ["h", "v"]
+alpha = [ { name = "one", value = 1.0, known = true }, { name = "g", value = 9.81 } ]
+[flow]
+phi = [["v", 0], [0, -1]]
+rows = ["v"]
+[[jump]]
+name = "floor"
+guard = "floor"
+beta = [ { name = "one_f", value = 1.0, known = true }, { name = "e_floor", value = 0.9 } ]
+psi = [["h", 0], [0, "-v"]]
+rows = ["v"]
+)toml" + floor + R"toml(
+[[jump]]
+name = "ceiling"
+guard = "ceiling"
+beta = [ { name = "one_c", value = 1.0, known = true }, { name = "e_ceiling", value = 0.7 } ]
+psi = [["h", 0], [0, "-v"]]
+rows = ["v"]
+)toml" + ceiling + R"toml(
+[[guard]]
+name = "floor"
+h = "h"
+direction = "falling"
+project = { h = "0" }
+[[guard]]
+name = "ceiling"
+h = "h - 2"
+direction = "rising"
+project = { h = "2" }
+[defaults]
+x0 = [1.0, 15.0]
+t_end = 5.0
+)toml";
+}
+
+const std::string kFloorTerms = "candidates = { v = [\"v*abs(v)\", \"1\"] }\n";
+const std::string kCeilingTerms = "candidates = { v = [\"v^3\"] }\n";
+
+TEST_CASE("[[jump]] candidates: MAP_ROW_K entries in the map's beta slice, their psi columns in that map only",
+          "[model_file][select]") {
+  const Model m = ParseModelText(TwoMaps(kFloorTerms, kCeilingTerms), "lib.toml");
+  const ModelSpec& s = m.spec();
+  REQUIRE(s.beta.size() == 7);
+  const std::vector<std::string> names = {"one_f", "e_floor", "floor_v_1", "floor_v_2", "one_c", "e_ceiling",
+                                          "ceiling_v_1"};
+  for (std::size_t i = 0; i < names.size(); ++i) CHECK(s.beta[i].name == names[i]);
+  CHECK(!s.beta[2].known);
+  CHECK(s.beta[2].value == 0.0);
+  REQUIRE(s.jumps.size() == 2);
+  CHECK(s.jumps[0].beta_first == 0);
+  CHECK(s.jumps[0].beta_count == 4);
+  CHECK(s.jumps[1].beta_first == 4);
+  CHECK(s.jumps[1].beta_count == 3);
+  REQUIRE(s.jump_candidates.size() == 3);
+  CHECK(s.jump_candidates[0].beta == 2);
+  CHECK(s.jump_candidates[0].map == 0);
+  CHECK(s.jump_candidates[1].term == "1");
+  CHECK(s.jump_candidates[2].beta == 6);
+  CHECK(s.jump_candidates[2].map == 1);
+  CHECK(s.jump_candidates[2].row == 1);
+  Mat psi(2, 7);
+  m.Psi(V(0.1, -3.0), psi, Context{.map = 0});
+  CHECK(psi(0, 0) == 0.1);
+  CHECK(psi(1, 1) == 3.0);
+  CHECK(psi(1, 2) == -9.0);
+  CHECK(psi(1, 3) == 1.0);
+  CHECK(psi(0, 2) == 0.0);
+  for (int c = 4; c < 7; ++c) CHECK(psi.col(c).isZero());
+  m.Psi(V(1.9, 2.0), psi, Context{.map = 1});
+  for (int c = 0; c < 4; ++c) CHECK(psi.col(c).isZero());
+  CHECK(psi(0, 4) == 1.9);
+  CHECK(psi(1, 5) == -2.0);
+  CHECK(psi(1, 6) == 8.0);
+  CHECK(psi(0, 6) == 0.0);
+  CHECK(s.jump_rows == std::vector<int>{1});
+}
+
+TEST_CASE("[[jump]] candidates: an identity map, a map name that makes no name, a taken name and a row not the "
+          "map's are refused with the key",
+          "[model_file][select]") {
+  auto refused = [](const std::string& text, const std::string& what) {
+    CHECK_THROWS_WITH(ParseModelFile(text, "lib.toml"), Catch::Contains(what));
+  };
+  std::string dashed = TwoMaps(kFloorTerms, "");
+  dashed.replace(dashed.find("name = \"floor\"\nguard"), 14, "name = \"floor-1\"");
+  refused(dashed, "jump[0].candidates: map 'floor-1' does not make candidate names MAP_ROW_K");
+  refused(TwoMaps(kFloorTerms, "").replace(TwoMaps(kFloorTerms, "").find("\"one_c\""), 7, "\"floor_v_2\""),
+          "'floor_v_2' is already the name of a parameter");
+  refused(TwoMaps("candidates = { h = [\"h\"] }\n", ""), "jump[0].candidates.h: 'h' is not one of jump[0].rows");
+  refused(Automaton(kOff, kOn).replace(Automaton(kOff, kOn).find("to = \"on\"\n") + 10, 0,
+                                       "candidates = { h = [\"h\"] }\n"),
+          "jump[0].candidates: an identity map (no psi: a mode switch, ξ+ = ξ) has no candidate terms");
+}
+
+TEST_CASE("the chosen model with [[jump]] candidates: kept ones in their map's beta and psi, evaluating as the library",
+          "[model_file][select]") {
+  const std::string file = TwoMaps(kFloorTerms, kCeilingTerms);
+  const Model lib = ParseModelFile(file, "lib.toml").model;
+  const std::string text = ChosenModelText(file, "lib.toml", {"floor_v_2", "ceiling_v_1"},
+                                           {{"e_floor", 0.85}, {"floor_v_2", 0.125}, {"ceiling_v_1", -0.01}});
+  INFO(text);
+  const Model chosen = ParseModelText(text, "chosen.toml");
+  const ModelSpec& s = chosen.spec();
+  CHECK(s.jump_candidates.empty());
+  REQUIRE(s.beta.size() == 6);
+  const std::vector<std::string> names = {"one_f", "e_floor", "floor_v_2", "one_c", "e_ceiling", "ceiling_v_1"};
+  for (std::size_t i = 0; i < names.size(); ++i) CHECK(s.beta[i].name == names[i]);
+  CHECK(chosen.beta()[1] == 0.85);
+  CHECK(chosen.beta()[2] == 0.125);
+  CHECK(chosen.beta()[5] == -0.01);
+  CHECK(s.jumps[0].beta_count == 3);
+  CHECK(s.jumps[1].beta_first == 3);
+  Mat full(2, 7), mine(2, 6);
+  for (const Vec& x : {V(0.1, -3.0), V(1.9, 2.5)}) {
+    for (int map : {0, 1}) {
+      lib.Psi(x, full, Context{.map = map});
+      chosen.Psi(x, mine, Context{.map = map});
+      CHECK(mine.col(1) == full.col(1));
+      CHECK(mine.col(2) == full.col(3));
+      CHECK(mine.col(4) == full.col(5));
+      CHECK(mine.col(5) == full.col(6));
+    }
+  }
+  CHECK_THROWS_WITH(ChosenModelText(file, "lib.toml", {"ceiling_v_2"}, {}), Catch::Contains("'ceiling_v_2' is no candidate"));
 }
 
 TEST_CASE("the chosen model: a flow table with a kept term is not declared jacobian_constant, one without keeps it",

@@ -2,7 +2,8 @@
 // the jump regression's own (checked against ψ of the data by hand); on a simulated bouncing ball the
 // restitution map's support is recovered from six candidate terms of the pre-impact state, by
 // leave-one-jump-out cross-validation, for v+ = -e v and for v+ = -e v + c v|v|; the bootstrap over
-// jumps chooses the true terms in almost every draw.
+// jumps chooses the true terms in almost every draw. With [[jump]] maps (a ball between a floor and a
+// ceiling) each map's sums hold its own jumps in its β slice, and each map's support is chosen there.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -169,7 +170,7 @@ TEST_CASE("the bootstrap over jumps chooses v in every draw and the other terms 
   CHECK(s.chosen == truth);
 }
 
-TEST_CASE("jump sums: [[jump]] maps and bad sizes are refused by name", "[select]") {
+TEST_CASE("jump sums: bad sizes are refused by name", "[select]") {
   const Model library = ParseModelFile(BallLibrary(), "library.toml").model;
   const Mat y(3, 10);
   const std::vector<std::uint8_t> gamma(10, 0);
@@ -177,6 +178,128 @@ TEST_CASE("jump sums: [[jump]] maps and bad sizes are refused by name", "[select
                     Catch::Contains("sizes disagree"));
   CHECK_THROWS_WITH(SelectTerms(FlowSums{}, {}, SelectOptions{.folds = 1}),
                     Catch::Contains("SelectOptions::folds = 1: must be >= 2, or 0"));
+}
+
+namespace {
+
+// A ball between a floor (h = 0) and a ceiling (h = 2), one [[jump]] map each: the truth's floor gives
+// v+ = -0.98 v, its ceiling v+ = -0.9 v + 0.01 v|v| (`ceiling_psi`, `ceiling_beta`); the library's maps
+// keep h and list candidate terms of v+ (`floor_terms`, `ceiling_terms`).
+std::string TwoMaps(const std::string& floor_beta, const std::string& floor_psi, const std::string& floor_extra,
+                    const std::string& ceiling_beta, const std::string& ceiling_psi, const std::string& ceiling_extra) {
+  return "name = \"floor-ceiling\"\nstates = [\"h\", \"v\"]\n"
+         "alpha = [ { name = \"one\", value = 1.0, known = true }, { name = \"g\", value = 9.81 } ]\n"
+         "[flow]\nphi = [[\"v\", 0], [0, -1]]\nrows = [\"v\"]\n"
+         "[[jump]]\nname = \"floor\"\nguard = \"floor\"\nbeta = [ { name = \"one_f\", value = 1.0, known = true }" +
+         floor_beta + " ]\npsi = " + floor_psi + "\nrows = [\"v\"]\n" + floor_extra +
+         "[[jump]]\nname = \"ceiling\"\nguard = \"ceiling\"\nbeta = [ { name = \"one_c\", value = 1.0, known = true }" +
+         ceiling_beta + " ]\npsi = " + ceiling_psi + "\nrows = [\"v\"]\n" + ceiling_extra +
+         "[[guard]]\nname = \"floor\"\nh = \"h\"\ndirection = \"falling\"\nproject = { h = \"0\" }\n"
+         "[[guard]]\nname = \"ceiling\"\nh = \"h - 2\"\ndirection = \"rising\"\nproject = { h = \"2\" }\n"
+         "[defaults]\nx0 = [1.0, 20.0]\nt_end = 3.0\ndt = 1e-3\n";
+}
+
+std::string TwoMapsTruth() {
+  return TwoMaps(", { name = \"e_f\", value = 0.98 }", "[[\"h\", 0], [0, \"-v\"]]", "",
+                 ", { name = \"e_c\", value = 0.9 }, { name = \"c_c\", value = 0.01 }",
+                 "[[\"h\", 0, 0], [0, \"-v\", \"v*abs(v)\"]]", "");
+}
+
+std::string TwoMapsLibrary() {
+  return TwoMaps("", "[[\"h\"], [0]]", "candidates = { v = [\"v\", \"v*abs(v)\", \"1\", \"h\"] }\n", "",
+                 "[[\"h\"], [0]]", "candidates = { v = [\"v\", \"v*abs(v)\", \"1\", \"v^3\"] }\n");
+}
+
+// Four runs from h = 1 m at 14, 17, 20 and 23 m/s upward, 3 s each, noise σ on both states, as one
+// sample matrix with chain starts; gamma and the map per sample from the simulated jumps.
+struct MapData {
+  Mat y;
+  std::vector<std::uint8_t> gamma, chain_start;
+  std::vector<int> maps;
+};
+
+MapData SimulatedTwoMaps(double sigma, std::uint64_t seed) {
+  const Model truth = ParseModelFile(TwoMapsTruth(), "truth.toml").model;
+  MapData d;
+  std::vector<Mat> runs;
+  for (const double v0 : {14.0, 17.0, 20.0, 23.0}) {
+    const Trajectory traj = Simulate(truth, V(1.0, v0), SampleGrid{3.0, 1e-3});
+    REQUIRE(traj.status.completed());
+    runs.push_back(AddMeasurementNoise(traj.x, Vec::Constant(2, sigma),
+                                       NoiseKey{.seed = seed, .stream = std::uint64_t(runs.size())}));
+    for (std::size_t k = 0; k < traj.j.size(); ++k) {
+      const bool jumped = k > 0 && traj.j[k] != traj.j[k - 1];
+      d.gamma.push_back(jumped ? 1 : 0);
+      d.chain_start.push_back(k == 0 ? 1 : 0);
+      d.maps.push_back(jumped ? traj.jumps[std::size_t(traj.j[k] - 1)].map : -1);
+    }
+  }
+  Eigen::Index cols = 0;
+  for (const Mat& r : runs) cols += r.cols();
+  d.y.resize(2, cols);
+  cols = 0;
+  for (const Mat& r : runs) {
+    d.y.middleCols(cols, r.cols()) = r;
+    cols += r.cols();
+  }
+  return d;
+}
+
+FlowSums MapSums(const Model& library, const MapData& d, int map) {
+  return SumJumps(library, JumpSamples{.y = &d.y, .gamma = &d.gamma, .dt = 1e-3, .chain_start = &d.chain_start,
+                                       .maps = &d.maps, .map = map});
+}
+
+}  // namespace
+
+TEST_CASE("jump sums of [[jump]] maps: each map's jumps only, psi of that map in its beta slice", "[select]") {
+  const Model library = ParseModelFile(TwoMapsLibrary(), "library.toml").model;
+  REQUIRE(library.spec().beta.size() == 10);
+  const MapData d = SimulatedTwoMaps(0.01, 1);
+  for (const int map : {0, 1}) {
+    INFO("map " << map);
+    const FlowSums sums = MapSums(library, d, map);
+    CHECK(sums.columns == std::vector<int>{1, 2, 3, 4, 6, 7, 8, 9});
+    std::size_t g = 0;
+    for (Eigen::Index k = 1; k < d.y.cols(); ++k) {
+      if (d.gamma[std::size_t(k)] == 0 || d.chain_start[std::size_t(k)] != 0 || d.maps[std::size_t(k)] != map)
+        continue;
+      const double h = d.y(0, k - 1), v = d.y(1, k - 1), plus = d.y(1, k);
+      const Vec own = map == 0 ? (Vec(4) << v, v * std::abs(v), 1.0, h).finished()
+                               : (Vec(4) << v, v * std::abs(v), 1.0, v * v * v).finished();
+      Vec psi = Vec::Zero(8);
+      psi.segment(map == 0 ? 0 : 4, 4) = own;
+      REQUIRE(g < sums.segments.size());
+      const RowSums& r = sums.segments[g++].rows.at(0);
+      CHECK(r.square == Approx(plus * plus).epsilon(1e-14));
+      CHECK((r.cross - psi * plus).norm() <= 1e-12 * (psi * plus).norm());
+      CHECK((r.gram - psi * psi.transpose()).norm() <= 1e-12 * (psi * psi.transpose()).norm());
+    }
+    CHECK(g == sums.segments.size());
+    CHECK(g >= 15);
+  }
+  CHECK_THROWS_WITH(SumJumps(library, JumpSamples{.y = &d.y, .gamma = &d.gamma, .dt = 1e-3}),
+                    Catch::Contains("has 2 [[jump]] maps: give each sample's map"));
+  CHECK_THROWS_WITH(MapSums(library, d, 2), Catch::Contains("and a map in [0, 2), not 2"));
+}
+
+TEST_CASE("a ball between a floor and a ceiling: each map's support chosen on its own jumps", "[select]") {
+  const Model library = ParseModelFile(TwoMapsLibrary(), "library.toml").model;
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    INFO("seed " << seed);
+    const MapData d = SimulatedTwoMaps(0.01, seed);
+    for (const int map : {0, 1}) {
+      INFO("map " << map);
+      const FlowSums all = MapSums(library, d, map);
+      const FlowSums sums = KeepColumns(all, map == 0 ? std::vector<int>{0, 1, 2, 3} : std::vector<int>{4, 5, 6, 7});
+      const Selection s = SelectTerms(sums, std::vector<bool>(4, true), kLeaveOneOut);
+      REQUIRE(s.ok);
+      CHECK(s.chosen == (map == 0 ? std::vector<bool>{true, false, false, false}
+                                  : std::vector<bool>{true, true, false, false}));
+      CHECK(s.estimate[0] == Approx(map == 0 ? -0.98 : -0.9).margin(0.02));
+      if (map == 1) CHECK(s.estimate[1] == Approx(0.01).margin(0.003));
+    }
+  }
 }
 
 // The rule's choice between leave-one-jump-out and 5-fold cross-validation over jumps, measured (run by
