@@ -1,6 +1,9 @@
 """What the tests here share: run a command, stopping the test when it exits with a code it does not
 expect; the sd `hysid crlb` prints; a start file from a true model file; an identify report held
-against the truth and the bound (the data as a user has them: bench/own_system.py's user_data)."""
+against the truth and the bound (the data as a user has them: bench/own_system.py's user_data); a
+chosen model (--chosen-model) taken as it is by identify, simulate and crlb."""
+import json
+import os
 import re
 import subprocess
 import sys
@@ -48,3 +51,22 @@ def at_the_bound(label, report, truth, crlb):
         if not 0.75 <= ratio <= 1.25:
             failures.append(f"{label}: {name}: se {se:.4g} is {ratio:.3f} x the CRLB sd {crlb[name]:.4g}")
     return failures
+
+
+def chosen_model_taken(hysid, chosen, data_args, est, sigma, work, extra=(), rel=1e-6, floor=1e-3):
+    """The failures of the chosen model file `chosen` taken as it is: `hysid identify` on it (data_args,
+    extra) selects nothing and gives the estimates `est` ({name: value}) within rel × max(|value|,
+    floor); `simulate` and `crlb` (at sigma) accept it."""
+    bad = []
+    out = os.path.join(work, "chosen_again.json")
+    run(hysid, "identify", "--model-file", chosen, *data_args, "--json", out, *extra)
+    with open(out) as f:
+        again = json.load(f)
+    if "selection" in again:
+        bad.append("identify on the chosen model selected again")
+    for name, value in zip(again["names"], again["estimate"]):
+        if name in est and abs(value - est[name]) > rel * max(abs(est[name]), floor):
+            bad.append(f"{name}: {value} on the chosen model, {est[name]} from the selection")
+    run(hysid, "simulate", "--model-file", chosen, "--out", os.path.join(work, "chosen_sim.csv"))
+    run(hysid, "crlb", "--model-file", chosen, "--sigma", sigma)
+    return bad, again

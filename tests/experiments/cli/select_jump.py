@@ -18,7 +18,7 @@ import json
 import os
 import sys
 
-from hysid_run import run
+from hysid_run import chosen_model_taken, run
 
 
 def identify(hysid, select, work, truth, tag, bad):
@@ -60,18 +60,10 @@ def main():
     text = open(chosen).read()
     if "candidates" in text or "jump_v_2" in text or "'jump_v_1'" not in text:
         bad.append(f"{chosen} still lists candidates, or lacks jump_v_1:\n{text}")
-    second = os.path.join(work, "linear.again.json")
-    run(hysid, "identify", "--model-file", chosen, "--data", data, "--json", second)
-    again = json.load(open(second))
-    if "selection" in again:
-        bad.append("identify on the chosen model selected again")
-    for name, value in zip(again["names"], again["estimate"]):
-        if name in est and abs(value - est[name]) > 1e-6 * max(abs(est[name]), 1e-3):
-            bad.append(f"{name}: {value} on the chosen model, {est[name]} from the selection")
+    taken, again = chosen_model_taken(hysid, chosen, ["--data", data], est, "0.01", work)
+    bad += taken
     if sorted(again["names"]) != sorted(est):
         bad.append(f"the chosen model's parameters {again['names']}, the selection's {list(est)}")
-    run(hysid, "simulate", "--model-file", chosen, "--out", os.path.join(work, "chosen_sim.csv"))
-    run(hysid, "crlb", "--model-file", chosen, "--sigma", "0.01")
 
     report, _, _ = identify(hysid, select, work, "bounce_quadratic_truth.toml", "quadratic", bad)
     if report["selection"]["jump"]["chosen"] != ["jump_v_1", "jump_v_2"]:

@@ -18,7 +18,7 @@ import json
 import os
 import sys
 
-from hysid_run import run
+from hysid_run import chosen_model_taken, run
 
 TRUTH = {"floor_v_1": -0.98, "ceiling_v_1": -0.9, "ceiling_v_2": 0.01}
 CHOSEN = {"floor": ["floor_v_1"], "ceiling": ["ceiling_v_1", "ceiling_v_2"]}
@@ -68,16 +68,7 @@ def main():
     model = open(chosen).read()
     if "candidates" in model or "floor_v_2" in model or "'ceiling_v_2'" not in model:
         bad.append(f"{chosen} still lists candidates, or lacks ceiling_v_2:\n{model}")
-    again_path = os.path.join(work, "again.json")
-    run(hysid, "identify", "--model-file", chosen, *data, "--json", again_path)
-    again = json.load(open(again_path))
-    if "selection" in again:
-        bad.append("identify on the chosen model selected again")
-    for name, value in zip(again["names"], again["estimate"]):
-        if name in est and abs(value - est[name]) > 1e-6 * max(abs(est[name]), 1e-3):
-            bad.append(f"{name}: {value} on the chosen model, {est[name]} from the selection")
-    run(hysid, "simulate", "--model-file", chosen, "--out", os.path.join(work, "chosen_sim.csv"))
-    run(hysid, "crlb", "--model-file", chosen, "--sigma", "0.01")
+    bad += chosen_model_taken(hysid, chosen, data, est, "0.01", work)[0]
     if bad:
         sys.exit("\n".join(bad))
     print("ok:", {m["map"]: m["chosen"] for m in maps}, {n: (est[n], se[n]) for n in TRUTH})
