@@ -139,9 +139,10 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args);
 // After RunRecursivePass and the recursive report: the refinement (RunRefinement), the estimates with
 // standard errors (and CRLB ratios when the data carry the truth), the trace's fitted columns (`trace`),
 // --json (with `selection` added when not null). Returns the exit code: 1 when the refinement ran and
-// its status is not ok.
+// its status is not ok. `refined`: the outcome's refinement has run already (a selection's
+// DropUnsupportedTerms), only its report is made.
 int RefineAndReport(const IdentifyRequest& request, IdentifyOutcome& outcome, const RefineArgs& args,
-                    const std::string& trace, const nlohmann::json& selection);
+                    const std::string& trace, const nlohmann::json& selection, bool refined = false);
 // The truth of data written by `hysid simulate`: x0 and σ from its sidecar FILE.json; empty when
 // there is none.
 Truth ReadTruth(const std::string& data_path, int n);

@@ -428,10 +428,15 @@ int RunIdentify(const IdentifyArgs& args, const Environment& env) {
   if (!model.spec().candidates.empty() || !model.spec().jump_candidates.empty()) {
     select = SelectTerms(args, request, &outcome);
     truth_source = "the selection's least-squares values (the chosen model has no truth)";
+    if (args.refine.refine == "ml") {
+      DropUnsupportedTerms(request, &outcome, &*select);
+      PrintFitDrops(*select);
+    }
   }
   ReportRecursive(args, request, outcome, truth_source, start_note);
-  const int code =
-      RefineAndReport(request, outcome, args.refine, args.trace, select ? SelectionJson(*select) : nlohmann::json());
+  const int code = RefineAndReport(request, outcome, args.refine, args.trace,
+                                   select ? SelectionJson(*select) : nlohmann::json(),
+                                   /*refined=*/select && args.refine.refine == "ml");
   if (select) {
     FinishSelection(*select, outcome.model, outcome.recursive,
                     args.refine.refine == "ml" ? &outcome.refinement.result : nullptr, args.select);

@@ -150,11 +150,11 @@ void AddRefineOptions(CLI::App* cmd, RefineArgs& args) {
 }
 
 int RefineAndReport(const IdentifyRequest& request, IdentifyOutcome& outcome, const RefineArgs& args,
-                    const std::string& trace, const nlohmann::json& selection) {
+                    const std::string& trace, const nlohmann::json& selection, bool refined) {
   // The recursive report is out before the refinement, which may take long: a signal that ends hysid
   // then (its handler exits without flushing) keeps it, also when stdout is a file or a pipe.
   if (args.refine == "ml") std::fflush(stdout);
-  RunRefinement(request, &outcome);
+  if (!refined) RunRefinement(request, &outcome);
   const Model& model = outcome.model;
   const SampleData& data = outcome.data;
   const RefineStep& step = outcome.refinement;

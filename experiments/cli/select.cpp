@@ -17,6 +17,7 @@
 #include "core/model/regression.hpp"
 #include "core/model_file/chosen.hpp"
 #include "core/model_file/model_file.hpp"
+#include "core/stats/quantiles.hpp"
 #include "experiments/cli/cli.hpp"
 
 namespace hysid::cli {
@@ -418,6 +419,13 @@ nlohmann::json JumpJson(const JumpSelect& jump) {
           {"unstable", unstable}};
 }
 
+// The candidates the refined fit dropped, in order: name, z², threshold.
+nlohmann::json FitDropsJson(const std::vector<FitDrop>& drops) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const FitDrop& d : drops) out.push_back({{"name", d.name}, {"z2", d.z2}, {"threshold", d.threshold}});
+  return out;
+}
+
 // The jump selections as JSON, shaped as the file: one object for [jump]; for [[jump]] maps an array,
 // one object per map with candidates with its name under "map"; null without jump candidates.
 nlohmann::json JumpsJson(const std::vector<JumpSelect>& jumps) {
@@ -479,7 +487,76 @@ nlohmann::json SelectionJson(const SelectStep& step) {
           {"bootstrap_support_matches", step.bootstrap.support_matches},
           {"unstable", Names(step, step.unstable)},
           {"jump", JumpsJson(step.jumps)},
+          {"dropped_by_fit", FitDropsJson(step.dropped_by_fit)},
           {"seconds", step.seconds}};
+}
+
+namespace {
+
+// The chosen flags of `step` (flow columns and jump selections) for candidate `name`.
+void SetChosen(SelectStep* step, const std::string& name, bool chosen) {
+  for (std::size_t j = 0; j < step->names.size(); ++j) {
+    if (step->selectable[j] && step->names[j] == name) step->selection.chosen[j] = chosen;
+  }
+  for (JumpSelect& jump : step->jumps) {
+    for (std::size_t j = 0; j < jump.names.size(); ++j) {
+      if (jump.selectable[j] && jump.names[j] == name) jump.selection.chosen[j] = chosen;
+    }
+  }
+}
+
+// A refined fit's estimate of each α and β entry, by name.
+std::map<std::string, double> RefinedValues(const Model& model, const RefineResult& r) {
+  std::map<std::string, double> values;
+  const ModelSpec& s = model.spec();
+  for (std::size_t a = 0; a < s.alpha.size(); ++a) values[s.alpha[a].name] = r.estimate.alpha[Eigen::Index(a)];
+  for (std::size_t b = 0; b < s.beta.size(); ++b) values[s.beta[b].name] = r.estimate.beta[Eigen::Index(b)];
+  return values;
+}
+
+}  // namespace
+
+void DropUnsupportedTerms(const IdentifyRequest& request, IdentifyOutcome* outcome, SelectStep* step) {
+  const double z = NormalUpperQuantile(kFitDropSize / 2.0);
+  const double threshold = z * z;
+  RunRefinement(request, outcome);
+  for (;;) {
+    const RefineResult& r = outcome->refinement.result;
+    if (!r.reported) return;
+    const std::map<std::string, double> values = RefinedValues(outcome->model, r);
+    FitDrop drop{"", threshold, threshold};
+    for (std::size_t i = 0; i < r.names.size() && Eigen::Index(i) < r.standard_errors.size(); ++i) {
+      const double se = r.standard_errors[Eigen::Index(i)];
+      if (std::find(step->kept.begin(), step->kept.end(), r.names[i]) == step->kept.end() || !(se > 0.0)) continue;
+      const double z2 = (values.at(r.names[i]) / se) * (values.at(r.names[i]) / se);
+      if (z2 < drop.z2) drop = {r.names[i], z2, threshold};
+    }
+    if (drop.name.empty()) return;
+    SelectStep next = *step;
+    next.kept.erase(std::find(next.kept.begin(), next.kept.end(), drop.name));
+    IdentifyOutcome fit = *outcome;
+    const Model chosen =
+        ParseModelFile(ChosenText(next, values, "refined estimates, " + drop.name + " dropped"), step->file + " (chosen)")
+            .model;
+    RunRecursivePassAgain(request, chosen, &fit);
+    fit.recursive_report = nlohmann::json();
+    RunRefinement(request, &fit);
+    const RefineResult& f = fit.refinement.result;
+    if (!f.reported || (r.ok() && !f.ok())) return;
+    *step = std::move(next);
+    step->chosen = chosen;
+    SetChosen(step, drop.name, false);
+    step->dropped_by_fit.push_back(drop);
+    *outcome = std::move(fit);
+  }
+}
+
+void PrintFitDrops(const SelectStep& step) {
+  for (const FitDrop& d : step.dropped_by_fit) {
+    std::printf("  dropped after the refinement: %s (z^2 = %.3g below %.3g, chi-square(1) at 1 - %g; the "
+                "chosen model refit without it)\n",
+                d.name.c_str(), d.z2, d.threshold, kFitDropSize);
+  }
 }
 
 void FinishSelection(const SelectStep& step, const Model& chosen, const IdentifyResult& recursive,

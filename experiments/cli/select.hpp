@@ -15,6 +15,7 @@
 #include "core/io/sample_data.hpp"
 #include "core/model/model.hpp"
 #include "core/select/select.hpp"
+#include "experiments/request/request.hpp"
 #include "sim/refine/refine.hpp"
 
 namespace hysid::cli {
@@ -53,6 +54,14 @@ struct JumpSelect {
   int jumps = 0;                        // detected jumps summed
 };
 
+// A chosen candidate the refined fit of the chosen model does not support: its z² = (estimate / its
+// standard error)² below the χ²₁ quantile at 1 − kFitDropSize.
+struct FitDrop {
+  std::string name;
+  double z2 = 0.0, threshold = 0.0;
+};
+inline constexpr double kFitDropSize = 0.01;
+
 struct SelectStep {
   std::optional<Model> chosen;          // the chosen model, values from the selection's fit
   std::vector<SelectBlock> blocks;      // one per mode with candidates, in mode order
@@ -75,6 +84,7 @@ struct SelectStep {
   int segments = 0;                     // flow segments summed (over the blocks)
   int round = 1;                        // 1: on the pass with every candidate; then on the chosen model's
   double seconds = 0.0;                 // the selection and its bootstrap
+  std::vector<FitDrop> dropped_by_fit;  // DropUnsupportedTerms, in order
 };
 
 // The selection on the detections of a recursive pass (`detected`: of the model with candidates, or
@@ -84,6 +94,13 @@ SelectStep SelectCandidates(const Model& model, const std::string& file, const S
                             const IdentifyResult& detected, const SelectArgs& args, bool bootstrap);
 void PrintSelection(const SelectStep& step);
 nlohmann::json SelectionJson(const SelectStep& step);
+// --refine ml: the chosen model refined (RunRefinement on the outcome of its recursive pass); while the
+// fit is reported and a chosen candidate's z² is below the threshold (FitDrop), the least such is
+// dropped and the chosen model without it (the refined values as its start) passed and refined again,
+// the drop kept when that fit is reported and ok (or the fit before it was not). Leaves the outcome
+// refined and `step` with the support kept (kept, chosen flags, the chosen model, dropped_by_fit).
+void DropUnsupportedTerms(const IdentifyRequest& request, IdentifyOutcome* outcome, SelectStep* step);
+void PrintFitDrops(const SelectStep& step);
 // After the chosen model's refinement (`refined`, null: none ran) or recursive pass: the chosen terms
 // with their estimates and bootstrap frequencies; --chosen-model written with the estimates.
 void FinishSelection(const SelectStep& step, const Model& chosen, const IdentifyResult& recursive,

@@ -53,10 +53,11 @@ def at_the_bound(label, report, truth, crlb):
     return failures
 
 
-def chosen_model_taken(hysid, chosen, data_args, est, sigma, work, extra=(), rel=1e-6, floor=1e-3):
+def chosen_model_taken(hysid, chosen, data_args, est, sigma, work, extra=(), rel=1e-6, floor=1e-3, se=None):
     """The failures of the chosen model file `chosen` taken as it is: `hysid identify` on it (data_args,
     extra) selects nothing and gives the estimates `est` ({name: value}) within rel × max(|value|,
-    floor); `simulate` and `crlb` (at sigma) accept it."""
+    floor), or with `se` ({name: standard error}) within rel × se; `simulate` and `crlb` (at sigma)
+    accept it."""
     bad = []
     out = os.path.join(work, "chosen_again.json")
     run(hysid, "identify", "--model-file", chosen, *data_args, "--json", out, *extra)
@@ -65,7 +66,9 @@ def chosen_model_taken(hysid, chosen, data_args, est, sigma, work, extra=(), rel
     if "selection" in again:
         bad.append("identify on the chosen model selected again")
     for name, value in zip(again["names"], again["estimate"]):
-        if name in est and abs(value - est[name]) > rel * max(abs(est[name]), floor):
+        if name not in est:
+            continue
+        if abs(value - est[name]) > rel * (se[name] if se is not None else max(abs(est[name]), floor)):
             bad.append(f"{name}: {value} on the chosen model, {est[name]} from the selection")
     run(hysid, "simulate", "--model-file", chosen, "--out", os.path.join(work, "chosen_sim.csv"))
     run(hysid, "crlb", "--model-file", chosen, "--sigma", sigma)
