@@ -9,11 +9,13 @@ flight and stance modes, a thermostat with heater off and on; analysis/select/*.
           which drops the chosen terms fewer than half of its draws chose),
   SINDy:  sindy_reference.select on the same samples with the true jump times and modes (columns j
           and q), per mode on the central differences inside that mode's flow segments,
-and whether each chose exactly the true support (of every mode). Prints one line per (system, sigma)
-and writes the rows to --out (CSV); `chosen` lists MODE:TERM for the systems with modes.
+and whether each chose exactly the true support (of every mode). With `--refine ml` hysid refines
+the chosen model and drops the chosen terms the fit does not support (method `hysid+ml`, `seconds` the
+whole identify's wall time). Prints one line per (system, sigma) and writes the rows to --out (CSV);
+`chosen` lists MODE:TERM for the systems with modes.
 
 Usage: support_study.py --hysid build/bin/hysid [--draws 50] [--sigmas 0.01,0.1] [--systems s5,ball]
-                        [--out results/select/support.csv]
+                        [--refine none|ml] [--out results/select/support.csv]
 """
 import argparse
 import csv
@@ -55,14 +57,17 @@ def library_terms(path):
     return spec["states"], spec.get("modes", []), per_mode
 
 
-def run_hysid(hysid, library, data, out_json):
-    p = subprocess.run([hysid, "identify", "--model-file", library, "--data", data, "--refine", "none",
+def run_hysid(hysid, library, data, out_json, refine):
+    start = time.perf_counter()
+    p = subprocess.run([hysid, "identify", "--model-file", library, "--data", data, "--refine", refine,
                         "--json", out_json], capture_output=True, text=True)
+    wall = time.perf_counter() - start
     if p.returncode not in (0, 1):
         raise RuntimeError(f"hysid identify failed ({p.returncode}): {p.stderr.strip()}")
     with open(out_json) as f:
         selection = json.load(f)["selection"]
-    return [(t.get("mode"), t["term"]) for t in selection["terms"] if t["chosen"]], selection["seconds"]
+    chosen = [(t.get("mode"), t["term"]) for t in selection["terms"] if t["chosen"]]
+    return chosen, selection["seconds"] if refine == "none" else wall
 
 
 def run_reference(data, states, modes, per_mode):
@@ -94,6 +99,7 @@ def main():
     ap.add_argument("--draws", type=int, default=50)
     ap.add_argument("--sigmas", default="0.01,0.1")
     ap.add_argument("--systems", default="s5,ball")
+    ap.add_argument("--refine", choices=("none", "ml"), default="none")
     ap.add_argument("--out", default="")
     args = ap.parse_args()
     rows = []
@@ -103,24 +109,25 @@ def main():
             truth, library = (os.path.join(HERE, system[k]) for k in ("truth", "library"))
             states, modes, per_mode = library_terms(library)
             for sigma in (float(s) for s in args.sigmas.split(",")):
-                hits = {"hysid": 0, "sindy": 0}
-                seconds = {"hysid": 0.0, "sindy": 0.0}
+                ours = "hysid" if args.refine == "none" else "hysid+ml"
+                hits = {ours: 0, "sindy": 0}
+                seconds = {ours: 0.0, "sindy": 0.0}
                 for seed in range(1, args.draws + 1):
                     data = os.path.join(tmp, f"{name}.csv")
                     subprocess.run([args.hysid, "simulate", "--model-file", truth, "--sigma", str(sigma),
                                     "--seed", str(seed), "--out", data], check=True, capture_output=True)
-                    chosen_h, sec_h = run_hysid(args.hysid, library, data, os.path.join(tmp, "id.json"))
+                    chosen_h, sec_h = run_hysid(args.hysid, library, data, os.path.join(tmp, "id.json"), args.refine)
                     chosen_s, sec_s = run_reference(data, states, modes, per_mode)
-                    for who, chosen, sec in (("hysid", chosen_h, sec_h), ("sindy", chosen_s, sec_s)):
+                    for who, chosen, sec in ((ours, chosen_h, sec_h), ("sindy", chosen_s, sec_s)):
                         hit = exact(chosen, system["support"])
                         hits[who] += hit
                         seconds[who] += sec
                         text = " ".join(f"{m}:{t}" if m else t for m, t in chosen)
                         rows.append({"system": name, "sigma": sigma, "seed": seed, "method": who,
                                      "exact": int(hit), "chosen": text, "seconds": f"{sec:.3f}"})
-                print(f"{name} sigma {sigma:g}: exact support hysid {hits['hysid']}/{args.draws}, "
-                      f"SINDy {hits['sindy']}/{args.draws} (mean selection time hysid "
-                      f"{seconds['hysid'] / args.draws:.2f} s, SINDy {seconds['sindy'] / args.draws:.2f} s)",
+                print(f"{name} sigma {sigma:g}: exact support {ours} {hits[ours]}/{args.draws}, "
+                      f"SINDy {hits['sindy']}/{args.draws} (mean time {ours} "
+                      f"{seconds[ours] / args.draws:.2f} s, SINDy {seconds['sindy'] / args.draws:.2f} s)",
                       flush=True)
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
