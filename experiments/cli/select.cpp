@@ -1,4 +1,5 @@
-// hysid identify with candidate terms: select, bootstrap, write the chosen model.
+// hysid identify with candidate terms: select, bootstrap, drop what the refined fit does not support,
+// write the chosen model.
 #include "experiments/cli/select.hpp"
 
 #include <algorithm>

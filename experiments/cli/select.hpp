@@ -1,6 +1,7 @@
-// hysid identify on a model file with candidate terms (of flow rows and of the [jump]'s rows): the
-// selection of the terms the data support (core/select), its bootstrap, the chosen model
-// (core/model_file/chosen.hpp) that the rest of identify refines, and --chosen-model.
+// hysid identify on a model file with candidate terms (of flow rows, of the [jump]'s rows and of
+// [[jump]] maps' rows): the selection of the terms the data support (core/select), its bootstrap, the
+// chosen model (core/model_file/chosen.hpp) that the rest of identify refines, the chosen terms the
+// refined fit does not support dropped, and --chosen-model.
 #pragma once
 
 #include <cstdint>
