@@ -8,6 +8,7 @@
 
 #include "core/model/automaton.hpp"
 #include "sim/input_signal.hpp"
+#include "sim/refine/budget.hpp"
 
 namespace hysid {
 namespace {
@@ -44,14 +45,18 @@ SpanSamples SamplesOf(const std::vector<double>& t, const Mat& u, std::pair<long
 }
 
 // One chain's run from `params` on its own sample times (with S and ∂t_j/∂θ when `gradients`); a
-// start outside C ∪ D (std::invalid_argument) is a run with no samples and that message.
+// start outside C ∪ D (std::invalid_argument) is a run with no samples and that message. With
+// `budgeted`, the run has the budget of a run a fit evaluates (BudgetRun): a point no fit has been
+// to (the recursive estimate, which may blow up or chatter) stops there, with that reason, instead
+// of spending seconds on its way to the simulator's own step limit.
 SensitivityTrajectory RunChain(const Model& model, const HybridParameters& params, const Unknowns& unknowns,
                                const std::vector<double>& t, const Mat& u, std::pair<long, long> span,
-                               bool gradients) {
+                               bool gradients, bool budgeted = false) {
   const SpanSamples samples = SamplesOf(t, u, span);
   SensitivityOptions o;
   o.sensitivities = gradients;
   o.sim.rtol = o.sim.atol = 1e-9;
+  if (budgeted) BudgetRun(o, static_cast<long>(samples.times.size()));
   try {
     return SimulateSensitivities(model, params, unknowns, samples.times, o, samples.inputs_or_null());
   } catch (const std::invalid_argument& e) {
@@ -115,7 +120,7 @@ void RunRecursive(const Model& model, const std::vector<double>& t, const Mat& y
     HybridParameters p = r.start;
     p.x0 = y.col(a);
     p.initial_mode = recursive.mode.empty() ? -1 : recursive.mode[std::size_t(a)];
-    const SensitivityTrajectory run = RunChain(model, p, r.unknowns, t, u, spans[c], false);
+    const SensitivityTrajectory run = RunChain(model, p, r.unknowns, t, u, spans[c], false, /*budgeted=*/true);
     Store(run, a, nullptr, &out->recursive, nullptr);
     if (run.trajectory.size() < spans[c].second - a && out->recursive_reason.empty())
       out->recursive_reason = Stopped(c, run, t, a);

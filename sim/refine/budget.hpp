@@ -1,5 +1,5 @@
-// The CVODE step and jump budget of every run a fit evaluates (sim/refine/fit.cpp, time_shooting.cpp).
-// Internal to sim/refine.
+// The CVODE step and jump budget of every run a fit evaluates (sim/refine/fit.cpp, time_shooting.cpp),
+// and of the recursive estimate's run beside a fit (sim/events/fitted_outputs.cpp). Internal to sim/.
 #pragma once
 
 #include <algorithm>
