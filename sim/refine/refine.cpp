@@ -650,8 +650,11 @@ bool Better(const RefineResult& a, const RefineResult& b) {
   return a.reported && a.final_cost < b.final_cost;
 }
 
-// The starts of multiple shooting by time, in order: the model's own values (a model file's start values),
-// its fit kept at once when ok, then the recursive estimate; while no fit is ok, for
+// The starts of multiple shooting by time, in order: with `span_fit` (the labelled routes' fit, ok on
+// spans that leave samples out) its estimate, its fit kept at once when ok (it is at the optimum of
+// most of the data, where a far start of the model's own values can take seconds to come from); the
+// model's own values (a model file's start values), its fit kept at once when ok, then the recursive
+// estimate; while no fit is ok, for
 // an automaton with a hidden mode, α of the modes the data show (ModeClusteredAlpha, with the model's own β
 // and γ); with `search` (the labelled routes reported nothing) while no fit can be reported (every one
 // singular, unconverged or failed: a start in another basin, or whose guards the model never reaches), the
@@ -666,7 +669,8 @@ bool Better(const RefineResult& a, const RefineResult& b) {
 // (and a searching start's is kept) as an ok one does. The best of the fits (Better); `mended` names
 // the start of the one kept.
 RefineResult TimeShootingFromStarts(const Model& model, const std::vector<RefineChain>& chains,
-                                    const HybridParameters& recursive, const RefineOptions& options, bool search) {
+                                    const HybridParameters& recursive, const RefineOptions& options, bool search,
+                                    const HybridParameters* span_fit) {
   auto named = [](RefineResult fit, const std::string& start) {
     if (!fit.mended.empty()) fit.mended += " from " + start;
     return fit;
@@ -690,6 +694,14 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   // The model's values first, each fit with every thread on its segments: its fit, when ok, is kept;
   // else the recursive estimate's is fit and the better of the two kept (Better, in this order). Each
   // fit is deterministic, so the result does not depend on the threads.
+  std::optional<RefineResult> from_span;
+  if (span_fit != nullptr && !options.stopped()) {
+    from_span = fit(*span_fit, "the labelled fit on its spans");
+    if (from_span->ok()) {
+      consider(std::move(*from_span));
+      return best;
+    }
+  }
   const bool own_differs =
       own.alpha != recursive.alpha || own.beta != recursive.beta || own.gamma != recursive.GammaOr(model);
   std::optional<RefineResult> from_own;
@@ -701,8 +713,10 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
     }
   }
   best = fit(recursive, "the recursive estimate");
-  bool segments_fit_noise = best.segments_fit_noise || (from_own && from_own->segments_fit_noise);
+  bool segments_fit_noise = best.segments_fit_noise || (from_own && from_own->segments_fit_noise) ||
+                            (from_span && from_span->segments_fit_noise);
   if (from_own) consider(std::move(*from_own));
+  if (from_span) consider(std::move(*from_span));
   if (best.ok() || Determines(best) || options.stopped()) return best;
   const int n = model.state_size();
   long samples = 0;
@@ -920,7 +934,8 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
                     "out are less than two samples apart",
                     ToString(RefineRoute::kTimeShooting), unresolved_at)};
   } else if (tries) {
-    AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options, !r.reported));
+    AdoptTimeShooting(r, TimeShootingFromStarts(model, chains, r.start, options, !r.reported,
+                                                 r.ok() ? &r.refined : nullptr));
     if (r.reported) r.estimate = r.refined;
   }
   return r;
