@@ -126,41 +126,12 @@ TEST_CASE("fitted outputs: the band and se of each chain from its own covariance
   CHECK(none.jumps.empty());
 }
 
-// A ball with quadratic drag v' = −g − c|v|v: the recursive estimate's negative c blows up in finite
-// time (v' = c v² on the way down grows without bound), where CVODE would take up to its own limit
-// of 2 000 000 steps; its run has the budget of a run a fit evaluates (200 per sample + 1 000), and
-// the fitted run beside it is whole.
+// The ball with quadratic drag of examples/drag-ball (v' = −g − k|v|v): the recursive estimate's
+// negative k blows up in finite time (v' = −g + 50 v² on the way down grows without bound), where
+// CVODE would take up to its own limit of 2 000 000 steps; its run has the budget of a run a fit
+// evaluates (200 per sample + 1 000), and the fitted run beside it is whole.
 TEST_CASE("fitted outputs: the recursive estimate's run stops at a fit's step budget") {
-  const Model model = ParseModelFile(R"(
-name = "drag-fall"
-states = ["h", "v"]
-alpha = [
-  { name = "one", value = 1.0, known = true },
-  { name = "g", value = 9.81 },
-  { name = "c", value = 0.05 },
-]
-[flow]
-phi = [["v", 0, 0], [0, -1, "-abs(v)*v"]]
-rows = ["v"]
-[[jump]]
-name = "floor"
-guard = "floor"
-beta = [
-  { name = "one_b", value = 1.0, known = true },
-  { name = "e", value = 0.8 },
-]
-psi = [["h", 0], [0, "-v"]]
-rows = ["v"]
-[[guard]]
-name = "floor"
-h = "h"
-direction = "falling"
-project = { h = "0" }
-[defaults]
-x0 = [10.0, 0.0]
-t_end = 1.0
-dt = 0.01
-)", "drag-fall").model;
+  const Model model = ReadModelFile(std::string(HYSID_EXAMPLES_DIR) + "/drag-ball/drag-ball.toml").model;
   std::vector<double> t;
   for (int k = 0; k <= 100; ++k) t.push_back(0.01 * k);
   Mat y = Mat::Zero(2, 101);
@@ -169,7 +140,7 @@ dt = 0.01
   r.unknowns = Unknowns::Of(model);
   r.estimate = HybridParameters{model.alpha(), model.beta(), y.col(0), model.gamma()};
   r.start = r.estimate;
-  r.start.alpha[2] = -50.0;  // v' = -9.81 + 50 v²: v → −∞ at t ≈ 0.07
+  r.start.alpha[2] = -50.0;  // k
   r.reported = true;
   r.chain_x0 = {Vec(y.col(0))};
   r.chain_samples_used = {101};
