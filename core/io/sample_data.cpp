@@ -586,12 +586,24 @@ SampleData ReadSampleData(const std::string& path, int state_size) {
 
 namespace {
 
-bool EqualSteps(const std::vector<double>& t, std::size_t k) {
-  const double step = t[k] - t[k - 1];
-  for (std::size_t i = k - 1; i <= k + 2; ++i) {
+// Whether the steps between samples first − 1 … last are equal (within 1e-3 relative).
+bool EqualSteps(const std::vector<double>& t, std::size_t first, std::size_t last) {
+  const double step = t[first] - t[first - 1];
+  for (std::size_t i = first; i <= last; ++i) {
     if (std::abs((t[i] - t[i - 1]) - step) > 1e-3 * step) return false;
   }
   return true;
+}
+
+// Whether the steps from sample k − 2 to k + 2 are within kOutlierStepRatio of each other (a row or
+// two missing between samples, not a gap).
+bool SimilarSteps(const std::vector<double>& t, std::size_t k) {
+  double lo = t[k] - t[k - 1], hi = lo;
+  for (std::size_t i = k - 1; i <= k + 2; ++i) {
+    lo = std::min(lo, t[i] - t[i - 1]);
+    hi = std::max(hi, t[i] - t[i - 1]);
+  }
+  return hi <= kOutlierStepRatio * lo;
 }
 
 // Keeps the samples whose `keep` is 1 in every per-sample array.
@@ -628,9 +640,15 @@ void LeaveOutOutliers(SampleData* data) {
     chains.emplace_back(begin, end);
     begin = end;
   }
-  // d of state r at sample k (1 ≤ k − begin, k + 1 < end).
+  // d of state r at sample k (1 ≤ k − begin, k + 1 < end): on unequal steps h1 = t_k − t_{k−1},
+  // h2 = t_{k+1} − t_k (a row missing beside k), twice the line through the neighbours at t_k less
+  // y_k, 2 (h2 y_{k−1} + h1 y_{k+1}) / (h1 + h2) − 2 y_k, which is d on equal steps.
   const auto second = [&](Eigen::Index r, std::size_t k) {
-    return d.y(r, Eigen::Index(k + 1)) - 2.0 * d.y(r, Eigen::Index(k)) + d.y(r, Eigen::Index(k - 1));
+    const double h1 = d.t[k] - d.t[k - 1], h2 = d.t[k + 1] - d.t[k];
+    const double before = d.y(r, Eigen::Index(k - 1)), at = d.y(r, Eigen::Index(k)),
+                 after = d.y(r, Eigen::Index(k + 1));
+    if (std::abs(h2 - h1) <= 1e-3 * h1) return after - 2.0 * at + before;
+    return 2.0 * (h2 * before + h1 * after) / (h1 + h2) - 2.0 * at;
   };
   // d's robust sd per state, over every chain (one noise level per measured state, as the fit has).
   Vec sds(d.y.rows());
@@ -641,6 +659,15 @@ void LeaveOutOutliers(SampleData* data) {
     }
     sds[r] = all.size() >= 2 ? std::sqrt(6.0) * NoiseSigmaFromSecondDifferences(all) : 0.0;
   }
+  const auto leave_out = [&](std::size_t k, Eigen::Index r, double dk) {
+    keep[k] = 0;
+    found.push_back({.run = d.run[k],
+                     .line = d.line[k],
+                     .t = d.t[k],
+                     .row = static_cast<int>(r),
+                     .value = d.y(r, Eigen::Index(k)),
+                     .sds = std::abs(dk) / sds[r]});
+  };
   for (const auto& [begin, end] : chains) {
     for (Eigen::Index r = 0; r < d.y.rows() && end - begin >= 12; ++r) {
       std::vector<double> dd(end - begin - 2);  // dd[i]: d at sample begin + 1 + i
@@ -649,19 +676,29 @@ void LeaveOutOutliers(SampleData* data) {
       if (!(sd > 0.0)) continue;
       for (std::size_t k = begin + 2; k + 3 <= end; ++k) {
         const double c = dd[k - begin - 1], before = dd[k - begin - 2], after = dd[k - begin];
-        const auto half = [c](double v) {
-          return v * c < 0.0 && std::abs(v) >= 0.25 * std::abs(c) && std::abs(v) <= 0.75 * std::abs(c);
+        // A neighbour's d holds away / (away + next) of a displaced sample's, of the other sign (its two
+        // steps: away from sample k, next to it); ± 0.25 of |d_k| is left to the noise.
+        const auto share = [c](double v, double away, double next) {
+          const double expected = std::abs(away - next) <= 1e-3 * next ? 0.5 : away / (away + next);
+          return v * c < 0.0 && std::abs(v) >= (expected - 0.25) * std::abs(c) &&
+                 std::abs(v) <= (expected + 0.25) * std::abs(c);
         };
-        if (std::abs(c) <= kOutlierSds * sd || !half(before) || !half(after) || !EqualSteps(d.t, k) ||
-            !keep[k])
+        if (std::abs(c) <= kOutlierSds * sd || !SimilarSteps(d.t, k) ||
+            !share(before, d.t[k - 1] - d.t[k - 2], d.t[k] - d.t[k - 1]) ||
+            !share(after, d.t[k + 2] - d.t[k + 1], d.t[k + 1] - d.t[k]) || !keep[k])
           continue;
-        keep[k] = 0;
-        found.push_back({.run = d.run[k],
-                         .line = d.line[k],
-                         .t = d.t[k],
-                         .row = static_cast<int>(r),
-                         .value = d.y(r, Eigen::Index(k)),
-                         .sds = std::abs(c) / sd});
+        leave_out(k, r, c);
+      }
+      // Two neighbours displaced by δ1, δ2 of one sign: d = (δ1, δ2 − 2δ1, δ1 − 2δ2, δ2) at k − 1 … k + 2.
+      for (std::size_t k = begin + 2; k + 4 <= end; ++k) {
+        const double p = dd[k - begin - 2], a = dd[k - begin - 1], b = dd[k - begin], q = dd[k - begin + 1];
+        const double size = std::max(std::abs(a), std::abs(b)), slack = 0.25 * size;
+        if (std::abs(a) <= kOutlierSds * sd || std::abs(b) <= kOutlierSds * sd || a * b <= 0.0 || p * a >= 0.0 ||
+            q * a >= 0.0 || std::abs(a - (q - 2.0 * p)) > slack || std::abs(b - (p - 2.0 * q)) > slack ||
+            !keep[k] || !keep[k + 1] || !EqualSteps(d.t, k - 1, k + 3))
+          continue;
+        leave_out(k, r, a);
+        leave_out(k + 1, r, b);
       }
     }
   }

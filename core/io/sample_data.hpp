@@ -117,9 +117,16 @@ struct SampleData {
 // of that state's d over every chain: one noise level per state, as the fit has it), and each
 // neighbour's d_{k±1} of the other sign and 0.25–0.75 of |d_k|: the (1, −2, 1) pattern of one
 // displaced sample. A kink bends one or two samples' d the same way, a step in the state gives
-// (1, −1), noise never reaches it. Samples 2 to K−3 of chains of at least 12 samples, on equal steps
-// (within 1e-3 relative from k−2 to k+2).
+// (1, −1), noise never reaches it. Samples 2 to K−3 of chains of at least 12 samples whose steps from
+// k−2 to k+2 are within kOutlierStepRatio of each other; beside a missing row d is taken on the
+// actual times (twice the line through the neighbours at t_k, less y_k), and each neighbour's share of
+// a displaced sample's |d_k| is then its own step away from k over its two steps (0.5 on equal steps),
+// which its |d| must meet within ± 0.25. Two neighbours
+// displaced the same way by δ1 and δ2 (on equal steps, k−2 to k+3) are left out together when d at
+// both is beyond kOutlierSds robust sd and d from k−1 to k+2 is (δ1, δ2 − 2δ1, δ1 − 2δ2, δ2) within a
+// quarter of the larger: the pattern of a pair of bad frames, which neither a kink nor a step makes.
 inline constexpr double kOutlierSds = 10.0;
+inline constexpr double kOutlierStepRatio = 3.0;
 void LeaveOutOutliers(SampleData* data);
 
 // Throws std::invalid_argument with "FILE:LINE: column C ('name'): ..." or "FILE: ..." messages.

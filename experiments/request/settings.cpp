@@ -47,7 +47,8 @@ std::vector<IdentifySetting> MakeSettings() {
        Shows("False")},
       {"keep_outliers", T::kSwitch,
        "keep every sample (else a sample that stands alone off both neighbours in a measured state, its "
-       "second difference beyond 10 robust sd in the pattern (1, -2, 1), is left out and listed; and "
+       "second difference beyond 10 robust sd in the pattern (1, -2, 1), or a pair displaced together, "
+       "is left out and listed; and "
        "when the fit is not ok, or ok on a span it cut short, a sample or pair alone beyond 10 robust sd "
        "off it is left out and listed when the fit without them is ok)",
        Shows(""), Shows("False")},

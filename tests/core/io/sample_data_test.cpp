@@ -358,6 +358,49 @@ TEST_CASE("an outlier off both neighbours is left out, the chain going on - nois
   CHECK(d.y(0, 250) == clean.y(0, 251));
 }
 
+// KinkStepRecord's text with the rows of `missing` samples blank in x (the row left out on reading).
+std::string WithMissing(std::string text, const std::vector<int>& missing) {
+  std::vector<std::string> lines;
+  std::size_t at = 0;
+  for (std::size_t next; (next = text.find('\n', at)) != std::string::npos; at = next + 1)
+    lines.push_back(text.substr(at, next - at));
+  for (int k : missing) {
+    std::string& line = lines[std::size_t(k) + 1];
+    const std::size_t comma = line.find(',');
+    line = line.substr(0, comma) + ",nan" + line.substr(line.find(',', comma + 1));
+  }
+  std::string out;
+  for (const std::string& line : lines) out += line + "\n";
+  return out;
+}
+
+TEST_CASE("an outlier beside a missing row and a pair of displaced neighbours are left out - a kink and a step "
+          "beside missing rows stay",
+          "[sample_data]") {
+  // Rows missing beside the kink (t = 3), beside the step (t = 6) and elsewhere: nothing to leave out.
+  const std::vector<int> missing = {100, 299, 302, 498, 599, 602, 850};
+  SampleData clean = SampleDataFromTable(Table(WithMissing(KinkStepRecord({}), missing)), 2);
+  REQUIRE(clean.t.size() == 1000 - missing.size());
+  LeaveOutOutliers(&clean);
+  CHECK(clean.outliers.empty());
+  // x at sample 500 off by 0.2 (d 15 robust sd; sample 498 missing: steps 0.02, 0.01, 0.01); a pair in
+  // v at 700, 701 off by 0.4 and 0.5 (d −0.3 and −0.6: 12 and 24 sd); a pair in x at 200, 201 off by
+  // 0.35 each (d −0.35: 14 sd).
+  SampleData d = SampleDataFromTable(
+      Table(WithMissing(KinkStepRecord({{500, 0, 0.2}, {700, 1, 0.4}, {701, 1, 0.5}, {200, 0, 0.35}, {201, 0, 0.35}}),
+                        missing)),
+      2);
+  LeaveOutOutliers(&d);
+  std::vector<std::pair<long, int>> found;
+  for (const OutlierSample& o : d.outliers) found.emplace_back(o.line, o.row);
+  CHECK(found == std::vector<std::pair<long, int>>{{202, 0}, {203, 0}, {502, 0}, {702, 1}, {703, 1}});
+  for (const OutlierSample& o : d.outliers) CHECK(o.sds > 10.0);
+  // The same displacements of opposite signs in a pair: two steps, not bad frames.
+  SampleData steps = SampleDataFromTable(Table(KinkStepRecord({{700, 1, 0.4}, {701, 1, -0.4}})), 2);
+  LeaveOutOutliers(&steps);
+  CHECK(steps.outliers.empty());
+}
+
 TEST_CASE("the outlier screen's noise level is one per state, over every chain", "[sample_data]") {
   // 40 chains of 13 samples (a gap of 1 s between them), σ = 0.01; chain 5's noise 20 times smaller,
   // and in it sample 6 displaced by 0.03 (3 σ: 2.4 robust sd of d over all chains, about 50 of
