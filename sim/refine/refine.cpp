@@ -691,9 +691,7 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   auto fit = [&](const HybridParameters& from, const std::string& what, bool tie_flat_hidden = false) {
     return named(FitByTimeShooting(model, chains, from, options, tie_flat_hidden), what);
   };
-  // The model's values first, each fit with every thread on its segments: its fit, when ok, is kept;
-  // else the recursive estimate's is fit and the better of the two kept (Better, in this order). Each
-  // fit is deterministic, so the result does not depend on the threads.
+  // The labelled fit on its spans first, when there is one: its fit, when ok, is kept.
   std::optional<RefineResult> from_span;
   if (span_fit != nullptr && !options.stopped()) {
     from_span = fit(*span_fit, "the labelled fit on its spans");
@@ -702,6 +700,9 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
       return best;
     }
   }
+  // Then the model's values, each fit with every thread on its segments: its fit, when ok, is kept;
+  // else the recursive estimate's is fit and the best of the fits kept (Better, in this order). Each
+  // fit is deterministic, so the result does not depend on the threads.
   const bool own_differs =
       own.alpha != recursive.alpha || own.beta != recursive.beta || own.gamma != recursive.GammaOr(model);
   std::optional<RefineResult> from_own;
