@@ -54,7 +54,10 @@ struct SimOptions {
   // Raised (by another thread: Ctrl-C in the Python module): the run stops before its next CVODE step
   // (status kSolverFailure, "stopped"). Null: never.
   const std::atomic<bool>* stop = nullptr;
-  bool stopped() const { return stop != nullptr && stop->load(); }
+  // A second such flag, raised when the run's result is no longer needed (a later start of a search
+  // whose earlier start has ended it, sim/refine): either flag stops the run.
+  const std::atomic<bool>* cancel = nullptr;
+  bool stopped() const { return (stop != nullptr && stop->load()) || (cancel != nullptr && cancel->load()); }
   // Field-naming message "SimOptions::rtol = -1. Violated constraint: rtol > 0".
   bool IsValid(std::string* error) const;
 };

@@ -403,13 +403,13 @@ constexpr double kQuadraticRegion = 1.0;
 class WithinStandardErrors final : public ceres::IterationCallback {
  public:
   WithinStandardErrors(const FitProblem& problem, const Vec& theta, const std::vector<Vec>& x0,
-                       const std::atomic<bool>* stop, bool final_step)
-      : problem_(problem), theta_(theta), x0_(x0), stop_(stop), final_step_(final_step) {}
+                       const RefineOptions& options, bool final_step)
+      : problem_(problem), theta_(theta), x0_(x0), options_(options), final_step_(final_step) {}
   // The solve ended for TakeFinalStep, at a point whose decrement is lambda().
   bool final_step_due() const { return due_; }
   double lambda() const { return lambda_; }
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
-    if (stop_ != nullptr && stop_->load()) return ceres::SOLVER_ABORT;  // RefineOptions::stop
+    if (options_.stopped()) return ceres::SOLVER_ABORT;  // RefineOptions::stop or cancel
     // (Multiple shooting: the decrement leaves the continuity residuals out; Ceres' tolerances end it.)
     if (!problem_.links.empty()) return ceres::SOLVER_CONTINUE;
     if (summary.iteration > 0 && summary.step_is_valid && lambda_ < kQuadraticRegion &&
@@ -432,7 +432,7 @@ class WithinStandardErrors final : public ceres::IterationCallback {
   const FitProblem& problem_;
   const Vec& theta_;
   const std::vector<Vec>& x0_;
-  const std::atomic<bool>* stop_;
+  const RefineOptions& options_;
   bool final_step_ = false, due_ = false;
   double lambda_ = std::numeric_limits<double>::infinity();  // at the last accepted point
   double noise_ = 0.0;
@@ -838,7 +838,7 @@ bool SolveAndSimulate(const FitProblem& problem, const RefineOptions& options, c
                       std::vector<Vec>& x0, RefineResult& r, double* initial_cost = nullptr) {
   bool final_step = problem.links.empty() && problem.fits.size() == 1;
   for (int solve = 0; solve < 2; ++solve) {
-    WithinStandardErrors within(problem, theta, x0, options.stop, final_step);
+    WithinStandardErrors within(problem, theta, x0, options, final_step);
     const ceres::Solver::Summary summary = Solve(problem, options, theta, x0, within);
     r.iterations += static_cast<int>(summary.iterations.size());
     if (initial_cost && solve == 0) *initial_cost = summary.initial_cost;

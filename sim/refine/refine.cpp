@@ -3,6 +3,7 @@
 #include "sim/refine/refine.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -751,21 +752,37 @@ RefineResult TimeShootingFromStarts(const Model& model, const std::vector<Refine
   for (std::size_t k = 0; k < design.size(); ++k) {
     searching.push_back({design[k], fmt::format("design point {} of {}", k + 1, design.size()), true});
   }
+  // Whether a searching start's fit is kept and ends the search: ok or Determines, better than the
+  // best so far, and out of a local minimum to a lower cost (the same data and weights, a higher
+  // likelihood). `best` does not change within a batch until a fit ends the search.
+  auto ends_search = [&](const RefineResult& other) {
+    return (other.ok() || Determines(other)) && Better(other, best) &&
+           (!local_minimum || other.final_cost < best.final_cost);
+  };
   const auto batch =
       static_cast<std::size_t>(std::clamp(tbb::this_task_arena::max_concurrency(), 1, kSearchBatch));
   for (std::size_t first = 0;
        first < searching.size() && !best.ok() && !Determines(best) && !options.stopped(); first += batch) {
-    std::vector<RefineResult> fits(std::min(batch, searching.size() - first));
-    tbb::parallel_for(std::size_t{0}, fits.size(), [&](std::size_t k) {
+    const std::size_t size = std::min(batch, searching.size() - first);
+    std::vector<std::optional<RefineResult>> fits(size);
+    // A fit that ends the search cancels the batch's later ones (their fits are never kept); the
+    // earlier ones run on, so the kept fit is the first in order that ends it, whatever the threads.
+    std::vector<std::atomic<bool>> cancel(size);
+    tbb::parallel_for(std::size_t{0}, size, [&](std::size_t k) {
+      if (cancel[k].load()) return;
       Searching& at = searching[first + k];
+      RefineOptions own_options = options;
+      own_options.cancel = own_options.sensitivity.sim.cancel = &cancel[k];
       const std::optional<Vec> gamma =
-          at.reach ? GammaReachingGuards(model, chains, at.from, options) : std::nullopt;
+          at.reach ? GammaReachingGuards(model, chains, at.from, own_options) : std::nullopt;
       if (gamma) at.from.gamma = *gamma;
-      fits[k] = fit(at.from, at.name, /*tie_flat_hidden=*/true);
+      fits[k] = named(FitByTimeShooting(model, chains, at.from, own_options, /*tie_flat_hidden=*/true), at.name);
+      if (!cancel[k].load() && ends_search(*fits[k])) {
+        for (std::size_t j = k + 1; j < size; ++j) cancel[j].store(true);
+      }
     });
-    for (std::size_t k = 0; k < fits.size() && !best.ok() && !Determines(best); ++k) {
-      // Out of a local minimum: to a lower cost (the same data and weights, a higher likelihood).
-      if (!local_minimum || fits[k].final_cost < best.final_cost) consider(std::move(fits[k]), true);
+    for (std::size_t k = 0; k < size && !best.ok() && !Determines(best); ++k) {
+      if (ends_search(*fits[k])) consider(std::move(*fits[k]), true);
     }
   }
   return best;
@@ -918,6 +935,7 @@ RefineResult Refine(const Model& model, const std::vector<RefineChain>& chains, 
   // the stop flag is raised.
   RefineOptions options = given;
   if (options.sensitivity.sim.stop == nullptr) options.sensitivity.sim.stop = options.stop;
+  if (options.sensitivity.sim.cancel == nullptr) options.sensitivity.sim.cancel = options.cancel;
   RefineResult r = RefineLabelled(model, chains, alpha0, beta0, options);
   const bool data_fault = r.status == RefineStatus::kNonFiniteData;
   long samples = 0;

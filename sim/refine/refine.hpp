@@ -165,7 +165,10 @@ struct RefineOptions {
   // Raised (by another thread: Ctrl-C in the Python module): the solve ends at its next iteration and
   // nothing more is tried (the result is then not ok). Null: never.
   const std::atomic<bool>* stop = nullptr;
-  bool stopped() const { return stop != nullptr && stop->load(); }
+  // A second such flag, raised when the fit is no longer needed (a later start of a search whose
+  // earlier start has ended it): either flag ends the fit. Set for the runs too (sensitivity.sim).
+  const std::atomic<bool>* cancel = nullptr;
+  bool stopped() const { return (stop != nullptr && stop->load()) || (cancel != nullptr && cancel->load()); }
   // Field-naming message, e.g. "RefineOptions::residual_test_size = 2: must be in (0, 0.5)".
   bool IsValid(std::string* error) const;
 };

@@ -2,6 +2,7 @@
 // and the bouncing ball's Zeno time.
 #include <catch2/catch.hpp>
 
+#include <atomic>
 #include <cmath>
 #include <numbers>
 
@@ -117,6 +118,26 @@ TEST_CASE("a stiff spring's constant jump intervals are not Zeno", "[sim]") {
   const double half_period = std::numbers::pi / std::sqrt(1e12 - 0.1 * 0.1 / 4.0);
   for (std::size_t i = 1; i < traj.jumps.size(); ++i) {
     CHECK(traj.jumps[i].t - traj.jumps[i - 1].t == Approx(half_period).epsilon(1e-6));
+  }
+}
+
+TEST_CASE("either raised flag, stop or cancel, stops a run before its next step", "[sim]") {
+  const Model model{ImpactMsd{}};
+  const SampleGrid grid{20.0, 5e-4};
+  const Trajectory full = Simulate(model, DefaultState(model), grid, SimOptions{});
+  REQUIRE(full.status.stop == SimStop::kCompleted);
+  std::atomic<bool> lowered{false}, raised{true};
+  for (const bool by_cancel : {false, true}) {
+    SimOptions options;
+    (by_cancel ? options.cancel : options.stop) = &lowered;
+    const Trajectory same = Simulate(model, DefaultState(model), grid, options);
+    CHECK(same.status.stop == SimStop::kCompleted);
+    CHECK(same.t.size() == full.t.size());
+    (by_cancel ? options.cancel : options.stop) = &raised;
+    const Trajectory stopped = Simulate(model, DefaultState(model), grid, options);
+    CHECK(stopped.status.stop == SimStop::kSolverFailure);
+    CHECK_THAT(stopped.status.message, Catch::Contains("stopped at t = 0"));
+    CHECK(stopped.t.size() <= 1);
   }
 }
 
