@@ -818,7 +818,8 @@ bool ExactInformation(const ShootingProblem& pr, const Vec& theta, const std::ve
         if (seg.keep.size() && seg.keep(r, k) == 0.0) continue;  // left out of the final solve
         row = weight[r] * tr.S(k).row(pr.rows[std::size_t(r)]).transpose();
         local.selfadjointView<Eigen::Lower>().rankUpdate(row);
-        if (scores) score += weight[r] * residuals[seg.chain](r, seg.first + k) * row;
+        const double residual = residuals[seg.chain](r, seg.first + k);
+        if (scores && std::isfinite(residual)) score += weight[r] * residual * row;
       }
       if (scores) out->scores[seg.chain].push_back(at_node.transpose() * score);
     }
@@ -826,6 +827,34 @@ bool ExactInformation(const ShootingProblem& pr, const Vec& theta, const std::ve
     if (seg.continues) out->T.middleRows(node + n, n) = tr.S(seg.samples()) * at_node;
   }
   return out->M.allFinite() && out->T.allFinite();
+}
+
+// The Gauss–Newton step of the single-shooting cost at (θ, s), with the fit's weights: δ = −M⁻¹g over
+// θ and the free nodes (M and g = Σ_k g_k from ExactInformation: the data rows, the continuity exact),
+// its change of θ and every node, T·δ, in *change, and its length in the information's metric,
+// λ = √(gᵀM⁻¹g) (standard errors at σ = 1/w), in *lambda. False when the point does not simulate or M
+// is singular.
+bool GaussNewtonStep(const ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
+                     const std::vector<Vec>& s, Vec* change, double* lambda) {
+  std::vector<Mat> residuals;
+  Information info;
+  if (!Residuals(pr, chains, theta, s, &residuals) ||
+      !ExactInformation(pr, theta, s, pr.weight, residuals, &info, /*scores=*/true)) {
+    return false;
+  }
+  Vec g = Vec::Zero(info.M.rows());
+  for (const std::vector<Vec>& chain : info.scores) {
+    for (const Vec& score : chain) g += score;
+  }
+  const Vec scale = info.M.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
+  const Eigen::LDLT<Mat> ldlt(scale.asDiagonal() * info.M * scale.asDiagonal());
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 1e-13 * ldlt.vectorD().cwiseAbs().maxCoeff()).all()) {
+    return false;
+  }
+  const Vec delta = -(scale.asDiagonal() * ldlt.solve(scale.asDiagonal() * g));
+  *lambda = std::sqrt(std::max(0.0, -g.dot(delta)));
+  *change = info.T * delta;
+  return change->allFinite() && std::isfinite(*lambda);
 }
 
 }  // namespace
@@ -1380,15 +1409,52 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   // so that the cost is smooth there; again while the labels move; its continuity at kFinalWidth. A
   // solve that fails leaves the point of the one before.
   pr.link_weight = (kFinalWidth * pr.scale).cwiseInverse();
-  for (int round = 0; round < kModeRounds && summary.IsSolutionUsable() && !options.stopped() && r.iterations < budget;
-       ++round) {
-    Trim(pr, theta, s, /*at_events_only=*/true);
-    if (Relabel(pr, theta, s) == 0 && round > 0) break;
-    RepairNodes(pr, theta, s);
-    const ceres::Solver::Summary next = Solve(pr, options, theta, s);
-    r.iterations += static_cast<int>(next.iterations.size());
-    if (!next.IsSolutionUsable()) break;
-    summary = next;
+  auto final_solves = [&] {
+    for (int round = 0; round < kModeRounds && summary.IsSolutionUsable() && !options.stopped() && r.iterations < budget;
+         ++round) {
+      Trim(pr, theta, s, /*at_events_only=*/true);
+      if (Relabel(pr, theta, s) == 0 && round > 0) break;
+      RepairNodes(pr, theta, s);
+      const ceres::Solver::Summary next = Solve(pr, options, theta, s);
+      r.iterations += static_cast<int>(next.iterations.size());
+      if (!next.IsSolutionUsable()) break;
+      summary = next;
+    }
+  };
+  final_solves();
+  // The final solve can end short of the optimum: at the final width a step of θ has to move every
+  // node with it, and the continuity residuals, at the integration's own error there, make the cost
+  // rough enough to stop Levenberg–Marquardt. The single-shooting Gauss–Newton step says how far
+  // (GaussNewtonStep): longer than kOptimumStep, θ and the nodes take it together and the final solve
+  // runs again from there, kept when its cost is lower; at most kOptimumSteps times. Only near the
+  // noise's level (a cost of at most kStallCostRatio times the expected ½mN): a fit far above it is
+  // refused by its residual tests whatever its step, and its steps are measured against a σ its
+  // residuals do not have.
+  double to_optimum = 0.0;
+  for (int step = 0; step <= kOptimumSteps && summary.IsSolutionUsable() && !options.stopped() &&
+                     summary.final_cost <= kStallCostRatio * ExpectedCost(pr);
+       ++step) {
+    Vec change;
+    if (!GaussNewtonStep(pr, chains, theta, s, &change, &to_optimum)) {
+      to_optimum = 0.0;
+      break;
+    }
+    if (to_optimum <= kOptimumStep || step == kOptimumSteps || r.iterations >= budget) break;
+    const Vec theta_before = theta;
+    const std::vector<Vec> s_before = s;
+    const std::vector<Segment> segments_before = pr.segments;
+    const ceres::Solver::Summary summary_before = summary;
+    theta += change.head(pr.shared);
+    for (int i = 0; i < pr.shared; ++i) theta[i] = std::clamp(theta[i], params[std::size_t(i)]->lower, params[std::size_t(i)]->upper);
+    for (std::size_t i = 0; i < s.size(); ++i) s[i] += change.segment(pr.shared + pr.n * Eigen::Index(i), pr.n);
+    final_solves();
+    if (!summary.IsSolutionUsable() || summary.final_cost >= summary_before.final_cost) {
+      theta = theta_before;
+      s = s_before;
+      pr.segments = segments_before;
+      summary = summary_before;
+      break;
+    }
   }
   r.final_cost = summary.final_cost;
   r.samples_used = total;
@@ -1435,6 +1501,13 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   }
   if (!converged || !theta.allFinite()) {
     Fail(r, RefineStatus::kNotConverged, fmt::format("multiple shooting by time: {}", summary.message));
+    return r;
+  }
+  if (to_optimum > kOptimumStep) {
+    Fail(r, RefineStatus::kNotConverged,
+         fmt::format("multiple shooting by time: the solve ended {:.3g} standard errors from the optimum its "
+                     "Gauss–Newton step points to",
+                     to_optimum));
     return r;
   }
   Mat full;

@@ -26,6 +26,9 @@
 // sample but those beside a jump of the model that are that far off, read on the model's own jump
 // counts at the point reached (matched: each flow continued past the model's jump, so the cost is
 // smooth there), again while those counts move, with the continuity nearly exact (kFinalWidth).
+// Then, while the single-shooting Gauss–Newton step is longer than kOptimumStep standard errors, θ and
+// every node take it and the final solve runs again (at most kOptimumSteps times); a fit still that
+// far from its optimum is not converged.
 //
 // At the fit: the covariance of θ and each chain's first node state from the Gauss–Newton information
 // of the data rows at the fitted σ with the continuity exact (every later node the run from the one
@@ -63,6 +66,11 @@ constexpr double kWidthRounding = 1.0 + 1e-9;
 // wander off it, and the estimate spreads wider than the bound; bench/hopper-drag).
 constexpr double kFinalWidth = 1e-4;
 constexpr int kModeRounds = 4;
+// After the final solve, the single-shooting Gauss–Newton step: when it is longer than kOptimumStep
+// standard errors, taken (θ and every node) and the final solve run again, at most kOptimumSteps times;
+// a fit whose step is still that long is not converged.
+constexpr double kOptimumStep = 2.0;
+constexpr int kOptimumSteps = 3;
 // The first stage follows the data segment by segment when the median segment's mean squared
 // weighted residual is at most this (twice the noise's variance; RefineResult::segments_fit_noise).
 constexpr double kSegmentNoiseRatio = 2.0;

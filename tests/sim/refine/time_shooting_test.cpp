@@ -52,6 +52,51 @@ TEST_CASE("time shooting fits the §5 system from a start 2x off with no detecte
   RequireAtTheBound(r, HybridParameters::Of(d.model, d.x0).Theta(u), bound);
 }
 
+// The whole record's cost ½Σ((x(t_k) − y_k)/σ)² of the model run from x0 with θ (single shooting), by
+// plain simulation at a tolerance far below the noise.
+double SingleShootingCost(Model model, const std::vector<std::string>& names, const Vec& theta, int shared,
+                          const SampleGrid& grid, const Mat& y, double sigma) {
+  for (int i = 0; i < shared; ++i) model.SetParameter(names[std::size_t(i)], theta[i]);
+  SimOptions tight;
+  tight.rtol = tight.atol = 1e-11;
+  const Trajectory run = Simulate(model, theta.tail(model.state_size()), grid, tight);
+  REQUIRE(run.size() == y.cols());
+  return 0.5 * ((run.x - y) / sigma).squaredNorm();
+}
+
+TEST_CASE("time shooting ends within two standard errors of the single-shooting optimum", "[time_shooting]") {
+  // The gradient of the whole record's cost by central differences of plain simulations (steps of
+  // 0.05 SE), measured in the fit's covariance: λ = √(gᵀCg), the Gauss–Newton step's length in
+  // standard errors. The fit's own check (kOptimumStep) reads the same step off its sensitivities.
+  const double sigma = 0.05;
+  const Data d(Model(ImpactMsd{}), SampleGrid{6.0, 2e-3}, (Vec(2) << 20.0, 0.0).finished(), sigma, 23);
+  const std::vector<std::uint8_t> no_labels(d.truth.t.size(), 0);
+  HybridParameters start = HybridParameters::Of(d.model, d.x0);
+  const Unknowns u = Unknowns::Of(d.model);
+  for (int i : u.alpha) start.alpha[i] *= 1.5;
+  for (int i : u.beta) start.beta[i] *= 0.7;
+  RefineOptions options;
+  options.sigma = Vec::Constant(2, sigma);
+  const RefineResult r = FitByTimeShooting(d.model, {RefineChain::Uniform(d.y, d.grid.dt, no_labels)}, start, options);
+  REQUIRE(r.ok());
+  const int shared = u.shared();
+  const Vec theta = r.refined.Theta(r.unknowns);  // θ, then the first node's state
+  REQUIRE(theta.size() == shared + 2);
+  REQUIRE(r.covariance.rows() == theta.size());
+  Vec g(theta.size());
+  for (Eigen::Index i = 0; i < theta.size(); ++i) {
+    const double h = 0.05 * r.standard_errors[i];
+    Vec up = theta, down = theta;
+    up[i] += h;
+    down[i] -= h;
+    g[i] = (SingleShootingCost(d.model, r.names, up, shared, d.grid, d.y, sigma) -
+            SingleShootingCost(d.model, r.names, down, shared, d.grid, d.y, sigma)) / (2.0 * h);
+  }
+  const double lambda = std::sqrt(g.dot(r.covariance * g));
+  INFO("gradient " << g.transpose() << ", lambda " << lambda);
+  CHECK(lambda < kOptimumStep);
+}
+
 TEST_CASE("time shooting fits a ball measured by its height alone, over a gap", "[time_shooting]") {
   const double sigma = 2e-3;
   const Data d(Model(BouncingBall{}), SampleGrid{3.0, 1.0 / 120}, (Vec(2) << 1.0, 0.0).finished(), sigma, 5);
