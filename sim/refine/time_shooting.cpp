@@ -832,15 +832,26 @@ bool ExactInformation(const ShootingProblem& pr, const Vec& theta, const std::ve
 // The Gauss–Newton step of the single-shooting cost at (θ, s), with the fit's weights: δ = −M⁻¹g over
 // θ and the free nodes (M and g = Σ_k g_k from ExactInformation: the data rows, the continuity exact),
 // its change of θ and every node, T·δ, in *change, and its length in the information's metric,
-// λ = √(gᵀM⁻¹g) (standard errors at σ = 1/w), in *lambda. False when the point does not simulate or M
-// is singular.
+// λ = √(gᵀM⁻¹g) (standard errors at σ = 1/w), in *lambda, and the data rows' cost ½Σ(w·r)² (the
+// continuity's left out) in *data_cost. False when the point does not simulate or M is singular.
 bool GaussNewtonStep(const ShootingProblem& pr, const std::vector<RefineChain>& chains, const Vec& theta,
-                     const std::vector<Vec>& s, Vec* change, double* lambda) {
+                     const std::vector<Vec>& s, Vec* change, double* lambda, double* data_cost) {
   std::vector<Mat> residuals;
   Information info;
   if (!Residuals(pr, chains, theta, s, &residuals) ||
       !ExactInformation(pr, theta, s, pr.weight, residuals, &info, /*scores=*/true)) {
     return false;
+  }
+  *data_cost = 0.0;
+  for (const Segment& seg : pr.segments) {
+    for (long k = 0; k < seg.samples(); ++k) {
+      for (Eigen::Index r = 0; r < pr.weight.size(); ++r) {
+        const double residual = residuals[seg.chain](r, seg.first + k);
+        if ((seg.keep.size() == 0 || seg.keep(r, k) != 0.0) && std::isfinite(residual)) {
+          *data_cost += 0.5 * std::pow(pr.weight[r] * residual, 2);
+        }
+      }
+    }
   }
   Vec g = Vec::Zero(info.M.rows());
   for (const std::vector<Vec>& chain : info.scores) {
@@ -1427,15 +1438,16 @@ RefineResult FitChainsByTime(const Model& model, const std::vector<RefineChain>&
   // rough enough to stop Levenberg–Marquardt. The single-shooting Gauss–Newton step says how far
   // (GaussNewtonStep): longer than kOptimumStep, θ and the nodes take it together and the final solve
   // runs again from there, kept when its cost is lower; at most kOptimumSteps times. Only near the
-  // noise's level (a cost of at most kStallCostRatio times the expected ½mN): a fit far above it is
-  // refused by its residual tests whatever its step, and its steps are measured against a σ its
-  // residuals do not have.
+  // noise's level (the data rows' cost at most kStallCostRatio times the expected ½mN; the
+  // continuity rows' share of the final cost is the integration's error, not the fit's): a fit far
+  // above it is refused by its residual tests whatever its step, and its steps are measured against
+  // a σ its residuals do not have.
   double to_optimum = 0.0;
-  for (int step = 0; step <= kOptimumSteps && summary.IsSolutionUsable() && !options.stopped() &&
-                     summary.final_cost <= kStallCostRatio * ExpectedCost(pr);
-       ++step) {
+  for (int step = 0; step <= kOptimumSteps && summary.IsSolutionUsable() && !options.stopped(); ++step) {
     Vec change;
-    if (!GaussNewtonStep(pr, chains, theta, s, &change, &to_optimum)) {
+    double data_cost = 0.0;
+    if (!GaussNewtonStep(pr, chains, theta, s, &change, &to_optimum, &data_cost) ||
+        data_cost > kStallCostRatio * ExpectedCost(pr)) {
       to_optimum = 0.0;
       break;
     }
